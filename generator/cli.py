@@ -1,0 +1,110 @@
+"""The `ipgen` command: parses options and calls the library; all errors end here as one line."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from generator import __version__
+from generator.generate import STEPS, Written, default_name, generate_header, name_problem
+from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from generator.output import OutputError
+
+EXIT_USAGE = 2
+# Derivations above these sizes take more than a second or two: show a progress bar.
+PROGRESS_FROM_LINKS = {"classical": 8, "rotary": 6}
+
+HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header.
+
+\b
+Systems (MODEL.md has the exact model):
+  classical  a cart on a rail carrying a chain of n rods; q(0) = cart position [m]
+  rotary     a horizontal arm turning about the vertical (Furuta) carrying n rods;
+             q(0) = arm angle [rad]
+Link angles q(1..n) are absolute, from the upright vertical, clockwise positive.
+
+\b
+The header DIR/NAME.hpp (C++17, Eigen only) defines in namespace ipgen::NAME:
+  kLinks, kDof, Params<Scalar>{m, l, delta, g}, Vector<Scalar>, Matrix<Scalar>,
+  mass_matrix, bias, gravity, n_matrix, forward_dynamics, kinetic_energy,
+  potential_energy, dissipation  (M qdd + bias = (u, 0, ..., 0)^T)
+
+\b
+Examples:
+  ipgen --type rotary --links 3 -o out/          # writes out/rotary3.hpp
+  ipgen --type classical --links 2 --name cdip -o include/
+
+Errors print one line and exit with status 2. An existing file is only replaced if ipgen
+wrote it (else pass --force); the header is written to a temporary file, then renamed.
+"""
+
+
+class InvalidOptions(click.UsageError):
+    """An option value ipgen rejects; the message already says how to fix it."""
+
+
+def _fail(message: str) -> InvalidOptions:
+    return InvalidOptions(message)
+
+
+@click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.option("--type", "system_type", type=click.Choice(SYSTEM_TYPES), required=True,
+              help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).")
+@click.option("--links", type=int, required=True, metavar="N",
+              help="Number of rods in the chain, an integer >= 1.")
+@click.option("-o", "--output", "directory", type=click.Path(path_type=Path), required=True, metavar="DIR",
+              help="Folder for the header; created if needed.")
+@click.option("--name", default=None, metavar="NAME",
+              help="C++ namespace ipgen::NAME and file NAME.hpp  [default: <type><N>, e.g. rotary3]")
+@click.option("--inertia", type=click.Choice(INERTIA_VARIANTS), default=None,
+              help="Rotary only: 'pivot' counts a link's spin about its pivot axis only (the "
+                   "published model, default); 'full' uses the complete thin-rod inertia.")
+@click.option("--force", is_flag=True, help="Overwrite DIR/NAME.hpp even if ipgen did not write it.")
+@click.version_option(__version__, "-V", "--version", prog_name="ipgen")
+def cli(system_type: str, links: int, directory: Path, name: str | None, inertia: str | None,
+        force: bool) -> None:
+    if links < 1:
+        raise _fail(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
+    if inertia is not None and system_type != "rotary":
+        raise _fail("--inertia applies to rotary systems only: drop it, or use --type rotary")
+    system = System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
+    name = name if name is not None else default_name(system)
+    problem = name_problem(name)
+    if problem:
+        raise _fail(f"--name {name!r} {problem}: choose another name")
+    written = _generate(system, name, directory, force)
+    verb = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}[written.status]
+    click.echo(f"{verb} {written.path} ({system_type}, {links} link{'s' if links > 1 else ''}, "
+               f"{written.size // 1024} KiB, namespace ipgen::{name})")
+
+
+def _generate(system: System, name: str, directory: Path, force: bool) -> Written:
+    if system.links < PROGRESS_FROM_LINKS[system.type]:
+        return generate_header(system, name, directory, force)
+    with click.progressbar(length=STEPS, label=f"deriving {system.type}{system.links}", file=sys.stderr,
+                           show_eta=False, item_show_func=lambda step: step) as bar:
+        return generate_header(system, name, directory, force, progress=lambda step: bar.update(1, step))
+
+
+def run(argv: list[str] | None = None) -> int:
+    """Run the command; return its exit status instead of exiting (for tests and main)."""
+    try:
+        status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
+    except click.ClickException as e:
+        message = " ".join(e.format_message().split())
+        hint = "" if isinstance(e, InvalidOptions) else " (see ipgen --help)"
+        click.echo(f"ipgen: error: {message}{hint}", err=True)
+        return EXIT_USAGE
+    except OutputError as e:
+        click.echo(f"ipgen: error: {e}", err=True)
+        return EXIT_USAGE
+    except (KeyboardInterrupt, click.Abort):
+        click.echo("ipgen: interrupted; no file was written", err=True)
+        return 130
+    return status if isinstance(status, int) else 0
+
+
+def main() -> None:
+    sys.exit(run())

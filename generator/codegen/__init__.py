@@ -1,0 +1,1 @@
+"""Code generation: sympy expressions → C++ statements → a rendered header."""

@@ -1,0 +1,84 @@
+"""Renders the C++ header of one model from its equations (templates/model.hpp.jinja)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import jinja2
+import sympy as sp
+
+from generator import __version__
+from generator.codegen.functions import FunctionBody, Output, build_body
+from generator.derive import Equations
+
+TEMPLATE = "model.hpp.jinja"
+
+# (function, arguments of its C++ signature that the body may use)
+_ARGS_Q_P = ("q", "p")
+_ARGS_Q_QD_P = ("q", "qd", "p")
+
+
+@dataclass(frozen=True)
+class HeaderRequest:
+    """Everything that determines a header's bytes."""
+
+    name: str  # C++ namespace ipgen::<name> and file <name>.hpp
+    command: str  # the canonical ipgen command that regenerates it
+
+
+def templates_dir() -> Path:
+    """The templates shipped with the package, or the source tree's `templates/`."""
+    packaged = Path(__file__).resolve().parent.parent / "templates"
+    if packaged.is_dir():
+        return packaged
+    source = Path(__file__).resolve().parents[2] / "templates"
+    if source.is_dir():
+        return source
+    raise FileNotFoundError("ipgen's templates folder is missing: reinstall ipgen")
+
+
+def _environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FileSystemLoader(templates_dir()),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
+
+
+def function_bodies(eqs: Equations) -> dict[str, FunctionBody]:
+    """The body of every generated function, keyed by its C++ name."""
+    mass, bias = eqs.mass_matrix, eqs.bias
+    return {
+        "mass_matrix": build_body(eqs, [Output("M", mass, symmetric=True)], _ARGS_Q_P),
+        "bias": build_body(eqs, [Output("b", bias)], _ARGS_Q_QD_P),
+        "gravity": build_body(eqs, [Output("P", eqs.gravity)], _ARGS_Q_P),
+        "n_matrix": build_body(eqs, [Output("N", eqs.n_matrix)], _ARGS_Q_QD_P),
+        "forward_dynamics": build_body(
+            eqs, [Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P
+        ),
+        "kinetic_energy": build_body(eqs, [Output("T", eqs.kinetic_energy)], _ARGS_Q_QD_P),
+        "potential_energy": build_body(eqs, [Output("V", eqs.potential_energy)], _ARGS_Q_P),
+        "dissipation": build_body(eqs, [Output("D", eqs.dissipation)], ("qd", "p")),
+    }
+
+
+def render_header(eqs: Equations, request: HeaderRequest) -> str:
+    """The complete header text; deterministic for the same equations and request."""
+    system = eqs.system
+    context = {
+        "name": request.name,
+        "command": request.command,
+        "version": __version__,
+        "template": TEMPLATE,
+        "type": system.type,
+        "links": system.links,
+        "dof": system.dof,
+        "inertia": system.inertia,
+        "fn": function_bodies(eqs),
+        "sympy_version": sp.__version__,
+    }
+    return _environment().get_template(TEMPLATE).render(context)
