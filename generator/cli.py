@@ -50,21 +50,43 @@ def _fail(message: str) -> InvalidOptions:
 
 
 @click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
-@click.option("--type", "system_type", type=click.Choice(SYSTEM_TYPES), required=True,
-              help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).")
-@click.option("--links", type=int, required=True, metavar="N",
-              help="Number of rods in the chain, an integer >= 1.")
-@click.option("-o", "--output", "directory", type=click.Path(path_type=Path), required=True, metavar="DIR",
-              help="Folder for the header; created if needed.")
-@click.option("--name", default=None, metavar="NAME",
-              help="C++ namespace ipgen::NAME and file NAME.hpp  [default: <type><N>, e.g. rotary3]")
-@click.option("--inertia", type=click.Choice(INERTIA_VARIANTS), default=None,
-              help="Rotary only: 'pivot' counts a link's spin about its pivot axis only (the "
-                   "published model, default); 'full' uses the complete thin-rod inertia.")
+@click.option(
+    "--type",
+    "system_type",
+    type=click.Choice(SYSTEM_TYPES),
+    required=True,
+    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).",
+)
+@click.option(
+    "--links", type=int, required=True, metavar="N", help="Number of rods in the chain, an integer >= 1."
+)
+@click.option(
+    "-o",
+    "--output",
+    "directory",
+    type=click.Path(path_type=Path),
+    required=True,
+    metavar="DIR",
+    help="Folder for the header; created if needed.",
+)
+@click.option(
+    "--name",
+    default=None,
+    metavar="NAME",
+    help="C++ namespace ipgen::NAME and file NAME.hpp  [default: <type><N>, e.g. rotary3]",
+)
+@click.option(
+    "--inertia",
+    type=click.Choice(INERTIA_VARIANTS),
+    default=None,
+    help="Rotary only: 'pivot' counts a link's spin about its pivot axis only (the "
+    "published model, default); 'full' uses the complete thin-rod inertia.",
+)
 @click.option("--force", is_flag=True, help="Overwrite DIR/NAME.hpp even if ipgen did not write it.")
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
-def cli(system_type: str, links: int, directory: Path, name: str | None, inertia: str | None,
-        force: bool) -> None:
+def cli(
+    system_type: str, links: int, directory: Path, name: str | None, inertia: str | None, force: bool
+) -> None:
     if links < 1:
         raise _fail(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
     if inertia is not None and system_type != "rotary":
@@ -76,15 +98,22 @@ def cli(system_type: str, links: int, directory: Path, name: str | None, inertia
         raise _fail(f"--name {name!r} {problem}: choose another name")
     written = _generate(system, name, directory, force)
     verb = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}[written.status]
-    click.echo(f"{verb} {written.path} ({system_type}, {links} link{'s' if links > 1 else ''}, "
-               f"{written.size // 1024} KiB, namespace ipgen::{name})")
+    click.echo(
+        f"{verb} {written.path} ({system_type}, {links} link{'s' if links > 1 else ''}, "
+        f"{written.size // 1024} KiB, namespace ipgen::{name})"
+    )
 
 
 def _generate(system: System, name: str, directory: Path, force: bool) -> Written:
     if system.links < PROGRESS_FROM_LINKS[system.type]:
         return generate_header(system, name, directory, force)
-    with click.progressbar(length=STEPS, label=f"deriving {system.type}{system.links}", file=sys.stderr,
-                           show_eta=False, item_show_func=lambda step: step) as bar:
+    with click.progressbar(
+        length=STEPS,
+        label=f"deriving {system.type}{system.links}",
+        file=sys.stderr,
+        show_eta=False,
+        item_show_func=lambda step: step,
+    ) as bar:
         return generate_header(system, name, directory, force, progress=lambda step: bar.update(1, step))
 
 

@@ -26,8 +26,6 @@ class PlanarVector:
         return cls(terms, sp.sympify(normal))
 
     def dot(self, other: PlanarVector) -> sp.Expr:
-        total = [
-            a * b * sp.cos(alpha - beta) for a, alpha in self.terms for b, beta in other.terms
-        ]
+        total = [a * b * sp.cos(alpha - beta) for a, alpha in self.terms for b, beta in other.terms]
         total.append(self.normal * other.normal)
         return sp.Add(*total)

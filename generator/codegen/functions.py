@@ -63,7 +63,9 @@ def _trig_rewrite(exprs: Sequence[sp.Expr], q: Sequence[sp.Symbol]) -> tuple[lis
         if name not in defs:
             fn = "sin" if kind == "s" else "cos"
             symbol = sp.Symbol(name)
-            defs[name] = _Trig(symbol, f"const Scalar {name} = {fn}(q({k}));", (k, 0, 0 if kind == "s" else 1))
+            defs[name] = _Trig(
+                symbol, f"const Scalar {name} = {fn}(q({k}));", (k, 0, 0 if kind == "s" else 1)
+            )
         return defs[name].symbol
 
     for atom in sorted(atoms, key=sp.default_sort_key):
