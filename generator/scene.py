@@ -1,0 +1,654 @@
+"""Scene files: one experiment per small TOML file, checked and flattened for the simulator.
+
+A scene has these tables (SI units throughout; arrays have links + 1 entries, index 0 is the base
+— cart or arm — and 1..n are the links):
+
+    [system]      type = "classical" | "rotary" (required); links >= 1 (required);
+                  inertia = "pivot" (default) | "full" (rotary only);
+                  name = C++ model name (default "<type><links>")
+    [parameters]  m, l, delta: arrays (required); g (default 9.81);
+                  free = ["m0", "delta1", ...] (optional; names m<i>, l<i>, delta<i>, g)
+                  l[0] is the arm length (rotary, > 0); a cart has none: write 0 (it is ignored)
+    [initial]     theta, dtheta: arrays (default all zero: upright, at rest)
+    [input]       kind = zero (default) | constant | pulse | step | sine, with
+                  constant: amplitude; pulse: amplitude, duration, start (default 0);
+                  step: amplitude, time; sine: amplitude, frequency [Hz], phase [rad] (default 0)
+    [simulation]  t_end (required); sample (0.01); method "bdf" | "adams" (bdf);
+                  rtol (1e-10); atol (1e-12); max_steps (100000)
+    [outputs]     energy = true | false (default false)
+
+`load_scene` reads and validates a file; every problem is a one-line `SceneError` naming the
+file and the dotted key. `resolved_config` writes the flat `key = value` text the C++
+simulator reads.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from decimal import Decimal
+from fractions import Fraction
+from pathlib import Path
+from typing import Any, NoReturn
+
+from generator import __version__
+from generator import scene_schema as schema
+
+
+class SceneError(Exception):
+    """A scene file that cannot be used; the message is one line: `<file>: <problem>`."""
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """The input on the base (force on the cart [N] or torque on the arm [N m]) over time."""
+
+    kind: str = "zero"
+    amplitude: float = 0.0
+    start: float = 0.0  # pulse
+    duration: float = 0.0  # pulse
+    time: float = 0.0  # step
+    frequency: float = 0.0  # sine, Hz
+    phase: float = 0.0  # sine, rad
+
+    def fields(self) -> tuple[tuple[str, float], ...]:
+        """The (key, value) pairs this kind uses, in resolved-config order."""
+        return tuple((key, getattr(self, key)) for key in schema.INPUT_KEYS[self.kind])
+
+    def value(self, t: float) -> float:
+        """The input at time t (pulses are on for start <= t < start + duration)."""
+        if self.kind == "constant":
+            return self.amplitude
+        if self.kind == "pulse":
+            on = self.start <= t < self.start + self.duration
+            return self.amplitude if on else 0.0
+        if self.kind == "step":
+            return self.amplitude if t >= self.time else 0.0
+        if self.kind == "sine":
+            return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t + self.phase)
+        return 0.0
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times where the input jumps: an integrator must stop and restart there."""
+        if self.kind == "pulse":
+            return (self.start, self.start + self.duration)
+        if self.kind == "step":
+            return (self.time,)
+        return ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene with every default filled in."""
+
+    path: Path
+    stem: str
+    type: str
+    links: int
+    inertia: str
+    name: str
+    m: tuple[float, ...]
+    l: tuple[float, ...]  # noqa: E741 (the paper's name for the lengths)
+    delta: tuple[float, ...]
+    g: float
+    theta: tuple[float, ...]
+    dtheta: tuple[float, ...]
+    input: InputSpec
+    t_end: float
+    sample: float
+    method: str
+    rtol: float
+    atol: float
+    max_steps: int
+    free: tuple[str, ...] = ()
+    energy: bool = False
+    # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
+    # "9.81"), so that it can be used as an exact rational; see `exact`.
+    decimals: tuple[tuple[str, str], ...] = ()
+    # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
+    warnings: tuple[str, ...] = ()
+
+    def parameter_names(self) -> tuple[str, ...]:
+        """m0..mn, l0..ln, delta0..deltan, g: the names `free`, `value` and `exact` use."""
+        return _parameter_names(self.links)
+
+    def value(self, name: str) -> float:
+        """A parameter by name, e.g. "m1", "delta0", "g", as a float."""
+        if name == "g":
+            return self.g
+        base, index = _split_parameter_name(name, self.links)
+        return getattr(self, base)[index]
+
+    def exact(self, name: str) -> Fraction:
+        """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
+        text = dict(self.decimals).get(name)
+        return Fraction(text) if text is not None else Fraction(repr(self.value(name)))
+
+
+# ---------------------------------------------------------------------------- public API
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read, validate and complete a scene file; raises `SceneError` on any problem."""
+    path = Path(path)
+    reader = _Reader(path)
+    if not schema.STEM.match(path.stem):
+        reader.fail(
+            f"scene file name '{path.stem}' must be letters, digits, '_', '.', '+' or '-' "
+            "(it names the output files)"
+        )
+    document = _parse_toml(reader, _read_text(reader))
+    _check_keys(reader, document)
+    return _build_scene(reader, document)
+
+
+def resolved_config(scene: Scene) -> str:
+    """The flat `key = value` text the C++ simulator reads (deterministic, numbers exact)."""
+    lines = [
+        f"# resolved from {scene.path.as_posix()} by ipgen {__version__}; do not edit",
+        f"name = {scene.stem}",
+        f"model = {scene.name}",
+        f"type = {scene.type}",
+        f"links = {scene.links}",
+        f"inertia = {scene.inertia}",
+        f"m = {_format_list(scene.m)}",
+        f"l = {_format_list(scene.l)}",
+        f"delta = {_format_list(scene.delta)}",
+        f"g = {format_number(scene.g)}",
+        f"theta = {_format_list(scene.theta)}",
+        f"dtheta = {_format_list(scene.dtheta)}",
+        f"input = {scene.input.kind}",
+    ]
+    lines += [f"input.{key} = {format_number(value)}" for key, value in scene.input.fields()]
+    lines += [
+        f"t_end = {format_number(scene.t_end)}",
+        f"sample = {format_number(scene.sample)}",
+        f"method = {scene.method}",
+        f"rtol = {format_number(scene.rtol)}",
+        f"atol = {format_number(scene.atol)}",
+        f"max_steps = {scene.max_steps}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _format_list(values: tuple[float, ...]) -> str:
+    return " ".join(format_number(value) for value in values)
+
+
+def format_number(x: float) -> str:
+    """Shortest text that reads back (strtod / float) as exactly x: 10.0 -> "10", 0.1 -> "0.1"."""
+    if x == 0.0:
+        return "-0" if math.copysign(1.0, x) < 0 else "0"
+    if x.is_integer() and abs(x) < 1e16:
+        return str(int(x))
+    return repr(x)
+
+
+# ---------------------------------------------------------------------------- errors
+
+
+class _Reader:
+    """Raises `SceneError`s that name the scene file."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def fail(self, message: str) -> NoReturn:
+        text = f"{self.path.as_posix()}: {message}"
+        raise SceneError(" ".join(text.split()))
+
+    def bad(self, key: str, value: object, expected: str) -> NoReturn:
+        self.fail(f"{key} = {_show(value)}: {expected}")
+
+    def warning(self, message: str) -> str:
+        return f"{self.path.as_posix()}: warning: {message}"
+
+
+def _show(value: object) -> str:
+    """A value as it would be written in TOML, shortened to stay readable in one line."""
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, Decimal):
+        text = _show_decimal(value)
+    elif isinstance(value, float):
+        text = format_number(value)
+    elif isinstance(value, str):
+        text = json.dumps(value)
+    elif isinstance(value, list):
+        text = "[" + ", ".join(_show(item) for item in value) + "]"
+    elif isinstance(value, dict):
+        text = "{" + ", ".join(f"{k} = {_show(v)}" for k, v in value.items()) + "}"
+    else:
+        text = str(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _show_decimal(value: Decimal) -> str:
+    if value.is_nan():
+        return "nan"
+    if value.is_infinite():
+        return "-inf" if value < 0 else "inf"
+    return str(value).lower()  # as written, up to exponent style: 1e5 -> 1e+5
+
+
+def _type_name(value: object) -> str:
+    names = {bool: "a boolean", str: "a string", list: "an array", dict: "a table"}
+    names.update({int: "an integer", Decimal: "a float"})
+    return names.get(type(value), f"a {type(value).__name__}")
+
+
+def _one_of(options: tuple[str, ...]) -> str:
+    """'"a" or "b"', '"a", "b" or "c"'."""
+    quoted = [f'"{option}"' for option in options]
+    return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]
+
+
+def _hint(key: str, allowed: tuple[str, ...], table: str) -> str:
+    """' (did you mean ...?)' or where the key belongs, for an unknown key."""
+    homes = [name for name, keys in schema.TABLES.items() if key in keys and name != table]
+    if homes:
+        return f" (it belongs in [{homes[0]}])"
+    array = key.rstrip("0123456789")
+    if table == "parameters" and array in ("m", "l", "delta"):
+        return f" (parameters are arrays: {array} = [base, link 1, ...])"
+    close = difflib.get_close_matches(key, allowed, n=1)
+    if close:
+        return f" (did you mean '{close[0]}'?)"
+    return f" (expected one of: {', '.join(allowed)})"
+
+
+# ---------------------------------------------------------------------------- reading
+
+
+def _read_text(reader: _Reader) -> str:
+    try:
+        data = reader.path.read_bytes()
+    except FileNotFoundError:
+        reader.fail("no such file")
+    except IsADirectoryError:
+        reader.fail("is a directory, expected a TOML scene file")
+    except OSError as exc:
+        reader.fail(f"cannot read file: {exc.strerror or exc}")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        reader.fail(f"not UTF-8 text (bad byte at offset {exc.start})")
+
+
+def _parse_toml(reader: _Reader, text: str) -> dict[str, Any]:
+    """Parse TOML keeping floats as Decimal, i.e. exactly as written."""
+    try:
+        return tomllib.loads(text, parse_float=Decimal)
+    except tomllib.TOMLDecodeError as exc:
+        reader.fail(f"malformed TOML: {exc}")
+
+
+def _check_keys(reader: _Reader, document: dict[str, Any]) -> None:
+    """Reject unknown tables and keys (before anything else: a typo explains a missing key)."""
+    tables = tuple(schema.TABLES)
+    for name, table in document.items():
+        if name not in schema.TABLES:
+            what = "table" if isinstance(table, dict) else "key"
+            reader.fail(f"unknown {what} '{name}'{_hint(name, tables, '')}")
+        if not isinstance(table, dict):
+            reader.bad(name, table, f"expected a table: [{name}] on a line of its own")
+        allowed = schema.TABLES[name]
+        for key in table:
+            if key not in allowed:
+                reader.fail(f"unknown key '{name}.{key}'{_hint(key, allowed, name)}")
+
+
+class _Section:
+    """One table of the document, with typed getters that report dotted keys."""
+
+    def __init__(self, reader: _Reader, document: dict[str, Any], name: str) -> None:
+        self.reader = reader
+        self.name = name
+        self.data: dict[str, Any] = document.get(name, {})
+
+    def key(self, key: str) -> str:
+        return f"{self.name}.{key}"
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str, expected: str) -> Any:
+        if key not in self.data:
+            self.reader.fail(f"missing required key '{self.key(key)}' ({expected})")
+        return self.data[key]
+
+    def bad(self, key: str, value: object, expected: str) -> NoReturn:
+        """Report `key` (e.g. "m" or "m[2]"), showing its value as written if present."""
+        self.reader.bad(self.key(key), self._written(key, value), expected)
+
+    def _written(self, key: str, fallback: object) -> object:
+        name, _, index = key.partition("[")
+        value = self.data.get(name, fallback)
+        if index and isinstance(value, list):
+            position = int(index.rstrip("]"))
+            return value[position] if position < len(value) else fallback
+        return value
+
+    def number(self, key: str, expected: str, default: float | None = None) -> float:
+        return self.exact_number(key, expected, default)[0]
+
+    def exact_number(self, key: str, expected: str, default: float | str | None = None) -> tuple[float, str]:
+        """(float, decimal text as written); `expected` describes the value for messages."""
+        if default is not None and key not in self.data:
+            return float(default), str(default)
+        return _to_number(self.reader, self.key(key), self.raw(key, expected))
+
+    def integer(self, key: str, expected: str, default: int | None = None) -> int:
+        if default is not None and key not in self.data:
+            return default
+        value = self.raw(key, expected)
+        if isinstance(value, bool) or not isinstance(value, int):
+            hint = " (write it without '.' or an exponent)" if isinstance(value, Decimal) else ""
+            self.bad(key, value, f"expected an integer, got {_type_name(value)}{hint}")
+        return value
+
+    def choice(self, key: str, options: tuple[str, ...], default: str | None = None) -> str:
+        expected = _one_of(options)
+        if default is not None and key not in self.data:
+            return default
+        value = self.raw(key, expected)
+        if value not in options or not isinstance(value, str):
+            self.bad(key, value, f"expected {expected}")
+        return value
+
+    def boolean(self, key: str, default: bool) -> bool:
+        value = self.data.get(key, default)
+        if not isinstance(value, bool):
+            self.bad(key, value, f"expected true or false, got {_type_name(value)}")
+        return value
+
+    def array(self, key: str, count: int, what: str) -> list[Any]:
+        """A list of exactly `count` entries (links + 1)."""
+        value = self.raw(key, f"an array of {count} {what}")
+        if not isinstance(value, list):
+            self.bad(
+                key,
+                value,
+                f"expected an array of {count} {what}, got {_type_name(value)}",
+            )
+        if len(value) != count:
+            links = count - 1
+            layout = f"links + 1 = base + {links} link{'s' if links != 1 else ''}"
+            entries = f"{len(value)} entr{'y' if len(value) == 1 else 'ies'}"
+            self.reader.fail(f"{self.key(key)} has {entries}, expected {count} ({layout})")
+        return value
+
+    def numbers(self, key: str, count: int, default: float | None = None) -> list[tuple[float, str]]:
+        """An array of `count` numbers as (float, decimal text) pairs."""
+        if default is not None and key not in self.data:
+            return [(float(default), str(default))] * count
+        items = self.array(key, count, "numbers")
+        return [_to_number(self.reader, f"{self.key(key)}[{i}]", v) for i, v in enumerate(items)]
+
+
+def _to_number(reader: _Reader, key: str, value: Any) -> tuple[float, str]:
+    """A finite TOML number (int or float, not bool) as (float, its decimal text)."""
+    if isinstance(value, bool) or not isinstance(value, (int, Decimal)):
+        reader.bad(key, value, f"expected a number, got {_type_name(value)}")
+    if isinstance(value, Decimal) and not value.is_finite():
+        reader.bad(key, value, "must be a finite number (inf and nan are not allowed)")
+    try:
+        as_float = float(value)
+    except OverflowError:
+        as_float = math.inf
+    if not math.isfinite(as_float):
+        reader.bad(key, value, "is too large for a double")
+    return as_float, str(value)
+
+
+# ---------------------------------------------------------------------------- sections
+
+
+@dataclass(frozen=True)
+class _System:
+    type: str
+    links: int
+    inertia: str
+    name: str
+
+
+def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
+    system = _read_system(_Section(reader, document, "system"))
+    parameters = _Section(reader, document, "parameters")
+    params = _read_parameters(parameters, system)
+    free = _read_free(parameters, system)
+    initial = _Section(reader, document, "initial")
+    theta = _floats(initial.numbers("theta", system.links + 1, default=0))
+    dtheta = _floats(initial.numbers("dtheta", system.links + 1, default=0))
+    spec = _read_input(_Section(reader, document, "input"))
+    sim = _read_simulation(_Section(reader, document, "simulation"))
+    energy = _Section(reader, document, "outputs").boolean("energy", default=False)
+    return Scene(
+        path=reader.path,
+        stem=reader.path.stem,
+        type=system.type,
+        links=system.links,
+        inertia=system.inertia,
+        name=system.name,
+        m=params.m,
+        l=params.l,
+        delta=params.delta,
+        g=params.g,
+        theta=theta,
+        dtheta=dtheta,
+        input=spec,
+        **sim,
+        free=free,
+        energy=energy,
+        decimals=params.decimals,
+        warnings=_warnings(reader, sim["rtol"]),
+    )
+
+
+def _read_system(section: _Section) -> _System:
+    kind = section.choice("type", schema.SYSTEM_TYPES)
+    links = section.integer("links", "an integer >= 1: the number of pendulum links")
+    if links < 1:
+        section.bad("links", links, "expected an integer >= 1 (the number of pendulum links)")
+    if kind == "classical" and section.has("inertia"):
+        section.bad(
+            "inertia",
+            section.data["inertia"],
+            "applies to rotary systems only; remove it",
+        )
+    inertia = section.choice("inertia", schema.INERTIAS, default=schema.DEFAULT_INERTIA)
+    name = _read_name(section, f"{kind}{links}")
+    return _System(type=kind, links=links, inertia=inertia, name=name)
+
+
+def _read_name(section: _Section, default: str) -> str:
+    if not section.has("name"):
+        return default
+    name = section.data["name"]
+    if not isinstance(name, str):
+        section.bad("name", name, f"expected a string, got {_type_name(name)}")
+    if not schema.IDENTIFIER.match(name) or "__" in name:
+        section.bad(
+            "name",
+            name,
+            "must be a C++ identifier: a letter, then letters, digits or '_' (no '__')",
+        )
+    if name in schema.CPP_KEYWORDS or name in schema.CPP_RESERVED_NAMES:
+        section.bad("name", name, "is reserved in C++; choose another model name")
+    return name
+
+
+@dataclass(frozen=True)
+class _Parameters:
+    m: tuple[float, ...]
+    l: tuple[float, ...]  # noqa: E741
+    delta: tuple[float, ...]
+    g: float
+    decimals: tuple[tuple[str, str], ...]  # ("m0", "0.3"), ..., ("g", "9.81")
+
+
+def _read_parameters(section: _Section, system: _System) -> _Parameters:
+    """m, l, delta, g and the decimal text of each (named m0, l1, delta2, g, ...)."""
+    count = system.links + 1
+    m = section.numbers("m", count)
+    l = section.numbers("l", count)  # noqa: E741
+    delta = section.numbers("delta", count)
+    for i, (value, _) in enumerate(m):
+        if value <= 0:
+            section.bad(f"m[{i}]", value, "masses must be > 0 kg")
+    _check_lengths(section, l, system.type)
+    if system.type == "classical":
+        l[0] = (0.0, "0")  # a cart has no length: whatever was written is ignored
+    for i, (value, _) in enumerate(delta):
+        if value < 0:
+            section.bad(f"delta[{i}]", value, "damping must be >= 0")
+    g = section.exact_number("g", "gravity in m/s^2", default=schema.DEFAULT_G)
+    if g[0] < 0:
+        section.bad("g", g[0], "gravity must be >= 0 m/s^2 (0 switches it off)")
+    decimals = [
+        (f"{base}{i}", text)
+        for base, values in (("m", m), ("l", l), ("delta", delta))
+        for i, (_, text) in enumerate(values)
+    ]
+    decimals.append(("g", g[1]))
+    return _Parameters(_floats(m), _floats(l), _floats(delta), g[0], tuple(decimals))
+
+
+def _check_lengths(section: _Section, lengths: list[tuple[float, str]], kind: str) -> None:
+    base = lengths[0][0]
+    if kind == "rotary" and base <= 0:
+        section.bad("l[0]", base, "the arm length must be > 0 m")
+    if kind == "classical" and base < 0:
+        section.bad("l[0]", base, "a cart has no length: write 0 (it is ignored)")
+    for i, (value, _) in enumerate(lengths[1:], start=1):
+        if value <= 0:
+            section.bad(f"l[{i}]", value, "link lengths must be > 0 m")
+
+
+def _floats(pairs: list[tuple[float, str]]) -> tuple[float, ...]:
+    return tuple(value for value, _ in pairs)
+
+
+def _read_free(section: _Section, system: _System) -> tuple[str, ...]:
+    """Names of parameters a later feature keeps symbolic (validated, then just carried)."""
+    if not section.has("free"):
+        return ()
+    value = section.data["free"]
+    if not isinstance(value, list):
+        section.bad("free", value, f"expected an array of names, got {_type_name(value)}")
+    names = _parameter_names(system.links)
+    seen: list[str] = []
+    for i, name in enumerate(value):
+        key = f"free[{i}]"
+        if not isinstance(name, str) or name not in names:
+            close = difflib.get_close_matches(name, names, n=1) if isinstance(name, str) else []
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            section.bad(
+                key,
+                name,
+                f"expected a parameter name m0..m{system.links}, "
+                f"l0..l{system.links}, delta0..delta{system.links} or g{hint}",
+            )
+        if name == "l0" and system.type == "classical":
+            section.bad(key, name, "a cart has no length l0: it cannot be free")
+        if name in seen:
+            section.bad(key, name, "is listed twice")
+        seen.append(name)
+    return tuple(seen)
+
+
+def _read_input(section: _Section) -> InputSpec:
+    kind = section.choice("kind", tuple(schema.INPUT_KEYS), default="zero")
+    if section.data and not section.has("kind"):
+        section.reader.fail(f"missing required key 'input.kind' (one of: {', '.join(schema.INPUT_KEYS)})")
+    used = schema.INPUT_KEYS[kind]
+    for key in section.data:
+        if key != "kind" and key not in used:
+            takes = ", ".join(used) if used else "no other keys"
+            section.reader.fail(f"{section.key(key)} is not used by a '{kind}' input ({kind} takes {takes})")
+    values: dict[str, float] = {}
+    for key in used:
+        default = None if key in schema.INPUT_REQUIRED[kind] else schema.INPUT_DEFAULTS[key]
+        values[key] = section.number(key, _INPUT_EXPECTED[key], default)
+    _check_input(section, kind, values)
+    return InputSpec(kind=kind, **values)
+
+
+_INPUT_EXPECTED = {
+    "amplitude": "a number: N on a cart, N m on an arm",
+    "start": "a time in s",
+    "duration": "a time in s, > 0",
+    "time": "a time in s",
+    "frequency": "a frequency in Hz, >= 0",
+    "phase": "an angle in rad",
+}
+
+
+def _check_input(section: _Section, kind: str, values: dict[str, float]) -> None:
+    if kind == "pulse" and values["start"] < 0:
+        section.bad("start", values["start"], "must be >= 0 s (the simulation starts at 0)")
+    if kind == "pulse" and values["duration"] <= 0:
+        section.bad("duration", values["duration"], "a pulse duration must be > 0 s")
+    if kind == "step" and values["time"] < 0:
+        section.bad("time", values["time"], "must be >= 0 s (the simulation starts at 0)")
+    if kind == "sine" and values["frequency"] < 0:
+        section.bad("frequency", values["frequency"], "must be >= 0 Hz")
+
+
+def _read_simulation(section: _Section) -> dict[str, Any]:
+    t_end = section.number("t_end", "the simulated time in s, > 0")
+    if t_end <= 0:
+        section.bad("t_end", t_end, "must be > 0 s")
+    sample = section.number("sample", "", default=schema.DEFAULT_SAMPLE)
+    if not 0 < sample <= t_end:
+        section.bad("sample", sample, f"must be > 0 s and <= t_end ({format_number(t_end)} s)")
+    rtol = section.number("rtol", "", default=schema.DEFAULT_RTOL)
+    if not 0 < rtol < 1:
+        section.bad("rtol", rtol, "must be in (0, 1); 1e-10 is a good choice")
+    if rtol < schema.RTOL_MIN:
+        section.bad("rtol", rtol, "cannot be met in double precision; use >= 1e-14")
+    atol = section.number("atol", "", default=schema.DEFAULT_ATOL)
+    if atol < 0:
+        section.bad("atol", atol, "must be >= 0")
+    max_steps = section.integer("max_steps", "", default=schema.DEFAULT_MAX_STEPS)
+    if max_steps < 1:
+        section.bad("max_steps", max_steps, "must be an integer >= 1")
+    method = section.choice("method", schema.METHODS, default=schema.DEFAULT_METHOD)
+    return {
+        "t_end": t_end,
+        "sample": sample,
+        "method": method,
+        "rtol": rtol,
+        "atol": atol,
+        "max_steps": max_steps,
+    }
+
+
+def _warnings(reader: _Reader, rtol: float) -> tuple[str, ...]:
+    if rtol < schema.RTOL_ADVISED:
+        return (
+            reader.warning(
+                f"simulation.rtol = {format_number(rtol)} is below 1e-14 and "
+                "may not be met in double precision"
+            ),
+        )
+    return ()
+
+
+# ---------------------------------------------------------------------------- parameter names
+
+
+def _parameter_names(links: int) -> tuple[str, ...]:
+    indices = range(links + 1)
+    return (*(f"{base}{i}" for base in ("m", "l", "delta") for i in indices), "g")
+
+
+def _split_parameter_name(name: str, links: int) -> tuple[str, int]:
+    """ "delta2" -> ("delta", 2); KeyError for names not in `_parameter_names(links)`."""
+    if name not in _parameter_names(links):
+        raise KeyError(f"unknown parameter {name!r}")
+    base = name.rstrip("0123456789")
+    return base, int(name[len(base) :])

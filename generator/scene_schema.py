@@ -1,0 +1,73 @@
+"""What a scene file may contain: tables, keys, choices, defaults and C++ naming rules.
+
+Pure data, no logic: `generator.scene` reads and checks scene files against it.
+"""
+
+from __future__ import annotations
+
+import re
+
+# Every table a scene may have and the keys each may contain, in the order they are documented.
+TABLES: dict[str, tuple[str, ...]] = {
+    "system": ("type", "links", "inertia", "name"),
+    "parameters": ("m", "l", "delta", "g", "free"),
+    "initial": ("theta", "dtheta"),
+    "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),
+    "simulation": ("t_end", "sample", "method", "rtol", "atol", "max_steps"),
+    "outputs": ("energy",),
+}
+
+SYSTEM_TYPES: tuple[str, ...] = ("classical", "rotary")
+INERTIAS: tuple[str, ...] = ("pivot", "full")
+METHODS: tuple[str, ...] = ("bdf", "adams")
+
+# Input kinds: the keys each one uses (in resolved-config order) and which of them are required.
+INPUT_KEYS: dict[str, tuple[str, ...]] = {
+    "zero": (),
+    "constant": ("amplitude",),
+    "pulse": ("amplitude", "start", "duration"),
+    "step": ("amplitude", "time"),
+    "sine": ("amplitude", "frequency", "phase"),
+}
+INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
+    "zero": (),
+    "constant": ("amplitude",),
+    "pulse": ("amplitude", "duration"),
+    "step": ("amplitude", "time"),
+    "sine": ("amplitude", "frequency"),
+}
+INPUT_DEFAULTS: dict[str, float] = {"start": 0.0, "phase": 0.0}
+
+# Defaults of optional scalar keys.
+DEFAULT_INERTIA = "pivot"
+DEFAULT_G = "9.81"  # as text: the exact decimal is kept next to the float
+DEFAULT_SAMPLE = 0.01
+DEFAULT_METHOD = "bdf"
+DEFAULT_RTOL = 1e-10
+DEFAULT_ATOL = 1e-12
+DEFAULT_MAX_STEPS = 100_000
+
+# rtol below RTOL_MIN cannot be met in double precision; below RTOL_ADVISED it is unlikely to be.
+RTOL_MIN = 1e-15
+RTOL_ADVISED = 1e-14
+
+# C++ model names become a namespace and a header file name.
+IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+# C++20 keywords and alternative tokens, plus identifiers with special meaning in context.
+_CPP_KEYWORD_TEXT = """
+    alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t
+    char16_t char32_t class compl concept const consteval constexpr constinit const_cast
+    continue co_await co_return co_yield decltype default delete do double dynamic_cast
+    else enum explicit export extern false float for friend goto if inline int long
+    mutable namespace new noexcept not not_eq nullptr operator or or_eq private protected
+    public register reinterpret_cast requires return short signed sizeof static
+    static_assert static_cast struct switch template this thread_local throw true try
+    typedef typeid typename union unsigned using virtual void volatile wchar_t while xor
+    xor_eq final override import module
+"""
+CPP_KEYWORDS: frozenset[str] = frozenset(_CPP_KEYWORD_TEXT.split())
+# Not keywords, but not usable as a global namespace either.
+CPP_RESERVED_NAMES: frozenset[str] = frozenset({"std", "posix", "main"})
+
+# Scene file stems end up in output file names and in the resolved config.
+STEM = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\Z")
