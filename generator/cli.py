@@ -8,9 +8,11 @@ from pathlib import Path
 import click
 
 from generator import __version__
-from generator.generate import STEPS, Written, default_name, generate_header, name_problem
+from generator.generate import STEPS, Written, default_name, generate_header
 from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
-from generator.output import OutputError
+from generator.naming import name_problem
+from generator.output import OutputError, write_file
+from generator.scene import SceneError, load_scene, resolved_config
 
 EXIT_USAGE = 2
 # Derivations above these sizes take more than a second or two: show a progress bar.
@@ -54,12 +56,9 @@ def _fail(message: str) -> InvalidOptions:
     "--type",
     "system_type",
     type=click.Choice(SYSTEM_TYPES),
-    required=True,
     help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).",
 )
-@click.option(
-    "--links", type=int, required=True, metavar="N", help="Number of rods in the chain, an integer >= 1."
-)
+@click.option("--links", type=int, metavar="N", help="Number of rods in the chain, an integer >= 1.")
 @click.option(
     "-o",
     "--output",
@@ -82,11 +81,31 @@ def _fail(message: str) -> InvalidOptions:
     help="Rotary only: 'pivot' counts a link's spin about its pivot axis only (the "
     "published model, default); 'full' uses the complete thin-rod inertia.",
 )
-@click.option("--force", is_flag=True, help="Overwrite DIR/NAME.hpp even if ipgen did not write it.")
+@click.option(
+    "--scene",
+    type=click.Path(path_type=Path),
+    default=None,
+    metavar="FILE",
+    help="Take the system from a scene file (scenes/*.toml) instead of --type/--links, and also "
+    "write DIR/<scene>.cfg, the resolved scene the simulator reads.",
+)
+@click.option("--force", is_flag=True, help="Overwrite files in DIR even if ipgen did not write them.")
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
-    system_type: str, links: int, directory: Path, name: str | None, inertia: str | None, force: bool
+    system_type: str | None,
+    links: int | None,
+    directory: Path,
+    name: str | None,
+    inertia: str | None,
+    scene: Path | None,
+    force: bool,
 ) -> None:
+    if scene is not None:
+        _generate_scene(scene, directory, force, system_type, links, name, inertia)
+        return
+    if system_type is None or links is None:
+        missing = "--type" if system_type is None else "--links"
+        raise _fail(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
     if links < 1:
         raise _fail(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
     if inertia is not None and system_type != "rotary":
@@ -95,11 +114,29 @@ def cli(
     name = name if name is not None else default_name(system)
     problem = name_problem(name)
     if problem:
-        raise _fail(f"--name {name!r} {problem}: choose another name")
-    written = _generate(system, name, directory, force)
-    verb = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}[written.status]
+        raise _fail(f"--name {name!r} {problem}; choose another name")
+    _report(system, name, _generate(system, name, directory, force))
+
+
+def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
+    if any(option is not None for option in clashing):
+        raise _fail("--scene fixes the system itself: drop --type, --links, --name and --inertia")
+    scene = load_scene(path)
+    system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
+    _report(system, scene.name, _generate(system, scene.name, directory, force))
+    config = write_file(directory / f"{scene.stem}.cfg", resolved_config(scene), force)
+    click.echo(f"{_VERBS[config]} {directory / (scene.stem + '.cfg')} (resolved scene {scene.stem})")
+    for warning in scene.warnings:
+        click.echo(f"ipgen: warning: {warning}", err=True)
+
+
+_VERBS = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}
+
+
+def _report(system: System, name: str, written: Written) -> None:
+    links = system.links
     click.echo(
-        f"{verb} {written.path} ({system_type}, {links} link{'s' if links > 1 else ''}, "
+        f"{_VERBS[written.status]} {written.path} ({system.type}, {links} link{'s' if links > 1 else ''}, "
         f"{written.size // 1024} KiB, namespace ipgen::{name})"
     )
 
@@ -126,7 +163,7 @@ def run(argv: list[str] | None = None) -> int:
         hint = "" if isinstance(e, InvalidOptions) else " (see ipgen --help)"
         click.echo(f"ipgen: error: {message}{hint}", err=True)
         return EXIT_USAGE
-    except OutputError as e:
+    except (OutputError, SceneError) as e:
         click.echo(f"ipgen: error: {e}", err=True)
         return EXIT_USAGE
     except (KeyboardInterrupt, click.Abort):

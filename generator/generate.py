@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,32 +12,7 @@ from generator.derive import derive
 from generator.model import System
 from generator.output import prepare_directory, write_file
 
-CPP_KEYWORDS = frozenset(
-    """alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t
-    char16_t char32_t class compl concept const consteval constexpr constinit const_cast
-    continue co_await co_return co_yield decltype default delete do double dynamic_cast else
-    enum explicit export extern false float for friend goto if inline int long mutable
-    namespace new noexcept not not_eq nullptr operator or or_eq private protected public
-    register reinterpret_cast requires return short signed sizeof static static_assert
-    static_cast struct switch template this thread_local throw true try typedef typeid
-    typename union unsigned using virtual void volatile wchar_t while xor xor_eq""".split()
-)
-# Names that would shadow or break what the header itself uses inside namespace ipgen::<name>.
-RESERVED_NAMES = frozenset({"std", "Eigen", "ipgen", "Model", "Params", "Vector", "Matrix"})
 STEPS = 7  # progress steps reported: five by the derivation, render, write
-
-
-def name_problem(name: str) -> str | None:
-    """Why `name` cannot be a C++ namespace and file name, or None if it can."""
-    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
-        return "must be a C++ identifier: a letter or _, then letters, digits or _"
-    if name in CPP_KEYWORDS:
-        return "is a C++ keyword"
-    if name in RESERVED_NAMES:
-        return "is a name the generated header uses itself"
-    if "__" in name or re.match(r"_[A-Z]", name):
-        return "is reserved by the C++ standard (double underscore, or _ and a capital)"
-    return None
 
 
 def default_name(system: System) -> str:

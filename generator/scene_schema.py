@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import re
 
+from generator import model
+
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {
     "system": ("type", "links", "inertia", "name"),
@@ -17,8 +19,8 @@ TABLES: dict[str, tuple[str, ...]] = {
     "outputs": ("energy",),
 }
 
-SYSTEM_TYPES: tuple[str, ...] = ("classical", "rotary")
-INERTIAS: tuple[str, ...] = ("pivot", "full")
+SYSTEM_TYPES = model.SYSTEM_TYPES
+INERTIAS = model.INERTIA_VARIANTS
 METHODS: tuple[str, ...] = ("bdf", "adams")
 
 # Input kinds: the keys each one uses (in resolved-config order) and which of them are required.
@@ -50,24 +52,6 @@ DEFAULT_MAX_STEPS = 100_000
 # rtol below RTOL_MIN cannot be met in double precision; below RTOL_ADVISED it is unlikely to be.
 RTOL_MIN = 1e-15
 RTOL_ADVISED = 1e-14
-
-# C++ model names become a namespace and a header file name.
-IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
-# C++20 keywords and alternative tokens, plus identifiers with special meaning in context.
-_CPP_KEYWORD_TEXT = """
-    alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t
-    char16_t char32_t class compl concept const consteval constexpr constinit const_cast
-    continue co_await co_return co_yield decltype default delete do double dynamic_cast
-    else enum explicit export extern false float for friend goto if inline int long
-    mutable namespace new noexcept not not_eq nullptr operator or or_eq private protected
-    public register reinterpret_cast requires return short signed sizeof static
-    static_assert static_cast struct switch template this thread_local throw true try
-    typedef typeid typename union unsigned using virtual void volatile wchar_t while xor
-    xor_eq final override import module
-"""
-CPP_KEYWORDS: frozenset[str] = frozenset(_CPP_KEYWORD_TEXT.split())
-# Not keywords, but not usable as a global namespace either.
-CPP_RESERVED_NAMES: frozenset[str] = frozenset({"std", "posix", "main"})
 
 # Scene file stems end up in output file names and in the resolved config.
 STEM = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\Z")

@@ -1,0 +1,61 @@
+# ipgen: `make demo` (the paper's experiments) and `make test` (every test) set up what they
+# need on a fresh Debian machine: apt packages, then a virtualenv .venv with the Python side.
+# Both are idempotent: a second run installs nothing.
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+BUILD := build
+APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3 python3-venv
+SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
+JOBS ?= $(shell nproc)
+
+.PHONY: all deps venv test test-python test-cpp lint demo bench build clean
+
+all: test
+
+## System packages (Debian): installed only when missing.
+deps:
+	@missing=""; for p in $(APT_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq; \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+## Python virtualenv with ipgen (editable) and the test tools; rebuilt when pyproject changes.
+venv: $(VENV)/.installed
+$(VENV)/.installed: pyproject.toml | deps
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	@touch $@
+
+lint: venv
+	$(VENV)/bin/ruff check generator tests tools
+
+test-python: venv
+	$(PY) -m pytest -q -n auto 2>/dev/null || $(PY) -m pytest -q
+
+## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
+build: venv
+	@if [ -f CMakeLists.txt ]; then \
+	  cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null && \
+	  cmake --build $(BUILD) -j $(JOBS); \
+	fi
+
+test-cpp: build
+	@if [ -f CMakeLists.txt ]; then ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS); fi
+
+test: lint test-python test-cpp
+	@echo "make test: all tests passed"
+
+demo: venv
+	$(PY) tools/demo.py
+
+clean:
+	rm -rf $(BUILD) out

@@ -1,0 +1,206 @@
+"""The ipgen command: options, bad input, safe writing, determinism, packaging."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from generator import output
+from generator.cli import run
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def ipgen(
+    *args: str, env: dict[str, str] | None = None, cwd: Path | None = None
+) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "generator", *args], capture_output=True, text=True, env=env, cwd=cwd
+    )
+
+
+def snapshot(directory: Path) -> dict[str, bytes]:
+    if not directory.exists():
+        return {}
+    return {
+        str(p.relative_to(directory)): p.read_bytes() for p in sorted(directory.rglob("*")) if p.is_file()
+    }
+
+
+def test_help_is_a_manual(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["--help"]) == 0
+    text = capsys.readouterr().out
+    for word in ("--type", "--links", "--inertia", "--name", "--scene", "forward_dynamics", "Examples"):
+        assert word in text
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    from generator import __version__
+
+    assert run(["--version"]) == 0
+    assert __version__ in capsys.readouterr().out
+
+
+def test_writes_header_and_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "new" / "dir"
+    assert run(["--type", "rotary", "--links", "2", "-o", str(out)]) == 0
+    header = out / "rotary2.hpp"
+    assert header.is_file()
+    text = header.read_text()
+    assert "namespace ipgen::rotary2 {" in text and "inline constexpr int kDof = 3;" in text
+    assert "ipgen --type rotary --links 2 --inertia pivot --name rotary2" in text
+    assert f"wrote {header}" in capsys.readouterr().out
+    assert run(["--type", "rotary", "--links", "2", "-o", str(out)]) == 0
+    assert "unchanged" in capsys.readouterr().out
+    assert [p.name for p in out.iterdir()] == ["rotary2.hpp"]  # no temporary file left
+
+
+def test_name_option_names_file_and_namespace(tmp_path: Path) -> None:
+    assert run(["--type", "classical", "--links", "1", "--name", "cart_pole", "-o", str(tmp_path)]) == 0
+    assert "namespace ipgen::cart_pole {" in (tmp_path / "cart_pole.hpp").read_text()
+
+
+def test_same_input_gives_identical_bytes_across_processes(tmp_path: Path) -> None:
+    """Different hash seeds reorder sets and dicts of symbols: the output must not change."""
+    texts = []
+    for seed in ("0", "12345"):
+        out = tmp_path / seed
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        result = ipgen("--type", "rotary", "--links", "3", "--inertia", "full", "-o", str(out), env=env)
+        assert result.returncode == 0, result.stderr
+        texts.append((out / "rotary3.hpp").read_bytes())
+    assert texts[0] == texts[1]
+
+
+BAD_INPUTS = [
+    (["--type", "pendulum", "--links", "2"], "--type"),
+    (["--type", "classical", "--links", "0"], "--links must be an integer >= 1"),
+    (["--type", "classical", "--links", "-3"], "--links must be an integer >= 1"),
+    (["--type", "classical", "--links", "two"], "'two' is not a valid integer"),
+    (["--type", "classical", "--links", "2.5"], "not a valid integer"),
+    (["--links", "2"], "missing --type"),
+    (["--type", "rotary"], "missing --links"),
+    (["--type", "classical", "--links", "2", "--inertia", "full"], "applies to rotary systems only"),
+    (["--type", "rotary", "--links", "2", "--inertia", "heavy"], "--inertia"),
+    (["--type", "rotary", "--links", "2", "--name", "3links"], "not a C++ identifier"),
+    (["--type", "rotary", "--links", "2", "--name", "my-model"], "not a C++ identifier"),
+    (["--type", "rotary", "--links", "2", "--name", "class"], "reserved"),
+    (["--type", "rotary", "--links", "2", "--name", "a__b"], "not a C++ identifier"),
+    (["--type", "rotary", "--links", "2", "--name", "Model"], "reserved"),
+    (["--type", "rotary", "--links", "2", "--bogus"], "No such option"),
+    (["--scene", "does_not_exist.toml"], "does_not_exist.toml"),
+    (["--scene", str(ROOT / "scenes" / "cdip_pulse.toml"), "--links", "3"], "--scene fixes the system"),
+]
+
+
+@pytest.mark.parametrize(("args", "message"), BAD_INPUTS, ids=[" ".join(a) for a, _ in BAD_INPUTS])
+def test_bad_input_is_one_line_exit_2_and_touches_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    before = snapshot(out)
+    assert run([*args, "-o", str(out)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.strip().splitlines()
+    assert len(lines) == 1, captured.err
+    assert lines[0].startswith("ipgen: error: ") and message in lines[0]
+    assert "Traceback" not in captured.err
+    assert snapshot(out) == before
+
+
+def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path: Path) -> None:
+    result = ipgen("--type", "classical", "--links", "x", "-o", str(tmp_path / "o"))
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_missing_output_option(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["--type", "classical", "--links", "1"]) == 2
+    assert "Missing option '-o'" in capsys.readouterr().err
+
+
+def test_output_path_that_is_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    target = tmp_path / "file"
+    target.write_text("x")
+    assert run(["--type", "classical", "--links", "1", "-o", str(target)]) == 2
+    assert "is a file, not a directory" in capsys.readouterr().err
+    assert target.read_text() == "x"
+
+
+def test_header_path_that_is_a_directory(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "classical1.hpp").mkdir()
+    assert run(["--type", "classical", "--links", "1", "-o", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+
+
+def test_uncreatable_output_directory(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["--type", "classical", "--links", "1", "-o", "/proc/ipgen-cannot-be-here"]) == 2
+    assert "cannot create output directory" in capsys.readouterr().err
+
+
+def test_never_overwrites_a_file_ipgen_did_not_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mine = tmp_path / "classical1.hpp"
+    mine.write_text("// my own hand-written model\n")
+    assert run(["--type", "classical", "--links", "1", "-o", str(tmp_path)]) == 2
+    assert "was not written by ipgen" in capsys.readouterr().err
+    assert mine.read_text() == "// my own hand-written model\n"
+    assert run(["--type", "classical", "--links", "1", "-o", str(tmp_path), "--force"]) == 0
+    assert "replaced" in capsys.readouterr().out
+    assert "namespace ipgen::classical1" in mine.read_text()
+
+
+def test_replacing_an_earlier_ipgen_header_is_reported(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert run(["--type", "rotary", "--links", "1", "--name", "arm", "-o", str(tmp_path)]) == 0
+    pivot = (tmp_path / "arm.hpp").read_text()
+    args = ["--type", "rotary", "--links", "1", "--name", "arm", "--inertia", "full", "-o", str(tmp_path)]
+    assert run(args) == 0
+    assert "replaced" in capsys.readouterr().out
+    assert (tmp_path / "arm.hpp").read_text() != pivot
+
+
+def test_interrupted_write_leaves_no_partial_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    target = tmp_path / "model.hpp"
+    target.write_text("// Generated by ipgen, old\n")
+
+    def interrupted(src: str, dst: str) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(output.os, "replace", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        output.write_file(target, "// Generated by ipgen, new\n")
+    assert [p.name for p in tmp_path.iterdir()] == ["model.hpp"]
+    assert target.read_text() == "// Generated by ipgen, old\n"
+
+
+def test_scene_writes_header_and_resolved_config(tmp_path: Path) -> None:
+    assert run(["--scene", str(ROOT / "scenes" / "rsip_pulse.toml"), "-o", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rsip.hpp", "rsip_pulse.cfg"]
+    config = (tmp_path / "rsip_pulse.cfg").read_text()
+    assert "model = rsip" in config and "input = pulse" in config
+
+
+def test_templates_ship_with_a_plain_install(tmp_path: Path) -> None:
+    """`pip install .` (not editable) must carry templates/ into the package."""
+    target = tmp_path / "site"
+    install = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), str(ROOT)],
+        capture_output=True,
+        text=True,
+    )
+    assert install.returncode == 0, install.stderr
+    assert (target / "generator" / "templates" / "model.hpp.jinja").is_file()
+    env = {**os.environ, "PYTHONPATH": str(target)}
+    result = ipgen("--type", "classical", "--links", "1", "-o", str(tmp_path / "o"), env=env, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "o" / "classical1.hpp").is_file()
