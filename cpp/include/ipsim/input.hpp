@@ -1,0 +1,167 @@
+// The generalised input u(t) acting on θ0: force on the cart [N] (classical) or torque on the
+// arm [N m] (rotary).
+#pragma once
+
+#include <cmath>
+#include <functional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ipsim/errors.hpp"
+
+namespace ipsim {
+
+/// π, spelled out because M_PI is not standard C++.
+inline constexpr double kPi = 3.14159265358979323846;
+
+/// Input signal u(t). Build one with the named constructors; the fields are public so a scene
+/// reader can fill them, and validate() reports inconsistent values.
+struct Input {
+  /// Shape of the signal.
+  enum class Kind {
+    zero,      ///< u = 0
+    constant,  ///< u = amplitude
+    pulse,     ///< u = amplitude for start ≤ t < start + duration, else 0
+    step,      ///< u = 0 for t < time, amplitude for t ≥ time
+    sine,      ///< u = amplitude · sin(2π · frequency · t + phase)
+    feedback,  ///< u = feedback(t, x), e.g. a controller
+  };
+  /// Controller callback: t [s] and the state x = [θ; θ̇] (dim 2·kDof) → u.
+  using Feedback = std::function<double(double t, const Eigen::VectorXd& x)>;
+
+  Kind kind = Kind::zero;
+  double amplitude = 0.0;  ///< [N] or [N m]
+  double start = 0.0;      ///< pulse switch-on time [s]
+  double duration = 0.0;   ///< pulse length [s], ≥ 0
+  double time = 0.0;       ///< step time [s]
+  double frequency = 0.0;  ///< sine frequency [Hz]
+  double phase = 0.0;      ///< sine phase [rad]
+  Feedback feedback;       ///< used only by Kind::feedback
+
+  /// u = 0.
+  static Input zero() { return {}; }
+  /// u = amplitude for all t.
+  static Input constant(double amplitude) {
+    Input in;
+    in.kind = Kind::constant;
+    in.amplitude = amplitude;
+    return in;
+  }
+  /// u = amplitude on [start, start + duration), 0 elsewhere; both edges are integrator stops.
+  static Input pulse(double amplitude, double start, double duration) {
+    Input in;
+    in.kind = Kind::pulse;
+    in.amplitude = amplitude;
+    in.start = start;
+    in.duration = duration;
+    return in;
+  }
+  /// u = amplitude from `time` on, 0 before; `time` is an integrator stop.
+  static Input step(double amplitude, double time) {
+    Input in;
+    in.kind = Kind::step;
+    in.amplitude = amplitude;
+    in.time = time;
+    return in;
+  }
+  /// u = amplitude · sin(2π · frequency_hz · t + phase_rad).
+  static Input sine(double amplitude, double frequency_hz, double phase_rad) {
+    Input in;
+    in.kind = Kind::sine;
+    in.amplitude = amplitude;
+    in.frequency = frequency_hz;
+    in.phase = phase_rad;
+    return in;
+  }
+  /// u = callback(t, x). The callback must be smooth in t and x between integrator stops (CVODE
+  /// assumes a smooth right-hand side); an exception it throws aborts the simulation and is
+  /// rethrown to the caller of simulate().
+  static Input from_feedback(Feedback callback) {
+    Input in;
+    in.kind = Kind::feedback;
+    in.feedback = std::move(callback);
+    return in;
+  }
+
+  /// u at time t [s] in state x = [θ; θ̇]; x is only read by Kind::feedback.
+  double value(double t, const Eigen::VectorXd& x) const {
+    switch (kind) {
+      case Kind::zero: return 0.0;
+      case Kind::constant: return amplitude;
+      case Kind::pulse: return (t >= start && t < start + duration) ? amplitude : 0.0;
+      case Kind::step: return t >= time ? amplitude : 0.0;
+      case Kind::sine: return amplitude * std::sin(2.0 * kPi * frequency * t + phase);
+      case Kind::feedback: return feedback(t, x);
+    }
+    return 0.0;
+  }
+
+  /// True when u depends on t only through jumps, i.e. is constant between switching_times().
+  bool piecewise_constant() const {
+    return kind == Kind::zero || kind == Kind::constant || kind == Kind::pulse || kind == Kind::step;
+  }
+
+  /// Times [s] at which u jumps (pulse edges, step time), ascending. The integrator stops and
+  /// restarts exactly there instead of stepping across.
+  std::vector<double> switching_times() const {
+    if (kind == Kind::pulse) return {start, start + duration};
+    if (kind == Kind::step) return {time};
+    return {};
+  }
+
+  /// Inconsistent fields, one message each (empty when valid).
+  std::vector<std::string> problems() const {
+    std::vector<std::string> found;
+    auto need_finite = [&](const char* field, double v) {
+      if (!std::isfinite(v)) {
+        found.push_back(std::string("invalid setting input.") + field + " = " + detail::format_number(v) +
+                        ": must be finite");
+        return false;
+      }
+      return true;
+    };
+    switch (kind) {
+      case Kind::zero: break;
+      case Kind::constant: need_finite("amplitude", amplitude); break;
+      case Kind::pulse:
+        need_finite("amplitude", amplitude);
+        need_finite("start", start);
+        if (need_finite("duration", duration) && duration < 0.0) {
+          found.push_back("invalid setting input.duration = " + detail::format_number(duration) +
+                          ": must be >= 0");
+        }
+        break;
+      case Kind::step:
+        need_finite("amplitude", amplitude);
+        need_finite("time", time);
+        break;
+      case Kind::sine:
+        need_finite("amplitude", amplitude);
+        need_finite("frequency", frequency);
+        need_finite("phase", phase);
+        break;
+      case Kind::feedback:
+        if (!feedback) found.emplace_back("invalid setting input: feedback input without a callback");
+        break;
+    }
+    return found;
+  }
+};
+
+/// Lower-case name of an input kind, as used in scene files ("pulse", …).
+inline const char* to_string(Input::Kind kind) {
+  switch (kind) {
+    case Input::Kind::zero: return "zero";
+    case Input::Kind::constant: return "constant";
+    case Input::Kind::pulse: return "pulse";
+    case Input::Kind::step: return "step";
+    case Input::Kind::sine: return "sine";
+    case Input::Kind::feedback: return "feedback";
+  }
+  return "?";
+}
+
+}  // namespace ipsim

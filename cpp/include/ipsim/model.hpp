@@ -1,0 +1,48 @@
+// What ipsim needs from a model tag type, and shorthands for its types.
+//
+// A model tag (e.g. ipgen::cdip::Model, written by the ipgen generator) provides
+//   kLinks, kDof = kLinks + 1, kName, kType ("classical" | "rotary"),
+//   Params<Scalar>, Vector<Scalar>, and static function templates
+//   mass_matrix, bias, gravity, n_matrix, forward_dynamics, kinetic_energy, potential_energy,
+//   dissipation
+// for the manipulator equation  M(θ) θ̈ + bias(θ, θ̇) = (u, 0, …, 0)ᵀ.
+#pragma once
+
+#include <string_view>
+
+#include <Eigen/Core>
+
+namespace ipsim {
+
+/// Physical parameters of `Model` in double precision (masses [kg], lengths [m], damping, g).
+template <class Model>
+using ParamsOf = typename Model::template Params<double>;
+
+/// Generalised coordinates or velocities of `Model` (dim Model::kDof).
+template <class Model>
+using VectorOf = typename Model::template Vector<double>;
+
+/// Number of mechanical states, x = [θ; θ̇] (dim 2·Model::kDof).
+template <class Model>
+inline constexpr int kStateSizeOf = 2 * Model::kDof;
+
+/// True for a pendulum on a cart (θ0 in metres, l[0] unused), false for a rotary (Furuta) base.
+template <class Model>
+constexpr bool is_classical() {
+  return std::string_view(Model::kType) == "classical";
+}
+
+namespace detail {
+/// Compile-time sanity checks of a model tag, so a malformed one fails with a readable message.
+template <class Model>
+constexpr bool check_model() {
+  static_assert(Model::kLinks >= 1, "a model needs at least one link");
+  static_assert(Model::kDof == Model::kLinks + 1, "kDof must be kLinks + 1 (base + links)");
+  static_assert(std::string_view(Model::kType) == "classical" || std::string_view(Model::kType) == "rotary",
+                "kType must be \"classical\" or \"rotary\"");
+  static_assert(VectorOf<Model>::RowsAtCompileTime == Model::kDof, "Vector<Scalar> must have kDof rows");
+  return true;
+}
+}  // namespace detail
+
+}  // namespace ipsim

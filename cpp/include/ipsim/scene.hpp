@@ -1,0 +1,247 @@
+// Reader for resolved scene files (.cfg), the flat format ipgen's Python side writes after
+// validating a user's TOML scene. One `key = value` per line, `#` starts a comment, lists are
+// space-separated:
+//
+//   name = cdip_pulse          model = cdip        type = classical     links = 2
+//   m = 0.3 0.275 0.275        l = 0 0.5 0.5       delta = 0.3 0.1 0.1  g = 9.81
+//   theta = 0 0 0              dtheta = 0 0 0
+//   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
+//   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
+//   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
+//
+// The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
+// lengths against the compiled model, and the model's name, type and link count.
+#pragma once
+
+#include <cerrno>
+#include <cstdlib>
+#include <fstream>
+#include <istream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ipsim/errors.hpp"
+#include "ipsim/input.hpp"
+#include "ipsim/model.hpp"
+#include "ipsim/settings.hpp"
+
+namespace ipsim::scene {
+
+/// A malformed or mismatched scene file; what() is "FILE:LINE: problem" (or "FILE: problem").
+class SceneError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// The key/value pairs of one scene file, with their line numbers for messages.
+class SceneFile {
+ public:
+  /// Reads and parses `path`. Throws SceneError if it cannot be opened or has a syntax error.
+  static SceneFile read(const std::string& path) {
+    std::ifstream stream(path);
+    if (!stream) throw SceneError(path + ": cannot open scene file");
+    return parse(stream, path);
+  }
+
+  /// Parses scene text; `origin` names the source in messages. Throws SceneError on a line that
+  /// is not `key = value`, an empty value, or a repeated key.
+  static SceneFile parse(std::istream& stream, std::string origin) {
+    SceneFile file;
+    file.origin_ = std::move(origin);
+    std::string line;
+    for (int number = 1; std::getline(stream, line); ++number) {
+      if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+      if (trim(line).empty()) continue;
+      const auto equals = line.find('=');
+      if (equals == std::string::npos) file.fail(number, "expected `key = value`, got `" + trim(line) + "`");
+      const std::string key = trim(line.substr(0, equals));
+      const std::string value = trim(line.substr(equals + 1));
+      if (key.empty()) file.fail(number, "missing key before `=`");
+      if (value.empty()) file.fail(number, "key `" + key + "` has no value");
+      if (const auto seen = file.entries_.find(key); seen != file.entries_.end()) {
+        file.fail(number, "key `" + key + "` repeated (first on line " + std::to_string(seen->second.line) + ")");
+      }
+      file.entries_.emplace(key, Entry{value, number});
+    }
+    return file;
+  }
+
+  /// The file name given to read() or parse().
+  const std::string& origin() const noexcept { return origin_; }
+  /// True if `key` is present.
+  bool has(const std::string& key) const { return entries_.count(key) != 0; }
+  /// All keys, sorted.
+  std::vector<std::string> keys() const {
+    std::vector<std::string> all;
+    for (const auto& entry : entries_) all.push_back(entry.first);
+    return all;
+  }
+  /// Line of `key` (0 if absent).
+  int line(const std::string& key) const {
+    const auto it = entries_.find(key);
+    return it == entries_.end() ? 0 : it->second.line;
+  }
+
+  /// The raw value of a required key.
+  const std::string& text(const std::string& key) const { return entry(key).value; }
+
+  /// A required key holding one number (decimal or exponent notation; nan/inf are accepted here
+  /// and rejected by validation with a better message).
+  double number(const std::string& key) const {
+    const auto values = numbers(key);
+    if (values.size() != 1) fail(line(key), "`" + key + "` must be one number, got " + std::to_string(values.size()));
+    return values.front();
+  }
+
+  /// A required key holding one integer.
+  long integer(const std::string& key) const {
+    const std::string& value = text(key);
+    errno = 0;
+    char* end = nullptr;
+    const long parsed = std::strtol(value.c_str(), &end, 10);
+    if (end == value.c_str() || *end != '\0' || errno == ERANGE) {
+      fail(line(key), "`" + key + "` must be an integer, got `" + value + "`");
+    }
+    return parsed;
+  }
+
+  /// A required key holding a space-separated list of numbers.
+  std::vector<double> numbers(const std::string& key) const {
+    std::istringstream words(text(key));
+    std::vector<double> values;
+    for (std::string word; words >> word;) {
+      errno = 0;
+      char* end = nullptr;
+      const double parsed = std::strtod(word.c_str(), &end);
+      if (end == word.c_str() || *end != '\0' || errno == ERANGE) {
+        fail(line(key), "`" + key + "`: `" + word + "` is not a number");
+      }
+      values.push_back(parsed);
+    }
+    return values;
+  }
+
+  /// Throws SceneError("origin:line: message"); line 0 means the whole file.
+  [[noreturn]] void fail(int line_number, const std::string& message) const {
+    throw SceneError(origin_ + (line_number > 0 ? ":" + std::to_string(line_number) : std::string()) + ": " + message);
+  }
+
+ private:
+  struct Entry {
+    std::string value;
+    int line;
+  };
+
+  const Entry& entry(const std::string& key) const {
+    const auto it = entries_.find(key);
+    if (it == entries_.end()) fail(0, "missing key `" + key + "`");
+    return it->second;
+  }
+
+  static std::string trim(const std::string& s) {
+    const auto first = s.find_first_not_of(" \t\r");
+    if (first == std::string::npos) return {};
+    return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
+  }
+
+  std::string origin_;
+  std::map<std::string, Entry> entries_;
+};
+
+/// A scene ready to simulate: its name, the model parameters and the settings.
+template <class Model>
+struct Scene {
+  std::string name;  ///< the scene's `name`, or the file name when absent
+  ParamsOf<Model> params{};
+  Settings<Model> settings;
+};
+
+/// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
+/// missing, a value does not parse, a list has the wrong length, or the file was written for a
+/// different model (name, type or link count). Parameter and setting ranges are left to
+/// ipsim::validate so that their messages are the same as for the C++ API.
+template <class Model>
+Scene<Model> load(const SceneFile& file) {
+  static const std::set<std::string> known = {
+      "name", "model", "type", "links", "m", "l", "delta", "g", "theta", "dtheta", "input",
+      "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
+      "t_end", "sample", "method", "rtol", "atol", "max_steps"};
+  for (const auto& key : file.keys()) {
+    if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + key + "`");
+  }
+
+  if (file.text("model") != Model::kName) {
+    file.fail(file.line("model"), "scene is for model `" + file.text("model") + "`, this simulator is built for `" +
+                                      Model::kName + "`");
+  }
+  if (file.text("type") != Model::kType) {
+    file.fail(file.line("type"), "type is `" + file.text("type") + "`, model " + Model::kName + " is " + Model::kType);
+  }
+  if (file.integer("links") != Model::kLinks) {
+    file.fail(file.line("links"), "links = " + file.text("links") + ", model " + Model::kName + " has " +
+                                      std::to_string(Model::kLinks));
+  }
+
+  // Every per-coordinate list has one entry for the base and one per link.
+  auto list = [&](const std::string& key) {
+    const auto values = file.numbers(key);
+    if (values.size() != static_cast<std::size_t>(Model::kDof)) {
+      file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, model " +
+                                    Model::kName + " needs " + std::to_string(Model::kDof) + " (base + " +
+                                    std::to_string(Model::kLinks) + " links)");
+    }
+    return values;
+  };
+
+  Scene<Model> scene;
+  scene.name = file.has("name") ? file.text("name") : file.origin();
+  const auto m = list("m");
+  const auto l = list("l");
+  const auto delta = list("delta");
+  const auto theta = list("theta");
+  const auto dtheta = list("dtheta");
+  for (int i = 0; i < Model::kDof; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    scene.params.m[k] = m[k];
+    scene.params.l[k] = l[k];
+    scene.params.delta[k] = delta[k];
+    scene.settings.theta(i) = theta[k];
+    scene.settings.dtheta(i) = dtheta[k];
+  }
+  scene.params.g = file.number("g");
+
+  Settings<Model>& s = scene.settings;
+  const std::string& method = file.text("method");
+  const auto parsed_method = parse_method(method);
+  if (!parsed_method) file.fail(file.line("method"), "method must be `bdf` or `adams`, got `" + method + "`");
+  s.method = *parsed_method;
+  s.rtol = file.number("rtol");
+  s.atol = file.number("atol");
+  s.max_steps = file.integer("max_steps");
+  s.t_end = file.number("t_end");
+  s.sample = file.number("sample");
+
+  // Only the fields the chosen input uses are required; the others may be present and are ignored.
+  const std::string& kind = file.text("input");
+  if (kind == "zero") {
+    s.input = Input::zero();
+  } else if (kind == "constant") {
+    s.input = Input::constant(file.number("input.amplitude"));
+  } else if (kind == "pulse") {
+    s.input = Input::pulse(file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
+  } else if (kind == "step") {
+    s.input = Input::step(file.number("input.amplitude"), file.number("input.time"));
+  } else if (kind == "sine") {
+    s.input = Input::sine(file.number("input.amplitude"), file.number("input.frequency"),
+                          file.has("input.phase") ? file.number("input.phase") : 0.0);
+  } else {
+    file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + kind + "`");
+  }
+  return scene;
+}
+
+}  // namespace ipsim::scene

@@ -1,0 +1,222 @@
+// simulate_<model>: runs a resolved scene file (.cfg) with ipsim and writes the trajectory as CSV.
+//
+// Built once per model: CMake passes the generated header and the model tag, e.g.
+//   -DIPGEN_MODEL_HEADER="cdip.hpp" -DIPGEN_MODEL=ipgen::cdip::Model
+//
+// Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method bdf|adams] [--rtol X] [--atol X]
+//                          [--t-end X] [--sample X] [--max-steps N] [--energy]
+// Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters or settings.
+#ifndef IPGEN_MODEL_HEADER
+#error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
+#endif
+#include IPGEN_MODEL_HEADER
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <unistd.h>
+#include <vector>
+
+#include "ipsim/ipsim.hpp"
+#include "ipsim/scene.hpp"
+
+namespace {
+
+using Model = IPGEN_MODEL;
+constexpr int kDof = Model::kDof;
+
+/// Bad command line, scene or parameters: reported on one line, exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Options {
+  std::string scene_path;
+  std::string csv_path;  ///< empty: the scene path with its extension replaced by .csv
+  bool energy = false;   ///< add T, V, W_in, E_diss columns and an energy balance to the summary
+  std::optional<ipsim::Method> method;
+  std::optional<double> rtol, atol, t_end, sample;
+  std::optional<long> max_steps;
+};
+
+constexpr const char* kUsage =
+    "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams] [--rtol X] [--atol X] [--t-end X] "
+    "[--sample X] [--max-steps N] [--energy]";
+
+double parse_number(const std::string& option, const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || *end != '\0' || errno == ERANGE) {
+    throw UsageError(option + " expects a number, got `" + text + "`");
+  }
+  return value;
+}
+
+Options parse_command_line(int argc, char** argv) {
+  Options options;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    auto value = [&]() -> const std::string& {
+      if (i + 1 >= args.size()) throw UsageError(arg + " needs a value");
+      return args[++i];
+    };
+    if (arg == "-h" || arg == "--help") {
+      std::puts(kUsage);
+      std::exit(0);
+    } else if (arg == "--csv") {
+      options.csv_path = value();
+    } else if (arg == "--method") {
+      const std::string& text = value();
+      options.method = ipsim::parse_method(text);
+      if (!options.method) throw UsageError("--method must be bdf or adams, got `" + text + "`");
+    } else if (arg == "--rtol") {
+      options.rtol = parse_number(arg, value());
+    } else if (arg == "--atol") {
+      options.atol = parse_number(arg, value());
+    } else if (arg == "--t-end") {
+      options.t_end = parse_number(arg, value());
+    } else if (arg == "--sample") {
+      options.sample = parse_number(arg, value());
+    } else if (arg == "--max-steps") {
+      const std::string& text = value();
+      errno = 0;
+      char* end = nullptr;
+      options.max_steps = std::strtol(text.c_str(), &end, 10);
+      if (end == text.c_str() || *end != '\0' || errno == ERANGE) {
+        throw UsageError("--max-steps expects an integer, got `" + text + "`");
+      }
+    } else if (arg == "--energy") {
+      options.energy = true;
+    } else if (arg.size() > 1 && arg[0] == '-') {
+      throw UsageError("unknown option `" + arg + "` (" + kUsage + ")");
+    } else if (options.scene_path.empty()) {
+      options.scene_path = arg;
+    } else {
+      throw UsageError("more than one scene file given (`" + options.scene_path + "` and `" + arg + "`)");
+    }
+  }
+  if (options.scene_path.empty()) throw UsageError(std::string("no scene file given (") + kUsage + ")");
+  if (options.csv_path.empty()) {
+    const auto slash = options.scene_path.find_last_of('/');
+    const auto dot = options.scene_path.find_last_of('.');
+    const bool has_extension = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+    options.csv_path = (has_extension ? options.scene_path.substr(0, dot) : options.scene_path) + ".csv";
+  }
+  return options;
+}
+
+/// Writes the CSV next to its destination and renames it into place, so a reader never sees a
+/// half-written file and a failed run leaves any previous result untouched.
+void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
+               bool energy) {
+  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
+  std::FILE* out = std::fopen(temporary.c_str(), "w");
+  if (out == nullptr) throw std::runtime_error("cannot write `" + temporary + "`");
+  std::fputs("t", out);
+  for (int i = 0; i < kDof; ++i) std::fprintf(out, ",theta%d", i);
+  for (int i = 0; i < kDof; ++i) std::fprintf(out, ",dtheta%d", i);
+  if (energy) std::fputs(",kinetic,potential,input_work,dissipated", out);
+  std::fputc('\n', out);
+  for (std::size_t k = 0; k < result.times.size(); ++k) {
+    const auto row = static_cast<Eigen::Index>(k);
+    std::fprintf(out, "%.17g", result.times[k]);
+    for (Eigen::Index j = 0; j < result.states.cols(); ++j) std::fprintf(out, ",%.17g", result.states(row, j));
+    if (energy) {
+      const ipsim::VectorOf<Model> q = result.states.row(row).head<kDof>().transpose();
+      const ipsim::VectorOf<Model> qd = result.states.row(row).segment<kDof>(kDof).transpose();
+      std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g", Model::kinetic_energy<double>(q, qd, params),
+                   Model::potential_energy<double>(q, params), result.input_work[k], result.dissipated_energy[k]);
+    }
+    std::fputc('\n', out);
+  }
+  const bool written = std::ferror(out) == 0;
+  if (std::fclose(out) != 0 || !written) {
+    std::remove(temporary.c_str());
+    throw std::runtime_error("error while writing `" + temporary + "`");
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
+    throw std::runtime_error("cannot rename `" + temporary + "` to `" + path + "`");
+  }
+}
+
+std::string format_vector(const Eigen::VectorXd& v) {
+  std::string text = "[";
+  for (Eigen::Index i = 0; i < v.size(); ++i) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%.6g", v(i));
+    text += (i > 0 ? ", " : "") + std::string(number);
+  }
+  return text + "]";
+}
+
+void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result) {
+  const ipsim::Settings<Model>& s = scene.settings;
+  const ipsim::Statistics& st = result.stats;
+  const Eigen::VectorXd final_state = result.states.bottomRows(1).transpose();
+  std::printf(
+      "scene %s: model %s (%s, %d link%s), input %s, %s rtol %g atol %g, t = 0 to %g s, %zu samples written to %s. "
+      "Final state theta = %s, dtheta = %s. CVODE: %ld steps, %ld RHS evals, %ld Jacobian evals, %ld linear-solver "
+      "RHS evals, %ld error-test failures, %ld nonlinear convergence failures, %ld restart%s at input "
+      "discontinuities. Wall time %.3g s.",
+      scene.name.c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
+      ipsim::to_string(s.input.kind), s.method == ipsim::Method::bdf ? "BDF" : "Adams", s.rtol, s.atol, s.t_end,
+      result.times.size(), options.csv_path.c_str(), format_vector(final_state.head(kDof)).c_str(),
+      format_vector(final_state.tail(kDof)).c_str(), st.steps, st.rhs_evals, st.jacobian_evals,
+      st.linear_solver_rhs_evals, st.error_test_failures, st.nonlinear_convergence_failures, st.restarts,
+      st.restarts == 1 ? "" : "s", result.wall_time);
+  if (options.energy) {
+    const double start = ipsim::mechanical_energy<Model>(scene.params, result.states.topRows(1).transpose());
+    const double end = ipsim::mechanical_energy<Model>(scene.params, final_state);
+    const double work = result.input_work.back();
+    const double dissipated = result.dissipated_energy.back();
+    std::printf(" Energy: T+V %.9g J at start, %.9g J at end, input work %.9g J, dissipated %.9g J, balance error %.3g J.",
+                start, end, work, dissipated, end - (start + work - dissipated));
+  }
+  std::putchar('\n');
+  for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
+}
+
+int run(int argc, char** argv) {
+  const Options options = parse_command_line(argc, argv);
+  ipsim::scene::Scene<Model> scene = ipsim::scene::load<Model>(ipsim::scene::SceneFile::read(options.scene_path));
+  ipsim::Settings<Model>& s = scene.settings;
+  if (options.method) s.method = *options.method;
+  if (options.rtol) s.rtol = *options.rtol;
+  if (options.atol) s.atol = *options.atol;
+  if (options.t_end) s.t_end = *options.t_end;
+  if (options.sample) s.sample = *options.sample;
+  if (options.max_steps) s.max_steps = *options.max_steps;
+  s.energy_ledger = options.energy;
+
+  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);
+  write_csv(options.csv_path, result, scene.params, options.energy);
+  print_summary(options, scene, result);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "simulate: error: %s\n", e.what());
+    return 2;
+  } catch (const ipsim::scene::SceneError& e) {
+    std::fprintf(stderr, "simulate: error: %s\n", e.what());
+    return 2;
+  } catch (const ipsim::InvalidInput& e) {
+    std::fprintf(stderr, "simulate: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "simulate: error: %s\n", e.what());
+    return 1;
+  }
+}

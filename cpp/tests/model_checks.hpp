@@ -1,0 +1,361 @@
+// Checks of ipsim that hold for every model, written against the model tag type so they run on
+// the stand-in now and on each generated model later (see test_model.cpp).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+#include "check.hpp"
+#include "ipsim/ipsim.hpp"
+
+namespace ipsim_test {
+
+/// Plausible parameters for any link count, after the paper's CDIP/RSIP experiments.
+template <class Model>
+ipsim::ParamsOf<Model> test_params(bool damped) {
+  ipsim::ParamsOf<Model> p{};
+  for (std::size_t i = 0; i < static_cast<std::size_t>(Model::kDof); ++i) {
+    p.m[i] = i == 0 ? 0.5 : 0.275;
+    p.l[i] = i == 0 ? 0.6 : 0.5;
+    p.delta[i] = damped ? (i == 0 ? 0.3 : 0.1) : 0.0;
+  }
+  p.g = 9.81;
+  return p;
+}
+
+/// Tight tolerances and every link tilted (all below 90°, so V > 0 and relative errors are
+/// meaningful).
+template <class Model>
+ipsim::Settings<Model> tilted_settings() {
+  ipsim::Settings<Model> s;
+  s.rtol = 1e-10;
+  s.atol = 1e-12;
+  s.t_end = 5.0;
+  s.sample = 0.01;
+  for (int i = 1; i < Model::kDof; ++i) s.theta(i) = 0.2 + 0.1 * i;
+  s.dtheta(1) = 0.5;
+  return s;
+}
+
+template <class Model>
+double max_abs(const ipsim::Result& r) {
+  return r.states.cwiseAbs().maxCoeff();
+}
+
+/// The model's functions agree with each other: bias = N θ̇ + P, M symmetric, T = ½ θ̇ᵀMθ̇,
+/// P = ∂V/∂θ, M θ̈ + bias = (u, 0, …), D = the Rayleigh function of MODEL.md.
+template <class Model>
+void check_model_consistency() {
+  using Vector = ipsim::VectorOf<Model>;
+  const auto p = test_params<Model>(true);
+  for (int trial = 0; trial < 5; ++trial) {
+    const Vector q = Vector::LinSpaced(-0.7 + 0.3 * trial, 1.1 - 0.2 * trial);
+    const Vector qd = Vector::LinSpaced(0.4 * trial - 0.9, 0.5);
+    const double u = 0.3 * trial - 0.5;
+    const auto M = Model::template mass_matrix<double>(q, p);
+    const Vector b = Model::template bias<double>(q, qd, p);
+    const Vector P = Model::template gravity<double>(q, p);
+    const auto N = Model::template n_matrix<double>(q, qd, p);
+    CHECK((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-14);
+    CHECK(((N * qd + P) - b).cwiseAbs().maxCoeff() <= 1e-12);
+    CHECK_NEAR(Model::template kinetic_energy<double>(q, qd, p), 0.5 * qd.dot(M * qd), 1e-12);
+
+    const Vector qdd = Model::template forward_dynamics<double>(q, qd, u, p);
+    Vector generalized_force = Vector::Zero();
+    generalized_force(0) = u;
+    CHECK(((M * qdd + b) - generalized_force).cwiseAbs().maxCoeff() <= 1e-10);
+
+    for (int i = 0; i < Model::kDof; ++i) {
+      const double h = 1e-6;
+      Vector up = q, down = q;
+      up(i) += h;
+      down(i) -= h;
+      const double dV = (Model::template potential_energy<double>(up, p) -
+                         Model::template potential_energy<double>(down, p)) / (2 * h);
+      CHECK_NEAR(dV, P(i), 1e-7);
+    }
+
+    double rayleigh = 0.5 * p.delta[0] * qd(0) * qd(0) + 0.5 * p.delta[1] * qd(1) * qd(1);
+    for (int i = 2; i < Model::kDof; ++i) {
+      const double relative = qd(i) - qd(i - 1);
+      rayleigh += 0.5 * p.delta[static_cast<std::size_t>(i)] * relative * relative;
+    }
+    CHECK_NEAR(Model::template dissipation<double>(qd, p), rayleigh, 1e-14);
+  }
+}
+
+/// Every invalid parameter is reported with the field's name; l[0] only matters for a rotary base.
+template <class Model>
+void check_parameter_validation() {
+  using ipsim::validate;
+  const int last = Model::kLinks;
+  const auto good = test_params<Model>(true);
+  CHECK(validate<Model>(good).empty());
+
+  auto expect_one = [&](auto mutate, const std::string& message) {
+    auto p = good;
+    mutate(p);
+    const auto problems = validate<Model>(p);
+    CHECK(problems.size() == 1);
+    if (problems.size() == 1 && problems[0] != message) fail(__FILE__, __LINE__, "got \"" + problems[0] + "\", want \"" + message + "\"");
+    CHECK_THROWS(ipsim::simulate<Model>(p, tilted_settings<Model>()), ipsim::InvalidInput, message);
+  };
+  const auto k = static_cast<std::size_t>(last);
+  expect_one([&](auto& p) { p.m[k] = -1; },
+             "invalid parameter m[" + std::to_string(last) + "] = -1: masses must be > 0");
+  expect_one([](auto& p) { p.m[0] = 0; }, "invalid parameter m[0] = 0: masses must be > 0");
+  expect_one([](auto& p) { p.m[0] = std::numeric_limits<double>::quiet_NaN(); },
+             "invalid parameter m[0] = nan: must be finite");
+  expect_one([](auto& p) { p.l[1] = 0; }, "invalid parameter l[1] = 0: lengths must be > 0");
+  expect_one([&](auto& p) { p.l[k] = std::numeric_limits<double>::infinity(); },
+             "invalid parameter l[" + std::to_string(last) + "] = inf: must be finite");
+  expect_one([](auto& p) { p.delta[0] = -0.5; }, "invalid parameter delta[0] = -0.5: damping must be >= 0");
+  expect_one([](auto& p) { p.g = std::numeric_limits<double>::infinity(); },
+             "invalid parameter g = inf: must be finite");
+
+  auto base_length_zero = good;
+  base_length_zero.l[0] = 0;
+  if (ipsim::is_classical<Model>()) {
+    CHECK(validate<Model>(base_length_zero).empty());  // a cart has no length
+  } else {
+    CHECK(validate<Model>(base_length_zero).size() == 1);
+  }
+
+  auto two_wrong = good;
+  two_wrong.m[1] = -2;
+  two_wrong.delta[1] = -3;
+  CHECK(validate<Model>(two_wrong).size() == 2);
+  CHECK_THROWS(ipsim::require_valid<Model>(two_wrong), ipsim::InvalidInput,
+               "invalid parameter m[1] = -2: masses must be > 0; invalid parameter delta[1] = -3");
+}
+
+/// Every invalid setting is rejected before integrating, naming the field.
+template <class Model>
+void check_settings_validation() {
+  const auto p = test_params<Model>(true);
+  CHECK(ipsim::validate<Model>(tilted_settings<Model>()).empty());
+  auto expect = [&](auto mutate, const std::string& message) {
+    auto s = tilted_settings<Model>();
+    mutate(s);
+    CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::InvalidInput, message);
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  expect([](auto& s) { s.rtol = 0; }, "invalid setting rtol = 0: must be finite and > 0");
+  expect([](auto& s) { s.rtol = -1e-6; }, "invalid setting rtol = -1e-06");
+  expect([](auto& s) { s.atol = -1; }, "invalid setting atol = -1: must be finite and >= 0");
+  expect([](auto& s) { s.t_end = 0; }, "invalid setting t_end = 0: must be finite and > 0");
+  expect([](auto& s) { s.sample = 0; }, "invalid setting sample = 0: must be finite and > 0");
+  expect([](auto& s) { s.sample = 1e-12; }, "exceeds 1e8 output samples");
+  expect([](auto& s) { s.max_steps = 0; }, "invalid setting max_steps = 0: must be > 0");
+  expect([&](auto& s) { s.theta(1) = nan; }, "invalid setting theta[1] = nan: initial state must be finite");
+  expect([&](auto& s) { s.dtheta(0) = inf; }, "invalid setting dtheta[0] = inf: initial state must be finite");
+  expect([](auto& s) { s.input = ipsim::Input::pulse(1.0, 0.0, -1.0); },
+         "invalid setting input.duration = -1: must be >= 0");
+  expect([&](auto& s) { s.input = ipsim::Input::sine(1.0, nan, 0.0); }, "invalid setting input.frequency = nan");
+  expect([](auto& s) { s.input = ipsim::Input::from_feedback(nullptr); }, "feedback input without a callback");
+  // Parameter and setting problems are reported together.
+  auto s = tilted_settings<Model>();
+  s.rtol = 0;
+  auto bad = p;
+  bad.m[1] = -1;
+  CHECK_THROWS(ipsim::simulate<Model>(bad, s), ipsim::InvalidInput, "masses must be > 0; invalid setting rtol = 0");
+}
+
+/// CVODE failures surface as IntegrationError naming the flag, the time and the settings; a
+/// throwing controller's exception reaches the caller unchanged.
+template <class Model>
+void check_integration_errors() {
+  const auto p = test_params<Model>(true);
+  auto s = tilted_settings<Model>();
+  s.max_steps = 1;
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "CV_TOO_MUCH_WORK");
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "at t = ");
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError,
+               "(method bdf, rtol 1e-10, atol 1e-12, max_steps 1)");
+  try {
+    ipsim::simulate<Model>(p, s);
+  } catch (const ipsim::IntegrationError& e) {
+    CHECK(e.flag_name() == "CV_TOO_MUCH_WORK");
+    CHECK(e.flag() == CV_TOO_MUCH_WORK);
+    CHECK(e.time() >= 0.0 && e.time() < s.sample);
+    CHECK(std::string(e.what()).find('\n') == std::string::npos);
+  }
+
+  // A non-finite input is a recoverable RHS failure; CVODE cannot recover on its first call.
+  s = tilted_settings<Model>();
+  s.input = ipsim::Input::from_feedback([](double, const Eigen::VectorXd&) { return std::nan(""); });
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "CV_FIRST_RHSFUNC_ERR");
+
+  // Failing later, after successful steps: CVODE retries with smaller steps, then gives up.
+  s.input = ipsim::Input::from_feedback([](double t, const Eigen::VectorXd&) { return t > 0.5 ? std::nan("") : 0.0; });
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "at t = 0.5");
+
+  s.input = ipsim::Input::from_feedback([](double t, const Eigen::VectorXd& x) -> double {
+    if (x.size() != 2 * Model::kDof) throw std::logic_error("feedback got a state of the wrong size");
+    if (t > 0.1) throw std::domain_error("controller exploded");
+    return 0.0;
+  });
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), std::domain_error, "controller exploded");
+}
+
+/// Without damping or input, T + V is conserved. Two motions:
+///  - swinging about the hanging position (regular): relative drift < 1e-8 over 20 s at rtol 1e-10;
+///  - falling from near upright and swinging over the top (chaotic, passes the unstable
+///    equilibrium again and again, which amplifies the integrator's local errors): < 1e-6.
+/// In both the drift is CVODE's global error; it shrinks in proportion to rtol.
+template <class Model>
+void check_energy_conservation(ipsim::Method method) {
+  const auto p = test_params<Model>(false);
+  for (const bool hanging : {true, false}) {
+    auto s = tilted_settings<Model>();
+    s.method = method;
+    s.t_end = 20.0;
+    if (hanging) {
+      for (int i = 1; i < Model::kDof; ++i) s.theta(i) = ipsim::kPi - s.theta(i);
+    }
+    const ipsim::Result r = ipsim::simulate<Model>(p, s);
+    CHECK(r.times.size() == 2001);
+    const double e0 = ipsim::mechanical_energy<Model>(p, s.theta, s.dtheta);
+    double drift = 0.0;
+    for (Eigen::Index k = 0; k < r.states.rows(); ++k) {
+      const double e = ipsim::mechanical_energy<Model>(p, r.states.row(k).transpose());
+      drift = std::max(drift, std::abs(e - e0) / std::abs(e0));
+    }
+    const double limit = hanging ? 1e-8 : 1e-6;
+    if (!(drift < limit)) {
+      fail(__FILE__, __LINE__, std::string("relative energy drift ") + number(drift) + " >= " + number(limit) + " (" +
+                                   ipsim::to_string(method) + (hanging ? ", hanging" : ", falling from upright") + ")");
+    }
+  }
+}
+
+/// With damping and a pulse, T + V(t) = T + V(0) + W_in(t) − E_diss(t) at every sample.
+template <class Model>
+void check_work_energy_balance() {
+  const auto p = test_params<Model>(true);
+  auto s = tilted_settings<Model>();
+  s.t_end = 10.0;
+  s.input = ipsim::Input::pulse(0.4, 0.5, 1.0);
+  s.energy_ledger = true;
+  const ipsim::Result r = ipsim::simulate<Model>(p, s);
+  CHECK(r.input_work.size() == r.times.size() && r.dissipated_energy.size() == r.times.size());
+  CHECK(r.input_work.front() == 0.0 && r.dissipated_energy.front() == 0.0);
+  CHECK(r.dissipated_energy.back() > 0.0);
+  CHECK(std::abs(r.input_work.back()) > 0.0);
+  const double e0 = ipsim::mechanical_energy<Model>(p, s.theta, s.dtheta);
+  double worst = 0.0;
+  for (Eigen::Index k = 0; k < r.states.rows(); ++k) {
+    const auto i = static_cast<std::size_t>(k);
+    const double e = ipsim::mechanical_energy<Model>(p, r.states.row(k).transpose());
+    worst = std::max(worst, std::abs(e - (e0 + r.input_work[i] - r.dissipated_energy[i])));
+  }
+  CHECK_NEAR(worst, 0.0, 1e-6);
+}
+
+/// Upright, at rest, no input: the (unstable) equilibrium is kept to 1e-12.
+template <class Model>
+void check_upright_equilibrium() {
+  ipsim::Settings<Model> s;
+  s.rtol = 1e-10;
+  s.atol = 1e-12;
+  s.t_end = 10.0;
+  const ipsim::Result r = ipsim::simulate<Model>(test_params<Model>(true), s);
+  CHECK(max_abs<Model>(r) <= 1e-12);
+}
+
+/// Input jumps are integrator stops: samples land on them, CVODE restarts there, and the result
+/// equals integrating each constant-input piece separately.
+template <class Model>
+void check_pulse_discontinuity() {
+  const auto p = test_params<Model>(true);
+
+  // Pulse end on the sample grid: a sample exactly at t = 1, one restart (the start at t = 0
+  // is not inside the run).
+  auto s = tilted_settings<Model>();
+  s.t_end = 2.0;
+  s.input = ipsim::Input::pulse(0.4, 0.0, 1.0);
+  const ipsim::Result pulsed = ipsim::simulate<Model>(p, s);
+  CHECK(pulsed.times.size() == 201);
+  CHECK(pulsed.times[100] == 1.0);
+  CHECK(pulsed.stats.restarts == 1);
+
+  // Piece 1: constant input up to t = 1. Piece 2: no input from that state (autonomous, so it
+  // may start at t = 0).
+  auto first = s;
+  first.t_end = 1.0;
+  first.input = ipsim::Input::constant(0.4);
+  const ipsim::Result piece1 = ipsim::simulate<Model>(p, first);
+  CHECK(piece1.stats.restarts == 0);
+  const Eigen::VectorXd at_switch = piece1.states.bottomRows(1).transpose();
+  CHECK((pulsed.states.row(100).transpose() - at_switch).cwiseAbs().maxCoeff() <= 1e-8);
+  auto second = s;
+  second.t_end = 1.0;
+  second.input = ipsim::Input::zero();
+  second.theta = at_switch.head<Model::kDof>();
+  second.dtheta = at_switch.tail<Model::kDof>();
+  const ipsim::Result piece2 = ipsim::simulate<Model>(p, second);
+  CHECK((pulsed.states.bottomRows(1) - piece2.states.bottomRows(1)).cwiseAbs().maxCoeff() <= 1e-7);
+
+  // Edges off the grid: no extra samples, two restarts, samples still exactly k·sample.
+  s.t_end = 1.0;
+  s.sample = 0.1;
+  s.input = ipsim::Input::pulse(0.4, 0.25, 0.5);
+  const ipsim::Result off_grid = ipsim::simulate<Model>(p, s);
+  CHECK(off_grid.times.size() == 11);
+  CHECK(off_grid.stats.restarts == 2);
+  for (std::size_t k = 0; k < off_grid.times.size(); ++k) CHECK(off_grid.times[k] == static_cast<double>(k) * 0.1);
+
+  // A switch a rounding error away from a sample (7·0.1 = 0.7000000000000001) is one stop,
+  // taken at the switching time itself.
+  s.input = ipsim::Input::step(0.4, 0.7);
+  const ipsim::Result snapped = ipsim::simulate<Model>(p, s);
+  CHECK(snapped.times.size() == 11);
+  CHECK(snapped.times[7] == 0.7);
+  CHECK(snapped.stats.restarts == 1);
+
+  // t_end off the grid is still the last sample.
+  s.input = ipsim::Input::zero();
+  s.t_end = 1.05;
+  const ipsim::Result tail = ipsim::simulate<Model>(p, s);
+  CHECK(tail.times.size() == 12);
+  CHECK(tail.times.back() == 1.05);
+}
+
+/// BDF and Adams agree, and the statistics are filled in.
+template <class Model>
+void check_methods_agree() {
+  const auto p = test_params<Model>(true);
+  auto s = tilted_settings<Model>();
+  s.input = ipsim::Input::sine(0.3, 0.5, 0.1);
+  const ipsim::Result bdf = ipsim::simulate<Model>(p, s);
+  s.method = ipsim::Method::adams;
+  const ipsim::Result adams = ipsim::simulate<Model>(p, s);
+  CHECK((bdf.states - adams.states).cwiseAbs().maxCoeff() <= 1e-6);
+  CHECK(bdf.stats.steps > 0 && bdf.stats.rhs_evals > bdf.stats.steps && bdf.stats.jacobian_evals > 0);
+  CHECK(bdf.stats.linear_solver_rhs_evals > 0 && bdf.stats.restarts == 0);
+  CHECK(bdf.wall_time > 0.0);
+}
+
+/// Runs every generic check on `Model`.
+template <class Model>
+int run_model_checks() {
+  check_model_consistency<Model>();
+  check_parameter_validation<Model>();
+  check_settings_validation<Model>();
+  check_integration_errors<Model>();
+  check_energy_conservation<Model>(ipsim::Method::bdf);
+  check_energy_conservation<Model>(ipsim::Method::adams);
+  check_work_energy_balance<Model>();
+  check_upright_equilibrium<Model>();
+  check_pulse_discontinuity<Model>();
+  check_methods_agree<Model>();
+  std::printf("%s (%s, %d links): %s\n", Model::kName, Model::kType, Model::kLinks,
+              failure_count() == 0 ? "all checks passed" : "FAILED");
+  return failures();
+}
+
+}  // namespace ipsim_test

@@ -1,0 +1,158 @@
+// Model-independent parts of ipsim, exercised on the stand-in: RAII wrappers, inputs, the stop
+// schedule and the scene reader.
+#include <sstream>
+#include <type_traits>
+
+#include "cart1.hpp"
+#include "check.hpp"
+#include "ipsim/ipsim.hpp"
+#include "ipsim/scene.hpp"
+
+namespace {
+
+using Model = ipgen::cart1::Model;
+using ipsim::scene::SceneError;
+using ipsim::scene::SceneFile;
+
+template <class T>
+constexpr bool owns_uniquely() {
+  return !std::is_copy_constructible_v<T> && !std::is_copy_assignable_v<T> && std::is_move_constructible_v<T> &&
+         std::is_move_assignable_v<T>;
+}
+static_assert(owns_uniquely<ipsim::sundials::Context>());
+static_assert(owns_uniquely<ipsim::sundials::NVector>());
+static_assert(owns_uniquely<ipsim::sundials::DenseMatrix>());
+static_assert(owns_uniquely<ipsim::sundials::DenseLinearSolver>());
+static_assert(owns_uniquely<ipsim::sundials::CvodeMemory>());
+
+void check_raii_moves() {
+  ipsim::sundials::Context context;
+  ipsim::sundials::NVector y(4, context);
+  const N_Vector raw = y.get();
+  ipsim::sundials::NVector moved(std::move(y));
+  CHECK(moved.get() == raw && moved.length() == 4);
+  CHECK(y.get() == nullptr);  // NOLINT(bugprone-use-after-move): moved-from owns nothing
+  ipsim::sundials::Context other;
+  other = std::move(context);
+  CHECK(other.get() != nullptr && context.get() == nullptr);  // NOLINT(bugprone-use-after-move)
+  CHECK(ipsim::sundials::return_flag_name(CV_TOO_MUCH_WORK) == "CV_TOO_MUCH_WORK");
+}
+
+void check_inputs() {
+  const Eigen::VectorXd x = Eigen::VectorXd::Zero(4);
+  const auto pulse = ipsim::Input::pulse(2.0, 1.0, 0.5);
+  CHECK(pulse.value(0.999, x) == 0.0 && pulse.value(1.0, x) == 2.0 && pulse.value(1.4999, x) == 2.0);
+  CHECK(pulse.value(1.5, x) == 0.0);
+  CHECK(pulse.switching_times() == std::vector<double>({1.0, 1.5}));
+  const auto step = ipsim::Input::step(-1.0, 2.0);
+  CHECK(step.value(1.9, x) == 0.0 && step.value(2.0, x) == -1.0);
+  const auto sine = ipsim::Input::sine(3.0, 0.25, 0.0);
+  CHECK_NEAR(sine.value(1.0, x), 3.0, 1e-15);  // quarter period
+  CHECK(!sine.piecewise_constant() && sine.switching_times().empty());
+  CHECK(ipsim::Input::constant(0.5).value(7.0, x) == 0.5);
+  CHECK(ipsim::Input().value(1.0, x) == 0.0);
+}
+
+void check_schedule() {
+  using ipsim::detail::make_schedule;
+  const auto stops = make_schedule(1.0, 0.25, {0.1, 0.5, 1.0, -1.0});
+  // 0, 0.1 (switch), 0.25, 0.5 (sample + switch), 0.75, 1.0; switches at or beyond the ends dropped.
+  CHECK(stops.size() == 6);
+  if (stops.size() == 6) {
+    CHECK(stops[1].t == 0.1 && stops[1].restart && !stops[1].sample);
+    CHECK(stops[3].t == 0.5 && stops[3].restart && stops[3].sample);
+    CHECK(stops[5].t == 1.0 && stops[5].sample && !stops[5].restart);
+  }
+  // Sample longer than the run: just the two ends.
+  CHECK(make_schedule(0.5, 2.0, {}).size() == 2);
+}
+
+const char* const kScene = R"(# a cart pendulum knocked by a pulse
+name = cart_pulse
+model = cart1
+type = classical
+links = 1
+m = 0.5 0.275
+l = 0 0.5      # l[0] unused for a cart
+delta = 0.3 0.1
+g = 9.81
+theta = 0 0.1
+dtheta = 0 0
+input = pulse
+input.amplitude = 0.4
+input.start = 0
+input.duration = 1
+input.time = 0
+input.frequency = 0
+input.phase = 0
+t_end = 3
+sample = 0.05
+method = adams
+rtol = 1e-9
+atol = 1e-11
+max_steps = 5000
+)";
+
+ipsim::scene::Scene<Model> load_text(const std::string& text) {
+  std::istringstream stream(text);
+  return ipsim::scene::load<Model>(SceneFile::parse(stream, "test.cfg"));
+}
+
+/// kScene with the line for `key` replaced by `line` (or removed when `line` is empty).
+std::string edited(const std::string& key, const std::string& line) {
+  std::istringstream in(kScene);
+  std::string out;
+  for (std::string l; std::getline(in, l);) {
+    if (l.rfind(key + " =", 0) == 0) {
+      if (!line.empty()) out += line + "\n";
+    } else {
+      out += l + "\n";
+    }
+  }
+  return out;
+}
+
+void check_scene_reader() {
+  const auto scene = load_text(kScene);
+  CHECK(scene.name == "cart_pulse");
+  CHECK(scene.params.m[0] == 0.5 && scene.params.m[1] == 0.275 && scene.params.l[1] == 0.5);
+  CHECK(scene.params.delta[1] == 0.1 && scene.params.g == 9.81);
+  CHECK(scene.settings.theta(1) == 0.1 && scene.settings.method == ipsim::Method::adams);
+  CHECK(scene.settings.rtol == 1e-9 && scene.settings.atol == 1e-11 && scene.settings.max_steps == 5000);
+  CHECK(scene.settings.t_end == 3.0 && scene.settings.sample == 0.05);
+  CHECK(scene.settings.input.kind == ipsim::Input::Kind::pulse && scene.settings.input.duration == 1.0);
+  CHECK(ipsim::validate<Model>(scene.params).empty());  // l[0] = 0 is fine for a cart
+
+  CHECK_THROWS(load_text(edited("m", "m = 0.5 0.275 0.3")), SceneError,
+               "test.cfg:6: `m` has 3 values, model cart1 needs 2 (base + 1 links)");
+  CHECK_THROWS(load_text(edited("links", "links = 2")), SceneError, "test.cfg:5: links = 2, model cart1 has 1");
+  CHECK_THROWS(load_text(edited("model", "model = cdip")), SceneError, "scene is for model `cdip`");
+  CHECK_THROWS(load_text(edited("type", "type = rotary")), SceneError, "model cart1 is classical");
+  CHECK_THROWS(load_text(edited("rtol", "")), SceneError, "test.cfg: missing key `rtol`");
+  CHECK_THROWS(load_text(edited("rtol", "rtol = fast")), SceneError, "`rtol`: `fast` is not a number");
+  CHECK_THROWS(load_text(edited("max_steps", "max_steps = 1.5")), SceneError, "`max_steps` must be an integer");
+  CHECK_THROWS(load_text(edited("method", "method = rk4")), SceneError, "method must be `bdf` or `adams`");
+  CHECK_THROWS(load_text(edited("input", "input = ramp")), SceneError, "input must be zero, constant");
+  CHECK_THROWS(load_text(std::string(kScene) + "colour = red\n"), SceneError, "unknown key `colour`");
+  CHECK_THROWS(load_text(std::string(kScene) + "g = 1\n"), SceneError, "key `g` repeated (first on line 9)");
+  CHECK_THROWS(load_text(std::string(kScene) + "just words\n"), SceneError, "expected `key = value`");
+  CHECK_THROWS(load_text(edited("g", "g =")), SceneError, "key `g` has no value");
+  // The input's unused fields may be absent.
+  const auto step = load_text(edited("input", "input = step"));
+  CHECK(step.settings.input.kind == ipsim::Input::Kind::step);
+  CHECK_THROWS(SceneFile::read("/nonexistent/scene.cfg"), SceneError, "cannot open scene file");
+  // Ranges are validate()'s job, with the API's messages.
+  const auto negative = load_text(edited("m", "m = 0.5 -1"));
+  CHECK(ipsim::validate<Model>(negative.params).at(0) == "invalid parameter m[1] = -1: masses must be > 0");
+}
+
+}  // namespace
+
+int main() {
+  check_raii_moves();
+  check_inputs();
+  check_schedule();
+  check_scene_reader();
+  std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
+  return ipsim_test::failures();
+}
