@@ -5,132 +5,209 @@ The structure keeps the derivation polynomial in size (no `simplify` anywhere):
 - C from the Christoffel symbols of M (so Ṁ − 2C is skew-symmetric), differentiating only
   the entries that actually depend on the angle;
 - P = ∂V/∂θ, damping = ∂²D/∂θ̇²;
-- every entry is tidied by `tidy`: expanded once and grouped by its state-dependent factor.
+- all of it in a sparse polynomial ring (`polynomial.py`), where expanding and collecting
+  are free, then turned into readable sympy expressions once, at the end.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import sympy as sp
+from sympy.polys.rings import PolyElement
 
 from generator.model import Symbols, System, base_inertia, bodies, rayleigh_dissipation
+from generator.polynomial import Algebra
+from generator.vectors import PlanarVector
 
 ProgressCallback = Callable[[str], None]
+PolyMatrix = list[list[PolyElement]]
 
 
 @dataclass(frozen=True)
 class Equations:
-    """M(θ) θ̈ + C(θ, θ̇) θ̇ + D θ̇ + P(θ) = B u, with every piece as a sympy expression."""
+    """M(θ) θ̈ + C(θ, θ̇) θ̇ + D θ̇ + P(θ) = B u.
+
+    Each piece is kept as polynomials (`poly`, what code generation reads) and offered as
+    sympy expressions in θ, θ̇ and the parameters (computed on first use).
+    """
 
     system: System
     symbols: Symbols
-    mass_matrix: sp.Matrix  # M, symmetric positive definite
-    coriolis: sp.Matrix  # C, Christoffel symbols of the first kind contracted with θ̇
-    damping: sp.Matrix  # constant: ∂D/∂θ̇ = damping · θ̇
-    gravity: sp.Matrix  # P = ∂V/∂θ (column)
-    bias: sp.Matrix  # C θ̇ + damping θ̇ + P (column)
-    input_map: sp.Matrix  # B: the input acts on θ0 only
-    kinetic_energy: sp.Expr
-    potential_energy: sp.Expr
-    dissipation: sp.Expr  # Rayleigh D; the power it removes is 2D
+    algebra: Algebra
+    poly: dict[str, PolyMatrix]  # name -> matrix of ring elements (vectors: one column)
+
+    def _matrix(self, name: str) -> sp.Matrix:
+        return sp.Matrix([[self.algebra.to_expr(e) for e in row] for row in self.poly[name]])
+
+    @cached_property
+    def mass_matrix(self) -> sp.Matrix:
+        """M, symmetric positive definite."""
+        return self._matrix("mass_matrix")
+
+    @cached_property
+    def coriolis(self) -> sp.Matrix:
+        """C, from the Christoffel symbols of M: Ṁ − 2C is skew-symmetric."""
+        return self._matrix("coriolis")
+
+    @cached_property
+    def damping(self) -> sp.Matrix:
+        """Constant damping matrix: ∂D/∂θ̇ = damping · θ̇."""
+        return self._matrix("damping")
+
+    @cached_property
+    def gravity(self) -> sp.Matrix:
+        """P = ∂V/∂θ (column)."""
+        return self._matrix("gravity")
+
+    @cached_property
+    def bias(self) -> sp.Matrix:
+        """C θ̇ + damping θ̇ + P (column)."""
+        return self._matrix("bias")
+
+    @cached_property
+    def n_matrix(self) -> sp.Matrix:
+        """One valid N of eq. 29 (C + damping): N θ̇ + P is the bias."""
+        return self._matrix("n_matrix")
 
     @property
-    def n_matrix(self) -> sp.Matrix:
-        """One valid N of eq. 29: N θ̇ + P is the bias."""
-        return self.coriolis + self.damping
+    def input_map(self) -> sp.Matrix:
+        """B: the input acts on θ0 only."""
+        return sp.Matrix([1] + [0] * self.system.links)
+
+    @cached_property
+    def kinetic_energy(self) -> sp.Expr:
+        return self.algebra.to_expr(self.poly["kinetic_energy"][0][0])
+
+    @cached_property
+    def potential_energy(self) -> sp.Expr:
+        return self.algebra.to_expr(self.poly["potential_energy"][0][0])
+
+    @cached_property
+    def dissipation(self) -> sp.Expr:
+        """Rayleigh D; the power it removes is 2D."""
+        return self.algebra.to_expr(self.poly["dissipation"][0][0])
 
 
-def tidy(expr: sp.Expr, state: Iterable[sp.Symbol]) -> sp.Expr:
-    """Expand once, then collect the parameter coefficient of each state-dependent factor.
+class _RingVector:
+    """A `PlanarVector` with ring coefficients and angle indices (None: the base direction)."""
 
-    Cheap (linear in the number of terms) and enough here: with absolute angles every
-    entry is a sum of products of per-entry trig factors and velocities.
-    """
-    state = tuple(state)
-    groups: dict[sp.Expr, list[sp.Expr]] = {}
-    for term in sp.Add.make_args(sp.expand(expr)):
-        coefficient, factor = term.as_independent(*state, as_Add=False)
-        groups.setdefault(factor, []).append(coefficient)
-    return sp.Add(*(sp.factor_terms(sp.Add(*c)) * f for f, c in groups.items()))
+    def __init__(self, vector: PlanarVector, algebra: Algebra, angle_index: dict[sp.Expr, int]) -> None:
+        self.terms = [(algebra.from_expr(c), angle_index.get(a)) for c, a in vector.terms]
+        self.normal = algebra.from_expr(vector.normal)
+        self.algebra = algebra
+
+    def dot(self, other: _RingVector) -> PolyElement:
+        total = self.normal * other.normal
+        for a, alpha in self.terms:
+            for b, beta in other.terms:
+                total += a * b * self.algebra.cos_difference(alpha, beta)
+        return total
 
 
-def _mass_matrix(system: System, sym: Symbols, state: tuple[sp.Symbol, ...]) -> sp.Matrix:
-    links = bodies(system, sym)
+def _mass_matrix(system: System, algebra: Algebra) -> PolyMatrix:
+    sym = algebra.sym
+    angle_index = {q: k for k, q in enumerate(sym.q)}
     size = system.dof
-    mass = sp.zeros(size, size)
+    mass = [[algebra.zero() for _ in range(size)] for _ in range(size)]
+    mass[0][0] = algebra.from_expr(base_inertia(system, sym))
+    for body in bodies(system, sym):
+        m = algebra.from_expr(body.mass)
+        columns = [_RingVector(v, algebra, angle_index) for v in body.jacobian]
+        for j in range(size):
+            for k in range(j, size):
+                mass[j][k] += m * columns[j].dot(columns[k])
+        for (j, k), spin in body.rotational.items():
+            mass[j][k] += algebra.from_expr(spin)
     for j in range(size):
-        for k in range(j, size):
-            terms = [body.mass * body.jacobian[j].dot(body.jacobian[k]) for body in links]
-            terms += [body.rotational.get((j, k), sp.S.Zero) for body in links]
-            if j == k == 0:
-                terms.append(base_inertia(system, sym))
-            mass[j, k] = mass[k, j] = tidy(sp.Add(*terms), state)
+        for k in range(j):
+            mass[j][k] = mass[k][j]
     return mass
 
 
-def _coriolis(mass: sp.Matrix, sym: Symbols, state: tuple[sp.Symbol, ...]) -> sp.Matrix:
+def _coriolis(mass: PolyMatrix, algebra: Algebra) -> PolyMatrix:
     """C_kj = Σ_i ½(∂M_kj/∂θi + ∂M_ki/∂θj − ∂M_ij/∂θk) θ̇i."""
-    size = mass.rows
-    q, qd = sym.q, sym.qd
+    size = len(mass)
+    qd = algebra.sym.qd
     # ∂M_jk/∂θ_i, only where M_jk depends on θ_i (most entries depend on two angles at most).
-    partial: dict[tuple[int, int, int], sp.Expr] = {}
+    partial: dict[tuple[int, int, int], PolyElement] = {}
     for j in range(size):
         for k in range(j, size):
             for i in range(size):
-                if q[i] in mass[j, k].free_symbols:
-                    partial[i, j, k] = partial[i, k, j] = sp.diff(mass[j, k], q[i])
+                if algebra.depends_on_angle(mass[j][k], i):
+                    partial[i, j, k] = partial[i, k, j] = algebra.diff_angle(mass[j][k], i)
+    zero = algebra.zero()
 
-    def dm(i: int, j: int, k: int) -> sp.Expr:
-        return partial.get((i, j, k), sp.S.Zero)
+    def dm(i: int, j: int, k: int) -> PolyElement:
+        return partial.get((i, j, k), zero)
 
-    coriolis = sp.zeros(size, size)
-    for k in range(size):
-        for j in range(size):
-            terms = [(dm(i, k, j) + dm(j, k, i) - dm(k, i, j)) * qd[i] for i in range(size)]
-            coriolis[k, j] = tidy(sp.Add(*terms) / 2, state)
-    return coriolis
+    half = algebra.one() / 2
+    return [
+        [
+            sum(
+                (algebra.times_symbol(dm(i, k, j) + dm(j, k, i) - dm(k, i, j), qd[i]) for i in range(size)),
+                zero,
+            )
+            * half
+            for j in range(size)
+        ]
+        for k in range(size)
+    ]
 
 
 def derive(system: System, progress: ProgressCallback | None = None) -> Equations:
     """Derive the equations of motion of `system` (see MODEL.md for the conventions)."""
     report = progress or (lambda step: None)
     sym = Symbols.for_system(system)
-    state = (*sym.q, *sym.qd)
+    algebra = Algebra(sym)
     size = system.dof
+    qd = sym.qd
+    zero = algebra.zero()
 
     report("mass matrix")
-    mass = _mass_matrix(system, sym, state)
+    mass = _mass_matrix(system, algebra)
 
     report("potential energy and gravity")
-    potential = tidy(sp.Add(*(b.mass * sym.g * b.height for b in bodies(system, sym))), state)
-    gravity = sp.Matrix([tidy(sp.diff(potential, q), state) for q in sym.q])
+    heights = [algebra.from_expr(b.mass * sym.g * b.height) for b in bodies(system, sym)]
+    potential = sum(heights, algebra.zero())
+    gravity = [algebra.diff_angle(potential, k) for k in range(size)]
 
     report("dissipation")
-    dissipation = rayleigh_dissipation(system, sym)
-    damping = sp.Matrix(size, size, lambda j, k: sp.diff(dissipation, sym.qd[j], sym.qd[k]))
+    dissipation = algebra.from_expr(rayleigh_dissipation(system, sym))
+    damping = [
+        [algebra.diff_symbol(algebra.diff_symbol(dissipation, sym.qd[j]), sym.qd[k]) for k in range(size)]
+        for j in range(size)
+    ]
 
     report("Coriolis matrix")
-    coriolis = _coriolis(mass, sym, state)
+    coriolis = _coriolis(mass, algebra)
 
     report("bias vector")
-    qd = sp.Matrix(sym.qd)
-    velocity_terms = (coriolis + damping) * qd
-    bias = sp.Matrix([tidy(velocity_terms[k] + gravity[k], state) for k in range(size)])
+    bias = [
+        sum((algebra.times_symbol(coriolis[k][j] + damping[k][j], qd[j]) for j in range(size)), gravity[k])
+        for k in range(size)
+    ]
+    momentum = [
+        sum((algebra.times_symbol(mass[j][k], qd[k]) for k in range(size)), zero) for j in range(size)
+    ]
+    kinetic = sum((algebra.times_symbol(momentum[j], qd[j]) for j in range(size)), zero) / 2
 
-    kinetic = tidy((qd.T * mass * qd)[0, 0] / 2, state)
-    input_map = sp.Matrix([1] + [0] * system.links)
+    n_matrix = [[coriolis[k][j] + damping[k][j] for j in range(size)] for k in range(size)]
     return Equations(
         system=system,
         symbols=sym,
-        mass_matrix=mass,
-        coriolis=coriolis,
-        damping=damping,
-        gravity=gravity,
-        bias=bias,
-        input_map=input_map,
-        kinetic_energy=kinetic,
-        potential_energy=potential,
-        dissipation=dissipation,
+        algebra=algebra,
+        poly={
+            "mass_matrix": mass,
+            "coriolis": coriolis,
+            "damping": damping,
+            "n_matrix": n_matrix,
+            "gravity": [[g] for g in gravity],
+            "bias": [[b] for b in bias],
+            "kinetic_energy": [[kinetic]],
+            "potential_energy": [[potential]],
+            "dissipation": [[dissipation]],
+        },
     )

@@ -1,37 +1,40 @@
-"""Turns the derived expressions into the bodies of the header's C++ functions.
+"""Turns the derived polynomials into the bodies of the header's C++ functions.
 
-For each function: the expressions it returns are rewritten in per-angle sines and cosines
-(sin/cos of each angle computed once; cos(θj − θk) = cj ck + sj sk), common subexpressions
-are shared by one `sympy.cse` over all its outputs (M and the bias share temporaries in
-`forward_dynamics`), and the result is printed as C++ statements.
+For each function: its outputs are written in the trig letters of `polynomial.Algebra`
+(sin/cos of each angle computed once; cos(θj − θk) = cj ck + sj sk from them), common
+subexpressions are shared by one `sympy.cse` over all its outputs (M and the bias share
+temporaries in `forward_dynamics`), and the result is printed as C++ statements.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import sympy as sp
+from sympy.polys.rings import PolyElement
 
 from generator.codegen.printer import CppPrinter
-from generator.derive import Equations
+from generator.derive import Equations, PolyMatrix
 
 
 @dataclass(frozen=True)
 class Output:
-    """One returned quantity: a scalar (`shape == ()`), a vector or a matrix."""
+    """One returned quantity: a matrix of polynomials; 1×1 with `scalar` for a number."""
 
     name: str
-    value: sp.Matrix | sp.Expr
-    symmetric: bool = False  # matrices: compute the upper triangle, mirror the rest
-    lower_only: bool = False  # matrices: only the lower triangle is needed (Cholesky)
+    value: PolyMatrix
+    scalar: bool = False
+    symmetric: bool = False  # compute the upper triangle, mirror the rest
+    lower_only: bool = False  # only the lower triangle is needed (Cholesky reads nothing else)
 
 
 @dataclass
 class FunctionBody:
     """C++ statements computing a function's outputs, with an operation count."""
 
-    prelude: list[str] = field(default_factory=list)  # parameter, state and trig bindings
+    prelude: list[str] = field(default_factory=list)  # parameter, velocity and trig bindings
     temporaries: list[str] = field(default_factory=list)
     outputs: list[str] = field(default_factory=list)
     unused_arguments: list[str] = field(default_factory=list)
@@ -39,78 +42,38 @@ class FunctionBody:
     trig_calls: int = 0  # sin/cos evaluations
 
 
-@dataclass(frozen=True)
-class _Trig:
-    """Per-angle sin/cos symbols, and cos/sin of angle differences built from them."""
-
-    symbol: sp.Symbol
-    cpp: str  # C++ definition
-    order: tuple[int, ...]  # definition order: single angles first
-    depends: tuple[sp.Symbol, ...] = ()  # per-angle symbols a difference term is built from
+_LETTER = re.compile(r"([scCS])(\d+)(?:_(\d+))?\Z")
 
 
-def _trig_rewrite(exprs: Sequence[sp.Expr], q: Sequence[sp.Symbol]) -> tuple[list[sp.Expr], list[_Trig]]:
-    """Replace sin/cos of θk and of θj − θk by named symbols defined once."""
-    index = {angle: k for k, angle in enumerate(q)}
-    atoms: set[sp.Expr] = set()
-    for expr in exprs:
-        atoms |= expr.atoms(sp.sin, sp.cos)
-    defs: dict[str, _Trig] = {}
-    replace: dict[sp.Expr, sp.Symbol] = {}
-
-    def single(kind: str, k: int) -> sp.Symbol:
-        name = f"{kind}{k}"
-        if name not in defs:
-            fn = "sin" if kind == "s" else "cos"
-            symbol = sp.Symbol(name)
-            defs[name] = _Trig(
-                symbol, f"const Scalar {name} = {fn}(q({k}));", (k, 0, 0 if kind == "s" else 1)
-            )
-        return defs[name].symbol
-
-    for atom in sorted(atoms, key=sp.default_sort_key):
-        kind = "s" if isinstance(atom, sp.sin) else "c"
-        weights = atom.args[0].as_coefficients_dict()
-        if len(weights) == 1 and weights.get(atom.args[0]) == 1 and atom.args[0] in index:
-            replace[atom] = single(kind, index[atom.args[0]])
-            continue
-        terms = sorted((index[s], int(c)) for s, c in weights.items() if s in index)
-        if len(terms) != 2 or len(weights) != 2 or sorted(c for _, c in terms) != [-1, 1]:
-            raise ValueError(f"unexpected trigonometric argument {atom.args[0]}")
-        (j, cj), (k, _) = terms
-        if cj < 0:  # keep the canonical θj − θk with j < k
-            raise ValueError(f"non-canonical angle difference {atom.args[0]}")
-        sj, cj_, sk, ck = single("s", j), single("c", j), single("s", k), single("c", k)
-        name = f"{kind}{j}_{k}"
-        if name not in defs:
-            value = f"{cj_}*{ck} + {sj}*{sk}" if kind == "c" else f"{sj}*{ck} - {cj_}*{sk}"
-            what = "cos" if kind == "c" else "sin"
-            defs[name] = _Trig(
-                sp.Symbol(name),
-                f"const Scalar {name} = {value};  // {what}(θ{j} − θ{k})",
-                (j, k, 0 if kind == "s" else 1),
-                (sj, cj_, sk, ck),
-            )
-        replace[atom] = defs[name].symbol
-    rewritten = [expr.xreplace(replace) for expr in exprs]
-    ordered = sorted(defs.values(), key=lambda d: (d.order[1] != 0, d.order))
-    return rewritten, ordered
+def _trig_definition(letter: sp.Symbol) -> tuple[str, tuple[str, ...]]:
+    """C++ definition of a trig letter, and the letters it is built from."""
+    kind, j, k = _LETTER.match(letter.name).groups()  # type: ignore[union-attr]
+    name = _cpp_name(letter)
+    if k is None:
+        return f"const Scalar {name} = {'sin' if kind == 's' else 'cos'}(q({j}));", ()
+    if kind == "C":
+        value, what = f"c{j}*c{k} + s{j}*s{k}", "cos"
+    else:
+        value, what = f"s{j}*c{k} - c{j}*s{k}", "sin"
+    return f"const Scalar {name} = {value};  // {what}(θ{j} − θ{k})", (f"s{j}", f"c{j}", f"s{k}", f"c{k}")
 
 
-def _flatten(outputs: Sequence[Output]) -> list[tuple[str, sp.Expr]]:
-    """(C++ target, expression) for every entry that must be computed."""
-    targets: list[tuple[str, sp.Expr]] = []
+def _cpp_name(letter: sp.Symbol) -> str:
+    return letter.name.lower()  # C1_2 -> c1_2: cos(θ1 − θ2); S1_2 -> s1_2
+
+
+def _targets(outputs: Sequence[Output]) -> list[tuple[str, PolyElement]]:
+    """(C++ target, polynomial) for every entry that must be computed."""
+    targets: list[tuple[str, PolyElement]] = []
     for out in outputs:
-        value = out.value
-        if not isinstance(value, sp.MatrixBase):
-            targets.append((out.name, value))
-            continue
-        for r in range(value.rows):
-            for c in range(value.cols):
-                if (out.symmetric and r > c) or (out.lower_only and r < c) or value[r, c] == 0:
-                    continue
-                target = f"{out.name}({r})" if value.cols == 1 else f"{out.name}({r}, {c})"
-                targets.append((target, value[r, c]))
+        rows, cols = len(out.value), len(out.value[0])
+        for r in range(rows):
+            for c in range(cols):
+                p = out.value[r][c]
+                if out.scalar:
+                    targets.append((out.name, p))
+                elif p and not ((out.symmetric and r > c) or (out.lower_only and r < c)):
+                    targets.append((f"{out.name}({r})" if cols == 1 else f"{out.name}({r}, {c})", p))
     return targets
 
 
@@ -118,34 +81,31 @@ def _mirror_lines(outputs: Sequence[Output]) -> list[str]:
     """Copies completing symmetric matrices from their computed upper triangle."""
     lines = []
     for out in outputs:
-        if out.symmetric and isinstance(out.value, sp.MatrixBase):
-            for r in range(out.value.rows):
-                for c in range(r):
-                    if out.value[c, r] != 0:
-                        lines.append(f"{out.name}({r}, {c}) = {out.name}({c}, {r});")
+        if out.symmetric:
+            for r, row in enumerate(out.value):
+                lines += [f"{out.name}({r}, {c}) = {out.name}({c}, {r});" for c in range(r) if row[c]]
     return lines
 
 
-def count_operations(exprs: Sequence[sp.Expr]) -> int:
-    return sum(int(sp.count_ops(e)) for e in exprs)
-
-
 def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[str]) -> FunctionBody:
-    """Statements computing `outputs`; `arguments` are the C++ parameter names (q, qd, p, u)."""
-    sym = eqs.symbols
-    targets = _flatten(outputs)
-    exprs, trig = _trig_rewrite([e for _, e in targets], sym.q)
+    """Statements computing `outputs`; `arguments` are the C++ parameter names (q, qd, p)."""
+    sym, algebra = eqs.symbols, eqs.algebra
+    targets = _targets(outputs)
+    exprs = [algebra.to_expr(p, letters=True) for _, p in targets]
     temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
 
     used: set[sp.Symbol] = set()
     for expr in [*reduced, *(v for _, v in temporaries)]:
         used |= expr.free_symbols
-    for t in trig:  # a difference term needs its per-angle factors even if nothing else does
-        if t.symbol in used:
-            used |= set(t.depends)
-    trig_used = [t for t in trig if t.symbol in used]
+    letters = [s for s in algebra.letters if s in used]
+    definitions = {s.name: _trig_definition(s) for s in letters}
+    needed = {part for _, parts in definitions.values() for part in parts}
+    singles = [s for s in algebra.letters if s.name in needed and s.name not in definitions]
+    definitions.update({s.name: _trig_definition(s) for s in singles})
+    # per-angle sin/cos first (in angle order), then differences
+    trig = sorted(definitions.items(), key=lambda item: (bool(item[1][1]), _sort_key(item[0])))
 
-    names: dict[sp.Symbol, str] = {t.symbol: t.symbol.name for t in trig}
+    names: dict[sp.Symbol, str] = {s: _cpp_name(s) for s in algebra.letters}
     names.update({s: s.name for s, _ in temporaries})
     body = FunctionBody()
     for group, cpp in ((sym.m, "p.m"), (sym.l, "p.l"), (sym.delta, "p.delta")):
@@ -160,24 +120,25 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
         names[s] = f"dq{k}"
         if s in used:
             body.prelude.append(f"const Scalar dq{k} = qd({k});")
-    for k, s in enumerate(sym.q):
-        names[s] = f"q({k})"
-    names[sym.u] = "u"
-    body.prelude += [t.cpp for t in trig_used]
+    body.prelude += [definition for _, (definition, _) in trig]
 
     printer = CppPrinter(names)
     body.temporaries = [f"const Scalar {s.name} = {printer(v)};" for s, v in temporaries]
     body.outputs = [f"{target} = {printer(v)};" for (target, _), v in zip(targets, reduced, strict=True)]
     body.outputs += _mirror_lines(outputs)
-    body.operations = count_operations([v for _, v in temporaries] + list(reduced))
-    body.operations += 3 * sum(1 for t in trig_used if t.depends)  # cj*ck + sj*sk
-    body.trig_calls = sum(1 for t in trig_used if not t.depends)
+    body.operations = sum(int(sp.count_ops(e)) for e in [*(v for _, v in temporaries), *reduced])
+    body.operations += 3 * sum(1 for _, (_, parts) in trig if parts)  # cj*ck + sj*sk
+    body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
 
     needs = {
-        "q": bool(used & set(sym.q)) or bool(trig_used),
+        "q": bool(trig),
         "qd": bool(used & set(sym.qd)),
         "p": bool(used & set(sym.parameters)),
-        "u": sym.u in used,
     }
     body.unused_arguments = [a for a in arguments if not needs[a]]
     return body
+
+
+def _sort_key(name: str) -> tuple[int, ...]:
+    kind, j, k = _LETTER.match(name).groups()  # type: ignore[union-attr]
+    return (int(j), int(k or 0), kind.lower() == "c")

@@ -51,18 +51,19 @@ def _environment() -> jinja2.Environment:
 
 def function_bodies(eqs: Equations) -> dict[str, FunctionBody]:
     """The body of every generated function, keyed by its C++ name."""
-    mass, bias = eqs.mass_matrix, eqs.bias
+    poly = eqs.poly
+    mass, bias = poly["mass_matrix"], poly["bias"]
     return {
         "mass_matrix": build_body(eqs, [Output("M", mass, symmetric=True)], _ARGS_Q_P),
         "bias": build_body(eqs, [Output("b", bias)], _ARGS_Q_QD_P),
-        "gravity": build_body(eqs, [Output("P", eqs.gravity)], _ARGS_Q_P),
-        "n_matrix": build_body(eqs, [Output("N", eqs.n_matrix)], _ARGS_Q_QD_P),
+        "gravity": build_body(eqs, [Output("P", poly["gravity"])], _ARGS_Q_P),
+        "n_matrix": build_body(eqs, [Output("N", poly["n_matrix"])], _ARGS_Q_QD_P),
         "forward_dynamics": build_body(
             eqs, [Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P
         ),
-        "kinetic_energy": build_body(eqs, [Output("T", eqs.kinetic_energy)], _ARGS_Q_QD_P),
-        "potential_energy": build_body(eqs, [Output("V", eqs.potential_energy)], _ARGS_Q_P),
-        "dissipation": build_body(eqs, [Output("D", eqs.dissipation)], ("qd", "p")),
+        "kinetic_energy": build_body(eqs, [Output("T", poly["kinetic_energy"], scalar=True)], _ARGS_Q_QD_P),
+        "potential_energy": build_body(eqs, [Output("V", poly["potential_energy"], scalar=True)], _ARGS_Q_P),
+        "dissipation": build_body(eqs, [Output("D", poly["dissipation"], scalar=True)], ("qd", "p")),
     }
 
 
