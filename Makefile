@@ -39,7 +39,7 @@ lint: venv
 	$(VENV)/bin/ruff check generator tests tools
 
 test-python: venv
-	$(PY) -m pytest -q -n auto 2>/dev/null || $(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(JOBS)
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
 build: venv
