@@ -2,7 +2,8 @@
 # simulators, and turn TOML scenes into resolved .cfg files.
 #
 #   ipgen_add_model(<target> TYPE rotary|classical LINKS <n> [INERTIA pivot|full] [NAME <name>])
-#       Generates <name>.hpp (default name: <target>) into ${CMAKE_CURRENT_BINARY_DIR}/ipgen_models
+#       Generates <name>.hpp (default name: <target>; INERTIA is for rotary models only, the
+#       generator's default is pivot) into ${CMAKE_CURRENT_BINARY_DIR}/ipgen_models
 #       with `${IPGEN_PYTHON} -m generator`, and creates the INTERFACE target <target> that puts
 #       that folder on the include path and links Eigen3::Eigen.
 #
@@ -15,8 +16,11 @@
 #       Runs `${IPGEN_PYTHON} -m generator --scene <file> -o <dir>` to write <dir>/<stem>.cfg.
 #       CMake cannot read TOML, so the scene's model is restated here; its header comes from
 #       ipgen_add_model(ipgen_model_<name> ...) and its simulator from ipgen_add_simulator (both
-#       created on first use). Adds the target scene_<stem> (builds the .cfg and the simulator)
-#       and run_scene_<stem> (runs it, writing <dir>/<stem>.csv). <var> receives the .cfg path.
+#       created on first use; the scene's model must agree with MODEL/TYPE/LINKS/INERTIA, which
+#       the simulator checks when it reads the .cfg). Adds the target scene_<stem> (part of ALL:
+#       builds the .cfg and the simulator) and run_scene_<stem> (runs it, writing
+#       <dir>/<stem>.csv). <var> receives the .cfg path; <dir> is
+#       ${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/<stem>.
 #
 # The generator's Python is ${IPGEN_PYTHON}: set it with -DIPGEN_PYTHON=..., otherwise the
 # repository's .venv is used. It is only looked for when one of these functions is called.
@@ -24,7 +28,7 @@
 include_guard(GLOBAL)
 
 # The repository root, wherever this file is included from.
-cmake_path(SET _IPGEN_ROOT NORMALIZE "${CMAKE_CURRENT_LIST_DIR}/..")
+cmake_path(GET CMAKE_CURRENT_LIST_DIR PARENT_PATH _IPGEN_ROOT)
 set(_IPGEN_ROOT "${_IPGEN_ROOT}" CACHE INTERNAL "ipgen source root")
 
 # Flags every target of the project is compiled with.
@@ -68,6 +72,9 @@ function(_ipgen_check_model_arguments function_name type links inertia)
   if(inertia AND NOT inertia MATCHES "^(pivot|full)$")
     message(FATAL_ERROR "${function_name}: INERTIA must be pivot or full, got `${inertia}`")
   endif()
+  if(inertia AND NOT type STREQUAL "rotary")
+    message(FATAL_ERROR "${function_name}: INERTIA applies to rotary models only")
+  endif()
 endfunction()
 
 function(ipgen_add_model target)
@@ -98,7 +105,7 @@ function(ipgen_add_model target)
             --name ${name} -o "${out_dir}"
     WORKING_DIRECTORY "${_IPGEN_ROOT}"
     DEPENDS ${dependencies}
-    COMMENT "ipgen: generating ${name}.hpp (${arg_TYPE}, ${arg_LINKS} links)"
+    COMMENT "ipgen: generating ${name}.hpp (${arg_TYPE}, links = ${arg_LINKS})"
     VERBATIM)
 
   add_library(${target} INTERFACE)

@@ -184,7 +184,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
 }
 
 int run(int argc, char** argv) {
-  const Options options = parse_command_line(argc, argv);
+  Options options = parse_command_line(argc, argv);
   ipsim::scene::Scene<Model> scene = ipsim::scene::load<Model>(ipsim::scene::SceneFile::read(options.scene_path));
   ipsim::Settings<Model>& s = scene.settings;
   if (options.method) s.method = *options.method;
@@ -193,6 +193,7 @@ int run(int argc, char** argv) {
   if (options.t_end) s.t_end = *options.t_end;
   if (options.sample) s.sample = *options.sample;
   if (options.max_steps) s.max_steps = *options.max_steps;
+  options.energy = options.energy || scene.energy;
   s.energy_ledger = options.energy;
 
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);

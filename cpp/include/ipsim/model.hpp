@@ -1,7 +1,8 @@
 // What ipsim needs from a model tag type, and shorthands for its types.
 //
 // A model tag (e.g. ipgen::cdip::Model, written by the ipgen generator) provides
-//   kLinks, kDof = kLinks + 1, kName, kType ("classical" | "rotary"),
+//   kLinks, kDof = kLinks + 1, kName, kType ("classical" | "rotary"), optionally kInertia
+//   ("pivot" | "full" for rotary models, "" otherwise),
 //   Params<Scalar>, Vector<Scalar>, and static function templates
 //   mass_matrix, bias, gravity, n_matrix, forward_dynamics, kinetic_energy, potential_energy,
 //   dissipation
@@ -9,6 +10,7 @@
 #pragma once
 
 #include <string_view>
+#include <type_traits>
 
 #include <Eigen/Core>
 
@@ -30,6 +32,24 @@ inline constexpr int kStateSizeOf = 2 * Model::kDof;
 template <class Model>
 constexpr bool is_classical() {
   return std::string_view(Model::kType) == "classical";
+}
+
+namespace detail {
+template <class Model, class = void>
+struct InertiaOf {
+  static constexpr std::string_view value{};
+};
+template <class Model>
+struct InertiaOf<Model, std::void_t<decltype(Model::kInertia)>> {
+  static constexpr std::string_view value{Model::kInertia};
+};
+}  // namespace detail
+
+/// The rotary inertia variant the model was generated with ("pivot" or "full"); empty for
+/// classical models and for model tags without kInertia.
+template <class Model>
+constexpr std::string_view inertia_of() {
+  return detail::InertiaOf<Model>::value;
 }
 
 namespace detail {

@@ -3,11 +3,13 @@
 // space-separated:
 //
 //   name = cdip_pulse          model = cdip        type = classical     links = 2
+//   inertia = pivot            (rotary: must match the model; ignored for classical)
 //   m = 0.3 0.275 0.275        l = 0 0.5 0.5       delta = 0.3 0.1 0.1  g = 9.81
 //   theta = 0 0 0              dtheta = 0 0 0
 //   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
 //   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
 //   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
+//   energy = false             (optional: true adds the energy ledger and energy columns)
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
@@ -158,6 +160,7 @@ struct Scene {
   std::string name;  ///< the scene's `name`, or the file name when absent
   ParamsOf<Model> params{};
   Settings<Model> settings;
+  bool energy = false;  ///< `energy = true`: report energies (settings.energy_ledger is set too)
 };
 
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
@@ -167,7 +170,7 @@ struct Scene {
 template <class Model>
 Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known = {
-      "name", "model", "type", "links", "m", "l", "delta", "g", "theta", "dtheta", "input",
+      "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "rtol", "atol", "max_steps"};
   for (const auto& key : file.keys()) {
@@ -186,6 +189,18 @@ Scene<Model> load(const SceneFile& file) {
                                       std::to_string(Model::kLinks));
   }
 
+  if (file.has("inertia")) {
+    const std::string& inertia = file.text("inertia");
+    if (inertia != "pivot" && inertia != "full") {
+      file.fail(file.line("inertia"), "inertia must be `pivot` or `full`, got `" + inertia + "`");
+    }
+    // Classical models have no inertia variant; the Python side writes the default anyway.
+    if (!inertia_of<Model>().empty() && inertia != inertia_of<Model>()) {
+      file.fail(file.line("inertia"), "inertia is `" + inertia + "`, model " + Model::kName + " was generated with `" +
+                                          std::string(inertia_of<Model>()) + "`");
+    }
+  }
+
   // Every per-coordinate list has one entry for the base and one per link.
   auto list = [&](const std::string& key) {
     const auto values = file.numbers(key);
@@ -199,6 +214,14 @@ Scene<Model> load(const SceneFile& file) {
 
   Scene<Model> scene;
   scene.name = file.has("name") ? file.text("name") : file.origin();
+  if (file.has("energy")) {
+    const std::string& energy = file.text("energy");
+    if (energy != "true" && energy != "false") {
+      file.fail(file.line("energy"), "energy must be `true` or `false`, got `" + energy + "`");
+    }
+    scene.energy = energy == "true";
+    scene.settings.energy_ledger = scene.energy;
+  }
   const auto m = list("m");
   const auto l = list("l");
   const auto delta = list("delta");

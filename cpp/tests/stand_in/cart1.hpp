@@ -111,13 +111,16 @@ struct Model {
   static constexpr int kDof = cart1::kDof;
   static constexpr const char* kName = "cart1";
   static constexpr const char* kType = "classical";
+  static constexpr const char* kInertia = "";  ///< only rotary models have an inertia variant
   template <typename Scalar = double>
   using Params = cart1::Params<Scalar>;
   template <typename Scalar>
   using Vector = cart1::Vector<Scalar>;
+  template <typename Scalar>
+  using Matrix = cart1::Matrix<Scalar>;
 
   template <typename Scalar>
-  static cart1::Matrix<Scalar> mass_matrix(const Vector<Scalar>& q, const Params<Scalar>& p) {
+  static Matrix<Scalar> mass_matrix(const Vector<Scalar>& q, const Params<Scalar>& p) {
     return cart1::mass_matrix(q, p);
   }
   template <typename Scalar>
@@ -129,7 +132,7 @@ struct Model {
     return cart1::gravity(q, p);
   }
   template <typename Scalar>
-  static cart1::Matrix<Scalar> n_matrix(const Vector<Scalar>& q, const Vector<Scalar>& qd,
+  static Matrix<Scalar> n_matrix(const Vector<Scalar>& q, const Vector<Scalar>& qd,
                                         const Params<Scalar>& p) {
     return cart1::n_matrix(q, qd, p);
   }
