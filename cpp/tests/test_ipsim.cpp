@@ -146,9 +146,46 @@ void check_scene_reader() {
   CHECK(ipsim::validate<Model>(negative.params).at(0) == "invalid parameter m[1] = -1: masses must be > 0");
 }
 
+/// A rotary tag with an inertia variant, for the reader's model checks only (never simulated).
+struct RotaryPivot : ipgen::cart1::Model {
+  static constexpr const char* kName = "rotary_pivot";
+  static constexpr const char* kType = "rotary";
+  static constexpr const char* kInertia = "pivot";
+};
+
+void check_scene_model_keys() {
+  // Classical models ignore the inertia the Python side always writes.
+  CHECK(load_text(std::string(kScene) + "inertia = pivot\n").name == "cart_pulse");
+  CHECK_THROWS(load_text(std::string(kScene) + "inertia = heavy\n"), SceneError, "inertia must be `pivot` or `full`");
+
+  auto rotary = edited("model", "model = rotary_pivot");
+  rotary = rotary.substr(0, rotary.find("type =")) + "type = rotary\n" + rotary.substr(rotary.find("links ="));
+  std::istringstream pivot(rotary + "inertia = pivot\n");
+  CHECK(ipsim::scene::load<RotaryPivot>(SceneFile::parse(pivot, "r.cfg")).params.m[1] == 0.275);
+  std::istringstream full(rotary + "inertia = full\n");
+  CHECK_THROWS(ipsim::scene::load<RotaryPivot>(SceneFile::parse(full, "r.cfg")), SceneError,
+               "r.cfg:25: inertia is `full`, model rotary_pivot was generated with `pivot`");
+
+  const auto with_energy = load_text(std::string(kScene) + "energy = true\n");
+  CHECK(with_energy.energy && with_energy.settings.energy_ledger);
+  CHECK(!load_text(kScene).energy);
+  CHECK_THROWS(load_text(std::string(kScene) + "energy = yes\n"), SceneError, "energy must be `true` or `false`");
+}
+
+void check_energy_helpers() {
+  ipsim::ParamsOf<Model> p{{0.5, 0.275}, {0.0, 0.5}, {0.3, 0.1}};
+  Eigen::VectorXd x(4);
+  x << 0.0, 0.0, 0.0, 0.0;
+  CHECK_NEAR(ipsim::mechanical_energy<Model>(p, x), 0.275 * 9.81 * 0.25, 1e-15);  // upright link: V = m g l/2
+  CHECK_THROWS(ipsim::mechanical_energy<Model>(p, Eigen::VectorXd::Zero(3)), std::invalid_argument,
+               "state has 3 entries, model cart1 needs 2·kDof = 4");
+}
+
 }  // namespace
 
 int main() {
+  check_scene_model_keys();
+  check_energy_helpers();
   check_raii_moves();
   check_inputs();
   check_schedule();

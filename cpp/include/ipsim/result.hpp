@@ -22,7 +22,7 @@ struct Statistics {
 /// A sampled trajectory.
 struct Result {
   /// Sample times [s]: k·sample for k = 0, 1, … below t_end, then t_end. A sample within
-  /// 1e-9·sample of an input switching time is taken exactly at the switching time.
+  /// about 1e-9·sample of an input switching time is taken exactly at the switching time.
   std::vector<double> times;
   /// Row k is the state x(times[k]) = [θ; θ̇] (2·kDof columns).
   Eigen::MatrixXd states;

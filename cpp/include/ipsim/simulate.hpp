@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstddef>
 #include <exception>
+#include <limits>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -38,10 +40,15 @@ double mechanical_energy(const ParamsOf<Model>& params, const VectorOf<Model>& t
          Model::template potential_energy<double>(theta, params);
 }
 
-/// Mechanical energy T + V [J] of a state x = [θ; θ̇] (dim 2·kDof; longer vectors are cut).
+/// Mechanical energy T + V [J] of a state x = [θ; θ̇] (dim ≥ 2·kDof; entries after 2·kDof, such
+/// as ledger states, are ignored). Throws std::invalid_argument if x is shorter.
 template <class Model>
 double mechanical_energy(const ParamsOf<Model>& params, const Eigen::VectorXd& x) {
   constexpr int n = Model::kDof;
+  if (x.size() < 2 * n) {
+    throw std::invalid_argument("mechanical_energy: state has " + std::to_string(x.size()) + " entries, model " +
+                                Model::kName + " needs 2·kDof = " + std::to_string(2 * n));
+  }
   return mechanical_energy<Model>(params, VectorOf<Model>(x.head<n>()), VectorOf<Model>(x.segment<n>(n)));
 }
 
@@ -72,8 +79,10 @@ int rhs(realtype t, N_Vector y, N_Vector ydot, void* user_data) {
     const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
     const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
     double u = context.segment_input;
-    if (!context.input->piecewise_constant()) {
-      context.x = Eigen::Map<const Eigen::VectorXd>(in, 2 * n);
+    if (context.input->kind == Input::Kind::feedback) {
+      context.x = Eigen::Map<const Eigen::VectorXd>(in, 2 * n);  // no allocation: same size
+      u = context.input->feedback(t, context.x);
+    } else if (!context.input->piecewise_constant()) {
       u = context.input->value(t, context.x);
     }
     const VectorOf<Model> qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
@@ -121,10 +130,12 @@ struct Stop {
 };
 
 /// Output samples k·sample (< t_end) and t_end, merged with the input's switching times inside
-/// (0, t_end). Points closer than 1e-9·min(sample, t_end) are one stop; a sample merged with a
-/// switching time takes the switching time exactly.
+/// (0, t_end). Points closer than max(1e-9·min(sample, t_end), 64·ε·t_end) are one stop (CVODE
+/// cannot take a step shorter than a few ulps of t); a sample merged with a switching time
+/// takes the switching time exactly.
 inline std::vector<Stop> make_schedule(double t_end, double sample, const std::vector<double>& switching_times) {
-  const double tolerance = 1e-9 * std::min(sample, t_end);
+  const double tolerance =
+      std::max(1e-9 * std::min(sample, t_end), 64.0 * std::numeric_limits<double>::epsilon() * t_end);
   std::vector<Stop> points;
   for (long k = 0;; ++k) {
     // k·sample, not a running sum, so sample times carry no accumulated round-off.
