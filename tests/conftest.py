@@ -1,0 +1,141 @@
+"""Shared fixtures: generated model headers compiled into the C++ test driver, once per session.
+
+`cpp_models` (session scope) generates each requested model's header with
+`generate_header` into a temporary folder and compiles it into `tests/cpp/eval_model.cpp`.
+Models with the same number of degrees of freedom are compiled together into one program
+(Eigen is parsed and instantiated once for them), and the groups are built in parallel in
+the background: a test waits only for the program it needs.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import shutil
+import subprocess
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from generator.generate import generate_header
+from generator.model import System
+
+CPP_DIR = Path(__file__).resolve().parent / "cpp"
+DRIVER = CPP_DIR / "eval_model.cpp"
+CXX = os.environ.get("CXX", "g++")
+EIGEN_INCLUDE = Path(os.environ.get("EIGEN3_INCLUDE_DIR", "/usr/include/eigen3"))
+CXX_FLAGS = ("-std=c++17", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
+STDERR_LINES = 40  # compiler output quoted in a failure message
+
+
+def model_name(system: System) -> str:
+    """The header's file and namespace name: classical3, rotary2_pivot, rotary2_full."""
+    name = f"{system.type}{system.links}"
+    return f"{name}_{system.inertia}" if system.is_rotary else name
+
+
+@dataclass(frozen=True)
+class Program:
+    """A compiled driver holding one or more models, or why it failed to build."""
+
+    executable: Path
+    command: tuple[str, ...]
+    error: str | None = None
+
+
+def check_built(system: System, program: Program) -> None:
+    if program.error is not None:
+        pytest.fail(
+            f"{model_name(system)}: the generated header does not compile into the test driver\n"
+            f"$ {shlex.join(program.command)}\n{program.error}",
+            pytrace=False,
+        )
+
+
+class CppModels:
+    """Generated headers compiled into the test driver, built in the background."""
+
+    def __init__(self, workdir: Path, jobs: int) -> None:
+        self.workdir = workdir
+        self.headers = workdir / "include"
+        self.pool = ThreadPoolExecutor(max_workers=jobs)
+        self.programs: dict[System, Future[dict[System, Program]]] = {}
+
+    def submit(self, systems: Iterable[System]) -> None:
+        """Generate and start compiling every model not requested before (grouped by dof)."""
+        groups: dict[int, list[System]] = {}
+        for system in systems:
+            if system not in self.programs and system not in groups.get(system.dof, []):
+                groups.setdefault(system.dof, []).append(system)
+        for dof in sorted(groups):  # small programs first: their tests can start early
+            members = groups[dof]
+            for system in members:
+                generate_header(system, model_name(system), self.headers, force=True)
+            future = self.pool.submit(self._compile, f"dof{dof}_{len(self.programs)}", members)
+            for system in members:
+                self.programs[system] = future
+
+    def program(self, system: System) -> Path:
+        """The executable holding `system` (as `model_name(system)`); fails if it did not build."""
+        if system not in self.programs:
+            self.submit([system])
+        program = self.programs[system].result()[system]
+        check_built(system, program)
+        return program.executable
+
+    def _compile(self, label: str, members: list[System]) -> dict[System, Program]:
+        """One program for all `members`; if that fails, each alone, to tell which header fails."""
+        names = [model_name(system) for system in members]
+        umbrella = self.workdir / f"{label}.hpp"
+        umbrella.write_text("".join(f'#include "{name}.hpp"\n' for name in names))
+        models = "-DIPGEN_MODELS=" + " ".join(f"X({name})" for name in names)
+        program = self._build(self.workdir / label, f"{umbrella.name}", models)
+        if program.error is None or len(members) == 1:
+            return dict.fromkeys(members, program)
+        return {system: self.build_alone(system) for system in members}
+
+    def build_alone(self, system: System) -> Program:
+        """A program with `system` only, built with the driver's IPGEN_NAMESPACE macro."""
+        name = model_name(system)
+        if not (self.headers / f"{name}.hpp").is_file():
+            generate_header(system, name, self.headers, force=True)
+        return self._build(self.workdir / f"{name}_alone", f"{name}.hpp", f"-DIPGEN_NAMESPACE={name}")
+
+    def _build(self, executable: Path, header: str, models: str) -> Program:
+        command = (
+            CXX,
+            *CXX_FLAGS,
+            f"-I{self.workdir}",
+            f"-I{self.headers}",
+            f"-I{EIGEN_INCLUDE}",
+            f'-DIPGEN_HEADER="{header}"',
+            models,
+            str(DRIVER),
+            "-o",
+            str(executable),
+        )
+        result = subprocess.run(command, capture_output=True, text=True, check=False)
+        if result.returncode == 0:
+            return Program(executable, command)
+        lines = (result.stderr or result.stdout).splitlines()
+        shown = "\n".join(lines[:STDERR_LINES])
+        if len(lines) > STDERR_LINES:
+            shown += f"\n... ({len(lines) - STDERR_LINES} more lines)"
+        return Program(executable, command, f"exit status {result.returncode}\n{shown}")
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+@pytest.fixture(scope="session")
+def cpp_models(tmp_path_factory: pytest.TempPathFactory) -> Iterator[CppModels]:
+    if shutil.which(CXX) is None:
+        pytest.skip(f"no C++ compiler {CXX!r} on PATH")
+    if not (EIGEN_INCLUDE / "Eigen" / "Dense").is_file():
+        pytest.skip(f"Eigen not found in {EIGEN_INCLUDE} (set EIGEN3_INCLUDE_DIR)")
+    models = CppModels(tmp_path_factory.mktemp("cpp_models"), jobs=max(1, os.cpu_count() or 1))
+    yield models
+    models.close()
