@@ -1,0 +1,98 @@
+"""`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6).
+
+Run after the CMake build (the Makefile does both):
+    .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
+
+For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, writes
+<out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. With --docs
+the plots are also copied there (the README shows docs/cdip.png and docs/rsip.png).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from generator.scene import Scene, load_scene  # noqa: E402
+
+# (scene stem, short name of the outputs, what the paper calls it)
+EXPERIMENTS = [
+    ("cdip_pulse", "cdip", "Classical double inverted pendulum (paper Fig. 4)"),
+    ("rsip_pulse", "rsip", "Rotary single inverted pendulum (paper Fig. 6)"),
+]
+
+
+def read_csv(path: Path) -> dict[str, list[float]]:
+    with path.open() as f:
+        rows = list(csv.reader(f))
+    header, data = rows[0], rows[1:]
+    return {name: [float(row[i]) for row in data] for i, name in enumerate(header)}
+
+
+def plot(columns: dict[str, list[float]], scene: Scene, title: str, path: Path) -> None:
+    t = columns["t"]
+    fig, (base, links) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True, constrained_layout=True)
+    if scene.type == "classical":
+        base.plot(t, columns["theta0"], color="black", label="cart position θ0")
+        base.set_ylabel("cart position θ0 [m]")
+    else:
+        base.plot(t, columns["theta0"], color="black", label="arm angle θ0")
+        base.set_ylabel("arm angle θ0 [rad]")
+    for i in range(1, scene.links + 1):
+        links.plot(t, columns[f"theta{i}"], label=f"link {i} angle θ{i}")
+    for level in (-3.141592653589793, 3.141592653589793):
+        links.axhline(level, color="grey", linestyle=":", linewidth=0.8)
+    links.set_ylabel("link angle from upright [rad]")
+    links.set_xlabel("time t [s]")
+    pulse = scene.input
+    base.set_title(
+        f"{title}\n{pulse.kind} input {pulse.amplitude:g} {'N' if scene.type == 'classical' else 'N m'}"
+        f" for {pulse.duration:g} s; dotted lines: hanging down (±π)"
+    )
+    for ax in (base, links):
+        ax.grid(True, alpha=0.3)
+        ax.axvspan(pulse.start, pulse.start + pulse.duration, color="tab:orange", alpha=0.12)
+        ax.legend(loc="best", fontsize="small")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--build", type=Path, default=ROOT / "build", help="CMake build folder")
+    parser.add_argument("--out", type=Path, default=ROOT / "out" / "demo", help="where CSVs and plots go")
+    parser.add_argument("--docs", type=Path, default=None, help="also copy the plots here")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    for stem, short, title in EXPERIMENTS:
+        scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
+        simulator = args.build / "bin" / f"simulate_{scene.name}"
+        config = args.build / "scenes" / f"{stem}.cfg"
+        csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
+        result = subprocess.run(
+            [str(simulator), str(config), "--csv", str(csv_path)], capture_output=True, text=True
+        )
+        if result.returncode != 0:
+            print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
+            return 1
+        plot(read_csv(csv_path), scene, title, png_path)
+        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path} and {png_path}\n")
+        if args.docs:
+            args.docs.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(png_path, args.docs / png_path.name)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
