@@ -37,6 +37,8 @@ The header DIR/NAME.hpp (C++17, Eigen only) defines in namespace ipgen::NAME:
 Examples:
   ipgen --type rotary --links 3 -o out/          # writes out/rotary3.hpp
   ipgen --type classical --links 2 --name cdip -o include/
+  ipgen --scene scenes/cdip_pulse.toml -o out/    # also writes out/cdip_pulse.cfg
+  ipgen --scene scenes/cdip_pulse.toml --describe # one line: name=cdip type=classical ...
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
@@ -64,9 +66,9 @@ def _fail(message: str) -> InvalidOptions:
     "--output",
     "directory",
     type=click.Path(path_type=Path),
-    required=True,
+    default=None,
     metavar="DIR",
-    help="Folder for the header; created if needed.",
+    help="Folder for the header; created if needed. Required unless --describe.",
 )
 @click.option(
     "--name",
@@ -89,17 +91,29 @@ def _fail(message: str) -> InvalidOptions:
     help="Take the system from a scene file (scenes/*.toml) instead of --type/--links, and also "
     "write DIR/<scene>.cfg, the resolved scene the simulator reads.",
 )
+@click.option(
+    "--describe",
+    is_flag=True,
+    help="With --scene: print the scene's system as one line `name=... type=... links=... "
+    "inertia=... stem=...` (for build tools) and write nothing.",
+)
 @click.option("--force", is_flag=True, help="Overwrite files in DIR even if ipgen did not write them.")
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
     system_type: str | None,
     links: int | None,
-    directory: Path,
+    directory: Path | None,
     name: str | None,
     inertia: str | None,
     scene: Path | None,
+    describe: bool,
     force: bool,
 ) -> None:
+    if describe:
+        _describe_scene(scene, system_type, links, name, inertia)
+        return
+    if directory is None:
+        raise _fail("missing -o DIR: say where to write the header")
     if scene is not None:
         _generate_scene(scene, directory, force, system_type, links, name, inertia)
         return
@@ -118,9 +132,25 @@ def cli(
     _report(system, name, _generate(system, name, directory, force))
 
 
-def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
+def _check_no_system_options(*clashing: object) -> None:
     if any(option is not None for option in clashing):
         raise _fail("--scene fixes the system itself: drop --type, --links, --name and --inertia")
+
+
+def _describe_scene(path: Path | None, *clashing: object) -> None:
+    if path is None:
+        raise _fail("--describe needs --scene FILE: it describes a scene's system")
+    _check_no_system_options(*clashing)
+    scene = load_scene(path)
+    click.echo(
+        f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem}"
+    )
+    for warning in scene.warnings:
+        click.echo(f"ipgen: warning: {warning}", err=True)
+
+
+def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
+    _check_no_system_options(*clashing)
     scene = load_scene(path)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
     _report(system, scene.name, _generate(system, scene.name, directory, force))

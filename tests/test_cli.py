@@ -123,7 +123,50 @@ def test_bad_input_in_a_subprocess_has_no_traceback(tmp_path: Path) -> None:
 
 def test_missing_output_option(capsys: pytest.CaptureFixture[str]) -> None:
     assert run(["--type", "classical", "--links", "1"]) == 2
-    assert "Missing option '-o'" in capsys.readouterr().err
+    assert capsys.readouterr().err == "ipgen: error: missing -o DIR: say where to write the header\n"
+
+
+def test_describe_prints_the_scene_system_and_writes_nothing(tmp_path: Path) -> None:
+    """What CMake's ipgen_add_scene reads at configure time; run as CMake runs it."""
+    result = ipgen("--scene", str(ROOT / "scenes" / "rsip_pulse.toml"), "--describe", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=rsip_pulse\n"
+    assert result.stderr == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_describe_defaults_name_and_inertia(tmp_path: Path) -> None:
+    scene = tmp_path / "my-scene.toml"
+    scene.write_text(
+        '[system]\ntype = "classical"\nlinks = 3\n'
+        "[parameters]\nm = [1, 1, 1, 1]\nl = [0, 1, 1, 1]\ndelta = [0, 0, 0, 0]\n"
+        "[simulation]\nt_end = 1\n"
+    )
+    result = ipgen("--scene", str(scene), "--describe")
+    assert result.stdout == "name=classical3 type=classical links=3 inertia=pivot stem=my-scene\n"
+
+
+DESCRIBE_ERRORS = [
+    ('[system]\ntype = "rotary"\n', "missing required key 'system.links'"),
+    ("[system\n", "bad.toml"),
+]
+
+
+@pytest.mark.parametrize(("text", "message"), DESCRIBE_ERRORS, ids=["missing_key", "bad_toml"])
+def test_describe_bad_scene_is_one_line_exit_2(tmp_path: Path, text: str, message: str) -> None:
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    result = ipgen("--scene", str(scene), "--describe")
+    assert result.returncode == 2
+    assert result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("ipgen: error: ") and message in lines[0], result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.toml"]
+
+
+def test_describe_needs_a_scene(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(["--type", "rotary", "--links", "1", "--describe"]) == 2
+    assert "--describe needs --scene FILE" in capsys.readouterr().err
 
 
 def test_output_path_that_is_a_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
