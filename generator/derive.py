@@ -18,7 +18,7 @@ from functools import cached_property
 import sympy as sp
 from sympy.polys.rings import PolyElement
 
-from generator.model import Symbols, System, base_inertia, bodies, rayleigh_dissipation
+from generator.model import Symbols, System, base_inertia, bodies, named_quantities, rayleigh_dissipation
 from generator.polynomial import Algebra
 from generator.vectors import PlanarVector
 
@@ -161,7 +161,7 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     """Derive the equations of motion of `system` (see MODEL.md for the conventions)."""
     report = progress or (lambda step: None)
     sym = Symbols.for_system(system)
-    algebra = Algebra(sym)
+    algebra = Algebra(sym, named_quantities(system, sym))
     size = system.dof
     qd = sym.qd
     zero = algebra.zero()

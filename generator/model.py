@@ -105,6 +105,27 @@ def rod_lever(sym: Symbols, body: int, joint: int) -> sp.Expr:
     return sp.S.Zero
 
 
+def named_quantities(system: System, sym: Symbols) -> dict[sp.Symbol, sp.Expr]:
+    """Intermediate quantities that the equations share, in definition order.
+
+    Rotary: `rho_k`, the horizontal reach of joint k + 1 from the arm tip (perpendicular to
+    the arm), and `r_i`, that of link i's CoG. Built recursively, they are computed once
+    each in the generated code instead of being expanded into every entry that uses them.
+    """
+    if not system.is_rotary:
+        return {}
+    named: dict[sp.Symbol, sp.Expr] = {}
+    reach_of_joint: sp.Expr = sp.S.Zero
+    for i in range(1, system.dof):
+        r_i = sp.Symbol(f"r{i}", real=True)
+        named[r_i] = reach_of_joint + sym.l[i] / 2 * sp.sin(sym.q[i])
+        if i < system.links:
+            rho = sp.Symbol(f"rho{i}", real=True)
+            named[rho] = reach_of_joint + sym.l[i] * sp.sin(sym.q[i])
+            reach_of_joint = rho
+    return named
+
+
 def bodies(system: System, sym: Symbols) -> list[Body]:
     """Kinematics of the links, in the coordinates described in the module docstring."""
     n = system.links
@@ -120,7 +141,7 @@ def bodies(system: System, sym: Symbols) -> list[Body]:
         if system.is_rotary:
             # In the arm's rotating frame (e_arm, e_perp, e_z) the CoG is at
             # l0 e_arm + r_i e_perp + z_i e_z, so ∂v/∂θ̇0 = l0 e_perp − r_i e_arm.
-            reach = sp.Add(*(levers[k] * sp.sin(sym.q[k]) for k in range(1, i + 1)))
+            reach = sp.Symbol(f"r{i}", real=True)  # see named_quantities
             base_column = PlanarVector.along(sym.l[0], sp.S.Zero, normal=-reach)
             if system.inertia == "full":
                 # The rod also turns about the vertical with the arm: ½ J_T (θ̇0 sin θ_i)².

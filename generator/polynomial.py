@@ -32,7 +32,10 @@ class _Letter:
 class Algebra:
     """The polynomial ring of one system, with conversions to and from sympy expressions."""
 
-    def __init__(self, sym: Symbols) -> None:
+    def __init__(self, sym: Symbols, named: dict[sp.Symbol, sp.Expr] | None = None) -> None:
+        """`named`: intermediate quantities (symbol -> definition, in definition order) that
+        stay symbols in every result; derivatives go through their definitions."""
+        named = named or {}
         self.sym = sym
         q = sym.q
         n = len(q)
@@ -48,16 +51,17 @@ class Algebra:
         self.parameters: tuple[sp.Symbol, ...] = sym.parameters
         self.velocities: tuple[sp.Symbol, ...] = sym.qd
         trig_symbols = [sp.Symbol(letter.name) for letter in letters]
-        gens = [*self.parameters, *self.velocities, *trig_symbols]
+        gens = [*self.parameters, *self.velocities, *trig_symbols, *named]
         self.ring = PolyRing(gens, QQ)
         self.gens: dict[sp.Symbol, PolyElement] = dict(zip(gens, self.ring.gens, strict=True))
         self._index = {s: i for i, s in enumerate(gens)}
         self.n_parameters = len(self.parameters)
-        first_letter = len(gens) - len(letters)
+        first_letter = len(self.parameters) + len(self.velocities)
         self._letter_gen = {letter.name: self.ring.gens[first_letter + i] for i, letter in enumerate(letters)}
         self._letter_index = {letter.name: first_letter + i for i, letter in enumerate(letters)}
         # Back to sympy: each generator's meaning.
-        self._meaning: list[sp.Expr] = [*self.parameters, *self.velocities, *(t.expr for t in letters)]
+        letter_meanings = [t.expr for t in letters]
+        self._meaning: list[sp.Expr] = [*self.parameters, *self.velocities, *letter_meanings, *named]
         self._plain: list[sp.Expr] = gens  # the same, with trig letters as plain symbols (for code)
         self.letters: dict[sp.Symbol, sp.Expr] = {sp.Symbol(t.name): t.expr for t in letters}
         # For ∂/∂θi: the letters that depend on θi (generator index), sign, derivative letter.
@@ -67,6 +71,18 @@ class Algebra:
                 self._by_angle.setdefault(angle, []).append(
                     (self._letter_index[letter.name], sign, self._letter_gen[target])
                 )
+
+        # Named quantities: their definitions as polynomials, the angles they depend on, and
+        # their meaning in θ (for sympy results).
+        self.named: dict[sp.Symbol, PolyElement] = {}
+        self._named_angles: dict[int, set[int]] = {}
+        self._named_derivative: dict[tuple[int, int], PolyElement] = {}
+        for symbol, definition in named.items():
+            poly = self.from_expr(definition)
+            index = self._index[symbol]
+            self.named[symbol] = poly
+            self._named_angles[index] = {i for i in range(n) if self.depends_on_angle(poly, i)}
+            self._meaning[index] = self.to_expr(poly)
 
     # -- building -------------------------------------------------------------------------
     def zero(self) -> PolyElement:
@@ -110,10 +126,22 @@ class Algebra:
             d = self._diff_index(p, index)
             if d:
                 result += d * derivative if sign > 0 else -(d * derivative)
+        for index, angles in self._named_angles.items():
+            if i in angles:
+                d = self._diff_index(p, index)
+                if d:
+                    result += d * self._named_derivative_of(index, i)
         return result
+
+    def _named_derivative_of(self, index: int, i: int) -> PolyElement:
+        key = (index, i)
+        if key not in self._named_derivative:
+            self._named_derivative[key] = self.diff_angle(self.named[self._plain[index]], i)
+        return self._named_derivative[key]
 
     def depends_on_angle(self, p: PolyElement, i: int) -> bool:
         indices = [index for index, _, _ in self._by_angle.get(i, ())]
+        indices += [index for index, angles in self._named_angles.items() if i in angles]
         return any(monomial[index] for monomial in p.itermonoms() for index in indices)
 
     def diff_symbol(self, p: PolyElement, s: sp.Symbol) -> PolyElement:

@@ -97,6 +97,11 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
     used: set[sp.Symbol] = set()
     for expr in [*reduced, *(v for _, v in temporaries)]:
         used |= expr.free_symbols
+    # Named quantities used, with what their definitions use (later ones build on earlier).
+    named_code = {s: algebra.to_expr(p, letters=True) for s, p in algebra.named.items()}
+    for symbol in reversed(list(named_code)):
+        if symbol in used:
+            used |= named_code[symbol].free_symbols
     letters = [s for s in algebra.letters if s in used]
     definitions = {s.name: _trig_definition(s) for s in letters}
     needed = {part for _, parts in definitions.values() for part in parts}
@@ -106,6 +111,7 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
     trig = sorted(definitions.items(), key=lambda item: (bool(item[1][1]), _sort_key(item[0])))
 
     names: dict[sp.Symbol, str] = {s: _cpp_name(s) for s in algebra.letters}
+    names.update({s: s.name for s in named_code})
     names.update({s: s.name for s, _ in temporaries})
     body = FunctionBody()
     for group, cpp in ((sym.m, "p.m"), (sym.l, "p.l"), (sym.delta, "p.delta")):
@@ -123,11 +129,14 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
     body.prelude += [definition for _, (definition, _) in trig]
 
     printer = CppPrinter(names)
+    named_used = [s for s in named_code if s in used]
+    body.prelude += [f"const Scalar {s.name} = {printer(named_code[s])};" for s in named_used]
     body.temporaries = [f"const Scalar {s.name} = {printer(v)};" for s, v in temporaries]
     body.outputs = [f"{target} = {printer(v)};" for (target, _), v in zip(targets, reduced, strict=True)]
     body.outputs += _mirror_lines(outputs)
     body.operations = sum(int(sp.count_ops(e)) for e in [*(v for _, v in temporaries), *reduced])
     body.operations += 3 * sum(1 for _, (_, parts) in trig if parts)  # cj*ck + sj*sk
+    body.operations += sum(int(sp.count_ops(named_code[s])) for s in named_used)
     body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
 
     needs = {
