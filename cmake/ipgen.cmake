@@ -11,16 +11,17 @@
 #       Builds an executable (default name simulate_<name>) from cpp/src/simulate.cpp for that
 #       model. Any INTERFACE target with the property IPGEN_MODEL_NAME works as <model target>.
 #
-#   ipgen_add_scene(SCENE <file.toml> MODEL <name> TYPE rotary|classical LINKS <n>
-#                   [INERTIA pivot|full] [CFG_VAR <var>])
-#       Runs `${IPGEN_PYTHON} -m generator --scene <file> -o <dir>` to write <dir>/<stem>.cfg.
-#       CMake cannot read TOML, so the scene's model is restated here; its header comes from
-#       ipgen_add_model(ipgen_model_<name> ...) and its simulator from ipgen_add_simulator (both
-#       created on first use; the scene's model must agree with MODEL/TYPE/LINKS/INERTIA, which
-#       the simulator checks when it reads the .cfg). Adds the target scene_<stem> (part of ALL:
-#       builds the .cfg and the simulator) and run_scene_<stem> (runs it, writing
-#       <dir>/<stem>.csv). <var> receives the .cfg path; <dir> is
-#       ${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/<stem>.
+#   ipgen_add_scene(<file.toml> [CFG_VAR <var>])
+#       Reads the scene's [system] at configure time (`${IPGEN_PYTHON} -m generator --scene <file>
+#       --describe`; a scene error stops CMake with the generator's one-line message; editing
+#       the file re-runs CMake, so a changed [system] regenerates the header). Creates, on first use of the scene's model <name>, the model
+#       target ipgen_model_<name> (ipgen_add_model) and its simulator simulate_<name>
+#       (ipgen_add_simulator); scenes sharing a model must agree on its system. At build time,
+#       `${IPGEN_PYTHON} -m generator --scene <file>` resolves the scene into
+#       ${CMAKE_BINARY_DIR}/scenes/<stem>.cfg (re-run when the scene, the generator or its
+#       templates change). Adds the target scene_<stem> (part of ALL: the .cfg and the simulator)
+#       and run_scene_<stem> (runs it, writing ${CMAKE_BINARY_DIR}/scenes/<stem>.csv). <var>
+#       receives the .cfg path.
 #
 # The generator's Python is ${IPGEN_PYTHON}: set it with -DIPGEN_PYTHON=..., otherwise the
 # repository's .venv is used. It is only looked for when one of these functions is called.
@@ -114,9 +115,14 @@ function(ipgen_add_model target)
   target_sources(${target} PRIVATE "${header}")
   target_include_directories(${target} INTERFACE "${out_dir}")
   target_link_libraries(${target} INTERFACE Eigen3::Eigen)
+  set(inertia pivot)
+  if(arg_INERTIA)
+    set(inertia ${arg_INERTIA})
+  endif()
   set_target_properties(${target} PROPERTIES
     IPGEN_MODEL_NAME "${name}"
-    IPGEN_MODEL_HEADER "${header}")
+    IPGEN_MODEL_HEADER "${header}"
+    IPGEN_MODEL_SYSTEM "type=${arg_TYPE} links=${arg_LINKS} inertia=${inertia}")
 endfunction()
 
 function(ipgen_add_simulator model_target)
@@ -137,48 +143,100 @@ function(ipgen_add_simulator model_target)
   ipgen_target_warnings(${simulator})
 endfunction()
 
-function(ipgen_add_scene)
-  cmake_parse_arguments(PARSE_ARGV 0 arg "" "SCENE;MODEL;TYPE;LINKS;INERTIA;CFG_VAR" "")
-  if(arg_UNPARSED_ARGUMENTS OR NOT arg_SCENE OR NOT arg_MODEL)
-    message(FATAL_ERROR "usage: ipgen_add_scene(SCENE <file.toml> MODEL <name> TYPE rotary|classical "
-                        "LINKS <n> [INERTIA pivot|full] [CFG_VAR <var>])")
+# Sets <prefix>_NAME, _TYPE, _LINKS, _INERTIA and _STEM from `ipgen --scene <scene> --describe`,
+# or stops CMake with the generator's one-line error.
+function(_ipgen_describe_scene scene prefix)
+  execute_process(
+    COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" --describe
+    WORKING_DIRECTORY "${_IPGEN_ROOT}"
+    RESULT_VARIABLE status
+    OUTPUT_VARIABLE description
+    ERROR_VARIABLE errors
+    OUTPUT_STRIP_TRAILING_WHITESPACE
+    ERROR_STRIP_TRAILING_WHITESPACE)
+  # A leading space keeps each line as it is: CMake would otherwise re-wrap the message.
+  string(REPLACE "\n" "\n " errors " ${errors}")
+  if(NOT status EQUAL 0)
+    message(FATAL_ERROR "${errors}")
   endif()
-  _ipgen_check_model_arguments("ipgen_add_scene(${arg_SCENE})" "${arg_TYPE}" "${arg_LINKS}" "${arg_INERTIA}")
-  cmake_path(ABSOLUTE_PATH arg_SCENE BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" OUTPUT_VARIABLE scene)
-  cmake_path(GET scene STEM stem)
+  if(NOT errors STREQUAL " ")
+    message(WARNING "${errors}")
+  endif()
+  set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+)$")
+  if(NOT description MATCHES "${pattern}")
+    message(FATAL_ERROR "ipgen: unexpected output of `${IPGEN_PYTHON} -m generator --scene ${scene} "
+                        "--describe`: `${description}`")
+  endif()
+  set(${prefix}_NAME "${CMAKE_MATCH_1}" PARENT_SCOPE)
+  set(${prefix}_TYPE "${CMAKE_MATCH_2}" PARENT_SCOPE)
+  set(${prefix}_LINKS "${CMAKE_MATCH_3}" PARENT_SCOPE)
+  set(${prefix}_INERTIA "${CMAKE_MATCH_4}" PARENT_SCOPE)
+  set(${prefix}_STEM "${CMAKE_MATCH_5}" PARENT_SCOPE)
+endfunction()
 
-  set(model_target ipgen_model_${arg_MODEL})
+function(ipgen_add_scene scene_file)
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "CFG_VAR" "")
+  if(arg_UNPARSED_ARGUMENTS)
+    message(FATAL_ERROR "usage: ipgen_add_scene(<file.toml> [CFG_VAR <var>]), "
+                        "got unexpected arguments ${arg_UNPARSED_ARGUMENTS}")
+  endif()
+  cmake_path(ABSOLUTE_PATH scene_file BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" OUTPUT_VARIABLE scene)
+  _ipgen_require_python()
+  # Editing the scene re-runs CMake, so a changed [system] reaches the model target below.
+  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${scene}")
+  _ipgen_describe_scene("${scene}" system)
+  set(name "${system_NAME}")
+  set(stem "${system_STEM}")
+  if(TARGET scene_${stem})
+    get_target_property(other scene_${stem} IPGEN_SCENE_FILE)
+    message(FATAL_ERROR "ipgen_add_scene(${scene}): a scene named ${stem} was already added (${other}); "
+                        "rename one of the files")
+  endif()
+
+  # The model: created by the first scene that uses it; later scenes must describe the same system.
+  set(model_target ipgen_model_${name})
+  set(wanted "type=${system_TYPE} links=${system_LINKS} inertia=${system_INERTIA}")
   if(NOT TARGET ${model_target})
     set(inertia_args "")
-    if(arg_INERTIA)
-      set(inertia_args INERTIA ${arg_INERTIA})
+    if(system_TYPE STREQUAL "rotary")
+      set(inertia_args INERTIA ${system_INERTIA})
     endif()
-    ipgen_add_model(${model_target} TYPE ${arg_TYPE} LINKS ${arg_LINKS} ${inertia_args} NAME ${arg_MODEL})
+    ipgen_add_model(${model_target} TYPE ${system_TYPE} LINKS ${system_LINKS} ${inertia_args} NAME ${name})
   endif()
-  if(NOT TARGET simulate_${arg_MODEL})
+  get_target_property(existing ${model_target} IPGEN_MODEL_SYSTEM)
+  if(NOT existing STREQUAL wanted)
+    message(FATAL_ERROR "ipgen_add_scene(${scene}): model `${name}` is already defined as ${existing}, "
+                        "this scene says ${wanted}; give the scene another [system] name")
+  endif()
+  if(NOT TARGET simulate_${name})
     ipgen_add_simulator(${model_target})
   endif()
 
-  _ipgen_require_python()
+  # The generator writes the scene's model header next to its .cfg. Headers come from the model
+  # target, and two scenes of one model must not claim the same file: generate into a folder of
+  # the scene's own, then move the .cfg to its documented place.
   _ipgen_generator_dependencies(dependencies)
-  # Each scene gets its own folder: the generator also writes the model header there, and two
-  # scenes of one model must not claim the same output file.
-  set(out_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/${stem}")
-  set(cfg "${out_dir}/${stem}.cfg")
-  set(csv "${out_dir}/${stem}.csv")
+  set(work_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/${stem}")
+  set(cfg "${CMAKE_BINARY_DIR}/scenes/${stem}.cfg")
+  set(csv "${CMAKE_BINARY_DIR}/scenes/${stem}.csv")
   add_custom_command(
     OUTPUT "${cfg}"
-    BYPRODUCTS "${out_dir}/${arg_MODEL}.hpp"
-    COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" -o "${out_dir}"
+    BYPRODUCTS "${work_dir}/${name}.hpp"
+    COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" -o "${work_dir}"
+    COMMAND "${CMAKE_COMMAND}" -E make_directory "${CMAKE_BINARY_DIR}/scenes"
+    COMMAND "${CMAKE_COMMAND}" -E rename "${work_dir}/${stem}.cfg" "${cfg}"
     WORKING_DIRECTORY "${_IPGEN_ROOT}"
     DEPENDS "${scene}" ${dependencies}
     COMMENT "ipgen: resolving scene ${stem}"
     VERBATIM)
-  add_custom_target(scene_${stem} ALL DEPENDS "${cfg}" simulate_${arg_MODEL})
-  set_target_properties(scene_${stem} PROPERTIES IPGEN_SCENE_CFG "${cfg}" IPGEN_SCENE_MODEL "${arg_MODEL}")
+  add_custom_target(scene_${stem} ALL DEPENDS "${cfg}" simulate_${name})
+  set_target_properties(scene_${stem} PROPERTIES
+    IPGEN_SCENE_FILE "${scene}"
+    IPGEN_SCENE_CFG "${cfg}"
+    IPGEN_SCENE_MODEL "${name}")
   add_custom_target(run_scene_${stem}
-    COMMAND simulate_${arg_MODEL} "${cfg}" --csv "${csv}"
-    DEPENDS "${cfg}" simulate_${arg_MODEL}
+    COMMAND simulate_${name} "${cfg}" --csv "${csv}"
+    DEPENDS "${cfg}" simulate_${name}
     COMMENT "ipgen: simulating scene ${stem}"
     VERBATIM)
   if(arg_CFG_VAR)

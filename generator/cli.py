@@ -146,7 +146,7 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
         f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem}"
     )
     for warning in scene.warnings:
-        click.echo(f"ipgen: warning: {warning}", err=True)
+        click.echo(f"ipgen: {warning}", err=True)  # "<file>: warning: ..."
 
 
 def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
@@ -157,7 +157,7 @@ def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object)
     config = write_file(directory / f"{scene.stem}.cfg", resolved_config(scene), force)
     click.echo(f"{_VERBS[config]} {directory / (scene.stem + '.cfg')} (resolved scene {scene.stem})")
     for warning in scene.warnings:
-        click.echo(f"ipgen: warning: {warning}", err=True)
+        click.echo(f"ipgen: {warning}", err=True)  # "<file>: warning: ..."
 
 
 _VERBS = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}

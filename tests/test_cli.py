@@ -146,6 +146,19 @@ def test_describe_defaults_name_and_inertia(tmp_path: Path) -> None:
     assert result.stdout == "name=classical3 type=classical links=3 inertia=pivot stem=my-scene\n"
 
 
+def test_describe_reports_scene_warnings_on_stderr(tmp_path: Path) -> None:
+    scene = tmp_path / "tight.toml"
+    text = (ROOT / "scenes" / "rsip_pulse.toml").read_text()
+    scene.write_text(text.replace("t_end = 10.0", "t_end = 10.0\nrtol = 1e-15"))
+    result = ipgen("--scene", str(scene), "--describe")
+    assert result.returncode == 0
+    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=tight\n"
+    assert (
+        result.stderr == f"ipgen: {scene.as_posix()}: warning: simulation.rtol = 1e-15 is below 1e-14 "
+        "and may not be met in double precision\n"
+    )
+
+
 DESCRIBE_ERRORS = [
     ('[system]\ntype = "rotary"\n', "missing required key 'system.links'"),
     ("[system\n", "bad.toml"),
