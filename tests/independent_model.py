@@ -1,0 +1,125 @@
+"""The pendulums built independently with sympy.physics.mechanics (Kane's method).
+
+The geometry is built here from first principles, sharing nothing with generator/model.py:
+rigid bodies in rotating reference frames, gravity as forces on the centres of gravity,
+viscous friction as forces and torques between the bodies, the input as a force on the cart
+or a torque on the arm. Kane's equations give M(θ) θ̈ = forcing(θ, θ̇, u).
+
+Used by tests/test_independent.py (against ipgen's equations) and tools/make_golden.py (an
+independent integration that checks the simulator's golden trajectories).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+import sympy as sp
+from sympy.physics import mechanics as me
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Numerical functions of (angles, rates, input, parameters) from the mechanics model."""
+
+    mass_matrix: Callable[..., np.ndarray]
+    forcing: Callable[..., np.ndarray]
+    kinetic: Callable[..., float]
+    potential: Callable[..., float]
+
+
+def rod_inertia(frame: me.ReferenceFrame, about_y: sp.Expr, about_x: sp.Expr) -> me.Dyadic:
+    """Central inertia dyadic of a thin rod along `frame.z` (nothing about its own axis)."""
+    return me.inertia(frame, about_x, about_y, 0)
+
+
+@cache
+def reference(kind: str, links: int, inertia: str) -> Reference:
+    """Kane's equations of the pendulum, from frames, points and rigid bodies.
+
+    Classical: N.x along the rail, N.z up; link i's frame is N turned by θi about N.y, so
+    its axis Li.z = sin θi N.x + cos θi N.z (θ clockwise from upright, seen from −N.y).
+    Rotary: N.z up; the arm frame A is N turned by −θ0 about N.z so that the arm A.y =
+    (sin θ0, cos θ0, 0) and A.x = (cos θ0, −sin θ0, 0) (eq. 25); link i's frame is A turned
+    by θi about the arm axis A.y, so Li.z = sin θi A.x + cos θi N.z.
+    """
+    size = links + 1
+    q = me.dynamicsymbols(f"q0:{size}")
+    w = me.dynamicsymbols(f"w0:{size}")
+    m = sp.symbols(f"m0:{size}", positive=True)
+    lengths = sp.symbols(f"l0:{size}", positive=True)
+    delta = sp.symbols(f"delta0:{size}", nonnegative=True)
+    g, u = sp.symbols("g u")
+
+    ground = me.ReferenceFrame("N")
+    origin = me.Point("O")
+    origin.set_vel(ground, 0)
+    bodies: list[me.RigidBody | me.Particle] = []
+    loads: list[tuple] = []
+
+    if kind == "classical":
+        base_frame = ground  # the cart translates: it does not rotate
+        attach = origin.locatenew("cart", q[0] * ground.x)
+        attach.set_vel(ground, w[0] * ground.x)
+        bodies.append(me.Particle("cart", attach, m[0]))
+        loads.append((attach, (u - delta[0] * w[0]) * ground.x))
+        links_axis = ground.y
+    else:
+        base_frame = ground.orientnew("A", "Axis", [-q[0], ground.z])
+        base_frame.set_ang_vel(ground, -w[0] * ground.z)
+        arm_cog = origin.locatenew("arm_cog", lengths[0] / 2 * base_frame.y)
+        arm_cog.v2pt_theory(origin, ground, base_frame)
+        # A thin rod along A.y: m0 l0²/12 about A.x and A.z through its centre of gravity.
+        rod = m[0] * lengths[0] ** 2 / 12
+        arm_inertia = me.inertia(base_frame, rod, 0, rod)
+        bodies.append(me.RigidBody("arm", arm_cog, base_frame, m[0], (arm_inertia, arm_cog)))
+        turning = -ground.z  # the direction θ0 increases about
+        loads.append((base_frame, (u - delta[0] * w[0]) * turning))
+        attach = origin.locatenew("tip", lengths[0] * base_frame.y)
+        attach.v2pt_theory(origin, ground, base_frame)
+        links_axis = base_frame.y
+
+    previous_frame, pivot = base_frame, attach
+    for i in range(1, size):
+        frame = base_frame.orientnew(f"L{i}", "Axis", [q[i], links_axis])
+        frame.set_ang_vel(base_frame, w[i] * links_axis)
+        cog = pivot.locatenew(f"G{i}", lengths[i] / 2 * frame.z)
+        cog.v2pt_theory(pivot, ground, frame)
+        j_t = m[i] * lengths[i] ** 2 / 12
+        if kind == "rotary" and inertia == "pivot":
+            dyadic = rod_inertia(frame, j_t, 0)  # J_T about the pivot axis only
+        else:
+            dyadic = rod_inertia(frame, j_t, j_t)  # complete thin rod: J_T (I − z z)
+        bodies.append(me.RigidBody(f"link{i}", cog, frame, m[i], (dyadic, cog)))
+        loads.append((cog, -m[i] * g * ground.z))
+        # Joint damping: link 1 against the base, link i against link i − 1 (MODEL.md);
+        # equal and opposite torques on the two bodies the joint connects.
+        other = base_frame if i == 1 else previous_frame
+        relative = frame.ang_vel_in(ground) - other.ang_vel_in(ground)
+        loads.append((frame, -delta[i] * relative))
+        loads.append((other, delta[i] * relative))
+        tip = pivot.locatenew(f"P{i + 1}", lengths[i] * frame.z)
+        tip.v2pt_theory(pivot, ground, frame)
+        previous_frame, pivot = frame, tip
+
+    kane = me.KanesMethod(ground, q_ind=q, u_ind=w, kd_eqs=[q[k].diff() - w[k] for k in range(size)])
+    kane.kanes_equations(bodies, loads)
+    kinetic = sum(body.kinetic_energy(ground) for body in bodies)
+    potential = sum(m[i] * g * bodies[i].masscenter.pos_from(origin).dot(ground.z) for i in range(1, size))
+
+    angles = sp.symbols(f"a0:{size}")
+    rates = sp.symbols(f"r0:{size}")
+    plain = dict(zip(w, rates, strict=True)) | dict(zip(q, angles, strict=True))
+    arguments = (angles, rates, u, (m, lengths, delta, g))
+
+    def numeric(expr: sp.Expr | sp.Matrix) -> Callable[..., np.ndarray]:
+        return sp.lambdify(arguments, sp.sympify(expr).xreplace(plain), "numpy")
+
+    return Reference(
+        numeric(kane.mass_matrix),
+        numeric(kane.forcing),
+        numeric(kinetic),
+        numeric(potential),
+    )
