@@ -74,6 +74,7 @@ class Algebra:
 
         # Named quantities: their definitions as polynomials, the angles they depend on, and
         # their meaning in θ (for sympy results).
+        self._expr_cache: dict[tuple[int, bool], tuple[PolyElement, sp.Expr]] = {}
         self.named: dict[sp.Symbol, PolyElement] = {}
         self._named_angles: dict[int, set[int]] = {}
         self._named_derivative: dict[tuple[int, int], PolyElement] = {}
@@ -172,6 +173,10 @@ class Algebra:
         With `letters`, sin/cos stay plain symbols (s1, c1, C1_2, S1_2: see `letters`), which is
         what code generation wants: each is computed once in the generated code.
         """
+        key = (id(p), letters)
+        cached = self._expr_cache.get(key)
+        if cached is not None and cached[0] is p:
+            return cached[1]
         meaning = self._plain if letters else self._meaning
         groups: dict[tuple[int, ...], list[tuple[tuple[int, ...], object]]] = {}
         cut = self.n_parameters
@@ -180,7 +185,9 @@ class Algebra:
         terms = []
         for state, parts in groups.items():
             terms.append(self._parameter_factor(parts) * self._monomial(state, cut, meaning))
-        return sp.Add(*terms)
+        expr = sp.Add(*terms)
+        self._expr_cache[key] = (p, expr)  # keeps p alive, so its id stays unique
+        return expr
 
     def _monomial(
         self, exponents: Iterable[int], offset: int, meaning: list[sp.Expr] | None = None
