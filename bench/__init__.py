@@ -1,0 +1,1 @@
+"""ipgen benchmarks: generation time against sympy.physics.mechanics, evaluation time against Pinocchio."""

@@ -1,0 +1,247 @@
+"""Generation benchmark: the whole `ipgen` command against sympy.physics.mechanics derivations.
+
+Every point runs in a fresh process. ipgen is timed as the process wall time of
+`python -m generator --type T --links N -o DIR` (imports, derivation, code generation, writing).
+The references (bench/references.py) report the derivation alone, imports excluded, and the
+process wall time. A run shorter than REPEAT_BELOW is repeated and the median of 3 reported. A
+run over the time limit is stopped and reported as "> limit"; larger n of that method are
+skipped. Rotary systems use the default (pivot) inertia on both sides.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import subprocess
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verdict
+
+TYPES = ("classical", "rotary")
+LINKS = (1, 2, 3, 5, 10, 20)
+METHODS = ("ipgen", "kane", "lagrange")
+EXTRA = (("classical", 50),)  # ipgen alone, one run
+TIMEOUT = 120.0
+REPEAT_BELOW = 10.0
+TARGET_N20 = 10.0
+
+
+@dataclass
+class Timing:
+    type: str
+    method: str  # ipgen, kane or lagrange
+    links: int
+    wall_s: float | None  # process wall time, None when it timed out or was skipped
+    derive_s: float | None  # references only: the derivation, imports excluded
+    runs: int
+    status: str  # ok, timeout or skipped
+
+
+def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
+    if method == "ipgen":
+        return [PYTHON, "-m", "generator", "--type", kind, "--links", str(links), "-o", directory]
+    return [PYTHON, "-m", "bench.references", method, kind, str(links)]
+
+
+def _run_once(method: str, kind: str, links: int, timeout: float) -> tuple[float, float | None]:
+    with tempfile.TemporaryDirectory(prefix="ipgen-bench-") as directory:
+        start = time.perf_counter()
+        done = subprocess.run(
+            _command(method, kind, links, directory),
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=True,
+        )
+        wall = time.perf_counter() - start
+    derive = json.loads(done.stdout)["derive_s"] if method != "ipgen" else None
+    return wall, derive
+
+
+def measure(method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True) -> Timing:
+    """Time one point: once, and twice more (median of 3) when it was quick."""
+    try:
+        runs = [_run_once(method, kind, links, timeout)]
+        if repeat and runs[0][0] < REPEAT_BELOW:
+            runs += [_run_once(method, kind, links, timeout) for _ in range(2)]
+    except subprocess.TimeoutExpired:
+        return Timing(kind, method, links, None, None, 1, "timeout")
+    wall = statistics.median(r[0] for r in runs)
+    derive = statistics.median(r[1] for r in runs) if runs[0][1] is not None else None
+    return Timing(kind, method, links, wall, derive, len(runs), "ok")
+
+
+def sweep(
+    links: tuple[int, ...] = LINKS,
+    types: tuple[str, ...] = TYPES,
+    timeout: float = TIMEOUT,
+    extra: tuple[tuple[str, int], ...] = EXTRA,
+) -> list[Timing]:
+    points = [(kind, method, n) for kind in types for method in METHODS for n in links]
+    points += [(kind, "ipgen", n) for kind, n in extra]
+    results: list[Timing] = []
+    timed_out: set[tuple[str, str]] = set()
+    with tqdm(points, desc="generation", unit="point", leave=True) as bar:
+        for kind, method, n in bar:
+            bar.set_postfix_str(f"{method} {kind} n={n}")
+            if (kind, method) in timed_out:
+                results.append(Timing(kind, method, n, None, None, 0, "skipped"))
+                continue
+            once = (kind, n) in extra
+            timing = measure(method, kind, n, timeout, repeat=not once)
+            if timing.status == "timeout":
+                timed_out.add((kind, method))
+            results.append(timing)
+    return results
+
+
+def _find(results: list[Timing], kind: str, method: str, n: int) -> Timing | None:
+    return next((r for r in results if (r.type, r.method, r.links) == (kind, method, n)), None)
+
+
+def _cell(timing: Timing | None, derive: bool, timeout: float) -> str:
+    if timing is None:
+        return "–"
+    if timing.status == "timeout":
+        return f"> {timeout:.0f}"
+    if timing.status == "skipped":
+        return "skipped"
+    return seconds(timing.derive_s if derive else timing.wall_s)
+
+
+def _faster(ours: Timing, kane: Timing, timeout: float) -> bool:
+    if ours.wall_s is None:
+        return False
+    if kane.derive_s is None:  # Kane's method timed out (or was skipped after a time-out)
+        return ours.wall_s < timeout
+    return ours.wall_s < kane.derive_s
+
+
+def targets(results: list[Timing], timeout: float = TIMEOUT) -> list[tuple[str, bool | None, str]]:
+    """The issue's targets: (statement, met? or None when not measured, the misses)."""
+    verdicts: list[tuple[str, bool | None, str]] = []
+    for kind in TYPES:
+        pairs = [(_find(results, kind, "ipgen", n), _find(results, kind, "kane", n)) for n in range(1, 21)]
+        pairs = [(ours, kane) for ours, kane in pairs if ours is not None and kane is not None]
+        misses = [f"n={ours.links}" for ours, kane in pairs if not _faster(ours, kane, timeout)]
+        verdicts.append(
+            (
+                f"{kind}: the whole ipgen command faster than KanesMethod's derivation alone, every n ≤ 20",
+                (not misses) if pairs else None,
+                ", ".join(misses),
+            )
+        )
+        n20 = _find(results, kind, "ipgen", 20)
+        met = None if n20 is None else n20.wall_s is not None and n20.wall_s < TARGET_N20
+        verdicts.append((f"{kind}: ipgen n = 20 under {TARGET_N20:.0f} s", met, ""))
+    return verdicts
+
+
+def markdown(results: list[Timing], timeout: float = TIMEOUT) -> str:
+    lines = [
+        "# Generation time: ipgen against sympy.physics.mechanics",
+        "",
+        "Written by `make bench` (bench/run.py, bench/generation.py); seconds, lower is better.",
+        "",
+        "- **ipgen**: process wall time of `python -m generator --type T --links N -o DIR`, everything",
+        "  included (interpreter start, imports, derivation, C++ generation, writing the header).",
+        "- **Kane / Lagrange**: `sympy.physics.mechanics` `KanesMethod` / `LagrangesMethod` deriving the",
+        "  same model (bench/references.py: rods with CoG at l/2 and inertia m l²/12, absolute angles,",
+        "  the same damping; rotary links with the pivot inertia, ipgen's default) up to the mass matrix",
+        "  and forcing vector, no code generation. *derive*: the derivation alone, imports excluded;",
+        "  *process*: wall time of the whole process.",
+        f"- Each point in a fresh process; median of 3 runs when a run takes under {REPEAT_BELOW:.0f} s,",
+        f'  else one run. Runs over {timeout:.0f} s are stopped ("> {timeout:.0f}"), larger n then skipped.',
+        "",
+        *machine(),
+        "",
+    ]
+    links = sorted({r.links for r in results if (r.type, r.links) not in EXTRA})
+    for kind in TYPES:
+        if not any(r.type == kind for r in results):
+            continue
+        lines += [f"## {kind}", ""]
+        rows = []
+        for n in links:
+            ours, kane, lagrange = (_find(results, kind, m, n) for m in METHODS)
+            ratio = (
+                f"{ours.wall_s / kane.derive_s:.2f}"
+                if ours and kane and ours.wall_s and kane.derive_s
+                else "–"
+            )
+            rows.append(
+                [
+                    str(n),
+                    _cell(ours, False, timeout),
+                    _cell(kane, True, timeout),
+                    _cell(kane, False, timeout),
+                    _cell(lagrange, True, timeout),
+                    _cell(lagrange, False, timeout),
+                    ratio,
+                ]
+            )
+        header = [
+            "n",
+            "ipgen command",
+            "Kane derive",
+            "Kane process",
+            "Lagrange derive",
+            "Lagrange process",
+            "ipgen / Kane derive",
+        ]
+        lines += [*table(header, rows), ""]
+        for kind_extra, n in EXTRA:
+            big = _find(results, kind_extra, "ipgen", n)
+            if kind_extra == kind and big is not None:
+                lines += [f"ipgen, {kind} n = {n} (one run): {_cell(big, False, timeout)} s.", ""]
+    lines += ["## Targets", ""]
+    for text, met, misses in targets(results, timeout):
+        state = "not measured" if met is None else verdict(met)
+        lines.append(f"- {text}: **{state}**" + (f" ({misses})" if misses else ""))
+    return "\n".join(lines) + "\n"
+
+
+def plot(results: list[Timing], path: Path, timeout: float = TIMEOUT) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    kinds = [kind for kind in TYPES if any(r.type == kind for r in results)]
+    figure, axes = plt.subplots(1, len(kinds), figsize=(5.5 * len(kinds), 4.2), squeeze=False)
+    series = [
+        ("ipgen", False, "ipgen command (process)", "C0", "-"),
+        ("kane", True, "KanesMethod (derivation only)", "C1", "-"),
+        ("kane", False, "KanesMethod (process)", "C1", ":"),
+        ("lagrange", True, "LagrangesMethod (derivation only)", "C2", "-"),
+        ("lagrange", False, "LagrangesMethod (process)", "C2", ":"),
+    ]
+    for axis, kind in zip(axes[0], kinds, strict=True):
+        for method, derive, label, colour, style in series:
+            points = sorted(
+                (r.links, r.derive_s if derive else r.wall_s)
+                for r in results
+                if r.type == kind and r.method == method and r.status == "ok"
+            )
+            if points:
+                xs, ys = zip(*points, strict=True)
+                axis.plot(xs, ys, style, color=colour, marker="o", markersize=3, label=label)
+        axis.axhline(timeout, color="grey", linewidth=0.6, linestyle="--", label=f"limit {timeout:.0f} s")
+        style_axis(axis, sorted({r.links for r in results if r.type == kind}), "seconds", kind)
+    figure.suptitle("Deriving the equations of motion (lower is better)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def save(results: list[Timing], directory: Path, timeout: float = TIMEOUT) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "generation.md").write_text(markdown(results, timeout))
+    (directory / "generation.json").write_text(json.dumps([asdict(r) for r in results], indent=1) + "\n")
+    plot(results, directory / "generation.png", timeout)
