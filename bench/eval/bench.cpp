@@ -1,0 +1,186 @@
+// ipgen's generated functions against Pinocchio's algorithms on the same pendulum, in one binary.
+//
+// Build (bench/evaluation.py does this for each system):
+//   g++ -O3 -march=native -DNDEBUG -DIPGEN_HEADER='"classical3.hpp"' -DIPGEN_NAMESPACE=classical3 \
+//       bench.cpp reference.o
+// Run: bench [rounds] [milliseconds per round]. Prints, one per line,
+//   check <function> <relative difference>        at kChecked random states, and then, if all agree,
+//   time <function> <algorithm> <ipgen ns> <pinocchio ns> <calls per batch>   (medians over rounds)
+// Exit status 1 when a pair disagrees: then no timing is printed.
+//
+// Coordinates: ipgen uses absolute link angles th (clockwise from upright), Pinocchio relative
+// joint angles q = T th, with T(i, i) = 1, T(i, i - 1) = -1 (i >= 2) and T(0, 0) = +1 for a cart,
+// -1 for an arm (ipgen's arm angle turns clockwise seen from above, Pinocchio's RZ the other way).
+// Then M_abs = T^T M_rel T, bias_abs = T^T nle, qdd_abs = T^-1 qdd_rel, tau_rel = T^-T (u, 0, ...).
+// The mapping is done once, before timing: each side is timed in its own coordinates.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "reference.hpp"
+#include IPGEN_HEADER
+
+namespace model = ipgen::IPGEN_NAMESPACE;
+
+namespace {
+
+constexpr int kDof = model::kDof;
+constexpr int kStates = 256;  // ring buffer of inputs, a power of two
+constexpr int kChecked = 10;
+constexpr double kTolerance = 1e-10;
+constexpr bool kRotary = std::string_view(model::Model::kType) == "rotary";
+
+using Vec = model::Vector<double>;
+using Mat = model::Matrix<double>;
+using Clock = std::chrono::steady_clock;
+
+model::Params<double> params;
+std::vector<Vec> q, qd;
+std::vector<double> u;
+std::vector<Eigen::VectorXd> q_rel, v_rel, tau_rel;
+Eigen::MatrixXd T;  // q_rel = T q
+
+// Results go to globals, so the compiler must compute every entry.
+Mat out_M;
+Vec out_b, out_a;
+volatile double sink = 0.0;
+
+#define NOINLINE __attribute__((noinline))
+
+NOINLINE const Mat& ipgen_mass_matrix(int i) { return out_M = model::mass_matrix(q[i], params); }
+NOINLINE const Vec& ipgen_bias(int i) { return out_b = model::bias(q[i], qd[i], params); }
+NOINLINE const Vec& ipgen_forward_dynamics(int i) {
+  return out_a = model::forward_dynamics(q[i], qd[i], u[i], params);
+}
+NOINLINE const Eigen::MatrixXd& pin_crba(int i) { return reference::crba(q_rel[i]); }
+NOINLINE const Eigen::VectorXd& pin_nle(int i) { return reference::nonlinear_effects(q_rel[i], v_rel[i]); }
+NOINLINE const Eigen::VectorXd& pin_aba(int i) { return reference::aba(q_rel[i], v_rel[i], tau_rel[i]); }
+
+void make_inputs() {
+  std::mt19937_64 random(2013);
+  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(random); };
+  for (int k = 0; k < kDof; ++k) {
+    params.m[k] = uniform(0.1, 2.0);
+    params.l[k] = uniform(0.2, 1.5);
+    params.delta[k] = 0.0;  // Pinocchio's algorithms have no joint damping: compare without it
+  }
+  params.g = 9.81;
+  reference::build({kRotary, std::vector<double>(params.m.begin(), params.m.end()),
+                    std::vector<double>(params.l.begin(), params.l.end()), params.g});
+
+  T = Eigen::MatrixXd::Identity(kDof, kDof);
+  T(0, 0) = kRotary ? -1.0 : 1.0;
+  for (int k = 2; k < kDof; ++k) T(k, k - 1) = -1.0;
+  for (int s = 0; s < kStates; ++s) {
+    Vec angles, rates;
+    for (int k = 0; k < kDof; ++k) {
+      angles(k) = uniform(-M_PI, M_PI);
+      rates(k) = uniform(-3.0, 3.0);
+    }
+    q.push_back(angles);
+    qd.push_back(rates);
+    u.push_back(uniform(-2.0, 2.0));
+    q_rel.push_back(T * angles);
+    v_rel.push_back(T * rates);
+    Eigen::VectorXd tau = Eigen::VectorXd::Zero(kDof);
+    tau(0) = T(0, 0) * u.back();  // T^-T (u, 0, ..., 0): T is block diagonal with T(0, 0) = +-1
+    tau_rel.push_back(tau);
+  }
+}
+
+double relative_difference(const Eigen::MatrixXd& ours, const Eigen::MatrixXd& theirs) {
+  const double scale = std::max(theirs.cwiseAbs().maxCoeff(), 1e-300);
+  return (ours - theirs).cwiseAbs().maxCoeff() / scale;
+}
+
+// Largest relative difference over kChecked states, for each of the three pairs.
+std::array<double, 3> compare() {
+  std::array<double, 3> worst{};
+  for (int s = 0; s < kChecked; ++s) {
+    Eigen::MatrixXd M_rel = pin_crba(s);
+    M_rel.triangularView<Eigen::StrictlyLower>() = M_rel.transpose().triangularView<Eigen::StrictlyLower>();
+    const Eigen::MatrixXd M_abs = T.transpose() * M_rel * T;
+    const Eigen::VectorXd b_abs = T.transpose() * pin_nle(s);
+    const Eigen::VectorXd a_abs = T.triangularView<Eigen::Lower>().solve(pin_aba(s));
+    worst[0] = std::max(worst[0], relative_difference(ipgen_mass_matrix(s), M_abs));
+    worst[1] = std::max(worst[1], relative_difference(ipgen_bias(s), b_abs));
+    worst[2] = std::max(worst[2], relative_difference(ipgen_forward_dynamics(s), a_abs));
+  }
+  return worst;
+}
+
+// Nanoseconds per call of f over `calls` calls, cycling through the input ring.
+template <typename F>
+double batch(F f, long calls) {
+  double accumulated = 0.0;
+  const auto start = Clock::now();
+  for (long k = 0; k < calls; ++k) accumulated += f(static_cast<int>(k & (kStates - 1)))(0, 0);
+  const auto stop = Clock::now();
+  sink = sink + accumulated;
+  return std::chrono::duration<double, std::nano>(stop - start).count() / static_cast<double>(calls);
+}
+
+// Calls per batch so that one batch of the slower function takes about `milliseconds`.
+template <typename A, typename B>
+long calibrate(A a, B b, double milliseconds) {
+  long calls = 16;
+  while (std::max(batch(a, calls), batch(b, calls)) * static_cast<double>(calls) < 2e5) calls *= 2;  // warm-up
+  const double slower = std::max(batch(a, calls), batch(b, calls));
+  return std::max(16L, static_cast<long>(milliseconds * 1e6 / slower / 2.0));
+}
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+// Alternating A/B batches (AB, BA, AB, ...), the median of each side.
+template <typename A, typename B>
+void race(const char* ours, const char* theirs, A a, B b, int rounds, double milliseconds) {
+  const long calls = calibrate(a, b, milliseconds);
+  std::vector<double> time_a, time_b;
+  for (int r = 0; r < rounds; ++r) {
+    if (r % 2 == 0) {
+      time_a.push_back(batch(a, calls));
+      time_b.push_back(batch(b, calls));
+    } else {
+      time_b.push_back(batch(b, calls));
+      time_a.push_back(batch(a, calls));
+    }
+  }
+  std::printf("time %s %s %.3f %.3f %ld\n", ours, theirs, median(time_a), median(time_b), calls);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int rounds = argc > 1 ? std::atoi(argv[1]) : 30;
+  const double milliseconds = argc > 2 ? std::atof(argv[2]) : 5.0;
+  make_inputs();
+  const std::array<double, 3> worst = compare();
+  const char* names[] = {"mass_matrix", "bias", "forward_dynamics"};
+  bool agree = true;
+  for (int k = 0; k < 3; ++k) {
+    std::printf("check %s %.3e\n", names[k], worst[k]);
+    agree = agree && worst[k] <= kTolerance;
+  }
+  if (!agree) {
+    std::printf("disagree: ipgen and Pinocchio differ by more than %g relative; no timing\n", kTolerance);
+    return 1;
+  }
+  race("mass_matrix", "crba", ipgen_mass_matrix, pin_crba, rounds, milliseconds);
+  race("bias", "nonLinearEffects", ipgen_bias, pin_nle, rounds, milliseconds);
+  race("forward_dynamics", "aba", ipgen_forward_dynamics, pin_aba, rounds, milliseconds);
+  return 0;
+}
