@@ -57,5 +57,16 @@ test: lint test-python test-cpp
 demo: venv
 	$(PY) tools/demo.py
 
+## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
+## Pinocchio; writes docs/bench/. Its extra packages go into the same venv (stamp file).
+## BENCH_ARGS passes options, e.g. make bench BENCH_ARGS=--quick
+BENCH_ARGS ?=
+$(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
+	$(PY) -m pip install -q -e '.[test,bench]'
+	@touch $@
+
+bench: $(VENV)/.bench-installed
+	$(PY) -m bench.run $(BENCH_ARGS)
+
 clean:
 	rm -rf $(BUILD) out
