@@ -20,6 +20,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from bench.references import agrees_with_ipgen
 from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verdict
 
 TYPES = ("classical", "rotary")
@@ -29,6 +30,7 @@ EXTRA = (("classical", 50),)  # ipgen alone, one run
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
 TARGET_N20 = 10.0
+TOLERANCE = 1e-10  # the references must derive ipgen's equations (checked at n = 2)
 
 
 @dataclass
@@ -82,7 +84,12 @@ def sweep(
     types: tuple[str, ...] = TYPES,
     timeout: float = TIMEOUT,
     extra: tuple[tuple[str, int], ...] = EXTRA,
-) -> list[Timing]:
+) -> tuple[list[Timing], dict[str, float]]:
+    """Check that the references derive ipgen's equations, then time every point."""
+    checks = {f"{method} {kind}": agrees_with_ipgen(method, kind) for kind in types for method in METHODS[1:]}
+    for name, difference in checks.items():
+        if difference > TOLERANCE:
+            raise SystemExit(f"bench: the {name} reference differs from ipgen by {difference:.1e}: no timing")
     points = [(kind, method, n) for kind in types for method in METHODS for n in links]
     points += [(kind, "ipgen", n) for kind, n in extra]
     results: list[Timing] = []
@@ -98,7 +105,7 @@ def sweep(
             if timing.status == "timeout":
                 timed_out.add((kind, method))
             results.append(timing)
-    return results
+    return results, checks
 
 
 def _find(results: list[Timing], kind: str, method: str, n: int) -> Timing | None:
@@ -143,7 +150,7 @@ def targets(results: list[Timing], timeout: float = TIMEOUT) -> list[tuple[str, 
     return verdicts
 
 
-def markdown(results: list[Timing], timeout: float = TIMEOUT) -> str:
+def markdown(results: list[Timing], checks: dict[str, float], timeout: float = TIMEOUT) -> str:
     lines = [
         "# Generation time: ipgen against sympy.physics.mechanics",
         "",
@@ -155,7 +162,11 @@ def markdown(results: list[Timing], timeout: float = TIMEOUT) -> str:
         "  same model (bench/references.py: rods with CoG at l/2 and inertia m l²/12, absolute angles,",
         "  the same damping; rotary links with the pivot inertia, ipgen's default) up to the mass matrix",
         "  and forcing vector, no code generation. *derive*: the derivation alone, imports excluded;",
-        "  *process*: wall time of the whole process.",
+        "  *process*: wall time of the whole process. Before timing, each reference's M and forcing are",
+        "  checked against ipgen's M and B u − bias at n = 2 (a random state): largest relative",
+        f"  difference {max(checks.values(), default=float('nan')):.1e}. (tests/independent_model.py",
+        "  lambdifies inside its builder, so the derivation alone cannot be timed with it;",
+        "  bench/references.py builds the same frames and bodies.)",
         f"- Each point in a fresh process; median of 3 runs when a run takes under {REPEAT_BELOW:.0f} s,",
         f'  else one run. Runs over {timeout:.0f} s are stopped ("> {timeout:.0f}"), larger n then skipped.',
         "",
@@ -240,8 +251,9 @@ def plot(results: list[Timing], path: Path, timeout: float = TIMEOUT) -> None:
     plt.close(figure)
 
 
-def save(results: list[Timing], directory: Path, timeout: float = TIMEOUT) -> None:
+def save(results: list[Timing], checks: dict[str, float], directory: Path, timeout: float = TIMEOUT) -> None:
     directory.mkdir(parents=True, exist_ok=True)
-    (directory / "generation.md").write_text(markdown(results, timeout))
-    (directory / "generation.json").write_text(json.dumps([asdict(r) for r in results], indent=1) + "\n")
+    (directory / "generation.md").write_text(markdown(results, checks, timeout))
+    record = {"checks": checks, "timings": [asdict(r) for r in results]}
+    (directory / "generation.json").write_text(json.dumps(record, indent=1) + "\n")
     plot(results, directory / "generation.png", timeout)

@@ -32,6 +32,7 @@ class Pendulum:
     speeds: list[sp.Expr]
     bodies: list[me.RigidBody | me.Particle]
     loads: list[tuple]
+    parameters: dict[str, tuple[sp.Symbol, ...]]  # m, l, delta: one per body; g, u: one each
 
 
 def pendulum(kind: str, links: int, speeds: list[sp.Expr] | None = None) -> Pendulum:
@@ -92,10 +93,11 @@ def pendulum(kind: str, links: int, speeds: list[sp.Expr] | None = None) -> Pend
         tip = pivot.locatenew(f"P{i + 1}", lengths[i] * frame.z)
         tip.v2pt_theory(pivot, ground, frame)
         previous, pivot = frame, tip
-    return Pendulum(ground, q, rates, bodies, loads)
+    parameters = {"m": m, "l": lengths, "delta": delta, "g": (g,), "u": (force,)}
+    return Pendulum(ground, q, rates, bodies, loads, parameters)
 
 
-def derive(method: str, kind: str, links: int) -> tuple[sp.Matrix, sp.Matrix]:
+def derive(method: str, kind: str, links: int) -> tuple[sp.Matrix, sp.Matrix, Pendulum]:
     """M and the forcing vector of the pendulum by Kane's or Lagrange's method."""
     if method == "kane":
         size = links + 1
@@ -104,12 +106,56 @@ def derive(method: str, kind: str, links: int) -> tuple[sp.Matrix, sp.Matrix]:
         kinematics = [qi.diff() - wi for qi, wi in zip(system.q, w, strict=True)]
         kane = me.KanesMethod(system.ground, q_ind=system.q, u_ind=w, kd_eqs=kinematics)
         kane.kanes_equations(system.bodies, system.loads)
-        return kane.mass_matrix, kane.forcing
+        return kane.mass_matrix, kane.forcing, system
     system = pendulum(kind, links)
     lagrangian = me.Lagrangian(system.ground, *system.bodies)
     lagrange = me.LagrangesMethod(lagrangian, system.q, forcelist=system.loads, frame=system.ground)
     lagrange.form_lagranges_equations()
-    return lagrange.mass_matrix, lagrange.forcing
+    return lagrange.mass_matrix, lagrange.forcing, system
+
+
+def agrees_with_ipgen(method: str, kind: str, links: int = 2, seed: int = 0) -> float:
+    """Largest relative difference from ipgen's M and B u − bias at a random state (~1e-15)."""
+    import numpy as np
+
+    from generator.derive import derive as ipgen_derive
+    from generator.model import System
+
+    mass, forcing, system = derive(method, kind, links)
+    equations = ipgen_derive(System(kind, links, "pivot"))  # type: ignore[arg-type]
+    ipgen = equations.symbols
+    random = np.random.default_rng(seed)
+    size = links + 1
+    values = {
+        "q": random.uniform(-3, 3, size),
+        "qd": random.uniform(-3, 3, size),
+        "m": random.uniform(0.1, 2, size),
+        "l": random.uniform(0.2, 1.5, size),
+        "delta": random.uniform(0, 0.5, size),
+        "g": [9.81],
+        "u": [0.7],
+    }
+    theirs = {"q": system.q, "qd": system.speeds, **system.parameters}
+    ours = {"q": ipgen.q, "qd": ipgen.qd, "m": ipgen.m, "l": ipgen.l, "delta": ipgen.delta, "g": (ipgen.g,)}
+
+    def at(symbols: dict) -> dict:
+        # Rates first: substituting q(t) would otherwise turn q'(t) into a derivative of a number.
+        names = ("qd", "q", "m", "l", "delta", "g", "u")
+        return {k: v for name in names for k, v in zip(symbols.get(name, ()), values[name], strict=False)}
+
+    def number(matrix: sp.Matrix, symbols: dict) -> np.ndarray:
+        return np.array(matrix.subs(list(at(symbols).items())).evalf(), dtype=float)
+
+    wanted_mass = number(equations.mass_matrix, ours)
+    wanted_forcing = -number(equations.bias, ours).ravel()
+    wanted_forcing[0] += values["u"][0]
+    got_mass, got_forcing = number(mass, theirs), number(forcing, theirs).ravel()
+    return float(
+        max(
+            np.abs(got_mass - wanted_mass).max() / np.abs(wanted_mass).max(),
+            np.abs(got_forcing - wanted_forcing).max() / np.abs(wanted_forcing).max(),
+        )
+    )
 
 
 def main(argv: list[str]) -> None:

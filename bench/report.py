@@ -57,6 +57,7 @@ def machine(extra: dict[str, str] | None = None) -> list[str]:
         "Python": platform.python_version(),
         "sympy": version("sympy"),
         "ipgen": f"{version('ipgen')}, commit {commit()}",
+        "load average at the start (other processes)": " ".join(f"{x:.2f}" for x in os.getloadavg()),
         "date": datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
     }
     facts |= extra or {}

@@ -53,8 +53,8 @@ def main(argv: list[str] | None = None) -> None:
 
     summary: list[str] = []
     if options.part in ("all", "generation"):
-        timings = generation.sweep(links, options.types, timeout, extra)
-        generation.save(timings, out, timeout)
+        timings, checks = generation.sweep(links, options.types, timeout, extra)
+        generation.save(timings, checks, out, timeout)
         for text, met, misses in generation.targets(timings, timeout):
             summary.append(f"generation: {text}: {_state(met)}" + (f" ({misses})" if misses else ""))
     if options.part in ("all", "evaluation"):
