@@ -1,0 +1,50 @@
+"""tools/compare_csv.py and tools/check_settled.py, which ctest's paper.* tests rely on."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+HEADER = "t,theta0,theta1,dtheta0,dtheta1\n"
+
+
+def tool(name: str, *args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ROOT / "tools" / name), *args], capture_output=True, text=True)
+
+
+def test_compare_csv_names_the_worst_column_and_row(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(HEADER + "0,0,0,0,0\n0.5,1,2,3,4\n")
+    b.write_text(HEADER + "0,0,0,0,1e-9\n0.5,1,2.001,3,4\n")
+    ok = tool("compare_csv.py", str(a), str(b), "--tol", "1e-2")
+    assert ok.returncode == 0 and "max |difference| 1.000e-03" in ok.stdout
+    failed = tool("compare_csv.py", str(a), str(b), "--tol", "1e-6")
+    assert failed.returncode == 1
+    assert "column theta1, row 2 (t = 0.5): 2 vs 2.0009999999999999" in failed.stdout
+
+
+def test_compare_csv_refuses_different_shapes(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(HEADER + "0,0,0,0,0\n")
+    b.write_text(HEADER + "0,0,0,0,0\n1,0,0,0,0\n")
+    result = tool("compare_csv.py", str(a), str(b), "--tol", "1")
+    assert result.returncode == 2 and "1 rows vs 2 rows" in result.stderr
+
+
+def test_check_settled_accepts_hanging_down_either_way(tmp_path: Path) -> None:
+    run = tmp_path / "run.csv"
+    run.write_text(HEADER + f"30,5,{-math.pi + 1e-4},1e-4,-1e-4\n")
+    assert tool("check_settled.py", str(run), "--angle-tol", "1e-3", "--rate-tol", "1e-3").returncode == 0
+    run.write_text(HEADER + f"30,5,{3 * math.pi},0,0\n")
+    assert tool("check_settled.py", str(run), "--angle-tol", "1e-3", "--rate-tol", "1e-3").returncode == 0
+
+
+def test_check_settled_reports_what_is_not_settled(tmp_path: Path) -> None:
+    run = tmp_path / "run.csv"
+    run.write_text(HEADER + "30,5,3.1,2e-3,0\n")
+    result = tool("check_settled.py", str(run), "--angle-tol", "1e-3", "--rate-tol", "1e-3")
+    assert result.returncode == 1
+    assert "theta1 is 4.159e-02 rad from ±π" in result.stdout and "|dtheta0| = 2.000e-03" in result.stdout
