@@ -54,8 +54,8 @@ test-cpp: build
 test: lint test-python test-cpp
 	@echo "make test: all tests passed"
 
-demo: venv
-	$(PY) tools/demo.py
+demo: build
+	$(PY) tools/demo.py --build $(BUILD)
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
 ## Pinocchio; writes docs/bench/. Its extra packages go into the same venv (stamp file).
