@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench configure build clean
 
 all: test
 
@@ -42,19 +42,20 @@ test-python: venv
 	$(PY) -m pytest -q -n $(JOBS)
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
-build: venv
-	@if [ -f CMakeLists.txt ]; then \
-	  cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null && \
-	  cmake --build $(BUILD) -j $(JOBS); \
-	fi
+configure: venv
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
+
+build: configure
+	cmake --build $(BUILD) -j $(JOBS)
 
 test-cpp: build
-	@if [ -f CMakeLists.txt ]; then ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS); fi
+	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
 test: lint test-python test-cpp
 	@echo "make test: all tests passed"
 
-demo: build
+demo: configure
+	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse
 	$(PY) tools/demo.py --build $(BUILD)
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
