@@ -55,6 +55,8 @@ class Evaluation:
     agree: bool
     checks: dict[str, float] = field(default_factory=dict)  # function -> max relative difference
     times: dict[str, list[float]] = field(default_factory=dict)  # function -> [ipgen ns, Pinocchio ns]
+    # function -> Pinocchio's ns per convention (local, and world for CRBA and ABA); `times` has the faster
+    conventions: dict[str, dict[str, float]] = field(default_factory=dict)
     calls: dict[str, int] = field(default_factory=dict)  # calls per timed batch
     error: str = ""
 
@@ -145,8 +147,10 @@ def parse(kind: str, links: int, output: str, status: int) -> Evaluation:
         if words[:1] == ["check"]:
             result.checks[words[1]] = float(words[2])
         elif words[:1] == ["time"]:
-            result.times[words[1]] = [float(words[3]), float(words[4])]
-            result.calls[words[1]] = int(words[5])
+            function, ours, theirs = words[1], float(words[4]), [float(w) for w in words[5:]]
+            result.conventions[function] = dict(zip(("local", "world"), theirs, strict=False))
+            result.times[function] = [ours, min(theirs)]
+            result.calls[function] = int(words[3])
         elif words[:1] == ["disagree:"]:
             result.error = line
     return result
@@ -229,7 +233,8 @@ def markdown(results: list[Evaluation], rounds: int, milliseconds: float) -> str
         "  (Pinocchio's algorithms have none), random masses and lengths, g = 9.81 along −z.",
         "- Pinocchio works in relative joint angles, ipgen in absolute ones; states are mapped before",
         "  timing, so each side is timed in its own coordinates. Pinocchio's CRBA fills the upper",
-        "  triangle only (not symmetrised in the timed call).",
+        "  triangle only (not symmetrised in the timed call). CRBA and ABA are timed in both of",
+        "  Pinocchio's conventions, LOCAL (its default) and WORLD; the table keeps the faster (w: WORLD).",
         "- Equivalence checked in the same binary before timing: at 10 random states, mass_matrix = CRBA",
         "  (symmetrised), bias = nonLinearEffects, forward_dynamics = ABA, mapped to absolute angles, to",
         f"  {TOLERANCE:g} relative (max |difference| / max |entry|); a pair that disagrees gets no timing.",
@@ -255,7 +260,8 @@ def markdown(results: list[Evaluation], rounds: int, milliseconds: float) -> str
             for function, _ in PAIRS:
                 if function in r.times:
                     ours, theirs = r.times[function]
-                    row += [f"{ours:.0f}", f"{theirs:.0f}", f"{ours / theirs:.2f}"]
+                    world = r.conventions[function].get("world") == theirs
+                    row += [f"{ours:.0f}", f"{theirs:.0f}" + (" w" if world else ""), f"{ours / theirs:.2f}"]
                 else:
                     row += ["–", "–", "–"]
             row.append(f"{max(r.checks.values()):.1e}" if r.checks else "–")

@@ -3,9 +3,9 @@
 // Build (bench/evaluation.py does this for each system):
 //   g++ -O3 -march=native -DNDEBUG -DIPGEN_HEADER='"classical3.hpp"' -DIPGEN_NAMESPACE=classical3 \
 //       bench.cpp reference.o
-// Run: bench [rounds] [milliseconds per round]. Prints, one per line,
+// Run: bench [rounds] [milliseconds per round, all contenders]. Prints, one per line,
 //   check <function> <relative difference>        at kChecked random states, and then, if all agree,
-//   time <function> <algorithm> <ipgen ns> <pinocchio ns> <calls per batch>   (medians over rounds)
+//   time <function> <algorithm> <calls per batch> <ipgen ns> <Pinocchio ns, local> [<world>]  (medians)
 // Exit status 1 when a pair disagrees: then no timing is printed.
 //
 // Coordinates: ipgen uses absolute link angles th (clockwise from upright), Pinocchio relative
@@ -62,8 +62,12 @@ NOINLINE const Vec& ipgen_forward_dynamics(int i) {
   return out_a = model::forward_dynamics(q[i], qd[i], u[i], params);
 }
 NOINLINE const Eigen::MatrixXd& pin_crba(int i) { return reference::crba(q_rel[i]); }
+NOINLINE const Eigen::MatrixXd& pin_crba_world(int i) { return reference::crba(q_rel[i], true); }
 NOINLINE const Eigen::VectorXd& pin_nle(int i) { return reference::nonlinear_effects(q_rel[i], v_rel[i]); }
 NOINLINE const Eigen::VectorXd& pin_aba(int i) { return reference::aba(q_rel[i], v_rel[i], tau_rel[i]); }
+NOINLINE const Eigen::VectorXd& pin_aba_world(int i) {
+  return reference::aba(q_rel[i], v_rel[i], tau_rel[i], true);
+}
 
 void make_inputs() {
   std::mt19937_64 random(2013);
@@ -102,18 +106,20 @@ double relative_difference(const Eigen::MatrixXd& ours, const Eigen::MatrixXd& t
   return (ours - theirs).cwiseAbs().maxCoeff() / scale;
 }
 
-// Largest relative difference over kChecked states, for each of the three pairs.
+// Largest relative difference over kChecked states, for each of the three pairs (both conventions).
 std::array<double, 3> compare() {
   std::array<double, 3> worst{};
   for (int s = 0; s < kChecked; ++s) {
-    Eigen::MatrixXd M_rel = pin_crba(s);
-    M_rel.triangularView<Eigen::StrictlyLower>() = M_rel.transpose().triangularView<Eigen::StrictlyLower>();
-    const Eigen::MatrixXd M_abs = T.transpose() * M_rel * T;
-    const Eigen::VectorXd b_abs = T.transpose() * pin_nle(s);
-    const Eigen::VectorXd a_abs = T.triangularView<Eigen::Lower>().solve(pin_aba(s));
-    worst[0] = std::max(worst[0], relative_difference(ipgen_mass_matrix(s), M_abs));
-    worst[1] = std::max(worst[1], relative_difference(ipgen_bias(s), b_abs));
-    worst[2] = std::max(worst[2], relative_difference(ipgen_forward_dynamics(s), a_abs));
+    for (bool world : {false, true}) {
+      Eigen::MatrixXd M_rel = world ? pin_crba_world(s) : pin_crba(s);
+      M_rel.triangularView<Eigen::StrictlyLower>() = M_rel.transpose().triangularView<Eigen::StrictlyLower>();
+      const Eigen::MatrixXd M_abs = T.transpose() * M_rel * T;
+      const Eigen::VectorXd b_abs = T.transpose() * pin_nle(s);
+      const Eigen::VectorXd a_abs = T.triangularView<Eigen::Lower>().solve(world ? pin_aba_world(s) : pin_aba(s));
+      worst[0] = std::max(worst[0], relative_difference(ipgen_mass_matrix(s), M_abs));
+      worst[1] = std::max(worst[1], relative_difference(ipgen_bias(s), b_abs));
+      worst[2] = std::max(worst[2], relative_difference(ipgen_forward_dynamics(s), a_abs));
+    }
   }
   return worst;
 }
@@ -129,13 +135,11 @@ double batch(F f, long calls) {
   return std::chrono::duration<double, std::nano>(stop - start).count() / static_cast<double>(calls);
 }
 
-// Calls per batch so that one batch of the slower function takes about `milliseconds`.
-template <typename A, typename B>
-long calibrate(A a, B b, double milliseconds) {
-  long calls = 16;
-  while (std::max(batch(a, calls), batch(b, calls)) * static_cast<double>(calls) < 2e5) calls *= 2;  // warm-up
-  const double slower = std::max(batch(a, calls), batch(b, calls));
-  return std::max(16L, static_cast<long>(milliseconds * 1e6 / slower / 2.0));
+// One contender: runs `calls` calls, returns nanoseconds per call.
+using Timer = double (*)(long calls);
+template <auto f>
+double timed(long calls) {
+  return batch(f, calls);
 }
 
 double median(std::vector<double> values) {
@@ -144,21 +148,29 @@ double median(std::vector<double> values) {
   return n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
 }
 
-// Alternating A/B batches (AB, BA, AB, ...), the median of each side.
-template <typename A, typename B>
-void race(const char* ours, const char* theirs, A a, B b, int rounds, double milliseconds) {
-  const long calls = calibrate(a, b, milliseconds);
-  std::vector<double> time_a, time_b;
+// Warm-up, then rounds of one batch per contender in rotating order (AB, BA, ... for two),
+// each batch ~milliseconds / contenders; prints the median of each contender.
+void race(const char* ours, const char* theirs, const std::vector<Timer>& contenders, int rounds,
+          double milliseconds) {
+  long calls = 16;
+  double slowest = 0.0;
+  while (slowest * static_cast<double>(calls) < 1e6) {  // warm-up: until a batch takes 1 ms
+    calls *= 2;
+    slowest = 0.0;
+    for (Timer t : contenders) slowest = std::max(slowest, t(calls));
+  }
+  const std::size_t n = contenders.size();
+  calls = std::max(16L, static_cast<long>(milliseconds * 1e6 / slowest / static_cast<double>(n)));
+  std::vector<std::vector<double>> times(n);
   for (int r = 0; r < rounds; ++r) {
-    if (r % 2 == 0) {
-      time_a.push_back(batch(a, calls));
-      time_b.push_back(batch(b, calls));
-    } else {
-      time_b.push_back(batch(b, calls));
-      time_a.push_back(batch(a, calls));
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t which = (static_cast<std::size_t>(r) + k) % n;
+      times[which].push_back(contenders[which](calls));
     }
   }
-  std::printf("time %s %s %.3f %.3f %ld\n", ours, theirs, median(time_a), median(time_b), calls);
+  std::printf("time %s %s %ld", ours, theirs, calls);
+  for (const auto& t : times) std::printf(" %.3f", median(t));
+  std::printf("\n");
   std::fflush(stdout);
 }
 
@@ -179,8 +191,10 @@ int main(int argc, char** argv) {
     std::printf("disagree: ipgen and Pinocchio differ by more than %g relative; no timing\n", kTolerance);
     return 1;
   }
-  race("mass_matrix", "crba", ipgen_mass_matrix, pin_crba, rounds, milliseconds);
-  race("bias", "nonLinearEffects", ipgen_bias, pin_nle, rounds, milliseconds);
-  race("forward_dynamics", "aba", ipgen_forward_dynamics, pin_aba, rounds, milliseconds);
+  race("mass_matrix", "crba", {timed<ipgen_mass_matrix>, timed<pin_crba>, timed<pin_crba_world>}, rounds,
+       milliseconds);
+  race("bias", "nonLinearEffects", {timed<ipgen_bias>, timed<pin_nle>}, rounds, milliseconds);
+  race("forward_dynamics", "aba", {timed<ipgen_forward_dynamics>, timed<pin_aba>, timed<pin_aba_world>}, rounds,
+       milliseconds);
   return 0;
 }

@@ -53,14 +53,23 @@ void build(const System& system) {
   data = std::make_unique<pinocchio::Data>(*model);
 }
 
-const Eigen::MatrixXd& crba(const Eigen::VectorXd& q) { return pinocchio::crba(*model, *data, q); }
+namespace {
+pinocchio::Convention convention(bool world) {
+  return world ? pinocchio::Convention::WORLD : pinocchio::Convention::LOCAL;
+}
+}  // namespace
+
+const Eigen::MatrixXd& crba(const Eigen::VectorXd& q, bool world) {
+  return pinocchio::crba(*model, *data, q, convention(world));
+}
 
 const Eigen::VectorXd& nonlinear_effects(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   return pinocchio::nonLinearEffects(*model, *data, q, v);
 }
 
-const Eigen::VectorXd& aba(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
-  return pinocchio::aba(*model, *data, q, v, tau);
+const Eigen::VectorXd& aba(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau,
+                           bool world) {
+  return pinocchio::aba(*model, *data, q, v, tau, convention(world));
 }
 
 }  // namespace reference

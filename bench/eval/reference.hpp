@@ -19,9 +19,11 @@ struct System {
 // Builds the pinocchio::Model of the system (joint 1 = base, joints 2..n+1 = links).
 void build(const System& system);
 
-// Each call runs one algorithm and returns Pinocchio's own result buffer.
-const Eigen::MatrixXd& crba(const Eigen::VectorXd& q);  // upper triangle only
+// Each call runs one algorithm and returns Pinocchio's own result buffer. CRBA and ABA come in
+// Pinocchio's two conventions (local: the default; world): the benchmark keeps the faster one.
+const Eigen::MatrixXd& crba(const Eigen::VectorXd& q, bool world = false);  // upper triangle only
 const Eigen::VectorXd& nonlinear_effects(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
-const Eigen::VectorXd& aba(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
+const Eigen::VectorXd& aba(const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau,
+                           bool world = false);
 
 }  // namespace reference
