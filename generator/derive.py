@@ -127,17 +127,24 @@ def _mass_matrix(system: System, algebra: Algebra) -> PolyMatrix:
     return mass
 
 
-def _coriolis(mass: PolyMatrix, algebra: Algebra) -> PolyMatrix:
-    """C_kj = Σ_i ½(∂M_kj/∂θi + ∂M_ki/∂θj − ∂M_ij/∂θk) θ̇i."""
+MassPartials = dict[tuple[int, int, int], PolyElement]
+
+
+def _mass_partials(mass: PolyMatrix, algebra: Algebra) -> MassPartials:
+    """∂M_jk/∂θ_i keyed (i, j, k), only where M_jk depends on θ_i (most depend on two angles)."""
     size = len(mass)
-    qd = algebra.sym.qd
-    # ∂M_jk/∂θ_i, only where M_jk depends on θ_i (most entries depend on two angles at most).
-    partial: dict[tuple[int, int, int], PolyElement] = {}
+    partial: MassPartials = {}
     for j in range(size):
         for k in range(j, size):
             for i in range(size):
                 if algebra.depends_on_angle(mass[j][k], i):
                     partial[i, j, k] = partial[i, k, j] = algebra.diff_angle(mass[j][k], i)
+    return partial
+
+
+def _coriolis(partial: MassPartials, size: int, algebra: Algebra) -> PolyMatrix:
+    """C_kj = Σ_i ½(∂M_kj/∂θi + ∂M_ki/∂θj − ∂M_ij/∂θk) θ̇i."""
+    qd = algebra.sym.qd
     zero = algebra.zero()
 
     def dm(i: int, j: int, k: int) -> PolyElement:
@@ -155,6 +162,34 @@ def _coriolis(mass: PolyMatrix, algebra: Algebra) -> PolyMatrix:
         ]
         for k in range(size)
     ]
+
+
+def _dynamics_partials(
+    partial: MassPartials, bias: list[PolyElement], algebra: Algebra
+) -> tuple[PolyMatrix, PolyMatrix]:
+    """Partial derivatives of r(θ, θ̇, θ̈) = M(θ) θ̈ + b(θ, θ̇), the residual of M θ̈ + b = B u.
+
+    Returns (∂r/∂θ, ∂r/∂θ̇) = (∂M/∂θ_i θ̈ + ∂b/∂θ_i, ∂b/∂θ̇_i) column by column. Differentiating
+    M θ̈ + b = B u implicitly gives ∂θ̈/∂x = −M⁻¹ ∂r/∂x and ∂θ̈/∂u = M⁻¹ B: no symbolic inverse.
+    """
+    size = len(bias)
+    sym = algebra.sym
+    by_angle = [
+        [
+            sum(
+                (
+                    algebra.times_symbol(partial[i, k, j], sym.qdd[j])
+                    for j in range(size)
+                    if (i, k, j) in partial
+                ),
+                algebra.diff_angle(bias[k], i),
+            )
+            for i in range(size)
+        ]
+        for k in range(size)
+    ]
+    by_rate = [[algebra.diff_symbol(bias[k], sym.qd[i]) for i in range(size)] for k in range(size)]
+    return by_angle, by_rate
 
 
 def derive(system: System, progress: ProgressCallback | None = None) -> Equations:
@@ -182,7 +217,8 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     ]
 
     report("Coriolis matrix")
-    coriolis = _coriolis(mass, algebra)
+    partial = _mass_partials(mass, algebra)
+    coriolis = _coriolis(partial, size, algebra)
 
     report("bias vector")
     bias = [
@@ -195,6 +231,8 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     kinetic = sum((algebra.times_symbol(momentum[j], qd[j]) for j in range(size)), zero) / 2
 
     n_matrix = [[coriolis[k][j] + damping[k][j] for j in range(size)] for k in range(size)]
+    report("derivatives of the dynamics")
+    residual_dq, residual_dqd = _dynamics_partials(partial, bias, algebra)
     return Equations(
         system=system,
         symbols=sym,
@@ -209,5 +247,7 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
             "kinetic_energy": [[kinetic]],
             "potential_energy": [[potential]],
             "dissipation": [[dissipation]],
+            "residual_dq": residual_dq,
+            "residual_dqd": residual_dqd,
         },
     )

@@ -12,7 +12,7 @@ from generator.derive import derive
 from generator.model import System
 from generator.output import prepare_directory, write_file
 
-STEPS = 7  # progress steps reported: five by the derivation, render, write
+STEPS = 8  # progress steps reported: six by the derivation, render, write
 
 
 def default_name(system: System) -> str:

@@ -54,6 +54,7 @@ class Symbols:
 
     q: tuple[sp.Symbol, ...]  # θ_i
     qd: tuple[sp.Symbol, ...]  # θ̇_i
+    qdd: tuple[sp.Symbol, ...]  # θ̈_i (for derivatives of M θ̈ at a known θ̈)
     m: tuple[sp.Symbol, ...]
     l: tuple[sp.Symbol, ...]  # noqa: E741 (the paper's name)
     delta: tuple[sp.Symbol, ...]
@@ -66,6 +67,7 @@ class Symbols:
         return cls(
             q=tuple(sp.Symbol(f"theta{i}", real=True) for i in idx),
             qd=tuple(sp.Symbol(f"dtheta{i}", real=True) for i in idx),
+            qdd=tuple(sp.Symbol(f"ddtheta{i}", real=True) for i in idx),
             m=tuple(sp.Symbol(f"m{i}", positive=True) for i in idx),
             l=tuple(sp.Symbol(f"l{i}", positive=True) for i in idx),
             delta=tuple(sp.Symbol(f"delta{i}", nonnegative=True) for i in idx),

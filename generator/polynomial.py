@@ -49,7 +49,7 @@ class Algebra:
                 letters.append(_Letter(cjk, sp.cos(q[j] - q[k]), {j: (-1, sjk), k: (1, sjk)}))
                 letters.append(_Letter(sjk, sp.sin(q[j] - q[k]), {j: (1, cjk), k: (-1, cjk)}))
         self.parameters: tuple[sp.Symbol, ...] = sym.parameters
-        self.velocities: tuple[sp.Symbol, ...] = sym.qd
+        self.velocities: tuple[sp.Symbol, ...] = (*sym.qd, *sym.qdd)  # θ̇ and θ̈
         trig_symbols = [sp.Symbol(letter.name) for letter in letters]
         gens = [*self.parameters, *self.velocities, *trig_symbols, *named]
         self.ring = PolyRing(gens, QQ)

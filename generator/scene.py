@@ -13,8 +13,12 @@ A scene has these tables (SI units throughout; arrays have links + 1 entries, in
     [input]       kind = zero (default) | constant | pulse | step | sine, with
                   constant: amplitude; pulse: amplitude, duration, start (default 0);
                   step: amplitude, time; sine: amplitude, frequency [Hz], phase [rad] (default 0)
-    [simulation]  t_end (required); sample (0.01); method "bdf" | "adams" (bdf);
-                  rtol (1e-10); atol (1e-12); max_steps (100000)
+    [simulation]  t_end (required); sample (0.01); max_steps (100000);
+                  method = "bdf" (default) | "adams" | "adams-fixed-point" | "erk-dp5" |
+                  "erk-verner6" | "erk-fehlberg8" | "rk4";
+                  jacobian = "exact" (default) | "dq" (bdf and adams only);
+                  rtol (1e-10), atol (1e-12) (every method but rk4);
+                  step = fixed step in s, > 0 and <= sample (rk4 only, required there)
     [outputs]     energy = true | false (default false)
 
 `load_scene` reads and validates a file; every problem is a one-line `SceneError` naming the
@@ -104,6 +108,8 @@ class Scene:
     rtol: float
     atol: float
     max_steps: int
+    jacobian: str | None = None  # bdf and adams: "exact" or "dq"; None for the other methods
+    step: float | None = None  # rk4: the fixed step [s]; None for the other methods
     free: tuple[str, ...] = ()
     energy: bool = False
     # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
@@ -168,6 +174,12 @@ def resolved_config(scene: Scene) -> str:
         f"t_end = {format_number(scene.t_end)}",
         f"sample = {format_number(scene.sample)}",
         f"method = {scene.method}",
+    ]
+    if scene.jacobian is not None:
+        lines.append(f"jacobian = {scene.jacobian}")
+    if scene.step is not None:
+        lines.append(f"step = {format_number(scene.step)}")
+    lines += [
         f"rtol = {format_number(scene.rtol)}",
         f"atol = {format_number(scene.atol)}",
         f"max_steps = {scene.max_steps}",
@@ -620,7 +632,41 @@ def _read_simulation(section: _Section) -> dict[str, Any]:
         "rtol": rtol,
         "atol": atol,
         "max_steps": max_steps,
+        "jacobian": _read_jacobian(section, method),
+        "step": _read_step(section, method, sample),
     }
+
+
+def _read_jacobian(section: _Section, method: str) -> str | None:
+    """bdf and adams: "exact" (default) or "dq"; any other method has no Jacobian to choose."""
+    if method not in schema.JACOBIAN_METHODS:
+        if section.has("jacobian"):
+            section.bad(
+                "jacobian",
+                section.data["jacobian"],
+                f"applies to methods {_one_of(schema.JACOBIAN_METHODS)} only (method is \"{method}\"); remove it",
+            )
+        return None
+    return section.choice("jacobian", schema.JACOBIANS, default=schema.DEFAULT_JACOBIAN)
+
+
+def _read_step(section: _Section, method: str, sample: float) -> float | None:
+    """rk4: the fixed step, required, in (0, sample]; the other methods choose their own steps."""
+    if method not in schema.FIXED_STEP_METHODS:
+        if section.has("step"):
+            section.bad(
+                "step",
+                section.data["step"],
+                f"applies to method \"rk4\" only (method \"{method}\" chooses its own steps); remove it",
+            )
+        return None
+    for key in ("rtol", "atol"):
+        if section.has(key):
+            section.bad(key, section.data[key], 'does not apply to method "rk4" (it has a fixed step); remove it')
+    step = section.number("step", 'the fixed step of method "rk4" in s, > 0 and <= sample')
+    if not 0 < step <= sample:
+        section.bad("step", step, f"must be > 0 s and <= sample ({format_number(sample)} s)")
+    return step
 
 
 def _warnings(reader: _Reader, rtol: float) -> tuple[str, ...]:

@@ -15,13 +15,26 @@ TABLES: dict[str, tuple[str, ...]] = {
     "parameters": ("m", "l", "delta", "g", "free"),
     "initial": ("theta", "dtheta"),
     "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),
-    "simulation": ("t_end", "sample", "method", "rtol", "atol", "max_steps"),
+    "simulation": ("t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"),
     "outputs": ("energy",),
 }
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
 INERTIAS = model.INERTIA_VARIANTS
-METHODS: tuple[str, ...] = ("bdf", "adams")
+# Integration methods (the C++ simulator's names): CVODE's, ARKODE's explicit Runge-Kutta and a
+# fixed-step RK4. Which settings each one uses:
+METHODS: tuple[str, ...] = (
+    "bdf",
+    "adams",
+    "adams-fixed-point",
+    "erk-dp5",
+    "erk-verner6",
+    "erk-fehlberg8",
+    "rk4",
+)
+JACOBIAN_METHODS: tuple[str, ...] = ("bdf", "adams")  # Newton iteration: jacobian = exact | dq
+FIXED_STEP_METHODS: tuple[str, ...] = ("rk4",)  # step required; rtol and atol do not apply
+JACOBIANS: tuple[str, ...] = ("exact", "dq")
 
 # Input kinds: the keys each one uses (in resolved-config order) and which of them are required.
 INPUT_KEYS: dict[str, tuple[str, ...]] = {
@@ -45,6 +58,7 @@ DEFAULT_INERTIA = "pivot"
 DEFAULT_G = "9.81"  # as text: the exact decimal is kept next to the float
 DEFAULT_SAMPLE = 0.01
 DEFAULT_METHOD = "bdf"
+DEFAULT_JACOBIAN = "exact"
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000

@@ -91,8 +91,17 @@ def run_driver(
         f"{[name, system.type, expected_inertia, system.dof]}"
     )
     dof = system.dof
-    shapes = {"M": (dof, dof), "N": (dof, dof), "bias": (dof,), "gravity": (dof,), "qdd": (dof,)}
-    per_state = 8
+    shapes = {
+        "M": (dof, dof),
+        "N": (dof, dof),
+        "bias": (dof,),
+        "gravity": (dof,),
+        "qdd": (dof,),
+        "dqdd_dq": (dof, dof),
+        "dqdd_dqd": (dof, dof),
+        "dqdd_du": (dof,),
+    }
+    per_state = 11
     assert len(lines) == 1 + per_state * len(states), f"{name}: unexpected output\n{result.stdout}"
     results: list[Quantities] = []
     for k in range(len(states)):
@@ -322,3 +331,37 @@ def test_one_model_build_macros(evaluations: Evaluations, cpp_models: CppModels)
             assert np.array_equal(single[key], value), (
                 f"{where(system, run.case, k)}: {key} alone {single[key]} vs in a group {value}"
             )
+
+
+JACOBIAN_STEP = 1e-6  # central differences of forward_dynamics, relative to each variable's scale
+JACOBIAN_RELATIVE = 1e-6
+
+
+@pytest.mark.parametrize("system", MODELS, ids=model_ids)
+def test_forward_dynamics_derivatives_match_central_differences(
+    evaluations: Evaluations, cpp_models: CppModels, system: System
+) -> None:
+    """∂θ̈/∂θ, ∂θ̈/∂θ̇, ∂θ̈/∂u of forward_dynamics_derivatives vs central differences of θ̈."""
+    run = evaluations(system)
+    dof, case = system.dof, run.case
+    shifted: list[State] = []
+    for k in range(STATES):
+        q, qd, u = case.q[k], case.qd[k], float(case.u[k])
+        for sign in (1.0, -1.0):
+            h = sign * JACOBIAN_STEP
+            shifted += [(q + h * np.eye(dof)[i], qd, u) for i in range(dof)]
+            shifted += [(q, qd + h * np.eye(dof)[i], u) for i in range(dof)]
+            shifted.append((q, qd, u + h))
+    out = run_driver(cpp_models.program(system), system, "double", case, shifted)
+    per_sign = 2 * dof + 1
+    for k in range(STATES):
+        ahead = out[2 * per_sign * k : 2 * per_sign * k + per_sign]
+        behind = out[2 * per_sign * k + per_sign : 2 * per_sign * (k + 1)]
+        columns = [(a["qdd"] - b["qdd"]) / (2 * JACOBIAN_STEP) for a, b in zip(ahead, behind, strict=True)]
+        here = where(system, case, k)
+        exact = run.at[k]
+        by_q = np.column_stack(columns[:dof])
+        by_qd = np.column_stack(columns[dof : 2 * dof])
+        assert_close(exact["dqdd_dq"], by_q, JACOBIAN_RELATIVE, f"{here}: ∂θ̈/∂θ")
+        assert_close(exact["dqdd_dqd"], by_qd, JACOBIAN_RELATIVE, f"{here}: ∂θ̈/∂θ̇")
+        assert_close(exact["dqdd_du"], columns[-1], JACOBIAN_RELATIVE, f"{here}: ∂θ̈/∂u")

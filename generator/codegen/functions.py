@@ -37,6 +37,10 @@ class FunctionBody:
     prelude: list[str] = field(default_factory=list)  # parameter, velocity and trig bindings
     temporaries: list[str] = field(default_factory=list)
     outputs: list[str] = field(default_factory=list)
+    # Statements that need θ̈ (bound from `late_source`), emitted after it has been solved for.
+    late_prelude: list[str] = field(default_factory=list)
+    late_temporaries: list[str] = field(default_factory=list)
+    late_outputs: list[str] = field(default_factory=list)
     unused_arguments: list[str] = field(default_factory=list)
     operations: int = 0  # additions, multiplications, divisions after CSE
     trig_calls: int = 0  # sin/cos evaluations
@@ -87,8 +91,14 @@ def _mirror_lines(outputs: Sequence[Output]) -> list[str]:
     return lines
 
 
-def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[str]) -> FunctionBody:
-    """Statements computing `outputs`; `arguments` are the C++ parameter names (q, qd, p)."""
+def build_body(
+    eqs: Equations, outputs: Sequence[Output], arguments: Sequence[str], late_source: str = ""
+) -> FunctionBody:
+    """Statements computing `outputs`; `arguments` are the C++ parameter names (q, qd, p).
+
+    Outputs may use θ̈: with `late_source` (a C++ vector holding it), the statements that need
+    it (transitively) are kept apart as the body's `late_*` part, and all others come first.
+    """
     sym, algebra = eqs.symbols, eqs.algebra
     targets = _targets(outputs)
     exprs = [algebra.to_expr(p, letters=True) for _, p in targets]
@@ -128,15 +138,30 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
             body.prelude.append(f"const Scalar dq{k} = qd({k});")
     body.prelude += [definition for _, (definition, _) in trig]
 
+    late: set[sp.Symbol] = set()
+    for k, s in enumerate(sym.qdd):
+        names[s] = f"ddq{k}"
+        if s in used:
+            body.late_prelude.append(f"const Scalar ddq{k} = {late_source}({k});")
+            late.add(s)
+    if late and not late_source:
+        raise ValueError("outputs use accelerations but no late_source names them")
+
     printer = CppPrinter(names)
     named_used = [s for s in named_code if s in used]
     body.prelude += [f"const Scalar {s.name} = {printer(named_code[s])};" for s in named_used]
-    body.temporaries = [f"const Scalar {s.name} = {printer(v)};" for s, v in temporaries]
-    body.outputs = [f"{target} = {printer(v)};" for (target, _), v in zip(targets, reduced, strict=True)]
+    for symbol, value in temporaries:
+        is_late = bool(value.free_symbols & late)
+        if is_late:
+            late.add(symbol)
+        statement = f"const Scalar {symbol.name} = {printer(value)};"
+        (body.late_temporaries if is_late else body.temporaries).append(statement)
+    for (target, _), value in zip(targets, reduced, strict=True):
+        statement = f"{target} = {printer(value)};"
+        (body.late_outputs if value.free_symbols & late else body.outputs).append(statement)
     body.outputs += _mirror_lines(outputs)
-    body.operations = sum(int(sp.count_ops(e)) for e in [*(v for _, v in temporaries), *reduced])
-    body.operations += 3 * sum(1 for _, (_, parts) in trig if parts)  # cj*ck + sj*sk
-    body.operations += sum(int(sp.count_ops(named_code[s])) for s in named_used)
+    computed = [*body.prelude, *body.temporaries, *body.outputs, *body.late_temporaries, *body.late_outputs]
+    body.operations = sum(count_operations(line) for line in computed)
     body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
 
     needs = {
@@ -146,6 +171,22 @@ def build_body(eqs: Equations, outputs: Sequence[Output], arguments: Sequence[st
     }
     body.unused_arguments = [a for a in arguments if not needs[a]]
     return body
+
+
+_OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
+
+
+def count_operations(statement: str) -> int:
+    """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ statement.
+
+    Literal casts such as `Scalar(1)/Scalar(3)` are folded by the compiler and not counted.
+    """
+    if "=" not in statement:
+        return 0
+    right = statement.split("=", 1)[1].split("//", 1)[0]
+    right = re.sub(r"Scalar\(\d+\)/Scalar\(\d+\)", "1", right)
+    right = re.sub(r"\b(sin|cos)\(q\(\d+\)\)", "x", right)
+    return len(_OPERATOR.findall(right))
 
 
 def _sort_key(name: str) -> tuple[int, ...]:

@@ -61,6 +61,17 @@ def function_bodies(eqs: Equations) -> dict[str, FunctionBody]:
         "forward_dynamics": build_body(
             eqs, [Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P
         ),
+        "forward_dynamics_derivatives": build_body(
+            eqs,
+            [
+                Output("M", mass, lower_only=True),
+                Output("b", bias),
+                Output("Rq", poly["residual_dq"]),
+                Output("Rqd", poly["residual_dqd"]),
+            ],
+            _ARGS_Q_QD_P,
+            late_source="d.qdd",
+        ),
         "kinetic_energy": build_body(eqs, [Output("T", poly["kinetic_energy"], scalar=True)], _ARGS_Q_QD_P),
         "potential_energy": build_body(eqs, [Output("V", poly["potential_energy"], scalar=True)], _ARGS_Q_P),
         "dissipation": build_body(eqs, [Output("D", poly["dissipation"], scalar=True)], ("qd", "p")),

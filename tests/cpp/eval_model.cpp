@@ -14,7 +14,8 @@
 //   count times: q[0..kDof) qd[0..kDof) u
 // Output: "model <Model::kName> <Model::kType> <Model::kInertia or -> <kDof>", then for each
 // state one line per quantity, "<name> <values>", matrices row by row, numbers with %.17g:
-//   M, bias, gravity, N, qdd (forward_dynamics), T, V, D.
+//   M, bias, gravity, N, qdd (forward_dynamics), T, V, D, then from forward_dynamics_derivatives
+//   dqdd_dq, dqdd_dqd, dqdd_du.
 // Every call goes through the header's Model struct, which forwards to the free functions.
 
 #include <cstdio>
@@ -102,6 +103,10 @@ int run() {
     print_scalar("T", Model::kinetic_energy(q, qd, p));
     print_scalar("V", Model::potential_energy(q, p));
     print_scalar("D", Model::dissipation(qd, p));
+    const auto derivatives = Model::forward_dynamics_derivatives(q, qd, u, p);
+    print_matrix("dqdd_dq", derivatives.dqdd_dq);
+    print_matrix("dqdd_dqd", derivatives.dqdd_dqd);
+    print_matrix("dqdd_du", derivatives.dqdd_du);
   }
   return 0;
 }
