@@ -13,6 +13,14 @@ from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from generator.naming import name_problem
 from generator.output import OutputError, write_file
 from generator.scene import SceneError, load_scene, resolved_config
+from generator.specialise import (
+    FUNCTIONS,
+    Specialisation,
+    SpecialisationError,
+    from_scene,
+    parse_fix,
+    parse_outputs,
+)
 
 EXIT_USAGE = 2
 # Derivations above these sizes take more than a second or two: show a progress bar.
@@ -97,6 +105,20 @@ def _fail(message: str) -> InvalidOptions:
     help="With --scene: print the scene's system as one line `name=... type=... links=... "
     "inertia=... stem=...` (for build tools) and write nothing.",
 )
+@click.option(
+    "--fix",
+    default=None,
+    metavar="NAME=VALUE,...",
+    help="Fold these parameters into the header as exact constants, e.g. --fix m0=0.3,delta2=0 "
+    "(a zero damping removes its terms). Names: m<i>, l<i>, delta<i>, g.",
+)
+@click.option(
+    "--outputs",
+    default=None,
+    metavar="FUNCTION,...",
+    help="Emit only these functions, e.g. --outputs forward_dynamics,forward_dynamics_derivatives "
+    "(default: all).",
+)
 @click.option("--force", is_flag=True, help="Overwrite files in DIR even if ipgen did not write them.")
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
@@ -107,15 +129,17 @@ def cli(
     inertia: str | None,
     scene: Path | None,
     describe: bool,
+    fix: str | None,
+    outputs: str | None,
     force: bool,
 ) -> None:
     if describe:
-        _describe_scene(scene, system_type, links, name, inertia)
+        _describe_scene(scene, system_type, links, name, inertia, fix, outputs)
         return
     if directory is None:
         raise _fail("missing -o DIR: say where to write the header")
     if scene is not None:
-        _generate_scene(scene, directory, force, system_type, links, name, inertia)
+        _generate_scene(scene, directory, force, system_type, links, name, inertia, fix, outputs)
         return
     if system_type is None or links is None:
         missing = "--type" if system_type is None else "--links"
@@ -129,12 +153,22 @@ def cli(
     problem = name_problem(name)
     if problem:
         raise _fail(f"--name {name!r} {problem}; choose another name")
-    _report(system, name, _generate(system, name, directory, force))
+    try:
+        spec = Specialisation(
+            fixed=parse_fix(system, fix) if fix is not None else (),
+            outputs=parse_outputs(outputs) if outputs is not None else FUNCTIONS,
+        )
+    except SpecialisationError as e:
+        raise _fail(str(e)) from None
+    _report(system, name, _generate(system, name, directory, force, spec))
 
 
 def _check_no_system_options(*clashing: object) -> None:
     if any(option is not None for option in clashing):
-        raise _fail("--scene fixes the system itself: drop --type, --links, --name and --inertia")
+        raise _fail(
+            "--scene fixes the system and its specialisation: drop --type, --links, --name, --inertia, "
+            "--fix and --outputs"
+        )
 
 
 def _describe_scene(path: Path | None, *clashing: object) -> None:
@@ -153,7 +187,8 @@ def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object)
     _check_no_system_options(*clashing)
     scene = load_scene(path)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
-    _report(system, scene.name, _generate(system, scene.name, directory, force))
+    spec = from_scene(scene) if scene.specialise else Specialisation()
+    _report(system, scene.name, _generate(system, scene.name, directory, force, spec))
     config = write_file(directory / f"{scene.stem}.cfg", resolved_config(scene), force)
     click.echo(f"{_VERBS[config]} {directory / (scene.stem + '.cfg')} (resolved scene {scene.stem})")
     for warning in scene.warnings:
@@ -171,9 +206,9 @@ def _report(system: System, name: str, written: Written) -> None:
     )
 
 
-def _generate(system: System, name: str, directory: Path, force: bool) -> Written:
+def _generate(system: System, name: str, directory: Path, force: bool, spec: Specialisation) -> Written:
     if system.links < PROGRESS_FROM_LINKS[system.type]:
-        return generate_header(system, name, directory, force)
+        return generate_header(system, name, directory, force, spec=spec)
     with click.progressbar(
         length=STEPS,
         label=f"deriving {system.type}{system.links}",
@@ -181,7 +216,9 @@ def _generate(system: System, name: str, directory: Path, force: bool) -> Writte
         show_eta=False,
         item_show_func=lambda step: step,
     ) as bar:
-        return generate_header(system, name, directory, force, progress=lambda step: bar.update(1, step))
+        return generate_header(
+            system, name, directory, force, progress=lambda step: bar.update(1, step), spec=spec
+        )
 
 
 def run(argv: list[str] | None = None) -> int:

@@ -11,6 +11,9 @@ from generator.codegen.header import HeaderRequest, render_header
 from generator.derive import derive
 from generator.model import System
 from generator.output import prepare_directory, write_file
+from generator.specialise import FUNCTIONS, Specialisation, format_exact
+
+GENERAL = Specialisation()
 
 STEPS = 8  # progress steps reported: six by the derivation, render, write
 
@@ -19,12 +22,19 @@ def default_name(system: System) -> str:
     return f"{system.type}{system.links}"
 
 
-def canonical_command(system: System, name: str) -> str:
+def canonical_command(system: System, name: str, spec: Specialisation = GENERAL) -> str:
     """The ipgen command that regenerates this header (in any output folder)."""
+    if spec.origin.startswith("scene "):
+        return f"ipgen --scene {spec.origin.removeprefix('scene ')} -o <dir>"
     command = f"ipgen --type {system.type} --links {system.links}"
     if system.is_rotary:
         command += f" --inertia {system.inertia}"
-    return command + f" --name {name} -o <dir>"
+    command += f" --name {name}"
+    if spec.fixed:
+        command += " --fix " + ",".join(f"{n}={format_exact(v)}" for n, v in spec.fixed)
+    if spec.outputs != FUNCTIONS:
+        command += " --outputs " + ",".join(spec.outputs)
+    return command + " -o <dir>"
 
 
 @dataclass(frozen=True)
@@ -40,12 +50,13 @@ def generate_header(
     directory: Path,
     force: bool = False,
     progress: Callable[[str], None] | None = None,
+    spec: Specialisation = GENERAL,
 ) -> Written:
-    """Derive `system`, render `DIR/<name>.hpp` and write it atomically."""
+    """Derive `system`, render `DIR/<name>.hpp` (specialised by `spec`) and write it atomically."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
     report("C++ code")
-    text = render_header(equations, HeaderRequest(name, canonical_command(system, name)))
+    text = render_header(equations, HeaderRequest(name, canonical_command(system, name, spec), spec))
     report("writing")
     created = prepare_directory(directory)
     path = directory / f"{name}.hpp"

@@ -10,8 +10,10 @@ chain rule over the letters that depend on θi.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable
 from dataclasses import dataclass
+from fractions import Fraction
 
 import sympy as sp
 from sympy.polys.domains import QQ
@@ -84,6 +86,36 @@ class Algebra:
             self.named[symbol] = poly
             self._named_angles[index] = {i for i in range(n) if self.depends_on_angle(poly, i)}
             self._meaning[index] = self.to_expr(poly)
+
+    def folded(self, values: dict[int, Fraction]) -> Algebra:
+        """A copy in which the parameter generators `values` (index -> value) are constants."""
+        folded = copy.copy(self)
+        folded.named = {s: Algebra.substitute(p, values) for s, p in self.named.items()}
+        folded._expr_cache = {}
+        folded._named_derivative = {}
+        folded._meaning = list(self._meaning)
+        for symbol, poly in folded.named.items():
+            folded._meaning[self._index[symbol]] = folded.to_expr(poly)
+        return folded
+
+    @staticmethod
+    def substitute(p: PolyElement, values: dict[int, Fraction]) -> PolyElement:
+        """p with generators (by index) replaced by exact constants; the ring is unchanged."""
+        result = p.ring.zero.copy()
+        domain = p.ring.domain
+        for monomial, coefficient in p.iterterms():
+            exponents = list(monomial)
+            for index, value in values.items():
+                if exponents[index]:
+                    coefficient *= domain(value.numerator, value.denominator) ** exponents[index]
+                    exponents[index] = 0
+            key = tuple(exponents)
+            total = result.get(key, domain.zero) + coefficient
+            if total:
+                result[key] = total
+            else:
+                result.pop(key, None)
+        return result
 
     # -- building -------------------------------------------------------------------------
     def zero(self) -> PolyElement:

@@ -112,6 +112,7 @@ class Scene:
     step: float | None = None  # rk4: the fixed step [s]; None for the other methods
     free: tuple[str, ...] = ()
     energy: bool = False
+    specialise: bool = False  # generate a header specialised to this scene (see specialise.py)
     # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
     # "9.81"), so that it can be used as an exact rational; see `exact`.
     decimals: tuple[tuple[str, str], ...] = ()
@@ -426,6 +427,7 @@ class _System:
     links: int
     inertia: str
     name: str
+    specialise: bool
 
 
 def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
@@ -433,6 +435,10 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
     parameters = _Section(reader, document, "parameters")
     params = _read_parameters(parameters, system)
     free = _read_free(parameters, system)
+    if free and not system.specialise:
+        parameters.bad(
+            "free", list(free), "applies to specialised code only: add specialise = true to [system]"
+        )
     initial = _Section(reader, document, "initial")
     theta = _floats(initial.numbers("theta", system.links + 1, default=0))
     dtheta = _floats(initial.numbers("dtheta", system.links + 1, default=0))
@@ -456,6 +462,7 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
         **sim,
         free=free,
         energy=energy,
+        specialise=system.specialise,
         decimals=params.decimals,
         warnings=_warnings(reader, sim["rtol"]),
     )
@@ -474,7 +481,8 @@ def _read_system(section: _Section) -> _System:
         )
     inertia = section.choice("inertia", schema.INERTIAS, default=schema.DEFAULT_INERTIA)
     name = _read_name(section, f"{kind}{links}")
-    return _System(type=kind, links=links, inertia=inertia, name=name)
+    specialise = section.boolean("specialise", default=False)
+    return _System(type=kind, links=links, inertia=inertia, name=name, specialise=specialise)
 
 
 def _read_name(section: _Section, default: str) -> str:
@@ -644,7 +652,8 @@ def _read_jacobian(section: _Section, method: str) -> str | None:
             section.bad(
                 "jacobian",
                 section.data["jacobian"],
-                f"applies to methods {_one_of(schema.JACOBIAN_METHODS)} only (method is \"{method}\"); remove it",
+                f"applies to methods {_one_of(schema.JACOBIAN_METHODS)} only "
+                f'(method is "{method}"); remove it',
             )
         return None
     return section.choice("jacobian", schema.JACOBIANS, default=schema.DEFAULT_JACOBIAN)
@@ -657,12 +666,13 @@ def _read_step(section: _Section, method: str, sample: float) -> float | None:
             section.bad(
                 "step",
                 section.data["step"],
-                f"applies to method \"rk4\" only (method \"{method}\" chooses its own steps); remove it",
+                f'applies to method "rk4" only (method "{method}" chooses its own steps); remove it',
             )
         return None
     for key in ("rtol", "atol"):
         if section.has(key):
-            section.bad(key, section.data[key], 'does not apply to method "rk4" (it has a fixed step); remove it')
+            fixed = 'does not apply to method "rk4" (it has a fixed step); remove it'
+            section.bad(key, section.data[key], fixed)
     step = section.number("step", 'the fixed step of method "rk4" in s, > 0 and <= sample')
     if not 0 < step <= sample:
         section.bad("step", step, f"must be > 0 s and <= sample ({format_number(sample)} s)")

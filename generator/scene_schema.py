@@ -11,7 +11,7 @@ from generator import model
 
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {
-    "system": ("type", "links", "inertia", "name"),
+    "system": ("type", "links", "inertia", "name", "specialise"),
     "parameters": ("m", "l", "delta", "g", "free"),
     "initial": ("theta", "dtheta"),
     "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),

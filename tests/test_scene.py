@@ -138,6 +138,7 @@ input.duration = 1
 t_end = 10
 sample = 0.01
 method = bdf
+jacobian = exact
 rtol = 1e-10
 atol = 1e-12
 max_steps = 100000
@@ -208,10 +209,54 @@ def test_exact_parameters_keep_the_decimal_text(tmp_path: Path) -> None:
 
 
 def test_free_and_energy_are_carried(tmp_path: Path) -> None:
-    changes = {"parameters.free": '["m0", "delta1", "g"]', "outputs.energy": "true"}
+    changes = {
+        "system.specialise": "true",
+        "parameters.free": '["m0", "delta1", "g"]',
+        "outputs.energy": "true",
+    }
     scene = load_scene(make(tmp_path, changes))
-    assert scene.free == ("m0", "delta1", "g") and scene.energy is True
+    assert scene.free == ("m0", "delta1", "g") and scene.energy is True and scene.specialise
     assert set(scene.free) <= set(scene.parameter_names())
+
+
+@pytest.mark.parametrize(
+    ("method", "jacobian"),
+    [
+        ("bdf", "exact"),
+        ("adams", "exact"),
+        ("adams-fixed-point", None),
+        ("erk-dp5", None),
+        ("erk-verner6", None),
+        ("erk-fehlberg8", None),
+    ],
+)
+def test_adaptive_methods(tmp_path: Path, method: str, jacobian: str | None) -> None:
+    scene = load_scene(make(tmp_path, {"simulation.method": f'"{method}"', "simulation.rtol": "1e-8"}))
+    assert (scene.method, scene.jacobian, scene.step, scene.rtol) == (method, jacobian, None, 1e-8)
+    config = resolved_config(scene)
+    assert f"\nmethod = {method}\n" in config and "\nrtol = 1e-08\n" in config and "step =" not in config
+    assert ("\njacobian = exact\n" in config) == (jacobian is not None)
+
+
+def test_dq_jacobian(tmp_path: Path) -> None:
+    changes = {"simulation.method": '"adams"', "simulation.jacobian": '"dq"'}
+    scene = load_scene(make(tmp_path, changes))
+    assert (scene.method, scene.jacobian) == ("adams", "dq")
+    assert "\nmethod = adams\njacobian = dq\nrtol = 1e-10\n" in resolved_config(scene)
+
+
+def test_rk4_step(tmp_path: Path) -> None:
+    changes = {"simulation.method": '"rk4"', "simulation.step": "1e-3", "simulation.sample": "0.01"}
+    scene = load_scene(make(tmp_path, changes))
+    assert (scene.method, scene.step, scene.jacobian) == ("rk4", 0.001, None)
+    assert "\nmethod = rk4\nstep = 0.001\n" in resolved_config(scene)
+    # step == sample is allowed: one step per sample interval.
+    assert load_scene(make(tmp_path, {**changes, "simulation.step": "0.01"})).step == 0.01
+
+
+def test_jacobian_and_step_defaults(tmp_path: Path) -> None:
+    scene = load_scene(make(tmp_path))
+    assert (scene.method, scene.jacobian, scene.step) == ("bdf", "exact", None)
 
 
 def test_tight_rtol_is_a_warning_not_an_error(tmp_path: Path) -> None:
@@ -342,7 +387,52 @@ ERRORS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
         {"simulation.max_steps": "1e5"},
         ("simulation.max_steps = 1e+5", "integer", "float", "without '.'"),
     ),
-    ("method", {"simulation.method": '"rk4"'}, ('simulation.method = "rk4"', '"bdf" or "adams"')),
+    (
+        "method",
+        {"simulation.method": '"rk5"'},
+        ('simulation.method = "rk5"', '"bdf", "adams", "adams-fixed-point"', '"erk-fehlberg8" or "rk4"'),
+    ),
+    (
+        "jacobian value",
+        {"simulation.jacobian": '"numeric"'},
+        ('simulation.jacobian = "numeric"', '"exact" or "dq"'),
+    ),
+    (
+        "jacobian for erk",
+        {"simulation.method": '"erk-dp5"', "simulation.jacobian": '"dq"'},
+        ('simulation.jacobian = "dq"', '"bdf" or "adams" only', 'method is "erk-dp5"', "remove it"),
+    ),
+    (
+        "jacobian for fixed point",
+        {"simulation.method": '"adams-fixed-point"', "simulation.jacobian": '"exact"'},
+        ('simulation.jacobian = "exact"', "only"),
+    ),
+    ("rk4 without step", {"simulation.method": '"rk4"'}, ("missing required key 'simulation.step'", "rk4")),
+    (
+        "rk4 step zero",
+        {"simulation.method": '"rk4"', "simulation.step": "0"},
+        ("simulation.step = 0", "> 0 s and <= sample (0.01 s)"),
+    ),
+    (
+        "rk4 step above sample",
+        {"simulation.method": '"rk4"', "simulation.step": "0.02"},
+        ("simulation.step = 0.02", "<= sample (0.01 s)"),
+    ),
+    (
+        "rk4 step not a number",
+        {"simulation.method": '"rk4"', "simulation.step": '"small"'},
+        ('simulation.step = "small"', "expected a number"),
+    ),
+    (
+        "rk4 with rtol",
+        {"simulation.method": '"rk4"', "simulation.step": "1e-3", "simulation.rtol": "1e-8"},
+        ("simulation.rtol = 1e-8", 'does not apply to method "rk4"'),
+    ),
+    (
+        "step for bdf",
+        {"simulation.step": "1e-3"},
+        ("simulation.step = 0.001", 'applies to method "rk4" only', 'method "bdf" chooses its own steps'),
+    ),
     ("links zero", {"system.links": "0"}, ("system.links = 0", ">= 1")),
     ("links float", {"system.links": "2.0"}, ("system.links = 2.0", "expected an integer, got a float")),
     ("links string", {"system.links": '"2"'}, ('system.links = "2"', "expected an integer, got a string")),
@@ -532,9 +622,19 @@ def test_format_number_examples() -> None:
 
 
 def test_resolved_config_is_deterministic(tmp_path: Path) -> None:
-    path = make(tmp_path, {"parameters.free": '["g"]'})
+    path = make(tmp_path, {"system.specialise": "true", "parameters.free": '["g"]'})
     first = resolved_config(load_scene(path))
     assert first == resolved_config(load_scene(path))
     lines = first.splitlines()
     assert lines[0] == f"# Generated by ipgen {__version__} from {path.as_posix()}; do not edit"
     assert all(" = " in line for line in lines[1:]) and "free" not in first
+
+
+def test_free_needs_specialise(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match=r"parameters.free .*applies to specialised code only"):
+        load_scene(make(tmp_path, {"parameters.free": '["m0"]'}))
+
+
+def test_specialise_must_be_a_boolean(tmp_path: Path) -> None:
+    with pytest.raises(SceneError, match=r"system.specialise .*expected true or false"):
+        load_scene(make(tmp_path, {"system.specialise": '"yes"'}))

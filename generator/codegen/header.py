@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
@@ -11,6 +11,7 @@ import sympy as sp
 from generator import __version__
 from generator.codegen.functions import FunctionBody, Output, build_body
 from generator.derive import Equations
+from generator.specialise import FUNCTIONS, Specialisation, specialise
 
 TEMPLATE = "model.hpp.jinja"
 
@@ -25,6 +26,7 @@ class HeaderRequest:
 
     name: str  # C++ namespace ipgen::<name> and file <name>.hpp
     command: str  # the canonical ipgen command that regenerates it
+    specialisation: Specialisation = field(default_factory=Specialisation)
 
 
 def templates_dir() -> Path:
@@ -49,20 +51,17 @@ def _environment() -> jinja2.Environment:
     )
 
 
-def function_bodies(eqs: Equations) -> dict[str, FunctionBody]:
-    """The body of every generated function, keyed by its C++ name."""
+def function_bodies(eqs: Equations, wanted: tuple[str, ...] = FUNCTIONS) -> dict[str, FunctionBody]:
+    """The body of every generated function in `wanted`, keyed by its C++ name."""
     poly = eqs.poly
     mass, bias = poly["mass_matrix"], poly["bias"]
-    return {
-        "mass_matrix": build_body(eqs, [Output("M", mass, symmetric=True)], _ARGS_Q_P),
-        "bias": build_body(eqs, [Output("b", bias)], _ARGS_Q_QD_P),
-        "gravity": build_body(eqs, [Output("P", poly["gravity"])], _ARGS_Q_P),
-        "n_matrix": build_body(eqs, [Output("N", poly["n_matrix"])], _ARGS_Q_QD_P),
-        "forward_dynamics": build_body(
-            eqs, [Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P
-        ),
-        "forward_dynamics_derivatives": build_body(
-            eqs,
+    outputs: dict[str, tuple[list[Output], tuple[str, ...]]] = {
+        "mass_matrix": ([Output("M", mass, symmetric=True)], _ARGS_Q_P),
+        "bias": ([Output("b", bias)], _ARGS_Q_QD_P),
+        "gravity": ([Output("P", poly["gravity"])], _ARGS_Q_P),
+        "n_matrix": ([Output("N", poly["n_matrix"])], _ARGS_Q_QD_P),
+        "forward_dynamics": ([Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P),
+        "forward_dynamics_derivatives": (
             [
                 Output("M", mass, lower_only=True),
                 Output("b", bias),
@@ -70,17 +69,31 @@ def function_bodies(eqs: Equations) -> dict[str, FunctionBody]:
                 Output("Rqd", poly["residual_dqd"]),
             ],
             _ARGS_Q_QD_P,
-            late_source="d.qdd",
         ),
-        "kinetic_energy": build_body(eqs, [Output("T", poly["kinetic_energy"], scalar=True)], _ARGS_Q_QD_P),
-        "potential_energy": build_body(eqs, [Output("V", poly["potential_energy"], scalar=True)], _ARGS_Q_P),
-        "dissipation": build_body(eqs, [Output("D", poly["dissipation"], scalar=True)], ("qd", "p")),
+        "kinetic_energy": ([Output("T", poly["kinetic_energy"], scalar=True)], _ARGS_Q_QD_P),
+        "potential_energy": ([Output("V", poly["potential_energy"], scalar=True)], _ARGS_Q_P),
+        "dissipation": ([Output("D", poly["dissipation"], scalar=True)], ("qd", "p")),
     }
+    late = {"forward_dynamics_derivatives": "d.qdd"}
+    return {
+        name: build_body(eqs, outputs[name][0], outputs[name][1], late_source=late.get(name, ""))
+        for name in wanted
+    }
+
+
+def _params_field(name: str) -> str:
+    """C++ access to parameter `name` in a Params p: m1 -> p.m[1], g -> p.g."""
+    if name == "g":
+        return "p.g"
+    kind = name.rstrip("0123456789")
+    return f"p.{kind}[{name[len(kind):]}]"
 
 
 def render_header(eqs: Equations, request: HeaderRequest) -> str:
     """The complete header text; deterministic for the same equations and request."""
     system = eqs.system
+    spec = request.specialisation
+    eqs = specialise(eqs, spec)
     context = {
         "name": request.name,
         "command": request.command,
@@ -90,7 +103,11 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
         "links": system.links,
         "dof": system.dof,
         "inertia": system.inertia,
-        "fn": function_bodies(eqs),
+        "fn": function_bodies(eqs, spec.outputs),
+        "input_used": not spec.zero_input,
+        "specialisation": spec.notes(),
+        "folded": [(name, _params_field(name), repr(float(value))) for name, value in spec.fixed],
+        "origin": spec.origin,
         "sympy_version": sp.__version__,
     }
     return _environment().get_template(TEMPLATE).render(context)

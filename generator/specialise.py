@@ -1,0 +1,174 @@
+"""Scene-specialised generation: fold fixed parameters into the equations, emit only what is used.
+
+A general header takes every parameter at run time and defines every function. A
+specialised one folds the parameters a scene (or `--fix`) fixes into the expressions as exact
+rationals — so 0.275 is 11/40, not the nearest double —, which removes the terms a zero
+damping coefficient multiplies, and emits only the functions its consumers call.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, replace
+from fractions import Fraction
+
+from sympy.polys.rings import PolyElement
+
+from generator.derive import Equations
+from generator.model import System
+from generator.polynomial import Algebra
+from generator.scene import Scene
+
+# Every function a header can define, in header order.
+FUNCTIONS: tuple[str, ...] = (
+    "mass_matrix",
+    "bias",
+    "gravity",
+    "n_matrix",
+    "forward_dynamics",
+    "forward_dynamics_derivatives",
+    "kinetic_energy",
+    "potential_energy",
+    "dissipation",
+)
+# What the simulator calls: the dynamics and its Jacobian; the energies for an energy ledger.
+SIMULATOR_FUNCTIONS: tuple[str, ...] = ("forward_dynamics", "forward_dynamics_derivatives")
+ENERGY_FUNCTIONS: tuple[str, ...] = ("kinetic_energy", "potential_energy", "dissipation")
+
+_PARAMETER = re.compile(r"(m|l|delta)(\d+)\Z|g\Z")
+
+
+class SpecialisationError(ValueError):
+    """An invalid --fix or --outputs value; the message names it and what is expected."""
+
+
+@dataclass(frozen=True)
+class Specialisation:
+    """What a header is specialised to; the default is the general header."""
+
+    fixed: tuple[tuple[str, Fraction], ...] = ()  # parameter name (m0, l1, delta2, g) -> value
+    outputs: tuple[str, ...] = FUNCTIONS  # functions to emit, in header order
+    zero_input: bool = False  # the input is identically zero: drop its path
+    origin: str = ""  # where the specialisation comes from, for the header comment
+
+    @property
+    def is_general(self) -> bool:
+        return not self.fixed and self.outputs == FUNCTIONS and not self.zero_input
+
+    def notes(self) -> list[str]:
+        """One line per specialisation, for the header: "m1 = 0.275 (11/40) folded"."""
+        lines = []
+        for name, value in self.fixed:
+            shown = format_exact(value)
+            exact = "" if value.denominator == 1 or shown == f"{value}" else f" ({value})"
+            effect = "pruned (its terms vanish)" if value == 0 else "folded"
+            lines.append(f"{name} = {shown}{exact} {effect}")
+        if self.zero_input:
+            lines.append("input u = 0: its path is pruned (u is accepted and ignored)")
+        missing = [f for f in FUNCTIONS if f not in self.outputs]
+        if missing:
+            lines.append("not emitted: " + ", ".join(missing))
+        return lines
+
+
+def format_exact(value: Fraction) -> str:
+    """A fixed value as the user would write it: 0.275, 3, or 1/3 when no decimal is exact."""
+    if value.denominator == 1:
+        return str(value.numerator)
+    decimal = repr(float(value))
+    return decimal if Fraction(decimal) == value else str(value)
+
+
+def parameter_names(system: System) -> tuple[str, ...]:
+    idx = range(system.dof)
+    return (*(f"m{i}" for i in idx), *(f"l{i}" for i in idx), *(f"delta{i}" for i in idx), "g")
+
+
+def check_parameter(system: System, name: str, value: Fraction) -> str | None:
+    """Why `name = value` cannot be fixed for `system`, or None."""
+    if name not in parameter_names(system):
+        names = f"m0..m{system.links}, l0..l{system.links}, delta0..delta{system.links} or g"
+        return f"unknown parameter {name!r}: expected one of {names}"
+    if name == "l0" and not system.is_rotary:
+        return "a cart has no length l0: it cannot be fixed"
+    kind = _PARAMETER.match(name).group(1) or "g"  # type: ignore[union-attr]
+    if kind in ("m", "l") and value <= 0:
+        return f"{name} = {format_exact(value)}: masses and lengths must be > 0"
+    if value < 0:
+        return f"{name} = {format_exact(value)}: damping and g must be >= 0"
+    return None
+
+
+def parse_fix(system: System, text: str) -> tuple[tuple[str, Fraction], ...]:
+    """`m0=0.3,l1=0.5` -> ((m0, 3/10), (l1, 1/2)); exact decimals, validated."""
+    fixed: dict[str, Fraction] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, sep, number = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise SpecialisationError(f"--fix {item!r}: expected NAME=VALUE, e.g. --fix m0=0.3,delta1=0")
+        try:
+            value = Fraction(number.strip())
+        except (ValueError, ZeroDivisionError):
+            raise SpecialisationError(f"--fix {name}={number.strip()!r}: not a number") from None
+        problem = check_parameter(system, name, value)
+        if problem:
+            raise SpecialisationError(f"--fix {problem}")
+        if name in fixed:
+            raise SpecialisationError(f"--fix names {name} twice: give each parameter once")
+        fixed[name] = value
+    order = parameter_names(system)
+    return tuple(sorted(fixed.items(), key=lambda item: order.index(item[0])))
+
+
+def parse_outputs(text: str) -> tuple[str, ...]:
+    """`mass_matrix,bias` -> those functions in header order; unknown names are errors."""
+    wanted = [part.strip() for part in text.split(",") if part.strip()]
+    if not wanted:
+        raise SpecialisationError("--outputs is empty: name functions, e.g. --outputs mass_matrix,bias")
+    for name in wanted:
+        if name not in FUNCTIONS:
+            raise SpecialisationError(
+                f"--outputs: unknown function {name!r}: choose from {', '.join(FUNCTIONS)}"
+            )
+    return tuple(f for f in FUNCTIONS if f in wanted)
+
+
+def from_scene(scene: Scene) -> Specialisation:
+    """What a scene with `specialise = true` needs: every parameter but its `free` ones folded,
+    the simulator's functions (and the energies for an energy ledger), a zero input pruned."""
+    system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
+    unused = {"l0"} if not system.is_rotary else set()
+    fixed = tuple(
+        (name, scene.exact(name))
+        for name in parameter_names(system)
+        if name not in scene.free and name not in unused
+    )
+    outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
+    return Specialisation(
+        fixed=fixed,
+        outputs=tuple(f for f in FUNCTIONS if f in outputs),
+        zero_input=scene.input.kind == "zero",
+        origin=f"scene {scene.path.as_posix()}",
+    )
+
+
+def specialise(eqs: Equations, spec: Specialisation) -> Equations:
+    """The same equations with `spec.fixed` folded into every polynomial (exactly)."""
+    if not spec.fixed:
+        return eqs
+    values = {_generator_index(eqs.algebra, name): value for name, value in spec.fixed}
+    algebra = eqs.algebra.folded(values)
+    poly = {key: [[_fold(p, values) for p in row] for row in rows] for key, rows in eqs.poly.items()}
+    return replace(eqs, algebra=algebra, poly=poly)
+
+
+def _generator_index(algebra: Algebra, name: str) -> int:
+    for index, symbol in enumerate(algebra.parameters):
+        if symbol.name == name:
+            return index
+    raise KeyError(name)
+
+
+def _fold(p: PolyElement, values: dict[int, Fraction]) -> PolyElement:
+    return Algebra.substitute(p, values)
