@@ -25,6 +25,8 @@ from generator.specialise import (
 EXIT_USAGE = 2
 # Derivations above these sizes take more than a second or two: show a progress bar.
 PROGRESS_FROM_LINKS = {"classical": 8, "rotary": 6}
+# Above this many links a derivation takes minutes and gigabytes: ask for --force first.
+LINKS_WITHOUT_FORCE = 30
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header.
 
@@ -119,7 +121,12 @@ def _fail(message: str) -> InvalidOptions:
     help="Emit only these functions, e.g. --outputs forward_dynamics,forward_dynamics_derivatives "
     "(default: all).",
 )
-@click.option("--force", is_flag=True, help="Overwrite files in DIR even if ipgen did not write them.")
+@click.option(
+    "--force",
+    is_flag=True,
+    help="Overwrite files in DIR even if ipgen did not write them; "
+    f"allow more than {LINKS_WITHOUT_FORCE} links.",
+)
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
     system_type: str | None,
@@ -148,6 +155,11 @@ def cli(
         raise _fail(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
     if inertia is not None and system_type != "rotary":
         raise _fail("--inertia applies to rotary systems only: drop it, or use --type rotary")
+    if links > LINKS_WITHOUT_FORCE and not force:
+        raise _fail(
+            f"--links {links} is large: {cost_estimate(links)}; pass --force to go ahead "
+            f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
+        )
     system = System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
     name = name if name is not None else default_name(system)
     problem = name_problem(name)
@@ -161,6 +173,13 @@ def cli(
     except SpecialisationError as e:
         raise _fail(str(e)) from None
     _report(system, name, _generate(system, name, directory, force, spec))
+
+
+def cost_estimate(links: int) -> str:
+    """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
+    scale = (links / 50) ** 4  # measured: classical n = 50 took about 4 minutes and 4 GB
+    minutes, gigabytes = 4 * scale, 4 * scale
+    return f"expect roughly {minutes:.0f} min and {gigabytes:.0f} GB of memory, and a header of several MB"
 
 
 def _check_no_system_options(*clashing: object) -> None:

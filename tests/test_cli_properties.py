@@ -1,0 +1,92 @@
+"""Property-based: any combination of ipgen's options gives a header or one clean error line."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from generator.cli import run
+
+MISSING = None
+types = st.sampled_from([MISSING, "classical", "rotary", "Rotary", "cart", ""])
+links = st.one_of(
+    st.just(MISSING), st.integers(-3, 3).map(str), st.sampled_from(["x", "2.0", "1e1", " 2", "0x2"])
+)
+names = st.sampled_from([MISSING, "model_a", "m2", "2m", "class", "a-b", "__x", "Vector", "ok_name"])
+inertias = st.sampled_from([MISSING, "pivot", "full", "none"])
+fixes = st.sampled_from([MISSING, "m1=0.5", "m1=0", "delta1=0,g=9.81", "zz=1", "m1", "l0=1"])
+outputs = st.sampled_from([MISSING, "forward_dynamics", "mass_matrix,bias", "nope", ""])
+
+
+def arguments(option_values: dict[str, str | None]) -> list[str]:
+    args: list[str] = []
+    for option, value in option_values.items():
+        if value is not MISSING:
+            args += [option, value]
+    return args
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(types, links, names, inertias, fixes, outputs)
+def test_header_or_one_line_error(
+    system_type: str | None,
+    link_count: str | None,
+    name: str | None,
+    inertia: str | None,
+    fix: str | None,
+    output: str | None,
+) -> None:
+    options = {"--type": system_type, "--links": link_count, "--name": name, "--inertia": inertia}
+    args = arguments({**options, "--fix": fix, "--outputs": output})
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out"
+        stdout, stderr = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            status = run([*args, "-o", str(out)])
+        if status == 0:
+            headers = list(out.glob("*.hpp"))
+            assert len(headers) == 1 and "#pragma once" in headers[0].read_text()
+            assert stderr.getvalue() == ""
+        else:
+            assert status == 2, (args, status, stderr.getvalue())
+            lines = stderr.getvalue().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("ipgen: error: "), (args, stderr.getvalue())
+            assert not out.exists(), args
+
+
+def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
+    """SIGINT during a derivation: exit 130, a one-line message, nothing written."""
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "generator", "--type", "rotary", "--links", "14", "-o", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    time.sleep(2.5)  # past the imports, inside the derivation
+    process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1] == "ipgen: interrupted; no file was written"
+    assert "Traceback" not in stderr
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_huge_n_asks_for_force(tmp_path: Path) -> None:
+    stderr = io.StringIO()
+    with contextlib.redirect_stderr(stderr):
+        assert run(["--type", "classical", "--links", "60", "-o", str(tmp_path / "o")]) == 2
+    message = stderr.getvalue()
+    assert message.count("\n") == 1 and "pass --force" in message and "GB" in message
+    assert not (tmp_path / "o").exists()
