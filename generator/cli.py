@@ -177,8 +177,9 @@ def cli(
 
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    scale = (links / 50) ** 4  # measured: classical n = 50 took about 4 minutes and 4 GB
-    minutes, gigabytes = 4 * scale, 4 * scale
+    # Measured on a loaded 2-core machine: n = 30 took 30-40 s and 1.0-1.3 GB; time grows about
+    # as n^4 and memory as n^3.
+    minutes, gigabytes = 0.65 * (links / 30) ** 4, 1.3 * (links / 30) ** 3
     return f"expect roughly {minutes:.0f} min and {gigabytes:.0f} GB of memory, and a header of several MB"
 
 
