@@ -26,7 +26,8 @@ from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verd
 TYPES = ("classical", "rotary")
 LINKS = (1, 2, 3, 5, 10, 20)
 METHODS = ("ipgen", "kane", "lagrange")
-EXTRA = (("classical", 50),)  # ipgen alone, one run
+EXTRA = (("classical", 50),)  # ipgen alone, one run, with --force (ipgen asks for it above 30 links)
+EXTRA_TIMEOUT = 900.0
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
 TARGET_N20 = 10.0
@@ -41,12 +42,14 @@ class Timing:
     wall_s: float | None  # process wall time, None when it timed out or was skipped
     derive_s: float | None  # references only: the derivation, imports excluded
     runs: int
-    status: str  # ok, timeout or skipped
+    status: str  # ok, timeout, skipped or failed
+    error: str = ""
 
 
 def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
     if method == "ipgen":
-        return [PYTHON, "-m", "generator", "--type", kind, "--links", str(links), "-o", directory]
+        force = ["--force"] if links > 30 else []
+        return [PYTHON, "-m", "generator", "--type", kind, "--links", str(links), "-o", directory, *force]
     return [PYTHON, "-m", "bench.references", method, kind, str(links)]
 
 
@@ -74,6 +77,9 @@ def measure(method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat
             runs += [_run_once(method, kind, links, timeout) for _ in range(2)]
     except subprocess.TimeoutExpired:
         return Timing(kind, method, links, None, None, 1, "timeout")
+    except subprocess.CalledProcessError as e:
+        message = (e.stderr or "").strip().splitlines()
+        return Timing(kind, method, links, None, None, 1, "failed", message[-1] if message else str(e))
     wall = statistics.median(r[0] for r in runs)
     derive = statistics.median(r[1] for r in runs) if runs[0][1] is not None else None
     return Timing(kind, method, links, wall, derive, len(runs), "ok")
@@ -101,7 +107,7 @@ def sweep(
                 results.append(Timing(kind, method, n, None, None, 0, "skipped"))
                 continue
             once = (kind, n) in extra
-            timing = measure(method, kind, n, timeout, repeat=not once)
+            timing = measure(method, kind, n, EXTRA_TIMEOUT if once else timeout, repeat=not once)
             if timing.status == "timeout":
                 timed_out.add((kind, method))
             results.append(timing)
@@ -119,6 +125,8 @@ def _cell(timing: Timing | None, derive: bool, timeout: float) -> str:
         return f"> {timeout:.0f}"
     if timing.status == "skipped":
         return "skipped"
+    if timing.status == "failed":
+        return "failed"
     return seconds(timing.derive_s if derive else timing.wall_s)
 
 
@@ -210,7 +218,8 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
         for kind_extra, n in EXTRA:
             big = _find(results, kind_extra, "ipgen", n)
             if kind_extra == kind and big is not None:
-                lines += [f"ipgen, {kind} n = {n} (one run): {_cell(big, False, timeout)} s.", ""]
+                text = f"{_cell(big, False, EXTRA_TIMEOUT)} s" + (f" ({big.error})" if big.error else "")
+                lines += [f"ipgen, {kind} n = {n} (one run, `--force`): {text}.", ""]
     lines += ["## Targets", ""]
     for text, met, misses in targets(results, timeout):
         state = "not measured" if met is None else verdict(met)
