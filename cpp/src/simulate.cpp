@@ -3,8 +3,9 @@
 // Built once per model: CMake passes the generated header and the model tag, e.g.
 //   -DIPGEN_MODEL_HEADER="cdip.hpp" -DIPGEN_MODEL=ipgen::cdip::Model
 //
-// Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method bdf|adams] [--rtol X] [--atol X]
-//                          [--t-end X] [--sample X] [--max-steps N] [--energy]
+// Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method M] [--jacobian exact|dq] [--rtol X]
+//                          [--atol X] [--step X] [--t-end X] [--sample X] [--max-steps N] [--energy]
+//   M: bdf, adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4 (rk4 needs a step).
 // Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters or settings.
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
@@ -39,13 +40,15 @@ struct Options {
   std::string csv_path;  ///< empty: the scene path with its extension replaced by .csv
   bool energy = false;   ///< add T, V, W_in, E_diss columns and an energy balance to the summary
   std::optional<ipsim::Method> method;
-  std::optional<double> rtol, atol, t_end, sample;
+  std::optional<ipsim::Jacobian> jacobian;
+  std::optional<double> rtol, atol, step, t_end, sample;
   std::optional<long> max_steps;
 };
 
 constexpr const char* kUsage =
-    "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams] [--rtol X] [--atol X] [--t-end X] "
-    "[--sample X] [--max-steps N] [--energy]";
+    "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
+    "erk-fehlberg8|rk4] [--jacobian exact|dq] [--rtol X] [--atol X] [--step X] [--t-end X] [--sample X] "
+    "[--max-steps N] [--energy]";
 
 double parse_number(const std::string& option, const std::string& text) {
   errno = 0;
@@ -74,7 +77,13 @@ Options parse_command_line(int argc, char** argv) {
     } else if (arg == "--method") {
       const std::string& text = value();
       options.method = ipsim::parse_method(text);
-      if (!options.method) throw UsageError("--method must be bdf or adams, got `" + text + "`");
+      if (!options.method) throw UsageError("--method must be " + ipsim::method_names() + ", got `" + text + "`");
+    } else if (arg == "--jacobian") {
+      const std::string& text = value();
+      options.jacobian = ipsim::parse_jacobian(text);
+      if (!options.jacobian) throw UsageError("--jacobian must be exact or dq, got `" + text + "`");
+    } else if (arg == "--step") {
+      options.step = parse_number(arg, value());
     } else if (arg == "--rtol") {
       options.rtol = parse_number(arg, value());
     } else if (arg == "--atol") {
@@ -156,20 +165,44 @@ std::string format_vector(const Eigen::VectorXd& v) {
   return text + "]";
 }
 
+/// The integrator and its counters, e.g. "CVODE BDF (exact Jacobian): 812 steps, …".
+std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistics& st) {
+  char text[512];
+  switch (ipsim::family_of(s.method)) {
+    case ipsim::Family::cvode: {
+      const bool newton = ipsim::uses_jacobian(s.method);
+      std::snprintf(text, sizeof text,
+                    "CVODE %s %s rtol %g atol %g: %ld steps, %ld RHS evals, %ld Jacobian evals, %ld linear-solver RHS "
+                    "evals, %ld error-test failures, %ld nonlinear iterations, %ld nonlinear convergence failures",
+                    s.method == ipsim::Method::bdf ? "BDF" : "Adams",
+                    !newton ? "(fixed-point iteration)"
+                            : s.jacobian == ipsim::Jacobian::exact ? "(exact Jacobian)" : "(difference-quotient Jacobian)",
+                    s.rtol, s.atol, st.steps, st.rhs_evals, st.jacobian_evals, st.linear_solver_rhs_evals,
+                    st.error_test_failures, st.nonlinear_iterations, st.nonlinear_convergence_failures);
+      break;
+    }
+    case ipsim::Family::erk:
+      std::snprintf(text, sizeof text, "ARKODE ERKStep %s rtol %g atol %g: %ld steps, %ld RHS evals, %ld error-test failures",
+                    ipsim::to_string(s.method), s.rtol, s.atol, st.steps, st.rhs_evals, st.error_test_failures);
+      break;
+    case ipsim::Family::rk4:
+      std::snprintf(text, sizeof text, "RK4 step %g: %ld steps, %ld RHS evals", s.step, st.steps, st.rhs_evals);
+      break;
+  }
+  return text;
+}
+
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
   const Eigen::VectorXd final_state = result.states.bottomRows(1).transpose();
   std::printf(
-      "scene %s: model %s (%s, %d link%s), input %s, %s rtol %g atol %g, t = 0 to %g s, %zu samples written to %s. "
-      "Final state theta = %s, dtheta = %s. CVODE: %ld steps, %ld RHS evals, %ld Jacobian evals, %ld linear-solver "
-      "RHS evals, %ld error-test failures, %ld nonlinear convergence failures, %ld restart%s at input "
-      "discontinuities. Wall time %.3g s.",
+      "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
+      "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
       scene.name.c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
-      ipsim::to_string(s.input.kind), s.method == ipsim::Method::bdf ? "BDF" : "Adams", s.rtol, s.atol, s.t_end,
-      result.times.size(), options.csv_path.c_str(), format_vector(final_state.head(kDof)).c_str(),
-      format_vector(final_state.tail(kDof)).c_str(), st.steps, st.rhs_evals, st.jacobian_evals,
-      st.linear_solver_rhs_evals, st.error_test_failures, st.nonlinear_convergence_failures, st.restarts,
+      ipsim::to_string(s.input.kind), ipsim::to_string(s.method), s.t_end, result.times.size(),
+      options.csv_path.c_str(), format_vector(final_state.head(kDof)).c_str(),
+      format_vector(final_state.tail(kDof)).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) {
     const double start = ipsim::mechanical_energy<Model>(scene.params, result.states.topRows(1).transpose());
@@ -188,6 +221,15 @@ int run(int argc, char** argv) {
   ipsim::scene::Scene<Model> scene = ipsim::scene::load<Model>(ipsim::scene::SceneFile::read(options.scene_path));
   ipsim::Settings<Model>& s = scene.settings;
   if (options.method) s.method = *options.method;
+  if (options.jacobian) s.jacobian = *options.jacobian;
+  if (options.step) s.step = *options.step;
+  if (options.step && s.method != ipsim::Method::rk4) {
+    throw UsageError(std::string("--step applies to method rk4 only (the method is ") + ipsim::to_string(s.method) + ")");
+  }
+  if (options.jacobian && !ipsim::uses_jacobian(s.method)) {
+    throw UsageError(std::string("--jacobian applies to methods bdf and adams only (the method is ") +
+                     ipsim::to_string(s.method) + ")");
+  }
   if (options.rtol) s.rtol = *options.rtol;
   if (options.atol) s.atol = *options.atol;
   if (options.t_end) s.t_end = *options.t_end;

@@ -24,6 +24,8 @@ static_assert(owns_uniquely<ipsim::sundials::NVector>());
 static_assert(owns_uniquely<ipsim::sundials::DenseMatrix>());
 static_assert(owns_uniquely<ipsim::sundials::DenseLinearSolver>());
 static_assert(owns_uniquely<ipsim::sundials::CvodeMemory>());
+static_assert(owns_uniquely<ipsim::sundials::ErkMemory>());
+static_assert(owns_uniquely<ipsim::sundials::FixedPointSolver>());
 
 void check_raii_moves() {
   ipsim::sundials::Context context;
@@ -36,6 +38,8 @@ void check_raii_moves() {
   other = std::move(context);
   CHECK(other.get() != nullptr && context.get() == nullptr);  // NOLINT(bugprone-use-after-move)
   CHECK(ipsim::sundials::return_flag_name(CV_TOO_MUCH_WORK) == "CV_TOO_MUCH_WORK");
+  CHECK(ipsim::sundials::erk_return_flag_name(ARK_TOO_MUCH_WORK) == "ARK_TOO_MUCH_WORK");
+  CHECK(ipsim::sundials::erk_return_flag_name(ARK_RHSFUNC_FAIL) == "ARK_RHSFUNC_FAIL");
 }
 
 void check_inputs() {
@@ -131,7 +135,12 @@ void check_scene_reader() {
   CHECK_THROWS(load_text(edited("rtol", "")), SceneError, "test.cfg: missing key `rtol`");
   CHECK_THROWS(load_text(edited("rtol", "rtol = fast")), SceneError, "`rtol`: `fast` is not a number");
   CHECK_THROWS(load_text(edited("max_steps", "max_steps = 1.5")), SceneError, "`max_steps` must be an integer");
-  CHECK_THROWS(load_text(edited("method", "method = rk4")), SceneError, "method must be `bdf` or `adams`");
+  CHECK_THROWS(load_text(edited("method", "method = rk5")), SceneError,
+               "test.cfg:21: method must be bdf, adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4, "
+               "got `rk5`");
+  CHECK_THROWS(load_text(edited("method", "method = bdf\njacobian = numeric")), SceneError,
+               "test.cfg:22: jacobian must be `exact` or `dq`, got `numeric`");
+  CHECK_THROWS(load_text(edited("method", "method = rk4\nstep = fast")), SceneError, "`step`: `fast` is not a number");
   CHECK_THROWS(load_text(edited("input", "input = ramp")), SceneError, "input must be zero, constant");
   CHECK_THROWS(load_text(std::string(kScene) + "colour = red\n"), SceneError, "unknown key `colour`");
   CHECK_THROWS(load_text(std::string(kScene) + "g = 1\n"), SceneError, "key `g` repeated (first on line 9)");
@@ -144,6 +153,58 @@ void check_scene_reader() {
   // Ranges are validate()'s job, with the API's messages.
   const auto negative = load_text(edited("m", "m = 0.5 -1"));
   CHECK(ipsim::validate<Model>(negative.params).at(0) == "invalid parameter m[1] = -1: masses must be > 0");
+}
+
+void check_scene_method_keys() {
+  // jacobian defaults to exact; step is read when present; both are optional.
+  CHECK(load_text(kScene).settings.jacobian == ipsim::Jacobian::exact);
+  const auto dq = load_text(edited("method", "method = bdf\njacobian = dq"));
+  CHECK(dq.settings.method == ipsim::Method::bdf && dq.settings.jacobian == ipsim::Jacobian::dq);
+  const auto rk4 = load_text(edited("method", "method = rk4\nstep = 0.001"));
+  CHECK(rk4.settings.method == ipsim::Method::rk4 && rk4.settings.step == 0.001);
+  CHECK(ipsim::validate<Model>(rk4.settings).empty());
+  // rk4 without a step is read, then refused by validation with the API's message.
+  const auto no_step = load_text(edited("method", "method = rk4"));
+  CHECK(ipsim::validate<Model>(no_step.settings).at(0) ==
+        "invalid setting step = 0: method rk4 needs a fixed step: must be finite and > 0");
+  for (const char* name : {"bdf", "adams", "adams-fixed-point", "erk-dp5", "erk-fehlberg8", "rk4"}) {
+    const auto method = ipsim::parse_method(name);
+    CHECK(method && std::string(ipsim::to_string(*method)) == name);
+  }
+  CHECK(!ipsim::parse_method("BDF") && !ipsim::parse_jacobian("exactly"));
+  CHECK(ipsim::family_of(ipsim::Method::adams_fixed_point) == ipsim::Family::cvode);
+  CHECK(ipsim::family_of(ipsim::Method::erk_fehlberg8) == ipsim::Family::erk);
+  CHECK(ipsim::uses_jacobian(ipsim::Method::adams) && !ipsim::uses_jacobian(ipsim::Method::adams_fixed_point));
+  ipsim::Settings<Model> s;
+  CHECK(ipsim::describe(s) == "method bdf, jacobian exact, rtol 1e-08, atol 1e-10, max_steps 100000");
+  s.method = ipsim::Method::erk_dp5;
+  CHECK(ipsim::describe(s) == "method erk-dp5, rtol 1e-08, atol 1e-10, max_steps 100000");
+  s.method = ipsim::Method::rk4;
+  s.step = 0.002;
+  CHECK(ipsim::describe(s) == "method rk4, step 0.002, max_steps 100000");
+}
+
+/// A model tag without forward_dynamics_derivatives (a hand-written or older header): only
+/// difference-quotient Jacobians are available, and asking for the exact one is refused.
+struct NoDerivatives : ipgen::cart1::Model {
+  static constexpr const char* kName = "no_derivatives";
+  template <typename Scalar>
+  static void forward_dynamics_derivatives() = delete;  // hides the stand-in's
+};
+static_assert(ipsim::has_derivatives<Model> && !ipsim::has_derivatives<NoDerivatives>);
+
+void check_model_without_derivatives() {
+  const ipsim::ParamsOf<Model> p{{0.5, 0.275}, {0.0, 0.5}, {0.3, 0.1}};
+  ipsim::Settings<NoDerivatives> s;
+  s.t_end = 1.0;
+  s.theta(1) = 0.1;
+  CHECK_THROWS(ipsim::simulate<NoDerivatives>(p, s), ipsim::InvalidInput,
+               "invalid setting jacobian = exact: model no_derivatives has no forward_dynamics_derivatives");
+  s.jacobian = ipsim::Jacobian::dq;
+  CHECK(ipsim::simulate<NoDerivatives>(p, s).stats.linear_solver_rhs_evals > 0);
+  s.method = ipsim::Method::erk_dp5;  // no Jacobian needed
+  s.jacobian = ipsim::Jacobian::exact;
+  CHECK(ipsim::simulate<NoDerivatives>(p, s).times.size() == 101);
 }
 
 /// A rotary tag with an inertia variant, for the reader's model checks only (never simulated).
@@ -190,6 +251,8 @@ int main() {
   check_inputs();
   check_schedule();
   check_scene_reader();
+  check_scene_method_keys();
+  check_model_without_derivatives();
   std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
   return ipsim_test::failures();
 }

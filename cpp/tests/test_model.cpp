@@ -1,7 +1,11 @@
-// Runs the generic ipsim checks on one model; CMake compiles it once per model with
+// Runs the generic ipsim checks (model_checks.hpp, method_checks.hpp) on one model; CMake compiles it once per model with
 // -DIPGEN_MODEL_HEADER="name.hpp" -DIPGEN_MODEL=ipgen::name::Model.
 #include IPGEN_MODEL_HEADER
 
+#include "method_checks.hpp"
 #include "model_checks.hpp"
 
-int main() { return ipsim_test::run_model_checks<IPGEN_MODEL>(); }
+int main() {
+  ipsim_test::run_method_checks<IPGEN_MODEL>();
+  return ipsim_test::run_model_checks<IPGEN_MODEL>();
+}

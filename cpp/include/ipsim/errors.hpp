@@ -45,18 +45,19 @@ class InvalidInput : public Error {
   std::vector<std::string> problems_;
 };
 
-/// CVODE returned a failure flag. The message names the flag, the time reached and the solver
-/// settings, followed by CVODE's own explanation when it gave one.
+/// The integrator failed: CVODE or ARKODE returned a failure flag, or RK4 could not go on. The
+/// message names the integrator, the flag, the time reached and the settings, followed by the
+/// integrator's own explanation when it gave one.
 class IntegrationError : public Error {
  public:
   IntegrationError(const std::string& message, int flag, std::string flag_name, double time)
       : Error(message), flag_(flag), flag_name_(std::move(flag_name)), time_(time) {}
 
-  /// The CVODE return flag (negative), e.g. CV_TOO_MUCH_WORK.
+  /// The CVODE or ARKODE return flag (negative), e.g. CV_TOO_MUCH_WORK; -1 for RK4 failures.
   int flag() const noexcept { return flag_; }
-  /// The flag's name, e.g. "CV_TOO_MUCH_WORK".
+  /// The flag's name, e.g. "CV_TOO_MUCH_WORK", "ARK_TOO_MUCH_WORK", "RK4_TOO_MUCH_WORK".
   const std::string& flag_name() const noexcept { return flag_name_; }
-  /// Simulation time reached when CVODE gave up [s].
+  /// Simulation time reached when the integrator gave up [s].
   double time() const noexcept { return time_; }
 
  private:

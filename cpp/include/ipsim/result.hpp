@@ -1,4 +1,4 @@
-// What a simulation returns: the sampled trajectory, CVODE's work counters and the wall time.
+// What a simulation returns: the sampled trajectory, the integrator's work counters and the wall time.
 #pragma once
 
 #include <string>
@@ -8,15 +8,20 @@
 
 namespace ipsim {
 
-/// CVODE counters summed over every integration segment (CVODE resets them on each restart).
+/// Work counters of the integrator, summed over every integration segment (CVODE and ARKODE
+/// reset theirs on each restart). A counter a method does not have stays 0.
 struct Statistics {
-  long steps = 0;                           ///< internal steps (CVodeGetNumSteps)
-  long rhs_evals = 0;                       ///< right-hand side evaluations (CVodeGetNumRhsEvals)
-  long jacobian_evals = 0;                  ///< Jacobian evaluations (CVodeGetNumJacEvals)
-  long linear_solver_rhs_evals = 0;         ///< RHS evaluations spent on difference-quotient Jacobians (CVodeGetNumLinRhsEvals)
-  long error_test_failures = 0;             ///< local error test failures (CVodeGetNumErrTestFails)
-  long nonlinear_convergence_failures = 0;  ///< Newton convergence failures (CVodeGetNumNonlinSolvConvFails)
-  long restarts = 0;                        ///< CVodeReInit calls at input discontinuities
+  long steps = 0;                           ///< accepted steps (CVodeGetNumSteps, ERKStepGetNumSteps, RK4 steps)
+  long rhs_evals = 0;                       ///< RHS evaluations by the method itself (RK4: 4 per step)
+  long jacobian_evals = 0;                  ///< Jacobian evaluations, exact or by difference quotients (bdf, adams)
+  long linear_solver_rhs_evals = 0;         ///< extra RHS evaluations spent on difference-quotient Jacobians
+  long error_test_failures = 0;             ///< rejected steps: local error test failures (adaptive methods)
+  long nonlinear_iterations = 0;            ///< Newton or fixed-point iterations (CVODE methods)
+  long nonlinear_convergence_failures = 0;  ///< nonlinear solver convergence failures (CVODE methods)
+  long restarts = 0;                        ///< integrator restarts at input discontinuities
+
+  /// Every evaluation of the right-hand side, the Jacobian's difference quotients included.
+  long total_rhs_evals() const noexcept { return rhs_evals + linear_solver_rhs_evals; }
 };
 
 /// A sampled trajectory.
@@ -30,9 +35,9 @@ struct Result {
   std::vector<double> input_work;
   /// Dissipated energy E_diss(times[k]) = ∫₀ᵗ 2D dt [J]; empty unless Settings::energy_ledger.
   std::vector<double> dissipated_energy;
-  /// CVODE statistics for the whole run.
+  /// Integrator statistics for the whole run.
   Statistics stats;
-  /// CVODE warnings (e.g. "t + h = t on the next step"), in order of occurrence.
+  /// Integrator warnings (e.g. CVODE's "t + h = t on the next step"), in order of occurrence.
   std::vector<std::string> warnings;
   /// Wall-clock time spent in simulate() [s].
   double wall_time = 0.0;

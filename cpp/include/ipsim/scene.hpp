@@ -9,6 +9,8 @@
 //   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
 //   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
 //   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
+//   jacobian = exact           (optional, bdf and adams: exact | dq; default exact)
+//   step = 0.001               (optional; required by method = rk4: its fixed step [s])
 //   energy = false             (optional: true adds the energy ledger and energy columns)
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
@@ -172,7 +174,7 @@ Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known = {
       "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
-      "t_end", "sample", "method", "rtol", "atol", "max_steps"};
+      "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + key + "`");
   }
@@ -240,8 +242,15 @@ Scene<Model> load(const SceneFile& file) {
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");
   const auto parsed_method = parse_method(method);
-  if (!parsed_method) file.fail(file.line("method"), "method must be `bdf` or `adams`, got `" + method + "`");
+  if (!parsed_method) file.fail(file.line("method"), "method must be " + method_names() + ", got `" + method + "`");
   s.method = *parsed_method;
+  if (file.has("jacobian")) {
+    const std::string& jacobian = file.text("jacobian");
+    const auto parsed_jacobian = parse_jacobian(jacobian);
+    if (!parsed_jacobian) file.fail(file.line("jacobian"), "jacobian must be `exact` or `dq`, got `" + jacobian + "`");
+    s.jacobian = *parsed_jacobian;
+  }
+  if (file.has("step")) s.step = file.number("step");
   s.rtol = file.number("rtol");
   s.atol = file.number("atol");
   s.max_steps = file.integer("max_steps");

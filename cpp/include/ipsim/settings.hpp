@@ -2,6 +2,8 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
+#include <iterator>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -13,19 +15,88 @@
 
 namespace ipsim {
 
-/// CVODE's linear multistep family.
+/// Integration method.
 enum class Method {
-  bdf,    ///< backward differentiation formulas, orders 1–5 (stiff problems; the default)
-  adams,  ///< Adams–Moulton, orders 1–12 (smooth, non-stiff problems)
+  bdf,                ///< CVODE BDF, orders 1–5, Newton iteration with a dense direct solver (stiff-safe)
+  adams,              ///< CVODE Adams–Moulton, orders 1–12, Newton iteration with a dense direct solver
+  adams_fixed_point,  ///< CVODE Adams–Moulton with fixed-point iteration: no Jacobian, no linear algebra
+  erk_dp5,            ///< ARKODE ERKStep, Dormand–Prince 5(4), adaptive
+  erk_fehlberg8,      ///< ARKODE ERKStep, Fehlberg 8(7) (13 stages), adaptive
+  rk4,                ///< classic fixed-step Runge–Kutta 4 (Settings::step), ipsim's own
 };
 
-/// "bdf" or "adams".
-inline const char* to_string(Method method) { return method == Method::bdf ? "bdf" : "adams"; }
+/// The integrator family a method belongs to.
+enum class Family { cvode, erk, rk4 };
 
-/// Parses "bdf" or "adams"; nullopt for anything else.
+/// How the Newton iteration of bdf and adams gets the Jacobian ∂f/∂x of ẋ = f(x, u).
+enum class Jacobian {
+  exact,  ///< from the model's forward_dynamics_derivatives (one call per Jacobian)
+  dq,     ///< CVODE's internal difference quotients (2·kDof extra RHS evaluations per Jacobian)
+};
+
+namespace detail {
+struct MethodInfo {
+  Method method;
+  const char* name;  ///< as in scene files and on the command line
+  Family family;
+};
+inline constexpr MethodInfo kMethods[] = {
+    {Method::bdf, "bdf", Family::cvode},
+    {Method::adams, "adams", Family::cvode},
+    {Method::adams_fixed_point, "adams-fixed-point", Family::cvode},
+    {Method::erk_dp5, "erk-dp5", Family::erk},
+    {Method::erk_fehlberg8, "erk-fehlberg8", Family::erk},
+    {Method::rk4, "rk4", Family::rk4},
+};
+}  // namespace detail
+
+/// "bdf", "adams", "adams-fixed-point", "erk-dp5", "erk-fehlberg8" or "rk4".
+inline const char* to_string(Method method) {
+  for (const auto& info : detail::kMethods) {
+    if (info.method == method) return info.name;
+  }
+  return "?";
+}
+
+/// The family (CVODE, ARKODE ERKStep, ipsim's RK4) that runs `method`.
+inline Family family_of(Method method) {
+  for (const auto& info : detail::kMethods) {
+    if (info.method == method) return info.family;
+  }
+  return Family::cvode;
+}
+
+/// True for the methods with a Newton iteration, which use Settings::jacobian (bdf, adams).
+inline bool uses_jacobian(Method method) { return method == Method::bdf || method == Method::adams; }
+
+/// True for the adaptive methods, which use Settings::rtol and atol (all but rk4).
+inline bool uses_tolerances(Method method) { return method != Method::rk4; }
+
+/// Parses a method name (see to_string(Method)); nullopt for anything else.
 inline std::optional<Method> parse_method(std::string_view text) {
-  if (text == "bdf") return Method::bdf;
-  if (text == "adams") return Method::adams;
+  for (const auto& info : detail::kMethods) {
+    if (text == info.name) return info.method;
+  }
+  return std::nullopt;
+}
+
+/// All method names joined for messages: "bdf, adams, …, erk-fehlberg8 or rk4".
+inline std::string method_names() {
+  std::string text;
+  const std::size_t count = std::size(detail::kMethods);
+  for (std::size_t i = 0; i < count; ++i) {
+    text += (i == 0 ? "" : (i + 1 == count ? " or " : ", ")) + std::string(detail::kMethods[i].name);
+  }
+  return text;
+}
+
+/// "exact" or "dq".
+inline const char* to_string(Jacobian jacobian) { return jacobian == Jacobian::exact ? "exact" : "dq"; }
+
+/// Parses "exact" or "dq"; nullopt for anything else.
+inline std::optional<Jacobian> parse_jacobian(std::string_view text) {
+  if (text == "exact") return Jacobian::exact;
+  if (text == "dq") return Jacobian::dq;
   return std::nullopt;
 }
 
@@ -33,9 +104,12 @@ inline std::optional<Method> parse_method(std::string_view text) {
 template <class Model>
 struct Settings {
   Method method = Method::bdf;
-  double rtol = 1e-8;        ///< CVODE relative tolerance, > 0
-  double atol = 1e-10;       ///< CVODE absolute tolerance (same for every state), ≥ 0
-  long max_steps = 100000;   ///< CVODE internal steps allowed between two stops (CVodeSetMaxNumSteps), > 0
+  /// bdf and adams only: exact Jacobian from the model's derivatives, or CVODE's difference quotients.
+  Jacobian jacobian = Jacobian::exact;
+  double rtol = 1e-8;        ///< relative tolerance of the adaptive methods, > 0 (unused by rk4)
+  double atol = 1e-10;       ///< absolute tolerance (same for every state), ≥ 0 (unused by rk4)
+  double step = 0.0;         ///< rk4 only: the fixed step [s], > 0; shortened to land on every stop
+  long max_steps = 100000;   ///< integrator steps allowed between two stops, > 0
   double sample = 0.01;      ///< output interval [s]: samples at t = k·sample, plus t_end
   double t_end = 10.0;       ///< final time [s], > 0; the run starts at t = 0
   VectorOf<Model> theta = VectorOf<Model>::Zero();   ///< initial θ: base [m or rad], link angles [rad]
@@ -45,6 +119,21 @@ struct Settings {
   /// [J] as two extra CVODE states (they take part in error control), reported in Result.
   bool energy_ledger = false;
 };
+
+/// The settings that shape the integration, for messages and summaries:
+/// "method bdf, jacobian exact, rtol 1e-10, atol 1e-12, max_steps 100000",
+/// "method erk-dp5, rtol 1e-08, atol 1e-10, max_steps 100000", "method rk4, step 0.001, max_steps 100000".
+template <class Model>
+std::string describe(const Settings<Model>& settings) {
+  std::string text = std::string("method ") + to_string(settings.method);
+  if (uses_jacobian(settings.method)) text += std::string(", jacobian ") + to_string(settings.jacobian);
+  if (uses_tolerances(settings.method)) {
+    text += ", rtol " + detail::format_number(settings.rtol) + ", atol " + detail::format_number(settings.atol);
+  } else {
+    text += ", step " + detail::format_number(settings.step);
+  }
+  return text + ", max_steps " + std::to_string(settings.max_steps);
+}
 
 /// Largest number of output samples accepted, to fail early instead of exhausting memory.
 inline constexpr double kMaxSamples = 1e8;
@@ -94,6 +183,9 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
     report("sample", settings.sample, "must be finite and > 0");
   } else if (std::isfinite(settings.t_end) && settings.t_end / settings.sample > kMaxSamples) {
     report("sample", settings.sample, "t_end / sample exceeds 1e8 output samples");
+  }
+  if (settings.method == Method::rk4 && !(std::isfinite(settings.step) && settings.step > 0.0)) {
+    report("step", settings.step, "method rk4 needs a fixed step: must be finite and > 0");
   }
   if (settings.max_steps <= 0) {
     found.push_back("invalid setting max_steps = " + std::to_string(settings.max_steps) + ": must be > 0");

@@ -1,10 +1,10 @@
-// RAII ownership of the SUNDIALS objects a CVODE run needs.
+// RAII ownership of the SUNDIALS objects a CVODE or ARKODE run needs.
 //
 // Every wrapper is non-copyable and movable; a moved-from wrapper owns nothing. Members of a
 // struct are destroyed in reverse declaration order, so declaring them as
-//   Context, NVector(s), DenseMatrix, DenseLinearSolver, CvodeMemory
-// frees CVODE first (it refers to the solver and matrix) and the context last, as SUNDIALS
-// requires.
+//   Context, NVector(s), DenseMatrix, DenseLinearSolver / NonlinearSolver, CvodeMemory / ErkMemory
+// frees the integrator first (it refers to the solvers and the matrix) and the context last, as
+// SUNDIALS requires.
 #pragma once
 
 #include <cstdlib>
@@ -13,11 +13,13 @@
 #include <string>
 #include <type_traits>
 
+#include <arkode/arkode_erkstep.h>
 #include <cvode/cvode.h>
 #include <nvector/nvector_serial.h>
 #include <sundials/sundials_context.h>
 #include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
+#include <sunnonlinsol/sunnonlinsol_fixedpoint.h>
 
 namespace ipsim::sundials {
 
@@ -63,9 +65,22 @@ struct MatrixDeleter {
 struct LinearSolverDeleter {
   void operator()(SUNLinearSolver s) const noexcept { SUNLinSolFree(s); }
 };
+struct NonlinearSolverDeleter {
+  void operator()(SUNNonlinearSolver s) const noexcept { SUNNonlinSolFree(s); }
+};
 struct CvodeDeleter {
   void operator()(void* mem) const noexcept { CVodeFree(&mem); }
 };
+struct ErkDeleter {
+  void operator()(void* mem) const noexcept { ERKStepFree(&mem); }
+};
+
+/// A SUNDIALS flag name from a *GetReturnFlagName function (which hands back a malloc'ed string
+/// the caller must free), or "<what> flag <n>" when it has none.
+inline std::string owned_name(char* name, const char* what, long flag) {
+  std::unique_ptr<char, decltype(&std::free)> owned(name, &std::free);
+  return owned ? std::string(owned.get()) : std::string(what) + " flag " + std::to_string(flag);
+}
 
 /// Throws if a SUNDIALS constructor returned null.
 template <typename Pointer>
@@ -121,6 +136,20 @@ class DenseLinearSolver {
   std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, detail::LinearSolverDeleter> solver_;
 };
 
+/// Owns a fixed-point (functional iteration) SUNNonlinearSolver without Anderson acceleration,
+/// for CVODE's Adams method without a Jacobian.
+class FixedPointSolver {
+ public:
+  FixedPointSolver(const NVector& y, const Context& context)
+      : solver_(detail::require(SUNNonlinSol_FixedPoint(y.get(), 0, context.get()), "SUNNonlinSol_FixedPoint")) {}
+
+  /// The raw handle.
+  SUNNonlinearSolver get() const noexcept { return solver_.get(); }
+
+ private:
+  std::unique_ptr<std::remove_pointer_t<SUNNonlinearSolver>, detail::NonlinearSolverDeleter> solver_;
+};
+
 /// Owns CVODE's integrator memory (CVodeCreate / CVodeFree).
 class CvodeMemory {
  public:
@@ -135,11 +164,28 @@ class CvodeMemory {
   std::unique_ptr<void, detail::CvodeDeleter> memory_;
 };
 
+/// Owns an ARKODE explicit Runge–Kutta integrator (ERKStepCreate / ERKStepFree).
+class ErkMemory {
+ public:
+  /// Creates ERKStep for ẏ = f(t, y) from (t0, y0); y0 is copied.
+  ErkMemory(ARKRhsFn f, double t0, const NVector& y0, const Context& context)
+      : memory_(detail::require(ERKStepCreate(f, t0, y0.get(), context.get()), "ERKStepCreate")) {}
+
+  /// The raw handle passed to every ERKStep* function.
+  void* get() const noexcept { return memory_.get(); }
+
+ private:
+  std::unique_ptr<void, detail::ErkDeleter> memory_;
+};
+
 /// The name of a CVODE return flag, e.g. "CV_TOO_MUCH_WORK".
 inline std::string return_flag_name(int flag) {
-  // CVodeGetReturnFlagName hands back a malloc'ed string that the caller must free.
-  std::unique_ptr<char, decltype(&std::free)> name(CVodeGetReturnFlagName(flag), &std::free);
-  return name ? std::string(name.get()) : "CVODE flag " + std::to_string(flag);
+  return detail::owned_name(CVodeGetReturnFlagName(flag), "CVODE", flag);
+}
+
+/// The name of an ARKODE return flag, e.g. "ARK_TOO_MUCH_WORK".
+inline std::string erk_return_flag_name(int flag) {
+  return detail::owned_name(ERKStepGetReturnFlagName(flag), "ARKODE", flag);
 }
 
 }  // namespace ipsim::sundials

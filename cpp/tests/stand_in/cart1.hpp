@@ -86,6 +86,41 @@ Vector<Scalar> forward_dynamics(const Vector<Scalar>& q, const Vector<Scalar>& q
   return mass_matrix(q, p).ldlt().solve(rhs);
 }
 
+/// θ̈ and its partial derivatives, for exact integrator Jacobians.
+template <typename Scalar>
+struct Derivatives {
+  Vector<Scalar> qdd;       ///< θ̈ = forward_dynamics(q, qd, u, p)
+  Matrix<Scalar> dqdd_dq;   ///< ∂θ̈/∂θ (column i: derivative with respect to θ_i)
+  Matrix<Scalar> dqdd_dqd;  ///< ∂θ̈/∂θ̇
+  Vector<Scalar> dqdd_du;   ///< ∂θ̈/∂u
+};
+
+/// θ̈ and its derivatives by implicit differentiation of M θ̈ + b = (u, 0)ᵀ:
+/// ∂θ̈/∂x = −M⁻¹ (∂M/∂x θ̈ + ∂b/∂x), ∂θ̈/∂u = M⁻¹ e₀ (one factorisation of M, no inverse).
+template <typename Scalar>
+Derivatives<Scalar> forward_dynamics_derivatives(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
+                                                 const Params<Scalar>& p) {
+  using std::cos;
+  using std::sin;
+  const Scalar a = p.m[1] * p.l[1] / Scalar(2);
+  const Scalar s = sin(q(1)), c = cos(q(1));
+  const auto factor = mass_matrix(q, p).ldlt();
+  Vector<Scalar> rhs = -bias(q, qd, p);
+  rhs(0) += u;
+  Derivatives<Scalar> d;
+  d.qdd = factor.solve(rhs);
+  // Only θ1 enters M and b: ∂M/∂θ1 = [[0, −a s], [−a s, 0]], ∂b/∂θ1 = (−a c θ̇1², −a g c).
+  Matrix<Scalar> forcing_q = Matrix<Scalar>::Zero();
+  forcing_q(0, 1) = -a * s * d.qdd(1) - a * c * qd(1) * qd(1);
+  forcing_q(1, 1) = -a * s * d.qdd(0) - a * p.g * c;
+  d.dqdd_dq = -factor.solve(forcing_q);
+  Matrix<Scalar> forcing_qd;  // ∂b/∂θ̇
+  forcing_qd << p.delta[0], Scalar(-2) * a * s * qd(1), Scalar(0), p.delta[1];
+  d.dqdd_dqd = -factor.solve(forcing_qd);
+  d.dqdd_du = factor.solve(Vector<Scalar>::UnitX());
+  return d;
+}
+
 /// Kinetic energy T = ½ θ̇ᵀ M θ̇ [J].
 template <typename Scalar>
 Scalar kinetic_energy(const Vector<Scalar>& q, const Vector<Scalar>& qd, const Params<Scalar>& p) {
@@ -140,6 +175,13 @@ struct Model {
   static Vector<Scalar> forward_dynamics(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
                                          const Params<Scalar>& p) {
     return cart1::forward_dynamics(q, qd, u, p);
+  }
+  template <typename Scalar>
+  using Derivatives = cart1::Derivatives<Scalar>;
+  template <typename Scalar>
+  static Derivatives<Scalar> forward_dynamics_derivatives(const Vector<Scalar>& q, const Vector<Scalar>& qd,
+                                                          Scalar u, const Params<Scalar>& p) {
+    return cart1::forward_dynamics_derivatives(q, qd, u, p);
   }
   template <typename Scalar>
   static Scalar kinetic_energy(const Vector<Scalar>& q, const Vector<Scalar>& qd, const Params<Scalar>& p) {

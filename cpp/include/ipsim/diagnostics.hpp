@@ -1,0 +1,50 @@
+// How integrator failures and messages reach the caller: SUNDIALS messages are collected instead
+// of printed, set-up failures and integration failures become ipsim exceptions.
+#pragma once
+
+#include <algorithm>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ipsim/errors.hpp"
+#include "ipsim/settings.hpp"
+
+namespace ipsim::detail {
+
+/// Collects SUNDIALS' messages (CVODE and ARKODE share the handler signature).
+struct Diagnostics {
+  std::string last_error;             ///< most recent error message, for the exception text
+  std::vector<std::string>* warnings;  ///< destination of warnings (Result::warnings)
+};
+
+/// CVErrHandlerFn / ARKErrHandlerFn: stores the message in the Diagnostics passed as `data`.
+inline void collect_message(int code, const char* /*module*/, const char* function, char* message, void* data) {
+  try {
+    auto& diagnostics = *static_cast<Diagnostics*>(data);
+    std::string text = std::string(function ? function : "SUNDIALS") + ": " + (message ? message : "");
+    std::replace(text.begin(), text.end(), '\n', ' ');  // exception messages stay on one line
+    if (code < 0) diagnostics.last_error = std::move(text);
+    else diagnostics.warnings->push_back(std::move(text));
+  } catch (...) {
+    // Running out of memory while recording a message must not unwind through C code.
+  }
+}
+
+/// Throws ipsim::Error naming a failed set-up call and its flag, unless flag == 0 (success).
+template <class FlagName>
+void check_setup(int flag, const char* call, FlagName flag_name) {
+  if (flag != 0) throw Error(std::string(call) + " failed with " + flag_name(flag));
+}
+
+/// "`integrator` failed with FLAG at t = … s (settings)[: explanation]" as an IntegrationError.
+template <class Model>
+IntegrationError integration_error(const char* integrator, int flag, std::string flag_name, double t,
+                                   const Settings<Model>& settings, const std::string& explanation) {
+  std::string message = std::string(integrator) + " failed with " + flag_name + " at t = " + format_number(t) +
+                        " s (" + describe(settings) + ")";
+  if (!explanation.empty()) message += ": " + explanation;
+  return IntegrationError(message, flag, std::move(flag_name), t);
+}
+
+}  // namespace ipsim::detail

@@ -1,0 +1,88 @@
+// SUNDIALS ARKODE's explicit Runge–Kutta module (ERKStep) as an ipsim stepper: adaptive
+// Dormand–Prince 5(4) or Fehlberg 8(7) with ARKODE's default error controller.
+#pragma once
+
+#include <arkode/arkode_erkstep.h>
+
+#include "ipsim/diagnostics.hpp"
+#include "ipsim/result.hpp"
+#include "ipsim/rhs.hpp"
+#include "ipsim/settings.hpp"
+#include "ipsim/sundials.hpp"
+
+namespace ipsim::detail {
+
+/// The built-in ARKODE Butcher table of an erk-* method.
+inline ARKODE_ERKTableID erk_table(Method method) {
+  switch (method) {
+    case Method::erk_fehlberg8: return ARKODE_FEHLBERG_13_7_8;
+    default: return ARKODE_DORMAND_PRINCE_7_4_5;
+  }
+}
+
+/// Advances y (owned by the caller) from stop to stop with ERKStep; the stop time is set before
+/// each call, so ARKODE shortens its last step to land exactly on every stop.
+template <class Model>
+class ErkStepper {
+ public:
+  /// Sets ERKStep up from (t = 0, y). `y`, `rhs_context` and `diagnostics` must outlive the
+  /// stepper. Throws ipsim::Error when a set-up call fails.
+  ErkStepper(const Settings<Model>& settings, sundials::NVector& y, const sundials::Context& context,
+             RhsContext<Model>& rhs_context, Diagnostics& diagnostics)
+      : settings_(settings),
+        y_(y),
+        rhs_context_(rhs_context),
+        diagnostics_(diagnostics),
+        erk_(&rhs<Model>, 0.0, y, context) {
+    void* const mem = erk_.get();
+    check(ERKStepSetTableNum(mem, erk_table(settings.method)), "ERKStepSetTableNum");
+    check(ERKStepSStolerances(mem, settings.rtol, settings.atol), "ERKStepSStolerances");
+    check(ERKStepSetUserData(mem, &rhs_context), "ERKStepSetUserData");
+    check(ERKStepSetErrHandlerFn(mem, &collect_message, &diagnostics), "ERKStepSetErrHandlerFn");
+    check(ERKStepSetMaxNumSteps(mem, settings.max_steps), "ERKStepSetMaxNumSteps");
+  }
+
+  /// Integrates to exactly t_stop. Throws IntegrationError (ARKODE's flag) or the exception of a
+  /// feedback callback.
+  void advance(double t_stop) {
+    void* const mem = erk_.get();
+    check(ERKStepSetStopTime(mem, t_stop), "ERKStepSetStopTime");
+    realtype reached = 0.0;
+    const int flag = ERKStepEvolve(mem, t_stop, y_.get(), &reached, ARK_NORMAL);
+    if (rhs_context_.error) std::rethrow_exception(rhs_context_.error);
+    if (flag < 0) {
+      throw integration_error("ARKODE", flag, sundials::erk_return_flag_name(flag), reached, settings_,
+                              diagnostics_.last_error);
+    }
+  }
+
+  /// Restarts at t from the current y (after an input jump): ERKStepReInit forgets the step
+  /// history, like CVodeReInit, and zeroes the counters, so they are added to `stats` first.
+  void restart(double t, Statistics& stats) {
+    add_statistics(stats);
+    check(ERKStepReInit(erk_.get(), &rhs<Model>, t, y_.get()), "ERKStepReInit");
+  }
+
+  /// Adds ERKStep's counters since the last (re)start to `stats`.
+  void add_statistics(Statistics& stats) const {
+    void* const mem = erk_.get();
+    long value = 0;
+    check(ERKStepGetNumSteps(mem, &value), "ERKStepGetNumSteps");
+    stats.steps += value;
+    check(ERKStepGetNumRhsEvals(mem, &value), "ERKStepGetNumRhsEvals");
+    stats.rhs_evals += value;
+    check(ERKStepGetNumErrTestFails(mem, &value), "ERKStepGetNumErrTestFails");
+    stats.error_test_failures += value;
+  }
+
+ private:
+  static void check(int flag, const char* call) { check_setup(flag, call, &sundials::erk_return_flag_name); }
+
+  const Settings<Model>& settings_;
+  sundials::NVector& y_;
+  RhsContext<Model>& rhs_context_;
+  Diagnostics& diagnostics_;
+  sundials::ErkMemory erk_;
+};
+
+}  // namespace ipsim::detail

@@ -1,0 +1,121 @@
+// The exact Jacobian ∂f/∂x of the first-order system of rhs.hpp, from the model's
+// forward_dynamics_derivatives, for CVODE's Newton iteration (CVodeSetJacFn).
+//
+//   x = [θ; θ̇; W_in; E_diss]   (the last two only with the energy ledger)
+//   J = [[0,        I,          0],
+//        [∂θ̈/∂θ,    ∂θ̈/∂θ̇,      0],
+//        [0,        u e₀ᵀ,      0],     W_in' = u θ̇0
+//        [0,        2 ∂D/∂θ̇,    0]]     E_diss' = 2 D(θ̇)
+//
+// A feedback input u(t, x) adds ∂θ̈/∂u (∂u/∂x)ᵀ to the θ̈ rows (and θ̇0 (∂u/∂x)ᵀ to the W_in row);
+// ∂u/∂x is not known analytically, so it is taken by forward differences of the callback
+// (2·kDof extra callback calls per Jacobian, no extra model evaluations).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <type_traits>
+#include <utility>
+
+#include <Eigen/Core>
+#include <sundials/sundials_matrix.h>
+#include <sundials/sundials_nvector.h>
+#include <sunmatrix/sunmatrix_dense.h>
+
+#include "ipsim/model.hpp"
+#include "ipsim/rhs.hpp"
+
+namespace ipsim {
+
+namespace detail {
+template <class Model, class = void>
+struct HasDerivatives : std::false_type {};
+template <class Model>
+struct HasDerivatives<Model, std::void_t<decltype(Model::template forward_dynamics_derivatives<double>(
+                                 std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
+                                 0.0, std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model tag provides forward_dynamics_derivatives (every header the generator
+/// writes does); without it only difference-quotient Jacobians are available.
+template <class Model>
+inline constexpr bool has_derivatives = detail::HasDerivatives<Model>::value;
+
+namespace detail {
+
+/// ∂u/∂x of a feedback input at (t, x) by forward differences, written to `gradient` (2·kDof);
+/// zero for every other input (their u does not depend on the state).
+template <class Model>
+void input_gradient(RhsContext<Model>& context, double t, const double* x, double u,
+                    Eigen::Ref<Eigen::VectorXd> gradient) {
+  gradient.setZero();
+  if (context.input->kind != Input::Kind::feedback) return;
+  constexpr int size = 2 * Model::kDof;
+  const double root_epsilon = std::sqrt(std::numeric_limits<double>::epsilon());
+  Eigen::VectorXd shifted = Eigen::Map<const Eigen::VectorXd>(x, size);
+  for (int j = 0; j < size; ++j) {
+    const double h = root_epsilon * std::max(1.0, std::abs(x[j]));
+    shifted(j) = x[j] + h;
+    gradient(j) = (context.input->feedback(t, shifted) - u) / ((x[j] + h) - x[j]);
+    shifted(j) = x[j];
+  }
+}
+
+/// Writes ∂f/∂x at (t, x) into `jacobian` (size × size, size = 2·kDof or 2·kDof + 2 with the
+/// ledger). Throws what a feedback callback throws.
+template <class Model>
+void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen::Ref<Eigen::MatrixXd> jacobian) {
+  static_assert(has_derivatives<Model>, "the model has no forward_dynamics_derivatives");
+  constexpr int n = Model::kDof;
+  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x);
+  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n);
+  const double u = input_at(context, t, x);
+  const auto d = Model::template forward_dynamics_derivatives<double>(q, qd, u, *context.params);
+
+  jacobian.setZero();
+  jacobian.block(0, n, n, n).setIdentity();
+  jacobian.block(n, 0, n, n) = d.dqdd_dq;
+  jacobian.block(n, n, n, n) = d.dqdd_dqd;
+  Eigen::Matrix<double, 2 * n, 1> gradient;
+  input_gradient(context, t, x, u, gradient);
+  if (context.input->kind == Input::Kind::feedback) {
+    jacobian.block(n, 0, n, 2 * n).noalias() += d.dqdd_du * gradient.transpose();
+  }
+  if (context.energy_ledger) {
+    // W_in' = u θ̇0.
+    jacobian.block(2 * n, 0, 1, 2 * n) = qd(0) * gradient.transpose();
+    jacobian(2 * n, n) += u;
+    // E_diss' = 2 D(θ̇), D a quadratic form: D(θ̇ + h eᵢ) − D(θ̇ − h eᵢ) = 2h ∂D/∂θ̇ᵢ exactly.
+    for (int i = 0; i < n; ++i) {
+      const double h = 1.0 + std::abs(qd(i));
+      VectorOf<Model> up = qd, down = qd;
+      up(i) += h;
+      down(i) -= h;
+      jacobian(2 * n + 1, n + i) = (Model::template dissipation<double>(up, *context.params) -
+                                    Model::template dissipation<double>(down, *context.params)) / h;
+    }
+  }
+}
+
+/// CVODE Jacobian callback (CVLsJacFn) for a dense SUNMatrix: 0 on success, -1 (fatal) when the
+/// input callback threw; the exception is kept in the context.
+template <class Model>
+int jacobian_callback(realtype t, N_Vector y, N_Vector /*fy*/, SUNMatrix matrix, void* user_data,
+                      N_Vector /*tmp1*/, N_Vector /*tmp2*/, N_Vector /*tmp3*/) {
+  auto& context = *static_cast<RhsContext<Model>*>(user_data);
+  try {
+    const auto size = static_cast<Eigen::Index>(SUNDenseMatrix_Rows(matrix));
+    // SUNDIALS' dense matrices are column-major with leading dimension = rows, like Eigen's.
+    Eigen::Map<Eigen::MatrixXd> jacobian(SUNDenseMatrix_Data(matrix), size, size);
+    exact_jacobian<Model>(context, t, N_VGetArrayPointer(y), jacobian);
+    return 0;
+  } catch (...) {
+    context.error = std::current_exception();
+    return -1;
+  }
+}
+
+}  // namespace detail
+}  // namespace ipsim

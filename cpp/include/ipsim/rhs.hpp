@@ -1,0 +1,79 @@
+// The first-order system ẋ = f(t, x) that every integrator advances: x = [θ; θ̇] (2·kDof), plus
+// [W_in, E_diss] when the energy ledger is on, with θ̈ from the model's forward dynamics.
+#pragma once
+
+#include <cmath>
+#include <exception>
+
+#include <Eigen/Core>
+#include <sundials/sundials_nvector.h>
+
+#include "ipsim/input.hpp"
+#include "ipsim/model.hpp"
+
+namespace ipsim::detail {
+
+/// What the right-hand side (and the Jacobian) need; SUNDIALS passes it back as user data.
+template <class Model>
+struct RhsContext {
+  const ParamsOf<Model>* params = nullptr;
+  const Input* input = nullptr;
+  bool energy_ledger = false;
+  /// u on the current segment when the input is piecewise constant. Evaluating u(t) instead would
+  /// be wrong at the segment's closing stop: the integrator's last evaluation there sees the new value.
+  double segment_input = 0.0;
+  Eigen::VectorXd x;         ///< preallocated copy of [θ; θ̇] for feedback inputs (dim 2·kDof)
+  std::exception_ptr error;  ///< exception thrown by a feedback callback, rethrown after the step
+};
+
+/// u at time t [s] in state `state` = [θ; θ̇, …] (the first 2·kDof entries are read, and only by a
+/// feedback input). Throws whatever a feedback callback throws.
+template <class Model>
+double input_at(RhsContext<Model>& context, double t, const double* state) {
+  switch (context.input->kind) {
+    case Input::Kind::feedback:
+      context.x = Eigen::Map<const Eigen::VectorXd>(state, 2 * Model::kDof);  // no allocation: same size
+      return context.input->feedback(t, context.x);
+    case Input::Kind::sine: return context.input->value(t, context.x);
+    default: return context.segment_input;
+  }
+}
+
+/// Writes f(t, x) to `out` (same length as x: 2·kDof, or 2·kDof + 2 with the ledger). Returns 0 on
+/// success and 1 when a derivative is not finite. Throws what a feedback callback throws.
+template <class Model>
+int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double* out, long size) {
+  constexpr int n = Model::kDof;
+  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
+  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
+  const double u = input_at(context, t, in);
+  const VectorOf<Model> qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
+  Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
+  velocity_out = qd;
+  acceleration_out = qdd;
+  if (context.energy_ledger) {
+    out[2 * n] = u * qd(0);
+    out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params);
+  }
+  for (long i = 0; i < size; ++i) {
+    if (!std::isfinite(out[i])) return 1;
+  }
+  return 0;
+}
+
+/// SUNDIALS right-hand side (CVRhsFn and ARKRhsFn have this signature): 0 on success, 1
+/// (recoverable: CVODE retries with a smaller step) when a derivative is not finite, -1 (fatal)
+/// when the input callback threw; the exception is kept in the context.
+template <class Model>
+int rhs(realtype t, N_Vector y, N_Vector ydot, void* user_data) {
+  auto& context = *static_cast<RhsContext<Model>*>(user_data);
+  try {
+    return evaluate_rhs<Model>(context, t, N_VGetArrayPointer(y), N_VGetArrayPointer(ydot),
+                               static_cast<long>(N_VGetLength(ydot)));
+  } catch (...) {
+    context.error = std::current_exception();
+    return -1;
+  }
+}
+
+}  // namespace ipsim::detail

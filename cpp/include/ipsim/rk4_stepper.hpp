@@ -1,0 +1,101 @@
+// ipsim's own classic fourth-order Runge–Kutta with a fixed step (Settings::step): what many
+// users and MuJoCo's RK4 mode reach for, kept for comparison. Each interval between two stops is
+// covered by equal steps of Settings::step from its start, the last one shortened to end exactly
+// on the stop.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "ipsim/diagnostics.hpp"
+#include "ipsim/result.hpp"
+#include "ipsim/rhs.hpp"
+#include "ipsim/settings.hpp"
+#include "ipsim/sundials.hpp"
+
+namespace ipsim::detail {
+
+/// Flag names of RK4 failures, in IntegrationError::flag_name().
+inline constexpr const char* kRk4TooMuchWork = "RK4_TOO_MUCH_WORK";
+inline constexpr const char* kRk4RhsFail = "RK4_RHSFUNC_FAIL";
+
+template <class Model>
+class Rk4Stepper {
+ public:
+  /// `y`, `rhs_context` and `diagnostics` must outlive the stepper.
+  Rk4Stepper(const Settings<Model>& settings, sundials::NVector& y, const sundials::Context& /*context*/,
+             RhsContext<Model>& rhs_context, Diagnostics& /*diagnostics*/)
+      : settings_(settings),
+        rhs_context_(rhs_context),
+        y_(y.data(), y.length()),
+        k1_(y.length()),
+        k2_(y.length()),
+        k3_(y.length()),
+        k4_(y.length()),
+        stage_(y.length()) {}
+
+  /// Integrates from the current time to exactly t_stop in ceil((t_stop − t)/step) steps (a
+  /// quotient within 1e-9 of an integer is taken as that integer). Throws IntegrationError when
+  /// that exceeds max_steps (RK4_TOO_MUCH_WORK) or a derivative is not finite
+  /// (RK4_RHSFUNC_FAIL), and the exception of a feedback callback unchanged.
+  void advance(double t_stop) {
+    const double start = t_;
+    const double h = settings_.step;
+    const double count = std::max(1.0, std::ceil((t_stop - start) / h - 1e-9));
+    if (count > static_cast<double>(settings_.max_steps)) {
+      throw integration_error("RK4", -1, kRk4TooMuchWork, start, settings_,
+                              "reaching the next stop at t = " + format_number(t_stop) + " s takes " +
+                                  format_number(count) + " steps, more than max_steps");
+    }
+    const long steps = static_cast<long>(count);
+    for (long k = 0; k < steps; ++k) {
+      // Step ends are start + k·h, not a running sum; the last one is the stop itself.
+      const double t0 = start + static_cast<double>(k) * h;
+      const double t1 = k + 1 == steps ? t_stop : start + static_cast<double>(k + 1) * h;
+      step(t0, t1 - t0);
+    }
+    t_ = t_stop;
+  }
+
+  /// Nothing to forget (a one-step method); the time is already at t.
+  void restart(double t, Statistics& /*stats*/) { t_ = t; }
+
+  /// RK4 takes 4 RHS evaluations per step.
+  void add_statistics(Statistics& stats) const {
+    stats.steps += steps_;
+    stats.rhs_evals += 4 * steps_;
+  }
+
+ private:
+  void evaluate(double t, const Eigen::VectorXd& x, Eigen::VectorXd& out) {
+    const int flag = evaluate_rhs<Model>(rhs_context_, t, x.data(), out.data(), static_cast<long>(x.size()));
+    if (flag != 0) {
+      throw integration_error("RK4", -1, kRk4RhsFail, t, settings_, "the right-hand side is not finite");
+    }
+  }
+
+  void step(double t, double h) {
+    evaluate(t, y_, k1_);
+    stage_ = y_ + (0.5 * h) * k1_;
+    evaluate(t + 0.5 * h, stage_, k2_);
+    stage_ = y_ + (0.5 * h) * k2_;
+    evaluate(t + 0.5 * h, stage_, k3_);
+    stage_ = y_ + h * k3_;
+    evaluate(t + h, stage_, k4_);
+    y_ += (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    ++steps_;
+  }
+
+  const Settings<Model>& settings_;
+  RhsContext<Model>& rhs_context_;
+  Eigen::Map<Eigen::VectorXd> y_;  ///< the caller's N_Vector, updated in place
+  Eigen::VectorXd k1_, k2_, k3_, k4_, stage_;
+  double t_ = 0.0;
+  long steps_ = 0;
+};
+
+}  // namespace ipsim::detail
