@@ -15,7 +15,7 @@ A scene has these tables (SI units throughout; arrays have links + 1 entries, in
                   step: amplitude, time; sine: amplitude, frequency [Hz], phase [rad] (default 0)
     [simulation]  t_end (required); sample (0.01); max_steps (100000);
                   method = "bdf" (default) | "adams" | "adams-fixed-point" | "erk-dp5" |
-                  "erk-verner6" | "erk-fehlberg8" | "rk4";
+                  "erk-fehlberg8" | "rk4";
                   jacobian = "exact" (default) | "dq" (bdf and adams only);
                   rtol (1e-10), atol (1e-12) (every method but rk4);
                   step = fixed step in s, > 0 and <= sample (rk4 only, required there)

@@ -28,7 +28,6 @@ METHODS: tuple[str, ...] = (
     "adams",
     "adams-fixed-point",
     "erk-dp5",
-    "erk-verner6",
     "erk-fehlberg8",
     "rk4",
 )

@@ -226,7 +226,6 @@ def test_free_and_energy_are_carried(tmp_path: Path) -> None:
         ("adams", "exact"),
         ("adams-fixed-point", None),
         ("erk-dp5", None),
-        ("erk-verner6", None),
         ("erk-fehlberg8", None),
     ],
 )
