@@ -240,8 +240,9 @@ def markdown(results: list[Evaluation], rounds: int, milliseconds: float) -> str
         f"  {TOLERANCE:g} relative (max |difference| / max |entry|); a pair that disagrees gets no timing.",
         "- Timing: one binary per system, both sides compiled by the same compiler with the same flags;",
         "  every call out of line, results stored to memory; inputs cycle through 256 precomputed random",
-        f"  states; warm-up, then {rounds} rounds alternating AB / BA, each side ~{milliseconds / 2:g} ms",
-        "  per round; the median over rounds.",
+        f"  states; warm-up, then {rounds} rounds of one batch per contender in rotating order (AB, BA, …),",
+        f"  ~{milliseconds:g} ms per round; the median over rounds. Batches are timed in the thread's CPU",
+        "  time (CLOCK_THREAD_CPUTIME_ID): time preempted by other processes on the machine is not counted.",
         "",
         *machine(
             {

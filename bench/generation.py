@@ -11,6 +11,7 @@ skipped. Rotary systems use the default (pivot) inertia on both sides.
 from __future__ import annotations
 
 import json
+import resource
 import statistics
 import subprocess
 import tempfile
@@ -44,6 +45,10 @@ class Timing:
     runs: int
     status: str  # ok, timeout, skipped or failed
     error: str = ""
+    # CPU time (user + system) of the process, and of the derivation alone (references): wall time
+    # minus the time other processes of the machine took from it
+    cpu_s: float | None = None
+    derive_cpu_s: float | None = None
 
 
 def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
@@ -53,8 +58,10 @@ def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
     return [PYTHON, "-m", "bench.references", method, kind, str(links)]
 
 
-def _run_once(method: str, kind: str, links: int, timeout: float) -> tuple[float, float | None]:
+def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, float]:
+    """Wall and CPU seconds of one fresh process (and the derivation's, for references)."""
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-") as directory:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
         done = subprocess.run(
             _command(method, kind, links, directory),
@@ -65,24 +72,37 @@ def _run_once(method: str, kind: str, links: int, timeout: float) -> tuple[float
             check=True,
         )
         wall = time.perf_counter() - start
-    derive = json.loads(done.stdout)["derive_s"] if method != "ipgen" else None
-    return wall, derive
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return {"wall_s": wall, "cpu_s": cpu} | (json.loads(done.stdout) if method != "ipgen" else {})
 
 
 def measure(method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True) -> Timing:
-    """Time one point: once, and twice more (median of 3) when it was quick."""
+    """Time one point: once, and twice more (medians of 3) when it was quick."""
     try:
         runs = [_run_once(method, kind, links, timeout)]
-        if repeat and runs[0][0] < REPEAT_BELOW:
+        if repeat and runs[0]["wall_s"] < REPEAT_BELOW:
             runs += [_run_once(method, kind, links, timeout) for _ in range(2)]
     except subprocess.TimeoutExpired:
         return Timing(kind, method, links, None, None, 1, "timeout")
     except subprocess.CalledProcessError as e:
         message = (e.stderr or "").strip().splitlines()
         return Timing(kind, method, links, None, None, 1, "failed", message[-1] if message else str(e))
-    wall = statistics.median(r[0] for r in runs)
-    derive = statistics.median(r[1] for r in runs) if runs[0][1] is not None else None
-    return Timing(kind, method, links, wall, derive, len(runs), "ok")
+
+    def median(key: str) -> float | None:
+        return statistics.median(r[key] for r in runs) if key in runs[0] else None
+
+    return Timing(
+        kind,
+        method,
+        links,
+        median("wall_s"),
+        median("derive_s"),
+        len(runs),
+        "ok",
+        cpu_s=median("cpu_s"),
+        derive_cpu_s=median("derive_cpu_s"),
+    )
 
 
 def sweep(
@@ -130,6 +150,11 @@ def _cell(timing: Timing | None, derive: bool, timeout: float) -> str:
     return seconds(timing.derive_s if derive else timing.wall_s)
 
 
+def _cpu(timing: Timing | None, derive: bool) -> str:
+    value = None if timing is None else (timing.derive_cpu_s if derive else timing.cpu_s)
+    return seconds(value)
+
+
 def _faster(ours: Timing, kane: Timing, timeout: float) -> bool:
     if ours.wall_s is None:
         return False
@@ -170,11 +195,13 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
         "  same model (bench/references.py: rods with CoG at l/2 and inertia m l²/12, absolute angles,",
         "  the same damping; rotary links with the pivot inertia, ipgen's default) up to the mass matrix",
         "  and forcing vector, no code generation. *derive*: the derivation alone, imports excluded;",
-        "  *process*: wall time of the whole process. Before timing, each reference's M and forcing are",
-        "  checked against ipgen's M and B u − bias at n = 2 (a random state): largest relative",
-        f"  difference {max(checks.values(), default=float('nan')):.1e}. (tests/independent_model.py",
-        "  lambdifies inside its builder, so the derivation alone cannot be timed with it;",
-        "  bench/references.py builds the same frames and bodies.)",
+        "  *process*: wall time of the whole process. *(CPU)*: user + system CPU time of the same (the",
+        "  machine is shared: wall time includes time other processes took). The targets use wall time.",
+        "- Before timing, each reference's M and forcing are checked against ipgen's M and B u − bias at",
+        "  n = 2 (a random state): largest relative difference "
+        f"{max(checks.values(), default=float('nan')):.1e}.",
+        "  (tests/independent_model.py lambdifies inside its builder, so the derivation alone cannot be",
+        "  timed with it; bench/references.py builds the same frames and bodies.)",
         f"- Each point in a fresh process; median of 3 runs when a run takes under {REPEAT_BELOW:.0f} s,",
         f'  else one run. Runs over {timeout:.0f} s are stopped ("> {timeout:.0f}"), larger n then skipped.',
         "",
@@ -198,7 +225,9 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
                 [
                     str(n),
                     _cell(ours, False, timeout),
+                    _cpu(ours, False),
                     _cell(kane, True, timeout),
+                    _cpu(kane, True),
                     _cell(kane, False, timeout),
                     _cell(lagrange, True, timeout),
                     _cell(lagrange, False, timeout),
@@ -208,7 +237,9 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
         header = [
             "n",
             "ipgen command",
+            "(CPU)",
             "Kane derive",
+            "(CPU)",
             "Kane process",
             "Lagrange derive",
             "Lagrange process",

@@ -16,6 +16,9 @@ from matplotlib.ticker import NullLocator
 ROOT = Path(__file__).resolve().parent.parent
 BUILD = ROOT / "build" / "bench"
 PYTHON = sys.executable
+# When the run started (report.py is imported first), and how busy the machine was then.
+STARTED = datetime.datetime.now().astimezone()
+LOAD_AT_START = os.getloadavg()
 
 
 def cpu_model() -> str:
@@ -57,8 +60,9 @@ def machine(extra: dict[str, str] | None = None) -> list[str]:
         "Python": platform.python_version(),
         "sympy": version("sympy"),
         "ipgen": f"{version('ipgen')}, commit {commit()}",
-        "load average at the start (other processes)": " ".join(f"{x:.2f}" for x in os.getloadavg()),
-        "date": datetime.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M %Z"),
+        "started": STARTED.strftime("%Y-%m-%d %H:%M %Z"),
+        "load average at the start (1, 5, 15 min)": " ".join(f"{x:.2f}" for x in LOAD_AT_START),
+        "load average at the end": " ".join(f"{x:.2f}" for x in os.getloadavg()),
     }
     facts |= extra or {}
     return [f"- {key}: {value}" for key, value in facts.items()]
