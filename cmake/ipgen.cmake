@@ -162,7 +162,7 @@ function(_ipgen_describe_scene scene prefix)
   if(NOT errors STREQUAL " ")
     message(WARNING "${errors}")
   endif()
-  set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+)$")
+  set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+) specialise=(true|false)$")
   if(NOT description MATCHES "${pattern}")
     message(FATAL_ERROR "ipgen: unexpected output of `${IPGEN_PYTHON} -m generator --scene ${scene} "
                         "--describe`: `${description}`")
@@ -172,6 +172,7 @@ function(_ipgen_describe_scene scene prefix)
   set(${prefix}_LINKS "${CMAKE_MATCH_3}" PARENT_SCOPE)
   set(${prefix}_INERTIA "${CMAKE_MATCH_4}" PARENT_SCOPE)
   set(${prefix}_STEM "${CMAKE_MATCH_5}" PARENT_SCOPE)
+  set(${prefix}_SPECIALISE "${CMAKE_MATCH_6}" PARENT_SCOPE)
 endfunction()
 
 function(ipgen_add_scene scene_file)
@@ -193,20 +194,39 @@ function(ipgen_add_scene scene_file)
                         "rename one of the files")
   endif()
 
-  # The model: created by the first scene that uses it; later scenes must describe the same system.
   set(model_target ipgen_model_${name})
-  set(wanted "type=${system_TYPE} links=${system_LINKS} inertia=${system_INERTIA}")
-  if(NOT TARGET ${model_target})
-    set(inertia_args "")
-    if(system_TYPE STREQUAL "rotary")
-      set(inertia_args INERTIA ${system_INERTIA})
+  set(work_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/${stem}")
+  if(system_SPECIALISE)
+    # A specialised model belongs to its scene: its header is the one `--scene` writes (it
+    # depends on the scene's parameters), so a changed value regenerates it.
+    if(TARGET ${model_target})
+      message(FATAL_ERROR "ipgen_add_scene(${scene}): model `${name}` already exists, and this scene's "
+                          "specialised model needs a name of its own; change its [system] name")
     endif()
-    ipgen_add_model(${model_target} TYPE ${system_TYPE} LINKS ${system_LINKS} ${inertia_args} NAME ${name})
-  endif()
-  get_target_property(existing ${model_target} IPGEN_MODEL_SYSTEM)
-  if(NOT existing STREQUAL wanted)
-    message(FATAL_ERROR "ipgen_add_scene(${scene}): model `${name}` is already defined as ${existing}, "
-                        "this scene says ${wanted}; give the scene another [system] name")
+    add_library(${model_target} INTERFACE)
+    target_sources(${model_target} PRIVATE "${work_dir}/${name}.hpp")
+    target_include_directories(${model_target} INTERFACE "${work_dir}")
+    target_link_libraries(${model_target} INTERFACE Eigen3::Eigen)
+    set_target_properties(${model_target} PROPERTIES
+      IPGEN_MODEL_NAME "${name}"
+      IPGEN_MODEL_HEADER "${work_dir}/${name}.hpp"
+      IPGEN_MODEL_SYSTEM "specialised by ${scene}")
+  else()
+    # A general model: created by the first scene that uses it; later scenes must describe the
+    # same system.
+    set(wanted "type=${system_TYPE} links=${system_LINKS} inertia=${system_INERTIA}")
+    if(NOT TARGET ${model_target})
+      set(inertia_args "")
+      if(system_TYPE STREQUAL "rotary")
+        set(inertia_args INERTIA ${system_INERTIA})
+      endif()
+      ipgen_add_model(${model_target} TYPE ${system_TYPE} LINKS ${system_LINKS} ${inertia_args} NAME ${name})
+    endif()
+    get_target_property(existing ${model_target} IPGEN_MODEL_SYSTEM)
+    if(NOT existing STREQUAL wanted)
+      message(FATAL_ERROR "ipgen_add_scene(${scene}): model `${name}` is already defined as ${existing}, "
+                          "this scene says ${wanted}; give the scene another [system] name")
+    endif()
   endif()
   if(NOT TARGET simulate_${name})
     ipgen_add_simulator(${model_target})
@@ -216,12 +236,19 @@ function(ipgen_add_scene scene_file)
   # target, and two scenes of one model must not claim the same file: generate into a folder of
   # the scene's own, then move the .cfg to its documented place.
   _ipgen_generator_dependencies(dependencies)
-  set(work_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_scenes/${stem}")
   set(cfg "${CMAKE_BINARY_DIR}/scenes/${stem}.cfg")
   set(csv "${CMAKE_BINARY_DIR}/scenes/${stem}.csv")
+  # The header `--scene` writes is this scene's model when specialised, else a spare copy.
+  set(outputs "${cfg}")
+  set(byproducts "")
+  if(system_SPECIALISE)
+    list(APPEND outputs "${work_dir}/${name}.hpp")
+  else()
+    list(APPEND byproducts "${work_dir}/${name}.hpp")
+  endif()
   add_custom_command(
-    OUTPUT "${cfg}"
-    BYPRODUCTS "${work_dir}/${name}.hpp"
+    OUTPUT ${outputs}
+    BYPRODUCTS ${byproducts}
     COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" -o "${work_dir}"
     COMMAND "${CMAKE_COMMAND}" -E make_directory "${CMAKE_BINARY_DIR}/scenes"
     COMMAND "${CMAKE_COMMAND}" -E rename "${work_dir}/${stem}.cfg" "${cfg}"

@@ -197,7 +197,8 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
     _check_no_system_options(*clashing)
     scene = load_scene(path)
     click.echo(
-        f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem}"
+        f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem} "
+        f"specialise={'true' if scene.specialise else 'false'}"
     )
     for warning in scene.warnings:
         click.echo(f"ipgen: {warning}", err=True)  # "<file>: warning: ..."

@@ -185,6 +185,8 @@ def resolved_config(scene: Scene) -> str:
         f"atol = {format_number(scene.atol)}",
         f"max_steps = {scene.max_steps}",
     ]
+    if scene.energy:
+        lines.append("energy = true")
     return "\n".join(lines) + "\n"
 
 

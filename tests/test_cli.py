@@ -130,7 +130,7 @@ def test_describe_prints_the_scene_system_and_writes_nothing(tmp_path: Path) -> 
     """What CMake's ipgen_add_scene reads at configure time; run as CMake runs it."""
     result = ipgen("--scene", str(ROOT / "scenes" / "rsip_pulse.toml"), "--describe", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=rsip_pulse\n"
+    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=rsip_pulse specialise=false\n"
     assert result.stderr == ""
     assert list(tmp_path.iterdir()) == []
 
@@ -143,7 +143,7 @@ def test_describe_defaults_name_and_inertia(tmp_path: Path) -> None:
         "[simulation]\nt_end = 1\n"
     )
     result = ipgen("--scene", str(scene), "--describe")
-    assert result.stdout == "name=classical3 type=classical links=3 inertia=pivot stem=my-scene\n"
+    assert result.stdout == "name=classical3 type=classical links=3 inertia=pivot stem=my-scene specialise=false\n"
 
 
 def test_describe_reports_scene_warnings_on_stderr(tmp_path: Path) -> None:
@@ -152,7 +152,7 @@ def test_describe_reports_scene_warnings_on_stderr(tmp_path: Path) -> None:
     scene.write_text(text.replace("t_end = 10.0", "t_end = 10.0\nrtol = 1e-15"))
     result = ipgen("--scene", str(scene), "--describe")
     assert result.returncode == 0
-    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=tight\n"
+    assert result.stdout == "name=rsip type=rotary links=1 inertia=pivot stem=tight specialise=false\n"
     assert (
         result.stderr == f"ipgen: {scene.as_posix()}: warning: simulation.rtol = 1e-15 is below 1e-14 "
         "and may not be met in double precision\n"

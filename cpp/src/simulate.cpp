@@ -120,6 +120,33 @@ Options parse_command_line(int argc, char** argv) {
   return options;
 }
 
+/// The energy columns of CSV row k: T, V, input work, dissipated energy. Templates, so that a
+/// specialised header without energy functions compiles (the simulation refuses an energy
+/// ledger for it before getting here).
+template <class M>
+void write_energy_columns(std::FILE* out, const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params) {
+  if constexpr (ipsim::has_energy<M>) {
+    const auto row = static_cast<Eigen::Index>(k);
+    const ipsim::VectorOf<M> q = result.states.row(row).template head<M::kDof>().transpose();
+    const ipsim::VectorOf<M> qd = result.states.row(row).template segment<M::kDof>(M::kDof).transpose();
+    std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g", M::template kinetic_energy<double>(q, qd, params),
+                 M::template potential_energy<double>(q, params), result.input_work[k], result.dissipated_energy[k]);
+  }
+}
+
+/// The summary's energy balance: T + V at start and end, input work, dissipated energy.
+template <class M>
+void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>& params) {
+  if constexpr (ipsim::has_energy<M>) {
+    const double start = ipsim::mechanical_energy<M>(params, result.states.topRows(1).transpose());
+    const double end = ipsim::mechanical_energy<M>(params, result.states.bottomRows(1).transpose());
+    const double work = result.input_work.back();
+    const double dissipated = result.dissipated_energy.back();
+    std::printf(" Energy: T+V %.9g J at start, %.9g J at end, input work %.9g J, dissipated %.9g J, balance error %.3g J.",
+                start, end, work, dissipated, end - (start + work - dissipated));
+  }
+}
+
 /// Writes the CSV next to its destination and renames it into place, so a reader never sees a
 /// half-written file and a failed run leaves any previous result untouched.
 void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
@@ -136,12 +163,7 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
     const auto row = static_cast<Eigen::Index>(k);
     std::fprintf(out, "%.17g", result.times[k]);
     for (Eigen::Index j = 0; j < result.states.cols(); ++j) std::fprintf(out, ",%.17g", result.states(row, j));
-    if (energy) {
-      const ipsim::VectorOf<Model> q = result.states.row(row).head<kDof>().transpose();
-      const ipsim::VectorOf<Model> qd = result.states.row(row).segment<kDof>(kDof).transpose();
-      std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g", Model::kinetic_energy<double>(q, qd, params),
-                   Model::potential_energy<double>(q, params), result.input_work[k], result.dissipated_energy[k]);
-    }
+    if (energy) write_energy_columns<Model>(out, result, k, params);
     std::fputc('\n', out);
   }
   const bool written = std::ferror(out) == 0;
@@ -204,14 +226,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       options.csv_path.c_str(), format_vector(final_state.head(kDof)).c_str(),
       format_vector(final_state.tail(kDof)).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
-  if (options.energy) {
-    const double start = ipsim::mechanical_energy<Model>(scene.params, result.states.topRows(1).transpose());
-    const double end = ipsim::mechanical_energy<Model>(scene.params, final_state);
-    const double work = result.input_work.back();
-    const double dissipated = result.dissipated_energy.back();
-    std::printf(" Energy: T+V %.9g J at start, %.9g J at end, input work %.9g J, dissipated %.9g J, balance error %.3g J.",
-                start, end, work, dissipated, end - (start + work - dissipated));
-  }
+  if (options.energy) print_energy_balance<Model>(result, scene.params);
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
 }

@@ -63,6 +63,25 @@ void input_gradient(RhsContext<Model>& context, double t, const double* x, doubl
   }
 }
 
+/// Rows of the Jacobian for the energy ledger states (input work and dissipated energy).
+template <class Model, class Gradient, class Jacobian>
+void ledger_jacobian(const RhsContext<Model>& context, double u, const VectorOf<Model>& qd, const Gradient& gradient,
+                     Jacobian& jacobian) {
+  constexpr int n = Model::kDof;
+  // W_in' = u θ̇0.
+  jacobian.block(2 * n, 0, 1, 2 * n) = qd(0) * gradient.transpose();
+  jacobian(2 * n, n) += u;
+  // E_diss' = 2 D(θ̇), D a quadratic form: D(θ̇ + h eᵢ) − D(θ̇ − h eᵢ) = 2h ∂D/∂θ̇ᵢ exactly.
+  for (int i = 0; i < n; ++i) {
+    const double h = 1.0 + std::abs(qd(i));
+    VectorOf<Model> up = qd, down = qd;
+    up(i) += h;
+    down(i) -= h;
+    jacobian(2 * n + 1, n + i) = (Model::template dissipation<double>(up, *context.params) -
+                                  Model::template dissipation<double>(down, *context.params)) / h;
+  }
+}
+
 /// Writes ∂f/∂x at (t, x) into `jacobian` (size × size, size = 2·kDof or 2·kDof + 2 with the
 /// ledger). Throws what a feedback callback throws.
 template <class Model>
@@ -83,18 +102,9 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
   if (context.input->kind == Input::Kind::feedback) {
     jacobian.block(n, 0, n, 2 * n).noalias() += d.dqdd_du * gradient.transpose();
   }
-  if (context.energy_ledger) {
-    // W_in' = u θ̇0.
-    jacobian.block(2 * n, 0, 1, 2 * n) = qd(0) * gradient.transpose();
-    jacobian(2 * n, n) += u;
-    // E_diss' = 2 D(θ̇), D a quadratic form: D(θ̇ + h eᵢ) − D(θ̇ − h eᵢ) = 2h ∂D/∂θ̇ᵢ exactly.
-    for (int i = 0; i < n; ++i) {
-      const double h = 1.0 + std::abs(qd(i));
-      VectorOf<Model> up = qd, down = qd;
-      up(i) += h;
-      down(i) -= h;
-      jacobian(2 * n + 1, n + i) = (Model::template dissipation<double>(up, *context.params) -
-                                    Model::template dissipation<double>(down, *context.params)) / h;
+  if constexpr (has_energy<Model>) {
+    if (context.energy_ledger) {
+      ledger_jacobian<Model>(context, u, qd, gradient, jacobian);
     }
   }
 }

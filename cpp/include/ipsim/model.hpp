@@ -11,6 +11,7 @@
 
 #include <string_view>
 #include <type_traits>
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -50,6 +51,43 @@ struct InertiaOf<Model, std::void_t<decltype(Model::kInertia)>> {
 template <class Model>
 constexpr std::string_view inertia_of() {
   return detail::InertiaOf<Model>::value;
+}
+
+namespace detail {
+template <class Model, class = void>
+struct HasEnergy : std::false_type {};
+template <class Model>
+struct HasEnergy<Model, std::void_t<decltype(Model::template kinetic_energy<double>(
+                                        std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
+                                        std::declval<const ParamsOf<Model>&>())),
+                                    decltype(Model::template potential_energy<double>(
+                                        std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>())),
+                                    decltype(Model::template dissipation<double>(
+                                        std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>()))>>
+    : std::true_type {};
+
+template <class Model, class = void>
+struct HasCheckFolded : std::false_type {};
+template <class Model>
+struct HasCheckFolded<Model, std::void_t<decltype(Model::template check_folded<double>(
+                                 std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model defines kinetic_energy, potential_energy and dissipation (a header
+/// specialised to a scene without an energy ledger omits them).
+template <class Model>
+inline constexpr bool has_energy = detail::HasEnergy<Model>::value;
+
+/// The first parameter whose value differs from the one folded into a specialised header
+/// (its name, e.g. "m1"), or nullptr: general headers and model tags without check_folded fold
+/// nothing.
+template <class Model>
+const char* folded_mismatch(const ParamsOf<Model>& params) {
+  if constexpr (detail::HasCheckFolded<Model>::value) {
+    return Model::template check_folded<double>(params);
+  } else {
+    return nullptr;
+  }
 }
 
 namespace detail {

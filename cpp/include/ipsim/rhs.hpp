@@ -51,9 +51,11 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
   velocity_out = qd;
   acceleration_out = qdd;
-  if (context.energy_ledger) {
-    out[2 * n] = u * qd(0);
-    out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params);
+  if constexpr (has_energy<Model>) {
+    if (context.energy_ledger) {
+      out[2 * n] = u * qd(0);
+      out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params);
+    }
   }
   for (long i = 0; i < size; ++i) {
     if (!std::isfinite(out[i])) return 1;

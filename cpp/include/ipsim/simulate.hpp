@@ -41,6 +41,7 @@ static_assert(std::is_same_v<realtype, double>, "ipsim needs SUNDIALS built with
 /// Mechanical energy T(θ, θ̇) + V(θ) [J].
 template <class Model>
 double mechanical_energy(const ParamsOf<Model>& params, const VectorOf<Model>& theta, const VectorOf<Model>& dtheta) {
+  static_assert(has_energy<Model>, "this model header has no energy functions (a specialised header omits them)");
   return Model::template kinetic_energy<double>(theta, dtheta, params) +
          Model::template potential_energy<double>(theta, params);
 }
@@ -108,14 +109,20 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
   stepper.add_statistics(result.stats);
 }
 
-/// A setting the model cannot honour: the exact Jacobian needs forward_dynamics_derivatives.
+/// Settings the model cannot honour: the exact Jacobian needs forward_dynamics_derivatives, an
+/// energy ledger needs the energy functions (a specialised header may omit both).
 template <class Model>
 std::vector<std::string> model_setting_problems(const Settings<Model>& settings) {
+  std::vector<std::string> problems;
   if (uses_jacobian(settings.method) && settings.jacobian == Jacobian::exact && !has_derivatives<Model>) {
-    return {std::string("invalid setting jacobian = exact: model ") + Model::kName +
-            " has no forward_dynamics_derivatives (regenerate its header, or use jacobian = dq)"};
+    problems.push_back(std::string("invalid setting jacobian = exact: model ") + Model::kName +
+                       " has no forward_dynamics_derivatives (regenerate its header, or use jacobian = dq)");
   }
-  return {};
+  if (settings.energy_ledger && !has_energy<Model>) {
+    problems.push_back(std::string("invalid setting energy ledger: model ") + Model::kName +
+                       " has no energy functions (specialised without [outputs] energy = true; regenerate it)");
+  }
+  return problems;
 }
 
 }  // namespace detail
@@ -134,6 +141,10 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) 
   const auto started = std::chrono::steady_clock::now();
 
   auto problems = validate<Model>(params);
+  if (const char* name = folded_mismatch<Model>(params)) {
+    problems.push_back(std::string("invalid parameter ") + name + ": differs from the value folded into the " +
+                       "specialised header of model " + Model::kName + " (regenerate the header)");
+  }
   for (const auto& list : {validate<Model>(settings), detail::model_setting_problems<Model>(settings)}) {
     problems.insert(problems.end(), list.begin(), list.end());
   }
