@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision configure build clean
 
 all: test
 
@@ -66,8 +66,19 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed
+bench: $(VENV)/.bench-installed bench-workprecision
 	$(PY) -m bench.run $(BENCH_ARGS)
+
+## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
+## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
+## WORKPRECISION_ARGS passes options, e.g. make bench-workprecision WORKPRECISION_ARGS=--quick
+WORKPRECISION_ARGS ?=
+$(VENV)/.workprecision-installed: pyproject.toml $(VENV)/.installed
+	$(PY) -m pip install -q -e '.[test,workprecision]'
+	@touch $@
+
+bench-workprecision: $(VENV)/.workprecision-installed
+	$(PY) -m bench.workprecision $(WORKPRECISION_ARGS)
 
 clean:
 	rm -rf $(BUILD) out

@@ -1,0 +1,5 @@
+"""python -m bench.workprecision: see run.py."""
+
+from bench.workprecision.run import main
+
+main()
