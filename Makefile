@@ -66,8 +66,12 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation
 	$(PY) -m bench.run $(BENCH_ARGS)
+
+## General against scene-specialised headers (bench/specialisation.py, docs/bench/specialisation.md).
+bench-specialisation: venv deps
+	$(PY) -m bench.specialisation
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
