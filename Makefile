@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation configure build clean
 
 all: test
 
