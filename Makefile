@@ -36,7 +36,7 @@ $(VENV)/.installed: pyproject.toml | deps
 	@touch $@
 
 lint: venv
-	$(VENV)/bin/ruff check generator tests tools
+	$(VENV)/bin/ruff check generator tests tools bench
 
 test-python: venv
 	$(PY) -m pytest -q -n $(JOBS)
