@@ -155,31 +155,49 @@ def _cpu(timing: Timing | None, derive: bool) -> str:
     return seconds(value)
 
 
-def _faster(ours: Timing, kane: Timing, timeout: float) -> bool:
-    if ours.wall_s is None:
+def _ours(timing: Timing, cpu: bool) -> float | None:
+    return timing.cpu_s if cpu else timing.wall_s
+
+
+def _theirs(timing: Timing, cpu: bool) -> float | None:
+    return timing.derive_cpu_s if cpu else timing.derive_s
+
+
+def _faster(ours: Timing, kane: Timing, timeout: float, cpu: bool) -> bool:
+    mine = _ours(ours, cpu)
+    if mine is None:
         return False
-    if kane.derive_s is None:  # Kane's method timed out (or was skipped after a time-out)
-        return ours.wall_s < timeout
-    return ours.wall_s < kane.derive_s
+    if kane.status in ("timeout", "skipped"):  # Kane's method took longer than the limit
+        return mine < timeout
+    theirs = _theirs(kane, cpu)
+    return theirs is not None and mine < theirs
 
 
-def targets(results: list[Timing], timeout: float = TIMEOUT) -> list[tuple[str, bool | None, str]]:
-    """The issue's targets: (statement, met? or None when not measured, the misses)."""
+def targets(
+    results: list[Timing], timeout: float = TIMEOUT, cpu: bool = False
+) -> list[tuple[str, bool | None, str]]:
+    """The issue's targets on wall time (or, with cpu, on CPU time): (statement, met?, misses).
+
+    met is None when not measured in this run.
+    """
+    clock = "CPU time" if cpu else "wall time"
     verdicts: list[tuple[str, bool | None, str]] = []
     for kind in TYPES:
         pairs = [(_find(results, kind, "ipgen", n), _find(results, kind, "kane", n)) for n in range(1, 21)]
         pairs = [(ours, kane) for ours, kane in pairs if ours is not None and kane is not None]
-        misses = [f"n={ours.links}" for ours, kane in pairs if not _faster(ours, kane, timeout)]
+        misses = [f"n={ours.links}" for ours, kane in pairs if not _faster(ours, kane, timeout, cpu)]
         verdicts.append(
             (
-                f"{kind}: the whole ipgen command faster than KanesMethod's derivation alone, every n ≤ 20",
+                f"{kind}: the whole ipgen command faster than KanesMethod's derivation alone, every n ≤ 20"
+                f" ({clock})",
                 (not misses) if pairs else None,
                 ", ".join(misses),
             )
         )
         n20 = _find(results, kind, "ipgen", 20)
-        met = None if n20 is None else n20.wall_s is not None and n20.wall_s < TARGET_N20
-        verdicts.append((f"{kind}: ipgen n = 20 under {TARGET_N20:.0f} s", met, ""))
+        seconds_n20 = None if n20 is None else _ours(n20, cpu)
+        met = None if n20 is None else seconds_n20 is not None and seconds_n20 < TARGET_N20
+        verdicts.append((f"{kind}: ipgen n = 20 under {TARGET_N20:.0f} s ({clock})", met, ""))
     return verdicts
 
 
@@ -252,7 +270,12 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
                 text = f"{_cell(big, False, EXTRA_TIMEOUT)} s" + (f" ({big.error})" if big.error else "")
                 lines += [f"ipgen, {kind} n = {n} (one run, `--force`): {text}.", ""]
     lines += ["## Targets", ""]
-    for text, met, misses in targets(results, timeout):
+    lines += [
+        "The issue states the targets in wall time; on a busy shared machine wall time also counts what",
+        "other processes took, so they are judged on CPU time as well.",
+        "",
+    ]
+    for text, met, misses in targets(results, timeout) + targets(results, timeout, cpu=True):
         state = "not measured" if met is None else verdict(met)
         lines.append(f"- {text}: **{state}**" + (f" ({misses})" if misses else ""))
     return "\n".join(lines) + "\n"

@@ -55,7 +55,8 @@ def main(argv: list[str] | None = None) -> None:
     if options.part in ("all", "generation"):
         timings, checks = generation.sweep(links, options.types, timeout, extra)
         generation.save(timings, checks, out, timeout)
-        for text, met, misses in generation.targets(timings, timeout):
+        verdicts = generation.targets(timings, timeout) + generation.targets(timings, timeout, cpu=True)
+        for text, met, misses in verdicts:
             summary.append(f"generation: {text}: {_state(met)}" + (f" ({misses})" if misses else ""))
     if options.part in ("all", "evaluation"):
         results = evaluation.sweep(links, options.types, rounds, milliseconds)
