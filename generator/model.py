@@ -1,7 +1,8 @@
-"""The physical model: which system, its symbols, and the kinematics of every body.
+"""The physical model: which system, and the kinematics of every body (MODEL.md in code).
 
-This module says *what* the system is (MODEL.md, in code); `derive.py` turns it into
-equations of motion without knowing whether the base is a cart or an arm.
+This module says *what* the system is; `derive.py` turns it into equations of motion without
+knowing whether the base is a cart or an arm. Every quantity is a polynomial (`poly.Poly`) in
+the generators of the system's `Algebra`: parameters, velocities and trig letters.
 
 Coordinates: θ0 is the cart position [m] or the arm angle [rad]; θ1..θn are absolute link
 angles [rad] from the upright vertical, clockwise positive. Link i is a homogeneous rod of
@@ -11,11 +12,14 @@ mass m_i and length l_i with its centre of gravity (CoG) at l_i/2.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
-import sympy as sp
-
+from generator.poly import ZERO, Poly
+from generator.polynomial import Algebra
 from generator.vectors import PlanarVector
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 SystemType = Literal["classical", "rotary"]
 Inertia = Literal["pivot", "full"]
@@ -50,7 +54,7 @@ class System:
 
 @dataclass(frozen=True)
 class Symbols:
-    """The sympy symbols of one system; index 0 is the base, 1..n the links."""
+    """The sympy symbols of one system, index 0 the base, 1..n the links (sympy views only)."""
 
     q: tuple[sp.Symbol, ...]  # θ_i
     qd: tuple[sp.Symbol, ...]  # θ̇_i
@@ -63,7 +67,13 @@ class Symbols:
 
     @classmethod
     def for_system(cls, system: System) -> Symbols:
-        idx = range(system.dof)
+        return cls.for_dof(system.dof)
+
+    @classmethod
+    def for_dof(cls, dof: int) -> Symbols:
+        import sympy as sp
+
+        idx = range(dof)
         return cls(
             q=tuple(sp.Symbol(f"theta{i}", real=True) for i in idx),
             qd=tuple(sp.Symbol(f"dtheta{i}", real=True) for i in idx),
@@ -89,26 +99,33 @@ class Body:
     `rotational[j, k]` is the body's spin contribution to the mass matrix.
     """
 
-    mass: sp.Expr
-    height: sp.Expr
+    mass: Poly
+    height: Poly
     jacobian: tuple[PlanarVector, ...]
-    rotational: dict[tuple[int, int], sp.Expr]
+    rotational: dict[tuple[int, int], Poly]
 
 
-def rod_lever(sym: Symbols, body: int, joint: int) -> sp.Expr:
+def algebra_for(system: System) -> Algebra:
+    """The system's generators, with its named quantities defined."""
+    algebra = Algebra(system.dof)
+    named_quantities(system, algebra)
+    return algebra
+
+
+def rod_lever(alg: Algebra, body: int, joint: int) -> Poly:
     """Distance along link `joint` from its pivot to the point of link `body` we follow.
 
     The CoG of link i lies beyond the full length of every earlier link and half of its own.
     """
     if joint < body:
-        return sym.l[joint]
+        return alg.l(joint)
     if joint == body:
-        return sym.l[joint] / 2
-    return sp.S.Zero
+        return alg.l(joint) / 2
+    return ZERO
 
 
-def named_quantities(system: System, sym: Symbols) -> dict[sp.Symbol, sp.Expr]:
-    """Intermediate quantities that the equations share, in definition order.
+def named_quantities(system: System, alg: Algebra) -> dict[str, Poly]:
+    """Intermediate quantities that the equations share, defined in `alg` in order.
 
     Rotary: `rho_k`, the horizontal reach of joint k + 1 from the arm tip (perpendicular to
     the arm), and `r_i`, that of link i's CoG. Built recursively, they are computed once
@@ -116,54 +133,55 @@ def named_quantities(system: System, sym: Symbols) -> dict[sp.Symbol, sp.Expr]:
     """
     if not system.is_rotary:
         return {}
-    named: dict[sp.Symbol, sp.Expr] = {}
-    reach_of_joint: sp.Expr = sp.S.Zero
+    named: dict[str, Poly] = {}
+    reach_of_joint = ZERO
     for i in range(1, system.dof):
-        r_i = sp.Symbol(f"r{i}", real=True)
-        named[r_i] = reach_of_joint + sym.l[i] / 2 * sp.sin(sym.q[i])
+        named[f"r{i}"] = alg.define(f"r{i}", reach_of_joint + alg.l(i) / 2 * alg.sin(i))
         if i < system.links:
-            rho = sp.Symbol(f"rho{i}", real=True)
-            named[rho] = reach_of_joint + sym.l[i] * sp.sin(sym.q[i])
-            reach_of_joint = rho
+            rho = alg.define(f"rho{i}", reach_of_joint + alg.l(i) * alg.sin(i))
+            named[f"rho{i}"] = reach_of_joint = rho
     return named
 
 
-def bodies(system: System, sym: Symbols) -> list[Body]:
-    """Kinematics of the links, in the coordinates described in the module docstring."""
+def bodies(system: System, alg: Algebra) -> list[Body]:
+    """Kinematics of the links, in the coordinates described in the module docstring.
+
+    `alg` must have the system's named quantities (`algebra_for`).
+    """
     n = system.links
     result = []
     for i in range(1, n + 1):
-        levers = [rod_lever(sym, i, k) for k in range(n + 1)]
-        height = sp.Add(*(levers[k] * sp.cos(sym.q[k]) for k in range(1, i + 1)))
+        levers = [rod_lever(alg, i, k) for k in range(n + 1)]
+        height = Poly.total(levers[k] * alg.cos(k) for k in range(1, i + 1))
         # d/dt (l sin θ, l cos θ) = l θ̇ (cos θ, −sin θ): each link turns the point along the
         # unit direction at angle θ_k in the plane of the links.
-        link_columns = [PlanarVector.along(levers[k], sym.q[k]) for k in range(1, n + 1)]
-        j_spin = sym.m[i] * sym.l[i] ** 2 / 12
+        link_columns = [PlanarVector.along(levers[k], k) for k in range(1, n + 1)]
+        j_spin = alg.m(i) * alg.l(i) ** 2 / 12
         rotational = {(i, i): j_spin}
         if system.is_rotary:
             # In the arm's rotating frame (e_arm, e_perp, e_z) the CoG is at
             # l0 e_arm + r_i e_perp + z_i e_z, so ∂v/∂θ̇0 = l0 e_perp − r_i e_arm.
-            reach = sp.Symbol(f"r{i}", real=True)  # see named_quantities
-            base_column = PlanarVector.along(sym.l[0], sp.S.Zero, normal=-reach)
+            reach = alg.gen(f"r{i}")  # see named_quantities
+            base_column = PlanarVector.along(alg.l(0), None, normal=-reach)
             if system.inertia == "full":
                 # The rod also turns about the vertical with the arm: ½ J_T (θ̇0 sin θ_i)².
-                rotational[(0, 0)] = j_spin * sp.sin(sym.q[i]) ** 2
+                rotational[(0, 0)] = j_spin * alg.sin(i) ** 2
         else:
-            base_column = PlanarVector.along(sp.S.One, sp.S.Zero)  # the cart moves along x
-        result.append(Body(sym.m[i], height, (base_column, *link_columns), rotational))
+            base_column = PlanarVector.along(Poly.constant(1), None)  # the cart moves along x
+        result.append(Body(alg.m(i), height, (base_column, *link_columns), rotational))
     return result
 
 
-def base_inertia(system: System, sym: Symbols) -> sp.Expr:
+def base_inertia(system: System, alg: Algebra) -> Poly:
     """M_00 contribution of the base alone: cart mass, or the arm's J0 = m0 l0²/3."""
     if system.is_rotary:
-        return sym.m[0] * sym.l[0] ** 2 / 3
-    return sym.m[0]
+        return alg.m(0) * alg.l(0) ** 2 / 3
+    return alg.m(0)
 
 
-def rayleigh_dissipation(system: System, sym: Symbols) -> sp.Expr:
+def rayleigh_dissipation(system: System, alg: Algebra) -> Poly:
     """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² (MODEL.md: link 1 uses its absolute rate)."""
-    qd, delta = sym.qd, sym.delta
-    terms = [delta[0] * qd[0] ** 2, delta[1] * qd[1] ** 2]
-    terms += [delta[i] * (qd[i] - qd[i - 1]) ** 2 for i in range(2, system.dof)]
-    return sp.Add(*terms) / 2
+    rate = [Poly.generator(alg.qd(i)) for i in range(system.dof)]
+    terms = [alg.delta(0) * rate[0] ** 2, alg.delta(1) * rate[1] ** 2]
+    terms += [alg.delta(i) * (rate[i] - rate[i - 1]) ** 2 for i in range(2, system.dof)]
+    return Poly.total(terms) / 2

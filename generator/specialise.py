@@ -11,13 +11,15 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 from fractions import Fraction
-
-from sympy.polys.rings import PolyElement
+from typing import TYPE_CHECKING
 
 from generator.derive import Equations
 from generator.model import System
-from generator.polynomial import Algebra
-from generator.scene import Scene
+from generator.poly import Poly
+from generator.polynomial import PARAMETER, Algebra
+
+if TYPE_CHECKING:
+    from generator.scene import Scene
 
 # Every function a header can define, in header order.
 FUNCTIONS: tuple[str, ...] = (
@@ -164,11 +166,11 @@ def specialise(eqs: Equations, spec: Specialisation) -> Equations:
 
 
 def _generator_index(algebra: Algebra, name: str) -> int:
-    for index, symbol in enumerate(algebra.parameters):
-        if symbol.name == name:
-            return index
-    raise KeyError(name)
+    index = algebra.index(name)
+    if algebra.generators[index].kind != PARAMETER:
+        raise KeyError(name)
+    return index
 
 
-def _fold(p: PolyElement, values: dict[int, Fraction]) -> PolyElement:
-    return Algebra.substitute(p, values)
+def _fold(p: Poly, values: dict[int, Fraction]) -> Poly:
+    return p.substitute(values) if p else p

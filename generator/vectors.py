@@ -8,24 +8,33 @@ as cos(θi − θj) by construction: no trigonometric simplification is ever nee
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
-import sympy as sp
+from generator.poly import ZERO, Poly
+
+if TYPE_CHECKING:
+    from generator.polynomial import Algebra
 
 
 @dataclass(frozen=True)
 class PlanarVector:
-    """Σ coefficient·u(angle) in the links' plane, plus `normal` along the plane's normal."""
+    """Σ coefficient·u(θ_angle) in the links' plane, plus `normal` along the plane's normal.
 
-    terms: tuple[tuple[sp.Expr, sp.Expr], ...]  # (coefficient, angle)
-    normal: sp.Expr = sp.S.Zero
+    An angle is the index k of θk, or None for the angle 0 (the base's own direction).
+    """
+
+    terms: tuple[tuple[Poly, int | None], ...]  # (coefficient, angle)
+    normal: Poly = field(default_factory=lambda: ZERO)
 
     @classmethod
-    def along(cls, coefficient: sp.Expr, angle: sp.Expr, normal: sp.Expr = sp.S.Zero) -> PlanarVector:
-        terms = () if coefficient == 0 else ((sp.sympify(coefficient), sp.sympify(angle)),)
-        return cls(terms, sp.sympify(normal))
+    def along(cls, coefficient: Poly, angle: int | None, normal: Poly = ZERO) -> PlanarVector:
+        terms = ((coefficient, angle),) if coefficient else ()
+        return cls(terms, normal)
 
-    def dot(self, other: PlanarVector) -> sp.Expr:
-        total = [a * b * sp.cos(alpha - beta) for a, alpha in self.terms for b, beta in other.terms]
+    def dot(self, other: PlanarVector, alg: Algebra) -> Poly:
+        total = [
+            a * b * alg.cos_difference(alpha, beta) for a, alpha in self.terms for b, beta in other.terms
+        ]
         total.append(self.normal * other.normal)
-        return sp.Add(*total)
+        return Poly.total(total)

@@ -67,14 +67,16 @@ def test_header_or_one_line_error(
 def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
     """SIGINT during a derivation: exit 130, a one-line message, nothing written."""
     out = tmp_path / "out"
+    # Large enough to be still generating when the signal comes (it takes several seconds).
+    command = ["--type", "classical", "--links", "50", "--force", "-o", str(out)]
     process = subprocess.Popen(
-        [sys.executable, "-m", "generator", "--type", "rotary", "--links", "14", "-o", str(out)],
+        [sys.executable, "-m", "generator", *command],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
     )
-    time.sleep(2.5)  # past the imports, inside the derivation
+    time.sleep(2.5)  # past the imports, inside the generation
     process.send_signal(signal.SIGINT)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr

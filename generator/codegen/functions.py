@@ -2,8 +2,8 @@
 
 For each function: its outputs are written in the trig letters of `polynomial.Algebra`
 (sin/cos of each angle computed once; cos(θj − θk) = cj ck + sj sk from them), common
-subexpressions are shared by one `sympy.cse` over all its outputs (M and the bias share
-temporaries in `forward_dynamics`), and the result is printed as C++ statements.
+subexpressions are shared over all its outputs (`cse.py`: M and the bias share temporaries in
+`forward_dynamics`), and the result is printed as C++ statements (`printer.py`).
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import sympy as sp
-from sympy.polys.rings import PolyElement
-
+from generator.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from generator.codegen.printer import CppPrinter
 from generator.derive import Equations, PolyMatrix
+from generator.poly import Poly
+from generator.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY, Algebra, Generator
 
 
 @dataclass(frozen=True)
@@ -46,29 +46,27 @@ class FunctionBody:
     trig_calls: int = 0  # sin/cos evaluations
 
 
-_LETTER = re.compile(r"([scCS])(\d+)(?:_(\d+))?\Z")
-
-
-def _trig_definition(letter: sp.Symbol) -> tuple[str, tuple[str, ...]]:
+def _trig_definition(letter: Generator) -> tuple[str, tuple[str, ...]]:
     """C++ definition of a trig letter, and the letters it is built from."""
-    kind, j, k = _LETTER.match(letter.name).groups()  # type: ignore[union-attr]
-    name = _cpp_name(letter)
-    if k is None:
-        return f"const Scalar {name} = {'sin' if kind == 's' else 'cos'}(q({j}));", ()
-    if kind == "C":
+    if len(letter.angles) == 1:
+        (k,) = letter.angles
+        return f"const Scalar {letter.name} = {'sin' if letter.group == 's' else 'cos'}(q({k}));", ()
+    j, k = letter.angles
+    if letter.group == "C":
         value, what = f"c{j}*c{k} + s{j}*s{k}", "cos"
     else:
         value, what = f"s{j}*c{k} - c{j}*s{k}", "sin"
-    return f"const Scalar {name} = {value};  // {what}(θ{j} − θ{k})", (f"s{j}", f"c{j}", f"s{k}", f"c{k}")
+    return f"const Scalar {letter.name} = {value};  // {what}(θ{j} − θ{k})", (
+        f"s{j}",
+        f"c{j}",
+        f"s{k}",
+        f"c{k}",
+    )
 
 
-def _cpp_name(letter: sp.Symbol) -> str:
-    return letter.name.lower()  # C1_2 -> c1_2: cos(θ1 − θ2); S1_2 -> s1_2
-
-
-def _targets(outputs: Sequence[Output]) -> list[tuple[str, PolyElement]]:
+def _targets(outputs: Sequence[Output]) -> list[tuple[str, Poly]]:
     """(C++ target, polynomial) for every entry that must be computed."""
-    targets: list[tuple[str, PolyElement]] = []
+    targets: list[tuple[str, Poly]] = []
     for out in outputs:
         rows, cols = len(out.value), len(out.value[0])
         for r in range(rows):
@@ -91,6 +89,51 @@ def _mirror_lines(outputs: Sequence[Output]) -> list[str]:
     return lines
 
 
+class _Leaves:
+    """Graph leaves of an algebra's generators, made on first use; remembers which are used."""
+
+    def __init__(self, graph: Graph, algebra: Algebra) -> None:
+        self.graph = graph
+        self.algebra = algebra
+        self.node: dict[int, int] = {}  # generator -> leaf
+        self.generator: dict[int, int] = {}  # leaf -> generator
+
+    def __getitem__(self, g: int) -> int:
+        node = self.node.get(g)
+        if node is None:
+            node = self.node[g] = self.graph.leaf(self.algebra.generators[g].name)
+            self.generator[node] = g
+        return node
+
+
+def _expression(algebra: Algebra, p: Poly) -> str:
+    """p printed on its own, without shared subexpressions (named quantities' definitions)."""
+    graph = Graph()
+    leaves = _Leaves(graph, algebra)
+    sign, node = graph.polynomial(p, leaves, algebra.n_parameters)
+    return CppPrinter(graph, {}, leaves.generator).signed(sign, node)
+
+
+def _schedule(graph: Graph, roots: Sequence[Signed], late: set[int]) -> tuple[list[int], list[int]]:
+    """Nodes computed as temporaries (used twice or more), in emission order: those before θ̈
+    is known, then those that need it (`late`). A temporary comes after everything it uses."""
+    order = graph.reachable(root for _, root in roots)
+    uses: dict[int, int] = {}
+    for _, root in roots:
+        uses[root] = uses.get(root, 0) + 1
+    for node in order:
+        for child in graph.children(node):
+            uses[child] = uses.get(child, 0) + 1
+    early_roots = [r for _, r in roots if r not in late]
+    late_roots = [r for _, r in roots if r in late]
+    early: list[int] = []
+    later: list[int] = []
+    for node in graph.reachable([*early_roots, *late_roots]):
+        if uses[node] > 1 and graph.kind[node] in (MUL, ADD):
+            (later if node in late else early).append(node)
+    return early, later
+
+
 def build_body(
     eqs: Equations, outputs: Sequence[Output], arguments: Sequence[str], late_source: str = ""
 ) -> FunctionBody:
@@ -99,66 +142,63 @@ def build_body(
     Outputs may use θ̈: with `late_source` (a C++ vector holding it), the statements that need
     it (transitively) are kept apart as the body's `late_*` part, and all others come first.
     """
-    sym, algebra = eqs.symbols, eqs.algebra
+    algebra = eqs.algebra
+    generators = algebra.generators
     targets = _targets(outputs)
-    exprs = [algebra.to_expr(p, letters=True) for _, p in targets]
-    temporaries, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("t"))
+    graph = Graph()
+    leaves = _Leaves(graph, algebra)
+    roots = [graph.polynomial(p, leaves, algebra.n_parameters) for _, p in targets]
+    graph.share_products(r for _, r in roots)
+    graph.share_sums(r for _, r in roots)
+    roots = graph.canonical(roots)
 
-    used: set[sp.Symbol] = set()
-    for expr in [*reduced, *(v for _, v in temporaries)]:
-        used |= expr.free_symbols
-    # Named quantities used, with what their definitions use (later ones build on earlier).
-    named_code = {s: algebra.to_expr(p, letters=True) for s, p in algebra.named.items()}
-    for symbol in reversed(list(named_code)):
-        if symbol in used:
-            used |= named_code[symbol].free_symbols
-    letters = [s for s in algebra.letters if s in used]
-    definitions = {s.name: _trig_definition(s) for s in letters}
-    needed = {part for _, parts in definitions.values() for part in parts}
-    singles = [s for s in algebra.letters if s.name in needed and s.name not in definitions]
-    definitions.update({s.name: _trig_definition(s) for s in singles})
-    # per-angle sin/cos first (in angle order), then differences
-    trig = sorted(definitions.items(), key=lambda item: (bool(item[1][1]), _sort_key(item[0])))
-
-    names: dict[sp.Symbol, str] = {s: _cpp_name(s) for s in algebra.letters}
-    names.update({s: s.name for s in named_code})
-    names.update({s: s.name for s, _ in temporaries})
-    body = FunctionBody()
-    for group, cpp in ((sym.m, "p.m"), (sym.l, "p.l"), (sym.delta, "p.delta")):
-        for k, s in enumerate(group):
-            names[s] = s.name
-            if s in used:
-                body.prelude.append(f"const Scalar {s.name} = {cpp}[{k}];")
-    names[sym.g] = "g"
-    if sym.g in used:
-        body.prelude.append("const Scalar g = p.g;")
-    for k, s in enumerate(sym.qd):
-        names[s] = f"dq{k}"
-        if s in used:
-            body.prelude.append(f"const Scalar dq{k} = qd({k});")
-    body.prelude += [definition for _, (definition, _) in trig]
-
-    late: set[sp.Symbol] = set()
-    for k, s in enumerate(sym.qdd):
-        names[s] = f"ddq{k}"
-        if s in used:
-            body.late_prelude.append(f"const Scalar ddq{k} = {late_source}({k});")
-            late.add(s)
+    reachable = graph.reachable(r for _, r in roots)
+    used = {leaves.generator[v] for v in reachable if graph.kind[v] == LEAF}
+    late = {leaves.node[g] for g in used if generators[g].kind == ACCELERATION}
     if late and not late_source:
         raise ValueError("outputs use accelerations but no late_source names them")
+    for node in reachable:  # children first
+        if any(child in late for child in graph.children(node)):
+            late.add(node)
+    early, later = _schedule(graph, roots, late)
+    names = {node: f"t{i}" for i, node in enumerate([*early, *later])}
+    printer = CppPrinter(graph, names, leaves.generator)
 
-    printer = CppPrinter(names)
-    named_used = [s for s in named_code if s in used]
-    body.prelude += [f"const Scalar {s.name} = {printer(named_code[s])};" for s in named_used]
-    for symbol, value in temporaries:
-        is_late = bool(value.free_symbols & late)
-        if is_late:
-            late.add(symbol)
-        statement = f"const Scalar {symbol.name} = {printer(value)};"
-        (body.late_temporaries if is_late else body.temporaries).append(statement)
-    for (target, _), value in zip(targets, reduced, strict=True):
-        statement = f"{target} = {printer(value)};"
-        (body.late_outputs if value.free_symbols & late else body.outputs).append(statement)
+    # Named quantities used, with what their definitions use (later ones build on earlier).
+    for g in sorted(algebra.named, reverse=True):
+        if g in used:
+            used |= algebra.named[g].generators()
+    letters = [g for g in sorted(used) if generators[g].kind == LETTER]
+    definitions = {generators[g].name: _trig_definition(generators[g]) for g in letters}
+    needed = {part for _, parts in definitions.values() for part in parts}
+    for name in needed - definitions.keys():
+        definitions[name] = _trig_definition(generators[algebra.index(name)])
+    # per-angle sin/cos first (in angle order), then differences
+    trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
+
+    body = FunctionBody()
+    cpp_group = {"m": "p.m", "l": "p.l", "delta": "p.delta"}
+    for g in sorted(used):
+        info = generators[g]
+        if info.kind == PARAMETER:
+            source = "p.g" if info.group == "g" else f"{cpp_group[info.group]}[{info.index}]"
+            body.prelude.append(f"const Scalar {info.name} = {source};")
+        elif info.kind == VELOCITY:
+            body.prelude.append(f"const Scalar {info.name} = qd({info.index});")
+        elif info.kind == ACCELERATION:
+            body.late_prelude.append(f"const Scalar {info.name} = {late_source}({info.index});")
+    body.prelude += [definition for _, (definition, _) in trig]
+    body.prelude += [
+        f"const Scalar {generators[g].name} = {_expression(algebra, algebra.named[g])};"
+        for g in sorted(algebra.named)
+        if g in used and generators[g].kind == NAMED
+    ]
+
+    body.temporaries = [f"const Scalar {names[v]} = {printer.definition(v)};" for v in early]
+    body.late_temporaries = [f"const Scalar {names[v]} = {printer.definition(v)};" for v in later]
+    for (target, _), (sign, node) in zip(targets, roots, strict=True):
+        statement = f"{target} = {printer.signed(sign, node)};"
+        (body.late_outputs if node in late else body.outputs).append(statement)
     body.outputs += _mirror_lines(outputs)
     computed = [*body.prelude, *body.temporaries, *body.outputs, *body.late_temporaries, *body.late_outputs]
     body.operations = sum(count_operations(line) for line in computed)
@@ -166,11 +206,17 @@ def build_body(
 
     needs = {
         "q": bool(trig),
-        "qd": bool(used & set(sym.qd)),
-        "p": bool(used & set(sym.parameters)),
+        "qd": any(generators[g].kind == VELOCITY for g in used),
+        "p": any(generators[g].kind == PARAMETER for g in used),
     }
     body.unused_arguments = [a for a in arguments if not needs[a]]
     return body
+
+
+def _letter_key(letter: Generator) -> tuple[int, ...]:
+    """sin/cos of single angles first, then differences; sin before cos."""
+    j, k = (*letter.angles, 0)[:2]
+    return (len(letter.angles) > 1, j, k, letter.group.lower() == "c")
 
 
 _OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
@@ -187,8 +233,3 @@ def count_operations(statement: str) -> int:
     right = re.sub(r"Scalar\(\d+\)/Scalar\(\d+\)", "1", right)
     right = re.sub(r"\b(sin|cos)\(q\(\d+\)\)", "x", right)
     return len(_OPERATOR.findall(right))
-
-
-def _sort_key(name: str) -> tuple[int, ...]:
-    kind, j, k = _LETTER.match(name).groups()  # type: ignore[union-attr]
-    return (int(j), int(k or 0), kind.lower() == "c")

@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
-import sympy as sp
 
 from generator import __version__
 from generator.codegen.functions import FunctionBody, Output, build_body
@@ -108,6 +107,5 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
         "specialisation": spec.notes(),
         "folded": [(name, _params_field(name), repr(float(value))) for name, value in spec.fixed],
         "origin": spec.origin,
-        "sympy_version": sp.__version__,
     }
     return _environment().get_template(TEMPLATE).render(context)

@@ -1,91 +1,117 @@
-"""Prints sympy expressions as C++ for a templated `Scalar` type.
+"""Prints expression-graph nodes (`cse.Graph`) as C++ for a templated `Scalar` type.
 
-A deliberately small printer (the expressions are polynomials in parameters, velocities
-and per-angle sin/cos): literals are cast to `Scalar` so the same code is exact in float
-and double, small integer powers become products, and nothing is printed that the caller
-did not name (an unnamed symbol is a bug, reported as such).
+Literals are cast to `Scalar` (`Scalar(1)/Scalar(3)`) so that the same code is exact in float
+and double, powers are repeated products, a node that has a name (a temporary) is printed by
+that name, and any other node is written out where it is used: a product inline, a sum in
+parentheses inside a product and merged (with its signs) into an enclosing sum.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from fractions import Fraction
 
-import sympy as sp
+from generator.codegen.cse import ADD, CONST, LEAF, MUL, Graph
+
+
+def literal(value: Fraction) -> str:
+    if value.denominator == 1:
+        return f"Scalar({value.numerator})"
+    return f"Scalar({value.numerator})/Scalar({value.denominator})"
 
 
 class CppPrinter:
-    """Prints an expression; `names` maps every symbol to its C++ spelling."""
+    """Prints nodes of `graph`; `names` maps the nodes computed as temporaries to their names."""
 
-    def __init__(self, names: Mapping[sp.Symbol, str]) -> None:
+    def __init__(self, graph: Graph, names: Mapping[int, str], leaf_order: Mapping[int, int]) -> None:
+        self.graph = graph
         self.names = names
+        self.leaf_order = leaf_order  # leaf node -> generator index (print order)
 
-    def __call__(self, expr: sp.Expr) -> str:
-        return self._print(sp.sympify(expr))
+    def signed(self, sign: int, node: int) -> str:
+        """The right-hand side for the value sign·node."""
+        if node < 0:
+            return "Scalar(0)"
+        if node not in self.names and self.graph.kind[node] == ADD:
+            return self._sum({t: s * sign for t, s in self.graph.data[node].items()})
+        text = self.definition(node) if node not in self.names else self.names[node]
+        return f"-{self._factor(node, text)}" if sign < 0 else text
 
-    def _print(self, expr: sp.Expr) -> str:
-        if isinstance(expr, sp.Symbol):
-            if expr not in self.names:
-                raise KeyError(f"symbol {expr} has no C++ name")
-            return self.names[expr]
-        if isinstance(expr, sp.Integer):
-            return f"Scalar({int(expr)})"
-        if isinstance(expr, sp.Rational):
-            return f"Scalar({expr.p})/Scalar({expr.q})"
-        if isinstance(expr, sp.Float):
-            return f"Scalar({sp.Float(expr, 17)})"
-        if isinstance(expr, sp.Add):
-            return self._print_add(expr)
-        if isinstance(expr, sp.Mul):
-            return self._print_mul(expr)
-        if isinstance(expr, sp.Pow):
-            return self._print_mul(expr)
-        if isinstance(expr, (sp.sin, sp.cos, sp.sqrt)):
-            return f"{type(expr).__name__}({self._print(expr.args[0])})"
-        raise TypeError(f"cannot print {type(expr).__name__}: {expr}")
+    def definition(self, node: int) -> str:
+        """The node's own expression (for its temporary), its children by name or inline."""
+        kind = self.graph.kind[node]
+        if kind == MUL:
+            return self._product(node)
+        if kind == ADD:
+            return self._sum(self.graph.data[node])
+        return self._atom(node)
 
-    def _print_add(self, expr: sp.Add) -> str:
-        text = ""
-        for term in expr.args:
-            negative = term.could_extract_minus_sign()
-            body = self._factor(-term if negative else term, in_sum=True)
-            if not text:
-                text = f"-{body}" if negative else body
-            else:
-                text += f" - {body}" if negative else f" + {body}"
-        return text
+    def _atom(self, node: int) -> str:
+        kind = self.graph.kind[node]
+        if kind == LEAF:
+            return self.graph.data[node]
+        if kind == CONST:
+            return literal(self.graph.data[node])
+        return self.names[node]
 
-    def _factor(self, expr: sp.Expr, in_sum: bool = False) -> str:
-        """Print `expr` so that it can stand as one factor of a product."""
-        text = self._print(expr)
-        if isinstance(expr, sp.Add) or (not in_sum and text.startswith("-")):
+    def _reference(self, node: int) -> str:
+        if node in self.names or self.graph.kind[node] in (LEAF, CONST):
+            return self._atom(node)
+        return self.definition(node)
+
+    def _factor(self, node: int, text: str) -> str:
+        """`text` (node's printed form) as a factor of a product: sums in parentheses."""
+        if node not in self.names and self.graph.kind[node] == ADD:
             return f"({text})"
         return text
 
-    def _power(self, base: sp.Expr, exponent: int) -> str:
-        factor = self._factor(base)
-        return "*".join([factor] * exponent)
+    def _sort_key(self, node: int) -> tuple[int, int]:
+        if node in self.names:
+            return (1, int(self.names[node][1:]))
+        kind = self.graph.kind[node]
+        if kind == CONST:
+            return (0, 0)
+        if kind == LEAF:
+            return (2, self.leaf_order[node])
+        return (3 if kind == MUL else 4, node)
 
-    def _print_mul(self, expr: sp.Expr) -> str:
-        coefficient, factors = expr.as_coeff_mul()
-        numerator: list[str] = []
-        denominator: list[str] = []
-        for factor in factors:
-            base, exponent = factor.as_base_exp()
-            if exponent.is_Integer and exponent > 0:
-                numerator.append(self._power(base, int(exponent)))
-            elif exponent.is_Integer and exponent < 0:
-                denominator.append(self._power(base, int(-exponent)))
-            elif exponent == sp.S.Half:
-                numerator.append(f"sqrt({self._print(base)})")
+    def _product(self, node: int) -> str:
+        """Factors of the product and of its inline sub-products, constants merged and first."""
+        constant = Fraction(1)
+        factors: list[int] = []
+        pending = list(self.graph.data[node])
+        while pending:
+            f = pending.pop()
+            kind = self.graph.kind[f]
+            if kind == CONST:
+                constant *= self.graph.data[f]
+            elif kind == MUL and f not in self.names:
+                pending.extend(self.graph.data[f])
             else:
-                numerator.append(f"pow({self._print(base)}, {self._print(exponent)})")
-        sign = ""
-        if coefficient < 0:
-            sign, coefficient = "-", -coefficient
-        if coefficient != 1 or not numerator:
-            numerator.insert(0, self._print(coefficient))
-        text = "*".join(numerator)
-        if denominator:
-            den = denominator[0] if len(denominator) == 1 else "(" + "*".join(denominator) + ")"
-            text += f"/{den}"
-        return sign + text
+                factors.append(f)
+        factors.sort(key=self._sort_key)
+        printed = [self._factor(f, self._reference(f)) for f in factors]
+        if constant != 1 or not printed:
+            printed.insert(0, literal(constant))
+        return "*".join(printed)
+
+    def _sum(self, terms: Mapping[int, int]) -> str:
+        flat: list[tuple[int, int]] = []
+        self._flatten(terms, 1, flat)
+        flat.sort(key=lambda item: (item[1] < 0, self._sort_key(item[0])))
+        text = ""
+        for node, sign in flat:
+            body = self._reference(node)
+            if not text:
+                text = f"-{self._factor(node, body)}" if sign < 0 else body
+            else:
+                text += f" - {body}" if sign < 0 else f" + {body}"
+        return text
+
+    def _flatten(self, terms: Mapping[int, int], sign: int, out: list[tuple[int, int]]) -> None:
+        """Terms of a sum, with the terms of inline sub-sums merged in (signs multiplied)."""
+        for node, s in terms.items():
+            if node not in self.names and self.graph.kind[node] == ADD:
+                self._flatten(self.graph.data[node], sign * s, out)
+            else:
+                out.append((node, sign * s))
