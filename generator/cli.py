@@ -8,11 +8,11 @@ from pathlib import Path
 import click
 
 from generator import __version__
+from generator.errors import SceneError
 from generator.generate import STEPS, Written, default_name, generate_header
 from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from generator.naming import name_problem
 from generator.output import OutputError, write_file
-from generator.scene import SceneError, load_scene, resolved_config
 from generator.specialise import (
     FUNCTIONS,
     Specialisation,
@@ -195,6 +195,8 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
     if path is None:
         raise _fail("--describe needs --scene FILE: it describes a scene's system")
     _check_no_system_options(*clashing)
+    from generator.scene import load_scene  # only scene commands need it
+
     scene = load_scene(path)
     click.echo(
         f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem} "
@@ -206,6 +208,8 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
 
 def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
     _check_no_system_options(*clashing)
+    from generator.scene import load_scene, resolved_config  # only scene commands need it
+
     scene = load_scene(path)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
     spec = from_scene(scene) if scene.specialise else Specialisation()

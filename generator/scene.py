@@ -40,11 +40,8 @@ from typing import Any, NoReturn
 
 from generator import __version__
 from generator import scene_schema as schema
+from generator.errors import SceneError
 from generator.naming import name_problem
-
-
-class SceneError(Exception):
-    """A scene file that cannot be used; the message is one line: `<file>: <problem>`."""
 
 
 @dataclass(frozen=True)
