@@ -130,10 +130,8 @@ def _mass_partials(mass: PolyMatrix, algebra: Algebra) -> MassPartials:
     partial: MassPartials = {}
     for j in range(size):
         for k in range(j, size):
-            for i in sorted(algebra.angles(mass[j][k])):
-                d = algebra.diff_angle(mass[j][k], i)
-                if d:
-                    partial[i, j, k] = partial[i, k, j] = d
+            for i, d in algebra.gradient(mass[j][k]).items():
+                partial[i, j, k] = partial[i, k, j] = d
     return partial
 
 
@@ -162,22 +160,24 @@ def _dynamics_partials(
     M θ̈ + b = B u implicitly gives ∂θ̈/∂x = −M⁻¹ ∂r/∂x and ∂θ̈/∂u = M⁻¹ B: no symbolic inverse.
     """
     size = len(bias)
-    by_angle = [
-        [
-            Poly.total(
-                [
-                    algebra.diff_angle(bias[k], i),
-                    *(
-                        partial[i, k, j].times_generator(algebra.qdd(j))
-                        for j in range(size)
-                        if (i, k, j) in partial
-                    ),
-                ]
-            )
-            for i in range(size)
-        ]
-        for k in range(size)
-    ]
+    by_angle = []
+    for k in range(size):
+        gradient = algebra.gradient(bias[k])
+        by_angle.append(
+            [
+                Poly.total(
+                    [
+                        gradient.get(i, ZERO),
+                        *(
+                            partial[i, k, j].times_generator(algebra.qdd(j))
+                            for j in range(size)
+                            if (i, k, j) in partial
+                        ),
+                    ]
+                )
+                for i in range(size)
+            ]
+        )
     by_rate = [[bias[k].diff(algebra.qd(i)) for i in range(size)] for k in range(size)]
     return by_angle, by_rate
 
@@ -194,7 +194,8 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
 
     report("potential energy and gravity")
     potential = Poly.total(b.mass * algebra.g() * b.height for b in bodies(system, algebra))
-    gravity = [algebra.diff_angle(potential, k) for k in range(size)]
+    slope = algebra.gradient(potential)
+    gravity = [slope.get(k, ZERO) for k in range(size)]
 
     report("dissipation")
     dissipation = rayleigh_dissipation(system, algebra)

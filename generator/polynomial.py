@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
-from generator.poly import ONE, Monomial, Poly, from_numerators, insert
+from generator.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
 
 if TYPE_CHECKING:
     import sympy as sp
@@ -77,7 +77,6 @@ class Algebra:
                 self._angles_of[g] = info.angles
         # Named quantities: generator -> definition; ∂(named)/∂θi, computed on first use.
         self.named: dict[int, Poly] = {}
-        self._named_by_angle: list[set[int]] = [set() for _ in range(dof)]
         self._named_derivative: dict[tuple[int, int], Poly] = {}
         self._symbols: Symbols | None = None
         self._sympy_meaning: list[sp.Expr] | None = None
@@ -136,8 +135,6 @@ class Algebra:
         self.named[index] = definition
         angles = sorted({a for g in definition.generators() for a in self._angles_of.get(g, ())})
         self._angles_of[index] = tuple(angles)
-        for a in angles:
-            self._named_by_angle[a].add(index)
         return Poly.generator(index)
 
     def folded(self, values: dict[int, Fraction]) -> Algebra:
@@ -154,42 +151,52 @@ class Algebra:
         """The angles θi that p depends on (through letters and named quantities)."""
         return {a for g in p.generators() for a in self._angles_of.get(g, ())}
 
-    def depends_on_angle(self, p: Poly, i: int) -> bool:
-        return i in self.angles(p)
-
-    def diff_angle(self, p: Poly, i: int) -> Poly:
-        """∂p/∂θi by the chain rule over the letters and named quantities."""
-        letters = self._by_angle[i]
-        named = self._named_by_angle[i]
-        terms: dict[Monomial, int] = {}
-        get = terms.get
-        through_named: dict[int, dict[Monomial, int]] = {}
+    def gradient(self, p: Poly) -> dict[int, Poly]:
+        """{i: ∂p/∂θi} for every angle p depends on, by the chain rule over the letters and
+        named quantities, in one pass over p's terms."""
+        by_angle = self._by_angle
+        by_letter: dict[int, dict[Monomial, int]] = {}  # angle -> numerators over p.den
+        by_named: dict[tuple[int, int], dict[Monomial, int]] = {}  # (named, angle) -> cofactor
         for m, c in p.terms.items():
             previous = -1
             for at, g in enumerate(m):
                 if g == previous:
                     continue
                 previous = g
-                if g in letters:
-                    sign, target = letters[g]
-                    rest = insert((*m[:at], *m[at + 1 :]), target)
-                    terms[rest] = get(rest, 0) + sign * c * m.count(g)
-                elif g in named:
-                    rest_terms = through_named.setdefault(g, {})
-                    rest = (*m[:at], *m[at + 1 :])
-                    rest_terms[rest] = rest_terms.get(rest, 0) + c * m.count(g)
-        result = from_numerators({m: c for m, c in terms.items() if c}, p.den)
-        parts = [result]
-        for g in sorted(through_named):
-            rest = from_numerators({m: c for m, c in through_named[g].items() if c}, p.den)
-            parts.append(rest * self._derivative_of_named(g, i))
-        return Poly.total(parts)
+                angles = self._angles_of.get(g)
+                if angles is None:
+                    continue
+                rest = (*m[:at], *m[at + 1 :])
+                c_times_exponent = c * m.count(g) if g in rest else c
+                for i in angles:
+                    if g in self.named:
+                        cofactor = by_named.setdefault((g, i), {})
+                        cofactor[rest] = cofactor.get(rest, 0) + c_times_exponent
+                    else:
+                        sign, target = by_angle[i][g]
+                        terms = by_letter.setdefault(i, {})
+                        key = insert(rest, target)
+                        terms[key] = terms.get(key, 0) + sign * c_times_exponent
+        parts: dict[int, list[Poly]] = {
+            i: [from_numerators({m: c for m, c in terms.items() if c}, p.den)]
+            for i, terms in by_letter.items()
+        }
+        for (g, i), cofactor in sorted(by_named.items()):
+            rest = from_numerators({m: c for m, c in cofactor.items() if c}, p.den)
+            parts.setdefault(i, []).append(rest * self._derivative_of_named(g, i))
+        gradient = {i: Poly.total(parts[i]) for i in sorted(parts)}
+        return {i: d for i, d in gradient.items() if d}
+
+    def diff_angle(self, p: Poly, i: int) -> Poly:
+        """∂p/∂θi."""
+        return self.gradient(p).get(i, ZERO)
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         key = (g, i)
         if key not in self._named_derivative:
-            self._named_derivative[key] = self.diff_angle(self.named[g], i)
-        return self._named_derivative[key]
+            for angle, d in self.gradient(self.named[g]).items():
+                self._named_derivative[g, angle] = d
+        return self._named_derivative.get(key, ZERO)
 
     # -- sympy views (tests, references) ------------------------------------------------
     @property
