@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import heapq
 from bisect import bisect_left
+from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from fractions import Fraction
 
@@ -140,23 +141,29 @@ class Graph:
         _pair_up([v for v in self.reachable(roots) if self.kind[v] == ADD], self.data, _Sums(self))
 
     def reachable(self, roots: Iterable[int]) -> list[int]:
-        """Nodes reachable from `roots` (children before parents)."""
+        """Nodes reachable from `roots` (-1, zero, is skipped), children before parents."""
         seen: set[int] = set()
         order: list[int] = []
+        kind, data = self.kind, self.data
         for root in roots:
             if root < 0 or root in seen:
                 continue
-            stack = [(root, False)]
+            seen.add(root)
+            stack = [(root, iter(self.children(root)))]
             while stack:
-                node, done = stack.pop()
-                if done:
+                node, pending = stack[-1]
+                for child in pending:
+                    if child in seen:
+                        continue
+                    seen.add(child)
+                    if kind[child] < MUL:  # a leaf or a constant
+                        order.append(child)
+                        continue
+                    stack.append((child, iter(data[child])))
+                    break
+                else:
+                    stack.pop()
                     order.append(node)
-                    continue
-                if node in seen:
-                    continue
-                seen.add(node)
-                stack.append((node, True))
-                stack.extend((c, False) for c in reversed(list(self.children(node))) if c not in seen)
         return order
 
     def children(self, node: int) -> Iterable[int]:
@@ -201,54 +208,61 @@ class Graph:
 
 def _common_factor(monomials: list[Monomial]) -> Monomial:
     """The largest monomial dividing every one of `monomials`."""
-    common = list(monomials[0])
-    for m in monomials[1:]:
-        rest = list(m)
-        kept = []
-        for g in common:
-            if g in rest:
-                rest.remove(g)
-                kept.append(g)
-        common = kept
+    common: list[int] = []
+    for g in dict.fromkeys(monomials[0]):
+        common += [g] * min(m.count(g) for m in monomials)
     return tuple(common)
 
 
 def _remove(monomial: Monomial, factor: Monomial) -> Monomial:
+    if not factor:
+        return monomial
     rest = list(monomial)
     for g in factor:
         rest.remove(g)
     return tuple(rest)
 
 
+_BITS = 32  # node ids are below 2**32: a pair of them packs into one int key
+
+
 class _Products:
-    """Pairs of factors in products: a product's data is its sorted tuple of factors."""
+    """Pairs of factors in products: a product's data is its sorted tuple of factors, and the
+    pair x·y (x ≤ y) has the key x·2³² + y."""
 
     def __init__(self, graph: Graph) -> None:
         self.graph = graph
 
     @staticmethod
     def elements(factors: tuple[int, ...]) -> Iterable[int]:
-        return factors
+        return set(factors)
 
     @staticmethod
-    def pairs(factors: tuple[int, ...], shared: set[int], touching: Sequence[int] = ()) -> set[tuple]:
-        """The pairs (x, y), x ≤ y, of `shared` factors in a product (only those with an element
-        of `touching`, if given)."""
+    def pairs(factors: tuple[int, ...], shared: set[int]) -> list[int]:
+        """Every pair of `shared` factors a product contains, once."""
         candidates = [f for f in factors if f in shared]
-        pairs = set()
+        pairs = []
         for i, x in enumerate(candidates):
             if i and candidates[i - 1] == x:
-                if (not touching or x in touching) and (i < 2 or candidates[i - 2] != x):
-                    pairs.add((x, x))
+                if i < 2 or candidates[i - 2] != x:
+                    pairs.append(x << _BITS | x)
                 continue
-            if touching and x not in touching:
-                pairs.update((x, y) for y in candidates[i + 1 :] if y in touching and y != x)
-            else:
-                pairs.update((x, y) for y in candidates[i + 1 :] if y != x)
+            high = x << _BITS
+            pairs.extend({high | y for y in candidates[i + 1 :] if y != x})
         return pairs
 
-    def combine(self, key: tuple[int, int]) -> tuple[int, Callable, tuple[int, ...]]:
-        x, y = key
+    @staticmethod
+    def touching(factors: tuple[int, ...], shared: set[int], element: int) -> set[int]:
+        """The pairs of `shared` factors that contain `element`."""
+        if element not in factors:
+            return set()
+        pairs = {min(f, element) << _BITS | max(f, element) for f in factors if f != element and f in shared}
+        if factors.count(element) > 1:
+            pairs.add(element << _BITS | element)
+        return pairs
+
+    def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
+        x, y = key >> _BITS, key & ((1 << _BITS) - 1)
         pair = self.graph.mul((x, y))
 
         def apply(factors: tuple[int, ...]) -> tuple[int, ...] | None:
@@ -257,12 +271,12 @@ class _Products:
             rest.remove(y)
             return tuple(sorted((*rest, pair)))
 
-        return pair, apply, (x, y, pair)
+        return pair, apply, (x, y)
 
 
 class _Sums:
-    """Pairs of signed terms in sums: a sum's data is {term: sign}; the pair (a, b, s) stands for
-    the terms ±a and ±s·b (a < b), whose sum is ±(a + s·b)."""
+    """Pairs of signed terms in sums: a sum's data is {term: sign}; the pair of terms ±a, ±s·b
+    (a < b), whose sum is ±(a + s·b), has the key a·2³³ + b·2 + (1 if s < 0 else 0)."""
 
     def __init__(self, graph: Graph) -> None:
         self.graph = graph
@@ -272,22 +286,28 @@ class _Sums:
         return terms.keys()
 
     @staticmethod
-    def pairs(terms: dict[int, int], shared: set[int], touching: Sequence[int] = ()) -> set[tuple]:
+    def pairs(terms: dict[int, int], shared: set[int]) -> list[int]:
         candidates = sorted((t, s) for t, s in terms.items() if t in shared)
-        if not touching:
-            return {(a, b, sa * sb) for i, (a, sa) in enumerate(candidates) for b, sb in candidates[i + 1 :]}
-        pairs = set()
-        for t in touching:
-            if t in terms and t in shared:
-                st = terms[t]
-                for u, su in candidates:
-                    if u != t:
-                        pairs.add((min(t, u), max(t, u), st * su))
-        return pairs
+        return [
+            a << (_BITS + 1) | b << 1 | (sa != sb)
+            for i, (a, sa) in enumerate(candidates)
+            for b, sb in candidates[i + 1 :]
+        ]
 
-    def combine(self, key: tuple[int, int, int]) -> tuple[int, Callable, tuple[int, ...]]:
-        a, b, relative = key
-        sign, pair = self.graph.add({a: 1, b: relative})
+    @staticmethod
+    def touching(terms: dict[int, int], shared: set[int], element: int) -> set[int]:
+        if element not in terms:
+            return set()
+        sign = terms[element]
+        return {
+            min(t, element) << (_BITS + 1) | max(t, element) << 1 | (s != sign)
+            for t, s in terms.items()
+            if t != element and t in shared
+        }
+
+    def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
+        a, b = key >> (_BITS + 1), (key >> 1) & ((1 << _BITS) - 1)
+        sign, pair = self.graph.add({a: 1, b: -1 if key & 1 else 1})
         assert sign == 1  # a < b: a two-term sum keeps its first term positive
 
         def apply(terms: dict[int, int]) -> dict[int, int] | None:
@@ -299,7 +319,7 @@ class _Sums:
             new[pair] = outer
             return new
 
-        return pair, apply, (a, b, pair)
+        return pair, apply, (a, b)
 
 
 def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
@@ -307,23 +327,26 @@ def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
     product's factors or a sum's terms: while some pair occurs in two bags or more, make the
     most frequent one (ties: the smallest key) a node of its own and use it in every bag.
 
-    Only elements that occur in two bags or more can be part of a repeated pair (`shared`); a
-    replacement changes only the pairs that touch the replaced elements or the new node.
+    A replacement only adds the new node to a bag, so a pair of older elements never gains
+    occurrences: only the pairs that occur twice at the start, and those with a new node, are
+    tracked. Elements in a single bag (not `shared`) cannot be part of a repeated pair.
     """
-    occurrences: dict[int, int] = {}
+    occurrences: Counter[int] = Counter()
     for bag in bags:
-        for element in kind.elements(data[bag]):
-            occurrences[element] = occurrences.get(element, 0) + 1
+        occurrences.update(kind.elements(data[bag]))
     shared = {e for e, count in occurrences.items() if count > 1}
-    where: dict[tuple, dict[int, None]] = {}
-    for bag in bags:
-        for key in kind.pairs(data[bag], shared):
+    initial = [kind.pairs(data[bag], shared) for bag in bags]
+    counts: Counter[int] = Counter()
+    for pairs in initial:
+        counts.update(pairs)
+    where: dict[int, dict[int, None]] = {key: {} for key, count in counts.items() if count > 1}
+    for bag, pairs in zip(bags, initial, strict=True):
+        for key in pairs:
             holders = where.get(key)
-            if holders is None:
-                where[key] = {bag: None}
-            else:
+            if holders is not None:
                 holders[bag] = None
-    heap = [(-len(holders), key) for key, holders in where.items() if len(holders) > 1]
+    del initial, counts
+    heap = [(-len(holders), key) for key, holders in where.items()]
     heapq.heapify(heap)
     while heap:
         negative_count, key = heapq.heappop(heap)
@@ -332,23 +355,25 @@ def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
             if 1 < current < -negative_count:
                 heapq.heappush(heap, (-current, key))
             continue
-        pair, apply, touched = kind.combine(key)
+        pair, apply, (x, y) = kind.combine(key)
         shared.add(pair)
         skipped = []
         for bag in list(where[key]):
-            new = None if bag == pair else apply(data[bag])
+            old = data[bag]
+            new = None if bag == pair else apply(old)
             if new is None:
                 skipped.append(bag)  # the pair itself, or a bag that cannot take it
                 continue
-            before = kind.pairs(data[bag], shared, touched)
             data[bag] = new
-            after = kind.pairs(new, shared, touched)
-            for old in before - after:
-                holders = where[old]
-                del holders[bag]
-                if not holders:
-                    del where[old]
-            for added in after - before:
+            before = kind.touching(old, shared, x) | kind.touching(old, shared, y)
+            after = kind.touching(new, shared, x) | kind.touching(new, shared, y)
+            for lost in before - after:
+                holders = where.get(lost)
+                if holders is not None:
+                    holders.pop(bag, None)
+                    if not holders:
+                        del where[lost]
+            for added in kind.touching(new, shared, pair):
                 holders = where.setdefault(added, {})
                 holders[bag] = None
                 if len(holders) > 1:
