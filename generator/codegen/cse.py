@@ -44,6 +44,7 @@ class Graph:
         self.data: list = []
         self.order: list[tuple] = []  # leaves: print order (parameters, velocities, letters...)
         self._interned: dict[Hashable, int] = {}
+        self._factored: dict[tuple, tuple[int, list[int]]] = {}  # parameter part -> sign, factors
 
     def _node(self, kind: int, data: object, key: Hashable, order: tuple = ()) -> int:
         found = self._interned.get(key)
@@ -59,9 +60,14 @@ class Graph:
     def leaf(self, name: str, order: tuple = ()) -> int:
         return self._node(LEAF, name, (LEAF, name), order)
 
-    def const(self, value: Fraction) -> int:
-        """A positive rational constant."""
-        return self._node(CONST, value, (CONST, value.numerator, value.denominator))
+    def const(self, numerator: int, denominator: int = 1) -> int:
+        """The positive rational constant numerator/denominator."""
+        node = self._interned.get((CONST, numerator, denominator))
+        if node is None:
+            value = Fraction(numerator, denominator)
+            node = self._node(CONST, value, (CONST, value.numerator, value.denominator))
+            self._interned[CONST, numerator, denominator] = node
+        return node
 
     def mul(self, factors: Iterable[int]) -> int:
         factors = tuple(sorted(factors))
@@ -93,9 +99,12 @@ class Graph:
             groups.setdefault(m[cut:], []).append((m[:cut], p.terms[m]))
         terms: dict[int, int] = {}
         for state, parts in groups.items():
-            sign, factors = self._parameter_factor(parts, p.den, leaves)
-            factors += [leaves[g] for g in state]
-            terms[self.mul(factors) if factors else self.const(Fraction(1))] = sign
+            key = (p.den, *parts)  # the same parameter part recurs under many state monomials
+            factored = self._factored.get(key)
+            if factored is None:
+                factored = self._factored[key] = self._parameter_factor(parts, p.den, leaves)
+            sign, factors = factored[0], [*factored[1], *(leaves[g] for g in state)]
+            terms[self.mul(factors) if factors else self.const(1)] = sign
         return self.add(terms)
 
     def _parameter_factor(
@@ -110,7 +119,7 @@ class Graph:
             monomial, c = parts[0]
             factors = [leaves[g] for g in monomial]
             if abs(c) != den:
-                factors.append(self.const(Fraction(abs(c), den)))
+                factors.append(self.const(abs(c), den))
             return (1 if c > 0 else -1), factors
         common = _common_factor([m for m, _ in parts])
         numerators = [c for _, c in parts]
@@ -122,13 +131,13 @@ class Graph:
         for m, c in parts:
             factors = [leaves[g] for g in _remove(m, common)]
             if abs(c) != magnitude or not factors:
-                factors.append(self.const(Fraction(abs(c), magnitude)))
+                factors.append(self.const(abs(c), magnitude))
             inner[self.mul(factors)] = 1 if c * sign > 0 else -1
         inner_sign, node = self.add(inner)
         factors = [leaves[g] for g in common]
         factors.append(node)
         if magnitude != den:
-            factors.append(self.const(Fraction(magnitude, den)))
+            factors.append(self.const(magnitude, den))
         return sign * inner_sign, factors
 
     # -- common subexpressions ------------------------------------------------------------
@@ -208,8 +217,11 @@ class Graph:
 
 def _common_factor(monomials: list[Monomial]) -> Monomial:
     """The largest monomial dividing every one of `monomials`."""
+    everywhere = set(monomials[0]).intersection(*monomials[1:])
+    if not everywhere:
+        return ()
     common: list[int] = []
-    for g in dict.fromkeys(monomials[0]):
+    for g in sorted(everywhere):
         common += [g] * min(m.count(g) for m in monomials)
     return tuple(common)
 
@@ -261,6 +273,13 @@ class _Products:
             pairs.add(element << _BITS | element)
         return pairs
 
+    @staticmethod
+    def has(factors: tuple[int, ...], key: int) -> bool:
+        x, y = key >> _BITS, key & ((1 << _BITS) - 1)
+        if x == y:
+            return factors.count(x) > 1
+        return x in factors and y in factors
+
     def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
         x, y = key >> _BITS, key & ((1 << _BITS) - 1)
         pair = self.graph.mul((x, y))
@@ -305,6 +324,11 @@ class _Sums:
             if t != element and t in shared
         }
 
+    @staticmethod
+    def has(terms: dict[int, int], key: int) -> bool:
+        a, b = key >> (_BITS + 1), (key >> 1) & ((1 << _BITS) - 1)
+        return a in terms and b in terms and (terms[a] != terms[b]) == bool(key & 1)
+
     def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
         a, b = key >> (_BITS + 1), (key >> 1) & ((1 << _BITS) - 1)
         sign, pair = self.graph.add({a: 1, b: -1 if key & 1 else 1})
@@ -329,7 +353,9 @@ def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
 
     A replacement only adds the new node to a bag, so a pair of older elements never gains
     occurrences: only the pairs that occur twice at the start, and those with a new node, are
-    tracked. Elements in a single bag (not `shared`) cannot be part of a repeated pair.
+    tracked. Elements in a single bag (not `shared`) cannot be part of a repeated pair. A bag
+    that loses a pair is not removed from that pair's holders at once: the holders of a pair
+    are checked when it comes first in the heap, whose entries are never below the true counts.
     """
     occurrences: Counter[int] = Counter()
     for bag in bags:
@@ -350,38 +376,34 @@ def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
     heapq.heapify(heap)
     while heap:
         negative_count, key = heapq.heappop(heap)
-        current = len(where.get(key, ()))
-        if current != -negative_count:
-            if 1 < current < -negative_count:
-                heapq.heappush(heap, (-current, key))
+        holders = where.get(key)
+        if holders is None or len(holders) < -negative_count:
+            continue  # superseded by a later entry
+        valid = {bag: None for bag in holders if kind.has(data[bag], key)}
+        if len(valid) < len(holders):
+            if len(valid) > 1:
+                where[key] = valid
+                heapq.heappush(heap, (-len(valid), key))
+            else:
+                del where[key]
             continue
-        pair, apply, (x, y) = kind.combine(key)
+        pair, apply, _ = kind.combine(key)
         shared.add(pair)
-        skipped = []
-        for bag in list(where[key]):
-            old = data[bag]
-            new = None if bag == pair else apply(old)
+        left: dict[int, None] = {}
+        for bag in holders:
+            new = None if bag == pair else apply(data[bag])
             if new is None:
-                skipped.append(bag)  # the pair itself, or a bag that cannot take it
-                continue
+                continue  # the pair itself, or a bag that cannot take it
             data[bag] = new
-            before = kind.touching(old, shared, x) | kind.touching(old, shared, y)
-            after = kind.touching(new, shared, x) | kind.touching(new, shared, y)
-            for lost in before - after:
-                holders = where.get(lost)
-                if holders is not None:
-                    holders.pop(bag, None)
-                    if not holders:
-                        del where[lost]
+            if kind.has(new, key):
+                left[bag] = None  # a power or a repeated term: the pair is there again
             for added in kind.touching(new, shared, pair):
-                holders = where.setdefault(added, {})
-                holders[bag] = None
-                if len(holders) > 1:
-                    heapq.heappush(heap, (-len(holders), added))
-        holders = where.get(key, {})
-        for bag in skipped:
-            holders.pop(bag, None)
-        if not holders:
-            where.pop(key, None)
-        elif len(holders) > 1:
-            heapq.heappush(heap, (-len(holders), key))
+                pair_holders = where.setdefault(added, {})
+                pair_holders[bag] = None
+                if len(pair_holders) > 1:
+                    heapq.heappush(heap, (-len(pair_holders), added))
+        if len(left) > 1:
+            where[key] = left
+            heapq.heappush(heap, (-len(left), key))
+        else:
+            del where[key]

@@ -89,20 +89,18 @@ def _mirror_lines(outputs: Sequence[Output]) -> list[str]:
     return lines
 
 
-class _Leaves:
-    """Graph leaves of an algebra's generators, made on first use; remembers which are used."""
+class _Leaves(dict[int, int]):
+    """{generator: graph leaf}, the leaves made on first use; `generator` maps them back."""
 
     def __init__(self, graph: Graph, algebra: Algebra) -> None:
+        super().__init__()
         self.graph = graph
         self.algebra = algebra
-        self.node: dict[int, int] = {}  # generator -> leaf
         self.generator: dict[int, int] = {}  # leaf -> generator
 
-    def __getitem__(self, g: int) -> int:
-        node = self.node.get(g)
-        if node is None:
-            node = self.node[g] = self.graph.leaf(self.algebra.generators[g].name)
-            self.generator[node] = g
+    def __missing__(self, g: int) -> int:
+        node = self[g] = self.graph.leaf(self.algebra.generators[g].name)
+        self.generator[node] = g
         return node
 
 
@@ -154,7 +152,7 @@ def build_body(
 
     reachable = graph.reachable(r for _, r in roots)
     used = {leaves.generator[v] for v in reachable if graph.kind[v] == LEAF}
-    late = {leaves.node[g] for g in used if generators[g].kind == ACCELERATION}
+    late = {leaves[g] for g in used if generators[g].kind == ACCELERATION}
     if late and not late_source:
         raise ValueError("outputs use accelerations but no late_source names them")
     for node in reachable:  # children first
