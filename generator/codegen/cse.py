@@ -1,4 +1,4 @@
-"""Common-subexpression elimination on the derived polynomials, and their C++ spelling.
+"""Common-subexpression elimination on the derived polynomials (printed by `printer.py`).
 
 A function's outputs become one graph of hash-consed nodes: leaves (generators, by their C++
 name), positive rational constants, products (a multiset of factors) and sums (terms with a
@@ -42,23 +42,21 @@ class Graph:
     def __init__(self) -> None:
         self.kind: list[int] = []
         self.data: list = []
-        self.order: list[tuple] = []  # leaves: print order (parameters, velocities, letters...)
         self._interned: dict[Hashable, int] = {}
         self._factored: dict[tuple, tuple[int, list[int]]] = {}  # parameter part -> sign, factors
 
-    def _node(self, kind: int, data: object, key: Hashable, order: tuple = ()) -> int:
+    def _node(self, kind: int, data: object, key: Hashable) -> int:
         found = self._interned.get(key)
         if found is not None:
             return found
         node = len(self.kind)
         self.kind.append(kind)
         self.data.append(data)
-        self.order.append(order)
         self._interned[key] = node
         return node
 
-    def leaf(self, name: str, order: tuple = ()) -> int:
-        return self._node(LEAF, name, (LEAF, name), order)
+    def leaf(self, name: str) -> int:
+        return self._node(LEAF, name, (LEAF, name))
 
     def const(self, numerator: int, denominator: int = 1) -> int:
         """The positive rational constant numerator/denominator."""
