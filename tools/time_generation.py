@@ -12,6 +12,7 @@ machine may be shared.
     tools/time_generation.py --kane --repeat 5     # and KanesMethod, 5 rounds each
     tools/time_generation.py --large               # also n = 30 and 50 classical, once
     tools/time_generation.py --root ../other-checkout --links 1,20   # time another checkout
+    tools/time_generation.py --baseline /tmp/ipgen-old --kane        # before/after, same rounds
 
 By default the checkout's `generator` package is byte-compiled first (as `pip install` does),
 so that the timings do not include compiling its sources, which PYTHONDONTWRITEBYTECODE would
@@ -45,10 +46,15 @@ class Point:
     wall_s: list[float] = field(default_factory=list)  # ipgen, one entry per round
     peak_mb: list[float] = field(default_factory=list)
     kane_derive_s: list[float] = field(default_factory=list)
+    baseline_wall_s: list[float] = field(default_factory=list)
+    baseline_peak_mb: list[float] = field(default_factory=list)
 
     def row(self) -> str:
         wall = statistics.median(self.wall_s)
         text = f"{self.type:9} {self.links:3}  {wall:8.3f} s  {max(self.peak_mb):7.0f} MB"
+        if self.baseline_wall_s:
+            before = statistics.median(self.baseline_wall_s)
+            text += f"  {before:8.3f} s  {max(self.baseline_peak_mb):7.0f} MB"
         if self.kane_derive_s:
             kane = statistics.median(self.kane_derive_s)
             verdict = "faster" if wall < kane else "SLOWER"
@@ -102,6 +108,7 @@ def main(argv: list[str] | None = None) -> None:
         "--python", default=str(DEFAULT_PYTHON if DEFAULT_PYTHON.exists() else sys.executable)
     )
     parser.add_argument("--root", type=Path, default=ROOT, help="checkout whose generator is timed")
+    parser.add_argument("--baseline", type=Path, help="another checkout, timed in the same rounds")
     parser.add_argument("--links", default=",".join(map(str, LINKS)), help="comma-separated n")
     parser.add_argument("--types", default=",".join(TYPES))
     parser.add_argument("--repeat", type=int, default=3, help="rounds per point (median reported)")
@@ -111,12 +118,18 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--json", type=Path, help="also write the raw timings here")
     args = parser.parse_args(argv)
     root = args.root.resolve()
+    baseline = args.baseline.resolve() if args.baseline else None
     if not args.no_compile:
-        subprocess.run([args.python, "-m", "compileall", "-q", str(root / "generator")], check=True)
+        for checkout in filter(None, (root, baseline)):
+            subprocess.run([args.python, "-m", "compileall", "-q", str(checkout / "generator")], check=True)
 
     points = [Point(kind, int(n)) for kind in args.types.split(",") for n in args.links.split(",")]
     print(f"ipgen in {root}, {args.python}; {args.repeat} rounds; start: {load()}")
+    if baseline:
+        print(f"baseline: {baseline}")
     header = f"{'type':9} {'n':>3}  {'ipgen wall':>10}  {'peak':>10}"
+    if baseline:
+        header += f"  {'baseline':>10}  {'peak':>10}"
     if args.kane:
         header += f"  {'Kane derive':>10}  ratio"
     print(header)
@@ -125,6 +138,10 @@ def main(argv: list[str] | None = None) -> None:
             wall, peak = run_ipgen(args.python, root, point.type, point.links)
             point.wall_s.append(wall)
             point.peak_mb.append(peak)
+            if baseline:
+                wall, peak = run_ipgen(args.python, baseline, point.type, point.links)
+                point.baseline_wall_s.append(wall)
+                point.baseline_peak_mb.append(peak)
             if args.kane:
                 point.kane_derive_s.append(run_kane(args.python, point.type, point.links))
         print(point.row(), flush=True)
