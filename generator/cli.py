@@ -23,9 +23,9 @@ from generator.specialise import (
 )
 
 EXIT_USAGE = 2
-# Derivations above these sizes take more than a second or two: show a progress bar.
-PROGRESS_FROM_LINKS = {"classical": 8, "rotary": 6}
-# Above this many links a derivation takes minutes and gigabytes: ask for --force first.
+# Generations above these sizes take more than a second or two: show a progress bar.
+PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
+# Above this many links the header is several MB (and slow to compile): ask for --force first.
 LINKS_WITHOUT_FORCE = 30
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header.
@@ -177,10 +177,14 @@ def cli(
 
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    # Measured on a loaded 2-core machine: n = 30 took 30-40 s and 1.0-1.3 GB; time grows about
-    # as n^4 and memory as n^3.
-    minutes, gigabytes = 0.65 * (links / 30) ** 4, 1.3 * (links / 30) ** 3
-    return f"expect roughly {minutes:.0f} min and {gigabytes:.0f} GB of memory, and a header of several MB"
+    # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
+    # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
+    # n = 50) as n^2.
+    scale = links / 50
+    seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
+    duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
+    memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
+    return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"
 
 
 def _check_no_system_options(*clashing: object) -> None:
