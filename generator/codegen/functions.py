@@ -16,7 +16,7 @@ from generator.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from generator.codegen.printer import CppPrinter
 from generator.derive import Equations, PolyMatrix
 from generator.poly import Poly
-from generator.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY, Algebra, Generator
+from generator.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
 
 
 @dataclass(frozen=True)
@@ -112,10 +112,12 @@ def _expression(algebra: Algebra, p: Poly) -> str:
     return CppPrinter(graph, {}, leaves.generator).signed(sign, node)
 
 
-def _schedule(graph: Graph, roots: Sequence[Signed], late: set[int]) -> tuple[list[int], list[int]]:
+def _schedule(
+    graph: Graph, roots: Sequence[Signed], order: list[int], late: set[int]
+) -> tuple[list[int], list[int]]:
     """Nodes computed as temporaries (used twice or more), in emission order: those before θ̈
-    is known, then those that need it (`late`). A temporary comes after everything it uses."""
-    order = graph.reachable(root for _, root in roots)
+    is known, then those that need it (`late`). A temporary comes after everything it uses.
+    `order` is every node reachable from `roots`."""
     uses: dict[int, int] = {}
     for _, root in roots:
         uses[root] = uses.get(root, 0) + 1
@@ -158,7 +160,7 @@ def build_body(
     for node in reachable:  # children first
         if any(child in late for child in graph.children(node)):
             late.add(node)
-    early, later = _schedule(graph, roots, late)
+    early, later = _schedule(graph, roots, reachable, late)
     names = {node: f"t{i}" for i, node in enumerate([*early, *later])}
     printer = CppPrinter(graph, names, leaves.generator)
 
@@ -189,7 +191,7 @@ def build_body(
     body.prelude += [
         f"const Scalar {generators[g].name} = {_expression(algebra, algebra.named[g])};"
         for g in sorted(algebra.named)
-        if g in used and generators[g].kind == NAMED
+        if g in used
     ]
 
     body.temporaries = [f"const Scalar {names[v]} = {printer.definition(v)};" for v in early]
