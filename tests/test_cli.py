@@ -162,7 +162,8 @@ def test_describe_defaults_name_and_inertia(tmp_path: Path) -> None:
         "[simulation]\nt_end = 1\n"
     )
     result = ipgen("--scene", str(scene), "--describe")
-    assert result.stdout == "name=classical3 type=classical links=3 inertia=pivot stem=my-scene specialise=false\n"
+    expected = "name=classical3 type=classical links=3 inertia=pivot stem=my-scene specialise=false\n"
+    assert result.stdout == expected
 
 
 def test_describe_reports_scene_warnings_on_stderr(tmp_path: Path) -> None:
