@@ -147,10 +147,6 @@ class Algebra:
         return folded
 
     # -- calculus -----------------------------------------------------------------------
-    def angles(self, p: Poly) -> set[int]:
-        """The angles θi that p depends on (through letters and named quantities)."""
-        return {a for g in p.generators() for a in self._angles_of.get(g, ())}
-
     def gradient(self, p: Poly) -> dict[int, Poly]:
         """{i: ∂p/∂θi} for every angle p depends on, by the chain rule over the letters and
         named quantities, in one pass over p's terms."""
@@ -192,11 +188,11 @@ class Algebra:
         return self.gradient(p).get(i, ZERO)
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
-        key = (g, i)
-        if key not in self._named_derivative:
-            for angle, d in self.gradient(self.named[g]).items():
-                self._named_derivative[g, angle] = d
-        return self._named_derivative.get(key, ZERO)
+        if (g, i) not in self._named_derivative:
+            gradient = self.gradient(self.named[g])
+            for angle in self._angles_of[g]:
+                self._named_derivative[g, angle] = gradient.get(angle, ZERO)
+        return self._named_derivative[g, i]
 
     # -- sympy views (tests, references) ------------------------------------------------
     @property
