@@ -75,6 +75,9 @@ def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
         stderr=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        # pytest-xdist workers ignore SIGINT, and an ignored signal stays ignored in a child:
+        # give the child the default disposition, as in a terminal.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(2.5)  # past the imports, inside the generation
     process.send_signal(signal.SIGINT)
