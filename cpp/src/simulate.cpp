@@ -13,6 +13,7 @@
 #include IPGEN_MODEL_HEADER
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -134,6 +135,23 @@ void write_energy_columns(std::FILE* out, const ipsim::Result& result, std::size
   }
 }
 
+/// True when every number of CSV row k is finite: time, state, and with `energy` the energy columns.
+template <class M>
+bool row_is_finite(const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params, bool energy) {
+  const auto row = static_cast<Eigen::Index>(k);
+  if (!std::isfinite(result.times[k]) || !result.states.row(row).allFinite()) return false;
+  if constexpr (ipsim::has_energy<M>) {
+    if (energy) {
+      const ipsim::VectorOf<M> q = result.states.row(row).template head<M::kDof>().transpose();
+      const ipsim::VectorOf<M> qd = result.states.row(row).template segment<M::kDof>(M::kDof).transpose();
+      return std::isfinite(M::template kinetic_energy<double>(q, qd, params)) &&
+             std::isfinite(M::template potential_energy<double>(q, params)) && std::isfinite(result.input_work[k]) &&
+             std::isfinite(result.dissipated_energy[k]);
+    }
+  }
+  return true;
+}
+
 /// The summary's energy balance: T + V at start and end, input work, dissipated energy.
 template <class M>
 void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>& params) {
@@ -148,9 +166,17 @@ void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>&
 }
 
 /// Writes the CSV next to its destination and renames it into place, so a reader never sees a
-/// half-written file and a failed run leaves any previous result untouched.
+/// half-written file and a failed run leaves any previous result untouched. Refuses (writing
+/// nothing) when a value is NaN or infinite: ipsim stops before recording such a state, this
+/// guards the derived columns and anything that slips through.
 void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
                bool energy) {
+  for (std::size_t k = 0; k < result.times.size(); ++k) {
+    if (!row_is_finite<Model>(result, k, params, energy)) {
+      throw std::runtime_error("refusing to write `" + path + "`: the row at t = " + std::to_string(result.times[k]) +
+                               " s has a non-finite value (NaN or inf)");
+    }
+  }
   const std::string temporary = path + ".tmp." + std::to_string(::getpid());
   std::FILE* out = std::fopen(temporary.c_str(), "w");
   if (out == nullptr) throw std::runtime_error("cannot write `" + temporary + "`");

@@ -1,9 +1,13 @@
 # Runs a simulator and checks its exit code and output: ctest alone can only tell zero from
 # non-zero, and the CLI promises exit code 2 for bad input.
 #   cmake -DCOMMAND="exe|arg|..." -DEXPECT_EXIT=<code> [-DEXPECT_STDOUT=<regex>]
-#         [-DEXPECT_STDERR=<regex>] [-DEXPECT_FILE=<path>] [-DEXPECT_FILE_HEAD=<regex>] -P run_cli.cmake
+#         [-DEXPECT_STDERR=<regex>] [-DEXPECT_FILE=<path>] [-DEXPECT_FILE_HEAD=<regex>]
+#         [-DEXPECT_NO_FILE=<path>] -P run_cli.cmake
 if(DEFINED EXPECT_FILE)
   file(REMOVE "${EXPECT_FILE}")
+endif()
+if(DEFINED EXPECT_NO_FILE)
+  file(REMOVE "${EXPECT_NO_FILE}")
 endif()
 string(REPLACE "|" ";" COMMAND "${COMMAND}")
 execute_process(COMMAND ${COMMAND} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
@@ -26,4 +30,7 @@ if(DEFINED EXPECT_FILE)
     string(SUBSTRING "${content}" 0 300 head)
     message(FATAL_ERROR "${EXPECT_FILE} starts with:\n${head}\nexpected `${EXPECT_FILE_HEAD}`")
   endif()
+endif()
+if(DEFINED EXPECT_NO_FILE AND EXISTS "${EXPECT_NO_FILE}")
+  message(FATAL_ERROR "${EXPECT_NO_FILE} was written, expected no file\n${report}")
 endif()

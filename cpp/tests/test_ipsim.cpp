@@ -1,5 +1,6 @@
 // Model-independent parts of ipsim, exercised on the stand-in: RAII wrappers, inputs, the stop
-// schedule and the scene reader.
+// schedule, the scene reader and the numerical guards.
+#include <cmath>
 #include <sstream>
 #include <type_traits>
 
@@ -242,9 +243,57 @@ void check_energy_helpers() {
                "state has 3 entries, model cart1 needs 2·kDof = 4");
 }
 
+/// guards.hpp: condition numbers of a symmetric matrix, where a diagonal scaling (units) does not
+/// count; the warning and the failure diagnoses on the stand-in.
+void check_guards() {
+  Eigen::Matrix2d m;
+  m << 1.0, 0.0, 0.0, 1e-12;  // badly scaled, not ill-conditioned
+  CHECK_NEAR(ipsim::conditioning_of(m).cond, 1e12, 1e-3);
+  CHECK_NEAR(ipsim::conditioning_of(m).scaled_cond, 1.0, 1e-12);
+  m << 1.0, 0.999999, 0.999999, 1.0;  // nearly singular whatever the scaling
+  CHECK_NEAR(ipsim::conditioning_of(m).scaled_cond, 1.999999 / 1e-6, 1e-3);
+  m << 1.0, 2.0, 2.0, 1.0;  // not positive definite
+  CHECK(std::isinf(ipsim::conditioning_of(m).cond));
+
+  ipsim::ParamsOf<Model> p{{0.5, 0.275}, {0.0, 0.5}, {0.3, 0.1}};
+  static_assert(ipsim::has_mass_matrix<Model> && ipsim::has_bias<Model>);
+  CHECK(ipsim::conditioning_warning<Model>(p, ipsim::VectorOf<Model>::Zero()).empty());
+  CHECK(!ipsim::conditioning_warning<Model>(p, ipsim::VectorOf<Model>::Zero(), 1.0).empty());  // any cond > 1
+
+  ipsim::Settings<Model> s;
+  s.t_end = 1.0;
+  s.theta(1) = 0.2;
+  s.input = ipsim::Input::from_feedback([](double t, const Eigen::VectorXd&) { return t > 0.5 ? std::nan("") : 0.0; });
+  for (const auto method : {ipsim::Method::bdf, ipsim::Method::erk_dp5, ipsim::Method::rk4}) {
+    s.method = method;
+    s.step = 1e-3;
+    CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError,
+                 "; likely cause: the input u is not finite (a feedback callback returned nan)");
+  }
+  s.method = ipsim::Method::bdf;
+  s.input = ipsim::Input::zero();
+  s.dtheta(1) = 1e160;
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError,
+               "likely cause: the state grew without bound: rates of 1e+160 overflow");
+  // Not stiff, just out of steps: no "use BDF".
+  s.dtheta(1) = 0.0;
+  s.method = ipsim::Method::erk_dp5;
+  s.max_steps = 1;
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "not stiff at this state");
+  // A light link with enormous damping: stiff.
+  p.m[1] = 1e-3;
+  p.delta[1] = 1e4;
+  s.max_steps = 100000;
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "; stiff: use BDF (method bdf)");
+  s.method = ipsim::Method::bdf;
+  const ipsim::Result stiff = ipsim::simulate<Model>(p, s);
+  CHECK(stiff.stats.steps < 2000);
+}
+
 }  // namespace
 
 int main() {
+  check_guards();
   check_scene_model_keys();
   check_energy_helpers();
   check_raii_moves();

@@ -3,11 +3,16 @@
 #pragma once
 
 #include <memory>
+#include <string>
+#include <utility>
+
+#include <Eigen/Core>
 
 #include <cvode/cvode.h>
 #include <cvode/cvode_ls.h>
 
 #include "ipsim/diagnostics.hpp"
+#include "ipsim/guards.hpp"
 #include "ipsim/jacobian.hpp"
 #include "ipsim/result.hpp"
 #include "ipsim/rhs.hpp"
@@ -58,12 +63,13 @@ class CvodeStepper {
     void* const mem = cvode_.get();
     check(CVodeSetStopTime(mem, t_stop), "CVodeSetStopTime");
     realtype reached = 0.0;
+    rhs_context_.nonfinite.seen = false;
     const int flag = CVode(mem, t_stop, y_.get(), &reached, CV_NORMAL);
     if (rhs_context_.error) std::rethrow_exception(rhs_context_.error);
     if (flag < 0) {
-      throw integration_error("CVODE", flag, sundials::return_flag_name(flag), reached, settings_,
-                              diagnostics_.last_error);
+      throw integration_error("CVODE", flag, sundials::return_flag_name(flag), reached, settings_, explain(flag, reached));
     }
+    warn_if_stiff(reached);
   }
 
   /// Restarts at t from the current y (after an input jump). CVODE zeroes its counters here, so
@@ -71,6 +77,7 @@ class CvodeStepper {
   void restart(double t, Statistics& stats) {
     add_statistics(stats);
     check(CVodeReInit(cvode_.get(), t, y_.get()), "CVodeReInit");
+    steps_at_last_stop_ = 0;  // the counters start again
   }
 
   /// Adds CVODE's counters since the last (re)start to `stats`.
@@ -98,10 +105,52 @@ class CvodeStepper {
  private:
   static void check(int flag, const char* call) { check_setup(flag, call, &sundials::return_flag_name); }
 
+  /// [x; ledger] after the last step, as a vector.
+  Eigen::VectorXd state() const { return Eigen::Map<const Eigen::VectorXd>(y_.data(), y_.length()); }
+
+  /// Once per run: warns when a method other than BDF took many steps to this stop because
+  /// stability held its step down (guards.hpp).
+  void warn_if_stiff(double reached) {
+    long steps = 0;
+    CVodeGetNumSteps(cvode_.get(), &steps);
+    const long interval = steps - steps_at_last_stop_;
+    steps_at_last_stop_ = steps;
+    if (warned_stiff_ || interval < 1000 || settings_.method == Method::bdf) return;
+    realtype h = 0.0;
+    CVodeGetLastStep(cvode_.get(), &h);
+    std::string warning = stiffness_warning<Model>(rhs_context_, settings_, reached, state(), h, interval);
+    if (!warning.empty()) {
+      diagnostics_.warnings->push_back(std::move(warning));
+      warned_stiff_ = true;
+    }
+  }
+
+  /// CVODE's own message, preceded by the likely cause (guards.hpp): non-finite derivatives that
+  /// persisted, or a method that cannot make progress (stiffness).
+  std::string explain(int flag, double reached) {
+    std::string cause;
+    const bool rhs_failed = flag == CV_RHSFUNC_FAIL || flag == CV_FIRST_RHSFUNC_ERR || flag == CV_REPTD_RHSFUNC_ERR ||
+                            flag == CV_UNREC_RHSFUNC_ERR;
+    const bool no_progress = flag == CV_TOO_MUCH_WORK || flag == CV_ERR_FAILURE || flag == CV_CONV_FAILURE;
+    if (rhs_context_.nonfinite.seen && (rhs_failed || no_progress)) {
+      cause = explain_nonfinite<Model>(*rhs_context_.params, rhs_context_.nonfinite);
+    } else if (no_progress) {
+      realtype h = 0.0, h_now = 0.0;
+      CVodeGetLastStep(cvode_.get(), &h);
+      CVodeGetCurrentStep(cvode_.get(), &h_now);
+      cause = explain_slow_progress<Model>(rhs_context_, settings_, reached, state(), h, h_now,
+                                         flag == CV_TOO_MUCH_WORK);
+    }
+    if (diagnostics_.last_error.empty()) return cause;
+    return cause.empty() ? diagnostics_.last_error : cause + " [" + diagnostics_.last_error + "]";
+  }
+
   const Settings<Model>& settings_;
   sundials::NVector& y_;
   RhsContext<Model>& rhs_context_;
   Diagnostics& diagnostics_;
+  long steps_at_last_stop_ = 0;  ///< the integrator's step count at the previous stop
+  bool warned_stiff_ = false;
   // Destroyed in reverse order: CVODE first, then the solvers and the matrix it refers to.
   // (Heap-held rather than std::optional: GCC 12 warns falsely about optional<unique_ptr>.)
   std::unique_ptr<sundials::DenseMatrix> matrix_;

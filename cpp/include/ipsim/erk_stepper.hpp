@@ -2,9 +2,14 @@
 // Dormand–Prince 5(4) or Fehlberg 8(7) with ARKODE's default error controller.
 #pragma once
 
+#include <string>
+#include <utility>
+
+#include <Eigen/Core>
 #include <arkode/arkode_erkstep.h>
 
 #include "ipsim/diagnostics.hpp"
+#include "ipsim/guards.hpp"
 #include "ipsim/result.hpp"
 #include "ipsim/rhs.hpp"
 #include "ipsim/settings.hpp"
@@ -48,12 +53,14 @@ class ErkStepper {
     void* const mem = erk_.get();
     check(ERKStepSetStopTime(mem, t_stop), "ERKStepSetStopTime");
     realtype reached = 0.0;
+    rhs_context_.nonfinite.seen = false;
     const int flag = ERKStepEvolve(mem, t_stop, y_.get(), &reached, ARK_NORMAL);
     if (rhs_context_.error) std::rethrow_exception(rhs_context_.error);
     if (flag < 0) {
       throw integration_error("ARKODE", flag, sundials::erk_return_flag_name(flag), reached, settings_,
-                              diagnostics_.last_error);
+                              explain(flag, reached));
     }
+    warn_if_stiff(reached);
   }
 
   /// Restarts at t from the current y (after an input jump): ERKStepReInit forgets the step
@@ -61,6 +68,7 @@ class ErkStepper {
   void restart(double t, Statistics& stats) {
     add_statistics(stats);
     check(ERKStepReInit(erk_.get(), &rhs<Model>, t, y_.get()), "ERKStepReInit");
+    steps_at_last_stop_ = 0;  // the counters start again
   }
 
   /// Adds ERKStep's counters since the last (re)start to `stats`.
@@ -78,10 +86,52 @@ class ErkStepper {
  private:
   static void check(int flag, const char* call) { check_setup(flag, call, &sundials::erk_return_flag_name); }
 
+  /// [x; ledger] after the last step, as a vector.
+  Eigen::VectorXd state() const { return Eigen::Map<const Eigen::VectorXd>(y_.data(), y_.length()); }
+
+  /// Once per run: warns when a method other than BDF took many steps to this stop because
+  /// stability held its step down (guards.hpp).
+  void warn_if_stiff(double reached) {
+    long steps = 0;
+    ERKStepGetNumSteps(erk_.get(), &steps);
+    const long interval = steps - steps_at_last_stop_;
+    steps_at_last_stop_ = steps;
+    if (warned_stiff_ || interval < 1000 || settings_.method == Method::bdf) return;
+    realtype h = 0.0;
+    ERKStepGetLastStep(erk_.get(), &h);
+    std::string warning = stiffness_warning<Model>(rhs_context_, settings_, reached, state(), h, interval);
+    if (!warning.empty()) {
+      diagnostics_.warnings->push_back(std::move(warning));
+      warned_stiff_ = true;
+    }
+  }
+
+  /// ARKODE's own message, preceded by the likely cause (guards.hpp): non-finite derivatives, or
+  /// a step budget exhausted / a step size collapsed, where "stiff: use BDF" is the usual reason.
+  std::string explain(int flag, double reached) {
+    std::string cause;
+    const bool rhs_failed = flag == ARK_RHSFUNC_FAIL || flag == ARK_FIRST_RHSFUNC_ERR ||
+                            flag == ARK_REPTD_RHSFUNC_ERR || flag == ARK_UNREC_RHSFUNC_ERR;
+    const bool no_progress = flag == ARK_TOO_MUCH_WORK || flag == ARK_ERR_FAILURE || flag == ARK_TOO_CLOSE;
+    if (rhs_context_.nonfinite.seen && (rhs_failed || no_progress)) {
+      cause = explain_nonfinite<Model>(*rhs_context_.params, rhs_context_.nonfinite);
+    } else if (no_progress) {
+      realtype h = 0.0, h_now = 0.0;
+      ERKStepGetLastStep(erk_.get(), &h);
+      ERKStepGetCurrentStep(erk_.get(), &h_now);
+      cause = explain_slow_progress<Model>(rhs_context_, settings_, reached, state(), h, h_now,
+                                         flag == ARK_TOO_MUCH_WORK);
+    }
+    if (diagnostics_.last_error.empty()) return cause;
+    return cause.empty() ? diagnostics_.last_error : cause + " [" + diagnostics_.last_error + "]";
+  }
+
   const Settings<Model>& settings_;
   sundials::NVector& y_;
   RhsContext<Model>& rhs_context_;
   Diagnostics& diagnostics_;
+  long steps_at_last_stop_ = 0;  ///< the integrator's step count at the previous stop
+  bool warned_stiff_ = false;
   sundials::ErkMemory erk_;
 };
 

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "ipsim/errors.hpp"
+#include "ipsim/guards.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/jacobian.hpp"
 #include "ipsim/model.hpp"

@@ -13,6 +13,15 @@
 
 namespace ipsim::detail {
 
+/// The latest right-hand side evaluation whose derivative was not finite (for the failure
+/// diagnosis of guards.hpp).
+struct NonFiniteEvaluation {
+  bool seen = false;
+  double t = 0.0;     ///< [s]
+  double u = 0.0;     ///< the input there
+  Eigen::VectorXd x;  ///< the state there, [θ; θ̇] (2·kDof)
+};
+
 /// What the right-hand side (and the Jacobian) need; SUNDIALS passes it back as user data.
 template <class Model>
 struct RhsContext {
@@ -24,6 +33,7 @@ struct RhsContext {
   double segment_input = 0.0;
   Eigen::VectorXd x;         ///< preallocated copy of [θ; θ̇] for feedback inputs (dim 2·kDof)
   std::exception_ptr error;  ///< exception thrown by a feedback callback, rethrown after the step
+  NonFiniteEvaluation nonfinite;  ///< set by evaluate_rhs when a derivative is not finite
 };
 
 /// u at time t [s] in state `state` = [θ; θ̇, …] (the first 2·kDof entries are read, and only by a
@@ -58,7 +68,13 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
     }
   }
   for (long i = 0; i < size; ++i) {
-    if (!std::isfinite(out[i])) return 1;
+    if (!std::isfinite(out[i])) {
+      context.nonfinite.seen = true;
+      context.nonfinite.t = t;
+      context.nonfinite.u = u;
+      context.nonfinite.x = Eigen::Map<const Eigen::VectorXd>(in, 2 * n);
+      return 1;
+    }
   }
   return 0;
 }

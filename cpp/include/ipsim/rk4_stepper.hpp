@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "ipsim/diagnostics.hpp"
+#include "ipsim/guards.hpp"
 #include "ipsim/result.hpp"
 #include "ipsim/rhs.hpp"
 #include "ipsim/settings.hpp"
@@ -36,7 +37,8 @@ class Rk4Stepper {
         k2_(y.length()),
         k3_(y.length()),
         k4_(y.length()),
-        stage_(y.length()) {}
+        stage_(y.length()),
+        initial_(y_) {}
 
   /// Integrates from the current time to exactly t_stop in ceil((t_stop − t)/step) steps (a
   /// quotient within 1e-9 of an integer is taken as that integer). Throws IntegrationError when
@@ -73,9 +75,21 @@ class Rk4Stepper {
  private:
   void evaluate(double t, const Eigen::VectorXd& x, Eigen::VectorXd& out) {
     const int flag = evaluate_rhs<Model>(rhs_context_, t, x.data(), out.data(), static_cast<long>(x.size()));
-    if (flag != 0) {
-      throw integration_error("RK4", -1, kRk4RhsFail, t, settings_, "the right-hand side is not finite");
+    if (flag != 0) throw integration_error("RK4", -1, kRk4RhsFail, t, settings_, explain_failure());
+  }
+
+  /// The likely cause of a non-finite derivative (guards.hpp), and whether the fixed step is
+  /// beyond RK4's stability limit for the decaying modes at the initial state (then the
+  /// solution blows up whatever the motion: stiff).
+  std::string explain_failure() {
+    std::string text = explain_nonfinite<Model>(*rhs_context_.params, rhs_context_.nonfinite);
+    const double rho = stiffness<Model>(rhs_context_, 0.0, initial_);
+    if (std::isfinite(rho) && settings_.step * rho > kRk4StabilityLimit) {
+      text += "; stiff: use BDF (method bdf) or a step below " + format_number(kRk4StabilityLimit / rho) +
+              " s: at t = 0 a decaying mode at rate " + format_number(rho) + " 1/s puts step * rate = " +
+              format_number(settings_.step * rho) + " beyond RK4's stability limit " + format_number(kRk4StabilityLimit);
     }
+    return text;
   }
 
   void step(double t, double h) {
@@ -94,6 +108,7 @@ class Rk4Stepper {
   RhsContext<Model>& rhs_context_;
   Eigen::Map<Eigen::VectorXd> y_;  ///< the caller's N_Vector, updated in place
   Eigen::VectorXd k1_, k2_, k3_, k4_, stage_;
+  Eigen::VectorXd initial_;  ///< the state at t = 0, for the stability diagnosis
   double t_ = 0.0;
   long steps_ = 0;
 };

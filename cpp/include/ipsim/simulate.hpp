@@ -24,6 +24,7 @@
 #include "ipsim/diagnostics.hpp"
 #include "ipsim/erk_stepper.hpp"
 #include "ipsim/errors.hpp"
+#include "ipsim/guards.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/jacobian.hpp"
 #include "ipsim/model.hpp"
@@ -77,6 +78,11 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
     result.dissipated_energy.reserve(static_cast<std::size_t>(sample_count));
   }
   auto record = [&](double t) {
+    if (!y_values.allFinite()) {  // never hand out a non-finite sample (the integrators should not produce one)
+      throw IntegrationError("the state is not finite at t = " + format_number(t) + " s (" + describe(settings) +
+                                 "): " + format_values(y_values.data(), y_values.size()) + "; not recorded",
+                             -1, "NONFINITE_STATE", t);
+    }
     const auto row = static_cast<Eigen::Index>(result.times.size());
     result.times.push_back(t);
     result.states.row(row) = y_values.head(2 * n).transpose();
@@ -161,6 +167,11 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) 
   y_values.segment<n>(n) = settings.dtheta;
 
   Result result;
+  if constexpr (has_mass_matrix<Model>) {  // guards.hpp: warn when M makes θ̈ untrustworthy
+    if (std::string warning = conditioning_warning<Model>(params, settings.theta); !warning.empty()) {
+      result.warnings.push_back(std::move(warning));
+    }
+  }
   detail::RhsContext<Model> rhs_context;
   rhs_context.params = &params;
   rhs_context.input = &settings.input;

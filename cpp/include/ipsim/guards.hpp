@@ -1,0 +1,331 @@
+// Numerical guards: how well conditioned the mass matrix is before a run, and why a run failed.
+//
+// Conditioning. The accelerations come from an L D Lᵀ solve with M(θ). Its relative error is
+// bounded by about ε·cond(S M S), S = diag(M)^-1/2 (van der Sluis: a symmetric diagonal scaling
+// does not change what the factorisation computes, only the units). cond(M) itself mixes kg, kg m
+// and kg m²: lengths from 1e-3 m to 100 m drive it to 1e13 while θ̈ stays accurate to 1e-13
+// (docs/stability.md), so a warning on cond(M) alone would be a false alarm. What does make M
+// nearly singular is a heavy link carried by light ones (the base and the light links can then
+// cancel each other's motion of the heavy link's pivot): the scaled condition number grows with
+// that mass ratio. simulate() warns when it exceeds kConditionWarning (about 6 digits of θ̈ left).
+//
+// Failures. The right-hand side reports a non-finite derivative to the integrator as recoverable
+// (rhs.hpp) and records the evaluation; when the integrator gives up, explain_nonfinite() names
+// the time, the state and the likely cause. When a method other than BDF runs out of steps or
+// its step size collapses, explain_slow_progress() estimates the stiffness (the eigenvalues of
+// ∂f/∂x by difference quotients) and says "stiff: use BDF" when stability, not accuracy, holds
+// the step down.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "ipsim/errors.hpp"
+#include "ipsim/input.hpp"
+#include "ipsim/model.hpp"
+#include "ipsim/rhs.hpp"
+#include "ipsim/settings.hpp"
+
+namespace ipsim {
+
+namespace detail {
+template <class Model, class = void>
+struct HasMassMatrix : std::false_type {};
+template <class Model>
+struct HasMassMatrix<Model, std::void_t<decltype(Model::template mass_matrix<double>(
+                                std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>()))>>
+    : std::true_type {};
+
+template <class Model, class = void>
+struct HasBias : std::false_type {};
+template <class Model>
+struct HasBias<Model, std::void_t<decltype(Model::template bias<double>(std::declval<const VectorOf<Model>&>(),
+                                                                        std::declval<const VectorOf<Model>&>(),
+                                                                        std::declval<const ParamsOf<Model>&>()))>>
+    : std::true_type {};
+}  // namespace detail
+
+/// True when the model defines mass_matrix (a specialised header may omit it).
+template <class Model>
+inline constexpr bool has_mass_matrix = detail::HasMassMatrix<Model>::value;
+
+/// True when the model defines bias.
+template <class Model>
+inline constexpr bool has_bias = detail::HasBias<Model>::value;
+
+/// simulate() warns when the scaled condition number of M exceeds this: θ̈ may then keep fewer
+/// than about 6 of double's 16 digits.
+inline constexpr double kConditionWarning = 1e10;
+
+/// Condition numbers of a symmetric mass matrix, from its eigenvalues (2-norm).
+struct Conditioning {
+  double cond = 1.0;         ///< cond(M) = λmax/λmin; infinity when M is not positive definite
+  double scaled_cond = 1.0;  ///< cond(S M S), S = diag(M)^-1/2: what bounds the L D Lᵀ solve's error
+  double smallest_eigenvalue = 1.0;  ///< λmin(M)
+};
+
+/// The condition numbers of a symmetric matrix `M` (only meaningful for a mass matrix).
+template <class Derived>
+Conditioning conditioning_of(const Eigen::MatrixBase<Derived>& M) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const Eigen::MatrixXd matrix = M.template cast<double>();
+  Conditioning c;
+  if (!matrix.allFinite()) return {inf, inf, std::numeric_limits<double>::quiet_NaN()};
+  auto ratio = [](const Eigen::VectorXd& eigenvalues) {
+    const double low = eigenvalues.minCoeff(), high = eigenvalues.maxCoeff();
+    return low > 0.0 ? high / low : inf;
+  };
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> raw(matrix, Eigen::EigenvaluesOnly);
+  c.smallest_eigenvalue = raw.eigenvalues().minCoeff();
+  c.cond = ratio(raw.eigenvalues());
+  if ((matrix.diagonal().array() <= 0.0).any()) {
+    c.scaled_cond = inf;
+    return c;
+  }
+  const Eigen::VectorXd s = matrix.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd scaled = s.asDiagonal() * matrix * s.asDiagonal();
+  c.scaled_cond = ratio(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues());
+  return c;
+}
+
+/// The worst conditioning of M over a few configurations, and where it occurs.
+template <class Model>
+struct ConditioningReport {
+  Conditioning worst;     ///< the configuration with the largest scaled condition number
+  std::string where;      ///< "the initial state", "upright", "hanging", …
+  VectorOf<Model> theta;  ///< that configuration
+};
+
+/// cond(M) at the initial configuration `theta0` and at the upright, hanging, horizontal and
+/// zig-zag configurations (base coordinate as in theta0): a heavy link on light ones is worst
+/// when the links are aligned, which the initial state need not show.
+template <class Model>
+ConditioningReport<Model> assess_conditioning(const ParamsOf<Model>& params, const VectorOf<Model>& theta0) {
+  static_assert(has_mass_matrix<Model>, "assess_conditioning needs the model's mass_matrix");
+  constexpr int n = Model::kDof;
+  std::vector<std::pair<const char*, VectorOf<Model>>> configurations{{"the initial state", theta0}};
+  const double half_pi = 0.5 * kPi;
+  for (const auto& [name, angle, alternate] : {std::tuple{"upright", 0.0, false}, std::tuple{"hanging", kPi, false},
+                                               std::tuple{"horizontal", half_pi, false},
+                                               std::tuple{"zig-zag", half_pi, true}}) {
+    VectorOf<Model> q = theta0;
+    for (int i = 1; i < n; ++i) q(i) = alternate && i % 2 == 0 ? -angle : angle;
+    configurations.emplace_back(name, q);
+  }
+  ConditioningReport<Model> report{{}, "", theta0};
+  bool first = true;
+  for (const auto& [name, q] : configurations) {
+    const Conditioning c = conditioning_of(Model::template mass_matrix<double>(q, params));
+    if (first || c.scaled_cond > report.worst.scaled_cond || std::isnan(c.scaled_cond)) {
+      report = {c, name, q};
+      first = false;
+    }
+  }
+  return report;
+}
+
+namespace detail {
+
+/// "[0.1, -2, 3e+05]" (6 significant digits).
+inline std::string format_values(const double* values, Eigen::Index count) {
+  std::string text = "[";
+  for (Eigen::Index i = 0; i < count; ++i) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%.6g", values[i]);
+    text += (i > 0 ? ", " : "") + std::string(number);
+  }
+  return text + "]";
+}
+
+/// "m[2]/m[1] = 1e+06" for the largest over the smallest of values[first..kDof).
+template <class Array>
+std::string extreme_ratio(const char* name, const Array& values, int first) {
+  int low = first, high = first;
+  for (int i = first; i < static_cast<int>(values.size()); ++i) {
+    if (values[static_cast<std::size_t>(i)] < values[static_cast<std::size_t>(low)]) low = i;
+    if (values[static_cast<std::size_t>(i)] > values[static_cast<std::size_t>(high)]) high = i;
+  }
+  return std::string(name) + "[" + std::to_string(high) + "]/" + name + "[" + std::to_string(low) + "] = " +
+         format_number(values[static_cast<std::size_t>(high)] / values[static_cast<std::size_t>(low)]);
+}
+
+}  // namespace detail
+
+/// A warning when M is ill-conditioned enough to make θ̈ untrustworthy (scaled cond(M) above
+/// `threshold`) anywhere assess_conditioning() looks, naming the parameter ratio that causes it;
+/// empty otherwise. The cause is found by making the masses (or the lengths) all equal and
+/// seeing which removes more of the ill-conditioning.
+template <class Model>
+std::string conditioning_warning(const ParamsOf<Model>& params, const VectorOf<Model>& theta0,
+                                 double threshold = kConditionWarning) {
+  const auto report = assess_conditioning<Model>(params, theta0);
+  const double kappa = report.worst.scaled_cond;
+  if (!(kappa > threshold)) return {};
+  auto equalised = [&](bool masses) {
+    ParamsOf<Model> p = params;
+    for (int i = 0; i < Model::kDof; ++i) {
+      auto& value = masses ? p.m[static_cast<std::size_t>(i)] : p.l[static_cast<std::size_t>(i)];
+      if (masses || i > 0 || !is_classical<Model>()) value = 1.0;
+    }
+    return conditioning_of(Model::template mass_matrix<double>(report.theta, p)).scaled_cond;
+  };
+  const bool masses_cause = equalised(true) <= equalised(false);
+  const int digits = std::max(0, static_cast<int>(std::floor(-std::log10(kappa * std::numeric_limits<double>::epsilon()))));
+  std::string cause =
+      masses_cause
+          ? "the mass ratio " + detail::extreme_ratio("m", params.m, 0) +
+                " (largest/smallest mass: a heavy link carried by light links or a light base nearly cancels a "
+                "degree of freedom)"
+          : "the length ratio " + detail::extreme_ratio("l", params.l, is_classical<Model>() ? 1 : 0) +
+                " (largest/smallest length)";
+  return "ill-conditioned mass matrix: cond(M) = " + detail::format_number(kappa) + " after diagonal scaling (" +
+         detail::format_number(report.worst.cond) + " unscaled) at " + report.where +
+         ", so accelerations keep only about " + std::to_string(digits) +
+         " significant digits and the results are untrustworthy at that level; caused by " + cause;
+}
+
+namespace detail {
+
+/// The likely cause of the non-finite derivative recorded in `e`, with its time and state.
+template <class Model>
+std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEvaluation& e) {
+  constexpr int n = Model::kDof;
+  std::string text = "non-finite derivative at t = " + format_number(e.t) + " s, state theta = " +
+                     format_values(e.x.data(), n) + ", dtheta = " + format_values(e.x.data() + n, n) +
+                     ", u = " + format_number(e.u) + "; likely cause: ";
+  if (!std::isfinite(e.u)) return text + "the input u is not finite (a feedback callback returned " + format_number(e.u) + ")";
+  if (!e.x.allFinite()) return text + "the state grew without bound (it is no longer finite)";
+  const VectorOf<Model> q = e.x.head(n);
+  const VectorOf<Model> qd = e.x.segment(n, n);
+  const double rate = qd.cwiseAbs().maxCoeff();
+  if constexpr (has_mass_matrix<Model>) {
+    const auto M = Model::template mass_matrix<double>(q, params);
+    if (!M.allFinite()) return text + "M(theta) is not finite (masses or lengths overflow)";
+    const Conditioning c = conditioning_of(M);
+    if (!(c.scaled_cond < 1e15)) {
+      return text + "accelerations overflow: M is near singular (cond(M) = " + format_number(c.cond) + ", " +
+             format_number(c.scaled_cond) + " after diagonal scaling; " + extreme_ratio("m", params.m, 0) + ")";
+    }
+    if constexpr (has_bias<Model>) {
+      const auto b = Model::template bias<double>(q, qd, params);
+      if (!b.allFinite()) {
+        return text + "the state grew without bound: rates of " + format_number(rate) +
+               " overflow the centrifugal and Coriolis forces";
+      }
+      VectorOf<Model> force = -b;
+      force(0) += e.u;
+      return text + "accelerations overflow: M is near singular for these forces (smallest eigenvalue of M " +
+             format_number(c.smallest_eigenvalue) + ", |B u - bias| = " + format_number(force.norm()) + ")";
+    }
+  }
+  if (rate > 1e100) return text + "the state grew without bound: rates of " + format_number(rate);
+  return text + "the accelerations overflow";
+}
+
+/// Stiffness at state x: the largest −Re λ over the eigenvalues λ of ∂f/∂x (mechanical part,
+/// forward differences of the RHS), 0 if none has a negative real part, NaN if the RHS fails.
+template <class Model>
+double stiffness(RhsContext<Model>& context, double t, const Eigen::VectorXd& x) {
+  constexpr int m = 2 * Model::kDof;
+  const NonFiniteEvaluation kept = context.nonfinite;  // diagnosing must not overwrite the record
+  const long size = static_cast<long>(x.size());
+  Eigen::VectorXd f0(x.size()), f1(x.size()), shifted = x;
+  Eigen::MatrixXd jacobian(m, m);
+  double result = std::numeric_limits<double>::quiet_NaN();
+  try {
+    if (evaluate_rhs<Model>(context, t, x.data(), f0.data(), size) == 0) {
+      bool ok = true;
+      for (int j = 0; j < m && ok; ++j) {
+        const double h = std::sqrt(std::numeric_limits<double>::epsilon()) * std::max(1.0, std::abs(x(j)));
+        shifted(j) = x(j) + h;
+        ok = evaluate_rhs<Model>(context, t, shifted.data(), f1.data(), size) == 0;
+        jacobian.col(j) = (f1.head(m) - f0.head(m)) / (shifted(j) - x(j));
+        shifted(j) = x(j);
+      }
+      if (ok) {
+        const Eigen::EigenSolver<Eigen::MatrixXd> solver(jacobian, false);
+        result = std::max(0.0, -solver.eigenvalues().real().minCoeff());
+      }
+    }
+  } catch (...) {
+    // A feedback callback that throws while we diagnose: no estimate.
+  }
+  context.nonfinite = kept;
+  return result;
+}
+
+/// A step h with h·|Re λ| at least this is taken as limited by stability (explicit methods
+/// have stability regions reaching |z| ≈ 2.5–5 on the negative real axis; their error estimators often
+/// hold h·|Re λ| well below that, e.g. Fehlberg 8(7) near 0.4).
+inline constexpr double kStiffStep = 0.1;
+
+/// Why a method made no progress (ran out of steps, or too many error test or convergence
+/// failures: `out_of_steps` false) at time t, state x, after the last successful step h and with
+/// the step it was attempting, h_now: "stiff: use BDF" when h·|Re λ| shows that stability, not
+/// accuracy, limits the step of a method other than BDF; a near-singular M or a collapsed step
+/// size otherwise. (Running out of steps says nothing about a collapse: the first steps of a run
+/// are tiny.)
+template <class Model>
+std::string explain_slow_progress(RhsContext<Model>& context, const Settings<Model>& settings, double t,
+                                  const Eigen::VectorXd& x, double h, double h_now, bool out_of_steps) {
+  const double rho = stiffness<Model>(context, t, x);
+  std::string text = "last step h = " + format_number(h) + " s";
+  if (std::isfinite(rho)) {
+    text += ", stiffness max(-Re lambda(df/dx)) = " + format_number(rho) + " 1/s (h*|Re lambda| = " +
+            format_number(h * rho) + ")";
+  }
+  const bool collapsed = !out_of_steps && std::abs(h_now) <= 1e-12 * std::max(1.0, std::abs(t));
+  if (collapsed) text += "; the step size collapsed to " + format_number(h_now) + " s";
+  if (settings.method != Method::bdf && std::isfinite(rho) && (h * rho >= kStiffStep || (collapsed && rho > 1e6))) {
+    return text + "; stiff: use BDF (method bdf): a decaying mode at rate " + format_number(rho) + " 1/s holds " +
+           to_string(settings.method) + "'s step near its stability limit";
+  }
+  if constexpr (has_mass_matrix<Model>) {
+    const VectorOf<Model> q = x.head(Model::kDof);
+    const Conditioning c = conditioning_of(Model::template mass_matrix<double>(q, *context.params));
+    if (!(c.scaled_cond <= kConditionWarning)) {
+      return text + "; M is near singular at this state (cond(M) = " + format_number(c.scaled_cond) +
+             " after diagonal scaling; " + extreme_ratio("m", context.params->m, 0) +
+             "): the accelerations are not accurate enough for the error test";
+    }
+  }
+  if (collapsed) return text + "; the solution may be singular or not finite nearby";
+  if (settings.method == Method::bdf) {
+    return text + "; the motion needs small steps (raise max_steps, loosen rtol, or sample more often: max_steps "
+                  "counts steps between two samples)";
+  }
+  return text + "; not stiff at this state: the motion itself needs small steps (raise max_steps, loosen rtol, or "
+                "sample more often: max_steps counts steps between two samples)";
+}
+
+/// A warning for a method other than BDF that needed `steps` ≥ 1000 steps over the last interval
+/// between stops because stability, not accuracy, held its step h at state x (empty otherwise):
+/// it still succeeds, but BDF would be far cheaper.
+template <class Model>
+std::string stiffness_warning(RhsContext<Model>& context, const Settings<Model>& settings, double t,
+                              const Eigen::VectorXd& x, double h, long steps) {
+  if (settings.method == Method::bdf || steps < 1000) return {};
+  const double rho = stiffness<Model>(context, t, x);
+  if (!(std::isfinite(rho) && h * rho >= kStiffStep)) return {};
+  return std::string("stiff: use BDF (method bdf): ") + to_string(settings.method) + " needed " +
+         std::to_string(steps) + " steps to reach t = " + format_number(t) + " s, its step h = " + format_number(h) +
+         " s held near its stability limit by a decaying mode at rate " + format_number(rho) +
+         " 1/s (h*|Re lambda| = " + format_number(h * rho) + ")";
+}
+
+/// RK4's stability limit on the negative real axis (|1 + z + z²/2 + z³/6 + z⁴/24| ≤ 1 for z ≥ −2.785).
+inline constexpr double kRk4StabilityLimit = 2.785;
+
+}  // namespace detail
+}  // namespace ipsim
