@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation stability configure build clean
 
 all: test
 
@@ -83,6 +83,12 @@ $(VENV)/.workprecision-installed: pyproject.toml $(VENV)/.installed
 
 bench-workprecision: $(VENV)/.workprecision-installed
 	$(PY) -m bench.workprecision $(WORKPRECISION_ARGS)
+
+## Numerical stability at the extremes (cpp/stability/, tools/stability.py): builds every scenario
+## driver (the n = 20 models too) and writes docs/stability.md; fails if a scenario misses its bound.
+stability: configure
+	cmake --build $(BUILD) -j $(JOBS) --target stability_drivers
+	$(PY) tools/stability.py --build $(BUILD) --out docs/stability.md
 
 clean:
 	rm -rf $(BUILD) out
