@@ -181,7 +181,8 @@ std::string conditioning_warning(const ParamsOf<Model>& params, const VectorOf<M
     return conditioning_of(Model::template mass_matrix<double>(report.theta, p)).scaled_cond;
   };
   const bool masses_cause = equalised(true) <= equalised(false);
-  const int digits = std::max(0, static_cast<int>(std::floor(-std::log10(kappa * std::numeric_limits<double>::epsilon()))));
+  const double lost = kappa * std::numeric_limits<double>::epsilon();
+  const int digits = std::max(0, static_cast<int>(std::floor(-std::log10(lost))));
   std::string cause =
       masses_cause
           ? "the mass ratio " + detail::extreme_ratio("m", params.m, 0) +
@@ -204,7 +205,9 @@ std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEval
   std::string text = "non-finite derivative at t = " + format_number(e.t) + " s, state theta = " +
                      format_values(e.x.data(), n) + ", dtheta = " + format_values(e.x.data() + n, n) +
                      ", u = " + format_number(e.u) + "; likely cause: ";
-  if (!std::isfinite(e.u)) return text + "the input u is not finite (a feedback callback returned " + format_number(e.u) + ")";
+  if (!std::isfinite(e.u)) {
+    return text + "the input u is not finite (a feedback callback returned " + format_number(e.u) + ")";
+  }
   if (!e.x.allFinite()) return text + "the state grew without bound (it is no longer finite)";
   const VectorOf<Model> q = e.x.head(n);
   const VectorOf<Model> qd = e.x.segment(n, n);
@@ -301,6 +304,12 @@ std::string explain_slow_progress(RhsContext<Model>& context, const Settings<Mod
     }
   }
   if (collapsed) return text + "; the solution may be singular or not finite nearby";
+  if (!out_of_steps) {
+    const double rate = x.segment(Model::kDof, Model::kDof).cwiseAbs().maxCoeff();
+    return text + "; not stiff at this state: the error test failed repeatedly, the motion (rates up to " +
+           format_number(rate) + ") is too fast for " + to_string(settings.method) +
+           " at this tolerance (loosen rtol and atol, or try another method)";
+  }
   if (settings.method == Method::bdf) {
     return text + "; the motion needs small steps (raise max_steps, loosen rtol, or sample more often: max_steps "
                   "counts steps between two samples)";
