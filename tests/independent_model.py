@@ -5,8 +5,9 @@ rigid bodies in rotating reference frames, gravity as forces on the centres of g
 viscous friction as forces and torques between the bodies, the input as a force on the cart
 or a torque on the arm. Kane's equations give M(θ) θ̈ = forcing(θ, θ̇, u).
 
-Used by tests/test_independent.py (against ipgen's equations) and tools/make_golden.py (an
-independent integration that checks the simulator's golden trajectories).
+Used by tests/test_independent.py (against ipgen's equations), tools/make_golden.py (an
+independent integration that checks the simulator's golden trajectories) and
+bench/references.py (the derivations ipgen's generation time is compared with).
 """
 
 from __future__ import annotations
@@ -35,9 +36,24 @@ def rod_inertia(frame: me.ReferenceFrame, about_y: sp.Expr, about_x: sp.Expr) ->
     return me.inertia(frame, about_x, about_y, 0)
 
 
-@cache
-def reference(kind: str, links: int, inertia: str) -> Reference:
-    """Kane's equations of the pendulum, from frames, points and rigid bodies.
+@dataclass
+class Pendulum:
+    """What a method of sympy.physics.mechanics needs: frames, coordinates, bodies and loads."""
+
+    ground: me.ReferenceFrame
+    origin: me.Point
+    q: list[sp.Function]
+    speeds: list[sp.Expr]  # the rates the velocities are written in
+    bodies: list[me.RigidBody | me.Particle]
+    loads: list[tuple]
+    parameters: dict[str, tuple[sp.Symbol, ...]]  # m, l, delta: one per body; g, u: one each
+
+
+def pendulum(kind: str, links: int, inertia: str = "pivot", speeds: list[sp.Expr] | None = None) -> Pendulum:
+    """The n-link pendulum on a cart (classical) or on a horizontal arm (rotary).
+
+    `speeds` are the rates the velocities are written in: generalized speeds for Kane's method,
+    or None for the time derivatives of the coordinates (Lagrange's method).
 
     Classical: N.x along the rail, N.z up; link i's frame is N turned by θi about N.y, so
     its axis Li.z = sin θi N.x + cos θi N.z (θ clockwise from upright, seen from −N.y).
@@ -46,8 +62,8 @@ def reference(kind: str, links: int, inertia: str) -> Reference:
     by θi about the arm axis A.y, so Li.z = sin θi A.x + cos θi N.z.
     """
     size = links + 1
-    q = me.dynamicsymbols(f"q0:{size}")
-    w = me.dynamicsymbols(f"w0:{size}")
+    q = list(me.dynamicsymbols(f"q0:{size}"))
+    w = speeds if speeds is not None else [qi.diff() for qi in q]
     m = sp.symbols(f"m0:{size}", positive=True)
     lengths = sp.symbols(f"l0:{size}", positive=True)
     delta = sp.symbols(f"delta0:{size}", nonnegative=True)
@@ -83,6 +99,7 @@ def reference(kind: str, links: int, inertia: str) -> Reference:
 
     previous_frame, pivot = base_frame, attach
     for i in range(1, size):
+        # Absolute angle: the link frame is turned from the base frame, not from link i − 1.
         frame = base_frame.orientnew(f"L{i}", "Axis", [q[i], links_axis])
         frame.set_ang_vel(base_frame, w[i] * links_axis)
         cog = pivot.locatenew(f"G{i}", lengths[i] / 2 * frame.z)
@@ -96,18 +113,31 @@ def reference(kind: str, links: int, inertia: str) -> Reference:
         loads.append((cog, -m[i] * g * ground.z))
         # Joint damping: link 1 against the base, link i against link i − 1 (MODEL.md);
         # equal and opposite torques on the two bodies the joint connects.
-        other = base_frame if i == 1 else previous_frame
-        relative = frame.ang_vel_in(ground) - other.ang_vel_in(ground)
+        relative = frame.ang_vel_in(ground) - previous_frame.ang_vel_in(ground)
         loads.append((frame, -delta[i] * relative))
-        loads.append((other, delta[i] * relative))
+        loads.append((previous_frame, delta[i] * relative))
         tip = pivot.locatenew(f"P{i + 1}", lengths[i] * frame.z)
         tip.v2pt_theory(pivot, ground, frame)
         previous_frame, pivot = frame, tip
+    parameters = {"m": m, "l": lengths, "delta": delta, "g": (g,), "u": (u,)}
+    return Pendulum(ground, origin, q, w, bodies, loads, parameters)
+
+
+@cache
+def reference(kind: str, links: int, inertia: str) -> Reference:
+    """Kane's equations of the pendulum (see `pendulum` for the frames), as numeric functions."""
+    size = links + 1
+    w = list(me.dynamicsymbols(f"w0:{size}"))
+    system = pendulum(kind, links, inertia, w)
+    q, ground, bodies = system.q, system.ground, system.bodies
+    m, lengths, delta = (system.parameters[key] for key in ("m", "l", "delta"))
+    (g,), (u,) = system.parameters["g"], system.parameters["u"]
 
     kane = me.KanesMethod(ground, q_ind=q, u_ind=w, kd_eqs=[q[k].diff() - w[k] for k in range(size)])
-    kane.kanes_equations(bodies, loads)
+    kane.kanes_equations(bodies, system.loads)
     kinetic = sum(body.kinetic_energy(ground) for body in bodies)
-    potential = sum(m[i] * g * bodies[i].masscenter.pos_from(origin).dot(ground.z) for i in range(1, size))
+    heights = [body.masscenter.pos_from(system.origin).dot(ground.z) for body in bodies]
+    potential = sum(m[i] * g * heights[i] for i in range(1, size))
 
     angles = sp.symbols(f"a0:{size}")
     rates = sp.symbols(f"r0:{size}")
