@@ -77,7 +77,7 @@ class CvodeStepper {
   void restart(double t, Statistics& stats) {
     add_statistics(stats);
     check(CVodeReInit(cvode_.get(), t, y_.get()), "CVodeReInit");
-    steps_at_last_stop_ = 0;  // the counters start again
+    stiffness_watch_.restart();
   }
 
   /// Adds CVODE's counters since the last (re)start to `stats`.
@@ -108,49 +108,35 @@ class CvodeStepper {
   /// [x; ledger] after the last step, as a vector.
   Eigen::VectorXd state() const { return Eigen::Map<const Eigen::VectorXd>(y_.data(), y_.length()); }
 
-  /// Once per run: warns when a method other than BDF took many steps to this stop because
-  /// stability held its step down (guards.hpp).
+  /// Once per run: warns when stability, not accuracy, held the steps of a method other than BDF.
   void warn_if_stiff(double reached) {
     long steps = 0;
-    CVodeGetNumSteps(cvode_.get(), &steps);
-    const long interval = steps - steps_at_last_stop_;
-    steps_at_last_stop_ = steps;
-    if (warned_stiff_ || interval < 1000 || settings_.method == Method::bdf) return;
     realtype h = 0.0;
+    CVodeGetNumSteps(cvode_.get(), &steps);
     CVodeGetLastStep(cvode_.get(), &h);
-    std::string warning = stiffness_warning<Model>(rhs_context_, settings_, reached, state(), h, interval);
-    if (!warning.empty()) {
-      diagnostics_.warnings->push_back(std::move(warning));
-      warned_stiff_ = true;
-    }
+    stiffness_watch_.at_stop(rhs_context_, settings_, diagnostics_, reached, steps, h, [this] { return state(); });
   }
 
-  /// CVODE's own message, preceded by the likely cause (guards.hpp): non-finite derivatives that
-  /// persisted, or a method that cannot make progress (stiffness).
+  /// CVODE's own message, preceded by the likely cause (guards.hpp).
   std::string explain(int flag, double reached) {
-    std::string cause;
-    const bool rhs_failed = flag == CV_RHSFUNC_FAIL || flag == CV_FIRST_RHSFUNC_ERR || flag == CV_REPTD_RHSFUNC_ERR ||
-                            flag == CV_UNREC_RHSFUNC_ERR;
-    const bool no_progress = flag == CV_TOO_MUCH_WORK || flag == CV_ERR_FAILURE || flag == CV_CONV_FAILURE;
-    if (rhs_context_.nonfinite.seen && (rhs_failed || no_progress)) {
-      cause = explain_nonfinite<Model>(*rhs_context_.params, rhs_context_.nonfinite);
-    } else if (no_progress) {
-      realtype h = 0.0, h_now = 0.0;
-      CVodeGetLastStep(cvode_.get(), &h);
-      CVodeGetCurrentStep(cvode_.get(), &h_now);
-      cause = explain_slow_progress<Model>(rhs_context_, settings_, reached, state(), h, h_now,
-                                         flag == CV_TOO_MUCH_WORK);
-    }
-    if (diagnostics_.last_error.empty()) return cause;
-    return cause.empty() ? diagnostics_.last_error : cause + " [" + diagnostics_.last_error + "]";
+    const Failure failure{flag == CV_RHSFUNC_FAIL || flag == CV_FIRST_RHSFUNC_ERR || flag == CV_REPTD_RHSFUNC_ERR ||
+                              flag == CV_UNREC_RHSFUNC_ERR,
+                          flag == CV_TOO_MUCH_WORK || flag == CV_ERR_FAILURE || flag == CV_CONV_FAILURE,
+                          flag == CV_TOO_MUCH_WORK};
+    return explain_failure<Model>(rhs_context_, settings_, diagnostics_, failure, reached, [this] { return state(); },
+                                  [this] {
+                                    realtype h = 0.0, h_now = 0.0;
+                                    CVodeGetLastStep(cvode_.get(), &h);
+                                    CVodeGetCurrentStep(cvode_.get(), &h_now);
+                                    return std::pair<double, double>(h, h_now);
+                                  });
   }
 
   const Settings<Model>& settings_;
   sundials::NVector& y_;
   RhsContext<Model>& rhs_context_;
   Diagnostics& diagnostics_;
-  long steps_at_last_stop_ = 0;  ///< the integrator's step count at the previous stop
-  bool warned_stiff_ = false;
+  StiffnessWatch stiffness_watch_;
   // Destroyed in reverse order: CVODE first, then the solvers and the matrix it refers to.
   // (Heap-held rather than std::optional: GCC 12 warns falsely about optional<unique_ptr>.)
   std::unique_ptr<sundials::DenseMatrix> matrix_;

@@ -31,6 +31,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
+#include "ipsim/diagnostics.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -332,6 +333,58 @@ std::string stiffness_warning(RhsContext<Model>& context, const Settings<Model>&
          " s held near its stability limit by a decaying mode at rate " + format_number(rho) +
          " 1/s (h*|Re lambda| = " + format_number(h * rho) + ")";
 }
+
+/// How a SUNDIALS integrator gave up, classified by the stepper from its own flags.
+struct Failure {
+  bool rhs_failed;    ///< the right-hand side kept failing
+  bool no_progress;   ///< out of steps, or too many error-test or convergence failures
+  bool out_of_steps;  ///< no progress because max_steps ran out
+};
+
+/// The integrator's own message (diagnostics.last_error) preceded by the likely cause: non-finite
+/// derivatives that persisted, or a method that cannot make progress (explain_slow_progress).
+/// `state()` gives x at time t, `steps()` the last and the attempted step sizes; both are only
+/// asked for when needed.
+template <class Model, class State, class Steps>
+std::string explain_failure(RhsContext<Model>& context, const Settings<Model>& settings,
+                            const Diagnostics& diagnostics, const Failure& failure, double t, State state,
+                            Steps steps) {
+  std::string cause;
+  if (context.nonfinite.seen && (failure.rhs_failed || failure.no_progress)) {
+    cause = explain_nonfinite<Model>(*context.params, context.nonfinite);
+  } else if (failure.no_progress) {
+    const auto [h, h_now] = steps();
+    cause = explain_slow_progress<Model>(context, settings, t, state(), h, h_now, failure.out_of_steps);
+  }
+  if (diagnostics.last_error.empty()) return cause;
+  return cause.empty() ? diagnostics.last_error : cause + " [" + diagnostics.last_error + "]";
+}
+
+/// Warns once per run when a method other than BDF took ≥ 1000 steps between two stops because
+/// stability held its step down (stiffness_warning).
+class StiffnessWatch {
+ public:
+  /// At a stop at time t after `steps` steps in all, the last of size h; `state()` gives x.
+  template <class Model, class State>
+  void at_stop(RhsContext<Model>& context, const Settings<Model>& settings, Diagnostics& diagnostics, double t,
+               long steps, double h, State state) {
+    const long interval = steps - steps_at_last_stop_;
+    steps_at_last_stop_ = steps;
+    if (warned_ || interval < 1000 || settings.method == Method::bdf) return;
+    std::string warning = stiffness_warning<Model>(context, settings, t, state(), h, interval);
+    if (!warning.empty()) {
+      diagnostics.warnings->push_back(std::move(warning));
+      warned_ = true;
+    }
+  }
+
+  /// The integrator was re-initialised: its step counter starts again from zero.
+  void restart() { steps_at_last_stop_ = 0; }
+
+ private:
+  long steps_at_last_stop_ = 0;  ///< the integrator's step count at the previous stop
+  bool warned_ = false;
+};
 
 /// RK4's stability limit on the negative real axis (|1 + z + z²/2 + z³/6 + z⁴/24| ≤ 1 for z ≥ −2.785).
 inline constexpr double kRk4StabilityLimit = 2.785;
