@@ -342,6 +342,19 @@ void check_methods_agree() {
   CHECK(bdf.wall_time > 0.0);
 }
 
+/// The physics identities alone (for large models, where every generic check would take minutes):
+/// the functions agree with each other, T + V is conserved without damping and balances input
+/// work and dissipation with it.
+template <class Model>
+int run_identity_checks() {
+  check_model_consistency<Model>();
+  check_energy_conservation<Model>(ipsim::Method::bdf);
+  check_work_energy_balance<Model>();
+  std::printf("%s (%s, %d links): %s\n", Model::kName, Model::kType, Model::kLinks,
+              failure_count() == 0 ? "identities hold" : "FAILED");
+  return failures();
+}
+
 /// Runs every generic check on `Model`.
 template <class Model>
 int run_model_checks() {

@@ -6,6 +6,10 @@
 #include "model_checks.hpp"
 
 int main() {
+#ifdef IPGEN_IDENTITIES_ONLY
+  return ipsim_test::run_identity_checks<IPGEN_MODEL>();
+#else
   ipsim_test::run_method_checks<IPGEN_MODEL>();
   return ipsim_test::run_model_checks<IPGEN_MODEL>();
+#endif
 }
