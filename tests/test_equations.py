@@ -17,6 +17,7 @@ from functools import cache
 
 import pytest
 import sympy as sp
+from cases import CASES, case_id
 
 from generator.derive import Equations, derive
 from generator.model import Symbols, System
@@ -167,21 +168,6 @@ def test_rotary_single_full_inertia_has_one_third() -> None:
 
 
 # --------------------------------------------------------------------------- energies and Lagrange
-
-CASES = [
-    ("classical", 1, "pivot"),
-    ("classical", 2, "pivot"),
-    ("classical", 3, "pivot"),
-    ("rotary", 1, "pivot"),
-    ("rotary", 1, "full"),
-    ("rotary", 2, "pivot"),
-    ("rotary", 2, "full"),
-]
-
-
-def case_id(case: tuple[str, int, str]) -> str:
-    kind, links, inertia = case
-    return f"{kind}{links}" + (f"-{inertia}" if kind == "rotary" else "")
 
 
 def model_energies(system: System, sym: Symbols) -> tuple[sp.Expr, sp.Expr, sp.Expr]:

@@ -15,6 +15,7 @@ from functools import cache
 import numpy as np
 import pytest
 import sympy as sp
+from cases import CASES, case_id
 from independent_model import reference
 
 from generator.derive import Equations, derive
@@ -49,22 +50,6 @@ def ipgen(kind: str, links: int, inertia: str) -> Ipgen:
         numeric(eqs.kinetic_energy),
         numeric(eqs.potential_energy),
     )
-
-
-CASES = [
-    ("classical", 1, "pivot"),
-    ("classical", 2, "pivot"),
-    ("classical", 3, "pivot"),
-    ("rotary", 1, "pivot"),
-    ("rotary", 1, "full"),
-    ("rotary", 2, "pivot"),
-    ("rotary", 2, "full"),
-]
-
-
-def case_id(case: tuple[str, int, str]) -> str:
-    kind, links, inertia = case
-    return f"{kind}{links}" + (f"-{inertia}" if kind == "rotary" else "")
 
 
 def random_case(rng: np.random.Generator, size: int) -> tuple:
