@@ -15,10 +15,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
+from typing import TYPE_CHECKING
 
-import numpy as np
 import sympy as sp
 from sympy.physics import mechanics as me
+
+if TYPE_CHECKING:  # numpy only in annotations: the benchmark times derivations in a numpy-free process
+    import numpy as np
 
 
 @dataclass(frozen=True)
