@@ -3,7 +3,8 @@
 Every point runs in a fresh process. ipgen is timed as the process wall time of
 `python -m generator --type T --links N -o DIR` (imports, derivation, code generation, writing).
 The references (bench/references.py) report the derivation alone, imports excluded, and the
-process wall time. A run shorter than REPEAT_BELOW is repeated and the median of 3 reported. A
+process wall time. A run shorter than REPEAT_BELOW is repeated and the median of RUNS (FLOOR_RUNS for
+the start-up floor) reported. A
 run over the time limit is stopped and reported as "> limit"; larger n of that method are
 skipped. Rotary systems use the default (pivot) inertia on both sides.
 """
@@ -36,6 +37,8 @@ EXTRA = (("classical", 50),)  # ipgen alone, one run, with --force (ipgen asks f
 EXTRA_TIMEOUT = 900.0
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
+RUNS = 3  # runs of a quick point (median)
+FLOOR_RUNS = 11  # the floor is the yardstick of every small-n point: more runs
 TARGET_N20 = 10.0
 TOLERANCE = 1e-10  # the references must derive ipgen's equations (checked at n = 2)
 
@@ -85,12 +88,14 @@ def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, f
     return {"wall_s": wall, "cpu_s": cpu} | (json.loads(done.stdout) if reference else {})
 
 
-def measure(method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True) -> Timing:
-    """Time one point: once, and twice more (medians of 3) when it was quick."""
+def measure(
+    method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True, quick_runs: int = RUNS
+) -> Timing:
+    """Time one point: once, and `quick_runs` times in all (median) when it was quick."""
     try:
         runs = [_run_once(method, kind, links, timeout)]
         if repeat and runs[0]["wall_s"] < REPEAT_BELOW:
-            runs += [_run_once(method, kind, links, timeout) for _ in range(2)]
+            runs += [_run_once(method, kind, links, timeout) for _ in range(quick_runs - 1)]
     except subprocess.TimeoutExpired:
         return Timing(kind, method, links, None, None, 1, "timeout")
     except subprocess.CalledProcessError as e:
@@ -136,7 +141,9 @@ def sweep(
                 results.append(Timing(kind, method, n, None, None, 0, "skipped"))
                 continue
             once = (kind, n) in extra
-            timing = measure(method, kind, n, EXTRA_TIMEOUT if once else timeout, repeat=not once)
+            limit = EXTRA_TIMEOUT if once else timeout
+            runs = FLOOR_RUNS if method == FLOOR else RUNS
+            timing = measure(method, kind, n, limit, repeat=not once, quick_runs=runs)
             if timing.status == "timeout":
                 timed_out.add((kind, method))
             results.append(timing)
@@ -249,8 +256,9 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
         "  libraries ipgen is built on; no ipgen command can be faster. A miss marked *below the start-up",
         "  floor* is one where KanesMethod's derivation alone takes less than that: out of reach for any",
         "  tool built on click and jinja2.",
-        f"- Each point in a fresh process; median of 3 runs when a run takes under {REPEAT_BELOW:.0f} s,",
-        f'  else one run. Runs over {timeout:.0f} s are stopped ("> {timeout:.0f}"), larger n then skipped.',
+        f"- Each point in a fresh process; median of {RUNS} runs ({FLOOR_RUNS} for the floor) when a run",
+        f"  takes under {REPEAT_BELOW:.0f} s, else one run. Runs over {timeout:.0f} s are stopped",
+        f'  ("> {timeout:.0f}"), larger n then skipped.',
         "",
         *machine(),
         "",
