@@ -5,13 +5,12 @@ from __future__ import annotations
 import datetime
 import os
 import platform
+import re
 import subprocess
 import sys
 from importlib import metadata
 from pathlib import Path
 from typing import Any
-
-from matplotlib.ticker import NullLocator
 
 ROOT = Path(__file__).resolve().parent.parent
 BUILD = ROOT / "build" / "bench"
@@ -45,10 +44,22 @@ def version(package: str) -> str:
         return "not installed"
 
 
+def sundials_version(config: Path = Path("/usr/include/sundials/sundials_config.h")) -> str:
+    """The SUNDIALS version the simulator compiles against, from its sundials_config.h."""
+    try:
+        match = re.search(r'SUNDIALS_VERSION "([^"]+)"', config.read_text())
+    except OSError:
+        return "unknown"
+    return match.group(1) if match else "unknown"
+
+
 def commit() -> str:
-    done = subprocess.run(
-        ["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True, text=True
-    )
+    try:
+        done = subprocess.run(
+            ["git", "describe", "--always", "--dirty"], cwd=ROOT, capture_output=True, text=True
+        )
+    except OSError:  # no git
+        return "unknown"
     return done.stdout.strip() or "unknown"
 
 
@@ -87,6 +98,8 @@ def verdict(met: bool) -> str:
 
 def style_axis(axis: Any, links: list[int], ylabel: str, title: str) -> None:
     """Log-log axes with the measured n as the x ticks."""
+    from matplotlib.ticker import NullLocator  # here, so that tools without matplotlib can import report
+
     axis.set(xscale="log", yscale="log", xlabel="links n", ylabel=ylabel, title=title)
     axis.set_xticks(links, [str(n) for n in links])
     axis.xaxis.set_minor_locator(NullLocator())
