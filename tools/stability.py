@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import re
@@ -21,6 +22,9 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from bench.report import compiler_version, cpu_model, sundials_version
 
 # Drivers in table order; a missing one is reported and skipped.
 DRIVERS = [
@@ -120,24 +124,10 @@ def memory_row(long_rows: list[dict]) -> list[dict]:
 
 
 def machine() -> str:
-    cpu = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    compiler = subprocess.run(["c++", "--version"], capture_output=True, text=True, check=False).stdout
-    sundials = "unknown"
-    config = Path("/usr/include/sundials/sundials_config.h")
-    if config.exists():
-        match = re.search(r'SUNDIALS_VERSION "([^"]+)"', config.read_text())
-        sundials = match.group(1) if match else sundials
     load = " ".join(f"{x:.2f}" for x in os.getloadavg())
     return (
-        f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-        f"{compiler.splitlines()[0] if compiler else 'c++'}; SUNDIALS {sundials}; "
+        f"{cpu_model()}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+        f"{compiler_version('c++')}; SUNDIALS {sundials_version()}; "
         f"load average at start {load}"
     )
 
@@ -190,47 +180,176 @@ def worst(rows: list[dict], scenario: str, key=lambda r: True) -> float | None:
     return max(values) if values else None
 
 
-def note_numbers(rows: list[dict], pattern: str, key=lambda r: True) -> list[float]:
-    """Numbers captured by `pattern` in the notes of the rows that satisfy `key`."""
+def shown(value, digits: int = 3) -> str:
+    """A number of the summary: "?" when the rows it comes from are missing (a partial run)."""
+    return "?" if value is None else fmt(value, digits)
+
+
+def largest_bound(rows: list[dict], scenario: str, key=lambda r: True) -> float | None:
+    values = [r["bound"] for r in rows if r["scenario"] == scenario and r["bound"] is not None and key(r)]
+    return max(values) if values else None
+
+
+def note_numbers(rows: list[dict], pattern: str, key=lambda r: True, field: str = "note") -> list[float]:
+    """Numbers captured by `pattern` in the notes (or another text field) of the rows that satisfy
+    `key`."""
     found = []
     for r in rows:
         if key(r):
-            found += [float(x) for x in re.findall(pattern, r["note"] or "")]
+            found += [float(x) for x in re.findall(pattern, r.get(field) or "")]
     return found
 
 
+def largest(rows: list[dict], pattern: str, key=lambda r: True, field: str = "note") -> float | None:
+    return max(note_numbers(rows, pattern, key, field), default=None)
+
+
+def smallest(rows: list[dict], pattern: str, key=lambda r: True, field: str = "note") -> float | None:
+    return min(note_numbers(rows, pattern, key, field), default=None)
+
+
+def span(low: float | None, high: float | None, digits: int = 3) -> str:
+    """The range low–high, or one value when both print alike, or "?" when the rows are missing."""
+    if low is None or high is None:
+        return "?"
+    low_text, high_text = fmt(low, digits), fmt(high, digits)
+    return low_text if low_text == high_text else f"{low_text}–{high_text}"
+
+
+def listed(values: list[float]) -> str:
+    return ", ".join(fmt(v) for v in sorted(set(values))) or "?"
+
+
+def links_of(row: dict) -> int:
+    match = re.search(r"(\d+) links?\)", row["model"])
+    return int(match.group(1)) if match else 0
+
+
+def condition_warning() -> float | None:
+    """The simulator's warning threshold on the scaled cond(M) (ipsim::kConditionWarning)."""
+    guards = Path(__file__).resolve().parents[1] / "cpp" / "include" / "ipsim" / "guards.hpp"
+    try:
+        match = re.search(r"kConditionWarning = ([0-9.e+-]+);", guards.read_text())
+    except OSError:
+        return None
+    return float(match.group(1)) if match else None
+
+
+NUMBER = r"([0-9][0-9.]*(?:e[+-]?[0-9]+)?)"
+
+
+def drift_rates(rows: list[dict], key) -> list[float]:
+    """Relative energy drift per simulated second, in units of rtol, of the undamped runs."""
+    rates = []
+    for r in rows:
+        horizon = re.fullmatch(r"undamped " + NUMBER + " s", r["scenario"])
+        rtol = re.search(r"rtol " + NUMBER, r["what"])
+        if horizon and rtol and r["value"] is not None and key(r):
+            rates.append(r["value"] / float(horizon.group(1)) / float(rtol.group(1)))
+    return rates
+
+
 def summary(rows: list[dict]) -> list[str]:
-    """What holds and where the limits are, with the numbers of this run."""
-    many = worst(rows, "undamped 10 s", lambda r: "10 links" in r["model"] or "20 links" in r["model"])
+    """What holds and where the limits are, with the numbers of this run: every number in it
+    comes from the rows (a partial run leaves "?" or an empty value where rows are missing)."""
+    many_links = lambda r: links_of(r) >= 10  # noqa: E731
+    many = worst(rows, "undamped 10 s", many_links)
+    many_bound = largest_bound(rows, "undamped 10 s")
     long_drift = worst(rows, "undamped 1e+03 s")
     longest = worst(rows, "undamped 1e+04 s")
+    long_runs = lambda r: r["scenario"] in ("undamped 1e+03 s", "undamped 1e+04 s")  # noqa: E731
+    long_rates = drift_rates(rows, long_runs)
+    long_links = max((links_of(r) for r in rows if long_runs(r)), default=None)
+    long_rate = span(min(long_rates, default=None), max(long_rates, default=None), 2)
+    many_rates = drift_rates(rows, lambda r: r["scenario"] == "undamped 10 s" and many_links(r))
+    memory = next((r for r in rows if r["what"].startswith("peak RSS") and "final state" in r["what"]), None)
 
     def in_range(r):
         return r["scenario"] == "mass/length ratios" and not r["what"].startswith("beyond")
 
-    ratio_error = worst(rows, "mass/length ratios", lambda r: not r["what"].startswith("beyond"))
+    def beyond_range(r):
+        return r["scenario"] == "mass/length ratios" and r["what"].startswith("beyond")
+
+    masses = next((m for r in rows if (m := re.search(r"random masses (\S+) x base", r["what"]))), None)
+    lengths = next((m for r in rows if (m := re.search(r"lengths (\S+) m #", r["what"]))), None)
+    ratio_error = worst(rows, "mass/length ratios", in_range)
     length_error = worst(rows, "mass/length ratios", lambda r: r["what"].startswith("lengths"))
-    raw_cond = max(note_numbers(rows, r"cond\(M\) ([0-9.e+-]+),", in_range), default=None)
-    length_cond = max(
-        note_numbers(
-            rows, r"cond\(M\) ([0-9.e+-]+),", lambda r: in_range(r) and r["what"].startswith("lengths")
-        ),
-        default=None,
+    raw_cond = largest(rows, r"cond\(M\) ([0-9.e+-]+),", in_range)
+    lengths_only = lambda r: in_range(r) and r["what"].startswith("lengths")  # noqa: E731
+    length_cond = largest(rows, r"cond\(M\) ([0-9.e+-]+),", lengths_only)
+    scaled_cond = largest(rows, r"scaled ([0-9.e+-]+);", in_range)
+    scaled_worst = next(
+        (r for r in rows if in_range(r) and scaled_cond in note_numbers([r], r"scaled ([0-9.e+-]+);")), None
     )
-    scaled_cond = max(note_numbers(rows, r"scaled ([0-9.e+-]+);", in_range), default=None)
     beyond = worst(rows, "mass/length ratios", lambda r: r["what"].startswith("beyond"))
-    residual = max(
-        note_numbers(rows, r"residual ([0-9.e+-]+)", lambda r: r["scenario"] == "mass/length ratios")
+    beyond_ratios = note_numbers(rows, r"last link " + NUMBER + " x", beyond_range, field="what")
+    residual = largest(rows, r"residual ([0-9.e+-]+)", lambda r: r["scenario"] == "mass/length ratios")
+    factor = largest(rows, r"error/\(scaled cond eps\) ([0-9.e+-]+);", in_range)
+    threshold = condition_warning()
+    ill = [
+        r
+        for r in rows
+        if r["scenario"] == "mass/length ratios"
+        and threshold is not None
+        and any(c > threshold for c in note_numbers([r], r"scaled ([0-9.e+-]+);"))
+    ]
+    warned = [r for r in rows if r["scenario"] == "mass/length ratios" and r["outcome"].startswith("warned")]
+    warned_ill = sum(1 for r in warned if r in ill)
+    if warned_ill == len(ill) == len(warned):
+        warnings = f"for all {len(ill)} such cases and for no other"
+    else:
+        warnings = f"for {warned_ill} of the {len(ill)} such cases and for {len(warned) - warned_ill} others"
+    within = sum(1 for r in warned if in_range(r)) or "none"
+    raw_only = sum(
+        1
+        for r in rows
+        if in_range(r)
+        and r["what"].startswith("lengths")
+        and threshold is not None
+        and any(c > threshold for c in note_numbers([r], r"cond\(M\) ([0-9.e+-]+),"))
     )
-    factor = max(note_numbers(rows, r"error/\(scaled cond eps\) ([0-9.e+-]+);", in_range), default=None)
     float_all = worst(rows, "float", lambda r: r["what"].startswith("all"))
-    float_mild = worst(rows, "float", lambda r: "< 1e3" in r["what"])
-    stiff_stopped = sum(
-        1 for r in rows if r["scenario"] == "stiff damping" and "stiff: use BDF" in r["outcome"]
+    float_mild = worst(rows, "float", lambda r: "< " in r["what"])
+    float_limit = largest(rows, r"< " + NUMBER, lambda r: r["scenario"] == "float", field="what")
+    float_nominal = note_numbers(
+        rows, r"float error ([0-9.e+-]+)", lambda r: in_range(r) and r["what"] == "nominal"
     )
-    bdf_steps = [r["steps"] for r in rows if r["scenario"] == "stiff damping" and " bdf " in r["what"] + " "]
+    digits = f"about {int(-math.log10(float_mild))} digits" if float_mild else "? digits"
+
+    stiff = [r for r in rows if r["scenario"] == "stiff damping"]
+    tip_mass = largest(stiff, r"tip link " + NUMBER + " kg", field="what")
+    deltas = note_numbers(stiff, r"delta_n = " + NUMBER, field="what")
+    stiffness = largest(stiff, r"stiffness max\(-Re lambda\(df/dx\)\) = " + NUMBER)
+    stiff_stopped = sum(1 for r in stiff if "stiff: use BDF" in r["outcome"])
+    bdf_steps = [r["steps"] for r in stiff if " bdf " in r["what"] + " " and r["steps"] is not None]
+
+    def method_of(r: dict) -> str:
+        match = re.search(r", ([a-z0-9-]+) (?:rtol|step)", r["what"])
+        return match.group(1) if match else "?"
+
+    finished, never = [], []
+    for method in dict.fromkeys(method_of(r) for r in stiff):
+        done = [r for r in stiff if method_of(r) == method and r["passed"] and r["value"] is not None]
+        if method == "bdf":
+            continue
+        if done:
+            at = listed(note_numbers(done, r"delta_n = " + NUMBER, field="what"))
+            finished.append(f"{method} at δ = {at} in up to {shown(max(r['steps'] for r in done))} steps")
+        else:
+            never.append(method)
+
+    fast = [r for r in rows if r["scenario"] == "fast motion"]
+    spin_rate = largest(fast, r"spinning at " + NUMBER + " rad/s", field="what")
+    spin_time = largest(fast, r"undamped, " + NUMBER + " s", lambda r: "spinning" in r["what"], field="what")
+    turns = "?"
+    if spin_rate and spin_time:
+        turns = f"{spin_rate * spin_time / (2 * math.pi):.0f} turns in {shown(spin_time)} s"
     fast_drift = worst(rows, "fast motion", lambda r: "spinning" in r["what"])
-    fast_stops = sum(1 for r in rows if r["scenario"] == "fast motion" and r["outcome"].startswith("stopped"))
+    fast_stops = sum(1 for r in fast if r["outcome"].startswith("stopped"))
+    stopped = lambda r: r["outcome"].startswith("stopped")  # noqa: E731
+    stop_rtol = listed(note_numbers(fast, r"rtol " + NUMBER, stopped, field="what"))
+    compared = (re.search(r"differs from (\S+ rtol \S+)", r["note"]) for r in fast)
+    reference = next((m.group(1) for m in compared if m), "?")
 
     def regular(method_pattern):
         return lambda r: (
@@ -239,69 +358,103 @@ def summary(rows: list[dict]) -> list[str]:
             and "(bound" in r["note"]
         )
 
-    fast_bdf = max(note_numbers(rows, r"by ([0-9.e+-]+) of max", regular("bdf")), default=None)
-    fast_erk = max(note_numbers(rows, r"by ([0-9.e+-]+) of max", regular("erk-[a-z0-9]+")), default=None)
+    fast_bdf = largest(rows, r"by ([0-9.e+-]+) of max", regular("bdf"))
+    fast_erk = largest(rows, r"by ([0-9.e+-]+) of max", regular("erk-[a-z0-9]+"))
+    chaotic = lambda r: "spinning" in r["what"] and "(bound" not in r["note"]  # noqa: E731
+    whip_rate = largest(fast, r"max rate " + NUMBER, chaotic)
     balance = worst(rows, "fast motion", lambda r: r["what"].startswith("input"))
+    force = largest(fast, r"input " + NUMBER + " N", field="what")
     horizontal = worst(rows, "links through horizontal")
-    turns = worst(rows, "links spinning many turns", lambda r: "1e+06 turns" in r["what"])
+    crossing = [r for r in rows if r["scenario"] == "links through horizontal"]
+    passages = [(note_numbers([r], r"(\d+) passages"), r) for r in crossing]
+    passages = [(numbers[0], r) for numbers, r in passages if numbers]
+    fewest = min(passages, key=lambda p: p[0], default=None)
+    most = max(passages, key=lambda p: p[0], default=None)
+
+    def passage(p) -> str:
+        return "?" if p is None else f"{p[0]:.0f} ({links_of(p[1])} link{'s' if links_of(p[1]) > 1 else ''})"
+
+    arm_rows = [r for r in rows if r["scenario"] == "arm spinning many turns"]
+    arm_turns = largest(arm_rows, r"\(" + NUMBER + r" turns\)", field="what")
+    arm_shift = largest(arm_rows, r"shifted by " + NUMBER + " rad", field="what")
+    cart_rows = [r for r in rows if r["scenario"] == "cart far from origin"]
+    cart_shift = largest(cart_rows, r"shifted by " + NUMBER + " m", field="what")
+    spin_rows = [r for r in rows if r["scenario"] == "links spinning many turns"]
+    spun = largest(spin_rows, r"\(" + NUMBER + r" turns\)", field="what")
+    turns_error = worst(
+        rows,
+        "links spinning many turns",
+        lambda r: spun is not None and f"({shown(spun)} turns)" in r["what"],
+    )
     arm = worst(rows, "arm spinning many turns")
     cart = worst(rows, "cart far from origin")
     return [
         "## What holds, where the limits are, and why",
         "",
         f"- **Many links.** n = 10 and n = 20, both types, 10 s without damping from every link tilted "
-        f"0.3 rad (a chaotic fall): T + V drifts by at most {fmt(many)} of the energy in play at rtol "
-        "1e-10 (bound rtol·(1e4 + 100 t/s) = 1.1e-6). The drift is BDF's global error; it does not grow "
-        "with n in any way that matters up to n = 20.",
-        f"- **No damping, long horizons.** 1000 s: drift at most {fmt(long_drift)} (bound 1.1e-5); 1e4 s: "
-        f"{fmt(longest)} (bound 1e-4), no failure. BDF is not symplectic: the drift grows about linearly "
-        "in time (here 20–30·rtol per second on chaotic motions), so the bound is stated per second. "
-        "Memory does not grow with the horizon when only the final state is kept (`sample = t_end`: "
-        "the same peak RSS at 1e3 s and 1e4 s); it grows by the samples asked for otherwise.",
-        f"- **Mass and length ratios.** Within masses 1e-3..1e3 × the base's and lengths 1e-3..100 m, "
-        f"θ̈ in double agrees with the long-double evaluation of the same header to {fmt(ratio_error)} "
-        f"(relative). Raw cond(M) reaches {fmt(raw_cond)}, but it is the wrong yardstick: lengths only "
+        f"0.3 rad (a chaotic fall): T + V drifts by at most {shown(many)} of the energy in play at rtol "
+        f"1e-10 (bound rtol·(1e4 + 100 t/s) = {shown(many_bound)}). The drift is BDF's global error; it "
+        "does not grow with n in any way that matters up to n = 20.",
+        f"- **No damping, long horizons.** 1000 s: drift at most {shown(long_drift)} (bound "
+        f"{shown(largest_bound(rows, 'undamped 1e+03 s'))}); 1e4 s: {shown(longest)} (bound "
+        f"{shown(largest_bound(rows, 'undamped 1e+04 s'))}), no failure. BDF is not symplectic: the drift "
+        f"grows about linearly in time ({long_rate}·rtol per simulated second over 1e3 s and 1e4 s, "
+        f"n ≤ {shown(long_links)}; up to "
+        f"{shown(max(many_rates, default=None), 2)}·rtol per second over the 10 s runs of n = 10 and 20), "
+        "so the bound is stated per second. Memory does not grow with the horizon when only the final "
+        f"state is kept (`sample = t_end`: peak RSS {memory['note'] if memory else '?'} from 1e3 s to "
+        "1e4 s); it grows by the samples asked for otherwise.",
+        f"- **Mass and length ratios.** Within masses {masses.group(1) if masses else '?'} × the base's "
+        f"and lengths {lengths.group(1) if lengths else '?'} m, "
+        f"θ̈ in double agrees with the long-double evaluation of the same header to {shown(ratio_error)} "
+        f"(relative). Raw cond(M) reaches {shown(raw_cond)}, but it is the wrong yardstick: lengths only "
         f"scale M's rows and columns (units), which an L D Lᵀ solve does not notice (van der Sluis) — "
-        f"with lengths alone cond(M) reaches {fmt(length_cond)} and the error stays at "
-        f"{fmt(length_error)}. The error follows ε·cond(S M S), S = diag(M)^-1/2, within a factor of "
-        f"{fmt(factor, 2)}, and the backward residual stays at rounding level (≤ {fmt(residual, 2)}) "
+        f"with lengths alone cond(M) reaches {shown(length_cond)} and the error stays at "
+        f"{shown(length_error)}. The error follows ε·cond(S M S), S = diag(M)^-1/2, within a factor of "
+        f"{shown(factor, 2)}, and the backward residual stays at rounding level (≤ {shown(residual, 2)}) "
         "everywhere. What does "
         "make M ill-conditioned is a heavy link carried by light ones: the scaled condition number grows "
-        f"with that mass ratio (up to {fmt(scaled_cond)} within the range, for a 1e6 heavy tip on ten "
-        f"links), and beyond the range (1e12, 1e14 with a light base) θ̈ loses up to {fmt(beyond)}. "
-        "The simulator warns when the scaled cond(M) exceeds 1e10, naming the mass ratio: for every "
-        "such case and for none within the range. A warning on raw cond(M) > 1e10 would fire for 1 mm "
-        "links next to 100 m ones with no loss of accuracy.",
+        f"with that mass ratio (up to {shown(scaled_cond)} within the range, "
+        + (f"on {links_of(scaled_worst)} links with “{scaled_worst['what']}”" if scaled_worst else "?")
+        + f"), and beyond the range (last link {listed(beyond_ratios)} × every other mass, base "
+        f"included) θ̈ loses up to {shown(beyond)}. "
+        f"The simulator warns when the scaled cond(M) exceeds {shown(threshold)}, naming the mass ratio: "
+        f"{warnings} ({within} within the range). A warning on raw cond(M) > {shown(threshold)} would "
+        f"fire on {raw_only} "
+        f"of the cases that only change lengths, whose error stays at {shown(length_error)}.",
         f"- **Float.** The headers compile and run with Scalar = float. θ̈ keeps a relative accuracy of "
-        f"{fmt(float_mild)} where the scaled cond(M) is below 1e3 (about 3 digits): float is safe for "
-        "evaluating the model in a controller there (nominal parameters: about 1e-6 to 1e-5). It is not "
-        f"safe for heavy links on light ones: over the whole range the error reaches {fmt(float_all)} "
-        "(scaled cond(M) above 1e7 is beyond float's 1/ε). Integrating in float is not supported "
-        "(SUNDIALS is built for double).",
-        f"- **Stiff damping.** A 1e-3 kg tip link with δ up to 1e4 (a decaying mode near −1e8 1/s): "
-        f"BDF succeeds in {min(bdf_steps) if bdf_steps else '?'}–{max(bdf_steps) if bdf_steps else '?'} "
-        "steps; explicit methods either finish (dp5 and the Adams variants at δ = 1e2, taking up to a "
-        f'million steps) or stop within seconds with "stiff: use BDF" ({stiff_stopped} rows), never '
+        f"{shown(float_mild)} where the scaled cond(M) is below {shown(float_limit)} ({digits}): float is "
+        "safe for evaluating the model in a controller there (nominal parameters: "
+        f"{span(min(float_nominal, default=None), max(float_nominal, default=None))}). It is not "
+        f"safe for heavy links on light ones: over the whole range the error reaches {shown(float_all)} "
+        f"(a scaled cond(M) above float's 1/ε = 2^23 ≈ {shown(2.0**23, 2)} guarantees no digit). Integrating "
+        "in float is not supported (SUNDIALS is built for double).",
+        f"- **Stiff damping.** A {shown(tip_mass)} kg tip link with δ up to "
+        f"{shown(max(deltas, default=None))} "
+        f"(a decaying mode near −{shown(stiffness, 2)} 1/s): "
+        f"BDF succeeds in {span(min(bdf_steps, default=None), max(bdf_steps, default=None))} steps; the "
+        f"other methods either finish ({'; '.join(finished) or 'none'}) or stop within seconds with "
+        f'"stiff: use BDF" ({stiff_stopped} rows; {", ".join(never) or "no method"} at every δ), never '
         "run on for hours: max_steps bounds the work between two samples, and the message estimates "
         "the stiffness (eigenvalues of ∂f/∂x) to say why.",
-        f"- **Fast motion.** Rates of 1e3 rad/s (8 turns in 0.05 s): T + V is conserved to "
-        f"{fmt(fast_drift)} by every method that finishes; where the motion is regular (one or two "
-        f"links spinning straight) the explicit methods agree with a Fehlberg 8 reference at rtol 1e-12 "
-        f"to {fmt(fast_erk)} and BDF, low order, to {fmt(fast_bdf)}: prefer an explicit method for fast, "
-        "non-stiff motion. With more links the chain whips (tip rates of 4e4 rad/s) and the motion is "
-        f"chaotic within hundredths of a second; erk-fehlberg8 stopped there {fast_stops} times with a "
-        "diagnosed ARK_ERR_FAILURE (the error test cannot be met at rtol 1e-10), which is the loud "
-        f"failure asked for. A 1e4 N (N m) input keeps the work–energy balance to {fmt(balance)} of the "
-        "work.",
-        f"- **Rotary geometry.** Links pass through horizontal 34 (one link) to 7900 (20 links) times "
-        f"in 10 s with T + V conserved to "
-        f"{fmt(horizontal)}. The arm shifted by up to 1e6 turns (θ0 ≈ 6e6 rad) changes the "
-        f"trajectory by at most {fmt(arm)}, the cart shifted by up to 1e6 m by {fmt(cart)}, both within "
+        f"- **Fast motion.** Rates of {shown(spin_rate)} rad/s ({turns}): T + V is conserved to "
+        f"{shown(fast_drift)} by every method that finishes; where the motion is regular (one or two "
+        f"links spinning straight) the explicit methods agree with the reference ({reference}) "
+        f"to {shown(fast_erk)} and BDF, low order, to {shown(fast_bdf)}: prefer an explicit method for fast, "
+        f"non-stiff motion. With more links the chain whips (rates up to {shown(whip_rate)} rad/s) and "
+        f"the motion is chaotic within hundredths of a second; erk-fehlberg8 stopped there {fast_stops} "
+        f"times with a diagnosed ARK_ERR_FAILURE (the error test cannot be met at rtol {stop_rtol}), "
+        f"which is the loud failure asked for. A {shown(force)} N (N m) input keeps the work–energy "
+        f"balance to {shown(balance)} of the work.",
+        f"- **Rotary geometry.** Links pass through horizontal {passage(fewest)} to {passage(most)} "
+        f"times in 10 s with T + V conserved to {shown(horizontal)}. The arm shifted by up to "
+        f"{shown(arm_turns)} turns (θ0 ≈ {shown(arm_shift)} rad) changes the trajectory by at most "
+        f"{shown(arm)}, the cart shifted by up to {shown(cart_shift)} m by {shown(cart)}, both within "
         "the runs' own global error: θ0 never enters the equations. Links spinning "
         "many turns are different: the integrator's error weight is rtol·|θ| + atol, so a link at 2πk "
-        f"rad is integrated to an absolute error of about rtol·2πk (measured {fmt(turns)} at 1e6 turns), "
-        "and sin θ carries ε·|θ|. Wrap link angles (θ mod 2π) before a long spinning run if absolute "
-        "accuracy matters.",
+        f"rad is integrated to an absolute error of about rtol·2πk (measured {shown(turns_error)} at "
+        f"{shown(spun)} turns), and sin θ carries ε·|θ|. Wrap link angles (θ mod 2π) before a long "
+        "spinning run if absolute accuracy matters.",
         "- **Non-finite values.** A NaN or overflow in the right-hand side is a recoverable error for "
         "CVODE; if it persists, the run stops with the time, the state and the likely cause (input "
         "not finite, state grew without bound, M near singular), and `simulate_<model>` writes no "
