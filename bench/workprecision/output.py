@@ -12,7 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from bench.report import machine, table, version
+from bench.report import machine, sundials_version, table, version
 
 LEVELS = (1e-4, 1e-6, 1e-8, 1e-10)  # accuracy levels of the recommendation table (max error)
 TARGET = 1e-8  # the issue's CDIP comparison: final-time error
@@ -65,11 +65,27 @@ ADAPTIVE = ("bdf", "adams", "adams-fixed-point", "erk-dp5", "erk-fehlberg8")
 DEFAULT_LEVELS = (1e-6, 1e-8)
 
 
+def _meets(run: dict[str, Any] | None, level: float, coarse: list[dict[str, Any]] | None) -> bool:
+    """Whether `run` reaches max error `level`, and its setting does with the coarser output too."""
+    if run is None or not _ok(run) or run["max_error"] > level:
+        return False
+    if coarse is None:
+        return True
+    twin = [c for c in coarse if c["method"] == run["method"] and c["knob"] == run["knob"] and _ok(c)]
+    return bool(twin) and twin[0]["max_error"] <= level
+
+
+def _at(runs: list[dict[str, Any]], method: str, knob: float) -> dict[str, Any] | None:
+    return next((r for r in runs if r["method"] == method and r["knob"] == knob), None)
+
+
 def recommendations(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per kind of scene and accuracy level: the ipsim method whose worst slowdown against the
-    fastest ipsim method of each scene is smallest, with a setting that meets the level on every
-    scene of that kind. The last row, "any (default)", picks among the error-controlled methods
-    over every scene, stiff ones included: the simulator's default follows it."""
+    """Per kind of scene and accuracy level: one ipsim method and one setting of it (rtol or step)
+    that meets the level on every scene of that kind, chosen for the smallest worst slowdown: on
+    each scene, that setting's wall time against the fastest setting of any of the methods
+    considered that meets the level there (both also with output every 0.1 s). The last row,
+    "any (default)", picks among the error-controlled methods over every scene, stiff ones
+    included: the simulator's default follows it."""
     groups = [
         (kind, [r for r in results if r["kind"] == kind], None, LEVELS)
         for kind in sorted({r["kind"] for r in results}, reverse=True)
@@ -88,28 +104,41 @@ def recommendations(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
                 ]
                 best_wall[s["key"]] = min(walls) if walls else None
             candidates = []
-            for method in methods:
-                picks = [cheapest(s["runs"], method, level, coarse=s.get("coarse_runs")) for s in scenes]
-                if any(p is None for p in picks) or any(best_wall[s["key"]] is None for s in scenes):
-                    continue
-                slowdown = max(
-                    p["wall_per_second"] / best_wall[s["key"]] for p, s in zip(picks, scenes, strict=True)
-                )
-                # A setting that meets the level everywhere: the tightest of the per-scene picks.
-                setting = min(picks, key=lambda p: p["knob"])
-                candidates.append((slowdown, method, setting, picks))
-            candidates.sort(key=lambda c: c[0])
+            if all(best_wall[s["key"]] is not None for s in scenes):
+                for method in methods:
+                    # Every setting of the method that meets the level on every scene; its worst
+                    # slowdown is taken over the scenes at that one setting.
+                    knobs = sorted({r["knob"] for r in scenes[0]["runs"] if r["method"] == method})
+                    for knob in knobs:
+                        runs = [_at(s["runs"], method, knob) for s in scenes]
+                        if not all(
+                            _meets(run, level, s.get("coarse_runs"))
+                            for run, s in zip(runs, scenes, strict=True)
+                        ):
+                            continue
+                        slowdown = max(
+                            run["wall_per_second"] / best_wall[s["key"]]  # type: ignore[index]
+                            for run, s in zip(runs, scenes, strict=True)
+                        )
+                        candidates.append((slowdown, method, runs))
+            # The best setting of each method, then the methods by their best worst slowdown.
+            best: dict[str, tuple[float, str, list[dict[str, Any]]]] = {}
+            for candidate in sorted(candidates, key=lambda c: c[0]):
+                best.setdefault(candidate[1], candidate)
+            ranked = list(best.values())
             rows.append(
                 {
                     "kind": kind,
                     "level": level,
                     "scenes": [s["key"] for s in scenes],
-                    "choice": candidates[0][1] if candidates else None,
-                    "setting": _knob(candidates[0][2]) if candidates else None,
-                    "slowdown": candidates[0][0] if candidates else None,
-                    "walls": [p["wall_per_second"] for p in candidates[0][3]] if candidates else [],
-                    "runner_up": candidates[1][1] if len(candidates) > 1 else None,
-                    "runner_up_slowdown": candidates[1][0] if len(candidates) > 1 else None,
+                    "choice": ranked[0][1] if ranked else None,
+                    "setting": _knob(ranked[0][2][0]) if ranked else None,
+                    "slowdown": ranked[0][0] if ranked else None,
+                    "walls": [run["wall_per_second"] for run in ranked[0][2]] if ranked else [],
+                    # The other methods by their worst slowdown, then those that miss the level
+                    # on some scene at every setting.
+                    "others": [(method, slowdown) for slowdown, method, _ in ranked[1:]],
+                    "unreached": [m for m in methods if m not in best],
                 }
             )
     return rows
@@ -175,14 +204,41 @@ def plot(result: dict[str, Any], path: Path) -> None:
     plt.close(figure)
 
 
-def markdown(results: list[dict[str, Any]], total: float) -> str:
-    extra = {
-        "SUNDIALS": "6.4.1 (Debian)",
-        "MuJoCo": version("mujoco"),
-        "scipy": version("scipy"),
-        "numpy": version("numpy"),
-        "benchmark wall time": f"{total:.0f} s",
-    }
+def facts(total: float) -> list[str]:
+    """The machine and software of this run, as Markdown bullets."""
+    return machine(
+        {
+            "SUNDIALS": sundials_version(),
+            "MuJoCo": version("mujoco"),
+            "scipy": version("scipy"),
+            "numpy": version("numpy"),
+            "benchmark wall time": f"{total:.0f} s",
+        }
+    )
+
+
+RENDERED = "- tables rendered again from workprecision.json"
+
+
+def recorded_facts(report: Path) -> list[str] | None:
+    """The machine bullets of an earlier workprecision.md (those of the run that measured the
+    JSON), without an earlier "rendered again" line; None if there is no such report."""
+    if not report.is_file():
+        return None
+    bullets, started = [], False
+    for line in report.read_text().splitlines():
+        if line.startswith("## "):
+            break
+        if line.startswith("- "):
+            started = True
+            if not line.startswith(RENDERED):
+                bullets.append(line)
+        elif started:
+            break
+    return bullets or None
+
+
+def markdown(results: list[dict[str, Any]], machine_lines: list[str]) -> str:
     lines = [
         "# Work–precision: ipsim's integrators against MuJoCo and scipy",
         "",
@@ -196,7 +252,7 @@ def markdown(results: list[dict[str, Any]], total: float) -> str:
         "`mujoco.rollout` for MuJoCo, `solve_ivp` for scipy. Adaptive methods use atol = rtol/100.",
         "The machine is shared: the load average below says how busy it was.",
         "",
-        *machine(extra),
+        *machine_lines,
         "",
         "## The issue's targets (CDIP, error at t = 10 s)",
         "",
@@ -204,7 +260,22 @@ def markdown(results: list[dict[str, Any]], total: float) -> str:
     for text, met, detail in targets(results):
         state = "not measured" if met is None else ("met" if met else "MISSED")
         lines.append(f"- {text}: **{state}** — {detail}")
-    lines += ["", "## Recommendation", "", *recommendation_table(results), ""]
+    lines += [
+        "",
+        "## Recommendation",
+        "",
+        "Per kind of scene and max error: one method and one setting of it that reaches the error on",
+        "every scene of that kind, also with output every 0.1 s (so that its accuracy is not owed to the",
+        "step cap of sampling every 0.01 s). Its worst slowdown: over those scenes, the largest ratio of",
+        "that setting's wall time to the fastest setting of any method considered that reaches the",
+        "error (with both outputs) on the same scene. The method with the smallest worst slowdown is",
+        "shown with its best setting, then every other method with its own best setting's worst",
+        'slowdown. The "any (default)" rows consider only the error-controlled methods, over every',
+        "scene.",
+        "",
+        *recommendation_table(results),
+        "",
+    ]
     lines += ["## Scenes", ""]
     for r in results:
         ref = r["reference"]
@@ -246,6 +317,10 @@ def markdown(results: list[dict[str, Any]], total: float) -> str:
     return "\n".join(lines)
 
 
+def _times(ratio: float) -> str:
+    return f"{ratio:.1f}x" if ratio < 100 else f"{ratio:.0f}x"
+
+
 def recommendation_table(results: list[dict[str, Any]]) -> list[str]:
     rows = []
     for rec in recommendations(results):
@@ -253,16 +328,16 @@ def recommendation_table(results: list[dict[str, Any]]) -> list[str]:
             rows.append([rec["kind"], f"{rec['level']:.0e}", "–", "–", "–"])
             continue
         walls = ", ".join(_ms(w) for w in rec["walls"])
-        runner = (
-            f"{rec['runner_up']} ({rec['runner_up_slowdown']:.1f}x)" if rec["runner_up"] is not None else "–"
-        )
+        others = [f"{method} {_times(slowdown)}" for method, slowdown in rec["others"]]
+        if rec["unreached"]:
+            others.append(f"not reached: {', '.join(rec['unreached'])}")
         rows.append(
             [
                 f"{rec['kind']} ({', '.join(rec['scenes'])})",
                 f"{rec['level']:.0e}",
                 f"**{rec['choice']}**, {rec['setting']}",
                 f"{walls} ({rec['slowdown']:.1f}x)",
-                runner,
+                "; ".join(others) or "–",
             ]
         )
     header = [
@@ -270,7 +345,7 @@ def recommendation_table(results: list[dict[str, Any]]) -> list[str]:
         "max error",
         "use",
         "its ms per simulated s per scene (worst slowdown vs the fastest there)",
-        "runner-up",
+        "the other methods (their worst slowdown)",
     ]
     return table(header, rows)
 
@@ -321,15 +396,19 @@ def runs_markdown(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def save(results: list[dict[str, Any]], out: Path, total: float) -> list[str]:
-    """Writes workprecision.md, workprecision_runs.md, workprecision.json and one PNG per scene;
-    returns the summary lines (targets and recommendations)."""
+def save(
+    results: list[dict[str, Any]], out: Path, machine_lines: list[str], write_json: bool = True
+) -> list[str]:
+    """Writes workprecision.md, workprecision_runs.md, workprecision_readme_table.md, one PNG per
+    scene and (unless rendering an existing one again) workprecision.json; returns the summary
+    lines (targets and recommendations)."""
     out.mkdir(parents=True, exist_ok=True)
     for r in results:
         plot(r, out / f"workprecision_{r['key']}.png")
-    (out / "workprecision.md").write_text(markdown(results, total))
+    (out / "workprecision.md").write_text(markdown(results, machine_lines))
     (out / "workprecision_runs.md").write_text(runs_markdown(results))
-    (out / "workprecision.json").write_text(json.dumps(results, indent=1, default=float) + "\n")
+    if write_json:
+        (out / "workprecision.json").write_text(json.dumps(results, indent=1, default=float) + "\n")
     (out / "workprecision_readme_table.md").write_text(readme_table(results) + "\n")
     summary = []
     for text, met, detail in targets(results):

@@ -1,8 +1,9 @@
 """`make bench` (work–precision part): every ipsim method against MuJoCo and scipy on five scenes.
 
     python -m bench.workprecision                 # everything, writes docs/bench/workprecision*
-    python -m bench.workprecision --quick         # CDIP only, fewer settings, into build/bench/
+    python -m bench.workprecision --quick         # CDIP only, fewer settings, into build/bench/quick/
     python -m bench.workprecision --scenes cdip,stiff
+    python -m bench.workprecision --from-json docs/bench/workprecision.json   # tables and plots only
 
 For each scene: a reference (ipsim erk-fehlberg8 at rtol 1e-13, confirmed by RK4 at a tiny step
 and by bdf at rtol 1e-13), every ipsim method over a sweep of tolerances (rk4: steps), MuJoCo
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from bench.report import ROOT
+from bench.report import BUILD, ROOT, STARTED, commit
 from bench.workprecision import build, output
 from bench.workprecision.mujoco_peer import MujocoPendulum
 from bench.workprecision.scipy_peer import ScipyPendulum
@@ -181,6 +182,20 @@ def run_scipy(bench: BenchScene, scene: Scene, reference: np.ndarray, quick: boo
     return runs
 
 
+def render(source: Path, out: Path) -> None:
+    """The reports and plots of `source` (a workprecision.json) again, by the current code, without
+    running anything; the JSON itself is left as it is."""
+    results = json.loads(source.read_text())
+    recorded = output.recorded_facts(source.parent / "workprecision.md")
+    lines = recorded or ["- machine: not recorded (no workprecision.md next to the JSON)"]
+    lines.append(
+        f"{output.RENDERED} on {STARTED.strftime('%Y-%m-%d %H:%M %Z')} at commit {commit()} "
+        "(measurements unchanged)"
+    )
+    for line in output.save(results, out, lines, write_json=out.resolve() != source.parent.resolve()):
+        print(f"  {line}")
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m bench.workprecision", description=__doc__.splitlines()[0]
@@ -190,19 +205,21 @@ def main(argv: list[str] | None = None) -> None:
         "--quick", action="store_true", help="CDIP only (unless --scenes), every other setting"
     )
     parser.add_argument("--out", type=Path, help="output folder (default docs/bench, or build/bench/quick)")
-    parser.add_argument("--from-json", type=Path, help="only rewrite the report from a workprecision.json")
+    parser.add_argument(
+        "--from-json",
+        type=Path,
+        help="run nothing: render the reports and plots again from a workprecision.json (the machine "
+        "record is kept from the workprecision.md next to it)",
+    )
     options = parser.parse_args(argv)
     if options.from_json:
-        results = json.loads(options.from_json.read_text())
-        out = options.out or options.from_json.parent
-        for line in output.save(results, out, sum(r["seconds"] for r in results)):
-            print(f"  {line}")
+        render(options.from_json, options.out or options.from_json.parent)
         return
     wanted = options.scenes.split(",") if options.scenes else (["cdip"] if options.quick else None)
     scenes = [s for s in SCENES if wanted is None or s.key in wanted]
     if not scenes:
         parser.error(f"no such scene: {options.scenes}")
-    out = options.out or (build.OUT / "quick" if options.quick else ROOT / "docs" / "bench")
+    out = options.out or (BUILD / "quick" if options.quick else ROOT / "docs" / "bench")
     started = time.perf_counter()
 
     prepared = build.prepare_all([s.toml for s in scenes])
@@ -246,7 +263,7 @@ def main(argv: list[str] | None = None) -> None:
             flush=True,
         )
     total = time.perf_counter() - started
-    summary = output.save(results, out, total)
+    summary = output.save(results, out, output.facts(total))
     where = out.relative_to(ROOT) if out.is_relative_to(ROOT) else out
     print(f"\nworkprecision: wrote {where}/ in {total:.0f} s")
     for line in summary:
