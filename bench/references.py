@@ -19,6 +19,7 @@ import time
 import sympy as sp
 from sympy.physics import mechanics as me
 
+from generator.model import SYSTEM_TYPES
 from tests.independent_model import Pendulum, pendulum
 
 METHODS = ("kane", "lagrange")
@@ -26,6 +27,8 @@ METHODS = ("kane", "lagrange")
 
 def derive(method: str, kind: str, links: int) -> tuple[sp.Matrix, sp.Matrix, Pendulum]:
     """M and the forcing vector of the pendulum by Kane's or Lagrange's method."""
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
     if method == "kane":
         size = links + 1
         w = list(me.dynamicsymbols(f"w0:{size}"))
@@ -86,6 +89,9 @@ def agrees_with_ipgen(method: str, kind: str, links: int = 2, seed: int = 0) -> 
 
 
 def main(argv: list[str]) -> None:
+    usage = f"usage: python -m bench.references {{{','.join(METHODS)}}} {{{','.join(SYSTEM_TYPES)}}} LINKS"
+    if len(argv) != 3 or argv[0] not in METHODS or argv[1] not in SYSTEM_TYPES or not argv[2].isdigit():
+        sys.exit(usage)
     method, kind, links = argv[0], argv[1], int(argv[2])
     start, start_cpu = time.perf_counter(), time.process_time()
     derive(method, kind, links)
