@@ -32,9 +32,8 @@ from bench.report import (
     verdict,
     version,
 )
+from bench.systems import LINKS, TYPES
 
-TYPES = ("classical", "rotary")
-LINKS = (1, 2, 3, 5, 10, 20)
 PAIRS = (("mass_matrix", "crba"), ("bias", "nonLinearEffects"), ("forward_dynamics", "aba"))
 LABELS = {"crba": "CRBA", "nonLinearEffects": "nonLinearEffects", "aba": "ABA"}
 COMPILER = "g++"

@@ -24,16 +24,15 @@ from tqdm import tqdm
 
 from bench.references import agrees_with_ipgen
 from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verdict
+from bench.systems import LINKS, TYPES, ipgen_command
 
-TYPES = ("classical", "rotary")
-LINKS = (1, 2, 3, 5, 10, 20)
 METHODS = ("ipgen", "kane", "lagrange")
 # The start-up floor: an interpreter that only imports the CLI and template libraries ipgen is built
 # on. No ipgen command can be faster; where KanesMethod's derivation is faster still, the target is
 # out of reach for any click + jinja2 tool.
 FLOOR = "floor"
 FLOOR_CODE = "import click, jinja2"
-EXTRA = (("classical", 50),)  # ipgen alone, one run, with --force (ipgen asks for it above 30 links)
+EXTRA = (("classical", 50),)  # ipgen alone, one run, with the --force ipgen asks for (systems.py)
 EXTRA_TIMEOUT = 900.0
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
@@ -63,8 +62,7 @@ def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
     if method == FLOOR:
         return [PYTHON, "-c", FLOOR_CODE]
     if method == "ipgen":
-        force = ["--force"] if links > 30 else []
-        return [PYTHON, "-m", "generator", "--type", kind, "--links", str(links), "-o", directory, *force]
+        return ipgen_command(PYTHON, kind, links, directory)
     return [PYTHON, "-m", "bench.references", method, kind, str(links)]
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from bench import evaluation, generation
 from bench.report import BUILD, ROOT, verdict
+from bench.systems import LINKS, TYPES
 
 
 def _numbers(text: str) -> tuple[int, ...]:
@@ -21,7 +22,7 @@ def _numbers(text: str) -> tuple[int, ...]:
 
 def _names(text: str) -> tuple[str, ...]:
     names = tuple(text.split(","))
-    unknown = set(names) - set(generation.TYPES)
+    unknown = set(names) - set(TYPES)
     if unknown:
         raise argparse.ArgumentTypeError(f"unknown type {', '.join(sorted(unknown))}: use classical, rotary")
     return names
@@ -31,7 +32,7 @@ def arguments(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(prog="python -m bench.run", description=__doc__.splitlines()[0])
     parser.add_argument("--part", choices=("all", "generation", "evaluation"), default="all")
     parser.add_argument("--links", type=_numbers, help="comma-separated n (default 1,2,3,5,10,20)")
-    parser.add_argument("--types", type=_names, default=generation.TYPES, help="classical,rotary")
+    parser.add_argument("--types", type=_names, default=TYPES, help="classical,rotary")
     parser.add_argument("--quick", action="store_true", help="n = 1,2,3, 10 rounds, 30 s limit, no n = 50")
     parser.add_argument("--rounds", type=int, help=f"timing rounds (default {evaluation.ROUNDS})")
     parser.add_argument(
@@ -43,7 +44,7 @@ def arguments(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> None:
     options = arguments(argv)
-    links = options.links or ((1, 2, 3) if options.quick else generation.LINKS)
+    links = options.links or ((1, 2, 3) if options.quick else LINKS)
     rounds = options.rounds or (10 if options.quick else evaluation.ROUNDS)
     milliseconds = 2.0 if options.quick else evaluation.MILLISECONDS
     timeout = options.timeout or (30.0 if options.quick else generation.TIMEOUT)

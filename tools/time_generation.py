@@ -33,9 +33,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from bench.systems import LINKS, TYPES, ipgen_command  # noqa: E402
+
 DEFAULT_PYTHON = ROOT / ".venv" / "bin" / "python"
-LINKS = (1, 2, 3, 5, 10, 20)
-TYPES = ("classical", "rotary")
 LARGE = (("classical", 30), ("classical", 50))
 
 
@@ -66,9 +67,7 @@ def run_ipgen(python: str, root: Path, kind: str, links: int) -> tuple[float, fl
     """(wall time [s], peak resident memory [MB]) of one ipgen process."""
     env = {**os.environ, "PYTHONPATH": str(root)}
     with tempfile.TemporaryDirectory(prefix="ipgen-time-") as out:
-        command = [python, "-m", "generator", "--type", kind, "--links", str(links), "-o", out]
-        if links > 30:
-            command.append("--force")
+        command = ipgen_command(python, kind, links, out)
         start = time.perf_counter()
         process = subprocess.Popen(
             command, cwd=root, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
