@@ -30,7 +30,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tools")]
+from compare_csv import read as read_csv  # noqa: E402
 from independent_model import reference  # noqa: E402
 
 from generator.scene import Scene, load_scene  # noqa: E402
@@ -40,12 +41,6 @@ T_END, SAMPLE = 10.0, 0.01
 SIMULATOR_TOLERANCES = ("--rtol", "1e-12", "--atol", "1e-14")
 SCIPY_RTOL, SCIPY_ATOL = 1e-13, 1e-14
 LIMIT = 1e-8
-
-
-def read_csv(path: Path) -> tuple[list[str], np.ndarray]:
-    with path.open() as f:
-        header = f.readline().strip().split(",")
-    return header, np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
 
 
 def simulate(build: Path, scene: Scene, csv: Path) -> tuple[list[str], np.ndarray]:
