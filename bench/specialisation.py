@@ -8,7 +8,9 @@ generated and measured side by side in one run:
 - wall time of the whole simulation (the simulator's own measurement, median of runs).
 
 Run: `python -m bench.specialisation [--out docs/bench] [--rounds 15]`; `make bench` runs it.
-Writes <out>/specialisation.md and prints the table.
+`--quick`: the paper's two scenes only, 5 rounds, 3 simulation runs, into build/bench/quick/.
+Writes <out>/specialisation.md and prints the table. The two larger scenes are
+bench/scenes/classical5_pulse.toml and bench/scenes/rotary3_pulse.toml.
 """
 
 from __future__ import annotations
@@ -21,13 +23,20 @@ import subprocess
 import time
 from pathlib import Path
 
-from bench.report import BUILD, ROOT, machine
+from bench.report import BUILD, ROOT, machine, sundials_version
+from bench.workprecision.build import LIBRARIES
 from generator.generate import generate_header
 from generator.model import System
 from generator.scene import Scene, load_scene, resolved_config
 from generator.specialise import from_scene
 
-SUNDIALS = ["cvode", "arkode", "nvecserial", "sunmatrixdense", "sunlinsoldense", "sunnonlinsolfixedpoint"]
+PAPER_SCENES = (ROOT / "scenes" / "cdip_pulse.toml", ROOT / "scenes" / "rsip_pulse.toml")
+LARGER_SCENES = (
+    ROOT / "bench" / "scenes" / "classical5_pulse.toml",
+    ROOT / "bench" / "scenes" / "rotary3_pulse.toml",
+)
+ROUNDS, QUICK_ROUNDS = 15, 5
+SIMULATION_RUNS, QUICK_SIMULATION_RUNS = 7, 3
 FLAGS = ["-std=c++17", "-O2", "-DNDEBUG", "-I/usr/include/eigen3", f"-I{ROOT / 'cpp' / 'include'}"]
 
 TIMING = r"""
@@ -94,21 +103,6 @@ class Row:
     simulation_s: tuple[float, float]
 
 
-def extra_scenes(directory: Path) -> list[Path]:
-    """A classical n = 5 and a rotary n = 3 scene, from the shipped ones' parameters."""
-    classical = """[system]\ntype = "classical"\nlinks = 5\nname = "c5"\n[parameters]
-m = [0.3, 0.275, 0.275, 0.2, 0.15, 0.1]\nl = [0, 0.5, 0.5, 0.4, 0.3, 0.25]
-delta = [0.3, 0.1, 0.1, 0.05, 0.05, 0.05]\n[input]\nkind = "pulse"\namplitude = 0.4\nduration = 1.0
-[simulation]\nt_end = 10.0\n"""
-    rotary = """[system]\ntype = "rotary"\nlinks = 3\nname = "r3"\n[parameters]
-m = [0.5, 0.275, 0.2, 0.15]\nl = [0.6, 0.5, 0.4, 0.3]\ndelta = [0.3, 0.011458, 0.01, 0.01]
-[input]\nkind = "pulse"\namplitude = 0.4\nduration = 1.0\n[simulation]\nt_end = 10.0\n"""
-    paths = [directory / "classical5_pulse.toml", directory / "rotary3_pulse.toml"]
-    for path, text in zip(paths, (classical, rotary), strict=True):
-        path.write_text(text)
-    return paths
-
-
 def cost(header: Path, function: str) -> int:
     text = header.read_text()
     signature = text.index(f" {function}(const Vector<Scalar>& q")
@@ -118,15 +112,14 @@ def cost(header: Path, function: str) -> int:
 
 def compile_simulator(header: Path, name: str, output: Path) -> float:
     defines = [f'-DIPGEN_MODEL_HEADER="{name}.hpp"', f"-DIPGEN_MODEL=ipgen::{name}::Model"]
-    libraries = [f"-lsundials_{lib}" for lib in SUNDIALS]
     source = str(ROOT / "cpp" / "src" / "simulate.cpp")
-    command = ["g++", *FLAGS, f"-I{header.parent}", *defines, source, "-o", str(output), *libraries]
+    command = ["g++", *FLAGS, f"-I{header.parent}", *defines, source, "-o", str(output), *LIBRARIES]
     started = time.perf_counter()
     subprocess.run(command, check=True, capture_output=True)
     return time.perf_counter() - started
 
 
-def simulation_seconds(runs: list[tuple[Path, Path]], repeats: int = 7) -> list[float]:
+def simulation_seconds(runs: list[tuple[Path, Path]], repeats: int = SIMULATION_RUNS) -> list[float]:
     """Median wall time (the simulator's own measurement) of each (simulator, config), alternating."""
     times: list[list[float]] = [[] for _ in runs]
     for _ in range(repeats):
@@ -137,7 +130,7 @@ def simulation_seconds(runs: list[tuple[Path, Path]], repeats: int = 7) -> list[
     return [statistics.median(t) for t in times]
 
 
-def measure(scene: Scene, work: Path, rounds: int) -> Row:
+def measure(scene: Scene, work: Path, rounds: int, repeats: int = SIMULATION_RUNS) -> Row:
     work.mkdir(parents=True, exist_ok=True)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
     general = generate_header(system, "general", work).path
@@ -167,13 +160,13 @@ def measure(scene: Scene, work: Path, rounds: int) -> Row:
         ns_per_call=(ns_general, ns_special),
         simulation_s=tuple(  # type: ignore[arg-type]
             simulation_seconds(
-                [(work / "simulate_general", config), (work / "simulate_special", special_config)]
+                [(work / "simulate_general", config), (work / "simulate_special", special_config)], repeats
             )
         ),
     )
 
 
-def markdown(rows: list[Row]) -> str:
+def markdown(rows: list[Row], repeats: int, total: float) -> str:
     def pair(values: tuple[float, float], unit: str = "", digits: int = 0) -> str:
         general, special = values
         return f"{general:.{digits}f}{unit} → {special:.{digits}f}{unit} ({special / general:.2f}×)"
@@ -184,10 +177,10 @@ def markdown(rows: list[Row]) -> str:
         "Written by `python -m bench.specialisation` (part of `make bench`). Each cell: general →",
         "specialised (ratio). Specialised = every parameter of the scene folded as an exact rational, only",
         "forward_dynamics and forward_dynamics_derivatives emitted. Simulation: the scene's own settings",
-        "(BDF, rtol 1e-10, exact Jacobian), 10 s, wall time measured by the simulator, median of 7",
+        f"(BDF, rtol 1e-10, exact Jacobian), 10 s, wall time measured by the simulator, median of {repeats}",
         "alternating runs.",
         "",
-        *machine(),
+        *machine({"SUNDIALS": sundials_version(), "benchmark wall time": f"{total:.0f} s"}),
         "",
         "| scene | system | ops forward_dynamics | ops derivatives | header bytes | compile [s] "
         "| ns / forward_dynamics | simulation [ms] |",
@@ -204,24 +197,35 @@ def markdown(rows: list[Row]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench")
-    parser.add_argument("--rounds", type=int, default=15)
-    args = parser.parse_args()
+    parser.add_argument("--out", type=Path, help="output folder (default docs/bench, or build/bench/quick)")
+    parser.add_argument(
+        "--rounds", type=int, help=f"timing rounds (default {ROUNDS}, {QUICK_ROUNDS} with --quick)"
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"the paper's scenes only, {QUICK_ROUNDS} rounds, {QUICK_SIMULATION_RUNS} simulation runs",
+    )
+    args = parser.parse_args(argv)
+    out = args.out or (BUILD / "quick" if args.quick else ROOT / "docs" / "bench")
+    rounds = args.rounds or (QUICK_ROUNDS if args.quick else ROUNDS)
+    repeats = QUICK_SIMULATION_RUNS if args.quick else SIMULATION_RUNS
     work = BUILD / "specialisation"
     work.mkdir(parents=True, exist_ok=True)
-    scenes = [ROOT / "scenes" / "cdip_pulse.toml", ROOT / "scenes" / "rsip_pulse.toml", *extra_scenes(work)]
+    scenes = PAPER_SCENES if args.quick else PAPER_SCENES + LARGER_SCENES
+    started = time.perf_counter()
     rows = []
     for path in scenes:
         scene = load_scene(path)
         print(f"specialisation: {scene.stem} ...", flush=True)
-        rows.append(measure(scene, work / scene.stem, args.rounds))
-    text = markdown(rows)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "specialisation.md").write_text(text)
+        rows.append(measure(scene, work / scene.stem, rounds, repeats))
+    text = markdown(rows, repeats, time.perf_counter() - started)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "specialisation.md").write_text(text)
     print(text)
 
 
