@@ -59,9 +59,13 @@ demo: configure
 	$(PY) tools/demo.py --build $(BUILD)
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
-## Pinocchio; writes docs/bench/. Its extra packages go into the same venv (stamp file).
-## BENCH_ARGS passes options, e.g. make bench BENCH_ARGS=--quick
+## Pinocchio, the integrators' work-precision, general against specialised headers; writes
+## docs/bench/. Its extra packages go into the same venv (stamp files).
+## BENCH_ARGS passes options to bench.run, e.g. make bench BENCH_ARGS=--quick; a --quick in it is
+## passed on to the other two parts, which then also write to build/bench/quick/ and leave
+## docs/bench/ alone.
 BENCH_ARGS ?=
+BENCH_QUICK := $(filter --quick,$(BENCH_ARGS))
 $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
@@ -70,13 +74,15 @@ bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## General against scene-specialised headers (bench/specialisation.py, docs/bench/specialisation.md).
-bench-specialisation: venv deps
-	$(PY) -m bench.specialisation
+## SPECIALISATION_ARGS passes options, e.g. make bench-specialisation SPECIALISATION_ARGS=--quick
+SPECIALISATION_ARGS ?= $(BENCH_QUICK)
+bench-specialisation: venv
+	$(PY) -m bench.specialisation $(SPECIALISATION_ARGS)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
 ## WORKPRECISION_ARGS passes options, e.g. make bench-workprecision WORKPRECISION_ARGS=--quick
-WORKPRECISION_ARGS ?=
+WORKPRECISION_ARGS ?= $(BENCH_QUICK)
 $(VENV)/.workprecision-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,workprecision]'
 	@touch $@
