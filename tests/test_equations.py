@@ -1,10 +1,12 @@
 """Symbolic checks of the derived equations against MODEL.md, written out by hand here.
 
-- eq. 30 (classical, n = 2) and eq. 31 (rotary, n = 1, pivot inertia): M, P and the bias
-  N θ̇ + P entry by entry; the 'full' inertia variant's 1/3 coefficient in M00;
+- eq. 30 (classical, n = 2) and eq. 31 (rotary, n = 1, pivot inertia, and the 'full'
+  variant with 1/3 for eq. 31's 1/4): M, P and the bias N θ̇ + P entry by entry;
 - the energies and the Rayleigh function equal MODEL.md's formulas, and Lagrange's equation
-  from those energies (differentiated here, independently of derive.py) gives M θ̈ + bias;
-- structural identities: M symmetric, N θ̇ + P = bias, Ṁ − 2C skew-symmetric.
+  from those energies (differentiated here, independently of derive.py) gives both
+  M θ̈ + N θ̇ + P and M θ̈ + bias;
+- M = ∂²T/∂θ̇² (hence symmetric), damping = ∂²D/∂θ̇², P = ∂V/∂θ, all with MODEL.md's
+  T, V, D; Ṁ − 2C skew-symmetric.
 
 Zero tests are exact: sin/cos of every angle become polynomial variables and the result
 is reduced modulo sin² + cos² = 1 (a canonical form), so no heuristic `simplify` is needed.
@@ -118,7 +120,14 @@ def test_eq30_classical_double() -> None:
 
 
 def eq31(sym: Symbols, spin: sp.Expr) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    """M, N, P of the rotary single pendulum; `spin` is the sin²θ1 coefficient of M00 / (m1 l1²)."""
+    """M, N, P of the rotary single pendulum; `spin` is the sin²θ1 coefficient of M00 / (m1 l1²).
+
+    MODEL.md's eq. 31 is the pivot variant, spin = 1/4: N00 = δ0 + ¼ m1 l1² θ̇1 sin 2θ1 and
+    N10 = −⅛ m1 l1² θ̇0 sin 2θ1. Both come from M00's θ1-dependence alone, ∂M00/∂θ1 =
+    spin m1 l1² sin 2θ1: d/dt (M00 θ̇0) gives N00 = δ0 + spin m1 l1² θ̇1 sin 2θ1 and −½ θ̇0²
+    ∂M00/∂θ1 gives N10 = −(spin/2) m1 l1² θ̇0 sin 2θ1, so the 'full' variant (spin = 1/3)
+    changes these two entries as well as M00.
+    """
     _, t1 = sym.q
     d0, d1 = sym.qd
     m0, m1 = sym.m
@@ -136,31 +145,33 @@ def eq31(sym: Symbols, spin: sp.Expr) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
     )
     n_matrix = sp.Matrix(
         [
-            [de0 + m1 * l1**2 * d1 * sp.sin(2 * t1) / 4, -m1 * l0 * l1 * d1 * s1 / 2],
-            [-m1 * l1**2 * d0 * sp.sin(2 * t1) / 8, de1],
+            [de0 + spin * m1 * l1**2 * d1 * sp.sin(2 * t1), -m1 * l0 * l1 * d1 * s1 / 2],
+            [-spin / 2 * m1 * l1**2 * d0 * sp.sin(2 * t1), de1],
         ]
     )
     gravity = column([0, -m1 * g * l1 * s1 / 2])
     return mass, n_matrix, gravity
 
 
-def test_eq31_rotary_single_pivot() -> None:
-    eqs = equations("rotary", 1, "pivot")
+@pytest.mark.parametrize(
+    ("inertia", "spin"), [("pivot", sp.Rational(1, 4)), ("full", sp.Rational(1, 3))], ids=["pivot", "full"]
+)
+def test_eq31_rotary_single(inertia: str, spin: sp.Expr) -> None:
+    """Eq. 31 (pivot, ¼ in M00) and its 'full' variant (1/3): M, P and the bias N θ̇ + P."""
+    eqs = equations("rotary", 1, inertia)
     sym = eqs.symbols
-    mass, n_matrix, gravity = eq31(sym, sp.Rational(1, 4))
-    assert_matrix_identical(eqs.mass_matrix, mass, sym.q, "rotary 1 pivot: M vs eq. 31")
-    assert_matrix_identical(eqs.gravity, gravity, sym.q, "rotary 1 pivot: P vs eq. 31")
+    mass, n_matrix, gravity = eq31(sym, spin)
+    name = f"rotary 1 {inertia}"
+    assert_matrix_identical(eqs.mass_matrix, mass, sym.q, f"{name}: M vs eq. 31 (M00 with {spin})")
+    assert_matrix_identical(eqs.gravity, gravity, sym.q, f"{name}: P vs eq. 31")
     bias = n_matrix * column(sym.qd) + gravity
-    assert_matrix_identical(eqs.bias, bias, sym.q, "rotary 1 pivot: bias vs eq. 31's N θ̇ + P")
+    assert_matrix_identical(eqs.bias, bias, sym.q, f"{name}: bias vs eq. 31's N θ̇ + P (spin {spin})")
 
 
-def test_rotary_single_full_inertia_has_one_third() -> None:
+def test_rotary_single_full_minus_pivot_is_the_rod_spin() -> None:
+    """The variants differ only in M00, by J_T sin²θ1 = m1 l1²/12 sin²θ1."""
     eqs = equations("rotary", 1, "full")
     sym = eqs.symbols
-    mass, _, gravity = eq31(sym, sp.Rational(1, 3))
-    assert_matrix_identical(eqs.mass_matrix, mass, sym.q, "rotary 1 full: M (M00 with 1/3)")
-    assert_matrix_identical(eqs.gravity, gravity, sym.q, "rotary 1 full: P")
-    # The variants differ only in M00, by J_T sin²θ1 = m1 l1²/12 sin²θ1.
     pivot = equations("rotary", 1, "pivot").mass_matrix
     extra = sym.m[1] * sym.l[1] ** 2 / 12 * sp.sin(sym.q[1]) ** 2
     expected = pivot + sp.Matrix([[extra, 0], [0, 0]])
@@ -209,27 +220,42 @@ def model_energies(system: System, sym: Symbols) -> tuple[sp.Expr, sp.Expr, sp.E
     return kinetic, potential, dissipation
 
 
+STRUCTURE_CASES = [*CASES, ("classical", 4, "pivot"), ("rotary", 3, "pivot"), ("rotary", 3, "full")]
+
+
+@cache
+def energies(kind: str, links: int, inertia: str = "pivot") -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+    """MODEL.md's T, V, D for the case, in the symbols of ipgen's equations."""
+    eqs = equations(kind, links, inertia)
+    return model_energies(eqs.system, eqs.symbols)
+
+
 @pytest.mark.parametrize("case", CASES, ids=case_id)
 def test_energies_match_model(case: tuple[str, int, str]) -> None:
     eqs = equations(*case)
     sym = eqs.symbols
-    kinetic, potential, dissipation = model_energies(eqs.system, sym)
+    kinetic, potential, dissipation = energies(*case)
     name = case_id(case)
     assert_identical(eqs.kinetic_energy, kinetic, sym.q, f"{name}: T")
     assert_identical(eqs.potential_energy, potential, sym.q, f"{name}: V")
     assert_identical(eqs.dissipation, dissipation, sym.q, f"{name}: D")
 
 
-@pytest.mark.parametrize("case", CASES, ids=case_id)
+@pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
 def test_lagrange_from_model_energies(case: tuple[str, int, str]) -> None:
-    """d/dt ∂L/∂θ̇ − ∂L/∂θ + ∂D/∂θ̇ = M θ̈ + bias, with L, D from MODEL.md."""
+    """d/dt ∂L/∂θ̇ − ∂L/∂θ + ∂D/∂θ̇ = M θ̈ + N θ̇ + P = M θ̈ + bias, with L, D from MODEL.md.
+
+    N θ̇ + P and the bias are each compared with the model's equation (so N θ̇ + P = bias
+    follows from two independent checks, not from how derive.py assembles the bias).
+    """
     eqs = equations(*case)
     sym = eqs.symbols
-    kinetic, potential, dissipation = model_energies(eqs.system, sym)
+    kinetic, potential, dissipation = energies(*case)
     lagrangian = kinetic - potential
     size = eqs.system.dof
     acc = [sp.Symbol(f"ddtheta{k}") for k in range(size)]
     name = case_id(case)
+    n_rates_gravity = eqs.n_matrix * column(sym.qd) + eqs.gravity
 
     def time_derivative(expr: sp.Expr) -> sp.Expr:
         return sum(
@@ -240,46 +266,46 @@ def test_lagrange_from_model_energies(case: tuple[str, int, str]) -> None:
         momentum = sp.diff(lagrangian, sym.qd[k])
         generalized = time_derivative(momentum) - sp.diff(lagrangian, sym.q[k])
         generalized += sp.diff(dissipation, sym.qd[k])
-        ipgen = sum(eqs.mass_matrix[k, j] * acc[j] for j in range(size)) + eqs.bias[k]
-        assert_identical(ipgen, generalized, sym.q, f"{name}: Lagrange's equation {k}")
+        inertial = sum(eqs.mass_matrix[k, j] * acc[j] for j in range(size))
+        assert_identical(
+            inertial + n_rates_gravity[k],
+            generalized,
+            sym.q,
+            f"{name}: Lagrange's equation {k}, M θ̈ + N θ̇ + P",
+        )
+        assert_identical(
+            inertial + eqs.bias[k], generalized, sym.q, f"{name}: Lagrange's equation {k}, M θ̈ + bias"
+        )
 
 
 # --------------------------------------------------------------------------- structure
 
-STRUCTURE_CASES = [*CASES, ("classical", 4, "pivot"), ("rotary", 3, "pivot"), ("rotary", 3, "full")]
-
 
 @pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
-def test_mass_matrix_symmetric(case: tuple[str, int, str]) -> None:
-    eqs = equations(*case)
-    mass = eqs.mass_matrix
-    for r in range(mass.rows):
-        for c in range(r):
-            assert_identical(
-                mass[r, c], mass[c, r], eqs.symbols.q, f"{case_id(case)}: M[{r},{c}] vs M[{c},{r}]"
-            )
-
-
-@pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
-def test_n_matrix_times_rates_plus_gravity_is_bias(case: tuple[str, int, str]) -> None:
+def test_mass_matrix_is_hessian_of_model_kinetic_energy(case: tuple[str, int, str]) -> None:
+    """M = ∂²T/∂θ̇² with MODEL.md's T: entry by entry, so M is also symmetric."""
     eqs = equations(*case)
     sym = eqs.symbols
-    rebuilt = eqs.n_matrix * column(sym.qd) + eqs.gravity
-    assert_matrix_identical(rebuilt, eqs.bias, sym.q, f"{case_id(case)}: N θ̇ + P vs bias")
+    kinetic, _, _ = energies(*case)
+    hessian = sp.hessian(kinetic, sym.qd)
+    assert_matrix_identical(eqs.mass_matrix, hessian, sym.q, f"{case_id(case)}: M vs ∂²T/∂θ̇² (MODEL.md's T)")
 
 
 @pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
 def test_damping_and_gravity_are_derivatives(case: tuple[str, int, str]) -> None:
-    """damping = ∂²D/∂θ̇², P = ∂V/∂θ, T = ½ θ̇ᵀ M θ̇ (from ipgen's own D, V, M)."""
+    """damping = ∂²D/∂θ̇², P = ∂V/∂θ, T = ½ θ̇ᵀ M θ̇, with T, V, D from MODEL.md."""
     eqs = equations(*case)
     sym = eqs.symbols
+    kinetic, potential, dissipation = energies(*case)
     name = case_id(case)
-    hessian = sp.hessian(eqs.dissipation, sym.qd)
-    assert_matrix_identical(eqs.damping, hessian, sym.q, f"{name}: damping vs ∂²D/∂θ̇²")
-    grad = column([sp.diff(eqs.potential_energy, a) for a in sym.q])
-    assert_matrix_identical(eqs.gravity, grad, sym.q, f"{name}: P vs ∂V/∂θ")
+    hessian = sp.hessian(dissipation, sym.qd)
+    assert_matrix_identical(eqs.damping, hessian, sym.q, f"{name}: damping vs ∂²D/∂θ̇² (MODEL.md's D)")
+    grad = column([sp.diff(potential, a) for a in sym.q])
+    assert_matrix_identical(eqs.gravity, grad, sym.q, f"{name}: P vs ∂V/∂θ (MODEL.md's V)")
     qd = column(sym.qd)
-    assert_identical(eqs.kinetic_energy, (qd.T * eqs.mass_matrix * qd)[0, 0] / 2, sym.q, f"{name}: T")
+    quadratic = (qd.T * eqs.mass_matrix * qd)[0, 0] / 2
+    assert_identical(quadratic, kinetic, sym.q, f"{name}: ½ θ̇ᵀ M θ̇ vs MODEL.md's T")
+    assert_identical(eqs.kinetic_energy, kinetic, sym.q, f"{name}: T vs MODEL.md's T")
 
 
 @pytest.mark.parametrize(
