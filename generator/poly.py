@@ -213,17 +213,30 @@ class Poly:
 
     def substitute(self, values: dict[int, Fraction]) -> Poly:
         """p with the generators `values` (index -> exact value) replaced by constants."""
-        result: dict[Monomial, Fraction] = {}
-        for m, c in self.items():
-            kept = []
-            for g in m:
-                if g in values:
-                    c *= values[g]
-                else:
-                    kept.append(g)
-            key = tuple(kept)
-            result[key] = result.get(key, Fraction(0)) + c
-        return Poly(result)
+        if not self.terms:
+            return self
+        exact = {g: (v.numerator, v.denominator) for g, v in values.items()}
+        # Each term's numerator times its values' numerators, over their denominators' product.
+        scaled: list[tuple[Monomial, int, int]] = []
+        for m, c in self.terms.items():
+            den = 1
+            if any(g in exact for g in m):
+                kept = []
+                for g in m:
+                    value = exact.get(g)
+                    if value is None:
+                        kept.append(g)
+                    else:
+                        c *= value[0]
+                        den *= value[1]
+                m = tuple(kept)
+            scaled.append((m, c, den))
+        common = lcm(*(den for _, _, den in scaled))
+        terms: dict[Monomial, int] = {}
+        get = terms.get
+        for m, c, den in scaled:
+            terms[m] = get(m, 0) + c * (common // den)
+        return from_numerators({m: c for m, c in terms.items() if c}, self.den * common)
 
 
 ZERO = Poly()

@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 
 from generator.derive import Equations
 from generator.model import System
-from generator.poly import Poly
 from generator.polynomial import PARAMETER, Algebra
 
 if TYPE_CHECKING:
@@ -155,13 +154,14 @@ def from_scene(scene: Scene) -> Specialisation:
     )
 
 
-def specialise(eqs: Equations, spec: Specialisation) -> Equations:
-    """The same equations with `spec.fixed` folded into every polynomial (exactly)."""
+def specialise(eqs: Equations, spec: Specialisation, keys: tuple[str, ...]) -> Equations:
+    """The equations with `spec.fixed` folded (exactly) into the polynomials `keys`, those the
+    wanted functions read (`codegen.header.poly_keys`); the others are left out."""
     if not spec.fixed:
         return eqs
     values = {_generator_index(eqs.algebra, name): value for name, value in spec.fixed}
     algebra = eqs.algebra.folded(values)
-    poly = {key: [[_fold(p, values) for p in row] for row in rows] for key, rows in eqs.poly.items()}
+    poly = {key: [[p.substitute(values) for p in row] for row in eqs.poly[key]] for key in keys}
     return replace(eqs, algebra=algebra, poly=poly)
 
 
@@ -170,7 +170,3 @@ def _generator_index(algebra: Algebra, name: str) -> int:
     if algebra.generators[index].kind != PARAMETER:
         raise KeyError(name)
     return index
-
-
-def _fold(p: Poly, values: dict[int, Fraction]) -> Poly:
-    return p.substitute(values) if p else p

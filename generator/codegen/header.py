@@ -15,9 +15,38 @@ from generator.specialise import FUNCTIONS, Specialisation, specialise
 
 TEMPLATE = "model.hpp.jinja"
 
-# (function, arguments of its C++ signature that the body may use)
+
+@dataclass(frozen=True)
+class _Read:
+    """One output of a function: its C++ name and the `Equations.poly` matrix it computes."""
+
+    cpp: str
+    key: str
+    scalar: bool = False
+    symmetric: bool = False
+    lower_only: bool = False
+
+
 _ARGS_Q_P = ("q", "p")
 _ARGS_Q_QD_P = ("q", "qd", "p")
+_M_LOWER, _B = _Read("M", "mass_matrix", lower_only=True), _Read("b", "bias")
+# Each function's outputs, and the arguments of its C++ signature that the body may use.
+_FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
+    "mass_matrix": ((_Read("M", "mass_matrix", symmetric=True),), _ARGS_Q_P),
+    "bias": ((_B,), _ARGS_Q_QD_P),
+    "gravity": ((_Read("P", "gravity"),), _ARGS_Q_P),
+    "n_matrix": ((_Read("N", "n_matrix"),), _ARGS_Q_QD_P),
+    "forward_dynamics": ((_M_LOWER, _B), _ARGS_Q_QD_P),
+    "forward_dynamics_derivatives": (
+        (_M_LOWER, _B, _Read("Rq", "residual_dq"), _Read("Rqd", "residual_dqd")),
+        _ARGS_Q_QD_P,
+    ),
+    "kinetic_energy": ((_Read("T", "kinetic_energy", scalar=True),), _ARGS_Q_QD_P),
+    "potential_energy": ((_Read("V", "potential_energy", scalar=True),), _ARGS_Q_P),
+    "dissipation": ((_Read("D", "dissipation", scalar=True),), ("qd", "p")),
+}
+# Functions whose outputs use θ̈, and the C++ vector holding it once solved for.
+_LATE = {"forward_dynamics_derivatives": "d.qdd"}
 
 
 @dataclass(frozen=True)
@@ -74,34 +103,22 @@ def _environment() -> jinja2.Environment:
     )
 
 
+def poly_keys(wanted: tuple[str, ...] = FUNCTIONS) -> tuple[str, ...]:
+    """The `Equations.poly` matrices the functions `wanted` read, in first-use order."""
+    return tuple(dict.fromkeys(read.key for name in wanted for read in _FUNCTIONS[name][0]))
+
+
 def function_bodies(eqs: Equations, wanted: tuple[str, ...] = FUNCTIONS) -> dict[str, FunctionBody]:
     """The body of every generated function in `wanted`, keyed by its C++ name."""
-    poly = eqs.poly
-    mass, bias = poly["mass_matrix"], poly["bias"]
-    outputs: dict[str, tuple[list[Output], tuple[str, ...]]] = {
-        "mass_matrix": ([Output("M", mass, symmetric=True)], _ARGS_Q_P),
-        "bias": ([Output("b", bias)], _ARGS_Q_QD_P),
-        "gravity": ([Output("P", poly["gravity"])], _ARGS_Q_P),
-        "n_matrix": ([Output("N", poly["n_matrix"])], _ARGS_Q_QD_P),
-        "forward_dynamics": ([Output("M", mass, lower_only=True), Output("b", bias)], _ARGS_Q_QD_P),
-        "forward_dynamics_derivatives": (
-            [
-                Output("M", mass, lower_only=True),
-                Output("b", bias),
-                Output("Rq", poly["residual_dq"]),
-                Output("Rqd", poly["residual_dqd"]),
-            ],
-            _ARGS_Q_QD_P,
-        ),
-        "kinetic_energy": ([Output("T", poly["kinetic_energy"], scalar=True)], _ARGS_Q_QD_P),
-        "potential_energy": ([Output("V", poly["potential_energy"], scalar=True)], _ARGS_Q_P),
-        "dissipation": ([Output("D", poly["dissipation"], scalar=True)], ("qd", "p")),
-    }
-    late = {"forward_dynamics_derivatives": "d.qdd"}
-    return {
-        name: build_body(eqs, outputs[name][0], outputs[name][1], late_source=late.get(name, ""))
-        for name in wanted
-    }
+    bodies = {}
+    for name in wanted:
+        reads, arguments = _FUNCTIONS[name]
+        outputs = [
+            Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
+            for r in reads
+        ]
+        bodies[name] = build_body(eqs, outputs, arguments, late_source=_LATE.get(name, ""))
+    return bodies
 
 
 def _params_field(name: str) -> str:
@@ -109,14 +126,14 @@ def _params_field(name: str) -> str:
     if name == "g":
         return "p.g"
     kind = name.rstrip("0123456789")
-    return f"p.{kind}[{name[len(kind):]}]"
+    return f"p.{kind}[{name[len(kind) :]}]"
 
 
 def render_header(eqs: Equations, request: HeaderRequest) -> str:
     """The complete header text; deterministic for the same equations and request."""
     system = eqs.system
     spec = request.specialisation
-    eqs = specialise(eqs, spec)
+    eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context = {
         "name": request.name,
         "command": request.command,
