@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-from generator.model import System, algebra_for, base_inertia, bodies, rayleigh_dissipation
+from generator.model import Body, System, algebra_for, base_inertia, bodies, rayleigh_dissipation
 from generator.poly import ZERO, Poly
 from generator.polynomial import Algebra
 
@@ -82,13 +82,6 @@ class Equations:
         """One valid N of eq. 29 (C + damping): N θ̇ + P is the bias."""
         return self._matrix("n_matrix")
 
-    @property
-    def input_map(self) -> sp.Matrix:
-        """B: the input acts on θ0 only."""
-        import sympy as sp
-
-        return sp.Matrix([1] + [0] * self.system.links)
-
     @cached_property
     def kinetic_energy(self) -> sp.Expr:
         return self.algebra.to_sympy(self.poly["kinetic_energy"][0][0])
@@ -103,11 +96,11 @@ class Equations:
         return self.algebra.to_sympy(self.poly["dissipation"][0][0])
 
 
-def _mass_matrix(system: System, algebra: Algebra) -> PolyMatrix:
+def _mass_matrix(system: System, algebra: Algebra, link_bodies: list[Body]) -> PolyMatrix:
     size = system.dof
     parts: list[list[list[Poly]]] = [[[] for _ in range(size)] for _ in range(size)]
     parts[0][0].append(base_inertia(system, algebra))
-    for body in bodies(system, algebra):
+    for body in link_bodies:
         columns = body.jacobian
         for j in range(size):
             for k in range(j, size):
@@ -190,10 +183,11 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     qd = [algebra.qd(k) for k in range(size)]
 
     report("mass matrix")
-    mass = _mass_matrix(system, algebra)
+    link_bodies = bodies(system, algebra)
+    mass = _mass_matrix(system, algebra, link_bodies)
 
     report("potential energy and gravity")
-    potential = Poly.total(b.mass * algebra.g() * b.height for b in bodies(system, algebra))
+    potential = Poly.total(b.mass * algebra.g() * b.height for b in link_bodies)
     slope = algebra.gradient(potential)
     gravity = [slope.get(k, ZERO) for k in range(size)]
 

@@ -66,10 +66,6 @@ class Symbols:
     u: sp.Symbol  # force on the cart [N] or torque on the arm [N m]
 
     @classmethod
-    def for_system(cls, system: System) -> Symbols:
-        return cls.for_dof(system.dof)
-
-    @classmethod
     def for_dof(cls, dof: int) -> Symbols:
         import sympy as sp
 
@@ -124,7 +120,7 @@ def rod_lever(alg: Algebra, body: int, joint: int) -> Poly:
     return ZERO
 
 
-def named_quantities(system: System, alg: Algebra) -> dict[str, Poly]:
+def named_quantities(system: System, alg: Algebra) -> None:
     """Intermediate quantities that the equations share, defined in `alg` in order.
 
     Rotary: `rho_k`, the horizontal reach of joint k + 1 from the arm tip (perpendicular to
@@ -132,15 +128,12 @@ def named_quantities(system: System, alg: Algebra) -> dict[str, Poly]:
     each in the generated code instead of being expanded into every entry that uses them.
     """
     if not system.is_rotary:
-        return {}
-    named: dict[str, Poly] = {}
+        return
     reach_of_joint = ZERO
     for i in range(1, system.dof):
-        named[f"r{i}"] = alg.define(f"r{i}", reach_of_joint + alg.l(i) / 2 * alg.sin(i))
+        alg.define(f"r{i}", reach_of_joint + alg.l(i) / 2 * alg.sin(i))
         if i < system.links:
-            rho = alg.define(f"rho{i}", reach_of_joint + alg.l(i) * alg.sin(i))
-            named[f"rho{i}"] = reach_of_joint = rho
-    return named
+            reach_of_joint = alg.define(f"rho{i}", reach_of_joint + alg.l(i) * alg.sin(i))
 
 
 def bodies(system: System, alg: Algebra) -> list[Body]:
@@ -151,7 +144,7 @@ def bodies(system: System, alg: Algebra) -> list[Body]:
     n = system.links
     result = []
     for i in range(1, n + 1):
-        levers = [rod_lever(alg, i, k) for k in range(n + 1)]
+        levers = {k: rod_lever(alg, i, k) for k in range(1, n + 1)}  # joint k -> lever (k >= 1)
         height = Poly.total(levers[k] * alg.cos(k) for k in range(1, i + 1))
         # d/dt (l sin θ, l cos θ) = l θ̇ (cos θ, −sin θ): each link turns the point along the
         # unit direction at angle θ_k in the plane of the links.

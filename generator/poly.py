@@ -45,14 +45,6 @@ def insert(monomial: Monomial, generator: int) -> Monomial:
     return (*monomial[:at], generator, *monomial[at:])
 
 
-def multiply_monomials(a: Monomial, b: Monomial) -> Monomial:
-    if not a:
-        return b
-    if not b:
-        return a
-    return tuple(sorted(a + b))
-
-
 class Poly:
     """Σ (numerator / den) · monomial, with `terms` = {monomial: numerator}; no zero numerators."""
 
@@ -124,9 +116,6 @@ class Poly:
         den = self.den
         for m in sorted(self.terms):
             yield m, Fraction(self.terms[m], den)
-
-    def coefficient(self, monomial: Monomial) -> Fraction:
-        return Fraction(self.terms.get(monomial, 0), self.den)
 
     def generators(self) -> set[int]:
         """Every generator that occurs in some monomial."""

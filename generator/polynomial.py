@@ -183,10 +183,6 @@ class Algebra:
         gradient = {i: Poly.total(parts[i]) for i in sorted(parts)}
         return {i: d for i, d in gradient.items() if d}
 
-    def diff_angle(self, p: Poly, i: int) -> Poly:
-        """∂p/∂θi."""
-        return self.gradient(p).get(i, ZERO)
-
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         if (g, i) not in self._named_derivative:
             gradient = self.gradient(self.named[g])

@@ -52,10 +52,6 @@ class Specialisation:
     zero_input: bool = False  # the input is identically zero: drop its path
     origin: str = ""  # where the specialisation comes from, for the header comment
 
-    @property
-    def is_general(self) -> bool:
-        return not self.fixed and self.outputs == FUNCTIONS and not self.zero_input
-
     def notes(self) -> list[str]:
         """One line per specialisation, for the header: "m1 = 0.275 (11/40) folded"."""
         lines = []

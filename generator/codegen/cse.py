@@ -278,17 +278,17 @@ class _Products:
             return factors.count(x) > 1
         return x in factors and y in factors
 
-    def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
+    def combine(self, key: int) -> tuple[int, Callable[[tuple[int, ...]], tuple[int, ...]]]:
         x, y = key >> _BITS, key & ((1 << _BITS) - 1)
         pair = self.graph.mul((x, y))
 
-        def apply(factors: tuple[int, ...]) -> tuple[int, ...] | None:
+        def apply(factors: tuple[int, ...]) -> tuple[int, ...]:
             rest = list(factors)
             rest.remove(x)
             rest.remove(y)
             return tuple(sorted((*rest, pair)))
 
-        return pair, apply, (x, y)
+        return pair, apply
 
 
 class _Sums:
@@ -327,7 +327,7 @@ class _Sums:
         a, b = key >> (_BITS + 1), (key >> 1) & ((1 << _BITS) - 1)
         return a in terms and b in terms and (terms[a] != terms[b]) == bool(key & 1)
 
-    def combine(self, key: int) -> tuple[int, Callable, tuple[int, int]]:
+    def combine(self, key: int) -> tuple[int, Callable[[dict[int, int]], dict[int, int] | None]]:
         a, b = key >> (_BITS + 1), (key >> 1) & ((1 << _BITS) - 1)
         sign, pair = self.graph.add({a: 1, b: -1 if key & 1 else 1})
         assert sign == 1  # a < b: a two-term sum keeps its first term positive
@@ -341,7 +341,7 @@ class _Sums:
             new[pair] = outer
             return new
 
-        return pair, apply, (a, b)
+        return pair, apply
 
 
 def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
@@ -385,7 +385,7 @@ def _pair_up(bags: list[int], data: list, kind: _Products | _Sums) -> None:
             else:
                 del where[key]
             continue
-        pair, apply, _ = kind.combine(key)
+        pair, apply = kind.combine(key)
         shared.add(pair)
         left: dict[int, None] = {}
         for bag in holders:
