@@ -9,7 +9,7 @@ import click
 
 from generator import __version__
 from generator.errors import SceneError
-from generator.generate import STEPS, Written, default_name, generate_header
+from generator.generate import STEPS, Written, generate_header
 from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from generator.naming import name_problem
 from generator.output import OutputError, write_file
@@ -161,7 +161,7 @@ def cli(
             f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
         )
     system = System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
-    name = name if name is not None else default_name(system)
+    name = name if name is not None else system.default_name
     problem = name_problem(name)
     if problem:
         raise _fail(f"--name {name!r} {problem}; choose another name")
@@ -215,7 +215,7 @@ def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object)
     from generator.scene import load_scene, resolved_config  # only scene commands need it
 
     scene = load_scene(path)
-    system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
+    system = scene.system
     spec = from_scene(scene) if scene.specialise else Specialisation()
     _report(system, scene.name, _generate(system, scene.name, directory, force, spec))
     config = write_file(directory / f"{scene.stem}.cfg", resolved_config(scene), force)

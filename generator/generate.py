@@ -18,14 +18,10 @@ GENERAL = Specialisation()
 STEPS = 8  # progress steps reported: six by the derivation, render, write
 
 
-def default_name(system: System) -> str:
-    return f"{system.type}{system.links}"
-
-
 def canonical_command(system: System, name: str, spec: Specialisation = GENERAL) -> str:
     """The ipgen command that regenerates this header (in any output folder)."""
-    if spec.origin.startswith("scene "):
-        return f"ipgen --scene {spec.origin.removeprefix('scene ')} -o <dir>"
+    if spec.scene:
+        return f"ipgen --scene {spec.scene} -o <dir>"
     command = f"ipgen --type {system.type} --links {system.links}"
     if system.is_rotary:
         command += f" --inertia {system.inertia}"

@@ -41,6 +41,14 @@ from typing import Any, NoReturn
 from generator import __version__
 from generator import scene_schema as schema
 from generator.errors import SceneError
+from generator.model import (
+    PARAMETER_GROUPS,
+    System,
+    parameter_names,
+    parameter_range,
+    split_parameter,
+    unused_parameter,
+)
 from generator.naming import name_problem
 
 
@@ -116,16 +124,21 @@ class Scene:
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
 
+    @property
+    def system(self) -> System:
+        """The system the scene simulates."""
+        return System(self.type, self.links, self.inertia)  # type: ignore[arg-type]
+
     def parameter_names(self) -> tuple[str, ...]:
         """m0..mn, l0..ln, delta0..deltan, g: the names `free`, `value` and `exact` use."""
-        return _parameter_names(self.links)
+        return parameter_names(self.links)
 
     def value(self, name: str) -> float:
-        """A parameter by name, e.g. "m1", "delta0", "g", as a float."""
-        if name == "g":
-            return self.g
-        base, index = _split_parameter_name(name, self.links)
-        return getattr(self, base)[index]
+        """A parameter by name, e.g. "m1", "delta0", "g", as a float; KeyError if unknown."""
+        if name not in self.parameter_names():
+            raise KeyError(f"unknown parameter {name!r}")
+        group, index = split_parameter(name)
+        return self.g if index is None else getattr(self, group)[index]
 
     def exact(self, name: str) -> Fraction:
         """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
@@ -265,7 +278,7 @@ def _hint(key: str, allowed: tuple[str, ...], table: str) -> str:
     if homes:
         return f" (it belongs in [{homes[0]}])"
     array = key.rstrip("0123456789")
-    if table == "parameters" and array in ("m", "l", "delta"):
+    if table == "parameters" and array in PARAMETER_GROUPS:
         return f" (parameters are arrays: {array} = [base, link 1, ...])"
     close = difflib.get_close_matches(key, allowed, n=1)
     if close:
@@ -479,7 +492,7 @@ def _read_system(section: _Section) -> _System:
             "applies to rotary systems only; remove it",
         )
     inertia = section.choice("inertia", schema.INERTIAS, default=schema.DEFAULT_INERTIA)
-    name = _read_name(section, f"{kind}{links}")
+    name = _read_name(section, System(kind, links, inertia).default_name)  # type: ignore[arg-type]
     specialise = section.boolean("specialise", default=False)
     return _System(type=kind, links=links, inertia=inertia, name=name, specialise=specialise)
 
@@ -554,7 +567,7 @@ def _read_free(section: _Section, system: _System) -> tuple[str, ...]:
     value = section.data["free"]
     if not isinstance(value, list):
         section.bad("free", value, f"expected an array of names, got {_type_name(value)}")
-    names = _parameter_names(system.links)
+    names = parameter_names(system.links)
     seen: list[str] = []
     for i, name in enumerate(value):
         key = f"free[{i}]"
@@ -564,11 +577,11 @@ def _read_free(section: _Section, system: _System) -> tuple[str, ...]:
             section.bad(
                 key,
                 name,
-                f"expected a parameter name m0..m{system.links}, "
-                f"l0..l{system.links}, delta0..delta{system.links} or g{hint}",
+                f"expected a parameter name {parameter_range(system.links)}{hint}",
             )
-        if name == "l0" and system.type == "classical":
-            section.bad(key, name, "a cart has no length l0: it cannot be free")
+        unused = unused_parameter(system.type, name)
+        if unused:
+            section.bad(key, name, f"{unused}: it cannot be free")
         if name in seen:
             section.bad(key, name, "is listed twice")
         seen.append(name)
@@ -687,19 +700,3 @@ def _warnings(reader: _Reader, rtol: float) -> tuple[str, ...]:
             ),
         )
     return ()
-
-
-# ---------------------------------------------------------------------------- parameter names
-
-
-def _parameter_names(links: int) -> tuple[str, ...]:
-    indices = range(links + 1)
-    return (*(f"{base}{i}" for base in ("m", "l", "delta") for i in indices), "g")
-
-
-def _split_parameter_name(name: str, links: int) -> tuple[str, int]:
-    """ "delta2" -> ("delta", 2); KeyError for names not in `_parameter_names(links)`."""
-    if name not in _parameter_names(links):
-        raise KeyError(f"unknown parameter {name!r}")
-    base = name.rstrip("0123456789")
-    return base, int(name[len(base) :])

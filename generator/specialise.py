@@ -8,13 +8,18 @@ damping coefficient multiplies, and emits only the functions its consumers call.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
 from generator.derive import Equations
-from generator.model import System
+from generator.model import (
+    System,
+    parameter_names,
+    parameter_range,
+    split_parameter,
+    unused_parameter,
+)
 from generator.polynomial import PARAMETER, Algebra
 
 if TYPE_CHECKING:
@@ -36,8 +41,6 @@ FUNCTIONS: tuple[str, ...] = (
 SIMULATOR_FUNCTIONS: tuple[str, ...] = ("forward_dynamics", "forward_dynamics_derivatives")
 ENERGY_FUNCTIONS: tuple[str, ...] = ("kinetic_energy", "potential_energy", "dissipation")
 
-_PARAMETER = re.compile(r"(m|l|delta)(\d+)\Z|g\Z")
-
 
 class SpecialisationError(ValueError):
     """An invalid --fix or --outputs value; the message names it and what is expected."""
@@ -50,7 +53,12 @@ class Specialisation:
     fixed: tuple[tuple[str, Fraction], ...] = ()  # parameter name (m0, l1, delta2, g) -> value
     outputs: tuple[str, ...] = FUNCTIONS  # functions to emit, in header order
     zero_input: bool = False  # the input is identically zero: drop its path
-    origin: str = ""  # where the specialisation comes from, for the header comment
+    scene: str = ""  # the scene file it is made for (posix path), or "" for --fix/--outputs
+
+    @property
+    def origin(self) -> str:
+        """Where the specialisation comes from, for the header comment: "scene <path>" or ""."""
+        return f"scene {self.scene}" if self.scene else ""
 
     def notes(self) -> list[str]:
         """One line per specialisation, for the header: "m1 = 0.275 (11/40) folded"."""
@@ -76,20 +84,15 @@ def format_exact(value: Fraction) -> str:
     return decimal if Fraction(decimal) == value else str(value)
 
 
-def parameter_names(system: System) -> tuple[str, ...]:
-    idx = range(system.dof)
-    return (*(f"m{i}" for i in idx), *(f"l{i}" for i in idx), *(f"delta{i}" for i in idx), "g")
-
-
 def check_parameter(system: System, name: str, value: Fraction) -> str | None:
     """Why `name = value` cannot be fixed for `system`, or None."""
-    if name not in parameter_names(system):
-        names = f"m0..m{system.links}, l0..l{system.links}, delta0..delta{system.links} or g"
-        return f"unknown parameter {name!r}: expected one of {names}"
-    if name == "l0" and not system.is_rotary:
-        return "a cart has no length l0: it cannot be fixed"
-    kind = _PARAMETER.match(name).group(1) or "g"  # type: ignore[union-attr]
-    if kind in ("m", "l") and value <= 0:
+    if name not in parameter_names(system.links):
+        return f"unknown parameter {name!r}: expected one of {parameter_range(system.links)}"
+    unused = unused_parameter(system.type, name)
+    if unused:
+        return f"{unused}: it cannot be fixed"
+    group, _ = split_parameter(name)
+    if group in ("m", "l") and value <= 0:
         return f"{name} = {format_exact(value)}: masses and lengths must be > 0"
     if value < 0:
         return f"{name} = {format_exact(value)}: damping and g must be >= 0"
@@ -114,7 +117,7 @@ def parse_fix(system: System, text: str) -> tuple[tuple[str, Fraction], ...]:
         if name in fixed:
             raise SpecialisationError(f"--fix names {name} twice: give each parameter once")
         fixed[name] = value
-    order = parameter_names(system)
+    order = parameter_names(system.links)
     return tuple(sorted(fixed.items(), key=lambda item: order.index(item[0])))
 
 
@@ -134,19 +137,17 @@ def parse_outputs(text: str) -> tuple[str, ...]:
 def from_scene(scene: Scene) -> Specialisation:
     """What a scene with `specialise = true` needs: every parameter but its `free` ones folded,
     the simulator's functions (and the energies for an energy ledger), a zero input pruned."""
-    system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
-    unused = {"l0"} if not system.is_rotary else set()
     fixed = tuple(
         (name, scene.exact(name))
-        for name in parameter_names(system)
-        if name not in scene.free and name not in unused
+        for name in scene.parameter_names()
+        if name not in scene.free and unused_parameter(scene.type, name) is None
     )
     outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
     return Specialisation(
         fixed=fixed,
         outputs=tuple(f for f in FUNCTIONS if f in outputs),
         zero_input=scene.input.kind == "zero",
-        origin=f"scene {scene.path.as_posix()}",
+        scene=scene.path.as_posix(),
     )
 
 

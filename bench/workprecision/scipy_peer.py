@@ -18,7 +18,6 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from generator.derive import derive
-from generator.model import System
 from generator.scene import Scene
 
 
@@ -35,7 +34,7 @@ class Run:
 
 def right_hand_side(scene: Scene) -> Callable[[float, np.ndarray, float], np.ndarray]:
     """f(t, x, u) for x = [θ; θ̇] from lambdified M and bias (parameters substituted)."""
-    equations = derive(System(scene.type, scene.links, scene.inertia))  # type: ignore[arg-type]
+    equations = derive(scene.system)
     sym = equations.symbols
     values = {symbol: scene.value(str(symbol)) for symbol in sym.parameters}
     state = (*sym.q, *sym.qd)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from generator.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from generator.codegen.printer import CppPrinter
 from generator.derive import Equations, PolyMatrix
+from generator.model import split_parameter
 from generator.poly import Poly
 from generator.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
 
@@ -112,6 +113,12 @@ def _expression(algebra: Algebra, p: Poly) -> str:
     return CppPrinter(graph, {}, leaves.generator).signed(sign, node)
 
 
+def params_field(name: str) -> str:
+    """C++ access to parameter `name` in a Params p: m1 -> p.m[1], g -> p.g."""
+    group, index = split_parameter(name)
+    return f"p.{group}" if index is None else f"p.{group}[{index}]"
+
+
 def _schedule(
     graph: Graph, roots: Sequence[Signed], order: list[int], late: set[int]
 ) -> tuple[list[int], list[int]]:
@@ -177,12 +184,10 @@ def build_body(
     trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
 
     body = FunctionBody()
-    cpp_group = {"m": "p.m", "l": "p.l", "delta": "p.delta"}
     for g in sorted(used):
         info = generators[g]
         if info.kind == PARAMETER:
-            source = "p.g" if info.group == "g" else f"{cpp_group[info.group]}[{info.index}]"
-            body.prelude.append(f"const Scalar {info.name} = {source};")
+            body.prelude.append(f"const Scalar {info.name} = {params_field(info.name)};")
         elif info.kind == VELOCITY:
             body.prelude.append(f"const Scalar {info.name} = qd({info.index});")
         elif info.kind == ACCELERATION:

@@ -9,7 +9,7 @@ from pathlib import Path
 import jinja2
 
 from generator import __version__
-from generator.codegen.functions import FunctionBody, Output, build_body
+from generator.codegen.functions import FunctionBody, Output, build_body, params_field
 from generator.derive import Equations
 from generator.specialise import FUNCTIONS, Specialisation, specialise
 
@@ -121,14 +121,6 @@ def function_bodies(eqs: Equations, wanted: tuple[str, ...] = FUNCTIONS) -> dict
     return bodies
 
 
-def _params_field(name: str) -> str:
-    """C++ access to parameter `name` in a Params p: m1 -> p.m[1], g -> p.g."""
-    if name == "g":
-        return "p.g"
-    kind = name.rstrip("0123456789")
-    return f"p.{kind}[{name[len(kind) :]}]"
-
-
 def render_header(eqs: Equations, request: HeaderRequest) -> str:
     """The complete header text; deterministic for the same equations and request."""
     system = eqs.system
@@ -146,7 +138,7 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
         "fn": function_bodies(eqs, spec.outputs),
         "input_used": not spec.zero_input,
         "specialisation": spec.notes(),
-        "folded": [(name, _params_field(name), repr(float(value))) for name, value in spec.fixed],
+        "folded": [(name, params_field(name), repr(float(value))) for name, value in spec.fixed],
         "origin": spec.origin,
     }
     return _environment().get_template(TEMPLATE).render(context)
