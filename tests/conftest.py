@@ -4,14 +4,14 @@
 `generate_header` into a temporary folder and compiles it into `tests/cpp/eval_model.cpp`.
 Models with the same number of degrees of freedom are compiled together into one program
 (Eigen is parsed and instantiated once for them), and the groups are built in parallel in
-the background: a test waits only for the program it needs.
+the background: a test waits only for the program it needs. The compiler, flags and Eigen
+come from tests/cxx.py: without them the fixture fails, unless IPGEN_ALLOW_NO_CXX=1.
 """
 
 from __future__ import annotations
 
 import os
 import shlex
-import shutil
 import subprocess
 from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -19,15 +19,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from cxx import cxx_command, require_toolchain
 
 from generator.generate import generate_header
 from generator.model import System
 
 CPP_DIR = Path(__file__).resolve().parent / "cpp"
 DRIVER = CPP_DIR / "eval_model.cpp"
-CXX = os.environ.get("CXX", "g++")
-EIGEN_INCLUDE = Path(os.environ.get("EIGEN3_INCLUDE_DIR", "/usr/include/eigen3"))
-CXX_FLAGS = ("-std=c++17", "-O2", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 STDERR_LINES = 40  # compiler output quoted in a failure message
 
 
@@ -105,17 +103,15 @@ class CppModels:
         return self._build(self.workdir / f"{name}_alone", f"{name}.hpp", f"-DIPGEN_NAMESPACE={name}")
 
     def _build(self, executable: Path, header: str, models: str) -> Program:
-        command = (
-            CXX,
-            *CXX_FLAGS,
+        command = cxx_command(
             f"-I{self.workdir}",
             f"-I{self.headers}",
-            f"-I{EIGEN_INCLUDE}",
             f'-DIPGEN_HEADER="{header}"',
             models,
             str(DRIVER),
             "-o",
             str(executable),
+            optimisation="-O2",
         )
         result = subprocess.run(command, capture_output=True, text=True, check=False)
         if result.returncode == 0:
@@ -132,10 +128,7 @@ class CppModels:
 
 @pytest.fixture(scope="session")
 def cpp_models(tmp_path_factory: pytest.TempPathFactory) -> Iterator[CppModels]:
-    if shutil.which(CXX) is None:
-        pytest.skip(f"no C++ compiler {CXX!r} on PATH")
-    if not (EIGEN_INCLUDE / "Eigen" / "Dense").is_file():
-        pytest.skip(f"Eigen not found in {EIGEN_INCLUDE} (set EIGEN3_INCLUDE_DIR)")
+    require_toolchain()
     models = CppModels(tmp_path_factory.mktemp("cpp_models"), jobs=max(1, os.cpu_count() or 1))
     yield models
     models.close()

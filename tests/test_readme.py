@@ -6,11 +6,12 @@ import re
 import subprocess
 from pathlib import Path
 
+from cxx import cxx_command, require_toolchain
+
 from generator.generate import generate_header
 from generator.model import System
 
 ROOT = Path(__file__).resolve().parents[1]
-FLAGS = ["-std=c++17", "-O1", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-I/usr/include/eigen3"]
 
 CHECK = r"""
 #include <cmath>
@@ -29,6 +30,7 @@ int main() {
 
 
 def test_readme_controller_example(tmp_path: Path) -> None:
+    require_toolchain()
     readme = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```cpp\n(.*?)```", readme, flags=re.S)
     example = next(b for b in blocks if "force_for_cart_acceleration" in b)
@@ -37,7 +39,7 @@ def test_readme_controller_example(tmp_path: Path) -> None:
     source.write_text(example + CHECK)
     binary = tmp_path / "example"
     build = subprocess.run(
-        ["g++", *FLAGS, f"-I{tmp_path}", str(source), "-o", str(binary)], capture_output=True, text=True
+        cxx_command(f"-I{tmp_path}", str(source), "-o", str(binary)), capture_output=True, text=True
     )
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(binary)], capture_output=True, text=True)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cxx import cxx_command, require_toolchain
 
 from generator.cli import run
 from generator.generate import generate_header
@@ -24,7 +25,6 @@ from generator.specialise import ENERGY_FUNCTIONS, from_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))
-FLAGS = ["-std=c++17", "-O1", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-I/usr/include/eigen3"]
 STATES = 8
 RELATIVE = 1e-12
 
@@ -76,9 +76,10 @@ int main() {
 def compile_program(
     directory: Path, source: str, defines: list[str] | None = None
 ) -> subprocess.CompletedProcess:
+    require_toolchain()
     path = directory / "program.cpp"
     path.write_text(source)
-    command = ["g++", *FLAGS, *(defines or []), f"-I{directory}", str(path), "-o", str(directory / "program")]
+    command = cxx_command(*(defines or []), f"-I{directory}", str(path), "-o", str(directory / "program"))
     return subprocess.run(command, capture_output=True, text=True)
 
 
