@@ -12,6 +12,7 @@
 #endif
 #include IPGEN_MODEL_HEADER
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -121,35 +122,21 @@ Options parse_command_line(int argc, char** argv) {
   return options;
 }
 
-/// The energy columns of CSV row k: T, V, input work, dissipated energy. Templates, so that a
+/// The energy columns of CSV row k: T, V, input work, dissipated energy. A template, so that a
 /// specialised header without energy functions compiles (the simulation refuses an energy
 /// ledger for it before getting here).
 template <class M>
-void write_energy_columns(std::FILE* out, const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params) {
+std::array<double, 4> energy_columns(const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params) {
   if constexpr (ipsim::has_energy<M>) {
     const auto row = static_cast<Eigen::Index>(k);
     const ipsim::VectorOf<M> q = result.states.row(row).template head<M::kDof>().transpose();
     const ipsim::VectorOf<M> qd = result.states.row(row).template segment<M::kDof>(M::kDof).transpose();
-    std::fprintf(out, ",%.17g,%.17g,%.17g,%.17g", M::template kinetic_energy<double>(q, qd, params),
-                 M::template potential_energy<double>(q, params), result.input_work[k], result.dissipated_energy[k]);
+    return {M::template kinetic_energy<double>(q, qd, params), M::template potential_energy<double>(q, params),
+            result.input_work[k], result.dissipated_energy[k]};
+  } else {
+    (void)result, (void)k, (void)params;
+    return {};
   }
-}
-
-/// True when every number of CSV row k is finite: time, state, and with `energy` the energy columns.
-template <class M>
-bool row_is_finite(const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params, bool energy) {
-  const auto row = static_cast<Eigen::Index>(k);
-  if (!std::isfinite(result.times[k]) || !result.states.row(row).allFinite()) return false;
-  if constexpr (ipsim::has_energy<M>) {
-    if (energy) {
-      const ipsim::VectorOf<M> q = result.states.row(row).template head<M::kDof>().transpose();
-      const ipsim::VectorOf<M> qd = result.states.row(row).template segment<M::kDof>(M::kDof).transpose();
-      return std::isfinite(M::template kinetic_energy<double>(q, qd, params)) &&
-             std::isfinite(M::template potential_energy<double>(q, params)) && std::isfinite(result.input_work[k]) &&
-             std::isfinite(result.dissipated_energy[k]);
-    }
-  }
-  return true;
 }
 
 /// The summary's energy balance: T + V at start and end, input work, dissipated energy.
@@ -171,8 +158,14 @@ void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>&
 /// guards the derived columns and anything that slips through.
 void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
                bool energy) {
+  std::vector<std::array<double, 4>> energies;  // each row's energy columns, computed once
   for (std::size_t k = 0; k < result.times.size(); ++k) {
-    if (!row_is_finite<Model>(result, k, params, energy)) {
+    bool finite = std::isfinite(result.times[k]) && result.states.row(static_cast<Eigen::Index>(k)).allFinite();
+    if (energy) {
+      energies.push_back(energy_columns<Model>(result, k, params));
+      for (const double value : energies.back()) finite = finite && std::isfinite(value);
+    }
+    if (!finite) {
       throw std::runtime_error("refusing to write `" + path + "`: the row at t = " + std::to_string(result.times[k]) +
                                " s has a non-finite value (NaN or inf)");
     }
@@ -189,7 +182,9 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
     const auto row = static_cast<Eigen::Index>(k);
     std::fprintf(out, "%.17g", result.times[k]);
     for (Eigen::Index j = 0; j < result.states.cols(); ++j) std::fprintf(out, ",%.17g", result.states(row, j));
-    if (energy) write_energy_columns<Model>(out, result, k, params);
+    if (energy) {
+      for (const double value : energies[k]) std::fprintf(out, ",%.17g", value);
+    }
     std::fputc('\n', out);
   }
   const bool written = std::ferror(out) == 0;
@@ -201,16 +196,6 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
     std::remove(temporary.c_str());
     throw std::runtime_error("cannot rename `" + temporary + "` to `" + path + "`");
   }
-}
-
-std::string format_vector(const Eigen::VectorXd& v) {
-  std::string text = "[";
-  for (Eigen::Index i = 0; i < v.size(); ++i) {
-    char number[32];
-    std::snprintf(number, sizeof number, "%.6g", v(i));
-    text += (i > 0 ? ", " : "") + std::string(number);
-  }
-  return text + "]";
 }
 
 /// The integrator and its counters, e.g. "CVODE BDF (exact Jacobian): 812 steps, …".
@@ -249,8 +234,8 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
       scene.name.c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
       ipsim::to_string(s.input.kind), ipsim::to_string(s.method), s.t_end, result.times.size(),
-      options.csv_path.c_str(), format_vector(final_state.head(kDof)).c_str(),
-      format_vector(final_state.tail(kDof)).c_str(), describe_run(s, st).c_str(), st.restarts,
+      options.csv_path.c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
+      ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(result, scene.params);
   std::putchar('\n');

@@ -57,6 +57,9 @@ Precision measure_precision(const ipsim::ParamsOf<Model>& p, int states, unsigne
     if (!(low > 0)) return std::numeric_limits<double>::infinity();
     return static_cast<double>(solver.eigenvalues().maxCoeff() / low);
   };
+  // u scaled to the system's weight, so that it matters but does not dominate.
+  double weight = 0.0;
+  for (int i = 0; i < n; ++i) weight += p.m[static_cast<std::size_t>(i)];
   Precision out;
   for (int k = 0; k < states; ++k) {
     ipsim::VectorOf<Model> q, qd;
@@ -69,9 +72,6 @@ Precision measure_precision(const ipsim::ParamsOf<Model>& p, int states, unsigne
     if (k < 4) {
       for (int i = 1; i < n; ++i) q(i) = k % 2 == 0 ? 0.0 : ipsim::kPi;
     }
-    // u scaled to the system's weight, so that it matters but does not dominate.
-    double weight = 0.0;
-    for (int i = 0; i < n; ++i) weight += p.m[static_cast<std::size_t>(i)];
     const double u = force(random) * weight * p.g;
     const VL ql = q.template cast<Long>(), qdl = qd.template cast<Long>();
     const VL exact = Model::template forward_dynamics<Long>(ql, qdl, static_cast<Long>(u), pl);

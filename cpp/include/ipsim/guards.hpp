@@ -319,13 +319,16 @@ std::string explain_slow_progress(RhsContext<Model>& context, const Settings<Mod
                 "sample more often: max_steps counts steps between two samples)";
 }
 
-/// A warning for a method other than BDF that needed `steps` ≥ 1000 steps over the last interval
-/// between stops because stability, not accuracy, held its step h at state x (empty otherwise):
-/// it still succeeds, but BDF would be far cheaper.
+/// Steps between two stops from which a method other than BDF is checked for stiffness.
+inline constexpr long kStiffnessCheckSteps = 1000;
+
+/// A warning for a method other than BDF that needed `steps` ≥ kStiffnessCheckSteps steps over the
+/// last interval between stops because stability, not accuracy, held its step h at state x (empty
+/// otherwise): it still succeeds, but BDF would be far cheaper.
 template <class Model>
 std::string stiffness_warning(RhsContext<Model>& context, const Settings<Model>& settings, double t,
                               const Eigen::VectorXd& x, double h, long steps) {
-  if (settings.method == Method::bdf || steps < 1000) return {};
+  if (settings.method == Method::bdf || steps < kStiffnessCheckSteps) return {};
   const double rho = stiffness<Model>(context, t, x);
   if (!(std::isfinite(rho) && h * rho >= kStiffStep)) return {};
   return std::string("stiff: use BDF (method bdf): ") + to_string(settings.method) + " needed " +
@@ -360,8 +363,8 @@ std::string explain_failure(RhsContext<Model>& context, const Settings<Model>& s
   return cause.empty() ? diagnostics.last_error : cause + " [" + diagnostics.last_error + "]";
 }
 
-/// Warns once per run when a method other than BDF took ≥ 1000 steps between two stops because
-/// stability held its step down (stiffness_warning).
+/// Warns once per run when a method other than BDF took ≥ kStiffnessCheckSteps steps between two
+/// stops because stability held its step down (stiffness_warning).
 class StiffnessWatch {
  public:
   /// At a stop at time t after `steps` steps in all, the last of size h; `state()` gives x.
@@ -370,7 +373,7 @@ class StiffnessWatch {
                long steps, double h, State state) {
     const long interval = steps - steps_at_last_stop_;
     steps_at_last_stop_ = steps;
-    if (warned_ || interval < 1000 || settings.method == Method::bdf) return;
+    if (warned_ || interval < kStiffnessCheckSteps || settings.method == Method::bdf) return;  // skip state()
     std::string warning = stiffness_warning<Model>(context, settings, t, state(), h, interval);
     if (!warning.empty()) {
       diagnostics.warnings->push_back(std::move(warning));

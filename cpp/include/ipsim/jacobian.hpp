@@ -54,7 +54,8 @@ void input_gradient(RhsContext<Model>& context, double t, const double* x, doubl
   if (context.input->kind != Input::Kind::feedback) return;
   constexpr int size = 2 * Model::kDof;
   const double root_epsilon = std::sqrt(std::numeric_limits<double>::epsilon());
-  Eigen::VectorXd shifted = Eigen::Map<const Eigen::VectorXd>(x, size);
+  Eigen::VectorXd& shifted = context.x;  // preallocated (2·kDof): no allocation per Jacobian
+  shifted = Eigen::Map<const Eigen::VectorXd>(x, size);
   for (int j = 0; j < size; ++j) {
     const double h = root_epsilon * std::max(1.0, std::abs(x[j]));
     shifted(j) = x[j] + h;

@@ -25,10 +25,6 @@ using ParamsOf = typename Model::template Params<double>;
 template <class Model>
 using VectorOf = typename Model::template Vector<double>;
 
-/// Number of mechanical states, x = [θ; θ̇] (dim 2·Model::kDof).
-template <class Model>
-inline constexpr int kStateSizeOf = 2 * Model::kDof;
-
 /// True for a pendulum on a cart (θ0 in metres, l[0] unused), false for a rotary (Furuta) base.
 template <class Model>
 constexpr bool is_classical() {

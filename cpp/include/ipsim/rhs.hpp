@@ -40,13 +40,11 @@ struct RhsContext {
 /// feedback input). Throws whatever a feedback callback throws.
 template <class Model>
 double input_at(RhsContext<Model>& context, double t, const double* state) {
-  switch (context.input->kind) {
-    case Input::Kind::feedback:
-      context.x = Eigen::Map<const Eigen::VectorXd>(state, 2 * Model::kDof);  // no allocation: same size
-      return context.input->feedback(t, context.x);
-    case Input::Kind::sine: return context.input->value(t, context.x);
-    default: return context.segment_input;
+  if (context.input->piecewise_constant()) return context.segment_input;
+  if (context.input->kind == Input::Kind::feedback) {
+    context.x = Eigen::Map<const Eigen::VectorXd>(state, 2 * Model::kDof);  // no allocation: same size
   }
+  return context.input->value(t, context.x);
 }
 
 /// Writes f(t, x) to `out` (same length as x: 2·kDof, or 2·kDof + 2 with the ledger). Returns 0 on
