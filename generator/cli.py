@@ -59,10 +59,6 @@ class InvalidOptions(click.UsageError):
     """An option value ipgen rejects; the message already says how to fix it."""
 
 
-def _fail(message: str) -> InvalidOptions:
-    return InvalidOptions(message)
-
-
 @click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.option(
     "--type",
@@ -144,19 +140,21 @@ def cli(
         _describe_scene(scene, system_type, links, name, inertia, fix, outputs)
         return
     if directory is None:
-        raise _fail("missing -o DIR: say where to write the header")
+        raise InvalidOptions("missing -o DIR: say where to write the header")
     if scene is not None:
         _generate_scene(scene, directory, force, system_type, links, name, inertia, fix, outputs)
         return
     if system_type is None or links is None:
         missing = "--type" if system_type is None else "--links"
-        raise _fail(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
+        raise InvalidOptions(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
     if links < 1:
-        raise _fail(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
+        raise InvalidOptions(
+            f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain"
+        )
     if inertia is not None and system_type != "rotary":
-        raise _fail("--inertia applies to rotary systems only: drop it, or use --type rotary")
+        raise InvalidOptions("--inertia applies to rotary systems only: drop it, or use --type rotary")
     if links > LINKS_WITHOUT_FORCE and not force:
-        raise _fail(
+        raise InvalidOptions(
             f"--links {links} is large: {cost_estimate(links)}; pass --force to go ahead "
             f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
         )
@@ -164,14 +162,14 @@ def cli(
     name = name if name is not None else system.default_name
     problem = name_problem(name)
     if problem:
-        raise _fail(f"--name {name!r} {problem}; choose another name")
+        raise InvalidOptions(f"--name {name!r} {problem}; choose another name")
     try:
         spec = Specialisation(
             fixed=parse_fix(system, fix) if fix is not None else (),
             outputs=parse_outputs(outputs) if outputs is not None else FUNCTIONS,
         )
     except SpecialisationError as e:
-        raise _fail(str(e)) from None
+        raise InvalidOptions(str(e)) from None
     _report(system, name, _generate(system, name, directory, force, spec))
 
 
@@ -189,7 +187,7 @@ def cost_estimate(links: int) -> str:
 
 def _check_no_system_options(*clashing: object) -> None:
     if any(option is not None for option in clashing):
-        raise _fail(
+        raise InvalidOptions(
             "--scene fixes the system and its specialisation: drop --type, --links, --name, --inertia, "
             "--fix and --outputs"
         )
@@ -197,7 +195,7 @@ def _check_no_system_options(*clashing: object) -> None:
 
 def _describe_scene(path: Path | None, *clashing: object) -> None:
     if path is None:
-        raise _fail("--describe needs --scene FILE: it describes a scene's system")
+        raise InvalidOptions("--describe needs --scene FILE: it describes a scene's system")
     _check_no_system_options(*clashing)
     from generator.scene import load_scene  # only scene commands need it
 
@@ -206,8 +204,7 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
         f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem} "
         f"specialise={'true' if scene.specialise else 'false'}"
     )
-    for warning in scene.warnings:
-        click.echo(f"ipgen: {warning}", err=True)  # "<file>: warning: ..."
+    _warn(scene.warnings)
 
 
 def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
@@ -218,9 +215,14 @@ def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object)
     system = scene.system
     spec = from_scene(scene) if scene.specialise else Specialisation()
     _report(system, scene.name, _generate(system, scene.name, directory, force, spec))
-    config = write_file(directory / f"{scene.stem}.cfg", resolved_config(scene), force)
-    click.echo(f"{_VERBS[config]} {directory / (scene.stem + '.cfg')} (resolved scene {scene.stem})")
-    for warning in scene.warnings:
+    config = directory / f"{scene.stem}.cfg"
+    status = write_file(config, resolved_config(scene), force)
+    click.echo(f"{_VERBS[status]} {config} (resolved scene {scene.stem})")
+    _warn(scene.warnings)
+
+
+def _warn(warnings: tuple[str, ...]) -> None:
+    for warning in warnings:
         click.echo(f"ipgen: {warning}", err=True)  # "<file>: warning: ..."
 
 

@@ -14,13 +14,10 @@ class OutputError(Exception):
     """The output cannot be written; the message says why and what to do."""
 
 
-def _written_by_ipgen(path: Path) -> bool:
-    try:
-        with path.open(encoding="utf-8", errors="replace") as f:
-            head = "".join(f.readline() for _ in range(10))
-    except OSError:
-        return False
-    return MARKER in head
+def _written_by_ipgen(data: bytes) -> bool:
+    """Whether the file `data` has ipgen's marker in its first 10 lines."""
+    text = data.decode("utf-8", errors="replace").replace("\r\n", "\n").replace("\r", "\n")
+    return MARKER in "\n".join(text.split("\n", 10)[:10])
 
 
 def prepare_directory(directory: Path) -> bool:
@@ -47,10 +44,14 @@ def write_file(path: Path, text: str, force: bool = False) -> str:
     if path.is_dir():
         raise OutputError(f"{path} is a directory: pass another --name or -o")
     existed = path.exists()
-    if existed and not force and not _written_by_ipgen(path):
+    try:
+        existing = path.read_bytes() if existed else None
+    except OSError:
+        existing = None  # unreadable: not known to be ipgen's
+    if existed and not force and (existing is None or not _written_by_ipgen(existing)):
         raise OutputError(f"{path} exists and was not written by ipgen: move it away or pass --force")
     data = text.encode("utf-8")
-    if existed and path.read_bytes() == data:
+    if existing == data:
         os.utime(path)
         return "unchanged"
     try:
