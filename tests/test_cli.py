@@ -95,6 +95,7 @@ def test_generation_does_not_import_sympy(tmp_path: Path) -> None:
     assert result.stdout.splitlines()[-1] == "[0, 0, 0] []"
 
 
+CDIP = ["--type", "classical", "--links", "2"]
 BAD_INPUTS = [
     (["--type", "pendulum", "--links", "2"], "--type"),
     (["--type", "classical", "--links", "0"], "--links must be an integer >= 1"),
@@ -111,8 +112,17 @@ BAD_INPUTS = [
     (["--type", "rotary", "--links", "2", "--name", "a__b"], "not a C++ identifier"),
     (["--type", "rotary", "--links", "2", "--name", "Model"], "reserved"),
     (["--type", "rotary", "--links", "2", "--bogus"], "No such option"),
-    (["--scene", "does_not_exist.toml"], "does_not_exist.toml"),
+    (["--scene", "does_not_exist.toml"], "does_not_exist.toml: no such file"),
     (["--scene", str(ROOT / "scenes" / "cdip_pulse.toml"), "--links", "3"], "--scene fixes the system"),
+    # specialisation options
+    ([*CDIP, "--fix", "m9=1"], "unknown parameter 'm9'"),
+    ([*CDIP, "--fix", "l1=0"], "must be > 0"),
+    ([*CDIP, "--fix", "delta1=-0.1"], "must be >= 0"),
+    ([*CDIP, "--fix", "m1"], "expected NAME=VALUE"),
+    ([*CDIP, "--fix", "m1=1,m1=2"], "names m1 twice"),
+    ([*CDIP, "--fix", "l0=1"], "a cart has no length l0"),
+    ([*CDIP, "--outputs", "mass_matrix,jacobian"], "unknown function 'jacobian'"),
+    ([*CDIP, "--outputs", ","], "--outputs is empty"),
 ]
 
 
@@ -181,7 +191,7 @@ def test_describe_reports_scene_warnings_on_stderr(tmp_path: Path) -> None:
 
 DESCRIBE_ERRORS = [
     ('[system]\ntype = "rotary"\n', "missing required key 'system.links'"),
-    ("[system\n", "bad.toml"),
+    ("[system\n", "bad.toml: malformed TOML"),
 ]
 
 
