@@ -161,28 +161,6 @@ def test_general_header_declares_itself_general(tmp_path: Path) -> None:
     assert "inline constexpr bool kSpecialised = false;" in text and "SPECIALISED" not in text
 
 
-@pytest.mark.parametrize(
-    ("args", "message"),
-    [
-        (["--fix", "m9=1"], "unknown parameter 'm9'"),
-        (["--fix", "l1=0"], "must be > 0"),
-        (["--fix", "delta1=-0.1"], "must be >= 0"),
-        (["--fix", "m1"], "expected NAME=VALUE"),
-        (["--fix", "m1=1,m1=2"], "names m1 twice"),
-        (["--fix", "l0=1"], "a cart has no length l0"),
-        (["--outputs", "mass_matrix,jacobian"], "unknown function 'jacobian'"),
-        (["--outputs", ","], "--outputs is empty"),
-    ],
-)
-def test_bad_specialisation_options(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
-) -> None:
-    assert run(["--type", "classical", "--links", "2", *args, "-o", str(tmp_path / "o")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and message in err
-    assert not (tmp_path / "o").exists()
-
-
 def test_scene_with_specialise_true_writes_a_specialised_header(tmp_path: Path) -> None:
     source = (ROOT / "scenes" / "rsip_pulse.toml").read_text()
     source = source.replace("[system]", "[system]\nspecialise = true", 1)
