@@ -6,6 +6,10 @@
 #include <exception>
 #include <string>
 
+#include <Eigen/Core>
+
+#include "ipsim/result.hpp"
+
 namespace ipsim_test {
 
 inline int& failure_count() {
@@ -26,6 +30,33 @@ inline std::string number(double value) {
 inline void fail(const char* file, int line, const std::string& what) {
   std::fprintf(stderr, "%s:%d: FAILED: %s\n", file, line, what.c_str());
   ++failure_count();
+}
+
+// Error measures for `measure <= bound` checks. Each propagates NaN, which then fails the check:
+// Eigen's default maxCoeff skips NaN entries and std::max(worst, NaN) returns worst, so a NaN
+// error would otherwise pass as the largest finite one (or as 0).
+
+/// worst = max(worst, value); a NaN value makes worst NaN for good.
+inline void raise_to(double& worst, double value) {
+  if (!std::isnan(worst) && !(value <= worst)) worst = value;
+}
+
+/// max |entry| of a matrix or vector expression; NaN if any entry is NaN.
+template <class Derived>
+double max_abs(const Eigen::MatrixBase<Derived>& values) {
+  return values.cwiseAbs().template maxCoeff<Eigen::PropagateNaN>();
+}
+
+/// max |a − b| over two equally shaped matrices; infinite if the shapes differ, NaN if any entry is NaN.
+template <class A, class B>
+double max_difference(const Eigen::MatrixBase<A>& a, const Eigen::MatrixBase<B>& b) {
+  if (a.rows() != b.rows() || a.cols() != b.cols()) return INFINITY;
+  return max_abs(a - b);
+}
+
+/// max |a − b| over two trajectories (their states); infinite if they have different sample counts.
+inline double max_difference(const ipsim::Result& a, const ipsim::Result& b) {
+  return max_difference(a.states, b.states);
 }
 
 }  // namespace ipsim_test

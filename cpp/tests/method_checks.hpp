@@ -32,12 +32,6 @@ std::vector<ipsim::Settings<Model>> accurate_settings_of_every_method(const ipsi
   return all;
 }
 
-/// max |a − b| over two equally shaped trajectories.
-inline double max_difference(const ipsim::Result& a, const ipsim::Result& b) {
-  if (a.states.rows() != b.states.rows()) return INFINITY;
-  return (a.states - b.states).cwiseAbs().maxCoeff();
-}
-
 /// forward_dynamics_derivatives against central differences of forward_dynamics at random
 /// states, inputs and parameters: θ̈ to 1e-12, every derivative to 1e-6 relative (to the largest
 /// entry of its matrix, or 1).
@@ -64,7 +58,7 @@ void check_derivatives_against_differences() {
     const double u = force(random);
     const auto d = Model::template forward_dynamics_derivatives<double>(q, qd, u, p);
     const Vector qdd = Model::template forward_dynamics<double>(q, qd, u, p);
-    CHECK((d.qdd - qdd).cwiseAbs().maxCoeff() <= 1e-12 * std::max(1.0, qdd.cwiseAbs().maxCoeff()));
+    CHECK(max_difference(d.qdd, qdd) <= 1e-12 * std::max(1.0, max_abs(qdd)));
 
     Eigen::Matrix<double, n, 2 * n + 1> exact, differences;
     exact << d.dqdd_dq, d.dqdd_dqd, d.dqdd_du;
@@ -88,8 +82,7 @@ void check_derivatives_against_differences() {
     for (const auto& [offset, width] : {std::pair{0, n}, std::pair{n, n}, std::pair{2 * n, 1}}) {
       const auto e = exact.middleCols(offset, width);
       const auto f = differences.middleCols(offset, width);
-      const double relative = (e - f).cwiseAbs().maxCoeff() / std::max(1.0, e.cwiseAbs().maxCoeff());
-      worst = std::max(worst, relative);
+      raise_to(worst, max_difference(e, f) / std::max(1.0, max_abs(e)));
     }
   }
   if (!(worst <= 1e-6)) fail(__FILE__, __LINE__, "exact derivatives differ from central differences by " + number(worst));
@@ -124,7 +117,7 @@ void check_system_jacobian() {
       CHECK(ipsim::detail::evaluate_rhs<Model>(context, t, x_down.data(), down.data(), size) == 0);
       differences.col(j) = (up - down) / (2 * h);
     }
-    const double relative = (exact - differences).cwiseAbs().maxCoeff() / std::max(1.0, exact.cwiseAbs().maxCoeff());
+    const double relative = max_difference(exact, differences) / std::max(1.0, max_abs(exact));
     if (!(relative <= 1e-6)) fail(__FILE__, __LINE__, "system Jacobian differs from differences by " + number(relative));
   }
 }
@@ -222,8 +215,8 @@ void check_every_method_stops_at_the_edge() {
     off.theta = at_switch.head<Model::kDof>();
     off.dtheta = at_switch.tail<Model::kDof>();
     const ipsim::Result second = ipsim::simulate<Model>(p, off);
-    const double at_edge = (pulsed.states.row(1) - first.states.bottomRows(1)).cwiseAbs().maxCoeff();
-    const double at_end = (pulsed.states.row(2) - second.states.bottomRows(1)).cwiseAbs().maxCoeff();
+    const double at_edge = max_difference(pulsed.states.row(1), first.states.bottomRows(1));
+    const double at_end = max_difference(pulsed.states.row(2), second.states.bottomRows(1));
     // RK4 takes the very same steps in both. The adaptive methods restart at the edge in both, but
     // their step sequences differ by round-off in t, so the two runs differ by their global error
     // (up to 2e-8 measured); stepping across the edge would cost about 1e-3.
