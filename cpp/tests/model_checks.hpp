@@ -40,11 +40,12 @@ ipsim::Settings<Model> tilted_settings() {
   return s;
 }
 
-/// The model's functions agree with each other: bias = N θ̇ + P, M symmetric, T = ½ θ̇ᵀMθ̇,
+/// The model's functions agree with each other: M = ∂²T/∂θ̇², bias = N θ̇ + P, T = ½ θ̇ᵀMθ̇,
 /// P = ∂V/∂θ, M θ̈ + bias = (u, 0, …), D = the Rayleigh function of MODEL.md.
 template <class Model>
 void check_model_consistency() {
   using Vector = ipsim::VectorOf<Model>;
+  constexpr int n = Model::kDof;
   const auto p = test_params<Model>(true);
   for (int trial = 0; trial < 5; ++trial) {
     const Vector q = Vector::LinSpaced(-0.7 + 0.3 * trial, 1.1 - 0.2 * trial);
@@ -54,7 +55,29 @@ void check_model_consistency() {
     const Vector b = Model::template bias<double>(q, qd, p);
     const Vector P = Model::template gravity<double>(q, p);
     const auto N = Model::template n_matrix<double>(q, qd, p);
-    CHECK((M - M.transpose()).cwiseAbs().maxCoeff() <= 1e-14);
+    // M is the Hessian of T in θ̇, entry by entry (hence symmetric). A generated header emits
+    // kinetic_energy as its own polynomial, not from mass_matrix (which writes M(1, 0) = M(0, 1),
+    // so M = Mᵀ alone could not fail), so a wrong entry of M in either triangle shows here. T is
+    // exactly quadratic in θ̇: the central second difference
+    //   [T(θ̇ + h eᵢ + h eⱼ) − T(θ̇ + h eᵢ − h eⱼ) − T(θ̇ − h eᵢ + h eⱼ) + T(θ̇ − h eᵢ − h eⱼ)] / 4h²
+    // is ∂²T/∂θ̇ᵢ∂θ̇ⱼ for any h, up to rounding. h = 0.5 (like |θ̇| here) keeps the cancellation
+    // mild: the rounding of T, a few ε·|θ̇ ± 2h|²·max|M|, divided by 4h², stays near 1e-14·max|M|
+    // (worst measured 3.6e-15·max|M|, classical10); 1e-12·max|M| leaves room and still catches a
+    // wrong term.
+    const double h = 0.5;
+    Eigen::Matrix<double, n, n> hessian;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        auto kinetic = [&](double step_i, double step_j) {
+          Vector shifted = qd;
+          shifted(i) += step_i;
+          shifted(j) += step_j;
+          return Model::template kinetic_energy<double>(q, shifted, p);
+        };
+        hessian(i, j) = (kinetic(h, h) - kinetic(h, -h) - kinetic(-h, h) + kinetic(-h, -h)) / (4 * h * h);
+      }
+    }
+    CHECK_NEAR(max_difference(M, hessian), 0.0, 1e-12 * max_abs(M));
     CHECK(max_difference(N * qd + P, b) <= 1e-12);
     CHECK_NEAR(Model::template kinetic_energy<double>(q, qd, p), 0.5 * qd.dot(M * qd), 1e-12);
 
