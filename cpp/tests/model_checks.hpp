@@ -196,6 +196,7 @@ void check_integration_errors() {
                "(method bdf, jacobian exact, rtol 1e-10, atol 1e-12, max_steps 1)");
   try {
     ipsim::simulate<Model>(p, s);
+    fail(__FILE__, __LINE__, "expected an IntegrationError (max_steps 1)");
   } catch (const ipsim::IntegrationError& e) {
     CHECK(e.flag_name() == "CV_TOO_MUCH_WORK");
     CHECK(e.flag() == CV_TOO_MUCH_WORK);
