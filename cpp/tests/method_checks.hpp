@@ -203,20 +203,10 @@ void check_every_method_stops_at_the_edge() {
   for (auto s : accurate_settings_of_every_method<Model>(base)) {
     const std::string name = ipsim::to_string(s.method);
     s.sample = 0.65;  // samples at 0, 0.65 (the edge) and 1.3
-    const ipsim::Result pulsed = ipsim::simulate<Model>(p, s);
+    const PulseInPieces runs = run_pulse_in_pieces<Model>(p, s);
+    const ipsim::Result& pulsed = runs.pulsed;
     CHECK(pulsed.times.size() == 3 && pulsed.times[1] == 0.65 && pulsed.stats.restarts == 1);
-    auto on = s;
-    on.t_end = 0.65;
-    on.input = ipsim::Input::constant(0.4);
-    const ipsim::Result first = ipsim::simulate<Model>(p, on);
-    auto off = on;
-    off.input = ipsim::Input::zero();
-    const Eigen::VectorXd at_switch = first.states.bottomRows(1).transpose();
-    off.theta = at_switch.head<Model::kDof>();
-    off.dtheta = at_switch.tail<Model::kDof>();
-    const ipsim::Result second = ipsim::simulate<Model>(p, off);
-    const double at_edge = max_difference(pulsed.states.row(1), first.states.bottomRows(1));
-    const double at_end = max_difference(pulsed.states.row(2), second.states.bottomRows(1));
+    const double at_edge = runs.at_edge, at_end = runs.at_end;
     // RK4 takes the very same steps in both. The adaptive methods restart at the edge in both, but
     // their step sequences differ by round-off in t, so the two runs differ by their global error
     // (up to 2e-8 measured); stepping across the edge would cost about 1e-3.

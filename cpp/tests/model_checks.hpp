@@ -40,6 +40,45 @@ ipsim::Settings<Model> tilted_settings() {
   return s;
 }
 
+/// A run whose input is a pulse from t = 0 to its falling edge, and the same motion in two
+/// constant-input pieces with the run's other settings: `on` (the pulse's amplitude up to the
+/// edge), then `off` (no input, from the state `on` ends in, for the rest of the run; the model is
+/// autonomous, so it may start at t = 0). at_edge is max |pulsed sample at the edge − end of
+/// `on`|, at_end max |last pulsed sample − end of `off`| (infinite when the edge is not sampled).
+struct PulseInPieces {
+  ipsim::Result pulsed, on, off;
+  double at_edge = INFINITY, at_end = INFINITY;
+};
+
+template <class Model>
+PulseInPieces run_pulse_in_pieces(const ipsim::ParamsOf<Model>& p, const ipsim::Settings<Model>& s) {
+  PulseInPieces runs;
+  if (s.input.kind != ipsim::Input::Kind::pulse || s.input.start != 0.0) {
+    fail(__FILE__, __LINE__, "run_pulse_in_pieces needs a pulse starting at t = 0");
+    return runs;
+  }
+  const double edge = s.input.duration;
+  runs.pulsed = ipsim::simulate<Model>(p, s);
+  auto on = s;
+  on.t_end = edge;
+  on.input = ipsim::Input::constant(s.input.amplitude);
+  runs.on = ipsim::simulate<Model>(p, on);
+  auto off = on;
+  off.t_end = s.t_end - edge;
+  off.input = ipsim::Input::zero();
+  const Eigen::VectorXd at_switch = runs.on.states.bottomRows(1).transpose();
+  off.theta = at_switch.head<Model::kDof>();
+  off.dtheta = at_switch.tail<Model::kDof>();
+  runs.off = ipsim::simulate<Model>(p, off);
+  const auto& times = runs.pulsed.times;
+  const auto sample = std::find(times.begin(), times.end(), edge);
+  if (sample != times.end()) {
+    runs.at_edge = max_difference(runs.pulsed.states.row(sample - times.begin()), runs.on.states.bottomRows(1));
+  }
+  runs.at_end = max_difference(runs.pulsed.states.bottomRows(1), runs.off.states.bottomRows(1));
+  return runs;
+}
+
 /// The model's functions agree with each other: M = ∂²T/∂θ̇², bias = N θ̇ + P, T = ½ θ̇ᵀMθ̇,
 /// P = ∂V/∂θ, M θ̈ + bias = (u, 0, …), D = the Rayleigh function of MODEL.md.
 template <class Model>
@@ -294,30 +333,18 @@ void check_pulse_discontinuity() {
 
   // Pulse end on the sample grid: a sample exactly at t = 1, one restart (the start at t = 0
   // is not inside the run).
+  // Piece 1 (`on`): constant input up to t = 1. Piece 2 (`off`): no input from that state.
   auto s = tilted_settings<Model>();
   s.t_end = 2.0;
   s.input = ipsim::Input::pulse(0.4, 0.0, 1.0);
-  const ipsim::Result pulsed = ipsim::simulate<Model>(p, s);
+  const PulseInPieces runs = run_pulse_in_pieces<Model>(p, s);
+  const ipsim::Result& pulsed = runs.pulsed;
   CHECK(pulsed.times.size() == 201);
-  CHECK(pulsed.times[100] == 1.0);
+  CHECK(pulsed.times.size() > 100 && pulsed.times[100] == 1.0);
   CHECK(pulsed.stats.restarts == 1);
-
-  // Piece 1: constant input up to t = 1. Piece 2: no input from that state (autonomous, so it
-  // may start at t = 0).
-  auto first = s;
-  first.t_end = 1.0;
-  first.input = ipsim::Input::constant(0.4);
-  const ipsim::Result piece1 = ipsim::simulate<Model>(p, first);
-  CHECK(piece1.stats.restarts == 0);
-  const Eigen::VectorXd at_switch = piece1.states.bottomRows(1).transpose();
-  CHECK(max_difference(pulsed.states.row(100).transpose(), at_switch) <= 1e-8);
-  auto second = s;
-  second.t_end = 1.0;
-  second.input = ipsim::Input::zero();
-  second.theta = at_switch.head<Model::kDof>();
-  second.dtheta = at_switch.tail<Model::kDof>();
-  const ipsim::Result piece2 = ipsim::simulate<Model>(p, second);
-  CHECK(max_difference(pulsed.states.bottomRows(1), piece2.states.bottomRows(1)) <= 1e-7);
+  CHECK(runs.on.stats.restarts == 0);
+  CHECK_NEAR(runs.at_edge, 0.0, 1e-8);
+  CHECK_NEAR(runs.at_end, 0.0, 1e-7);
 
   // Edges off the grid: no extra samples, two restarts, samples still exactly k·sample.
   s.t_end = 1.0;
