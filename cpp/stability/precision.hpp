@@ -114,7 +114,7 @@ struct ParameterCase {
 template <class Model>
 std::vector<ParameterCase<Model>> parameter_cases() {
   constexpr int n = Model::kDof;
-  const auto base = base_params<Model>(true);
+  const auto base = paper_params<Model>(true);
   const double m0 = base.m[0];
   auto with = [&](auto&& change) {
     auto p = base;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "ipsim/ipsim.hpp"
+#include "paper_params.hpp"  // cpp/tests: the paper's parameters, the work–energy balance
 
 namespace stability {
 
@@ -54,24 +55,13 @@ inline std::string g3(double value) {
   return text;
 }
 
+/// The paper's parameters for any n, damped as in the paper or not at all (cpp/tests/paper_params.hpp).
+using ipsim_test::paper_params;
+
 template <class Model>
 std::string model_label() {
   return std::string(Model::kName) + " (" + Model::kType + ", " + std::to_string(Model::kLinks) + " link" +
          (Model::kLinks == 1 ? "" : "s") + ")";
-}
-
-/// The paper's parameters for any n (arm/cart 0.5 kg, links 0.275 kg and 0.5 m, arm 0.6 m),
-/// damped as in the paper or not at all.
-template <class Model>
-ipsim::ParamsOf<Model> base_params(bool damped) {
-  ipsim::ParamsOf<Model> p{};
-  for (std::size_t i = 0; i < static_cast<std::size_t>(Model::kDof); ++i) {
-    p.m[i] = i == 0 ? 0.5 : 0.275;
-    p.l[i] = i == 0 ? 0.6 : 0.5;
-    p.delta[i] = damped ? (i == 0 ? 0.3 : 0.1) : 0.0;
-  }
-  p.g = 9.81;
-  return p;
 }
 
 /// Tight settings (the scenes' defaults): BDF, rtol 1e-10, atol 1e-12.
@@ -159,7 +149,7 @@ inline void apply_bound(Row& row) {
 /// i.e. 1.1e-6 over 10 s and 1.1e-5 over 1000 s at rtol 1e-10.
 template <class Model>
 Row undamped(double t_end, double sample) {
-  const auto p = base_params<Model>(false);
+  const auto p = paper_params<Model>(false);
   auto s = tight_settings<Model>(t_end, sample);
   s.max_steps = 1000000;
   for (int i = 1; i < Model::kDof; ++i) s.theta(i) = 0.3;
@@ -192,7 +182,7 @@ std::vector<Row> stiff_damping(const Options& options) {
                ipsim::Method::erk_fehlberg8, ipsim::Method::rk4};
   }
   for (const double delta : dampings) {
-    auto p = base_params<Model>(true);
+    auto p = paper_params<Model>(true);
     p.m[Model::kLinks] = 1e-3;
     p.delta[Model::kLinks] = delta;
     auto reference_settings = tight_settings<Model>(t_end, 0.01);
@@ -265,7 +255,7 @@ std::vector<Row> stiff_damping(const Options& options) {
 template <class Model>
 std::vector<Row> fast_motion(const Options& /*options*/) {
   std::vector<Row> rows;
-  const auto p = base_params<Model>(false);
+  const auto p = paper_params<Model>(false);
   std::vector<std::pair<std::string, ipsim::Settings<Model>>> cases;
   auto s = tight_settings<Model>(0.05, 0.001);
   s.max_steps = 1000000;
@@ -328,21 +318,14 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
   big.input = ipsim::Input::pulse(1e4, 0.0, 0.1);
   big.energy_ledger = true;
   big.max_steps = 1000000;
-  const auto pd = base_params<Model>(true);
+  const auto pd = paper_params<Model>(true);
   Row row{"fast motion", model_label<Model>(), "input 1e4 N (N m) for 0.1 s, damped, bdf rtol 1e-10",
           "work-energy balance error / input work"};
   const Run r = run<Model>(pd, big);
   record_run(row, r);
   if (r.ok) {
     const auto& res = r.result;
-    const double e0 = ipsim::mechanical_energy<Model>(pd, res.states.row(0).transpose());
-    double worst = 0.0;
-    for (Eigen::Index k = 0; k < res.states.rows(); ++k) {
-      const auto i = static_cast<std::size_t>(k);
-      const double e = ipsim::mechanical_energy<Model>(pd, res.states.row(k).transpose());
-      worst = std::max(worst, std::abs(e - (e0 + res.input_work[i] - res.dissipated_energy[i])));
-    }
-    row.value = worst / std::abs(res.input_work.back());
+    row.value = ipsim_test::work_energy_error<Model>(pd, res) / std::abs(res.input_work.back());
     row.note = "max rate " + g3(res.states.rightCols(Model::kDof).cwiseAbs().maxCoeff()) + " rad/s";
   }
   row.bound = 1e4 * big.rtol;
@@ -359,7 +342,7 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
 template <class Model>
 Row through_horizontal(const Options& options) {
   const double t_end = options.quick ? 2.0 : 10.0;
-  const auto p = base_params<Model>(false);
+  const auto p = paper_params<Model>(false);
   auto s = tight_settings<Model>(t_end, 0.001);
   s.max_steps = 1000000;
   for (int i = 1; i < Model::kDof; ++i) {
@@ -397,7 +380,7 @@ Row through_horizontal(const Options& options) {
 template <class Model>
 std::vector<Row> many_turns(const Options& options) {
   std::vector<Row> rows;
-  const auto p = base_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tight_settings<Model>(options.quick ? 2.0 : 10.0, 0.01);
   s.input = ipsim::Input::pulse(0.4, 0.0, 1.0);
   for (int i = 1; i < Model::kDof; ++i) s.theta(i) = ipsim::kPi + 0.1 * i;  // hanging, tilted: regular
@@ -449,7 +432,7 @@ std::vector<Row> many_turns(const Options& options) {
 /// success, a finite final state at rest, and the samples kept (the memory the caller measures).
 template <class Model>
 Row long_horizon(double t_end, double sample) {
-  const auto p = base_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tight_settings<Model>(t_end, sample);
   s.input = ipsim::Input::pulse(0.4, 0.0, 1.0);
   s.max_steps = 10000000;

@@ -44,7 +44,7 @@ void check_derivatives_against_differences() {
       scale(0.5, 2.0);
   double worst = 0.0;
   for (int trial = 0; trial < 20; ++trial) {
-    auto p = test_params<Model>(true);
+    auto p = paper_params<Model>(true);
     for (std::size_t i = 0; i < static_cast<std::size_t>(n); ++i) {
       p.m[i] *= scale(random);
       p.l[i] *= scale(random);
@@ -94,7 +94,7 @@ template <class Model>
 void check_system_jacobian() {
   constexpr int n = Model::kDof;
   const int size = 2 * n + 2;
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   const ipsim::Input feedback = ipsim::Input::from_feedback(
       [](double t, const Eigen::VectorXd& x) { return -3.0 * x(0) - 2.0 * x(n) + 0.5 * std::sin(x(1)) + t; });
   for (const ipsim::Input* input : {&feedback}) {
@@ -126,7 +126,7 @@ void check_system_jacobian() {
 /// quotients (1e-8); bdf spends fewer RHS evaluations with it.
 template <class Model>
 void check_exact_jacobian_pays_off() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   for (const auto method : {ipsim::Method::bdf, ipsim::Method::adams}) {
     // Swinging about the hanging position (regular motion: differences in the step sequence are
     // not amplified as they are near the upright equilibrium).
@@ -169,7 +169,7 @@ void check_exact_jacobian_pays_off() {
 /// reports its work.
 template <class Model>
 void check_every_method_agrees() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto base = tilted_settings<Model>();
   base.t_end = 2.0;
   base.sample = 0.1;
@@ -195,7 +195,7 @@ void check_every_method_agrees() {
 /// input on up to the edge followed by a run with it off from the state reached there.
 template <class Model>
 void check_every_method_stops_at_the_edge() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto base = tilted_settings<Model>();
   base.t_end = 1.3;
   base.sample = 0.1;
@@ -222,7 +222,7 @@ void check_every_method_stops_at_the_edge() {
 /// throwing feedback callback under every method.
 template <class Model>
 void check_method_errors() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.method = ipsim::Method::rk4;
   CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::InvalidInput,
@@ -270,7 +270,7 @@ void check_method_errors() {
 /// it matches bdf with difference quotients.
 template <class Model>
 void check_feedback_jacobian() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.t_end = 2.0;
   s.input = ipsim::Input::from_feedback([](double, const Eigen::VectorXd& x) { return -50.0 * x(Model::kDof); });

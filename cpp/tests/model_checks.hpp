@@ -10,21 +10,9 @@
 
 #include "check.hpp"
 #include "ipsim/ipsim.hpp"
+#include "paper_params.hpp"
 
 namespace ipsim_test {
-
-/// Plausible parameters for any link count, after the paper's CDIP/RSIP experiments.
-template <class Model>
-ipsim::ParamsOf<Model> test_params(bool damped) {
-  ipsim::ParamsOf<Model> p{};
-  for (std::size_t i = 0; i < static_cast<std::size_t>(Model::kDof); ++i) {
-    p.m[i] = i == 0 ? 0.5 : 0.275;
-    p.l[i] = i == 0 ? 0.6 : 0.5;
-    p.delta[i] = damped ? (i == 0 ? 0.3 : 0.1) : 0.0;
-  }
-  p.g = 9.81;
-  return p;
-}
 
 /// Tight tolerances and every link tilted (all below 90°, so V > 0 and relative errors are
 /// meaningful).
@@ -85,7 +73,7 @@ template <class Model>
 void check_model_consistency() {
   using Vector = ipsim::VectorOf<Model>;
   constexpr int n = Model::kDof;
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   for (int trial = 0; trial < 5; ++trial) {
     const Vector q = Vector::LinSpaced(-0.7 + 0.3 * trial, 1.1 - 0.2 * trial);
     const Vector qd = Vector::LinSpaced(0.4 * trial - 0.9, 0.5);
@@ -149,7 +137,7 @@ template <class Model>
 void check_parameter_validation() {
   using ipsim::validate;
   const int last = Model::kLinks;
-  const auto good = test_params<Model>(true);
+  const auto good = paper_params<Model>(true);
   CHECK(validate<Model>(good).empty());
 
   auto expect_one = [&](auto mutate, const std::string& message) {
@@ -192,7 +180,7 @@ void check_parameter_validation() {
 /// Every invalid setting is rejected before integrating, naming the field.
 template <class Model>
 void check_settings_validation() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   CHECK(ipsim::validate<Model>(tilted_settings<Model>()).empty());
   auto expect = [&](auto mutate, const std::string& message) {
     auto s = tilted_settings<Model>();
@@ -226,7 +214,7 @@ void check_settings_validation() {
 /// throwing controller's exception reaches the caller unchanged.
 template <class Model>
 void check_integration_errors() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.max_steps = 1;
   CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "CV_TOO_MUCH_WORK");
@@ -267,7 +255,7 @@ void check_integration_errors() {
 /// In both the drift is CVODE's global error; it shrinks in proportion to rtol.
 template <class Model>
 void check_energy_conservation(ipsim::Method method) {
-  const auto p = test_params<Model>(false);
+  const auto p = paper_params<Model>(false);
   for (const bool hanging : {true, false}) {
     auto s = tilted_settings<Model>();
     s.method = method;
@@ -294,7 +282,7 @@ void check_energy_conservation(ipsim::Method method) {
 /// With damping and a pulse, T + V(t) = T + V(0) + W_in(t) − E_diss(t) at every sample.
 template <class Model>
 void check_work_energy_balance() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.t_end = 10.0;
   s.input = ipsim::Input::pulse(0.4, 0.5, 1.0);
@@ -304,14 +292,7 @@ void check_work_energy_balance() {
   CHECK(r.input_work.front() == 0.0 && r.dissipated_energy.front() == 0.0);
   CHECK(r.dissipated_energy.back() > 0.0);
   CHECK(std::abs(r.input_work.back()) > 0.0);
-  const double e0 = ipsim::mechanical_energy<Model>(p, s.theta, s.dtheta);
-  double worst = 0.0;
-  for (Eigen::Index k = 0; k < r.states.rows(); ++k) {
-    const auto i = static_cast<std::size_t>(k);
-    const double e = ipsim::mechanical_energy<Model>(p, r.states.row(k).transpose());
-    raise_to(worst, std::abs(e - (e0 + r.input_work[i] - r.dissipated_energy[i])));
-  }
-  CHECK_NEAR(worst, 0.0, 1e-6);
+  CHECK_NEAR(work_energy_error<Model>(p, r), 0.0, 1e-6);
 }
 
 /// Upright, at rest, no input: the (unstable) equilibrium is kept to 1e-12.
@@ -321,7 +302,7 @@ void check_upright_equilibrium() {
   s.rtol = 1e-10;
   s.atol = 1e-12;
   s.t_end = 10.0;
-  const ipsim::Result r = ipsim::simulate<Model>(test_params<Model>(true), s);
+  const ipsim::Result r = ipsim::simulate<Model>(paper_params<Model>(true), s);
   CHECK(max_abs(r.states) <= 1e-12);
 }
 
@@ -329,7 +310,7 @@ void check_upright_equilibrium() {
 /// equals integrating each constant-input piece separately.
 template <class Model>
 void check_pulse_discontinuity() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
 
   // Pulse end on the sample grid: a sample exactly at t = 1, one restart (the start at t = 0
   // is not inside the run).
@@ -374,7 +355,7 @@ void check_pulse_discontinuity() {
 /// BDF and Adams agree, and the statistics are filled in (BDF with the default exact Jacobian).
 template <class Model>
 void check_methods_agree() {
-  const auto p = test_params<Model>(true);
+  const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.input = ipsim::Input::sine(0.3, 0.5, 0.1);
   const ipsim::Result bdf = ipsim::simulate<Model>(p, s);
