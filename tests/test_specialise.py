@@ -38,9 +38,13 @@ namespace G = ipgen::general;
 namespace S = ipgen::special;
 
 template <class A, class B>
-double difference(const A& a, const B& b) {  // max |a - b| / max |b|
-  const double scale = b.cwiseAbs().maxCoeff();
-  return (a - b).cwiseAbs().maxCoeff() / (scale > 0 ? scale : 1.0);
+double difference(const A& a, const B& b) {  // max |a - b| / max |b|; NaN if any entry is NaN
+  const double scale = b.cwiseAbs().template maxCoeff<Eigen::PropagateNaN>();
+  return (a - b).cwiseAbs().template maxCoeff<Eigen::PropagateNaN>() / (scale > 0 ? scale : 1.0);
+}
+
+void raise_to(double& worst, double value) {  // std::max would drop a NaN value
+  if (!std::isnan(worst) && !(value <= worst)) worst = value;
 }
 
 int main() {
@@ -55,16 +59,16 @@ int main() {
   while (std::cin >> u) {
     for (int i = 0; i < G::kDof; ++i) std::cin >> q(i);
     for (int i = 0; i < G::kDof; ++i) std::cin >> qd(i);
-    worst = std::max(worst, difference(S::forward_dynamics(q, qd, u, sp), G::forward_dynamics(q, qd, u, gp)));
+    raise_to(worst, difference(S::forward_dynamics(q, qd, u, sp), G::forward_dynamics(q, qd, u, gp)));
     const auto ds = S::forward_dynamics_derivatives(q, qd, u, sp);
     const auto dg = G::forward_dynamics_derivatives(q, qd, u, gp);
-    worst = std::max(worst, difference(ds.dqdd_dq, dg.dqdd_dq));
-    worst = std::max(worst, difference(ds.dqdd_dqd, dg.dqdd_dqd));
-    worst = std::max(worst, difference(ds.dqdd_du, dg.dqdd_du));
+    raise_to(worst, difference(ds.dqdd_dq, dg.dqdd_dq));
+    raise_to(worst, difference(ds.dqdd_dqd, dg.dqdd_dqd));
+    raise_to(worst, difference(ds.dqdd_du, dg.dqdd_du));
 #ifdef ENERGY
     Eigen::Vector3d es(S::kinetic_energy(q, qd, sp), S::potential_energy(q, sp), S::dissipation(qd, sp));
     Eigen::Vector3d eg(G::kinetic_energy(q, qd, gp), G::potential_energy(q, gp), G::dissipation(qd, gp));
-    worst = std::max(worst, difference(es, eg));
+    raise_to(worst, difference(es, eg));
 #endif
   }
   std::printf("%.3e\n", worst);
