@@ -1,10 +1,12 @@
 // The paper's parameters for any link count and the work–energy balance of a run: shared by the
-// tests (model_checks.hpp) and the stability drivers (cpp/stability), so it depends on ipsim only.
+// tests (model_checks.hpp) and the stability drivers (cpp/stability), so it depends on ipsim and
+// check.hpp's error measures only.
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 
+#include "check.hpp"  // raise_to
 #include "ipsim/ipsim.hpp"
 
 namespace ipsim_test {
@@ -38,7 +40,7 @@ double work_energy_error(const ipsim::ParamsOf<Model>& params, const ipsim::Resu
     const auto i = static_cast<std::size_t>(k);
     const double e = ipsim::mechanical_energy<Model>(params, result.states.row(k).transpose());
     const double error = std::abs(e - (e0 + result.input_work[i] - result.dissipated_energy[i]));
-    if (!std::isnan(worst) && !(error <= worst)) worst = error;  // unlike std::max, keeps a NaN
+    raise_to(worst, error);
   }
   return worst;
 }
