@@ -112,7 +112,7 @@ def header(kind: str, links: int) -> tuple[Path, str]:
     """Generate the system's header; return its folder and namespace name."""
     name = f"{kind}{links}"
     directory = BUILD / "headers"
-    command = [PYTHON, "-m", "generator", "--type", kind, "--links", str(links), "--name", name, "-o"]
+    command = [PYTHON, "-m", "ipgen", "--type", kind, "--links", str(links), "--name", name, "-o"]
     command += [str(directory)] + (["--inertia", "full"] if kind == "rotary" else [])
     subprocess.run(command, cwd=ROOT, check=True, capture_output=True, text=True)
     return directory, name

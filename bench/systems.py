@@ -6,8 +6,8 @@ purpose (no sympy, tqdm or matplotlib): the tool imports it too.
 
 from __future__ import annotations
 
-from generator.cli import LINKS_WITHOUT_FORCE
-from generator.model import SYSTEM_TYPES
+from ipgen.cli import LINKS_WITHOUT_FORCE
+from ipgen.model import SYSTEM_TYPES
 
 TYPES: tuple[str, ...] = SYSTEM_TYPES
 LINKS: tuple[int, ...] = (1, 2, 3, 5, 10, 20)
@@ -17,4 +17,4 @@ def ipgen_command(python: str, kind: str, links: int, out: str) -> list[str]:
     """`python -m generator --type KIND --links N -o OUT`, with the --force ipgen asks for above
     LINKS_WITHOUT_FORCE links."""
     force = ["--force"] if links > LINKS_WITHOUT_FORCE else []
-    return [python, "-m", "generator", "--type", kind, "--links", str(links), "-o", out, *force]
+    return [python, "-m", "ipgen", "--type", kind, "--links", str(links), "-o", out, *force]

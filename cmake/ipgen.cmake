@@ -4,7 +4,7 @@
 #   ipgen_add_model(<target> TYPE rotary|classical LINKS <n> [INERTIA pivot|full] [NAME <name>])
 #       Generates <name>.hpp (default name: <target>; INERTIA is for rotary models only, the
 #       generator's default is pivot) into ${CMAKE_CURRENT_BINARY_DIR}/ipgen_models
-#       with `${IPGEN_PYTHON} -m generator`, and creates the INTERFACE target <target> that puts
+#       with `${IPGEN_PYTHON} -m ipgen`, and creates the INTERFACE target <target> that puts
 #       that folder on the include path and links Eigen3::Eigen.
 #
 #   ipgen_add_simulator(<model target> [TARGET <executable>])
@@ -12,12 +12,12 @@
 #       model. Any INTERFACE target with the property IPGEN_MODEL_NAME works as <model target>.
 #
 #   ipgen_add_scene(<file.toml> [CFG_VAR <var>])
-#       Reads the scene's [system] at configure time (`${IPGEN_PYTHON} -m generator --scene <file>
+#       Reads the scene's [system] at configure time (`${IPGEN_PYTHON} -m ipgen --scene <file>
 #       --describe`; a scene error stops CMake with the generator's one-line message; editing
 #       the file re-runs CMake, so a changed [system] regenerates the header). Creates, on first use of the scene's model <name>, the model
 #       target ipgen_model_<name> (ipgen_add_model) and its simulator simulate_<name>
 #       (ipgen_add_simulator); scenes sharing a model must agree on its system. At build time,
-#       `${IPGEN_PYTHON} -m generator --scene <file>` resolves the scene into
+#       `${IPGEN_PYTHON} -m ipgen --scene <file>` resolves the scene into
 #       ${CMAKE_BINARY_DIR}/scenes/<stem>.cfg (re-run when the scene, the generator or its
 #       templates change). Adds the target scene_<stem> (part of ALL: the .cfg and the simulator)
 #       and run_scene_<stem> (runs it, writing ${CMAKE_BINARY_DIR}/scenes/<stem>.csv). <var>
@@ -102,7 +102,7 @@ function(ipgen_add_model target)
   endif()
   add_custom_command(
     OUTPUT "${header}"
-    COMMAND "${IPGEN_PYTHON}" -m generator --type ${arg_TYPE} --links ${arg_LINKS} ${inertia_option}
+    COMMAND "${IPGEN_PYTHON}" -m ipgen --type ${arg_TYPE} --links ${arg_LINKS} ${inertia_option}
             --name ${name} -o "${out_dir}"
     WORKING_DIRECTORY "${_IPGEN_ROOT}"
     DEPENDS ${dependencies}
@@ -147,7 +147,7 @@ endfunction()
 # or stops CMake with the generator's one-line error.
 function(_ipgen_describe_scene scene prefix)
   execute_process(
-    COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" --describe
+    COMMAND "${IPGEN_PYTHON}" -m ipgen --scene "${scene}" --describe
     WORKING_DIRECTORY "${_IPGEN_ROOT}"
     RESULT_VARIABLE status
     OUTPUT_VARIABLE description
@@ -164,7 +164,7 @@ function(_ipgen_describe_scene scene prefix)
   endif()
   set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+) specialise=(true|false)$")
   if(NOT description MATCHES "${pattern}")
-    message(FATAL_ERROR "ipgen: unexpected output of `${IPGEN_PYTHON} -m generator --scene ${scene} "
+    message(FATAL_ERROR "ipgen: unexpected output of `${IPGEN_PYTHON} -m ipgen --scene ${scene} "
                         "--describe`: `${description}`")
   endif()
   set(${prefix}_NAME "${CMAKE_MATCH_1}" PARENT_SCOPE)
@@ -249,7 +249,7 @@ function(ipgen_add_scene scene_file)
   add_custom_command(
     OUTPUT ${outputs}
     BYPRODUCTS ${byproducts}
-    COMMAND "${IPGEN_PYTHON}" -m generator --scene "${scene}" -o "${work_dir}"
+    COMMAND "${IPGEN_PYTHON}" -m ipgen --scene "${scene}" -o "${work_dir}"
     COMMAND "${CMAKE_COMMAND}" -E make_directory "${CMAKE_BINARY_DIR}/scenes"
     COMMAND "${CMAKE_COMMAND}" -E rename "${work_dir}/${stem}.cfg" "${cfg}"
     WORKING_DIRECTORY "${_IPGEN_ROOT}"

@@ -1,6 +1,6 @@
-"""`python -m generator` runs the ipgen command (CMake uses this: no dependence on PATH)."""
+"""`python -m ipgen` runs the ipgen command (CMake uses this: no dependence on PATH)."""
 
-from generator.cli import main
+from ipgen.cli import main
 
 if __name__ == "__main__":
     main()

@@ -6,14 +6,14 @@ import sys
 from pathlib import Path
 
 import click
-
-from generator import __version__
-from generator.errors import SceneError
-from generator.generate import STEPS, Written, generate_header
-from generator.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
-from generator.naming import name_problem
-from generator.output import OutputError, write_file
-from generator.specialise import (
+from ipgen import __version__
+from ipgen.emit import DEFAULT_EMIT, TARGETS, EmitError, parse_emit
+from ipgen.errors import SceneError
+from ipgen.generate import STEPS, Written, generate
+from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from ipgen.naming import name_problem
+from ipgen.output import OutputError
+from ipgen.specialise import (
     FUNCTIONS,
     Specialisation,
     SpecialisationError,
@@ -118,6 +118,14 @@ class InvalidOptions(click.UsageError):
     "(default: all).",
 )
 @click.option(
+    "--emit",
+    default=None,
+    metavar="TARGET,...",
+    help="What to write for the model, one or more of: "
+    + "; ".join(f"{target.name} = {target.summary}" for target in TARGETS.values())
+    + f"  [default: {','.join(DEFAULT_EMIT)}; with --scene: the scene's [system] emit]",
+)
+@click.option(
     "--force",
     is_flag=True,
     help="Overwrite files in DIR even if ipgen did not write them; "
@@ -134,6 +142,7 @@ def cli(
     describe: bool,
     fix: str | None,
     outputs: str | None,
+    emit: str | None,
     force: bool,
 ) -> None:
     if describe:
@@ -141,8 +150,12 @@ def cli(
         return
     if directory is None:
         raise InvalidOptions("missing -o DIR: say where to write the header")
+    try:
+        targets = parse_emit(emit) if emit is not None else None
+    except EmitError as e:
+        raise InvalidOptions(str(e)) from None
     if scene is not None:
-        _generate_scene(scene, directory, force, system_type, links, name, inertia, fix, outputs)
+        _generate_scene(scene, directory, force, targets, system_type, links, name, inertia, fix, outputs)
         return
     if system_type is None or links is None:
         missing = "--type" if system_type is None else "--links"
@@ -170,7 +183,7 @@ def cli(
         )
     except SpecialisationError as e:
         raise InvalidOptions(str(e)) from None
-    _report(system, name, _generate(system, name, directory, force, spec))
+    _report(system, name, _generate(system, name, directory, force, spec, targets or DEFAULT_EMIT))
 
 
 def cost_estimate(links: int) -> str:
@@ -197,7 +210,7 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
     if path is None:
         raise InvalidOptions("--describe needs --scene FILE: it describes a scene's system")
     _check_no_system_options(*clashing)
-    from generator.scene import load_scene  # only scene commands need it
+    from ipgen.scene import load_scene  # only scene commands need it
 
     scene = load_scene(path)
     click.echo(
@@ -207,17 +220,19 @@ def _describe_scene(path: Path | None, *clashing: object) -> None:
     _warn(scene.warnings)
 
 
-def _generate_scene(path: Path, directory: Path, force: bool, *clashing: object) -> None:
+def _generate_scene(
+    path: Path, directory: Path, force: bool, targets: tuple[str, ...] | None, *clashing: object
+) -> None:
     _check_no_system_options(*clashing)
-    from generator.scene import load_scene, resolved_config  # only scene commands need it
+    from ipgen.scene import load_scene, resolved_config  # only scene commands need it
 
     scene = load_scene(path)
     system = scene.system
     spec = from_scene(scene) if scene.specialise else Specialisation()
-    _report(system, scene.name, _generate(system, scene.name, directory, force, spec))
-    config = directory / f"{scene.stem}.cfg"
-    status = write_file(config, resolved_config(scene), force)
-    click.echo(f"{_VERBS[status]} {config} (resolved scene {scene.stem})")
+    config = (f"{scene.stem}.cfg", resolved_config(scene))
+    written = _generate(system, scene.name, directory, force, spec, targets or scene.emit, (config,))
+    _report(system, scene.name, written[:-1])
+    click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene.stem})")
     _warn(scene.warnings)
 
 
@@ -229,26 +244,42 @@ def _warn(warnings: tuple[str, ...]) -> None:
 _VERBS = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}
 
 
-def _report(system: System, name: str, written: Written) -> None:
+def _report(system: System, name: str, written: list[Written]) -> None:
     links = system.links
-    click.echo(
-        f"{_VERBS[written.status]} {written.path} ({system.type}, {links} link{'s' if links > 1 else ''}, "
-        f"{written.size // 1024} KiB, namespace ipgen::{name})"
-    )
+    for file in written:
+        click.echo(
+            f"{_VERBS[file.status]} {file.path} ({system.type}, {links} link{'s' if links > 1 else ''}, "
+            f"{file.size // 1024} KiB, model {name})"
+        )
 
 
-def _generate(system: System, name: str, directory: Path, force: bool, spec: Specialisation) -> Written:
+def _generate(
+    system: System,
+    name: str,
+    directory: Path,
+    force: bool,
+    spec: Specialisation,
+    emit: tuple[str, ...],
+    extra_files: tuple[tuple[str, str], ...] = (),
+) -> list[Written]:
     if system.links < PROGRESS_FROM_LINKS[system.type]:
-        return generate_header(system, name, directory, force, spec=spec)
+        return generate(system, name, directory, force, spec=spec, emit=emit, extra_files=extra_files)
     with click.progressbar(
-        length=STEPS,
+        length=STEPS + len(emit),
         label=f"deriving {system.type}{system.links}",
         file=sys.stderr,
         show_eta=False,
         item_show_func=lambda step: step,
     ) as bar:
-        return generate_header(
-            system, name, directory, force, progress=lambda step: bar.update(1, step), spec=spec
+        return generate(
+            system,
+            name,
+            directory,
+            force,
+            progress=lambda step: bar.update(1, step),
+            spec=spec,
+            emit=emit,
+            extra_files=extra_files,
         )
 
 

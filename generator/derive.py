@@ -16,14 +16,13 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-from generator.model import Body, System, algebra_for, base_inertia, bodies, rayleigh_dissipation
-from generator.poly import ZERO, Poly
-from generator.polynomial import Algebra
+from ipgen.model import Body, System, algebra_for, base_inertia, bodies, rayleigh_dissipation
+from ipgen.poly import ZERO, Poly
+from ipgen.polynomial import Algebra
 
 if TYPE_CHECKING:
     import sympy as sp
-
-    from generator.model import Symbols
+    from ipgen.model import Symbols
 
 ProgressCallback = Callable[[str], None]
 PolyMatrix = list[list[Poly]]

@@ -1,4 +1,4 @@
-"""One generation job: derive the equations, render the header, write it safely."""
+"""One generation job: derive the equations once, render every requested target, write them safely."""
 
 from __future__ import annotations
 
@@ -7,21 +7,25 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from generator.codegen.header import HeaderRequest, render_header
-from generator.derive import derive
-from generator.model import System
-from generator.output import prepare_directory, write_file
-from generator.specialise import FUNCTIONS, Specialisation, format_exact
+from ipgen.codegen.header import HeaderRequest
+from ipgen.derive import derive
+from ipgen.emit import DEFAULT_EMIT, TARGETS
+from ipgen.model import System
+from ipgen.output import prepare_directory, write_files
+from ipgen.specialise import FUNCTIONS, Specialisation, format_exact
 
 GENERAL = Specialisation()
 
-STEPS = 8  # progress steps reported: six by the derivation, render, write
+STEPS = 7  # progress steps reported besides one per target: six by the derivation, write
 
 
-def canonical_command(system: System, name: str, spec: Specialisation = GENERAL) -> str:
-    """The ipgen command that regenerates this header (in any output folder)."""
+def canonical_command(
+    system: System, name: str, spec: Specialisation = GENERAL, emit: tuple[str, ...] = DEFAULT_EMIT
+) -> str:
+    """The ipgen command that regenerates these files (in any output folder)."""
+    emitting = "" if emit == DEFAULT_EMIT else " --emit " + ",".join(emit)
     if spec.scene:
-        return f"ipgen --scene {spec.scene} -o <dir>"
+        return f"ipgen --scene {spec.scene}{emitting} -o <dir>"
     command = f"ipgen --type {system.type} --links {system.links}"
     if system.is_rotary:
         command += f" --inertia {system.inertia}"
@@ -30,7 +34,7 @@ def canonical_command(system: System, name: str, spec: Specialisation = GENERAL)
         command += " --fix " + ",".join(f"{n}={format_exact(v)}" for n, v in spec.fixed)
     if spec.outputs != FUNCTIONS:
         command += " --outputs " + ",".join(spec.outputs)
-    return command + " -o <dir>"
+    return command + emitting + " -o <dir>"
 
 
 @dataclass(frozen=True)
@@ -38,6 +42,43 @@ class Written:
     path: Path
     status: str  # created | replaced | unchanged
     size: int
+
+
+def generate(
+    system: System,
+    name: str,
+    directory: Path,
+    force: bool = False,
+    progress: Callable[[str], None] | None = None,
+    spec: Specialisation = GENERAL,
+    emit: tuple[str, ...] = DEFAULT_EMIT,
+    extra_files: tuple[tuple[str, str], ...] = (),
+) -> list[Written]:
+    """Derive `system` once, render every target of `emit` (specialised by `spec`) as
+    `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
+    write them all or none (`output.write_files`)."""
+    report = progress or (lambda step: None)
+    equations = derive(system, report)
+    request = HeaderRequest(name, canonical_command(system, name, spec, emit), spec)
+    files: list[tuple[Path, str]] = []
+    for target in emit:
+        report(f"writing {target}")
+        rendered = TARGETS[target].render(equations, request)
+        files += [(directory / f"{name}{suffix}", text) for suffix, text in rendered.items()]
+    files += [(directory / file_name, text) for file_name, text in extra_files]
+    report("writing")
+    created = prepare_directory(directory)
+    try:
+        statuses = write_files(files, force)
+    except BaseException:
+        if created:
+            with contextlib.suppress(OSError):
+                directory.rmdir()
+        raise
+    return [
+        Written(path, status, len(text.encode()))
+        for (path, text), status in zip(files, statuses, strict=True)
+    ]
 
 
 def generate_header(
@@ -48,19 +89,5 @@ def generate_header(
     progress: Callable[[str], None] | None = None,
     spec: Specialisation = GENERAL,
 ) -> Written:
-    """Derive `system`, render `DIR/<name>.hpp` (specialised by `spec`) and write it atomically."""
-    report = progress or (lambda step: None)
-    equations = derive(system, report)
-    report("C++ code")
-    text = render_header(equations, HeaderRequest(name, canonical_command(system, name, spec), spec))
-    report("writing")
-    created = prepare_directory(directory)
-    path = directory / f"{name}.hpp"
-    try:
-        status = write_file(path, text, force)
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                directory.rmdir()
-        raise
-    return Written(path, status, len(text.encode()))
+    """Derive `system` and write only its C++ header `DIR/<name>.hpp` (`generate` with cpp)."""
+    return generate(system, name, directory, force, progress, spec)[0]

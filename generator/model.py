@@ -14,9 +14,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from generator.poly import ZERO, Poly
-from generator.polynomial import Algebra
-from generator.vectors import PlanarVector
+from ipgen.poly import ZERO, Poly
+from ipgen.polynomial import Algebra
+from ipgen.vectors import PlanarVector
 
 if TYPE_CHECKING:
     import sympy as sp

@@ -17,12 +17,11 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
-from generator.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
+from ipgen.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
 
 if TYPE_CHECKING:
     import sympy as sp
-
-    from generator.model import Symbols
+    from ipgen.model import Symbols
 
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"
 
@@ -195,7 +194,7 @@ class Algebra:
     def symbols(self) -> Symbols:
         """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u); imports sympy."""
         if self._symbols is None:
-            from generator.model import Symbols
+            from ipgen.model import Symbols
 
             self._symbols = Symbols.for_dof(self.dof)
         return self._symbols

@@ -38,10 +38,11 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any, NoReturn
 
-from generator import __version__
-from generator import scene_schema as schema
-from generator.errors import SceneError
-from generator.model import (
+from ipgen import __version__
+from ipgen import scene_schema as schema
+from ipgen.emit import DEFAULT_EMIT, EmitError, parse_emit
+from ipgen.errors import SceneError
+from ipgen.model import (
     PARAMETER_GROUPS,
     System,
     parameter_names,
@@ -49,7 +50,7 @@ from generator.model import (
     split_parameter,
     unused_parameter,
 )
-from generator.naming import name_problem
+from ipgen.naming import name_problem
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,7 @@ class Scene:
     free: tuple[str, ...] = ()
     energy: bool = False
     specialise: bool = False  # generate a header specialised to this scene (see specialise.py)
+    emit: tuple[str, ...] = DEFAULT_EMIT  # what ipgen writes for the model (emit.py)
     # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
     # "9.81"), so that it can be used as an exact rational; see `exact`.
     decimals: tuple[tuple[str, str], ...] = ()
@@ -440,6 +442,7 @@ class _System:
     inertia: str
     name: str
     specialise: bool
+    emit: tuple[str, ...]
 
 
 def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
@@ -475,6 +478,7 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
         free=free,
         energy=energy,
         specialise=system.specialise,
+        emit=system.emit,
         decimals=params.decimals,
         warnings=_warnings(reader, sim["rtol"]),
     )
@@ -494,7 +498,21 @@ def _read_system(section: _Section) -> _System:
     inertia = section.choice("inertia", schema.INERTIAS, default=schema.DEFAULT_INERTIA)
     name = _read_name(section, System(kind, links, inertia).default_name)  # type: ignore[arg-type]
     specialise = section.boolean("specialise", default=False)
-    return _System(type=kind, links=links, inertia=inertia, name=name, specialise=specialise)
+    return _System(kind, links, inertia, name, specialise, _read_emit(section))
+
+
+def _read_emit(section: _Section) -> tuple[str, ...]:
+    if not section.has("emit"):
+        return DEFAULT_EMIT
+    value = section.data["emit"]
+    if not isinstance(value, list):
+        section.bad(
+            "emit", value, f'expected an array of target names, e.g. ["cpp"], got {_type_name(value)}'
+        )
+    try:
+        return parse_emit(value, where=section.key("emit"))
+    except EmitError as e:
+        section.reader.fail(str(e))
 
 
 def _read_name(section: _Section, default: str) -> str:

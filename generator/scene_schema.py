@@ -1,17 +1,17 @@
 """What a scene file may contain: tables, keys, choices, defaults and C++ naming rules.
 
-Pure data, no logic: `generator.scene` reads and checks scene files against it.
+Pure data, no logic: `ipgen.scene` reads and checks scene files against it.
 """
 
 from __future__ import annotations
 
 import re
 
-from generator import model
+from ipgen import model
 
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {
-    "system": ("type", "links", "inertia", "name", "specialise"),
+    "system": ("type", "links", "inertia", "name", "specialise", "emit"),
     "parameters": ("m", "l", "delta", "g", "free"),
     "initial": ("theta", "dtheta"),
     "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),

@@ -12,18 +12,18 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import TYPE_CHECKING
 
-from generator.derive import Equations
-from generator.model import (
+from ipgen.derive import Equations
+from ipgen.model import (
     System,
     parameter_names,
     parameter_range,
     split_parameter,
     unused_parameter,
 )
-from generator.polynomial import PARAMETER, Algebra
+from ipgen.polynomial import PARAMETER, Algebra
 
 if TYPE_CHECKING:
-    from generator.scene import Scene
+    from ipgen.scene import Scene
 
 # Every function a header can define, in header order.
 FUNCTIONS: tuple[str, ...] = (

@@ -11,10 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from generator.poly import ZERO, Poly
+from ipgen.poly import ZERO, Poly
 
 if TYPE_CHECKING:
-    from generator.polynomial import Algebra
+    from ipgen.polynomial import Algebra
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from generator import output
-from generator.cli import run
+from ipgen import output
+from ipgen.cli import run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -19,7 +19,7 @@ def ipgen(
     *args: str, env: dict[str, str] | None = None, cwd: Path | None = None
 ) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "generator", *args], capture_output=True, text=True, env=env, cwd=cwd
+        [sys.executable, "-m", "ipgen", *args], capture_output=True, text=True, env=env, cwd=cwd
     )
 
 
@@ -39,7 +39,7 @@ def test_help_is_a_manual(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_version(capsys: pytest.CaptureFixture[str]) -> None:
-    from generator import __version__
+    from ipgen import __version__
 
     assert run(["--version"]) == 0
     assert __version__ in capsys.readouterr().out
@@ -86,7 +86,7 @@ def test_generation_does_not_import_sympy(tmp_path: Path) -> None:
     ]
     runs[1] += ["-o", str(tmp_path / "c")]
     program = (
-        "import sys\nfrom generator.cli import run\n"
+        "import sys\nfrom ipgen.cli import run\n"
         f"statuses = [run(args) for args in {runs!r}]\n"
         "print(statuses, sorted(m for m in sys.modules if m.split('.')[0] == 'sympy'))\n"
     )
@@ -285,7 +285,8 @@ def test_templates_ship_with_a_plain_install(tmp_path: Path) -> None:
         text=True,
     )
     assert install.returncode == 0, install.stderr
-    assert (target / "generator" / "templates" / "model.hpp.jinja").is_file()
+    assert (target / "ipgen" / "templates" / "model.hpp.jinja").is_file()
+    assert not (target / "generator").exists(), "only the ipgen package is installed"
     env = {**os.environ, "PYTHONPATH": str(target)}
     result = ipgen("--type", "classical", "--links", "1", "-o", str(tmp_path / "o"), env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr

@@ -15,7 +15,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from generator.cli import run
+from ipgen.cli import run
 
 MISSING = None
 types = st.sampled_from([MISSING, "classical", "rotary", "Rotary", "cart", ""])
@@ -70,7 +70,7 @@ def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
     # Large enough to be still generating when the signal comes (it takes several seconds).
     command = ["--type", "classical", "--links", "50", "--force", "-o", str(out)]
     process = subprocess.Popen(
-        [sys.executable, "-m", "generator", *command],
+        [sys.executable, "-m", "ipgen", *command],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

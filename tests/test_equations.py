@@ -21,8 +21,8 @@ import pytest
 import sympy as sp
 from cases import CASES, case_id
 
-from generator.derive import Equations, derive
-from generator.model import Symbols, System
+from ipgen.derive import Equations, derive
+from ipgen.model import Symbols, System
 
 # --------------------------------------------------------------------------- helpers
 

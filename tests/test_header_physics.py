@@ -28,8 +28,8 @@ import sympy as sp
 from conftest import CppModels, check_built, model_name
 from numeric import assert_close
 
-from generator.derive import derive
-from generator.model import System
+from ipgen.derive import derive
+from ipgen.model import System
 
 MODELS = [
     *(System("classical", n) for n in range(1, 6)),

@@ -8,8 +8,8 @@ from pathlib import Path
 
 from cxx import cxx_command, require_toolchain
 
-from generator.generate import generate_header
-from generator.model import System
+from ipgen.generate import generate_header
+from ipgen.model import System
 
 ROOT = Path(__file__).resolve().parents[1]
 

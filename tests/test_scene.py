@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from generator import __version__
-from generator.scene import (
+from ipgen import __version__
+from ipgen.scene import (
     InputSpec,
     SceneError,
     format_number,
@@ -642,7 +642,7 @@ def test_resolved_config_is_deterministic(tmp_path: Path) -> None:
     path = make(tmp_path, {"system.specialise": "true", "parameters.free": '["g", "m0"]'})
     first = resolved_config(load_scene(path))
     program = (
-        "import sys\nfrom pathlib import Path\nfrom generator.scene import load_scene, resolved_config\n"
+        "import sys\nfrom pathlib import Path\nfrom ipgen.scene import load_scene, resolved_config\n"
         "sys.stdout.write(resolved_config(load_scene(Path(sys.argv[1]))))\n"
     )
     for seed in ("0", "12345"):

@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 from cxx import cxx_command, require_toolchain
 
-from generator.cli import run
-from generator.generate import generate_header
-from generator.model import System
-from generator.scene import load_scene
-from generator.specialise import ENERGY_FUNCTIONS, from_scene
+from ipgen.cli import run
+from ipgen.generate import generate_header
+from ipgen.model import System
+from ipgen.scene import load_scene
+from ipgen.specialise import ENERGY_FUNCTIONS, from_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))

@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-from generator.scene import Scene, load_scene  # noqa: E402
+from ipgen.scene import Scene, load_scene  # noqa: E402
 
 # (scene stem, short name of the outputs, what the paper calls it)
 EXPERIMENTS = [

@@ -8,7 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from bench.report import BUILD, PYTHON, ROOT
-from generator.scene import Scene, load_scene
+from ipgen.scene import Scene, load_scene
 
 HERE = Path(__file__).resolve().parent
 OUT = BUILD / "workprecision"
@@ -33,7 +33,7 @@ def prepare(toml: Path) -> tuple[Scene, Path, Path]:
     folder = OUT / scene.stem
     folder.mkdir(parents=True, exist_ok=True)
     subprocess.run(
-        [PYTHON, "-m", "generator", "--scene", str(toml), "-o", str(folder)],
+        [PYTHON, "-m", "ipgen", "--scene", str(toml), "-o", str(folder)],
         cwd=ROOT,
         check=True,
         capture_output=True,

@@ -25,7 +25,7 @@ from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from fractions import Fraction
 
-from generator.poly import Monomial, Poly
+from ipgen.poly import Monomial, Poly
 
 LEAF, CONST, MUL, ADD = 0, 1, 2, 3
 

@@ -12,12 +12,12 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from generator.codegen.cse import ADD, LEAF, MUL, Graph, Signed
-from generator.codegen.printer import CppPrinter
-from generator.derive import Equations, PolyMatrix
-from generator.model import split_parameter
-from generator.poly import Poly
-from generator.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
+from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
+from ipgen.codegen.printer import CppPrinter
+from ipgen.derive import Equations, PolyMatrix
+from ipgen.model import split_parameter
+from ipgen.poly import Poly
+from ipgen.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
 
 
 @dataclass(frozen=True)

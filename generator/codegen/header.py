@@ -7,11 +7,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
-
-from generator import __version__
-from generator.codegen.functions import FunctionBody, Output, build_body, params_field
-from generator.derive import Equations
-from generator.specialise import FUNCTIONS, Specialisation, specialise
+from ipgen import __version__
+from ipgen.codegen.functions import FunctionBody, Output, build_body, params_field
+from ipgen.derive import Equations
+from ipgen.specialise import FUNCTIONS, Specialisation, specialise
 
 TEMPLATE = "model.hpp.jinja"
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from fractions import Fraction
 
-from generator.codegen.cse import ADD, CONST, LEAF, MUL, Graph
+from ipgen.codegen.cse import ADD, CONST, LEAF, MUL, Graph
 
 
 def literal(value: Fraction) -> str:

@@ -1,0 +1,61 @@
+"""What ipgen writes (`--emit`): each target renders files from the same derived equations.
+
+A target is a printer plus a template over `Equations`; adding one means adding a renderer
+here, never a second derivation. The renderers are imported on use, so that a command pays
+only for the targets it asks for.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ipgen.codegen.header import HeaderRequest
+    from ipgen.derive import Equations
+
+# file suffix -> text, for the files of one target
+Rendered = dict[str, str]
+
+
+class EmitError(ValueError):
+    """An unknown or empty --emit / `emit = [...]` value; the message lists the valid ones."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """One kind of output: the files `NAME<suffix>` it writes and how to render them."""
+
+    name: str
+    suffixes: tuple[str, ...]
+    summary: str  # for --help and messages
+    render: Callable[[Equations, HeaderRequest], Rendered]
+
+
+def _cpp(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.header import render_header
+
+    return {".hpp": render_header(eqs, request)}
+
+
+# In the order their files are written and listed.
+TARGETS: dict[str, Target] = {
+    "cpp": Target("cpp", (".hpp",), "the C++17 header (Eigen) NAME.hpp", _cpp),
+}
+DEFAULT_EMIT: tuple[str, ...] = ("cpp",)
+
+
+def parse_emit(values: str | Iterable[str], where: str = "--emit") -> tuple[str, ...]:
+    """`"cpp,equations"` (or a list of names) -> the targets in canonical order, each once."""
+    names = values.split(",") if isinstance(values, str) else list(values)
+    wanted = [name.strip() if isinstance(name, str) else name for name in names]
+    wanted = [name for name in wanted if name != ""]
+    valid = ", ".join(TARGETS)
+    if not wanted:
+        raise EmitError(f"{where} is empty: name what to write, one or more of {valid}")
+    for name in wanted:
+        if name not in TARGETS:
+            shown = repr(name) if isinstance(name, str) else f"{name!r} (not a string)"
+            raise EmitError(f"{where}: unknown target {shown[:40]}: choose from {valid}")
+    return tuple(name for name in TARGETS if name in wanted)
