@@ -9,6 +9,7 @@ from pathlib import Path
 import jinja2
 from ipgen import __version__
 from ipgen.codegen.functions import FunctionBody, Output, build_body, params_field
+from ipgen.controller import Controller
 from ipgen.derive import Equations
 from ipgen.specialise import FUNCTIONS, Specialisation, specialise
 
@@ -55,6 +56,7 @@ class HeaderRequest:
     name: str  # C++ namespace ipgen::<name> and file <name>.hpp
     command: str  # the canonical ipgen command that regenerates it
     specialisation: Specialisation = field(default_factory=Specialisation)
+    controller: Controller | None = None  # a scene's feedback controller, for targets that print it
 
 
 def templates_dir() -> Path:
