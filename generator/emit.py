@@ -11,6 +11,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ipgen.errors import Error
+
 if TYPE_CHECKING:
     from ipgen.codegen.header import HeaderRequest
     from ipgen.derive import Equations
@@ -19,7 +21,7 @@ if TYPE_CHECKING:
 Rendered = dict[str, str]
 
 
-class EmitError(ValueError):
+class EmitError(Error, ValueError):
     """An unknown or empty --emit / `emit = [...]` value; the message lists the valid ones."""
 
 

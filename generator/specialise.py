@@ -13,6 +13,7 @@ from fractions import Fraction
 from typing import TYPE_CHECKING
 
 from ipgen.derive import Equations
+from ipgen.errors import Error
 from ipgen.model import (
     System,
     parameter_names,
@@ -42,7 +43,7 @@ SIMULATOR_FUNCTIONS: tuple[str, ...] = ("forward_dynamics", "forward_dynamics_de
 ENERGY_FUNCTIONS: tuple[str, ...] = ("kinetic_energy", "potential_energy", "dissipation")
 
 
-class SpecialisationError(ValueError):
+class SpecialisationError(Error, ValueError):
     """An invalid --fix or --outputs value; the message names it and what is expected."""
 
 
