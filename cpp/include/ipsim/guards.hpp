@@ -29,9 +29,9 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 
 #include "ipsim/diagnostics.hpp"
+#include "ipsim/eigenvalues.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -76,28 +76,37 @@ struct Conditioning {
   double smallest_eigenvalue = 1.0;  ///< λmin(M)
 };
 
-/// The condition numbers of a symmetric matrix `M` (only meaningful for a mass matrix).
-template <class Derived>
-Conditioning conditioning_of(const Eigen::MatrixBase<Derived>& M) {
+namespace detail {
+
+/// The condition numbers of a symmetric matrix (only meaningful for a mass matrix); not a
+/// template, so it is compiled once per program whatever the models (eigenvalues.hpp).
+inline Conditioning conditioning_of_matrix(const Eigen::MatrixXd& matrix) {
   constexpr double inf = std::numeric_limits<double>::infinity();
-  const Eigen::MatrixXd matrix = M.template cast<double>();
   Conditioning c;
   if (!matrix.allFinite()) return {inf, inf, std::numeric_limits<double>::quiet_NaN()};
-  auto ratio = [](const Eigen::VectorXd& eigenvalues) {
-    const double low = eigenvalues.minCoeff(), high = eigenvalues.maxCoeff();
+  auto ratio = [](const Eigen::VectorXd& eigenvalues) {  // ascending
+    const double low = eigenvalues(0), high = eigenvalues(eigenvalues.size() - 1);
     return low > 0.0 ? high / low : inf;
   };
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> raw(matrix, Eigen::EigenvaluesOnly);
-  c.smallest_eigenvalue = raw.eigenvalues().minCoeff();
-  c.cond = ratio(raw.eigenvalues());
+  const Eigen::VectorXd raw = symmetric_eigenvalues(matrix);
+  c.smallest_eigenvalue = raw(0);
+  c.cond = ratio(raw);
   if ((matrix.diagonal().array() <= 0.0).any()) {
     c.scaled_cond = inf;
     return c;
   }
   const Eigen::VectorXd s = matrix.diagonal().cwiseSqrt().cwiseInverse();
   const Eigen::MatrixXd scaled = s.asDiagonal() * matrix * s.asDiagonal();
-  c.scaled_cond = ratio(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(scaled, Eigen::EigenvaluesOnly).eigenvalues());
+  c.scaled_cond = ratio(symmetric_eigenvalues(scaled));
   return c;
+}
+
+}  // namespace detail
+
+/// The condition numbers of a symmetric matrix `M` (only meaningful for a mass matrix).
+template <class Derived>
+Conditioning conditioning_of(const Eigen::MatrixBase<Derived>& M) {
+  return detail::conditioning_of_matrix(M.template cast<double>());
 }
 
 /// The worst conditioning of M over a few configurations, and where it occurs.
@@ -258,8 +267,8 @@ double stiffness(RhsContext<Model>& context, double t, const Eigen::VectorXd& x)
         shifted(j) = x(j);
       }
       if (ok) {
-        const Eigen::EigenSolver<Eigen::MatrixXd> solver(jacobian, false);
-        result = std::max(0.0, -solver.eigenvalues().real().minCoeff());
+        const Eigen::VectorXd real = eigenvalue_real_parts(jacobian);
+        if (real.allFinite()) result = std::max(0.0, -real.minCoeff());
       }
     }
   } catch (...) {
