@@ -8,7 +8,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 BUILD := build
-APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3 python3-venv
+APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapack-dev python3 python3-venv
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 

@@ -1,10 +1,13 @@
-# CMake helpers for ipgen: generate model headers with the Python generator, build per-model
-# simulators, and turn TOML scenes into resolved .cfg files.
+# CMake functions of ipgen: generate model headers with the Python generator, build per-model
+# simulators, and turn TOML scenes into resolved .cfg files. The one definition of these
+# functions, used both by this repository's build (CMakeLists.txt includes this file) and by the
+# CMake package installed with the Python package (ipgenConfig.cmake beside it includes it:
+# `find_package(ipgen CONFIG REQUIRED)` with -Dipgen_DIR=$(ipgen --cmake-dir)).
 #
 #   ipgen_add_model(<target> TYPE rotary|classical LINKS <n> [INERTIA pivot|full] [NAME <name>])
 #       Generates <name>.hpp (default name: <target>; INERTIA is for rotary models only, the
 #       generator's default is pivot) into ${CMAKE_CURRENT_BINARY_DIR}/ipgen_models
-#       with `${IPGEN_PYTHON} -m ipgen`, and creates the INTERFACE target <target> that puts
+#       with `<python> -m ipgen`, and creates the INTERFACE target <target> that puts
 #       that folder on the include path and links Eigen3::Eigen.
 #
 #   ipgen_add_simulator(<model target> [TARGET <executable>])
@@ -12,32 +15,51 @@
 #       model. Any INTERFACE target with the property IPGEN_MODEL_NAME works as <model target>.
 #
 #   ipgen_add_scene(<file.toml> [CFG_VAR <var>])
-#       Reads the scene's [system] at configure time (`${IPGEN_PYTHON} -m ipgen --scene <file>
+#       Reads the scene's [system] at configure time (`<python> -m ipgen --scene <file>
 #       --describe`; a scene error stops CMake with the generator's one-line message; editing
 #       the file re-runs CMake, so a changed [system] regenerates the header). Creates, on first use of the scene's model <name>, the model
 #       target ipgen_model_<name> (ipgen_add_model) and its simulator simulate_<name>
 #       (ipgen_add_simulator); scenes sharing a model must agree on its system. At build time,
-#       `${IPGEN_PYTHON} -m ipgen --scene <file>` resolves the scene into
+#       `<python> -m ipgen --scene <file>` resolves the scene into
 #       ${CMAKE_BINARY_DIR}/scenes/<stem>.cfg (re-run when the scene, the generator or its
 #       templates change). Adds the target scene_<stem> (part of ALL: the .cfg and the simulator)
 #       and run_scene_<stem> (runs it, writing ${CMAKE_BINARY_DIR}/scenes/<stem>.csv). <var>
 #       receives the .cfg path.
 #
-# The generator's Python is ${IPGEN_PYTHON}: set it with -DIPGEN_PYTHON=..., otherwise the
-# repository's .venv is used. It is only looked for when one of these functions is called.
+#   ipgen_find_ipsim()
+#       Finds Eigen 3.4, SUNDIALS 6 and LAPACK (each missing one stops CMake naming its Debian
+#       package) and defines the INTERFACE target ipgen::ipsim: the header-only simulator
+#       (cpp/include) with everything it links. ipgenConfig.cmake calls it.
+#
+# The generator's <python> is the interpreter whose `ipgen` package holds this file: the first
+# of ${IPGEN_PYTHON} (if set), the checkout's .venv, <prefix>/bin/python3 of the environment this
+# file is installed in, and python3/python on PATH whose `python -m ipgen --cmake-dir` names the
+# folder of this file. So a project that found the installed package runs the same ipgen, and
+# nothing is written at install time. It is only looked for when a generating function is called.
+#
+# Layout (the same in the checkout and in the installed package ipgen/): cmake/ (this file),
+# cpp/include/ipsim/ (the simulator), cpp/src/simulate.cpp (the simulator's command line).
 
 include_guard(GLOBAL)
 
-# The repository root, wherever this file is included from.
+# The folder holding cmake/ and cpp/: the checkout, or the installed package's folder ipgen/.
 cmake_path(GET CMAKE_CURRENT_LIST_DIR PARENT_PATH _IPGEN_ROOT)
-set(_IPGEN_ROOT "${_IPGEN_ROOT}" CACHE INTERNAL "ipgen source root")
+set(_IPGEN_ROOT "${_IPGEN_ROOT}" CACHE INTERNAL "ipgen's folder (checkout or installed package)")
+set(_IPGEN_CMAKE_DIR "${CMAKE_CURRENT_LIST_DIR}" CACHE INTERNAL "folder of ipgen.cmake")
+# The generator's source: generator/ and templates/ in the checkout, the package itself installed.
+if(EXISTS "${_IPGEN_ROOT}/generator/__init__.py")
+  set(_IPGEN_CHECKOUT TRUE CACHE INTERNAL "ipgen.cmake is used from a checkout")
+else()
+  set(_IPGEN_CHECKOUT FALSE CACHE INTERNAL "ipgen.cmake is used from a checkout")
+endif()
 
 # Flags every target of the project is compiled with.
 function(ipgen_target_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
 endfunction()
 
-# Resolves IPGEN_PYTHON (cache) or stops with a message saying how to get one.
+# Resolves IPGEN_PYTHON (cache): the interpreter whose ipgen owns this file, or stops with a
+# message saying how to get one.
 function(_ipgen_require_python)
   if(IPGEN_PYTHON)
     if(NOT EXISTS "${IPGEN_PYTHON}")
@@ -45,23 +67,108 @@ function(_ipgen_require_python)
     endif()
     return()
   endif()
-  set(venv_python "${_IPGEN_ROOT}/.venv/bin/python")
-  if(EXISTS "${venv_python}")
-    set(IPGEN_PYTHON "${venv_python}" CACHE FILEPATH "Python interpreter that runs the ipgen generator")
+  set(candidates "")
+  if(_IPGEN_CHECKOUT)
+    list(APPEND candidates "${_IPGEN_ROOT}/.venv/bin/python")
   else()
-    message(FATAL_ERROR
-      "ipgen: no Python environment for the generator (looked for ${venv_python}). "
-      "Run `make test` or `make venv` first, or pass -DIPGEN_PYTHON=/path/to/python.")
+    # <prefix>/lib/pythonX.Y/site-packages/ipgen/cmake -> <prefix>/bin/python3 (a virtualenv, or
+    # a system or user installation).
+    cmake_path(GET _IPGEN_ROOT PARENT_PATH site_packages)
+    cmake_path(GET site_packages PARENT_PATH python_lib)
+    cmake_path(GET python_lib FILENAME python_version)
+    cmake_path(GET python_lib PARENT_PATH lib)
+    cmake_path(GET lib PARENT_PATH prefix)
+    list(APPEND candidates "${prefix}/bin/${python_version}" "${prefix}/bin/python3" "${prefix}/bin/python")
   endif()
+  foreach(name IN ITEMS python3 python)
+    find_program(_IPGEN_PATH_PYTHON_${name} NAMES ${name} NO_CACHE)
+    if(_IPGEN_PATH_PYTHON_${name})
+      list(APPEND candidates "${_IPGEN_PATH_PYTHON_${name}}")
+    endif()
+  endforeach()
+  file(REAL_PATH "${_IPGEN_CMAKE_DIR}" wanted)
+  set(tried "")
+  foreach(candidate IN LISTS candidates)
+    if(NOT EXISTS "${candidate}" OR candidate IN_LIST tried)
+      continue()
+    endif()
+    list(APPEND tried "${candidate}")
+    execute_process(
+      COMMAND "${candidate}" -m ipgen --cmake-dir
+      RESULT_VARIABLE status
+      OUTPUT_VARIABLE cmake_dir
+      ERROR_QUIET
+      OUTPUT_STRIP_TRAILING_WHITESPACE)
+    if(status EQUAL 0 AND EXISTS "${cmake_dir}")
+      file(REAL_PATH "${cmake_dir}" cmake_dir)
+      if(cmake_dir STREQUAL wanted)
+        set(IPGEN_PYTHON "${candidate}" CACHE FILEPATH "Python interpreter that runs the ipgen generator")
+        return()
+      endif()
+    endif()
+  endforeach()
+  string(REPLACE ";" ", " tried "${tried}")
+  if(_IPGEN_CHECKOUT)
+    set(hint "Run `make venv` in ${_IPGEN_ROOT} first, or pass -DIPGEN_PYTHON=/path/to/python")
+  else()
+    set(hint "Pass -DIPGEN_PYTHON=/path/to/the/python that has ipgen installed")
+  endif()
+  message(FATAL_ERROR
+    "ipgen: no Python whose `python -m ipgen --cmake-dir` is ${wanted} (tried: ${tried}). ${hint}.")
 endfunction()
 
 # Files whose change must re-run the generator.
 function(_ipgen_generator_dependencies out_var)
-  file(GLOB_RECURSE sources CONFIGURE_DEPENDS
-    "${_IPGEN_ROOT}/generator/*.py"
-    "${_IPGEN_ROOT}/templates/*")
+  if(_IPGEN_CHECKOUT)
+    file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${_IPGEN_ROOT}/generator/*.py" "${_IPGEN_ROOT}/templates/*")
+  else()
+    file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${_IPGEN_ROOT}/*.py" "${_IPGEN_ROOT}/templates/*")
+  endif()
   set(${out_var} ${sources} PARENT_SCOPE)
 endfunction()
+
+# Where the generator runs: the checkout (as before), else the calling project's source folder.
+function(_ipgen_working_directory out_var)
+  if(_IPGEN_CHECKOUT)
+    set(${out_var} "${_IPGEN_ROOT}" PARENT_SCOPE)
+  else()
+    set(${out_var} "${CMAKE_CURRENT_SOURCE_DIR}" PARENT_SCOPE)
+  endif()
+endfunction()
+
+# Finds the simulator's dependencies and defines ipgen::ipsim (once per directory tree).
+macro(ipgen_find_ipsim)
+  if(NOT TARGET ipgen::ipsim)
+    find_package(Eigen3 3.4 QUIET NO_MODULE)
+    if(NOT Eigen3_FOUND)
+      message(FATAL_ERROR "ipgen: Eigen 3.4 not found (needed by ipgen::ipsim and every model header); "
+                          "install it (Debian: apt-get install libeigen3-dev) or pass -DEigen3_DIR=...")
+    endif()
+    find_package(SUNDIALS 6 QUIET COMPONENTS
+      cvode arkode nvecserial sunmatrixdense sunlinsoldense sunnonlinsolfixedpoint)
+    if(NOT SUNDIALS_FOUND)
+      message(FATAL_ERROR "ipgen: SUNDIALS 6 (CVODE, ARKODE) not found (needed by ipgen::ipsim); "
+                          "install it (Debian: apt-get install libsundials-dev) or pass -DSUNDIALS_DIR=...")
+    endif()
+    find_package(LAPACK QUIET)
+    if(NOT LAPACK_FOUND)
+      message(FATAL_ERROR "ipgen: LAPACK not found (ipgen::ipsim's numerical guards use it); "
+                          "install it (Debian: apt-get install liblapack-dev)")
+    endif()
+    add_library(ipgen::ipsim INTERFACE IMPORTED)
+    target_include_directories(ipgen::ipsim INTERFACE "${_IPGEN_ROOT}/cpp/include")
+    target_compile_features(ipgen::ipsim INTERFACE cxx_std_17)
+    target_link_libraries(ipgen::ipsim INTERFACE
+      Eigen3::Eigen
+      SUNDIALS::cvode
+      SUNDIALS::arkode
+      SUNDIALS::nvecserial
+      SUNDIALS::sunmatrixdense
+      SUNDIALS::sunlinsoldense
+      SUNDIALS::sunnonlinsolfixedpoint
+      LAPACK::LAPACK)
+  endif()
+endmacro()
 
 function(_ipgen_check_model_arguments function_name type links inertia)
   if(NOT type MATCHES "^(rotary|classical)$")
@@ -93,6 +200,7 @@ function(ipgen_add_model target)
   endif()
   _ipgen_require_python()
   _ipgen_generator_dependencies(dependencies)
+  _ipgen_working_directory(working_directory)
 
   set(out_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_models")
   set(header "${out_dir}/${name}.hpp")
@@ -104,7 +212,7 @@ function(ipgen_add_model target)
     OUTPUT "${header}"
     COMMAND "${IPGEN_PYTHON}" -m ipgen --type ${arg_TYPE} --links ${arg_LINKS} ${inertia_option}
             --name ${name} -o "${out_dir}"
-    WORKING_DIRECTORY "${_IPGEN_ROOT}"
+    WORKING_DIRECTORY "${working_directory}"
     DEPENDS ${dependencies}
     COMMENT "ipgen: generating ${name}.hpp (${arg_TYPE}, links = ${arg_LINKS})"
     VERBATIM)
@@ -114,6 +222,7 @@ function(ipgen_add_model target)
   # links it waits for the header.
   target_sources(${target} PRIVATE "${header}")
   target_include_directories(${target} INTERFACE "${out_dir}")
+  ipgen_find_ipsim()  # Eigen3::Eigen
   target_link_libraries(${target} INTERFACE Eigen3::Eigen)
   set(inertia pivot)
   if(arg_INERTIA)
@@ -146,9 +255,10 @@ endfunction()
 # Sets <prefix>_NAME, _TYPE, _LINKS, _INERTIA and _STEM from `ipgen --scene <scene> --describe`,
 # or stops CMake with the generator's one-line error.
 function(_ipgen_describe_scene scene prefix)
+  _ipgen_working_directory(working_directory)
   execute_process(
     COMMAND "${IPGEN_PYTHON}" -m ipgen --scene "${scene}" --describe
-    WORKING_DIRECTORY "${_IPGEN_ROOT}"
+    WORKING_DIRECTORY "${working_directory}"
     RESULT_VARIABLE status
     OUTPUT_VARIABLE description
     ERROR_VARIABLE errors
@@ -183,6 +293,7 @@ function(ipgen_add_scene scene_file)
   endif()
   cmake_path(ABSOLUTE_PATH scene_file BASE_DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}" OUTPUT_VARIABLE scene)
   _ipgen_require_python()
+  ipgen_find_ipsim()
   # Editing the scene re-runs CMake, so a changed [system] reaches the model target below.
   set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS "${scene}")
   _ipgen_describe_scene("${scene}" system)
@@ -236,6 +347,7 @@ function(ipgen_add_scene scene_file)
   # target, and two scenes of one model must not claim the same file: generate into a folder of
   # the scene's own, then move the .cfg to its documented place.
   _ipgen_generator_dependencies(dependencies)
+  _ipgen_working_directory(working_directory)
   set(cfg "${CMAKE_BINARY_DIR}/scenes/${stem}.cfg")
   set(csv "${CMAKE_BINARY_DIR}/scenes/${stem}.csv")
   # The header `--scene` writes is this scene's model when specialised, else a spare copy.
@@ -252,7 +364,7 @@ function(ipgen_add_scene scene_file)
     COMMAND "${IPGEN_PYTHON}" -m ipgen --scene "${scene}" -o "${work_dir}"
     COMMAND "${CMAKE_COMMAND}" -E make_directory "${CMAKE_BINARY_DIR}/scenes"
     COMMAND "${CMAKE_COMMAND}" -E rename "${work_dir}/${stem}.cfg" "${cfg}"
-    WORKING_DIRECTORY "${_IPGEN_ROOT}"
+    WORKING_DIRECTORY "${working_directory}"
     DEPENDS "${scene}" ${dependencies}
     COMMENT "ipgen: resolving scene ${stem}"
     VERBATIM)

@@ -1,3 +1,128 @@
-"""ipgen: equations of motion for n-link inverted pendulums."""
+"""ipgen: exact equations of motion for n-link inverted pendulums (classical: a cart; rotary: a
+Furuta arm), as sympy expressions or as generated C++ headers.
+
+The public API (stable; everything else is internal):
+
+- `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
+  M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ as sympy matrices and expressions;
+- `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;
+- `Error`: the base of every error ipgen raises for bad input (one line: what is wrong and how
+  to fix it, the message the command prints);
+- `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`).
+
+The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
+Importing ipgen is cheap: the modules behind these functions are imported on first use.
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ipgen.errors import Error
+
+if TYPE_CHECKING:
+    from ipgen.derive import Equations
 
 __version__ = "0.1.0"
+__all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "write_header"]
+
+
+def derive(type: str, links: int, inertia: str = "pivot") -> Equations:
+    """The equations of motion of a `type` ("classical" or "rotary") pendulum with `links` rods.
+
+    `inertia` (rotary only) is "pivot" (the published model: a link's spin about its pivot axis
+    only) or "full" (the complete thin-rod inertia). The result's sympy views: `mass_matrix` M,
+    `coriolis` C (Christoffel), `damping` (constant matrix), `n_matrix` N = C + damping, `gravity`
+    P = ∂V/∂θ, `bias` N θ̇ + P (all matrices, vectors as columns), `kinetic_energy`,
+    `potential_energy` and `dissipation` (Rayleigh's D; the damping removes power 2D), written in
+    `symbols`: `q`, `qd` (θ, θ̇), `m`, `l`, `delta` (tuples, index 0 the base) and `g`, `u`.
+    Raises an `Error` naming the bad argument.
+    """
+    from ipgen.derive import derive as derive_system
+    from ipgen.job import check_system
+
+    system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
+    return derive_system(system)
+
+
+def write_header(
+    output: str | Path,
+    type: str | None = None,
+    links: int | None = None,
+    *,
+    name: str | None = None,
+    inertia: str | None = None,
+    scene: str | Path | None = None,
+    fix: str | Mapping[str, object] | None = None,
+    outputs: str | Iterable[str] | None = None,
+    emit: str | Iterable[str] | None = None,
+    force: bool = False,
+) -> list[Path]:
+    """Write the files of `ipgen --type TYPE --links N -o OUTPUT [...]` (or `--scene SCENE`) and
+    return their paths: `OUTPUT/<name>.hpp` by default, every file of `emit`, and `<stem>.cfg`
+    last for a scene. The keyword arguments are the command's options: `fix` as text
+    ("m0=0.3,delta2=0") or a mapping ({"m0": "0.3"}; a float is taken by its shortest repr),
+    `outputs` and `emit` as text or a list of names. All files are written or none; bad input
+    raises an `Error` with the message the command prints.
+    """
+    from ipgen.job import plan, run
+
+    job = plan(
+        output,
+        system_type=type,
+        links=links,
+        name=name,
+        inertia=inertia,
+        scene=scene,
+        fix=fix,
+        outputs=outputs,
+        emit=emit,
+        force=force,
+    )
+    return [written.path for written in run(job)]
+
+
+def cmake_dir() -> Path:
+    """The folder holding ipgenConfig.cmake (installed with the package; a checkout's cmake/)."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("ipgen.cmake")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    for location in locations:
+        if (Path(location) / "ipgenConfig.cmake").is_file():
+            return Path(location).resolve()
+    checkout = Path(__file__).resolve().parent.parent / "cmake"  # an uninstalled checkout
+    if (checkout / "ipgenConfig.cmake").is_file():
+        return checkout
+    raise Error(
+        "ipgen's CMake package is missing from this installation: reinstall ipgen (pip install ipgen)"
+    )
+
+
+def __getattr__(attribute: str) -> object:
+    if attribute == "Equations":
+        from ipgen.derive import Equations
+
+        return Equations
+    raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
+
+
+class _Package(types.ModuleType):
+    """Keeps `ipgen.derive` the function above: importing the submodule ipgen.derive (the
+    implementation) would otherwise replace the package attribute by the module."""
+
+    @property
+    def derive(self) -> object:
+        return derive
+
+    @derive.setter
+    def derive(self, value: object) -> None:
+        if not isinstance(value, types.ModuleType):  # the import system sets the submodule: ignore it
+            raise AttributeError("ipgen.derive cannot be replaced")
+
+
+sys.modules[__name__].__class__ = _Package

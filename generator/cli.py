@@ -4,34 +4,28 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
-from ipgen import __version__
-from ipgen.emit import DEFAULT_EMIT, TARGETS, EmitError, parse_emit
-from ipgen.errors import SceneError
-from ipgen.generate import STEPS, Written, generate
+from ipgen import __version__, job
+from ipgen.emit import DEFAULT_EMIT, TARGETS
+from ipgen.errors import Error
+from ipgen.job import LINKS_WITHOUT_FORCE, cost_estimate
 from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
-from ipgen.naming import name_problem
-from ipgen.output import OutputError
-from ipgen.specialise import (
-    FUNCTIONS,
-    Specialisation,
-    SpecialisationError,
-    from_scene,
-    parse_fix,
-    parse_outputs,
-)
+
+if TYPE_CHECKING:
+    from ipgen.generate import Written
+
+__all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
 
 EXIT_USAGE = 2
 # Generations above these sizes take more than a second or two: show a progress bar.
 PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
-# Above this many links the header is several MB (and slow to compile): ask for --force first.
-LINKS_WITHOUT_FORCE = 30
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header.
 
 \b
-Systems (MODEL.md has the exact model):
+Systems (docs/model.md in the repository has the exact model):
   classical  a cart on a rail carrying a chain of n rods; q(0) = cart position [m]
   rotary     a horizontal arm turning about the vertical (Furuta) carrying n rods;
              q(0) = arm angle [rad]
@@ -53,10 +47,6 @@ Examples:
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
 """
-
-
-class InvalidOptions(click.UsageError):
-    """An option value ipgen rejects; the message already says how to fix it."""
 
 
 @click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
@@ -131,6 +121,12 @@ class InvalidOptions(click.UsageError):
     help="Overwrite files in DIR even if ipgen did not write them; "
     f"allow more than {LINKS_WITHOUT_FORCE} links.",
 )
+@click.option(
+    "--cmake-dir",
+    is_flag=True,
+    help="Print the folder of ipgen's CMake package (ipgenConfig.cmake) and exit: "
+    "find_package(ipgen CONFIG REQUIRED) with -Dipgen_DIR=$(ipgen --cmake-dir).",
+)
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
     system_type: str | None,
@@ -144,95 +140,44 @@ def cli(
     outputs: str | None,
     emit: str | None,
     force: bool,
+    cmake_dir: bool,
 ) -> None:
+    if cmake_dir:
+        from ipgen import cmake_dir as folder
+
+        click.echo(str(folder()))
+        return
     if describe:
         _describe_scene(scene, system_type, links, name, inertia, fix, outputs)
         return
-    if directory is None:
-        raise InvalidOptions("missing -o DIR: say where to write the header")
-    try:
-        targets = parse_emit(emit) if emit is not None else None
-    except EmitError as e:
-        raise InvalidOptions(str(e)) from None
-    if scene is not None:
-        _generate_scene(scene, directory, force, targets, system_type, links, name, inertia, fix, outputs)
+    planned = job.plan(
+        directory,
+        system_type=system_type,
+        links=links,
+        name=name,
+        inertia=inertia,
+        scene=scene,
+        fix=fix,
+        outputs=outputs,
+        emit=emit,
+        force=force,
+    )
+    written = _generate(planned)
+    scene_ = planned.scene
+    if scene_ is None:
+        _report(planned.system, planned.name, written)
         return
-    if system_type is None or links is None:
-        missing = "--type" if system_type is None else "--links"
-        raise InvalidOptions(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
-    if links < 1:
-        raise InvalidOptions(
-            f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain"
-        )
-    if inertia is not None and system_type != "rotary":
-        raise InvalidOptions("--inertia applies to rotary systems only: drop it, or use --type rotary")
-    if links > LINKS_WITHOUT_FORCE and not force:
-        raise InvalidOptions(
-            f"--links {links} is large: {cost_estimate(links)}; pass --force to go ahead "
-            f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
-        )
-    system = System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
-    name = name if name is not None else system.default_name
-    problem = name_problem(name)
-    if problem:
-        raise InvalidOptions(f"--name {name!r} {problem}; choose another name")
-    try:
-        spec = Specialisation(
-            fixed=parse_fix(system, fix) if fix is not None else (),
-            outputs=parse_outputs(outputs) if outputs is not None else FUNCTIONS,
-        )
-    except SpecialisationError as e:
-        raise InvalidOptions(str(e)) from None
-    _report(system, name, _generate(system, name, directory, force, spec, targets or DEFAULT_EMIT))
-
-
-def cost_estimate(links: int) -> str:
-    """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
-    # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
-    # n = 50) as n^2.
-    scale = links / 50
-    seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
-    duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
-    memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
-    return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"
-
-
-def _check_no_system_options(*clashing: object) -> None:
-    if any(option is not None for option in clashing):
-        raise InvalidOptions(
-            "--scene fixes the system and its specialisation: drop --type, --links, --name, --inertia, "
-            "--fix and --outputs"
-        )
+    _report(planned.system, planned.name, written[:-1])
+    click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene_.stem})")
+    _warn(scene_.warnings)
 
 
 def _describe_scene(path: Path | None, *clashing: object) -> None:
-    if path is None:
-        raise InvalidOptions("--describe needs --scene FILE: it describes a scene's system")
-    _check_no_system_options(*clashing)
-    from ipgen.scene import load_scene  # only scene commands need it
-
-    scene = load_scene(path)
+    scene = job.describe(path, *clashing)
     click.echo(
         f"name={scene.name} type={scene.type} links={scene.links} inertia={scene.inertia} stem={scene.stem} "
         f"specialise={'true' if scene.specialise else 'false'}"
     )
-    _warn(scene.warnings)
-
-
-def _generate_scene(
-    path: Path, directory: Path, force: bool, targets: tuple[str, ...] | None, *clashing: object
-) -> None:
-    _check_no_system_options(*clashing)
-    from ipgen.scene import load_scene, resolved_config  # only scene commands need it
-
-    scene = load_scene(path)
-    system = scene.system
-    spec = from_scene(scene) if scene.specialise else Specialisation()
-    config = (f"{scene.stem}.cfg", resolved_config(scene))
-    written = _generate(system, scene.name, directory, force, spec, targets or scene.emit, (config,))
-    _report(system, scene.name, written[:-1])
-    click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene.stem})")
     _warn(scene.warnings)
 
 
@@ -253,34 +198,20 @@ def _report(system: System, name: str, written: list[Written]) -> None:
         )
 
 
-def _generate(
-    system: System,
-    name: str,
-    directory: Path,
-    force: bool,
-    spec: Specialisation,
-    emit: tuple[str, ...],
-    extra_files: tuple[tuple[str, str], ...] = (),
-) -> list[Written]:
+def _generate(planned: job.Job) -> list[Written]:
+    system = planned.system
     if system.links < PROGRESS_FROM_LINKS[system.type]:
-        return generate(system, name, directory, force, spec=spec, emit=emit, extra_files=extra_files)
+        return job.run(planned)
+    from ipgen.generate import STEPS
+
     with click.progressbar(
-        length=STEPS + len(emit),
+        length=STEPS + len(planned.emit),
         label=f"deriving {system.type}{system.links}",
         file=sys.stderr,
         show_eta=False,
         item_show_func=lambda step: step,
     ) as bar:
-        return generate(
-            system,
-            name,
-            directory,
-            force,
-            progress=lambda step: bar.update(1, step),
-            spec=spec,
-            emit=emit,
-            extra_files=extra_files,
-        )
+        return job.run(planned, progress=lambda step: bar.update(1, step))
 
 
 def run(argv: list[str] | None = None) -> int:
@@ -289,10 +220,9 @@ def run(argv: list[str] | None = None) -> int:
         status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
         message = " ".join(e.format_message().split())
-        hint = "" if isinstance(e, InvalidOptions) else " (see ipgen --help)"
-        click.echo(f"ipgen: error: {message}{hint}", err=True)
+        click.echo(f"ipgen: error: {message} (see ipgen --help)", err=True)
         return EXIT_USAGE
-    except (OutputError, SceneError) as e:
+    except Error as e:  # ipgen.Error: the library's one-line message (job.py and what it calls)
         click.echo(f"ipgen: error: {e}", err=True)
         return EXIT_USAGE
     except (KeyboardInterrupt, click.Abort):

@@ -14,16 +14,19 @@ HERE = Path(__file__).resolve().parent
 OUT = BUILD / "workprecision"
 COMPILER = "g++"
 FLAGS = ("-std=c++17", "-O3", "-DNDEBUG", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
-LIBRARIES = tuple(
-    f"-lsundials_{name}"
-    for name in (
-        "cvode",
-        "arkode",
-        "nvecserial",
-        "sunmatrixdense",
-        "sunlinsoldense",
-        "sunnonlinsolfixedpoint",
-    )
+LIBRARIES = (
+    *(
+        f"-lsundials_{name}"
+        for name in (
+            "cvode",
+            "arkode",
+            "nvecserial",
+            "sunmatrixdense",
+            "sunlinsoldense",
+            "sunnonlinsolfixedpoint",
+        )
+    ),
+    "-llapack",  # ipsim's guards (eigenvalues.hpp)
 )
 
 

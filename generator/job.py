@@ -1,0 +1,172 @@
+"""One generation job: the options of an `ipgen` command (or of `ipgen.write_header`), validated
+in one place, then run. The command and the Python API share this path, so both refuse the same
+input with the same one-line message (an `OptionsError`, or the `Error` a parser raises)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ipgen.emit import DEFAULT_EMIT, parse_emit
+from ipgen.errors import Error
+from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from ipgen.naming import name_problem
+
+if TYPE_CHECKING:
+    from ipgen.generate import Written
+    from ipgen.scene import Scene
+    from ipgen.specialise import Specialisation
+
+# Above this many links the header is several MB (and slow to compile): ask for force first.
+LINKS_WITHOUT_FORCE = 30
+
+# What a caller may pass for --fix, --outputs and --emit: the command's text, or Python values.
+FixOption = str | Mapping[str, object] | None
+ListOption = str | Iterable[str] | None
+
+
+class OptionsError(Error, ValueError):
+    """An option value ipgen rejects, or options that clash; the message says how to fix it."""
+
+
+@dataclass(frozen=True)
+class Job:
+    """Everything one command writes: `system` as `<name>` files in `directory`."""
+
+    system: System
+    name: str
+    directory: Path
+    force: bool
+    spec: Specialisation
+    emit: tuple[str, ...]
+    scene: Scene | None = None  # a scene job also writes DIR/<stem>.cfg
+
+
+def cost_estimate(links: int) -> str:
+    """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
+    # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
+    # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
+    # n = 50) as n^2.
+    scale = links / 50
+    seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
+    duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
+    memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
+    return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"
+
+
+def check_system(system_type: object, links: object, inertia: object = None) -> System:
+    """The System these values name, or an OptionsError saying which value is wrong."""
+    if system_type not in SYSTEM_TYPES:
+        raise OptionsError(f"--type must be one of {', '.join(SYSTEM_TYPES)} (got {system_type!r:.40})")
+    if isinstance(links, bool) or not isinstance(links, int):
+        raise OptionsError(
+            f"--links must be an integer >= 1 (got {links!r:.40}): it counts the rods in the chain"
+        )
+    if links < 1:
+        raise OptionsError(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
+    if inertia is not None and inertia not in INERTIA_VARIANTS:
+        raise OptionsError(f"--inertia must be one of {', '.join(INERTIA_VARIANTS)} (got {inertia!r:.40})")
+    if inertia is not None and system_type != "rotary":
+        raise OptionsError("--inertia applies to rotary systems only: drop it, or use --type rotary")
+    return System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
+
+
+def _text(value: str | Iterable[object]) -> str:
+    return value if isinstance(value, str) else ",".join(str(item) for item in value)
+
+
+def _fix_text(fix: str | Mapping[str, object]) -> str:
+    if isinstance(fix, str):
+        return fix
+    for key in fix:
+        if not isinstance(key, str) or "," in key or "=" in key:
+            raise OptionsError(f"--fix: {key!r:.40} is not a parameter name; use m<i>, l<i>, delta<i> or g")
+    return ",".join(f"{key}={value}" for key, value in fix.items())
+
+
+def _check_no_system_options(*clashing: object) -> None:
+    if any(option is not None for option in clashing):
+        raise OptionsError(
+            "--scene fixes the system and its specialisation: drop --type, --links, --name, --inertia, "
+            "--fix and --outputs"
+        )
+
+
+def describe(scene_path: Path | str | None, *clashing: object) -> Scene:
+    """The scene `--scene FILE --describe` describes (none of the system options may be given)."""
+    if scene_path is None:
+        raise OptionsError("--describe needs --scene FILE: it describes a scene's system")
+    _check_no_system_options(*clashing)
+    from ipgen.scene import load_scene  # only scene commands need it
+
+    return load_scene(Path(scene_path))
+
+
+def plan(
+    directory: Path | str | None,
+    *,
+    system_type: object = None,
+    links: object = None,
+    name: str | None = None,
+    inertia: object = None,
+    scene: Path | str | None = None,
+    fix: FixOption = None,
+    outputs: ListOption = None,
+    emit: ListOption = None,
+    force: bool = False,
+) -> Job:
+    """Validate one command's options (in the order the command reports them) into a Job."""
+    from ipgen.specialise import FUNCTIONS, Specialisation, from_scene, parse_fix, parse_outputs
+
+    if directory is None:
+        raise OptionsError("missing -o DIR: say where to write the header")
+    directory = Path(directory)
+    targets = parse_emit(emit) if emit is not None else None
+    if scene is not None:
+        _check_no_system_options(system_type, links, name, inertia, fix, outputs)
+        from ipgen.scene import load_scene  # only scene commands need it
+
+        loaded = load_scene(Path(scene))
+        spec = from_scene(loaded) if loaded.specialise else Specialisation()
+        return Job(loaded.system, loaded.name, directory, force, spec, targets or loaded.emit, loaded)
+    if system_type is None or links is None:
+        missing = "--type" if system_type is None else "--links"
+        raise OptionsError(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
+    system = check_system(system_type, links, inertia)
+    if system.links > LINKS_WITHOUT_FORCE and not force:
+        raise OptionsError(
+            f"--links {system.links} is large: {cost_estimate(system.links)}; pass --force to go ahead "
+            f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
+        )
+    name = name if name is not None else system.default_name
+    problem = name_problem(name) if isinstance(name, str) else "is not a string"
+    if problem:
+        raise OptionsError(f"--name {name!r} {problem}; choose another name")
+    spec = Specialisation(
+        fixed=parse_fix(system, _fix_text(fix)) if fix is not None else (),
+        outputs=parse_outputs(_text(outputs)) if outputs is not None else FUNCTIONS,
+    )
+    return Job(system, name, directory, force, spec, targets or DEFAULT_EMIT)
+
+
+def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written]:
+    """Derive, render and write the job's files (all or none); the scene's .cfg comes last."""
+    from ipgen.generate import generate
+
+    extra: tuple[tuple[str, str], ...] = ()
+    if job.scene is not None:
+        from ipgen.scene import resolved_config
+
+        extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene)),)
+    return generate(
+        job.system,
+        job.name,
+        job.directory,
+        job.force,
+        progress=progress,
+        spec=job.spec,
+        emit=job.emit,
+        extra_files=extra,
+    )
