@@ -175,7 +175,7 @@ def _dynamics_partials(
 
 
 def derive(system: System, progress: ProgressCallback | None = None) -> Equations:
-    """Derive the equations of motion of `system` (see MODEL.md for the conventions)."""
+    """Derive the equations of motion of `system` (see docs/model.md for the conventions)."""
     report = progress or (lambda step: None)
     algebra = algebra_for(system)
     size = system.dof

@@ -1,4 +1,4 @@
-"""The physical model: which system, and the kinematics of every body (MODEL.md in code).
+"""The physical model: which system, and the kinematics of every body (docs/model.md in code).
 
 This module says *what* the system is; `derive.py` turns it into equations of motion without
 knowing whether the base is a cart or an arm. Every quantity is a polynomial (`poly.Poly`) in
@@ -212,7 +212,7 @@ def base_inertia(system: System, alg: Algebra) -> Poly:
 
 
 def rayleigh_dissipation(system: System, alg: Algebra) -> Poly:
-    """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² (MODEL.md: link 1 uses its absolute rate)."""
+    """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² (docs/model.md: link 1 uses its absolute rate)."""
     rate = [Poly.generator(alg.qd(i)) for i in range(system.dof)]
     terms = [alg.delta(0) * rate[0] ** 2, alg.delta(1) * rate[1] ** 2]
     terms += [alg.delta(i) * (rate[i] - rate[i - 1]) ** 2 for i in range(2, system.dof)]

@@ -114,7 +114,7 @@ def pendulum(kind: str, links: int, inertia: str = "pivot", speeds: list[sp.Expr
             dyadic = rod_inertia(frame, j_t, j_t)  # complete thin rod: J_T (I − z z)
         bodies.append(me.RigidBody(f"link{i}", cog, frame, m[i], (dyadic, cog)))
         loads.append((cog, -m[i] * g * ground.z))
-        # Joint damping: link 1 against the base, link i against link i − 1 (MODEL.md);
+        # Joint damping: link 1 against the base, link i against link i − 1 (docs/model.md);
         # equal and opposite torques on the two bodies the joint connects.
         relative = frame.ang_vel_in(ground) - previous_frame.ang_vel_in(ground)
         loads.append((frame, -delta[i] * relative))

@@ -1,11 +1,11 @@
-"""Symbolic checks of the derived equations against MODEL.md, written out by hand here.
+"""Symbolic checks of the derived equations against docs/model.md, written out by hand here.
 
 - eq. 30 (classical, n = 2) and eq. 31 (rotary, n = 1, pivot inertia, and the 'full'
   variant with 1/3 for eq. 31's 1/4): M, P and the bias N θ̇ + P entry by entry;
-- the energies and the Rayleigh function equal MODEL.md's formulas, and Lagrange's equation
+- the energies and the Rayleigh function equal docs/model.md's formulas, and Lagrange's equation
   from those energies (differentiated here, independently of derive.py) gives both
   M θ̈ + N θ̇ + P and M θ̈ + bias;
-- M = ∂²T/∂θ̇² (hence symmetric), damping = ∂²D/∂θ̇², P = ∂V/∂θ, all with MODEL.md's
+- M = ∂²T/∂θ̇² (hence symmetric), damping = ∂²D/∂θ̇², P = ∂V/∂θ, all with docs/model.md's
   T, V, D; Ṁ − 2C skew-symmetric.
 
 Zero tests are exact: sin/cos of every angle become polynomial variables and the result
@@ -74,7 +74,7 @@ def column(values: Sequence[sp.Expr]) -> sp.Matrix:
 
 
 def eq30(sym: Symbols) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    """M, N, P of the classical double pendulum, transcribed from MODEL.md."""
+    """M, N, P of the classical double pendulum, transcribed from docs/model.md."""
     _, t1, t2 = sym.q
     _, d1, d2 = sym.qd
     m0, m1, m2 = sym.m
@@ -122,7 +122,7 @@ def test_eq30_classical_double() -> None:
 def eq31(sym: Symbols, spin: sp.Expr) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
     """M, N, P of the rotary single pendulum; `spin` is the sin²θ1 coefficient of M00 / (m1 l1²).
 
-    MODEL.md's eq. 31 is the pivot variant, spin = 1/4: N00 = δ0 + ¼ m1 l1² θ̇1 sin 2θ1 and
+    docs/model.md's eq. 31 is the pivot variant, spin = 1/4: N00 = δ0 + ¼ m1 l1² θ̇1 sin 2θ1 and
     N10 = −⅛ m1 l1² θ̇0 sin 2θ1. Both come from M00's θ1-dependence alone, ∂M00/∂θ1 =
     spin m1 l1² sin 2θ1: d/dt (M00 θ̇0) gives N00 = δ0 + spin m1 l1² θ̇1 sin 2θ1 and −½ θ̇0²
     ∂M00/∂θ1 gives N10 = −(spin/2) m1 l1² θ̇0 sin 2θ1, so the 'full' variant (spin = 1/3)
@@ -182,7 +182,7 @@ def test_rotary_single_full_minus_pivot_is_the_rod_spin() -> None:
 
 
 def model_energies(system: System, sym: Symbols) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
-    """T, V, D exactly as MODEL.md's "Energies" section states them (positions, then |v|²)."""
+    """T, V, D exactly as docs/model.md's "Energies" section states them (positions, then |v|²)."""
     q, qd, m, length, delta = sym.q, sym.qd, sym.m, sym.l, sym.delta
     n = system.links
     t = sp.Symbol("t")
@@ -225,7 +225,7 @@ STRUCTURE_CASES = [*CASES, ("classical", 4, "pivot"), ("rotary", 3, "pivot"), ("
 
 @cache
 def energies(kind: str, links: int, inertia: str = "pivot") -> tuple[sp.Expr, sp.Expr, sp.Expr]:
-    """MODEL.md's T, V, D for the case, in the symbols of ipgen's equations."""
+    """docs/model.md's T, V, D for the case, in the symbols of ipgen's equations."""
     eqs = equations(kind, links, inertia)
     return model_energies(eqs.system, eqs.symbols)
 
@@ -243,7 +243,7 @@ def test_energies_match_model(case: tuple[str, int, str]) -> None:
 
 @pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
 def test_lagrange_from_model_energies(case: tuple[str, int, str]) -> None:
-    """d/dt ∂L/∂θ̇ − ∂L/∂θ + ∂D/∂θ̇ = M θ̈ + N θ̇ + P = M θ̈ + bias, with L, D from MODEL.md.
+    """d/dt ∂L/∂θ̇ − ∂L/∂θ + ∂D/∂θ̇ = M θ̈ + N θ̇ + P = M θ̈ + bias, with L, D from docs/model.md.
 
     N θ̇ + P and the bias are each compared with the model's equation (so N θ̇ + P = bias
     follows from two independent checks, not from how derive.py assembles the bias).
@@ -283,29 +283,29 @@ def test_lagrange_from_model_energies(case: tuple[str, int, str]) -> None:
 
 @pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
 def test_mass_matrix_is_hessian_of_model_kinetic_energy(case: tuple[str, int, str]) -> None:
-    """M = ∂²T/∂θ̇² with MODEL.md's T: entry by entry, so M is also symmetric."""
+    """M = ∂²T/∂θ̇² with docs/model.md's T: entry by entry, so M is also symmetric."""
     eqs = equations(*case)
     sym = eqs.symbols
     kinetic, _, _ = energies(*case)
     hessian = sp.hessian(kinetic, sym.qd)
-    assert_matrix_identical(eqs.mass_matrix, hessian, sym.q, f"{case_id(case)}: M vs ∂²T/∂θ̇² (MODEL.md's T)")
+    assert_matrix_identical(eqs.mass_matrix, hessian, sym.q, f"{case_id(case)}: M vs ∂²T/∂θ̇² (model.md T)")
 
 
 @pytest.mark.parametrize("case", STRUCTURE_CASES, ids=case_id)
 def test_damping_and_gravity_are_derivatives(case: tuple[str, int, str]) -> None:
-    """damping = ∂²D/∂θ̇², P = ∂V/∂θ, T = ½ θ̇ᵀ M θ̇, with T, V, D from MODEL.md."""
+    """damping = ∂²D/∂θ̇², P = ∂V/∂θ, T = ½ θ̇ᵀ M θ̇, with T, V, D from docs/model.md."""
     eqs = equations(*case)
     sym = eqs.symbols
     kinetic, potential, dissipation = energies(*case)
     name = case_id(case)
     hessian = sp.hessian(dissipation, sym.qd)
-    assert_matrix_identical(eqs.damping, hessian, sym.q, f"{name}: damping vs ∂²D/∂θ̇² (MODEL.md's D)")
+    assert_matrix_identical(eqs.damping, hessian, sym.q, f"{name}: damping vs ∂²D/∂θ̇² (docs/model.md's D)")
     grad = column([sp.diff(potential, a) for a in sym.q])
-    assert_matrix_identical(eqs.gravity, grad, sym.q, f"{name}: P vs ∂V/∂θ (MODEL.md's V)")
+    assert_matrix_identical(eqs.gravity, grad, sym.q, f"{name}: P vs ∂V/∂θ (docs/model.md's V)")
     qd = column(sym.qd)
     quadratic = (qd.T * eqs.mass_matrix * qd)[0, 0] / 2
-    assert_identical(quadratic, kinetic, sym.q, f"{name}: ½ θ̇ᵀ M θ̇ vs MODEL.md's T")
-    assert_identical(eqs.kinetic_energy, kinetic, sym.q, f"{name}: T vs MODEL.md's T")
+    assert_identical(quadratic, kinetic, sym.q, f"{name}: ½ θ̇ᵀ M θ̇ vs docs/model.md's T")
+    assert_identical(eqs.kinetic_energy, kinetic, sym.q, f"{name}: T vs docs/model.md's T")
 
 
 @pytest.mark.parametrize(

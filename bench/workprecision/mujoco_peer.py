@@ -6,10 +6,10 @@ upright, clockwise positive. A link along +z turned by φ about +y has its tip a
 ipgen's convention, so θi = φ1 + … + φi. The rotary arm turns about −z (θ0 > 0 is clockwise seen
 from above) and points along +y at θ0 = 0; its links swing about the arm's axis.
 
-Inertias (MODEL.md): rods, CoG at l/2, inertia m l²/12 about any axis through the CoG normal to
+Inertias (docs/model.md): rods, CoG at l/2, inertia m l²/12 about any axis through the CoG normal to
 the rod and 0 along it — MuJoCo's rigid bodies have the full tensor, i.e. ipgen's `full` rotary
 variant (classical systems have no variant). The arm's inertia about the vertical through its
-pivot is m0 l0²/3. Damping: MuJoCo's joint damping acts on relative joint rates, as MODEL.md's
+pivot is m0 l0²/3. Damping: MuJoCo's joint damping acts on relative joint rates, as docs/model.md's
 Rayleigh function does (δ1 on link 1 against the base). No contacts, no constraints.
 """
 

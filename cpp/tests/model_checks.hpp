@@ -68,7 +68,7 @@ PulseInPieces run_pulse_in_pieces(const ipsim::ParamsOf<Model>& p, const ipsim::
 }
 
 /// The model's functions agree with each other: M = ∂²T/∂θ̇², bias = N θ̇ + P, T = ½ θ̇ᵀMθ̇,
-/// P = ∂V/∂θ, M θ̈ + bias = (u, 0, …), D = the Rayleigh function of MODEL.md.
+/// P = ∂V/∂θ, M θ̈ + bias = (u, 0, …), D = the Rayleigh function of docs/model.md.
 template <class Model>
 void check_model_consistency() {
   using Vector = ipsim::VectorOf<Model>;

@@ -1,6 +1,6 @@
 // Hand-written stand-in for a generated ipgen model header: a single inverted pendulum on a cart.
 // Same shape as the generator's output so ipsim and its tests can be developed before the
-// generator exists. Derived by hand from the project's MODEL.md (classical, n = 1):
+// generator exists. Derived by hand from the project's docs/model.md (classical, n = 1):
 //   M(θ) θ̈ + bias(θ, θ̇) = (F, 0)ᵀ,  θ0 = cart position [m], θ1 = link angle from upright [rad].
 #pragma once
 
