@@ -1,0 +1,137 @@
+"""ipgen as a user gets it: `pip install` of this repository (not editable) into a fresh virtualenv
+outside the checkout, then the README's "Using ipgen from CMake" project built in a temporary
+folder against that installation, and run."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from cxx import require_toolchain
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def readme_block(language: str, marker: str) -> str:
+    blocks = re.findall(rf"```{language}\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+    matching = [block for block in blocks if marker in block]
+    assert len(matching) == 1, f"expected one ```{language} block with {marker!r} in README.md"
+    return matching[0]
+
+
+def clean_environment() -> dict[str, str]:
+    """This process's environment without anything that points at the checkout's Python."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV", "IPGEN_PYTHON")}
+    venv_bin = str(Path(sys.prefix) / "bin")
+    env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep) if p != venv_bin)
+    return env
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A fresh virtualenv with `pip install <checkout>` (a wheel build, not editable); its python."""
+    venv = tmp_path_factory.mktemp("user") / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    python = venv / "bin" / "python"
+    # A copy of the sources without build leftovers, so that the wheel is built from tracked files.
+    source = tmp_path_factory.mktemp("source") / "ipgen"
+    ignore = shutil.ignore_patterns(".venv", "build", "out", ".git", "*.egg-info", "__pycache__", ".*cache")
+    shutil.copytree(ROOT, source, ignore=ignore)
+    install = subprocess.run(
+        [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check", str(source)],
+        capture_output=True,
+        text=True,
+        env=clean_environment(),
+    )
+    assert install.returncode == 0, install.stderr[-3000:]
+    shutil.rmtree(source)  # the installation must not depend on the sources
+    return python
+
+
+def test_installed_package_is_ipgen_with_its_cmake_package(installed: Path, tmp_path: Path) -> None:
+    env = clean_environment()
+    code = (
+        "import importlib.util, ipgen, sys; "
+        "print(ipgen.__file__); print(ipgen.cmake_dir()); "
+        "print(importlib.util.find_spec('generator') is None)"
+    )
+    out = subprocess.run([str(installed), "-c", code], capture_output=True, text=True, cwd=tmp_path, env=env)
+    assert out.returncode == 0, out.stderr
+    package_file, cmake_dir, no_generator = out.stdout.splitlines()
+    site = Path(package_file).parent
+    assert site.parent.name == "site-packages" and str(installed.parent.parent) in package_file
+    assert Path(cmake_dir) == site / "cmake" and no_generator == "True"
+    shipped_files = ("cmake/ipgenConfig.cmake", "cmake/ipgenConfigVersion.cmake", "cmake/ipgen.cmake",
+                     "cpp/include/ipsim/ipsim.hpp", "cpp/src/simulate.cpp", "templates/model.hpp.jinja")  # fmt: skip
+    for shipped in shipped_files:
+        assert (site / shipped).is_file(), shipped
+    command = installed.parent / "ipgen"
+    printed = subprocess.run(
+        [str(command), "--cmake-dir"], capture_output=True, text=True, cwd=tmp_path, env=env
+    )
+    assert printed.stdout.strip() == cmake_dir
+    module = subprocess.run(
+        [str(installed), "-m", "ipgen", "--version"], capture_output=True, text=True, env=env
+    )
+    assert module.returncode == 0 and "ipgen" in module.stdout
+
+
+def test_readme_cmake_project_builds_and_runs(installed: Path, tmp_path: Path) -> None:
+    require_toolchain()
+    if shutil.which("cmake") is None:
+        pytest.fail("cmake is not installed (make deps installs it)")
+    env = clean_environment()
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "CMakeLists.txt").write_text(readme_block("cmake", "find_package(ipgen"))
+    (project / "main.cpp").write_text(readme_block("cpp", "ipgen::furuta::Model"))
+    cmake_dir = subprocess.run(
+        [str(installed), "-m", "ipgen", "--cmake-dir"], capture_output=True, text=True, check=True, env=env
+    ).stdout.strip()
+    generator = ["-G", "Ninja"] if shutil.which("ninja") else []
+    build = tmp_path / "build"
+    steps = [
+        ["cmake", "-S", str(project), "-B", str(build), *generator, f"-Dipgen_DIR={cmake_dir}",
+         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_CXX_FLAGS=-Wall -Wextra -Wpedantic -Werror"],
+        ["cmake", "--build", str(build)],
+    ]  # fmt: skip
+    for step in steps:
+        result = subprocess.run(step, capture_output=True, text=True, env=env)
+        assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    cache = (build / "CMakeCache.txt").read_text()
+    assert f"IPGEN_PYTHON:FILEPATH={installed}" in cache  # found by the package, not passed in
+    assert (build / "ipgen_models" / "furuta.hpp").is_file()
+    ran = subprocess.run([str(build / "sim")], capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stderr
+    match = re.fullmatch(r"theta\(2 s\) =((?: -?\d+\.\d{6}){3})\n", ran.stdout)
+    assert match is not None, ran.stdout
+    arm, link1, _ = (float(v) for v in match.group(1).split())
+    assert abs(link1) > 0.5 and abs(arm) > 0  # tipped by 0.1 rad, the upright links fall
+
+
+def test_missing_dependency_names_the_debian_package(installed: Path, tmp_path: Path) -> None:
+    """A machine without SUNDIALS (simulated: its config hidden) gets the package to install."""
+    if shutil.which("cmake") is None:
+        pytest.fail("cmake is not installed (make deps installs it)")
+    env = clean_environment()
+    cmake_dir = subprocess.run(
+        [str(installed), "-m", "ipgen", "--cmake-dir"], capture_output=True, text=True, check=True, env=env
+    ).stdout.strip()
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.25)\nproject(p LANGUAGES CXX)\n"
+        "find_package(ipgen CONFIG REQUIRED)\n"
+    )
+    result = subprocess.run(
+        ["cmake", "-S", str(project), "-B", str(tmp_path / "build"), f"-Dipgen_DIR={cmake_dir}",
+         "-DCMAKE_DISABLE_FIND_PACKAGE_SUNDIALS=TRUE"],
+        capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    assert result.returncode != 0
+    assert "apt-get install libsundials-dev" in " ".join(result.stderr.split())
