@@ -66,8 +66,14 @@ def test_installed_package_is_ipgen_with_its_cmake_package(installed: Path, tmp_
     site = Path(package_file).parent
     assert site.parent.name == "site-packages" and str(installed.parent.parent) in package_file
     assert Path(cmake_dir) == site / "cmake" and no_generator == "True"
-    shipped_files = ("cmake/ipgenConfig.cmake", "cmake/ipgenConfigVersion.cmake", "cmake/ipgen.cmake",
-                     "cpp/include/ipsim/ipsim.hpp", "cpp/src/simulate.cpp", "templates/model.hpp.jinja")  # fmt: skip
+    shipped_files = (
+        "cmake/ipgenConfig.cmake",
+        "cmake/ipgenConfigVersion.cmake",
+        "cmake/ipgen.cmake",
+        "cpp/include/ipsim/ipsim.hpp",
+        "cpp/src/simulate.cpp",
+        "templates/model.hpp.jinja",
+    )
     for shipped in shipped_files:
         assert (site / shipped).is_file(), shipped
     command = installed.parent / "ipgen"
