@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile stability configure build clean
 
 all: test
 
@@ -70,8 +70,15 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile
 	$(PY) -m bench.run $(BENCH_ARGS)
+
+## Compile time of a program with one model and one ipsim::simulate call, against the headers of
+## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).
+## COMPILE_ARGS passes options, e.g. make bench-compile COMPILE_ARGS=--repeat=1
+COMPILE_ARGS ?=
+bench-compile: venv
+	$(PY) -m bench.compile_time $(COMPILE_ARGS)
 
 ## General against scene-specialised headers (bench/specialisation.py, docs/bench/specialisation.md).
 ## SPECIALISATION_ARGS passes options, e.g. make bench-specialisation SPECIALISATION_ARGS=--quick

@@ -177,9 +177,9 @@ void check_scene_method_keys() {
   CHECK(ipsim::family_of(ipsim::Method::erk_fehlberg8) == ipsim::Family::erk);
   CHECK(ipsim::uses_jacobian(ipsim::Method::adams) && !ipsim::uses_jacobian(ipsim::Method::adams_fixed_point));
   ipsim::Settings<Model> s;
-  CHECK(ipsim::describe(s) == "method bdf, jacobian exact, rtol 1e-08, atol 1e-10, max_steps 100000");
+  CHECK(ipsim::describe(s) == "method bdf, jacobian exact, rtol 1e-10, atol 1e-12, max_steps 100000");
   s.method = ipsim::Method::erk_dp5;
-  CHECK(ipsim::describe(s) == "method erk-dp5, rtol 1e-08, atol 1e-10, max_steps 100000");
+  CHECK(ipsim::describe(s) == "method erk-dp5, rtol 1e-10, atol 1e-12, max_steps 100000");
   s.method = ipsim::Method::rk4;
   s.step = 0.002;
   CHECK(ipsim::describe(s) == "method rk4, step 0.002, max_steps 100000");

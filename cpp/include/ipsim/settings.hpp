@@ -106,8 +106,8 @@ struct Settings {
   Method method = Method::bdf;
   /// bdf and adams only: exact Jacobian from the model's derivatives, or CVODE's difference quotients.
   Jacobian jacobian = Jacobian::exact;
-  double rtol = 1e-8;        ///< relative tolerance of the adaptive methods, > 0 (unused by rk4)
-  double atol = 1e-10;       ///< absolute tolerance (same for every state), ≥ 0 (unused by rk4)
+  double rtol = 1e-10;       ///< relative tolerance of the adaptive methods, > 0 (unused by rk4); a scene's default too
+  double atol = 1e-12;       ///< absolute tolerance (same for every state), ≥ 0 (unused by rk4); a scene's default too
   double step = 0.0;         ///< rk4 only: the fixed step [s], > 0; shortened to land on every stop
   long max_steps = 100000;   ///< integrator steps allowed between two stops, > 0
   double sample = 0.01;      ///< output interval [s]: samples at t = k·sample, plus t_end
