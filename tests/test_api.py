@@ -8,6 +8,7 @@ import io
 import os
 import re
 import subprocess
+import tempfile
 import sys
 from pathlib import Path
 
@@ -95,8 +96,8 @@ def test_derive_submodule_does_not_shadow_the_function() -> None:
 
 def test_write_header_writes_what_the_command_writes(tmp_path: Path) -> None:
     paths = ipgen.write_header(tmp_path / "api", "rotary", 2, name="rdip", inertia="full", fix={"m0": 0.3})
-    assert run(["--type", "rotary", "--links", "2", "--name", "rdip", "--inertia", "full"]
-               + ["--fix", "m0=0.3", "-o", str(tmp_path / "cli")]) == 0  # fmt: skip
+    argv = ["--type", "rotary", "--links", "2", "--name", "rdip", "--inertia", "full", "--fix", "m0=0.3"]
+    assert run([*argv, "-o", str(tmp_path / "cli")]) == 0
     assert paths == [tmp_path / "api" / "rdip.hpp"]
     assert paths[0].read_bytes() == (tmp_path / "cli" / "rdip.hpp").read_bytes()
     scene = ROOT / "scenes" / "cdip_pulse.toml"
@@ -178,3 +179,29 @@ def test_cmake_dir_holds_the_package_and_its_version() -> None:
         [sys.executable, "-m", "ipgen", "--cmake-dir"], capture_output=True, text=True, check=True, cwd=os.sep
     ).stdout
     assert Path(printed.strip()) == folder
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    name=st.one_of(st.none(), st.text(max_size=12)),
+    fix=st.one_of(
+        st.none(),
+        st.text(max_size=12),
+        st.dictionaries(
+            st.sampled_from(["m0", "m1", "l1", "delta1", "g", "m5", "x", "m0,m1"]), st.floats(), max_size=3
+        ),
+    ),
+    outputs=st.one_of(st.none(), st.lists(st.sampled_from(["mass_matrix", "bias", "nope", ""]), max_size=3)),
+)
+def test_write_header_any_options_write_or_raise_one_line(name: object, fix: object, outputs: object) -> None:
+    """Any name, --fix and --outputs: the header is written, or an ipgen.Error of one line leaves
+    nothing behind."""
+    with tempfile.TemporaryDirectory() as folder:
+        out = Path(folder) / "out"
+        try:
+            paths = ipgen.write_header(out, "classical", 1, name=name, fix=fix, outputs=outputs)  # type: ignore[arg-type]
+        except ipgen.Error as e:
+            assert str(e) and "\n" not in str(e)
+            assert not out.exists()
+        else:
+            assert [p.suffix for p in paths] == [".hpp"] and paths[0].is_file()

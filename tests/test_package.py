@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 from cxx import require_toolchain
 
+import ipgen
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -32,14 +34,14 @@ def clean_environment() -> dict[str, str]:
     return env
 
 
-@pytest.fixture(scope="module")
-def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A fresh virtualenv with `pip install <checkout>` (a wheel build, not editable); its python."""
-    venv = tmp_path_factory.mktemp("user") / "venv"
+def install(folder: Path) -> Path:
+    """A fresh virtualenv in `folder` with `pip install <checkout>` (a wheel build, not
+    editable); its python."""
+    venv = folder / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
     python = venv / "bin" / "python"
     # A copy of the sources without build leftovers, so that the wheel is built from tracked files.
-    source = tmp_path_factory.mktemp("source") / "ipgen"
+    source = folder / "source" / "ipgen"
     ignore = shutil.ignore_patterns(".venv", "build", "out", ".git", "*.egg-info", "__pycache__", ".*cache")
     shutil.copytree(ROOT, source, ignore=ignore)
     install = subprocess.run(
@@ -53,7 +55,14 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return python
 
 
-def test_installed_package_is_ipgen_with_its_cmake_package(installed: Path, tmp_path: Path) -> None:
+def test_installed_package_builds_the_readme_cmake_project(tmp_path: Path) -> None:
+    """One test, so that parallel workers do not each install: the package, then the project."""
+    installed = install(tmp_path)
+    check_installed_package(installed, tmp_path)
+    build_readme_cmake_project(installed, tmp_path)
+
+
+def check_installed_package(installed: Path, tmp_path: Path) -> None:
     env = clean_environment()
     code = (
         "import importlib.util, ipgen, sys; "
@@ -87,7 +96,7 @@ def test_installed_package_is_ipgen_with_its_cmake_package(installed: Path, tmp_
     assert module.returncode == 0 and "ipgen" in module.stdout
 
 
-def test_readme_cmake_project_builds_and_runs(installed: Path, tmp_path: Path) -> None:
+def build_readme_cmake_project(installed: Path, tmp_path: Path) -> None:
     require_toolchain()
     if shutil.which("cmake") is None:
         pytest.fail("cmake is not installed (make deps installs it)")
@@ -120,14 +129,12 @@ def test_readme_cmake_project_builds_and_runs(installed: Path, tmp_path: Path) -
     assert abs(link1) > 0.5 and abs(arm) > 0  # tipped by 0.1 rad, the upright links fall
 
 
-def test_missing_dependency_names_the_debian_package(installed: Path, tmp_path: Path) -> None:
+def test_missing_dependency_names_the_debian_package(tmp_path: Path) -> None:
     """A machine without SUNDIALS (simulated: its config hidden) gets the package to install."""
     if shutil.which("cmake") is None:
         pytest.fail("cmake is not installed (make deps installs it)")
     env = clean_environment()
-    cmake_dir = subprocess.run(
-        [str(installed), "-m", "ipgen", "--cmake-dir"], capture_output=True, text=True, check=True, env=env
-    ).stdout.strip()
+    cmake_dir = str(ipgen.cmake_dir())  # the same files as installed
     project = tmp_path / "project"
     project.mkdir()
     (project / "CMakeLists.txt").write_text(
