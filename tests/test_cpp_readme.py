@@ -53,12 +53,13 @@ def test_plain_gxx_command_builds_the_feedback_example(tmp_path: Path) -> None:
     require_toolchain()
     text = cpp_readme()
     snippet = next(b for b in re.findall(r"```cpp\n(.*?)```", text, flags=re.S) if "from_feedback(" in b)
-    command = next(b for b in re.findall(r"```\n(.*?)```", text, flags=re.S) if b.startswith("g++ "))
+    command = re.search(r"^```\n(g\+\+ .*?)^```", text, flags=re.S | re.M)
+    assert command is not None, "cpp/README.md has no ``` block starting with g++"
     generate_header(System("classical", 2), "cdip", tmp_path / "out")
     (tmp_path / "cpp").mkdir()
     (tmp_path / "cpp" / "include").symlink_to(ROOT / "cpp" / "include")
     (tmp_path / "main.cpp").write_text(PROGRAM % {"snippet": snippet})
-    arguments = shlex.split(command.replace("\\\n", " "))
+    arguments = shlex.split(command.group(1).replace("\\\n", " "))
     build = subprocess.run(arguments, cwd=tmp_path, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr[-3000:]
     run = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True)
