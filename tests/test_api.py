@@ -205,3 +205,28 @@ def test_write_header_any_options_write_or_raise_one_line(name: object, fix: obj
             assert not out.exists()
         else:
             assert [p.suffix for p in paths] == [".hpp"] and paths[0].is_file()
+
+
+@pytest.mark.parametrize(("inertia", "k"), [("pivot", sp.Rational(1, 4)), ("full", sp.Rational(1, 3))])
+def test_docs_model_eq31_for_both_inertia_variants(inertia: str, k: sp.Rational) -> None:
+    """docs/model.md's eq. 31 with k = 1/4 (pivot) or 1/3 (full): M, and N θ̇ + P = the bias."""
+    eq = ipgen.derive("rotary", 1, inertia)
+    s = eq.symbols
+    (m0, m1), (l0, l1), (d0, d1), g = s.m, s.l, s.delta, s.g
+    th, dth0, dth1 = s.q[1], s.qd[0], s.qd[1]
+    j0, j1 = m0 * l0**2 / 3, m1 * l1**2 / 3
+    mass = sp.Matrix(
+        [
+            [j0 + m1 * l0**2 + k * m1 * l1**2 * sp.sin(th) ** 2, m1 * l0 * l1 * sp.cos(th) / 2],
+            [m1 * l0 * l1 * sp.cos(th) / 2, j1],
+        ]
+    )
+    n = sp.Matrix(
+        [
+            [d0 + k * m1 * l1**2 * dth1 * sp.sin(2 * th), -m1 * l0 * l1 * dth1 * sp.sin(th) / 2],
+            [-k / 2 * m1 * l1**2 * dth0 * sp.sin(2 * th), d1],
+        ]
+    )
+    p = sp.Matrix([0, -m1 * g * l1 * sp.sin(th) / 2])
+    assert sp.simplify(eq.mass_matrix - mass) == sp.zeros(2, 2)
+    assert sp.simplify(eq.bias - (n * sp.Matrix(s.qd) + p)) == sp.zeros(2, 1)
