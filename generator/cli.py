@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
+
 from ipgen import __version__, job
 from ipgen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.errors import Error

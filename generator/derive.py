@@ -22,6 +22,7 @@ from ipgen.polynomial import Algebra
 
 if TYPE_CHECKING:
     import sympy as sp
+
     from ipgen.model import Symbols
 
 ProgressCallback = Callable[[str], None]

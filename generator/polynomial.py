@@ -21,6 +21,7 @@ from ipgen.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
 
 if TYPE_CHECKING:
     import sympy as sp
+
     from ipgen.model import Symbols
 
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"

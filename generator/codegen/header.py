@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
+
 from ipgen import __version__
 from ipgen.codegen.functions import FunctionBody, Output, build_body, params_field
 from ipgen.controller import Controller
