@@ -70,7 +70,7 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
     for label, values in (("gain K", controller.gain), ("equilibrium x_eq", controller.equilibrium)):
         if len(values) != size:
             raise ControllerError(
-                f"controller {label} has {len(values)} entries, expected {size} (2 x {dof} degrees of freedom)"
+                f"controller {label} has {len(values)} entries, expected {size} (2 x {dof} coordinates)"
             )
         for i, v in enumerate(values):
             if not isinstance(v, int | float) or not math.isfinite(v):
@@ -82,7 +82,7 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
         )
     period = controller.period
     if period is not None and not (isinstance(period, int | float) and 0 < period < math.inf):
-        raise ControllerError(f"controller period {period!r} must be a positive finite number or none")
+        raise ControllerError(f"controller period {period!r} must be positive and finite, or none")
     terms = []
     for i, k in enumerate(controller.gain):
         if k == 0:

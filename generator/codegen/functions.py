@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
-from ipgen.codegen.printer import CPrinter, CppPrinter
+from ipgen.codegen.printer import CppPrinter, CPrinter
 from ipgen.derive import Equations, PolyMatrix
 from ipgen.model import split_parameter
 from ipgen.poly import Poly
