@@ -20,7 +20,6 @@ from pathlib import Path
 
 import pytest
 from cxx import cxx_command, require_toolchain
-
 from ipgen.generate import generate_header
 from ipgen.model import System
 

@@ -8,7 +8,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from ipgen import output
 from ipgen.cli import run
 

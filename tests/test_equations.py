@@ -20,7 +20,6 @@ from functools import cache
 import pytest
 import sympy as sp
 from cases import CASES, case_id
-
 from ipgen.derive import Equations, derive
 from ipgen.model import Symbols, System
 

@@ -10,7 +10,6 @@ float mode computes in float only. Optionally the controller u = −K (x − x_e
 from __future__ import annotations
 
 import math
-import unicodedata
 from dataclasses import dataclass
 
 from ipgen import __version__
@@ -31,14 +30,17 @@ class ControllerError(Error, ValueError):
 
 
 def comment_safe(text: str) -> str:
-    """`text` made safe inside a C block comment on one line: control characters (newlines
-    included) and backslashes written as \\xNN, `*/` and `/*` broken up, and `??` (a trigraph
+    """`text` made safe inside a C block comment on one line: unprintable characters (newlines
+    included) and backslashes written as \\xNN (\\uNNNN), `*/` and `/*` broken up, and `??` (a trigraph
     start in C99) written as `?\\x3f`, so that nothing a user typed can end the comment, splice
     lines or start another one."""
     out: list[str] = []
     for char in text:
-        if char == "\\" or unicodedata.category(char).startswith("C"):
-            out.append(f"\\x{ord(char):02x}" if ord(char) < 0x100 else f"\\u{ord(char):04x}")
+        if char == "\\" or not char.isprintable():
+            code = ord(char)
+            out.append(
+                f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
+            )
         elif char == "?" and out and out[-1] == "?":
             out.append("\\x3f")
         elif char == "/" and out and out[-1] == "*":
