@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import model_name
+
 from ipgen.generate import generate
 from ipgen.model import System
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from cxx import cxx_command, require_toolchain
+
 from ipgen.generate import generate_header
 from ipgen.model import System
 

@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
 from ipgen.derive import Equations
 from ipgen.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY
 

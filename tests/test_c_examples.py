@@ -8,6 +8,7 @@ import subprocess
 from pathlib import Path
 
 from c_models import c_command, compile_c, require_cc
+
 from ipgen.generate import generate
 from ipgen.model import System
 

@@ -29,14 +29,15 @@ from conftest import CppModels, model_name
 from float_bound import float_bounds, parameter_values
 from hypothesis import given
 from hypothesis import strategies as st
+from numeric import assert_close
+from test_header_physics import make_case, run_driver
+
 from ipgen.codegen.c_header import comment_safe, render_c_header
 from ipgen.codegen.header import HeaderRequest
 from ipgen.controller import Controller
 from ipgen.derive import derive
 from ipgen.model import System
 from ipgen.specialise import Specialisation
-from numeric import assert_close
-from test_header_physics import make_case, run_driver
 
 MODELS = [
     *(System("classical", n) for n in range(1, 6)),

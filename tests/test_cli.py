@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from ipgen import output
 from ipgen.cli import run
 

@@ -20,6 +20,7 @@ from functools import cache
 import pytest
 import sympy as sp
 from cases import CASES, case_id
+
 from ipgen.derive import Equations, derive
 from ipgen.model import Symbols, System
 

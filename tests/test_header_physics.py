@@ -26,9 +26,10 @@ import numpy as np
 import pytest
 import sympy as sp
 from conftest import CppModels, check_built, model_name
+from numeric import assert_close
+
 from ipgen.derive import derive
 from ipgen.model import System
-from numeric import assert_close
 
 MODELS = [
     *(System("classical", n) for n in range(1, 6)),

@@ -17,9 +17,10 @@ import pytest
 import sympy as sp
 from cases import CASES, case_id
 from independent_model import reference
+from numeric import assert_close
+
 from ipgen.derive import Equations, derive
 from ipgen.model import System
-from numeric import assert_close
 
 RELATIVE = 1e-12
 STATES = 5

@@ -7,6 +7,7 @@ import subprocess
 from pathlib import Path
 
 from cxx import cxx_command, require_toolchain
+
 from ipgen.generate import generate_header
 from ipgen.model import System
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+
 from ipgen import __version__
 from ipgen.scene import (
     InputSpec,

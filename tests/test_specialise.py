@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import cxx_command, require_toolchain
+
 from ipgen.cli import run
 from ipgen.generate import generate_header
 from ipgen.model import System

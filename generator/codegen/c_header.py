@@ -3,8 +3,9 @@
 The same equations, specialisation and common-subexpression elimination as the C++ header
 (`header.py`), printed in C (`functions.C_SYNTAX`): `static inline` functions over plain arrays
 (matrices row-major), the scalar type the macro `IPGEN_SCALAR` (double unless defined as float
-before the include), constants cast to it and the type-generic sin/cos of <tgmath.h>, so that
-float mode computes in float only. Optionally the controller u = −K (x − x_eq) of a scene.
+before the include), constants cast to it and sin/cos chosen by its size (sinf/cosf for float;
+<math.h> only, as newlib's <tgmath.h> does not work in C99), so that float mode computes in
+float only. Optionally the controller u = −K (x − x_eq) of a scene.
 """
 
 from __future__ import annotations
