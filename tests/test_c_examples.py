@@ -67,7 +67,7 @@ def test_emit_c_from_the_command_line(tmp_path: Path) -> None:
     assert run(["--type", "rotary", "--links", "1", "--emit", "c", "-o", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["rotary1.h"]
     first = (out / "rotary1.h").read_bytes()
-    assert b"--emit c -o <dir>" in first and b"#ifndef IPGEN_ROTARY1_H_INCLUDED" in first
+    assert b"--emit c -o <dir>" in first and b"#ifndef IPGEN_rotary1_H_INCLUDED" in first
     assert run(["--type", "rotary", "--links", "1", "--emit", "c", "-o", str(out)]) == 0
     assert (out / "rotary1.h").read_bytes() == first
     assert run(["--type", "classical", "--links", "2", "--name", "cdip", "--fix", "m0=0.3,delta2=0",

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from c_models import CModels, c_command, compile_c, require_cc, run_c
+from c_models import CC, CModels, c_command, compile_c, require_cc, run_c
 from conftest import CppModels, model_name
 from float_bound import float_bounds, parameter_values
 from hypothesis import given
@@ -279,9 +279,40 @@ def test_hostile_scene_path_stays_in_the_comment(tmp_path: Path) -> None:
     assert (
         "broken"
         not in subprocess.run(
-            ["gcc", "-std=c99", "-E", "-P", str(tmp_path / "main.c"), f"-I{tmp_path}"],
+            [CC, "-std=c99", "-E", "-P", str(tmp_path / "main.c"), f"-I{tmp_path}"],
             capture_output=True,
             text=True,
             check=True,
         ).stdout
     )
+
+
+finite_or_not = st.floats(allow_nan=True, allow_infinity=True, width=64)
+
+
+@given(
+    gain=st.lists(finite_or_not, min_size=0, max_size=6),
+    equilibrium=st.lists(finite_or_not, min_size=4, max_size=4),
+    saturation=st.one_of(st.none(), finite_or_not),
+)
+def test_controller_values_are_printed_exactly_or_refused(
+    gain: list[float], equilibrium: list[float], saturation: float | None
+) -> None:
+    """Any controller either raises ControllerError (one line) or prints every gain as a C constant
+    that reads back as the same double; never a `nan`/`inf` token in the header."""
+    import math
+    import re
+
+    from ipgen.codegen.c_header import ControllerError, control_context
+
+    controller = Controller("lqr", tuple(gain), tuple(equilibrium), saturation)
+    try:
+        context = control_context(controller, dof=2)
+    except ControllerError as error:
+        assert "\n" not in str(error)
+        return
+    assert len(gain) == 4 and all(math.isfinite(v) for v in [*gain, *equilibrium])
+    printed = [float(t.gain.removeprefix("(IPGEN_SCALAR)")) for t in context["terms"]]  # type: ignore[attr-defined]
+    assert printed == [abs(k) for k in gain if k != 0]
+    for text in (context["offset"], context["saturation"]):
+        assert not re.search(r"nan|inf", str(text))
