@@ -161,17 +161,19 @@ def _c_list(values: list[float]) -> str:
     return ", ".join(f"(IPGEN_SCALAR){v!r}" for v in values)
 
 
+SHORT = {"m0": "0.3", "m1": "0.275", "l1": "0.5", "delta2": "0"}
+# Many digits: the folded rationals' numerators and denominators outgrow 64-bit integers.
+LONG = {"m0": "0.123456789123", "m1": "0.987654321987", "m2": "0.7777777777771", "l1": "0.333333333331",
+        "l2": "0.1234567891", "delta2": "0"}  # fmt: skip
+
+
+@pytest.mark.parametrize("values", [SHORT, LONG], ids=["short", "long"])
 @pytest.mark.parametrize("scalar", ["double", "float"])
-def test_specialised_header(tmp_path: Path, scalar: str) -> None:
+def test_specialised_header(tmp_path: Path, scalar: str, values: dict[str, str]) -> None:
     require_cc()
     system = System("classical", 2)
     eqs = equations(system)
-    fixed = (
-        ("m0", Fraction(3, 10)),
-        ("m1", Fraction(11, 40)),
-        ("l1", Fraction(1, 2)),
-        ("delta2", Fraction(0)),
-    )
+    fixed = tuple((name, Fraction(value)) for name, value in values.items())
     spec = Specialisation(fixed=fixed, outputs=("forward_dynamics", "kinetic_energy"), zero_input=True)
     (tmp_path / "general.h").write_text(render_c_header(eqs, HeaderRequest("general", "ipgen (test)")))
     special = render_c_header(eqs, HeaderRequest("special", "ipgen (test)", spec))
@@ -182,9 +184,9 @@ def test_specialised_header(tmp_path: Path, scalar: str) -> None:
     for key, values in (
         ("QS", [0.1, 0.4, -0.7]),
         ("QDS", [-0.3, 1.5, 2.0]),
-        ("MS", [0.3, 0.275, 0.4]),
-        ("LS", [0.0, 0.5, 0.6]),
-        ("DS", [0.2, 0.1, 0.0]),
+        ("MS", [float(values.get(f"m{i}", 0.4)) for i in range(3)]),
+        ("LS", [float(values.get(f"l{i}", v)) for i, v in enumerate((0.0, 0.5, 0.6))]),
+        ("DS", [float(values.get(f"delta{i}", 0.1)) for i in range(3)]),
     ):
         source = source.replace(key, _c_list(values))
     (tmp_path / "main.c").write_text(source)

@@ -21,8 +21,16 @@ def literal(value: Fraction) -> str:
     return f"Scalar({value.numerator})/Scalar({value.denominator})"
 
 
+EXACT_INTEGER = 2**53  # larger integers are neither exact in double nor always valid C constants
+
+
 def c_literal(value: Fraction) -> str:
-    """A rational constant in C99: integers cast to IPGEN_SCALAR, so that float mode stays float."""
+    """A rational constant in C99: integers cast to IPGEN_SCALAR, so that float mode stays float.
+
+    A ratio of integers beyond 2^53 (folded parameters with many digits multiply up) is written as
+    the nearest double instead, one floating constant cast to IPGEN_SCALAR."""
+    if max(abs(value.numerator), value.denominator) > EXACT_INTEGER:
+        return f"(IPGEN_SCALAR){float(value)!r}"
     if value.denominator == 1:
         return f"(IPGEN_SCALAR){value.numerator}"
     return f"(IPGEN_SCALAR){value.numerator}/(IPGEN_SCALAR){value.denominator}"
