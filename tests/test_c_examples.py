@@ -30,7 +30,7 @@ def test_rk4_example_conserves_energy(tmp_path: Path) -> None:
 CHECK = r"""
 #include <stdio.h>
 int main(void) {
-  const ipgen_rsip_params p = {{0.2f, 0.1f}, {0.2f, 0.3f}, {0.0f, 0.0f}, 9.81f};
+  const ipgen_rsip_params p = {{0.5f, 0.275f}, {0.6f, 0.5f}, {0.3f, 0.011458f}, 9.81f}; /* as in the README */
   float q[] = {0.0f, 0.3f}, qd[] = {1.0f, -0.5f}, qdd[IPGEN_RSIP_DOF];
   const float q1 = q[1], qd1 = qd[1];
   if (ipgen_rsip_forward_dynamics(q, qd, 0.5f, &p, qdd) != 0) return 2;

@@ -39,8 +39,9 @@ static IPGEN_SCALAR energy(const IPGEN_SCALAR x[], const ipgen_rsip_params *p) {
 }
 
 int main(void) {
-  /* The paper's rotary pendulum (arm 0.2 kg, 0.2 m; link 0.1 kg, 0.3 m), undamped. */
-  const ipgen_rsip_params p = {{0.2, 0.1}, {0.2, 0.3}, {0.0, 0.0}, 9.81};
+  /* The paper's rotary pendulum (scenes/rsip_pulse.toml: arm 0.5 kg, 0.6 m; link 0.275 kg,
+   * 0.5 m), here without damping. */
+  const ipgen_rsip_params p = {{0.5, 0.275}, {0.6, 0.5}, {0.0, 0.0}, 9.81};
   IPGEN_SCALAR x[2 * N] = {0.0, 0.3, 1.0, -0.5}; /* arm angle, link angle, their rates */
   const IPGEN_SCALAR h = 1e-3;                    /* 1 kHz, a typical control loop */
   const int steps = 2000;                         /* 2 s */
