@@ -92,7 +92,12 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
             continue
         variable = f"q[{i}]" if i < dof else f"qd[{i - dof}]"
         terms.append(ControlTerm("-=" if k > 0 else "+=", c_number(abs(k)), variable))
-    offset = math.fsum(k * x for k, x in zip(controller.gain, controller.equilibrium, strict=True))
+    try:
+        offset = math.fsum(k * x for k, x in zip(controller.gain, controller.equilibrium, strict=True))
+    except (OverflowError, ValueError):  # intermediate overflow, or inf − inf
+        offset = math.inf
+    if not math.isfinite(offset):
+        raise ControllerError("controller K x_eq overflows a double: scale the gain or the equilibrium")
     return {
         "kind": comment_safe(controller.kind),
         "terms": terms,
