@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded stability configure build clean
 
 all: test
 
@@ -70,7 +70,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
@@ -85,6 +85,20 @@ bench-compile: venv
 SPECIALISATION_ARGS ?= $(BENCH_QUICK)
 bench-specialisation: venv
 	$(PY) -m bench.specialisation $(SPECIALISATION_ARGS)
+
+## Code size of the C header (--emit c) on a Cortex-M4F (bench/embedded.py, docs/bench/embedded.md).
+## Debian's arm-none-eabi cross compiler and newlib are large: installed here when missing, never by make test.
+ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi
+bench-embedded: venv
+	@missing=""; for p in $(ARM_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  $(SUDO) apt-get update -qq; \
+	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+	$(PY) -m bench.embedded
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

@@ -41,9 +41,16 @@ def _cpp(eqs: Equations, request: HeaderRequest) -> Rendered:
     return {".hpp": render_header(eqs, request)}
 
 
+def _c(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.c_header import render_c_header
+
+    return {".h": render_c_header(eqs, request)}
+
+
 # In the order their files are written and listed.
 TARGETS: dict[str, Target] = {
     "cpp": Target("cpp", (".hpp",), "the C++17 header (Eigen) NAME.hpp", _cpp),
+    "c": Target("c", (".h",), "the C99 header NAME.h (no Eigen; float or double) for embedded targets", _c),
 }
 DEFAULT_EMIT: tuple[str, ...] = ("cpp",)
 

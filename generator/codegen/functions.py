@@ -1,9 +1,10 @@
-"""Turns the derived polynomials into the bodies of the header's C++ functions.
+"""Turns the derived polynomials into the bodies of the header's C++ (or C99) functions.
 
 For each function: its outputs are written in the trig letters of `polynomial.Algebra`
 (sin/cos of each angle computed once; cos(θj − θk) = cj ck + sj sk from them), common
 subexpressions are shared over all its outputs (`cse.py`: M and the bias share temporaries in
-`forward_dynamics`), and the result is printed as C++ statements (`printer.py`).
+`forward_dynamics`), and the result is printed as C++ statements (`printer.py`), or as C99
+ones with `syntax=C_SYNTAX` (the same graph and the same CSE, only the spelling differs).
 """
 
 from __future__ import annotations
@@ -13,11 +14,38 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
-from ipgen.codegen.printer import CppPrinter
+from ipgen.codegen.printer import CppPrinter, CPrinter
 from ipgen.derive import Equations, PolyMatrix
 from ipgen.model import split_parameter
 from ipgen.poly import Poly
 from ipgen.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
+
+
+@dataclass(frozen=True)
+class Syntax:
+    """How one target language spells a function body's statements (`CPP_SYNTAX`, `C_SYNTAX`)."""
+
+    scalar: str  # the scalar type: Scalar (a C++ template parameter) or IPGEN_SCALAR (a C macro)
+    printer: type[CppPrinter]
+    index: str  # element i of a vector argument: "{name}({i})" or "{name}[{i}]"
+    params: str  # the parameter struct: "p." (a C++ reference) or "p->" (a C pointer)
+    c_arrays: bool  # matrices as flat row-major arrays M[r*dof + c] instead of M(r, c)
+    sin: str = "sin"  # the sine and cosine functions of the scalar type
+    cos: str = "cos"
+
+    def element(self, name: str, r: int, c: int, rows: int, cols: int) -> str:
+        """Entry (r, c) of the output matrix `name` (a vector when cols == 1)."""
+        if cols == 1:
+            return self.index.format(name=name, i=r)
+        if self.c_arrays:
+            return f"{name}[{r}*{cols} + {c}]"
+        return f"{name}({r}, {c})"
+
+
+CPP_SYNTAX = Syntax("Scalar", CppPrinter, "{name}({i})", "p.", c_arrays=False)
+C_SYNTAX = Syntax(
+    "IPGEN_SCALAR", CPrinter, "{name}[{i}]", "p->", c_arrays=True, sin="ipgen_sin", cos="ipgen_cos"
+)
 
 
 @dataclass(frozen=True)
@@ -33,7 +61,7 @@ class Output:
 
 @dataclass
 class FunctionBody:
-    """C++ statements computing a function's outputs, with an operation count."""
+    """Statements computing a function's outputs, with an operation count."""
 
     prelude: list[str] = field(default_factory=list)  # parameter, velocity and trig bindings
     temporaries: list[str] = field(default_factory=list)
@@ -47,17 +75,19 @@ class FunctionBody:
     trig_calls: int = 0  # sin/cos evaluations
 
 
-def _trig_definition(letter: Generator) -> tuple[str, tuple[str, ...]]:
-    """C++ definition of a trig letter, and the letters it is built from."""
+def _trig_definition(letter: Generator, syntax: Syntax) -> tuple[str, tuple[str, ...]]:
+    """Definition of a trig letter, and the letters it is built from."""
     if len(letter.angles) == 1:
         (k,) = letter.angles
-        return f"const Scalar {letter.name} = {'sin' if letter.group == 's' else 'cos'}(q({k}));", ()
+        function = syntax.sin if letter.group == "s" else syntax.cos
+        return f"const {syntax.scalar} {letter.name} = {function}({syntax.index.format(name='q', i=k)});", ()
     j, k = letter.angles
     if letter.group == "C":
         value, what = f"c{j}*c{k} + s{j}*s{k}", "cos"
     else:
         value, what = f"s{j}*c{k} - c{j}*s{k}", "sin"
-    return f"const Scalar {letter.name} = {value};  // {what}(θ{j} − θ{k})", (
+    comment = f"// {what}(θ{j} − θ{k})" if syntax is CPP_SYNTAX else f"/* {what}(q{j} - q{k}) */"
+    return f"const {syntax.scalar} {letter.name} = {value};  {comment}", (
         f"s{j}",
         f"c{j}",
         f"s{k}",
@@ -65,8 +95,8 @@ def _trig_definition(letter: Generator) -> tuple[str, tuple[str, ...]]:
     )
 
 
-def _targets(outputs: Sequence[Output]) -> list[tuple[str, Poly]]:
-    """(C++ target, polynomial) for every entry that must be computed."""
+def _targets(outputs: Sequence[Output], syntax: Syntax) -> list[tuple[str, Poly]]:
+    """(target, polynomial) for every entry that must be computed."""
     targets: list[tuple[str, Poly]] = []
     for out in outputs:
         rows, cols = len(out.value), len(out.value[0])
@@ -76,17 +106,22 @@ def _targets(outputs: Sequence[Output]) -> list[tuple[str, Poly]]:
                 if out.scalar:
                     targets.append((out.name, p))
                 elif p and not ((out.symmetric and r > c) or (out.lower_only and r < c)):
-                    targets.append((f"{out.name}({r})" if cols == 1 else f"{out.name}({r}, {c})", p))
+                    targets.append((syntax.element(out.name, r, c, rows, cols), p))
     return targets
 
 
-def _mirror_lines(outputs: Sequence[Output]) -> list[str]:
+def _mirror_lines(outputs: Sequence[Output], syntax: Syntax) -> list[str]:
     """Copies completing symmetric matrices from their computed upper triangle."""
     lines = []
     for out in outputs:
         if out.symmetric:
+            n = len(out.value)
             for r, row in enumerate(out.value):
-                lines += [f"{out.name}({r}, {c}) = {out.name}({c}, {r});" for c in range(r) if row[c]]
+                lines += [
+                    f"{syntax.element(out.name, r, c, n, n)} = {syntax.element(out.name, c, r, n, n)};"
+                    for c in range(r)
+                    if row[c]
+                ]
     return lines
 
 
@@ -105,18 +140,18 @@ class _Leaves(dict[int, int]):
         return node
 
 
-def _expression(algebra: Algebra, p: Poly) -> str:
+def _expression(algebra: Algebra, p: Poly, syntax: Syntax) -> str:
     """p printed on its own, without shared subexpressions (named quantities' definitions)."""
     graph = Graph()
     leaves = _Leaves(graph, algebra)
     sign, node = graph.polynomial(p, leaves, algebra.n_parameters)
-    return CppPrinter(graph, {}, leaves.generator).signed(sign, node)
+    return syntax.printer(graph, {}, leaves.generator).signed(sign, node)
 
 
-def params_field(name: str) -> str:
-    """C++ access to parameter `name` in a Params p: m1 -> p.m[1], g -> p.g."""
+def params_field(name: str, syntax: Syntax = CPP_SYNTAX) -> str:
+    """Access to parameter `name` in the parameters p: m1 -> p.m[1] (C: p->m[1]), g -> p.g."""
     group, index = split_parameter(name)
-    return f"p.{group}" if index is None else f"p.{group}[{index}]"
+    return f"{syntax.params}{group}" if index is None else f"{syntax.params}{group}[{index}]"
 
 
 def _schedule(
@@ -142,16 +177,21 @@ def _schedule(
 
 
 def build_body(
-    eqs: Equations, outputs: Sequence[Output], arguments: Sequence[str], late_source: str = ""
+    eqs: Equations,
+    outputs: Sequence[Output],
+    arguments: Sequence[str],
+    late_source: str = "",
+    syntax: Syntax = CPP_SYNTAX,
 ) -> FunctionBody:
-    """Statements computing `outputs`; `arguments` are the C++ parameter names (q, qd, p).
+    """Statements computing `outputs`; `arguments` are the function's parameter names (q, qd, p).
 
-    Outputs may use θ̈: with `late_source` (a C++ vector holding it), the statements that need
-    it (transitively) are kept apart as the body's `late_*` part, and all others come first.
+    Outputs may use θ̈: with `late_source` (a vector holding it), the statements that need it
+    (transitively) are kept apart as the body's `late_*` part, and all others come first.
+    `syntax` chooses the language (C++ by default); the expressions are the same in both.
     """
     algebra = eqs.algebra
     generators = algebra.generators
-    targets = _targets(outputs)
+    targets = _targets(outputs, syntax)
     graph = Graph()
     leaves = _Leaves(graph, algebra)
     roots = [graph.polynomial(p, leaves, algebra.n_parameters) for _, p in targets]
@@ -169,42 +209,44 @@ def build_body(
             late.add(node)
     early, later = _schedule(graph, roots, reachable, late)
     names = {node: f"t{i}" for i, node in enumerate([*early, *later])}
-    printer = CppPrinter(graph, names, leaves.generator)
+    printer = syntax.printer(graph, names, leaves.generator)
 
     # Named quantities used, with what their definitions use (later ones build on earlier).
     for g in sorted(algebra.named, reverse=True):
         if g in used:
             used |= algebra.named[g].generators()
     letters = [g for g in sorted(used) if generators[g].kind == LETTER]
-    definitions = {generators[g].name: _trig_definition(generators[g]) for g in letters}
+    definitions = {generators[g].name: _trig_definition(generators[g], syntax) for g in letters}
     needed = {part for _, parts in definitions.values() for part in parts}
     for name in needed - definitions.keys():
-        definitions[name] = _trig_definition(generators[algebra.index(name)])
+        definitions[name] = _trig_definition(generators[algebra.index(name)], syntax)
     # per-angle sin/cos first (in angle order), then differences
     trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
 
     body = FunctionBody()
+    const = f"const {syntax.scalar}"
     for g in sorted(used):
         info = generators[g]
         if info.kind == PARAMETER:
-            body.prelude.append(f"const Scalar {info.name} = {params_field(info.name)};")
+            body.prelude.append(f"{const} {info.name} = {params_field(info.name, syntax)};")
         elif info.kind == VELOCITY:
-            body.prelude.append(f"const Scalar {info.name} = qd({info.index});")
+            body.prelude.append(f"{const} {info.name} = {syntax.index.format(name='qd', i=info.index)};")
         elif info.kind == ACCELERATION:
-            body.late_prelude.append(f"const Scalar {info.name} = {late_source}({info.index});")
+            solved = syntax.index.format(name=late_source, i=info.index)
+            body.late_prelude.append(f"{const} {info.name} = {solved};")
     body.prelude += [definition for _, (definition, _) in trig]
     body.prelude += [
-        f"const Scalar {generators[g].name} = {_expression(algebra, algebra.named[g])};"
+        f"{const} {generators[g].name} = {_expression(algebra, algebra.named[g], syntax)};"
         for g in sorted(algebra.named)
         if g in used
     ]
 
-    body.temporaries = [f"const Scalar {names[v]} = {printer.definition(v)};" for v in early]
-    body.late_temporaries = [f"const Scalar {names[v]} = {printer.definition(v)};" for v in later]
+    body.temporaries = [f"{const} {names[v]} = {printer.definition(v)};" for v in early]
+    body.late_temporaries = [f"{const} {names[v]} = {printer.definition(v)};" for v in later]
     for (target, _), (sign, node) in zip(targets, roots, strict=True):
         statement = f"{target} = {printer.signed(sign, node)};"
         (body.late_outputs if node in late else body.outputs).append(statement)
-    body.outputs += _mirror_lines(outputs)
+    body.outputs += _mirror_lines(outputs, syntax)
     computed = [*body.prelude, *body.temporaries, *body.outputs, *body.late_temporaries, *body.late_outputs]
     body.operations = sum(count_operations(line) for line in computed)
     body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
@@ -228,13 +270,16 @@ _OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
 
 
 def count_operations(statement: str) -> int:
-    """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ statement.
+    """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ or C statement.
 
-    Literal casts such as `Scalar(1)/Scalar(3)` are folded by the compiler and not counted.
+    Literal casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
+    by the compiler and not counted.
     """
     if "=" not in statement:
         return 0
-    right = statement.split("=", 1)[1].split("//", 1)[0]
+    right = statement.split("=", 1)[1].split("//", 1)[0].split("/*", 1)[0]
     right = re.sub(r"Scalar\(\d+\)/Scalar\(\d+\)", "1", right)
-    right = re.sub(r"\b(sin|cos)\(q\(\d+\)\)", "x", right)
+    right = re.sub(r"\(IPGEN_SCALAR\)\d+/\(IPGEN_SCALAR\)\d+", "1", right)
+    right = re.sub(r"\(IPGEN_SCALAR\)(\d+)", r"\1", right)
+    right = re.sub(r"\b(ipgen_)?(sin|cos)\(q(\(\d+\)|\[\d+\])\)", "x", right)
     return len(_OPERATOR.findall(right))

@@ -9,7 +9,7 @@ from pathlib import Path
 import jinja2
 
 from ipgen import __version__
-from ipgen.codegen.functions import FunctionBody, Output, build_body, params_field
+from ipgen.codegen.functions import CPP_SYNTAX, FunctionBody, Output, Syntax, build_body, params_field
 from ipgen.controller import Controller
 from ipgen.derive import Equations
 from ipgen.specialise import FUNCTIONS, Specialisation, specialise
@@ -93,7 +93,8 @@ def _template_cache() -> jinja2.BytecodeCache | None:
         return None
 
 
-def _environment() -> jinja2.Environment:
+def environment() -> jinja2.Environment:
+    """The Jinja environment of ipgen's templates (strict: an undefined name is an error)."""
     return jinja2.Environment(
         loader=jinja2.FileSystemLoader(templates_dir()),
         bytecode_cache=_template_cache(),
@@ -110,8 +111,14 @@ def poly_keys(wanted: tuple[str, ...] = FUNCTIONS) -> tuple[str, ...]:
     return tuple(dict.fromkeys(read.key for name in wanted for read in _FUNCTIONS[name][0]))
 
 
-def function_bodies(eqs: Equations, wanted: tuple[str, ...] = FUNCTIONS) -> dict[str, FunctionBody]:
-    """The body of every generated function in `wanted`, keyed by its C++ name."""
+def function_bodies(
+    eqs: Equations,
+    wanted: tuple[str, ...] = FUNCTIONS,
+    syntax: Syntax = CPP_SYNTAX,
+    late: dict[str, str] = _LATE,
+) -> dict[str, FunctionBody]:
+    """The body of every generated function in `wanted`, keyed by its name; `syntax` and `late`
+    (the vector holding θ̈ where a function needs it) choose the language, C++ by default."""
     bodies = {}
     for name in wanted:
         reads, arguments = _FUNCTIONS[name]
@@ -119,7 +126,7 @@ def function_bodies(eqs: Equations, wanted: tuple[str, ...] = FUNCTIONS) -> dict
             Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
             for r in reads
         ]
-        bodies[name] = build_body(eqs, outputs, arguments, late_source=_LATE.get(name, ""))
+        bodies[name] = build_body(eqs, outputs, arguments, late_source=late.get(name, ""), syntax=syntax)
     return bodies
 
 
@@ -143,4 +150,4 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
         "folded": [(name, params_field(name), repr(float(value))) for name, value in spec.fixed],
         "origin": spec.origin,
     }
-    return _environment().get_template(TEMPLATE).render(context)
+    return environment().get_template(TEMPLATE).render(context)

@@ -1,4 +1,5 @@
-"""Prints expression-graph nodes (`cse.Graph`) as C++ for a templated `Scalar` type.
+"""Prints expression-graph nodes (`cse.Graph`) as C++ for a templated `Scalar` type, or as C99
+for the `IPGEN_SCALAR` macro (`CPrinter`, the same expressions with C casts).
 
 Literals are cast to `Scalar` (`Scalar(1)/Scalar(3)`) so that the same code is exact in float
 and double, powers are repeated products, a node that has a name (a temporary) is printed by
@@ -20,8 +21,26 @@ def literal(value: Fraction) -> str:
     return f"Scalar({value.numerator})/Scalar({value.denominator})"
 
 
+EXACT_INTEGER = 2**53  # larger integers are neither exact in double nor always valid C constants
+
+
+def c_literal(value: Fraction) -> str:
+    """A rational constant in C99: integers cast to IPGEN_SCALAR, so that float mode stays float.
+
+    A ratio of integers beyond 2^53 (folded parameters with many digits multiply up) is written as
+    the nearest double instead, one floating constant cast to IPGEN_SCALAR."""
+    if max(abs(value.numerator), value.denominator) > EXACT_INTEGER:
+        return f"(IPGEN_SCALAR){float(value)!r}"
+    if value.denominator == 1:
+        return f"(IPGEN_SCALAR){value.numerator}"
+    return f"(IPGEN_SCALAR){value.numerator}/(IPGEN_SCALAR){value.denominator}"
+
+
 class CppPrinter:
     """Prints nodes of `graph`; `names` maps the nodes computed as temporaries to their names."""
+
+    literal = staticmethod(literal)
+    zero = "Scalar(0)"
 
     def __init__(self, graph: Graph, names: Mapping[int, str], leaf_order: Mapping[int, int]) -> None:
         self.graph = graph
@@ -31,7 +50,7 @@ class CppPrinter:
     def signed(self, sign: int, node: int) -> str:
         """The right-hand side for the value sign·node."""
         if node < 0:
-            return "Scalar(0)"
+            return self.zero
         if node not in self.names and self.graph.kind[node] == ADD:
             return self._sum({t: s * sign for t, s in self.graph.data[node].items()})
         text = self.definition(node) if node not in self.names else self.names[node]
@@ -51,7 +70,7 @@ class CppPrinter:
         if kind == LEAF:
             return self.graph.data[node]
         if kind == CONST:
-            return literal(self.graph.data[node])
+            return self.literal(self.graph.data[node])
         return self.names[node]
 
     def _reference(self, node: int) -> str:
@@ -92,7 +111,7 @@ class CppPrinter:
         factors.sort(key=self._sort_key)
         printed = [self._factor(f, self._reference(f)) for f in factors]
         if constant != 1 or not printed:
-            printed.insert(0, literal(constant))
+            printed.insert(0, self.literal(constant))
         return "*".join(printed)
 
     def _sum(self, terms: Mapping[int, int]) -> str:
@@ -115,3 +134,10 @@ class CppPrinter:
                 self._flatten(self.graph.data[node], sign * s, out)
             else:
                 out.append((node, sign * s))
+
+
+class CPrinter(CppPrinter):
+    """The same expressions as `CppPrinter`, spelled in C99 for the scalar type `IPGEN_SCALAR`."""
+
+    literal = staticmethod(c_literal)
+    zero = "(IPGEN_SCALAR)0"

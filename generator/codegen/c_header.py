@@ -1,0 +1,143 @@
+"""Renders the C99 header of one model (`--emit c`, templates/model.h.jinja).
+
+The same equations, specialisation and common-subexpression elimination as the C++ header
+(`header.py`), printed in C (`functions.C_SYNTAX`): `static inline` functions over plain arrays
+(matrices row-major), the scalar type the macro `IPGEN_SCALAR` (double unless defined as float
+before the include), constants cast to it and sin/cos chosen by its size (sinf/cosf for float;
+<math.h> only, as newlib's <tgmath.h> does not work in C99), so that float mode computes in
+float only. Optionally the controller u = −K (x − x_eq) of a scene.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ipgen import __version__
+from ipgen.codegen.functions import C_SYNTAX, FunctionBody, params_field
+from ipgen.codegen.header import HeaderRequest, environment, function_bodies, poly_keys
+from ipgen.controller import Controller
+from ipgen.derive import Equations
+from ipgen.errors import Error
+from ipgen.specialise import specialise
+
+TEMPLATE = "model.h.jinja"
+# Functions whose outputs use θ̈, and the C array holding it once solved for.
+_LATE = {"forward_dynamics_derivatives": "qdd"}
+
+
+class ControllerError(Error, ValueError):
+    """A controller that cannot be printed into the C header; the message names the entry."""
+
+
+def comment_safe(text: str) -> str:
+    """`text` made safe inside a C block comment on one line: unprintable characters (newlines
+    included) and backslashes written as \\xNN (\\uNNNN), `*/` and `/*` broken up, and `??` (a trigraph
+    start in C99) written as `?\\x3f`, so that nothing a user typed can end the comment, splice
+    lines or start another one."""
+    out: list[str] = []
+    for char in text:
+        if char == "\\" or not char.isprintable():
+            code = ord(char)
+            out.append(
+                f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
+            )
+        elif char == "?" and out and out[-1] == "?":
+            out.append("\\x3f")
+        elif char == "/" and out and out[-1] == "*":
+            out.append("\\x2f")
+        elif char == "*" and out and out[-1] == "/":
+            out.append("\\x2a")
+        else:
+            out.append(char)
+    return "".join(out)
+
+
+def c_number(value: float) -> str:
+    """A finite double as a C constant of type IPGEN_SCALAR (exact in double: repr round-trips)."""
+    return f"(IPGEN_SCALAR){float(value)!r}"
+
+
+@dataclass(frozen=True)
+class ControlTerm:
+    """One term of u: `u -= gain*variable` (`operator` "-=") or `u += |gain|*variable`."""
+
+    operator: str
+    gain: str
+    variable: str
+
+
+def control_context(controller: Controller, dof: int) -> dict[str, object]:
+    """The folded control law for the template: u = offset − Σ K_i x_i, offset = K x_eq."""
+    size = 2 * dof
+    for label, values in (("gain K", controller.gain), ("equilibrium x_eq", controller.equilibrium)):
+        if len(values) != size:
+            raise ControllerError(
+                f"controller {label} has {len(values)} entries, expected {size} (2 x {dof} coordinates)"
+            )
+        for i, v in enumerate(values):
+            if not isinstance(v, int | float) or not math.isfinite(v):
+                raise ControllerError(f"controller {label}[{i}] = {v!r} is not a finite number")
+    saturation = controller.saturation
+    if saturation is not None and not (isinstance(saturation, int | float) and 0 < saturation < math.inf):
+        raise ControllerError(
+            f"controller saturation {saturation!r} must be a positive finite number or none"
+        )
+    period = controller.period
+    if period is not None and not (isinstance(period, int | float) and 0 < period < math.inf):
+        raise ControllerError(f"controller period {period!r} must be positive and finite, or none")
+    terms = []
+    for i, k in enumerate(controller.gain):
+        if k == 0:
+            continue
+        variable = f"q[{i}]" if i < dof else f"qd[{i - dof}]"
+        terms.append(ControlTerm("-=" if k > 0 else "+=", c_number(abs(k)), variable))
+    try:
+        offset = math.fsum(k * x for k, x in zip(controller.gain, controller.equilibrium, strict=True))
+    except (OverflowError, ValueError):  # intermediate overflow, or inf − inf
+        offset = math.inf
+    if not math.isfinite(offset):
+        raise ControllerError("controller K x_eq overflows a double: scale the gain or the equilibrium")
+    return {
+        "kind": comment_safe(controller.kind),
+        "terms": terms,
+        "unused": [a for a in ("q", "qd") if not any(t.variable.startswith(a + "[") for t in terms)],
+        "offset": c_number(offset) if offset != 0 else "",
+        "saturation": c_number(saturation) if saturation is not None else "",
+        "saturation_value": repr(float(saturation)) if saturation is not None else "",
+        "period": repr(float(period)) if period is not None else "",
+        "gain": ", ".join(repr(float(k)) for k in controller.gain),
+        "equilibrium": ", ".join(repr(float(x)) for x in controller.equilibrium),
+    }
+
+
+def c_bodies(eqs: Equations, wanted: tuple[str, ...]) -> dict[str, FunctionBody]:
+    """The C99 body of every function in `wanted` (same expressions as the C++ header's)."""
+    return function_bodies(eqs, wanted, syntax=C_SYNTAX, late=_LATE)
+
+
+def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
+    """The complete C99 header text; deterministic for the same equations and request."""
+    system = eqs.system
+    spec = request.specialisation
+    eqs = specialise(eqs, spec, poly_keys(spec.outputs))
+    context = {
+        "name": request.name,
+        "nameu": request.name.upper(),
+        "command": comment_safe(request.command),
+        "version": __version__,
+        "template": TEMPLATE,
+        "type": system.type,
+        "links": system.links,
+        "dof": system.dof,
+        "inertia": system.inertia,
+        "fn": c_bodies(eqs, spec.outputs),
+        "input_used": not spec.zero_input,
+        "specialisation": [comment_safe(note) for note in spec.notes()],
+        "folded": [
+            (name, params_field(name, C_SYNTAX), c_number(float(value))) for name, value in spec.fixed
+        ],
+        "origin": comment_safe(spec.origin),
+        "controller": control_context(request.controller, system.dof) if request.controller else None,
+    }
+    return environment().get_template(TEMPLATE).render(context)
