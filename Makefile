@@ -8,7 +8,9 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 BUILD := build
-APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3 python3-venv
+# texlive-*, poppler-utils: pdflatex and pdftoppm for the equations documents (--emit equations)
+APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3 python3-venv \
+                texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
