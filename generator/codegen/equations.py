@@ -230,8 +230,9 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
     n = system.links
     n_block, n_zeros = builder.n_matrix()
     blocks = [builder.base(), *builder.links()]
+    totals = builder.totals()
     result = [builder.mass(), n_block, builder.gravity()]
-    capped = [line for block in [*blocks, builder.totals(), *result] for line in block.lines if line.capped]
+    capped = [line for block in [*blocks, totals, *result] for line in block.lines if line.capped]
     fixed = [(name, format_exact(value)) for name, value in request.specialisation.fixed]
     return {
         "name": request.name,
@@ -243,7 +244,7 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
         "inertia": system.inertia,
         "last": n,
         "bodies": blocks,
-        "totals": builder.totals(),
+        "totals": totals,
         "mass": result[0],
         "n_block": n_block,
         "n_zeros": n_zeros,
