@@ -265,7 +265,7 @@ def test_tex_compiles_with_pdflatex(case: tuple[str, int, str], tmp_path: Path) 
 # --------------------------------------------------------------------------- escaping
 
 _MD_SPECIALS = set("\\`*_[]<>|$~&#")
-_TEX_SPECIALS = set("\\&%$#_{}~^")
+_TEX_SPECIALS = set("\\&%$#_{}~^<>|")
 
 
 def markdown_unescape(text: str) -> str:
@@ -288,7 +288,7 @@ def test_tex_escape_leaves_no_active_character(text: str) -> None:
     escaped = tex_escape(text)
     assert "\n" not in escaped
     # What is left after removing the escapes' own commands has no special character.
-    bare = re.sub(r"\\textbackslash\{\}|\\textasciitilde\{\}|\\textasciicircum\{\}|\\[&%$#_{}]", "", escaped)
+    bare = re.sub(r"\\text[a-z]+\{\}|\\[&%$#_{}]", "", escaped)
     assert not (set(bare) & _TEX_SPECIALS)
 
 
@@ -314,3 +314,18 @@ def test_any_name_gives_escaped_documents(name: str) -> None:
         "\n", " "
     ).replace("\r", " ")
     assert rf"\title{{Equations of motion of {tex_escape(name)}}}" in docs[".tex"]
+
+
+def test_scene_path_is_escaped(tmp_path: Path) -> None:
+    """A specialised scene's path is part of the command the documents print: escaped, it
+    compiles, and the fixed values are listed."""
+    folder = tmp_path / "d %&$#{x}~^<|>"
+    folder.mkdir()
+    scene = (Path(__file__).resolve().parents[1] / "scenes" / "cdip_pulse.toml").read_text()
+    (folder / "we_ird.toml").write_text(scene.replace("[system]", "[system]\nspecialise = true", 1))
+    out = tmp_path / "out"
+    assert run(["--scene", str(folder / "we_ird.toml"), "--emit", "equations", "-o", str(out)]) == 0
+    markdown, tex = (out / "cdip.md").read_text(), (out / "cdip.tex").read_text()
+    assert markdown_escape(str(folder)) in markdown and tex_escape(str(folder)) in tex
+    assert "m1 = 0.275" in markdown
+    compile_tex(tex, out, "cdip")

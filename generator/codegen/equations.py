@@ -64,6 +64,9 @@ _TEX_SPECIAL = {
     "}": r"\}",
     "~": r"\textasciitilde{}",
     "^": r"\textasciicircum{}",
+    "<": r"\textless{}",
+    ">": r"\textgreater{}",
+    "|": r"\textbar{}",
 }
 
 
@@ -185,7 +188,7 @@ class _Builder:
         sym = self.sym
         if i >= 2 and sp.expand(damping - sym.delta[i] * (sym.qd[i] - sym.qd[i - 1]) ** 2 / 2) == 0:
             rates = f"{latex(sym.qd[i])} - {latex(sym.qd[i - 1])}"
-            return Line(lhs, [rf"\tfrac{{1}}{{2}} {latex(sym.delta[i])} \left({rates}\right)^{{2}}"])
+            return Line(lhs, [rf"\tfrac{{1}}{{2}} {latex(sym.delta[i])} ({rates})^{{2}}"])
         return self.line(lhs, damping)
 
     # -- totals and the result -----------------------------------------------------------
