@@ -15,7 +15,6 @@ from __future__ import annotations
 import re
 
 import sympy as sp
-
 from ipgen.model import Symbols
 
 _TOKEN = re.compile(r"\\[A-Za-z]+|\\[,;! ]|\d+|[A-Za-z]|[{}()^_+\-=&]|\s+")

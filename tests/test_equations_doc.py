@@ -25,14 +25,13 @@ import sympy as sp
 from cases import CASES, case_id
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from latex_reader import displayed, parse
-from test_equations import assert_identical, column, eq30, eq31
-
 from ipgen.cli import run
 from ipgen.codegen.equations import markdown_escape, render_equations, tex_escape
 from ipgen.codegen.header import HeaderRequest
 from ipgen.derive import Equations, derive
 from ipgen.model import Symbols, System
+from latex_reader import displayed, parse
+from test_equations import assert_identical, column, eq30, eq31
 
 
 @cache

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import sympy as sp
-
 from ipgen import __version__
 from ipgen.codegen.latex import break_lines, latex, readable_terms
 from ipgen.model import base_inertia, bodies
