@@ -8,7 +8,10 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 BUILD := build
-APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapack-dev python3 python3-venv
+# liblapack-dev: ipsim's eigenvalue guards; texlive-*, poppler-utils: pdflatex and pdftoppm for the
+# equations documents (--emit equations)
+APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapack-dev python3 python3-venv \
+                texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 

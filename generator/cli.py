@@ -44,6 +44,7 @@ Examples:
   ipgen --type classical --links 2 --name cdip -o include/
   ipgen --scene scenes/cdip_pulse.toml -o out/    # also writes out/cdip_pulse.cfg
   ipgen --scene scenes/cdip_pulse.toml --describe # one line: name=cdip type=classical ...
+  ipgen --type rotary --links 2 --emit equations -o out/  # out/rotary2.md and .tex
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.

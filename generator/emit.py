@@ -47,10 +47,22 @@ def _c(eqs: Equations, request: HeaderRequest) -> Rendered:
     return {".h": render_c_header(eqs, request)}
 
 
+def _equations(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.equations import render_equations
+
+    return render_equations(eqs, request)
+
+
 # In the order their files are written and listed.
 TARGETS: dict[str, Target] = {
     "cpp": Target("cpp", (".hpp",), "the C++17 header (Eigen) NAME.hpp", _cpp),
     "c": Target("c", (".h",), "the C99 header NAME.h (no Eigen; float or double) for embedded targets", _c),
+    "equations": Target(
+        "equations",
+        (".md", ".tex"),
+        "the equations for people, NAME.md (Markdown) and NAME.tex (LaTeX)",
+        _equations,
+    ),
 }
 DEFAULT_EMIT: tuple[str, ...] = ("cpp",)
 

@@ -4,14 +4,17 @@ Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
 
 For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, writes
-<out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. With --docs
-the plots are also copied there (the README shows docs/cdip.png and docs/rsip.png).
+<out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. It also writes the
+model's equations for people (ipgen --emit equations): <out>/<short>.md and .tex, and the .pdf
+pdflatex makes of it. With --docs the plots are also copied there (the README shows
+docs/cdip.png and docs/rsip.png), and the PDFs and PNGs of their pages go to docs/equations/.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import os
 import shutil
 import subprocess
 import sys
@@ -24,6 +27,8 @@ import matplotlib.pyplot as plt
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from ipgen.generate import generate  # noqa: E402
+from ipgen.model import System  # noqa: E402
 from ipgen.scene import Scene, load_scene  # noqa: E402
 
 # (scene stem, short name of the outputs, what the paper calls it)
@@ -68,6 +73,34 @@ def plot(columns: dict[str, list[float]], scene: Scene, title: str, path: Path) 
     plt.close(fig)
 
 
+def write_equations(scene: Scene, out: Path, docs: Path | None) -> str:
+    """<out>/<name>.md, .tex (ipgen --emit equations) and .pdf (pdflatex); with `docs`, the PDF
+    and a PNG per page (pdftoppm) in <docs>/equations/. Returns what was written, for the log."""
+    system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
+    generate(system, scene.name, out, emit=("equations",))
+    tex = out / f"{scene.name}.tex"
+    result = subprocess.run(
+        ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "-no-shell-escape", tex.name],
+        cwd=out,
+        capture_output=True,
+        text=True,
+        env={**os.environ, "SOURCE_DATE_EPOCH": "0", "FORCE_SOURCE_DATE": "1"},  # the same PDF every time
+    )
+    if result.returncode != 0:
+        raise RuntimeError(f"pdflatex {tex} failed:\n{result.stdout[-2000:]}")
+    for suffix in (".aux", ".log"):
+        (out / f"{scene.name}{suffix}").unlink(missing_ok=True)
+    pdf = out / f"{scene.name}.pdf"
+    if docs:
+        target = docs / "equations"
+        target.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(pdf, target / pdf.name)
+        for old in target.glob(f"{scene.name}-*.png"):
+            old.unlink()
+        subprocess.run(["pdftoppm", "-r", "110", "-png", str(pdf), str(target / scene.name)], check=True)
+    return f"{out / scene.name}.md, .tex and .pdf"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -89,7 +122,8 @@ def main() -> int:
             print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
             return 1
         plot(read_csv(csv_path), scene, title, png_path)
-        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path} and {png_path}\n")
+        equations = write_equations(scene, args.out, args.docs)
+        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path}, {png_path} and {equations}\n")
         if args.docs:
             args.docs.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(png_path, args.docs / png_path.name)
