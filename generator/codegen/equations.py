@@ -25,6 +25,10 @@ from ipgen.model import base_inertia, bodies
 from ipgen.specialise import format_exact
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import jinja2
+
     from ipgen.codegen.header import HeaderRequest
     from ipgen.derive import Equations
     from ipgen.model import Symbols
@@ -258,17 +262,18 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
     }
 
 
-def _environment(escape: object) -> object:
-    from ipgen.codegen.header import _environment as header_environment
+def _environment(escape: Callable[[str], str]) -> jinja2.Environment:
+    """The templates' environment (codegen.header's), with `escape_text` escaping for one format."""
+    from ipgen.codegen.header import environment
 
-    environment = header_environment()
-    environment.filters["escape_text"] = escape
-    return environment
+    documents = environment()
+    documents.filters["escape_text"] = escape
+    return documents
 
 
 def render_equations(eqs: Equations, request: HeaderRequest) -> dict[str, str]:
     """{".md": Markdown with $$ math, ".tex": a standalone amsmath document}; deterministic."""
     context = _context(eqs, request)
-    markdown = _environment(markdown_escape).get_template(MD_TEMPLATE).render(context)  # type: ignore[attr-defined]
-    tex = _environment(tex_escape).get_template(TEX_TEMPLATE).render(context)  # type: ignore[attr-defined]
+    markdown = _environment(markdown_escape).get_template(MD_TEMPLATE).render(context)
+    tex = _environment(tex_escape).get_template(TEX_TEMPLATE).render(context)
     return {".md": markdown, ".tex": tex}
