@@ -13,6 +13,7 @@ from ipgen.generate import STEPS, Written, generate
 from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from ipgen.naming import name_problem
 from ipgen.output import OutputError
+from ipgen.safetext import abbreviate
 from ipgen.specialise import (
     FUNCTIONS,
     Specialisation,
@@ -59,6 +60,13 @@ class InvalidOptions(click.UsageError):
     """An option value ipgen rejects; the message already says how to fix it."""
 
 
+def _output_directory(ctx: click.Context, param: click.Parameter, value: str | None) -> Path | None:
+    """-o DIR as a Path; an empty DIR is an error (it would silently mean the current folder)."""
+    if value is not None and value == "":
+        raise InvalidOptions('-o "" is empty: name the output folder, e.g. -o out/ (or -o . for this one)')
+    return None if value is None else Path(value)
+
+
 @click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
 @click.option(
     "--type",
@@ -71,7 +79,8 @@ class InvalidOptions(click.UsageError):
     "-o",
     "--output",
     "directory",
-    type=click.Path(path_type=Path),
+    type=click.Path(),
+    callback=_output_directory,
     default=None,
     metavar="DIR",
     help="Folder for the header; created if needed. Required unless --describe.",
@@ -175,7 +184,7 @@ def cli(
     name = name if name is not None else system.default_name
     problem = name_problem(name)
     if problem:
-        raise InvalidOptions(f"--name {name!r} {problem}; choose another name")
+        raise InvalidOptions(f"--name {abbreviate(name)!r} {problem}; choose another name")
     try:
         spec = Specialisation(
             fixed=parse_fix(system, fix) if fix is not None else (),
@@ -191,6 +200,8 @@ def cost_estimate(links: int) -> str:
     # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
     # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
     # n = 50) as n^2.
+    if links > 10_000:
+        return "expect days and more memory than this machine has"
     scale = links / 50
     seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
     duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
@@ -228,6 +239,11 @@ def _generate_scene(
 
     scene = load_scene(path)
     system = scene.system
+    if scene.links > LINKS_WITHOUT_FORCE and not force:
+        raise InvalidOptions(
+            f"{abbreviate(path.as_posix())}: system.links = {scene.links} is large: {cost_estimate(scene.links)}; "
+            f"pass --force to go ahead (up to {LINKS_WITHOUT_FORCE} links need no --force)"
+        )
     spec = from_scene(scene) if scene.specialise else Specialisation()
     config = (f"{scene.stem}.cfg", resolved_config(scene))
     written = _generate(system, scene.name, directory, force, spec, targets or scene.emit, (config,))
@@ -288,17 +304,25 @@ def run(argv: list[str] | None = None) -> int:
     try:
         status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
-        message = " ".join(e.format_message().split())
         hint = "" if isinstance(e, InvalidOptions) else " (see ipgen --help)"
-        click.echo(f"ipgen: error: {message}{hint}", err=True)
+        click.echo(f"ipgen: error: {_one_line(e.format_message())}{hint}", err=True)
         return EXIT_USAGE
     except (OutputError, SceneError) as e:
-        click.echo(f"ipgen: error: {e}", err=True)
+        click.echo(f"ipgen: error: {_one_line(str(e))}", err=True)
         return EXIT_USAGE
     except (KeyboardInterrupt, click.Abort):
         click.echo("ipgen: interrupted; no file was written", err=True)
         return 130
     return status if isinstance(status, int) else 0
+
+
+# Longest error message printed: the values in a message are abbreviated where it is made;
+# this catches any that is not (click's own messages quote option values in full).
+MESSAGE_CHARS = 400
+
+
+def _one_line(message: str) -> str:
+    return abbreviate(" ".join(message.split()), MESSAGE_CHARS)
 
 
 def main() -> None:
