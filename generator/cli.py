@@ -241,8 +241,9 @@ def _generate_scene(
     system = scene.system
     if scene.links > LINKS_WITHOUT_FORCE and not force:
         raise InvalidOptions(
-            f"{abbreviate(path.as_posix())}: system.links = {scene.links} is large: {cost_estimate(scene.links)}; "
-            f"pass --force to go ahead (up to {LINKS_WITHOUT_FORCE} links need no --force)"
+            f"{abbreviate(path.as_posix())}: system.links = {scene.links} is large: "
+            f"{cost_estimate(scene.links)}; pass --force to go ahead "
+            f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
         )
     spec = from_scene(scene) if scene.specialise else Specialisation()
     config = (f"{scene.stem}.cfg", resolved_config(scene))

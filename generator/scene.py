@@ -39,8 +39,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ipgen import __version__
-from ipgen import limits
+from ipgen import __version__, limits
 from ipgen import scene_schema as schema
 from ipgen.emit import DEFAULT_EMIT, EmitError, parse_emit
 from ipgen.errors import SceneError
@@ -323,7 +322,7 @@ def _read_text(reader: _Reader) -> str:
 # and braces (counted), and runs of dotted key parts.
 _TOML_TOKENS = re.compile(r""""(?:\\.|[^"\\\n])*"|'[^'\n]*'|#[^\n]*|[\[\]{}]""")
 _DOTTED_KEY = re.compile(
-    r"(?:(?:[A-Za-z0-9_-]+|\"[^\"\n]*\"|'[^'\n]*')[ \t]*\.[ \t]*){%d}" % limits.MAX_DOTTED_KEY_PARTS
+    r"(?:(?:[A-Za-z0-9_-]+|\"[^\"\n]*\"|'[^'\n]*')[ \t]*\.[ \t]*){" + str(limits.MAX_DOTTED_KEY_PARTS) + "}"
 )
 
 
