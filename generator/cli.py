@@ -13,7 +13,7 @@ from ipgen.generate import STEPS, Written, generate
 from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from ipgen.naming import name_problem
 from ipgen.output import OutputError
-from ipgen.safetext import abbreviate
+from ipgen.safetext import abbreviate, shown_path
 from ipgen.specialise import (
     FUNCTIONS,
     Specialisation,
@@ -241,7 +241,7 @@ def _generate_scene(
     system = scene.system
     if scene.links > LINKS_WITHOUT_FORCE and not force:
         raise InvalidOptions(
-            f"{abbreviate(path.as_posix())}: system.links = {scene.links} is large: "
+            f"{shown_path(path.as_posix())}: system.links = {scene.links} is large: "
             f"{cost_estimate(scene.links)}; pass --force to go ahead "
             f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
         )

@@ -12,7 +12,7 @@ Why these values:
   typo (t_end = 1e7 s with the default sample 0.01 s asks for 1e9) rather than an experiment.
 - `RTOL_MIN`: a relative tolerance below 1e-15 is below double precision's resolution
   (2.2e-16 per step, accumulated): CVODE and ARKODE cannot meet it. rtol must also be < 1.
-- `MAX_SCENE_BYTES`, `MAX_SCENE_NESTING`, `MAX_DOTTED_KEY_PARTS`: checked before the TOML
+- `MAX_SCENE_BYTES` (256 KiB), `MAX_SCENE_NESTING`, `MAX_DOTTED_KEY_PARTS`: checked before the TOML
   parser sees a scene. A scene is a few hundred bytes with tables one level deep; tomllib recurses
   once per nested array (a RecursionError past ~1,000 levels) and spends memory quadratic in a
   dotted key's length (2.4 GB for 20,000 parts).
@@ -23,7 +23,8 @@ Why these values:
   must lie in [FOLD_MIN_EXPONENT, FOLD_MAX_EXPONENT] and it may have at most FOLD_MAX_DIGITS
   significant digits (a double needs 17), so that the rational arithmetic stays small
   (1e-99999999 would carry a hundred-million-digit denominator through the derivation).
-- `MESSAGE_VALUE_CHARS`: a value quoted in an error message is cut to this many characters.
+- `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
+  this many characters, in the middle.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ FOLD_MIN_EXPONENT = -30
 FOLD_MAX_EXPONENT = 30
 FOLD_MAX_DIGITS = 30
 MESSAGE_VALUE_CHARS = 60
+MESSAGE_PATH_CHARS = 240
 
 
 def fold_problem(text: str) -> str | None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import urllib.parse
 
-from ipgen.limits import MESSAGE_VALUE_CHARS
+from ipgen.limits import MESSAGE_PATH_CHARS, MESSAGE_VALUE_CHARS
 
 # Characters a quoted path keeps as they are; everything else (control characters, spaces,
 # backslashes, '*', '?', '#', quotes, non-ASCII) is percent-encoded (%0A, %5C, ...).
@@ -24,6 +24,11 @@ def abbreviate(text: str, limit: int = MESSAGE_VALUE_CHARS) -> str:
         return shown
     head = (limit - 3) * 2 // 3
     return f"{shown[:head]}...{shown[len(shown) - (limit - 3 - head) :]}"
+
+
+def shown_path(path: object) -> str:
+    """A path for a message: `abbreviate`d to `MESSAGE_PATH_CHARS`."""
+    return abbreviate(str(path), MESSAGE_PATH_CHARS)
 
 
 def quote_path(path: str) -> str:

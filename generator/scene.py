@@ -52,7 +52,7 @@ from ipgen.model import (
     unused_parameter,
 )
 from ipgen.naming import name_problem
-from ipgen.safetext import abbreviate, quote_path
+from ipgen.safetext import abbreviate, quote_path, shown_path
 
 
 @dataclass(frozen=True)
@@ -232,14 +232,14 @@ class _Reader:
         self.path = path
 
     def fail(self, message: str) -> NoReturn:
-        text = f"{abbreviate(self.path.as_posix())}: {message}"
+        text = f"{shown_path(self.path.as_posix())}: {message}"
         raise SceneError(" ".join(text.split()))
 
     def bad(self, key: str, value: object, expected: str) -> NoReturn:
         self.fail(f"{key} = {_show(value)}: {expected}")
 
     def warning(self, message: str) -> str:
-        return f"{abbreviate(self.path.as_posix())}: warning: {message}"
+        return f"{shown_path(self.path.as_posix())}: warning: {message}"
 
 
 def _show(value: object) -> str:

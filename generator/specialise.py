@@ -126,6 +126,8 @@ def parse_fix(system: System, text: str) -> tuple[tuple[str, Fraction], ...]:
         if name in fixed:
             raise SpecialisationError(f"--fix names {name} twice: give each parameter once")
         fixed[name] = value
+    if not fixed:
+        raise SpecialisationError("--fix is empty: name parameters and values, e.g. --fix m0=0.3,delta1=0")
     order = parameter_names(system.links)
     return tuple(sorted(fixed.items(), key=lambda item: order.index(item[0])))
 
