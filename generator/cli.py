@@ -61,9 +61,12 @@ class InvalidOptions(click.UsageError):
 
 
 def _output_directory(ctx: click.Context, param: click.Parameter, value: str | None) -> Path | None:
-    """-o DIR as a Path; an empty DIR is an error (it would silently mean the current folder)."""
-    if value is not None and value == "":
-        raise InvalidOptions('-o "" is empty: name the output folder, e.g. -o out/ (or -o . for this one)')
+    """-o DIR as a Path; an empty or blank DIR is an error (it would silently mean the current
+    folder, or a folder named by spaces)."""
+    if value is not None and not value.strip():
+        raise InvalidOptions(
+            f"-o {value!r} is empty: name the output folder, e.g. -o out/ (or -o . for this one)"
+        )
     return None if value is None else Path(value)
 
 

@@ -62,6 +62,13 @@ def fold_problem(text: str) -> str | None:
         digits = "".join(map(str, value.as_tuple().digits)).strip("0")
         if len(parts) == 2 and value.as_tuple().exponent != 0:
             return "a fraction p/q takes integers p and q"
+        exponent = value.as_tuple().exponent
+        assert isinstance(exponent, int)  # finite
+        if not FOLD_MIN_EXPONENT - FOLD_MAX_DIGITS <= exponent <= FOLD_MAX_EXPONENT:  # 0e-999999999 too
+            return (
+                f"is outside what folding accepts: 0, or at most {FOLD_MAX_DIGITS} significant digits "
+                f"with a magnitude from 1e{FOLD_MIN_EXPONENT} to 1e{FOLD_MAX_EXPONENT}"
+            )
         if value == 0:
             continue
         if not FOLD_MIN_EXPONENT <= value.adjusted() <= FOLD_MAX_EXPONENT or len(digits) > FOLD_MAX_DIGITS:
