@@ -22,13 +22,24 @@ inline std::string format_number(double value) {
   return out.str();
 }
 
-/// A user-supplied value for a message: control characters escaped (\n, \x01), so the message
-/// stays one line, and cut in the middle to at most `limit` characters ("abc...xyz").
+/// A user-supplied value for a message: control characters and Unicode line separators escaped
+/// (\n, \x01, \u0085, \u2028), so the message stays one line, and cut in the middle to at most
+/// `limit` characters ("abc...xyz").
 inline std::string abbreviate(const std::string& text, std::size_t limit = kMessageValueChars) {
   std::string shown;
-  for (const char c : text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
     const auto byte = static_cast<unsigned char>(c);
-    if (c == '\n') {
+    const auto next = [&](std::size_t k) { return i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0; };
+    if (byte == 0xC2 && next(1) >= 0x80 && next(1) <= 0x9F) {  // a C1 control (U+0085 breaks lines)
+      char escaped[8];
+      std::snprintf(escaped, sizeof escaped, "\\u%04x", next(1));
+      shown += escaped;
+      ++i;
+    } else if (byte == 0xE2 && next(1) == 0x80 && (next(2) == 0xA8 || next(2) == 0xA9)) {  // U+2028, U+2029
+      shown += next(2) == 0xA8 ? "\\u2028" : "\\u2029";
+      i += 2;
+    } else if (c == '\n') {
       shown += "\\n";
     } else if (c == '\r') {
       shown += "\\r";
