@@ -214,10 +214,25 @@ inputs = st.one_of(
 
 @st.composite
 def simulations(draw: st.DrawFn) -> str:
-    lines = [f"t_end = {toml_number(draw(magnitudes))}"]
+    """[simulation] settings, half of them near the limits (t_end / sample close to the
+    largest sample count, rtol near its smallest value)."""
+    usual = st.floats(1e-2, 1e5)
+    t_end = draw(st.one_of(usual, usual, magnitudes))
+    lines = [f"t_end = {toml_number(t_end)}"]
+    sample = draw(
+        st.one_of(
+            st.none(),
+            st.integers(9_999_990, 10_000_010).map(lambda k: t_end / k),
+            st.integers(1, 10**7).map(lambda k: t_end / k),
+            st.integers(1, 10**5).map(lambda k: t_end / k),
+            st.floats(1e-4, 10),
+            magnitudes,
+        )
+    )
+    if sample is not None:
+        lines.append(f"sample = {toml_number(sample)}")
     for key, values in [
-        ("sample", magnitudes),
-        ("rtol", st.floats(1e-16, 1.5) | magnitudes),
+        ("rtol", st.floats(9e-16, 1.1e-15) | st.floats(1e-16, 1.5) | magnitudes),
         ("atol", signed),
         ("max_steps", st.integers(-1, 2**63 - 1)),
     ]:
@@ -226,7 +241,8 @@ def simulations(draw: st.DrawFn) -> str:
     if draw(st.booleans()):
         lines.append('method = "rk4"')
         lines = [line for line in lines if not line.startswith(("rtol", "atol"))]
-        lines.append(f"step = {toml_number(draw(magnitudes))}")
+        fraction = st.integers(1, 1000).map(lambda k: (sample or 0.01) / k)
+        lines.append(f"step = {toml_number(draw(st.one_of(fraction, fraction, magnitudes)))}")
     return "\n".join(lines)
 
 
