@@ -13,6 +13,7 @@ from ipgen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.errors import Error
 from ipgen.job import LINKS_WITHOUT_FORCE, cost_estimate
 from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from ipgen.safetext import abbreviate
 
 if TYPE_CHECKING:
     from ipgen.generate import Written
@@ -63,7 +64,7 @@ wrote it (else pass --force); the header is written to a temporary file, then re
     "-o",
     "--output",
     "directory",
-    type=click.Path(path_type=Path),
+    type=click.Path(),
     default=None,
     metavar="DIR",
     help="Folder for the header; created if needed. Required unless --describe.",
@@ -133,7 +134,7 @@ wrote it (else pass --force); the header is written to a temporary file, then re
 def cli(
     system_type: str | None,
     links: int | None,
-    directory: Path | None,
+    directory: str | None,
     name: str | None,
     inertia: str | None,
     scene: Path | None,
@@ -221,16 +222,24 @@ def run(argv: list[str] | None = None) -> int:
     try:
         status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
-        message = " ".join(e.format_message().split())
-        click.echo(f"ipgen: error: {message} (see ipgen --help)", err=True)
+        click.echo(f"ipgen: error: {_one_line(e.format_message())} (see ipgen --help)", err=True)
         return EXIT_USAGE
     except Error as e:  # ipgen.Error: the library's one-line message (job.py and what it calls)
-        click.echo(f"ipgen: error: {e}", err=True)
+        click.echo(f"ipgen: error: {_one_line(str(e))}", err=True)
         return EXIT_USAGE
     except (KeyboardInterrupt, click.Abort):
         click.echo("ipgen: interrupted; no file was written", err=True)
         return 130
     return status if isinstance(status, int) else 0
+
+
+# Longest error message printed: the values in a message are abbreviated where it is made;
+# this catches any that is not (click's own messages quote option values in full).
+MESSAGE_CHARS = 400
+
+
+def _one_line(message: str) -> str:
+    return abbreviate(" ".join(message.split()), MESSAGE_CHARS)
 
 
 def main() -> None:

@@ -13,6 +13,7 @@ from ipgen.emit import DEFAULT_EMIT, parse_emit
 from ipgen.errors import Error
 from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from ipgen.naming import name_problem
+from ipgen.safetext import abbreviate, shown_path
 
 if TYPE_CHECKING:
     from ipgen.generate import Written
@@ -49,6 +50,8 @@ def cost_estimate(links: int) -> str:
     # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
     # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
     # n = 50) as n^2.
+    if links > 10_000:
+        return "expect days and more memory than this machine has"
     scale = links / 50
     seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
     duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
@@ -122,6 +125,10 @@ def plan(
 
     if directory is None:
         raise OptionsError("missing -o DIR: say where to write the header")
+    if not str(directory).strip():  # "" would silently mean the current folder
+        raise OptionsError(
+            f"-o {str(directory)!r} is empty: name the output folder, e.g. -o out/ (or -o . for this one)"
+        )
     directory = Path(directory)
     targets = parse_emit(emit) if emit is not None else None
     if scene is not None:
@@ -129,6 +136,12 @@ def plan(
         from ipgen.scene import load_scene  # only scene commands need it
 
         loaded = load_scene(Path(scene))
+        if loaded.links > LINKS_WITHOUT_FORCE and not force:
+            raise OptionsError(
+                f"{shown_path(Path(scene).as_posix())}: system.links = {loaded.links} is large: "
+                f"{cost_estimate(loaded.links)}; pass --force to go ahead "
+                f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
+            )
         spec = from_scene(loaded) if loaded.specialise else Specialisation()
         return Job(loaded.system, loaded.name, directory, force, spec, targets or loaded.emit, loaded)
     if system_type is None or links is None:
@@ -143,7 +156,7 @@ def plan(
     name = name if name is not None else system.default_name
     problem = name_problem(name) if isinstance(name, str) else "is not a string"
     if problem:
-        raise OptionsError(f"--name {name!r} {problem}; choose another name")
+        raise OptionsError(f"--name {abbreviate(str(name))!r} {problem}; choose another name")
     spec = Specialisation(
         fixed=parse_fix(system, _fix_text(fix)) if fix is not None else (),
         outputs=parse_outputs(_text(outputs)) if outputs is not None else FUNCTIONS,

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import re
 
-from ipgen import model
+from ipgen import limits, model
 
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {
@@ -63,7 +63,7 @@ DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000
 
 # rtol below RTOL_MIN cannot be met in double precision; below RTOL_ADVISED it is unlikely to be.
-RTOL_MIN = 1e-15
+RTOL_MIN = limits.RTOL_MIN  # shared with the simulator (limits.py)
 RTOL_ADVISED = 1e-14
 
 # Scene file stems end up in output file names and in the resolved config.

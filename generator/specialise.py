@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.derive import Equations
 from ipgen.errors import Error
+from ipgen.limits import fold_problem
 from ipgen.model import (
     System,
     parameter_names,
@@ -22,6 +23,7 @@ from ipgen.model import (
     unused_parameter,
 )
 from ipgen.polynomial import PARAMETER, Algebra
+from ipgen.safetext import abbreviate, quote_path
 
 if TYPE_CHECKING:
     from ipgen.scene import Scene
@@ -54,7 +56,7 @@ class Specialisation:
     fixed: tuple[tuple[str, Fraction], ...] = ()  # parameter name (m0, l1, delta2, g) -> value
     outputs: tuple[str, ...] = FUNCTIONS  # functions to emit, in header order
     zero_input: bool = False  # the input is identically zero: drop its path
-    scene: str = ""  # the scene file it is made for (posix path), or "" for --fix/--outputs
+    scene: str = ""  # the scene file it is made for (posix path, `quote_path`d), or "" for --fix/--outputs
 
     @property
     def origin(self) -> str:
@@ -88,7 +90,7 @@ def format_exact(value: Fraction) -> str:
 def check_parameter(system: System, name: str, value: Fraction) -> str | None:
     """Why `name = value` cannot be fixed for `system`, or None."""
     if name not in parameter_names(system.links):
-        return f"unknown parameter {name!r}: expected one of {parameter_range(system.links)}"
+        return f"unknown parameter {abbreviate(name)!r}: expected one of {parameter_range(system.links)}"
     unused = unused_parameter(system.type, name)
     if unused:
         return f"{unused}: it cannot be fixed"
@@ -107,17 +109,25 @@ def parse_fix(system: System, text: str) -> tuple[tuple[str, Fraction], ...]:
         name, sep, number = item.partition("=")
         name = name.strip()
         if not sep:
-            raise SpecialisationError(f"--fix {item!r}: expected NAME=VALUE, e.g. --fix m0=0.3,delta1=0")
+            raise SpecialisationError(
+                f"--fix {abbreviate(item)!r}: expected NAME=VALUE, e.g. --fix m0=0.3,delta1=0"
+            )
+        shown = f"--fix {abbreviate(name)}={abbreviate(number.strip())!r}"
+        problem = fold_problem(number)
+        if problem:  # before Fraction(): 1e-99999999 would build a 1e8-digit denominator
+            raise SpecialisationError(f"{shown}: {problem}")
         try:
             value = Fraction(number.strip())
         except (ValueError, ZeroDivisionError):
-            raise SpecialisationError(f"--fix {name}={number.strip()!r}: not a number") from None
+            raise SpecialisationError(f"{shown}: not a number") from None
         problem = check_parameter(system, name, value)
         if problem:
             raise SpecialisationError(f"--fix {problem}")
         if name in fixed:
             raise SpecialisationError(f"--fix names {name} twice: give each parameter once")
         fixed[name] = value
+    if not fixed:
+        raise SpecialisationError("--fix is empty: name parameters and values, e.g. --fix m0=0.3,delta1=0")
     order = parameter_names(system.links)
     return tuple(sorted(fixed.items(), key=lambda item: order.index(item[0])))
 
@@ -130,7 +140,7 @@ def parse_outputs(text: str) -> tuple[str, ...]:
     for name in wanted:
         if name not in FUNCTIONS:
             raise SpecialisationError(
-                f"--outputs: unknown function {name!r}: choose from {', '.join(FUNCTIONS)}"
+                f"--outputs: unknown function {abbreviate(name)!r}: choose from {', '.join(FUNCTIONS)}"
             )
     return tuple(f for f in FUNCTIONS if f in wanted)
 
@@ -148,7 +158,7 @@ def from_scene(scene: Scene) -> Specialisation:
         fixed=fixed,
         outputs=tuple(f for f in FUNCTIONS if f in outputs),
         zero_input=scene.input.kind == "zero",
-        scene=scene.path.as_posix(),
+        scene=quote_path(scene.path.as_posix()),  # it is quoted in the header's comments
     )
 
 

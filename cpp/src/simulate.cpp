@@ -5,8 +5,14 @@
 //
 // Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method M] [--jacobian exact|dq] [--rtol X]
 //                          [--atol X] [--step X] [--t-end X] [--sample X] [--max-steps N] [--energy]
+//                          [--force] [--check]
 //   M: bdf, adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4 (rk4 needs a step).
-// Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters or settings.
+//   An existing OUT.csv is replaced only if it is a CSV this simulator wrote (its first line is
+//   the header `t,theta0,...,dtheta0,...`), or with --force; never the scene file itself. The CSV
+//   is written to a temporary file next to it and renamed into place. --check validates the scene
+//   and options and exits without integrating or writing.
+// Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters, settings or
+// CSV path (all reported before integrating).
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
 #endif
@@ -17,10 +23,13 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
 
@@ -41,6 +50,8 @@ struct Options {
   std::string scene_path;
   std::string csv_path;  ///< empty: the scene path with its extension replaced by .csv
   bool energy = false;   ///< add T, V, W_in, E_diss columns and an energy balance to the summary
+  bool force = false;    ///< replace an existing CSV even if this simulator did not write it
+  bool check = false;    ///< validate the scene and options only: no integration, no CSV
   std::optional<ipsim::Method> method;
   std::optional<ipsim::Jacobian> jacobian;
   std::optional<double> rtol, atol, step, t_end, sample;
@@ -50,20 +61,26 @@ struct Options {
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
     "erk-fehlberg8|rk4] [--jacobian exact|dq] [--rtol X] [--atol X] [--step X] [--t-end X] [--sample X] "
-    "[--max-steps N] [--energy]";
+    "[--max-steps N] [--energy] [--force] [--check]";
+
+using ipsim::detail::abbreviate;
+
+/// A path for a message: abbreviated to ipsim::kMessagePathChars.
+std::string shown_path(const std::string& path) { return abbreviate(path, ipsim::kMessagePathChars); }
 
 double parse_number(const std::string& option, const std::string& text) {
   errno = 0;
   char* end = nullptr;
   const double value = std::strtod(text.c_str(), &end);
   if (end == text.c_str() || *end != '\0' || errno == ERANGE) {
-    throw UsageError(option + " expects a number, got `" + text + "`");
+    throw UsageError(option + " expects a number, got `" + abbreviate(text) + "`");
   }
   return value;
 }
 
 Options parse_command_line(int argc, char** argv) {
   Options options;
+  bool csv_given = false;
   std::vector<std::string> args(argv + 1, argv + argc);
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
@@ -76,14 +93,17 @@ Options parse_command_line(int argc, char** argv) {
       std::exit(0);
     } else if (arg == "--csv") {
       options.csv_path = value();
+      csv_given = true;
     } else if (arg == "--method") {
       const std::string& text = value();
       options.method = ipsim::parse_method(text);
-      if (!options.method) throw UsageError("--method must be " + ipsim::method_names() + ", got `" + text + "`");
+      if (!options.method) {
+        throw UsageError("--method must be " + ipsim::method_names() + ", got `" + abbreviate(text) + "`");
+      }
     } else if (arg == "--jacobian") {
       const std::string& text = value();
       options.jacobian = ipsim::parse_jacobian(text);
-      if (!options.jacobian) throw UsageError("--jacobian must be exact or dq, got `" + text + "`");
+      if (!options.jacobian) throw UsageError("--jacobian must be exact or dq, got `" + abbreviate(text) + "`");
     } else if (arg == "--step") {
       options.step = parse_number(arg, value());
     } else if (arg == "--rtol") {
@@ -100,19 +120,25 @@ Options parse_command_line(int argc, char** argv) {
       char* end = nullptr;
       options.max_steps = std::strtol(text.c_str(), &end, 10);
       if (end == text.c_str() || *end != '\0' || errno == ERANGE) {
-        throw UsageError("--max-steps expects an integer, got `" + text + "`");
+        throw UsageError("--max-steps expects an integer, got `" + abbreviate(text) + "`");
       }
     } else if (arg == "--energy") {
       options.energy = true;
+    } else if (arg == "--force") {
+      options.force = true;
+    } else if (arg == "--check") {
+      options.check = true;
     } else if (arg.size() > 1 && arg[0] == '-') {
-      throw UsageError("unknown option `" + arg + "` (" + kUsage + ")");
+      throw UsageError("unknown option `" + abbreviate(arg) + "` (" + kUsage + ")");
     } else if (options.scene_path.empty()) {
       options.scene_path = arg;
     } else {
-      throw UsageError("more than one scene file given (`" + options.scene_path + "` and `" + arg + "`)");
+      throw UsageError("more than one scene file given (`" + shown_path(options.scene_path) + "` and `" +
+                       abbreviate(arg) + "`)");
     }
   }
   if (options.scene_path.empty()) throw UsageError(std::string("no scene file given (") + kUsage + ")");
+  if (options.csv_path.empty() && csv_given) throw UsageError("--csv \"\" is empty: name the CSV file");
   if (options.csv_path.empty()) {
     const auto slash = options.scene_path.find_last_of('/');
     const auto dot = options.scene_path.find_last_of('.');
@@ -152,12 +178,108 @@ void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>&
   }
 }
 
-/// Writes the CSV next to its destination and renames it into place, so a reader never sees a
-/// half-written file and a failed run leaves any previous result untouched. Refuses (writing
-/// nothing) when a value is NaN or infinite: ipsim stops before recording such a state, this
-/// guards the derived columns and anything that slips through.
-void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
-               bool energy) {
+/// True if the first line of `path` is a header this simulator writes (for any model):
+/// `t,theta0,...,thetaN,dtheta0,...,dthetaN` with optional energy columns. That line is how a
+/// CSV of an earlier run is told from a user's file, which is never replaced without --force.
+bool written_by_simulator(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  char buffer[4096];
+  if (!in.getline(buffer, sizeof buffer)) return false;
+  line = buffer;
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  std::vector<std::string> fields;
+  for (std::size_t start = 0;;) {
+    const auto comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  std::size_t n = 0;  // coordinates
+  while (1 + n < fields.size() && fields[1 + n] == "theta" + std::to_string(n)) ++n;
+  if (n == 0 || fields[0] != "t" || fields.size() < 1 + 2 * n) return false;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (fields[1 + n + i] != "dtheta" + std::to_string(i)) return false;
+  }
+  const std::vector<std::string> energy = {"kinetic", "potential", "input_work", "dissipated"};
+  const std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
+  return rest.empty() || rest == energy;
+}
+
+/// The CSV's destination, checked and claimed before integrating: a user's file there (or the
+/// scene file itself) is refused, and a temporary file is created next to it, so that a path
+/// that cannot be written is reported before the run. commit() renames the temporary file into
+/// place; otherwise it is removed, leaving any earlier result untouched.
+class PendingCsv {
+ public:
+  PendingCsv(const std::string& path, const std::string& scene_path, bool force) : path_(path) {
+    const std::string shown = "--csv " + shown_path(path);
+    struct stat target {};
+    if (::stat(path.c_str(), &target) == 0) {
+      struct stat scene {};
+      if (S_ISDIR(target.st_mode)) throw UsageError(shown + " is a directory: name a file");
+      if (::stat(scene_path.c_str(), &scene) == 0 && scene.st_dev == target.st_dev && scene.st_ino == target.st_ino) {
+        throw UsageError(shown + " is the scene file itself: choose another CSV path");
+      }
+      if (!force && !written_by_simulator(path)) {
+        throw UsageError(shown + " exists and was not written by this simulator: move it away, choose another --csv, "
+                                 "or pass --force");
+      }
+    } else if (errno != ENOENT) {
+      throw UsageError("cannot write " + shown + ": " + std::strerror(errno) + "; choose another --csv");
+    }
+    const auto slash = path.find_last_of('/');
+    const std::string directory = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+    std::string name = directory + "/.simulate.XXXXXX";
+    const int fd = ::mkstemp(name.data());
+    if (fd < 0) {
+      throw UsageError("cannot write " + shown + ": " + std::strerror(errno) + " (in " + shown_path(directory) +
+                       "); choose another --csv");
+    }
+    temporary_ = name;
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    ::fchmod(fd, 0666 & ~mask);  // as fopen would create it
+    out_ = ::fdopen(fd, "w");
+    if (out_ == nullptr) {
+      ::close(fd);
+      throw std::runtime_error("cannot write `" + shown_path(temporary_) + "`");
+    }
+  }
+  PendingCsv(const PendingCsv&) = delete;
+  PendingCsv& operator=(const PendingCsv&) = delete;
+  ~PendingCsv() {
+    if (out_ != nullptr) std::fclose(out_);
+    if (!temporary_.empty()) std::remove(temporary_.c_str());
+  }
+
+  std::FILE* stream() const { return out_; }
+
+  /// Closes the temporary file and renames it to the destination.
+  void commit() {
+    const bool written = std::ferror(out_) == 0;
+    const bool closed = std::fclose(out_) == 0;
+    out_ = nullptr;
+    if (!written || !closed) throw std::runtime_error("error while writing `" + shown_path(temporary_) + "`");
+    if (std::rename(temporary_.c_str(), path_.c_str()) != 0) {
+      throw std::runtime_error("cannot rename `" + shown_path(temporary_) + "` to `" + shown_path(path_) + "`: " +
+                               std::strerror(errno));
+    }
+    temporary_.clear();
+  }
+
+ private:
+  std::string path_;
+  std::string temporary_;
+  std::FILE* out_ = nullptr;
+};
+
+/// Writes the CSV into `csv` and renames it into place, so a reader never sees a half-written
+/// file and a failed run leaves any previous result untouched. Refuses (writing nothing) when a
+/// value is NaN or infinite: ipsim stops before recording such a state, this guards the derived
+/// columns and anything that slips through.
+void write_csv(PendingCsv& csv, const std::string& path, const ipsim::Result& result,
+               const ipsim::ParamsOf<Model>& params, bool energy) {
   std::vector<std::array<double, 4>> energies;  // each row's energy columns, computed once
   for (std::size_t k = 0; k < result.times.size(); ++k) {
     bool finite = std::isfinite(result.times[k]) && result.states.row(static_cast<Eigen::Index>(k)).allFinite();
@@ -166,13 +288,11 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
       for (const double value : energies.back()) finite = finite && std::isfinite(value);
     }
     if (!finite) {
-      throw std::runtime_error("refusing to write `" + path + "`: the row at t = " + std::to_string(result.times[k]) +
+      throw std::runtime_error("refusing to write `" + shown_path(path) + "`: the row at t = " + std::to_string(result.times[k]) +
                                " s has a non-finite value (NaN or inf)");
     }
   }
-  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
-  std::FILE* out = std::fopen(temporary.c_str(), "w");
-  if (out == nullptr) throw std::runtime_error("cannot write `" + temporary + "`");
+  std::FILE* out = csv.stream();
   std::fputs("t", out);
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",theta%d", i);
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",dtheta%d", i);
@@ -187,15 +307,7 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
     }
     std::fputc('\n', out);
   }
-  const bool written = std::ferror(out) == 0;
-  if (std::fclose(out) != 0 || !written) {
-    std::remove(temporary.c_str());
-    throw std::runtime_error("error while writing `" + temporary + "`");
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw std::runtime_error("cannot rename `" + temporary + "` to `" + path + "`");
-  }
+  csv.commit();
 }
 
 /// The integrator and its counters, e.g. "CVODE BDF (exact Jacobian): 812 steps, …".
@@ -232,9 +344,9 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   std::printf(
       "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
-      scene.name.c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
+      abbreviate(scene.name).c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
       ipsim::to_string(s.input.kind), ipsim::to_string(s.method), s.t_end, result.times.size(),
-      options.csv_path.c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
+      shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(result, scene.params);
@@ -264,8 +376,11 @@ int run(int argc, char** argv) {
   options.energy = options.energy || scene.energy;
   s.energy_ledger = options.energy;
 
+  ipsim::require_valid_run<Model>(scene.params, s);
+  if (options.check) return 0;
+  PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);
-  write_csv(options.csv_path, result, scene.params, options.energy);
+  write_csv(csv, options.csv_path, result, scene.params, options.energy);
   print_summary(options, scene, result);
   return 0;
 }

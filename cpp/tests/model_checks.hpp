@@ -194,7 +194,7 @@ void check_settings_validation() {
   expect([](auto& s) { s.atol = -1; }, "invalid setting atol = -1: must be finite and >= 0");
   expect([](auto& s) { s.t_end = 0; }, "invalid setting t_end = 0: must be finite and > 0");
   expect([](auto& s) { s.sample = 0; }, "invalid setting sample = 0: must be finite and > 0");
-  expect([](auto& s) { s.sample = 1e-12; }, "exceeds 1e8 output samples");
+  expect([](auto& s) { s.sample = 1e-12; }, "exceeds 10000000 output samples");
   expect([](auto& s) { s.max_steps = 0; }, "invalid setting max_steps = 0: must be > 0");
   expect([&](auto& s) { s.theta(1) = nan; }, "invalid setting theta[1] = nan: initial state must be finite");
   expect([&](auto& s) { s.dtheta(0) = inf; }, "invalid setting dtheta[0] = inf: initial state must be finite");

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <istream>
@@ -61,13 +62,13 @@ class SceneFile {
       if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
       if (trim(line).empty()) continue;
       const auto equals = line.find('=');
-      if (equals == std::string::npos) file.fail(number, "expected `key = value`, got `" + trim(line) + "`");
+      if (equals == std::string::npos) file.fail(number, "expected `key = value`, got `" + detail::abbreviate(trim(line)) + "`");
       const std::string key = trim(line.substr(0, equals));
       const std::string value = trim(line.substr(equals + 1));
       if (key.empty()) file.fail(number, "missing key before `=`");
-      if (value.empty()) file.fail(number, "key `" + key + "` has no value");
+      if (value.empty()) file.fail(number, "key `" + detail::abbreviate(key) + "` has no value");
       if (const auto seen = file.entries_.find(key); seen != file.entries_.end()) {
-        file.fail(number, "key `" + key + "` repeated (first on line " + std::to_string(seen->second.line) + ")");
+        file.fail(number, "key `" + detail::abbreviate(key) + "` repeated (first on line " + std::to_string(seen->second.line) + ")");
       }
       file.entries_.emplace(key, Entry{value, number});
     }
@@ -108,7 +109,7 @@ class SceneFile {
     char* end = nullptr;
     const long parsed = std::strtol(value.c_str(), &end, 10);
     if (end == value.c_str() || *end != '\0' || errno == ERANGE) {
-      fail(line(key), "`" + key + "` must be an integer, got `" + value + "`");
+      fail(line(key), "`" + key + "` must be an integer, got `" + detail::abbreviate(value) + "`");
     }
     return parsed;
   }
@@ -121,8 +122,9 @@ class SceneFile {
       errno = 0;
       char* end = nullptr;
       const double parsed = std::strtod(word.c_str(), &end);
-      if (end == word.c_str() || *end != '\0' || errno == ERANGE) {
-        fail(line(key), "`" + key + "`: `" + word + "` is not a number");
+      // ERANGE on underflow gives a subnormal or zero, the double ipgen wrote: accepted.
+      if (end == word.c_str() || *end != '\0' || (errno == ERANGE && std::abs(parsed) > 1.0)) {
+        fail(line(key), "`" + key + "`: `" + detail::abbreviate(word) + "` is not a number");
       }
       values.push_back(parsed);
     }
@@ -131,7 +133,7 @@ class SceneFile {
 
   /// Throws SceneError("origin:line: message"); line 0 means the whole file.
   [[noreturn]] void fail(int line_number, const std::string& message) const {
-    throw SceneError(origin_ + (line_number > 0 ? ":" + std::to_string(line_number) : std::string()) + ": " + message);
+    throw SceneError(detail::abbreviate(origin_, kMessagePathChars) + (line_number > 0 ? ":" + std::to_string(line_number) : std::string()) + ": " + message);
   }
 
  private:
@@ -176,25 +178,25 @@ Scene<Model> load(const SceneFile& file) {
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"};
   for (const auto& key : file.keys()) {
-    if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + key + "`");
+    if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
 
   if (file.text("model") != Model::kName) {
-    file.fail(file.line("model"), "scene is for model `" + file.text("model") + "`, this simulator is built for `" +
+    file.fail(file.line("model"), "scene is for model `" + detail::abbreviate(file.text("model")) + "`, this simulator is built for `" +
                                       Model::kName + "`");
   }
   if (file.text("type") != Model::kType) {
-    file.fail(file.line("type"), "type is `" + file.text("type") + "`, model " + Model::kName + " is " + Model::kType);
+    file.fail(file.line("type"), "type is `" + detail::abbreviate(file.text("type")) + "`, model " + Model::kName + " is " + Model::kType);
   }
   if (file.integer("links") != Model::kLinks) {
-    file.fail(file.line("links"), "links = " + file.text("links") + ", model " + Model::kName + " has " +
+    file.fail(file.line("links"), "links = " + detail::abbreviate(file.text("links")) + ", model " + Model::kName + " has " +
                                       std::to_string(Model::kLinks));
   }
 
   if (file.has("inertia")) {
     const std::string& inertia = file.text("inertia");
     if (inertia != "pivot" && inertia != "full") {
-      file.fail(file.line("inertia"), "inertia must be `pivot` or `full`, got `" + inertia + "`");
+      file.fail(file.line("inertia"), "inertia must be `pivot` or `full`, got `" + detail::abbreviate(inertia) + "`");
     }
     // Classical models have no inertia variant; the Python side writes the default anyway.
     if (!inertia_of<Model>().empty() && inertia != inertia_of<Model>()) {
@@ -219,7 +221,7 @@ Scene<Model> load(const SceneFile& file) {
   if (file.has("energy")) {
     const std::string& energy = file.text("energy");
     if (energy != "true" && energy != "false") {
-      file.fail(file.line("energy"), "energy must be `true` or `false`, got `" + energy + "`");
+      file.fail(file.line("energy"), "energy must be `true` or `false`, got `" + detail::abbreviate(energy) + "`");
     }
     scene.energy = energy == "true";
     scene.settings.energy_ledger = scene.energy;
@@ -242,12 +244,12 @@ Scene<Model> load(const SceneFile& file) {
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");
   const auto parsed_method = parse_method(method);
-  if (!parsed_method) file.fail(file.line("method"), "method must be " + method_names() + ", got `" + method + "`");
+  if (!parsed_method) file.fail(file.line("method"), "method must be " + method_names() + ", got `" + detail::abbreviate(method) + "`");
   s.method = *parsed_method;
   if (file.has("jacobian")) {
     const std::string& jacobian = file.text("jacobian");
     const auto parsed_jacobian = parse_jacobian(jacobian);
-    if (!parsed_jacobian) file.fail(file.line("jacobian"), "jacobian must be `exact` or `dq`, got `" + jacobian + "`");
+    if (!parsed_jacobian) file.fail(file.line("jacobian"), "jacobian must be `exact` or `dq`, got `" + detail::abbreviate(jacobian) + "`");
     s.jacobian = *parsed_jacobian;
   }
   if (file.has("step")) s.step = file.number("step");
@@ -271,7 +273,7 @@ Scene<Model> load(const SceneFile& file) {
     s.input = Input::sine(file.number("input.amplitude"), file.number("input.frequency"),
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
   } else {
-    file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + kind + "`");
+    file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
   }
   return scene;
 }

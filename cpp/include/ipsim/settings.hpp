@@ -11,6 +11,7 @@
 
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/limits.hpp"
 #include "ipsim/model.hpp"
 
 namespace ipsim {
@@ -135,9 +136,6 @@ std::string describe(const Settings<Model>& settings) {
   return text + ", max_steps " + std::to_string(settings.max_steps);
 }
 
-/// Largest number of output samples accepted, to fail early instead of exhausting memory.
-inline constexpr double kMaxSamples = 1e8;
-
 /// Problems with the parameters, one line each, empty when valid: masses and used lengths must
 /// be finite and > 0 (l[0] is skipped for a cart, where it is unused), damping finite and ≥ 0,
 /// g finite.
@@ -176,13 +174,18 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   auto report = [&](const std::string& field, double v, const char* rule) {
     found.push_back("invalid setting " + field + " = " + detail::format_number(v) + ": " + rule);
   };
-  if (!(std::isfinite(settings.rtol) && settings.rtol > 0.0)) report("rtol", settings.rtol, "must be finite and > 0");
+  if (!(std::isfinite(settings.rtol) && settings.rtol > 0.0)) {
+    report("rtol", settings.rtol, "must be finite and > 0");
+  } else if (!(settings.rtol >= kRtolMin && settings.rtol < 1.0)) {  // limits.hpp, shared with ipgen
+    report("rtol", settings.rtol, "must be >= 1e-15 (double precision cannot meet less) and < 1");
+  }
   if (!(std::isfinite(settings.atol) && settings.atol >= 0.0)) report("atol", settings.atol, "must be finite and >= 0");
   if (!(std::isfinite(settings.t_end) && settings.t_end > 0.0)) report("t_end", settings.t_end, "must be finite and > 0");
   if (!(std::isfinite(settings.sample) && settings.sample > 0.0)) {
     report("sample", settings.sample, "must be finite and > 0");
   } else if (std::isfinite(settings.t_end) && settings.t_end / settings.sample > kMaxSamples) {
-    report("sample", settings.sample, "t_end / sample exceeds 1e8 output samples");
+    report("sample", settings.sample,
+           ("t_end / sample exceeds " + std::to_string(static_cast<long>(kMaxSamples)) + " output samples").c_str());
   }
   if (settings.method == Method::rk4 && !(std::isfinite(settings.step) && settings.step > 0.0)) {
     report("step", settings.step, "method rk4 needs a fixed step: must be finite and > 0");

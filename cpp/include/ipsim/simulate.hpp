@@ -133,6 +133,21 @@ std::vector<std::string> model_setting_problems(const Settings<Model>& settings)
 
 }  // namespace detail
 
+/// Throws InvalidInput listing every problem simulate() would refuse before integrating: invalid
+/// parameters (or ones that differ from a specialised header's folded values) and settings.
+template <class Model>
+void require_valid_run(const ParamsOf<Model>& params, const Settings<Model>& settings) {
+  auto problems = validate<Model>(params);
+  if (const char* name = folded_mismatch<Model>(params)) {
+    problems.push_back(std::string("invalid parameter ") + name + ": differs from the value folded into the " +
+                       "specialised header of model " + Model::kName + " (regenerate the header)");
+  }
+  for (const auto& list : {validate<Model>(settings), detail::model_setting_problems<Model>(settings)}) {
+    problems.insert(problems.end(), list.begin(), list.end());
+  }
+  if (!problems.empty()) throw InvalidInput(std::move(problems));
+}
+
 /// Integrates `Model` from t = 0 to settings.t_end.
 ///
 /// \param[in] params   Physical parameters (see validate(const ParamsOf<Model>&)).
@@ -145,16 +160,7 @@ template <class Model>
 Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) {
   static_assert(detail::check_model<Model>());
   const auto started = std::chrono::steady_clock::now();
-
-  auto problems = validate<Model>(params);
-  if (const char* name = folded_mismatch<Model>(params)) {
-    problems.push_back(std::string("invalid parameter ") + name + ": differs from the value folded into the " +
-                       "specialised header of model " + Model::kName + " (regenerate the header)");
-  }
-  for (const auto& list : {validate<Model>(settings), detail::model_setting_problems<Model>(settings)}) {
-    problems.insert(problems.end(), list.begin(), list.end());
-  }
-  if (!problems.empty()) throw InvalidInput(std::move(problems));
+  require_valid_run<Model>(params, settings);
 
   constexpr int n = Model::kDof;
   const int size = 2 * n + (settings.energy_ledger ? 2 : 0);

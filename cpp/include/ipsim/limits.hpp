@@ -1,0 +1,20 @@
+// The limits on input that the simulator shares with ipgen (generator/limits.py has the same
+// numbers and says why; tests/test_bad_input_properties.py parses this file and fails when the
+// two differ), so a scene ipgen accepts is never refused here for a limit.
+#pragma once
+
+#include <cstddef>
+
+namespace ipsim {
+
+/// Largest number of output samples, t_end / sample: every sample is kept in memory and written
+/// as a CSV row (1e7 samples of a double pendulum: 0.6 GB in memory, about 1.5 GB of CSV).
+inline constexpr double kMaxSamples = 1e7;
+/// Smallest relative tolerance: below it double precision cannot meet the request (rtol < 1 too).
+inline constexpr double kRtolMin = 1e-15;
+/// Longest user-supplied value quoted in a message (longer ones are cut in the middle).
+inline constexpr std::size_t kMessageValueChars = 60;
+/// Longest path quoted in a message.
+inline constexpr std::size_t kMessagePathChars = 240;
+
+}  // namespace ipsim

@@ -1,0 +1,79 @@
+"""The limits on input that ipgen and the simulator share, in one place.
+
+The C++ simulator has the same numbers in `cpp/include/ipsim/limits.hpp`;
+`tests/test_bad_input_properties.py` parses that header and fails when the two differ, so a
+scene the generator accepts is never refused by the simulator for a limit.
+
+Why these values:
+
+- `MAX_SAMPLES`: t_end / sample output samples at most. The simulator keeps every sample in
+  memory (2 kDof + 1 doubles each) and writes one CSV row per sample: 1e7 samples of a double
+  pendulum are 0.6 GB in memory and about 1.5 GB of CSV, well inside a 24 GB machine; more is a
+  typo (t_end = 1e7 s with the default sample 0.01 s asks for 1e9) rather than an experiment.
+- `RTOL_MIN`: a relative tolerance below 1e-15 is below double precision's resolution
+  (2.2e-16 per step, accumulated): CVODE and ARKODE cannot meet it. rtol must also be < 1.
+- `MAX_SCENE_BYTES` (256 KiB), `MAX_SCENE_NESTING`, `MAX_DOTTED_KEY_PARTS`: checked before the TOML
+  parser sees a scene. A scene is a few hundred bytes with tables one level deep; tomllib recurses
+  once per nested array (a RecursionError past ~1,000 levels) and spends memory quadratic in a
+  dotted key's length (2.4 GB for 20,000 parts).
+- `MAX_NAME_LENGTH`, `MAX_STEM_LENGTH`: a model name becomes a C identifier (C99 guarantees
+  63 significant characters) and file names `<name>.hpp`, `<stem>.cfg`, `<stem>.csv` plus the
+  simulator's temporary files, which must stay below the file system's 255 bytes.
+- `FOLD_*`: a value folded into a specialised header is an exact rational; its decimal exponent
+  must lie in [FOLD_MIN_EXPONENT, FOLD_MAX_EXPONENT] and it may have at most FOLD_MAX_DIGITS
+  significant digits (a double needs 17), so that the rational arithmetic stays small
+  (1e-99999999 would carry a hundred-million-digit denominator through the derivation).
+- `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
+  this many characters, in the middle.
+"""
+
+from __future__ import annotations
+
+MAX_SAMPLES = 10_000_000
+RTOL_MIN = 1e-15
+MAX_SCENE_BYTES = 1 << 18
+MAX_SCENE_NESTING = 16
+MAX_DOTTED_KEY_PARTS = 16
+MAX_NAME_LENGTH = 63
+MAX_STEM_LENGTH = 100
+FOLD_MIN_EXPONENT = -30
+FOLD_MAX_EXPONENT = 30
+FOLD_MAX_DIGITS = 30
+MESSAGE_VALUE_CHARS = 60
+MESSAGE_PATH_CHARS = 240
+
+
+def fold_problem(text: str) -> str | None:
+    """Why the number `text` (a decimal such as 0.275 or 1e-3, or a fraction p/q) cannot be
+    folded into a header as an exact rational, or None. Checked on the text, before any
+    rational is formed, so that 1e-99999999 costs nothing."""
+    from decimal import Decimal, InvalidOperation
+
+    parts = text.strip().split("/")
+    if len(parts) > 2:
+        return "is not a number"
+    for part in parts:
+        try:
+            value = Decimal(part.strip())
+        except InvalidOperation:
+            return "is not a number"
+        if not value.is_finite():
+            return "must be finite"
+        digits = "".join(map(str, value.as_tuple().digits)).strip("0")
+        if len(parts) == 2 and value.as_tuple().exponent != 0:
+            return "a fraction p/q takes integers p and q"
+        exponent = value.as_tuple().exponent
+        assert isinstance(exponent, int)  # finite
+        if not FOLD_MIN_EXPONENT - FOLD_MAX_DIGITS <= exponent <= FOLD_MAX_EXPONENT:  # 0e-999999999 too
+            return (
+                f"is outside what folding accepts: 0, or at most {FOLD_MAX_DIGITS} significant digits "
+                f"with a magnitude from 1e{FOLD_MIN_EXPONENT} to 1e{FOLD_MAX_EXPONENT}"
+            )
+        if value == 0:
+            continue
+        if not FOLD_MIN_EXPONENT <= value.adjusted() <= FOLD_MAX_EXPONENT or len(digits) > FOLD_MAX_DIGITS:
+            return (
+                f"is outside what folding accepts: 0, or at most {FOLD_MAX_DIGITS} significant digits "
+                f"with a magnitude from 1e{FOLD_MIN_EXPONENT} to 1e{FOLD_MAX_EXPONENT}"
+            )
+    return None
