@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import subprocess
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,7 @@ from ipgen.cli import run
 from ipgen.generate import generate_header
 from ipgen.model import System
 from ipgen.scene import load_scene
-from ipgen.specialise import ENERGY_FUNCTIONS, from_scene
+from ipgen.specialise import ENERGY_FUNCTIONS, Specialisation, from_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))
@@ -176,3 +177,28 @@ def test_scene_with_specialise_true_writes_a_specialised_header(tmp_path: Path) 
     assert f"ipgen --scene {scene_path.as_posix()} -o <dir>" in text
     assert "m1 = 0.275 (11/40) folded" in text and "m0 =" not in text.split("Model:")[0]
     assert "const Scalar m0 = p.m[0];" in text  # free: still read from Params
+
+
+def test_fix_with_many_digits_compiles_and_agrees(tmp_path: Path) -> None:
+    """Folded values with 30 significant digits (the most --fix accepts) multiply up to
+    rationals beyond 64-bit integers: the header prints those as the nearest double, compiles
+    without warnings and agrees with the general header."""
+    system = System("classical", 2)
+    digits = {"m0": "0.123456789012345678901234567891", "m1": "1.98765432109876543210987654321",
+              "l1": "0.333333333333333333333333333331", "l2": "0.7"}  # fmt: skip
+    spec = Specialisation(fixed=tuple((name, Fraction(value)) for name, value in digits.items()))
+    generate_header(system, "general", tmp_path)
+    generate_header(system, "special", tmp_path, spec=spec)
+    build = compile_program(tmp_path, COMPARE)
+    assert build.returncode == 0, build.stderr[:4000]
+    rng = np.random.default_rng(7)
+    free = {"m2": 0.2, "l0": 0.0, "delta0": 0.1, "delta1": 0.1, "delta2": 0.1}
+    params = free | {name: float(Fraction(value)) for name, value in digits.items()}
+    numbers = [*(params[f"{group}{i}"] for group in ("m", "l", "delta") for i in range(3)), 9.81]
+    for _ in range(STATES):
+        numbers += [rng.uniform(-1, 1), *rng.uniform(-3, 3, system.dof), *rng.uniform(-2, 2, system.dof)]
+    result = subprocess.run(
+        [str(tmp_path / "program")], input=" ".join(map(repr, numbers)), capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert float(result.stdout) <= RELATIVE, f"specialised vs general differ by {result.stdout}"

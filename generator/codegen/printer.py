@@ -15,13 +15,17 @@ from fractions import Fraction
 from ipgen.codegen.cse import ADD, CONST, LEAF, MUL, Graph
 
 
+EXACT_INTEGER = 2**53  # larger integers are neither exact in double nor always valid C constants
+
+
 def literal(value: Fraction) -> str:
+    """A rational constant in C++: `Scalar(1)/Scalar(3)`, or the nearest double `Scalar(0.1234...)`
+    for a ratio of integers beyond 2^53 (folded parameters with many digits multiply up)."""
+    if max(abs(value.numerator), value.denominator) > EXACT_INTEGER:
+        return f"Scalar({float(value)!r})"
     if value.denominator == 1:
         return f"Scalar({value.numerator})"
     return f"Scalar({value.numerator})/Scalar({value.denominator})"
-
-
-EXACT_INTEGER = 2**53  # larger integers are neither exact in double nor always valid C constants
 
 
 def c_literal(value: Fraction) -> str:
