@@ -19,9 +19,9 @@ JOBS ?= $(shell nproc)
 
 all: test
 
-## System packages (Debian): installed only when missing.
-deps:
-	@missing=""; for p in $(APT_PACKAGES); do \
+## Debian packages $(1), installed only when missing (a second run installs nothing).
+define apt_install
+missing=""; for p in $(1); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
 	done; \
 	if [ -n "$$missing" ]; then \
@@ -29,6 +29,11 @@ deps:
 	  $(SUDO) apt-get update -qq; \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
+endef
+
+## System packages (Debian) of make test and make demo.
+deps:
+	@$(call apt_install,$(APT_PACKAGES))
 
 ## Python virtualenv with ipgen (editable) and the test tools; rebuilt when pyproject changes.
 venv: $(VENV)/.installed
@@ -93,14 +98,7 @@ bench-specialisation: venv
 ## Debian's arm-none-eabi cross compiler and newlib are large: installed here when missing, never by make test.
 ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi
 bench-embedded: venv
-	@missing=""; for p in $(ARM_PACKAGES); do \
-	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
-	done; \
-	if [ -n "$$missing" ]; then \
-	  echo "installing Debian packages:$$missing"; \
-	  $(SUDO) apt-get update -qq; \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
-	fi
+	@$(call apt_install,$(ARM_PACKAGES))
 	$(PY) -m bench.embedded
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
