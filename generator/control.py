@@ -103,7 +103,6 @@ class Dynamics:
 def dynamics(system: System) -> Dynamics:
     """The lambdified dynamics of `system` (derived once per process and system)."""
     import sympy as sp
-
     from ipgen.derive import derive
 
     equations = derive(system)
@@ -134,12 +133,16 @@ def _system(type: str, links: int, inertia: str) -> System:
     except (ValueError, TypeError) as exc:
         raise ControlError(
             f"{exc}: expected type 'classical' or 'rotary', links >= 1, inertia 'pivot' or 'full'"
-        )
+        ) from None
 
 
 def _params(
-    system: System, m: Sequence[float], l: Sequence[float], delta: Sequence[float], g: float
-) -> list[float]:  # noqa: E741
+    system: System,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741
+    delta: Sequence[float],
+    g: float,
+) -> list[float]:
     dof = system.dof
     for name, values in (("m", m), ("l", l), ("delta", delta)):
         if len(values) != dof:
@@ -232,7 +235,8 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
     for i, angle in enumerate(angles[1:], start=1):
         if abs(math.remainder(angle, math.pi)) > 1e-9:
             raise ControlError(
-                f"equilibrium[{i}] = {angle:g} is not an equilibrium angle: links rest upright (0) or hanging (π)"
+                f"equilibrium[{i}] = {angle:g} is not an equilibrium angle: "
+                "links rest upright (0) or hanging (π)"
             )
     x[:dof] = angles
     return x
