@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 from ipgen import __version__
+from ipgen.controller import Controller
 from ipgen.emit import DEFAULT_EMIT, TARGETS, EmitError, parse_emit
 from ipgen.errors import SceneError
 from ipgen.generate import STEPS, Written, generate
@@ -230,7 +231,9 @@ def _generate_scene(
     system = scene.system
     spec = from_scene(scene) if scene.specialise else Specialisation()
     config = (f"{scene.stem}.cfg", resolved_config(scene))
-    written = _generate(system, scene.name, directory, force, spec, targets or scene.emit, (config,))
+    written = _generate(
+        system, scene.name, directory, force, spec, targets or scene.emit, (config,), scene.controller
+    )
     _report(system, scene.name, written[:-1])
     click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene.stem})")
     _warn(scene.warnings)
@@ -261,9 +264,12 @@ def _generate(
     spec: Specialisation,
     emit: tuple[str, ...],
     extra_files: tuple[tuple[str, str], ...] = (),
+    controller: Controller | None = None,
 ) -> list[Written]:
     if system.links < PROGRESS_FROM_LINKS[system.type]:
-        return generate(system, name, directory, force, spec=spec, emit=emit, extra_files=extra_files)
+        return generate(
+            system, name, directory, force, spec=spec, emit=emit, extra_files=extra_files, controller=controller
+        )
     with click.progressbar(
         length=STEPS + len(emit),
         label=f"deriving {system.type}{system.links}",
@@ -280,6 +286,7 @@ def _generate(
             spec=spec,
             emit=emit,
             extra_files=extra_files,
+            controller=controller,
         )
 
 

@@ -147,7 +147,7 @@ def from_scene(scene: Scene) -> Specialisation:
     return Specialisation(
         fixed=fixed,
         outputs=tuple(f for f in FUNCTIONS if f in outputs),
-        zero_input=scene.input.kind == "zero",
+        zero_input=scene.input.kind == "zero" and scene.controller is None,
         scene=scene.path.as_posix(),
     )
 
