@@ -6,6 +6,8 @@
 // Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method M] [--jacobian exact|dq] [--rtol X]
 //                          [--atol X] [--step X] [--t-end X] [--sample X] [--max-steps N] [--energy]
 //   M: bdf, adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4 (rk4 needs a step).
+// A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
+// states the gain, the closed-loop poles of the linearised model and the largest |u|.
 // Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters or settings.
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
@@ -157,7 +159,7 @@ void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>&
 /// nothing) when a value is NaN or infinite: ipsim stops before recording such a state, this
 /// guards the derived columns and anything that slips through.
 void write_csv(const std::string& path, const ipsim::Result& result, const ipsim::ParamsOf<Model>& params,
-               bool energy) {
+               bool energy, bool input_column) {
   std::vector<std::array<double, 4>> energies;  // each row's energy columns, computed once
   for (std::size_t k = 0; k < result.times.size(); ++k) {
     bool finite = std::isfinite(result.times[k]) && result.states.row(static_cast<Eigen::Index>(k)).allFinite();
@@ -177,6 +179,7 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",theta%d", i);
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",dtheta%d", i);
   if (energy) std::fputs(",kinetic,potential,input_work,dissipated", out);
+  if (input_column) std::fputs(",u", out);
   std::fputc('\n', out);
   for (std::size_t k = 0; k < result.times.size(); ++k) {
     const auto row = static_cast<Eigen::Index>(k);
@@ -185,6 +188,7 @@ void write_csv(const std::string& path, const ipsim::Result& result, const ipsim
     if (energy) {
       for (const double value : energies[k]) std::fprintf(out, ",%.17g", value);
     }
+    if (input_column) std::fprintf(out, ",%.17g", result.inputs[k]);
     std::fputc('\n', out);
   }
   const bool written = std::ferror(out) == 0;
@@ -225,6 +229,30 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
   return text;
 }
 
+/// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
+template <class M>
+void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result) {
+  const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
+                                            : std::string("continuous");
+  std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
+              ipsim::detail::format_values(c.gain.data(), c.gain.size()).c_str(),
+              ipsim::detail::format_values(c.equilibrium.data(), c.equilibrium.size()).c_str());
+  if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation);
+  if constexpr (ipsim::has_linearize<M>) {
+    const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c);
+    std::string text;
+    for (Eigen::Index i = 0; i < poles.size(); ++i) {
+      char pole[64];
+      const double im = poles(i).imag();
+      if (im == 0.0) std::snprintf(pole, sizeof pole, "%.6g", poles(i).real());
+      else std::snprintf(pole, sizeof pole, "%.6g%c%.6gi", poles(i).real(), im < 0 ? '-' : '+', std::abs(im));
+      text += (i == 0 ? "" : ", ") + std::string(pole);
+    }
+    std::printf("; closed-loop poles of the linear model [1/s]: %s", text.c_str());
+  }
+  std::printf("; largest |u| %.6g.", result.max_abs_input);
+}
+
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
@@ -238,6 +266,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(result, scene.params);
+  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result);
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
 }
@@ -265,7 +294,7 @@ int run(int argc, char** argv) {
   s.energy_ledger = options.energy;
 
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);
-  write_csv(options.csv_path, result, scene.params, options.energy);
+  write_csv(options.csv_path, result, scene.params, options.energy, scene.controller.has_value());
   print_summary(options, scene, result);
   return 0;
 }
