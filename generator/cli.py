@@ -268,7 +268,14 @@ def _generate(
 ) -> list[Written]:
     if system.links < PROGRESS_FROM_LINKS[system.type]:
         return generate(
-            system, name, directory, force, spec=spec, emit=emit, extra_files=extra_files, controller=controller
+            system,
+            name,
+            directory,
+            force,
+            spec=spec,
+            emit=emit,
+            extra_files=extra_files,
+            controller=controller,
         )
     with click.progressbar(
         length=STEPS + len(emit),

@@ -69,7 +69,8 @@ def read_controller(
             section.bad(
                 "period",
                 period,
-                f"must be a whole multiple or a whole fraction of simulation.sample ({format_number(sample)} s)",
+                "must be a whole multiple or a whole fraction of simulation.sample "
+                f"({format_number(sample)} s)",
             )
 
     from ipgen.control import ControlError, lqr
@@ -169,7 +170,7 @@ def _finite(section: _Section, key: str, item: Any, type_name: Any) -> float:
 
 
 def _read_equilibrium(section: _Section, links: int, one_of: Any, type_name: Any) -> str | list[float]:
-    """"upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
+    """ "upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
     if not section.has("equilibrium"):
         return schema.DEFAULT_EQUILIBRIUM
     value = section.data["equilibrium"]
@@ -183,7 +184,8 @@ def _read_equilibrium(section: _Section, links: int, one_of: Any, type_name: Any
         section.bad("equilibrium", value, f"expected {expected}, got {type_name(value)}")
     if len(value) != dof:
         section.reader.fail(
-            f"{section.key('equilibrium')} has {len(value)} entries, expected {dof} (θ0 and one angle per link)"
+            f"{section.key('equilibrium')} has {len(value)} entries, "
+            f"expected {dof} (θ0 and one angle per link)"
         )
     angles = [_finite(section, f"equilibrium[{i}]", item, type_name) for i, item in enumerate(value)]
     for i, angle in enumerate(angles[1:], start=1):

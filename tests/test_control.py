@@ -32,7 +32,9 @@ def flat(p: dict, g: float = 9.81) -> list[float]:
     return [*p["m"], *p["l"], *p["delta"], g]
 
 
-def central_differences(type_: str, links: int, p: dict, x: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+def central_differences(
+    type_: str, links: int, p: dict, x: np.ndarray, u: float
+) -> tuple[np.ndarray, np.ndarray]:
     """A and B of ẋ = f(x, u) by central differences of the (lambdified) forward dynamics."""
     dyn = control.dynamics(System(type_, links))
     dof = links + 1
@@ -64,7 +66,9 @@ def test_linearize_matches_central_differences(type_: str, links: int) -> None:
         a_fd, b_fd = central_differences(type_, links, p, x, u)
         assert_close(a, a_fd, 1e-6, f"{type_}{links} A", ("exact", "central differences"))
         assert_close(b, b_fd, 1e-6, f"{type_}{links} B", ("exact", "central differences"))
-        assert np.array_equal(a[:dof, :dof], np.zeros((dof, dof))) and np.array_equal(a[:dof, dof:], np.eye(dof))
+        assert np.array_equal(a[:dof, :dof], np.zeros((dof, dof))) and np.array_equal(
+            a[:dof, dof:], np.eye(dof)
+        )
 
 
 def test_linearize_warns_off_equilibrium_only() -> None:
