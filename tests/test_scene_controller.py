@@ -79,6 +79,11 @@ def test_full_q_matrix(tmp_path: Path) -> None:
     assert np.allclose(scene.controller.gain, ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, q, 1.0))
 
 
+ASYMMETRIC = "[[1, 2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"
+INDEFINITE = "[[1, 2, 0, 0], [2, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"
+RAGGED = "[[1, 0, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1]]"
+NO_INPUT = 'remove [input] (or set kind = "zero")'
+
 BAD = [
     ({"controller.kind": '"pid"'}, "controller.kind", 'expected "lqr"'),
     ({"controller.kind": None, "controller.r": "1"}, "controller.kind", "missing required key"),
