@@ -55,7 +55,7 @@ test: lint test-python test-cpp
 	@echo "make test: all tests passed"
 
 demo: configure
-	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse
+	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr
 	$(PY) tools/demo.py --build $(BUILD)
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
