@@ -41,10 +41,9 @@ def main() -> int:
     rates = [name for name in header if name.startswith("dtheta")]
     problems = []
     for name in angles:
-        if name == "theta0":
-            off = abs(final[name])  # the base's position or angle itself, not modulo 2π
-        else:
-            off = abs(math.remainder(final[name] - target, 2 * math.pi))  # distance from the target mod 2π
+        # the base's position or angle itself; a link's distance from the target modulo 2π
+        base = name == "theta0"
+        off = abs(final[name]) if base else abs(math.remainder(final[name] - target, 2 * math.pi))
         print(f"{name} = {final[name]:.12g}, {off:.3e} from {label}")
         if not off <= args.angle_tol:
             problems.append(f"{name} is {off:.3e} rad from {label} (> {args.angle_tol:g})")
