@@ -55,7 +55,7 @@ int main() {
   K << GAIN;
   const m::Vector<double> q(0.1, -0.2, 0.3), qd(0.5, 1.0, -1.5);
   const double expected = -(K.head<3>().dot(q) + K.tail<3>().dot(qd));
-  if (std::abs(lqr_torque(q, qd, K) - expected) > 1e-12) { std::puts("lqr_torque"); return 1; }
+  if (std::abs(lqr_torque(q, qd, K) - expected) > 1e-12) return 1;
   if (!stabilises(p, K)) { std::puts("the LQR gain should stabilise"); return 1; }
   if (stabilises(p, m::StateVector<double>::Zero())) { std::puts("u = 0 cannot stabilise upright"); return 1; }
   return 0;
