@@ -12,7 +12,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev python3
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-control stability configure build clean
 
 all: test
 
@@ -70,7 +70,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-control
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## General against scene-specialised headers (bench/specialisation.py, docs/bench/specialisation.md).
@@ -78,6 +78,13 @@ bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation
 SPECIALISATION_ARGS ?= $(BENCH_QUICK)
 bench-specialisation: venv
 	$(PY) -m bench.specialisation $(SPECIALISATION_ARGS)
+
+## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
+## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).
+## CONTROL_ARGS passes options, e.g. make bench-control CONTROL_ARGS=--quick
+CONTROL_ARGS ?= $(BENCH_QUICK)
+bench-control: $(VENV)/.bench-installed
+	$(PY) -m bench.control $(CONTROL_ARGS)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
