@@ -4,7 +4,7 @@ For classical and rotary n = 1, 2, 3 with the paper's parameters (CDIP / RSIP, e
 equal links), LQR with Q = I and R = 1 about upright: the largest initial tilt of link 1 alone
 (the other links upright, everything at rest) from which the simulator's nonlinear closed loop
 ends upright and at rest, continuous and sampled at 100 Hz and 20 Hz, without and with a
-saturation of the input. Found by bisection on the tilt; each trial is one run of the ipsim
+saturation of the input. Found by geometric bisection on the tilt; each trial is one run of the ipsim
 simulator (built per model from cpp/src/simulate.cpp) on a resolved scene with that tilt.
 
     .venv/bin/python -m bench.control [--quick] [--out docs/bench]
@@ -138,14 +138,14 @@ def brought_back(model: Model, tilt: float, period: float | None, saturated: boo
 
 
 def basin(model: Model, period: float | None, saturated: bool, steps: int) -> float:
-    """Largest tilt brought back (bisection between SMALLEST and LARGEST); 0: unstable."""
+    """Largest tilt brought back (geometric bisection between SMALLEST and LARGEST); 0: unstable."""
     if not brought_back(model, SMALLEST, period, saturated):
         return 0.0
     if brought_back(model, LARGEST, period, saturated):
         return LARGEST
     good, bad = SMALLEST, LARGEST
     for _ in range(steps):
-        middle = 0.5 * (good + bad)
+        middle = math.sqrt(good * bad)  # geometric: basins range from 1e-3 to 1 rad
         if brought_back(model, middle, period, saturated):
             good = middle
         else:
@@ -175,9 +175,9 @@ def render(results: dict, out: Path) -> None:
         "R = 1 about upright (`ipgen.lqr`, the gain the scene's `[controller]` computes), and the",
         "largest initial tilt of link 1 alone [rad] (the other links upright, all at rest) from which",
         f"the simulator's nonlinear closed loop is upright and at rest after {T_END:g} s (every angle",
-        f"and rate within {SETTLED:g}). Bisection with {results['steps']} steps between {SMALLEST:g} and",
-        f'{LARGEST:g} rad; "unstable": even {SMALLEST:g} rad is not brought back. The gain is the',
-        "continuous design in every column: sampled columns compute u every 0.01 s or 0.05 s and",
+        f"and rate within {SETTLED:g}). Geometric bisection, {results['steps']} steps between",
+        f'{SMALLEST:g} and {LARGEST:g} rad; "unstable": even {SMALLEST:g} rad is not brought back.',
+        "The gain is the continuous design in every column: sampled columns compute u every 0.01 s or 0.05 s and",
         "hold it (zero-order hold, no discrete redesign). Saturation: |u| ≤ "
         f"{SATURATION['classical']:g} N (cart), {SATURATION['rotary']:g} N m (arm).",
         "Parameters: the paper's CDIP (classical) and RSIP (rotary), extended with equal links.",
