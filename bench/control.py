@@ -177,8 +177,8 @@ def render(results: dict, out: Path) -> None:
         f"the simulator's nonlinear closed loop is upright and at rest after {T_END:g} s (every angle",
         f"and rate within {SETTLED:g}). Geometric bisection, {results['steps']} steps between",
         f'{SMALLEST:g} and {LARGEST:g} rad; "unstable": even {SMALLEST:g} rad is not brought back.',
-        "The gain is the continuous design in every column: sampled columns compute u every 0.01 s or 0.05 s and",
-        "hold it (zero-order hold, no discrete redesign). Saturation: |u| ≤ "
+        "The gain is the continuous design in every column: sampled columns compute u every 0.01 s",
+        "or 0.05 s and hold it (zero-order hold, no discrete redesign). Saturation: |u| ≤ "
         f"{SATURATION['classical']:g} N (cart), {SATURATION['rotary']:g} N m (arm).",
         "Parameters: the paper's CDIP (classical) and RSIP (rotary), extended with equal links.",
         "",
