@@ -249,8 +249,13 @@ def main() -> int:
         "--quick", action="store_true", help="n = 1, 2 only, 5 bisection steps, into build/bench/quick/"
     )
     parser.add_argument("--out", type=Path, default=None, help="where control.md/.json/.png go")
+    parser.add_argument("--from-json", type=Path, default=None, help="render a previous run's JSON only")
     args = parser.parse_args()
     out = args.out or (BUILD / "quick" if args.quick else DOCS)
+    if args.from_json:
+        render(json.loads(args.from_json.read_text()), out)
+        print(f"wrote {out / 'control.md'} and control.png from {args.from_json}")
+        return 0
     links = (1, 2) if args.quick else (1, 2, 3)
     steps = 5 if args.quick else 10
     started = time.perf_counter()
