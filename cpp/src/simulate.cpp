@@ -249,6 +249,8 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
       text += (i == 0 ? "" : ", ") + std::string(pole);
     }
     std::printf("; closed-loop poles of the linear model [1/s]: %s", text.c_str());
+  } else {
+    (void)params;  // a model without linearize (a hand-written tag): no poles to state
   }
   std::printf("; largest |u| %.6g.", result.max_abs_input);
 }
