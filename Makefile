@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control stability configure build clean
 
 all: test
 
@@ -63,7 +63,7 @@ test: lint test-python test-cpp
 	@echo "make test: all tests passed"
 
 demo: configure
-	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse
+	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr
 	$(PY) tools/demo.py --build $(BUILD)
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
@@ -78,7 +78,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
@@ -100,6 +100,13 @@ ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi
 bench-embedded: venv
 	@$(call apt_install,$(ARM_PACKAGES))
 	$(PY) -m bench.embedded
+
+## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
+## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).
+## CONTROL_ARGS passes options, e.g. make bench-control CONTROL_ARGS=--quick
+CONTROL_ARGS ?= $(BENCH_QUICK)
+bench-control: $(VENV)/.bench-installed
+	$(PY) -m bench.control $(CONTROL_ARGS)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

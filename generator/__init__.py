@@ -8,7 +8,9 @@ The public API (stable; everything else is internal):
 - `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;
 - `Error`: the base of every error ipgen raises for bad input (one line: what is wrong and how
   to fix it, the message the command prints);
-- `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`).
+- `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`);
+- `linearize(type, links, m, l, delta, ...) -> (A, B)` and `lqr(type, links, m, l, delta, Q, R, ...)
+  -> K`: the linear model about a state and an LQR gain (control.py, numpy and scipy).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -28,7 +30,7 @@ if TYPE_CHECKING:
     from ipgen.derive import Equations
 
 __version__ = "0.1.0"
-__all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "write_header"]
+__all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "linearize", "lqr", "write_header"]
 
 
 def derive(type: str, links: int, inertia: str = "pivot") -> Equations:
@@ -104,10 +106,16 @@ def cmake_dir() -> Path:
 
 
 def __getattr__(attribute: str) -> object:
+    """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control.py, which
+    imports numpy and scipy), so that `import ipgen` and the ipgen command start fast."""
     if attribute == "Equations":
         from ipgen.derive import Equations
 
         return Equations
+    if attribute in ("linearize", "lqr"):
+        from ipgen import control
+
+        return getattr(control, attribute)
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
 
 

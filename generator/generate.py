@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ipgen.codegen.header import HeaderRequest
+from ipgen.controller import Controller
 from ipgen.derive import derive
 from ipgen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.model import System
@@ -53,13 +54,15 @@ def generate(
     spec: Specialisation = GENERAL,
     emit: tuple[str, ...] = DEFAULT_EMIT,
     extra_files: tuple[tuple[str, str], ...] = (),
+    controller: Controller | None = None,
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
-    write them all or none (`output.write_files`)."""
+    write them all or none (`output.write_files`). `controller` (a scene's) is handed to the
+    targets that print it."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
-    request = HeaderRequest(name, canonical_command(system, name, spec, emit), spec)
+    request = HeaderRequest(name, canonical_command(system, name, spec, emit), spec, controller)
     files: list[tuple[Path, str]] = []
     for target in emit:
         report(f"writing {target}")

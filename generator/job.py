@@ -182,4 +182,5 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         spec=job.spec,
         emit=job.emit,
         extra_files=extra,
+        controller=job.scene.controller if job.scene is not None else None,
     )

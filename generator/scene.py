@@ -20,6 +20,8 @@ A scene has these tables (SI units throughout; arrays have links + 1 entries, in
                   rtol (1e-10), atol (1e-12) (every method but rk4);
                   step = fixed step in s, > 0 and <= sample (rk4 only, required there)
     [outputs]     energy = true | false (default false)
+    [controller]  kind = "lqr"; q, r, equilibrium, saturation, period (see scene_controller.py):
+                  u = −K (x − x_eq), K computed here and written into the resolved config
 
 `load_scene` reads and validates a file; every problem is a one-line `SceneError` naming the
 file and the dotted key. `resolved_config` writes the flat `key = value` text the C++
@@ -41,6 +43,7 @@ from typing import Any, NoReturn
 
 from ipgen import __version__, limits
 from ipgen import scene_schema as schema
+from ipgen.controller import Controller
 from ipgen.emit import DEFAULT_EMIT, EmitError, parse_emit
 from ipgen.errors import SceneError
 from ipgen.model import (
@@ -127,6 +130,7 @@ class Scene:
     decimals: tuple[tuple[str, str], ...] = ()
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
+    controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
 
     @property
     def system(self) -> System:
@@ -206,7 +210,24 @@ def resolved_config(scene: Scene) -> str:
     ]
     if scene.energy:
         lines.append("energy = true")
+    lines += _controller_lines(scene.controller)
     return "\n".join(lines) + "\n"
+
+
+def _controller_lines(controller: Controller | None) -> list[str]:
+    """u = −K (x − x_eq) for the simulator: kind, gain, equilibrium, and saturation and period if set."""
+    if controller is None:
+        return []
+    lines = [
+        f"controller = {controller.kind}",
+        f"controller.gain = {_format_list(controller.gain)}",
+        f"controller.equilibrium = {_format_list(controller.equilibrium)}",
+    ]
+    if controller.saturation is not None:
+        lines.append(f"controller.saturation = {format_number(controller.saturation)}")
+    if controller.period is not None:
+        lines.append(f"controller.period = {format_number(controller.period)}")
+    return lines
 
 
 def _format_list(values: tuple[float, ...]) -> str:
@@ -511,6 +532,12 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
     spec = _read_input(_Section(reader, document, "input"))
     sim = _read_simulation(_Section(reader, document, "simulation"))
     energy = _Section(reader, document, "outputs").boolean("energy", default=False)
+    from ipgen.scene_controller import read_controller  # numpy and scipy only for a [controller]
+
+    controller = None
+    if "controller" in document:
+        section = _Section(reader, document, "controller")
+        controller = read_controller(section, system, params, spec.kind, sim["sample"], sim["t_end"])
     return Scene(
         path=reader.path,
         stem=reader.path.stem,
@@ -532,6 +559,7 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
         emit=system.emit,
         decimals=params.decimals,
         warnings=_warnings(reader, sim["rtol"]),
+        controller=controller,
     )
 
 

@@ -17,6 +17,7 @@ TABLES: dict[str, tuple[str, ...]] = {
     "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),
     "simulation": ("t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"),
     "outputs": ("energy",),
+    "controller": ("kind", "q", "r", "equilibrium", "saturation", "period"),
 }
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
@@ -51,6 +52,15 @@ INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
     "sine": ("amplitude", "frequency"),
 }
 INPUT_DEFAULTS: dict[str, float] = {"start": 0.0, "phase": 0.0}
+
+# Feedback controllers ([controller] kind) and the named equilibria they stabilise.
+CONTROLLER_KINDS: tuple[str, ...] = ("lqr",)
+EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
+DEFAULT_EQUILIBRIUM = "upright"
+DEFAULT_R = 1.0  # LQR weight of u²; the default Q is the identity
+# A sampling period and the output interval must be whole multiples of one another, to this
+# relative tolerance, so that every sampling instant or every sample is a stop of the other.
+COMMENSURATE_TOLERANCE = 1e-9
 
 # Defaults of optional scalar keys.
 DEFAULT_INERTIA = "pivot"

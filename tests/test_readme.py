@@ -44,3 +44,51 @@ def test_readme_controller_example(tmp_path: Path) -> None:
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(binary)], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout
+
+
+CONTROL_CHECK = r"""
+#include <cmath>
+#include <cstdio>
+int main() {
+  const m::Params<double> p{{0.5, 0.275, 0.275}, {0.6, 0.5, 0.5}, {0.3, 0.011458, 0.011458}};
+  m::StateVector<double> K;
+  K << GAIN;
+  const m::Vector<double> q(0.1, -0.2, 0.3), qd(0.5, 1.0, -1.5);
+  const double expected = -(K.head<3>().dot(q) + K.tail<3>().dot(qd));
+  if (std::abs(lqr_torque(q, qd, K) - expected) > 1e-12) return 1;
+  if (!stabilises(p, K)) { std::puts("the LQR gain should stabilise"); return 1; }
+  if (stabilises(p, m::StateVector<double>::Zero())) return 2;  // u = 0 cannot stabilise upright
+  return 0;
+}
+"""
+
+
+def test_readme_lqr_example(tmp_path: Path) -> None:
+    import ipgen
+
+    require_toolchain()
+    readme = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```cpp\n(.*?)```", readme, flags=re.S)
+    example = next(b for b in blocks if "lqr_torque" in b)
+    generate_header(System("rotary", 2), "rdip", tmp_path / "out")
+    gain = ipgen.lqr(
+        "rotary", 2, [0.5, 0.275, 0.275], [0.6, 0.5, 0.5], [0.3, 0.011458, 0.011458], [1] * 6, 1.0
+    )
+    source = tmp_path / "example.cpp"
+    source.write_text(example + CONTROL_CHECK.replace("GAIN", ", ".join(map(repr, gain.tolist()))))
+    binary = tmp_path / "example"
+    build = subprocess.run(
+        cxx_command(f"-I{tmp_path}", str(source), "-o", str(binary)), capture_output=True, text=True
+    )
+    assert build.returncode == 0, build.stderr
+    run = subprocess.run([str(binary)], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout
+
+
+def test_readme_python_control_example() -> None:
+    readme = (ROOT / "README.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", readme, flags=re.S) if "ipgen.lqr" in b)
+    namespace: dict = {}
+    exec(block, namespace)
+    assert namespace["A"].shape == (6, 6) and namespace["B"].shape == (6, 1)
+    assert namespace["K"].shape == (6,) and namespace["K_mixed"].shape == (6,)

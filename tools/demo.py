@@ -1,19 +1,23 @@
-"""`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6).
+"""`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6), and
+stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml).
 
 Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
 
 For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, writes
-<out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. It also writes the
-model's equations for people (ipgen --emit equations): <out>/<short>.md and .tex, and the .pdf
-pdflatex makes of it. With --docs the plots are also copied there (the README shows
-docs/cdip.png and docs/rsip.png), and the PDFs and PNGs of their pages go to docs/equations/.
+<out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. For the paper's two
+systems it also writes the equations for people (ipgen --emit equations): <out>/<short>.md and
+.tex, and the .pdf pdflatex makes of it. The LQR run must end upright and at rest: every angle
+and rate within 1e-3 of zero in the CSV's last row, or the demo fails. With --docs the plots are
+also copied there (the README shows docs/cdip.png, docs/rsip.png and docs/rdip_lqr.png), and the
+PDFs and PNGs of the equations' pages go to docs/equations/.
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 import os
 import shutil
 import subprocess
@@ -36,6 +40,9 @@ EXPERIMENTS = [
     ("cdip_pulse", "cdip", "Classical double inverted pendulum (paper Fig. 4)"),
     ("rsip_pulse", "rsip", "Rotary single inverted pendulum (paper Fig. 6)"),
 ]
+# Closed-loop experiments: (scene stem, short name, title); the CSV has a column u.
+CONTROL = [("rdip_lqr", "rdip_lqr", "Rotary double inverted pendulum stabilised by LQR")]
+SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
 
 
 def read_csv(path: Path) -> dict[str, list[float]]:
@@ -101,6 +108,50 @@ def write_equations(scene: Scene, out: Path, docs: Path | None) -> str:
     return f"{out / scene.name}.md, .tex and .pdf"
 
 
+def plot_control(columns: dict[str, list[float]], scene: Scene, title: str, path: Path) -> None:
+    """Angles (base and links) and the input u against time."""
+    t = columns["t"]
+    fig, (angles, force) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True, constrained_layout=True)
+    base = "cart position θ0 [m]" if scene.type == "classical" else "arm angle θ0 [rad]"
+    angles.plot(t, columns["theta0"], color="black", label=base)
+    for i in range(1, scene.links + 1):
+        angles.plot(t, columns[f"theta{i}"], label=f"link {i} angle θ{i} [rad]")
+    angles.set_ylabel("angle from upright")
+    unit = "N" if scene.type == "classical" else "N m"
+    force.plot(t, columns["u"], color="tab:red", label=f"u = −K (x − x_eq) [{unit}]")
+    force.set_ylabel(f"{'force' if scene.type == 'classical' else 'torque'} u [{unit}]")
+    force.set_xlabel("time t [s]")
+    controller = scene.controller
+    assert controller is not None
+    timing = "continuous" if controller.period is None else f"sampled every {controller.period:g} s"
+    gain = ", ".join(f"{k:.3g}" for k in controller.gain)
+    angles.set_title(
+        f"{title}\nlink 1 tilted by {scene.theta[1]:g} rad at t = 0; LQR ({timing}), K = [{gain}]"
+    )
+    for ax in (angles, force):
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def upright_problems(columns: dict[str, list[float]]) -> list[str]:
+    """Columns of the last row that are not within SETTLED of the upright rest state."""
+    return [
+        f"{name} = {values[-1]:.3g}"
+        for name, values in columns.items()
+        if name.startswith(("theta", "dtheta")) and not abs(values[-1]) <= SETTLED
+    ]
+
+
+def simulate(build: Path, scene: Scene, stem: str, csv_path: Path) -> subprocess.CompletedProcess[str]:
+    """Run build/bin/simulate_<model> on the scene's resolved config, writing `csv_path`."""
+    simulator = build / "bin" / f"simulate_{scene.name}"
+    config = build / "scenes" / f"{stem}.cfg"
+    command = [str(simulator), str(config), "--csv", str(csv_path)]
+    return subprocess.run(command, capture_output=True, text=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -112,18 +163,32 @@ def main() -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     for stem, short, title in EXPERIMENTS:
         scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
-        simulator = args.build / "bin" / f"simulate_{scene.name}"
-        config = args.build / "scenes" / f"{stem}.cfg"
         csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
-        result = subprocess.run(
-            [str(simulator), str(config), "--csv", str(csv_path)], capture_output=True, text=True
-        )
+        result = simulate(args.build, scene, stem, csv_path)
         if result.returncode != 0:
             print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
             return 1
         plot(read_csv(csv_path), scene, title, png_path)
         equations = write_equations(scene, args.out, args.docs)
         print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path}, {png_path} and {equations}\n")
+        if args.docs:
+            args.docs.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(png_path, args.docs / png_path.name)
+    for stem, short, title in CONTROL:
+        scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
+        csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
+        result = simulate(args.build, scene, stem, csv_path)
+        if result.returncode != 0:
+            print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
+            return 1
+        columns = read_csv(csv_path)
+        plot_control(columns, scene, title, png_path)
+        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path} and {png_path}")
+        problems = upright_problems(columns)
+        if problems or not math.isclose(columns["t"][-1], scene.t_end):
+            print(f"demo: {stem} did not end upright and at rest: {', '.join(problems)}", file=sys.stderr)
+            return 1
+        print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
         if args.docs:
             args.docs.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(png_path, args.docs / png_path.name)

@@ -11,6 +11,8 @@
 //   the header `t,theta0,...,dtheta0,...`), or with --force; never the scene file itself. The CSV
 //   is written to a temporary file next to it and renamed into place. --check validates the scene
 //   and options and exits without integrating or writing.
+// A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
+// states the gain, the closed-loop poles of the linearised model and the largest |u|.
 // Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters, settings or
 // CSV path (all reported before integrating).
 #ifndef IPGEN_MODEL_HEADER
@@ -201,8 +203,10 @@ bool written_by_simulator(const std::string& path) {
   for (std::size_t i = 0; i < n; ++i) {
     if (fields[1 + n + i] != "dtheta" + std::to_string(i)) return false;
   }
+  // Optional columns: the energies, then u (scenes with a controller).
+  std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
+  if (!rest.empty() && rest.back() == "u") rest.pop_back();
   const std::vector<std::string> energy = {"kinetic", "potential", "input_work", "dissipated"};
-  const std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
   return rest.empty() || rest == energy;
 }
 
@@ -279,7 +283,7 @@ class PendingCsv {
 /// value is NaN or infinite: ipsim stops before recording such a state, this guards the derived
 /// columns and anything that slips through.
 void write_csv(PendingCsv& csv, const std::string& path, const ipsim::Result& result,
-               const ipsim::ParamsOf<Model>& params, bool energy) {
+               const ipsim::ParamsOf<Model>& params, bool energy, bool input_column) {
   std::vector<std::array<double, 4>> energies;  // each row's energy columns, computed once
   for (std::size_t k = 0; k < result.times.size(); ++k) {
     bool finite = std::isfinite(result.times[k]) && result.states.row(static_cast<Eigen::Index>(k)).allFinite();
@@ -297,6 +301,7 @@ void write_csv(PendingCsv& csv, const std::string& path, const ipsim::Result& re
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",theta%d", i);
   for (int i = 0; i < kDof; ++i) std::fprintf(out, ",dtheta%d", i);
   if (energy) std::fputs(",kinetic,potential,input_work,dissipated", out);
+  if (input_column) std::fputs(",u", out);
   std::fputc('\n', out);
   for (std::size_t k = 0; k < result.times.size(); ++k) {
     const auto row = static_cast<Eigen::Index>(k);
@@ -305,6 +310,7 @@ void write_csv(PendingCsv& csv, const std::string& path, const ipsim::Result& re
     if (energy) {
       for (const double value : energies[k]) std::fprintf(out, ",%.17g", value);
     }
+    if (input_column) std::fprintf(out, ",%.17g", result.inputs[k]);
     std::fputc('\n', out);
   }
   csv.commit();
@@ -337,6 +343,32 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
   return text;
 }
 
+/// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
+template <class M>
+void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result) {
+  const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
+                                            : std::string("continuous");
+  std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
+              ipsim::detail::format_values(c.gain.data(), c.gain.size()).c_str(),
+              ipsim::detail::format_values(c.equilibrium.data(), c.equilibrium.size()).c_str());
+  if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation);
+  if constexpr (ipsim::has_linearize<M>) {
+    const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c);
+    std::string text;
+    for (Eigen::Index i = 0; i < poles.size(); ++i) {
+      char pole[64];
+      const double im = poles(i).imag();
+      if (im == 0.0) std::snprintf(pole, sizeof pole, "%.6g", poles(i).real());
+      else std::snprintf(pole, sizeof pole, "%.6g%c%.6gi", poles(i).real(), im < 0 ? '-' : '+', std::abs(im));
+      text += (i == 0 ? "" : ", ") + std::string(pole);
+    }
+    std::printf("; closed-loop poles of the linear model [1/s]: %s", text.c_str());
+  } else {
+    (void)params;  // a model without linearize (a hand-written tag): no poles to state
+  }
+  std::printf("; largest |u| %.6g.", result.max_abs_input);
+}
+
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
@@ -350,6 +382,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(result, scene.params);
+  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result);
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
 }
@@ -380,7 +413,7 @@ int run(int argc, char** argv) {
   if (options.check) return 0;
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);
-  write_csv(csv, options.csv_path, result, scene.params, options.energy);
+  write_csv(csv, options.csv_path, result, scene.params, options.energy, scene.controller.has_value());
   print_summary(options, scene, result);
   return 0;
 }

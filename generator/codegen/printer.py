@@ -14,7 +14,6 @@ from fractions import Fraction
 
 from ipgen.codegen.cse import ADD, CONST, LEAF, MUL, Graph
 
-
 EXACT_INTEGER = 2**53  # larger integers are neither exact in double nor always valid C constants
 
 

@@ -28,6 +28,7 @@ struct Input {
     step,      ///< u = 0 for t < time, amplitude for t ≥ time
     sine,      ///< u = amplitude · sin(2π · frequency · t + phase)
     feedback,  ///< u = feedback(t, x), e.g. a controller
+    sampled,   ///< u = feedback(t_k, x(t_k)) held on [t_k, t_k + period), t_k = k · period (sampled data)
   };
   /// Controller callback: t [s] and the state x = [θ; θ̇] (dim 2·kDof) → u.
   using Feedback = std::function<double(double t, const Eigen::VectorXd& x)>;
@@ -39,7 +40,8 @@ struct Input {
   double time = 0.0;       ///< step time [s]
   double frequency = 0.0;  ///< sine frequency [Hz]
   double phase = 0.0;      ///< sine phase [rad]
-  Feedback feedback;       ///< used only by Kind::feedback
+  double period = 0.0;     ///< sampling period [s] of Kind::sampled, > 0
+  Feedback feedback;       ///< used only by Kind::feedback and Kind::sampled
 
   /// u = 0.
   static Input zero() { return {}; }
@@ -86,7 +88,19 @@ struct Input {
     return in;
   }
 
-  /// u at time t [s] in state x = [θ; θ̇]; x is only read by Kind::feedback.
+  /// A sampled-data controller: u = callback(t_k, x(t_k)) at each sampling instant
+  /// t_k = k · period_s (k = 0, 1, …), held constant until the next one. Every sampling instant
+  /// is an integrator stop (a restart), so the held value never leaks across an instant.
+  static Input sampled(double period_s, Feedback callback) {
+    Input in;
+    in.kind = Kind::sampled;
+    in.period = period_s;
+    in.feedback = std::move(callback);
+    return in;
+  }
+
+  /// u at time t [s] in state x = [θ; θ̇]; x is only read by Kind::feedback and Kind::sampled
+  /// (for sampled, the caller passes the state at the sampling instant t).
   double value(double t, const Eigen::VectorXd& x) const {
     switch (kind) {
       case Kind::zero: return 0.0;
@@ -94,22 +108,29 @@ struct Input {
       case Kind::pulse: return (t >= start && t < start + duration) ? amplitude : 0.0;
       case Kind::step: return t >= time ? amplitude : 0.0;
       case Kind::sine: return amplitude * std::sin(2.0 * kPi * frequency * t + phase);
-      case Kind::feedback: return feedback(t, x);
+      case Kind::feedback:
+      case Kind::sampled: return feedback(t, x);
     }
     return 0.0;
   }
 
   /// True when u depends on t only through jumps, i.e. is constant between switching_times().
   bool piecewise_constant() const {
-    return kind == Kind::zero || kind == Kind::constant || kind == Kind::pulse || kind == Kind::step;
+    return kind == Kind::zero || kind == Kind::constant || kind == Kind::pulse || kind == Kind::step ||
+           kind == Kind::sampled;
   }
 
-  /// Times [s] at which u jumps (pulse edges, step time), ascending. The integrator stops and
-  /// restarts exactly there instead of stepping across.
-  std::vector<double> switching_times() const {
+  /// Times [s] at which u jumps (pulse edges, step time, sampling instants k · period below
+  /// t_end), ascending. The integrator stops and restarts exactly there instead of stepping across.
+  std::vector<double> switching_times(double t_end = 0.0) const {
     if (kind == Kind::pulse) return {start, start + duration};
     if (kind == Kind::step) return {time};
-    return {};
+    std::vector<double> instants;
+    if (kind == Kind::sampled && period > 0.0 && std::isfinite(period)) {
+      // k · period, not a running sum, so the instants carry no accumulated round-off.
+      for (long k = 1; static_cast<double>(k) * period < t_end; ++k) instants.push_back(static_cast<double>(k) * period);
+    }
+    return instants;
   }
 
   /// Inconsistent fields, one message each (empty when valid).
@@ -146,6 +167,12 @@ struct Input {
       case Kind::feedback:
         if (!feedback) found.emplace_back("invalid setting input: feedback input without a callback");
         break;
+      case Kind::sampled:
+        if (!feedback) found.emplace_back("invalid setting input: sampled feedback input without a callback");
+        if (!(std::isfinite(period) && period > 0.0)) {
+          found.push_back("invalid setting input.period = " + detail::format_number(period) + ": must be finite and > 0");
+        }
+        break;
     }
     return found;
   }
@@ -160,6 +187,7 @@ inline const char* to_string(Input::Kind kind) {
     case Input::Kind::step: return "step";
     case Input::Kind::sine: return "sine";
     case Input::Kind::feedback: return "feedback";
+    case Input::Kind::sampled: return "sampled";
   }
   return "?";
 }

@@ -7,6 +7,7 @@
 //   ipsim::Result r = ipsim::simulate<ipgen::cdip::Model>(params, s);
 #pragma once
 
+#include "ipsim/controller.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/guards.hpp"
 #include "ipsim/input.hpp"

@@ -35,6 +35,13 @@ struct Result {
   std::vector<double> input_work;
   /// Dissipated energy E_diss(times[k]) = ∫₀ᵗ 2D dt [J]; empty unless Settings::energy_ledger.
   std::vector<double> dissipated_energy;
+  /// The input u [N or N m] at times[k], one per sample: the value applied from times[k] on
+  /// (right-continuous: a sampled controller's new value at a sampling instant), and at t_end the
+  /// value applied just before it.
+  std::vector<double> inputs;
+  /// Largest |u| over the samples and, for piecewise-constant inputs (a sampled controller
+  /// included), over every value held between two stops.
+  double max_abs_input = 0.0;
   /// Integrator statistics for the whole run.
   Statistics stats;
   /// Integrator warnings (e.g. CVODE's "t + h = t on the next step"), in order of occurrence.

@@ -12,6 +12,9 @@
 //   jacobian = exact           (optional, bdf and adams: exact | dq; default exact)
 //   step = 0.001               (optional; required by method = rk4: its fixed step [s])
 //   energy = false             (optional: true adds the energy ledger and energy columns)
+//   controller = lqr           (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
+//   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
+//   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
@@ -23,12 +26,14 @@
 #include <fstream>
 #include <istream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "ipsim/controller.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -165,6 +170,9 @@ struct Scene {
   ParamsOf<Model> params{};
   Settings<Model> settings;
   bool energy = false;  ///< `energy = true`: report energies (settings.energy_ledger is set too)
+  /// `controller = lqr`: the feedback that sets settings.input (which is then a feedback or
+  /// sampled input).
+  std::optional<LinearFeedback> controller;
 };
 
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
@@ -176,7 +184,8 @@ Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known = {
       "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
-      "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"};
+      "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
+      "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -274,6 +283,31 @@ Scene<Model> load(const SceneFile& file) {
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
   } else {
     file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
+  }
+  if (file.has("controller")) {
+    if (file.text("controller") != "lqr") {
+      file.fail(file.line("controller"), "controller must be `lqr`, got `" + file.text("controller") + "`");
+    }
+    if (kind != "zero") {
+      file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");
+    }
+    auto state_list = [&](const std::string& key) {
+      const auto values = file.numbers(key);
+      if (values.size() != static_cast<std::size_t>(2 * Model::kDof)) {
+        file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, model " +
+                                      Model::kName + " needs 2·kDof = " + std::to_string(2 * Model::kDof));
+      }
+      return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())).eval();
+    };
+    LinearFeedback controller;
+    controller.gain = state_list("controller.gain");
+    controller.equilibrium = state_list("controller.equilibrium");
+    if (file.has("controller.saturation")) controller.saturation = file.number("controller.saturation");
+    if (file.has("controller.period")) controller.period = file.number("controller.period");
+    const auto problems = controller.problems(2 * Model::kDof);
+    if (!problems.empty()) file.fail(0, problems.front());
+    s.input = controller.input();
+    scene.controller = std::move(controller);
   }
   return scene;
 }

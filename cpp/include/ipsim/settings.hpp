@@ -201,6 +201,10 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
       report("dtheta[" + std::to_string(i) + "]", settings.dtheta(i), "initial state must be finite");
     }
   }
+  if (settings.input.kind == Input::Kind::sampled && settings.input.period > 0.0 && std::isfinite(settings.t_end) &&
+      settings.t_end / settings.input.period > kMaxSamples) {
+    report("input.period", settings.input.period, "t_end / period exceeds 1e8 sampling instants");
+  }
   const auto input_problems = settings.input.problems();
   found.insert(found.end(), input_problems.begin(), input_problems.end());
   return found;

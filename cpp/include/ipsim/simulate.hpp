@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
@@ -69,10 +70,12 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
   Eigen::Map<Eigen::VectorXd> y_values(y.data(), y.length());
   Stepper stepper(settings, y, context, rhs_context, diagnostics);
 
-  const std::vector<Stop> stops = make_schedule(settings.t_end, settings.sample, settings.input.switching_times());
+  const std::vector<Stop> stops =
+      make_schedule(settings.t_end, settings.sample, settings.input.switching_times(settings.t_end));
   const auto sample_count = std::count_if(stops.begin(), stops.end(), [](const Stop& s) { return s.sample; });
   result.times.reserve(static_cast<std::size_t>(sample_count));
   result.states.resize(sample_count, 2 * n);
+  result.inputs.reserve(static_cast<std::size_t>(sample_count));
   if (settings.energy_ledger) {
     result.input_work.reserve(static_cast<std::size_t>(sample_count));
     result.dissipated_energy.reserve(static_cast<std::size_t>(sample_count));
@@ -93,15 +96,35 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
   };
   // u is constant between switching times: take it from the middle of the segment that starts
   // at stops[first], which is unambiguous even when the segment's ends are switching times.
+  // A sampled controller instead computes u once from the state at the segment's first stop (a
+  // sampling instant) and holds it.
   auto set_segment_input = [&](std::size_t first) {
-    std::size_t last = first + 1;
-    while (last + 1 < stops.size() && !stops[last].restart) ++last;
-    const double middle = 0.5 * (stops[first].t + stops[last].t);
-    rhs_context.segment_input = settings.input.piecewise_constant() ? settings.input.value(middle, rhs_context.x) : 0.0;
+    if (settings.input.kind == Input::Kind::sampled) {
+      rhs_context.x = y_values.head(2 * n);
+      rhs_context.segment_input = settings.input.value(stops[first].t, rhs_context.x);
+    } else {
+      std::size_t last = first + 1;
+      while (last + 1 < stops.size() && !stops[last].restart) ++last;
+      const double middle = 0.5 * (stops[first].t + stops[last].t);
+      rhs_context.segment_input =
+          settings.input.piecewise_constant() ? settings.input.value(middle, rhs_context.x) : 0.0;
+    }
+    result.max_abs_input = std::max(result.max_abs_input, std::abs(rhs_context.segment_input));
+  };
+  // u at a sample: the segment's value, or the input evaluated at the recorded state.
+  auto record_input = [&](double t) {
+    double u = rhs_context.segment_input;
+    if (!settings.input.piecewise_constant()) {
+      rhs_context.x = y_values.head(2 * n);
+      u = settings.input.value(t, rhs_context.x);
+    }
+    result.inputs.push_back(u);
+    result.max_abs_input = std::max(result.max_abs_input, std::abs(u));
   };
 
   record(0.0);
   set_segment_input(0);
+  record_input(0.0);
   for (std::size_t i = 1; i < stops.size(); ++i) {
     const Stop& stop = stops[i];
     stepper.advance(stop.t);
@@ -111,6 +134,7 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
       ++result.stats.restarts;
       set_segment_input(i);
     }
+    if (stop.sample) record_input(stop.t);
   }
   stepper.add_statistics(result.stats);
 }

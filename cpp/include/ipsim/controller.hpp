@@ -1,0 +1,103 @@
+// A linear state feedback u = −K (x − x_eq), optionally saturated and sampled, as an ipsim Input,
+// and the closed-loop poles of the model linearised at x_eq (the header's linearize).
+//
+// x = [θ; θ̇] (2·kDof): θ0 the cart position [m] or arm angle [rad], θ1..θn the absolute link
+// angles [rad], then the rates; u the force [N] or torque [N m] on the base.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "ipsim/errors.hpp"
+#include "ipsim/input.hpp"
+#include "ipsim/model.hpp"
+
+namespace ipsim {
+
+/// u = clamp(−K (x − x_eq), −saturation, saturation), continuous (period = 0) or computed every
+/// `period` seconds and held (sampled data).
+struct LinearFeedback {
+  Eigen::VectorXd gain;         ///< K (2·kDof), in the order of x = [θ0..θn, θ̇0..θ̇n]
+  Eigen::VectorXd equilibrium;  ///< x_eq (2·kDof)
+  double saturation = std::numeric_limits<double>::infinity();  ///< |u| ≤ saturation, > 0
+  double period = 0.0;                                           ///< sampling period [s]; 0: continuous
+
+  /// The (saturated) input in state x (2·kDof entries).
+  double operator()(const Eigen::VectorXd& x) const {
+    const double u = -gain.dot(x - equilibrium);
+    return std::clamp(u, -saturation, saturation);
+  }
+
+  /// The ipsim input that applies this feedback: Input::from_feedback, or Input::sampled when
+  /// period > 0.
+  Input input() const {
+    LinearFeedback copy = *this;
+    auto law = [copy](double /*t*/, const Eigen::VectorXd& x) { return copy(x); };
+    return period > 0.0 ? Input::sampled(period, std::move(law)) : Input::from_feedback(std::move(law));
+  }
+
+  /// Problems, one line each (empty when valid): sizes against 2·kDof, finiteness, saturation > 0,
+  /// period ≥ 0.
+  std::vector<std::string> problems(int state_size) const {
+    std::vector<std::string> found;
+    for (const auto& [name, vector] : {std::pair<const char*, const Eigen::VectorXd*>{"gain", &gain},
+                                       std::pair<const char*, const Eigen::VectorXd*>{"equilibrium", &equilibrium}}) {
+      if (vector->size() != state_size) {
+        found.push_back(std::string("invalid setting controller.") + name + ": has " + std::to_string(vector->size()) +
+                        " entries, the model's state has 2·kDof = " + std::to_string(state_size));
+      } else if (!vector->allFinite()) {
+        found.push_back(std::string("invalid setting controller.") + name + ": must be finite");
+      }
+    }
+    if (!(saturation > 0.0)) {
+      found.push_back("invalid setting controller.saturation = " + detail::format_number(saturation) + ": must be > 0");
+    }
+    if (!(std::isfinite(period) && period >= 0.0)) {
+      found.push_back("invalid setting controller.period = " + detail::format_number(period) +
+                      ": must be finite and > 0 (or 0: continuous)");
+    }
+    return found;
+  }
+};
+
+namespace detail {
+template <class Model, class = void>
+struct HasLinearize : std::false_type {};
+template <class Model>
+struct HasLinearize<Model, std::void_t<decltype(Model::template linearize<double>(
+                               std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(), 0.0,
+                               std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model header defines linearize (it needs forward_dynamics_derivatives).
+template <class Model>
+inline constexpr bool has_linearize = detail::HasLinearize<Model>::value;
+
+/// Eigenvalues of A − B K, the model linearised at the controller's equilibrium with u = 0 (the
+/// saturation and the sampling are not part of this continuous linear model), sorted by real
+/// part, then imaginary part [1/s].
+template <class Model>
+Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFeedback& controller) {
+  static_assert(has_linearize<Model>, "closed_loop_poles needs the model's linearize (forward_dynamics_derivatives)");
+  constexpr int n = Model::kDof;
+  const VectorOf<Model> q = controller.equilibrium.head<n>();
+  const VectorOf<Model> qd = controller.equilibrium.segment<n>(n);
+  const auto lin = Model::template linearize<double>(q, qd, 0.0, params);
+  const Eigen::MatrixXd closed = lin.A - lin.B * controller.gain.transpose();
+  Eigen::VectorXcd poles = Eigen::EigenSolver<Eigen::MatrixXd>(closed, false).eigenvalues();
+  std::sort(poles.data(), poles.data() + poles.size(), [](const std::complex<double>& a, const std::complex<double>& b) {
+    return a.real() != b.real() ? a.real() < b.real() : a.imag() < b.imag();
+  });
+  return poles;
+}
+
+}  // namespace ipsim
