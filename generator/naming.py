@@ -58,6 +58,7 @@ RESERVED_NAMES: frozenset[str] = frozenset(
     | {"kLinks", "kDof", "kSpecialised", "kName", "kType", "kInertia", "check_folded"}
     | {"mass_matrix", "bias", "gravity", "n_matrix", "forward_dynamics", "forward_dynamics_derivatives"}
     | {"kinetic_energy", "potential_energy", "dissipation", "factorize_ldlt", "solve_ldlt"}
+    | {"linearize", "Linearization", "StateVector", "StateMatrix"}
 )
 
 

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SUNDIALS = tuple(
     f"-lsundials_{n}" for n in ("cvode", "arkode", "nvecserial", "sunmatrixdense", "sunlinsoldense")
 )
-SUNDIALS += ("-lsundials_sunnonlinsolfixedpoint",)
+SUNDIALS += ("-lsundials_sunnonlinsolfixedpoint", "-llapack")  # LAPACK: ipsim's eigenvalue guards
 
 PARAMS = {"m": [0.5, 0.275, 0.275], "l": [0.6, 0.5, 0.5], "delta": [0.3, 0.011458, 0.011458]}
 STATE = [0.2, 0.3, -0.4, 0.5, -1.0, 0.7]  # not an equilibrium

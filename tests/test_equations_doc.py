@@ -33,6 +33,7 @@ from ipgen.codegen.equations import markdown_escape, render_equations, tex_escap
 from ipgen.codegen.header import HeaderRequest
 from ipgen.derive import Equations, derive
 from ipgen.model import Symbols, System
+from ipgen.safetext import quote_path
 
 
 @cache
@@ -317,8 +318,8 @@ def test_any_name_gives_escaped_documents(name: str) -> None:
 
 
 def test_scene_path_is_escaped(tmp_path: Path) -> None:
-    """A specialised scene's path is part of the command the documents print: escaped, it
-    compiles, and the fixed values are listed."""
+    """A specialised scene's path is part of the command the documents print: percent-encoded
+    (as in every generated file) and escaped, it compiles, and the fixed values are listed."""
     folder = tmp_path / "d %&$#{x}~^<|>"
     folder.mkdir()
     scene = (Path(__file__).resolve().parents[1] / "scenes" / "cdip_pulse.toml").read_text()
@@ -326,6 +327,8 @@ def test_scene_path_is_escaped(tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert run(["--scene", str(folder / "we_ird.toml"), "--emit", "equations", "-o", str(out)]) == 0
     markdown, tex = (out / "cdip.md").read_text(), (out / "cdip.tex").read_text()
-    assert markdown_escape(str(folder)) in markdown and tex_escape(str(folder)) in tex
+    shown = quote_path(folder.as_posix())
+    assert shown != folder.as_posix() and "%" in shown
+    assert markdown_escape(shown) in markdown and tex_escape(shown) in tex
     assert "m1 = 0.275" in markdown
     compile_tex(tex, out, "cdip")
