@@ -1,29 +1,55 @@
 """The generators of one system's polynomials: parameters, velocities and trig letters.
 
-Every quantity in these equations is a polynomial (`poly.Poly`) in the parameters (m, l, δ,
-g), the velocities θ̇ (and accelerations θ̈) and a few trigonometric "letters": s_k = sin θk,
-c_k = cos θk, and C_jk = cos(θj − θk), S_jk = sin(θj − θk) for j < k. Named intermediate
-quantities (the rotary reaches r_i, rho_k) are generators too, with a definition: derivatives
-go through it by the chain rule, and the generated code computes each once. ∂/∂θi is the chain
-rule over the letters and named quantities that depend on θi.
-
-sympy is used only for the sympy views (`to_sympy`, `symbols`), imported on first use: the
-generation path never loads it.
+Every quantity in these equations is an element of one sympy polynomial ring over QQ
+(`sympy.polys.rings`, `PolyElement`: a dict from exponent tuples to exact rationals) in the
+parameters (m, l, δ, g), the velocities θ̇ (and accelerations θ̈) and a few trigonometric
+"letters": s_k = sin θk, c_k = cos θk, and C_jk = cos(θj − θk), S_jk = sin(θj − θk) for j < k.
+Named intermediate quantities (the rotary reaches r_i, rho_k) are generators too, with a
+definition: derivatives go through it by the chain rule, and the generated code computes each
+once. ∂/∂θi is the chain rule over the letters and named quantities that depend on θi, written
+on top of the ring's own `diff`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from itertools import compress, repeat
+from math import lcm
 from typing import TYPE_CHECKING
 
-from ipgen.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
+from sympy.polys.domains import QQ
+from sympy.polys.orderings import lex
+from sympy.polys.rings import PolyElement, PolyRing
 
 if TYPE_CHECKING:
     import sympy as sp
     from ipgen.model import Symbols
 
+Poly = PolyElement  # an element of `Algebra.ring`
+Monomial = tuple[int, ...]  # sparse: generator indices, each repeated as often as its exponent
+
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"
+
+
+def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
+    """p as ({sparse monomial: numerator}, common denominator), in lowest terms: what code
+    generation reads. A sparse monomial lists the generator indices in increasing order, each as
+    often as its exponent: x0² x3 is (0, 0, 3)."""
+    if not p:
+        return {}, 1
+    den = lcm(*(int(c.denominator) for c in p.values()))
+    indices = range(p.ring.ngens)
+    terms: dict[Monomial, int] = {}
+    for exponents, c in p.items():
+        monomial = tuple(
+            g
+            for g, e in zip(compress(indices, exponents), filter(None, exponents), strict=True)
+            for g in repeat(g, e)
+        )
+        terms[monomial] = int(c.numerator) * (den // int(c.denominator))
+    return terms, den
 
 
 @dataclass(frozen=True)
@@ -38,13 +64,14 @@ class Generator:
 
 
 class Algebra:
-    """The generators of a system with `dof` coordinates, and calculus over them.
+    """The generators of a system with `dof` coordinates, their ring, and calculus over them.
 
     Generator indices follow the order parameters, velocities, accelerations, letters, named
-    quantities, so that the parameters of a (sorted) monomial come first.
+    quantities (`named`: their names, defined later with `define`), so that the parameters of
+    a sparse monomial (`sparse`) come first.
     """
 
-    def __init__(self, dof: int) -> None:
+    def __init__(self, dof: int, named: Sequence[str] = ()) -> None:
         self.dof = dof
         self.generators: list[Generator] = []
         self._index: dict[str, int] = {}
@@ -70,6 +97,10 @@ class Algebra:
                 sjk = self._add(Generator(f"s{j}_{k}", LETTER, 0, "S", (j, k)))
                 self._by_angle[j][cjk], self._by_angle[k][cjk] = (-1, sjk), (1, sjk)
                 self._by_angle[j][sjk], self._by_angle[k][sjk] = (1, cjk), (-1, cjk)
+        for name in named:
+            self._add(Generator(name, NAMED))
+        self.ring: PolyRing = PolyRing([g.name for g in self.generators], QQ, lex)
+        self.gens: tuple[Poly, ...] = self.ring.gens
         self._angles_of: dict[int, tuple[int, ...]] = {}  # generator -> angles it depends on
         for g, info in enumerate(self.generators):
             if info.kind == LETTER:
@@ -87,12 +118,25 @@ class Algebra:
         return index
 
     # -- building -----------------------------------------------------------------------
+    @property
+    def zero(self) -> Poly:
+        return self.ring.zero
+
+    def constant(self, value: int | Fraction) -> Poly:
+        """The constant polynomial `value` (exact)."""
+        value = Fraction(value)
+        return self.ring.ground_new(QQ(value.numerator, value.denominator))
+
+    def total(self, polys: Iterable[Poly]) -> Poly:
+        """Σ polys (the ring's own `add`)."""
+        return self.ring.add(*polys)
+
     def index(self, name: str) -> int:
         """The generator called `name` (C++ spelling: m1, delta0, g, dq2, s1, c1_2, r3)."""
         return self._index[name]
 
     def gen(self, name: str) -> Poly:
-        return Poly.generator(self._index[name])
+        return self.gens[self._index[name]]
 
     def m(self, i: int) -> Poly:
         return self.gen(f"m{i}")
@@ -107,7 +151,7 @@ class Algebra:
         return self.gen("g")
 
     def qd(self, i: int) -> int:
-        """The generator index of θ̇i (for `times_generator` and `diff`)."""
+        """The generator index of θ̇i (`gens[...]` is the polynomial θ̇i)."""
         return self._index[f"dq{i}"]
 
     def qdd(self, i: int) -> int:
@@ -123,76 +167,72 @@ class Algebra:
     def cos_difference(self, j: int | None, k: int | None) -> Poly:
         """cos(θj − θk); `None` stands for the angle 0 (the base's own direction)."""
         if j == k:
-            return ONE
+            return self.ring.one
         if j is None or k is None:
             return self.cos(k if j is None else j)  # type: ignore[arg-type]
         return self.gen(f"c{min(j, k)}_{max(j, k)}")
 
     def define(self, name: str, definition: Poly) -> Poly:
-        """A named quantity: a generator that stands for `definition` (which may use earlier ones)."""
-        index = self._add(Generator(name, NAMED))
+        """The named quantity `name` (reserved when the algebra was made) stands for
+        `definition`, which may use earlier ones."""
+        index = self._index[name]
         self.named[index] = definition
-        angles = sorted({a for g in definition.generators() for a in self._angles_of.get(g, ())})
+        angles = sorted({a for g in self.used(definition) for a in self._angles_of.get(g, ())})
         self._angles_of[index] = tuple(angles)
-        return Poly.generator(index)
+        return self.gens[index]
 
     def folded(self, values: dict[int, Fraction]) -> Algebra:
         """A copy in which the parameter generators `values` (index -> value) are constants."""
         folded = object.__new__(Algebra)
         folded.__dict__.update(self.__dict__)
-        folded.named = {g: p.substitute(values) for g, p in self.named.items()}
+        folded.named = {g: self.substitute(p, values) for g, p in self.named.items()}
         folded._named_derivative = {}
         folded._sympy_meaning = None
         return folded
 
+    def substitute(self, p: Poly, values: dict[int, Fraction]) -> Poly:
+        """p with the generators `values` (index -> exact value) replaced by constants."""
+        wanted = [(self.gens[g], QQ(v.numerator, v.denominator)) for g, v in sorted(values.items())]
+        return p.subs(wanted) if p and wanted else p
+
+    # -- inspection ---------------------------------------------------------------------
+    def used(self, p: Poly) -> set[int]:
+        """Every generator that occurs in some monomial of p."""
+        if not p:
+            return set()
+        return set(compress(range(self.ring.ngens), p.degrees()))
+
     # -- calculus -----------------------------------------------------------------------
     def gradient(self, p: Poly) -> dict[int, Poly]:
         """{i: ∂p/∂θi} for every angle p depends on, by the chain rule over the letters and
-        named quantities, in one pass over p's terms."""
-        by_angle = self._by_angle
-        by_letter: dict[int, dict[Monomial, int]] = {}  # angle -> numerators over p.den
-        by_named: dict[tuple[int, int], dict[Monomial, int]] = {}  # (named, angle) -> cofactor
-        for m, c in p.terms.items():
-            previous = -1
-            for at, g in enumerate(m):
-                if g == previous:
-                    continue
-                previous = g
-                angles = self._angles_of.get(g)
-                if angles is None:
-                    continue
-                rest = (*m[:at], *m[at + 1 :])
-                c_times_exponent = c * m.count(g) if g in rest else c
-                for i in angles:
-                    if g in self.named:
-                        cofactor = by_named.setdefault((g, i), {})
-                        cofactor[rest] = cofactor.get(rest, 0) + c_times_exponent
-                    else:
-                        sign, target = by_angle[i][g]
-                        terms = by_letter.setdefault(i, {})
-                        key = insert(rest, target)
-                        terms[key] = terms.get(key, 0) + sign * c_times_exponent
-        parts: dict[int, list[Poly]] = {
-            i: [from_numerators({m: c for m, c in terms.items() if c}, p.den)]
-            for i, terms in by_letter.items()
-        }
-        for (g, i), cofactor in sorted(by_named.items()):
-            rest = from_numerators({m: c for m, c in cofactor.items() if c}, p.den)
-            parts.setdefault(i, []).append(rest * self._derivative_of_named(g, i))
-        gradient = {i: Poly.total(parts[i]) for i in sorted(parts)}
+        named quantities that occur in p (the ring's `diff` for each)."""
+        parts: dict[int, list[Poly]] = {}
+        for g in sorted(self.used(p)):
+            angles = self._angles_of.get(g)
+            if not angles:
+                continue
+            d = p.diff(self.gens[g])
+            for i in angles:
+                if g in self.named:
+                    term = d * self._derivative_of_named(g, i)
+                else:
+                    sign, target = self._by_angle[i][g]
+                    term = d * self.gens[target] if sign > 0 else -(d * self.gens[target])
+                parts.setdefault(i, []).append(term)
+        gradient = {i: self.total(parts[i]) for i in sorted(parts)}
         return {i: d for i, d in gradient.items() if d}
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         if (g, i) not in self._named_derivative:
             gradient = self.gradient(self.named[g])
             for angle in self._angles_of[g]:
-                self._named_derivative[g, angle] = gradient.get(angle, ZERO)
+                self._named_derivative[g, angle] = gradient.get(angle, self.zero)
         return self._named_derivative[g, i]
 
     # -- sympy views (tests, references) ------------------------------------------------
     @property
     def symbols(self) -> Symbols:
-        """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u); imports sympy."""
+        """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u)."""
         if self._symbols is None:
             from ipgen.model import Symbols
 
@@ -204,10 +244,8 @@ class Algebra:
         import sympy as sp
 
         meaning = self._meanings()
-        terms = []
-        for m, c in p.items():
-            terms.append(sp.Rational(c.numerator, c.denominator) * sp.Mul(*(meaning[g] for g in m)))
-        return sp.Add(*terms)
+        terms, den = sparse(p)
+        return sp.Add(*(sp.Rational(terms[m], den) * sp.Mul(*(meaning[g] for g in m)) for m in sorted(terms)))
 
     def _meanings(self) -> list[sp.Expr]:
         if self._sympy_meaning is not None:
@@ -229,6 +267,8 @@ class Algebra:
                 j, *k = info.angles
                 angle = sym.q[j] - sym.q[k[0]] if k else sym.q[j]
                 meaning.append(sp.sin(angle) if info.group in ("s", "S") else sp.cos(angle))
-            else:
+            elif g in self.named:
                 meaning.append(self.to_sympy(self.named[g]))  # earlier generators are ready
+            else:
+                meaning.append(sp.Symbol(info.name))  # reserved but never defined
         return meaning

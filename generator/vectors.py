@@ -8,13 +8,11 @@ as cos(θi − θj) by construction: no trigonometric simplification is ever nee
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.poly import ZERO, Poly
-
 if TYPE_CHECKING:
-    from ipgen.polynomial import Algebra
+    from ipgen.polynomial import Algebra, Poly
 
 
 @dataclass(frozen=True)
@@ -25,10 +23,10 @@ class PlanarVector:
     """
 
     terms: tuple[tuple[Poly, int | None], ...]  # (coefficient, angle)
-    normal: Poly = field(default_factory=lambda: ZERO)
+    normal: Poly | None = None  # None: no normal component
 
     @classmethod
-    def along(cls, coefficient: Poly, angle: int | None, normal: Poly = ZERO) -> PlanarVector:
+    def along(cls, coefficient: Poly, angle: int | None, normal: Poly | None = None) -> PlanarVector:
         terms = ((coefficient, angle),) if coefficient else ()
         return cls(terms, normal)
 
@@ -36,5 +34,6 @@ class PlanarVector:
         total = [
             a * b * alg.cos_difference(alpha, beta) for a, alpha in self.terms for b, beta in other.terms
         ]
-        total.append(self.normal * other.normal)
-        return Poly.total(total)
+        if self.normal is not None and other.normal is not None:
+            total.append(self.normal * other.normal)
+        return alg.total(total)
