@@ -169,7 +169,7 @@ def _dynamics_partials(
                 for i in range(size)
             ]
         )
-    by_rate = [[bias[k].diff(algebra.gens[algebra.qd(i)]) for i in range(size)] for k in range(size)]
+    by_rate = [[bias[k].diff(algebra.qd(i)) for i in range(size)] for k in range(size)]
     return by_angle, by_rate
 
 
@@ -191,7 +191,8 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
 
     report("dissipation")
     dissipation = rayleigh_dissipation(system, algebra)
-    damping = [[dissipation.diff(qd[j]).diff(qd[k]) for k in range(size)] for j in range(size)]
+    rate = [algebra.qd(k) for k in range(size)]  # generator indices: `diff` takes them directly
+    damping = [[dissipation.diff(rate[j]).diff(rate[k]) for k in range(size)] for j in range(size)]
 
     report("Coriolis matrix")
     partial = _mass_partials(mass, algebra)

@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from itertools import compress, repeat
+from itertools import compress
 from math import lcm
 from typing import TYPE_CHECKING
 
@@ -43,11 +43,9 @@ def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
     indices = range(p.ring.ngens)
     terms: dict[Monomial, int] = {}
     for exponents, c in p.items():
-        monomial = tuple(
-            g
-            for g, e in zip(compress(indices, exponents), filter(None, exponents), strict=True)
-            for g in repeat(g, e)
-        )
+        monomial = tuple(compress(indices, exponents))
+        if len(monomial) != sum(exponents):  # a power: repeat its generator
+            monomial = tuple(g for g in monomial for _ in range(exponents[g]))
         terms[monomial] = int(c.numerator) * (den // int(c.denominator))
     return terms, den
 
@@ -192,7 +190,7 @@ class Algebra:
 
     def substitute(self, p: Poly, values: dict[int, Fraction]) -> Poly:
         """p with the generators `values` (index -> exact value) replaced by constants."""
-        wanted = [(self.gens[g], QQ(v.numerator, v.denominator)) for g, v in sorted(values.items())]
+        wanted = [(g, QQ(v.numerator, v.denominator)) for g, v in sorted(values.items())]
         return p.subs(wanted) if p and wanted else p
 
     # -- inspection ---------------------------------------------------------------------
@@ -211,7 +209,7 @@ class Algebra:
             angles = self._angles_of.get(g)
             if not angles:
                 continue
-            d = p.diff(self.gens[g])
+            d = p.diff(g)  # an index: `ring.index` would compare with every generator
             for i in angles:
                 if g in self.named:
                     term = d * self._derivative_of_named(g, i)
