@@ -91,9 +91,12 @@ def materialise(commit: str) -> Path:
     return target
 
 
-def _environment(path: Path | None) -> dict[str, str]:
-    """The environment of a process that imports `ipgen` from `path` (None: this checkout)."""
+def _environment(path: Path | None, ground_types: str = "") -> dict[str, str]:
+    """The environment of a process that imports `ipgen` from `path` (None: this checkout),
+    with sympy's SYMPY_GROUND_TYPES set to `ground_types` if given."""
     env = dict(os.environ)
+    if ground_types:
+        env["SYMPY_GROUND_TYPES"] = ground_types
     if path is not None:
         env["PYTHONPATH"] = str(path)
     else:
@@ -101,11 +104,15 @@ def _environment(path: Path | None) -> dict[str, str]:
     return env
 
 
-def _timed(command: list[str], path: Path | None) -> dict[str, float]:
+def _timed(command: list[str], path: Path | None, ground_types: str = "") -> dict[str, float]:
     """Wall, CPU and peak memory of one fresh process, with its JSON output if it prints some."""
     start = time.perf_counter()
     process = subprocess.Popen(
-        command, cwd=ROOT, env=_environment(path), stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        command,
+        cwd=ROOT,
+        env=_environment(path, ground_types),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
     )
     _, status, usage = os.wait4(process.pid, 0)
     wall = time.perf_counter() - start
@@ -180,6 +187,25 @@ def time_points(baseline: Path, points: list[tuple[str, int]], rounds: int) -> l
     return timings
 
 
+def ground_types(points: list[tuple[str, int]], rounds: int) -> list[str]:
+    """This checkout's derivation + rendering (imports excluded) with sympy's pure-Python
+    rationals against gmpy2's, alternating in every round: a Markdown table."""
+    lines = [
+        "| type | n | python [s] | gmpy [s] | gmpy / python |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    for kind, links in points:
+        times: dict[str, list[float]] = {"python": [], "gmpy": []}
+        for _ in range(rounds):
+            for types in times:
+                inner = _timed([PYTHON, "-c", _IN_PROCESS, kind, str(links)], None, types)
+                times[types].append(inner["derive_s"] + inner["codegen_s"])
+        python, gmpy = (statistics.median(times[t]) for t in ("python", "gmpy"))
+        lines.append(f"| {kind} | {links} | {python:.3f} | {gmpy:.3f} | {gmpy / python:.2f} |")
+        print(lines[-1], file=sys.stderr, flush=True)
+    return lines
+
+
 def _s(value: float | None) -> str:
     return "–" if value is None else f"{value:.3f}"
 
@@ -203,9 +229,8 @@ def markdown(commit: str, checks: list[HeaderCheck], timings: list[Timing], roun
     ]
     for c in checks:
         verdict = "ok" if not c.changed else "CHANGED: " + "; ".join(c.changed)
-        lines.append(
-            f"| `{c.system}` | {'yes' if c.identical else 'no'} | {c.operations[0]} | {c.operations[1]} | {verdict} |"
-        )
+        identical = "yes" if c.identical else "no"
+        lines.append(f"| `{c.system}` | {identical} | {c.operations[0]} | {c.operations[1]} | {verdict} |")
     lines += [
         "",
         "## Times",
@@ -224,11 +249,21 @@ def markdown(commit: str, checks: list[HeaderCheck], timings: list[Timing], roun
         old_wall, new_wall = t.median("old", "wall_s"), t.median("new", "wall_s")
         old_in = _sum(t.median("old", "derive_s"), t.median("old", "codegen_s"))
         new_in = _sum(t.median("new", "derive_s"), t.median("new", "codegen_s"))
-        lines.append(
-            f"| {t.type} | {t.links} | {_s(old_wall)} | {_s(new_wall)} | {_ratio(new_wall, old_wall)}"
-            f" | {_s(t.median('old', 'cpu_s'))} | {_s(t.median('new', 'cpu_s'))} | {_s(old_in)} | {_s(new_in)}"
-            f" | {_ratio(new_in, old_in)} | {_mb(t.median('old', 'peak_mb'))} | {_mb(t.median('new', 'peak_mb'))} |"
-        )
+        cells = [
+            t.type,
+            str(t.links),
+            _s(old_wall),
+            _s(new_wall),
+            _ratio(new_wall, old_wall),
+            _s(t.median("old", "cpu_s")),
+            _s(t.median("new", "cpu_s")),
+            _s(old_in),
+            _s(new_in),
+            _ratio(new_in, old_in),
+            _mb(t.median("old", "peak_mb")),
+            _mb(t.median("new", "peak_mb")),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -254,13 +289,21 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--large", action="store_true", help="also classical n = 50 (--force), one round")
     parser.add_argument("--no-headers", action="store_true", help="times only")
+    parser.add_argument(
+        "--ground-types",
+        action="store_true",
+        help="instead: this checkout with SYMPY_GROUND_TYPES=python against gmpy (needs gmpy2)",
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "baseline.md")
     args = parser.parse_args(argv)
+    points = [(kind, int(n)) for kind in args.types.split(",") for n in args.links.split(",")]
+    if args.ground_types:
+        print("\n".join([*machine(), "", *ground_types(points, args.rounds)]))
+        return
     baseline = materialise(args.commit)
     checks = [] if args.no_headers else compare_headers(baseline)
     for c in checks:
         print(f"  {c.system}: identical={c.identical} operations {c.operations[0]} -> {c.operations[1]}")
-    points = [(kind, int(n)) for kind in args.types.split(",") for n in args.links.split(",")]
     timings = time_points(baseline, points, args.rounds)
     if args.large:
         timings += time_points(baseline, list(LARGE), 1)

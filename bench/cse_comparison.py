@@ -120,6 +120,24 @@ def markdown(results: list[Comparison]) -> list[str]:
     return lines
 
 
+def section(types: tuple[str, ...], links: tuple[int, ...] = LINKS, rounds: int = ROUNDS) -> list[str]:
+    """The Markdown section of docs/bench/generation.md: what is compared, and the table."""
+    results = [compare(kind, n, rounds) for kind in types for n in links]
+    return [
+        "## ipgen's CSE against sympy.cse",
+        "",
+        "`python -m bench.cse_comparison` (bench/cse_comparison.py), in the same run: the outputs of",
+        "`forward_dynamics` (lower triangle of M and the bias) through ipgen's CSE (`build_body`, with",
+        'printing) and through `sympy.cse(..., optimizations="basic")` on the same polynomials as',
+        "sympy expressions in the same generators (`PolyElement.as_expr`; conversion not timed), powers",
+        "expanded, printed by `sympy.ccode`. Operations counted by one rule (ipgen's `count_operations`:",
+        "+, −, ×, ÷, negation) over temporaries and outputs; the shared prelude (parameters, sin/cos,",
+        f"named quantities) left out. *no CSE*: the expanded polynomials. Times: median of {rounds}.",
+        "",
+        *markdown(results),
+    ]
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m bench.cse_comparison", description=__doc__.split("\n")[0]
