@@ -1,8 +1,9 @@
 """The physical model: which system, and the kinematics of every body (MODEL.md in code).
 
 This module says *what* the system is; `derive.py` turns it into equations of motion without
-knowing whether the base is a cart or an arm. Every quantity is a polynomial (an element of
-the sympy ring of the system's `Algebra`) in the generators: parameters, velocities and trig letters.
+knowing whether the base is a cart or an arm. Every quantity is a polynomial, an element of
+the sympy ring of the system's `Algebra`, in its generators: parameters, velocities and trig
+letters.
 
 Coordinates: θ0 is the cart position [m] or the arm angle [rad]; θ1..θn are absolute link
 angles [rad] from the upright vertical, clockwise positive. Link i is a homogeneous rod of

@@ -23,17 +23,17 @@ class PlanarVector:
     """
 
     terms: tuple[tuple[Poly, int | None], ...]  # (coefficient, angle)
-    normal: Poly | None = None  # None: no normal component
+    normal: Poly  # the component along the normal (the ring's zero if none)
 
     @classmethod
     def along(cls, coefficient: Poly, angle: int | None, normal: Poly | None = None) -> PlanarVector:
+        """coefficient·u(θ_angle) + normal·e_normal; no `normal`: in the plane."""
         terms = ((coefficient, angle),) if coefficient else ()
-        return cls(terms, normal)
+        return cls(terms, coefficient.ring.zero if normal is None else normal)
 
     def dot(self, other: PlanarVector, alg: Algebra) -> Poly:
         total = [
             a * b * alg.cos_difference(alpha, beta) for a, alpha in self.terms for b, beta in other.terms
         ]
-        if self.normal is not None and other.normal is not None:
-            total.append(self.normal * other.normal)
+        total.append(self.normal * other.normal)
         return alg.total(total)
