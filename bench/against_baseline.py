@@ -2,7 +2,7 @@
 
     python -m bench.against_baseline                       # against BASELINE, writes docs/bench/baseline.md
     python -m bench.against_baseline --commit abc123 --links 1,2,5 --rounds 3 --out /tmp/b
-    python -m bench.against_baseline --large               # also classical n = 50 (--force), once each
+    python -m bench.against_baseline --large               # also classical n = 50 (--force), once, <= 6 GB
 
 The earlier generator is materialised at run time from git (`git archive COMMIT generator
 templates` into build/bench/baseline-COMMIT/, laid out as the package `ipgen`), so nothing but
@@ -24,6 +24,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import statistics
 import subprocess
 import sys
@@ -50,6 +51,7 @@ SYSTEMS: tuple[tuple[str, ...], ...] = (
 )
 TIMED_LINKS = (1, 2, 5, 10, 20)
 LARGE = (("classical", 50),)
+LARGE_MEMORY_GB = 6.0  # the machine is shared: a large system gets at most this much memory
 _COST = re.compile(r"Cost: (\d+) arithmetic operations")
 
 # Run in a fresh process of either checkout: the derivation and the header's rendering, imports done.
@@ -104,8 +106,19 @@ def _environment(path: Path | None, ground_types: str = "") -> dict[str, str]:
     return env
 
 
-def _timed(command: list[str], path: Path | None, ground_types: str = "") -> dict[str, float]:
-    """Wall, CPU and peak memory of one fresh process, with its JSON output if it prints some."""
+def _timed(
+    command: list[str], path: Path | None, ground_types: str = "", memory_limit_gb: float = 0.0
+) -> dict:
+    """Wall, CPU and peak memory of one fresh process, with its JSON output if it prints some.
+
+    With `memory_limit_gb` the process's address space is limited to that, and a failure is
+    recorded (`failed`: its last line of stderr) instead of ending the benchmark."""
+
+    def limit() -> None:
+        if memory_limit_gb:
+            size = int(memory_limit_gb * 2**30)
+            resource.setrlimit(resource.RLIMIT_AS, (size, size))
+
     start = time.perf_counter()
     process = subprocess.Popen(
         command,
@@ -113,6 +126,7 @@ def _timed(command: list[str], path: Path | None, ground_types: str = "") -> dic
         env=_environment(path, ground_types),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        preexec_fn=limit,
     )
     _, status, usage = os.wait4(process.pid, 0)
     wall = time.perf_counter() - start
@@ -121,9 +135,12 @@ def _timed(command: list[str], path: Path | None, ground_types: str = "") -> dic
     for stream in (process.stdout, process.stderr):
         if stream:
             stream.close()
-    if os.waitstatus_to_exitcode(status) != 0:
-        raise SystemExit(f"bench: {' '.join(command)} failed: {error.strip()}")
     result = {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime, "peak_mb": usage.ru_maxrss / 1024}
+    if os.waitstatus_to_exitcode(status) != 0:
+        if memory_limit_gb:
+            last = (error.strip().splitlines() or ["?"])[-1]
+            return result | {"failed": f"{last} (memory limited to {memory_limit_gb:g} GB)"}
+        raise SystemExit(f"bench: {' '.join(command)} failed: {error.strip()}")
     return result | (json.loads(out) if out.strip().startswith("{") else {})
 
 
@@ -168,18 +185,28 @@ class Timing:
     new: list[dict[str, float]] = field(default_factory=list)
 
     def median(self, side: str, key: str) -> float | None:
-        values = [r[key] for r in getattr(self, side) if key in r]
+        values = [r[key] for r in getattr(self, side) if key in r and "failed" not in r]
         return statistics.median(values) if values else None
 
+    def failure(self, side: str) -> str:
+        return next((r["failed"] for r in getattr(self, side) if "failed" in r), "")
 
-def time_points(baseline: Path, points: list[tuple[str, int]], rounds: int) -> list[Timing]:
+
+def time_points(
+    baseline: Path, points: list[tuple[str, int]], rounds: int, memory_limit_gb: float = 0.0
+) -> list[Timing]:
+    """Old and new alternating, `rounds` times per point; with `memory_limit_gb` (large systems)
+    only the whole process is timed, under that limit."""
     timings = []
     for kind, links in points:
         timing = Timing(kind, links)
         for _ in range(rounds):
             for side, path in (("old", baseline), ("new", None)):
                 with tempfile.TemporaryDirectory(prefix="ipgen-baseline-") as out:
-                    whole = _timed(ipgen_command(PYTHON, kind, links, out), path)
+                    whole = _timed(ipgen_command(PYTHON, kind, links, out), path, "", memory_limit_gb)
+                if memory_limit_gb:
+                    getattr(timing, side).append(whole)
+                    continue
                 inner = _timed([PYTHON, "-c", _IN_PROCESS, kind, str(links)], path)
                 getattr(timing, side).append(whole | {k: v for k, v in inner.items() if k.endswith("_s")})
         print(f"  {kind} n={links}: done", file=sys.stderr, flush=True)
@@ -239,7 +266,8 @@ def markdown(commit: str, checks: list[HeaderCheck], timings: list[Timing], roun
         "time of the whole `python -m ipgen --type T --links N -o DIR` (start, imports, derivation, code",
         "generation, writing); *CPU*: its user + system time; *derive + codegen*: `derive()` and",
         "`render_header()` alone in a fresh process, imports excluded. *peak*: the process's peak",
-        f"resident memory. {rounds} round(s); large systems one.",
+        "resident memory (Linux keeps the high-water mark across exec: a peak below the forking",
+        f"benchmark's own size reads as that size). {rounds} round(s); large systems one.",
         "",
         "| type | n | process old | process new | new/old | CPU old | CPU new | derive+codegen old"
         " | derive+codegen new | new/old | peak old [MB] | peak new [MB] |",
@@ -264,6 +292,12 @@ def markdown(commit: str, checks: list[HeaderCheck], timings: list[Timing], roun
             _mb(t.median("new", "peak_mb")),
         ]
         lines.append("| " + " | ".join(cells) + " |")
+    failures = [(t, side, t.failure(side)) for t in timings for side in ("old", "new") if t.failure(side)]
+    if failures:
+        lines.append("")
+    for t, side, failure in failures:
+        cpu = t.__dict__[side][0]["cpu_s"]
+        lines.append(f"- {t.type} n = {t.links}, {side}: failed after {cpu:.0f} s CPU: `{failure}`.")
     return "\n".join(lines) + "\n"
 
 
@@ -306,7 +340,7 @@ def main(argv: list[str] | None = None) -> None:
         print(f"  {c.system}: identical={c.identical} operations {c.operations[0]} -> {c.operations[1]}")
     timings = time_points(baseline, points, args.rounds)
     if args.large:
-        timings += time_points(baseline, list(LARGE), 1)
+        timings += time_points(baseline, list(LARGE), 1, LARGE_MEMORY_GB)
     text = markdown(args.commit, checks, timings, args.rounds)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
