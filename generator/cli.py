@@ -188,11 +188,11 @@ def cli(
 
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
-    # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
-    # n = 50) as n^2.
-    scale = links / 50
-    seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
+    # Measured on a loaded 2-core machine (classical, docs/bench/baseline.md): n = 20 took 3.9 s
+    # CPU and 0.2 GB; n = 50 ran out of a 6 GB limit after 140 s. The ring's exponent tuples have
+    # ~n^2 entries, so time and memory grow about as n^4; the header (1.5 MB at n = 50) as n^2.
+    scale = links / 20
+    seconds, gigabytes, header_mb = 4 * scale**4, 0.15 * scale**4, 1.5 * (links / 50) ** 2
     duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
     memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
     return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"
