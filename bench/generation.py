@@ -35,6 +35,7 @@ FLOOR = "floor"
 FLOOR_CODE = "import click, jinja2, sympy"
 EXTRA = (("classical", 50),)  # ipgen alone, one run, with the --force ipgen asks for (systems.py)
 EXTRA_TIMEOUT = 900.0
+EXTRA_MEMORY_GB = 6.0  # the machine is shared: the large system gets at most this much memory
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
 RUNS = 3  # runs of a quick point (median)
@@ -67,8 +68,17 @@ def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
     return [PYTHON, "-m", "bench.references", method, kind, str(links)]
 
 
-def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, float]:
-    """Wall and CPU seconds of one fresh process (and the derivation's, for references)."""
+def _run_once(
+    method: str, kind: str, links: int, timeout: float, memory_limit_gb: float = 0.0
+) -> dict[str, float]:
+    """Wall and CPU seconds of one fresh process (and the derivation's, for references); with
+    `memory_limit_gb`, the process's address space is limited to that."""
+
+    def limit() -> None:
+        if memory_limit_gb:
+            size = int(memory_limit_gb * 2**30)
+            resource.setrlimit(resource.RLIMIT_AS, (size, size))
+
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-") as directory:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
@@ -79,6 +89,7 @@ def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, f
             text=True,
             timeout=timeout,
             check=True,
+            preexec_fn=limit,
         )
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -88,11 +99,17 @@ def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, f
 
 
 def measure(
-    method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True, quick_runs: int = RUNS
+    method: str,
+    kind: str,
+    links: int,
+    timeout: float = TIMEOUT,
+    repeat: bool = True,
+    quick_runs: int = RUNS,
+    memory_limit_gb: float = 0.0,
 ) -> Timing:
     """Time one point: once, and `quick_runs` times in all (median) when it was quick."""
     try:
-        runs = [_run_once(method, kind, links, timeout)]
+        runs = [_run_once(method, kind, links, timeout, memory_limit_gb)]
         if repeat and runs[0]["wall_s"] < REPEAT_BELOW:
             runs += [_run_once(method, kind, links, timeout) for _ in range(quick_runs - 1)]
     except subprocess.TimeoutExpired:
@@ -142,7 +159,8 @@ def sweep(
             once = (kind, n) in extra
             limit = EXTRA_TIMEOUT if once else timeout
             runs = FLOOR_RUNS if method == FLOOR else RUNS
-            timing = measure(method, kind, n, limit, repeat=not once, quick_runs=runs)
+            memory = EXTRA_MEMORY_GB if once else 0.0
+            timing = measure(method, kind, n, limit, repeat=not once, quick_runs=runs, memory_limit_gb=memory)
             if timing.status == "timeout":
                 timed_out.add((kind, method))
             results.append(timing)
