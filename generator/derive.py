@@ -5,7 +5,7 @@ The structure keeps the derivation polynomial in size (no `simplify` anywhere):
 - C from the Christoffel symbols of M (so Ṁ − 2C is skew-symmetric), differentiating only
   the entries that actually depend on the angle;
 - P = ∂V/∂θ, damping = ∂²D/∂θ̇²;
-- all of it as elements of one sympy polynomial ring over QQ (`sympy.polys.rings`; generators
+- all of it as elements of one polynomial ring over Q (FLINT's `fmpq_mpoly`; generators
   and the chain rule in `polynomial.py`), where expanding and collecting are free. sympy
   expression views of the results are offered for tests and references.
 """
@@ -169,7 +169,7 @@ def _dynamics_partials(
                 for i in range(size)
             ]
         )
-    by_rate = [[bias[k].diff(algebra.qd(i)) for i in range(size)] for k in range(size)]
+    by_rate = [[bias[k].derivative(algebra.qd(i)) for i in range(size)] for k in range(size)]
     return by_angle, by_rate
 
 
@@ -191,8 +191,10 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
 
     report("dissipation")
     dissipation = rayleigh_dissipation(system, algebra)
-    rate = [algebra.qd(k) for k in range(size)]  # generator indices: `diff` takes them directly
-    damping = [[dissipation.diff(rate[j]).diff(rate[k]) for k in range(size)] for j in range(size)]
+    rate = [algebra.qd(k) for k in range(size)]  # generator indices: `derivative` takes them directly
+    damping = [
+        [dissipation.derivative(rate[j]).derivative(rate[k]) for k in range(size)] for j in range(size)
+    ]
 
     report("Coriolis matrix")
     partial = _mass_partials(mass, algebra)

@@ -2,7 +2,7 @@
 
 This module says *what* the system is; `derive.py` turns it into equations of motion without
 knowing whether the base is a cart or an arm. Every quantity is a polynomial, an element of
-the sympy ring of the system's `Algebra`, in its generators: parameters, velocities and trig
+the FLINT polynomial ring (`fmpq_mpoly`) of the system's `Algebra`, in its generators: parameters, velocities and trig
 letters.
 
 Coordinates: θ0 is the cart position [m] or the arm angle [rad]; θ1..θn are absolute link
@@ -211,7 +211,7 @@ def bodies(system: System, alg: Algebra) -> list[Body]:
                 # The rod also turns about the vertical with the arm: ½ J_T (θ̇0 sin θ_i)².
                 rotational[(0, 0)] = j_spin * alg.sin(i) ** 2
         else:
-            base_column = PlanarVector.along(alg.ring.one, None)  # the cart moves along x
+            base_column = PlanarVector.along(alg.one, None)  # the cart moves along x
         result.append(Body(alg.m(i), height, (base_column, *link_columns), rotational))
     return result
 

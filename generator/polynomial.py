@@ -1,13 +1,15 @@
 """The generators of one system's polynomials: parameters, velocities and trig letters.
 
-Every quantity in these equations is an element of one sympy polynomial ring over QQ
-(`sympy.polys.rings`, `PolyElement`: a dict from exponent tuples to exact rationals) in the
+Every quantity in these equations is an element of one polynomial ring over Q: FLINT's sparse
+multivariate polynomials with exact rational coefficients (python-flint's `fmpq_mpoly`, in a
+`fmpq_mpoly_ctx` with one generator per quantity below; arithmetic and `derivative` in C) in the
 parameters (m, l, δ, g), the velocities θ̇ (and accelerations θ̈) and a few trigonometric
 "letters": s_k = sin θk, c_k = cos θk, and C_jk = cos(θj − θk), S_jk = sin(θj − θk) for j < k.
 Named intermediate quantities (the rotary reaches r_i, rho_k) are generators too, with a
 definition: derivatives go through it by the chain rule, and the generated code computes each
 once. ∂/∂θi is the chain rule over the letters and named quantities that depend on θi, written
-on top of the ring's own `diff`.
+on top of the ring's own `derivative`. sympy is imported only for the expression views
+(`Algebra.to_sympy`), never on the generation path.
 """
 
 from __future__ import annotations
@@ -19,15 +21,13 @@ from itertools import compress
 from math import lcm
 from typing import TYPE_CHECKING
 
-from sympy.polys.domains import QQ
-from sympy.polys.orderings import lex
-from sympy.polys.rings import PolyElement, PolyRing
+from flint import fmpq, fmpq_mpoly, fmpq_mpoly_ctx
 
 if TYPE_CHECKING:
     import sympy as sp
     from ipgen.model import Symbols
 
-Poly = PolyElement  # an element of `Algebra.ring`
+Poly = fmpq_mpoly  # an element of `Algebra.ring`
 Monomial = tuple[int, ...]  # sparse: generator indices, each repeated as often as its exponent
 
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"
@@ -37,16 +37,21 @@ def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
     """p as ({sparse monomial: numerator}, common denominator), in lowest terms: what code
     generation reads. A sparse monomial lists the generator indices in increasing order, each as
     often as its exponent: x0² x3 is (0, 0, 3)."""
-    if not p:
+    if p.is_zero():
         return {}, 1
-    den = lcm(*(int(c.denominator) for c in p.values()))
-    indices = range(p.ring.ngens)
+    # FLINT hands out dense exponent vectors (one entry per generator); keep only the
+    # generators p uses, found once from its degrees.
+    used = [g for g, d in enumerate(p.degrees()) if d]
+    squares = any(d > 1 for d in p.degrees())
+    coefficients = p.coeffs()
+    den = lcm(*(int(c.q) for c in coefficients))
     terms: dict[Monomial, int] = {}
-    for exponents, c in p.items():
-        monomial = tuple(compress(indices, exponents))
-        if len(monomial) != sum(exponents):  # a power: repeat its generator
-            monomial = tuple(g for g in monomial for _ in range(exponents[g]))
-        terms[monomial] = int(c.numerator) * (den // int(c.denominator))
+    for exponents, c in zip(p.monoms(), coefficients, strict=True):
+        if squares:
+            monomial = tuple(g for g in used for _ in range(exponents[g]))
+        else:
+            monomial = tuple(g for g in used if exponents[g])
+        terms[monomial] = int(c.p) * (den // int(c.q))
     return terms, den
 
 
@@ -97,8 +102,8 @@ class Algebra:
                 self._by_angle[j][sjk], self._by_angle[k][sjk] = (1, cjk), (-1, cjk)
         for name in named:
             self._add(Generator(name, NAMED))
-        self.ring: PolyRing = PolyRing([g.name for g in self.generators], QQ, lex)
-        self.gens: tuple[Poly, ...] = self.ring.gens
+        self.ring: fmpq_mpoly_ctx = fmpq_mpoly_ctx.get([g.name for g in self.generators], "lex")
+        self.gens: tuple[Poly, ...] = self.ring.gens()
         self._angles_of: dict[int, tuple[int, ...]] = {}  # generator -> angles it depends on
         for g, info in enumerate(self.generators):
             if info.kind == LETTER:
@@ -118,16 +123,32 @@ class Algebra:
     # -- building -----------------------------------------------------------------------
     @property
     def zero(self) -> Poly:
-        return self.ring.zero
+        return self.ring.constant(0)
+
+    @property
+    def one(self) -> Poly:
+        return self.ring.constant(1)
 
     def constant(self, value: int | Fraction) -> Poly:
         """The constant polynomial `value` (exact)."""
         value = Fraction(value)
-        return self.ring.ground_new(QQ(value.numerator, value.denominator))
+        return self.ring.constant(fmpq(value.numerator, value.denominator))
 
     def total(self, polys: Iterable[Poly]) -> Poly:
-        """Σ polys (the ring's own `add`)."""
-        return self.ring.add(*polys)
+        """Σ polys, added pairwise (a balanced tree: each term is merged about log k times
+        rather than once per summand)."""
+        parts = list(polys)
+        if not parts:
+            return self.zero
+        while len(parts) > 1:
+            paired = [a + b for a, b in zip(parts[::2], parts[1::2], strict=False)]
+            parts = paired + parts[len(paired) * 2 :]
+        return parts[0]
+
+    @staticmethod
+    def diff(p: Poly, g: int) -> Poly:
+        """∂p/∂x_g for the generator with index g (the ring's own `derivative`)."""
+        return p.derivative(g)
 
     def index(self, name: str) -> int:
         """The generator called `name` (C++ spelling: m1, delta0, g, dq2, s1, c1_2, r3)."""
@@ -165,7 +186,7 @@ class Algebra:
     def cos_difference(self, j: int | None, k: int | None) -> Poly:
         """cos(θj − θk); `None` stands for the angle 0 (the base's own direction)."""
         if j == k:
-            return self.ring.one
+            return self.one
         if j is None or k is None:
             return self.cos(k if j is None else j)  # type: ignore[arg-type]
         return self.gen(f"c{min(j, k)}_{max(j, k)}")
@@ -190,15 +211,15 @@ class Algebra:
 
     def substitute(self, p: Poly, values: dict[int, Fraction]) -> Poly:
         """p with the generators `values` (index -> exact value) replaced by constants."""
-        wanted = [(g, QQ(v.numerator, v.denominator)) for g, v in sorted(values.items())]
-        return p.subs(wanted) if p and wanted else p
+        wanted = {g: fmpq(v.numerator, v.denominator) for g, v in sorted(values.items())}
+        return p.subs(wanted) if wanted and not p.is_zero() else p
 
     # -- inspection ---------------------------------------------------------------------
     def used(self, p: Poly) -> set[int]:
         """Every generator that occurs in some monomial of p."""
-        if not p:
+        if p.is_zero():
             return set()
-        return set(compress(range(self.ring.ngens), p.degrees()))
+        return set(compress(range(len(self.gens)), p.degrees()))
 
     # -- calculus -----------------------------------------------------------------------
     def gradient(self, p: Poly) -> dict[int, Poly]:
@@ -209,7 +230,7 @@ class Algebra:
             angles = self._angles_of.get(g)
             if not angles:
                 continue
-            d = p.diff(g)  # an index: `ring.index` would compare with every generator
+            d = p.derivative(g)
             for i in angles:
                 if g in self.named:
                     term = d * self._derivative_of_named(g, i)
@@ -218,7 +239,7 @@ class Algebra:
                     term = d * self.gens[target] if sign > 0 else -(d * self.gens[target])
                 parts.setdefault(i, []).append(term)
         gradient = {i: self.total(parts[i]) for i in sorted(parts)}
-        return {i: d for i, d in gradient.items() if d}
+        return {i: d for i, d in gradient.items() if not d.is_zero()}
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         if (g, i) not in self._named_derivative:

@@ -29,7 +29,7 @@ class PlanarVector:
     def along(cls, coefficient: Poly, angle: int | None, normal: Poly | None = None) -> PlanarVector:
         """coefficient·u(θ_angle) + normal·e_normal; no `normal`: in the plane."""
         terms = ((coefficient, angle),) if coefficient else ()
-        return cls(terms, coefficient.ring.zero if normal is None else normal)
+        return cls(terms, coefficient.context().constant(0) if normal is None else normal)
 
     def dot(self, other: PlanarVector, alg: Algebra) -> Poly:
         total = [
