@@ -2,8 +2,8 @@
 
 This module says *what* the system is; `derive.py` turns it into equations of motion without
 knowing whether the base is a cart or an arm. Every quantity is a polynomial, an element of
-the FLINT polynomial ring (`fmpq_mpoly`) of the system's `Algebra`, in its generators: parameters, velocities and trig
-letters.
+the FLINT polynomial ring (`fmpq_mpoly`) of the system's `Algebra`, in its generators:
+parameters, velocities and trig letters.
 
 Coordinates: θ0 is the cart position [m] or the arm angle [rad]; θ1..θn are absolute link
 angles [rad] from the upright vertical, clockwise positive. Link i is a homogeneous rod of

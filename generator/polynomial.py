@@ -36,23 +36,45 @@ PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acc
 def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
     """p as ({sparse monomial: numerator}, common denominator), in lowest terms: what code
     generation reads. A sparse monomial lists the generator indices in increasing order, each as
-    often as its exponent: x0² x3 is (0, 0, 3)."""
+    often as its exponent: x0² x3 is (0, 0, 3).
+
+    Read from FLINT's own sparse text of p (`fmpq_mpoly.str`: `-3/2*m1*l1^2*s1 + g`, only the
+    generators each term uses): its exponent vectors (`monoms`) are dense, one entry per
+    generator, and cost ~10x more to read at 20 links.
+    """
     if p.is_zero():
         return {}, 1
-    # FLINT hands out dense exponent vectors (one entry per generator); keep only the
-    # generators p uses, found once from its degrees.
-    used = [g for g, d in enumerate(p.degrees()) if d]
-    squares = any(d > 1 for d in p.degrees())
-    coefficients = p.coeffs()
-    den = lcm(*(int(c.q) for c in coefficients))
-    terms: dict[Monomial, int] = {}
-    for exponents, c in zip(p.monoms(), coefficients, strict=True):
-        if squares:
-            monomial = tuple(g for g in used for _ in range(exponents[g]))
-        else:
-            monomial = tuple(g for g in used if exponents[g])
-        terms[monomial] = int(c.p) * (den // int(c.q))
-    return terms, den
+    index = _indices(p.context())
+    parsed: list[tuple[Monomial, int, int]] = []
+    for term in p.str().replace(" - ", " + -").split(" + "):
+        sign = 1
+        if term[0] == "-":
+            sign, term = -1, term[1:]
+        factors = term.split("*")
+        numerator, denominator = 1, 1
+        if factors[0][0].isdigit():  # a coefficient other than 1; generator names start with a letter
+            top, _, bottom = factors.pop(0).partition("/")
+            numerator, denominator = int(top), int(bottom or 1)
+        monomial: list[int] = []
+        for factor in factors:
+            name, _, power = factor.partition("^")
+            g = index[name]
+            monomial.extend((g,) * int(power) if power else (g,))
+        monomial.sort()
+        parsed.append((tuple(monomial), sign * numerator, denominator))
+    den = lcm(*(d for _, _, d in parsed))
+    return {m: n * (den // d) for m, n, d in parsed}, den
+
+
+def _indices(ring: fmpq_mpoly_ctx) -> dict[str, int]:
+    """{generator name: index} of a ring (cached per ring)."""
+    index = _INDICES.get(ring)
+    if index is None:
+        index = _INDICES[ring] = {name: g for g, name in enumerate(ring.names())}
+    return index
+
+
+_INDICES: dict[fmpq_mpoly_ctx, dict[str, int]] = {}
 
 
 @dataclass(frozen=True)
