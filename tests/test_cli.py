@@ -76,6 +76,25 @@ def test_same_input_gives_identical_bytes_across_processes(tmp_path: Path) -> No
     assert texts[0] == texts[1]
 
 
+def test_generation_does_not_import_sympy(tmp_path: Path) -> None:
+    """sympy alone takes longer to import than a small model takes to generate: never load it."""
+    scene = ROOT / "scenes" / "cdip_pulse.toml"
+    runs = [
+        ["--type", "rotary", "--links", "2", "--inertia", "full", "-o", str(tmp_path / "a")],
+        ["--type", "classical", "--links", "2", "--fix", "m1=0.3,delta2=0", "--outputs", "bias"],
+        ["--scene", str(scene), "-o", str(tmp_path / "b")],
+    ]
+    runs[1] += ["-o", str(tmp_path / "c")]
+    program = (
+        "import sys\nfrom ipgen.cli import run\n"
+        f"statuses = [run(args) for args in {runs!r}]\n"
+        "print(statuses, sorted(m for m in sys.modules if m.split('.')[0] == 'sympy'))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == "[0, 0, 0] []"
+
+
 CDIP = ["--type", "classical", "--links", "2"]
 BAD_INPUTS = [
     (["--type", "pendulum", "--links", "2"], "--type"),
