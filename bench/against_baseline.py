@@ -24,7 +24,6 @@ import argparse
 import json
 import os
 import re
-import resource
 import statistics
 import subprocess
 import sys
@@ -34,6 +33,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bench.memory import ResidentLimit
 from bench.report import BUILD, PYTHON, ROOT, machine
 from bench.systems import ipgen_command
 
@@ -111,14 +111,9 @@ def _timed(
 ) -> dict:
     """Wall, CPU and peak memory of one fresh process, with its JSON output if it prints some.
 
-    With `memory_limit_gb` the process's address space is limited to that, and a failure is
-    recorded (`failed`: its last line of stderr) instead of ending the benchmark."""
-
-    def limit() -> None:
-        if memory_limit_gb:
-            size = int(memory_limit_gb * 2**30)
-            resource.setrlimit(resource.RLIMIT_AS, (size, size))
-
+    With `memory_limit_gb` the process is killed when its resident memory exceeds that
+    (`bench.memory`), and a failure is recorded (`failed`: its last line of stderr) instead of
+    ending the benchmark."""
     start = time.perf_counter()
     process = subprocess.Popen(
         command,
@@ -126,9 +121,9 @@ def _timed(
         env=_environment(path, ground_types),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        preexec_fn=limit,
     )
-    _, status, usage = os.wait4(process.pid, 0)
+    with ResidentLimit(process, memory_limit_gb) as watch:
+        _, status, usage = os.wait4(process.pid, 0)
     wall = time.perf_counter() - start
     out = process.stdout.read().decode() if process.stdout else ""
     error = process.stderr.read().decode() if process.stderr else ""
@@ -138,8 +133,8 @@ def _timed(
     result = {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime, "peak_mb": usage.ru_maxrss / 1024}
     if os.waitstatus_to_exitcode(status) != 0:
         if memory_limit_gb:
-            last = (error.strip().splitlines() or ["?"])[-1]
-            return result | {"failed": f"{last} (memory limited to {memory_limit_gb:g} GB)"}
+            last = "killed" if watch.tripped else (error.strip().splitlines() or ["?"])[-1]
+            return result | {"failed": f"{last} (resident memory limited to {memory_limit_gb:g} GB)"}
         raise SystemExit(f"bench: {' '.join(command)} failed: {error.strip()}")
     return result | (json.loads(out) if out.strip().startswith("{") else {})
 

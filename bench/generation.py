@@ -22,17 +22,18 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from bench.memory import ResidentLimit
 from bench.references import agrees_with_ipgen
 from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verdict
 from bench.systems import LINKS, TYPES, ipgen_command
 
 METHODS = ("ipgen", "kane", "lagrange")
 # The start-up floor: an interpreter that only imports the libraries ipgen is built on (the CLI,
-# the templates and sympy, whose polynomial rings the derivation uses). No ipgen command can be
+# the templates and python-flint, whose polynomials the derivation uses). No ipgen command can be
 # faster; where KanesMethod's derivation is faster still, the target is out of reach for any tool
 # built on them.
 FLOOR = "floor"
-FLOOR_CODE = "import click, jinja2, sympy"
+FLOOR_CODE = "import click, jinja2, flint"
 EXTRA = (("classical", 50),)  # ipgen alone, one run, with the --force ipgen asks for (systems.py)
 EXTRA_TIMEOUT = 900.0
 EXTRA_MEMORY_GB = 6.0  # the machine is shared: the large system gets at most this much memory
@@ -72,30 +73,29 @@ def _run_once(
     method: str, kind: str, links: int, timeout: float, memory_limit_gb: float = 0.0
 ) -> dict[str, float]:
     """Wall and CPU seconds of one fresh process (and the derivation's, for references); with
-    `memory_limit_gb`, the process's address space is limited to that."""
-
-    def limit() -> None:
-        if memory_limit_gb:
-            size = int(memory_limit_gb * 2**30)
-            resource.setrlimit(resource.RLIMIT_AS, (size, size))
-
+    `memory_limit_gb`, the process is killed when its resident memory exceeds that."""
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-") as directory:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        done = subprocess.run(
-            _command(method, kind, links, directory),
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-            check=True,
-            preexec_fn=limit,
+        command = _command(method, kind, links, directory)
+        process = subprocess.Popen(
+            command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
         )
+        with ResidentLimit(process, memory_limit_gb) as watch:
+            try:
+                out, error = process.communicate(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.communicate()
+                raise
+        if process.returncode != 0:
+            why = f"resident memory over {memory_limit_gb:g} GB" if watch.tripped else error
+            raise subprocess.CalledProcessError(process.returncode, command, out, why)
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
     reference = method not in ("ipgen", FLOOR)
-    return {"wall_s": wall, "cpu_s": cpu} | (json.loads(done.stdout) if reference else {})
+    return {"wall_s": wall, "cpu_s": cpu} | (json.loads(out) if reference else {})
 
 
 def measure(
