@@ -188,11 +188,12 @@ def cli(
 
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    # Measured on a loaded 2-core machine (classical, docs/bench/baseline.md): n = 20 took 3.9 s
-    # CPU and 0.2 GB; n = 50 ran out of a 6 GB limit after 140 s. The ring's exponent tuples have
-    # ~n^2 entries, so time and memory grow about as n^4; the header (1.5 MB at n = 50) as n^2.
-    scale = links / 20
-    seconds, gigabytes, header_mb = 4 * scale**4, 0.15 * scale**4, 1.5 * (links / 50) ** 2
+    # Measured on a shared 2-core machine (classical, docs/bench/baseline.md): n = 50 took 13 s
+    # CPU and 1.6 GB. FLINT stores every monomial's exponents packed, one field per generator
+    # (~n^2 of them), so time grows about as n^3 and memory as n^4; the header (1.5 MB at n = 50)
+    # as n^2.
+    scale = links / 50
+    seconds, gigabytes, header_mb = 13 * scale**3, 1.6 * scale**4, 1.5 * scale**2
     duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
     memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
     return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"
