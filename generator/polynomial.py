@@ -44,37 +44,55 @@ def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
     """
     if p.is_zero():
         return {}, 1
-    index = _indices(p.context())
+    monomials = _monomial_cache(p.context())
     parsed: list[tuple[Monomial, int, int]] = []
-    for term in p.str().replace(" - ", " + -").split(" + "):
-        sign = 1
-        if term[0] == "-":
-            sign, term = -1, term[1:]
-        factors = term.split("*")
-        numerator, denominator = 1, 1
-        if factors[0][0].isdigit():  # a coefficient other than 1; generator names start with a letter
-            top, _, bottom = factors.pop(0).partition("/")
-            numerator, denominator = int(top), int(bottom or 1)
-        monomial: list[int] = []
-        for factor in factors:
-            name, _, power = factor.partition("^")
-            g = index[name]
-            monomial.extend((g,) * int(power) if power else (g,))
-        monomial.sort()
-        parsed.append((tuple(monomial), sign * numerator, denominator))
+    for text in p.str().replace(" - ", " + -").split(" + "):
+        term, sign = (text[1:], -1) if text[0] == "-" else (text, 1)
+        numerator = denominator = 1
+        if term[0].isdigit():  # a coefficient other than 1 (generator names start with a letter)
+            coefficient, _, term = term.partition("*")
+            top, _, bottom = coefficient.partition("/")
+            numerator, denominator = int(top), int(bottom) if bottom else 1
+        monomial = monomials.get(term)
+        if monomial is None:
+            monomial = monomials[term] = _monomial(term, monomials.names)
+        parsed.append((monomial, sign * numerator, denominator))
     den = lcm(*(d for _, _, d in parsed))
     return {m: n * (den // d) for m, n, d in parsed}, den
 
 
-def _indices(ring: fmpq_mpoly_ctx) -> dict[str, int]:
-    """{generator name: index} of a ring (cached per ring)."""
-    index = _INDICES.get(ring)
-    if index is None:
-        index = _INDICES[ring] = {name: g for g, name in enumerate(ring.names())}
-    return index
+class _Monomials(dict[str, Monomial]):
+    """{FLINT's text of a monomial (`m1*l1^2*s1`): sparse monomial} of one ring, with the ring's
+    {generator name: index}: the same monomials recur across the polynomials of a system."""
+
+    def __init__(self, ring: fmpq_mpoly_ctx) -> None:
+        super().__init__()
+        self.names = {name: g for g, name in enumerate(ring.names())}
 
 
-_INDICES: dict[fmpq_mpoly_ctx, dict[str, int]] = {}
+_MONOMIALS: dict[fmpq_mpoly_ctx, _Monomials] = {}
+_MONOMIALS_KEPT = 500_000  # monomials of earlier rings kept when a new ring comes
+
+
+def _monomial_cache(ring: fmpq_mpoly_ctx) -> _Monomials:
+    cache = _MONOMIALS.get(ring)
+    if cache is None:
+        if sum(map(len, _MONOMIALS.values())) > _MONOMIALS_KEPT:
+            _MONOMIALS.clear()  # earlier systems' monomials: forget them
+        cache = _MONOMIALS[ring] = _Monomials(ring)
+    return cache
+
+
+def _monomial(text: str, names: dict[str, int]) -> Monomial:
+    """The sparse monomial FLINT writes as `text` (`m1*l1^2*s1`; empty: 1)."""
+    if not text:
+        return ()
+    monomial: list[int] = []
+    for factor in text.split("*"):
+        name, _, power = factor.partition("^")
+        g = names[name]
+        monomial.extend((g,) * int(power) if power else (g,))
+    return tuple(sorted(monomial))
 
 
 @dataclass(frozen=True)
