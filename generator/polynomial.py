@@ -185,11 +185,6 @@ class Algebra:
             parts = paired + parts[len(paired) * 2 :]
         return parts[0]
 
-    @staticmethod
-    def diff(p: Poly, g: int) -> Poly:
-        """∂p/∂x_g for the generator with index g (the ring's own `derivative`)."""
-        return p.derivative(g)
-
     def index(self, name: str) -> int:
         """The generator called `name` (C++ spelling: m1, delta0, g, dq2, s1, c1_2, r3)."""
         return self._index[name]
