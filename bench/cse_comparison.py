@@ -35,6 +35,7 @@ from ipgen.codegen.functions import Output, _targets, build_body, count_operatio
 from ipgen.codegen.header import _FUNCTIONS
 from ipgen.derive import Equations, derive
 from ipgen.model import System
+from ipgen.polynomial import Poly, sparse
 
 FUNCTION = "forward_dynamics"
 LINKS = (2, 5, 10)
@@ -80,6 +81,12 @@ def _median_time(run, rounds: int) -> tuple[float, object]:
     return statistics.median(times), result
 
 
+def _as_expr(p: Poly, symbols: list[sp.Symbol]) -> sp.Expr:
+    """p as a sympy expression in its generators' symbols (expanded, as ipgen's CSE reads it)."""
+    terms, den = sparse(p)
+    return sp.Add(*(sp.Rational(c, den) * sp.Mul(*(symbols[g] for g in m)) for m, c in terms.items()))
+
+
 def compare(kind: str, links: int, rounds: int = ROUNDS) -> Comparison:
     eqs = derive(System(kind, links))
     outputs, arguments = _outputs(eqs)
@@ -87,7 +94,8 @@ def compare(kind: str, links: int, rounds: int = ROUNDS) -> Comparison:
     ipgen_operations = sum(count_operations(line) for line in [*body.temporaries, *body.outputs])
 
     targets = _targets(outputs)
-    exprs = [p.as_expr() for _, p in targets]
+    symbols = [sp.Symbol(name) for name in eqs.algebra.ring.names()]
+    exprs = [_as_expr(p, symbols) for _, p in targets]
     sympy_s, (replacements, reduced) = _median_time(lambda: sp.cse(exprs, optimizations="basic"), rounds)
     sympy_operations = sum(_c_operations(str(symbol), value) for symbol, value in replacements)
     sympy_operations += sum(_c_operations(target, e) for (target, _), e in zip(targets, reduced, strict=True))
