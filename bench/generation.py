@@ -22,18 +22,21 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from bench.memory import ResidentLimit
 from bench.references import agrees_with_ipgen
 from bench.report import PYTHON, ROOT, machine, seconds, style_axis, table, verdict
 from bench.systems import LINKS, TYPES, ipgen_command
 
 METHODS = ("ipgen", "kane", "lagrange")
-# The start-up floor: an interpreter that only imports the CLI and template libraries ipgen is built
-# on. No ipgen command can be faster; where KanesMethod's derivation is faster still, the target is
-# out of reach for any click + jinja2 tool.
+# The start-up floor: an interpreter that only imports the libraries ipgen is built on (the CLI,
+# the templates and python-flint, whose polynomials the derivation uses). No ipgen command can be
+# faster; where KanesMethod's derivation is faster still, the target is out of reach for any tool
+# built on them.
 FLOOR = "floor"
-FLOOR_CODE = "import click, jinja2"
+FLOOR_CODE = "import click, jinja2, flint"
 EXTRA = (("classical", 50),)  # ipgen alone, one run, with the --force ipgen asks for (systems.py)
 EXTRA_TIMEOUT = 900.0
+EXTRA_MEMORY_GB = 6.0  # the machine is shared: the large system gets at most this much memory
 TIMEOUT = 120.0
 REPEAT_BELOW = 10.0
 RUNS = 3  # runs of a quick point (median)
@@ -66,32 +69,47 @@ def _command(method: str, kind: str, links: int, directory: str) -> list[str]:
     return [PYTHON, "-m", "bench.references", method, kind, str(links)]
 
 
-def _run_once(method: str, kind: str, links: int, timeout: float) -> dict[str, float]:
-    """Wall and CPU seconds of one fresh process (and the derivation's, for references)."""
+def _run_once(
+    method: str, kind: str, links: int, timeout: float, memory_limit_gb: float = 0.0
+) -> dict[str, float]:
+    """Wall and CPU seconds of one fresh process (and the derivation's, for references); with
+    `memory_limit_gb`, the process is killed when its resident memory exceeds that."""
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-") as directory:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        done = subprocess.run(
-            _command(method, kind, links, directory),
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            timeout=timeout,
-            check=True,
+        command = _command(method, kind, links, directory)
+        process = subprocess.Popen(
+            command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
         )
+        with ResidentLimit(process, memory_limit_gb) as watch:
+            try:
+                out, error = process.communicate(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.communicate()
+                raise
+        if process.returncode != 0:
+            why = f"resident memory over {memory_limit_gb:g} GB" if watch.tripped else error
+            raise subprocess.CalledProcessError(process.returncode, command, out, why)
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
     reference = method not in ("ipgen", FLOOR)
-    return {"wall_s": wall, "cpu_s": cpu} | (json.loads(done.stdout) if reference else {})
+    return {"wall_s": wall, "cpu_s": cpu} | (json.loads(out) if reference else {})
 
 
 def measure(
-    method: str, kind: str, links: int, timeout: float = TIMEOUT, repeat: bool = True, quick_runs: int = RUNS
+    method: str,
+    kind: str,
+    links: int,
+    timeout: float = TIMEOUT,
+    repeat: bool = True,
+    quick_runs: int = RUNS,
+    memory_limit_gb: float = 0.0,
 ) -> Timing:
     """Time one point: once, and `quick_runs` times in all (median) when it was quick."""
     try:
-        runs = [_run_once(method, kind, links, timeout)]
+        runs = [_run_once(method, kind, links, timeout, memory_limit_gb)]
         if repeat and runs[0]["wall_s"] < REPEAT_BELOW:
             runs += [_run_once(method, kind, links, timeout) for _ in range(quick_runs - 1)]
     except subprocess.TimeoutExpired:
@@ -141,7 +159,8 @@ def sweep(
             once = (kind, n) in extra
             limit = EXTRA_TIMEOUT if once else timeout
             runs = FLOOR_RUNS if method == FLOOR else RUNS
-            timing = measure(method, kind, n, limit, repeat=not once, quick_runs=runs)
+            memory = EXTRA_MEMORY_GB if once else 0.0
+            timing = measure(method, kind, n, limit, repeat=not once, quick_runs=runs, memory_limit_gb=memory)
             if timing.status == "timeout":
                 timed_out.add((kind, method))
             results.append(timing)
@@ -231,7 +250,9 @@ def targets(
     return verdicts
 
 
-def markdown(results: list[Timing], checks: dict[str, float], timeout: float = TIMEOUT) -> str:
+def markdown(
+    results: list[Timing], checks: dict[str, float], timeout: float = TIMEOUT, cse: list[str] | None = None
+) -> str:
     lines = [
         "# Generation time: ipgen against sympy.physics.mechanics",
         "",
@@ -250,10 +271,10 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
         f"{max(checks.values(), default=float('nan')):.1e}.",
         "  The frames, bodies and loads are tests/independent_model.py's, the model the tests check",
         "  ipgen against.",
-        f"- **Start-up floor**: a process that only runs `python -c '{FLOOR_CODE}'`, the CLI and template",
-        "  libraries ipgen is built on; no ipgen command can be faster. A miss marked *below the start-up",
-        "  floor* is one where KanesMethod's derivation alone takes less than that: out of reach for any",
-        "  tool built on click and jinja2.",
+        f"- **Start-up floor**: a process that only runs `python -c '{FLOOR_CODE}'`, the CLI, template",
+        "  and polynomial libraries ipgen is built on; no ipgen command can be faster. A miss marked",
+        "  *below the start-up floor* is one where KanesMethod's derivation alone takes less than that:",
+        "  out of reach for any tool built on them.",
         f"- Each point in a fresh process; median of {RUNS} runs ({FLOOR_RUNS} for the floor) when a run",
         f"  takes under {REPEAT_BELOW:.0f} s, else one run. Runs over {timeout:.0f} s are stopped",
         f'  ("> {timeout:.0f}"), larger n then skipped.',
@@ -320,6 +341,8 @@ def markdown(results: list[Timing], checks: dict[str, float], timeout: float = T
     for text, met, misses in targets(results, timeout) + targets(results, timeout, cpu=True):
         state = "not measured" if met is None else verdict(met)
         lines.append(f"- {text}: **{state}**" + (f" ({misses})" if misses else ""))
+    if cse:
+        lines += ["", *cse]
     return "\n".join(lines) + "\n"
 
 
@@ -350,7 +373,7 @@ def plot(results: list[Timing], path: Path, timeout: float = TIMEOUT) -> None:
                 axis.plot(xs, ys, style, color=colour, marker="o", markersize=3, label=label)
         start = floor(results)
         if start is not None and start.wall_s is not None:
-            label = "start-up floor (click + jinja2)"
+            label = "start-up floor (click + jinja2 + sympy)"
             axis.axhline(start.wall_s, color="C0", linewidth=0.6, linestyle="--", label=label)
         axis.axhline(timeout, color="grey", linewidth=0.6, linestyle="--", label=f"limit {timeout:.0f} s")
         style_axis(axis, sorted({r.links for r in results if r.type == kind}), "seconds", kind)
@@ -360,9 +383,16 @@ def plot(results: list[Timing], path: Path, timeout: float = TIMEOUT) -> None:
     plt.close(figure)
 
 
-def save(results: list[Timing], checks: dict[str, float], directory: Path, timeout: float = TIMEOUT) -> None:
+def save(
+    results: list[Timing],
+    checks: dict[str, float],
+    directory: Path,
+    timeout: float = TIMEOUT,
+    cse: list[str] | None = None,
+) -> None:
+    """generation.md (with the CSE comparison's section `cse`, if given), .json and .png."""
     directory.mkdir(parents=True, exist_ok=True)
-    (directory / "generation.md").write_text(markdown(results, checks, timeout))
+    (directory / "generation.md").write_text(markdown(results, checks, timeout, cse))
     record = {"checks": checks, "timings": [asdict(r) for r in results]}
     (directory / "generation.json").write_text(json.dumps(record, indent=1) + "\n")
     plot(results, directory / "generation.png", timeout)

@@ -11,7 +11,7 @@ import argparse
 import time
 from pathlib import Path
 
-from bench import evaluation, generation
+from bench import cse_comparison, evaluation, generation
 from bench.report import BUILD, ROOT, verdict
 from bench.systems import LINKS, TYPES
 
@@ -55,7 +55,8 @@ def main(argv: list[str] | None = None) -> None:
     summary: list[str] = []
     if options.part in ("all", "generation"):
         timings, checks = generation.sweep(links, options.types, timeout, extra)
-        generation.save(timings, checks, out, timeout)
+        cse = None if options.quick else cse_comparison.section(options.types)
+        generation.save(timings, checks, out, timeout, cse)
         verdicts = generation.targets(timings, timeout) + generation.targets(timings, timeout, cpu=True)
         for text, met, misses in verdicts:
             summary.append(f"generation: {text}: {_state(met)}" + (f" ({misses})" if misses else ""))

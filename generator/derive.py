@@ -5,8 +5,9 @@ The structure keeps the derivation polynomial in size (no `simplify` anywhere):
 - C from the Christoffel symbols of M (so Ṁ − 2C is skew-symmetric), differentiating only
   the entries that actually depend on the angle;
 - P = ∂V/∂θ, damping = ∂²D/∂θ̇²;
-- all of it as sparse polynomials (`poly.py`, generators in `polynomial.py`), where expanding
-  and collecting are free. sympy views of the results are offered for tests and references.
+- all of it as elements of one polynomial ring over Q (FLINT's `fmpq_mpoly`; generators
+  and the chain rule in `polynomial.py`), where expanding and collecting are free. sympy
+  expression views of the results are offered for tests and references.
 """
 
 from __future__ import annotations
@@ -17,8 +18,7 @@ from functools import cached_property
 from typing import TYPE_CHECKING
 
 from ipgen.model import Body, System, algebra_for, base_inertia, bodies, rayleigh_dissipation
-from ipgen.poly import ZERO, Poly
-from ipgen.polynomial import Algebra
+from ipgen.polynomial import Algebra, Poly
 
 if TYPE_CHECKING:
     import sympy as sp
@@ -33,9 +33,8 @@ PolyMatrix = list[list[Poly]]
 class Equations:
     """M(θ) θ̈ + C(θ, θ̇) θ̇ + D θ̇ + P(θ) = B u.
 
-    Each piece is kept as polynomials (`poly`, what code generation reads) and offered as
-    sympy expressions in θ, θ̇ and the parameters (computed on first use; sympy is imported
-    then, never on the generation path).
+    Each piece is kept as ring elements (`poly`, what code generation reads; `algebra.ring`)
+    and offered as sympy expressions in θ, θ̇ and the parameters (computed on first use).
     """
 
     system: System
@@ -107,10 +106,10 @@ def _mass_matrix(system: System, algebra: Algebra, link_bodies: list[Body]) -> P
                 parts[j][k].append(body.mass * columns[j].dot(columns[k], algebra))
         for (j, k), spin in body.rotational.items():
             parts[j][k].append(spin)
-    mass = [[ZERO] * size for _ in range(size)]
+    mass = [[algebra.zero] * size for _ in range(size)]
     for j in range(size):
         for k in range(j, size):
-            mass[j][k] = mass[k][j] = Poly.total(parts[j][k])
+            mass[j][k] = mass[k][j] = algebra.total(parts[j][k])
     return mass
 
 
@@ -134,12 +133,12 @@ def _coriolis(partial: MassPartials, size: int, algebra: Algebra) -> PolyMatrix:
     def christoffel(k: int, j: int) -> Poly:
         parts = []
         for i in range(size):
-            rate = algebra.qd(i)
+            rate = algebra.gens[algebra.qd(i)]
             for key, sign in (((i, k, j), 1), ((j, k, i), 1), ((k, i, j), -1)):
                 if key in partial:
-                    d = partial[key].times_generator(rate)
+                    d = partial[key] * rate
                     parts.append(d if sign > 0 else -d)
-        return Poly.total(parts) / 2
+        return algebra.total(parts) / 2
 
     return [[christoffel(k, j) for j in range(size)] for k in range(size)]
 
@@ -158,11 +157,11 @@ def _dynamics_partials(
         gradient = algebra.gradient(bias[k])
         by_angle.append(
             [
-                Poly.total(
+                algebra.total(
                     [
-                        gradient.get(i, ZERO),
+                        gradient.get(i, algebra.zero),
                         *(
-                            partial[i, k, j].times_generator(algebra.qdd(j))
+                            partial[i, k, j] * algebra.gens[algebra.qdd(j)]
                             for j in range(size)
                             if (i, k, j) in partial
                         ),
@@ -171,7 +170,7 @@ def _dynamics_partials(
                 for i in range(size)
             ]
         )
-    by_rate = [[bias[k].diff(algebra.qd(i)) for i in range(size)] for k in range(size)]
+    by_rate = [[bias[k].derivative(algebra.qd(i)) for i in range(size)] for k in range(size)]
     return by_angle, by_rate
 
 
@@ -180,20 +179,23 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     report = progress or (lambda step: None)
     algebra = algebra_for(system)
     size = system.dof
-    qd = [algebra.qd(k) for k in range(size)]
+    qd = [algebra.gens[algebra.qd(k)] for k in range(size)]
 
     report("mass matrix")
     link_bodies = bodies(system, algebra)
     mass = _mass_matrix(system, algebra, link_bodies)
 
     report("potential energy and gravity")
-    potential = Poly.total(b.mass * algebra.g() * b.height for b in link_bodies)
+    potential = algebra.total(b.mass * algebra.g() * b.height for b in link_bodies)
     slope = algebra.gradient(potential)
-    gravity = [slope.get(k, ZERO) for k in range(size)]
+    gravity = [slope.get(k, algebra.zero) for k in range(size)]
 
     report("dissipation")
     dissipation = rayleigh_dissipation(system, algebra)
-    damping = [[dissipation.diff(qd[j]).diff(qd[k]) for k in range(size)] for j in range(size)]
+    rate = [algebra.qd(k) for k in range(size)]  # generator indices: `derivative` takes them directly
+    damping = [
+        [dissipation.derivative(rate[j]).derivative(rate[k]) for k in range(size)] for j in range(size)
+    ]
 
     report("Coriolis matrix")
     partial = _mass_partials(mass, algebra)
@@ -201,12 +203,9 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
 
     report("bias vector")
     n_matrix = [[coriolis[k][j] + damping[k][j] for j in range(size)] for k in range(size)]
-    bias = [
-        Poly.total([gravity[k], *(n_matrix[k][j].times_generator(qd[j]) for j in range(size))])
-        for k in range(size)
-    ]
-    momentum = [Poly.total(mass[j][k].times_generator(qd[k]) for k in range(size)) for j in range(size)]
-    kinetic = Poly.total(momentum[j].times_generator(qd[j]) for j in range(size)) / 2
+    bias = [algebra.total([gravity[k], *(n_matrix[k][j] * qd[j] for j in range(size))]) for k in range(size)]
+    momentum = [algebra.total(mass[j][k] * qd[k] for k in range(size)) for j in range(size)]
+    kinetic = algebra.total(momentum[j] * qd[j] for j in range(size)) / 2
 
     report("derivatives of the dynamics")
     residual_dq, residual_dqd = _dynamics_partials(partial, bias, algebra)

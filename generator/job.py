@@ -47,13 +47,14 @@ class Job:
 
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
-    # Measured on a loaded 2-core machine (classical): n = 50 took 6-10 s and 160 MB, n = 70
-    # 12-15 s (CPU) and 375 MB; time grows about as n^3, memory as n^2.5, the header (1.5 MB at
-    # n = 50) as n^2.
+    # Measured on a shared 2-core machine (classical, docs/bench/baseline.md): n = 50 took 13 s
+    # CPU and 1.6 GB. FLINT stores every monomial's exponents packed, one field per generator
+    # (~n^2 of them), so time grows about as n^3 and memory as n^4; the header (1.5 MB at n = 50)
+    # as n^2.
     if links > 10_000:
         return "expect days and more memory than this machine has"
     scale = links / 50
-    seconds, gigabytes, header_mb = 10 * scale**3, 0.16 * scale**2.5, 1.5 * scale**2
+    seconds, gigabytes, header_mb = 13 * scale**3, 1.6 * scale**4, 1.5 * scale**2
     duration = f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
     memory = f"{gigabytes:.1f} GB" if gigabytes >= 0.1 else f"{gigabytes * 1000:.0f} MB"
     return f"expect roughly {duration} and {memory} of memory, and a header of {header_mb:.1f} MB"

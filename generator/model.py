@@ -1,8 +1,9 @@
 """The physical model: which system, and the kinematics of every body (docs/model.md in code).
 
 This module says *what* the system is; `derive.py` turns it into equations of motion without
-knowing whether the base is a cart or an arm. Every quantity is a polynomial (`poly.Poly`) in
-the generators of the system's `Algebra`: parameters, velocities and trig letters.
+knowing whether the base is a cart or an arm. Every quantity is a polynomial, an element of
+the FLINT polynomial ring (`fmpq_mpoly`) of the system's `Algebra`, in its generators:
+parameters, velocities and trig letters.
 
 Coordinates: θ0 is the cart position [m] or the arm angle [rad]; θ1..θn are absolute link
 angles [rad] from the upright vertical, clockwise positive. Link i is a homogeneous rod of
@@ -14,8 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from ipgen.poly import ZERO, Poly
-from ipgen.polynomial import Algebra
+from ipgen.polynomial import Algebra, Poly
 from ipgen.vectors import PlanarVector
 
 if TYPE_CHECKING:
@@ -142,9 +142,21 @@ class Body:
 
 def algebra_for(system: System) -> Algebra:
     """The system's generators, with its named quantities defined."""
-    algebra = Algebra(system.dof)
+    algebra = Algebra(system.dof, named_quantity_names(system))
     named_quantities(system, algebra)
     return algebra
+
+
+def named_quantity_names(system: System) -> tuple[str, ...]:
+    """The names `named_quantities` defines, in order: r1, rho1, r2, ..., rn (rotary only)."""
+    if not system.is_rotary:
+        return ()
+    names: list[str] = []
+    for i in range(1, system.dof):
+        names.append(f"r{i}")
+        if i < system.links:
+            names.append(f"rho{i}")
+    return tuple(names)
 
 
 def rod_lever(alg: Algebra, body: int, joint: int) -> Poly:
@@ -156,7 +168,7 @@ def rod_lever(alg: Algebra, body: int, joint: int) -> Poly:
         return alg.l(joint)
     if joint == body:
         return alg.l(joint) / 2
-    return ZERO
+    return alg.zero
 
 
 def named_quantities(system: System, alg: Algebra) -> None:
@@ -168,7 +180,7 @@ def named_quantities(system: System, alg: Algebra) -> None:
     """
     if not system.is_rotary:
         return
-    reach_of_joint = ZERO
+    reach_of_joint = alg.zero
     for i in range(1, system.dof):
         alg.define(f"r{i}", reach_of_joint + alg.l(i) / 2 * alg.sin(i))
         if i < system.links:
@@ -184,7 +196,7 @@ def bodies(system: System, alg: Algebra) -> list[Body]:
     result = []
     for i in range(1, n + 1):
         levers = {k: rod_lever(alg, i, k) for k in range(1, n + 1)}  # joint k -> lever (k >= 1)
-        height = Poly.total(levers[k] * alg.cos(k) for k in range(1, i + 1))
+        height = alg.total(levers[k] * alg.cos(k) for k in range(1, i + 1))
         # d/dt (l sin θ, l cos θ) = l θ̇ (cos θ, −sin θ): each link turns the point along the
         # unit direction at angle θ_k in the plane of the links.
         link_columns = [PlanarVector.along(levers[k], k) for k in range(1, n + 1)]
@@ -199,7 +211,7 @@ def bodies(system: System, alg: Algebra) -> list[Body]:
                 # The rod also turns about the vertical with the arm: ½ J_T (θ̇0 sin θ_i)².
                 rotational[(0, 0)] = j_spin * alg.sin(i) ** 2
         else:
-            base_column = PlanarVector.along(Poly.constant(1), None)  # the cart moves along x
+            base_column = PlanarVector.along(alg.one, None)  # the cart moves along x
         result.append(Body(alg.m(i), height, (base_column, *link_columns), rotational))
     return result
 
@@ -213,7 +225,7 @@ def base_inertia(system: System, alg: Algebra) -> Poly:
 
 def rayleigh_dissipation(system: System, alg: Algebra) -> Poly:
     """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² (docs/model.md: link 1 uses its absolute rate)."""
-    rate = [Poly.generator(alg.qd(i)) for i in range(system.dof)]
+    rate = [alg.gens[alg.qd(i)] for i in range(system.dof)]
     terms = [alg.delta(0) * rate[0] ** 2, alg.delta(1) * rate[1] ** 2]
     terms += [alg.delta(i) * (rate[i] - rate[i - 1]) ** 2 for i in range(2, system.dof)]
-    return Poly.total(terms) / 2
+    return alg.total(terms) / 2

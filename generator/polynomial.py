@@ -1,30 +1,99 @@
 """The generators of one system's polynomials: parameters, velocities and trig letters.
 
-Every quantity in these equations is a polynomial (`poly.Poly`) in the parameters (m, l, δ,
-g), the velocities θ̇ (and accelerations θ̈) and a few trigonometric "letters": s_k = sin θk,
-c_k = cos θk, and C_jk = cos(θj − θk), S_jk = sin(θj − θk) for j < k. Named intermediate
-quantities (the rotary reaches r_i, rho_k) are generators too, with a definition: derivatives
-go through it by the chain rule, and the generated code computes each once. ∂/∂θi is the chain
-rule over the letters and named quantities that depend on θi.
-
-sympy is used only for the sympy views (`to_sympy`, `symbols`), imported on first use: the
-generation path never loads it.
+Every quantity in these equations is an element of one polynomial ring over Q: FLINT's sparse
+multivariate polynomials with exact rational coefficients (python-flint's `fmpq_mpoly`, in a
+`fmpq_mpoly_ctx` with one generator per quantity below; arithmetic and `derivative` in C) in the
+parameters (m, l, δ, g), the velocities θ̇ (and accelerations θ̈) and a few trigonometric
+"letters": s_k = sin θk, c_k = cos θk, and C_jk = cos(θj − θk), S_jk = sin(θj − θk) for j < k.
+Named intermediate quantities (the rotary reaches r_i, rho_k) are generators too, with a
+definition: derivatives go through it by the chain rule, and the generated code computes each
+once. ∂/∂θi is the chain rule over the letters and named quantities that depend on θi, written
+on top of the ring's own `derivative`. sympy is imported only for the expression views
+(`Algebra.to_sympy`), never on the generation path.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from itertools import compress
+from math import lcm
 from typing import TYPE_CHECKING
 
-from ipgen.poly import ONE, ZERO, Monomial, Poly, from_numerators, insert
+from flint import fmpq, fmpq_mpoly, fmpq_mpoly_ctx
 
 if TYPE_CHECKING:
     import sympy as sp
 
     from ipgen.model import Symbols
 
+Poly = fmpq_mpoly  # an element of `Algebra.ring`
+Monomial = tuple[int, ...]  # sparse: generator indices, each repeated as often as its exponent
+
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"
+
+
+def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
+    """p as ({sparse monomial: numerator}, common denominator), in lowest terms: what code
+    generation reads. A sparse monomial lists the generator indices in increasing order, each as
+    often as its exponent: x0² x3 is (0, 0, 3).
+
+    Read from FLINT's own sparse text of p (`fmpq_mpoly.str`: `-3/2*m1*l1^2*s1 + g`, only the
+    generators each term uses): its exponent vectors (`monoms`) are dense, one entry per
+    generator, and cost ~10x more to read at 20 links.
+    """
+    if p.is_zero():
+        return {}, 1
+    monomials = _monomial_cache(p.context())
+    parsed: list[tuple[Monomial, int, int]] = []
+    for text in p.str().replace(" - ", " + -").split(" + "):
+        term, sign = (text[1:], -1) if text[0] == "-" else (text, 1)
+        numerator = denominator = 1
+        if term[0].isdigit():  # a coefficient other than 1 (generator names start with a letter)
+            coefficient, _, term = term.partition("*")
+            top, _, bottom = coefficient.partition("/")
+            numerator, denominator = int(top), int(bottom) if bottom else 1
+        monomial = monomials.get(term)
+        if monomial is None:
+            monomial = monomials[term] = _monomial(term, monomials.names)
+        parsed.append((monomial, sign * numerator, denominator))
+    den = lcm(*(d for _, _, d in parsed))
+    return {m: n * (den // d) for m, n, d in parsed}, den
+
+
+class _Monomials(dict[str, Monomial]):
+    """{FLINT's text of a monomial (`m1*l1^2*s1`): sparse monomial} of one ring, with the ring's
+    {generator name: index}: the same monomials recur across the polynomials of a system."""
+
+    def __init__(self, ring: fmpq_mpoly_ctx) -> None:
+        super().__init__()
+        self.names = {name: g for g, name in enumerate(ring.names())}
+
+
+_MONOMIALS: dict[fmpq_mpoly_ctx, _Monomials] = {}
+_MONOMIALS_KEPT = 500_000  # monomials of earlier rings kept when a new ring comes
+
+
+def _monomial_cache(ring: fmpq_mpoly_ctx) -> _Monomials:
+    cache = _MONOMIALS.get(ring)
+    if cache is None:
+        if sum(map(len, _MONOMIALS.values())) > _MONOMIALS_KEPT:
+            _MONOMIALS.clear()  # earlier systems' monomials: forget them
+        cache = _MONOMIALS[ring] = _Monomials(ring)
+    return cache
+
+
+def _monomial(text: str, names: dict[str, int]) -> Monomial:
+    """The sparse monomial FLINT writes as `text` (`m1*l1^2*s1`; empty: 1)."""
+    if not text:
+        return ()
+    monomial: list[int] = []
+    for factor in text.split("*"):
+        name, _, power = factor.partition("^")
+        g = names[name]
+        monomial.extend((g,) * int(power) if power else (g,))
+    return tuple(sorted(monomial))
 
 
 @dataclass(frozen=True)
@@ -39,13 +108,14 @@ class Generator:
 
 
 class Algebra:
-    """The generators of a system with `dof` coordinates, and calculus over them.
+    """The generators of a system with `dof` coordinates, their ring, and calculus over them.
 
     Generator indices follow the order parameters, velocities, accelerations, letters, named
-    quantities, so that the parameters of a (sorted) monomial come first.
+    quantities (`named`: their names, defined later with `define`), so that the parameters of
+    a sparse monomial (`sparse`) come first.
     """
 
-    def __init__(self, dof: int) -> None:
+    def __init__(self, dof: int, named: Sequence[str] = ()) -> None:
         self.dof = dof
         self.generators: list[Generator] = []
         self._index: dict[str, int] = {}
@@ -71,6 +141,10 @@ class Algebra:
                 sjk = self._add(Generator(f"s{j}_{k}", LETTER, 0, "S", (j, k)))
                 self._by_angle[j][cjk], self._by_angle[k][cjk] = (-1, sjk), (1, sjk)
                 self._by_angle[j][sjk], self._by_angle[k][sjk] = (1, cjk), (-1, cjk)
+        for name in named:
+            self._add(Generator(name, NAMED))
+        self.ring: fmpq_mpoly_ctx = fmpq_mpoly_ctx.get([g.name for g in self.generators], "lex")
+        self.gens: tuple[Poly, ...] = self.ring.gens()
         self._angles_of: dict[int, tuple[int, ...]] = {}  # generator -> angles it depends on
         for g, info in enumerate(self.generators):
             if info.kind == LETTER:
@@ -88,12 +162,36 @@ class Algebra:
         return index
 
     # -- building -----------------------------------------------------------------------
+    @property
+    def zero(self) -> Poly:
+        return self.ring.constant(0)
+
+    @property
+    def one(self) -> Poly:
+        return self.ring.constant(1)
+
+    def constant(self, value: int | Fraction) -> Poly:
+        """The constant polynomial `value` (exact)."""
+        value = Fraction(value)
+        return self.ring.constant(fmpq(value.numerator, value.denominator))
+
+    def total(self, polys: Iterable[Poly]) -> Poly:
+        """Σ polys, added pairwise (a balanced tree: each term is merged about log k times
+        rather than once per summand)."""
+        parts = list(polys)
+        if not parts:
+            return self.zero
+        while len(parts) > 1:
+            paired = [a + b for a, b in zip(parts[::2], parts[1::2], strict=False)]
+            parts = paired + parts[len(paired) * 2 :]
+        return parts[0]
+
     def index(self, name: str) -> int:
         """The generator called `name` (C++ spelling: m1, delta0, g, dq2, s1, c1_2, r3)."""
         return self._index[name]
 
     def gen(self, name: str) -> Poly:
-        return Poly.generator(self._index[name])
+        return self.gens[self._index[name]]
 
     def m(self, i: int) -> Poly:
         return self.gen(f"m{i}")
@@ -108,7 +206,7 @@ class Algebra:
         return self.gen("g")
 
     def qd(self, i: int) -> int:
-        """The generator index of θ̇i (for `times_generator` and `diff`)."""
+        """The generator index of θ̇i (`gens[...]` is the polynomial θ̇i)."""
         return self._index[f"dq{i}"]
 
     def qdd(self, i: int) -> int:
@@ -124,76 +222,72 @@ class Algebra:
     def cos_difference(self, j: int | None, k: int | None) -> Poly:
         """cos(θj − θk); `None` stands for the angle 0 (the base's own direction)."""
         if j == k:
-            return ONE
+            return self.one
         if j is None or k is None:
             return self.cos(k if j is None else j)  # type: ignore[arg-type]
         return self.gen(f"c{min(j, k)}_{max(j, k)}")
 
     def define(self, name: str, definition: Poly) -> Poly:
-        """A named quantity: a generator that stands for `definition` (which may use earlier ones)."""
-        index = self._add(Generator(name, NAMED))
+        """The named quantity `name` (reserved when the algebra was made) stands for
+        `definition`, which may use earlier ones."""
+        index = self._index[name]
         self.named[index] = definition
-        angles = sorted({a for g in definition.generators() for a in self._angles_of.get(g, ())})
+        angles = sorted({a for g in self.used(definition) for a in self._angles_of.get(g, ())})
         self._angles_of[index] = tuple(angles)
-        return Poly.generator(index)
+        return self.gens[index]
 
     def folded(self, values: dict[int, Fraction]) -> Algebra:
         """A copy in which the parameter generators `values` (index -> value) are constants."""
         folded = object.__new__(Algebra)
         folded.__dict__.update(self.__dict__)
-        folded.named = {g: p.substitute(values) for g, p in self.named.items()}
+        folded.named = {g: self.substitute(p, values) for g, p in self.named.items()}
         folded._named_derivative = {}
         folded._sympy_meaning = None
         return folded
 
+    def substitute(self, p: Poly, values: dict[int, Fraction]) -> Poly:
+        """p with the generators `values` (index -> exact value) replaced by constants."""
+        wanted = {g: fmpq(v.numerator, v.denominator) for g, v in sorted(values.items())}
+        return p.subs(wanted) if wanted and not p.is_zero() else p
+
+    # -- inspection ---------------------------------------------------------------------
+    def used(self, p: Poly) -> set[int]:
+        """Every generator that occurs in some monomial of p."""
+        if p.is_zero():
+            return set()
+        return set(compress(range(len(self.gens)), p.degrees()))
+
     # -- calculus -----------------------------------------------------------------------
     def gradient(self, p: Poly) -> dict[int, Poly]:
         """{i: ∂p/∂θi} for every angle p depends on, by the chain rule over the letters and
-        named quantities, in one pass over p's terms."""
-        by_angle = self._by_angle
-        by_letter: dict[int, dict[Monomial, int]] = {}  # angle -> numerators over p.den
-        by_named: dict[tuple[int, int], dict[Monomial, int]] = {}  # (named, angle) -> cofactor
-        for m, c in p.terms.items():
-            previous = -1
-            for at, g in enumerate(m):
-                if g == previous:
-                    continue
-                previous = g
-                angles = self._angles_of.get(g)
-                if angles is None:
-                    continue
-                rest = (*m[:at], *m[at + 1 :])
-                c_times_exponent = c * m.count(g) if g in rest else c
-                for i in angles:
-                    if g in self.named:
-                        cofactor = by_named.setdefault((g, i), {})
-                        cofactor[rest] = cofactor.get(rest, 0) + c_times_exponent
-                    else:
-                        sign, target = by_angle[i][g]
-                        terms = by_letter.setdefault(i, {})
-                        key = insert(rest, target)
-                        terms[key] = terms.get(key, 0) + sign * c_times_exponent
-        parts: dict[int, list[Poly]] = {
-            i: [from_numerators({m: c for m, c in terms.items() if c}, p.den)]
-            for i, terms in by_letter.items()
-        }
-        for (g, i), cofactor in sorted(by_named.items()):
-            rest = from_numerators({m: c for m, c in cofactor.items() if c}, p.den)
-            parts.setdefault(i, []).append(rest * self._derivative_of_named(g, i))
-        gradient = {i: Poly.total(parts[i]) for i in sorted(parts)}
-        return {i: d for i, d in gradient.items() if d}
+        named quantities that occur in p (the ring's `diff` for each)."""
+        parts: dict[int, list[Poly]] = {}
+        for g in sorted(self.used(p)):
+            angles = self._angles_of.get(g)
+            if not angles:
+                continue
+            d = p.derivative(g)
+            for i in angles:
+                if g in self.named:
+                    term = d * self._derivative_of_named(g, i)
+                else:
+                    sign, target = self._by_angle[i][g]
+                    term = d * self.gens[target] if sign > 0 else -(d * self.gens[target])
+                parts.setdefault(i, []).append(term)
+        gradient = {i: self.total(parts[i]) for i in sorted(parts)}
+        return {i: d for i, d in gradient.items() if not d.is_zero()}
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         if (g, i) not in self._named_derivative:
             gradient = self.gradient(self.named[g])
             for angle in self._angles_of[g]:
-                self._named_derivative[g, angle] = gradient.get(angle, ZERO)
+                self._named_derivative[g, angle] = gradient.get(angle, self.zero)
         return self._named_derivative[g, i]
 
     # -- sympy views (tests, references) ------------------------------------------------
     @property
     def symbols(self) -> Symbols:
-        """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u); imports sympy."""
+        """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u)."""
         if self._symbols is None:
             from ipgen.model import Symbols
 
@@ -205,10 +299,8 @@ class Algebra:
         import sympy as sp
 
         meaning = self._meanings()
-        terms = []
-        for m, c in p.items():
-            terms.append(sp.Rational(c.numerator, c.denominator) * sp.Mul(*(meaning[g] for g in m)))
-        return sp.Add(*terms)
+        terms, den = sparse(p)
+        return sp.Add(*(sp.Rational(terms[m], den) * sp.Mul(*(meaning[g] for g in m)) for m in sorted(terms)))
 
     def _meanings(self) -> list[sp.Expr]:
         if self._sympy_meaning is not None:
@@ -230,6 +322,8 @@ class Algebra:
                 j, *k = info.angles
                 angle = sym.q[j] - sym.q[k[0]] if k else sym.q[j]
                 meaning.append(sp.sin(angle) if info.group in ("s", "S") else sp.cos(angle))
-            else:
+            elif g in self.named:
                 meaning.append(self.to_sympy(self.named[g]))  # earlier generators are ready
+            else:
+                meaning.append(sp.Symbol(info.name))  # reserved but never defined
         return meaning

@@ -169,7 +169,7 @@ def specialise(eqs: Equations, spec: Specialisation, keys: tuple[str, ...]) -> E
         return eqs
     values = {_generator_index(eqs.algebra, name): value for name, value in spec.fixed}
     algebra = eqs.algebra.folded(values)
-    poly = {key: [[p.substitute(values) for p in row] for row in eqs.poly[key]] for key in keys}
+    poly = {key: [[algebra.substitute(p, values) for p in row] for row in eqs.poly[key]] for key in keys}
     return replace(eqs, algebra=algebra, poly=poly)
 
 

@@ -8,13 +8,11 @@ as cos(θi − θj) by construction: no trigonometric simplification is ever nee
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.poly import ZERO, Poly
-
 if TYPE_CHECKING:
-    from ipgen.polynomial import Algebra
+    from ipgen.polynomial import Algebra, Poly
 
 
 @dataclass(frozen=True)
@@ -25,16 +23,17 @@ class PlanarVector:
     """
 
     terms: tuple[tuple[Poly, int | None], ...]  # (coefficient, angle)
-    normal: Poly = field(default_factory=lambda: ZERO)
+    normal: Poly  # the component along the normal (the ring's zero if none)
 
     @classmethod
-    def along(cls, coefficient: Poly, angle: int | None, normal: Poly = ZERO) -> PlanarVector:
+    def along(cls, coefficient: Poly, angle: int | None, normal: Poly | None = None) -> PlanarVector:
+        """coefficient·u(θ_angle) + normal·e_normal; no `normal`: in the plane."""
         terms = ((coefficient, angle),) if coefficient else ()
-        return cls(terms, normal)
+        return cls(terms, coefficient.context().constant(0) if normal is None else normal)
 
     def dot(self, other: PlanarVector, alg: Algebra) -> Poly:
         total = [
             a * b * alg.cos_difference(alpha, beta) for a, alpha in self.terms for b, beta in other.terms
         ]
         total.append(self.normal * other.normal)
-        return Poly.total(total)
+        return alg.total(total)

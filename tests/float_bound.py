@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ipgen.derive import Equations
-from ipgen.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY
+from ipgen.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY, Poly, sparse
 
 U = 2.0**-24
 LETTER_ERROR = 24 * U
@@ -73,12 +73,11 @@ def _factor(
 
 
 def polynomial_bound(
-    eqs: Equations, p: object, inputs: Inputs, named: dict[int, tuple[float, float]] | None = None
+    eqs: Equations, p: Poly, inputs: Inputs, named: dict[int, tuple[float, float]] | None = None
 ) -> tuple[float, float]:
     """(Σ |terms|, bound on |fl(p) − p|) for one generated polynomial (see the module docstring)."""
     named = {} if named is None else named
-    terms = p.terms  # type: ignore[attr-defined]  # {monomial (generator indices): numerator}
-    den = p.den  # type: ignore[attr-defined]
+    terms, den = sparse(p)  # {monomial (generator indices): numerator}, common denominator
     n_terms = len(terms)
     magnitude = error = 0.0
     for monomial, numerator in terms.items():
@@ -97,7 +96,8 @@ def polynomial_bound(
 def matrix_bound(eqs: Equations, key: str, inputs: Inputs) -> np.ndarray:
     """Entrywise bounds on the float error of the matrix `Equations.poly[key]` (flat, row-major)."""
     rows = eqs.poly[key]
-    return np.array([[polynomial_bound(eqs, p, inputs)[1] if p.terms else 0.0 for p in row] for row in rows])
+    bound = [[0.0 if p.is_zero() else polynomial_bound(eqs, p, inputs)[1] for p in row] for row in rows]
+    return np.array(bound)
 
 
 def _gamma(k: int) -> float:

@@ -25,7 +25,7 @@ from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from fractions import Fraction
 
-from ipgen.poly import Monomial, Poly
+from ipgen.polynomial import Monomial, Poly, sparse
 
 LEAF, CONST, MUL, ADD = 0, 1, 2, 3
 
@@ -90,17 +90,19 @@ class Graph:
 
     # -- polynomials -> nodes -----------------------------------------------------------
     def polynomial(self, p: Poly, leaves: Sequence[int], n_parameters: int) -> Signed:
-        """p as Σ_state (parameter factor) · state monomial; see the module docstring."""
+        """p (an element of the system's ring) as Σ_state (parameter factor) · state monomial;
+        see the module docstring. `leaves[g]` is the leaf of generator g."""
+        numerators, den = sparse(p)
         groups: dict[Monomial, list[tuple[Monomial, int]]] = {}
-        for m in sorted(p.terms):
+        for m in sorted(numerators):
             cut = bisect_left(m, n_parameters)
-            groups.setdefault(m[cut:], []).append((m[:cut], p.terms[m]))
+            groups.setdefault(m[cut:], []).append((m[:cut], numerators[m]))
         terms: dict[int, int] = {}
         for state, parts in groups.items():
-            key = (p.den, *parts)  # the same parameter part recurs under many state monomials
+            key = (den, *parts)  # the same parameter part recurs under many state monomials
             factored = self._factored.get(key)
             if factored is None:
-                factored = self._factored[key] = self._parameter_factor(parts, p.den, leaves)
+                factored = self._factored[key] = self._parameter_factor(parts, den, leaves)
             sign, factors = factored[0], [*factored[1], *(leaves[g] for g in state)]
             terms[self.mul(factors) if factors else self.const(1)] = sign
         return self.add(terms)

@@ -17,8 +17,7 @@ from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from ipgen.codegen.printer import CppPrinter, CPrinter
 from ipgen.derive import Equations, PolyMatrix
 from ipgen.model import split_parameter
-from ipgen.poly import Poly
-from ipgen.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator
+from ipgen.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
 
 
 @dataclass(frozen=True)
@@ -214,7 +213,7 @@ def build_body(
     # Named quantities used, with what their definitions use (later ones build on earlier).
     for g in sorted(algebra.named, reverse=True):
         if g in used:
-            used |= algebra.named[g].generators()
+            used |= algebra.used(algebra.named[g])
     letters = [g for g in sorted(used) if generators[g].kind == LETTER]
     definitions = {generators[g].name: _trig_definition(generators[g], syntax) for g in letters}
     needed = {part for _, parts in definitions.values() for part in parts}
