@@ -8,7 +8,7 @@ derivation's ring elements) go through
 - **ipgen**: `codegen.functions.build_body` (grouping by state monomial, greedy pairing of
   products and sums, printing), as in a header;
 - **sympy**: the same polynomials converted to sympy expressions in the same generators (trig
-  letters and named quantities as symbols: `PolyElement.as_expr`), then
+  letters and named quantities as symbols, term by term from `polynomial.sparse`), then
   `sympy.cse(..., optimizations="basic")`; integer powers are expanded into products
   (`sympy.codegen.rewriting.create_expand_pow_optimization`) and the result printed with
   `sympy.ccode`.
@@ -137,7 +137,7 @@ def section(types: tuple[str, ...], links: tuple[int, ...] = LINKS, rounds: int 
         "`python -m bench.cse_comparison` (bench/cse_comparison.py), in the same run: the outputs of",
         "`forward_dynamics` (lower triangle of M and the bias) through ipgen's CSE (`build_body`, with",
         'printing) and through `sympy.cse(..., optimizations="basic")` on the same polynomials as',
-        "sympy expressions in the same generators (`PolyElement.as_expr`; conversion not timed), powers",
+        "sympy expressions in the same generators (built term by term; conversion not timed), powers",
         "expanded, printed by `sympy.ccode`. Operations counted by one rule (ipgen's `count_operations`:",
         "+, −, ×, ÷, negation) over temporaries and outputs; the shared prelude (parameters, sin/cos,",
         f"named quantities) left out. *no CSE*: the expanded polynomials. Times: median of {rounds}.",
