@@ -144,12 +144,49 @@ def upright_problems(columns: dict[str, list[float]]) -> list[str]:
     ]
 
 
-def simulate(build: Path, scene: Scene, stem: str, csv_path: Path) -> subprocess.CompletedProcess[str]:
-    """Run build/bin/simulate_<model> on the scene's resolved config, writing `csv_path`."""
-    simulator = build / "bin" / f"simulate_{scene.name}"
-    config = build / "scenes" / f"{stem}.cfg"
-    command = [str(simulator), str(config), "--csv", str(csv_path)]
-    return subprocess.run(command, capture_output=True, text=True)
+class DemoError(Exception):
+    """A run that failed or did not end as the demo requires; the message says which."""
+
+
+def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Path, Path, str]:
+    """Run build/bin/simulate_<model> on the scene's resolved config, writing <out>/<short>.csv.
+    Returns the scene, the CSV and PNG paths and the simulator's summary."""
+    scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
+    csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
+    simulator = args.build / "bin" / f"simulate_{scene.name}"
+    config = args.build / "scenes" / f"{stem}.cfg"
+    result = subprocess.run(
+        [str(simulator), str(config), "--csv", str(csv_path)], capture_output=True, text=True
+    )
+    if result.returncode != 0:
+        raise DemoError(f"{stem} failed: {result.stderr.strip()}")
+    return scene, csv_path, png_path, result.stdout.strip()
+
+
+def publish(png_path: Path, docs: Path | None) -> None:
+    """With --docs, a copy of the plot there (the README shows it)."""
+    if docs:
+        docs.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(png_path, docs / png_path.name)
+
+
+def run_demo(args: argparse.Namespace) -> None:
+    for stem, short, title in EXPERIMENTS:
+        scene, csv_path, png_path, summary = simulate(args, stem, short)
+        plot(read_csv(csv_path), scene, title, png_path)
+        equations = write_equations(scene, args.out, args.docs)
+        print(f"== {title}\n{summary}\n   wrote {csv_path}, {png_path} and {equations}\n")
+        publish(png_path, args.docs)
+    for stem, short, title in CONTROL:
+        scene, csv_path, png_path, summary = simulate(args, stem, short)
+        columns = read_csv(csv_path)
+        plot_control(columns, scene, title, png_path)
+        print(f"== {title}\n{summary}\n   wrote {csv_path} and {png_path}")
+        problems = upright_problems(columns)
+        if problems or not math.isclose(columns["t"][-1], scene.t_end):
+            raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
+        print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
+        publish(png_path, args.docs)
 
 
 def main() -> int:
@@ -161,37 +198,11 @@ def main() -> int:
     parser.add_argument("--docs", type=Path, default=None, help="also copy the plots here")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    for stem, short, title in EXPERIMENTS:
-        scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
-        csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
-        result = simulate(args.build, scene, stem, csv_path)
-        if result.returncode != 0:
-            print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
-            return 1
-        plot(read_csv(csv_path), scene, title, png_path)
-        equations = write_equations(scene, args.out, args.docs)
-        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path}, {png_path} and {equations}\n")
-        if args.docs:
-            args.docs.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(png_path, args.docs / png_path.name)
-    for stem, short, title in CONTROL:
-        scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
-        csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
-        result = simulate(args.build, scene, stem, csv_path)
-        if result.returncode != 0:
-            print(f"demo: {stem} failed: {result.stderr.strip()}", file=sys.stderr)
-            return 1
-        columns = read_csv(csv_path)
-        plot_control(columns, scene, title, png_path)
-        print(f"== {title}\n{result.stdout.strip()}\n   wrote {csv_path} and {png_path}")
-        problems = upright_problems(columns)
-        if problems or not math.isclose(columns["t"][-1], scene.t_end):
-            print(f"demo: {stem} did not end upright and at rest: {', '.join(problems)}", file=sys.stderr)
-            return 1
-        print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
-        if args.docs:
-            args.docs.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(png_path, args.docs / png_path.name)
+    try:
+        run_demo(args)
+    except DemoError as e:
+        print(f"demo: {e}", file=sys.stderr)
+        return 1
     return 0
 
 
