@@ -4,7 +4,7 @@
   Rayleigh term) of the Markdown and of the LaTeX is read back (tests/latex_reader.py) and
   compared with the derived expression, exactly (trig normal form), for classical n = 1..3 and
   rotary n = 1..2 in both inertia variants;
-- each body's printed position equals MODEL.md's (transcribed here), its printed velocity is
+- each body's printed position equals docs/model.md's (transcribed here), its printed velocity is
   the time derivative of that position, and its printed T_i, V_i follow from them;
 - for classical 2 and rotary 1 the printed M, N θ̇ and P equal the corrected eqs. 30 and 31
   (the transcription in test_equations.py);
@@ -87,7 +87,7 @@ def test_every_entry_reads_back_as_the_derived_expression(case: tuple[str, int, 
 
 
 def model_position(sym: Symbols, system: System, i: int) -> tuple[sp.Expr, sp.Expr]:
-    """MODEL.md: r_i = Σ_{k≤i} l_k sin θk − (l_i/2) sin θi, z_i likewise with cos."""
+    """docs/model.md: r_i = Σ_{k≤i} l_k sin θk − (l_i/2) sin θi, z_i likewise with cos."""
     q, length = sym.q, sym.l
     r = sum(length[k] * sp.sin(q[k]) for k in range(1, i + 1)) - length[i] / 2 * sp.sin(q[i])
     z = sum(length[k] * sp.cos(q[k]) for k in range(1, i + 1)) - length[i] / 2 * sp.cos(q[i])
@@ -100,7 +100,7 @@ def time_derivative(expr: sp.Expr, sym: Symbols) -> sp.Expr:
 
 @pytest.mark.parametrize("case", CASES, ids=case_id)
 def test_bodies_follow_the_model(case: tuple[str, int, str]) -> None:
-    """Positions as in MODEL.md; velocity = d/dt position; T_i, V_i, D_i from them and sum to T, V, D."""
+    """Positions as in docs/model.md; velocity = d/dt position; T_i, V_i, D_i from them and sum to T, V, D."""
     eqs = equations(*case)
     system, sym = eqs.system, eqs.symbols
     printed = entries(*case, "md")
