@@ -32,11 +32,12 @@ from hypothesis import strategies as st
 from numeric import assert_close
 from test_header_physics import make_case, run_driver
 
-from ipgen.codegen.c_header import comment_safe, render_c_header
+from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest
 from ipgen.controller import Controller
 from ipgen.derive import derive
 from ipgen.model import System
+from ipgen.safetext import comment_safe
 from ipgen.specialise import Specialisation
 
 MODELS = [

@@ -19,6 +19,7 @@ from ipgen.codegen.header import HeaderRequest, environment, function_bodies, po
 from ipgen.controller import Controller
 from ipgen.derive import Equations
 from ipgen.errors import Error
+from ipgen.safetext import comment_safe
 from ipgen.specialise import specialise
 
 TEMPLATE = "model.h.jinja"
@@ -28,29 +29,6 @@ _LATE = {"forward_dynamics_derivatives": "qdd"}
 
 class ControllerError(Error, ValueError):
     """A controller that cannot be printed into the C header; the message names the entry."""
-
-
-def comment_safe(text: str) -> str:
-    """`text` made safe inside a C block comment on one line: unprintable characters (newlines
-    included) and backslashes written as \\xNN (\\uNNNN), `*/` and `/*` broken up, and `??` (a trigraph
-    start in C99) written as `?\\x3f`, so that nothing a user typed can end the comment, splice
-    lines or start another one."""
-    out: list[str] = []
-    for char in text:
-        if char == "\\" or not char.isprintable():
-            code = ord(char)
-            out.append(
-                f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}" if code < 0x10000 else f"\\U{code:08x}"
-            )
-        elif char == "?" and out and out[-1] == "?":
-            out.append("\\x3f")
-        elif char == "/" and out and out[-1] == "*":
-            out.append("\\x2f")
-        elif char == "*" and out and out[-1] == "/":
-            out.append("\\x2a")
-        else:
-            out.append(char)
-    return "".join(out)
 
 
 def c_number(value: float) -> str:

@@ -12,6 +12,7 @@ from ipgen import __version__
 from ipgen.codegen.functions import CPP_SYNTAX, FunctionBody, Output, Syntax, build_body, params_field
 from ipgen.controller import Controller
 from ipgen.derive import Equations
+from ipgen.safetext import comment_safe
 from ipgen.specialise import FUNCTIONS, Specialisation, specialise
 
 TEMPLATE = "model.hpp.jinja"
@@ -137,7 +138,7 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context = {
         "name": request.name,
-        "command": request.command,
+        "command": comment_safe(request.command),  # paths are quoted already; this guards the rest
         "version": __version__,
         "template": TEMPLATE,
         "type": system.type,
@@ -146,8 +147,8 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
         "inertia": system.inertia,
         "fn": function_bodies(eqs, spec.outputs),
         "input_used": not spec.zero_input,
-        "specialisation": spec.notes(),
+        "specialisation": [comment_safe(note) for note in spec.notes()],
         "folded": [(name, params_field(name), repr(float(value))) for name, value in spec.fixed],
-        "origin": spec.origin,
+        "origin": comment_safe(spec.origin),
     }
     return environment().get_template(TEMPLATE).render(context)
