@@ -32,7 +32,7 @@ import matplotlib.pyplot as plt
 from tqdm import tqdm
 
 from bench.report import BUILD, PYTHON, ROOT, compiler_version, machine, sundials_version, table
-from bench.workprecision.build import COMPILER, FLAGS, LIBRARIES
+from bench.workprecision.build import COMPILER, compile_for_model
 from ipgen.scene import Scene, load_scene, resolved_config
 
 OUT = BUILD / "control"
@@ -91,27 +91,8 @@ def prepare(kind: str, links: int) -> Model:
         check=True,
         capture_output=True,
     )
-    name = f"{kind}{links}"
     binary = folder / "simulate"
-    sources = [SIMULATOR, folder / f"{name}.hpp", *sorted((ROOT / "cpp/include/ipsim").glob("*.hpp"))]
-    if not binary.exists() or binary.stat().st_mtime < max(p.stat().st_mtime for p in sources):
-        command = [
-            COMPILER,
-            *FLAGS,
-            f"-I{ROOT / 'cpp/include'}",
-            f"-I{folder}",
-            "-isystem",
-            "/usr/include/eigen3",
-            f'-DIPGEN_MODEL_HEADER="{name}.hpp"',
-            f"-DIPGEN_MODEL=ipgen::{name}::Model",
-            str(SIMULATOR),
-            "-o",
-            str(binary),
-            *LIBRARIES,
-        ]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise RuntimeError(f"compiling the simulator for {name} failed:\n{done.stderr[-3000:]}")
+    compile_for_model(SIMULATOR, folder, f"{kind}{links}", binary)
     return Model(kind, links, load_scene(toml), binary, folder)
 
 

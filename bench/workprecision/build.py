@@ -30,6 +30,31 @@ LIBRARIES = (
 )
 
 
+def compile_for_model(source: Path, folder: Path, name: str, binary: Path) -> None:
+    """Compile `source` against the model header `<folder>/<name>.hpp` and ipsim into `binary`,
+    unless `binary` is newer than all of them."""
+    sources = [source, folder / f"{name}.hpp", *sorted((ROOT / "cpp/include/ipsim").glob("*.hpp"))]
+    if binary.exists() and binary.stat().st_mtime >= max(p.stat().st_mtime for p in sources):
+        return
+    command = [
+        COMPILER,
+        *FLAGS,
+        f"-I{ROOT / 'cpp/include'}",
+        f"-I{folder}",
+        "-isystem",
+        "/usr/include/eigen3",
+        f'-DIPGEN_MODEL_HEADER="{name}.hpp"',
+        f"-DIPGEN_MODEL=ipgen::{name}::Model",
+        str(source),
+        "-o",
+        str(binary),
+        *LIBRARIES,
+    ]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"compiling {source.name} for {name} failed:\n{done.stderr[-3000:]}")
+
+
 def prepare(toml: Path) -> tuple[Scene, Path, Path]:
     """(scene, resolved .cfg, driver executable) for one scene file."""
     scene = load_scene(toml)
@@ -43,29 +68,7 @@ def prepare(toml: Path) -> tuple[Scene, Path, Path]:
         text=True,
     )
     driver = folder / "driver"
-    sources = [
-        HERE / "driver.cpp",
-        folder / f"{scene.name}.hpp",
-        *sorted((ROOT / "cpp/include/ipsim").glob("*.hpp")),
-    ]
-    if not driver.exists() or driver.stat().st_mtime < max(p.stat().st_mtime for p in sources):
-        command = [
-            COMPILER,
-            *FLAGS,
-            f"-I{ROOT / 'cpp/include'}",
-            f"-I{folder}",
-            "-isystem",
-            "/usr/include/eigen3",
-            f'-DIPGEN_MODEL_HEADER="{scene.name}.hpp"',
-            f"-DIPGEN_MODEL=ipgen::{scene.name}::Model",
-            str(HERE / "driver.cpp"),
-            "-o",
-            str(driver),
-            *LIBRARIES,
-        ]
-        done = subprocess.run(command, capture_output=True, text=True)
-        if done.returncode != 0:
-            raise RuntimeError(f"compiling the driver for {scene.stem} failed:\n{done.stderr[-3000:]}")
+    compile_for_model(HERE / "driver.cpp", folder, scene.name, driver)
     return scene, folder / f"{scene.stem}.cfg", driver
 
 
