@@ -13,9 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ipgen import __version__
 from ipgen.codegen.functions import C_SYNTAX, FunctionBody, params_field
-from ipgen.codegen.header import HeaderRequest, environment, function_bodies, poly_keys
+from ipgen.codegen.header import HeaderRequest, environment, function_bodies, header_context, poly_keys
 from ipgen.controller import Controller
 from ipgen.derive import Equations
 from ipgen.errors import Error
@@ -96,26 +95,14 @@ def c_bodies(eqs: Equations, wanted: tuple[str, ...]) -> dict[str, FunctionBody]
 
 def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     """The complete C99 header text; deterministic for the same equations and request."""
-    system = eqs.system
     spec = request.specialisation
+    context = header_context(eqs, request, TEMPLATE)
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
-    context = {
-        "name": request.name,
-        "nameu": request.name.upper(),
-        "command": comment_safe(request.command),
-        "version": __version__,
-        "template": TEMPLATE,
-        "type": system.type,
-        "links": system.links,
-        "dof": system.dof,
-        "inertia": system.inertia,
-        "fn": c_bodies(eqs, spec.outputs),
-        "input_used": not spec.zero_input,
-        "specialisation": [comment_safe(note) for note in spec.notes()],
-        "folded": [
-            (name, params_field(name, C_SYNTAX), c_number(float(value))) for name, value in spec.fixed
-        ],
-        "origin": comment_safe(spec.origin),
-        "controller": control_context(request.controller, system.dof) if request.controller else None,
-    }
+    context["nameu"] = request.name.upper()
+    context["fn"] = c_bodies(eqs, spec.outputs)
+    context["folded"] = [
+        (name, params_field(name, C_SYNTAX), c_number(float(value))) for name, value in spec.fixed
+    ]
+    dof = eqs.system.dof
+    context["controller"] = control_context(request.controller, dof) if request.controller else None
     return environment().get_template(TEMPLATE).render(context)

@@ -131,24 +131,31 @@ def function_bodies(
     return bodies
 
 
-def render_header(eqs: Equations, request: HeaderRequest) -> str:
-    """The complete header text; deterministic for the same equations and request."""
+def header_context(eqs: Equations, request: HeaderRequest, template: str) -> dict[str, object]:
+    """What the C++ and the C header templates share: the model, the command and the
+    specialisation notes (user text made comment-safe). `eqs` are the general equations."""
     system = eqs.system
     spec = request.specialisation
-    eqs = specialise(eqs, spec, poly_keys(spec.outputs))
-    context = {
+    return {
         "name": request.name,
         "command": comment_safe(request.command),  # paths are quoted already; this guards the rest
         "version": __version__,
-        "template": TEMPLATE,
+        "template": template,
         "type": system.type,
         "links": system.links,
         "dof": system.dof,
         "inertia": system.inertia,
-        "fn": function_bodies(eqs, spec.outputs),
         "input_used": not spec.zero_input,
         "specialisation": [comment_safe(note) for note in spec.notes()],
-        "folded": [(name, params_field(name), repr(float(value))) for name, value in spec.fixed],
         "origin": comment_safe(spec.origin),
     }
+
+
+def render_header(eqs: Equations, request: HeaderRequest) -> str:
+    """The complete header text; deterministic for the same equations and request."""
+    spec = request.specialisation
+    context = header_context(eqs, request, TEMPLATE)
+    eqs = specialise(eqs, spec, poly_keys(spec.outputs))
+    context["fn"] = function_bodies(eqs, spec.outputs)
+    context["folded"] = [(name, params_field(name), repr(float(value))) for name, value in spec.fixed]
     return environment().get_template(TEMPLATE).render(context)
