@@ -58,8 +58,8 @@ _COST = re.compile(r"Cost: (\d+) arithmetic operations")
 _IN_PROCESS = """
 import json, sys, time
 from ipgen.codegen.header import HeaderRequest, render_header
-from ipgen.derive import derive
-from ipgen.model import System
+from ipgen.model.derivation import derive
+from ipgen.model.system import System
 kind, links = sys.argv[1], int(sys.argv[2])
 start = time.perf_counter()
 equations = derive(System(kind, links))

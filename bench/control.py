@@ -33,7 +33,7 @@ from tqdm import tqdm
 
 from bench.report import BUILD, PYTHON, ROOT, compiler_version, machine, sundials_version, table
 from bench.workprecision.build import COMPILER, compile_for_model
-from ipgen.scene import Scene, load_scene, resolved_config
+from ipgen.scene.reader import Scene, load_scene, resolved_config
 
 OUT = BUILD / "control"
 DOCS = ROOT / "docs" / "bench"
@@ -254,7 +254,7 @@ def main() -> int:
     import numpy as np
 
     import ipgen
-    from ipgen import control
+    from ipgen.control import linear as control
 
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter

@@ -33,9 +33,9 @@ from sympy.codegen.rewriting import create_expand_pow_optimization
 
 from ipgen.codegen.functions import Output, _targets, build_body, count_operations
 from ipgen.codegen.header import _FUNCTIONS
-from ipgen.derive import Equations, derive
-from ipgen.model import System
-from ipgen.polynomial import Poly, sparse
+from ipgen.model.derivation import Equations, derive
+from ipgen.model.polynomial import Poly, sparse
+from ipgen.model.system import System
 
 FUNCTION = "forward_dynamics"
 LINKS = (2, 5, 10)

@@ -32,10 +32,10 @@ from pathlib import Path
 from bench.report import ROOT, commit, table
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest
-from ipgen.controller import Controller
-from ipgen.derive import derive
-from ipgen.model import System, parameter_names
-from ipgen.specialise import SIMULATOR_FUNCTIONS, Specialisation, check_parameter
+from ipgen.control.controller import Controller
+from ipgen.model.derivation import derive
+from ipgen.model.specialise import SIMULATOR_FUNCTIONS, Specialisation, check_parameter
+from ipgen.model.system import System, parameter_names
 
 CC = "arm-none-eabi-gcc"
 SIZE = "arm-none-eabi-size"

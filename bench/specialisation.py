@@ -25,10 +25,10 @@ from pathlib import Path
 
 from bench.report import BUILD, ROOT, machine, sundials_version
 from bench.workprecision.build import LIBRARIES
-from ipgen.generate import generate_header
-from ipgen.model import System
-from ipgen.scene import Scene, load_scene, resolved_config
-from ipgen.specialise import from_scene
+from ipgen.command.generate import generate_header
+from ipgen.model.system import System
+from ipgen.scene.reader import Scene, load_scene, resolved_config
+from ipgen.scene.specialisation import from_scene
 
 PAPER_SCENES = (ROOT / "scenes" / "cdip_pulse.toml", ROOT / "scenes" / "rsip_pulse.toml")
 LARGER_SCENES = (

@@ -10,7 +10,7 @@ The public API (stable; everything else is internal):
   to fix it, the message the command prints);
 - `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`);
 - `linearize(type, links, m, l, delta, ...) -> (A, B)` and `lqr(type, links, m, l, delta, Q, R, ...)
-  -> K`: the linear model about a state and an LQR gain (control.py, numpy and scipy).
+  -> K`: the linear model about a state and an LQR gain (control/linear.py, numpy and scipy).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -18,18 +18,18 @@ Importing ipgen is cheap: the modules behind these functions are imported on fir
 
 from __future__ import annotations
 
-import sys
-import types
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ipgen.common.locations import cmake_dir
+from ipgen.common.version import __version__
 from ipgen.errors import Error
 
 if TYPE_CHECKING:
-    from ipgen.derive import Equations
+    from ipgen.model.derivation import Equations
 
-__version__ = "0.1.0"
+
 __all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "linearize", "lqr", "write_header"]
 
 
@@ -44,8 +44,8 @@ def derive(type: str, links: int, inertia: str = "pivot") -> Equations:
     `symbols`: `q`, `qd` (θ, θ̇), `m`, `l`, `delta` (tuples, index 0 the base) and `g`, `u`.
     Raises an `Error` naming the bad argument.
     """
-    from ipgen.derive import derive as derive_system
-    from ipgen.job import check_system
+    from ipgen.command.job import check_system
+    from ipgen.model.derivation import derive as derive_system
 
     system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
     return derive_system(system)
@@ -71,7 +71,7 @@ def write_header(
     `outputs` and `emit` as text or a list of names. All files are written or none; bad input
     raises an `Error` with the message the command prints.
     """
-    from ipgen.job import plan, run
+    from ipgen.command.job import plan, run
 
     job = plan(
         output,
@@ -88,49 +88,15 @@ def write_header(
     return [written.path for written in run(job)]
 
 
-def cmake_dir() -> Path:
-    """The folder holding ipgenConfig.cmake (installed with the package; a checkout's cmake/)."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("ipgen.cmake")
-    locations = list(spec.submodule_search_locations or []) if spec is not None else []
-    for location in locations:
-        if (Path(location) / "ipgenConfig.cmake").is_file():
-            return Path(location).resolve()
-    checkout = Path(__file__).resolve().parent.parent / "cmake"  # an uninstalled checkout
-    if (checkout / "ipgenConfig.cmake").is_file():
-        return checkout
-    raise Error(
-        "ipgen's CMake package is missing from this installation: reinstall ipgen (pip install ipgen)"
-    )
-
-
 def __getattr__(attribute: str) -> object:
-    """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control.py, which
+    """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
     imports numpy and scipy), so that `import ipgen` and the ipgen command start fast."""
     if attribute == "Equations":
-        from ipgen.derive import Equations
+        from ipgen.model.derivation import Equations
 
         return Equations
     if attribute in ("linearize", "lqr"):
-        from ipgen import control
+        from ipgen.control import linear as control
 
         return getattr(control, attribute)
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
-
-
-class _Package(types.ModuleType):
-    """Keeps `ipgen.derive` the function above: importing the submodule ipgen.derive (the
-    implementation) would otherwise replace the package attribute by the module."""
-
-    @property
-    def derive(self) -> object:
-        return derive
-
-    @derive.setter
-    def derive(self, value: object) -> None:
-        if not isinstance(value, types.ModuleType):  # the import system sets the submodule: ignore it
-            raise AttributeError("ipgen.derive cannot be replaced")
-
-
-sys.modules[__name__].__class__ = _Package

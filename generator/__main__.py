@@ -1,6 +1,6 @@
 """`python -m ipgen` runs the ipgen command (CMake uses this: no dependence on PATH)."""
 
-from ipgen.cli import main
+from ipgen.command.cli import main
 
 if __name__ == "__main__":
     main()

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from conftest import model_name
 
-from ipgen.generate import generate
-from ipgen.model import System
+from ipgen.command.generate import generate
+from ipgen.model.system import System
 
 CC = os.environ.get("CC", "gcc")
 C_DIR = Path(__file__).resolve().parent / "c"

@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 from cxx import cxx_command, require_toolchain
 
-from ipgen.generate import generate_header
-from ipgen.model import System
+from ipgen.command.generate import generate_header
+from ipgen.model.system import System
 
 CPP_DIR = Path(__file__).resolve().parent / "cpp"
 DRIVER = CPP_DIR / "eval_model.cpp"

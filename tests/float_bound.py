@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ipgen.derive import Equations
-from ipgen.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY, Poly, sparse
+from ipgen.model.derivation import Equations
+from ipgen.model.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOCITY, Poly, sparse
 
 U = 2.0**-24
 LETTER_ERROR = 24 * U

@@ -16,7 +16,7 @@ import re
 
 import sympy as sp
 
-from ipgen.model import Symbols
+from ipgen.model.symbols import Symbols
 
 _TOKEN = re.compile(r"\\[A-Za-z]+|\\[,;! ]|\d+|[A-Za-z]|[{}()^_+\-=&]|\s+")
 _SKIP = {r"\quad", r"\,", r"\;", r"\!", "\\ ", "&"}

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ipgen
-from ipgen.cli import run
+from ipgen.command.cli import run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,8 +86,8 @@ def test_import_is_light() -> None:
 
 
 def test_derive_submodule_does_not_shadow_the_function() -> None:
-    import ipgen.derive as _  # noqa: F401 (importing the implementation module)
-    from ipgen.derive import Equations
+    import ipgen.model.derivation as _  # noqa: F401 (importing the implementation module)
+    from ipgen.model.derivation import Equations
 
     assert callable(ipgen.derive) and not isinstance(ipgen.derive, type(sys))
     assert isinstance(ipgen.derive("classical", 1), Equations)

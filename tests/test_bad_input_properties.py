@@ -23,14 +23,14 @@ from cxx import CXX, EIGEN_INCLUDE, require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ipgen import limits
-from ipgen.cli import MESSAGE_CHARS, run
+from ipgen.command.cli import MESSAGE_CHARS, run
+from ipgen.common import limits
+from ipgen.common.naming import name_problem
+from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.errors import SceneError
-from ipgen.model import System
-from ipgen.naming import name_problem
-from ipgen.safetext import abbreviate, quote_path
-from ipgen.scene import load_scene, resolved_config
-from ipgen.specialise import SpecialisationError, parse_fix
+from ipgen.model.specialise import SpecialisationError, parse_fix
+from ipgen.model.system import System
+from ipgen.scene.reader import load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parent.parent
 _CHECKS = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large]

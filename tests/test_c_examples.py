@@ -9,8 +9,8 @@ from pathlib import Path
 
 from c_models import c_command, compile_c, require_cc
 
-from ipgen.generate import generate
-from ipgen.model import System
+from ipgen.command.generate import generate
+from ipgen.model.system import System
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -61,7 +61,7 @@ def test_readme_c_example(tmp_path: Path) -> None:
 def test_emit_c_from_the_command_line(tmp_path: Path) -> None:
     """`ipgen --type rotary --links 1 --emit c -o out/` writes out/rotary1.h only, byte-identical on a
     second run; with a scene, `emit = ["c"]` and --fix it is specialised like the C++ header."""
-    from ipgen.cli import run
+    from ipgen.command.cli import run
 
     out = tmp_path / "out"
     assert run(["--type", "rotary", "--links", "1", "--emit", "c", "-o", str(out)]) == 0

@@ -34,11 +34,11 @@ from test_header_physics import make_case, run_driver
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest
-from ipgen.controller import Controller
-from ipgen.derive import derive
-from ipgen.model import System
-from ipgen.safetext import comment_safe
-from ipgen.specialise import Specialisation
+from ipgen.common.safetext import comment_safe
+from ipgen.control.controller import Controller
+from ipgen.model.derivation import derive
+from ipgen.model.specialise import Specialisation
+from ipgen.model.system import System
 
 MODELS = [
     *(System("classical", n) for n in range(1, 6)),

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from ipgen import output
-from ipgen.cli import run
+from ipgen.command import output
+from ipgen.command.cli import run
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,7 +86,7 @@ def test_generation_does_not_import_sympy(tmp_path: Path) -> None:
     ]
     runs[1] += ["-o", str(tmp_path / "c")]
     program = (
-        "import sys\nfrom ipgen.cli import run\n"
+        "import sys\nfrom ipgen.command.cli import run\n"
         f"statuses = [run(args) for args in {runs!r}]\n"
         "print(statuses, sorted(m for m in sys.modules if m.split('.')[0] == 'sympy'))\n"
     )

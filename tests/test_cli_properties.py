@@ -15,7 +15,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ipgen.cli import run
+from ipgen.command.cli import run
 
 MISSING = None
 types = st.sampled_from([MISSING, "classical", "rotary", "Rotary", "cart", ""])

@@ -13,9 +13,9 @@ from cxx import cxx_command, require_toolchain
 from numeric import assert_close
 
 import ipgen
-from ipgen import control
-from ipgen.generate import generate_header
-from ipgen.model import System
+from ipgen.command.generate import generate_header
+from ipgen.control import linear as control
+from ipgen.model.system import System
 
 ROOT = Path(__file__).resolve().parents[1]
 SUNDIALS = tuple(

@@ -12,10 +12,10 @@ from numeric import assert_close
 from scipy.integrate import solve_ivp
 
 import ipgen
-from ipgen import control
-from ipgen.control import ControlError, EquilibriumWarning
+from ipgen.control import linear as control
+from ipgen.control.linear import ControlError, EquilibriumWarning
 from ipgen.errors import Error
-from ipgen.model import System
+from ipgen.model.system import System
 
 
 def paper_like(type_: str, links: int) -> dict:

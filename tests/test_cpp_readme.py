@@ -10,8 +10,8 @@ from pathlib import Path
 
 from cxx import require_toolchain
 
-from ipgen.generate import generate_header
-from ipgen.model import System
+from ipgen.command.generate import generate_header
+from ipgen.model.system import System
 
 ROOT = Path(__file__).resolve().parents[1]
 

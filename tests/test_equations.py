@@ -21,8 +21,9 @@ import pytest
 import sympy as sp
 from cases import CASES, case_id
 
-from ipgen.derive import Equations, derive
-from ipgen.model import Symbols, System
+from ipgen.model.derivation import Equations, derive
+from ipgen.model.symbols import Symbols
+from ipgen.model.system import System
 
 # --------------------------------------------------------------------------- helpers
 

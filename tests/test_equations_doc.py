@@ -28,12 +28,13 @@ from hypothesis import strategies as st
 from latex_reader import displayed, parse
 from test_equations import assert_identical, column, eq30, eq31
 
-from ipgen.cli import run
 from ipgen.codegen.equations import markdown_escape, render_equations, tex_escape
 from ipgen.codegen.header import HeaderRequest
-from ipgen.derive import Equations, derive
-from ipgen.model import Symbols, System
-from ipgen.safetext import quote_path
+from ipgen.command.cli import run
+from ipgen.common.safetext import quote_path
+from ipgen.model.derivation import Equations, derive
+from ipgen.model.symbols import Symbols
+from ipgen.model.system import System
 
 
 @cache

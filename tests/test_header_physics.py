@@ -28,8 +28,8 @@ import sympy as sp
 from conftest import CppModels, check_built, model_name
 from numeric import assert_close
 
-from ipgen.derive import derive
-from ipgen.model import System
+from ipgen.model.derivation import derive
+from ipgen.model.system import System
 
 MODELS = [
     *(System("classical", n) for n in range(1, 6)),

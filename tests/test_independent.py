@@ -19,8 +19,8 @@ from cases import CASES, case_id
 from independent_model import reference
 from numeric import assert_close
 
-from ipgen.derive import Equations, derive
-from ipgen.model import System
+from ipgen.model.derivation import Equations, derive
+from ipgen.model.system import System
 
 RELATIVE = 1e-12
 STATES = 5

@@ -14,8 +14,9 @@ from flint import fmpq
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ipgen.model import System, algebra_for
-from ipgen.polynomial import Poly, sparse
+from ipgen.model.bodies import algebra_for
+from ipgen.model.polynomial import Poly, sparse
+from ipgen.model.system import System
 
 ALGEBRA = algebra_for(System("rotary", 3))
 N_GENERATORS = len(ALGEBRA.gens)

@@ -12,8 +12,9 @@ from hypothesis import strategies as st
 from test_scene import ROTARY, config_dict, expect_error, make
 
 import ipgen
-from ipgen.cli import run
-from ipgen.scene import SceneError, load_scene, resolved_config
+from ipgen.command.cli import run
+from ipgen.errors import SceneError
+from ipgen.scene.reader import load_scene, resolved_config
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -145,7 +146,7 @@ def test_command_exits_2_and_writes_nothing(tmp_path: Path, capsys: pytest.Captu
 
 
 def test_specialised_scene_keeps_the_input_path(tmp_path: Path) -> None:
-    from ipgen.specialise import from_scene
+    from ipgen.scene.specialisation import from_scene
 
     scene = load_scene(controlled(tmp_path, {"system.specialise": "true"}))
     assert not from_scene(scene).zero_input

@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from ipgen.errors import SceneError
-from ipgen.scene import load_scene, resolved_config
+from ipgen.scene.reader import load_scene, resolved_config
 
 SIMULATOR = os.environ.get("IPSIM_SIMULATOR")
 pytestmark = pytest.mark.skipif(

@@ -18,11 +18,12 @@ import numpy as np
 import pytest
 from cxx import cxx_command, require_toolchain
 
-from ipgen.cli import run
-from ipgen.generate import generate_header
-from ipgen.model import System
-from ipgen.scene import load_scene
-from ipgen.specialise import ENERGY_FUNCTIONS, Specialisation, from_scene
+from ipgen.command.cli import run
+from ipgen.command.generate import generate_header
+from ipgen.model.specialise import ENERGY_FUNCTIONS, Specialisation
+from ipgen.model.system import System
+from ipgen.scene.reader import load_scene
+from ipgen.scene.specialisation import from_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))

@@ -1,5 +1,5 @@
 """scipy's `solve_ivp` (DOP853 and LSODA) on a right-hand side lambdified from the generator's
-own sympy equations (`ipgen.derive.derive`): M(θ) and the bias with the scene's parameter
+own sympy equations (`ipgen.model.derivation.derive`): M(θ) and the bias with the scene's parameter
 values substituted, θ̈ = M⁻¹(B u − bias) by `numpy.linalg.solve`.
 
 Like ipsim, the integration is restarted at every input jump (the pulse edges) and reports the
@@ -17,8 +17,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from ipgen.derive import derive
-from ipgen.scene import Scene
+from ipgen.model.derivation import derive
+from ipgen.scene.reader import Scene
 
 
 @dataclass

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 from ipgen.codegen.functions import C_SYNTAX, FunctionBody, params_field
 from ipgen.codegen.header import HeaderRequest, environment, function_bodies, header_context, poly_keys
-from ipgen.controller import Controller
-from ipgen.derive import Equations
+from ipgen.common.safetext import comment_safe
+from ipgen.control.controller import Controller
 from ipgen.errors import Error
-from ipgen.safetext import comment_safe
-from ipgen.specialise import specialise
+from ipgen.model.derivation import Equations
+from ipgen.model.specialise import specialise
 
 TEMPLATE = "model.h.jinja"
 # Functions whose outputs use θ̈, and the C array holding it once solved for.

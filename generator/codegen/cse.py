@@ -25,7 +25,7 @@ from collections import Counter
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from fractions import Fraction
 
-from ipgen.polynomial import Monomial, Poly, sparse
+from ipgen.model.polynomial import Monomial, Poly, sparse
 
 LEAF, CONST, MUL, ADD = 0, 1, 2, 3
 

@@ -19,10 +19,10 @@ from typing import TYPE_CHECKING
 
 import sympy as sp
 
-from ipgen import __version__
 from ipgen.codegen.latex import break_lines, latex, readable_terms
-from ipgen.model import base_inertia, bodies
-from ipgen.specialise import format_exact
+from ipgen.common.version import __version__
+from ipgen.model.bodies import base_inertia, bodies
+from ipgen.model.specialise import format_exact
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -30,8 +30,8 @@ if TYPE_CHECKING:
     import jinja2
 
     from ipgen.codegen.header import HeaderRequest
-    from ipgen.derive import Equations
-    from ipgen.model import Symbols
+    from ipgen.model.derivation import Equations
+    from ipgen.model.symbols import Symbols
 
 TERM_CAP = 40  # terms per printed entry; larger entries are stated by size only
 MD_TEMPLATE, TEX_TEMPLATE = "equations.md.jinja", "equations.tex.jinja"

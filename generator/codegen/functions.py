@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from ipgen.codegen.printer import CppPrinter, CPrinter
-from ipgen.derive import Equations, PolyMatrix
-from ipgen.model import split_parameter
-from ipgen.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
+from ipgen.model.derivation import Equations, PolyMatrix
+from ipgen.model.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
+from ipgen.model.system import split_parameter
 
 
 @dataclass(frozen=True)

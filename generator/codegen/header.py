@@ -8,12 +8,12 @@ from pathlib import Path
 
 import jinja2
 
-from ipgen import __version__
 from ipgen.codegen.functions import CPP_SYNTAX, FunctionBody, Output, Syntax, build_body, params_field
-from ipgen.controller import Controller
-from ipgen.derive import Equations
-from ipgen.safetext import comment_safe
-from ipgen.specialise import FUNCTIONS, Specialisation, specialise
+from ipgen.common.safetext import comment_safe
+from ipgen.common.version import __version__
+from ipgen.control.controller import Controller
+from ipgen.model.derivation import Equations
+from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 
 TEMPLATE = "model.hpp.jinja"
 

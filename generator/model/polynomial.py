@@ -26,7 +26,7 @@ from flint import fmpq, fmpq_mpoly, fmpq_mpoly_ctx
 if TYPE_CHECKING:
     import sympy as sp
 
-    from ipgen.model import Symbols
+    from ipgen.model.symbols import Symbols
 
 Poly = fmpq_mpoly  # an element of `Algebra.ring`
 Monomial = tuple[int, ...]  # sparse: generator indices, each repeated as often as its exponent
@@ -289,7 +289,7 @@ class Algebra:
     def symbols(self) -> Symbols:
         """The sympy symbols of the system (θ, θ̇, θ̈, parameters, u)."""
         if self._symbols is None:
-            from ipgen.model import Symbols
+            from ipgen.model.symbols import Symbols
 
             self._symbols = Symbols.for_dof(self.dof)
         return self._symbols

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import re
 
-from ipgen import limits, model
+from ipgen.common import limits
+from ipgen.model import system as model
 
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {

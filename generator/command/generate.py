@@ -7,13 +7,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
-from ipgen.controller import Controller
-from ipgen.derive import derive
-from ipgen.emit import DEFAULT_EMIT, TARGETS
-from ipgen.model import System
-from ipgen.output import prepare_directory, write_files
-from ipgen.specialise import FUNCTIONS, Specialisation, format_exact
+from ipgen.command.output import prepare_directory, write_files
+from ipgen.control.controller import Controller
+from ipgen.model.derivation import derive
+from ipgen.model.specialise import FUNCTIONS, Specialisation, format_exact
+from ipgen.model.system import System
 
 GENERAL = Specialisation()
 

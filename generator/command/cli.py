@@ -8,15 +8,16 @@ from typing import TYPE_CHECKING
 
 import click
 
-from ipgen import __version__, job
-from ipgen.emit import DEFAULT_EMIT, TARGETS
+from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
+from ipgen.command import job
+from ipgen.command.job import LINKS_WITHOUT_FORCE, cost_estimate
+from ipgen.common.safetext import abbreviate
+from ipgen.common.version import __version__
 from ipgen.errors import Error
-from ipgen.job import LINKS_WITHOUT_FORCE, cost_estimate
-from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
-from ipgen.safetext import abbreviate
+from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 
 if TYPE_CHECKING:
-    from ipgen.generate import Written
+    from ipgen.command.generate import Written
 
 __all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
 
@@ -146,7 +147,7 @@ def cli(
     cmake_dir: bool,
 ) -> None:
     if cmake_dir:
-        from ipgen import cmake_dir as folder
+        from ipgen.common.locations import cmake_dir as folder
 
         click.echo(str(folder()))
         return
@@ -205,7 +206,7 @@ def _generate(planned: job.Job) -> list[Written]:
     system = planned.system
     if system.links < PROGRESS_FROM_LINKS[system.type]:
         return job.run(planned)
-    from ipgen.generate import STEPS
+    from ipgen.command.generate import STEPS
 
     with click.progressbar(
         length=STEPS + len(planned.emit),

@@ -9,16 +9,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ipgen.emit import DEFAULT_EMIT, parse_emit
+from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit
+from ipgen.common.naming import name_problem
+from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.errors import Error
-from ipgen.model import INERTIA_VARIANTS, SYSTEM_TYPES, System
-from ipgen.naming import name_problem
-from ipgen.safetext import abbreviate, shown_path
+from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 
 if TYPE_CHECKING:
-    from ipgen.generate import Written
-    from ipgen.scene import Scene
-    from ipgen.specialise import Specialisation
+    from ipgen.command.generate import Written
+    from ipgen.model.specialise import Specialisation
+    from ipgen.scene.reader import Scene
 
 # Above this many links the header is several MB (and slow to compile): ask for force first.
 LINKS_WITHOUT_FORCE = 30
@@ -103,7 +103,7 @@ def describe(scene_path: Path | str | None, *clashing: object) -> Scene:
     if scene_path is None:
         raise OptionsError("--describe needs --scene FILE: it describes a scene's system")
     _check_no_system_options(*clashing)
-    from ipgen.scene import load_scene  # only scene commands need it
+    from ipgen.scene.reader import load_scene  # only scene commands need it
 
     return load_scene(Path(scene_path))
 
@@ -122,7 +122,8 @@ def plan(
     force: bool = False,
 ) -> Job:
     """Validate one command's options (in the order the command reports them) into a Job."""
-    from ipgen.specialise import FUNCTIONS, Specialisation, from_scene, parse_fix, parse_outputs
+    from ipgen.model.specialise import FUNCTIONS, Specialisation, parse_fix, parse_outputs
+    from ipgen.scene.specialisation import from_scene
 
     if directory is None:
         raise OptionsError("missing -o DIR: say where to write the header")
@@ -134,7 +135,7 @@ def plan(
     targets = parse_emit(emit) if emit is not None else None
     if scene is not None:
         _check_no_system_options(system_type, links, name, inertia, fix, outputs)
-        from ipgen.scene import load_scene  # only scene commands need it
+        from ipgen.scene.reader import load_scene  # only scene commands need it
 
         loaded = load_scene(Path(scene))
         if loaded.links > LINKS_WITHOUT_FORCE and not force:
@@ -167,11 +168,11 @@ def plan(
 
 def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written]:
     """Derive, render and write the job's files (all or none); the scene's .cfg comes last."""
-    from ipgen.generate import generate
+    from ipgen.command.generate import generate
 
     extra: tuple[tuple[str, str], ...] = ()
     if job.scene is not None:
-        from ipgen.scene import resolved_config
+        from ipgen.scene.reader import resolved_config
 
         extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene)),)
     return generate(

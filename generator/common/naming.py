@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import re
 
-from ipgen.limits import MAX_NAME_LENGTH
+from ipgen.common.limits import MAX_NAME_LENGTH
 
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 # C++20 keywords and alternative tokens, plus identifiers with special meaning in context.

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from ipgen.polynomial import Algebra, Poly
+    from ipgen.model.polynomial import Algebra, Poly
 
 
 @dataclass(frozen=True)

@@ -22,11 +22,11 @@ import math
 from decimal import Decimal
 from typing import TYPE_CHECKING, Any
 
-from ipgen import scene_schema as schema
-from ipgen.controller import Controller
+from ipgen.control.controller import Controller
+from ipgen.scene import schema
 
 if TYPE_CHECKING:
-    from ipgen.scene import _Section
+    from ipgen.scene.fields import _Section
 
 
 def read_controller(
@@ -38,7 +38,7 @@ def read_controller(
     t_end: float,
 ) -> Controller:
     """The controller of a scene's [controller] table (present, possibly empty), with its gain."""
-    from ipgen.scene import _one_of, _type_name, format_number
+    from ipgen.scene.fields import _one_of, _type_name, format_number
 
     kind = section.choice("kind", schema.CONTROLLER_KINDS)
     if input_kind != "zero":
@@ -73,7 +73,7 @@ def read_controller(
                 f"({format_number(sample)} s)",
             )
 
-    from ipgen.control import ControlError, lqr
+    from ipgen.control.linear import ControlError, lqr
 
     try:
         gain = lqr(
@@ -90,7 +90,7 @@ def read_controller(
         )
     except ControlError as exc:
         section.reader.fail(f"controller: no LQR gain: {exc}")
-    from ipgen.control import equilibrium_state
+    from ipgen.control.linear import equilibrium_state
 
     x_eq = equilibrium_state(system.links, equilibrium)
     return Controller(
@@ -130,7 +130,7 @@ def _read_q(section: _Section, size: int, type_name: Any) -> list[list[float]] |
 
 
 def _read_matrix(section: _Section, rows: list[Any], size: int) -> list[list[float]]:
-    from ipgen.scene import _type_name
+    from ipgen.scene.fields import _type_name
 
     matrix: list[list[float]] = []
     for i, row in enumerate(rows):

@@ -17,13 +17,14 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-from ipgen.model import Body, System, algebra_for, base_inertia, bodies, rayleigh_dissipation
-from ipgen.polynomial import Algebra, Poly
+from ipgen.model.bodies import Body, algebra_for, base_inertia, bodies, rayleigh_dissipation
+from ipgen.model.polynomial import Algebra, Poly
+from ipgen.model.system import System
 
 if TYPE_CHECKING:
     import sympy as sp
 
-    from ipgen.model import Symbols
+    from ipgen.model.symbols import Symbols
 
 ProgressCallback = Callable[[str], None]
 PolyMatrix = list[list[Poly]]

@@ -23,7 +23,7 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 from ipgen.errors import Error
-from ipgen.model import System
+from ipgen.model.system import System
 
 if TYPE_CHECKING:
     import numpy as np
@@ -104,7 +104,7 @@ def dynamics(system: System) -> Dynamics:
     """The lambdified dynamics of `system` (derived once per process and system)."""
     import sympy as sp
 
-    from ipgen.derive import derive
+    from ipgen.model.derivation import derive
 
     equations = derive(system)
     s = equations.symbols

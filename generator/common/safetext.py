@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import urllib.parse
 
-from ipgen.limits import MESSAGE_PATH_CHARS, MESSAGE_VALUE_CHARS
+from ipgen.common.limits import MESSAGE_PATH_CHARS, MESSAGE_VALUE_CHARS
 
 # Characters a quoted path keeps as they are; everything else (control characters, spaces,
 # backslashes, '*', '?', '#', quotes, non-ASCII) is percent-encoded (%0A, %5C, ...).

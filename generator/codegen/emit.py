@@ -15,7 +15,7 @@ from ipgen.errors import Error
 
 if TYPE_CHECKING:
     from ipgen.codegen.header import HeaderRequest
-    from ipgen.derive import Equations
+    from ipgen.model.derivation import Equations
 
 # file suffix -> text, for the files of one target
 Rendered = dict[str, str]

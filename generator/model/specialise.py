@@ -10,23 +10,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import TYPE_CHECKING
 
-from ipgen.derive import Equations
+from ipgen.common.limits import fold_problem
+from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
-from ipgen.limits import fold_problem
-from ipgen.model import (
-    System,
-    parameter_names,
-    parameter_range,
-    split_parameter,
-    unused_parameter,
-)
-from ipgen.polynomial import PARAMETER, Algebra
-from ipgen.safetext import abbreviate, quote_path
-
-if TYPE_CHECKING:
-    from ipgen.scene import Scene
+from ipgen.model.derivation import Equations
+from ipgen.model.polynomial import PARAMETER, Algebra
+from ipgen.model.system import System, parameter_names, parameter_range, split_parameter, unused_parameter
 
 # Every function a header can define, in header order.
 FUNCTIONS: tuple[str, ...] = (
@@ -143,23 +133,6 @@ def parse_outputs(text: str) -> tuple[str, ...]:
                 f"--outputs: unknown function {abbreviate(name)!r}: choose from {', '.join(FUNCTIONS)}"
             )
     return tuple(f for f in FUNCTIONS if f in wanted)
-
-
-def from_scene(scene: Scene) -> Specialisation:
-    """What a scene with `specialise = true` needs: every parameter but its `free` ones folded,
-    the simulator's functions (and the energies for an energy ledger), a zero input pruned."""
-    fixed = tuple(
-        (name, scene.exact(name))
-        for name in scene.parameter_names()
-        if name not in scene.free and unused_parameter(scene.type, name) is None
-    )
-    outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
-    return Specialisation(
-        fixed=fixed,
-        outputs=tuple(f for f in FUNCTIONS if f in outputs),
-        zero_input=scene.input.kind == "zero" and scene.controller is None,
-        scene=quote_path(scene.path.as_posix()),  # it is quoted in the header's comments
-    )
 
 
 def specialise(eqs: Equations, spec: Specialisation, keys: tuple[str, ...]) -> Equations:
