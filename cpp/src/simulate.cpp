@@ -153,6 +153,11 @@ Options parse_command_line(int argc, char** argv) {
     if (arg == "-h" || arg == "--help") {
       std::fputs(kUsage, stdout);
       std::fputs(kHelp, stdout);
+      std::printf("\nThis simulator: model %s (%s, %d link%s); its CSV header is t", Model::kName, Model::kType,
+                  Model::kLinks, Model::kLinks == 1 ? "" : "s");
+      for (int i = 0; i < kDof; ++i) std::printf(",theta%d", i);
+      for (int i = 0; i < kDof; ++i) std::printf(",dtheta%d", i);
+      std::puts(" (then the optional columns).");
       std::exit(0);
     } else if (arg == "--csv") {
       options.csv_path = value();
