@@ -111,6 +111,7 @@ bench-control: $(VENV)/.bench-installed
 ## Peak resident memory of simulate_cdip for 10^4 and 10^7 output samples: the CSV is streamed,
 ## so both must be within 20 MB (bench/simulator_memory.py, docs/bench/simulator_memory.md).
 bench-memory: configure $(VENV)/.bench-installed
+	@$(call apt_install,time)
 	cmake --build $(BUILD) -j $(JOBS) --target simulate_cdip scene_cdip_pulse
 	$(PY) -m bench.simulator_memory --build $(BUILD)
 

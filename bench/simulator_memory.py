@@ -4,7 +4,9 @@ simulate_<model> streams each sample to its CSV as the integration reaches it, s
 should not grow with the number of samples. This runs build/bin/simulate_cdip on the paper's
 double pendulum on a cart (build/scenes/cdip_pulse.cfg: a 0.4 N push for 1 s) for the same
 t_end with two sample periods, 10^4 and 10^7 samples, and reads each run's peak resident set
-(ru_maxrss of the child, from os.wait4). Target: the two peaks within 20 MB of each other.
+(`/usr/bin/time -f %M`: ru_maxrss of its child). Not os.wait4 on a child of this Python process:
+Linux carries the high-water mark of the process image an exec replaces into ru_maxrss, so every
+child would show at least this interpreter's ~20 MB. Target: the two peaks within 20 MB.
 The CSV (about 1.4 GB for 10^7 samples) goes to build/bench/simulator_memory/ and is deleted.
 Writes docs/bench/simulator_memory.md (or --out); exit status 1 when the target is missed.
 
@@ -17,9 +19,9 @@ prints its numbers without writing the report.
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import dataclass
@@ -32,12 +34,17 @@ SAMPLES = (10**4, 10**7)
 TARGET_MB = 20.0
 OUT = ROOT / "docs" / "bench" / "simulator_memory.md"
 POLL_S = 0.5
+TIME = Path("/usr/bin/time")  # GNU time (Debian package `time`)
+# The simulator before streaming (commit 67de603), measured with
+# `python -m bench.simulator_memory --simulator <its simulate_cdip>` on the machine below:
+# peak RSS [MiB] for 1e4 and 1e7 samples.
+BEFORE = ("67de603", 8.4, 770.8)
 
 
 @dataclass(frozen=True)
 class Run:
     samples: int
-    peak_mb: float  # ru_maxrss of the child [MiB]
+    peak_mb: float  # peak resident set of the simulator [MiB]
     wall: float  # s
     csv_bytes: int
 
@@ -50,32 +57,35 @@ def measure(simulator: Path, cfg: Path, samples: int, folder: Path, bytes_per_ro
     csv = folder / f"cdip_{samples}.csv"
     command = [str(simulator), str(cfg), "--t-end", repr(T_END), "--sample", repr(sample), "--csv", str(csv)]
     command += ["--force"]
-    started = time.monotonic()
-    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    # The child's stderr is read by a thread, so that a long warning cannot block it.
-    errors: list[bytes] = []
-    reader = threading.Thread(target=lambda: errors.append(process.stderr.read() if process.stderr else b""))
-    reader.start()
-    total = int(samples * bytes_per_row) if bytes_per_row else None
-    with tqdm(total=total, desc=f"{samples:.0e} samples", unit="B", unit_scale=True, leave=False) as bar:
-        while True:
-            try:
-                pid, status, usage = os.wait4(process.pid, os.WNOHANG)
-            except ChildProcessError:
-                raise SystemExit("simulator_memory: lost the simulator process") from None
-            if pid != 0:
-                break
-            written = sum(p.stat().st_size for p in folder.glob(".simulate.*"))
-            bar.update(max(0, written - bar.n))
-            time.sleep(POLL_S)
-    wall = time.monotonic() - started
-    process.returncode = os.waitstatus_to_exitcode(status)
-    reader.join()
-    if process.returncode != 0:
-        raise SystemExit(f"simulator_memory: {' '.join(command)} failed: {b''.join(errors).decode().strip()}")
+    with tempfile.NamedTemporaryFile("r", suffix=".rss") as rss:
+        started = time.monotonic()
+        process = subprocess.Popen(
+            [str(TIME), "-f", "%M", "-o", rss.name, *command],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        # The child's stderr is read by a thread, so that a long warning cannot block it.
+        errors: list[bytes] = []
+        reader = threading.Thread(
+            target=lambda: errors.append(process.stderr.read() if process.stderr else b"")
+        )
+        reader.start()
+        total = int(samples * bytes_per_row) if bytes_per_row else None
+        with tqdm(total=total, desc=f"{samples:.0e} samples", unit="B", unit_scale=True, leave=False) as bar:
+            while process.poll() is None:
+                written = sum(p.stat().st_size for p in folder.glob(".simulate.*"))
+                bar.update(max(0, written - bar.n))
+                time.sleep(POLL_S)
+        wall = time.monotonic() - started
+        reader.join()
+        if process.returncode != 0:
+            raise SystemExit(
+                f"simulator_memory: {' '.join(command)} failed: {b''.join(errors).decode().strip()}"
+            )
+        peak_kb = int(rss.read().split()[-1])
     size = csv.stat().st_size
     csv.unlink()
-    return Run(samples, usage.ru_maxrss / 1024.0, wall, size)
+    return Run(samples, peak_kb / 1024.0, wall, size)
 
 
 def report(runs: list[Run], simulator: Path, cfg: Path) -> list[str]:
@@ -98,7 +108,7 @@ def report(runs: list[Run], simulator: Path, cfg: Path) -> list[str]:
         "Written by `make bench-memory` (`python -m bench.simulator_memory`, part of `make bench`).",
         f"`{simulator.relative_to(ROOT) if simulator.is_relative_to(ROOT) else simulator}` runs the paper's",
         f"double pendulum on a cart (`{cfg.name}`: a 0.4 N push for 1 s, bdf, rtol 1e-10) to t = {T_END:g} s",
-        "with two sample periods; peak RSS is the child's `ru_maxrss` (`os.wait4`). The simulator writes",
+        "with two sample periods; peak RSS is `/usr/bin/time -f %M` of the simulator. It writes",
         "each sample to its temporary CSV as the integration reaches it and keeps only the summary",
         "(first and last state, largest |u|, counters), so its memory does not grow with the samples.",
         "",
@@ -107,8 +117,8 @@ def report(runs: list[Run], simulator: Path, cfg: Path) -> list[str]:
         f"Target: the two peaks within {TARGET_MB:g} MB: {verdict} (difference {growth:+.1f} MiB).",
         "",
         "Before streaming, the simulator kept every sample (and the list of every stop) in memory and",
-        "wrote the CSV at the end: 10^7 samples of this model took about 0.6 GB more than 10^4",
-        "(`--simulator` measures another build of simulate_cdip, such as one of commit 67de603).",
+        f"wrote the CSV at the end: commit {BEFORE[0]}'s simulate_cdip peaked at {BEFORE[1]:.1f} MiB for",
+        f"10^4 samples and {BEFORE[2]:,.1f} MiB for 10^7 (measured once with `--simulator` on that build).",
         "",
         "Machine:",
         "",
@@ -130,6 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     for path in (simulator, cfg):
         if not path.is_file():
             sys.exit(f"simulator_memory: {path} not found: build first (make build)")
+    if not TIME.is_file():
+        sys.exit(f"simulator_memory: {TIME} not found: install GNU time (Debian package `time`)")
     folder = BUILD / "simulator_memory"
     folder.mkdir(parents=True, exist_ok=True)
     runs: list[Run] = []
