@@ -8,15 +8,24 @@ Each function raises the one-line refusals of `fieldtypes` (`refuse`, `refuse_ke
 from __future__ import annotations
 
 import difflib
+from dataclasses import dataclass
 from decimal import Decimal
 from typing import Any
+
+from pydantic_core import PydanticCustomError
 
 from ipgen.codegen.emit import EmitError, parse_emit
 from ipgen.common import limits
 from ipgen.common.naming import name_problem
-from ipgen.model.system import parameter_names, parameter_range, split_parameter, unused_parameter
+from ipgen.model.system import (
+    INERTIA_VARIANTS,
+    parameter_names,
+    parameter_range,
+    split_parameter,
+    unused_parameter,
+)
 from ipgen.scene.fields import _one_of, _type_name, format_number
-from ipgen.scene.fieldtypes import Exact, at, refuse, refuse_line
+from ipgen.scene.fieldtypes import Choice, Exact, Number, at, refuse, refuse_line
 
 
 def model_name_problem(name: str) -> str | None:
@@ -29,9 +38,20 @@ def emit_targets(value: Any, context: dict[str, Any]) -> tuple[str, ...]:
     if not isinstance(value, list):
         refuse(f'expected an array of target names, e.g. ["cpp"], got {_type_name(value)}')
     try:
-        return parse_emit(value, where="system.emit")
+        names = [_Shown(name) if isinstance(name, (list, dict)) else name for name in value]
+        return parse_emit(names, where="system.emit")
     except EmitError as error:
         refuse_line(str(error))
+
+
+class _Shown:
+    """An array or table where a name should be: hashable, shown as itself (`parse_emit`)."""
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+    def __repr__(self) -> str:
+        return repr(self.value)
 
 
 def free_names(value: Any, context: dict[str, Any]) -> tuple[str, ...]:
@@ -86,33 +106,62 @@ def foldable(decimals: tuple[tuple[str, str], ...], free: tuple[str, ...], syste
             )
 
 
-def sample_interval(t_end: float, sample: Exact) -> None:
-    """0 < sample <= t_end, and at most `limits.MAX_SAMPLES` output samples."""
-    if not 0 < sample.value <= t_end:
-        refuse(f"must be > 0 s and <= t_end ({format_number(t_end)} s)", key="sample", value=sample)
-    if t_end / sample.value > limits.MAX_SAMPLES:
+def sample(value: Any, context: dict[str, Any]) -> Exact:
+    """[simulation] sample: 0 < sample <= t_end, at most `limits.MAX_SAMPLES` output samples."""
+    interval = Number().check(value, context)
+    t_end = context["fields"].get("t_end")
+    if t_end is None:  # t_end is refused already
+        return interval
+    if not 0 < interval.value <= t_end.value:
+        refuse(f"must be > 0 s and <= t_end ({format_number(t_end.value)} s)")
+    if t_end.value / interval.value > limits.MAX_SAMPLES:
         refuse(
-            f"t_end / sample = {t_end / sample.value:.3g} output samples, more than the "
-            f"{limits.MAX_SAMPLES:.0e} the simulator accepts: sample less often or shorten t_end",
-            key="sample",
-            value=sample,
+            f"t_end / sample = {t_end.value / interval.value:.3g} output samples, more than the "
+            f"{limits.MAX_SAMPLES:.0e} the simulator accepts: sample less often or shorten t_end"
         )
+    return interval
 
 
-def method_settings(table: Any, given: set[str], jacobian_methods: tuple[str, ...]) -> tuple[str | None, Any]:
-    """(jacobian, step) of `table.method`: a Jacobian choice for bdf and adams only (default
-    "exact"); a fixed step for rk4 only (required, in (0, sample]), which takes no rtol, atol."""
+def inertia(value: Any, context: dict[str, Any]) -> str:
+    """[system] inertia: for rotary systems only (whatever its value), one of INERTIAS."""
+    if context["fields"].get("type") == "classical":
+        refuse("applies to rotary systems only; remove it")
+    return Choice(options=INERTIA_VARIANTS).check(value, context)
+
+
+def raw(value: Any, context: dict[str, Any]) -> Any:
+    """A value kept as written, checked later by its table's rules (`method_settings`)."""
+    return value
+
+
+@dataclass(frozen=True)
+class MethodKeys:
+    """Which integration methods take a Jacobian choice (and the choices), which a fixed step."""
+
+    JACOBIAN_METHODS: tuple[str, ...]
+    JACOBIANS: tuple[str, ...]
+    DEFAULT_JACOBIAN: str
+    FIXED_STEP_METHODS: tuple[str, ...]
+
+
+def method_settings(table: Any, given: set[str], methods: MethodKeys) -> tuple[str | None, Exact | None]:
+    """(jacobian, step) of `table.method`, whose keys are checked only when the method uses
+    them: a Jacobian choice for bdf and adams (default "exact"); a fixed step for rk4
+    (required, in (0, sample]), which takes no rtol and atol."""
     method = table.method
     jacobian = None
-    if method in jacobian_methods:
-        jacobian = table.jacobian or "exact"
+    if method in methods.JACOBIAN_METHODS:
+        if table.jacobian is not None:
+            jacobian = keyed("jacobian", Choice(options=methods.JACOBIANS).check, table.jacobian)
+        else:
+            jacobian = methods.DEFAULT_JACOBIAN
     elif "jacobian" in given:
         refuse(
-            f'applies to methods {_one_of(jacobian_methods)} only (method is "{method}"); remove it',
+            f'applies to methods {_one_of(methods.JACOBIAN_METHODS)} only (method is "{method}"); remove it',
             key="jacobian",
             value=table.jacobian,
         )
-    if method != "rk4":
+    if method not in methods.FIXED_STEP_METHODS:
         if "step" in given:
             refuse(
                 f'applies to method "rk4" only (method "{method}" chooses its own steps); remove it',
@@ -129,10 +178,20 @@ def method_settings(table: Any, given: set[str], jacobian_methods: tuple[str, ..
             "missing required key 'simulation.step' "
             '(the fixed step of method "rk4" in s, > 0 and <= sample)'
         )
-    if not 0 < table.step.value <= table.sample.value:
+    step = keyed("step", Number().check, table.step)
+    if not 0 < step.value <= table.sample.value:
         refuse(
             f"must be > 0 s and <= sample ({format_number(table.sample.value)} s)",
             key="step",
-            value=table.step,
+            value=step,
         )
-    return jacobian, table.step
+    return jacobian, step
+
+
+def keyed(key: str, check: Any, value: Any) -> Any:
+    """`check(value)` for `key` of the table (from a table's rule): its errors name `key`."""
+    try:
+        return check(value, {})
+    except PydanticCustomError as error:
+        where = {"key": key, "value": value, **(error.context or {})}
+        raise PydanticCustomError(error.type, error.message_template, where) from None

@@ -11,7 +11,8 @@ pydantic annotation that gives both halves of a key's declaration:
 Numbers stay exact: a `Number` is an `Exact` pair (float, decimal text as written), so a
 specialised header folds 0.1 as 1/10. Bounds are declared once (`Gt(0, "masses must be > 0 kg")`)
 and give the check, its message and the schema's `exclusiveMinimum`. Messages may name
-`{count}` (links + 1) and other entries of the validation context (see `reader.py`).
+`{count}` (links + 1) and other entries of the validation context (see `reader.py`); the
+context's "fields" are the keys of the same table validated so far (declaration order).
 """
 
 from __future__ import annotations
@@ -110,7 +111,7 @@ class Kind:
 
     def __get_pydantic_core_schema__(self, source: Any, handler: Any) -> core_schema.CoreSchema:
         return core_schema.with_info_plain_validator_function(
-            lambda value, info: self.check(value, info.context or {})
+            lambda value, info: self.check(value, {**(info.context or {}), "fields": info.data or {}})
         )
 
     def __get_pydantic_json_schema__(self, schema: Any, handler: Any) -> dict[str, Any]:

@@ -63,6 +63,9 @@ METHODS: tuple[str, ...] = (
 JACOBIAN_METHODS: tuple[str, ...] = ("bdf", "adams")  # Newton iteration: jacobian = exact | dq
 FIXED_STEP_METHODS: tuple[str, ...] = ("rk4",)  # step required; rtol and atol do not apply
 JACOBIANS: tuple[str, ...] = ("exact", "dq")
+DEFAULT_JACOBIAN = "exact"
+# Which keys of [simulation] each method uses (see `checks.method_settings`).
+METHOD_KEYS = checks.MethodKeys(JACOBIAN_METHODS, JACOBIANS, DEFAULT_JACOBIAN, FIXED_STEP_METHODS)
 
 CONTROLLER_KINDS = control.CONTROLLER_KINDS
 EQUILIBRIA = control.EQUILIBRIA
@@ -75,7 +78,6 @@ DEFAULT_INERTIA = "pivot"
 DEFAULT_G = 9.81  # its decimal text "9.81" is kept next to the float (repr)
 DEFAULT_SAMPLE = 0.01
 DEFAULT_METHOD = "bdf"
-DEFAULT_JACOBIAN = "exact"
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000
@@ -125,7 +127,7 @@ class SystemTable(Table):
     ]
     inertia: Annotated[
         str,
-        Choice(options=INERTIAS),
+        Custom(validate=checks.inertia, schema={"type": "string", "enum": list(INERTIAS)}),
         Field(description="rotary only: pivot (the published model) or full (complete thin-rod inertia)"),
     ] = DEFAULT_INERTIA
     name: Annotated[
@@ -153,12 +155,6 @@ class SystemTable(Table):
             description="what ipgen writes for the model", json_schema_extra={"default": list(DEFAULT_EMIT)}
         ),
     ] = DEFAULT_EMIT
-
-    @model_validator(mode="after")
-    def _inertia_of_rotary_only(self) -> SystemTable:
-        if self.type == "classical" and "inertia" in self.model_fields_set:
-            refuse("applies to rotary systems only; remove it", key="inertia", value=self.inertia)
-        return self
 
     def context(self) -> dict[str, Any]:
         return {
@@ -340,8 +336,8 @@ class SimulationTable(Table):
     ]
     sample: Annotated[
         Exact,
-        Number(),  # > 0 and <= t_end: `checks.sample_interval`
-        Field(description="output interval [s], > 0 and <= t_end", json_schema_extra={"exclusiveMinimum": 0}),
+        Custom(validate=checks.sample, schema={"type": "number", "exclusiveMinimum": 0}),
+        Field(description="output interval [s], > 0 and <= t_end"),
     ] = _default(DEFAULT_SAMPLE)
     method: Annotated[
         str,
@@ -350,7 +346,7 @@ class SimulationTable(Table):
     ] = DEFAULT_METHOD
     jacobian: Annotated[
         str | None,
-        Choice(options=JACOBIANS),
+        Custom(validate=checks.raw, schema={"type": "string", "enum": list(JACOBIANS)}),  # method_settings
         Field(
             description="bdf and adams only: exact (generated) or dq (difference quotients)",
             json_schema_extra={"default": DEFAULT_JACOBIAN},
@@ -374,7 +370,7 @@ class SimulationTable(Table):
     ] = _default(DEFAULT_ATOL)
     step: Annotated[
         Exact | None,
-        Number(),  # rk4 only, required there, > 0 and <= sample: `checks.method_settings`
+        Custom(validate=checks.raw, schema={"type": "number", "exclusiveMinimum": 0}),  # method_settings
         Field(description="rk4 only (required there): the fixed step [s], > 0 and <= sample"),
     ] = None
     max_steps: Annotated[
@@ -385,13 +381,12 @@ class SimulationTable(Table):
 
     @model_validator(mode="after")
     def _relations(self) -> SimulationTable:
-        checks.sample_interval(self.t_end.value, self.sample)
-        checks.method_settings(self, self.model_fields_set, JACOBIAN_METHODS)
+        checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
         return self
 
     def settings(self) -> dict[str, Any]:
         """The Scene's simulation fields (floats; jacobian and step by method)."""
-        jacobian, step = checks.method_settings(self, self.model_fields_set, JACOBIAN_METHODS)
+        jacobian, step = checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
         return {
             "t_end": self.t_end.value,
             "sample": self.sample.value,
@@ -529,6 +524,13 @@ def json_schema() -> dict[str, Any]:
             "(array lengths, relations between keys); docs/scenes.md is the reference."
         ),
     }
+
+
+def json_schema_text() -> str:
+    """`json_schema()` as the text `ipgen --scene-schema` prints and docs/scene.schema.json holds."""
+    import json
+
+    return json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n"
 
 
 def _drop_null_defaults(node: Any) -> None:
