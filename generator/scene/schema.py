@@ -514,6 +514,10 @@ def json_schema() -> dict[str, Any]:
     """The JSON Schema of scene files (draft 2020-12), for editors (Taplo, Even Better TOML)."""
     schema = SceneDocument.model_json_schema()
     _drop_null_defaults(schema)
+    # An empty [input] table is no input, like none at all.
+    schema["properties"]["input"]["oneOf"].append(
+        {"type": "object", "maxProperties": 0, "description": "an empty table: no input"}
+    )
     return {
         "$schema": "https://json-schema.org/draft/2020-12/schema",
         **schema,
