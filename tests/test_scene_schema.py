@@ -35,7 +35,7 @@ _CHECKS = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthChec
 
 
 def validator() -> jsonschema.protocols.Validator:
-    return jsonschema.Draft202012Validator(json.loads(SCHEMA_FILE.read_text(encoding="utf-8")))
+    return jsonschema.Draft4Validator(json.loads(SCHEMA_FILE.read_text(encoding="utf-8")))
 
 
 # ---------------------------------------------------------------------------- the schema file
@@ -49,10 +49,13 @@ def test_scene_schema_flag_prints_the_shipped_file(capsys: pytest.CaptureFixture
     assert json.loads(printed) == schema.json_schema()
 
 
-def test_schema_is_a_valid_2020_12_schema() -> None:
+def test_schema_is_a_valid_draft_4_schema() -> None:
+    """Draft 4: what Taplo implements (its docs: "all features from the Draft 4 specification")."""
     document = json.loads(SCHEMA_FILE.read_text(encoding="utf-8"))
-    jsonschema.Draft202012Validator.check_schema(document)
-    assert document["$schema"] == "https://json-schema.org/draft/2020-12/schema"
+    jsonschema.Draft4Validator.check_schema(document)
+    assert document["$schema"] == "http://json-schema.org/draft-04/schema#"
+    text = SCHEMA_FILE.read_text(encoding="utf-8")
+    assert '"$defs"' not in text and '"const"' not in text  # 2019+ keywords draft 4 ignores
     assert list(document["properties"]) == list(schema.TABLES)
     assert document["required"] == ["system", "parameters", "simulation"]
 
@@ -60,7 +63,7 @@ def test_schema_is_a_valid_2020_12_schema() -> None:
 def test_schema_keys_are_the_tables_keys() -> None:
     """Every key ipgen accepts is in the schema, and no other (the input kinds together)."""
     document = json.loads(SCHEMA_FILE.read_text(encoding="utf-8"))
-    definitions = document["$defs"]
+    definitions = document["definitions"]
     for table, keys in schema.TABLES.items():
         if table == "input":
             found = {
@@ -176,18 +179,21 @@ def test_pydantic_is_imported_for_scenes_only(tmp_path: Path) -> None:
 
 
 def _load_within_a_second(text: str) -> None:
-    """load_scene on `text`: a scene or one SceneError line, in under a second."""
+    """load_scene on `text`: a scene or one SceneError line, in under a second of this process's
+    CPU time (time.process_time; the slowest shapes take 0.3 s on an idle machine, all in
+    tomllib). The machine is shared, so wall time (time.perf_counter) may stretch with the load:
+    it is only held to 5 s, still far below a quadratic case (100,000 characters: minutes)."""
     data = text.encode("utf-8", errors="surrogatepass")[: limits.MAX_SCENE_BYTES]
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "s.toml"
         path.write_bytes(data)
-        started = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         try:
             load_scene(path)
         except SceneError as error:
             assert "\n" not in str(error)
-        elapsed = time.perf_counter() - started
-    assert elapsed < 1.0, (text[:80], len(data), elapsed)
+        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    assert cpu < 1.0 and wall < 5.0, (text[:80], len(data), cpu, wall)
 
 
 def test_long_words_and_strings_load_in_linear_time() -> None:

@@ -511,15 +511,17 @@ REQUIRED_TABLES: tuple[str, ...] = tuple(
 
 
 def json_schema() -> dict[str, Any]:
-    """The JSON Schema of scene files (draft 2020-12), for editors (Taplo, Even Better TOML)."""
-    schema = SceneDocument.model_json_schema()
-    _drop_null_defaults(schema)
+    """The JSON Schema of scene files, for editors: draft 4, the draft Taplo (and so Even Better
+    TOML) implements; newer validators read it too."""
+    schema = SceneDocument.model_json_schema(ref_template="#/definitions/{model}")
+    schema["definitions"] = schema.pop("$defs")
     # An empty [input] table is no input, like none at all.
     schema["properties"]["input"]["oneOf"].append(
         {"type": "object", "maxProperties": 0, "description": "an empty table: no input"}
     )
+    _draft4(schema)
     return {
-        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$schema": "http://json-schema.org/draft-04/schema#",
         **schema,
         "description": (
             "An ipgen scene: one experiment of an n-link inverted pendulum (TOML, SI units). "
@@ -530,20 +532,34 @@ def json_schema() -> dict[str, Any]:
     }
 
 
+def _draft4(node: Any) -> None:
+    """Say in draft 4 what pydantic writes in draft 2020-12: exclusive bounds as booleans,
+    `const` as a one-value `enum`; drop OpenAPI's `discriminator` and null defaults."""
+    if isinstance(node, list):
+        for item in node:
+            _draft4(item)
+        return
+    if not isinstance(node, dict):
+        return
+    for bound, inclusive in (("exclusiveMinimum", "minimum"), ("exclusiveMaximum", "maximum")):
+        limit = node.get(bound)
+        if isinstance(limit, (int, float)) and not isinstance(limit, bool):
+            tighter = max if bound == "exclusiveMinimum" else min
+            if inclusive in node and tighter(node[inclusive], limit) == node[inclusive] != limit:
+                del node[bound]  # the inclusive bound is the tighter one (rtol >= 1e-15 > 0)
+            else:
+                node[inclusive], node[bound] = limit, True
+    if "const" in node:
+        node["enum"] = [node.pop("const")]
+    node.pop("discriminator", None)
+    if "default" in node and node["default"] is None:
+        del node["default"]
+    for value in node.values():
+        _draft4(value)
+
+
 def json_schema_text() -> str:
     """`json_schema()` as the text `ipgen --scene-schema` prints and docs/scene.schema.json holds."""
     import json
 
     return json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n"
-
-
-def _drop_null_defaults(node: Any) -> None:
-    """Optional tables and keys have no default value to show: remove `"default": null`."""
-    if isinstance(node, dict):
-        if "default" in node and node["default"] is None:
-            del node["default"]
-        for value in node.values():
-            _drop_null_defaults(value)
-    elif isinstance(node, list):
-        for value in node:
-            _drop_null_defaults(value)
