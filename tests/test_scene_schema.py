@@ -347,3 +347,22 @@ def test_an_optional_per_link_array_is_one_declaration(
     finally:
         reader._adapter.cache_clear()
     assert BASE["parameters"]["m"]  # the base scene is unchanged
+
+
+# ---------------------------------------------------------------------------- docs/scenes.md
+
+
+def test_scenes_doc_lists_every_table_and_key() -> None:
+    doc = (REPO / "docs" / "scenes.md").read_text(encoding="utf-8")
+    reference = doc.split("## Reference", 1)[1].split("\n## ", 1)[0]
+    for table, keys in schema.TABLES.items():
+        assert f"**[{table}]**" in reference, table
+        section = reference.split(f"**[{table}]**", 1)[1].split("| **[", 1)[0]
+        for key in keys:
+            assert f"`{key}`" in section, f"{table}.{key}"
+
+
+def test_a_schema_directive_is_a_comment_to_ipgen(tmp_path: Path) -> None:
+    path = tmp_path / "x.toml"
+    path.write_text("#:schema ../docs/scene.schema.json\n" + scene_text({}), encoding="utf-8")
+    assert load_scene(path).links == 2
