@@ -309,15 +309,10 @@ def _validate(reader: _Reader, document: dict[str, Any]) -> dict[str, Any]:
     context: dict[str, Any] = {}
     tables: dict[str, Any] = {}
     for name in schema.TABLE_MODELS:
-        data = document.get(name)
-        if data is None and name not in schema.REQUIRED_TABLES:
-            if name == "controller":
-                tables[name] = None
-                continue
-            data = {}
-        data = data or {}
-        if name == "input" and not data:
-            data = {"kind": "zero"}  # no [input], or an empty one: no input
+        if name not in document and name in schema.ABSENT_IS_NONE:
+            tables[name] = None
+            continue
+        data = document.get(name) or schema.WHEN_EMPTY.get(name, {})
         try:
             table = _adapter(name).validate_python(data, context=context)
         except ValidationError as error:

@@ -505,9 +505,10 @@ TABLES: dict[str, tuple[str, ...]] = {
     )
     for name, table in TABLE_MODELS.items()
 }
-REQUIRED_TABLES: tuple[str, ...] = tuple(
-    name for name, field in SceneDocument.model_fields.items() if field.is_required()
-)
+# Tables that are None when absent (an open loop has no controller), and what an absent or
+# empty table reads as where that is not {} (no [input] is a zero input).
+ABSENT_IS_NONE: tuple[str, ...] = ("controller",)
+WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
 
 
 def json_schema() -> dict[str, Any]:
