@@ -1,31 +1,12 @@
 """Scene files: one experiment per small TOML file, checked and flattened for the simulator.
 
-A scene has these tables (SI units throughout; arrays have links + 1 entries, index 0 is the base
-— cart or arm — and 1..n are the links):
-
-    [system]      type = "classical" | "rotary" (required); links >= 1 (required);
-                  inertia = "pivot" (default) | "full" (rotary only);
-                  name = C++ model name (default "<type><links>")
-    [parameters]  m, l, delta: arrays (required); g (default 9.81);
-                  free = ["m0", "delta1", ...] (optional; names m<i>, l<i>, delta<i>, g)
-                  l[0] is the arm length (rotary, > 0); a cart has none: write 0 (it is ignored)
-    [initial]     theta, dtheta: arrays (default all zero: upright, at rest)
-    [input]       kind = zero (default) | constant | pulse | step | sine, with
-                  constant: amplitude; pulse: amplitude, duration, start (default 0);
-                  step: amplitude, time; sine: amplitude, frequency [Hz], phase [rad] (default 0)
-    [simulation]  t_end (required); sample (0.01); max_steps (100000);
-                  method = "bdf" (default) | "adams" | "adams-fixed-point" | "erk-dp5" |
-                  "erk-fehlberg8" | "rk4";
-                  jacobian = "exact" (default) | "dq" (bdf and adams only);
-                  rtol (1e-10), atol (1e-12) (every method but rk4);
-                  step = fixed step in s, > 0 and <= sample (rk4 only, required there)
-    [outputs]     energy = true | false (default false)
-    [controller]  kind = "lqr"; q, r, equilibrium, saturation, period (see scene_controller.py):
-                  u = −K (x − x_eq), K computed here and written into the resolved config
-
-`load_scene` reads and validates a file; every problem is a one-line `SceneError` naming the
-file and the dotted key. `resolved_config` writes the flat `key = value` text the C++
-simulator reads.
+The format (tables, keys, types, bounds, defaults) is declared once in `schema.py`; the
+reference for users is docs/scenes.md. `load_scene` reads a file (at most
+`limits.MAX_SCENE_BYTES`, its shape checked by `nesting.py` before parsing), parses it with
+numbers kept as exact decimals, refuses unknown tables and keys, validates each table with its
+model in the declared order, and builds a `Scene`; every problem is a one-line `SceneError`
+naming the file and the dotted key. `resolved_config` writes the flat `key = value` text the
+C++ simulator reads.
 """
 
 from __future__ import annotations
