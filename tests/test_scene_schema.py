@@ -366,3 +366,16 @@ def test_a_schema_directive_is_a_comment_to_ipgen(tmp_path: Path) -> None:
     path = tmp_path / "x.toml"
     path.write_text("#:schema ../docs/scene.schema.json\n" + scene_text({}), encoding="utf-8")
     assert load_scene(path).links == 2
+
+
+def test_regular_expressions_on_names_are_linear() -> None:
+    """The other expressions applied to user input (scene file stems, model names) match from
+    the start with one repeated class: a long name is refused at once."""
+    from ipgen.common.naming import name_problem
+
+    started = time.process_time()
+    assert not schema.STEM.match("c" * 1_000_000 + " ")
+    assert name_problem("c" * 1_000_000 + "-") is not None
+    with pytest.raises(SceneError, match="scene file name"):
+        load_scene(Path("c" * 100_000 + " x.toml"))
+    assert time.process_time() - started < 0.5

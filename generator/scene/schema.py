@@ -551,7 +551,12 @@ def _draft4(node: Any) -> None:
             else:
                 node[inclusive], node[bound] = limit, True
     if "const" in node:
-        node["enum"] = [node.pop("const")]
+        value = node.pop("const")
+        node["enum"] = [value]
+        if isinstance(value, str):
+            node.setdefault("type", "string")
+    if len(node.get("allOf", ())) == 1 and list(node["allOf"][0]) == ["$ref"]:
+        node["$ref"] = node.pop("allOf")[0]["$ref"]  # older pydantic: the same as a plain $ref
     node.pop("discriminator", None)
     if "default" in node and node["default"] is None:
         del node["default"]
@@ -563,4 +568,19 @@ def json_schema_text() -> str:
     """`json_schema()` as the text `ipgen --scene-schema` prints and docs/scene.schema.json holds."""
     import json
 
-    return json.dumps(json_schema(), indent=2, ensure_ascii=False) + "\n"
+    return json.dumps(_canonical(json_schema()), indent=2, ensure_ascii=False) + "\n"
+
+
+def _canonical(node: Any, names: bool = False) -> Any:
+    """The keywords of each schema in sorted order (the same text from any pydantic version);
+    the members of `properties` and `definitions` in declaration order."""
+    if isinstance(node, list):
+        return [_canonical(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    if names:
+        return {name: _canonical(value) for name, value in node.items()}
+    return {
+        key: _canonical(node[key], names=key in ("properties", "definitions"))
+        for key in sorted(node, key=lambda key: (key != "$schema", key))
+    }
