@@ -1,0 +1,197 @@
+"""The variables of an ipgen FMU (`--emit fmu`, `--emit fmu3`) and their true dependencies.
+
+One table serves the model description (XML) and the C glue (templates/fmu_model.c.jinja):
+value references, names, causality, start values, how the C code reads and writes each
+variable, and which states and inputs each output and derivative depends on, read from the
+derived polynomials (an acceleration depends on the angles that occur in M or the bias).
+
+Layout (D = links + 1 coordinates): time (0); theta0..thetaD-1 (states, outputs);
+dtheta0..dtheta (states, the derivatives of theta); ddtheta0.. (the derivatives of dtheta);
+the input u; the energy outputs; then every model parameter (`system.parameter_names`), in
+that order, as tunable parameters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+from ipgen.codegen.functions import C_SYNTAX, params_field
+from ipgen.model.derivation import Equations
+from ipgen.model.polynomial import LETTER, VELOCITY
+from ipgen.model.specialise import check_parameter
+from ipgen.model.system import System, parameter_names, split_parameter, unused_parameter
+
+# Start values without a scene: the paper's systems (scenes/cdip_pulse.toml for a cart,
+# scenes/rsip_pulse.toml for an arm); every link like the paper's links.
+_PAPER = {
+    "classical": {"m": (0.3, 0.275), "l": (0.0, 0.5), "delta": (0.3, 0.1)},
+    "rotary": {"m": (0.5, 0.275), "l": (0.6, 0.5), "delta": (0.3, 0.011458)},
+}
+DEFAULT_G = 9.81
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI variable: its value reference, name and role, and its C access."""
+
+    vr: int
+    name: str
+    causality: str  # independent | output | local | input | parameter
+    variability: str  # continuous | tunable
+    description: str
+    initial: str = ""  # exact | calculated | "" (none allowed)
+    start: float | None = None
+    derivative_of: int | None = None  # the value reference this variable is the derivative of
+    c_value: str = ""  # C expression of the value, in the model struct `m`
+    rule: str = ""  # parameters: "positive" (> 0) or "nonnegative" (>= 0)
+    kind: str = ""  # time | q | qd | qdd | u | energy | parameter
+
+
+@dataclass(frozen=True)
+class Layout:
+    """All variables of one model, and the dependencies the model structure declares."""
+
+    variables: tuple[Variable, ...]
+    dof: int
+    # Value references each output / derivative depends on (states and the input).
+    output_dependencies: tuple[tuple[int, tuple[int, ...]], ...]
+    derivative_dependencies: tuple[tuple[int, tuple[int, ...]], ...]
+
+    def by_kind(self, kind: str) -> tuple[Variable, ...]:
+        return tuple(v for v in self.variables if v.kind == kind)
+
+
+def default_start(system: System, name: str) -> float:
+    """The start value of parameter `name` without a scene: the paper's value."""
+    group, index = split_parameter(name)
+    if group == "g":
+        return DEFAULT_G
+    values = _PAPER[system.type].get(group)
+    if values is None or index is None:
+        return 0.0
+    return values[0] if index == 0 else values[1]
+
+
+def _rule(system: System, name: str) -> str:
+    """The validity rule of a parameter, from the one that checks --fix values."""
+    if check_parameter(system, name, Fraction(0)) is None:
+        return "nonnegative"
+    return "positive"
+
+
+def _angles_and_rates(eqs: Equations, keys: tuple[str, ...]) -> tuple[set[int], set[int]]:
+    """The angles (coordinate indices) and velocities the polynomials `keys` depend on."""
+    algebra = eqs.algebra
+    used: set[int] = set()
+    for key in keys:
+        for row in eqs.poly[key]:
+            for p in row:
+                used |= algebra.used(p)
+    for g in sorted(algebra.named, reverse=True):
+        if g in used:
+            used |= algebra.used(algebra.named[g])
+    angles: set[int] = set()
+    rates: set[int] = set()
+    for g in used:
+        info = algebra.generators[g]
+        if info.kind == LETTER or g in algebra.named:
+            angles |= set(info.angles) if info.kind == LETTER else set()
+        elif info.kind == VELOCITY:
+            rates.add(info.index)
+    return angles, rates
+
+
+def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] = ()) -> Layout:
+    """The FMU's variables for `eqs`; `start` overrides parameter start values (a scene's),
+    `initial` the states' (θ then θ̇)."""
+    system = eqs.system
+    dof = system.dof
+    base_unit = "m" if system.type == "classical" else "rad"
+    x0 = list(initial) if len(initial) == 2 * dof else [0.0] * (2 * dof)
+    variables: list[Variable] = [
+        Variable(0, "time", "independent", "continuous", "simulation time [s]", kind="time", c_value="m->time")
+    ]
+    vr = 1
+    for i in range(dof):
+        what = f"cart position [{base_unit}]" if i == 0 and base_unit == "m" else (
+            "arm angle [rad]" if i == 0 else f"absolute angle of link {i} from the upright [rad]"
+        )
+        variables.append(
+            Variable(vr, f"theta{i}", "output", "continuous", what, "exact", x0[i], c_value=f"m->q[{i}]", kind="q")
+        )
+        vr += 1
+    for i in range(dof):
+        unit = "m/s" if i == 0 and base_unit == "m" else "rad/s"
+        variables.append(
+            Variable(
+                vr, f"dtheta{i}", "local", "continuous", f"rate of theta{i} [{unit}]", "exact", x0[dof + i],
+                derivative_of=1 + i, c_value=f"m->qd[{i}]", kind="qd",
+            )
+        )
+        vr += 1
+    for i in range(dof):
+        unit = "m/s2" if i == 0 and base_unit == "m" else "rad/s2"
+        variables.append(
+            Variable(
+                vr, f"ddtheta{i}", "local", "continuous", f"acceleration of theta{i} [{unit}]", "calculated",
+                derivative_of=1 + dof + i, c_value=f"m->qdd[{i}]", kind="qdd",
+            )
+        )
+        vr += 1
+    force = "force on the cart [N]" if system.type == "classical" else "torque on the arm [N m]"
+    u_vr = vr
+    variables.append(Variable(vr, "u", "input", "continuous", force, "", 0.0, c_value="m->u", kind="u"))
+    vr += 1
+    energies = (
+        ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd [J]", "m->T"),
+        ("potential_energy", "potential energy V [J], zero with the centres of gravity at the base's height", "m->V"),
+        ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
+        ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
+    )
+    for name, description, value in energies:
+        variables.append(
+            Variable(vr, name, "output", "continuous", description, "calculated", c_value=value, kind="energy")
+        )
+        vr += 1
+    for name in parameter_names(system.links):
+        if unused_parameter(system.type, name):
+            continue
+        value = start.get(name, default_start(system, name))
+        variables.append(
+            Variable(
+                vr, name, "parameter", "tunable", _parameter_description(system, name), "exact", float(value),
+                c_value=params_field(name, C_SYNTAX).replace("p->", "m->p."), rule=_rule(system, name),
+                kind="parameter",
+            )
+        )
+        vr += 1
+
+    q_vr = {i: 1 + i for i in range(dof)}
+    qd_vr = {i: 1 + dof + i for i in range(dof)}
+    angles, rates = _angles_and_rates(eqs, ("mass_matrix", "bias"))
+    dynamics = tuple(sorted([q_vr[i] for i in angles] + [qd_vr[i] for i in rates] + [u_vr]))
+    derivatives = [(qd_vr[i], (qd_vr[i],)) for i in range(dof)]
+    derivatives += [(1 + 2 * dof + i, dynamics) for i in range(dof)]
+    t_angles, t_rates = _angles_and_rates(eqs, ("kinetic_energy",))
+    v_angles, _ = _angles_and_rates(eqs, ("potential_energy",))
+    _, d_rates = _angles_and_rates(eqs, ("dissipation",))
+    kinetic = sorted([q_vr[i] for i in t_angles] + [qd_vr[i] for i in t_rates])
+    potential = sorted(q_vr[i] for i in v_angles)
+    outputs = [(q_vr[i], (q_vr[i],)) for i in range(dof)]
+    energy_vr = u_vr + 1
+    outputs += [
+        (energy_vr, tuple(kinetic)),
+        (energy_vr + 1, tuple(potential)),
+        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
+        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
+    ]
+    return Layout(tuple(variables), dof, tuple(outputs), tuple(derivatives))
+
+
+def _parameter_description(system: System, name: str) -> str:
+    group, index = split_parameter(name)
+    part = "gravity" if index is None else ("the " + ("cart" if system.type == "classical" else "arm")) if index == 0 else f"link {index}"
+    what = {"m": "mass of {} [kg]", "l": "length of {} [m]", "delta": "viscous damping of {}", "g": "gravitational acceleration [m/s2]"}
+    text = what.get(group, group + " of {}")
+    return text.format(part) if "{}" in text else text
