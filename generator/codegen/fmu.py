@@ -27,8 +27,8 @@ import zipfile
 from pathlib import Path
 
 from ipgen.codegen.c_header import render_c_header
-from ipgen.codegen.functions import C_SYNTAX, FunctionBody, Output, build_body
 from ipgen.codegen.fmu_variables import Layout, layout
+from ipgen.codegen.functions import C_SYNTAX, FunctionBody, Output, build_body
 from ipgen.codegen.header import HeaderRequest, environment, templates_dir
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
@@ -98,9 +98,17 @@ def _start_values(request: HeaderRequest) -> dict[str, float]:
     return values
 
 
+def _verbatim(path: Path) -> str:
+    """A vendored file's text exactly as shipped (its line endings kept)."""
+    with path.open(encoding="utf-8", newline="") as f:
+        return f.read()
+
+
 def _description(eqs: Equations, request: HeaderRequest) -> str:
     system = eqs.system
-    base = "a cart on a rail" if system.type == "classical" else f"a Furuta arm ({system.inertia} link inertia)"
+    base = (
+        "a cart on a rail" if system.type == "classical" else f"a Furuta arm ({system.inertia} link inertia)"
+    )
     plural = "s" if system.links > 1 else ""
     return (
         f"{system.type.capitalize()} inverted pendulum: {base} carrying {system.links} rod{plural} "
@@ -134,7 +142,9 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
         "source": f"{name}_fmu.c",
         "build": shlex.join(build_command("cc", f"{name}_fmu.c", f"{name}.so")),
     }
-    token = _token(str(version), header, repr(table), env.get_template(f"fmu{version}.c.jinja").filename or "")
+    token = _token(
+        str(version), header, repr(table), env.get_template(f"fmu{version}.c.jinja").filename or ""
+    )
     context["token"] = token
     glue = env.get_template(f"fmu{version}.c.jinja").render(context)
     description = env.get_template(f"fmu{version}.xml.jinja").render(context)
@@ -145,10 +155,8 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
     }
     vendored = templates_dir() / "fmi" / f"fmi{version}"
     for path in sorted(vendored.glob("*.h")):
-        files[f"sources/{path.name}"] = path.read_text(encoding="utf-8")
-    files["documentation/licenses/fmi-standard-LICENSE.txt"] = (vendored / "LICENSE.txt").read_text(
-        encoding="utf-8"
-    )
+        files[f"sources/{path.name}"] = _verbatim(path)
+    files["documentation/licenses/fmi-standard-LICENSE.txt"] = _verbatim(vendored / "LICENSE.txt")
     if version == 3:
         files["sources/buildDescription.xml"] = env.get_template("fmu3.build.xml.jinja").render(context)
     return files
@@ -161,7 +169,7 @@ def compile_binary(files: dict[str, str], name: str) -> bytes:
         folder = Path(tmp)
         for path, text in files.items():
             if path.startswith("sources/") and not path.endswith(".xml"):
-                (folder / path.removeprefix("sources/")).write_text(text, encoding="utf-8")
+                (folder / path.removeprefix("sources/")).write_text(text, encoding="utf-8", newline="")
         command = build_command(cc, f"{name}_fmu.c", f"{name}.so")
         try:
             result = subprocess.run(command, cwd=folder, capture_output=True, text=True, check=False)

@@ -93,10 +93,10 @@ def _angles_and_rates(eqs: Equations, keys: tuple[str, ...]) -> tuple[set[int], 
             used |= algebra.used(algebra.named[g])
     angles: set[int] = set()
     rates: set[int] = set()
-    for g in used:
+    for g in used:  # named quantities are expanded above: their letters are in `used`
         info = algebra.generators[g]
-        if info.kind == LETTER or g in algebra.named:
-            angles |= set(info.angles) if info.kind == LETTER else set()
+        if info.kind == LETTER:
+            angles |= set(info.angles)
         elif info.kind == VELOCITY:
             rates.add(info.index)
     return angles, rates
@@ -110,23 +110,34 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     base_unit = "m" if system.type == "classical" else "rad"
     x0 = list(initial) if len(initial) == 2 * dof else [0.0] * (2 * dof)
     variables: list[Variable] = [
-        Variable(0, "time", "independent", "continuous", "simulation time [s]", kind="time", c_value="m->time")
+        Variable(
+            0, "time", "independent", "continuous", "simulation time [s]", kind="time", c_value="m->time"
+        )
     ]
     vr = 1
     for i in range(dof):
-        what = f"cart position [{base_unit}]" if i == 0 and base_unit == "m" else (
-            "arm angle [rad]" if i == 0 else f"absolute angle of link {i} from the upright [rad]"
-        )
+        base = "cart position [m]" if system.type == "classical" else "arm angle [rad]"
+        what = base if i == 0 else f"absolute angle of link {i} from the upright [rad]"
         variables.append(
-            Variable(vr, f"theta{i}", "output", "continuous", what, "exact", x0[i], c_value=f"m->q[{i}]", kind="q")
+            Variable(
+                vr, f"theta{i}", "output", "continuous", what, "exact", x0[i], c_value=f"m->q[{i}]", kind="q"
+            )
         )
         vr += 1
     for i in range(dof):
         unit = "m/s" if i == 0 and base_unit == "m" else "rad/s"
         variables.append(
             Variable(
-                vr, f"dtheta{i}", "local", "continuous", f"rate of theta{i} [{unit}]", "exact", x0[dof + i],
-                derivative_of=1 + i, c_value=f"m->qd[{i}]", kind="qd",
+                vr,
+                f"dtheta{i}",
+                "local",
+                "continuous",
+                f"rate of theta{i} [{unit}]",
+                "exact",
+                x0[dof + i],
+                derivative_of=1 + i,
+                c_value=f"m->qd[{i}]",
+                kind="qd",
             )
         )
         vr += 1
@@ -134,8 +145,15 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
         unit = "m/s2" if i == 0 and base_unit == "m" else "rad/s2"
         variables.append(
             Variable(
-                vr, f"ddtheta{i}", "local", "continuous", f"acceleration of theta{i} [{unit}]", "calculated",
-                derivative_of=1 + dof + i, c_value=f"m->qdd[{i}]", kind="qdd",
+                vr,
+                f"ddtheta{i}",
+                "local",
+                "continuous",
+                f"acceleration of theta{i} [{unit}]",
+                "calculated",
+                derivative_of=1 + dof + i,
+                c_value=f"m->qdd[{i}]",
+                kind="qdd",
             )
         )
         vr += 1
@@ -145,13 +163,19 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     vr += 1
     energies = (
         ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd [J]", "m->T"),
-        ("potential_energy", "potential energy V [J], zero with the centres of gravity at the base's height", "m->V"),
+        (
+            "potential_energy",
+            "potential energy V [J], zero with the centres of gravity at the base's height",
+            "m->V",
+        ),
         ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
         ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
     )
     for name, description, value in energies:
         variables.append(
-            Variable(vr, name, "output", "continuous", description, "calculated", c_value=value, kind="energy")
+            Variable(
+                vr, name, "output", "continuous", description, "calculated", c_value=value, kind="energy"
+            )
         )
         vr += 1
     for name in parameter_names(system.links):
@@ -160,8 +184,15 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
         value = start.get(name, default_start(system, name))
         variables.append(
             Variable(
-                vr, name, "parameter", "tunable", _parameter_description(system, name), "exact", float(value),
-                c_value=params_field(name, C_SYNTAX).replace("p->", "m->p."), rule=_rule(system, name),
+                vr,
+                name,
+                "parameter",
+                "tunable",
+                _parameter_description(system, name),
+                "exact",
+                float(value),
+                c_value=params_field(name, C_SYNTAX).replace("p->", "m->p."),
+                rule=_rule(system, name),
                 kind="parameter",
             )
         )
@@ -190,8 +221,16 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
 
 
 def _parameter_description(system: System, name: str) -> str:
+    """What parameter `name` is, with its unit, for the model description."""
     group, index = split_parameter(name)
-    part = "gravity" if index is None else ("the " + ("cart" if system.type == "classical" else "arm")) if index == 0 else f"link {index}"
-    what = {"m": "mass of {} [kg]", "l": "length of {} [m]", "delta": "viscous damping of {}", "g": "gravitational acceleration [m/s2]"}
-    text = what.get(group, group + " of {}")
-    return text.format(part) if "{}" in text else text
+    if index is None:
+        return "gravitational acceleration g [m/s2]" if group == "g" else name
+    base = "cart" if system.type == "classical" else "arm"
+    part = f"the {base}" if index == 0 else f"link {index}"
+    damping_unit = "kg/s" if index == 0 and system.type == "classical" else "N m s"
+    described = {
+        "m": f"mass of {part} [kg]",
+        "l": f"length of {part} [m]",
+        "delta": f"viscous damping of {part} [{damping_unit}]",
+    }
+    return described.get(group, f"{group} of {part}")

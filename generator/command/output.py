@@ -118,7 +118,9 @@ def write_files(files: Sequence[tuple[Path, str | bytes]], force: bool = False) 
     "created", "replaced" (an earlier ipgen output), or "unchanged" (same bytes: only the
     modification time is refreshed, so build systems see the rule as done).
     """
-    plans = [_plan(path, text.encode("utf-8") if isinstance(text, str) else text, force) for path, text in files]
+    plans = [
+        _plan(path, text.encode("utf-8") if isinstance(text, str) else text, force) for path, text in files
+    ]
     temporaries: list[tuple[str, Path]] = []
     try:
         for planned in plans:
