@@ -2,7 +2,7 @@
 own simulator.
 
     .venv/bin/python tools/fmu_demo.py [--build build | --csv FILE] [--out out/demo] [--fmi 2|3]
-                                       [--scene cdip_pulse]
+                                       [--scene cdip_pulse] [--sizes]
 
 Writes <out>/cdip.fmu and <out>/rsip.fmu (scenes/cdip_pulse.toml, scenes/rsip_pulse.toml: their
 parameters are the FMUs' start values), simulates the chosen scene's FMU with FMPy's CVODE
@@ -10,7 +10,9 @@ parameters are the FMUs' start values), simulates the chosen scene's FMU with FM
 scene: with --build, build/bin/simulate_<model> is run on build/scenes/<stem>.cfg (as
 `make demo` does); with --csv, that file; else the simulator's golden run in tests/data/.
 Prints the FMU sizes and the largest difference per angle, and writes
-<out>/<model>_fmu.png overlaying both runs (and their difference). Exits 1 on a failure.
+<out>/<model>_fmu.png overlaying both runs (and their difference). With --sizes it also writes
+classical and rotary n = 1, 2, 3 in both FMI versions to <out>/sizes/ and prints a Markdown
+table of their sizes and write times (docs/fmu.md). Exits 1 on a failure.
 """
 
 from __future__ import annotations
@@ -127,6 +129,21 @@ def compare(result: np.ndarray, csv_path: Path, scene: Scene, png: Path) -> dict
     return differences
 
 
+def sizes_table(out: Path) -> str:
+    """Markdown: size and write time (derive, render, compile, zip) of each model's FMUs."""
+    rows = ["| model | FMI 2.0 | FMI 3.0 |", "| --- | ---: | ---: |"]
+    for kind in ("classical", "rotary"):
+        for links in (1, 2, 3):
+            cells = []
+            for target in ("fmu", "fmu3"):
+                started = time.perf_counter()
+                written = run(plan(out / target, system_type=kind, links=links, emit=target, force=True))
+                seconds = time.perf_counter() - started
+                cells.append(f"{written[0].size / 1024:.1f} KiB, {seconds:.2f} s")
+            rows.append(f"| {kind}{links} | {cells[0]} | {cells[1]} |")
+    return "\n".join(rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     where = parser.add_mutually_exclusive_group()
@@ -135,6 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "demo", help="output folder")
     parser.add_argument("--fmi", choices=("2", "3"), default="2", help="FMI version (default 2.0)")
     parser.add_argument("--scene", choices=SCENES, default="cdip_pulse", help="the scene to simulate")
+    parser.add_argument("--sizes", action="store_true", help="also tabulate n = 1..3 FMU sizes")
     args = parser.parse_args(argv)
     try:
         args.out.mkdir(parents=True, exist_ok=True)
@@ -146,12 +164,15 @@ def main(argv: list[str] | None = None) -> int:
         result, seconds = simulate(fmus[args.scene], scene)
         png = args.out / f"{scene.name}_fmu.png"
         differences = compare(result, csv_path, scene, png)
+        table = sizes_table(args.out / "sizes") if args.sizes else ""
     except (Error, DemoError, OSError, ValueError) as e:
         print(f"fmu_demo: error: {e}", file=sys.stderr)
         return 1
     shown = ", ".join(f"{name} {value:.1e}" for name, value in differences.items())
     print(f"{scene.name}: FMPy CVODE {seconds:.2f} s; max |FMU - simulator ({csv_path.name})|: {shown}")
     print(f"wrote {png}")
+    if table:
+        print(table)
     return 0
 
 
