@@ -12,7 +12,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -147,7 +147,7 @@ def test_derivatives_equal_the_c_header(built: dict[str, Built], system: System,
         fmu.close()
 
 
-def _energy_gradients(system: System) -> object:
+def _energy_gradients(system: System) -> tuple[Callable[..., object], list[str]]:
     """d(T, V, E, 2D)/d(q, qd) by sympy from the equations' expressions (not the FMU's path)."""
     import sympy as sp
 
@@ -156,7 +156,7 @@ def _energy_gradients(system: System) -> object:
     x = [*s.q, *s.qd]
     T, V, D = eqs.kinetic_energy, eqs.potential_energy, eqs.dissipation
     rows = [[sp.diff(f, v) for v in x] for f in (T, V, T + V, 2 * D)]
-    return sp.lambdify((s.q, s.qd, s.m, s.l, s.delta, s.g), rows, "numpy")
+    return sp.lambdify((s.q, s.qd, s.parameters), rows, "numpy"), [str(p) for p in s.parameters]
 
 
 @pytest.mark.parametrize("version", [2, 3])
@@ -167,7 +167,7 @@ def test_directional_derivatives_are_exact(built: dict[str, Built], system: Syst
     model = built[_id(system)]
     dof = system.dof
     fmu = model.load(version)
-    gradients = _energy_gradients(system)
+    gradients, parameter_names = _energy_gradients(system)
     _, knowns, unknowns = _names(dof)
     rng = np.random.default_rng(RNG_SEED + 10 * system.links)
     try:
@@ -175,10 +175,9 @@ def test_directional_derivatives_are_exact(built: dict[str, Built], system: Syst
         fmu.set(params)
         fmu.set_state(q, qd, u)
         ref = _c_reference(model, params, q, qd, u)
-        m = [params[f"m{i}"] for i in range(dof)]
-        lengths = [params.get(f"l{i}", 0.0) for i in range(dof)]
-        delta = [params[f"delta{i}"] for i in range(dof)]
-        energy = np.array(gradients(q, qd, m, lengths, delta, params["g"]), dtype=float)  # type: ignore[operator]
+        # every parameter as the FMU has it (a cart's unused l0: 0)
+        values = [fmu.get([n])[0] if n in fmu.vr else 0.0 for n in parameter_names]
+        energy = np.array(gradients(q, qd, values), dtype=float)
         exact = np.zeros((len(unknowns), len(knowns)))
         exact[:dof, :dof] = ref["dqdd_dq"].reshape(dof, dof)
         exact[:dof, dof : 2 * dof] = ref["dqdd_dqd"].reshape(dof, dof)
@@ -382,6 +381,23 @@ def test_writing_is_all_or_nothing_without_a_compiler(
     with pytest.raises(FmuError, match="no C compiler"):
         run(plan(tmp_path / "out", system_type="classical", links=1, emit="cpp,fmu"))
     assert not (tmp_path / "out").exists()
+
+
+def test_an_fmu_ipgen_did_not_write_is_kept_without_force(tmp_path: Path) -> None:
+    from ipgen.command.output import OutputError
+
+    require_cc()
+    foreign = tmp_path / "rotary1.fmu"
+    with zipfile.ZipFile(foreign, "w") as archive:
+        archive.writestr("modelDescription.xml", "<fmiModelDescription/>")
+    before = foreign.read_bytes()
+    with pytest.raises(OutputError, match="not written by ipgen"):
+        run(plan(tmp_path, system_type="rotary", links=1, emit="fmu"))
+    assert foreign.read_bytes() == before
+    assert [w.status for w in run(plan(tmp_path, system_type="rotary", links=1, emit="fmu", force=True))] == [
+        "replaced"
+    ]
+    assert [w.status for w in run(plan(tmp_path, system_type="rotary", links=1, emit="fmu3"))] == ["replaced"]
 
 
 def test_rewriting_the_same_fmu_leaves_it_unchanged(tmp_path: Path) -> None:

@@ -63,14 +63,21 @@ class Layout:
 
 
 def default_start(system: System, name: str) -> float:
-    """The start value of parameter `name` without a scene: the paper's value."""
+    """The start value of parameter `name` without a scene: the paper's value; a parameter
+    beyond m, l, delta and g gets the homogeneous rod's value (centre of gravity `com` at l/2,
+    inertia `J` = m l^2/12 about it, no axial inertia or tip mass), 0 if it is unknown here."""
     group, index = split_parameter(name)
     if group == "g":
         return DEFAULT_G
-    values = _PAPER[system.type].get(group)
-    if values is None or index is None:
+    if index is None:
         return 0.0
-    return values[0] if index == 0 else values[1]
+    paper = _PAPER[system.type]
+    if group in paper:
+        return paper[group][0 if index == 0 else 1]
+    mass = paper["m"][0 if index == 0 else 1]
+    length = paper["l"][0 if index == 0 else 1]
+    rod = {"com": length / 2, "J": mass * length**2 / 12}
+    return rod.get(group, 0.0)
 
 
 def _rule(system: System, name: str) -> str:
