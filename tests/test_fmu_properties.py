@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ipgen.codegen.emit import TARGETS, EmitError, parse_emit
-from ipgen.codegen.fmu import render_sources
+from ipgen.codegen.fmu import FmuError, render_sources
 from ipgen.codegen.header import HeaderRequest
 from ipgen.common.naming import name_problem
 from ipgen.model.derivation import Equations, derive
@@ -68,3 +68,11 @@ def test_fmu_files_stay_well_formed_for_any_name_and_command(name: str, command:
     assert re.search(r"/\*.*\*/", glue[: first + 2], re.S)
     if version == 3:
         ET.fromstring(files["sources/buildDescription.xml"].encode())
+
+
+@pytest.mark.parametrize(
+    "name", ["fmi2Functions", "fmi2TypesPlatform", "fmi3PlatformTypes", "fmi3FunctionTypes"]
+)
+def test_a_model_named_like_an_fmi_header_is_refused(name: str) -> None:
+    with pytest.raises(FmuError, match="choose another --name"):
+        render_sources(_equations(), HeaderRequest(name, "ipgen"), 2)

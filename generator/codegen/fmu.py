@@ -116,9 +116,21 @@ def _description(eqs: Equations, request: HeaderRequest) -> str:
     )
 
 
+def check_name(name: str) -> None:
+    """FmuError if the model's files would clash with the FMI headers shipped beside them."""
+    vendored = {
+        path.stem for folder in ("fmi2", "fmi3") for path in (templates_dir() / "fmi" / folder).glob("*.h")
+    }
+    if name in vendored:
+        raise FmuError(
+            f"model name {name!r} is the name of an FMI header the FMU ships: choose another --name"
+        )
+
+
 def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict[str, str]:
     """The FMU's text files, keyed by their path in the archive."""
     name = request.name
+    check_name(name)
     general = HeaderRequest(name, request.command, Specialisation(outputs=FUNCTIONS), None)
     header = render_c_header(eqs, general)
     table: Layout = layout(eqs, _start_values(request), request.initial)
