@@ -12,7 +12,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import zipfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -72,11 +72,24 @@ class Built:
         return Loaded(self.fmus[version], self.unzipped[version], instance)
 
 
+class Models(dict[str, Built]):
+    """The models built so far, each built on first use (a pytest-xdist worker builds only the
+    models its tests use)."""
+
+    def __init__(self, root: Path) -> None:
+        super().__init__()
+        self.root = root
+
+    def __missing__(self, key: str) -> Built:
+        system = next(s for s in SYSTEMS if _id(s) == key)
+        self[key] = Built(system, self.root / key)
+        return self[key]
+
+
 @pytest.fixture(scope="module")
-def built(tmp_path_factory: pytest.TempPathFactory) -> Iterator[dict[str, Built]]:
+def built(tmp_path_factory: pytest.TempPathFactory) -> Models:
     require_cc()
-    root = tmp_path_factory.mktemp("fmu")
-    yield {_id(s): Built(s, root / _id(s)) for s in SYSTEMS}
+    return Models(tmp_path_factory.mktemp("fmu"))
 
 
 def _random_case(
@@ -115,7 +128,7 @@ def _names(dof: int) -> tuple[list[str], list[str], list[str]]:
 
 @pytest.mark.parametrize("version", [2, 3])
 @pytest.mark.parametrize("system", SYSTEMS, ids=_id)
-def test_fmpy_validation_finds_no_problem(built: dict[str, Built], system: System, version: int) -> None:
+def test_fmpy_validation_finds_no_problem(built: Models, system: System, version: int) -> None:
     from fmpy.validation import validate_fmu
 
     assert validate_fmu(str(built[_id(system)].fmus[version])) == []
@@ -123,7 +136,7 @@ def test_fmpy_validation_finds_no_problem(built: dict[str, Built], system: Syste
 
 @pytest.mark.parametrize("version", [2, 3])
 @pytest.mark.parametrize("system", SYSTEMS, ids=_id)
-def test_derivatives_equal_the_c_header(built: dict[str, Built], system: System, version: int) -> None:
+def test_derivatives_equal_the_c_header(built: Models, system: System, version: int) -> None:
     """GetDerivatives = [θ̇; forward_dynamics] of the C header to 1e-13 (relative), and the
     energy outputs its T, V, D."""
     model = built[_id(system)]
@@ -161,7 +174,7 @@ def _energy_gradients(system: System) -> tuple[Callable[..., object], list[str]]
 
 @pytest.mark.parametrize("version", [2, 3])
 @pytest.mark.parametrize("system", SYSTEMS, ids=_id)
-def test_directional_derivatives_are_exact(built: dict[str, Built], system: System, version: int) -> None:
+def test_directional_derivatives_are_exact(built: Models, system: System, version: int) -> None:
     """Every directional (and in FMI 3.0 adjoint) derivative equals the exact Jacobian to 1e-12
     and central differences of the FMU's own outputs to 1e-6; undeclared dependencies are 0."""
     model = built[_id(system)]
@@ -274,7 +287,7 @@ def test_fmu_agrees_with_the_simulator(tmp_path: Path, scene: str, target: str) 
         assert np.max(np.abs(result[name] - expected)) < AGREEMENT, name
 
 
-def test_two_instances_are_independent_and_reset_restores_the_start(built: dict[str, Built]) -> None:
+def test_two_instances_are_independent_and_reset_restores_the_start(built: Models) -> None:
     model = built["classical2"]
     for version in (2, 3):
         a, b = model.load(version, "a"), model.load(version, "b")
@@ -298,7 +311,7 @@ def test_two_instances_are_independent_and_reset_restores_the_start(built: dict[
 
 
 @pytest.mark.parametrize("version", [2, 3])
-def test_bad_calls_return_an_error_and_log_why(built: dict[str, Built], version: int) -> None:
+def test_bad_calls_return_an_error_and_log_why(built: Models, version: int) -> None:
     from fmpy.fmi1 import FMICallException
 
     model = built["rotary1"]
@@ -325,7 +338,7 @@ def test_bad_calls_return_an_error_and_log_why(built: dict[str, Built], version:
 
 @pytest.mark.parametrize("version", [2, 3])
 def test_rebuilding_from_the_shipped_sources_gives_identical_results(
-    built: dict[str, Built], tmp_path: Path, version: int
+    built: Models, tmp_path: Path, version: int
 ) -> None:
     model = built["rotary2"]
     with zipfile.ZipFile(model.fmus[version]) as archive:
@@ -358,7 +371,7 @@ def test_rebuilding_from_the_shipped_sources_gives_identical_results(
         original.close()
 
 
-def test_the_fmu_carries_the_c_header_and_the_licence(built: dict[str, Built]) -> None:
+def test_the_fmu_carries_the_c_header_and_the_licence(built: Models) -> None:
     model = built["classical1"]
     c_header = (model.folder / "c" / "classical1.h").read_text()
     for version, platform in ((2, "linux64"), (3, "x86_64-linux")):
