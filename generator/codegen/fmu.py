@@ -86,6 +86,9 @@ def energy_gradients(eqs: Equations) -> FunctionBody:
     return build_body(eqs, outputs, ("q", "qd", "p"), syntax=C_SYNTAX)
 
 
+_PLACEHOLDER = "{ipgen-token-placeholder}"
+
+
 def _token(*parts: str) -> str:
     """A GUID / instantiation token determined by the FMU's contents: "{8-4-4-4-12}"."""
     digest = hashlib.sha256("\0".join(parts).encode()).digest()
@@ -154,12 +157,13 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
         "source": f"{name}_fmu.c",
         "build": shlex.join(build_command("cc", f"{name}_fmu.c", f"{name}.so")),
     }
-    token = _token(
-        str(version), header, repr(table), env.get_template(f"fmu{version}.c.jinja").filename or ""
-    )
-    context["token"] = token
+    # The GUID / instantiation token is a digest of what the binary and the description are
+    # made of: rendered with a placeholder, then filled in.
+    context["token"] = _PLACEHOLDER
     glue = env.get_template(f"fmu{version}.c.jinja").render(context)
     description = env.get_template(f"fmu{version}.xml.jinja").render(context)
+    token = _token(str(version), header, glue, description)
+    glue, description = glue.replace(_PLACEHOLDER, token), description.replace(_PLACEHOLDER, token)
     files = {
         "modelDescription.xml": description,
         f"sources/{name}.h": header,
