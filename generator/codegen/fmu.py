@@ -36,7 +36,6 @@ from ipgen.errors import Error
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation
 
-FMI_VERSIONS: dict[str, int] = {"fmu": 2, "fmu3": 3}  # emit target -> FMI major version
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}  # binaries/<platform>/ of each FMI version
 COMPILERS = ("cc", "gcc")
 CFLAGS = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-O2", "-fPIC", "-shared")
@@ -49,24 +48,29 @@ class FmuError(Error, RuntimeError):
     """The FMU cannot be built (no C compiler, or its sources do not compile); says why."""
 
 
-def compiler() -> str:
-    """The C compiler: $CC if set, else the first of cc and gcc on PATH; FmuError if none."""
+def compiler() -> list[str]:
+    """The C compiler command: $CC if set (a program and its options), else the first of cc
+    and gcc on PATH; FmuError if none."""
     wanted = os.environ.get("CC", "").strip()
-    candidates = (wanted,) if wanted else COMPILERS
-    for name in candidates:
-        found = shutil.which(name)
+    try:
+        words = shlex.split(wanted)
+    except ValueError:
+        words = [wanted]
+    candidates = [words] if words else [[name] for name in COMPILERS]
+    for program, *options in candidates:
+        found = shutil.which(program)
         if found:
-            return found
+            return [found, *options]
     shown = f"$CC ({wanted[:40]!r})" if wanted else " or ".join(COMPILERS)
     raise FmuError(
-        f"--emit fmu compiles the FMU's binary, but no C compiler {shown} is on PATH: "
+        f"--emit fmu/fmu3 compiles the FMU's binary, but no C compiler {shown} is on PATH: "
         "install one (e.g. apt install gcc) or set CC"
     )
 
 
-def build_command(cc: str, source: str, output: str) -> list[str]:
+def build_command(cc: str | list[str], source: str, output: str) -> list[str]:
     """How the FMU's binary is built from its sources (run in the sources folder)."""
-    return [cc, *CFLAGS, "-I.", source, "-o", output, "-lm"]
+    return [*([cc] if isinstance(cc, str) else cc), *CFLAGS, "-I.", source, "-o", output, "-lm"]
 
 
 def energy_gradients(eqs: Equations) -> FunctionBody:
@@ -190,7 +194,7 @@ def compile_binary(files: dict[str, str], name: str) -> bytes:
         try:
             result = subprocess.run(command, cwd=folder, capture_output=True, text=True, check=False)
         except OSError as e:
-            raise FmuError(f"cannot run the C compiler {cc}: {e.strerror}; install gcc or set CC") from e
+            raise FmuError(f"cannot run the C compiler {cc[0]}: {e.strerror}; install gcc or set CC") from e
         if result.returncode != 0:
             lines = (result.stderr or result.stdout).splitlines()[:STDERR_LINES]
             raise FmuError(
