@@ -30,13 +30,15 @@ fmpy = pytest.importorskip("fmpy")
 
 ROOT = Path(__file__).resolve().parents[1]
 DRIVER = ROOT / "tests" / "c" / "eval_model.c"
-SYSTEMS = [System(t, n) for t in ("classical", "rotary") for n in (1, 2, 3)]  # type: ignore[arg-type]
+# classical and rotary n = 1, 2, 3, and the rotary "full" link inertia once
+SYSTEMS = [System(t, n) for t in ("classical", "rotary") for n in (1, 2, 3)] + [System("rotary", 2, "full")]  # type: ignore[arg-type]
 VERSIONS = {"fmu": 2, "fmu3": 3}
 RNG_SEED = 20260124
 
 
 def _id(system: System) -> str:
-    return f"{system.type}{system.links}"
+    full = "_full" if system.inertia == "full" else ""
+    return f"{system.type}{system.links}{full}"
 
 
 class Built:
