@@ -31,7 +31,10 @@ fmpy = pytest.importorskip("fmpy")
 ROOT = Path(__file__).resolve().parents[1]
 DRIVER = ROOT / "tests" / "c" / "eval_model.c"
 # classical and rotary n = 1, 2, 3, and the rotary "full" link inertia once
-SYSTEMS = [System(t, n) for t in ("classical", "rotary") for n in (1, 2, 3)] + [System("rotary", 2, "full")]  # type: ignore[arg-type]
+SYSTEMS = [
+    *(System(kind, n) for kind in ("classical", "rotary") for n in (1, 2, 3)),  # type: ignore[arg-type]
+    System("rotary", 2, "full"),
+]
 VERSIONS = {"fmu": 2, "fmu3": 3}
 RNG_SEED = 20260124
 
