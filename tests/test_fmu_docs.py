@@ -41,3 +41,23 @@ def test_the_fmpy_example_runs_verbatim(tmp_path: Path) -> None:
     # the push adds energy, the damping takes it: the pendulum ends hanging, energy below the start
     start, end = (float(x) for x in re.findall(r"(-?\d+\.\d+) J", energy))
     assert end < start
+
+
+def test_the_fmu_demo_writes_both_fmus_and_the_overlay(tmp_path: Path) -> None:
+    """tools/fmu_demo.py against a simulator CSV (here the golden run): both FMUs, the PNG, and
+    agreement figures below the test's tolerance; a missing CSV is one line, exit 1."""
+    pytest.importorskip("fmpy")
+    require_cc()
+    demo = [sys.executable, str(ROOT / "tools" / "fmu_demo.py"), "--out", str(tmp_path)]
+    golden = ROOT / "tests" / "data" / "rsip_pulse.golden.csv"
+    result = subprocess.run(
+        [*demo, "--csv", str(golden), "--scene", "rsip_pulse", "--fmi", "3"], capture_output=True, text=True
+    )
+    assert result.returncode == 0, result.stderr
+    assert (tmp_path / "cdip.fmu").is_file() and (tmp_path / "rsip.fmu").is_file()
+    assert (tmp_path / "rsip_fmu.png").stat().st_size > 10_000
+    figures = [float(x) for x in re.findall(r"theta\d (\S+?)(?:,|$)", result.stdout, re.M)]
+    assert len(figures) == 2 and max(figures) < 1e-6, result.stdout
+    missing = subprocess.run([*demo, "--csv", str(tmp_path / "none.csv")], capture_output=True, text=True)
+    assert missing.returncode == 1 and missing.stderr.startswith("fmu_demo: error:")
+    assert len(missing.stderr.strip().splitlines()) == 1
