@@ -426,3 +426,28 @@ def test_rewriting_the_same_fmu_leaves_it_unchanged(tmp_path: Path) -> None:
     first = run(plan(tmp_path, system_type="rotary", links=1, emit="fmu"))
     second = run(plan(tmp_path, system_type="rotary", links=1, emit="fmu"))
     assert [w.status for w in first] == ["created"] and [w.status for w in second] == ["unchanged"]
+
+
+def test_a_scene_emits_its_fmu_with_its_values_as_start_values(tmp_path: Path) -> None:
+    """`emit = ["fmu3"]` in a scene; its parameters and initial state are the start values."""
+    from fmpy import read_model_description
+
+    require_cc()
+    text = (ROOT / "scenes" / "rsip_pulse.toml").read_text()
+    text = text.replace('inertia = "pivot"', 'inertia = "pivot"\nemit = ["fmu3"]')
+    text = text.replace("m = [0.5, 0.275]", "m = [0.45, 0.3]").replace(
+        "[input]", "[initial]\ntheta = [0, 0.1]\n\n[input]"
+    )
+    scene = tmp_path / "mine.toml"
+    scene.write_text(text)
+    (written, _) = run(plan(tmp_path / "out", scene=scene))
+    description = read_model_description(str(written.path))
+    assert description.fmiVersion == "3.0"
+    start = {v.name: v.start for v in description.modelVariables if v.start is not None}
+    assert (float(start["m0"]), float(start["m1"]), float(start["theta1"])) == (0.45, 0.3, 0.1)
+    assert float(start["l0"]) == 0.6 and float(start["delta1"]) == 0.011458
+    fmu = Loaded(written.path, fmpy.extract(str(written.path), str(tmp_path / "unzipped")))
+    try:
+        assert fmu.get(["m0", "m1", "theta1", "dtheta1"]).tolist() == [0.45, 0.3, 0.1, 0.0]
+    finally:
+        fmu.close()
