@@ -113,6 +113,22 @@ def _random_case(
     return params, q, qd, float(rng.uniform(-1.0, 1.0))
 
 
+def _with_rod_links(system: System, params: dict[str, float], names: dict[str, int]) -> dict[str, float]:
+    """`params` plus the links-as-built parameters the FMU has (com, J, J_axial, tip), at the
+    homogeneous rods of `params`: the model the C header's plain functions compute."""
+    full = dict(params)
+    for i in range(system.dof):
+        m, length = params[f"m{i}"], params.get(f"l{i}", 0.0)
+        rods = {
+            f"com{i}": length / 2,
+            f"J{i}": m * length**2 / (3 if i == 0 else 12),
+            f"J_axial{i}": 0.0,
+            f"tip{i}": 0.0,
+        }
+        full.update({name: value for name, value in rods.items() if name in names})
+    return full
+
+
 def _c_reference(model: Built, params: dict[str, float], q: np.ndarray, qd: np.ndarray, u: float) -> dict:
     dof = model.system.dof
     m = np.array([params[f"m{i}"] for i in range(dof)])
@@ -150,7 +166,7 @@ def test_derivatives_equal_the_c_header(built: Models, system: System, version: 
     try:
         for _ in range(5):
             params, q, qd, u = _random_case(system, rng)
-            fmu.set(params)
+            fmu.set(_with_rod_links(system, params, fmu.vr))
             fmu.set_state(q, qd, u)
             ref = _c_reference(model, params, q, qd, u)
             got = fmu.derivatives()
@@ -190,7 +206,7 @@ def test_directional_derivatives_are_exact(built: Models, system: System, versio
     rng = np.random.default_rng(RNG_SEED + 10 * system.links)
     try:
         params, q, qd, u = _random_case(system, rng)
-        fmu.set(params)
+        fmu.set(_with_rod_links(system, params, fmu.vr))
         fmu.set_state(q, qd, u)
         ref = _c_reference(model, params, q, qd, u)
         # every parameter as the FMU has it (a cart's unused l0: 0)

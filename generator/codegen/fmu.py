@@ -87,7 +87,8 @@ def energy_gradients(eqs: Equations) -> FunctionBody:
         "dD_dqd": [[dissipation.derivative(algebra.qd(k))] for k in range(dof)],
     }
     outputs = [Output(name, value) for name, value in columns.items()]
-    return build_body(eqs, outputs, ("q", "qd", "p"), syntax=C_SYNTAX)
+    extra = tuple(getattr(C_SYNTAX, "extra_arguments", ()))  # the links struct, where there is one
+    return build_body(eqs, outputs, ("q", "qd", "p", *extra), syntax=C_SYNTAX)
 
 
 _PLACEHOLDER = "{ipgen-token-placeholder}"
@@ -156,6 +157,7 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
         "inertia": eqs.system.inertia,
         "layout": table,
         "variables": table.variables,
+        "links_struct": any(v.c_value.startswith("m->links.") for v in table.variables),
         "gradients": energy_gradients(eqs),
         "fmi": version,
         "source": f"{name}_fmu.c",

@@ -7,8 +7,9 @@ derived polynomials (an acceleration depends on the angles that occur in M or th
 
 Layout (D = links + 1 coordinates): time (0); theta0..thetaD-1 (states, outputs);
 dtheta0..dtheta (states, the derivatives of theta); ddtheta0.. (the derivatives of dtheta);
-the input u; the energy outputs; then every model parameter (`system.parameter_names`), in
-that order, as tunable parameters.
+the input u; the energy outputs; then every parameter the model's equations read (the
+generators the C header's functions take from their params struct, and from the links
+struct where the header has one), in the algebra's order, as tunable parameters.
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from fractions import Fraction
 
 from ipgen.codegen.functions import C_SYNTAX, params_field
 from ipgen.model.derivation import Equations
-from ipgen.model.polynomial import LETTER, VELOCITY
+from ipgen.model.polynomial import LETTER, PARAMETER, VELOCITY
 from ipgen.model.specialise import check_parameter
-from ipgen.model.system import System, parameter_names, split_parameter, unused_parameter
+from ipgen.model.system import System, split_parameter
 
 # Start values without a scene: the paper's systems (scenes/cdip_pulse.toml for a cart,
 # scenes/rsip_pulse.toml for an arm); every link like the paper's links.
@@ -65,7 +66,8 @@ class Layout:
 def default_start(system: System, name: str) -> float:
     """The start value of parameter `name` without a scene: the paper's value; a parameter
     beyond m, l, delta and g gets the homogeneous rod's value (centre of gravity `com` at l/2,
-    inertia `J` = m l^2/12 about it, no axial inertia or tip mass), 0 if it is unknown here."""
+    inertia `J` = m l^2/12 about it, a rotary arm's J0 = m0 l0^2/3 about the vertical, no axial
+    inertia or tip mass), 0 if it is unknown here."""
     group, index = split_parameter(name)
     if group == "g":
         return DEFAULT_G
@@ -76,15 +78,43 @@ def default_start(system: System, name: str) -> float:
         return paper[group][0 if index == 0 else 1]
     mass = paper["m"][0 if index == 0 else 1]
     length = paper["l"][0 if index == 0 else 1]
-    rod = {"com": length / 2, "J": mass * length**2 / 12}
+    rod = {"com": length / 2, "J": mass * length**2 / (3 if index == 0 else 12)}
     return rod.get(group, 0.0)
 
 
 def _rule(system: System, name: str) -> str:
-    """The validity rule of a parameter, from the one that checks --fix values."""
-    if check_parameter(system, name, Fraction(0)) is None:
+    """The validity rule of a parameter, from the one that checks --fix values: "positive"
+    (> 0), "nonnegative" (>= 0) or "finite" (any real)."""
+    if check_parameter(system, name, Fraction(0)) is not None:
+        return "positive"
+    if check_parameter(system, name, Fraction(-1)) is not None:
         return "nonnegative"
-    return "positive"
+    return "finite"
+
+
+def model_parameters(eqs: Equations) -> list[str]:
+    """The parameters the model reads, in the algebra's order: those occurring in M, the bias
+    or the energies (a cart's l0, for one, does not)."""
+    algebra = eqs.algebra
+    used: set[int] = set()
+    for key in ("mass_matrix", "bias", "kinetic_energy", "potential_energy", "dissipation"):
+        for row in eqs.poly[key]:
+            for p in row:
+                used |= algebra.used(p)
+    for g in sorted(algebra.named, reverse=True):
+        if g in used:
+            used |= algebra.used(algebra.named[g])
+    return [info.name for g, info in enumerate(algebra.generators) if info.kind == PARAMETER and g in used]
+
+
+def c_field(name: str) -> str:
+    """Parameter `name` in the FMU's model struct `m`: the C header's params (m->p.m[1]) or,
+    for the links as built where the header has them, links (m->links.com[1])."""
+    field = params_field(name, C_SYNTAX)
+    for pointer, member in (("p->", "m->p."), ("links->", "m->links.")):
+        if field.startswith(pointer):
+            return member + field.removeprefix(pointer)
+    raise ValueError(f"parameter {name} is read as {field}: not in the params or links struct")
 
 
 def _angles_and_rates(eqs: Equations, keys: tuple[str, ...]) -> tuple[set[int], set[int]]:
@@ -185,9 +215,7 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
             )
         )
         vr += 1
-    for name in parameter_names(system.links):
-        if unused_parameter(system.type, name):
-            continue
+    for name in model_parameters(eqs):
         value = start.get(name, default_start(system, name))
         variables.append(
             Variable(
@@ -198,7 +226,7 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
                 _parameter_description(system, name),
                 "exact",
                 float(value),
-                c_value=params_field(name, C_SYNTAX).replace("p->", "m->p."),
+                c_value=c_field(name),
                 rule=_rule(system, name),
                 kind="parameter",
             )
