@@ -114,8 +114,9 @@ def _random_case(
 
 
 def _with_rod_links(system: System, params: dict[str, float], names: dict[str, int]) -> dict[str, float]:
-    """`params` plus the links-as-built parameters the FMU has (com, J, J_axial, tip), at the
-    homogeneous rods of `params`: the model the C header's plain functions compute."""
+    """`params` plus the links-as-built parameters (com, J, J_axial, tip) at the homogeneous
+    rods of `params` (the model the C header's plain functions compute), those the FMU has:
+    a rotary arm given by its inertia J0 has no mass m0."""
     full = dict(params)
     for i in range(system.dof):
         m, length = params[f"m{i}"], params.get(f"l{i}", 0.0)
@@ -125,8 +126,8 @@ def _with_rod_links(system: System, params: dict[str, float], names: dict[str, i
             f"J_axial{i}": 0.0,
             f"tip{i}": 0.0,
         }
-        full.update({name: value for name, value in rods.items() if name in names})
-    return full
+        full.update(rods)
+    return {name: value for name, value in full.items() if name in names}
 
 
 def _c_reference(model: Built, params: dict[str, float], q: np.ndarray, qd: np.ndarray, u: float) -> dict:
