@@ -183,7 +183,8 @@ def test_derivatives_equal_the_c_header(built: Models, system: System, version: 
 
 
 def _energy_gradients(system: System) -> tuple[Callable[..., object], list[str]]:
-    """d(T, V, E, 2D)/d(q, qd) by sympy from the equations' expressions (not the FMU's path)."""
+    """d(T, V, E, 2D)/d(q, qd) by sympy from the equations' expressions (not the FMU's path),
+    as a function of q, qd and the parameters they contain (named like the FMU's)."""
     import sympy as sp
 
     eqs = derive(system)
@@ -191,7 +192,8 @@ def _energy_gradients(system: System) -> tuple[Callable[..., object], list[str]]
     x = [*s.q, *s.qd]
     T, V, D = eqs.kinetic_energy, eqs.potential_energy, eqs.dissipation
     rows = [[sp.diff(f, v) for v in x] for f in (T, V, T + V, 2 * D)]
-    return sp.lambdify((s.q, s.qd, s.parameters), rows, "numpy"), [str(p) for p in s.parameters]
+    parameters = sorted((T + V + D).free_symbols - set(x), key=str)
+    return sp.lambdify((s.q, s.qd, parameters), rows, "numpy"), [str(p) for p in parameters]
 
 
 @pytest.mark.parametrize("version", [2, 3])
@@ -210,8 +212,7 @@ def test_directional_derivatives_are_exact(built: Models, system: System, versio
         fmu.set(_with_rod_links(system, params, fmu.vr))
         fmu.set_state(q, qd, u)
         ref = _c_reference(model, params, q, qd, u)
-        # every parameter as the FMU has it (a cart's unused l0: 0)
-        values = [fmu.get([n])[0] if n in fmu.vr else 0.0 for n in parameter_names]
+        values = [fmu.get([n])[0] for n in parameter_names]  # every parameter as the FMU has it
         energy = np.array(gradients(q, qd, values), dtype=float)
         exact = np.zeros((len(unknowns), len(knowns)))
         exact[:dof, :dof] = ref["dqdd_dq"].reshape(dof, dof)
@@ -383,7 +384,7 @@ def test_rebuilding_from_the_shipped_sources_gives_identical_results(
         for _ in range(3):
             params, q, qd, u = _random_case(model.system, rng)
             for fmu in (rebuilt, original):
-                fmu.set(params)
+                fmu.set(_with_rod_links(model.system, params, fmu.vr))
                 fmu.set_state(q, qd, u)
             assert np.array_equal(rebuilt.derivatives(), original.derivatives())
             names = ["ddtheta1", "energy"]
@@ -460,11 +461,14 @@ def test_a_scene_emits_its_fmu_with_its_values_as_start_values(tmp_path: Path) -
     (written, _) = run(plan(tmp_path / "out", scene=scene))
     description = read_model_description(str(written.path))
     assert description.fmiVersion == "3.0"
-    start = {v.name: v.start for v in description.modelVariables if v.start is not None}
-    assert (float(start["m0"]), float(start["m1"]), float(start["theta1"])) == (0.45, 0.3, 0.1)
-    assert float(start["l0"]) == 0.6 and float(start["delta1"]) == 0.011458
+    start = {v.name: float(v.start) for v in description.modelVariables if v.start is not None}
+    assert (start["m1"], start["theta1"], start["l0"], start["delta1"]) == (0.3, 0.1, 0.6, 0.011458)
+    # the arm: its mass, or (links as built) its inertia, the rod's of the scene's m0 and l0
+    assert start.get("m0", 0.45) == 0.45 and start.get("J0", 0.45 * 0.36 / 3) == pytest.approx(
+        0.45 * 0.36 / 3
+    )
     fmu = Loaded(written.path, fmpy.extract(str(written.path), str(tmp_path / "unzipped")))
     try:
-        assert fmu.get(["m0", "m1", "theta1", "dtheta1"]).tolist() == [0.45, 0.3, 0.1, 0.0]
+        assert fmu.get(["m1", "theta1", "dtheta1"]).tolist() == [0.3, 0.1, 0.0]
     finally:
         fmu.close()

@@ -63,11 +63,12 @@ class Layout:
         return tuple(v for v in self.variables if v.kind == kind)
 
 
-def default_start(system: System, name: str) -> float:
-    """The start value of parameter `name` without a scene: the paper's value; a parameter
-    beyond m, l, delta and g gets the homogeneous rod's value (centre of gravity `com` at l/2,
-    inertia `J` = m l^2/12 about it, a rotary arm's J0 = m0 l0^2/3 about the vertical, no axial
-    inertia or tip mass), 0 if it is unknown here."""
+def default_start(system: System, name: str, given: dict[str, float] | None = None) -> float:
+    """The start value of parameter `name` without a scene value: the paper's value; a
+    parameter beyond m, l, delta and g gets the homogeneous rod's value of the masses and lengths
+    in `given` (else the paper's): centre of gravity `com` at l/2, inertia `J` = m l^2/12 about
+    it, a rotary arm's J0 = m0 l0^2/3 about the vertical, no axial inertia or tip mass; 0 if the
+    parameter is unknown here."""
     group, index = split_parameter(name)
     if group == "g":
         return DEFAULT_G
@@ -76,8 +77,9 @@ def default_start(system: System, name: str) -> float:
     paper = _PAPER[system.type]
     if group in paper:
         return paper[group][0 if index == 0 else 1]
-    mass = paper["m"][0 if index == 0 else 1]
-    length = paper["l"][0 if index == 0 else 1]
+    known = given or {}
+    mass = known.get(f"m{index}", paper["m"][0 if index == 0 else 1])
+    length = known.get(f"l{index}", paper["l"][0 if index == 0 else 1])
     rod = {"com": length / 2, "J": mass * length**2 / (3 if index == 0 else 12)}
     return rod.get(group, 0.0)
 
@@ -215,8 +217,10 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
             )
         )
         vr += 1
+    paper = {f"{group}{i}": default_start(system, f"{group}{i}") for group in ("m", "l") for i in range(dof)}
+    given = {**paper, **start}  # the masses and lengths the rod defaults are computed from
     for name in model_parameters(eqs):
-        value = start.get(name, default_start(system, name))
+        value = start.get(name, default_start(system, name, given))
         variables.append(
             Variable(
                 vr,
