@@ -2,7 +2,9 @@
 
 Direct collocation (Hermite–Simpson, separated form) with CasADi and IPOPT. On N intervals of
 equal length h = duration / N, the decision variables are the state x = [θ; θ̇], the input u and
-the accelerations θ̈ at every knot and interval midpoint. The constraints are
+the accelerations θ̈ at every knot and interval midpoint; the input is piecewise linear (u_mid the
+mean of its knots: no ringing of the midpoint inputs where |u| ≤ u_max is active). The
+constraints are
 
 - the equations of motion, kept implicit at every knot and midpoint: M(θ) θ̈ + bias(θ, θ̇) = B u
   (M and the bias are ipgen's exact expressions; no inverse of M anywhere);
@@ -94,7 +96,8 @@ class Plan:
         return h00 * x0 + h10 * h * f0 + h01 * x1 + h11 * h * f1
 
     def input(self, t: float) -> float:
-        """u(t): the quadratic through u_k, u_mid, u_k+1 on the interval holding t."""
+        """u(t): the quadratic through u_k, u_mid, u_k+1 on the interval holding t (a line:
+        u_mid is their mean)."""
         k, _, s = self._locate(t)
         u0, um, u1 = self.inputs[k], self.mid_inputs[k], self.inputs[k + 1]
         return float(u0 * (2 * s - 1) * (s - 1) + um * 4 * s * (1 - s) + u1 * s * (2 * s - 1))
@@ -172,7 +175,7 @@ def _check(
             if abs(x[0]) > x_max_:
                 raise PlanError(f"{name} θ0 = {x[0]:g} is outside |θ0| ≤ x_max = {x_max_:g}")
     if intervals is None:
-        n = int(min(max(round(duration_ / 0.05), 20), 150))
+        n = int(min(max(round(duration_ / 0.05), 20), 300))
     else:
         if isinstance(intervals, bool) or not isinstance(intervals, int | np.integer):
             raise PlanError(f"intervals = {intervals!r}: expected a whole number >= 4")
@@ -215,6 +218,7 @@ def _build(plant: Plant, duration: float, intervals: int, max_iter: int) -> _Nlp
     g = [
         ca.vec(residual_knots(xk[:dof, :], xk[dof:, :], ak, uk)),
         ca.vec(residual_mids(xm[:dof, :], xm[dof:, :], am, um)),
+        ca.vec(um - (uk[:, :-1] + uk[:, 1:]) / 2),
         ca.vec(xm - (xk[:, :-1] + xk[:, 1:]) / 2 - h / 8 * (fk[:, :-1] - fk[:, 1:])),
         ca.vec(xk[:, 1:] - xk[:, :-1] - h / 6 * (fk[:, :-1] + 4 * fm + fk[:, 1:])),
     ]
@@ -346,7 +350,7 @@ def plan_swingup(
 ) -> Plan:
     """Plan a swing-up of `plant` from `start` (default: hanging at rest) to `target` (default:
     upright at rest, θ0 = 0) in `duration` seconds with |u| ≤ `u_max` and, when given,
-    |θ0| ≤ `x_max`; `intervals` collocation intervals (default: duration / 0.05 s, 20 … 150).
+    |θ0| ≤ `x_max`; `intervals` collocation intervals (default: duration / 0.05 s, 20 … 300).
 
     Returns a `Plan`; raises `PlanError` for bad input or when no plan is found (the message
     names what to relax).

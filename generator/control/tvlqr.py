@@ -130,12 +130,13 @@ def track(
     plan: Plan,
     period: float = 0.01,
     q: np.ndarray | list[float] | None = None,
-    r: float = 1.0,
+    r: float = 1e-4,
 ) -> GainSchedule:
     """The time-varying LQR that tracks `plan` sampled every `period` seconds, and its hold gain.
 
-    `q` (2·dof diagonal weights or a matrix, default all ones) and `r` (weight of u², default 1)
-    weight the deviation from the plan and the input correction, as in `ipgen.lqr`. The plan's
+    `q` (2·dof diagonal weights or a matrix, default all ones) and `r` (weight of u², default
+    1e-4: tight tracking, the plan already spends the input) weight the deviation from the plan
+    and the input correction, as in `ipgen.lqr`; the hold gain uses the same weights. The plan's
     duration must be a whole multiple of `period`.
     """
     import numpy as np
