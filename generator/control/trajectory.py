@@ -394,7 +394,8 @@ def plan_swingup(
         limits = f"|u| ≤ {u_max_:g}" + ("" if x_max_ is None else f", |θ0| ≤ {x_max_:g}")
         raise PlanError(
             f"no swing-up plan found for {plant.system.type} n = {plant.links} in {duration_:g} s with "
-            f"{limits} (IPOPT: {status}); relax u_max, x_max or change the duration"
+            f"{limits} (IPOPT: {status}); relax {'u_max' if x_max_ is None else 'u_max, x_max'} "
+            "or change the duration"
         )
     xk, uk, ak, xm, um, am = nlp.unpack(result["x"])
     return Plan(
