@@ -247,3 +247,25 @@ def test_hold_gain_tends_to_the_continuous_lqr_gain_for_fast_sampling() -> None:
         errors.append(np.max(np.abs(k - continuous)) / np.max(np.abs(continuous)))
     assert errors[2] < 2e-3
     assert errors[1] < errors[0] / 5 and errors[2] < errors[1] / 5  # first order in h
+
+
+def test_fallback_homotopy_runs_when_the_first_solve_fails(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The first IPOPT call is made to report a failure: the homotopy in the limits (×4, ×2, ×1.4,
+    ×1, warm-started) must then find the plan, within the original limits."""
+    from ipgen.control import trajectory
+
+    real = trajectory._solve
+    calls = []
+
+    def failing_first(*args, **kwargs):
+        result, status, iterations, elapsed = real(*args, **kwargs)
+        calls.append(status)
+        return result, ("Maximum_Iterations_Exceeded" if len(calls) == 1 else status), iterations, elapsed
+
+    monkeypatch.setattr(trajectory, "_solve", failing_first)
+    kind, links, duration, u_max, x_max = CASES["classical1"]
+    plan = plan_swingup(paper_plant(kind, links), duration=duration, u_max=u_max, x_max=x_max)
+    assert len(plan.attempts) == 5 and plan.attempts[0].startswith("linear guess: Maximum_Iterations")
+    assert plan.attempts[-1].startswith("homotopy ×1: Solve_Succeeded")
+    assert np.max(np.abs(plan.inputs)) <= u_max * (1 + 1e-6)
+    assert np.max(np.abs(plan.states[:, 0])) <= x_max * (1 + 1e-6)

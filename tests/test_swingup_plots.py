@@ -55,6 +55,9 @@ def test_gif_and_png_from_a_simulator_csv(tmp_path: Path) -> None:
     with Image.open(png) as image:
         assert image.format == "PNG"
     assert not list(tmp_path.glob(".ipgen.*"))  # no temporary left behind
+    plain = tmp_path / "plain"
+    plain.write_text("")
+    assert gif.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777  # the umask's mode, not 0600
 
 
 def test_an_existing_picture_is_kept_without_force(tmp_path: Path) -> None:

@@ -154,8 +154,11 @@ def _write_atomically(path: Path, force: bool, write: Any) -> Path:
         raise PlotError(f"{path.parent}: no such directory")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".ipgen.", suffix=path.suffix)
     os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
     try:
         write(tmp)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would make the picture private
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
