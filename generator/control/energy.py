@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model
 from ipgen.control.linear import _weights
-from ipgen.control.trajectory import PlanError
+from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
 
 if TYPE_CHECKING:
@@ -127,11 +127,8 @@ def energy_swingup(
         ("catch_angle", catch_angle, True),
         ("catch_rate", catch_rate, True),
     ):
-        try:
-            number = float(value)
-        except (TypeError, ValueError):
-            raise PlanError(f"{name} = {value!r}: expected a number") from None
-        if not math.isfinite(number) or (positive and number <= 0):
+        number = finite_number(name, value)
+        if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
     g = plant.g
     # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,

@@ -10,12 +10,11 @@ Energy control for single links is `energy.energy_swingup`.
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant
-from ipgen.control.trajectory import Plan, PlanError, plan_swingup
+from ipgen.control.trajectory import Plan, PlanError, finite_number, plan_swingup
 from ipgen.control.tvlqr import GainSchedule, track
 
 if TYPE_CHECKING:
@@ -40,16 +39,10 @@ def trajectory_swingup(
     """(plan, gain schedule) of a swing-up from `start` (default hanging at rest) to upright at
     rest in `duration` s, planned within |u| ≤ margin·u_max (0 < margin ≤ 1) and |θ0| ≤ x_max,
     tracked every `period` s with |u| ≤ u_max. Raises `PlanError` (an `ipgen.Error`)."""
-    try:
-        margin_ = float(margin)
-    except (TypeError, ValueError):
-        raise PlanError(f"margin = {margin!r}: expected a number in (0, 1]") from None
-    if not (math.isfinite(margin_) and 0 < margin_ <= 1):
+    margin_ = finite_number("margin", margin)
+    if not 0 < margin_ <= 1:
         raise PlanError(f"margin = {margin!r}: expected a fraction of u_max in (0, 1]")
-    try:
-        u_limit = float(u_max)
-    except (TypeError, ValueError):
-        raise PlanError(f"u_max = {u_max!r}: expected a number") from None
+    u_limit = finite_number("u_max", u_max)
     plan = plan_swingup(
         plant,
         duration=duration,

@@ -24,6 +24,7 @@ still cannot be found raises `PlanError`, one line naming what to relax.
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -35,7 +36,7 @@ from ipgen.control.linear import ControlError
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["Plan", "PlanError", "plan_swingup"]
+__all__ = ["Plan", "PlanError", "finite_number", "plan_swingup"]
 
 MAX_INTERVALS = 2000
 REGULARISATION = 1e-4  # ε: weight of ∫|θ̈|² dt against ∫u² dt
@@ -113,13 +114,16 @@ class Plan:
 
 
 def _finite(name: str, value: object) -> float:
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        raise PlanError(f"{name} = {value!r}: expected a number") from None
+    """`value` as a float if it is a finite real number (not a bool or text), else PlanError."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise PlanError(f"{name} = {value!r}: expected a number")
+    number = float(value)
     if not math.isfinite(number):
         raise PlanError(f"{name} = {number}: expected a finite number")
     return number
+
+
+finite_number = _finite  # shared with tvlqr, energy and swingup
 
 
 def _state(name: str, value: Sequence[float] | None, default: np.ndarray) -> np.ndarray:

@@ -23,13 +23,12 @@ differs from the continuous one by O(period).)
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model
 from ipgen.control.linear import _check_stabilisable, _weights, linearize
-from ipgen.control.trajectory import Plan, PlanError
+from ipgen.control.trajectory import Plan, PlanError, finite_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -141,11 +140,8 @@ def track(
     """
     import numpy as np
 
-    try:
-        period_ = float(period)
-    except (TypeError, ValueError):
-        raise PlanError(f"period = {period!r}: expected a number of seconds > 0") from None
-    if not math.isfinite(period_) or period_ <= 0:
+    period_ = finite_number("period", period)
+    if period_ <= 0:
         raise PlanError(f"period = {period_}: expected a sampling period > 0 s (e.g. 0.01)")
     steps_f = plan.duration / period_
     steps = round(steps_f)
