@@ -40,7 +40,7 @@ from ipgen.plots.animation import animate_run, plot_plan_and_run
 from tests.swingup_reference import Run, simulate
 
 DOCS = ROOT / "docs" / "bench"
-HOLD = 3.0  # s of hold after the plan (energy control: the whole run is ENERGY_T)
+HOLD = 5.0  # s of hold after the plan (energy control: the whole run is ENERGY_T)
 ENERGY_T = 8.0
 ANGLE, BASE, RATE = 1e-2, 5e-2, 5e-2
 BAND = 0.05  # rad: "swung up" once every link stays this close to upright
