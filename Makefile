@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory stability configure build clean
 
 all: test
 
@@ -78,7 +78,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
@@ -114,6 +114,13 @@ bench-control: $(VENV)/.bench-installed
 SWINGUP_ARGS ?= $(BENCH_QUICK)
 bench-swingup: $(VENV)/.bench-installed
 	$(PY) -m bench.swingup $(SWINGUP_ARGS)
+
+## Peak resident memory of simulate_cdip for 10^4 and 10^7 output samples: the CSV is streamed,
+## so both must be within 20 MB (bench/simulator_memory.py, docs/bench/simulator_memory.md).
+bench-memory: configure $(VENV)/.bench-installed
+	@$(call apt_install,time)
+	cmake --build $(BUILD) -j $(JOBS) --target simulate_cdip scene_cdip_pulse
+	$(PY) -m bench.simulator_memory --build $(BUILD)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

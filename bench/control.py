@@ -108,7 +108,10 @@ def brought_back(model: Model, tilt: float, period: float | None, saturated: boo
     tag = f"{tilt:.6f}_{period or 0}_{int(saturated)}"
     cfg, csv = model.folder / f"run_{tag}.cfg", model.folder / f"run_{tag}.csv"
     cfg.write_text(resolved_config(scene))
-    run = subprocess.run([str(model.simulator), str(cfg), "--csv", str(csv)], capture_output=True, text=True)
+    # --divergence-angle inf: the question is where the run ends, so a link that passes the
+    # horizontal and comes back counts as brought back (as before the simulator stopped such runs).
+    command = [str(model.simulator), str(cfg), "--csv", str(csv), "--divergence-angle", "inf"]
+    run = subprocess.run(command, capture_output=True, text=True)
     cfg.unlink()
     if run.returncode != 0:  # e.g. too much work as the pendulum spins: not brought back
         return False

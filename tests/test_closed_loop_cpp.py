@@ -61,7 +61,19 @@ int main(int argc, char** argv) {
   s.atol = 1e-12;
   s.theta << 0.0, 0.1, 0.0;
   s.input = c.input();
-  const ipsim::Result r = ipsim::simulate<Model>(p, s);
+  // "monitored": the samples go through the simulator's divergence check (ipsim/divergence.hpp)
+  // into a MemorySink; stderr says whether it stopped the run.
+  ipsim::Result r;
+  if (argc > 2 && std::strcmp(argv[2], "monitored") == 0) {
+    ipsim::MemorySink memory(r);
+    ipsim::DivergenceMonitor monitor(memory, c.equilibrium, Model::kDof);
+    const ipsim::Result summary = ipsim::simulate<Model>(p, s, monitor);
+    memory.finish();
+    r.max_abs_input = summary.max_abs_input;
+    std::fprintf(stderr, "stopped %d\n", summary.stopped_early ? 1 : 0);
+  } else {
+    r = ipsim::simulate<Model>(p, s);
+  }
   const Eigen::VectorXcd poles = ipsim::closed_loop_poles<Model>(p, c);
   std::printf("poles");
   for (Eigen::Index i = 0; i < poles.size(); ++i) {
@@ -112,8 +124,8 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
     return binary, gain
 
 
-def run(binary: Path, mode: str) -> tuple[np.ndarray, float, np.ndarray]:
-    out = subprocess.run([str(binary), mode], capture_output=True, text=True, check=True).stdout.splitlines()
+def run(binary: Path, *mode: str) -> tuple[np.ndarray, float, np.ndarray]:
+    out = subprocess.run([str(binary), *mode], capture_output=True, text=True, check=True).stdout.splitlines()
     numbers = [float(v) for v in out[0].split()[1:]]
     poles = np.array(numbers[0::2]) + 1j * np.array(numbers[1::2])
     largest = float(out[1].split()[1])
@@ -158,3 +170,17 @@ def test_closed_loop_saturated_and_converging(driver: tuple[Path, np.ndarray], m
             window = u[start : start + per_window]
             assert np.all(window == window[0]), f"u changes between sampling instants after t = {t[start]}"
         assert np.any(u[~instants][:-1] != expected[~instants][:-1])  # held, not recomputed
+
+
+@pytest.mark.parametrize("mode", ["continuous", "sampled"])
+def test_divergence_check_leaves_a_holding_loop_alone(driver: tuple[Path, np.ndarray], mode: str) -> None:
+    """The simulator's divergence check (a link beyond π/2 from x_eq) does not stop these closed
+    loops, which come back from 0.1 rad; the samples are the same as without it."""
+    binary, _ = driver
+    checked = subprocess.run([str(binary), mode, "monitored"], capture_output=True, text=True, check=True)
+    assert checked.stderr.strip() == "stopped 0"
+    _, largest, rows = run(binary, mode, "monitored")
+    _, reference_largest, reference = run(binary, mode)
+    assert rows.shape == reference.shape and np.array_equal(rows, reference)
+    assert largest == reference_largest
+    assert np.max(np.abs(rows[:, 3:5])) < np.pi / 2  # the links (θ1, θ2 after t and u)

@@ -2,7 +2,8 @@
 stand-in simulator, whose path it passes in IPSIM_SIMULATOR; skipped without it.
 
 Classes: 5 (a file at --csv that the simulator did not write is never replaced without --force,
-the scene never; an unwritable path is reported before integrating; no temporary file is left),
+the scene never; an unwritable path is reported before integrating; no temporary file is left,
+also when the run is ended by SIGTERM, SIGINT, SIGHUP or the file-size limit, issue #19),
 6 (every scene ipgen accepts, the simulator accepts: the limits are shared), 7 (resolved scenes
 in folders with any name are read back unchanged) and 9 (messages stay one bounded line).
 """
@@ -10,6 +11,8 @@ in folders with any name are read back unchanged) and 9 (messages stay one bound
 from __future__ import annotations
 
 import os
+import resource
+import signal
 import subprocess
 import tempfile
 import time
@@ -168,6 +171,101 @@ def test_class5_unwritable_path_reported_before_integrating(kind: str, length: i
         assert_clean_error(result, kind)
         assert time.monotonic() - started < 5
         assert leftovers(folder) == [] and leftovers(locked) == []
+
+
+# ---------------------------------------------------------------- class 5: signals (issue #19)
+
+# 1e7 samples: minutes of integrating and writing, ended by the test long before.
+LONG_RUN = "t_end = 1e4\nsample = 1e-3"
+EARLIER = HEADER + "\n0,1,2,3,4\n"  # an earlier result at the CSV path: must survive
+
+
+def start_long_run(folder: Path, preexec: object = None) -> tuple[subprocess.Popen[bytes], Path]:
+    cfg = write_cfg(folder, LONG_RUN)
+    target = folder / "out.csv"
+    target.write_text(EARLIER)
+
+    def default_signals() -> None:
+        # As from an interactive shell: a test run in the background may have SIGINT ignored,
+        # which the simulator (rightly) keeps ignored.
+        for number in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGXFSZ):
+            signal.signal(number, signal.SIG_DFL)
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # SIGXFSZ's default action dumps core
+        if callable(preexec):
+            preexec()
+
+    assert SIMULATOR is not None
+    process = subprocess.Popen(
+        [SIMULATOR, str(cfg), "--csv", str(target)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        preexec_fn=default_signals,
+    )
+    return process, target
+
+
+def wait_for_rows(process: subprocess.Popen[bytes], folder: Path, timeout: float = 5.0) -> None:
+    """Until the temporary CSV holds rows: the run is integrating and streaming."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and process.poll() is None:
+        names = leftovers(folder)
+        if names and (folder / names[0]).stat().st_size > 100_000:
+            return
+        time.sleep(0.02)
+    status = process.poll()
+    raise AssertionError(f"no rows streamed to a temporary file (status {status}, {leftovers(folder)})")
+
+
+def finish(process: subprocess.Popen[bytes], timeout: float = 5.0) -> tuple[int, str]:
+    try:
+        _, err = process.communicate(timeout=timeout)
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return process.returncode, err.decode(errors="replace")
+
+
+@pytest.mark.parametrize("number", [signal.SIGTERM, signal.SIGINT, signal.SIGHUP])
+def test_class5_signal_removes_temporary_file(tmp_path: Path, number: signal.Signals) -> None:
+    process, target = start_long_run(tmp_path)
+    wait_for_rows(process, tmp_path)
+    process.send_signal(number)
+    status, err = finish(process)
+    # Ended by the signal itself (a shell reports 128 + signal), after removing the temporary file.
+    assert status == -number, (status, err)
+    assert leftovers(tmp_path) == []
+    assert target.read_text() == EARLIER
+
+
+def test_class5_file_size_limit_removes_temporary_file(tmp_path: Path) -> None:
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+
+    started = time.monotonic()
+    process, target = start_long_run(tmp_path, limit)
+    status, err = finish(process, timeout=10)
+    assert status == -signal.SIGXFSZ, (status, err)
+    assert time.monotonic() - started < 5
+    assert leftovers(tmp_path) == []
+    assert target.read_text() == EARLIER
+
+
+def test_class5_ignored_file_size_signal_is_a_write_error(tmp_path: Path) -> None:
+    """With SIGXFSZ ignored the write fails instead: a one-line error at once, exit status 1."""
+
+    def limit_and_ignore() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+    started = time.monotonic()
+    process, target = start_long_run(tmp_path, limit_and_ignore)
+    status, err = finish(process, timeout=10)
+    assert status == 1, (status, err)
+    assert err.startswith("simulate: error: error while writing `") and err.count("\n") == 1, err
+    assert time.monotonic() - started < 5
+    assert leftovers(tmp_path) == []
+    assert target.read_text() == EARLIER
 
 
 # ---------------------------------------------------------------- class 6: shared limits

@@ -12,9 +12,14 @@
 //   is written to a temporary file next to it and renamed into place. --check validates the scene
 //   and options and exits without integrating or writing.
 // A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
-// states the gain, the closed-loop poles of the linearised model and the largest |u|.
-// Exit codes: 0 success, 1 integration failure, 2 bad command line, scene, parameters, settings or
-// CSV path (all reported before integrating).
+// states the gain, the closed-loop poles of the linearised model and the largest |u|; a closed
+// loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
+// from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
+// Samples are written to the temporary CSV as the integration reaches them (memory stays flat);
+// SIGINT, SIGTERM, SIGHUP and SIGXFSZ remove the temporary file, then end the process by the same
+// signal (exit status 128 + signal in a shell).
+// Exit codes: 0 success, 1 integration failure or write error, 2 bad command line, scene,
+// parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged.
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
 #endif
@@ -22,6 +27,8 @@
 
 #include <array>
 #include <cerrno>
+#include <climits>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -58,12 +65,65 @@ struct Options {
   std::optional<ipsim::Jacobian> jacobian;
   std::optional<double> rtol, atol, step, t_end, sample;
   std::optional<long> max_steps;
+  /// A closed loop is stopped when a link is farther than this from the controller's equilibrium [rad].
+  double divergence_angle = ipsim::DivergenceMonitor::kHalfPi;
 };
+
+/// Exit code of a closed loop stopped because it diverged.
+constexpr int kExitDiverged = 3;
 
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
     "erk-fehlberg8|rk4] [--jacobian exact|dq] [--rtol X] [--atol X] [--step X] [--t-end X] [--sample X] "
-    "[--max-steps N] [--energy] [--force] [--check]";
+    "[--max-steps N] [--energy] [--divergence-angle RAD] [--force] [--check]";
+
+/// --help: the usage line, then what the options, the scene file and the CSV hold.
+constexpr const char* kHelp = R"(
+Simulates a resolved scene (SCENE.cfg, written by `ipgen --scene X.toml -o DIR`) of the model this
+simulator was built for and writes the trajectory as CSV.
+
+options:
+  --csv OUT.csv        output file (default: SCENE with .csv); an existing file is replaced only if
+                       this simulator wrote it (its first line is a header as below), or with --force
+  --method M           bdf (default), adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4
+  --jacobian J         bdf and adams: exact (default) or dq (difference quotients)
+  --rtol X, --atol X   tolerances of the adaptive methods (scene default 1e-10, 1e-12)
+  --step X             rk4 only: its fixed step [s]
+  --t-end X            final time [s];  --sample X: output interval [s]
+  --max-steps N        integrator steps allowed between two output samples
+  --energy             add the energy columns and the energy balance to the summary
+  --divergence-angle RAD
+                       with a controller: stop when a link is farther than RAD from the
+                       controller's equilibrium (default pi/2 = 1.5708; inf: never stop)
+  --force              replace an existing file at --csv even if this simulator did not write it
+  --check              validate the scene and options, integrate nothing, write nothing
+
+CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
+  t                    time [s]
+  theta0               cart position [m] (classical) or arm angle [rad] (rotary)
+  theta1..thetaN       link angles [rad] from the upward vertical (absolute, clockwise positive)
+  dtheta0..dthetaN     their rates [m/s or rad/s]
+  kinetic,potential    T and V [J] (--energy or energy = true)
+  input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
+  u                    scenes with a controller: the input [N or N m] applied from t on
+The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
+into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
+earlier file untouched and no temporary file.
+
+SCENE.cfg: one `key = value` a line (# comments), lists space-separated, per coordinate
+base first: name, model, type (classical|rotary), links, inertia (pivot|full); m [kg], l [m],
+delta [kg/s or N m s], g [m/s^2]; theta, dtheta (initial state); input = zero|constant|pulse|step|sine
+with input.amplitude [N or N m], input.start, input.duration, input.time [s], input.frequency [Hz],
+input.phase [rad]; t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
+(true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
+numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
+controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous).
+
+exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
+scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
+(a link left the controller's region: the CSV up to that sample is written); 128 + n when ended
+by signal n (the temporary file removed).
+)";
 
 using ipsim::detail::abbreviate;
 
@@ -91,7 +151,13 @@ Options parse_command_line(int argc, char** argv) {
       return args[++i];
     };
     if (arg == "-h" || arg == "--help") {
-      std::puts(kUsage);
+      std::fputs(kUsage, stdout);
+      std::fputs(kHelp, stdout);
+      std::printf("\nThis simulator: model %s (%s, %d link%s); its CSV header is t", Model::kName, Model::kType,
+                  Model::kLinks, Model::kLinks == 1 ? "" : "s");
+      for (int i = 0; i < kDof; ++i) std::printf(",theta%d", i);
+      for (int i = 0; i < kDof; ++i) std::printf(",dtheta%d", i);
+      std::puts(" (then the optional columns).");
       std::exit(0);
     } else if (arg == "--csv") {
       options.csv_path = value();
@@ -126,6 +192,11 @@ Options parse_command_line(int argc, char** argv) {
       }
     } else if (arg == "--energy") {
       options.energy = true;
+    } else if (arg == "--divergence-angle") {
+      options.divergence_angle = parse_number(arg, value());
+      if (!(options.divergence_angle > 0.0)) {
+        throw UsageError("--divergence-angle must be > 0 [rad] (inf: never stop), got `" + abbreviate(args[i]) + "`");
+      }
     } else if (arg == "--force") {
       options.force = true;
     } else if (arg == "--check") {
@@ -150,35 +221,67 @@ Options parse_command_line(int argc, char** argv) {
   return options;
 }
 
-/// The energy columns of CSV row k: T, V, input work, dissipated energy. A template, so that a
-/// specialised header without energy functions compiles (the simulation refuses an energy
-/// ledger for it before getting here).
+/// The summary's energy balance: T + V at start and end, input work, dissipated energy.
 template <class M>
-std::array<double, 4> energy_columns(const ipsim::Result& result, std::size_t k, const ipsim::ParamsOf<M>& params) {
+void print_energy_balance(const ipsim::CsvSink<M>& csv, const ipsim::ParamsOf<M>& params) {
   if constexpr (ipsim::has_energy<M>) {
-    const auto row = static_cast<Eigen::Index>(k);
-    const ipsim::VectorOf<M> q = result.states.row(row).template head<M::kDof>().transpose();
-    const ipsim::VectorOf<M> qd = result.states.row(row).template segment<M::kDof>(M::kDof).transpose();
-    return {M::template kinetic_energy<double>(q, qd, params), M::template potential_energy<double>(q, params),
-            result.input_work[k], result.dissipated_energy[k]};
+    const double start = ipsim::mechanical_energy<M>(params, csv.first_state());
+    const double end = ipsim::mechanical_energy<M>(params, csv.last_state());
+    const double work = csv.last_input_work();
+    const double dissipated = csv.last_dissipated_energy();
+    std::printf(" Energy: T+V %.9g J at start, %.9g J at end, input work %.9g J, dissipated %.9g J, balance error %.3g J.",
+                start, end, work, dissipated, end - (start + work - dissipated));
   } else {
-    (void)result, (void)k, (void)params;
-    return {};
+    (void)csv, (void)params;
   }
 }
 
-/// The summary's energy balance: T + V at start and end, input work, dissipated energy.
-template <class M>
-void print_energy_balance(const ipsim::Result& result, const ipsim::ParamsOf<M>& params) {
-  if constexpr (ipsim::has_energy<M>) {
-    const double start = ipsim::mechanical_energy<M>(params, result.states.topRows(1).transpose());
-    const double end = ipsim::mechanical_energy<M>(params, result.states.bottomRows(1).transpose());
-    const double work = result.input_work.back();
-    const double dissipated = result.dissipated_energy.back();
-    std::printf(" Energy: T+V %.9g J at start, %.9g J at end, input work %.9g J, dissipated %.9g J, balance error %.3g J.",
-                start, end, work, dissipated, end - (start + work - dissipated));
+// ---------------------------------------------------------------- signals
+//
+// While the temporary CSV exists, SIGINT, SIGTERM, SIGHUP and SIGXFSZ (the file-size limit,
+// RLIMIT_FSIZE) remove it before the process ends. The handler only calls async-signal-safe
+// functions (unlink, sigaction, raise) on a path stored beforehand in a static buffer, then
+// re-raises the signal with its default action, so the process ends by that signal (exit status
+// 128 + signal in a shell) as it would have without the handler.
+
+constexpr int kCleanupSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGXFSZ};
+char g_temporary_path[PATH_MAX + 1];
+volatile std::sig_atomic_t g_temporary_set = 0;
+
+extern "C" void remove_temporary_and_reraise(int signal_number) {
+  if (g_temporary_set) ::unlink(g_temporary_path);
+  struct sigaction action {};
+  action.sa_handler = SIG_DFL;
+  sigemptyset(&action.sa_mask);
+  ::sigaction(signal_number, &action, nullptr);
+  ::raise(signal_number);  // blocked while the handler runs: delivered, with the default action, on return
+}
+
+/// Installs the handler for each cleanup signal that is not ignored (a signal the parent set to
+/// be ignored stays ignored: a nohup run is not ended by SIGHUP; an ignored SIGXFSZ makes the
+/// write fail instead, which removes the file through ~PendingCsv).
+void install_cleanup_handlers() {
+  for (const int signal_number : kCleanupSignals) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler == SIG_IGN) continue;
+    struct sigaction action {};
+    action.sa_handler = remove_temporary_and_reraise;
+    sigemptyset(&action.sa_mask);
+    for (const int other : kCleanupSignals) sigaddset(&action.sa_mask, other);  // one handler at a time
+    ::sigaction(signal_number, &action, nullptr);
   }
 }
+
+/// Stores the temporary file's path for the handler (false if it does not fit the buffer).
+bool set_signal_temporary(const std::string& path) {
+  g_temporary_set = 0;
+  if (path.size() > PATH_MAX) return false;
+  std::memcpy(g_temporary_path, path.c_str(), path.size() + 1);
+  g_temporary_set = 1;
+  return true;
+}
+
+void clear_signal_temporary() { g_temporary_set = 0; }
 
 /// True if the first line of `path` is a header this simulator writes (for any model):
 /// `t,theta0,...,thetaN,dtheta0,...,dthetaN` with optional energy columns. That line is how a
@@ -235,7 +338,17 @@ class PendingCsv {
     const auto slash = path.find_last_of('/');
     const std::string directory = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
     std::string name = directory + "/.simulate.XXXXXX";
+    // Block the cleanup signals from before the file exists until its name is stored for the
+    // handler, so that no signal can leave it behind.
+    sigset_t cleanup, previous;
+    sigemptyset(&cleanup);
+    for (const int signal_number : kCleanupSignals) sigaddset(&cleanup, signal_number);
+    ::sigprocmask(SIG_BLOCK, &cleanup, &previous);
     const int fd = ::mkstemp(name.data());
+    if (fd >= 0) set_signal_temporary(name);
+    const int saved_errno = errno;
+    ::sigprocmask(SIG_SETMASK, &previous, nullptr);
+    errno = saved_errno;
     if (fd < 0) {
       throw UsageError("cannot write " + shown + ": " + std::strerror(errno) + " (in " + shown_path(directory) +
                        "); choose another --csv");
@@ -255,6 +368,7 @@ class PendingCsv {
   ~PendingCsv() {
     if (out_ != nullptr) std::fclose(out_);
     if (!temporary_.empty()) std::remove(temporary_.c_str());
+    clear_signal_temporary();
   }
 
   std::FILE* stream() const { return out_; }
@@ -269,6 +383,7 @@ class PendingCsv {
       throw std::runtime_error("cannot rename `" + shown_path(temporary_) + "` to `" + shown_path(path_) + "`: " +
                                std::strerror(errno));
     }
+    clear_signal_temporary();  // after the rename: a signal in between finds nothing to unlink
     temporary_.clear();
   }
 
@@ -277,44 +392,6 @@ class PendingCsv {
   std::string temporary_;
   std::FILE* out_ = nullptr;
 };
-
-/// Writes the CSV into `csv` and renames it into place, so a reader never sees a half-written
-/// file and a failed run leaves any previous result untouched. Refuses (writing nothing) when a
-/// value is NaN or infinite: ipsim stops before recording such a state, this guards the derived
-/// columns and anything that slips through.
-void write_csv(PendingCsv& csv, const std::string& path, const ipsim::Result& result,
-               const ipsim::ParamsOf<Model>& params, bool energy, bool input_column) {
-  std::vector<std::array<double, 4>> energies;  // each row's energy columns, computed once
-  for (std::size_t k = 0; k < result.times.size(); ++k) {
-    bool finite = std::isfinite(result.times[k]) && result.states.row(static_cast<Eigen::Index>(k)).allFinite();
-    if (energy) {
-      energies.push_back(energy_columns<Model>(result, k, params));
-      for (const double value : energies.back()) finite = finite && std::isfinite(value);
-    }
-    if (!finite) {
-      throw std::runtime_error("refusing to write `" + shown_path(path) + "`: the row at t = " + std::to_string(result.times[k]) +
-                               " s has a non-finite value (NaN or inf)");
-    }
-  }
-  std::FILE* out = csv.stream();
-  std::fputs("t", out);
-  for (int i = 0; i < kDof; ++i) std::fprintf(out, ",theta%d", i);
-  for (int i = 0; i < kDof; ++i) std::fprintf(out, ",dtheta%d", i);
-  if (energy) std::fputs(",kinetic,potential,input_work,dissipated", out);
-  if (input_column) std::fputs(",u", out);
-  std::fputc('\n', out);
-  for (std::size_t k = 0; k < result.times.size(); ++k) {
-    const auto row = static_cast<Eigen::Index>(k);
-    std::fprintf(out, "%.17g", result.times[k]);
-    for (Eigen::Index j = 0; j < result.states.cols(); ++j) std::fprintf(out, ",%.17g", result.states(row, j));
-    if (energy) {
-      for (const double value : energies[k]) std::fprintf(out, ",%.17g", value);
-    }
-    if (input_column) std::fprintf(out, ",%.17g", result.inputs[k]);
-    std::fputc('\n', out);
-  }
-  csv.commit();
-}
 
 /// The integrator and its counters, e.g. "CVODE BDF (exact Jacobian): 812 steps, …".
 std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistics& st) {
@@ -369,22 +446,40 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
   std::printf("; largest |u| %.6g.", result.max_abs_input);
 }
 
-void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result) {
+void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result,
+                   const ipsim::CsvSink<Model>& csv) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
-  const Eigen::VectorXd final_state = result.states.bottomRows(1).transpose();
+  const Eigen::VectorXd& final_state = csv.last_state();
   std::printf(
       "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
       abbreviate(scene.name).c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
-      ipsim::to_string(s.input.kind), ipsim::to_string(s.method), s.t_end, result.times.size(),
+      ipsim::to_string(s.input.kind), ipsim::to_string(s.method), csv.last_time(), csv.rows(),
       shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
-  if (options.energy) print_energy_balance<Model>(result, scene.params);
+  if (options.energy) print_energy_balance<Model>(csv, scene.params);
   if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result);
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
+}
+
+/// The one-line report of a closed loop stopped because it left the controller's region: when,
+/// which link, where the CSV is, and what to change in the scene.
+std::string divergence_message(const ipsim::Divergence& d, double angle, const ipsim::LinearFeedback& controller,
+                               const Options& options, std::size_t rows) {
+  char where[200];
+  std::snprintf(where, sizeof where,
+                "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the controller's equilibrium "
+                "(theta%d = %.4g), beyond --divergence-angle %.4g rad",
+                d.t, d.link, d.deviation, d.link, controller.equilibrium(d.link), angle);
+  std::string fixes = "a smaller initial tilt ([initial] theta), other weights ([controller] q, r)";
+  if (controller.period > 0.0) fixes += ", a shorter [controller] period";
+  if (std::isfinite(controller.saturation)) fixes += ", a larger [controller] saturation";
+  return std::string(where) + "; stopped there, the " + std::to_string(rows) + " samples up to then are in " +
+         shown_path(options.csv_path) + ". Try " + fixes +
+         ", or a swing-up that brings the pendulum near the equilibrium first";
 }
 
 int run(int argc, char** argv) {
@@ -411,10 +506,34 @@ int run(int argc, char** argv) {
 
   ipsim::require_valid_run<Model>(scene.params, s);
   if (options.check) return 0;
+  install_cleanup_handlers();
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
-  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s);
-  write_csv(csv, options.csv_path, result, scene.params, options.energy, scene.controller.has_value());
-  print_summary(options, scene, result);
+  ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy, scene.controller.has_value(),
+                             shown_path(options.csv_path));
+  std::optional<ipsim::DivergenceMonitor> monitor;
+  if (scene.controller && std::isfinite(options.divergence_angle)) {
+    monitor.emplace(rows, scene.controller->equilibrium, kDof, options.divergence_angle);
+    Eigen::VectorXd start(2 * kDof);
+    start << s.theta, s.dtheta;
+    if (const auto [link, deviation] = ipsim::farthest_link(start, scene.controller->equilibrium, kDof);
+        deviation > options.divergence_angle) {
+      std::fprintf(stderr,
+                   "simulate: warning: the initial state is outside the controller's region: link %d is %.4g rad "
+                   "from the equilibrium, more than --divergence-angle %.4g rad; divergence is checked only once "
+                   "every link is within it\n",
+                   link, deviation, options.divergence_angle);
+    }
+  }
+  ipsim::SampleSink& sink = monitor ? static_cast<ipsim::SampleSink&>(*monitor) : rows;
+  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, sink);
+  csv.commit();
+  print_summary(options, scene, result, rows);
+  if (monitor && monitor->divergence()) {
+    std::fflush(stdout);
+    std::fprintf(stderr, "simulate: error: %s\n",
+                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows()).c_str());
+    return kExitDiverged;
+  }
   return 0;
 }
 

@@ -2,7 +2,8 @@
 # non-zero, and the CLI promises exit code 2 for bad input.
 #   cmake -DCOMMAND="exe|arg|..." -DEXPECT_EXIT=<code> [-DEXPECT_STDOUT=<regex>]
 #         [-DEXPECT_STDERR=<regex>] [-DEXPECT_FILE=<path>] [-DEXPECT_FILE_HEAD=<regex>]
-#         [-DEXPECT_NO_FILE=<path>] -P run_cli.cmake
+#         [-DEXPECT_FILE_SAME_AS=<path>] [-DEXPECT_NO_FILE=<path>] -P run_cli.cmake
+# EXPECT_FILE_SAME_AS: EXPECT_FILE must equal that file byte for byte.
 if(DEFINED EXPECT_FILE)
   file(REMOVE "${EXPECT_FILE}")
 endif()
@@ -29,6 +30,13 @@ if(DEFINED EXPECT_FILE)
   if(DEFINED EXPECT_FILE_HEAD AND NOT content MATCHES "^${EXPECT_FILE_HEAD}")
     string(SUBSTRING "${content}" 0 300 head)
     message(FATAL_ERROR "${EXPECT_FILE} starts with:\n${head}\nexpected `${EXPECT_FILE_HEAD}`")
+  endif()
+  if(DEFINED EXPECT_FILE_SAME_AS)
+    execute_process(COMMAND "${CMAKE_COMMAND}" -E compare_files "${EXPECT_FILE}" "${EXPECT_FILE_SAME_AS}"
+                    RESULT_VARIABLE different)
+    if(different)
+      message(FATAL_ERROR "${EXPECT_FILE} differs from ${EXPECT_FILE_SAME_AS}\n${report}")
+    endif()
   endif()
 endif()
 if(DEFINED EXPECT_NO_FILE AND EXISTS "${EXPECT_NO_FILE}")

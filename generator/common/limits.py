@@ -6,10 +6,11 @@ scene the generator accepts is never refused by the simulator for a limit.
 
 Why these values:
 
-- `MAX_SAMPLES`: t_end / sample output samples at most. The simulator keeps every sample in
-  memory (2 kDof + 1 doubles each) and writes one CSV row per sample: 1e7 samples of a double
-  pendulum are 0.6 GB in memory and about 1.5 GB of CSV, well inside a 24 GB machine; more is a
-  typo (t_end = 1e7 s with the default sample 0.01 s asks for 1e9) rather than an experiment.
+- `MAX_SAMPLES`: t_end / sample output samples at most. The simulator writes one CSV row per
+  sample as the run reaches it (its memory does not grow with the samples; a C++ caller of
+  ipsim::simulate without a sink keeps them, 2 kDof + 1 doubles each): 1e7 samples of a double
+  pendulum are about 1.4 GB of CSV; more is a typo (t_end = 1e7 s with the default sample
+  0.01 s asks for 1e9) rather than an experiment.
 - `RTOL_MIN`: a relative tolerance below 1e-15 is below double precision's resolution
   (2.2e-16 per step, accumulated): CVODE and ARKODE cannot meet it. rtol must also be < 1.
 - `MAX_SCENE_BYTES` (256 KiB), `MAX_SCENE_NESTING`, `MAX_DOTTED_KEY_PARTS`: checked before the TOML

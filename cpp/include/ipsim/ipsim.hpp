@@ -8,6 +8,8 @@
 #pragma once
 
 #include "ipsim/controller.hpp"
+#include "ipsim/csv.hpp"
+#include "ipsim/divergence.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/guards.hpp"
 #include "ipsim/input.hpp"
@@ -17,4 +19,5 @@
 #include "ipsim/schedule.hpp"
 #include "ipsim/settings.hpp"
 #include "ipsim/simulate.hpp"
+#include "ipsim/sink.hpp"
 #include "ipsim/sundials.hpp"

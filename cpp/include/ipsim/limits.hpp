@@ -7,8 +7,9 @@
 
 namespace ipsim {
 
-/// Largest number of output samples, t_end / sample: every sample is kept in memory and written
-/// as a CSV row (1e7 samples of a double pendulum: 0.6 GB in memory, about 1.5 GB of CSV).
+/// Largest number of output samples, t_end / sample: every sample is a CSV row (1e7 samples of a
+/// double pendulum: about 1.4 GB of CSV; simulate_<model> streams them, simulate() without a sink
+/// keeps them in a Result: 0.5 GB).
 inline constexpr double kMaxSamples = 1e7;
 /// Smallest relative tolerance: below it double precision cannot meet the request (rtol < 1 too).
 inline constexpr double kRtolMin = 1e-15;

@@ -1,6 +1,7 @@
 // What a simulation returns: the sampled trajectory, the integrator's work counters and the wall time.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,9 @@ struct Statistics {
   long total_rhs_evals() const noexcept { return rhs_evals + linear_solver_rhs_evals; }
 };
 
-/// A sampled trajectory.
+/// A sampled trajectory. simulate(params, settings) fills every field; simulate(params,
+/// settings, sink) hands the samples to the sink instead and leaves times, states, inputs,
+/// input_work and dissipated_energy empty (the summary fields below are filled either way).
 struct Result {
   /// Sample times [s]: k·sample for k = 0, 1, … below t_end, then t_end. A sample within
   /// about 1e-9·sample of an input switching time is taken exactly at the switching time.
@@ -42,6 +45,11 @@ struct Result {
   /// Largest |u| over the samples and, for piecewise-constant inputs (a sampled controller
   /// included), over every value held between two stops.
   double max_abs_input = 0.0;
+  /// Number of samples recorded (times.size() when kept in memory).
+  std::size_t samples = 0;
+  /// True when a SampleSink stopped the run before t_end (SampleSink::record returned false);
+  /// the last sample recorded is the one it stopped at.
+  bool stopped_early = false;
   /// Integrator statistics for the whole run.
   Statistics stats;
   /// Integrator warnings (e.g. CVODE's "t + h = t on the next step"), in order of occurrence.

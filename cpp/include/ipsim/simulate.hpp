@@ -34,6 +34,7 @@
 #include "ipsim/rk4_stepper.hpp"
 #include "ipsim/schedule.hpp"
 #include "ipsim/settings.hpp"
+#include "ipsim/sink.hpp"
 #include "ipsim/sundials.hpp"
 
 namespace ipsim {
@@ -62,80 +63,89 @@ double mechanical_energy(const ParamsOf<Model>& params, const Eigen::VectorXd& x
 
 namespace detail {
 
-/// Runs `Stepper` over the stop schedule, recording samples into `result`.
+/// Runs `Stepper` over the stop schedule, handing each sample to `sink` as it is reached.
 template <class Model, class Stepper>
 void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const sundials::Context& context,
-                  RhsContext<Model>& rhs_context, Diagnostics& diagnostics, Result& result) {
+                  RhsContext<Model>& rhs_context, Diagnostics& diagnostics, SampleSink& sink, Result& result) {
   constexpr int n = Model::kDof;
   Eigen::Map<Eigen::VectorXd> y_values(y.data(), y.length());
   Stepper stepper(settings, y, context, rhs_context, diagnostics);
 
-  const std::vector<Stop> stops =
-      make_schedule(settings.t_end, settings.sample, settings.input.switching_times(settings.t_end));
-  const auto sample_count = std::count_if(stops.begin(), stops.end(), [](const Stop& s) { return s.sample; });
-  result.times.reserve(static_cast<std::size_t>(sample_count));
-  result.states.resize(sample_count, 2 * n);
-  result.inputs.reserve(static_cast<std::size_t>(sample_count));
-  if (settings.energy_ledger) {
-    result.input_work.reserve(static_cast<std::size_t>(sample_count));
-    result.dissipated_energy.reserve(static_cast<std::size_t>(sample_count));
-  }
-  auto record = [&](double t) {
+  const bool sampled = settings.input.kind == Input::Kind::sampled;
+  // The stops are generated as the run reaches them: no list of every sample in memory.
+  StopSchedule schedule(settings.t_end, settings.sample,
+                        sampled ? std::vector<double>{} : settings.input.switching_times(settings.t_end),
+                        sampled ? settings.input.period : 0.0);
+  sink.begin(static_cast<std::size_t>(schedule.sample_count()), 2 * n, settings.energy_ledger);
+
+  auto check_finite = [&](double t) {
     if (!y_values.allFinite()) {  // never hand out a non-finite sample (the integrators should not produce one)
       throw IntegrationError("the state is not finite at t = " + format_number(t) + " s (" + describe(settings) +
                                  "): " + format_values(y_values.data(), y_values.size()) + "; not recorded",
                              -1, "NONFINITE_STATE", t);
     }
-    const auto row = static_cast<Eigen::Index>(result.times.size());
-    result.times.push_back(t);
-    result.states.row(row) = y_values.head(2 * n).transpose();
-    if (settings.energy_ledger) {
-      result.input_work.push_back(y_values(2 * n));
-      result.dissipated_energy.push_back(y_values(2 * n + 1));
-    }
   };
   // u is constant between switching times: take it from the middle of the segment that starts
-  // at stops[first], which is unambiguous even when the segment's ends are switching times.
-  // A sampled controller instead computes u once from the state at the segment's first stop (a
-  // sampling instant) and holds it.
-  auto set_segment_input = [&](std::size_t first) {
-    if (settings.input.kind == Input::Kind::sampled) {
+  // at `start`, which is unambiguous even when the segment's ends are switching times. The
+  // segment ends at the next restart or at t_end (found on a copy of the schedule, which is
+  // small). A sampled controller instead computes u once from the state at the segment's first
+  // stop (a sampling instant) and holds it.
+  auto set_segment_input = [&](double start) {
+    if (sampled) {
       rhs_context.x = y_values.head(2 * n);
-      rhs_context.segment_input = settings.input.value(stops[first].t, rhs_context.x);
+      rhs_context.segment_input = settings.input.value(start, rhs_context.x);
+    } else if (settings.input.piecewise_constant()) {
+      StopSchedule ahead = schedule;
+      double end = start;
+      while (const auto stop = ahead.next()) {
+        end = stop->t;
+        if (stop->restart) break;
+      }
+      rhs_context.segment_input = settings.input.value(0.5 * (start + end), rhs_context.x);
     } else {
-      std::size_t last = first + 1;
-      while (last + 1 < stops.size() && !stops[last].restart) ++last;
-      const double middle = 0.5 * (stops[first].t + stops[last].t);
-      rhs_context.segment_input =
-          settings.input.piecewise_constant() ? settings.input.value(middle, rhs_context.x) : 0.0;
+      rhs_context.segment_input = 0.0;
     }
     result.max_abs_input = std::max(result.max_abs_input, std::abs(rhs_context.segment_input));
   };
-  // u at a sample: the segment's value, or the input evaluated at the recorded state.
-  auto record_input = [&](double t) {
+  // The sample at t: the state, the ledger, and u (the segment's value, or the input evaluated
+  // at the recorded state). False when the sink stops the run.
+  auto record = [&](double t) {
     double u = rhs_context.segment_input;
     if (!settings.input.piecewise_constant()) {
       rhs_context.x = y_values.head(2 * n);
       u = settings.input.value(t, rhs_context.x);
     }
-    result.inputs.push_back(u);
     result.max_abs_input = std::max(result.max_abs_input, std::abs(u));
+    Sample sample;
+    sample.t = t;
+    sample.state = y_values.data();
+    sample.state_size = 2 * n;
+    if (settings.energy_ledger) {
+      sample.input_work = y_values(2 * n);
+      sample.dissipated_energy = y_values(2 * n + 1);
+    }
+    sample.input = u;
+    ++result.samples;
+    return sink.record(sample);
   };
 
-  record(0.0);
-  set_segment_input(0);
-  record_input(0.0);
-  for (std::size_t i = 1; i < stops.size(); ++i) {
-    const Stop& stop = stops[i];
-    stepper.advance(stop.t);
-    if (stop.sample) record(stop.t);
-    if (stop.restart) {
-      stepper.restart(stop.t, result.stats);
+  const Stop first = *schedule.next();  // t = 0, a sample
+  check_finite(first.t);
+  set_segment_input(first.t);
+  bool go_on = record(first.t);
+  while (go_on) {
+    const auto stop = schedule.next();
+    if (!stop) break;
+    stepper.advance(stop->t);
+    if (stop->sample) check_finite(stop->t);
+    if (stop->restart) {
+      stepper.restart(stop->t, result.stats);
       ++result.stats.restarts;
-      set_segment_input(i);
+      set_segment_input(stop->t);
     }
-    if (stop.sample) record_input(stop.t);
+    if (stop->sample) go_on = record(stop->t);
   }
+  result.stopped_early = !go_on;
   stepper.add_statistics(result.stats);
 }
 
@@ -172,16 +182,20 @@ void require_valid_run(const ParamsOf<Model>& params, const Settings<Model>& set
   if (!problems.empty()) throw InvalidInput(std::move(problems));
 }
 
-/// Integrates `Model` from t = 0 to settings.t_end.
+/// Integrates `Model` from t = 0 to settings.t_end, handing every sample to `sink` as soon as
+/// it is reached (nothing of the trajectory is kept: memory stays flat however long the run).
 ///
 /// \param[in] params   Physical parameters (see validate(const ParamsOf<Model>&)).
 /// \param[in] settings Method, Jacobian, tolerances or step, output interval, initial state and input.
-/// \return The trajectory sampled at t = k·settings.sample and t_end, with the integrator's statistics.
+/// \param[in] sink     Receives the samples at t = k·settings.sample and t_end; returning false
+///                     from SampleSink::record stops the run there (Result::stopped_early).
+/// \return The summary of the run: statistics, warnings, number of samples, largest |u|, wall
+///         time (times, states, inputs and the ledger vectors stay empty).
 /// \throws InvalidInput     before integrating, listing every invalid parameter and setting.
 /// \throws IntegrationError when the integrator fails (flag name, time reached and settings in what()).
-/// \throws whatever a feedback input callback throws, unchanged.
+/// \throws whatever a feedback input callback or the sink throws, unchanged.
 template <class Model>
-Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) {
+Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings, SampleSink& sink) {
   static_assert(detail::check_model<Model>());
   const auto started = std::chrono::steady_clock::now();
   require_valid_run<Model>(params, settings);
@@ -211,18 +225,43 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) 
 
   switch (family_of(settings.method)) {
     case Family::cvode:
-      detail::run_schedule<Model, detail::CvodeStepper<Model>>(settings, y, context, rhs_context, diagnostics, result);
+      detail::run_schedule<Model, detail::CvodeStepper<Model>>(settings, y, context, rhs_context, diagnostics, sink,
+                                                               result);
       break;
     case Family::erk:
-      detail::run_schedule<Model, detail::ErkStepper<Model>>(settings, y, context, rhs_context, diagnostics, result);
+      detail::run_schedule<Model, detail::ErkStepper<Model>>(settings, y, context, rhs_context, diagnostics, sink,
+                                                             result);
       break;
     case Family::rk4:
-      detail::run_schedule<Model, detail::Rk4Stepper<Model>>(settings, y, context, rhs_context, diagnostics, result);
+      detail::run_schedule<Model, detail::Rk4Stepper<Model>>(settings, y, context, rhs_context, diagnostics, sink,
+                                                             result);
       break;
   }
 
   result.wall_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   return result;
+}
+
+/// Integrates `Model` from t = 0 to settings.t_end and keeps every sample (MemorySink).
+///
+/// \param[in] params   Physical parameters (see validate(const ParamsOf<Model>&)).
+/// \param[in] settings Method, Jacobian, tolerances or step, output interval, initial state and input.
+/// \return The trajectory sampled at t = k·settings.sample and t_end, with the integrator's statistics.
+/// \throws InvalidInput     before integrating, listing every invalid parameter and setting.
+/// \throws IntegrationError when the integrator fails (flag name, time reached and settings in what()).
+/// \throws whatever a feedback input callback throws, unchanged.
+template <class Model>
+Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings) {
+  Result kept;
+  MemorySink sink(kept);
+  Result summary = simulate<Model>(params, settings, sink);
+  sink.finish();
+  summary.times = std::move(kept.times);
+  summary.states = std::move(kept.states);
+  summary.inputs = std::move(kept.inputs);
+  summary.input_work = std::move(kept.input_work);
+  summary.dissipated_energy = std::move(kept.dissipated_energy);
+  return summary;
 }
 
 }  // namespace ipsim

@@ -1,0 +1,117 @@
+// CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
+// output), so a run of any length needs the memory of one row. Columns:
+//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u]
+// every value printed with %.17g (round-trips to the same double).
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include <Eigen/Core>
+
+#include "ipsim/model.hpp"
+#include "ipsim/sink.hpp"
+
+namespace ipsim {
+
+/// Writes the samples of a run of `Model` to an open stdio stream, one CSV row each, and keeps
+/// what a summary needs (first and last sample, count). Refuses a row with a NaN or infinite
+/// value (throws std::runtime_error): ipsim never records such a state, this guards the derived
+/// energy columns and anything that slips through. A write error (disk full, file size limit)
+/// throws at the row where it happens.
+template <class Model>
+class CsvSink : public SampleSink {
+ public:
+  /// \param out            open stream, written from its current position; not closed here
+  /// \param params         the model's parameters (for the energy columns)
+  /// \param energy_columns add kinetic, potential, input_work, dissipated [J] (needs the energy
+  ///                       ledger in the settings, and a model with energy functions)
+  /// \param input_column   add u [N or N m]
+  /// \param name           the file's name for messages
+  CsvSink(std::FILE* out, const ParamsOf<Model>& params, bool energy_columns, bool input_column, std::string name)
+      : out_(out), params_(params), energy_(energy_columns), input_(input_column), name_(std::move(name)) {}
+
+  void begin(std::size_t /*samples*/, int state_size, bool /*energy_ledger*/) override {
+    std::fputs("t", out_);
+    for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",theta%d", i);
+    for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",dtheta%d", i);
+    if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
+    if (input_) std::fputs(",u", out_);
+    std::fputc('\n', out_);
+    first_ = Eigen::VectorXd::Zero(state_size);
+    last_ = Eigen::VectorXd::Zero(state_size);
+    check_stream();
+  }
+
+  bool record(const Sample& sample) override {
+    const auto x = sample.x();
+    const std::array<double, 4> energies = energy_ ? energy_columns(sample) : std::array<double, 4>{};
+    bool finite = std::isfinite(sample.t) && x.allFinite() && std::isfinite(sample.input);
+    for (const double value : energies) finite = finite && std::isfinite(value);
+    if (!finite) {
+      throw std::runtime_error("refusing to write `" + name_ + "`: the row at t = " + std::to_string(sample.t) +
+                               " s has a non-finite value (NaN or inf)");
+    }
+    std::fprintf(out_, "%.17g", sample.t);
+    for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(out_, ",%.17g", x(j));
+    if (energy_) {
+      for (const double value : energies) std::fprintf(out_, ",%.17g", value);
+    }
+    if (input_) std::fprintf(out_, ",%.17g", sample.input);
+    std::fputc('\n', out_);
+    check_stream();
+    if (rows_ == 0) first_ = x;
+    last_ = x;
+    last_t_ = sample.t;
+    last_input_work_ = sample.input_work;
+    last_dissipated_ = sample.dissipated_energy;
+    ++rows_;
+    return true;
+  }
+
+  /// Rows written (not counting the header).
+  std::size_t rows() const noexcept { return rows_; }
+  /// The first and the last state written, x = [θ; θ̇].
+  const Eigen::VectorXd& first_state() const noexcept { return first_; }
+  const Eigen::VectorXd& last_state() const noexcept { return last_; }
+  /// Time of the last row [s].
+  double last_time() const noexcept { return last_t_; }
+  /// The energy ledger at the last row [J] (0 without it).
+  double last_input_work() const noexcept { return last_input_work_; }
+  double last_dissipated_energy() const noexcept { return last_dissipated_; }
+
+ private:
+  /// T, V, W_in, E_diss of a sample. A specialised header without energy functions compiles
+  /// (simulate() refuses an energy ledger for it before any sample).
+  std::array<double, 4> energy_columns(const Sample& sample) const {
+    if constexpr (has_energy<Model>) {
+      constexpr int n = Model::kDof;
+      const VectorOf<Model> q = sample.x().template head<n>();
+      const VectorOf<Model> qd = sample.x().template segment<n>(n);
+      return {Model::template kinetic_energy<double>(q, qd, params_),
+              Model::template potential_energy<double>(q, params_), sample.input_work, sample.dissipated_energy};
+    } else {
+      (void)sample;
+      return {};
+    }
+  }
+
+  void check_stream() const {
+    if (std::ferror(out_) != 0) throw std::runtime_error("error while writing `" + name_ + "`");
+  }
+
+  std::FILE* out_;
+  const ParamsOf<Model>& params_;
+  bool energy_, input_;
+  std::string name_;
+  std::size_t rows_ = 0;
+  Eigen::VectorXd first_, last_;
+  double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;
+};
+
+}  // namespace ipsim
