@@ -73,7 +73,7 @@ def test_readme_lqr_example(tmp_path: Path) -> None:
     generate_header(System("rotary", 2), "rdip", tmp_path / "out")
     gain = ipgen.lqr(
         "rotary", 2, [0.5, 0.275, 0.275], [0.6, 0.5, 0.5], [0.3, 0.011458, 0.011458], [1] * 6, 1.0
-    )
+    )[0]  # the row of the 1 x 6 gain
     source = tmp_path / "example.cpp"
     source.write_text(example + CONTROL_CHECK.replace("GAIN", ", ".join(map(repr, gain.tolist()))))
     binary = tmp_path / "example"
@@ -91,4 +91,4 @@ def test_readme_python_control_example() -> None:
     namespace: dict = {}
     exec(block, namespace)
     assert namespace["A"].shape == (6, 6) and namespace["B"].shape == (6, 1)
-    assert namespace["K"].shape == (6,) and namespace["K_mixed"].shape == (6,)
+    assert namespace["K"].shape == (1, 6) and namespace["K_mixed"].shape == (1, 6)

@@ -95,7 +95,7 @@ def read_controller(
     x_eq = equilibrium_state(system.links, equilibrium)
     return Controller(
         kind=kind,
-        gain=tuple(float(k) for k in gain),
+        gain=tuple(float(k) for k in gain.ravel()),
         equilibrium=tuple(float(x) for x in x_eq),
         saturation=saturation,
         period=period,
