@@ -251,9 +251,9 @@ def test_lqr_gain_is_a_row_as_in_python_control() -> None:
     """K is 1 × 2(n+1): the textbook A - B @ K is the closed loop, and it is stable."""
     import numpy as np
 
-    m, l, delta = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]
-    a, b = ipgen.linearize("rotary", 1, m, l, delta)
-    k = ipgen.lqr("rotary", 1, m, l, delta, Q=np.ones(4), R=1.0)
+    m, lengths, delta = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]
+    a, b = ipgen.linearize("rotary", 1, m, lengths, delta)
+    k = ipgen.lqr("rotary", 1, m, lengths, delta, Q=np.ones(4), R=1.0)
     assert k.shape == (1, 4)
     assert np.max(np.linalg.eigvals(a - b @ k).real) < 0
     assert np.max(np.linalg.eigvals(a).real) > 0  # upright is unstable without the gain

@@ -77,7 +77,9 @@ def test_full_q_matrix(tmp_path: Path) -> None:
     scene = load_scene(controlled(tmp_path, {"controller.q": matrix}))
     q = np.array([[2, 1, 0, 0], [1, 2, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)
     assert scene.controller is not None
-    assert np.allclose(scene.controller.gain, ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, q, 1.0)[0])
+    assert np.allclose(
+        scene.controller.gain, ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, q, 1.0)[0]
+    )
 
 
 ASYMMETRIC = "[[1, 2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"
