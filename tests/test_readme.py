@@ -126,3 +126,28 @@ def test_readme_cxx_compile_line_builds_the_lqr_example(tmp_path: Path) -> None:
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(tmp_path / command[command.index("-o") + 1])], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout
+
+
+def github_anchor(heading: str) -> str:
+    """The anchor GitHub gives a Markdown heading: lower case, punctuation dropped, - for spaces."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_readme_is_a_short_guide_and_its_links_resolve() -> None:
+    """The README stays a user guide (the details live in docs/), and every relative link of the
+    README, docs/ and cpp/README.md names a file that exists and, with #, one of its headings."""
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 260
+    documents = [ROOT / "README.md", ROOT / "cpp" / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    for document in documents:
+        text = re.sub(r"^```.*?^```$", "", document.read_text(), flags=re.S | re.M)  # not in code
+        for target in re.findall(r"\]\(([^)\s]+)\)|src=\"([^\"]+)\"", text):
+            link = target[0] or target[1]
+            if link.startswith(("http://", "https://", "mailto:")):
+                continue
+            path, _, anchor = link.partition("#")
+            resolved = (document.parent / path).resolve() if path else document
+            assert resolved.exists(), f"{document.relative_to(ROOT)}: {link} does not exist"
+            if anchor and resolved.suffix == ".md":
+                headings = re.findall(r"^#+ (.*)$", resolved.read_text(), flags=re.M)
+                anchors = {github_anchor(h) for h in headings}
+                assert anchor in anchors, f"{document.relative_to(ROOT)}: no heading for #{anchor} in {path}"

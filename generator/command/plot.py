@@ -99,16 +99,13 @@ def check_replaceable(png: Path, force: bool) -> None:
 def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, force: bool = False) -> None:
     """Draw `run` into `png` (temporary file, then rename)."""
     check_replaceable(png, force)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # The object-oriented API without pyplot: no GUI backend, no global state, a faster import.
+    from matplotlib.figure import Figure
 
     t = run.time
     has_input = "u" in run.columns
-    fig, axes = plt.subplots(
-        3 if has_input else 2, 1, figsize=(8, 8.5 if has_input else 6.5), sharex=True, constrained_layout=True
-    )
+    fig = Figure(figsize=(8, 8.5 if has_input else 6.5), layout="constrained")
+    axes = fig.subplots(3 if has_input else 2, 1, sharex=True)
     base, links = axes[0], axes[1]
     base_label = {
         "classical": "cart position θ0 [m]",
@@ -119,7 +116,9 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
     base.set_ylabel(base_label)
     for i in range(1, run.links + 1):
         links.plot(t, run.columns[f"theta{i}"], label=f"link {i} angle θ{i}")
-    for level in (-math.pi, math.pi):
+    largest = max((abs(v) for i in range(1, run.links + 1) for v in run.columns[f"theta{i}"]), default=0.0)
+    hanging = largest > math.pi / 2  # mark ±π only when a link gets near it (else it flattens the plot)
+    for level in (-math.pi, math.pi) if hanging else ():
         links.axhline(level, color="grey", linestyle=":", linewidth=0.8)
     links.set_ylabel("link angle from upright [rad]")
     if has_input:
@@ -127,7 +126,7 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
         axes[2].plot(t, run.columns["u"], color="tab:red", label=f"input u [{unit}]")
         axes[2].set_ylabel(f"u [{unit}]")
     axes[-1].set_xlabel("time t [s]")
-    base.set_title(f"{title}\ndotted lines: hanging down (±π)")
+    base.set_title(f"{title}\ndotted lines: hanging down (±π)" if hanging else title)
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize="small")
@@ -143,6 +142,5 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
     except OSError as e:
         raise PlotError(f"cannot write {shown_path(png)}: {e.strerror}") from e
     finally:
-        plt.close(fig)
         with contextlib.suppress(OSError):
             os.unlink(tmp)
