@@ -8,11 +8,15 @@ Python program in place of the simulator, so it runs in a second.
 
 from __future__ import annotations
 
+import contextlib
+import io
+import math
 import os
 import re
 import stat
 import subprocess
 import sys
+import tempfile
 import textwrap
 import time
 from pathlib import Path
@@ -20,6 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from independent_model import reference
 from scipy.integrate import solve_ivp
 
@@ -345,3 +351,62 @@ def test_run_help_describes_the_outputs() -> None:
     for word in ("SCENE.csv", "SCENE.png", "SCENE.txt", "cached", "exit status", "--cache-dir"):
         assert word in text, word
     assert textwrap.dedent(ipgen_command("--help").stdout).count("run ") >= 1
+
+
+CSV_VALUES = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.floats(-10, 10).map(repr),
+    st.sampled_from(["1e308", "-1.7e308", "1e100", "1e101", "5e-324"]),
+    st.sampled_from(["", "x", "1e999", "-0", "1_0", " 1", "0x1", "nan", "1e-320"]),
+)
+
+
+@st.composite
+def simulator_like_csv(draw: st.DrawFn) -> str:
+    """Text near a simulator CSV: a valid or damaged header, rows of odd lengths and values."""
+    links = draw(st.integers(0, 3))
+    header = ["t", *(f"theta{i}" for i in range(links + 1)), *(f"dtheta{i}" for i in range(links + 1))]
+    header += draw(st.sampled_from([[], ["u"], ["kinetic", "potential", "input_work", "dissipated"]]))
+    if draw(st.booleans()):
+        header = draw(st.permutations(header)) if draw(st.booleans()) else header[:-1]
+    width = st.sampled_from([len(header), len(header), len(header), len(header) - 1, len(header) + 1])
+    rows = draw(st.lists(width.flatmap(lambda n: st.lists(CSV_VALUES, min_size=n, max_size=n)), max_size=5))
+    return "\n".join([",".join(header), *(",".join(row) for row in rows)]) + draw(st.sampled_from(["", "\n"]))
+
+
+@settings(max_examples=80, deadline=None)
+@given(text=simulator_like_csv())
+def test_plot_gives_a_png_or_one_line(text: str) -> None:
+    """Any CSV-like text: a PNG, or one `ipgen: error:` line, exit 2 and no PNG; within a few seconds."""
+    with tempfile.TemporaryDirectory() as folder:
+        csv = Path(folder) / "run.csv"
+        csv.write_text(text)
+        err = io.StringIO()
+        start = time.perf_counter()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = run(["plot", str(csv)])
+        assert time.perf_counter() - start < 10
+        png = Path(folder) / "run.png"
+        if status == 0:
+            assert png.read_bytes()[:8] == PNG_SIGNATURE
+        else:
+            assert status == 2 and not png.exists(), (status, err.getvalue())
+            lines = err.getvalue().splitlines()
+            assert len(lines) == 1 and lines[0].startswith("ipgen: error: "), err.getvalue()
+
+
+@settings(max_examples=60, deadline=None)
+@example(links=1, values=[0, 1e308, -1e308, 0, 0, 1, math.inf, math.nan, 0, 0])  # overflowed matplotlib
+@example(links=1, values=[0, 1e300, -1e300, 0, 0])
+@given(
+    links=st.integers(0, 2),
+    values=st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=30),
+)
+def test_plot_any_numbers_gives_a_png_or_one_line(links: int, values: list[float]) -> None:
+    """A well-formed simulator CSV with any numbers in it (huge, tiny, inf, nan)."""
+    width = 1 + 2 * (links + 1)
+    header = ["t", *(f"theta{i}" for i in range(links + 1)), *(f"dtheta{i}" for i in range(links + 1))]
+    rows = [values[i : i + width] for i in range(0, len(values), width)]
+    rows = [row + [0.0] * (width - len(row)) for row in rows]
+    text = "\n".join([",".join(header), *(",".join(map(repr, row)) for row in rows)]) + "\n"
+    test_plot_gives_a_png_or_one_line.hypothesis.inner_test(text=text)  # type: ignore[attr-defined]
