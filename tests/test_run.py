@@ -299,8 +299,11 @@ def test_plot_any_simulator_csv(tmp_path: Path) -> None:
     ("text", "message"),
     [
         ("a,b\n1,2\n", "is not a CSV the simulator wrote"),
-        ("t,theta0,dtheta0\n0,x,1\n", "is not a number"),
-        ("t,theta0,dtheta0\n", "has no rows"),
+        ("t,theta0,theta1,dtheta0,dtheta1\n0,x,1,0,0\n", "is not a number"),
+        ("t,theta0,theta1,dtheta0,dtheta1\n", "has no rows"),
+        ("t,theta0,theta1,dtheta0,dtheta1\n0,0,1,0\n", "a row of the wrong length"),
+        ("t,theta0,theta1,dtheta0,dtheta1\n0,nan,1,0,0\n", "cannot be plotted"),
+        ("t,theta0,dtheta0\n0,0,0\n", "is not a CSV the simulator wrote"),
     ],
 )
 def test_plot_refuses_other_files_in_one_line(
