@@ -413,3 +413,14 @@ def test_plot_any_numbers_gives_a_png_or_one_line(links: int, values: list[float
     rows = [row + [0.0] * (width - len(row)) for row in rows]
     text = "\n".join([",".join(header), *(",".join(map(repr, row)) for row in rows)]) + "\n"
     test_plot_gives_a_png_or_one_line.hypothesis.inner_test(text=text)  # type: ignore[attr-defined]
+
+
+def test_a_long_run_is_thinned_for_the_picture(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from ipgen.command import plot
+
+    monkeypatch.setattr(plot, "POINTS", 10)
+    csv = tmp_path / "long.csv"
+    csv.write_text("t,theta0,theta1,dtheta0,dtheta1\n" + "".join(f"{i},0,{i},0,0\n" for i in range(1001)))
+    thinned = plot.read_run(csv)
+    assert 10 <= len(thinned.time) <= 12
+    assert thinned.time[0] == 0 and thinned.time[-1] == 1000 and thinned.columns["theta1"] == thinned.time
