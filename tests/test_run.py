@@ -424,3 +424,13 @@ def test_a_long_run_is_thinned_for_the_picture(tmp_path: Path, monkeypatch: pyte
     thinned = plot.read_run(csv)
     assert 10 <= len(thinned.time) <= 12
     assert thinned.time[0] == 0 and thinned.time[-1] == 1000 and thinned.columns["theta1"] == thinned.time
+
+
+def test_run_never_replaces_the_scene_itself(tmp_path: Path) -> None:
+    env = fake_compiler(tmp_path)
+    scene = tmp_path / "e.txt"  # a scene whose name is one of the outputs' names
+    scene.write_text(single_scene(tmp_path).read_text())
+    before = scene.read_text()
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path), "--force", env=env)
+    assert result.returncode == 2 and "is the scene file itself" in result.stderr
+    assert scene.read_text() == before

@@ -58,7 +58,10 @@ def _csv_from_simulator(path: Path) -> bool:
     return SIMULATOR_CSV.fullmatch(first) is not None
 
 
-def _check_outputs(paths: dict[str, Path], force: bool) -> None:
+def _check_outputs(paths: dict[str, Path], scene: Path, force: bool) -> None:
+    for path in paths.values():  # never the scene itself, not even with --force
+        if path.exists() and scene.exists() and path.samefile(scene):
+            raise OutputError(f"{shown_path(path)} is the scene file itself: pass another -o")
     check_replaceable(paths["cfg"], force)
     check_replaceable(paths["txt"], force)
     check_png(paths["png"], force)
@@ -93,7 +96,7 @@ def run_scene(
         stem = scene.stem
         paths = {suffix: out / f"{stem}.{suffix}" for suffix in ("cfg", "csv", "png", "txt")}
         prepare_directory(out)
-        _check_outputs(paths, force)
+        _check_outputs(paths, Path(scene_path), force)
         job.run(planned)
         header_text = (Path(staging) / f"{planned.name}.hpp").read_text()
         cfg_text = (Path(staging) / f"{stem}.cfg").read_text()
