@@ -434,3 +434,26 @@ def test_run_never_replaces_the_scene_itself(tmp_path: Path) -> None:
     result = ipgen_command("run", str(scene), "-o", str(tmp_path), "--force", env=env)
     assert result.returncode == 2 and "is the scene file itself" in result.stderr
     assert scene.read_text() == before
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["run", "does_not_exist.toml", "-o", "OUT"], "does_not_exist.toml: no such file"),
+        (["run", "SCENE", "-o", "FILE"], "is a file, not a directory: pass another -o"),
+        (["run", "SCENE", "-o", "OUT", "--cache-dir", "FILE"], "cannot create the cache folder"),
+        (["run", "SCENE", "-o", "OUT", "--bogus"], "No such option"),
+        (["plot", "does_not_exist.csv"], "cannot read"),
+        (["plot", "SCENE"], "is not a CSV the simulator wrote"),
+    ],
+)
+def test_bad_run_and_plot_arguments_are_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    scene, file = single_scene(tmp_path), tmp_path / "a_file"
+    file.write_text("x")
+    names = {"SCENE": str(scene), "FILE": str(file), "OUT": str(tmp_path / "out")}
+    assert run([names.get(arg, arg) for arg in args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("ipgen: error: ") and message in err, err
+    assert not list(tmp_path.glob("out/*"))
