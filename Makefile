@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup stability configure build clean
 
 all: test
 
@@ -81,7 +81,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
@@ -110,6 +110,13 @@ bench-embedded: venv
 CONTROL_ARGS ?= $(BENCH_QUICK)
 bench-control: $(VENV)/.bench-installed
 	$(PY) -m bench.control $(CONTROL_ARGS)
+
+## Swing-up: plan solve times and IPOPT iterations (classical and rotary n = 1..4) and the
+## closed loop's robustness to ±5 % link masses and ±20 % damping (bench/swingup.py,
+## docs/bench/swingup.md). SWINGUP_ARGS passes options, e.g. make bench-swingup SWINGUP_ARGS=--quick
+SWINGUP_ARGS ?= $(BENCH_QUICK)
+bench-swingup: $(VENV)/.bench-installed
+	$(PY) -m bench.swingup $(SWINGUP_ARGS)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
