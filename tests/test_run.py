@@ -416,7 +416,7 @@ def test_plot_any_numbers_gives_a_png_or_one_line(links: int, values: list[float
 
 
 def test_a_long_run_is_thinned_for_the_picture(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from ipgen.command import plot
+    from ipgen.plots import run as plot
 
     monkeypatch.setattr(plot, "POINTS", 10)
     csv = tmp_path / "long.csv"
@@ -457,3 +457,23 @@ def test_bad_run_and_plot_arguments_are_one_line(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("ipgen: error: ") and message in err, err
     assert not list(tmp_path.glob("out/*"))
+
+
+def test_animate_a_run_from_its_csv_and_cfg(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`ipgen animate` takes the system and lengths from the .cfg `ipgen run` wrote beside the CSV."""
+    env = fake_compiler(tmp_path)
+    scene = single_scene(tmp_path)
+    assert ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=env).returncode == 0
+    csv = tmp_path / "out" / f"{scene.stem}.csv"
+    assert run(["animate", str(csv)]) == 0
+    assert csv.with_suffix(".gif").read_bytes()[:6] == b"GIF89a"
+    alone = tmp_path / "alone.csv"
+    alone.write_text(csv.read_text())
+    capsys.readouterr()
+    assert run(["animate", str(alone)]) == 2  # no .cfg beside it
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pass --type and --lengths" in err
+    assert run(["animate", str(alone), "--type", "classical", "--lengths", "0,0.5"]) == 0
+    assert alone.with_suffix(".gif").is_file()
+    assert run(["animate", str(alone), "--type", "classical", "--lengths", "0,x"]) == 2
+    assert "--lengths '0,x': expected numbers" in capsys.readouterr().err

@@ -11,7 +11,7 @@ import click
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.command import job
 from ipgen.command.job import LINKS_WITHOUT_FORCE, cost_estimate
-from ipgen.common.safetext import abbreviate
+from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
@@ -26,7 +26,8 @@ EXIT_USAGE = 2
 PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header;
-or, with a command, run a scene (ipgen run) or plot a simulator's CSV (ipgen plot).
+or, with a command, run a scene (ipgen run), plot or animate a simulator's CSV (ipgen plot,
+ipgen animate).
 
 \b
 Systems (docs/model.md in the repository has the exact model):
@@ -50,6 +51,7 @@ Examples:
   ipgen --type rotary --links 2 --emit equations -o out/  # out/rotary2.md and .tex
   ipgen run my_scene.toml -o out/   # generate, build, simulate: out/my_scene.csv, .png, .txt
   ipgen plot out/my_scene.csv       # out/my_scene.png
+  ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
@@ -353,12 +355,64 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
 def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bool) -> None:
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
-    from ipgen.command.plot import plot_run, read_run, system_type_beside
+    from ipgen.plots.run import plot_run, read_run, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
     plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
     click.echo(f"wrote {target}")
+
+
+@cli.command("animate", context_settings=CONTEXT)
+@click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
+@click.option(
+    "-o", "--output", "gif", type=click.Path(path_type=Path), default=None, metavar="GIF",
+    help="The animation [default: the CSV's path with .gif].",
+)  # fmt: skip
+@click.option(
+    "--type", "system_type", type=click.Choice(SYSTEM_TYPES), default=None,
+    help="The system [default: from the .cfg next to the CSV, which ipgen run writes].",
+)  # fmt: skip
+@click.option(
+    "--lengths", default=None, metavar="L0,L1,...",
+    help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
+)  # fmt: skip
+@click.option("--fps", type=float, default=15.0, show_default=True, help="Frames per second of the run.")
+@click.option("--force", is_flag=True, help="Replace an existing GIF.")
+def animate_command(
+    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float, force: bool
+) -> None:
+    """Animate a CSV a simulator wrote (ipgen run, simulate_<model>), drawn to scale from above and
+    from the side: an animated GIF (needs pillow: the extra swingup)."""
+    from ipgen.plots.run import scene_beside
+
+    beside = scene_beside(csv)
+    kind = system_type or (beside[0] if beside else None)
+    if lengths is not None:
+        try:
+            l_values = [float(value) for value in lengths.split(",")]
+        except ValueError:
+            raise job.OptionsError(
+                f"--lengths {abbreviate(lengths)!r}: expected numbers, e.g. 0.6,0.5,0.5"
+            ) from None
+    else:
+        l_values = beside[1] if beside else None
+    if kind is None or l_values is None:
+        raise job.OptionsError(
+            f"{shown_path(csv)}: no resolved scene (.cfg) next to it says the system: "
+            "pass --type and --lengths"
+        )
+    try:
+        import PIL  # noqa: F401  (the GIF writer)
+
+        from ipgen.plots.animation import animate_run
+    except ImportError:
+        raise job.OptionsError(
+            "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
+        ) from None
+    target = gif if gif is not None else csv.with_suffix(".gif")
+    written = animate_run(csv, target, kind, l_values, fps=fps, force=force)
+    click.echo(f"wrote {written}")
 
 
 def run(argv: list[str] | None = None) -> int:

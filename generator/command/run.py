@@ -5,7 +5,7 @@ scene's simulator (command/simulator.py), runs it, and writes into OUT:
 
     <stem>.cfg  the resolved scene (rerun it with the simulator named in the summary)
     <stem>.csv  the trajectory, written by the simulator
-    <stem>.png  a plot of the run (command/plot.py)
+    <stem>.png  a plot of the run (plots/run.py)
     <stem>.txt  the summary paragraph: the simulator's own report of the run
 
 Every file is checked before any work: a file there that ipgen (or the simulator) did not write
@@ -26,10 +26,10 @@ from pathlib import Path
 
 from ipgen.command import job
 from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
-from ipgen.command.plot import check_replaceable as check_png
-from ipgen.command.plot import plot_run, read_run
 from ipgen.command.simulator import Simulator, build
 from ipgen.common.safetext import shown_path
+from ipgen.plots.run import check_replaceable as check_png
+from ipgen.plots.run import plot_run, read_run
 
 # The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
 SIMULATOR_CSV = re.compile(
