@@ -194,9 +194,10 @@ with open(os.environ["COUNT"], "a") as f:
 time.sleep(1)
 out = pathlib.Path(args[args.index("-o") + 1])
 out.write_text('''#!PYTHON
-import sys
+import os, sys
 csv = sys.argv[sys.argv.index("--csv") + 1]
-open(csv, "w").write("t,theta0,theta1,dtheta0,dtheta1\\\\n0,0,0.1,0,0\\\\n1,0.5,2,0,1\\\\n")
+value = os.environ.get("FAKE_VALUE", "0.5")
+open(csv, "w").write("t,theta0,theta1,dtheta0,dtheta1\\\\n0,0,0.1,0,0\\\\n1," + value + ",2,0,1\\\\n")
 print("scene fake: model fake, 2 samples written to", csv)
 ''')
 out.chmod(0o755)
@@ -477,3 +478,13 @@ def test_animate_a_run_from_its_csv_and_cfg(tmp_path: Path, capsys: pytest.Captu
     assert alone.with_suffix(".gif").is_file()
     assert run(["animate", str(alone), "--type", "classical", "--lengths", "0,x"]) == 2
     assert "--lengths '0,x': expected numbers" in capsys.readouterr().err
+
+
+def test_a_run_that_cannot_be_drawn_still_gets_its_summary(tmp_path: Path) -> None:
+    env = {**fake_compiler(tmp_path), "FAKE_VALUE": "1e300"}  # the simulator's CSV: one huge value
+    scene = single_scene(tmp_path)
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=env)
+    assert result.returncode == 0, result.stderr
+    summary = (tmp_path / "out" / f"{scene.stem}.txt").read_text()
+    assert "No plot: " in summary and "cannot be plotted" in summary
+    assert not (tmp_path / "out" / f"{scene.stem}.png").exists()

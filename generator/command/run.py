@@ -28,8 +28,8 @@ from ipgen.command import job
 from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.command.simulator import Simulator, build
 from ipgen.common.safetext import shown_path
+from ipgen.plots.run import PlotError, plot_run, read_run
 from ipgen.plots.run import check_replaceable as check_png
-from ipgen.plots.run import plot_run, read_run
 
 # The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
 SIMULATOR_CSV = re.compile(
@@ -109,14 +109,18 @@ def run_scene(
     seconds = time.perf_counter() - start
     files = [paths["cfg"]]
     report = " ".join(done.stdout.split())
+    unplotted = ""
     if _stamp(paths["csv"]) != before and paths["csv"].is_file():  # the simulator wrote it now
         files.append(paths["csv"])
         links = f"{scene.links} link{'s' if scene.links > 1 else ''}"
         title = f"{stem}: {scene.type} pendulum, {links} (model {planned.name})"
         if done.returncode != 0:
             title += f"; the run ended with status {done.returncode}"
-        plot_run(read_run(paths["csv"]), paths["png"], title, scene.type, force=True)
-        files.append(paths["png"])
+        try:
+            plot_run(read_run(paths["csv"]), paths["png"], title, scene.type, force=True)
+            files.append(paths["png"])
+        except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary
+            unplotted = f"No plot: {exc}."
     origin = (
         f"built in {simulator.seconds:.1f} s" if simulator.built else "taken from the cache, not compiled"
     )
@@ -124,6 +128,8 @@ def run_scene(
     if done.returncode != 0:
         problem = " ".join(done.stderr.split()) or "no message"
         parts.append(f"The simulator stopped with exit status {done.returncode}: {problem}")
+    if unplotted:
+        parts.append(unplotted)
     parts.append(f"Simulator {simulator.path} ({origin}).")
     summary = " ".join(parts)
     write_file(
