@@ -40,6 +40,9 @@ venv: $(VENV)/.installed
 $(VENV)/.installed: pyproject.toml | deps
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
+	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
+	@# project): a .venv made before keeps a record under the old name; drop it.
+	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
 	$(PY) -m pip install -q -e '.[test]'
 	@touch $@
 

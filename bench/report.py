@@ -70,7 +70,7 @@ def machine(extra: dict[str, str] | None = None) -> list[str]:
         "OS": f"{platform.system()} {platform.release()}",
         "Python": platform.python_version(),
         "sympy": version("sympy"),
-        "ipgen": f"{version('ipgen')}, commit {commit()}",
+        "ipgen": f"{version('ipgen-pendulum')}, commit {commit()}",
         "started": STARTED.strftime("%Y-%m-%d %H:%M %Z"),
         "load average at the start (1, 5, 15 min)": " ".join(f"{x:.2f}" for x in LOAD_AT_START),
         "load average at the end": " ".join(f"{x:.2f}" for x in os.getloadavg()),

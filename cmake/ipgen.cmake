@@ -29,7 +29,9 @@
 #   ipgen_find_ipsim()
 #       Finds Eigen 3.4, SUNDIALS 6 and LAPACK (each missing one stops CMake naming its Debian
 #       package) and defines the INTERFACE target ipgen::ipsim: the header-only simulator
-#       (cpp/include) with everything it links. ipgenConfig.cmake calls it.
+#       (cpp/include) with everything it links. ipgenConfig.cmake calls it. Without a build type
+#       (single-configuration generators, CMAKE_BUILD_TYPE empty) ipgen::ipsim adds -O2 -DNDEBUG,
+#       so a simulator is optimised by default.
 #
 # The generator's <python> is the interpreter whose `ipgen` package holds this file: the first
 # of ${IPGEN_PYTHON} (if set), the checkout's .venv, <prefix>/bin/python3 of the environment this
@@ -167,6 +169,14 @@ macro(ipgen_find_ipsim)
       SUNDIALS::sunlinsoldense
       SUNDIALS::sunnonlinsolfixedpoint
       LAPACK::LAPACK)
+    # A single-configuration build without CMAKE_BUILD_TYPE compiles without optimisation, which
+    # makes a simulator several times slower: whatever links ipsim is then built as in Release.
+    get_property(_ipgen_multi_config GLOBAL PROPERTY GENERATOR_IS_MULTI_CONFIG)
+    if(NOT _ipgen_multi_config AND NOT CMAKE_BUILD_TYPE)
+      message(STATUS "ipgen: CMAKE_BUILD_TYPE is empty: targets linking ipgen::ipsim are built with -O2 -DNDEBUG")
+      target_compile_options(ipgen::ipsim INTERFACE -O2)
+      target_compile_definitions(ipgen::ipsim INTERFACE NDEBUG)
+    endif()
   endif()
 endmacro()
 

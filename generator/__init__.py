@@ -9,8 +9,10 @@ The public API (stable; everything else is internal):
 - `Error`: the base of every error ipgen raises for bad input (one line: what is wrong and how
   to fix it, the message the command prints);
 - `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`);
-- `linearize(type, links, m, l, delta, ...) -> (A, B)` and `lqr(type, links, m, l, delta, Q, R, ...)
-  -> K`: the linear model about a state and an LQR gain (control/linear.py, numpy and scipy).
+- `linearize(type, links, m, l, delta, ...) -> (A, B)`: the linear model ẋ = A x + B u about a
+  state (default upright at rest), from the exact derivation (control/linear.py, numpy and scipy);
+- `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
+  u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -100,3 +102,9 @@ def __getattr__(attribute: str) -> object:
 
         return getattr(control, attribute)
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
+
+
+def __dir__() -> list[str]:
+    """The module's names including the lazy ones, so that `help(ipgen)` and `dir(ipgen)` list
+    every public function (`help` then imports control/linear.py)."""
+    return sorted(set(globals()) | set(__all__))

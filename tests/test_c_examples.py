@@ -4,6 +4,7 @@ README's C example, both compiled with the strict C99 flags and run."""
 from __future__ import annotations
 
 import re
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -84,3 +85,24 @@ def test_emit_c_from_the_command_line(tmp_path: Path) -> None:
     written = sorted(p.name for p in (tmp_path / "scene").iterdir())
     assert written == ["cdip.cfg", "cdip.h"], written
     assert "SPECIALISED for scene" in (tmp_path / "scene" / "cdip.h").read_text()
+
+
+def test_readme_c_compile_line_builds_the_example(tmp_path: Path) -> None:
+    """The README's gcc line, verbatim, is complete (-lm: the header calls sinf and cosf)."""
+    require_cc()
+    readme = (ROOT / "README.md").read_text()
+    lines = [
+        body.strip()
+        for language, body in re.findall(r"^```(\w*)\n(.*?)^```$", readme, flags=re.S | re.M)
+        if not language and body.startswith("gcc ")
+    ]
+    assert len(lines) == 1, "expected one gcc line in README.md"
+    command = shlex.split(lines[0])
+    assert command[-1] == "-lm"
+    example = next(b for b in re.findall(r"```c\n(.*?)```", readme, flags=re.S) if "observer_tick" in b)
+    generate(System("rotary", 1), "rsip", tmp_path / "out", emit=("c",))
+    (tmp_path / command[command.index("-o") - 1]).write_text(example + CHECK)
+    build = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    run = subprocess.run([str(tmp_path / command[command.index("-o") + 1])], capture_output=True, text=True)
+    assert run.returncode == 0 and run.stdout == "ok\n", run.stdout

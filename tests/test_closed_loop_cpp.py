@@ -95,7 +95,7 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
     require_toolchain()
     folder = tmp_path_factory.mktemp("closed_loop")
     generate_header(System("rotary", 2), "rdip", folder)
-    gain = ipgen.lqr("rotary", 2, **PARAMS, Q=np.ones(6), R=1.0)
+    gain = ipgen.lqr("rotary", 2, **PARAMS, Q=np.ones(6), R=1.0)[0]  # the row of the 1 x 6 gain
     source = DRIVER
     for name, value in {
         "STATE": ", ".join(map(repr, STATE)),

@@ -108,12 +108,12 @@ def test_lqr_gain_against_an_independent_riccati_solve(type_: str, links: int, e
     weights = rng.uniform(0.5, 2.0, 2 * dof)
     r = 0.7
     k = ipgen.lqr(type_, links, **p, Q=weights, R=r, equilibrium=where)
-    assert k.shape == (2 * dof,)
+    assert k.shape == (1, 2 * dof)  # python-control's convention: A - B @ K is the closed loop
     x_eq = control.equilibrium_state(links, where)
     a, b = ipgen.linearize(type_, links, **p, q=x_eq[:dof], qd=x_eq[dof:])
     q, rr = np.diag(weights), np.array([[r]])
     p_ref = hamiltonian_riccati(a, b, q, rr)
-    k_ref = (np.linalg.solve(rr, b.T @ p_ref)).reshape(-1)
+    k_ref = np.linalg.solve(rr, b.T @ p_ref)
     assert_close(k, k_ref, 1e-6, f"{type_}{links} {equilibrium} K", ("scipy", "Hamiltonian"))
     # K = R⁻¹ Bᵀ P with P solving Aᵀ P + P A − P B R⁻¹ Bᵀ P + Q = 0: check that residual for K's P.
     residual = a.T @ p_ref + p_ref @ a - p_ref @ b @ np.linalg.solve(rr, b.T) @ p_ref + q
@@ -172,7 +172,7 @@ def closed_loop(
     dof = links + 1
 
     def f(_t: float, x: np.ndarray) -> np.ndarray:
-        u = -float(k @ x)
+        u = -float(np.ravel(k) @ x)
         if saturation is not None:
             u = min(max(u, -saturation), saturation)
         return np.concatenate([x[dof:], dyn.forward_dynamics(x[:dof], x[dof:], u, flat(p))])

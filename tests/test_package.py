@@ -1,11 +1,17 @@
-"""ipgen as a user gets it: `pip install` of this repository (not editable) into a fresh virtualenv
-outside the checkout, then the README's "Using ipgen from CMake" project built in a temporary
-folder against that installation, and run."""
+"""ipgen as a user gets it: the README's install lines run verbatim (a fresh virtualenv outside
+the checkout, `pip install ./` of a copy of this repository, not editable), then the README's
+`ipgen run` line on the README's example scene, then the CMake project of docs/simulator.md
+("Using ipgen from CMake") built in a temporary folder against that installation, and run.
+
+Expected duration: 1-3 min on the shared 2-core machine (the install, one simulator compile,
+one CMake build); pip takes the dependencies from its cache (PIP_CACHE_DIR, else ~/.cache/pip)."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
+import shlex
 import shutil
 import subprocess
 import sys
@@ -19,10 +25,10 @@ import ipgen
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def readme_block(language: str, marker: str) -> str:
-    blocks = re.findall(rf"```{language}\n(.*?)```", (ROOT / "README.md").read_text(), flags=re.S)
+def readme_block(language: str, marker: str, document: str = "README.md") -> str:
+    blocks = re.findall(rf"^```{language}\n(.*?)^```$", (ROOT / document).read_text(), flags=re.S | re.M)
     matching = [block for block in blocks if marker in block]
-    assert len(matching) == 1, f"expected one ```{language} block with {marker!r} in README.md"
+    assert len(matching) == 1, f"expected one ```{language} block with {marker!r} in {document}"
     return matching[0]
 
 
@@ -35,28 +41,47 @@ def clean_environment() -> dict[str, str]:
 
 
 def install(folder: Path) -> Path:
-    """A fresh virtualenv in `folder` with `pip install <checkout>` (a wheel build, not
-    editable); its python."""
-    venv = folder / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
-    python = venv / "bin" / "python"
+    """The README's install lines, verbatim, in a copy of the checkout with HOME = `folder`/home
+    (so `~/.venvs/ipgen` is a fresh virtualenv outside the checkout), then the README's `ipgen run`
+    line on its example scene in `folder`/work; the virtualenv's python."""
+    home, work = folder / "home", folder / "work"
+    home.mkdir()
+    work.mkdir()
     # A copy of the sources without build leftovers, so that the wheel is built from tracked files.
     source = folder / "source" / "ipgen"
     ignore = shutil.ignore_patterns(".venv", "build", "out", ".git", "*.egg-info", "__pycache__", ".*cache")
     shutil.copytree(ROOT, source, ignore=ignore)
-    install = subprocess.run(
-        [str(python), "-m", "pip", "install", "-q", "--disable-pip-version-check", str(source)],
-        capture_output=True,
-        text=True,
-        env=clean_environment(),
+    (work / "my_pendulum.toml").write_text(readme_block("toml", "[system]"))
+    script = "\n".join(
+        [
+            readme_block("sh", "pip install ./"),
+            f"cd {shlex.quote(str(work))}",
+            readme_block("sh", "ipgen run"),
+        ]
     )
-    assert install.returncode == 0, install.stderr[-3000:]
+    env = clean_environment() | {
+        "HOME": str(home),
+        "PIP_CACHE_DIR": os.environ.get("PIP_CACHE_DIR", str(Path.home() / ".cache" / "pip")),
+        "PIP_DISABLE_PIP_VERSION_CHECK": "1",
+        "XDG_CACHE_HOME": str(folder / "cache"),  # ipgen run's compiled simulators
+    }
+    env.pop("IPGEN_CACHE_DIR", None)
+    done = subprocess.run(
+        ["bash", "-eu", "-o", "pipefail", "-c", script], cwd=source, capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert re.search(r"^ipgen, version \S+$", done.stdout, flags=re.M), done.stdout  # ipgen --version
+    for suffix in ("csv", "png", "txt", "cfg"):
+        assert (work / "out" / f"my_pendulum.{suffix}").is_file(), suffix
+    assert (work / "out" / "my_pendulum.csv").read_text().startswith("t,theta0,theta1,theta2,dtheta0,")
+    assert list((folder / "cache" / "ipgen" / "simulators").glob("*/simulate_rotary2"))
     shutil.rmtree(source)  # the installation must not depend on the sources
-    return python
+    return home / ".venvs" / "ipgen" / "bin" / "python"
 
 
 def test_installed_package_builds_the_readme_cmake_project(tmp_path: Path) -> None:
-    """One test, so that parallel workers do not each install: the package, then the project."""
+    """One test, so that parallel workers do not each install: the README's install and run
+    lines, the package's files, then the CMake project. Takes 1-3 min."""
     installed = install(tmp_path)
     check_installed_package(installed, tmp_path)
     build_readme_cmake_project(installed, tmp_path)
@@ -107,16 +132,17 @@ def build_readme_cmake_project(installed: Path, tmp_path: Path) -> None:
     env = clean_environment()
     project = tmp_path / "project"
     project.mkdir()
-    (project / "CMakeLists.txt").write_text(readme_block("cmake", "find_package(ipgen"))
-    (project / "main.cpp").write_text(readme_block("cpp", "ipgen::furuta::Model"))
+    (project / "CMakeLists.txt").write_text(readme_block("cmake", "find_package(ipgen", "docs/simulator.md"))
+    (project / "main.cpp").write_text(readme_block("cpp", "ipgen::furuta::Model", "docs/simulator.md"))
     cmake_dir = subprocess.run(
         [str(installed), "-m", "ipgen", "--cmake-dir"], capture_output=True, text=True, check=True, env=env
     ).stdout.strip()
     generator = ["-G", "Ninja"] if shutil.which("ninja") else []
     build = tmp_path / "build"
     steps = [
+        # no CMAKE_BUILD_TYPE, as in the documented command: ipgen::ipsim then adds -O2
         ["cmake", "-S", str(project), "-B", str(build), *generator, f"-Dipgen_DIR={cmake_dir}",
-         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_CXX_FLAGS=-Wall -Wextra -Wpedantic -Werror"],
+         "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON", "-DCMAKE_CXX_FLAGS=-Wall -Wextra -Wpedantic -Werror"],
         ["cmake", "--build", str(build)],
     ]  # fmt: skip
     for step in steps:
@@ -125,6 +151,9 @@ def build_readme_cmake_project(installed: Path, tmp_path: Path) -> None:
     cache = (build / "CMakeCache.txt").read_text()
     assert f"IPGEN_PYTHON:FILEPATH={installed}" in cache  # found by the package, not passed in
     assert (build / "ipgen_models" / "furuta.hpp").is_file()
+    compiled = json.loads((build / "compile_commands.json").read_text())
+    main_command = next(entry["command"] for entry in compiled if entry["file"].endswith("main.cpp"))
+    assert " -O2 " in f" {main_command} " and "-DNDEBUG" in main_command  # optimised by default
     ran = subprocess.run([str(build / "sim")], capture_output=True, text=True)
     assert ran.returncode == 0, ran.stderr
     match = re.fullmatch(r"theta\(2 s\) =((?: -?\d+\.\d{6}){3})\n", ran.stdout)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import shlex
 import subprocess
 from pathlib import Path
 
@@ -31,7 +32,7 @@ int main() {
 
 def test_readme_controller_example(tmp_path: Path) -> None:
     require_toolchain()
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "generator.md").read_text()  # moved there from the README
     blocks = re.findall(r"```cpp\n(.*?)```", readme, flags=re.S)
     example = next(b for b in blocks if "force_for_cart_acceleration" in b)
     generate_header(System("classical", 2), "cdip", tmp_path / "out")
@@ -73,7 +74,7 @@ def test_readme_lqr_example(tmp_path: Path) -> None:
     generate_header(System("rotary", 2), "rdip", tmp_path / "out")
     gain = ipgen.lqr(
         "rotary", 2, [0.5, 0.275, 0.275], [0.6, 0.5, 0.5], [0.3, 0.011458, 0.011458], [1] * 6, 1.0
-    )
+    )[0]  # the row of the 1 x 6 gain
     source = tmp_path / "example.cpp"
     source.write_text(example + CONTROL_CHECK.replace("GAIN", ", ".join(map(repr, gain.tolist()))))
     binary = tmp_path / "example"
@@ -91,4 +92,62 @@ def test_readme_python_control_example() -> None:
     namespace: dict = {}
     exec(block, namespace)
     assert namespace["A"].shape == (6, 6) and namespace["B"].shape == (6, 1)
-    assert namespace["K"].shape == (6,) and namespace["K_mixed"].shape == (6,)
+    assert namespace["K"].shape == (1, 6) and namespace["K_mixed"].shape == (1, 6)
+
+
+def readme_command(program: str) -> list[str]:
+    """The README's one-line compile command (a ``` block of one line starting with `program`)."""
+    readme = (ROOT / "README.md").read_text()
+    lines = [
+        body.strip()
+        for language, body in re.findall(r"^```(\w*)\n(.*?)^```$", readme, flags=re.S | re.M)
+        if not language and body.startswith(program + " ")
+    ]
+    assert len(lines) == 1 and "\n" not in lines[0], f"expected one {program} line in README.md"
+    return shlex.split(lines[0])
+
+
+def test_readme_cxx_compile_line_builds_the_lqr_example(tmp_path: Path) -> None:
+    """The README's g++ line, verbatim, is complete: it builds a program with the LQR example."""
+    import ipgen
+
+    require_toolchain()
+    command = readme_command("g++")
+    assert "-I/usr/include/eigen3" in command
+    readme = (ROOT / "README.md").read_text()
+    example = next(b for b in re.findall(r"```cpp\n(.*?)```", readme, flags=re.S) if "lqr_torque" in b)
+    generate_header(System("rotary", 2), "rdip", tmp_path / "out")
+    gain = ipgen.lqr(
+        "rotary", 2, [0.5, 0.275, 0.275], [0.6, 0.5, 0.5], [0.3, 0.011458, 0.011458], [1] * 6, 1.0
+    )[0]
+    program = CONTROL_CHECK.replace("GAIN", ", ".join(map(repr, gain.tolist())))
+    (tmp_path / command[command.index("-o") - 1]).write_text(example + program)
+    build = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr
+    run = subprocess.run([str(tmp_path / command[command.index("-o") + 1])], capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout
+
+
+def github_anchor(heading: str) -> str:
+    """The anchor GitHub gives a Markdown heading: lower case, punctuation dropped, - for spaces."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def test_readme_is_a_short_guide_and_its_links_resolve() -> None:
+    """The README stays a user guide (the details live in docs/), and every relative link of the
+    README, docs/ and cpp/README.md names a file that exists and, with #, one of its headings."""
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 260
+    documents = [ROOT / "README.md", ROOT / "cpp" / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+    for document in documents:
+        text = re.sub(r"^```.*?^```$", "", document.read_text(), flags=re.S | re.M)  # not in code
+        for target in re.findall(r"\]\(([^)\s]+)\)|src=\"([^\"]+)\"", text):
+            link = target[0] or target[1]
+            if link.startswith(("http://", "https://", "mailto:")):
+                continue
+            path, _, anchor = link.partition("#")
+            resolved = (document.parent / path).resolve() if path else document
+            assert resolved.exists(), f"{document.relative_to(ROOT)}: {link} does not exist"
+            if anchor and resolved.suffix == ".md":
+                headings = re.findall(r"^#+ (.*)$", resolved.read_text(), flags=re.M)
+                anchors = {github_anchor(h) for h in headings}
+                assert anchor in anchors, f"{document.relative_to(ROOT)}: no heading for #{anchor} in {path}"

@@ -39,7 +39,7 @@ def test_gain_and_equilibrium_in_the_resolved_config(tmp_path: Path) -> None:
         {"controller.q": "[1, 2, 3, 4]", "controller.r": "0.5", "controller.saturation": "2.5"},
     )
     scene = load_scene(path)
-    gain = ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, Q=[1, 2, 3, 4], R=0.5)
+    gain = ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, Q=[1, 2, 3, 4], R=0.5)[0]
     assert scene.controller is not None
     assert scene.controller.gain == tuple(gain.tolist())
     config = config_dict(resolved_config(scene))
@@ -77,7 +77,9 @@ def test_full_q_matrix(tmp_path: Path) -> None:
     scene = load_scene(controlled(tmp_path, {"controller.q": matrix}))
     q = np.array([[2, 1, 0, 0], [1, 2, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], float)
     assert scene.controller is not None
-    assert np.allclose(scene.controller.gain, ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, q, 1.0))
+    assert np.allclose(
+        scene.controller.gain, ipgen.lqr("rotary", 1, scene.m, scene.l, scene.delta, q, 1.0)[0]
+    )
 
 
 ASYMMETRIC = "[[1, 2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"

@@ -9,8 +9,8 @@ For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, wr
 systems it also writes the equations for people (ipgen --emit equations): <out>/<short>.md and
 .tex, and the .pdf pdflatex makes of it. The LQR run must end upright and at rest: every angle
 and rate within 1e-3 of zero in the CSV's last row, or the demo fails. With --docs the plots are
-also copied there (the README shows docs/cdip.png, docs/rsip.png and docs/rdip_lqr.png), and the
-PDFs and PNGs of the equations' pages go to docs/equations/.
+also copied there (docs/simulator.md and docs/control.md show docs/cdip.png, docs/rsip.png and
+docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
 """
 
 from __future__ import annotations
@@ -164,7 +164,7 @@ def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Pa
 
 
 def publish(png_path: Path, docs: Path | None) -> None:
-    """With --docs, a copy of the plot there (the README shows it)."""
+    """With --docs, a copy of the plot there (docs/simulator.md and docs/control.md show it)."""
     if docs:
         docs.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(png_path, docs / png_path.name)

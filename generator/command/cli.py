@@ -11,7 +11,7 @@ import click
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.command import job
 from ipgen.command.job import LINKS_WITHOUT_FORCE, cost_estimate
-from ipgen.common.safetext import abbreviate
+from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
@@ -25,7 +25,9 @@ EXIT_USAGE = 2
 # Generations above these sizes take more than a second or two: show a progress bar.
 PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
 
-HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header.
+HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header;
+or, with a command, run a scene (ipgen run), plot or animate a simulator's CSV (ipgen plot,
+ipgen animate).
 
 \b
 Systems (docs/model.md in the repository has the exact model):
@@ -47,13 +49,22 @@ Examples:
   ipgen --scene scenes/cdip_pulse.toml -o out/    # also writes out/cdip_pulse.cfg
   ipgen --scene scenes/cdip_pulse.toml --describe # one line: name=cdip type=classical ...
   ipgen --type rotary --links 2 --emit equations -o out/  # out/rotary2.md and .tex
+  ipgen run my_scene.toml -o out/   # generate, build, simulate: out/my_scene.csv, .png, .txt
+  ipgen plot out/my_scene.csv       # out/my_scene.png
+  ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
 """
 
 
-@click.command(help=HELP, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+# A group whose own options are the generator's (`ipgen --type ... -o ...` as before), with the
+# commands run and plot (later identify, animate) beside them, click's convention for commands
+# with subcommands.
+@click.group(help=HELP, context_settings=CONTEXT, invoke_without_command=True)
 @click.option(
     "--type",
     "system_type",
@@ -155,6 +166,26 @@ def cli(
     force: bool,
     cmake_dir: bool,
 ) -> None:
+    context = click.get_current_context()
+    given = [
+        max(option.opts, key=len)
+        for option in context.command.params
+        if option.name is not None and context.params.get(option.name) not in _NOT_GIVEN
+    ]
+    command = context.invoked_subcommand
+    if command is not None:
+        if given:
+            raise job.OptionsError(
+                f"{', '.join(given)} belong to header generation, not to `ipgen {command}`: "
+                f"give that command's own options after its name (ipgen {command} --help)"
+            )
+        return
+    if not given:  # a bare `ipgen`: its usage first, then what it needs
+        click.echo(context.get_usage(), err=True)
+        raise job.OptionsError(
+            "say what to do: a system (--type classical|rotary --links N -o DIR, or --scene FILE -o DIR), "
+            "or a command (ipgen run SCENE.toml -o OUT/); ipgen --help has the rest"
+        )
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
 
@@ -209,6 +240,16 @@ def _warn(warnings: tuple[str, ...]) -> None:
 _VERBS = {"created": "wrote", "replaced": "replaced", "unchanged": "unchanged"}
 
 
+class _NotGiven:
+    """`value in _NOT_GIVEN`: an option left at its default (None, or a flag not set)."""
+
+    def __contains__(self, value: object) -> bool:
+        return value is None or value is False
+
+
+_NOT_GIVEN = _NotGiven()
+
+
 def _report(system: System, name: str, written: list[Written]) -> None:
     links = system.links
     for file in written:
@@ -232,6 +273,146 @@ def _generate(planned: job.Job) -> list[Written]:
         item_show_func=lambda step: step,
     ) as bar:
         return job.run(planned, progress=lambda step: bar.update(1, step))
+
+
+RUN_HELP = """Run a scene: generate its model, build its simulator (optimised, cached by the
+model's content: later runs of the same model do not compile), simulate, and write into OUT:
+SCENE.cfg (the resolved scene), SCENE.csv (the trajectory), SCENE.png (a plot) and SCENE.txt
+(the simulator's summary of the run).
+
+\b
+The exit status is the simulator's: 0, or its own non-zero status and message when the run
+fails (a plot and summary of what was simulated are still written when it wrote a CSV).
+Files in OUT that ipgen did not write are replaced only with --force. Needs a C++ compiler,
+Eigen, SUNDIALS and LAPACK (Debian: apt-get install g++ libeigen3-dev libsundials-dev
+liblapack-dev).
+"""
+
+
+@cli.command("run", help=RUN_HELP, context_settings=CONTEXT)
+@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.option(
+    "-o",
+    "--output",
+    "directory",
+    type=click.Path(path_type=Path),
+    metavar="OUT",
+    help="Folder for the results.",
+)
+@click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
+@click.option(
+    "--cache-dir",
+    type=click.Path(path_type=Path),
+    default=None,
+    metavar="DIR",
+    help="Where compiled simulators are kept [default: $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen, "
+    "else ~/.cache/ipgen].",
+)
+def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Path | None) -> int:
+    from ipgen.command.run import run_scene
+
+    if directory is None:
+        raise job.OptionsError(
+            "missing -o OUT: say where to write the results, e.g. ipgen run SCENE.toml -o out/"
+        )
+    outcome = run_scene(
+        scene,
+        directory,
+        force=force,
+        cache=cache_dir,
+        announce=lambda line: click.echo(f"ipgen: {line}", err=True),
+    )
+    if outcome.simulator.built:
+        click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)
+    click.echo(f"wrote {', '.join(str(path) for path in outcome.files)}")
+    click.echo(outcome.summary)
+    for line in outcome.messages.splitlines():
+        click.echo(line, err=True)  # the simulator's warnings, or the error that ended the run
+    if outcome.status != 0:
+        click.echo(f"ipgen: the simulation ended with exit status {outcome.status}", err=True)
+    return outcome.status
+
+
+@cli.command("plot", context_settings=CONTEXT)
+@click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
+@click.option(
+    "-o",
+    "--output",
+    "png",
+    type=click.Path(path_type=Path),
+    default=None,
+    metavar="PNG",
+    help="The picture [default: the CSV's path with .png].",
+)
+@click.option(
+    "--type",
+    "system_type",
+    type=click.Choice(SYSTEM_TYPES),
+    default=None,
+    help="Label θ0 as a cart position or an arm angle [default: from the .cfg next to the CSV].",
+)
+@click.option("--force", is_flag=True, help="Replace a PNG that ipgen did not write.")
+def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bool) -> None:
+    """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
+    for a closed loop, the input u against time."""
+    from ipgen.plots.run import plot_run, read_run, system_type_beside
+
+    target = png if png is not None else csv.with_suffix(".png")
+    run = read_run(csv)
+    plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
+    click.echo(f"wrote {target}")
+
+
+@cli.command("animate", context_settings=CONTEXT)
+@click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
+@click.option(
+    "-o", "--output", "gif", type=click.Path(path_type=Path), default=None, metavar="GIF",
+    help="The animation [default: the CSV's path with .gif].",
+)  # fmt: skip
+@click.option(
+    "--type", "system_type", type=click.Choice(SYSTEM_TYPES), default=None,
+    help="The system [default: from the .cfg next to the CSV, which ipgen run writes].",
+)  # fmt: skip
+@click.option(
+    "--lengths", default=None, metavar="L0,L1,...",
+    help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
+)  # fmt: skip
+@click.option("--fps", type=float, default=15.0, show_default=True, help="Frames per second of the run.")
+@click.option("--force", is_flag=True, help="Replace an existing GIF.")
+def animate_command(
+    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float, force: bool
+) -> None:
+    """Animate a CSV a simulator wrote (ipgen run, simulate_<model>), drawn to scale from above and
+    from the side: an animated GIF (needs pillow: the extra swingup)."""
+    from ipgen.plots.run import scene_beside
+
+    beside = scene_beside(csv)
+    kind = system_type or (beside[0] if beside else None)
+    if lengths is not None:
+        try:
+            l_values = [float(value) for value in lengths.split(",")]
+        except ValueError:
+            raise job.OptionsError(
+                f"--lengths {abbreviate(lengths)!r}: expected numbers, e.g. 0.6,0.5,0.5"
+            ) from None
+    else:
+        l_values = beside[1] if beside else None
+    if kind is None or l_values is None:
+        raise job.OptionsError(
+            f"{shown_path(csv)}: no resolved scene (.cfg) next to it says the system: "
+            "pass --type and --lengths"
+        )
+    try:
+        import PIL  # noqa: F401  (the GIF writer)
+
+        from ipgen.plots.animation import animate_run
+    except ImportError:
+        raise job.OptionsError(
+            "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
+        ) from None
+    target = gif if gif is not None else csv.with_suffix(".gif")
+    written = animate_run(csv, target, kind, l_values, fps=fps, force=force)
+    click.echo(f"wrote {written}")
 
 
 def run(argv: list[str] | None = None) -> int:

@@ -147,3 +147,9 @@ def write_files(files: Sequence[tuple[Path, str | bytes]], force: bool = False) 
 def write_file(path: Path, text: str, force: bool = False) -> str:
     """`write_files` for one file."""
     return write_files([(path, text)], force)[0]
+
+
+def check_replaceable(path: Path, force: bool = False) -> None:
+    """An OutputError if writing `path` would replace a file ipgen did not write (without
+    `force`); checked before long work, so that it fails early."""
+    _plan(path, b"", force)

@@ -19,5 +19,6 @@ def cmake_dir() -> Path:
     if (checkout / "ipgenConfig.cmake").is_file():
         return checkout
     raise Error(
-        "ipgen's CMake package is missing from this installation: reinstall ipgen (pip install ipgen)"
+        "ipgen's CMake package is missing from this installation: reinstall it with "
+        "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
     )

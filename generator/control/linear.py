@@ -307,7 +307,10 @@ def lqr(
     inertia: str = "pivot",
     equilibrium: Sequence[float] | str | None = None,
 ) -> np.ndarray:
-    """The LQR gain K (1-D, 2·dof entries) of u = −K (x − x_eq) about an equilibrium.
+    """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
+
+    The shape is python-control's (`control.lqr`), so the textbook `A - B @ K` is the closed
+    loop's matrix; `K[0]` or `K.ravel()` is the row as a vector.
 
     `Q` is 2·dof diagonal weights or a symmetric positive semidefinite 2·dof × 2·dof matrix, `R`
     the weight of u² (> 0). `equilibrium` is "upright" (default), "hanging", or the dof angles
@@ -327,8 +330,8 @@ def lqr(
         p = solve_continuous_are(a, b, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise ControlError(f"the Riccati equation has no stabilising solution ({exc})") from None
-    k = np.linalg.solve(r, b.T @ p).reshape(-1)
-    poles = np.linalg.eigvals(a - b @ k.reshape(1, -1))
+    k = np.linalg.solve(r, b.T @ p).reshape(1, -1)
+    poles = np.linalg.eigvals(a - b @ k)
     if not np.all(np.isfinite(k)) or np.max(poles.real) >= 0:
         raise ControlError(f"the LQR gain does not stabilise the linear model (poles {np.round(poles, 4)})")
     return k

@@ -181,7 +181,7 @@ def controller(table: Any, system: Any, params: Any) -> Controller:
     x_eq = equilibrium_state(system.links, table.equilibrium)
     return Controller(
         kind=table.kind,
-        gain=tuple(float(k) for k in gain),
+        gain=tuple(float(k) for k in gain.ravel()),  # K is 1 x 2(n+1)
         equilibrium=tuple(float(x) for x in x_eq),
         saturation=None if table.saturation is None else table.saturation.value,
         period=None if table.period is None else table.period.value,

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 
+#include "ipsim/eigenvalues.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -93,7 +93,7 @@ Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFe
   const VectorOf<Model> qd = controller.equilibrium.segment<n>(n);
   const auto lin = Model::template linearize<double>(q, qd, 0.0, params);
   const Eigen::MatrixXd closed = lin.A - lin.B * controller.gain.transpose();
-  Eigen::VectorXcd poles = Eigen::EigenSolver<Eigen::MatrixXd>(closed, false).eigenvalues();
+  Eigen::VectorXcd poles = detail::general_eigenvalues(closed);  // LAPACK: no Eigen solver to compile
   std::sort(poles.data(), poles.data() + poles.size(), [](const std::complex<double>& a, const std::complex<double>& b) {
     return a.real() != b.real() ? a.real() < b.real() : a.imag() < b.imag();
   });

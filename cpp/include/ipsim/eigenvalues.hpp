@@ -8,8 +8,10 @@
 // plain inline functions over dynamic-size matrices, independent of the model.
 #pragma once
 
+#include <complex>
 #include <cstddef>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -40,21 +42,27 @@ inline Eigen::VectorXd symmetric_eigenvalues(Eigen::MatrixXd a) {
   return w;
 }
 
-/// The real parts of the eigenvalues of the general square matrix `a` (in LAPACK's order); all
-/// NaN when LAPACK's dgeev fails or `a` is not finite.
-inline Eigen::VectorXd eigenvalue_real_parts(Eigen::MatrixXd a) {
+/// The eigenvalues of the general square matrix `a` (in LAPACK's order); all NaN when LAPACK's
+/// dgeev fails or `a` is not finite.
+inline Eigen::VectorXcd general_eigenvalues(Eigen::MatrixXd a) {
   const int n = static_cast<int>(a.rows());
-  Eigen::VectorXd real = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
-  if (n == 0 || !a.allFinite()) return real;
-  Eigen::VectorXd imaginary(n);
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  Eigen::VectorXcd values = Eigen::VectorXcd::Constant(n, std::complex<double>(nan, nan));
+  if (n == 0 || !a.allFinite()) return values;
+  Eigen::VectorXd real(n), imaginary(n);
   const int lwork = 4 * n, one = 1;
   std::vector<double> work(static_cast<std::size_t>(lwork));
   double unused = 0.0;
   int info = 0;
   dgeev_("N", "N", &n, a.data(), &n, real.data(), imaginary.data(), &unused, &one, &unused, &one, work.data(), &lwork,
          &info, 1, 1);
-  if (info != 0) real.setConstant(std::numeric_limits<double>::quiet_NaN());
-  return real;
+  if (info != 0) return values;
+  for (int i = 0; i < n; ++i) values(i) = std::complex<double>(real(i), imaginary(i));
+  return values;
 }
+
+/// The real parts of the eigenvalues of the general square matrix `a` (in LAPACK's order); all
+/// NaN when LAPACK's dgeev fails or `a` is not finite.
+inline Eigen::VectorXd eigenvalue_real_parts(Eigen::MatrixXd a) { return general_eigenvalues(std::move(a)).real(); }
 
 }  // namespace ipsim::detail

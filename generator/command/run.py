@@ -1,0 +1,142 @@
+"""`ipgen run SCENE.toml -o OUT/`: from a scene to results in one command.
+
+Generates the scene's model header and resolved scene, builds (or takes from the cache) the
+scene's simulator (command/simulator.py), runs it, and writes into OUT:
+
+    <stem>.cfg  the resolved scene (rerun it with the simulator named in the summary)
+    <stem>.csv  the trajectory, written by the simulator
+    <stem>.png  a plot of the run (plots/run.py)
+    <stem>.txt  the summary paragraph: the simulator's own report of the run
+
+Every file is checked before any work: a file there that ipgen (or the simulator) did not write
+is replaced only with `force`. The simulator's exit status is the run's: 0, or its own non-zero
+status with its message (a failed or diverging run still gets its plot and summary when the
+simulator wrote a CSV).
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from ipgen.command import job
+from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
+from ipgen.command.simulator import Simulator, build
+from ipgen.common.safetext import shown_path
+from ipgen.plots.run import PlotError, plot_run, read_run
+from ipgen.plots.run import check_replaceable as check_png
+
+# The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
+SIMULATOR_CSV = re.compile(
+    r"t((?:,theta\d+)+)((?:,dtheta\d+)+)(,kinetic,potential,input_work,dissipated)?(,u)?"
+)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one run did: its files, the simulator, its status and report."""
+
+    status: int  # the simulator's exit status (0: success)
+    files: list[Path]  # written into OUT
+    simulator: Simulator
+    summary: str  # the paragraph written to <stem>.txt
+    messages: str  # the simulator's stderr (warnings, or the error that ended the run)
+    seconds: float  # wall time of the simulator's process
+
+
+def _csv_from_simulator(path: Path) -> bool:
+    try:
+        with path.open() as f:
+            first = f.readline(4096).rstrip("\r\n")
+    except (OSError, UnicodeDecodeError):
+        return False
+    return SIMULATOR_CSV.fullmatch(first) is not None
+
+
+def _check_outputs(paths: dict[str, Path], scene: Path, force: bool) -> None:
+    for path in paths.values():  # never the scene itself, not even with --force
+        if path.exists() and scene.exists() and path.samefile(scene):
+            raise OutputError(f"{shown_path(path)} is the scene file itself: pass another -o")
+    check_replaceable(paths["cfg"], force)
+    check_replaceable(paths["txt"], force)
+    check_png(paths["png"], force)
+    csv = paths["csv"]
+    if csv.is_dir() or (csv.exists() and not force and not _csv_from_simulator(csv)):
+        raise OutputError(
+            f"{shown_path(csv)} exists and was not written by the simulator: move it away or pass --force"
+        )
+
+
+def _stamp(path: Path) -> tuple[int, int] | None:
+    try:
+        info = path.stat()
+    except OSError:
+        return None
+    return info.st_ino, info.st_mtime_ns
+
+
+def run_scene(
+    scene_path: Path,
+    out: Path,
+    *,
+    force: bool = False,
+    cache: Path | None = None,
+    announce: Callable[[str], None] = lambda message: None,
+) -> Outcome:
+    """Generate, build, simulate and plot `scene_path` into the folder `out`."""
+    with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
+        planned = job.plan(staging, scene=scene_path, emit=("cpp",), force=force)
+        assert planned.scene is not None
+        scene = planned.scene
+        stem = scene.stem
+        paths = {suffix: out / f"{stem}.{suffix}" for suffix in ("cfg", "csv", "png", "txt")}
+        prepare_directory(out)
+        _check_outputs(paths, Path(scene_path), force)
+        job.run(planned)
+        header_text = (Path(staging) / f"{planned.name}.hpp").read_text()
+        cfg_text = (Path(staging) / f"{stem}.cfg").read_text()
+    simulator = build(header_text, planned.name, cache, announce)
+    write_file(paths["cfg"], cfg_text, force=True)  # checked above
+    before = _stamp(paths["csv"])
+    command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]
+    start = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True)
+    seconds = time.perf_counter() - start
+    files = [paths["cfg"]]
+    report = " ".join(done.stdout.split())
+    unplotted = ""
+    if _stamp(paths["csv"]) != before and paths["csv"].is_file():  # the simulator wrote it now
+        files.append(paths["csv"])
+        links = f"{scene.links} link{'s' if scene.links > 1 else ''}"
+        title = f"{stem}: {scene.type} pendulum, {links} (model {planned.name})"
+        if done.returncode != 0:
+            title += f"; the run ended with status {done.returncode}"
+        try:
+            plot_run(read_run(paths["csv"]), paths["png"], title, scene.type, force=True)
+            files.append(paths["png"])
+        except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary
+            unplotted = f"No plot: {exc}."
+    origin = (
+        f"built in {simulator.seconds:.1f} s" if simulator.built else "taken from the cache, not compiled"
+    )
+    parts = [report] if report else []
+    if done.returncode != 0:
+        problem = " ".join(done.stderr.split()) or "no message"
+        parts.append(f"The simulator stopped with exit status {done.returncode}: {problem}")
+    if unplotted:
+        parts.append(unplotted)
+    parts.append(f"Simulator {simulator.path} ({origin}).")
+    summary = " ".join(parts)
+    write_file(
+        paths["txt"],
+        f"{summary}\n\n(Generated by ipgen run from {shown_path(scene_path)}; the CSV's columns: t, "
+        "theta0..thetaN, dtheta0..dthetaN, then the energies and u if the scene has them.)\n",
+        force=True,
+    )
+    files.append(paths["txt"])
+    return Outcome(done.returncode, files, simulator, summary, done.stderr, seconds)
