@@ -162,10 +162,6 @@ def test_run_passes_the_simulators_failure_through(tmp_path: Path, cache: dict[s
     assert "exit status 1" in (tmp_path / "out" / "short.txt").read_text()
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="enable when the simulator detects divergence (issue 20: its own non-zero status, not 2)",
-)
 def test_run_reports_a_diverging_closed_loop(tmp_path: Path, cache: dict[str, str]) -> None:
     """The cart double pendulum under LQR from a 0.1 rad tilt leaves the controller's basin
     (docs/bench/control.md measures 0.02 rad): not a success."""
@@ -177,8 +173,10 @@ def test_run_reports_a_diverging_closed_loop(tmp_path: Path, cache: dict[str, st
         '[initial]\ntheta = [0, 0.1, 0]\n\n[controller]\nkind = "lqr"\n\n[simulation]\nt_end = 10.0\n'
     )
     result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=cache)
-    assert result.returncode not in (0, 2), result.stderr
-    assert "simulate:" in result.stderr and "ipgen: the simulation ended with exit status" in result.stderr
+    assert result.returncode == 3, result.stderr  # the simulator's status for a diverged closed loop
+    assert "the closed loop diverged at t = " in result.stderr
+    assert "ipgen: the simulation ended with exit status 3" in result.stderr
+    assert (tmp_path / "out" / "cdip_diverges.csv").is_file()  # the run up to the divergence
 
 
 # A stand-in compiler: writes a Python "simulator" at -o that writes a two-row CSV and a summary,
