@@ -15,9 +15,14 @@ from dataclasses import dataclass, field
 
 from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from ipgen.codegen.printer import CppPrinter, CPrinter
+from ipgen.model.bodies import named_meaning, rod_defaults
 from ipgen.model.derivation import Equations, PolyMatrix
 from ipgen.model.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
 from ipgen.model.system import split_parameter
+
+# Parameter groups whose rod default is not what zero-initialisation gives (0): read with a
+# fallback to it (`Syntax.given`). tip and J_axial default to 0.
+RESOLVED_GROUPS: tuple[str, ...] = ("com", "J")
 
 
 @dataclass(frozen=True)
@@ -31,6 +36,9 @@ class Syntax:
     c_arrays: bool  # matrices as flat row-major arrays M[r*dof + c] instead of M(r, c)
     sin: str = "sin"  # the sine and cosine functions of the scalar type
     cos: str = "cos"
+    # The condition under which a com or J entry `{field}` is read as given (else the rod default)
+    given: str = "detail::given({field})"
+    comment: str = "// {text}"
 
     def element(self, name: str, r: int, c: int, rows: int, cols: int) -> str:
         """Entry (r, c) of the output matrix `name` (a vector when cols == 1)."""
@@ -43,7 +51,15 @@ class Syntax:
 
 CPP_SYNTAX = Syntax("Scalar", CppPrinter, "{name}({i})", "p.", c_arrays=False)
 C_SYNTAX = Syntax(
-    "IPGEN_SCALAR", CPrinter, "{name}[{i}]", "p->", c_arrays=True, sin="ipgen_sin", cos="ipgen_cos"
+    "IPGEN_SCALAR",
+    CPrinter,
+    "{name}[{i}]",
+    "p->",
+    c_arrays=True,
+    sin="ipgen_sin",
+    cos="ipgen_cos",
+    given="p->custom_inertia",
+    comment="/* {text} */",
 )
 
 
@@ -222,12 +238,20 @@ def build_body(
     # per-angle sin/cos first (in angle order), then differences
     trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
 
+    defaults = _resolution(eqs, used)
+    for g in list(defaults):
+        used |= algebra.used(defaults[g])
+
     body = FunctionBody()
     const = f"const {syntax.scalar}"
     for g in sorted(used):
         info = generators[g]
         if info.kind == PARAMETER:
-            body.prelude.append(f"{const} {info.name} = {params_field(info.name, syntax)};")
+            field = params_field(info.name, syntax)
+            if g in defaults:
+                rod = _expression(algebra, defaults[g], syntax)
+                field = f"{syntax.given.format(field=field)} ? {field} : {rod}"
+            body.prelude.append(f"{const} {info.name} = {field};")
         elif info.kind == VELOCITY:
             body.prelude.append(f"{const} {info.name} = {syntax.index.format(name='qd', i=info.index)};")
         elif info.kind == ACCELERATION:
@@ -235,7 +259,8 @@ def build_body(
             body.late_prelude.append(f"{const} {info.name} = {solved};")
     body.prelude += [definition for _, (definition, _) in trig]
     body.prelude += [
-        f"{const} {generators[g].name} = {_expression(algebra, algebra.named[g], syntax)};"
+        f"{const} {generators[g].name} = {_expression(algebra, algebra.named[g], syntax)};  "
+        + syntax.comment.format(text=named_meaning(generators[g].name))
         for g in sorted(algebra.named)
         if g in used
     ]
@@ -259,6 +284,17 @@ def build_body(
     return body
 
 
+def _resolution(eqs: Equations, used: set[int]) -> dict[int, Poly]:
+    """{com or J generator in `used`: its rod default}, the folded parameters substituted: the
+    value a Params entry left unset (C++: NaN; C: `custom_inertia` zero) stands for."""
+    algebra = eqs.algebra
+    defaults = {}
+    for g, value in rod_defaults(eqs.system, algebra).items():
+        if g in used and algebra.generators[g].group in RESOLVED_GROUPS:
+            defaults[g] = algebra.substitute(value, algebra.fixed)
+    return defaults
+
+
 def _letter_key(letter: Generator) -> tuple[int, ...]:
     """sin/cos of single angles first, then differences; sin before cos."""
     j, k = (*letter.angles, 0)[:2]
@@ -271,12 +307,21 @@ _OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
 def count_operations(statement: str) -> int:
     """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ or C statement.
 
-    Literal casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
+    A conditional `c ? x : y` counts the operations of c and of its costlier branch. Literal casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
     by the compiler and not counted.
     """
     if "=" not in statement:
         return 0
     right = statement.split("=", 1)[1].split("//", 1)[0].split("/*", 1)[0]
+    condition, query, branches = right.partition(" ? ")
+    if query:  # `given ? value : default`: one branch runs
+        given, _, default = branches.partition(" : ")
+        return _count(condition) + max(_count(given), _count(default))
+    return _count(right)
+
+
+def _count(right: str) -> int:
+    """Arithmetic operations in the expression `right` (see `count_operations`)."""
     right = re.sub(r"Scalar\(\d+\)/Scalar\(\d+\)", "1", right)
     right = re.sub(r"\(IPGEN_SCALAR\)\d+/\(IPGEN_SCALAR\)\d+", "1", right)
     right = re.sub(r"\(IPGEN_SCALAR\)(\d+)", r"\1", right)

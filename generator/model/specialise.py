@@ -142,6 +142,10 @@ def specialise(eqs: Equations, spec: Specialisation, keys: tuple[str, ...]) -> E
         return eqs
     values = {_generator_index(eqs.algebra, name): value for name, value in spec.fixed}
     algebra = eqs.algebra.folded(values)
+    # Named quantities that became constants (the per-link combinations of fixed parameters)
+    # are folded too: a header with every link parameter fixed computes none of them.
+    values |= algebra.constant_named()
+    algebra = eqs.algebra.folded(values)
     poly = {key: [[algebra.substitute(p, values) for p in row] for row in eqs.poly[key]] for key in keys}
     return replace(eqs, algebra=algebra, poly=poly)
 
