@@ -106,12 +106,14 @@ for kind, links, inertia in json.loads(sys.argv[1]):
     eqs = derive(System(kind, links, inertia))
     sym = eqs.symbols
     args = (sym.q, sym.qd, (sym.m, sym.l, sym.delta, sym.g))
-    functions = [sp.lambdify(args, e, "numpy") for e in (eqs.mass_matrix, eqs.bias, eqs.kinetic_energy, eqs.potential_energy)]
+    views = (eqs.mass_matrix, eqs.bias, eqs.kinetic_energy, eqs.potential_energy)
+    functions = [sp.lambdify(args, e, "numpy") for e in views]
     rng = np.random.default_rng(21 + links)
     size = links + 1
     for _ in range(4):
         q, qd = list(rng.uniform(-3, 3, size)), list(rng.uniform(-3, 3, size))
-        params = [list(rng.uniform(0.1, 2, size)), list(rng.uniform(0.2, 1.5, size)), list(rng.uniform(0, 0.5, size)), float(rng.uniform(1, 20))]
+        params = [list(rng.uniform(0.1, 2, size)), list(rng.uniform(0.2, 1.5, size))]
+        params += [list(rng.uniform(0, 0.5, size)), float(rng.uniform(1, 20))]
         values = [np.asarray(f(q, qd, params), dtype=float).tolist() for f in functions]
         out.append({"system": [kind, links, inertia], "q": q, "qd": qd, "params": params,
                     "M": values[0], "bias": values[1], "T": values[2], "V": values[3]})
@@ -217,8 +219,8 @@ def markdown(rows: list[dict], rounds: int) -> str:
     ]
     for r in rows:
         lines.append(
-            f"| {r['system']} | {r['old']} | {r['given']} | {_ratio(r['given'], r['old'])} | {r['defaults']} | "
-            f"{_ratio(r['defaults'], r['old'])} | {r['old_folded']} | {r['new_folded']} |"
+            f"| {r['system']} | {r['old']} | {r['given']} | {_ratio(r['given'], r['old'])} | "
+            f"{r['defaults']} | {_ratio(r['defaults'], r['old'])} | {r['old_folded']} | {r['new_folded']} |"
         )
     lines += [
         "",
@@ -230,7 +232,8 @@ def markdown(rows: list[dict], rounds: int) -> str:
     ]
     for r in rows:
         lines.append(
-            f"| {r['system']} | {1000 * r['old_s']:.1f} | {1000 * r['new_s']:.1f} | {_ratio(r['new_s'], r['old_s'])} |"
+            f"| {r['system']} | {1000 * r['old_s']:.1f} | {1000 * r['new_s']:.1f} | "
+            f"{_ratio(r['new_s'], r['old_s'])} |"
         )
     given = max(r["given"] / r["old"] for r in rows)
     defaults = max(r["defaults"] / r["old"] for r in rows)

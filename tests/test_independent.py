@@ -110,7 +110,8 @@ def check_against_kane(case: tuple[str, int, str], general: bool) -> None:
     size = links + 1
     ref = reference(kind, links, inertia, general)
     ours = ipgen(kind, links, inertia, general)
-    rng = np.random.default_rng(20130 + 10 * links + (kind == "rotary") + 2 * (inertia == "full") + 7 * general)
+    seed = 20130 + 10 * links + (kind == "rotary") + 2 * (inertia == "full") + 7 * general
+    rng = np.random.default_rng(seed)
     input_map = np.zeros(size)
     input_map[0] = 1.0
     for k in range(STATES):

@@ -54,7 +54,7 @@ def test_power_balance(case: tuple[str, int, str]) -> None:
     rng = np.random.default_rng(2100 + links)
     for _ in range(3):
         args = random_general_case(rng, links + 1)
-        angles, rates, u, _ = args
+        _, rates, u, _ = args
         force = -np.ravel(bias(*args))
         force[0] += u
         acceleration = np.linalg.solve(np.asarray(mass(*args), dtype=float), force)
@@ -76,7 +76,7 @@ def test_rod_defaults_reproduce_the_paper_model() -> None:
     for case in cases:
         kind, links, inertia = case["system"]
         rod, general = _views(kind, links, inertia)
-        m, lengths, delta, g = case["params"]
+        m, lengths, _, _ = case["params"]
         size = links + 1
         com = [x / 2 for x in lengths]
         inertia_cog = [mi * li * li / 12 for mi, li in zip(m, lengths, strict=True)]

@@ -307,7 +307,8 @@ _OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
 def count_operations(statement: str) -> int:
     """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ or C statement.
 
-    A conditional `c ? x : y` counts the operations of c and of its costlier branch. Literal casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
+    A conditional `c ? x : y` counts the operations of c and of its costlier branch. Literal
+    casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
     by the compiler and not counted.
     """
     if "=" not in statement:

@@ -175,7 +175,8 @@ def potential_energy(system: System, alg: Algebra) -> Poly:
 def rod_defaults(system: System, alg: Algebra) -> dict[int, Poly]:
     """{generator: its value for the paper's rods}: com_i = l_i/2, J_i = m_i l_i²/12, J0 = m0 l0²/3
     (rotary; a cart's J0 is unused: 0), J_axial_i = tip_i = 0."""
-    values: dict[int, Poly] = {alg.index("J0"): alg.m(0) * alg.l(0) ** 2 / 3 if system.is_rotary else alg.zero}
+    arm = alg.m(0) * alg.l(0) ** 2 / 3 if system.is_rotary else alg.zero
+    values: dict[int, Poly] = {alg.index("J0"): arm}
     for i in range(1, system.dof):
         values[alg.index(f"com{i}")] = alg.l(i) / 2
         values[alg.index(f"J{i}")] = alg.m(i) * alg.l(i) ** 2 / 12

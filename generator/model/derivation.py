@@ -59,7 +59,7 @@ class Equations:
         J0 = m0 l0²/3, no tip masses or axial inertia): written in m, l, delta and g only."""
         values = rod_defaults(self.system, self.algebra)
         algebra = self.algebra.composed(values)
-        poly = {key: [[algebra.compose(p, values) for p in row] for row in rows] for key, rows in self.poly.items()}
+        poly = {key: [[algebra.compose(p, values) for p in row] for row in m] for key, m in self.poly.items()}
         return Equations(system=self.system, algebra=algebra, poly=poly)
 
     def _matrix(self, name: str) -> sp.Matrix:

@@ -105,7 +105,7 @@ class Generator:
     name: str
     kind: str  # PARAMETER, VELOCITY, ACCELERATION, LETTER or NAMED
     index: int = 0  # parameter: the Params entry (m1 -> 1); velocity, acceleration: the angle
-    group: str = ""  # parameter: "m", "l", "delta", "g", "com", "J", "J_axial" or "tip"; letter: "s", "c", "S" or "C"
+    group: str = ""  # parameter: m, l, delta, g, com, J, J_axial or tip; letter: "s", "c", "S" or "C"
     angles: tuple[int, ...] = ()  # letter: θk, or (θj, θk) for a difference
 
 
@@ -213,11 +213,11 @@ class Algebra:
         """Distance from link i's pivot to its centre of gravity."""
         return self.gen(f"com{i}")
 
-    def J(self, i: int) -> Poly:  # noqa: N802 (the model's name)
+    def J(self, i: int) -> Poly:
         """Link i's inertia about its CoG (i >= 1), the arm's about the vertical (i = 0)."""
         return self.gen(f"J{i}")
 
-    def J_axial(self, i: int) -> Poly:  # noqa: N802 (the model's name)
+    def J_axial(self, i: int) -> Poly:
         return self.gen(f"J_axial{i}")
 
     def tip(self, i: int) -> Poly:
@@ -268,7 +268,7 @@ class Algebra:
         folded.__dict__.update(self.__dict__)
         folded.named = {g: self.substitute(p, values) for g, p in self.named.items()}
         folded.gradients = {
-            g: {i: self.substitute(d, values) for i, d in parts.items()} for g, parts in self.gradients.items()
+            g: {i: self.substitute(d, values) for i, d in ds.items()} for g, ds in self.gradients.items()
         }
         folded.fixed = {**self.fixed, **values}
         folded._named_derivative = {}
@@ -293,7 +293,7 @@ class Algebra:
         composed.__dict__.update(self.__dict__)
         composed.named = {g: self.compose(p, replacements) for g, p in self.named.items()}
         composed.gradients = {
-            g: {i: self.compose(d, replacements) for i, d in parts.items()} for g, parts in self.gradients.items()
+            g: {i: self.compose(d, replacements) for i, d in ds.items()} for g, ds in self.gradients.items()
         }
         composed._named_derivative = {}
         composed._sympy_meaning = None
