@@ -18,11 +18,7 @@ from ipgen.codegen.printer import CppPrinter, CPrinter
 from ipgen.model.bodies import named_meaning, rod_defaults
 from ipgen.model.derivation import Equations, PolyMatrix
 from ipgen.model.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
-from ipgen.model.system import split_parameter
-
-# Parameter groups whose rod default is not what zero-initialisation gives (0): read with a
-# fallback to it (`Syntax.given`). tip and J_axial default to 0.
-RESOLVED_GROUPS: tuple[str, ...] = ("com", "J")
+from ipgen.model.system import LINK_GROUPS, split_parameter
 
 
 @dataclass(frozen=True)
@@ -36,9 +32,14 @@ class Syntax:
     c_arrays: bool  # matrices as flat row-major arrays M[r*dof + c] instead of M(r, c)
     sin: str = "sin"  # the sine and cosine functions of the scalar type
     cos: str = "cos"
-    # The condition under which a com or J entry `{field}` is read as given (else the rod default)
+    # The links as built (com, J, J_axial, tip): where they are read ("p." in Params, C: the
+    # `links` pointer), which groups fall back to the rod default, and when an entry is given.
+    links: str = "p."
+    resolved: tuple[str, ...] = ("com", "J")  # tip and J_axial: Params zero-initialises them
     given: str = "detail::given({field})"
+    extra_arguments: tuple[str, ...] = ()  # arguments besides q, qd, p (C: links)
     comment: str = "// {text}"
+    literal: str = "Scalar({value})"  # an integer constant of the scalar type
 
     def element(self, name: str, r: int, c: int, rows: int, cols: int) -> str:
         """Entry (r, c) of the output matrix `name` (a vector when cols == 1)."""
@@ -58,8 +59,12 @@ C_SYNTAX = Syntax(
     c_arrays=True,
     sin="ipgen_sin",
     cos="ipgen_cos",
-    given="p->custom_inertia",
+    links="links->",
+    resolved=LINK_GROUPS,  # a null `links` pointer: every link a homogeneous rod
+    given="links",
+    extra_arguments=("links",),
     comment="/* {text} */",
+    literal="(IPGEN_SCALAR){value}",
 )
 
 
@@ -164,9 +169,11 @@ def _expression(algebra: Algebra, p: Poly, syntax: Syntax) -> str:
 
 
 def params_field(name: str, syntax: Syntax = CPP_SYNTAX) -> str:
-    """Access to parameter `name` in the parameters p: m1 -> p.m[1] (C: p->m[1]), g -> p.g."""
+    """Access to parameter `name`: m1 -> p.m[1] (C: p->m[1]), g -> p.g, com1 -> p.com[1] (C:
+    links->com[1])."""
     group, index = split_parameter(name)
-    return f"{syntax.params}{group}" if index is None else f"{syntax.params}{group}[{index}]"
+    where = syntax.links if group in LINK_GROUPS else syntax.params
+    return f"{where}{group}" if index is None else f"{where}{group}[{index}]"
 
 
 def _schedule(
@@ -238,7 +245,7 @@ def build_body(
     # per-angle sin/cos first (in angle order), then differences
     trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
 
-    defaults = _resolution(eqs, used)
+    defaults = _resolution(eqs, used, syntax)
     for g in list(defaults):
         used |= algebra.used(defaults[g])
 
@@ -249,7 +256,9 @@ def build_body(
         if info.kind == PARAMETER:
             field = params_field(info.name, syntax)
             if g in defaults:
-                rod = _expression(algebra, defaults[g], syntax)
+                rod = syntax.literal.format(value=0)
+                if defaults[g]:
+                    rod = _expression(algebra, defaults[g], syntax)
                 field = f"{syntax.given.format(field=field)} ? {field} : {rod}"
             body.prelude.append(f"{const} {info.name} = {field};")
         elif info.kind == VELOCITY:
@@ -275,22 +284,25 @@ def build_body(
     body.operations = sum(count_operations(line) for line in computed)
     body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
 
+    parameters = [generators[g] for g in used if generators[g].kind == PARAMETER]
     needs = {
         "q": bool(trig),
         "qd": any(generators[g].kind == VELOCITY for g in used),
-        "p": any(generators[g].kind == PARAMETER for g in used),
+        "p": any(info.group not in LINK_GROUPS for info in parameters),
+        "links": any(info.group in LINK_GROUPS for info in parameters),
     }
     body.unused_arguments = [a for a in arguments if not needs[a]]
     return body
 
 
-def _resolution(eqs: Equations, used: set[int]) -> dict[int, Poly]:
-    """{com or J generator in `used`: its rod default}, the folded parameters substituted: the
-    value a Params entry left unset (C++: NaN; C: `custom_inertia` zero) stands for."""
+def _resolution(eqs: Equations, used: set[int], syntax: Syntax) -> dict[int, Poly]:
+    """{generator in `used` of a group `syntax` resolves: its rod default}, the folded
+    parameters substituted: the value an entry left unset (C++: a NaN com or J; C: no links
+    struct) stands for."""
     algebra = eqs.algebra
     defaults = {}
     for g, value in rod_defaults(eqs.system, algebra).items():
-        if g in used and algebra.generators[g].group in RESOLVED_GROUPS:
+        if g in used and algebra.generators[g].group in syntax.resolved:
             defaults[g] = algebra.substitute(value, algebra.fixed)
     return defaults
 
