@@ -48,6 +48,7 @@ class Equations:
     system: System
     algebra: Algebra
     poly: dict[str, PolyMatrix]  # name -> matrix of polynomials (vectors: one column)
+    rod_links: bool = False  # the paper's rods substituted (`rod`): no com, J, J_axial, tip
 
     @property
     def symbols(self) -> Symbols:
@@ -60,7 +61,7 @@ class Equations:
         values = rod_defaults(self.system, self.algebra)
         algebra = self.algebra.composed(values)
         poly = {key: [[algebra.compose(p, values) for p in row] for row in m] for key, m in self.poly.items()}
-        return Equations(system=self.system, algebra=algebra, poly=poly)
+        return Equations(system=self.system, algebra=algebra, poly=poly, rod_links=True)
 
     def _matrix(self, name: str) -> sp.Matrix:
         import sympy as sp
