@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+import subprocess
 from fractions import Fraction
 from functools import cache
 from pathlib import Path
@@ -160,3 +161,119 @@ def test_operation_counts(case: tuple[str, int, str]) -> None:
         for line in [*general.prelude, *general.temporaries, *general.outputs]
     )
     assert given <= max(1.10 * general_rods, general_rods + 5)
+
+
+# --------------------------------------------------------------------------- generated code
+
+CPP_PROGRAM = """
+#include <cstdio>
+#include "model.hpp"
+namespace m = ipgen::model;
+int main() {
+  const m::Params<double> rod{{M}, {L}, {D}};  // the existing style: m, l, delta only
+  m::Params<double> assigned{};                 // and member by member
+  assigned.m = rod.m; assigned.l = rod.l; assigned.delta = rod.delta;
+  m::Params<double> built = rod;                // the links as built
+  built.com = {COM}; built.J = {J}; built.J_axial = {AX}; built.tip = {TIP};
+  const m::Vector<double> q{Q}, qd{QD};
+  const m::Params<double>* all[] = {&rod, &assigned, &built};
+  for (const auto* p : all) {
+    const auto qdd = m::forward_dynamics<double>(q, qd, 0.3, *p);
+    for (int i = 0; i < m::kDof; ++i) std::printf("%.17g ", qdd(i));
+    std::printf("\\n");
+  }
+}
+"""
+
+C_PROGRAM = """
+#include <stdio.h>
+#include "model.h"
+int main(void) {
+  const ipgen_model_params rod = {{M}, {L}, {D}, 9.81};  /* the existing style */
+  const ipgen_model_links built = {{COM}, {J}, {AX}, {TIP}};
+  ipgen_model_links rods;
+  const IPGEN_SCALAR q[] = {Q}, qd[] = {QD};
+  IPGEN_SCALAR qdd[IPGEN_MODEL_DOF];
+  int i;
+  ipgen_model_rod_links(&rod, &rods);
+  if (ipgen_model_forward_dynamics(q, qd, 0.3, &rod, qdd)) return 1;
+  for (i = 0; i < IPGEN_MODEL_DOF; ++i) printf("%.17g ", qdd[i]);
+  printf("\\n");
+  if (ipgen_model_forward_dynamics_built(q, qd, 0.3, &rod, &rods, qdd)) return 1;
+  for (i = 0; i < IPGEN_MODEL_DOF; ++i) printf("%.17g ", qdd[i]);
+  printf("\\n");
+  if (ipgen_model_forward_dynamics_built(q, qd, 0.3, &rod, &built, qdd)) return 1;
+  for (i = 0; i < IPGEN_MODEL_DOF; ++i) printf("%.17g ", qdd[i]);
+  printf("\\n");
+  return 0;
+}
+"""
+
+
+def _fill(program: str, values: dict[str, list[float]]) -> str:
+    for key, numbers in values.items():
+        program = program.replace("{" + key + "}", "{" + ", ".join(repr(float(x)) for x in numbers) + "}")
+    return program
+
+
+@pytest.mark.parametrize(
+    "case", [("classical", 2, "pivot"), ("rotary", 2, "full")], ids=["classical2", "rotary2-full"]
+)
+@pytest.mark.parametrize("language", ["cpp", "c"])
+def test_generated_code_keeps_existing_initialisation(
+    tmp_path: Path, case: tuple[str, int, str], language: str
+) -> None:
+    """Params initialised with m, l, delta only (C++ aggregate or member by member; C positional
+    with g) compiles under -Wall -Wextra -Wpedantic -Werror and means the rods; com, J, J_axial,
+    tip given (C++ members; C: the links struct and *_built) give the links as built. Both
+    against the sympy equations (rod view and general view)."""
+    from c_models import c_command, compile_c, require_cc
+    from cxx import cxx_command, require_toolchain
+
+    kind, links, inertia = case
+    size = links + 1
+    rng = np.random.default_rng(77)
+    angles, rates, _, params = random_general_case(rng, size)
+    m, lengths, delta, _, com, inertia_cog, axial, tip = params
+    values = {"M": m, "L": lengths, "D": delta, "COM": com, "J": inertia_cog, "AX": axial, "TIP": tip,
+              "Q": angles, "QD": rates}  # fmt: skip
+    system = System(kind, links, inertia)  # type: ignore[arg-type]
+    eqs = derive(system)
+    from ipgen.codegen.c_header import render_c_header
+    from ipgen.codegen.header import HeaderRequest, render_header
+
+    if language == "cpp":
+        require_toolchain()
+        (tmp_path / "model.hpp").write_text(render_header(eqs, HeaderRequest("model", "test")))
+        (tmp_path / "main.cpp").write_text(_fill(CPP_PROGRAM, values))
+        command = cxx_command(f"-I{tmp_path}", str(tmp_path / "main.cpp"), "-o", str(tmp_path / "main"))
+    else:
+        require_cc()
+        (tmp_path / "model.h").write_text(render_c_header(eqs, HeaderRequest("model", "test")))
+        (tmp_path / "main.c").write_text(_fill(C_PROGRAM, values))
+        command = c_command(f"-I{tmp_path}", str(tmp_path / "main.c"), "-o", str(tmp_path / "main"))
+    error = compile_c(command)
+    assert error is None, error
+    run = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True)
+    rows = [np.array([float(x) for x in line.split()]) for line in run.stdout.splitlines()]
+    sym = eqs.symbols
+    rod_values = (m, lengths, delta, 9.81)
+    general_values = (m, lengths, delta, 9.81, com, inertia_cog, axial, tip)
+
+    def accelerations(view: object, parameter_values: tuple, symbols: tuple) -> np.ndarray:
+        arguments = (sym.q, sym.qd, symbols)
+        mass = np.asarray(sp.lambdify(arguments, view.mass_matrix)(angles, rates, parameter_values), float)  # type: ignore[attr-defined]
+        bias = np.ravel(sp.lambdify(arguments, view.bias)(angles, rates, parameter_values))  # type: ignore[attr-defined]
+        force = -bias
+        force[0] += 0.3
+        return np.linalg.solve(mass, force)
+
+    rod = accelerations(eqs.rod(), rod_values, (sym.m, sym.l, sym.delta, sym.g))
+    general = accelerations(
+        eqs, general_values, (sym.m, sym.l, sym.delta, sym.g, sym.com, sym.J, sym.J_axial, sym.tip)
+    )
+    assert len(rows) == 3
+    for row, expected, what in zip(
+        rows, (rod, rod, general), ("rods", "rods (2)", "links as built"), strict=True
+    ):
+        assert np.allclose(row, expected, rtol=1e-9, atol=1e-9), f"{language} {what}: {row} != {expected}"

@@ -53,8 +53,9 @@ class EquilibriumWarning(UserWarning):
 class Dynamics:
     """Numerical θ̈ and its exact derivatives for one system (lambdified sympy expressions).
 
-    Parameters are passed as one flat sequence `params` = (m0..mn, l0..ln, δ0..δn, g, com0..comn,
-    J0..Jn, J_axial0..J_axialn, tip0..tipn): the links as built (`model.links`).
+    Parameters are passed as one flat sequence `params` = (m0..mn, l0..ln, δ0..δn, g) and,
+    optionally, (com0..comn, J0..Jn, J_axial0..J_axialn, tip0..tipn): the links as built
+    (`model.links`; without them, the paper's rods).
     """
 
     system: System
@@ -70,10 +71,19 @@ class Dynamics:
         """θ̈ from M θ̈ + bias = (u, 0, ..., 0)ᵀ."""
         import numpy as np
 
+        params = self._complete(params)
         mass = np.asarray(self._mass(*q, *params), dtype=float)
         rhs = -np.asarray(self._bias(*q, *qd, *params), dtype=float).reshape(-1)
         rhs[0] += u
         return np.linalg.solve(mass, rhs)
+
+    def _complete(self, params: Sequence[float]) -> list[float]:
+        """`params` with the rods' com, J, J_axial, tip appended if it has m, l, delta, g only."""
+        dof = self.system.dof
+        values = [float(v) for v in params]
+        if len(values) == 3 * dof + 1:
+            values += resolve_links(self.system, values[:dof], values[dof : 2 * dof], {}).flat()
+        return values
 
     def jacobians(
         self, q: np.ndarray, qd: np.ndarray, u: float, params: Sequence[float]
@@ -82,6 +92,7 @@ class Dynamics:
         import numpy as np
 
         dof = self.system.dof
+        params = self._complete(params)
         mass = np.asarray(self._mass(*q, *params), dtype=float)
         rhs = -np.asarray(self._bias(*q, *qd, *params), dtype=float).reshape(-1)
         rhs[0] += u
