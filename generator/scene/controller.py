@@ -87,6 +87,7 @@ def read_controller(
             g=params.g,
             inertia=system.inertia,
             equilibrium=equilibrium,
+            **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
         )
     except ControlError as exc:
         section.reader.fail(f"controller: no LQR gain: {exc}")

@@ -46,7 +46,9 @@ from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.model.links import LinkError, resolve_links
 from ipgen.model.system import (
+    LINK_GROUPS,
     PARAMETER_GROUPS,
     System,
     parameter_names,
@@ -128,6 +130,8 @@ class Scene:
     # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
     # "9.81"), so that it can be used as an exact rational; see `exact`.
     decimals: tuple[tuple[str, str], ...] = ()
+    # The links as built the scene gives: (group, values) for com, J, J_axial, tip (absent: rods)
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...] = ()
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
@@ -152,6 +156,10 @@ class Scene:
         """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
         text = dict(self.decimals).get(name)
         return Fraction(text) if text is not None else Fraction(repr(self.value(name)))
+
+    def link_values(self) -> dict[str, tuple[float, ...]]:
+        """{group: values} of the links as built the scene gives (com, J, J_axial, tip)."""
+        return dict(self.links_as_built)
 
 
 # ---------------------------------------------------------------------------- public API
@@ -189,6 +197,7 @@ def resolved_config(scene: Scene) -> str:
         f"l = {_format_list(scene.l)}",
         f"delta = {_format_list(scene.delta)}",
         f"g = {format_number(scene.g)}",
+        *(f"{group} = {_format_list(values)}" for group, values in scene.links_as_built),
         f"theta = {_format_list(scene.theta)}",
         f"dtheta = {_format_list(scene.dtheta)}",
         f"input = {scene.input.kind}",
@@ -390,6 +399,7 @@ def _build_scene(reader: _Reader, document: dict[str, Any]) -> Scene:
         specialise=system.specialise,
         emit=system.emit,
         decimals=params.decimals,
+        links_as_built=params.links,
         warnings=_warnings(reader, sim["rtol"]),
         controller=controller,
     )
@@ -444,7 +454,9 @@ class _Parameters:
     l: tuple[float, ...]  # noqa: E741
     delta: tuple[float, ...]
     g: float
-    decimals: tuple[tuple[str, str], ...]  # ("m0", "0.3"), ..., ("g", "9.81")
+    decimals: tuple[tuple[str, str], ...]  # ("m0", "0.3"), ..., ("g", "9.81"), ("com1", "0.15"), ...
+    # The links as built the scene gives (com, J, J_axial, tip; absent: the rods' values)
+    links: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
 
 def _read_parameters(section: _Section, system: _System) -> _Parameters:
@@ -471,7 +483,36 @@ def _read_parameters(section: _Section, system: _System) -> _Parameters:
         for i, (_, text) in enumerate(values)
     ]
     decimals.append(("g", g[1]))
-    return _Parameters(_floats(m), _floats(l), _floats(delta), g[0], tuple(decimals))
+    links = _read_links(section, system, _floats(m), _floats(l))
+    for group, values in links:
+        decimals += [(f"{group}{i}", text) for i, (_, text) in enumerate(values)]
+    built = tuple((group, _floats(list(values))) for group, values in links)
+    return _Parameters(_floats(m), _floats(l), _floats(delta), g[0], tuple(decimals), built)
+
+
+def _read_links(
+    section: _Section, system: _System, m: tuple[float, ...], lengths: tuple[float, ...]
+) -> tuple[tuple[str, tuple[tuple[float, str], ...]], ...]:
+    """The optional arrays com, J, J_axial, tip (docs/model.md, "Links as built"), checked by
+    `model.links`: finite; J, J_axial, tip >= 0; J_axial <= 2 J; some inertia about each pivot."""
+    count = system.links + 1
+    given = {group: tuple(section.numbers(group, count)) for group in LINK_GROUPS if section.has(group)}
+    if "J_axial" in given and not (system.type == "rotary" and system.inertia == "full"):
+        section.bad(
+            "J_axial",
+            [v for v, _ in given["J_axial"]],
+            'counts only for a rotary system with inertia = "full"',
+        )
+    try:
+        resolve_links(
+            System(system.type, system.links, system.inertia),  # type: ignore[arg-type]
+            m,
+            lengths,
+            {group: [v for v, _ in values] for group, values in given.items()},
+        )
+    except LinkError as problem:
+        section.reader.fail(f"{section.name}: {problem}")
+    return tuple((group, values) for group, values in given.items())
 
 
 def _check_foldable(section: _Section, system: _System, params: _Parameters, free: tuple[str, ...]) -> None:

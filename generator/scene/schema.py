@@ -13,7 +13,7 @@ from ipgen.model import system as model
 # Every table a scene may have and the keys each may contain, in the order they are documented.
 TABLES: dict[str, tuple[str, ...]] = {
     "system": ("type", "links", "inertia", "name", "specialise", "emit"),
-    "parameters": ("m", "l", "delta", "g", "free"),
+    "parameters": ("m", "l", "delta", "g", "com", "J", "J_axial", "tip", "free"),
     "initial": ("theta", "dtheta"),
     "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),
     "simulation": ("t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"),

@@ -31,15 +31,19 @@ def from_scene(scene: Scene) -> Specialisation:
 
 
 def _rod_links(scene: Scene) -> tuple[tuple[str, Fraction], ...]:
-    """The links as built at the paper's rods' values (com = l/2, J = m l²/12, J0 = m0 l0²/3,
-    tip = J_axial = 0), exactly, for the parameters a scene folds: those of the model whose m
-    and l are folded too (a free m or l keeps its rod default computed at run time)."""
+    """The links as built, exactly: as the scene gives them, else at the paper's rods' values
+    (com = l/2, J = m l²/12, J0 = m0 l0²/3, tip = J_axial = 0) where m and l are folded too (a
+    free m or l keeps its rod default computed at run time)."""
     folded = []
+    given = scene.link_values()
     for name in link_parameter_names(scene.links):
         if unused_parameter(scene.type, name, scene.inertia):
             continue
         group, index = split_parameter(name)
         assert index is not None
+        if group in given:  # written in the scene: its exact decimal
+            folded.append((name, scene.exact(name)))
+            continue
         if group in ("com", "J") and {f"m{index}", f"l{index}"} & set(scene.free):
             continue
         mass, length = scene.exact(f"m{index}"), scene.exact(f"l{index}")
