@@ -51,8 +51,8 @@ def rod_value(system: System, group: str, i: int, m: Sequence[float], l: Sequenc
         return l[i] / 2 if i else 0.0
     if group == "J":
         if i == 0:
-            return m[0] * l[0] ** 2 / 3 if system.is_rotary else 0.0
-        return m[i] * l[i] ** 2 / 12
+            return m[0] * l[0] * l[0] / 3 if system.is_rotary else 0.0
+        return m[i] * l[i] * l[i] / 12  # products, not **: a huge length gives inf, not OverflowError
     return 0.0
 
 
@@ -115,7 +115,7 @@ def link_problem(system: System, m: Sequence[float], l: Sequence[float], links: 
     beyond = 0.0
     for i in range(n, 0, -1):
         beyond += links.tip[i]
-        pivot = links.J[i] + m[i] * links.com[i] ** 2 + beyond * l[i] ** 2
+        pivot = links.J[i] + m[i] * links.com[i] * links.com[i] + beyond * l[i] * l[i]
         if not pivot > 0:
             return (
                 f"link {i} has no inertia about its pivot (J[{i}] = 0, com[{i}] = 0 and nothing beyond "

@@ -497,6 +497,8 @@ def _read_links(
     `model.links`: finite; J, J_axial, tip >= 0; J_axial <= 2 J; some inertia about each pivot."""
     count = system.links + 1
     given = {group: tuple(section.numbers(group, count)) for group in LINK_GROUPS if section.has(group)}
+    if not given:
+        return ()  # the rods: nothing to check
     if "J_axial" in given and not (system.type == "rotary" and system.inertia == "full"):
         section.bad(
             "J_axial",
