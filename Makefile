@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-general-links stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-general-links stability configure build clean
 
 all: test
 
@@ -78,7 +78,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-general-links
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-general-links
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -114,6 +114,13 @@ bench-embedded: venv
 CONTROL_ARGS ?= $(BENCH_QUICK)
 bench-control: $(VENV)/.bench-installed
 	$(PY) -m bench.control $(CONTROL_ARGS)
+
+## Swing-up: plan solve times and IPOPT iterations (classical and rotary n = 1..4) and the
+## closed loop's robustness to ±5 % link masses and ±20 % damping (bench/swingup.py,
+## docs/bench/swingup.md). SWINGUP_ARGS passes options, e.g. make bench-swingup SWINGUP_ARGS=--quick
+SWINGUP_ARGS ?= $(BENCH_QUICK)
+bench-swingup: $(VENV)/.bench-installed
+	$(PY) -m bench.swingup $(SWINGUP_ARGS)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

@@ -12,7 +12,8 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent / "generator"
 
 # The stages in order: a module may import its own stage and the stages before it.
-STAGES = ("errors", "common", "model", "control", "codegen", "scene", "command", "ipgen")
+# plots (pictures of runs: matplotlib) comes after control, before the stages that use it.
+STAGES = ("errors", "common", "model", "control", "plots", "codegen", "scene", "command", "ipgen")
 
 
 def _module_name(path: Path) -> str:

@@ -82,6 +82,10 @@ def check_installed_package(installed: Path, tmp_path: Path) -> None:
         "cpp/include/ipsim/ipsim.hpp",
         "cpp/src/simulate.cpp",
         "templates/model.hpp.jinja",
+        "templates/fmu2.c.jinja",
+        "templates/fmi/fmi2/fmi2Functions.h",
+        "templates/fmi/fmi3/fmi3Functions.h",
+        "templates/fmi/fmi3/LICENSE.txt",
     )
     for shipped in shipped_files:
         assert (site / shipped).is_file(), shipped

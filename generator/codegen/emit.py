@@ -17,8 +17,8 @@ if TYPE_CHECKING:
     from ipgen.codegen.header import HeaderRequest
     from ipgen.model.derivation import Equations
 
-# file suffix -> text, for the files of one target
-Rendered = dict[str, str]
+# file suffix -> text (or bytes, for an archive such as the .fmu), for the files of one target
+Rendered = dict[str, str | bytes]
 
 
 class EmitError(Error, ValueError):
@@ -57,6 +57,18 @@ def _equations(eqs: Equations, request: HeaderRequest) -> Rendered:
     return render_equations(eqs if built else eqs.rod(), request)
 
 
+def _fmu(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.fmu import render_fmu
+
+    return {".fmu": render_fmu(eqs, request, 2)}
+
+
+def _fmu3(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.fmu import render_fmu
+
+    return {".fmu": render_fmu(eqs, request, 3)}
+
+
 # In the order their files are written and listed.
 TARGETS: dict[str, Target] = {
     "cpp": Target("cpp", (".hpp",), "the C++17 header (Eigen) NAME.hpp", _cpp),
@@ -67,6 +79,13 @@ TARGETS: dict[str, Target] = {
         "the equations for people, NAME.md (Markdown) and NAME.tex (LaTeX)",
         _equations,
     ),
+    "fmu": Target(
+        "fmu",
+        (".fmu",),
+        "NAME.fmu, an FMI 2.0 Model Exchange FMU (exact Jacobian; compiled with cc or gcc)",
+        _fmu,
+    ),
+    "fmu3": Target("fmu3", (".fmu",), "NAME.fmu as an FMI 3.0 Model Exchange FMU instead", _fmu3),
 }
 DEFAULT_EMIT: tuple[str, ...] = ("cpp",)
 
@@ -83,4 +102,13 @@ def parse_emit(values: str | Iterable[str], where: str = "--emit") -> tuple[str,
         if name not in TARGETS:
             shown = repr(name) if isinstance(name, str) else f"{name!r} (not a string)"
             raise EmitError(f"{where}: unknown target {shown[:40]}: choose from {valid}")
-    return tuple(name for name in TARGETS if name in wanted)
+    chosen = tuple(name for name in TARGETS if name in wanted)
+    for i, first in enumerate(chosen):
+        for second in chosen[i + 1 :]:
+            shared = set(TARGETS[first].suffixes) & set(TARGETS[second].suffixes)
+            if shared:
+                raise EmitError(
+                    f"{where}: {first} and {second} both write NAME{min(shared)}: choose one "
+                    "(fmu is FMI 2.0, fmu3 is FMI 3.0)"
+                )
+    return chosen

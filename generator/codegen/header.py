@@ -69,6 +69,10 @@ class HeaderRequest:
     command: str  # the canonical ipgen command that regenerates it
     specialisation: Specialisation = field(default_factory=Specialisation)
     controller: Controller | None = None  # a scene's feedback controller, for targets that print it
+    # A scene's parameter values (name -> value) and initial state (θ then θ̇), for targets that
+    # carry start values (the FMU); empty: the targets' defaults.
+    parameters: tuple[tuple[str, float], ...] = ()
+    initial: tuple[float, ...] = ()
 
 
 def templates_dir() -> Path:

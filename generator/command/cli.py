@@ -131,6 +131,15 @@ wrote it (else pass --force); the header is written to a temporary file, then re
     help="Print the folder of ipgen's CMake package (ipgenConfig.cmake) and exit: "
     "find_package(ipgen CONFIG REQUIRED) with -Dipgen_DIR=$(ipgen --cmake-dir).",
 )
+@click.option(
+    "--scene-schema",
+    is_flag=True,
+    is_eager=True,
+    expose_value=False,
+    callback=lambda ctx, _, value: _print_scene_schema(ctx) if value else None,
+    help="Print the JSON Schema of scene files and exit (for editors: a scene's first line "
+    "#:schema <file> points Taplo / Even Better TOML at it; see docs/scenes.md).",
+)
 @click.version_option(__version__, "-V", "--version", prog_name="ipgen")
 def cli(
     system_type: str | None,
@@ -174,6 +183,13 @@ def cli(
     _report(planned.system, planned.name, written[:-1])
     click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene_.stem})")
     _warn(scene_.warnings)
+
+
+def _print_scene_schema(ctx: click.Context) -> None:
+    from ipgen.scene.schema import json_schema_text  # pydantic only for scenes
+
+    click.echo(json_schema_text(), nl=False)
+    ctx.exit()
 
 
 def _describe_scene(path: Path | None, *clashing: object) -> None:

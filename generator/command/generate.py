@@ -55,15 +55,20 @@ def generate(
     emit: tuple[str, ...] = DEFAULT_EMIT,
     extra_files: tuple[tuple[str, str], ...] = (),
     controller: Controller | None = None,
+    parameters: tuple[tuple[str, float], ...] = (),
+    initial: tuple[float, ...] = (),
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
     write them all or none (`output.write_files`). `controller` (a scene's) is handed to the
-    targets that print it."""
+    targets that print it; `parameters` (name, value) and `initial` (θ then θ̇), a scene's, to
+    the targets that carry start values (the FMU)."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
-    request = HeaderRequest(name, canonical_command(system, name, spec, emit), spec, controller)
-    files: list[tuple[Path, str]] = []
+    request = HeaderRequest(
+        name, canonical_command(system, name, spec, emit), spec, controller, parameters, initial
+    )
+    files: list[tuple[Path, str | bytes]] = []
     for target in emit:
         report(f"writing {target}")
         rendered = TARGETS[target].render(equations, request)
@@ -79,7 +84,7 @@ def generate(
                 directory.rmdir()
         raise
     return [
-        Written(path, status, len(text.encode()))
+        Written(path, status, len(text.encode() if isinstance(text, str) else text))
         for (path, text), status in zip(files, statuses, strict=True)
     ]
 

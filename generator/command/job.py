@@ -171,10 +171,14 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
     from ipgen.command.generate import generate
 
     extra: tuple[tuple[str, str], ...] = ()
+    parameters: tuple[tuple[str, float], ...] = ()
+    initial: tuple[float, ...] = ()
     if job.scene is not None:
         from ipgen.scene.reader import resolved_config
 
         extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene)),)
+        parameters = tuple((name, job.scene.value(name)) for name in job.scene.parameter_names())
+        initial = (*job.scene.theta, *job.scene.dtheta)
     return generate(
         job.system,
         job.name,
@@ -185,4 +189,6 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         emit=job.emit,
         extra_files=extra,
         controller=job.scene.controller if job.scene is not None else None,
+        parameters=parameters,
+        initial=initial,
     )

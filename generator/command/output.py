@@ -4,8 +4,10 @@ file ipgen did not write."""
 from __future__ import annotations
 
 import contextlib
+import io
 import os
 import tempfile
+import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,9 +23,25 @@ class OutputError(Error):
 
 
 def _written_by_ipgen(data: bytes) -> bool:
-    """Whether the file `data` has ipgen's marker in its first 10 lines."""
+    """Whether the file `data` has ipgen's marker in its first 10 lines (a zip archive, such as
+    an FMU: in those of its first member, modelDescription.xml)."""
+    if data.startswith(b"PK\x03\x04"):
+        data = _first_member(data)
     text = data.decode("utf-8", errors="replace").replace("\r\n", "\n").replace("\r", "\n")
     return MARKER in "\n".join(text.split("\n", 10)[:10])
+
+
+def _first_member(data: bytes) -> bytes:
+    """The start of a zip archive's first member, or b"" if it is no readable archive."""
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as archive:
+            names = archive.namelist()
+            if not names:
+                return b""
+            with archive.open(names[0]) as member:
+                return member.read(4096)
+    except (zipfile.BadZipFile, OSError, ValueError, RuntimeError, EOFError):
+        return b""
 
 
 def _shown(path: Path) -> str:
@@ -93,14 +111,16 @@ def _temporary_copy(planned: _Planned) -> str:
     return tmp
 
 
-def write_files(files: Sequence[tuple[Path, str]], force: bool = False) -> list[str]:
-    """Write every (path, text) of one command, or none: all are checked first, then written
+def write_files(files: Sequence[tuple[Path, str | bytes]], force: bool = False) -> list[str]:
+    """Write every (path, text or bytes) of one command, or none: all are checked first, then written
     to temporary files, then renamed into place. Returns each file's status:
 
     "created", "replaced" (an earlier ipgen output), or "unchanged" (same bytes: only the
     modification time is refreshed, so build systems see the rule as done).
     """
-    plans = [_plan(path, text.encode("utf-8"), force) for path, text in files]
+    plans = [
+        _plan(path, text.encode("utf-8") if isinstance(text, str) else text, force) for path, text in files
+    ]
     temporaries: list[tuple[str, Path]] = []
     try:
         for planned in plans:

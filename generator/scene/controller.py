@@ -1,4 +1,4 @@
-"""The `[controller]` table of a scene: validated, and its LQR gain computed (`control.lqr`).
+"""The `[controller]` table of a scene: its own value rules, and its LQR gain (`control.lqr`).
 
     [controller]  kind = "lqr" (required in the table);
                   q = 2·(links + 1) diagonal weights, or a symmetric positive semidefinite
@@ -12,69 +12,157 @@
                       is computed at t = k·period and held in between; period and
                       [simulation] sample must be whole multiples of one another.
 
-The controller sets u, so it cannot be combined with an `[input]` other than zero. Every problem
-is one line naming the file and the key (`_Reader.fail`), like the other tables.
+The keys are declared in `schema.ControllerTable`; the checks a type cannot say are here
+(`weights`, `equilibrium`, `relations`). The controller sets u, so it cannot be combined with
+an `[input]` other than zero. Every problem is one line naming the file and the key.
 """
 
 from __future__ import annotations
 
 import math
 from decimal import Decimal
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ipgen.control.controller import Controller
-from ipgen.scene import schema
+from ipgen.scene.fields import _one_of, _type_name, format_number
+from ipgen.scene.fieldtypes import at, check_count, refuse, refuse_key
 
-if TYPE_CHECKING:
-    from ipgen.scene.fields import _Section
+# Feedback controllers ([controller] kind) and the named equilibria they stabilise.
+CONTROLLER_KINDS: tuple[str, ...] = ("lqr",)
+EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
+DEFAULT_EQUILIBRIUM = "upright"
+DEFAULT_R = 1.0  # LQR weight of u²; the default Q is the identity
+# A sampling period and the output interval must be whole multiples of one another, to this
+# relative tolerance, so that every sampling instant or every sample is a stop of the other.
+COMMENSURATE_TOLERANCE = 1e-9
+
+WEIGHTS_SCHEMA: dict[str, Any] = {
+    "oneOf": [
+        {"type": "array", "items": {"type": "number", "minimum": 0}, "minItems": 4},
+        {"type": "array", "items": {"type": "array", "items": {"type": "number"}}, "minItems": 4},
+    ]
+}
+EQUILIBRIUM_SCHEMA: dict[str, Any] = {
+    "oneOf": [
+        {"type": "string", "enum": list(EQUILIBRIA)},
+        {"type": "array", "items": {"type": "number"}, "minItems": 2},
+    ]
+}
 
 
-def read_controller(
-    section: _Section,
-    system: Any,  # scene._System: type, links, inertia
-    params: Any,  # scene._Parameters: m, l, delta, g
-    input_kind: str,
-    sample: float,
-    t_end: float,
-) -> Controller:
-    """The controller of a scene's [controller] table (present, possibly empty), with its gain."""
-    from ipgen.scene.fields import _one_of, _type_name, format_number
+def weights(value: Any, context: dict[str, Any]) -> list[list[float]] | list[float]:
+    """q: diagonal weights (size numbers >= 0) or a symmetric positive semidefinite matrix."""
+    size = 2 * context["count"]
+    if not isinstance(value, list):
+        refuse(f"expected an array of {size} weights or a {size} × {size} matrix")
+    check_count(value, size, f"2 · (links + 1) = {size}: θ0.. then θ̇0..")
+    if all(isinstance(row, list) for row in value) and value:
+        return _matrix(value, size, context)
+    return [at(i, _weight, item, context) for i, item in enumerate(value)]
 
-    kind = section.choice("kind", schema.CONTROLLER_KINDS)
+
+def _weight(item: Any, context: dict[str, Any]) -> float:
+    number = _finite(item, context)
+    if number < 0:
+        refuse("weights must be >= 0")
+    return number
+
+
+def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[float]]:
+    def row_of(row: list[Any], _: dict[str, Any]) -> list[float]:
+        check_count(row, size, f"a {size} × {size} matrix")
+        return [at(j, _finite, item, context) for j, item in enumerate(row)]
+
+    matrix = [at(i, row_of, row, context) for i, row in enumerate(rows)]
+    scale = max(1.0, max(abs(x) for row in matrix for x in row))
+    for i in range(size):
+        for j in range(i):
+            if abs(matrix[i][j] - matrix[j][i]) > 1e-12 * scale:
+                refuse_key(
+                    f" = {matrix[i][j]:g} differs from q[{j}][{i}] = {matrix[j][i]:g}: Q must be symmetric",
+                    index=(i, j),
+                )
+    import numpy as np
+
+    smallest = float(np.min(np.linalg.eigvalsh(np.array(matrix))))
+    if smallest < -1e-12 * scale:
+        refuse_key(f": Q must be positive semidefinite, its smallest eigenvalue is {smallest:.3g}")
+    return matrix
+
+
+def _finite(item: Any, context: dict[str, Any]) -> float:
+    if isinstance(item, bool) or not isinstance(item, (int, Decimal)):
+        refuse(f"expected a number, got {_type_name(item)}")
+    try:
+        number = float(item)
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number):
+        refuse("must be a finite number")
+    return number
+
+
+def equilibrium(value: Any, context: dict[str, Any]) -> str | list[float]:
+    """ "upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
+    dof = context["count"]
+    expected = f"{_one_of(EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
+    if isinstance(value, str):
+        if value not in EQUILIBRIA:
+            refuse(f"expected {expected}")
+        return value
+    if not isinstance(value, list):
+        refuse(f"expected {expected}, got {_type_name(value)}")
+    check_count(value, dof, "θ0 and one angle per link")
+    angles = [at(i, _finite, item, context) for i, item in enumerate(value)]
+    for i, angle in enumerate(angles[1:], start=1):
+        if abs(math.remainder(angle, math.pi)) > 1e-9:
+            refuse(
+                "a link rests only upright (0) or hanging (π = 3.141592653589793, or any multiple of π)",
+                key="equilibrium",
+                index=(i,),
+                value=value[i],
+            )
+    return angles
+
+
+def relations(table: Any, context: dict[str, Any]) -> None:
+    """No other input than zero; a period in (0, t_end], commensurate with the output sample."""
+    input_kind = context["input_kind"]
     if input_kind != "zero":
-        section.bad(
-            "kind",
-            kind,
+        refuse(
             f'the controller sets u, but [input] kind "{input_kind}" drives it too; '
             'remove [input] (or set kind = "zero")',
+            key="kind",
+            value=table.kind,
         )
-    size = 2 * (system.links + 1)
-    weights = _read_q(section, size, _type_name)
-    r = section.number("r", "the weight of u², > 0", default=schema.DEFAULT_R)
-    if r <= 0:
-        section.bad("r", r, "the weight of u² must be > 0")
-    equilibrium = _read_equilibrium(section, system.links, _one_of, _type_name)
-    saturation = None
-    if section.has("saturation"):
-        saturation = section.number("saturation", "")
-        if saturation <= 0:
-            unit = "N" if system.type == "classical" else "N m"
-            section.bad("saturation", saturation, f"the largest |u| must be > 0 {unit}")
-    period = None
-    if section.has("period"):
-        period = section.number("period", "")
-        if not 0 < period <= t_end:
-            section.bad("period", period, f"must be > 0 s and <= t_end ({format_number(t_end)} s)")
-        if not _commensurate(period, sample):
-            section.bad(
-                "period",
-                period,
-                "must be a whole multiple or a whole fraction of simulation.sample "
-                f"({format_number(sample)} s)",
-            )
+    if table.period is None:
+        return
+    period, t_end, sample = table.period.value, context["t_end"], context["sample"]
+    if not 0 < period <= t_end:
+        refuse(f"must be > 0 s and <= t_end ({format_number(t_end)} s)", key="period", value=table.period)
+    if not _commensurate(period, sample):
+        refuse(
+            f"must be a whole multiple or a whole fraction of simulation.sample ({format_number(sample)} s)",
+            key="period",
+            value=table.period,
+        )
 
-    from ipgen.control.linear import ControlError, lqr
 
+def _commensurate(period: float, sample: float) -> bool:
+    """True when period / sample or sample / period is a whole number (to a relative 1e-9)."""
+    ratio = max(period, sample) / min(period, sample)
+    return abs(ratio - round(ratio)) <= COMMENSURATE_TOLERANCE * ratio
+
+
+class GainError(Exception):
+    """No LQR gain for this scene (the message says why)."""
+
+
+def controller(table: Any, system: Any, params: Any) -> Controller:
+    """The controller of a validated [controller] table, with its LQR gain (raises `GainError`)."""
+    from ipgen.control.linear import ControlError, equilibrium_state, lqr
+
+    weights_ = table.q if table.q is not None else [1.0] * (2 * (system.links + 1))
     try:
         gain = lqr(
             system.type,
@@ -82,118 +170,20 @@ def read_controller(
             params.m,
             params.l,
             params.delta,
-            weights,
-            r,
+            weights_,
+            table.r.value,
             g=params.g,
             inertia=system.inertia,
-            equilibrium=equilibrium,
+            equilibrium=table.equilibrium,
             **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
         )
     except ControlError as exc:
-        section.reader.fail(f"controller: no LQR gain: {exc}")
-    from ipgen.control.linear import equilibrium_state
-
-    x_eq = equilibrium_state(system.links, equilibrium)
+        raise GainError(f"controller: no LQR gain: {exc}") from None
+    x_eq = equilibrium_state(system.links, table.equilibrium)
     return Controller(
-        kind=kind,
+        kind=table.kind,
         gain=tuple(float(k) for k in gain),
         equilibrium=tuple(float(x) for x in x_eq),
-        saturation=saturation,
-        period=period,
+        saturation=None if table.saturation is None else table.saturation.value,
+        period=None if table.period is None else table.period.value,
     )
-
-
-def _commensurate(period: float, sample: float) -> bool:
-    """True when period / sample or sample / period is a whole number (to a relative 1e-9)."""
-    ratio = max(period, sample) / min(period, sample)
-    return abs(ratio - round(ratio)) <= schema.COMMENSURATE_TOLERANCE * ratio
-
-
-def _read_q(section: _Section, size: int, type_name: Any) -> list[list[float]] | list[float]:
-    """Diagonal weights (size numbers >= 0) or a symmetric positive semidefinite size × size matrix."""
-    if not section.has("q"):
-        return [1.0] * size
-    value = section.data["q"]
-    layout = f"2 · (links + 1) = {size}: θ0.. then θ̇0.."
-    if not isinstance(value, list):
-        section.bad("q", value, f"expected an array of {size} weights or a {size} × {size} matrix")
-    if len(value) != size:
-        section.reader.fail(f"{section.key('q')} has {len(value)} entries, expected {size} ({layout})")
-    if all(isinstance(row, list) for row in value) and value:
-        return _read_matrix(section, value, size)
-    weights = []
-    for i, item in enumerate(value):
-        number = _finite(section, f"q[{i}]", item, type_name)
-        if number < 0:
-            section.bad(f"q[{i}]", item, "weights must be >= 0")
-        weights.append(number)
-    return weights
-
-
-def _read_matrix(section: _Section, rows: list[Any], size: int) -> list[list[float]]:
-    from ipgen.scene.fields import _type_name
-
-    matrix: list[list[float]] = []
-    for i, row in enumerate(rows):
-        if len(row) != size:
-            section.reader.fail(
-                f"{section.key(f'q[{i}]')} has {len(row)} entries, expected {size} (a {size} × {size} matrix)"
-            )
-        matrix.append([_finite(section, f"q[{i}][{j}]", item, _type_name) for j, item in enumerate(row)])
-    scale = max(1.0, max(abs(x) for row in matrix for x in row))
-    for i in range(size):
-        for j in range(i):
-            if abs(matrix[i][j] - matrix[j][i]) > 1e-12 * scale:
-                section.reader.fail(
-                    f"{section.key(f'q[{i}][{j}]')} = {matrix[i][j]:g} differs from q[{j}][{i}] = "
-                    f"{matrix[j][i]:g}: Q must be symmetric"
-                )
-    import numpy as np
-
-    smallest = float(np.min(np.linalg.eigvalsh(np.array(matrix))))
-    if smallest < -1e-12 * scale:
-        section.reader.fail(
-            f"{section.key('q')}: Q must be positive semidefinite, its smallest eigenvalue is {smallest:.3g}"
-        )
-    return matrix
-
-
-def _finite(section: _Section, key: str, item: Any, type_name: Any) -> float:
-    if isinstance(item, bool) or not isinstance(item, (int, Decimal)):
-        section.bad(key, item, f"expected a number, got {type_name(item)}")
-    try:
-        number = float(item)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        section.bad(key, item, "must be a finite number")
-    return number
-
-
-def _read_equilibrium(section: _Section, links: int, one_of: Any, type_name: Any) -> str | list[float]:
-    """ "upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
-    if not section.has("equilibrium"):
-        return schema.DEFAULT_EQUILIBRIUM
-    value = section.data["equilibrium"]
-    dof = links + 1
-    expected = f"{one_of(schema.EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
-    if isinstance(value, str):
-        if value not in schema.EQUILIBRIA:
-            section.bad("equilibrium", value, f"expected {expected}")
-        return value
-    if not isinstance(value, list):
-        section.bad("equilibrium", value, f"expected {expected}, got {type_name(value)}")
-    if len(value) != dof:
-        section.reader.fail(
-            f"{section.key('equilibrium')} has {len(value)} entries, "
-            f"expected {dof} (θ0 and one angle per link)"
-        )
-    angles = [_finite(section, f"equilibrium[{i}]", item, type_name) for i, item in enumerate(value)]
-    for i, angle in enumerate(angles[1:], start=1):
-        if abs(math.remainder(angle, math.pi)) > 1e-9:
-            section.bad(
-                f"equilibrium[{i}]",
-                value[i],
-                "a link rests only upright (0) or hanging (π = 3.141592653589793, or any multiple of π)",
-            )
-    return angles

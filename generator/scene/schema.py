@@ -1,25 +1,52 @@
-"""What a scene file may contain: tables, keys, choices, defaults and C++ naming rules.
+"""The scene format, declared once: every table, key, type, bound, default and description.
 
-Pure data, no logic: `ipgen.scene` reads and checks scene files against it.
+From this one declaration come both the validation (`reader.load_scene` validates each table
+with its model, in the order of `SceneDocument`, and turns the first problem into one line)
+and the JSON Schema (`json_schema()`, printed by `ipgen --scene-schema`, shipped as
+docs/scene.schema.json for editors).
+
+A table is a pydantic model (`Table`); a key is an annotated field whose annotation is a kind
+of value from `fieldtypes` (`Number`, `Integer`, `Choice`, `Flag`, `Text`, `PerLink`, `Custom`)
+carrying its bounds and messages, plus a `Field(description=...)` for the schema. Rules
+between keys of a table are its `model_validator`; rules between tables read the validation
+context, which each table extends with `context()` (e.g. [system] gives `links`, `count` =
+links + 1 and `type` to the tables after it).
+
+Extending (docs/scenes.md, "Extending the format"): a new optional per-link array is one line
+in its table, e.g. in `ParametersTable`
+
+    com: Annotated[tuple[Exact, ...] | None, PerLink(Number(bounds=(Ge(0, "must be >= 0 m"),))),
+                   Field(description="centre of mass of each link from its pivot [m]")] = None
+
+and a new table is a `Table` subclass with its keys plus one field in `SceneDocument`.
 """
 
 from __future__ import annotations
 
 import re
+from typing import Annotated, Any, Literal
 
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
 from ipgen.model import system as model
-
-# Every table a scene may have and the keys each may contain, in the order they are documented.
-TABLES: dict[str, tuple[str, ...]] = {
-    "system": ("type", "links", "inertia", "name", "specialise", "emit"),
-    "parameters": ("m", "l", "delta", "g", "com", "J", "J_axial", "tip", "free"),
-    "initial": ("theta", "dtheta"),
-    "input": ("kind", "amplitude", "start", "duration", "time", "frequency", "phase"),
-    "simulation": ("t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps"),
-    "outputs": ("energy",),
-    "controller": ("kind", "q", "r", "equilibrium", "saturation", "period"),
-}
+from ipgen.scene import checks
+from ipgen.scene import controller as control
+from ipgen.scene.fieldtypes import (
+    Choice,
+    Custom,
+    Exact,
+    Flag,
+    Ge,
+    Gt,
+    Integer,
+    Lt,
+    Number,
+    PerLink,
+    Text,
+    refuse,
+)
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
 INERTIAS = model.INERTIA_VARIANTS
@@ -36,39 +63,21 @@ METHODS: tuple[str, ...] = (
 JACOBIAN_METHODS: tuple[str, ...] = ("bdf", "adams")  # Newton iteration: jacobian = exact | dq
 FIXED_STEP_METHODS: tuple[str, ...] = ("rk4",)  # step required; rtol and atol do not apply
 JACOBIANS: tuple[str, ...] = ("exact", "dq")
+DEFAULT_JACOBIAN = "exact"
+# Which keys of [simulation] each method uses (see `checks.method_settings`).
+METHOD_KEYS = checks.MethodKeys(JACOBIAN_METHODS, JACOBIANS, DEFAULT_JACOBIAN, FIXED_STEP_METHODS)
 
-# Input kinds: the keys each one uses (in resolved-config order) and which of them are required.
-INPUT_KEYS: dict[str, tuple[str, ...]] = {
-    "zero": (),
-    "constant": ("amplitude",),
-    "pulse": ("amplitude", "start", "duration"),
-    "step": ("amplitude", "time"),
-    "sine": ("amplitude", "frequency", "phase"),
-}
-INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
-    "zero": (),
-    "constant": ("amplitude",),
-    "pulse": ("amplitude", "duration"),
-    "step": ("amplitude", "time"),
-    "sine": ("amplitude", "frequency"),
-}
-INPUT_DEFAULTS: dict[str, float] = {"start": 0.0, "phase": 0.0}
-
-# Feedback controllers ([controller] kind) and the named equilibria they stabilise.
-CONTROLLER_KINDS: tuple[str, ...] = ("lqr",)
-EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
-DEFAULT_EQUILIBRIUM = "upright"
-DEFAULT_R = 1.0  # LQR weight of u²; the default Q is the identity
-# A sampling period and the output interval must be whole multiples of one another, to this
-# relative tolerance, so that every sampling instant or every sample is a stop of the other.
-COMMENSURATE_TOLERANCE = 1e-9
+CONTROLLER_KINDS = control.CONTROLLER_KINDS
+EQUILIBRIA = control.EQUILIBRIA
+DEFAULT_EQUILIBRIUM = control.DEFAULT_EQUILIBRIUM
+DEFAULT_R = control.DEFAULT_R
+COMMENSURATE_TOLERANCE = control.COMMENSURATE_TOLERANCE
 
 # Defaults of optional scalar keys.
 DEFAULT_INERTIA = "pivot"
-DEFAULT_G = "9.81"  # as text: the exact decimal is kept next to the float
+DEFAULT_G = 9.81  # its decimal text "9.81" is kept next to the float (repr)
 DEFAULT_SAMPLE = 0.01
 DEFAULT_METHOD = "bdf"
-DEFAULT_JACOBIAN = "exact"
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000
@@ -77,5 +86,544 @@ DEFAULT_MAX_STEPS = 100_000
 RTOL_MIN = limits.RTOL_MIN  # shared with the simulator (limits.py)
 RTOL_ADVISED = 1e-14
 
-# Scene file stems end up in output file names and in the resolved config.
-STEM = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*\Z")
+# Scene file stems end up in output file names and in the resolved config. (A single class
+# repeated, then the end: linear, and the stem is at most a file name long.)
+STEM = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]*+\Z")
+
+
+class Table(BaseModel):
+    """One table of a scene: unknown keys are refused, values validated once and frozen."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    def context(self) -> dict[str, Any]:
+        """What the tables after this one may need to know of it (see the module docstring)."""
+        return {}
+
+
+def _default(value: Any) -> Any:
+    """A default that is validated like a written value (numbers become `Exact`)."""
+    return Field(default=value, validate_default=True)
+
+
+# ---------------------------------------------------------------------------- [system]
+
+
+class SystemTable(Table):
+    """[system]: which pendulum, and what ipgen writes for it."""
+
+    type: Annotated[
+        str,
+        Choice(options=SYSTEM_TYPES),
+        Field(description="classical: a cart on a rail; rotary: a Furuta arm turning about the vertical"),
+    ]
+    links: Annotated[
+        int,
+        Integer(
+            "an integer >= 1: the number of pendulum links",
+            (Ge(1, "expected an integer >= 1 (the number of pendulum links)"),),
+        ),
+        Field(description="the number of pendulum links (rods)"),
+    ]
+    inertia: Annotated[
+        str,
+        Custom(validate=checks.inertia, schema={"type": "string", "enum": list(INERTIAS)}),
+        Field(description="rotary only: pivot (the published model) or full (complete thin-rod inertia)"),
+    ] = DEFAULT_INERTIA
+    name: Annotated[
+        str | None,
+        Text(
+            problem=checks.model_name_problem,
+            fix="choose another model name",
+            pattern=r"^[A-Za-z][A-Za-z0-9_]*$",
+            max_length=limits.MAX_NAME_LENGTH,
+        ),
+        Field(description="C++ model name: namespace ipgen::NAME, file NAME.hpp (default: <type><links>)"),
+    ] = None
+    specialise: Annotated[
+        bool,
+        Flag(),
+        Field(description="fold this scene's parameters into the header as exact constants"),
+    ] = False
+    emit: Annotated[
+        tuple[str, ...],
+        Custom(
+            validate=checks.emit_targets,
+            schema={"type": "array", "items": {"type": "string", "enum": list(TARGETS)}, "minItems": 1},
+        ),
+        Field(
+            description="what ipgen writes for the model", json_schema_extra={"default": list(DEFAULT_EMIT)}
+        ),
+    ] = DEFAULT_EMIT
+
+    def context(self) -> dict[str, Any]:
+        return {
+            "type": self.type,
+            "links": self.links,
+            "count": self.links + 1,
+            "specialise": self.specialise,
+            "inertia": self.inertia,
+            "u_unit": "N" if self.type == "classical" else "N m",
+        }
+
+
+# ---------------------------------------------------------------------------- [parameters]
+
+
+_PER_LINK = "links + 1 entries: index 0 the base (cart or arm), 1..n the links"
+
+
+class ParametersTable(Table):
+    """[parameters]: masses, lengths, damping and gravity (SI units)."""
+
+    m: Annotated[
+        tuple[Exact, ...],
+        PerLink(Number(bounds=(Gt(0, "masses must be > 0 kg"),))),
+        Field(description=f"masses [kg], {_PER_LINK}"),
+    ]
+    l: Annotated[  # noqa: E741 (the paper's name for the lengths)
+        tuple[Exact, ...],
+        PerLink(Number()),
+        Field(description=f"lengths [m], {_PER_LINK}; l[0] is the arm (rotary, > 0), a cart has none: 0"),
+    ]
+    delta: Annotated[
+        tuple[Exact, ...],
+        PerLink(Number(bounds=(Ge(0, "damping must be >= 0"),))),
+        Field(description=f"viscous damping coefficients, {_PER_LINK}"),
+    ]
+    g: Annotated[
+        Exact,
+        Number("gravity in m/s^2", (Ge(0, "gravity must be >= 0 m/s^2 (0 switches it off)"),)),
+        Field(description="gravity [m/s^2] (0 switches it off)"),
+    ] = _default(DEFAULT_G)
+    # The links as built (docs/model.md, "Links as built"); absent: the paper's rods.
+    com: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number()),
+        Field(
+            description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} "
+            "(0 unused); default l/2"
+        ),
+    ] = None
+    J: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
+        Field(
+            description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
+            "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)"
+        ),
+    ] = None
+    J_axial: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
+        Field(
+            description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
+            f"{_PER_LINK}; default 0"
+        ),
+    ] = None
+    tip: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "a mass cannot be negative"),))),
+        Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
+    ] = None
+    free: Annotated[
+        tuple[str, ...],
+        Custom(validate=checks.free_names, schema={"type": "array", "items": {"type": "string"}}),
+        Field(
+            description="with specialise = true: parameters kept symbolic (m0, l1, delta2, g, ...)",
+            json_schema_extra={"default": []},
+        ),
+    ] = ()
+
+    @model_validator(mode="after")
+    def _relations(self, info: Any) -> ParametersTable:
+        context = info.context
+        checks.lengths(self.l, context["type"])
+        checks.links_as_built(self, context)
+        if self.free and not context["specialise"]:
+            refuse(
+                "applies to specialised code only: add specialise = true to [system]",
+                key="free",
+                value=list(self.free),
+            )
+        if context["specialise"]:
+            checks.foldable(self.decimals(context["type"]), self.free, context["type"])
+        return self
+
+    def lengths(self, system_type: str) -> tuple[Exact, ...]:
+        """l, with a cart's (ignored) length written as 0."""
+        return (Exact(0.0, "0"), *self.l[1:]) if system_type == "classical" else self.l
+
+    def decimals(self, system_type: str) -> tuple[tuple[str, str], ...]:
+        """("m0", "0.3"), ..., ("g", "9.81"): each parameter's decimal text as written."""
+        groups = (("m", self.m), ("l", self.lengths(system_type)), ("delta", self.delta))
+        named = [(f"{base}{i}", number.text) for base, values in groups for i, number in enumerate(values)]
+        built = [
+            (f"{group}{i}", number.text)
+            for group, values in self.links_as_built()
+            for i, number in enumerate(values)
+        ]
+        return (*named, ("g", self.g.text), *built)
+
+    def links_as_built(self) -> tuple[tuple[str, tuple[Exact, ...]], ...]:
+        """(group, values) of the link arrays the scene gives (com, J, J_axial, tip)."""
+        return tuple(
+            (group, values) for group in model.LINK_GROUPS if (values := getattr(self, group)) is not None
+        )
+
+
+# ---------------------------------------------------------------------------- [initial]
+
+
+class InitialTable(Table):
+    """[initial]: the state at t = 0 (default: upright, at rest)."""
+
+    theta: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number()),
+        Field(description=f"angles [rad] (the base: position [m] or angle [rad]), {_PER_LINK}"),
+    ] = None
+    dtheta: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number()),
+        Field(description=f"velocities [rad/s] (a cart: [m/s]), {_PER_LINK}"),
+    ] = None
+
+
+# ---------------------------------------------------------------------------- [input]
+
+_AMPLITUDE = Annotated[
+    Exact,
+    Number("a number: N on a cart, N m on an arm"),
+    Field(description="force on the cart [N] or torque on the arm [N m]"),
+]
+_NOT_BEFORE_START = "must be >= 0 s (the simulation starts at 0)"
+
+
+class InputTable(Table):
+    """[input]: the force (cart) or torque (arm) on the base over time; `kind` picks the shape."""
+
+    def context(self) -> dict[str, Any]:
+        return {"input_kind": getattr(self, "kind")}  # noqa: B009 (each kind declares it)
+
+
+class ZeroInput(InputTable):
+    kind: Annotated[Literal["zero"], Field(description="no input")]
+
+
+class ConstantInput(InputTable):
+    kind: Annotated[Literal["constant"], Field(description="u = amplitude")]
+    amplitude: _AMPLITUDE
+
+
+class PulseInput(InputTable):
+    kind: Annotated[Literal["pulse"], Field(description="u = amplitude for start <= t < start + duration")]
+    amplitude: _AMPLITUDE
+    start: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")] = (
+        _default(0.0)
+    )
+    duration: Annotated[
+        Exact,
+        Number("a time in s, > 0", (Gt(0, "a pulse duration must be > 0 s"),)),
+        Field(description="[s]"),
+    ]
+
+
+class StepInput(InputTable):
+    kind: Annotated[Literal["step"], Field(description="u = amplitude from t = time on")]
+    amplitude: _AMPLITUDE
+    time: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")]
+
+
+class SineInput(InputTable):
+    kind: Annotated[Literal["sine"], Field(description="u = amplitude sin(2π frequency t + phase)")]
+    amplitude: _AMPLITUDE
+    frequency: Annotated[
+        Exact, Number("a frequency in Hz, >= 0", (Ge(0, "must be >= 0 Hz"),)), Field(description="[Hz]")
+    ]
+    phase: Annotated[Exact, Number("an angle in rad"), Field(description="[rad]")] = _default(0.0)
+
+
+# Each kind of input and its model, in the documented order; `kind` tells them apart.
+INPUTS: dict[str, type[InputTable]] = {
+    "zero": ZeroInput,
+    "constant": ConstantInput,
+    "pulse": PulseInput,
+    "step": StepInput,
+    "sine": SineInput,
+}
+Input = Annotated[
+    ZeroInput | ConstantInput | PulseInput | StepInput | SineInput,
+    Field(discriminator="kind"),
+]
+# The keys each kind uses (in resolved-config order) and which of them are required.
+INPUT_KEYS: dict[str, tuple[str, ...]] = {
+    kind: tuple(key for key in table.model_fields if key != "kind") for kind, table in INPUTS.items()
+}
+INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
+    kind: tuple(key for key in INPUT_KEYS[kind] if table.model_fields[key].is_required())
+    for kind, table in INPUTS.items()
+}
+
+
+# ---------------------------------------------------------------------------- [simulation]
+
+
+class SimulationTable(Table):
+    """[simulation]: how long, how often to sample, and how to integrate."""
+
+    t_end: Annotated[
+        Exact,
+        Number("the simulated time in s, > 0", (Gt(0, "must be > 0 s"),)),
+        Field(description="the simulated time [s]"),
+    ]
+    sample: Annotated[
+        Exact,
+        Custom(validate=checks.sample, schema={"type": "number", "exclusiveMinimum": 0}),
+        Field(description="output interval [s], > 0 and <= t_end"),
+    ] = _default(DEFAULT_SAMPLE)
+    method: Annotated[
+        str,
+        Choice(options=METHODS),
+        Field(description="integration method: CVODE bdf/adams, ARKODE erk-*, or fixed-step rk4"),
+    ] = DEFAULT_METHOD
+    jacobian: Annotated[
+        str | None,
+        Custom(validate=checks.raw, schema={"type": "string", "enum": list(JACOBIANS)}),  # method_settings
+        Field(
+            description="bdf and adams only: exact (generated) or dq (difference quotients)",
+            json_schema_extra={"default": DEFAULT_JACOBIAN},
+        ),
+    ] = None
+    rtol: Annotated[
+        Exact,
+        Number(
+            bounds=(
+                Gt(0, "must be in (0, 1); 1e-10 is a good choice"),
+                Lt(1, "must be in (0, 1); 1e-10 is a good choice"),
+                Ge(RTOL_MIN, "cannot be met in double precision; use >= 1e-14"),
+            )
+        ),
+        Field(description="relative tolerance (every method but rk4)"),
+    ] = _default(DEFAULT_RTOL)
+    atol: Annotated[
+        Exact,
+        Number(bounds=(Ge(0, "must be >= 0"),)),
+        Field(description="absolute tolerance (every method but rk4)"),
+    ] = _default(DEFAULT_ATOL)
+    step: Annotated[
+        Exact | None,
+        Custom(validate=checks.raw, schema={"type": "number", "exclusiveMinimum": 0}),  # method_settings
+        Field(description="rk4 only (required there): the fixed step [s], > 0 and <= sample"),
+    ] = None
+    max_steps: Annotated[
+        int,
+        Integer(bounds=(Ge(1, "must be an integer >= 1"),)),
+        Field(description="the integrator's step limit between two samples"),
+    ] = DEFAULT_MAX_STEPS
+
+    @model_validator(mode="after")
+    def _relations(self) -> SimulationTable:
+        checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
+        return self
+
+    def settings(self) -> dict[str, Any]:
+        """The Scene's simulation fields (floats; jacobian and step by method)."""
+        jacobian, step = checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
+        return {
+            "t_end": self.t_end.value,
+            "sample": self.sample.value,
+            "method": self.method,
+            "rtol": self.rtol.value,
+            "atol": self.atol.value,
+            "max_steps": self.max_steps,
+            "jacobian": jacobian,
+            "step": None if step is None else step.value,
+        }
+
+    def context(self) -> dict[str, Any]:
+        return {"t_end": self.t_end.value, "sample": self.sample.value}
+
+
+# ---------------------------------------------------------------------------- [outputs]
+
+
+class OutputsTable(Table):
+    """[outputs]: extra columns of the simulator's CSV."""
+
+    energy: Annotated[
+        bool,
+        Flag(),
+        Field(description="add the energy ledger columns (kinetic, potential, dissipated, input work)"),
+    ] = False
+
+
+# ---------------------------------------------------------------------------- [controller]
+
+
+class ControllerTable(Table):
+    """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen."""
+
+    kind: Annotated[
+        str, Choice(options=CONTROLLER_KINDS), Field(description="lqr: a linear-quadratic regulator")
+    ]
+    q: Annotated[
+        Any,
+        Custom(validate=control.weights, schema=control.WEIGHTS_SCHEMA),
+        Field(
+            description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)"
+        ),
+    ] = None
+    r: Annotated[
+        Exact,
+        Number("the weight of u², > 0", (Gt(0, "the weight of u² must be > 0"),)),
+        Field(description="weight of u²"),
+    ] = _default(DEFAULT_R)
+    equilibrium: Annotated[
+        Any,
+        Custom(validate=control.equilibrium, schema=control.EQUILIBRIUM_SCHEMA),
+        Field(
+            description="upright, hanging, or the angles [θ0, θ1, ...] (links at 0 or π)",
+            json_schema_extra={"default": DEFAULT_EQUILIBRIUM},
+        ),
+    ] = DEFAULT_EQUILIBRIUM
+    saturation: Annotated[
+        Exact | None,
+        Number(bounds=(Gt(0, "the largest |u| must be > 0 {u_unit}"),)),
+        Field(description="the largest |u| [N or N m] (default: unbounded)"),
+    ] = None
+    period: Annotated[
+        Exact | None,
+        Number(),  # > 0, <= t_end and commensurate with sample: `controller.relations`
+        Field(
+            description="sampling period [s], a whole multiple or fraction of simulation.sample "
+            "(default: continuous)",
+            json_schema_extra={"exclusiveMinimum": 0},
+        ),
+    ] = None
+
+    @model_validator(mode="after")
+    def _relations(self, info: Any) -> ControllerTable:
+        control.relations(self, info.context)
+        return self
+
+
+# ---------------------------------------------------------------------------- the document
+
+
+class SceneDocument(BaseModel):
+    """An ipgen scene: one experiment (SI units; arrays have links + 1 entries, index 0 the base).
+
+    The tables are validated in this order; each may use what the ones before it tell
+    (`Table.context`).
+    """
+
+    model_config = ConfigDict(extra="forbid", title="ipgen scene")
+
+    system: SystemTable
+    parameters: ParametersTable
+    initial: InitialTable = Field(default=None, description="the state at t = 0")  # type: ignore[assignment]
+    input: Input = Field(default=None, description="the input on the base")  # type: ignore[assignment]
+    simulation: SimulationTable
+    outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
+    controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
+
+
+# Every table a scene may have, its model (`Input` for [input]) and its keys, documented order.
+TABLE_MODELS: dict[str, Any] = {
+    "system": SystemTable,
+    "parameters": ParametersTable,
+    "initial": InitialTable,
+    "input": Input,
+    "simulation": SimulationTable,
+    "outputs": OutputsTable,
+    "controller": ControllerTable,
+}
+assert tuple(TABLE_MODELS) == tuple(SceneDocument.model_fields)  # one order, checked at import
+TABLES: dict[str, tuple[str, ...]] = {
+    name: (
+        tuple(dict.fromkeys(key for table in INPUTS.values() for key in table.model_fields))
+        if name == "input"
+        else tuple(table.model_fields)
+    )
+    for name, table in TABLE_MODELS.items()
+}
+# Tables that are None when absent (an open loop has no controller), and what an absent or
+# empty table reads as where that is not {} (no [input] is a zero input).
+ABSENT_IS_NONE: tuple[str, ...] = ("controller",)
+WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
+
+
+def json_schema() -> dict[str, Any]:
+    """The JSON Schema of scene files, for editors: draft 4, the draft Taplo (and so Even Better
+    TOML) implements; newer validators read it too."""
+    schema = SceneDocument.model_json_schema(ref_template="#/definitions/{model}")
+    schema["definitions"] = schema.pop("$defs")
+    # An empty [input] table is no input, like none at all.
+    schema["properties"]["input"]["oneOf"].append(
+        {"type": "object", "maxProperties": 0, "description": "an empty table: no input"}
+    )
+    _draft4(schema)
+    return {
+        "$schema": "http://json-schema.org/draft-04/schema#",
+        **schema,
+        "description": (
+            "An ipgen scene: one experiment of an n-link inverted pendulum (TOML, SI units). "
+            "Arrays of the parameters and the initial state have links + 1 entries: index 0 the "
+            "base (cart or arm), 1..n the links. ipgen checks more than this schema can say "
+            "(array lengths, relations between keys); docs/scenes.md is the reference."
+        ),
+    }
+
+
+def _draft4(node: Any) -> None:
+    """Say in draft 4 what pydantic writes in draft 2020-12: exclusive bounds as booleans,
+    `const` as a one-value `enum`; drop OpenAPI's `discriminator` and null defaults."""
+    if isinstance(node, list):
+        for item in node:
+            _draft4(item)
+        return
+    if not isinstance(node, dict):
+        return
+    for bound, inclusive in (("exclusiveMinimum", "minimum"), ("exclusiveMaximum", "maximum")):
+        limit = node.get(bound)
+        if isinstance(limit, (int, float)) and not isinstance(limit, bool):
+            tighter = max if bound == "exclusiveMinimum" else min
+            if inclusive in node and tighter(node[inclusive], limit) == node[inclusive] != limit:
+                del node[bound]  # the inclusive bound is the tighter one (rtol >= 1e-15 > 0)
+            else:
+                node[inclusive], node[bound] = limit, True
+    if "const" in node:
+        value = node.pop("const")
+        node["enum"] = [value]
+        if isinstance(value, str):
+            node.setdefault("type", "string")
+    if len(node.get("allOf", ())) == 1 and list(node["allOf"][0]) == ["$ref"]:
+        node["$ref"] = node.pop("allOf")[0]["$ref"]  # older pydantic: the same as a plain $ref
+    node.pop("discriminator", None)
+    if "default" in node and node["default"] is None:
+        del node["default"]
+    for value in node.values():
+        _draft4(value)
+
+
+def json_schema_text() -> str:
+    """`json_schema()` as the text `ipgen --scene-schema` prints and docs/scene.schema.json holds."""
+    import json
+
+    return json.dumps(_canonical(json_schema()), indent=2, ensure_ascii=False) + "\n"
+
+
+def _canonical(node: Any, names: bool = False) -> Any:
+    """The keywords of each schema in sorted order (the same text from any pydantic version);
+    the members of `properties` and `definitions` in declaration order."""
+    if isinstance(node, list):
+        return [_canonical(item) for item in node]
+    if not isinstance(node, dict):
+        return node
+    if names:
+        return {name: _canonical(value) for name, value in node.items()}
+    return {
+        key: _canonical(node[key], names=key in ("properties", "definitions"))
+        for key in sorted(node, key=lambda key: (key != "$schema", key))
+    }

@@ -1,0 +1,275 @@
+"""The variables of an ipgen FMU (`--emit fmu`, `--emit fmu3`) and their true dependencies.
+
+One table serves the model description (XML) and the C glue (templates/fmu_model.c.jinja):
+value references, names, causality, start values, how the C code reads and writes each
+variable, and which states and inputs each output and derivative depends on, read from the
+derived polynomials (an acceleration depends on the angles that occur in M or the bias).
+
+Layout (D = links + 1 coordinates): time (0); theta0..thetaD-1 (states, outputs);
+dtheta0..dtheta (states, the derivatives of theta); ddtheta0.. (the derivatives of dtheta);
+the input u; the energy outputs; then every parameter the model's equations read (the
+generators the C header's functions take from their params struct, and from the links
+struct where the header has one), in the algebra's order, as tunable parameters.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+from ipgen.codegen.functions import C_SYNTAX, params_field
+from ipgen.model.derivation import Equations
+from ipgen.model.polynomial import LETTER, PARAMETER, VELOCITY
+from ipgen.model.specialise import check_parameter
+from ipgen.model.system import System, split_parameter
+
+# Start values without a scene: the paper's systems (scenes/cdip_pulse.toml for a cart,
+# scenes/rsip_pulse.toml for an arm); every link like the paper's links.
+_PAPER = {
+    "classical": {"m": (0.3, 0.275), "l": (0.0, 0.5), "delta": (0.3, 0.1)},
+    "rotary": {"m": (0.5, 0.275), "l": (0.6, 0.5), "delta": (0.3, 0.011458)},
+}
+DEFAULT_G = 9.81
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI variable: its value reference, name and role, and its C access."""
+
+    vr: int
+    name: str
+    causality: str  # independent | output | local | input | parameter
+    variability: str  # continuous | tunable
+    description: str
+    initial: str = ""  # exact | calculated | "" (none allowed)
+    start: float | None = None
+    derivative_of: int | None = None  # the value reference this variable is the derivative of
+    c_value: str = ""  # C expression of the value, in the model struct `m`
+    rule: str = ""  # parameters: "positive" (> 0) or "nonnegative" (>= 0)
+    kind: str = ""  # time | q | qd | qdd | u | energy | parameter
+
+
+@dataclass(frozen=True)
+class Layout:
+    """All variables of one model, and the dependencies the model structure declares."""
+
+    variables: tuple[Variable, ...]
+    dof: int
+    # Value references each output / derivative depends on (states and the input).
+    output_dependencies: tuple[tuple[int, tuple[int, ...]], ...]
+    derivative_dependencies: tuple[tuple[int, tuple[int, ...]], ...]
+
+    def by_kind(self, kind: str) -> tuple[Variable, ...]:
+        return tuple(v for v in self.variables if v.kind == kind)
+
+
+def default_start(system: System, name: str, given: dict[str, float] | None = None) -> float:
+    """The start value of parameter `name` without a scene value: the paper's value; a
+    parameter beyond m, l, delta and g gets the homogeneous rod's value of the masses and lengths
+    in `given` (else the paper's): centre of gravity `com` at l/2, inertia `J` = m l^2/12 about
+    it, a rotary arm's J0 = m0 l0^2/3 about the vertical, no axial inertia or tip mass; 0 if the
+    parameter is unknown here."""
+    group, index = split_parameter(name)
+    if group == "g":
+        return DEFAULT_G
+    if index is None:
+        return 0.0
+    paper = _PAPER[system.type]
+    if group in paper:
+        return paper[group][0 if index == 0 else 1]
+    known = given or {}
+    mass = known.get(f"m{index}", paper["m"][0 if index == 0 else 1])
+    length = known.get(f"l{index}", paper["l"][0 if index == 0 else 1])
+    rod = {"com": length / 2, "J": mass * length**2 / (3 if index == 0 else 12)}
+    return rod.get(group, 0.0)
+
+
+def _rule(system: System, name: str) -> str:
+    """The validity rule of a parameter, from the one that checks --fix values: "positive"
+    (> 0), "nonnegative" (>= 0) or "finite" (any real)."""
+    if check_parameter(system, name, Fraction(0)) is not None:
+        return "positive"
+    if check_parameter(system, name, Fraction(-1)) is not None:
+        return "nonnegative"
+    return "finite"
+
+
+def model_parameters(eqs: Equations) -> list[str]:
+    """The parameters the model reads, in the algebra's order: those occurring in M, the bias
+    or the energies (a cart's l0, for one, does not)."""
+    algebra = eqs.algebra
+    used: set[int] = set()
+    for key in ("mass_matrix", "bias", "kinetic_energy", "potential_energy", "dissipation"):
+        for row in eqs.poly[key]:
+            for p in row:
+                used |= algebra.used(p)
+    for g in sorted(algebra.named, reverse=True):
+        if g in used:
+            used |= algebra.used(algebra.named[g])
+    return [info.name for g, info in enumerate(algebra.generators) if info.kind == PARAMETER and g in used]
+
+
+def c_field(name: str) -> str:
+    """Parameter `name` in the FMU's model struct `m`: the C header's params (m->p.m[1]) or,
+    for the links as built where the header has them, links (m->links.com[1])."""
+    field = params_field(name, C_SYNTAX)
+    for pointer, member in (("p->", "m->p."), ("links->", "m->links.")):
+        if field.startswith(pointer):
+            return member + field.removeprefix(pointer)
+    raise ValueError(f"parameter {name} is read as {field}: not in the params or links struct")
+
+
+def _angles_and_rates(eqs: Equations, keys: tuple[str, ...]) -> tuple[set[int], set[int]]:
+    """The angles (coordinate indices) and velocities the polynomials `keys` depend on."""
+    algebra = eqs.algebra
+    used: set[int] = set()
+    for key in keys:
+        for row in eqs.poly[key]:
+            for p in row:
+                used |= algebra.used(p)
+    for g in sorted(algebra.named, reverse=True):
+        if g in used:
+            used |= algebra.used(algebra.named[g])
+    angles: set[int] = set()
+    rates: set[int] = set()
+    for g in used:  # named quantities are expanded above: their letters are in `used`
+        info = algebra.generators[g]
+        if info.kind == LETTER:
+            angles |= set(info.angles)
+        elif info.kind == VELOCITY:
+            rates.add(info.index)
+    return angles, rates
+
+
+def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] = ()) -> Layout:
+    """The FMU's variables for `eqs`; `start` overrides parameter start values (a scene's),
+    `initial` the states' (θ then θ̇)."""
+    system = eqs.system
+    dof = system.dof
+    base_unit = "m" if system.type == "classical" else "rad"
+    x0 = list(initial) if len(initial) == 2 * dof else [0.0] * (2 * dof)
+    variables: list[Variable] = [
+        Variable(
+            0, "time", "independent", "continuous", "simulation time [s]", kind="time", c_value="m->time"
+        )
+    ]
+    vr = 1
+    for i in range(dof):
+        base = "cart position [m]" if system.type == "classical" else "arm angle [rad]"
+        what = base if i == 0 else f"absolute angle of link {i} from the upright [rad]"
+        variables.append(
+            Variable(
+                vr, f"theta{i}", "output", "continuous", what, "exact", x0[i], c_value=f"m->q[{i}]", kind="q"
+            )
+        )
+        vr += 1
+    for i in range(dof):
+        unit = "m/s" if i == 0 and base_unit == "m" else "rad/s"
+        variables.append(
+            Variable(
+                vr,
+                f"dtheta{i}",
+                "local",
+                "continuous",
+                f"rate of theta{i} [{unit}]",
+                "exact",
+                x0[dof + i],
+                derivative_of=1 + i,
+                c_value=f"m->qd[{i}]",
+                kind="qd",
+            )
+        )
+        vr += 1
+    for i in range(dof):
+        unit = "m/s2" if i == 0 and base_unit == "m" else "rad/s2"
+        variables.append(
+            Variable(
+                vr,
+                f"ddtheta{i}",
+                "local",
+                "continuous",
+                f"acceleration of theta{i} [{unit}]",
+                "calculated",
+                derivative_of=1 + dof + i,
+                c_value=f"m->qdd[{i}]",
+                kind="qdd",
+            )
+        )
+        vr += 1
+    force = "force on the cart [N]" if system.type == "classical" else "torque on the arm [N m]"
+    u_vr = vr
+    variables.append(Variable(vr, "u", "input", "continuous", force, "", 0.0, c_value="m->u", kind="u"))
+    vr += 1
+    energies = (
+        ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd [J]", "m->T"),
+        (
+            "potential_energy",
+            "potential energy V [J], zero with the centres of gravity at the base's height",
+            "m->V",
+        ),
+        ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
+        ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
+    )
+    for name, description, value in energies:
+        variables.append(
+            Variable(
+                vr, name, "output", "continuous", description, "calculated", c_value=value, kind="energy"
+            )
+        )
+        vr += 1
+    paper = {f"{group}{i}": default_start(system, f"{group}{i}") for group in ("m", "l") for i in range(dof)}
+    given = {**paper, **start}  # the masses and lengths the rod defaults are computed from
+    for name in model_parameters(eqs):
+        value = start.get(name, default_start(system, name, given))
+        variables.append(
+            Variable(
+                vr,
+                name,
+                "parameter",
+                "tunable",
+                _parameter_description(system, name),
+                "exact",
+                float(value),
+                c_value=c_field(name),
+                rule=_rule(system, name),
+                kind="parameter",
+            )
+        )
+        vr += 1
+
+    q_vr = {i: 1 + i for i in range(dof)}
+    qd_vr = {i: 1 + dof + i for i in range(dof)}
+    angles, rates = _angles_and_rates(eqs, ("mass_matrix", "bias"))
+    dynamics = tuple(sorted([q_vr[i] for i in angles] + [qd_vr[i] for i in rates] + [u_vr]))
+    derivatives = [(qd_vr[i], (qd_vr[i],)) for i in range(dof)]
+    derivatives += [(1 + 2 * dof + i, dynamics) for i in range(dof)]
+    t_angles, t_rates = _angles_and_rates(eqs, ("kinetic_energy",))
+    v_angles, _ = _angles_and_rates(eqs, ("potential_energy",))
+    _, d_rates = _angles_and_rates(eqs, ("dissipation",))
+    kinetic = sorted([q_vr[i] for i in t_angles] + [qd_vr[i] for i in t_rates])
+    potential = sorted(q_vr[i] for i in v_angles)
+    outputs = [(q_vr[i], (q_vr[i],)) for i in range(dof)]
+    energy_vr = u_vr + 1
+    outputs += [
+        (energy_vr, tuple(kinetic)),
+        (energy_vr + 1, tuple(potential)),
+        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
+        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
+    ]
+    return Layout(tuple(variables), dof, tuple(outputs), tuple(derivatives))
+
+
+def _parameter_description(system: System, name: str) -> str:
+    """What parameter `name` is, with its unit, for the model description."""
+    group, index = split_parameter(name)
+    if index is None:
+        return "gravitational acceleration g [m/s2]" if group == "g" else name
+    base = "cart" if system.type == "classical" else "arm"
+    part = f"the {base}" if index == 0 else f"link {index}"
+    damping_unit = "kg/s" if index == 0 and system.type == "classical" else "N m s"
+    described = {
+        "m": f"mass of {part} [kg]",
+        "l": f"length of {part} [m]",
+        "delta": f"viscous damping of {part} [{damping_unit}]",
+    }
+    return described.get(group, f"{group} of {part}")

@@ -1,0 +1,248 @@
+"""ipgen's exact model as CasADi expressions, for swing-up planning and time-varying LQR.
+
+The sympy views of `ipgen.derive` (M(θ), the bias N θ̇ + P, the energies) are lambdified once per
+system onto CasADi's `sin`/`cos` and called with CasADi symbols for the state and plain floats for
+the parameters, so the constants fold into the expression graph. Nothing is inverted
+symbolically: the planner keeps M θ̈ + bias = B u as an implicit constraint (`residual`), and the
+explicit θ̈ (`acceleration`, for the discrete flow map) is a numerical linear solve inside the
+graph, which CasADi differentiates exactly.
+
+State x = [θ; θ̇] (2·dof entries; θ0 the cart position [m] or arm angle [rad], θ1..θn absolute
+link angles [rad] from upright), input u the cart force [N] or arm torque [N m], B = (1, 0, …, 0)ᵀ.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import TYPE_CHECKING, Any
+
+from ipgen.control.linear import ControlError, _params, _system
+from ipgen.model.system import System
+
+if TYPE_CHECKING:
+    import casadi as ca
+    import numpy as np
+
+__all__ = ["CasadiModel", "Plant", "casadi_model", "plant"]
+
+_INSTALL_HINT = "swing-up planning needs CasADi: pip install 'ipgen[swingup]'"
+
+
+def import_casadi() -> Any:
+    """The casadi module, or a ControlError saying how to install it."""
+    try:
+        import casadi
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ControlError(_INSTALL_HINT) from None
+    return casadi
+
+
+@dataclass(frozen=True)
+class Plant:
+    """A system with numeric parameters: (m0..mn, l0..ln, δ0..δn, g), the order of `ipgen.lqr`,
+    then the links as built (com, J, J_axial, tip; `Dynamics`' order, the rods' values if not
+    given)."""
+
+    system: System
+    params: tuple[float, ...]
+
+    @property
+    def dof(self) -> int:
+        return self.system.dof
+
+    @property
+    def links(self) -> int:
+        return self.system.links
+
+    @property
+    def m(self) -> tuple[float, ...]:
+        return self.params[: self.dof]
+
+    @property
+    def l(self) -> tuple[float, ...]:  # noqa: E743 (the paper's name)
+        return self.params[self.dof : 2 * self.dof]
+
+    @property
+    def delta(self) -> tuple[float, ...]:
+        return self.params[2 * self.dof : 3 * self.dof]
+
+    @property
+    def g(self) -> float:
+        return self.params[3 * self.dof]
+
+    @property
+    def links_as_built(self) -> dict[str, tuple[float, ...]]:
+        """com, J, J_axial, tip (dof entries each)."""
+        start, dof = 3 * self.dof + 1, self.dof
+        groups = ("com", "J", "J_axial", "tip")
+        return {group: self.params[start + k * dof : start + (k + 1) * dof] for k, group in enumerate(groups)}
+
+    def with_params(
+        self,
+        m: Sequence[float] | None = None,
+        l: Sequence[float] | None = None,  # noqa: E741
+        delta: Sequence[float] | None = None,
+    ) -> Plant:
+        """The same system with some parameter arrays replaced (robustness studies)."""
+        values = _params(
+            self.system,
+            self.m if m is None else m,
+            self.l if l is None else l,
+            self.delta if delta is None else delta,
+            self.g,
+            dict(self.links_as_built),
+        )
+        return Plant(self.system, tuple(values))
+
+
+def plant(
+    type: str,
+    links: int,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741 (the paper's name for the lengths)
+    delta: Sequence[float],
+    g: float = 9.81,
+    inertia: str = "pivot",
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
+) -> Plant:
+    """A validated `Plant` (the arguments of `ipgen.lqr`, the links as built included); bad
+    input raises `ControlError`."""
+    system = _system(type, links, inertia)
+    values = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
+    masses, link_lengths = values[: system.dof], values[system.dof + 1 : 2 * system.dof]
+    if any(v <= 0 for v in masses) or any(v <= 0 for v in link_lengths):
+        raise ControlError("masses m and link lengths l[1:] must be > 0")
+    if values[0 + system.dof] <= 0 and system.is_rotary:
+        raise ControlError("the arm length l[0] of a rotary pendulum must be > 0")
+    if any(v < 0 for v in values[2 * system.dof : 3 * system.dof]):
+        raise ControlError("damping delta must be >= 0")
+    return Plant(system, tuple(values))
+
+
+@lru_cache(maxsize=16)
+def _lambdified(system: System) -> tuple[Callable[..., Any], Callable[..., Any]]:
+    """(mass/bias, energies) as Python functions of (θ, θ̇, params) calling casadi's sin and cos."""
+    import sympy as sp
+
+    from ipgen.model.derivation import derive
+
+    casadi = import_casadi()
+    equations = derive(system)
+    s = equations.symbols
+    arguments = [*s.q, *s.qd, *s.parameters, *s.link_parameters]
+    modules = [{"sin": casadi.sin, "cos": casadi.cos, "sqrt": casadi.sqrt}]
+    dynamics = sp.lambdify(
+        arguments, [list(equations.mass_matrix), list(equations.bias)], modules=modules, cse=True
+    )
+    energies = sp.lambdify(
+        arguments, [equations.kinetic_energy, equations.potential_energy], modules=modules, cse=True
+    )
+    return dynamics, energies
+
+
+@dataclass(frozen=True)
+class CasadiModel:
+    """CasADi functions of one plant (SX graphs, parameters folded in as constants).
+
+    - `mass(q)` → M (dof × dof); `bias(q, qd)` → N θ̇ + P (dof);
+    - `residual(q, qd, qdd, u)` → M θ̈ + bias − B u (zero on the equations of motion);
+    - `acceleration(q, qd, u)` → θ̈ (a linear solve in the graph, no symbolic inverse);
+    - `energy(q, qd)` → (T, V).
+    """
+
+    plant: Plant
+    mass: ca.Function
+    bias: ca.Function
+    residual: ca.Function
+    acceleration: ca.Function
+    energy: ca.Function
+
+    def flow_map(self, period: float, substeps: int | None = None) -> ca.Function:
+        """F(x, u): the state after `period` seconds with u held, by classical RK4 in `substeps`
+        steps (default: steps of at most 1 ms, at least 4), as a CasADi function (AD-exact
+        Jacobians of the discretised map)."""
+        return _flow_map(self, float(period), substeps or max(4, math.ceil(period / 1e-3 - 1e-9)))
+
+    def flow_jacobians(self, period: float, substeps: int | None = None) -> ca.Function:
+        """(F, ∂F/∂x, ∂F/∂u) of `flow_map` as one CasADi function of (x, u)."""
+        casadi = import_casadi()
+        step = self.flow_map(period, substeps)
+        n = 2 * self.plant.dof
+        x = casadi.SX.sym("x", n)
+        u = casadi.SX.sym("u")
+        xn = step(x, u)
+        return casadi.Function("flow_jacobians", [x, u], [xn, casadi.jacobian(xn, x), casadi.jacobian(xn, u)])
+
+    def state_derivative(self, x: np.ndarray, u: float) -> np.ndarray:
+        """ẋ = [θ̇; θ̈] at a numeric state (numpy)."""
+        import numpy as np
+
+        dof = self.plant.dof
+        qdd = np.asarray(self.acceleration(x[:dof], x[dof:], u), dtype=float).reshape(-1)
+        return np.concatenate([np.asarray(x[dof:], float), qdd])
+
+
+@lru_cache(maxsize=64)
+def _flow_map(model: CasadiModel, period: float, substeps: int) -> ca.Function:
+    casadi = import_casadi()
+    dof = model.plant.dof
+    x = casadi.SX.sym("x", 2 * dof)
+    u = casadi.SX.sym("u")
+
+    def f(state: Any) -> Any:
+        return casadi.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], u))
+
+    h = period / substeps
+    state = x
+    for _ in range(substeps):
+        k1 = f(state)
+        k2 = f(state + h / 2 * k1)
+        k3 = f(state + h / 2 * k2)
+        k4 = f(state + h * k3)
+        state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return casadi.Function("flow_map", [x, u], [state])
+
+
+@lru_cache(maxsize=32)
+def casadi_model(plant: Plant) -> CasadiModel:
+    """The CasADi functions of `plant` (built once per process and plant)."""
+    casadi = import_casadi()
+    dof = plant.dof
+    dynamics, energies = _lambdified(plant.system)
+    q = casadi.SX.sym("q", dof)
+    qd = casadi.SX.sym("qd", dof)
+    qdd = casadi.SX.sym("qdd", dof)
+    u = casadi.SX.sym("u")
+    arguments = [*casadi.vertsplit(q), *casadi.vertsplit(qd), *plant.params]
+    mass_entries, bias_entries = dynamics(*arguments)
+    mass = casadi.reshape(casadi.vertcat(*[casadi.SX(e) for e in mass_entries]), dof, dof).T
+    bias = casadi.vertcat(*[casadi.SX(e) for e in bias_entries])
+    b = casadi.DM.zeros(dof)
+    b[0] = 1.0
+    residual = casadi.mtimes(mass, qdd) + bias - b * u
+    kinetic, potential = energies(*arguments)
+    # θ̈ by a linear solve kept in the graph (MX, differentiable), never a symbolic inverse.
+    mass_f = casadi.Function("mass", [q], [mass])
+    bias_f = casadi.Function("bias", [q, qd], [bias])
+    qm = casadi.MX.sym("q", dof)
+    qdm = casadi.MX.sym("qd", dof)
+    um = casadi.MX.sym("u")
+    accel = casadi.solve(mass_f(qm), b * um - bias_f(qm, qdm), "symbolicqr")
+    acceleration = casadi.Function("acceleration", [qm, qdm, um], [accel]).expand()
+    return CasadiModel(
+        plant=plant,
+        mass=mass_f,
+        bias=bias_f,
+        residual=casadi.Function("residual", [q, qd, qdd, u], [residual]),
+        acceleration=acceleration,
+        energy=casadi.Function(
+            "energy", [q, qd], [casadi.SX(kinetic) + 0 * q[0], casadi.SX(potential) + 0 * q[0]]
+        ),
+    )

@@ -1,0 +1,164 @@
+"""Åström–Furuta energy control: swing a single link up, then catch it with LQR.
+
+For a single pendulum (classical or rotary, links = 1) the link's energy relative to upright,
+
+    E = ½ J θ̇1² + ½ m1 g l1 (cos θ1 − 1),   J = m1 l1²/3 (the rod about its pivot),
+
+is 0 upright at rest and −m1 g l1 hanging at rest. The law commands a base acceleration a
+(cart [m/s²] or arm [rad/s²]): with M θ̈ + bias = B u, the link's row gives
+J θ̈1 − ½ m1 g l1 sin θ1 = −M10 a − (damping and centrifugal terms), so Ė = −θ̇1 M10 a + …, and
+
+    a = sat_{a_max}( k_E (E − E0) sign(θ̇1 M10) ) − k_x θ0 − k_v θ̇0
+
+pumps energy in while E < E0 (Åström & Furuta 2000), the last two terms keep the cart or arm
+near θ0 = 0. The force or torque that produces a is exact (ipgen's M and bias at the measured
+state): θ̈1 = −(M10 a + bias1)/M11, u = M00 a + M01 θ̈1 + bias0, then clipped to |u| ≤ u_max.
+
+Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
+the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
+and stays there ("swing" → "hold").
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from ipgen.control.casadi_model import Plant, casadi_model
+from ipgen.control.linear import _weights
+from ipgen.control.trajectory import PlanError, finite_number
+from ipgen.control.tvlqr import discrete_lqr
+
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = ["EnergySwingUp", "energy_swingup", "link_energy"]
+
+
+def link_energy(plant: Plant, x: np.ndarray) -> float:
+    """E of link 1 relative to upright at rest [J] (module docstring)."""
+    m1, l1, g = plant.m[1], plant.l[1], plant.g
+    dof = plant.dof
+    return 0.5 * m1 * l1**2 / 3 * float(x[dof + 1]) ** 2 + 0.5 * m1 * g * l1 * (math.cos(float(x[1])) - 1.0)
+
+
+@dataclass
+class EnergySwingUp:
+    """The sampled energy controller with its LQR catch; `control(k, x)` → (u, phase)."""
+
+    plant: Plant
+    u_max: float
+    period: float
+    hold_gain: np.ndarray
+    gain_energy: float  # k_E [(m/s² or rad/s²) per J]
+    gain_position: float  # k_x [1/s²]
+    gain_velocity: float  # k_v [1/s]
+    accel_max: float  # a_max of the energy term
+    catch_angle: float  # rad
+    catch_rate: float  # rad/s
+    energy_target: float = 0.0  # E0 [J]
+    _caught: int | None = field(default=None, repr=False)  # 2π·k of the upright caught
+
+    def reset(self) -> None:
+        self._caught = None
+
+    def control(self, k: int, x: np.ndarray) -> tuple[float, str]:
+        import numpy as np
+
+        x = np.asarray(x, dtype=float)
+        dof = self.plant.dof
+        turns = round(float(x[1]) / (2 * math.pi))
+        if (
+            self._caught is None
+            and abs(float(x[1]) - 2 * math.pi * turns) <= self.catch_angle
+            and abs(float(x[dof + 1])) <= self.catch_rate
+        ):
+            self._caught = turns
+        if self._caught is not None:
+            target = np.zeros(2 * dof)
+            target[1] = 2 * math.pi * self._caught
+            u = -float(self.hold_gain @ (x - target))
+            return float(np.clip(u, -self.u_max, self.u_max)), "hold"
+        model = casadi_model(self.plant)
+        q, qd = x[:dof], x[dof:]
+        mass = np.asarray(model.mass(q), dtype=float)
+        bias = np.asarray(model.bias(q, qd), dtype=float).reshape(-1)
+        energy = link_energy(self.plant, x)
+        direction = math.copysign(1.0, float(qd[1]) * mass[1, 0]) if qd[1] * mass[1, 0] != 0 else 1.0
+        pump = self.gain_energy * (energy - self.energy_target) * direction
+        a = float(np.clip(pump, -self.accel_max, self.accel_max))
+        a -= self.gain_position * float(q[0]) + self.gain_velocity * float(qd[0])
+        qdd1 = -(mass[1, 0] * a + bias[1]) / mass[1, 1]
+        u = mass[0, 0] * a + mass[0, 1] * qdd1 + bias[0]
+        return float(np.clip(u, -self.u_max, self.u_max)), "swing"
+
+
+def energy_swingup(
+    plant: Plant,
+    *,
+    u_max: float,
+    period: float = 0.01,
+    gain_energy: float | None = None,
+    gain_position: float | None = None,
+    gain_velocity: float | None = None,
+    accel_max: float | None = None,
+    catch_angle: float = 0.3,
+    catch_rate: float = 3.0,
+    q: np.ndarray | list[float] | None = None,
+    r: float = 1.0,
+) -> EnergySwingUp:
+    """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
+
+    Defaults scale with the plant: a_max = u_max / M00 at hanging rest (the base acceleration
+    the input limit buys), k_E = 10 a_max / (m1 g l1) so that the energy term saturates until
+    E is within a tenth of the hanging pendulum's deficit, k_x and k_v a slow second-order
+    centring (ω = 1 rad/s, ζ = 1). `q` and `r` weigh the hold LQR (default Q = I, R = 1).
+    """
+    import numpy as np
+
+    if plant.links != 1:
+        raise PlanError(
+            f'energy swing-up is for a single link, this system has {plant.links}; use method "trajectory"'
+        )
+    for name, value, positive in (
+        ("u_max", u_max, True),
+        ("period", period, True),
+        ("catch_angle", catch_angle, True),
+        ("catch_rate", catch_rate, True),
+    ):
+        number = finite_number(name, value)
+        if positive and number <= 0:
+            raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
+    g = plant.g
+    # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,
+    # or the arm's inertia about the vertical with the link's mass at its tip).
+    if accel_max is None:
+        hanging = [0.0, math.pi]
+        inertia = float(np.asarray(casadi_model(plant).mass(hanging), dtype=float)[0, 0])
+        a_max = float(u_max) / inertia
+    else:
+        a_max = float(accel_max)
+    k_e = 10 * a_max / (plant.m[1] * g * plant.l[1]) if gain_energy is None else float(gain_energy)
+    omega = 1.0
+    k_x = omega**2 if gain_position is None else float(gain_position)
+    k_v = 2 * omega if gain_velocity is None else float(gain_velocity)
+    gains = {"gain_energy": k_e, "gain_position": k_x, "gain_velocity": k_v, "accel_max": a_max}
+    for name, value in gains.items():
+        if not math.isfinite(value) or value < 0:
+            raise PlanError(f"{name} = {value!r}: expected a finite number >= 0")
+    dof = plant.dof
+    weights_q, weights_r = _weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
+    hold, _, _, _ = discrete_lqr(plant, float(period), weights_q, weights_r, np.zeros(2 * dof))
+    return EnergySwingUp(
+        plant=plant,
+        u_max=float(u_max),
+        period=float(period),
+        hold_gain=hold,
+        gain_energy=k_e,
+        gain_position=k_x,
+        gain_velocity=k_v,
+        accel_max=a_max,
+        catch_angle=float(catch_angle),
+        catch_rate=float(catch_rate),
+    )

@@ -1,0 +1,344 @@
+"""Pictures of a run: an animated GIF drawn to scale, and a PNG of a plan against a run.
+
+A run is a CSV as the simulator writes it: a header `t,theta0..thetan,dtheta0..dthetan` and
+optionally more columns (`u`, `phase`, `energy`, …), one row per sample. The drawing needs the
+system's type and lengths (l0 the arm [m] of a rotary pendulum, unused for a cart; l1..ln the
+links [m]); angles are absolute from upright, clockwise positive (docs/model.md):
+
+- classical: from the side (x, z) the cart at x = θ0 on its rail and the links in their plane;
+  from above (x, y) the rail, the cart and the links' shadow on the rail's line;
+- rotary: from above (x, y) the arm from the axis to its tip at l0 (sin θ0, cos θ0) and the links'
+  shadow, which swings perpendicular to the arm; from the side, the links' own vertical plane
+  (r, z) at the arm's tip, r along (cos θ0, −sin θ0) (the view of an observer riding the arm).
+
+Both views trace the last link's tip over the last `trace` seconds. Frames are subsampled to
+`fps` (default 15 per second of the run) and written as a GIF by pillow; every file is
+written to a temporary name and renamed, and an existing file is kept unless `force`.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ipgen.errors import Error
+
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = ["PlotError", "RunData", "animate_run", "plot_plan_and_run", "read_run"]
+
+
+class PlotError(Error):
+    """A run or picture that cannot be drawn (unreadable CSV, wrong lengths, existing file)."""
+
+
+@dataclass(frozen=True)
+class RunData:
+    """A run read from a CSV: times (K), angles and rates (K × dof), the input (K, or None) and
+    the phase names (or None)."""
+
+    t: np.ndarray
+    theta: np.ndarray
+    dtheta: np.ndarray
+    u: np.ndarray | None
+    phase: tuple[str, ...] | None
+
+    @property
+    def links(self) -> int:
+        return self.theta.shape[1] - 1
+
+
+def read_run(path: str | Path) -> RunData:
+    """The run in the simulator's CSV at `path` (PlotError naming the problem if unreadable)."""
+    import numpy as np
+
+    path = Path(path)
+    try:
+        with path.open(newline="") as handle:
+            rows = list(csv.reader(handle))
+    except OSError as exc:
+        raise PlotError(f"{path}: cannot read the run ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise PlotError(f"{path}: not a text CSV file") from None
+    if len(rows) < 2:
+        raise PlotError(f"{path}: expected a header and at least one row (a CSV the simulator wrote)")
+    header = [name.strip() for name in rows[0]]
+    dof = 0
+    while f"theta{dof}" in header:
+        dof += 1
+    wanted = ["t", *(f"theta{i}" for i in range(dof)), *(f"dtheta{i}" for i in range(dof))]
+    missing = [name for name in wanted if name not in header]
+    if dof < 2 or missing:
+        raise PlotError(
+            f"{path}: expected columns t, theta0..thetan, dtheta0..dthetan (n >= 1); "
+            f"missing {', '.join(missing) or 'theta1'}"
+        )
+    columns = {name: header.index(name) for name in header}
+    numeric = [*wanted, *(["u"] if "u" in columns else [])]
+    data = np.empty((len(rows) - 1, len(numeric)))
+    for r, row in enumerate(rows[1:], start=2):
+        try:
+            data[r - 2] = [float(row[columns[name]]) for name in numeric]
+        except (ValueError, IndexError):
+            raise PlotError(f"{path}: line {r} is not a row of numbers in the header's columns") from None
+    if not np.all(np.isfinite(data)):
+        raise PlotError(f"{path}: the run holds non-finite values (a run that failed?)")
+    t = data[:, 0]
+    if np.any(np.diff(t) <= 0):
+        raise PlotError(f"{path}: the times in column t must increase")
+    phase = tuple(row[columns["phase"]] for row in rows[1:]) if "phase" in columns else None
+    return RunData(
+        t=t,
+        theta=data[:, 1 : 1 + dof],
+        dtheta=data[:, 1 + dof : 1 + 2 * dof],
+        u=data[:, -1] if "u" in columns else None,
+        phase=phase,
+    )
+
+
+def _lengths(type: str, links: int, l: Sequence[float]) -> list[float]:  # noqa: E741
+    if type not in ("classical", "rotary"):
+        raise PlotError(f"type {type!r}: expected 'classical' or 'rotary'")
+    values = [float(v) for v in l]
+    if len(values) != links + 1:
+        raise PlotError(f"l has {len(values)} entries, expected {links + 1} (l0 and one per link of the run)")
+    if not all(math.isfinite(v) for v in values) or any(v <= 0 for v in values[1:]):
+        raise PlotError("lengths l must be finite, the links' l1..ln > 0")
+    if type == "rotary" and values[0] <= 0:
+        raise PlotError("a rotary pendulum needs its arm length l0 > 0")
+    return values
+
+
+def geometry(type: str, l: Sequence[float], theta: np.ndarray) -> dict[str, np.ndarray]:  # noqa: E741
+    """Points to draw for angle rows `theta` (K × dof): `top` (K × (links+2) × 2: axis or cart,
+    arm tip or cart, then each link's tip, seen from above) and `side` (K × (links+1) × 2:
+    the pivot then each link's tip, in the side view's (horizontal, up) coordinates)."""
+    import numpy as np
+
+    theta = np.atleast_2d(theta)
+    l = np.asarray(l, dtype=float)  # noqa: E741
+    links = theta.shape[1] - 1
+    radial = np.cumsum(l[1:] * np.sin(theta[:, 1:]), axis=1)  # horizontal offsets of the tips
+    up = np.cumsum(l[1:] * np.cos(theta[:, 1:]), axis=1)
+    side = np.zeros((theta.shape[0], links + 1, 2))
+    top = np.zeros((theta.shape[0], links + 2, 2))
+    if type == "classical":
+        x0 = theta[:, 0]
+        side[:, 0, 0] = x0
+        side[:, 1:, 0] = x0[:, None] + radial
+        side[:, 1:, 1] = up
+        top[:, 0, 0] = top[:, 1, 0] = x0
+        top[:, 2:, 0] = x0[:, None] + radial
+    else:
+        a = theta[:, 0]
+        tip = np.stack([l[0] * np.sin(a), l[0] * np.cos(a)], axis=1)
+        direction = np.stack([np.cos(a), -np.sin(a)], axis=1)
+        side[:, 1:, 0] = radial
+        side[:, 1:, 1] = up
+        top[:, 1] = tip
+        top[:, 2:] = tip[:, None, :] + radial[:, :, None] * direction[:, None, :]
+    return {"top": top, "side": side}
+
+
+def _write_atomically(path: Path, force: bool, write: Any) -> Path:
+    if path.exists() and not force:
+        raise PlotError(f"{path} exists; pass force=True (--force) to replace it")
+    if not path.parent.is_dir():
+        raise PlotError(f"{path.parent}: no such directory")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".ipgen.", suffix=path.suffix)
+    os.close(fd)
+    umask = os.umask(0)
+    os.umask(umask)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would make the picture private
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
+def animate_run(
+    run: RunData | str | Path,
+    output: str | Path,
+    type: str,
+    l: Sequence[float],  # noqa: E741
+    *,
+    fps: float = 15.0,
+    trace: float = 1.0,
+    dpi: int = 60,
+    force: bool = False,
+) -> Path:
+    """Write an animated GIF of `run` (a RunData or the path of a simulator CSV) to `output`,
+    drawn to scale (module docstring) at `fps` frames per second of the run."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from PIL import Image
+
+    data = run if isinstance(run, RunData) else read_run(run)
+    lengths = np.asarray(_lengths(type, data.links, l))
+    if not (math.isfinite(fps) and 0 < fps <= 50):
+        raise PlotError(f"fps = {fps}: expected 0 < fps <= 50 frames per second")
+    duration = float(data.t[-1] - data.t[0])
+    count = max(2, int(duration * fps) + 1)
+    times = np.linspace(data.t[0], data.t[-1], count)
+    frames = np.searchsorted(data.t, times).clip(0, len(data.t) - 1)
+    points = geometry(type, lengths, data.theta)
+    reach = float(np.sum(lengths[1:]))
+    fig, (ax_top, ax_side) = plt.subplots(1, 2, figsize=(7.0, 3.6))
+    for ax in (ax_top, ax_side):
+        ax.set_aspect("equal")
+        ax.grid(True, lw=0.3)
+    if type == "classical":
+        x_lo = min(float(points["side"][:, :, 0].min()), -reach) - 0.2
+        x_hi = max(float(points["side"][:, :, 0].max()), reach) + 0.2
+        ax_side.set_xlim(x_lo, x_hi)
+        ax_side.set_ylim(-reach - 0.2, reach + 0.2)
+        ax_top.set_xlim(x_lo, x_hi)
+        ax_top.set_ylim(-0.5 * (x_hi - x_lo) / 2, 0.5 * (x_hi - x_lo) / 2)
+        ax_side.set_title("side (x, z) [m]")
+        ax_top.set_title("from above (x, y) [m]")
+        ax_top.axhline(0.0, color="0.6", lw=2)  # the rail
+        ax_side.axhline(0.0, color="0.6", lw=2)
+    else:
+        span = lengths[0] + reach + 0.1
+        ax_top.set_xlim(-span, span)
+        ax_top.set_ylim(-span, span)
+        ax_side.set_xlim(-reach - 0.1, reach + 0.1)
+        ax_side.set_ylim(-reach - 0.1, reach + 0.1)
+        ax_top.set_title("from above (x, y) [m]")
+        ax_side.set_title("side: the links' plane (r, z) [m]")
+        ax_top.add_patch(plt.Circle((0, 0), lengths[0], fill=False, ls=":", color="0.6"))
+    (top_arm,) = ax_top.plot([], [], "-", color="tab:blue", lw=4, solid_capstyle="round")
+    (top_links,) = ax_top.plot([], [], "-o", color="tab:red", lw=2, ms=3)
+    (top_trace,) = ax_top.plot([], [], "-", color="tab:orange", lw=0.8, alpha=0.7)
+    (side_links,) = ax_side.plot([], [], "-o", color="tab:red", lw=2, ms=3)
+    (side_trace,) = ax_side.plot([], [], "-", color="tab:orange", lw=0.8, alpha=0.7)
+    (side_base,) = ax_side.plot([], [], "s", color="tab:blue", ms=12)
+    label = fig.suptitle("")
+    window = max(1, round(trace / max(float(np.median(np.diff(data.t))), 1e-12)))
+
+    def draw(i: int) -> list[Any]:
+        k = frames[i]
+        top, side = points["top"][k], points["side"][k]
+        if type == "classical":
+            top_arm.set_data([top[0, 0] - 0.1, top[0, 0] + 0.1], [0.0, 0.0])  # the cart
+        else:
+            top_arm.set_data(top[:2, 0], top[:2, 1])
+        top_links.set_data(top[1:, 0], top[1:, 1])
+        side_links.set_data(side[:, 0], side[:, 1])
+        side_base.set_data([side[0, 0]], [side[0, 1]])
+        start = max(0, k - window)
+        top_trace.set_data(points["top"][start : k + 1, -1, 0], points["top"][start : k + 1, -1, 1])
+        side_trace.set_data(points["side"][start : k + 1, -1, 0], points["side"][start : k + 1, -1, 1])
+        text = f"{type}, n = {data.links}   t = {data.t[k]:5.2f} s"
+        if data.phase is not None:
+            text += f"   {data.phase[k]}"
+        if data.u is not None:
+            text += f"   u = {data.u[k]:+6.2f}"
+        label.set_text(text)
+        return [top_arm, top_links, top_trace, side_links, side_trace, side_base, label]
+
+    fig.set_dpi(dpi)
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.93))
+
+    # Frames rendered straight from the Agg canvas and quantised to one shared 64-colour palette
+    # (lines on white need no more), then written by pillow as one looping GIF.
+    def render(i: int) -> Any:
+        draw(i)
+        fig.canvas.draw()
+        size = fig.canvas.get_width_height()
+        return Image.frombuffer("RGBA", size, fig.canvas.buffer_rgba()).convert("RGB")
+
+    palette = render(count // 2).quantize(colors=64, method=Image.Quantize.MEDIANCUT)  # every artist shown
+    images = [render(i).quantize(palette=palette, dither=Image.Dither.NONE) for i in range(count)]
+
+    def write(tmp: str) -> None:
+        images[0].save(
+            tmp,
+            format="GIF",
+            save_all=True,
+            append_images=images[1:],
+            duration=round(1000 / fps),
+            loop=0,
+            optimize=False,
+        )
+
+    try:
+        return _write_atomically(Path(output), force, write)
+    finally:
+        plt.close(fig)
+
+
+def plot_plan_and_run(
+    output: str | Path,
+    run: RunData | str | Path,
+    *,
+    plan_t: np.ndarray | None = None,
+    plan_x: np.ndarray | None = None,
+    plan_u: np.ndarray | None = None,
+    u_max: float | None = None,
+    force: bool = False,
+) -> Path:
+    """Write a PNG: the run's angles (solid) against the plan's (dashed, when given), the base
+    coordinate, and u(t) of both with the limit ±u_max."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    data = run if isinstance(run, RunData) else read_run(run)
+    fig, axes = plt.subplots(3, 1, figsize=(8.0, 7.0), sharex=True)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i in range(1, data.links + 1):
+        colour = colours[(i - 1) % len(colours)]
+        axes[0].plot(data.t, data.theta[:, i], color=colour, label=f"θ{i} run")
+        if plan_t is not None and plan_x is not None:
+            axes[0].plot(plan_t, plan_x[:, i], "--", color=colour, label=f"θ{i} plan")
+    axes[0].set_ylabel("link angle [rad]")
+    axes[0].legend(ncol=2, fontsize=8)
+    axes[1].plot(data.t, data.theta[:, 0], color="k", label="θ0 run")
+    if plan_t is not None and plan_x is not None:
+        axes[1].plot(plan_t, plan_x[:, 0], "--", color="k", label="θ0 plan")
+    axes[1].set_ylabel("θ0 [m or rad]")
+    axes[1].legend(fontsize=8)
+    if data.u is not None:
+        axes[2].step(data.t, data.u, where="post", color="tab:blue", label="u run (held)")
+    if plan_t is not None and plan_u is not None:
+        axes[2].plot(plan_t, plan_u, "--", color="tab:orange", label="u plan")
+    if u_max is not None:
+        for sign in (1, -1):
+            axes[2].axhline(sign * u_max, color="tab:red", lw=0.8, ls=":")
+        axes[2].plot([], [], color="tab:red", lw=0.8, ls=":", label=f"±u_max = {u_max:g}")
+    axes[2].set_ylabel("u [N or N m]")
+    axes[2].set_xlabel("t [s]")
+    if axes[2].get_legend_handles_labels()[0]:
+        axes[2].legend(fontsize=8)
+    else:
+        axes[2].text(0.5, 0.5, "no input column u in the run", ha="center", transform=axes[2].transAxes)
+    for ax in axes:
+        ax.grid(True, lw=0.3)
+    if data.phase is not None:
+        changes = [k for k in range(1, len(data.phase)) if data.phase[k] != data.phase[k - 1]]
+        for k in [0, *changes]:
+            if k:
+                for ax in axes:
+                    ax.axvline(data.t[k], color="0.5", lw=0.8)
+            axes[0].text(data.t[k], axes[0].get_ylim()[1], f" {data.phase[k]}", va="top", fontsize=8)
+    fig.tight_layout()
+    try:
+        return _write_atomically(Path(output), force, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+    finally:
+        plt.close(fig)
