@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links stability configure build clean
 
 all: test
 
@@ -81,8 +81,15 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links
 	$(PY) -m bench.run $(BENCH_ARGS)
+
+## The links as built against the rods-only generator (67de603): forward_dynamics operations and
+## generation time, same run (bench/general_links.py, docs/bench/general_links.md).
+## GENERAL_LINKS_ARGS passes options, e.g. make bench-general-links GENERAL_LINKS_ARGS=--rounds=3
+GENERAL_LINKS_ARGS ?=
+bench-general-links: $(VENV)/.bench-installed
+	$(PY) -m bench.general_links $(GENERAL_LINKS_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
 ## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).

@@ -35,7 +35,13 @@ from ipgen.codegen.header import HeaderRequest
 from ipgen.control.controller import Controller
 from ipgen.model.derivation import derive
 from ipgen.model.specialise import SIMULATOR_FUNCTIONS, Specialisation, check_parameter
-from ipgen.model.system import System, parameter_names
+from ipgen.model.system import (
+    System,
+    link_parameter_names,
+    parameter_names,
+    split_parameter,
+    unused_parameter,
+)
 
 CC = "arm-none-eabi-gcc"
 SIZE = "arm-none-eabi-size"
@@ -78,6 +84,15 @@ def scene_specialisation(system: System) -> Specialisation:
         for name in parameter_names(system.links)
         if check_parameter(system, name, values[name]) is None
     )
+    # the links as built at the rods' values, as a scene folds them (scene/specialisation.py)
+    for name in link_parameter_names(system.links):
+        group, index = split_parameter(name)
+        assert index is not None
+        if unused_parameter(system.type, name, system.inertia):
+            continue
+        mass, length = values[f"m{index}"], values[f"l{index}"]
+        rod = {"com": length / 2, "J": mass * length**2 / (3 if index == 0 else 12)}.get(group, Fraction(0))
+        fixed += ((name, rod),)
     return Specialisation(fixed=fixed, outputs=SIMULATOR_FUNCTIONS, scene="(bench scene-like values)")
 
 

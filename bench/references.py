@@ -52,7 +52,7 @@ def agrees_with_ipgen(method: str, kind: str, links: int = 2, seed: int = 0) -> 
     from ipgen.model.system import System
 
     mass, forcing, system = derive(method, kind, links)
-    equations = ipgen_derive(System(kind, links, "pivot"))  # type: ignore[arg-type]
+    equations = ipgen_derive(System(kind, links, "pivot")).rod()  # type: ignore[arg-type]
     ipgen = equations.symbols
     random = np.random.default_rng(seed)
     size = links + 1

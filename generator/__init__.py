@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 __all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "linearize", "lqr", "write_header"]
 
 
-def derive(type: str, links: int, inertia: str = "pivot") -> Equations:
+def derive(type: str, links: int, inertia: str = "pivot", *, general: bool = False) -> Equations:
     """The equations of motion of a `type` ("classical" or "rotary") pendulum with `links` rods.
 
     `inertia` (rotary only) is "pivot" (the published model: a link's spin about its pivot axis
@@ -44,13 +44,19 @@ def derive(type: str, links: int, inertia: str = "pivot") -> Equations:
     P = ∂V/∂θ, `bias` N θ̇ + P (all matrices, vectors as columns), `kinetic_energy`,
     `potential_energy` and `dissipation` (Rayleigh's D; the damping removes power 2D), written in
     `symbols`: `q`, `qd` (θ, θ̇), `m`, `l`, `delta` (tuples, index 0 the base) and `g`, `u`.
+    With `general=True` the links are as built (docs/model.md): the views are also written in
+    `symbols.com` (pivot-to-CoG distances), `symbols.J` (inertias about the CoGs; `J[0]` the
+    arm's about the vertical), `symbols.J_axial` (about the links' own axes, rotary "full" only)
+    and `symbols.tip` (point masses at the links' far ends); by default they are the paper's
+    homogeneous rods, written in m, l, delta and g only.
     Raises an `Error` naming the bad argument.
     """
     from ipgen.command.job import check_system
     from ipgen.model.derivation import derive as derive_system
 
     system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
-    return derive_system(system)
+    equations = derive_system(system)
+    return equations if general else equations.rod()
 
 
 def write_header(

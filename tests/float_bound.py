@@ -38,6 +38,7 @@ from ipgen.model.polynomial import ACCELERATION, LETTER, NAMED, PARAMETER, VELOC
 U = 2.0**-24
 LETTER_ERROR = 24 * U
 SECOND_ORDER = 1.25
+ROD_DEFAULT_ERROR = 8 * U  # relative error of a com or J the header computes from m and l
 
 
 @dataclass
@@ -57,7 +58,8 @@ def _factor(
     info = eqs.algebra.generators[g]
     if info.kind == PARAMETER:
         a = abs(inputs.params[info.name])
-        return a, U * a
+        # A rod default the header computes (m l²/12: the constant's rounding and three products)
+        return a, (ROD_DEFAULT_ERROR if info.group in ("com", "J") else U) * a
     if info.kind == VELOCITY:
         a = abs(float(inputs.qd[info.index]))
         return a, U * a
@@ -154,11 +156,17 @@ def float_bounds(
 
 
 def parameter_values(system_dof: int, params: Sequence[np.ndarray | float]) -> dict[str, float]:
-    """{m0: …, l0: …, delta0: …, g: …} from (m, l, delta, g) arrays."""
+    """{m0: …, l0: …, delta0: …, g: …} from (m, l, delta, g) arrays, and the links as built at
+    the homogeneous rods' values (com = l/2, J = m l²/12, J0 = m0 l0²/3, tip = J_axial = 0), which
+    the header computes when no links struct is given."""
     m, lengths, delta, g = params
     values = {"g": float(g)}  # type: ignore[arg-type]
     for i in range(system_dof):
         values[f"m{i}"] = float(m[i])  # type: ignore[index]
         values[f"l{i}"] = float(lengths[i])  # type: ignore[index]
         values[f"delta{i}"] = float(delta[i])  # type: ignore[index]
+        values[f"J{i}"] = values[f"m{i}"] * values[f"l{i}"] ** 2 / (12 if i else 3)
+        if i:
+            values[f"com{i}"] = values[f"l{i}"] / 2
+            values[f"J_axial{i}"] = values[f"tip{i}"] = 0.0
     return values

@@ -64,7 +64,7 @@ def assert_matrix_identical(
 
 @cache
 def equations(kind: str, links: int, inertia: str = "pivot") -> Equations:
-    return derive(System(kind, links, inertia))  # type: ignore[arg-type]
+    return derive(System(kind, links, inertia)).rod()  # type: ignore[arg-type]
 
 
 def column(values: Sequence[sp.Expr]) -> sp.Matrix:

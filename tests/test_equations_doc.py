@@ -39,7 +39,7 @@ from ipgen.model.system import System
 
 @cache
 def equations(kind: str, links: int, inertia: str = "pivot") -> Equations:
-    return derive(System(kind, links, inertia))  # type: ignore[arg-type]
+    return derive(System(kind, links, inertia)).rod()  # type: ignore[arg-type]
 
 
 @cache

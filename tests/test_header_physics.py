@@ -121,7 +121,7 @@ def run_driver(
 @cache
 def reference(system: System) -> Callable[[Case, int], Quantities]:
     """Lambdified eqs: (case, state index) -> the same quantities as the driver prints."""
-    eqs = derive(system)
+    eqs = derive(system).rod()
     sym = eqs.symbols
     args = (sym.q, sym.qd, sym.u, sym.m, sym.l, sym.delta, sym.g)
     functions = {

@@ -34,7 +34,7 @@ class Run:
 
 def right_hand_side(scene: Scene) -> Callable[[float, np.ndarray, float], np.ndarray]:
     """f(t, x, u) for x = [θ; θ̇] from lambdified M and bias (parameters substituted)."""
-    equations = derive(scene.system)
+    equations = derive(scene.system).rod()
     sym = equations.symbols
     values = {symbol: scene.value(str(symbol)) for symbol in sym.parameters}
     state = (*sym.q, *sym.qd)

@@ -13,8 +13,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ipgen.codegen.functions import C_SYNTAX, FunctionBody, params_field
-from ipgen.codegen.header import HeaderRequest, environment, function_bodies, header_context, poly_keys
+from ipgen.codegen.functions import C_SYNTAX, FunctionBody
+from ipgen.codegen.header import (
+    HeaderRequest,
+    environment,
+    folded_entries,
+    function_bodies,
+    header_context,
+    poly_keys,
+)
 from ipgen.common.safetext import comment_safe
 from ipgen.control.controller import Controller
 from ipgen.errors import Error
@@ -100,9 +107,7 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context["nameu"] = request.name.upper()
     context["fn"] = c_bodies(eqs, spec.outputs)
-    context["folded"] = [
-        (name, params_field(name, C_SYNTAX), c_number(float(value))) for name, value in spec.fixed
-    ]
+    context["folded"] = folded_entries(eqs.system, spec, C_SYNTAX, lambda v: c_number(float(v)))
     dof = eqs.system.dof
     context["controller"] = control_context(request.controller, dof) if request.controller else None
     return environment().get_template(TEMPLATE).render(context)

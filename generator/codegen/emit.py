@@ -48,9 +48,13 @@ def _c(eqs: Equations, request: HeaderRequest) -> Rendered:
 
 
 def _equations(eqs: Equations, request: HeaderRequest) -> Rendered:
+    """The equations of the links as built when the command gives any of their parameters
+    (com, J, J_axial, tip, J0 in --fix or a scene), else the familiar ones of the paper's rods."""
     from ipgen.codegen.equations import render_equations
+    from ipgen.model.system import LINK_GROUPS, split_parameter
 
-    return render_equations(eqs, request)
+    built = any(split_parameter(name)[0] in LINK_GROUPS for name, _ in request.specialisation.fixed)
+    return render_equations(eqs if built else eqs.rod(), request)
 
 
 def _fmu(eqs: Equations, request: HeaderRequest) -> Rendered:

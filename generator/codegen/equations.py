@@ -21,7 +21,6 @@ import sympy as sp
 
 from ipgen.codegen.latex import break_lines, latex, readable_terms
 from ipgen.common.version import __version__
-from ipgen.model.bodies import base_inertia, bodies
 from ipgen.model.specialise import format_exact
 
 if TYPE_CHECKING:
@@ -107,10 +106,20 @@ class _Builder:
         return Line(lhs, break_lines(terms))
 
     # -- the bodies -------------------------------------------------------------------
+    def link_values(self, i: int) -> tuple[sp.Expr, sp.Expr, sp.Expr, sp.Expr]:
+        """(com_i, J_i, J_axial_i, tip_i) as the document shows them: symbols for the links as
+        built, the paper's rod values (l_i/2, m_i l_i²/12, 0, 0) for a rod view."""
+        sym = self.sym
+        if self.eqs.rod_links:
+            return sym.l[i] / 2, sym.m[i] * sym.l[i] ** 2 / 12, sp.Integer(0), sp.Integer(0)
+        return sym.com[i], sym.J[i], sym.J_axial[i], sym.tip[i]
+
     def base(self) -> Block:
         sym, system = self.sym, self.system
-        algebra = self.eqs.algebra
-        inertia = algebra.to_sympy(base_inertia(system, algebra))
+        if system.is_rotary:
+            inertia = sym.m[0] * sym.l[0] ** 2 / 3 if self.eqs.rod_links else sym.J[0]
+        else:
+            inertia = sym.m[0]
         dissipation = sp.expand(self.eqs.dissipation)
         damping0 = dissipation.coeff(sym.delta[0]) * sym.delta[0]
         lines = []
@@ -128,57 +137,54 @@ class _Builder:
         return Block(title, lines)
 
     def links(self) -> list[Block]:
-        sym, system, algebra = self.sym, self.system, self.eqs.algebra
-        to_sympy = algebra.to_sympy
+        """Link i: its CoG (at com_i along it) and its far end (the tip mass), their positions and
+        velocities, T_i (both masses and the link's spin), V_i and D_i (docs/model.md)."""
+        sym, system = self.sym, self.system
+        q, qd = sym.q, sym.qd
         dissipation = sp.expand(self.eqs.dissipation)
         blocks = []
-        for i, body in enumerate(bodies(system, algebra), start=1):
+        below_reach = below_height = sp.Integer(0)  # the pivot of link i
+        for i in range(1, system.dof):
             k_ = f"{i}"
-            # Velocity components from the CoG Jacobian: a column term c·u(θk) is the vector
-            # c (cos θk, −sin θk) in the links' plane (u(0) = (1, 0)); `normal` is across it.
-            along = sp.Integer(0)  # first in-plane component (x, or across the arm)
-            vertical = sp.Integer(0)
-            normal = sp.Integer(0)  # rotary: along the arm
-            reach = sp.Integer(0)  # the position's first in-plane component, links only
-            height = sp.Integer(0)
-            for k, column in enumerate(body.jacobian):
-                rate = sym.qd[k]
-                for coefficient, angle in column.terms:
-                    c = to_sympy(coefficient)
-                    if angle is None:
-                        along += c * rate
-                    else:
-                        along += c * sp.cos(sym.q[angle]) * rate
-                        vertical -= c * sp.sin(sym.q[angle]) * rate
-                        reach += c * sp.sin(sym.q[angle])
-                        height += c * sp.cos(sym.q[angle])
-                normal += to_sympy(column.normal) * rate
-            mass = to_sympy(body.mass)
-            kinetic = sp.Integer(0)
-            columns = body.jacobian
-            for a in range(len(columns)):
-                for b in range(len(columns)):
-                    dot = to_sympy(columns[a].dot(columns[b], algebra))
-                    kinetic += mass * dot * sym.qd[a] * sym.qd[b] / 2
-            for (a, b), spin in body.rotational.items():
-                kinetic += to_sympy(spin) * sym.qd[a] * sym.qd[b] / 2
-            potential = mass * sym.g * to_sympy(body.height)
-            damping = dissipation.coeff(sym.delta[i]) * sym.delta[i]
+            com, spin, axial, tip = self.link_values(i)
+            s, c = sp.sin(q[i]), sp.cos(q[i])
+            reach, height = below_reach + com * s, below_height + com * c
+            far_reach, far_height = below_reach + sym.l[i] * s, below_height + sym.l[i] * c
+            below_reach, below_height = far_reach, far_height
+
+            def rate(expr: sp.Expr) -> sp.Expr:
+                return sum(sp.diff(expr, q[k]) * qd[k] for k in range(1, system.dof))
+
             if system.is_rotary:
+                # In the arm's frame: across the arm l0 θ̇0 + ṙ, along it −r θ̇0, vertical ż.
+                def velocity(r: sp.Expr, z: sp.Expr) -> list[sp.Expr]:
+                    return [-r * qd[0], sym.l[0] * qd[0] + rate(r), rate(z)]
+
+                parts, far_parts = velocity(reach, height), velocity(far_reach, far_height)
                 lines = [
                     self.line(f"r_{{{k_}}}", reach),
                     self.line(f"z_{{{k_}}}", height),
-                    self.line(rf"v_{{{k_}\parallel}}", normal),
-                    self.line(rf"v_{{{k_}\perp}}", along),
-                    self.line(rf"v_{{{k_}z}}", vertical),
+                    self.line(rf"v_{{{k_}\parallel}}", parts[0]),
+                    self.line(rf"v_{{{k_}\perp}}", parts[1]),
+                    self.line(rf"v_{{{k_}z}}", parts[2]),
                 ]
             else:
+                parts = [qd[0] + rate(reach), rate(height)]
+                far_parts = [qd[0] + rate(far_reach), rate(far_height)]
                 lines = [
-                    self.line(f"x_{{{k_}}}", sym.q[0] + reach),
+                    self.line(f"x_{{{k_}}}", q[0] + reach),
                     self.line(f"z_{{{k_}}}", height),
-                    self.line(rf"\dot{{x}}_{{{k_}}}", along),
-                    self.line(rf"\dot{{z}}_{{{k_}}}", vertical),
+                    self.line(rf"\dot{{x}}_{{{k_}}}", parts[0]),
+                    self.line(rf"\dot{{z}}_{{{k_}}}", parts[1]),
                 ]
+            kinetic = sym.m[i] * sum(v**2 for v in parts) / 2 + spin * qd[i] ** 2 / 2
+            if system.is_rotary and system.inertia == "full":
+                kinetic += (spin * s**2 + axial * c**2) * qd[0] ** 2 / 2
+            potential = sym.m[i] * sym.g * height
+            if tip != 0:
+                kinetic += tip * sum(v**2 for v in far_parts) / 2
+                potential += tip * sym.g * far_height
+            damping = dissipation.coeff(sym.delta[i]) * sym.delta[i]
             lines += [
                 self.line(f"T_{{{k_}}}", kinetic),
                 self.line(f"V_{{{k_}}}", potential),
@@ -259,6 +265,7 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
         "capped": len(capped),
         "cap": TERM_CAP,
         "fixed": fixed,
+        "rod_links": eqs.rod_links,
     }
 
 

@@ -15,9 +15,10 @@ from dataclasses import dataclass, field
 
 from ipgen.codegen.cse import ADD, LEAF, MUL, Graph, Signed
 from ipgen.codegen.printer import CppPrinter, CPrinter
+from ipgen.model.bodies import named_meaning, rod_defaults
 from ipgen.model.derivation import Equations, PolyMatrix
 from ipgen.model.polynomial import ACCELERATION, LETTER, PARAMETER, VELOCITY, Algebra, Generator, Poly
-from ipgen.model.system import split_parameter
+from ipgen.model.system import LINK_GROUPS, split_parameter
 
 
 @dataclass(frozen=True)
@@ -31,6 +32,14 @@ class Syntax:
     c_arrays: bool  # matrices as flat row-major arrays M[r*dof + c] instead of M(r, c)
     sin: str = "sin"  # the sine and cosine functions of the scalar type
     cos: str = "cos"
+    # The links as built (com, J, J_axial, tip): where they are read ("p." in Params, C: the
+    # `links` pointer), which groups fall back to the rod default, and when an entry is given.
+    links: str = "p."
+    resolved: tuple[str, ...] = ("com", "J")  # tip and J_axial: Params zero-initialises them
+    given: str = "detail::given({field})"
+    extra_arguments: tuple[str, ...] = ()  # arguments besides q, qd, p (C: links)
+    comment: str = "// {text}"
+    literal: str = "Scalar({value})"  # an integer constant of the scalar type
 
     def element(self, name: str, r: int, c: int, rows: int, cols: int) -> str:
         """Entry (r, c) of the output matrix `name` (a vector when cols == 1)."""
@@ -43,7 +52,19 @@ class Syntax:
 
 CPP_SYNTAX = Syntax("Scalar", CppPrinter, "{name}({i})", "p.", c_arrays=False)
 C_SYNTAX = Syntax(
-    "IPGEN_SCALAR", CPrinter, "{name}[{i}]", "p->", c_arrays=True, sin="ipgen_sin", cos="ipgen_cos"
+    "IPGEN_SCALAR",
+    CPrinter,
+    "{name}[{i}]",
+    "p->",
+    c_arrays=True,
+    sin="ipgen_sin",
+    cos="ipgen_cos",
+    links="links->",
+    resolved=LINK_GROUPS,  # a null `links` pointer: every link a homogeneous rod
+    given="links",
+    extra_arguments=("links",),
+    comment="/* {text} */",
+    literal="(IPGEN_SCALAR){value}",
 )
 
 
@@ -148,9 +169,11 @@ def _expression(algebra: Algebra, p: Poly, syntax: Syntax) -> str:
 
 
 def params_field(name: str, syntax: Syntax = CPP_SYNTAX) -> str:
-    """Access to parameter `name` in the parameters p: m1 -> p.m[1] (C: p->m[1]), g -> p.g."""
+    """Access to parameter `name`: m1 -> p.m[1] (C: p->m[1]), g -> p.g, com1 -> p.com[1] (C:
+    links->com[1])."""
     group, index = split_parameter(name)
-    return f"{syntax.params}{group}" if index is None else f"{syntax.params}{group}[{index}]"
+    where = syntax.links if group in LINK_GROUPS else syntax.params
+    return f"{where}{group}" if index is None else f"{where}{group}[{index}]"
 
 
 def _schedule(
@@ -222,12 +245,22 @@ def build_body(
     # per-angle sin/cos first (in angle order), then differences
     trig = sorted(definitions.items(), key=lambda item: _letter_key(generators[algebra.index(item[0])]))
 
+    defaults = _resolution(eqs, used, syntax)
+    for g in list(defaults):
+        used |= algebra.used(defaults[g])
+
     body = FunctionBody()
     const = f"const {syntax.scalar}"
     for g in sorted(used):
         info = generators[g]
         if info.kind == PARAMETER:
-            body.prelude.append(f"{const} {info.name} = {params_field(info.name, syntax)};")
+            field = params_field(info.name, syntax)
+            if g in defaults:
+                rod = syntax.literal.format(value=0)
+                if defaults[g]:
+                    rod = _expression(algebra, defaults[g], syntax)
+                field = f"{syntax.given.format(field=field)} ? {field} : {rod}"
+            body.prelude.append(f"{const} {info.name} = {field};")
         elif info.kind == VELOCITY:
             body.prelude.append(f"{const} {info.name} = {syntax.index.format(name='qd', i=info.index)};")
         elif info.kind == ACCELERATION:
@@ -235,7 +268,8 @@ def build_body(
             body.late_prelude.append(f"{const} {info.name} = {solved};")
     body.prelude += [definition for _, (definition, _) in trig]
     body.prelude += [
-        f"{const} {generators[g].name} = {_expression(algebra, algebra.named[g], syntax)};"
+        f"{const} {generators[g].name} = {_expression(algebra, algebra.named[g], syntax)};  "
+        + syntax.comment.format(text=named_meaning(generators[g].name))
         for g in sorted(algebra.named)
         if g in used
     ]
@@ -250,13 +284,27 @@ def build_body(
     body.operations = sum(count_operations(line) for line in computed)
     body.trig_calls = sum(1 for _, (_, parts) in trig if not parts)
 
+    parameters = [generators[g] for g in used if generators[g].kind == PARAMETER]
     needs = {
         "q": bool(trig),
         "qd": any(generators[g].kind == VELOCITY for g in used),
-        "p": any(generators[g].kind == PARAMETER for g in used),
+        "p": any(info.group not in LINK_GROUPS for info in parameters),
+        "links": any(info.group in LINK_GROUPS for info in parameters),
     }
     body.unused_arguments = [a for a in arguments if not needs[a]]
     return body
+
+
+def _resolution(eqs: Equations, used: set[int], syntax: Syntax) -> dict[int, Poly]:
+    """{generator in `used` of a group `syntax` resolves: its rod default}, the folded
+    parameters substituted: the value an entry left unset (C++: a NaN com or J; C: no links
+    struct) stands for."""
+    algebra = eqs.algebra
+    defaults = {}
+    for g, value in rod_defaults(eqs.system, algebra).items():
+        if g in used and algebra.generators[g].group in syntax.resolved:
+            defaults[g] = algebra.substitute(value, algebra.fixed)
+    return defaults
 
 
 def _letter_key(letter: Generator) -> tuple[int, ...]:
@@ -271,12 +319,22 @@ _OPERATOR = re.compile(r"(?<=[\w)])\s*[-+*/]\s*(?=[\w(])|(?<![\w)])-(?=[\w(])")
 def count_operations(statement: str) -> int:
     """Arithmetic operations (+, −, ×, ÷, negation) on the right-hand side of a C++ or C statement.
 
-    Literal casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
+    A conditional `c ? x : y` counts the operations of c and of its costlier branch. Literal
+    casts such as `Scalar(1)/Scalar(3)` (C: `(IPGEN_SCALAR)1/(IPGEN_SCALAR)3`) are folded
     by the compiler and not counted.
     """
     if "=" not in statement:
         return 0
     right = statement.split("=", 1)[1].split("//", 1)[0].split("/*", 1)[0]
+    condition, query, branches = right.partition(" ? ")
+    if query:  # `given ? value : default`: one branch runs
+        given, _, default = branches.partition(" : ")
+        return _count(condition) + max(_count(given), _count(default))
+    return _count(right)
+
+
+def _count(right: str) -> int:
+    """Arithmetic operations in the expression `right` (see `count_operations`)."""
     right = re.sub(r"Scalar\(\d+\)/Scalar\(\d+\)", "1", right)
     right = re.sub(r"\(IPGEN_SCALAR\)\d+/\(IPGEN_SCALAR\)\d+", "1", right)
     right = re.sub(r"\(IPGEN_SCALAR\)(\d+)", r"\1", right)

@@ -3,17 +3,27 @@
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 
 import jinja2
 
-from ipgen.codegen.functions import CPP_SYNTAX, FunctionBody, Output, Syntax, build_body, params_field
+from ipgen.codegen.functions import (
+    CPP_SYNTAX,
+    FunctionBody,
+    Output,
+    Syntax,
+    build_body,
+    params_field,
+)
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
+from ipgen.model.system import System, split_parameter
 
 TEMPLATE = "model.hpp.jinja"
 
@@ -131,6 +141,8 @@ def function_bodies(
             Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
             for r in reads
         ]
+        if name != "dissipation":  # Rayleigh's D reads the damping only: no links argument
+            arguments = (*arguments, *syntax.extra_arguments)
         bodies[name] = build_body(eqs, outputs, arguments, late_source=late.get(name, ""), syntax=syntax)
     return bodies
 
@@ -161,5 +173,26 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     context = header_context(eqs, request, TEMPLATE)
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context["fn"] = function_bodies(eqs, spec.outputs)
-    context["folded"] = [(name, params_field(name), repr(float(value))) for name, value in spec.fixed]
+    context["folded"] = folded_entries(eqs.system, spec, CPP_SYNTAX, lambda v: repr(float(v)))
     return environment().get_template(TEMPLATE).render(context)
+
+
+def folded_entries(
+    system: System, spec: Specialisation, syntax: Syntax, number: Callable[[Fraction], str]
+) -> list[tuple[str, str, str, str]]:
+    """(name, Params field, folded value as `number` prints it, rod default) per fixed parameter,
+    for check_folded; the rod default (in the Params entries m and l) only for com and J, which
+    may be left unset (C++: NaN; C: no links struct, where tip and J_axial are then 0)."""
+    entries = []
+    for name, value in spec.fixed:
+        group, index = split_parameter(name)
+        rod = ""
+        if group in ("com", "J") and index is not None:
+            m, length = params_field(f"m{index}", syntax), params_field(f"l{index}", syntax)
+            if group == "com":
+                rod = f"{length} / {syntax.literal.format(value=2)}"
+            else:
+                divisor = 3 if index == 0 else 12
+                rod = f"{m} * {length} * {length} / {syntax.literal.format(value=divisor)}"
+        entries.append((name, params_field(name, syntax), number(value), rod))
+    return entries

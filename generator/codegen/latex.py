@@ -24,17 +24,22 @@ from fractions import Fraction
 import sympy as sp
 from sympy.printing.latex import LatexPrinter as _SympyLatexPrinter
 
-_INDEXED = re.compile(r"(ddtheta|dtheta|theta|delta|m|l)(\d+)\Z")
+_INDEXED = re.compile(r"(ddtheta|dtheta|theta|delta|m|l|com|J_axial|J|tip)(\d+)\Z")
 _SYMBOL_LATEX = {
-    "theta": r"\theta",
-    "dtheta": r"\dot{\theta}",
-    "ddtheta": r"\ddot{\theta}",
-    "delta": r"\delta",
-    "m": "m",
-    "l": "l",
+    "theta": r"\theta_{{{i}}}",
+    "dtheta": r"\dot{{\theta}}_{{{i}}}",
+    "ddtheta": r"\ddot{{\theta}}_{{{i}}}",
+    "delta": r"\delta_{{{i}}}",
+    "m": "m_{{{i}}}",
+    "l": "l_{{{i}}}",
+    # the links as built (docs/model.md)
+    "com": r"\mathrm{{com}}_{{{i}}}",
+    "J": "J_{{{i}}}",
+    "J_axial": r"J_{{\mathrm{{axial}},{i}}}",
+    "tip": r"\mathrm{{tip}}_{{{i}}}",
 }
 # Parameters inside a monomial: masses, then g, lengths, damping (the paper's "m1 g l1").
-_PARAMETER_RANK = {"m": 0, "g": 1, "l": 2, "delta": 3}
+_PARAMETER_RANK = {"m": 0, "tip": 0, "g": 1, "l": 2, "com": 2, "J": 2, "J_axial": 2, "delta": 3}
 
 
 def _split_name(symbol: sp.Symbol) -> tuple[str, int]:
@@ -50,7 +55,7 @@ class LatexPrinter(_SympyLatexPrinter):
     def _print_Symbol(self, expr: sp.Symbol, style: str = "plain") -> str:
         group, index = _split_name(expr)
         if group in _SYMBOL_LATEX and index >= 0:
-            return f"{_SYMBOL_LATEX[group]}_{{{index}}}"
+            return _SYMBOL_LATEX[group].format(i=index)
         return expr.name
 
     def _trig(self, name: str, expr: sp.Function, exp: str | None) -> str:

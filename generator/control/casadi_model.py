@@ -42,7 +42,9 @@ def import_casadi() -> Any:
 
 @dataclass(frozen=True)
 class Plant:
-    """A system with numeric parameters: (m0..mn, l0..ln, δ0..δn, g), the order of `ipgen.lqr`."""
+    """A system with numeric parameters: (m0..mn, l0..ln, δ0..δn, g), the order of `ipgen.lqr`,
+    then the links as built (com, J, J_axial, tip; `Dynamics`' order, the rods' values if not
+    given)."""
 
     system: System
     params: tuple[float, ...]
@@ -69,7 +71,14 @@ class Plant:
 
     @property
     def g(self) -> float:
-        return self.params[-1]
+        return self.params[3 * self.dof]
+
+    @property
+    def links_as_built(self) -> dict[str, tuple[float, ...]]:
+        """com, J, J_axial, tip (dof entries each)."""
+        start, dof = 3 * self.dof + 1, self.dof
+        groups = ("com", "J", "J_axial", "tip")
+        return {group: self.params[start + k * dof : start + (k + 1) * dof] for k, group in enumerate(groups)}
 
     def with_params(
         self,
@@ -84,6 +93,7 @@ class Plant:
             self.l if l is None else l,
             self.delta if delta is None else delta,
             self.g,
+            dict(self.links_as_built),
         )
         return Plant(self.system, tuple(values))
 
@@ -96,10 +106,16 @@ def plant(
     delta: Sequence[float],
     g: float = 9.81,
     inertia: str = "pivot",
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
 ) -> Plant:
-    """A validated `Plant` (the arguments of `ipgen.lqr`); bad input raises `ControlError`."""
+    """A validated `Plant` (the arguments of `ipgen.lqr`, the links as built included); bad
+    input raises `ControlError`."""
     system = _system(type, links, inertia)
-    values = _params(system, m, l, delta, g)
+    values = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
     masses, link_lengths = values[: system.dof], values[system.dof + 1 : 2 * system.dof]
     if any(v <= 0 for v in masses) or any(v <= 0 for v in link_lengths):
         raise ControlError("masses m and link lengths l[1:] must be > 0")
@@ -120,7 +136,7 @@ def _lambdified(system: System) -> tuple[Callable[..., Any], Callable[..., Any]]
     casadi = import_casadi()
     equations = derive(system)
     s = equations.symbols
-    arguments = [*s.q, *s.qd, *s.parameters]
+    arguments = [*s.q, *s.qd, *s.parameters, *s.link_parameters]
     modules = [{"sin": casadi.sin, "cos": casadi.cos, "sqrt": casadi.sqrt}]
     dynamics = sp.lambdify(
         arguments, [list(equations.mass_matrix), list(equations.bias)], modules=modules, cse=True

@@ -23,6 +23,7 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 from ipgen.errors import Error
+from ipgen.model.links import LinkError, resolve_links
 from ipgen.model.system import System
 
 if TYPE_CHECKING:
@@ -52,7 +53,9 @@ class EquilibriumWarning(UserWarning):
 class Dynamics:
     """Numerical θ̈ and its exact derivatives for one system (lambdified sympy expressions).
 
-    Parameters are passed as one flat sequence `params` = (m0..mn, l0..ln, δ0..δn, g).
+    Parameters are passed as one flat sequence `params` = (m0..mn, l0..ln, δ0..δn, g) and,
+    optionally, (com0..comn, J0..Jn, J_axial0..J_axialn, tip0..tipn): the links as built
+    (`model.links`; without them, the paper's rods).
     """
 
     system: System
@@ -68,10 +71,19 @@ class Dynamics:
         """θ̈ from M θ̈ + bias = (u, 0, ..., 0)ᵀ."""
         import numpy as np
 
+        params = self._complete(params)
         mass = np.asarray(self._mass(*q, *params), dtype=float)
         rhs = -np.asarray(self._bias(*q, *qd, *params), dtype=float).reshape(-1)
         rhs[0] += u
         return np.linalg.solve(mass, rhs)
+
+    def _complete(self, params: Sequence[float]) -> list[float]:
+        """`params` with the rods' com, J, J_axial, tip appended if it has m, l, delta, g only."""
+        dof = self.system.dof
+        values = [float(v) for v in params]
+        if len(values) == 3 * dof + 1:
+            values += resolve_links(self.system, values[:dof], values[dof : 2 * dof], {}).flat()
+        return values
 
     def jacobians(
         self, q: np.ndarray, qd: np.ndarray, u: float, params: Sequence[float]
@@ -80,6 +92,7 @@ class Dynamics:
         import numpy as np
 
         dof = self.system.dof
+        params = self._complete(params)
         mass = np.asarray(self._mass(*q, *params), dtype=float)
         rhs = -np.asarray(self._bias(*q, *qd, *params), dtype=float).reshape(-1)
         rhs[0] += u
@@ -109,7 +122,7 @@ def dynamics(system: System) -> Dynamics:
     equations = derive(system)
     s = equations.symbols
     mass, bias = equations.mass_matrix, equations.bias
-    params = s.parameters
+    params = (*s.parameters, *s.link_parameters)
     mass_dq = sp.Matrix([[sp.diff(entry, qi) for qi in s.q] for entry in mass])
     bias_dq = bias.jacobian(s.q)
     bias_dqd = bias.jacobian(s.qd)
@@ -143,7 +156,9 @@ def _params(
     l: Sequence[float],  # noqa: E741
     delta: Sequence[float],
     g: float,
+    links: dict[str, Sequence[float] | None] | None = None,
 ) -> list[float]:
+    """The flat parameters of `Dynamics`; `links`: com, J, J_axial, tip (None: the rods)."""
     dof = system.dof
     for name, values in (("m", m), ("l", l), ("delta", delta)):
         if len(values) != dof:
@@ -151,7 +166,11 @@ def _params(
     values = [float(v) for v in (*m, *l, *delta, g)]
     if not all(math.isfinite(v) for v in values):
         raise ControlError("parameters must be finite numbers")
-    return values
+    try:
+        built = resolve_links(system, values[:dof], values[dof : 2 * dof], links or {})
+    except LinkError as exc:
+        raise ControlError(str(exc)) from None
+    return values + built.flat()
 
 
 def _vector(name: str, value: Sequence[float] | None, size: int, what: str) -> np.ndarray:
@@ -178,8 +197,18 @@ def linearize(
     q: Sequence[float] | None = None,
     qd: Sequence[float] | None = None,
     u: float = 0.0,
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
+
+    `com`, `J`, `J_axial`, `tip` (dof entries each, index 0 the base) describe the links as built
+    (docs/model.md): CoG distances, inertias about the CoGs (J[0]: the rotary arm's about the
+    vertical), about the links' axes (rotary "full" only) and tip masses; each left out is the
+    paper's rod (l/2, m l²/12 and m0 l0²/3, 0, 0). Values no body has raise `ControlError`.
 
     A is 2·dof × 2·dof, B is 2·dof × 1 (dof = links + 1); both are numpy float arrays. q and qd
     default to zero (upright, at rest). A state that is not an equilibrium for `u` (θ̇ ≠ 0 or
@@ -189,7 +218,7 @@ def linearize(
     import numpy as np
 
     system = _system(type, links, inertia)
-    params = _params(system, m, l, delta, g)
+    params = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
     dof = system.dof
     q_ = _vector("q", q, dof, "one angle or position per degree of freedom")
     qd_ = _vector("qd", qd, dof, "one rate per degree of freedom")
@@ -306,6 +335,11 @@ def lqr(
     g: float = 9.81,
     inertia: str = "pivot",
     equilibrium: Sequence[float] | str | None = None,
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
 ) -> np.ndarray:
     """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
 
@@ -317,13 +351,29 @@ def lqr(
     (e.g. [0, π, 0]: link 1 hanging, link 2 upright); velocities are zero there and u = 0.
     An unstabilisable (A, B) or undetectable (A, Q) pair raises `ControlError` instead of
     returning a gain that does not stabilise. K comes from scipy's `solve_continuous_are`.
+    `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods).
     """
     import numpy as np
     from scipy.linalg import solve_continuous_are
 
     x_eq = equilibrium_state(links, equilibrium)
     dof = links + 1
-    a, b = linearize(type, links, m, l, delta, g, inertia, q=x_eq[:dof], qd=x_eq[dof:], u=0.0)
+    a, b = linearize(
+        type,
+        links,
+        m,
+        l,
+        delta,
+        g,
+        inertia,
+        q=x_eq[:dof],
+        qd=x_eq[dof:],
+        u=0.0,
+        com=com,
+        J=J,
+        J_axial=J_axial,
+        tip=tip,
+    )
     q, r = _weights(Q, R, 2 * dof)
     _check_stabilisable(a, b, q)
     try:

@@ -1,7 +1,8 @@
 """Lagrange's equations with Rayleigh dissipation, from energies to M θ̈ + bias = B u.
 
 The structure keeps the derivation polynomial in size (no `simplify` anywhere):
-- M = Σ m_i J_iᵀ J_i + spin terms, with J_i the CoG velocity Jacobians (`model.py`);
+- M and V from a few per-link combinations (mass moments, inertias about the pivots) and the
+  rotary reaches, named quantities of the ring (`bodies.py`);
 - C from the Christoffel symbols of M (so Ṁ − 2C is skew-symmetric), differentiating only
   the entries that actually depend on the angle;
 - P = ∂V/∂θ, damping = ∂²D/∂θ̇²;
@@ -17,7 +18,13 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
 
-from ipgen.model.bodies import Body, algebra_for, base_inertia, bodies, rayleigh_dissipation
+from ipgen.model.bodies import (
+    algebra_for,
+    mass_matrix_entries,
+    potential_energy,
+    rayleigh_dissipation,
+    rod_defaults,
+)
 from ipgen.model.polynomial import Algebra, Poly
 from ipgen.model.system import System
 
@@ -41,11 +48,20 @@ class Equations:
     system: System
     algebra: Algebra
     poly: dict[str, PolyMatrix]  # name -> matrix of polynomials (vectors: one column)
+    rod_links: bool = False  # the paper's rods substituted (`rod`): no com, J, J_axial, tip
 
     @property
     def symbols(self) -> Symbols:
         """The sympy symbols the views are written in."""
         return self.algebra.symbols
+
+    def rod(self) -> Equations:
+        """These equations for the paper's homogeneous rods (com_i = l_i/2, J_i = m_i l_i²/12,
+        J0 = m0 l0²/3, no tip masses or axial inertia): written in m, l, delta and g only."""
+        values = rod_defaults(self.system, self.algebra)
+        algebra = self.algebra.composed(values)
+        poly = {key: [[algebra.compose(p, values) for p in row] for row in m] for key, m in self.poly.items()}
+        return Equations(system=self.system, algebra=algebra, poly=poly, rod_links=True)
 
     def _matrix(self, name: str) -> sp.Matrix:
         import sympy as sp
@@ -96,21 +112,12 @@ class Equations:
         return self.algebra.to_sympy(self.poly["dissipation"][0][0])
 
 
-def _mass_matrix(system: System, algebra: Algebra, link_bodies: list[Body]) -> PolyMatrix:
+def _mass_matrix(system: System, algebra: Algebra) -> PolyMatrix:
     size = system.dof
-    parts: list[list[list[Poly]]] = [[[] for _ in range(size)] for _ in range(size)]
-    parts[0][0].append(base_inertia(system, algebra))
-    for body in link_bodies:
-        columns = body.jacobian
-        for j in range(size):
-            for k in range(j, size):
-                parts[j][k].append(body.mass * columns[j].dot(columns[k], algebra))
-        for (j, k), spin in body.rotational.items():
-            parts[j][k].append(spin)
+    entries = mass_matrix_entries(system, algebra)
     mass = [[algebra.zero] * size for _ in range(size)]
-    for j in range(size):
-        for k in range(j, size):
-            mass[j][k] = mass[k][j] = algebra.total(parts[j][k])
+    for (j, k), entry in entries.items():
+        mass[j][k] = mass[k][j] = entry
     return mass
 
 
@@ -183,11 +190,10 @@ def derive(system: System, progress: ProgressCallback | None = None) -> Equation
     qd = [algebra.gens[algebra.qd(k)] for k in range(size)]
 
     report("mass matrix")
-    link_bodies = bodies(system, algebra)
-    mass = _mass_matrix(system, algebra, link_bodies)
+    mass = _mass_matrix(system, algebra)
 
     report("potential energy and gravity")
-    potential = algebra.total(b.mass * algebra.g() * b.height for b in link_bodies)
+    potential = potential_energy(system, algebra)
     slope = algebra.gradient(potential)
     gravity = [slope.get(k, algebra.zero) for k in range(size)]
 

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING
 
 from flint import fmpq, fmpq_mpoly, fmpq_mpoly_ctx
 
+from ipgen.model.system import LINK_GROUPS, PARAMETER_GROUPS, group_indices
+
 if TYPE_CHECKING:
     import sympy as sp
 
@@ -103,7 +105,7 @@ class Generator:
     name: str
     kind: str  # PARAMETER, VELOCITY, ACCELERATION, LETTER or NAMED
     index: int = 0  # parameter: the Params entry (m1 -> 1); velocity, acceleration: the angle
-    group: str = ""  # parameter: "m", "l", "delta" or "g"; letter: "s", "c", "S" or "C"
+    group: str = ""  # parameter: m, l, delta, g, com, J, J_axial or tip; letter: "s", "c", "S" or "C"
     angles: tuple[int, ...] = ()  # letter: θk, or (θj, θk) for a difference
 
 
@@ -119,10 +121,13 @@ class Algebra:
         self.dof = dof
         self.generators: list[Generator] = []
         self._index: dict[str, int] = {}
-        for group in ("m", "l", "delta"):
+        for group in PARAMETER_GROUPS:
             for i in range(dof):
                 self._add(Generator(f"{group}{i}", PARAMETER, i, group))
         self._add(Generator("g", PARAMETER, 0, "g"))
+        for group in LINK_GROUPS:  # after g: the paper's parameters keep their indices
+            for i in group_indices(group, dof - 1):
+                self._add(Generator(f"{group}{i}", PARAMETER, i, group))
         self.n_parameters = len(self.generators)
         for i in range(dof):
             self._add(Generator(f"dq{i}", VELOCITY, i))
@@ -151,6 +156,8 @@ class Algebra:
                 self._angles_of[g] = info.angles
         # Named quantities: generator -> definition; ∂(named)/∂θi, computed on first use.
         self.named: dict[int, Poly] = {}
+        self.fixed: dict[int, Fraction] = {}  # parameters folded into this algebra (`folded`)
+        self.gradients: dict[int, dict[int, Poly]] = {}  # named quantity -> its given gradient
         self._named_derivative: dict[tuple[int, int], Poly] = {}
         self._symbols: Symbols | None = None
         self._sympy_meaning: list[sp.Expr] | None = None
@@ -202,6 +209,21 @@ class Algebra:
     def delta(self, i: int) -> Poly:
         return self.gen(f"delta{i}")
 
+    def com(self, i: int) -> Poly:
+        """Distance from link i's pivot to its centre of gravity."""
+        return self.gen(f"com{i}")
+
+    def J(self, i: int) -> Poly:
+        """Link i's inertia about its CoG (i >= 1), the arm's about the vertical (i = 0)."""
+        return self.gen(f"J{i}")
+
+    def J_axial(self, i: int) -> Poly:
+        return self.gen(f"J_axial{i}")
+
+    def tip(self, i: int) -> Poly:
+        """The point mass at the far end of link i."""
+        return self.gen(f"tip{i}")
+
     def g(self) -> Poly:
         return self.gen("g")
 
@@ -227,11 +249,15 @@ class Algebra:
             return self.cos(k if j is None else j)  # type: ignore[arg-type]
         return self.gen(f"c{min(j, k)}_{max(j, k)}")
 
-    def define(self, name: str, definition: Poly) -> Poly:
+    def define(self, name: str, definition: Poly, gradient: dict[int, Poly] | None = None) -> Poly:
         """The named quantity `name` (reserved when the algebra was made) stands for
-        `definition`, which may use earlier ones."""
+        `definition`, which may use earlier ones. `gradient` ({angle: ∂/∂θ}, each equal to the
+        chain rule's result but written more compactly, e.g. in other named quantities) is used
+        instead of differentiating the definition."""
         index = self._index[name]
         self.named[index] = definition
+        if gradient is not None:
+            self.gradients[index] = gradient
         angles = sorted({a for g in self.used(definition) for a in self._angles_of.get(g, ())})
         self._angles_of[index] = tuple(angles)
         return self.gens[index]
@@ -241,9 +267,43 @@ class Algebra:
         folded = object.__new__(Algebra)
         folded.__dict__.update(self.__dict__)
         folded.named = {g: self.substitute(p, values) for g, p in self.named.items()}
+        folded.gradients = {
+            g: {i: self.substitute(d, values) for i, d in ds.items()} for g, ds in self.gradients.items()
+        }
+        folded.fixed = {**self.fixed, **values}
         folded._named_derivative = {}
         folded._sympy_meaning = None
         return folded
+
+    def constant_named(self) -> dict[int, Fraction]:
+        """{named quantity: value} for those whose definition is a constant once the earlier
+        constant ones are substituted (after `folded`, e.g. a mass moment of fixed parameters)."""
+        constants: dict[int, Fraction] = {}
+        for g in sorted(self.named):
+            definition = self.substitute(self.named[g], constants)
+            if definition.is_constant():
+                value = definition.leading_coefficient() if definition else 0
+                constants[g] = Fraction(int(value.p), int(value.q)) if value else Fraction(0)
+        return constants
+
+    def composed(self, replacements: dict[int, Poly]) -> Algebra:
+        """A copy in which the parameter generators `replacements` (index -> polynomial in the
+        other parameters) are replaced, in the named quantities' definitions too."""
+        composed = object.__new__(Algebra)
+        composed.__dict__.update(self.__dict__)
+        composed.named = {g: self.compose(p, replacements) for g, p in self.named.items()}
+        composed.gradients = {
+            g: {i: self.compose(d, replacements) for i, d in ds.items()} for g, ds in self.gradients.items()
+        }
+        composed._named_derivative = {}
+        composed._sympy_meaning = None
+        return composed
+
+    def compose(self, p: Poly, replacements: dict[int, Poly]) -> Poly:
+        """p with the generators `replacements` (index -> polynomial) replaced."""
+        if not replacements or p.is_zero() or not self.used(p) & replacements.keys():
+            return p
+        return p.compose(*(replacements.get(g, x) for g, x in enumerate(self.gens)))
 
     def substitute(self, p: Poly, values: dict[int, Fraction]) -> Poly:
         """p with the generators `values` (index -> exact value) replaced by constants."""
@@ -279,7 +339,7 @@ class Algebra:
 
     def _derivative_of_named(self, g: int, i: int) -> Poly:
         if (g, i) not in self._named_derivative:
-            gradient = self.gradient(self.named[g])
+            gradient = self.gradients.get(g) or self.gradient(self.named[g])
             for angle in self._angles_of[g]:
                 self._named_derivative[g, angle] = gradient.get(angle, self.zero)
         return self._named_derivative[g, i]
@@ -308,7 +368,15 @@ class Algebra:
         import sympy as sp
 
         sym = self.symbols
-        groups = {"m": sym.m, "l": sym.l, "delta": sym.delta}
+        groups = {
+            "m": sym.m,
+            "l": sym.l,
+            "delta": sym.delta,
+            "com": sym.com,
+            "J": sym.J,
+            "J_axial": sym.J_axial,
+            "tip": sym.tip,
+        }
         meaning: list[sp.Expr] = []
         self._sympy_meaning = meaning
         for g, info in enumerate(self.generators):

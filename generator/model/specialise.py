@@ -16,7 +16,13 @@ from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.derivation import Equations
 from ipgen.model.polynomial import PARAMETER, Algebra
-from ipgen.model.system import System, parameter_names, parameter_range, split_parameter, unused_parameter
+from ipgen.model.system import (
+    System,
+    all_parameter_names,
+    all_parameter_range,
+    split_parameter,
+    unused_parameter,
+)
 
 # Every function a header can define, in header order.
 FUNCTIONS: tuple[str, ...] = (
@@ -78,17 +84,36 @@ def format_exact(value: Fraction) -> str:
 
 
 def check_parameter(system: System, name: str, value: Fraction) -> str | None:
-    """Why `name = value` cannot be fixed for `system`, or None."""
-    if name not in parameter_names(system.links):
-        return f"unknown parameter {abbreviate(name)!r}: expected one of {parameter_range(system.links)}"
-    unused = unused_parameter(system.type, name)
+    """Why `name = value` cannot be fixed for `system`, or None (links as built: `model.links`;
+    com may be any number)."""
+    if name not in all_parameter_names(system.links):
+        return f"unknown parameter {abbreviate(name)!r}: expected one of {all_parameter_range(system.links)}"
+    unused = unused_parameter(system.type, name, system.inertia)
     if unused:
         return f"{unused}: it cannot be fixed"
     group, _ = split_parameter(name)
     if group in ("m", "l") and value <= 0:
         return f"{name} = {format_exact(value)}: masses and lengths must be > 0"
-    if value < 0:
+    if group in ("J", "J_axial", "tip") and value < 0:
+        what = "a mass" if group == "tip" else "an inertia"
+        return f"{name} = {format_exact(value)}: {what} cannot be negative (use 0 for none)"
+    if group in ("delta", "g") and value < 0:
         return f"{name} = {format_exact(value)}: damping and g must be >= 0"
+    return None
+
+
+def check_combination(fixed: dict[str, Fraction]) -> str | None:
+    """Why fixed values that are each allowed cannot go together, or None: J_axial_i <= 2 J_i
+    (an axisymmetric body) when both are fixed."""
+    for name, axial in fixed.items():
+        if name.startswith("J_axial"):
+            across = fixed.get("J" + name[len("J_axial") :])
+            if across is not None and axial > 2 * across:
+                index = name[len("J_axial") :]
+                return (
+                    f"{name} = {format_exact(axial)} > 2 J{index} = {format_exact(2 * across)}: "
+                    "no axisymmetric body has that (J is across the link, J_axial about it)"
+                )
     return None
 
 
@@ -118,7 +143,10 @@ def parse_fix(system: System, text: str) -> tuple[tuple[str, Fraction], ...]:
         fixed[name] = value
     if not fixed:
         raise SpecialisationError("--fix is empty: name parameters and values, e.g. --fix m0=0.3,delta1=0")
-    order = parameter_names(system.links)
+    problem = check_combination(fixed)
+    if problem:
+        raise SpecialisationError(f"--fix {problem}")
+    order = all_parameter_names(system.links)
     return tuple(sorted(fixed.items(), key=lambda item: order.index(item[0])))
 
 
@@ -141,6 +169,10 @@ def specialise(eqs: Equations, spec: Specialisation, keys: tuple[str, ...]) -> E
     if not spec.fixed:
         return eqs
     values = {_generator_index(eqs.algebra, name): value for name, value in spec.fixed}
+    algebra = eqs.algebra.folded(values)
+    # Named quantities that became constants (the per-link combinations of fixed parameters)
+    # are folded too: a header with every link parameter fixed computes none of them.
+    values |= algebra.constant_named()
     algebra = eqs.algebra.folded(values)
     poly = {key: [[algebra.substitute(p, values) for p in row] for row in eqs.poly[key]] for key in keys}
     return replace(eqs, algebra=algebra, poly=poly)

@@ -51,12 +51,34 @@ class System:
 # Parameters: the arrays m, l, delta (index 0 the base, 1..n the links) and g, named m0, l1,
 # delta2, g in scenes, --fix and the generated code (and by `polynomial.Algebra`).
 PARAMETER_GROUPS: tuple[str, ...] = ("m", "l", "delta")
+# The links as they are built (docs/model.md, "Links as built"): optional arrays whose defaults
+# are the paper's homogeneous rods. com[i]: pivot-to-CoG distance (l_i/2); J[i]: inertia about the
+# CoG (m_i l_i²/12), J[0] the rotary arm's about the vertical (m0 l0²/3); J_axial[i]: inertia about
+# the link's own axis (0; rotary "full" only); tip[i]: a point mass at the far end of link i (0).
+LINK_GROUPS: tuple[str, ...] = ("com", "J", "J_axial", "tip")
+# Rod defaults of the link groups that have no default of zero, for messages and documents.
+ROD_DEFAULTS: dict[str, str] = {"com": "l/2", "J": "m l²/12 (J0: m0 l0²/3)", "J_axial": "0", "tip": "0"}
+
+
+def group_indices(group: str, links: int) -> range:
+    """The indices a parameter group has: 0..n, except com, J_axial and tip (links only, 1..n)."""
+    return range(1, links + 1) if group in ("com", "J_axial", "tip") else range(links + 1)
 
 
 def parameter_names(links: int) -> tuple[str, ...]:
-    """m0..mn, l0..ln, delta0..deltan, g (n = `links`), in this order."""
+    """m0..mn, l0..ln, delta0..deltan, g (n = `links`), in this order: the paper's parameters."""
     indices = range(links + 1)
     return (*(f"{group}{i}" for group in PARAMETER_GROUPS for i in indices), "g")
+
+
+def link_parameter_names(links: int) -> tuple[str, ...]:
+    """com1..comn, J0..Jn, J_axial1..J_axialn, tip1..tipn: the links as built, in this order."""
+    return tuple(f"{group}{i}" for group in LINK_GROUPS for i in group_indices(group, links))
+
+
+def all_parameter_names(links: int) -> tuple[str, ...]:
+    """`parameter_names` then `link_parameter_names`: every parameter of the general model."""
+    return (*parameter_names(links), *link_parameter_names(links))
 
 
 def parameter_range(links: int) -> str:
@@ -64,19 +86,33 @@ def parameter_range(links: int) -> str:
     return f"m0..m{links}, l0..l{links}, delta0..delta{links} or g"
 
 
+def all_parameter_range(links: int) -> str:
+    """The names `all_parameter_names(links)` as messages show them."""
+    return (
+        f"m0..m{links}, l0..l{links}, delta0..delta{links}, g, com1..com{links}, J0..J{links}, "
+        f"J_axial1..J_axial{links} or tip1..tip{links}"
+    )
+
+
 def split_parameter(name: str) -> tuple[str, int | None]:
-    """ "delta2" -> ("delta", 2), "g" -> ("g", None); KeyError if `name` is no parameter name."""
+    """ "delta2" -> ("delta", 2), "J_axial1" -> ("J_axial", 1), "g" -> ("g", None); KeyError if
+    `name` is no parameter name."""
     if name == "g":
         return "g", None
     group = name.rstrip("0123456789")
-    if group not in PARAMETER_GROUPS or group == name:
+    if group not in PARAMETER_GROUPS + LINK_GROUPS or group == name:
         raise KeyError(f"unknown parameter {name!r}")
     return group, int(name[len(group) :])
 
 
-def unused_parameter(system_type: str, name: str) -> str | None:
-    """Why the model of a `system_type` system has no parameter `name` (one of its
-    `parameter_names`), or None if it has: a cart has no length l0."""
+def unused_parameter(system_type: str, name: str, inertia: str = "pivot") -> str | None:
+    """Why the model of a `system_type` system (with `inertia`) has no parameter `name` (one of
+    its `all_parameter_names`), or None if it has: a cart has no length l0 and no inertia J0;
+    J_axial counts only for a rotary system with inertia "full"."""
     if system_type == "classical" and name == "l0":
         return "a cart has no length l0"
+    if system_type == "classical" and name == "J0":
+        return "a cart has no inertia J0 (its mass m0 is all that matters)"
+    if name.startswith("J_axial") and (system_type != "rotary" or inertia != "full"):
+        return f"{name} counts only for a rotary system with inertia full"
     return None

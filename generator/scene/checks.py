@@ -90,6 +90,32 @@ def lengths(values: tuple[Exact, ...], system_type: str) -> None:
             refuse("link lengths must be > 0 m", key="l", index=(i,), value=length)
 
 
+def links_as_built(table: Any, context: dict[str, Any]) -> None:
+    """The link arrays a [parameters] table gives (com, J, J_axial, tip) describe real bodies
+    (`model.links`): J_axial only for a rotary system with inertia full, J_axial <= 2 J, some
+    inertia about every pivot. Each array's entries are checked by its declaration."""
+    given = table.links_as_built()
+    if not given:
+        return  # the rods: nothing to check
+    axial = getattr(table, "J_axial", None)
+    if axial is not None and not (context["type"] == "rotary" and context.get("inertia") == "full"):
+        refuse('counts only for a rotary system with inertia = "full"', key="J_axial", value=list(axial))
+    from ipgen.model.links import LinkError, resolve_links
+    from ipgen.model.system import System
+
+    system = System(context["type"], context["links"], context.get("inertia", "pivot"))  # type: ignore[arg-type]
+    lengths = [number.value for number in table.lengths(context["type"])]
+    try:
+        resolve_links(
+            system,
+            [number.value for number in table.m],
+            lengths,
+            {group: [number.value for number in values] for group, values in given},
+        )
+    except LinkError as problem:
+        refuse_line(f"parameters: {problem}")
+
+
 def foldable(decimals: tuple[tuple[str, str], ...], free: tuple[str, ...], system_type: str) -> None:
     """Every parameter a specialised header folds lies in the range folding accepts."""
     for name, text in decimals:

@@ -175,6 +175,7 @@ def controller(table: Any, system: Any, params: Any) -> Controller:
             g=params.g,
             inertia=system.inertia,
             equilibrium=table.equilibrium,
+            **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
         )
     except ControlError as exc:
         raise GainError(f"controller: no LQR gain: {exc}") from None

@@ -104,6 +104,8 @@ class Scene:
     # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
     # "9.81"), so that it can be used as an exact rational; see `exact`.
     decimals: tuple[tuple[str, str], ...] = ()
+    # The links as built the scene gives: (group, values) for com, J, J_axial, tip (absent: rods)
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...] = ()
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
@@ -128,6 +130,10 @@ class Scene:
         """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
         text = dict(self.decimals).get(name)
         return Fraction(text) if text is not None else Fraction(repr(self.value(name)))
+
+    def link_values(self) -> dict[str, tuple[float, ...]]:
+        """{group: values} of the links as built the scene gives (com, J, J_axial, tip)."""
+        return dict(self.links_as_built)
 
 
 # ---------------------------------------------------------------------------- public API
@@ -165,6 +171,7 @@ def resolved_config(scene: Scene) -> str:
         f"l = {_format_list(scene.l)}",
         f"delta = {_format_list(scene.delta)}",
         f"g = {format_number(scene.g)}",
+        *(f"{group} = {_format_list(values)}" for group, values in scene.links_as_built),
         f"theta = {_format_list(scene.theta)}",
         f"dtheta = {_format_list(scene.dtheta)}",
         f"input = {scene.input.kind}",
@@ -366,9 +373,12 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     zeros = (0.0,) * (links + 1)
     spec = tables["input"]
     simulation = tables["simulation"].settings()
+    links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
     if tables["controller"] is not None:
-        params = _Parameters(_floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value)
+        params = _Parameters(
+            _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
+        )
         try:
             controller = control.controller(tables["controller"], system, params)
         except control.GainError as error:
@@ -395,6 +405,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         specialise=system.specialise,
         emit=system.emit,
         decimals=parameters.decimals(kind),
+        links_as_built=links_as_built,
         warnings=_warnings(reader, simulation["rtol"]),
         controller=controller,
     )
@@ -408,6 +419,7 @@ class _Parameters:
     l: tuple[float, ...]  # noqa: E741
     delta: tuple[float, ...]
     g: float
+    links: tuple[tuple[str, tuple[float, ...]], ...] = ()  # com, J, J_axial, tip the scene gives
 
 
 def _floats(numbers: tuple[Exact, ...]) -> tuple[float, ...]:

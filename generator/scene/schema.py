@@ -162,6 +162,7 @@ class SystemTable(Table):
             "links": self.links,
             "count": self.links + 1,
             "specialise": self.specialise,
+            "inertia": self.inertia,
             "u_unit": "N" if self.type == "classical" else "N m",
         }
 
@@ -195,6 +196,36 @@ class ParametersTable(Table):
         Number("gravity in m/s^2", (Ge(0, "gravity must be >= 0 m/s^2 (0 switches it off)"),)),
         Field(description="gravity [m/s^2] (0 switches it off)"),
     ] = _default(DEFAULT_G)
+    # The links as built (docs/model.md, "Links as built"); absent: the paper's rods.
+    com: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number()),
+        Field(
+            description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} "
+            "(0 unused); default l/2"
+        ),
+    ] = None
+    J: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
+        Field(
+            description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
+            "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)"
+        ),
+    ] = None
+    J_axial: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
+        Field(
+            description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
+            f"{_PER_LINK}; default 0"
+        ),
+    ] = None
+    tip: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "a mass cannot be negative"),))),
+        Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
+    ] = None
     free: Annotated[
         tuple[str, ...],
         Custom(validate=checks.free_names, schema={"type": "array", "items": {"type": "string"}}),
@@ -208,6 +239,7 @@ class ParametersTable(Table):
     def _relations(self, info: Any) -> ParametersTable:
         context = info.context
         checks.lengths(self.l, context["type"])
+        checks.links_as_built(self, context)
         if self.free and not context["specialise"]:
             refuse(
                 "applies to specialised code only: add specialise = true to [system]",
@@ -226,7 +258,18 @@ class ParametersTable(Table):
         """("m0", "0.3"), ..., ("g", "9.81"): each parameter's decimal text as written."""
         groups = (("m", self.m), ("l", self.lengths(system_type)), ("delta", self.delta))
         named = [(f"{base}{i}", number.text) for base, values in groups for i, number in enumerate(values)]
-        return (*named, ("g", self.g.text))
+        built = [
+            (f"{group}{i}", number.text)
+            for group, values in self.links_as_built()
+            for i, number in enumerate(values)
+        ]
+        return (*named, ("g", self.g.text), *built)
+
+    def links_as_built(self) -> tuple[tuple[str, tuple[Exact, ...]], ...]:
+        """(group, values) of the link arrays the scene gives (com, J, J_axial, tip)."""
+        return tuple(
+            (group, values) for group in model.LINK_GROUPS if (values := getattr(self, group)) is not None
+        )
 
 
 # ---------------------------------------------------------------------------- [initial]

@@ -69,6 +69,21 @@ struct HasCheckFolded<Model, std::void_t<decltype(Model::template check_folded<d
                                  std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
 }  // namespace detail
 
+namespace detail {
+template <class Model, class = void>
+struct HasLinksAsBuilt : std::false_type {};
+template <class Model>
+struct HasLinksAsBuilt<Model, std::void_t<decltype(std::declval<ParamsOf<Model>&>().com),
+                                          decltype(std::declval<ParamsOf<Model>&>().J),
+                                          decltype(std::declval<ParamsOf<Model>&>().J_axial),
+                                          decltype(std::declval<ParamsOf<Model>&>().tip)>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model's Params describe the links as built (members com, J, J_axial, tip:
+/// headers from ipgen with issue 21; NaN com or J means the homogeneous rod's value).
+template <class Model>
+inline constexpr bool has_links_as_built = detail::HasLinksAsBuilt<Model>::value;
+
 /// True when the model defines kinetic_energy, potential_energy and dissipation (a header
 /// specialised to a scene without an energy ledger omits them).
 template <class Model>

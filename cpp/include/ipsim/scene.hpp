@@ -30,6 +30,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -185,7 +186,8 @@ Scene<Model> load(const SceneFile& file) {
       "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
-      "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period"};
+      "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
+      "com", "J", "J_axial", "tip"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -249,6 +251,20 @@ Scene<Model> load(const SceneFile& file) {
     scene.settings.dtheta(i) = dtheta[k];
   }
   scene.params.g = file.number("g");
+  // The links as built (optional; absent: the homogeneous rods, the Params defaults).
+  for (const char* key : {"com", "J", "J_axial", "tip"}) {
+    if (!file.has(key)) continue;
+    if constexpr (has_links_as_built<Model>) {
+      const auto values = list(key);
+      auto& field = std::string_view(key) == "com"       ? scene.params.com
+                    : std::string_view(key) == "J"       ? scene.params.J
+                    : std::string_view(key) == "J_axial" ? scene.params.J_axial
+                                                         : scene.params.tip;
+      for (int i = 0; i < Model::kDof; ++i) field[static_cast<std::size_t>(i)] = values[static_cast<std::size_t>(i)];
+    } else {
+      file.fail(file.line(key), std::string("`") + key + "` needs a model generated with the links as built (regenerate it)");
+    }
+  }
 
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");

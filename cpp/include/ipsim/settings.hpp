@@ -163,6 +163,25 @@ std::vector<std::string> validate(const ParamsOf<Model>& params) {
     else if (d < 0.0) report("delta", i, d, "damping must be >= 0");
   }
   if (!std::isfinite(params.g)) report("g", -1, params.g, "must be finite");
+  if constexpr (has_links_as_built<Model>) {
+    // NaN com or J: the homogeneous rod's value (docs/model.md, "Links as built").
+    for (int i = 0; i < Model::kDof; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      if (i > 0 && std::isinf(params.com[k])) report("com", i, params.com[k], "must be finite (or NaN: l/2)");
+      const double across = params.J[k];
+      if (std::isinf(across)) report("J", i, across, "must be finite (or NaN: the rod's value)");
+      else if (across < 0.0) report("J", i, across, "an inertia cannot be negative");
+      if (i == 0) continue;
+      const double axial = params.J_axial[k];
+      if (!std::isfinite(axial)) report("J_axial", i, axial, "must be finite");
+      else if (axial < 0.0) report("J_axial", i, axial, "an inertia cannot be negative");
+      else if (std::isfinite(across) && axial > 2.0 * across * (1.0 + 1e-12))
+        report("J_axial", i, axial, "must be <= 2 J (no axisymmetric body has more)");
+      const double tip = params.tip[k];
+      if (!std::isfinite(tip)) report("tip", i, tip, "must be finite");
+      else if (tip < 0.0) report("tip", i, tip, "a mass cannot be negative");
+    }
+  }
   return found;
 }
 
