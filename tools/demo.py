@@ -1,5 +1,6 @@
-"""`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6), and
-stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml).
+"""`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6),
+stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), and show a closed loop that
+leaves its controller's region being stopped (scenes/cdip_lqr_tilt.toml).
 
 Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
@@ -8,9 +9,10 @@ For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, wr
 <out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. For the paper's two
 systems it also writes the equations for people (ipgen --emit equations): <out>/<short>.md and
 .tex, and the .pdf pdflatex makes of it. The LQR run must end upright and at rest: every angle
-and rate within 1e-3 of zero in the CSV's last row, or the demo fails. With --docs the plots are
-also copied there (docs/simulator.md and docs/control.md show docs/cdip.png, docs/rsip.png and
-docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
+and rate within 1e-3 of zero in the CSV's last row, or the demo fails. The diverging run must end
+with the simulator's exit status 3 and its message, its CSV cut where the loop diverged. With
+--docs the plots are also copied there (docs/simulator.md and docs/control.md show docs/cdip.png,
+docs/rsip.png and docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
 
 Then the swing-ups (scenes/rsip_swingup.toml: energy control of the rotary single pendulum;
 scenes/cdip_swingup.toml: a planned trajectory of the cart double pendulum), each through
@@ -50,6 +52,9 @@ EXPERIMENTS = [
 # Closed-loop experiments: (scene stem, short name, title); the CSV has a column u.
 CONTROL = [("rdip_lqr", "rdip_lqr", "Rotary double inverted pendulum stabilised by LQR")]
 SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
+# A closed loop outside its basin: (scene stem, short name, title); the simulator must stop it.
+DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR from 0.1 rad: diverges")]
+DIVERGED = 3  # the simulator's exit status for a diverged closed loop (cpp/README.md)
 # Swing-ups: (scene stem, title); the last row: |θi − 2πk| <= SWING_ANGLE [rad] for the links,
 # |θ̇| <= SWING_RATE [m/s or rad/s] for every rate, and phase "hold".
 SWINGUP = [
@@ -163,9 +168,12 @@ class DemoError(Exception):
     """A run that failed or did not end as the demo requires; the message says which."""
 
 
-def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Path, Path, str]:
+def simulate(
+    args: argparse.Namespace, stem: str, short: str, expected_status: int = 0
+) -> tuple[Scene, Path, Path, str]:
     """Run build/bin/simulate_<model> on the scene's resolved config, writing <out>/<short>.csv.
-    Returns the scene, the CSV and PNG paths and the simulator's summary."""
+    Returns the scene, the CSV and PNG paths and the simulator's summary (and, for a run that
+    must fail with `expected_status`, its error line)."""
     scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
     csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
     simulator = args.build / "bin" / f"simulate_{scene.name}"
@@ -173,9 +181,12 @@ def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Pa
     result = subprocess.run(
         [str(simulator), str(config), "--csv", str(csv_path)], capture_output=True, text=True
     )
-    if result.returncode != 0:
-        raise DemoError(f"{stem} failed: {result.stderr.strip()}")
-    return scene, csv_path, png_path, result.stdout.strip()
+    if result.returncode != expected_status:
+        raise DemoError(
+            f"{stem} ended with exit status {result.returncode}, expected {expected_status}: "
+            f"{result.stderr.strip()}"
+        )
+    return scene, csv_path, png_path, "\n".join(filter(None, (result.stdout.strip(), result.stderr.strip())))
 
 
 def publish(png_path: Path, docs: Path | None) -> None:
@@ -202,6 +213,14 @@ def run_demo(args: argparse.Namespace) -> None:
             raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
         print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
         publish(png_path, args.docs)
+    for stem, short, title in DIVERGING:
+        scene, csv_path, png_path, summary = simulate(args, stem, short, expected_status=DIVERGED)
+        columns = read_csv(csv_path)
+        if "diverged" not in summary or not columns["t"][-1] < scene.t_end:
+            raise DemoError(f"{stem}: the simulator did not report the divergence it must stop")
+        plot_control(columns, scene, title, png_path)
+        print(f"== {title}\n{summary}")
+        print(f"   exit status {DIVERGED} as expected; wrote {csv_path} and {png_path}\n")
 
 
 def swingup_problems(path: Path) -> list[str]:
