@@ -134,3 +134,74 @@ def test_energy_swingup_matches_the_python_reference(tmp_path: Path, cache: dict
     np.testing.assert_allclose(data[swing, 1:5], ref.x[swing], atol=1e-6)
     np.testing.assert_allclose(data[:-1, 5], ref.u[:-1], atol=1e-5)
     np.testing.assert_allclose(data[-1, 1:5], ref.x[-1], atol=1e-5)
+
+
+C_DRIVER = r"""
+#include <math.h>
+#include <stdio.h>
+#include "MODEL.h"
+/* Reads rows t, q[0..n-1], qd[0..n-1], u (a swing-up run of the simulator, one per period) and
+ * prints the largest |u_C - u_simulator| of the C header's swing-up over the rows but the last. */
+int main(void) {
+  PREFIX_swingup_state s;
+  PREFIX_params p = PARAMS;
+  double row[2 * DOF + 2], worst = 0.0, next[2 * DOF + 2];
+  int i, have;
+  PREFIX_swingup_init(&s);
+  have = 1;
+  for (i = 0; i < 2 * DOF + 2; ++i) have = have && scanf("%lf", &row[i]) == 1;
+  while (have) {
+    double q[DOF], qd[DOF], u;
+    int more = 1;
+    for (i = 0; i < 2 * DOF + 2; ++i) more = more && scanf("%lf", &next[i]) == 1;
+    if (!more) break; /* the last row: its u is the one held before it */
+    for (i = 0; i < DOF; ++i) { q[i] = row[1 + i]; qd[i] = row[1 + DOF + i]; }
+    u = PREFIX_swingup(&s, q, qd, &p, 0);
+    if (fabs(u - row[1 + 2 * DOF]) > worst) worst = fabs(u - row[1 + 2 * DOF]);
+    for (i = 0; i < 2 * DOF + 2; ++i) row[i] = next[i];
+  }
+  printf("%.17g %d\n", worst, s.phase);
+  return 0;
+}
+"""
+
+
+@pytest.mark.parametrize(
+    "case",
+    [("rotary", 1, "energy", 5.0, None, None, HOLD), ("classical", 2, "trajectory", 50.0, 3.0, 1.0, HOLD)],
+    ids=["rotary1-energy", "classical2-trajectory"],
+)
+def test_c_header_swingup_computes_the_simulators_inputs(
+    tmp_path: Path, cache: dict[str, str], case: tuple
+) -> None:
+    """The C header's swing-up controller (--emit c), fed the states the C++ simulator sampled,
+    returns the u the simulator applied at every sampling instant (the same law, the same
+    sampling semantics), and ends in the hold phase."""
+    kind, links, *_rest = case
+    text = scene_text(*case)
+    _, data, phases, _ = run_scene(tmp_path, text, cache)
+    dof = links + 1
+    folder = tmp_path / "c"
+    scene = tmp_path / "c.toml"
+    scene.write_text(text.replace("[system]\n", '[system]\nname = "swing"\nemit = ["c"]\n'))
+    result = subprocess.run(
+        [sys.executable, "-m", "ipgen", "--scene", str(scene), "-o", str(folder)],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    m, l, delta = paper(kind, links)  # noqa: E741
+    params = "{{" + ", ".join(map(repr, m)) + "}, {" + ", ".join(map(repr, l)) + "}, {"
+    params += ", ".join(map(repr, delta)) + "}, 9.81}"
+    source = C_DRIVER.replace("MODEL", "swing").replace("PREFIX", "ipgen_swing")
+    source = source.replace("DOF", str(dof)).replace("PARAMS", params)
+    (folder / "driver.c").write_text(source)
+    flags = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-I", str(folder)]
+    command = ["gcc", *flags, str(folder / "driver.c"), "-o", str(folder / "driver"), "-lm"]
+    build = subprocess.run(command, capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr[:3000]
+    rows = "\n".join(" ".join(repr(float(v)) for v in row[: 2 * dof + 2]) for row in data)
+    out = subprocess.run([str(folder / "driver")], input=rows, capture_output=True, text=True, check=True)
+    worst, phase = out.stdout.split()
+    assert float(worst) <= 1e-9 * case[3], worst
+    assert int(phase) == 2 and phases[-1] == "hold"
