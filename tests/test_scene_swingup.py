@@ -166,3 +166,13 @@ def test_any_swingup_table_loads_or_fails_in_one_line(
     assert law is not None and law.method == "energy"
     assert law.u_max > 0 and law.period > 0 and law.hold >= 0
     assert all(math.isfinite(k) for k in law.hold_gain)
+
+
+def test_specialised_energy_scene_keeps_what_the_law_needs(tmp_path: Path) -> None:
+    """`specialise = true`: the header keeps the input path, and for the energy law the mass
+    matrix and bias (the simulator and the C header evaluate them at the state)."""
+    from ipgen.scene.specialisation import from_scene
+
+    spec = from_scene(load_scene(swingup(tmp_path, {"system.specialise": "true"})))
+    assert not spec.zero_input
+    assert {"mass_matrix", "bias", "forward_dynamics"} <= set(spec.outputs)

@@ -22,6 +22,8 @@ def from_scene(scene: Scene) -> Specialisation:
         if name not in scene.free and unused_parameter(scene.type, name) is None
     ) + _rod_links(scene)
     outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
+    if scene.swingup is not None and scene.swingup.method == "energy":
+        outputs += ("mass_matrix", "bias")  # the energy law evaluates M and the bias at the state
     return Specialisation(
         fixed=fixed,
         outputs=tuple(f for f in FUNCTIONS if f in outputs),

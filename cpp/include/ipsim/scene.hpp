@@ -215,6 +215,9 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   sw.target = numbers_of(file, "swingup.target", size);
   if (sw.method == SwingUp::Method::energy) {
     if (Model::kLinks != 1) file.fail(file.line("swingup"), "energy swing-up needs a single link");
+    if (!has_mass_and_bias<Model>) {
+      file.fail(file.line("swingup"), "energy swing-up needs the model's mass_matrix and bias: regenerate its header");
+    }
     sw.gain_energy = file.number("swingup.gain_energy");
     sw.gain_position = file.number("swingup.gain_position");
     sw.gain_velocity = file.number("swingup.gain_velocity");
