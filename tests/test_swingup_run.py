@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from swingup_reference import simulate
 
 from ipgen.control.casadi_model import plant
@@ -205,3 +207,59 @@ def test_c_header_swingup_computes_the_simulators_inputs(
     worst, phase = out.stdout.split()
     assert float(worst) <= 1e-9 * case[3], worst
     assert int(phase) == 2 and phases[-1] == "hold"
+
+
+# ---------------------------------------------------------------------------- bad .cfg input
+
+SWINGUP_KEYS = [
+    "swingup",
+    "swingup.u_max",
+    "swingup.period",
+    "swingup.hold",
+    "swingup.hold_gain",
+    "swingup.target",
+    "swingup.gain_energy",
+    "swingup.accel_max",
+    "swingup.catch_angle",
+    "swingup.energy_inertia",
+    "swingup.steps",
+]
+BAD_VALUES = st.one_of(
+    st.sampled_from(["0", "-1", "nan", "inf", "-inf", "x", "1e400", "trajectory", "energy", "1 2", "0 0 0"]),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.lists(st.floats(-10, 10).map(repr), min_size=0, max_size=6).map(" ".join).filter(bool),
+)
+
+
+@pytest.fixture(scope="module")
+def energy_run(tmp_path_factory: pytest.TempPathFactory, cache: dict[str, str]) -> tuple[str, str]:
+    """(simulator path, resolved .cfg text) of the rotary single's energy swing-up."""
+    folder = tmp_path_factory.mktemp("energy")
+    _, _, _, summary = run_scene(folder, scene_text("rotary", 1, "energy", 5.0, None, None, HOLD), cache)
+    simulator = summary.rsplit("Simulator ", 1)[1].split(" (")[0]
+    return simulator, (folder / "out" / "swing.cfg").read_text()
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(SWINGUP_KEYS), value=BAD_VALUES)
+def test_simulator_refuses_bad_swingup_settings_in_one_line(
+    tmp_path: Path, energy_run: tuple[str, str], key: str, value: str
+) -> None:
+    """A corrupted swingup.* line in the .cfg: the simulator refuses it on one line naming the key
+    (exit 2), or runs to the end (0) or to a diverged hold (3); never a crash or a hang."""
+    simulator, config = energy_run
+    lines = [f"{key} = {value}" if line.split(" = ")[0] == key else line for line in config.splitlines()]
+    if not any(line.startswith(f"{key} = ") for line in lines):
+        lines.append(f"{key} = {value}")
+    cfg = tmp_path / "bad.cfg"
+    cfg.write_text("\n".join(lines) + "\n")
+    result = subprocess.run(
+        [simulator, str(cfg), "--csv", str(tmp_path / "bad.csv"), "--force", "--t-end", "2"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert result.returncode in (0, 2, 3), result.stderr
+    if result.returncode == 2:
+        err = result.stderr.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("simulate: error: ") and "swingup" in err[0], err

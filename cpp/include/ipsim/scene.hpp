@@ -239,6 +239,10 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   const auto problems = sw.problems(static_cast<int>(size));
   if (!problems.empty()) file.fail(0, problems.front());
+  if (std::isfinite(scene.settings.t_end) && scene.settings.t_end / sw.period > kMaxSamples) {
+    file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
+                                               ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
+  }
   scene.swingup_state = std::make_shared<SwingUp::State>();
   scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);
   scene.swingup = std::move(sw);

@@ -109,6 +109,16 @@ struct SwingUp {
       positive("energy_inertia", energy_inertia);
       positive("catch_angle", catch_angle);
       positive("catch_rate", catch_rate);
+      for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
+                                        {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
+                                        {"accel_max", accel_max}}) {
+        if (!(std::isfinite(value) && value >= 0.0)) {
+          found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
+        }
+      }
+      if (!std::isfinite(energy_target) || !std::isfinite(energy_weight)) {
+        found.emplace_back("invalid setting swingup.energy_target or energy_weight: must be finite");
+      }
     }
     return found;
   }
