@@ -13,6 +13,13 @@ and rate within 1e-3 of zero in the CSV's last row, or the demo fails. The diver
 with the simulator's exit status 3 and its message, its CSV cut where the loop diverged. With
 --docs the plots are also copied there (docs/simulator.md and docs/control.md show docs/cdip.png,
 docs/rsip.png and docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
+
+Then the swing-ups (scenes/rsip_swingup.toml: energy control of the rotary single pendulum;
+scenes/cdip_swingup.toml: a planned trajectory of the cart double pendulum), each through
+`ipgen run` (its cached simulator) into <out>/<stem>.csv, .png, .txt, and `ipgen animate` into
+<out>/<stem>.gif. Each must end upright and at rest: in the CSV's last row every link within
+SWING_ANGLE rad of upright (a whole turn counts as upright), every rate within SWING_RATE, and
+the run in the hold phase; or the demo fails.
 """
 
 from __future__ import annotations
@@ -48,6 +55,14 @@ SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
 # A closed loop outside its basin: (scene stem, short name, title); the simulator must stop it.
 DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR from 0.1 rad: diverges")]
 DIVERGED = 3  # the simulator's exit status for a diverged closed loop (cpp/README.md)
+# Swing-ups: (scene stem, title); the last row: |θi − 2πk| <= SWING_ANGLE [rad] for the links,
+# |θ̇| <= SWING_RATE [m/s or rad/s] for every rate, and phase "hold".
+SWINGUP = [
+    ("rsip_swingup", "Rotary single pendulum swung up by energy control"),
+    ("cdip_swingup", "Cart double pendulum swung up along a planned trajectory"),
+]
+SWING_ANGLE = 1e-2
+SWING_RATE = 1e-2
 
 
 def read_csv(path: Path) -> dict[str, list[float]]:
@@ -208,6 +223,44 @@ def run_demo(args: argparse.Namespace) -> None:
         print(f"   exit status {DIVERGED} as expected; wrote {csv_path} and {png_path}\n")
 
 
+def swingup_problems(path: Path) -> list[str]:
+    """What keeps the last row of a swing-up's CSV from upright and at rest (see SWING_*)."""
+    with path.open() as f:
+        rows = list(csv.reader(f))
+    header, last = rows[0], rows[-1]
+    problems = [] if last[-1] == "hold" else [f"phase {last[-1]}"]
+    for name, text in zip(header[:-1], last[:-1], strict=True):
+        value = float(text)
+        if name.startswith("theta") and name != "theta0":
+            if not abs(math.remainder(value, 2 * math.pi)) <= SWING_ANGLE:
+                problems.append(f"{name} = {value:.3g}")
+        elif name.startswith("dtheta") and not abs(value) <= SWING_RATE:
+            problems.append(f"{name} = {value:.3g}")
+    return problems
+
+
+def run_swingups(args: argparse.Namespace) -> None:
+    """`ipgen run` and `ipgen animate` for each swing-up scene, and the upright check."""
+    from ipgen.command.cli import run
+
+    for stem, title in SWINGUP:
+        print(f"== {title}", flush=True)
+        if run(["run", str(ROOT / "scenes" / f"{stem}.toml"), "-o", str(args.out), "--force"]) != 0:
+            raise DemoError(f"{stem}: ipgen run failed")
+        csv_path = args.out / f"{stem}.csv"
+        gif = args.out / f"{stem}.gif"
+        if run(["animate", str(csv_path), "-o", str(gif), "--force"]) != 0:
+            raise DemoError(f"{stem}: ipgen animate failed")
+        problems = swingup_problems(csv_path)
+        if problems:
+            raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
+        print(
+            f"   wrote {gif}; last row upright (links within {SWING_ANGLE:g} rad) and at rest "
+            f"(rates within {SWING_RATE:g})\n"
+        )
+        publish(args.out / f"{stem}.png", args.docs)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -219,6 +272,7 @@ def main() -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     try:
         run_demo(args)
+        run_swingups(args)
     except DemoError as e:
         print(f"demo: {e}", file=sys.stderr)
         return 1

@@ -26,9 +26,11 @@ from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
+from ipgen.scene import swingup as swing
 from ipgen.scene.fields import _one_of, _Reader, format_number
 from ipgen.scene.fieldtypes import Exact, Kind
 from ipgen.scene.nesting import shape_problem
@@ -109,6 +111,7 @@ class Scene:
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
+    swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
 
     @property
     def system(self) -> System:
@@ -194,7 +197,32 @@ def resolved_config(scene: Scene) -> str:
     if scene.energy:
         lines.append("energy = true")
     lines += _controller_lines(scene.controller)
+    lines += _swingup_lines(scene.swingup)
     return "\n".join(lines) + "\n"
+
+
+def _swingup_lines(law: SwingUpLaw | None) -> list[str]:
+    """The swing-up for the simulator: method, limits, hold LQR, and the energy law's constants
+    or the plan's inputs, states and gain schedule (one long line each)."""
+    if law is None:
+        return []
+    lines = [
+        f"swingup = {law.method}",
+        f"swingup.u_max = {format_number(law.u_max)}",
+        f"swingup.period = {format_number(law.period)}",
+        f"swingup.hold = {format_number(law.hold)}",
+        f"swingup.hold_gain = {_format_list(law.hold_gain)}",
+        f"swingup.target = {_format_list(law.target)}",
+    ]
+    lines += [f"swingup.{name} = {format_number(value)}" for name, value in law.energy]
+    if law.method == "trajectory":
+        lines += [
+            f"swingup.steps = {law.steps}",
+            f"swingup.inputs = {_format_list(law.inputs)}",
+            f"swingup.states = {_format_list(law.states)}",
+            f"swingup.gains = {_format_list(law.gains)}",
+        ]
+    return lines
 
 
 def _controller_lines(controller: Controller | None) -> list[str]:
@@ -383,6 +411,19 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             controller = control.controller(tables["controller"], system, params)
         except control.GainError as error:
             reader.fail(str(error))
+    theta = zeros if initial.theta is None else _floats(initial.theta)
+    dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
+    law = None
+    if tables["swingup"] is not None:
+        if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
+            theta = (0.0,) + (math.pi,) * links
+        params = _Parameters(
+            _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
+        )
+        try:
+            law = swing.law(tables["swingup"], system, params, theta + dtheta)
+        except swing.SwingUpError as error:
+            reader.fail(str(error))
     return Scene(
         path=reader.path,
         stem=reader.path.stem,
@@ -394,8 +435,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         l=lengths,
         delta=_floats(parameters.delta),
         g=parameters.g.value,
-        theta=zeros if initial.theta is None else _floats(initial.theta),
-        dtheta=zeros if initial.dtheta is None else _floats(initial.dtheta),
+        theta=theta,
+        dtheta=dtheta,
         input=InputSpec(
             kind=spec.kind, **{key: getattr(spec, key).value for key in schema.INPUT_KEYS[spec.kind]}
         ),
@@ -408,6 +449,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         links_as_built=links_as_built,
         warnings=_warnings(reader, simulation["rtol"]),
         controller=controller,
+        swingup=law,
     )
 
 
