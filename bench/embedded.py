@@ -13,6 +13,13 @@ object's .text is measured with arm-none-eabi-size: everything that function nee
 newlib's sinf/cosf, which are shared library code (their size is listed once). The controller
 u = −K (x − x_eq) with saturation is the same in both headers (it reads no model parameter).
 
+The swing-up scenes (scenes/rsip_swingup.toml: energy law; scenes/cdip_swingup.toml: a planned
+trajectory) are read as `ipgen --scene … --emit c` reads them, and their controller
+`NAME_swingup` with `NAME_swingup_init` is compiled the same way, in float and in double:
+flash = .text of both functions + .rodata of the const tables they read (the plan and its
+gain schedule), each table's size from arm-none-eabi-nm --size-sort; the library routines it
+calls (libm, libgcc's soft double) are listed with their sizes, not counted.
+
 Run: `python -m bench.embedded [--out docs/bench]`; `make bench-embedded` installs the
 toolchain (gcc-arm-none-eabi, libnewlib-arm-none-eabi) when missing and runs it.
 Writes <out>/embedded.md and prints the table.
@@ -60,7 +67,15 @@ WRAPPERS = {
     "control": (
         "float bench_control(const float q[], const float qd[]) {{ return ipgen_{n}_control(q, qd); }}\n"
     ),
+    "swingup": (
+        "IPGEN_SCALAR bench_swingup(ipgen_{n}_swingup_state *s, const IPGEN_SCALAR q[],"
+        " const IPGEN_SCALAR qd[], const ipgen_{n}_params *p, const ipgen_{n}_links *links) {{"
+        " return ipgen_{n}_swingup(s, q, qd, p, links); }}\n"
+        "void bench_swingup_init(ipgen_{n}_swingup_state *s) {{ ipgen_{n}_swingup_init(s); }}\n"
+    ),
 }
+SWINGUP_SCENES = ("rsip_swingup", "cdip_swingup")
+SCALARS = ("float", "double")
 
 
 def scene_values(system: System) -> dict[str, Fraction]:
@@ -103,19 +118,104 @@ def controller(system: System) -> Controller:
     return Controller("lqr", gain, (0.0,) * size, saturation=5.0, period=0.001)
 
 
-def text_bytes(obj: Path) -> int:
+def section_bytes(obj: Path, section: str = "text") -> int:
+    """Bytes of every `.<section>*` section of `obj` (arm-none-eabi-size -A)."""
     out = subprocess.run([SIZE, "-A", str(obj)], capture_output=True, text=True, check=True).stdout
-    return sum(int(m.group(1)) for m in re.finditer(r"^\.text\S*\s+(\d+)", out, flags=re.M))
+    return sum(int(m.group(1)) for m in re.finditer(rf"^\.{section}\S*\s+(\d+)", out, flags=re.M))
+
+
+def text_bytes(obj: Path) -> int:
+    return section_bytes(obj, "text")
+
+
+def compile_object(header: str, name: str, function: str, work: Path, scalar: str = "float") -> Path:
+    """An object holding only `function` of the header text `header` (IPGEN_SCALAR = `scalar`)."""
+    (work / f"{name}.h").write_text(header)
+    source = work / f"{name}_{function}_{scalar}.c"
+    source.write_text(f'#include "{name}.h"\n' + WRAPPERS[function].format(n=name))
+    obj = source.with_suffix(".o")
+    flags = [f"-DIPGEN_SCALAR={scalar}" if f.startswith("-DIPGEN_SCALAR=") else f for f in FLAGS]
+    subprocess.run([CC, *flags, f"-I{work}", "-c", str(source), "-o", str(obj)], check=True)
+    return obj
 
 
 def measure(header: str, name: str, function: str, work: Path) -> int:
     """Bytes of .text of an object holding only `function` of the header text `header`."""
-    (work / f"{name}.h").write_text(header)
-    source = work / f"{name}_{function}.c"
-    source.write_text(f'#include "{name}.h"\n' + WRAPPERS[function].format(n=name))
-    obj = source.with_suffix(".o")
-    subprocess.run([CC, *FLAGS, f"-I{work}", "-c", str(source), "-o", str(obj)], check=True)
-    return text_bytes(obj)
+    return text_bytes(compile_object(header, name, function, work))
+
+
+def symbols(obj: Path) -> tuple[dict[str, int], tuple[str, ...]]:
+    """The object's defined symbols (name -> bytes, arm-none-eabi-nm -S --size-sort) and the
+    names it needs from elsewhere (nm -u)."""
+
+    def nm(*options: str) -> str:
+        return subprocess.run([NM, *options, str(obj)], capture_output=True, text=True, check=True).stdout
+
+    sizes = {
+        parts[3]: int(parts[1], 16)
+        for parts in map(str.split, nm("-S", "--size-sort").splitlines())
+        if len(parts) == 4
+    }
+    undefined = nm("-u").split()
+    return sizes, tuple(name for name in undefined if name != "U")
+
+
+def library_sizes(names: set[str]) -> str:
+    """Each of `names` with its bytes in newlib's libm or libgcc for this target (nm -S)."""
+    libgcc = subprocess.run(
+        [CC, *TARGET, "-print-libgcc-file-name"], capture_output=True, text=True
+    ).stdout.strip()
+    sizes: dict[str, int] = {}
+    for library in (str(LIBM), libgcc):
+        out = subprocess.run([NM, "-S", "--size-sort", library], capture_output=True, text=True).stdout
+        for parts in map(str.split, out.splitlines()):
+            if len(parts) == 4 and parts[2] in "Tt" and parts[3] in names:
+                sizes.setdefault(parts[3], int(parts[1], 16))
+    return ", ".join(f"{name} {sizes.get(name, '?')}" for name in sorted(names))
+
+
+def swingup_header(scene_name: str) -> tuple[str, str]:
+    """(model name, C header text) of a swing-up scene, as `ipgen --scene … --emit c` writes it."""
+    from ipgen.scene.reader import load_scene
+    from ipgen.scene.specialisation import from_scene
+
+    scene = load_scene(ROOT / "scenes" / f"{scene_name}.toml")
+    spec = from_scene(scene) if scene.specialise else Specialisation()
+    request = HeaderRequest(scene.name, "bench", spec, scene.controller, swingup=scene.swingup)
+    return scene.name, render_c_header(derive(scene.system), request)
+
+
+def swingup_rows(work: Path) -> tuple[list[list[str]], dict[str, set[str]]]:
+    """One row per swing-up scene and scalar: method, text, each table's rodata, flash; and the
+    library routines the controllers call."""
+    rows: list[list[str]] = []
+    calls: dict[str, set[str]] = {scalar: set() for scalar in SCALARS}
+    for scene_name in SWINGUP_SCENES:
+        name, header = swingup_header(scene_name)
+        method = re.search(r"\[swingup\], method (\w+)", header)
+        for scalar in SCALARS:
+            obj = compile_object(header, name, "swingup", work, scalar)
+            text, rodata = section_bytes(obj, "text"), section_bytes(obj, "rodata")
+            sizes, undefined = symbols(obj)
+            calls[scalar] |= set(undefined)
+            prefix = f"ipgen_{name}_swingup_"
+            tables = ", ".join(
+                f"{symbol.removeprefix(prefix)} {size}"
+                for symbol, size in sizes.items()
+                if symbol.startswith(prefix)
+            )
+            rows.append(
+                [
+                    f"{scene_name} ({name}, {method.group(1) if method else '?'})",
+                    scalar,
+                    str(text),
+                    str(rodata),
+                    tables or "none",
+                    str(text + rodata),
+                ]
+            )
+            print(" | ".join(rows[-1]), flush=True)
+    return rows, calls
 
 
 def libm_sizes() -> str:
@@ -172,6 +272,7 @@ def main(argv: list[str] | None = None) -> int:
                     ]
                 )
                 print(" | ".join(rows[-1]), flush=True)
+        swing_rows, calls = swingup_rows(work)
     version = subprocess.run([CC, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     lines = [
         "# Code size of the C header on a Cortex-M4F",
@@ -201,6 +302,23 @@ def main(argv: list[str] | None = None) -> int:
             ],
             rows,
         ),
+        "",
+        "## Swing-up controllers",
+        "",
+        "The C header of a `[swingup]` scene (docs/swingup.md) carries its controller",
+        "`ipgen_NAME_swingup_init` + `ipgen_NAME_swingup`: the energy law computed on line, or the plan",
+        "(u_ref, x_ref) and its time-varying LQR gains as `static const` tables. Bytes of `.text` of both",
+        "functions and `.rodata` of the tables they read (the hold gain and target are folded into",
+        "the code; the energy law's text includes the mass matrix and bias it evaluates, inlined, with",
+        "the parameters read at run time), compiled as above with IPGEN_SCALAR float and double; each",
+        f"table's size from {NM} -S --size-sort. The plan's tables hold 4 (float) or 8 (double) ×",
+        "(K + (2K + 1)·2(n + 1)) bytes for K sampling steps. Not counted: the library routines they",
+        "call (linked once per program), with their bytes (nm -S of libm.a and libgcc.a): float",
+        f"{library_sizes(calls['float'])}; double {library_sizes(calls['double'])}.",
+        "The float energy law calls libgcc's soft double (f2d, dadd, d2f) and double floor: the header",
+        "rounds q1 / 2π to the nearest turn in double.",
+        "",
+        *table(["scene", "scalar", "text", "rodata", "tables", "flash"], swing_rows),
         "",
     ]
     args.out.mkdir(parents=True, exist_ok=True)
