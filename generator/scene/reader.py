@@ -26,6 +26,8 @@ from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.model.actuator import DIRECT, Actuator
+from ipgen.model.links import rod_value
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
@@ -109,6 +111,7 @@ class Scene:
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
+    actuator: Actuator = DIRECT  # [actuator]: what u is (direct: N or N m; dc_motor: V)
 
     @property
     def system(self) -> System:
@@ -167,11 +170,7 @@ def resolved_config(scene: Scene) -> str:
         f"type = {scene.type}",
         f"links = {scene.links}",
         f"inertia = {scene.inertia}",
-        f"m = {_format_list(scene.m)}",
-        f"l = {_format_list(scene.l)}",
-        f"delta = {_format_list(scene.delta)}",
-        f"g = {format_number(scene.g)}",
-        *(f"{group} = {_format_list(values)}" for group, values in scene.links_as_built),
+        *_parameter_lines(scene),
         f"theta = {_format_list(scene.theta)}",
         f"dtheta = {_format_list(scene.dtheta)}",
         f"input = {scene.input.kind}",
@@ -195,6 +194,45 @@ def resolved_config(scene: Scene) -> str:
         lines.append("energy = true")
     lines += _controller_lines(scene.controller)
     return "\n".join(lines) + "\n"
+
+
+def _parameter_lines(scene: Scene) -> list[str]:
+    """m, l, delta, g and the links as built; with a dc_motor the equivalent direct model's
+    (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 + the rotor's reflected inertia) and
+    `actuator.gain`, the force or torque per volt the simulator multiplies u by."""
+    m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
+    lines: list[str] = []
+    if scene.actuator.is_motor:
+        from ipgen.model.actuator import fold
+
+        system = scene.system
+        given = built.get("J")
+        inertias = (
+            list(given)
+            if given is not None
+            else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
+        )
+        m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
+        m, delta = tuple(m_), tuple(delta_)
+        if system.is_rotary or given is not None:
+            built["J"] = tuple(j_)
+        motor = scene.actuator
+        lines += [
+            "# [actuator] dc_motor, folded into the direct model (docs/model.md): u is the voltage [V],",
+            f"# Rm {motor.Rm!r}, kt {motor.kt!r}, km {motor.km!r}, Kg {motor.Kg!r}, eta_g {motor.eta_g!r}, "
+            f"eta_m {motor.eta_m!r}, Jm {motor.Jm!r}, r {motor.r!r}",
+            "actuator = dc_motor",
+            f"actuator.gain = {format_number(gain)}",
+        ]
+    order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
+    return [
+        f"m = {_format_list(m)}",
+        f"l = {_format_list(scene.l)}",
+        f"delta = {_format_list(delta)}",
+        f"g = {format_number(scene.g)}",
+        *(f"{group} = {_format_list(built[group])}" for group in order),
+        *lines,
+    ]
 
 
 def _controller_lines(controller: Controller | None) -> list[str]:
@@ -375,12 +413,18 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     simulation = tables["simulation"].settings()
     links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
+    actuator = tables["actuator"].actuator()
+    if actuator.is_motor and system.specialise:
+        reader.fail(
+            "[actuator] dc_motor with specialise = true is not supported yet: "
+            "remove specialise (the header then takes the motor's folded parameters at run time)"
+        )
     if tables["controller"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
         try:
-            controller = control.controller(tables["controller"], system, params)
+            controller = control.controller(tables["controller"], system, params, actuator)
         except control.GainError as error:
             reader.fail(str(error))
     return Scene(
@@ -408,6 +452,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         links_as_built=links_as_built,
         warnings=_warnings(reader, simulation["rtol"]),
         controller=controller,
+        actuator=actuator,
     )
 
 

@@ -62,7 +62,7 @@ class CsvSink : public SampleSink {
     if (energy_) {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
-    if (input_) std::fprintf(out_, ",%.17g", sample.input);
+    if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
     std::fputc('\n', out_);
     check_stream();
     if (rows_ == 0) first_ = x;
@@ -73,6 +73,10 @@ class CsvSink : public SampleSink {
     ++rows_;
     return true;
   }
+
+  /// The u column is the applied force or torque divided by `gain` (> 0; default 1): with a DC
+  /// motor, gain = b [N or N m per volt] writes u in volts.
+  void set_input_gain(double gain) noexcept { input_gain_ = gain; }
 
   /// Rows written (not counting the header).
   std::size_t rows() const noexcept { return rows_; }
@@ -112,6 +116,7 @@ class CsvSink : public SampleSink {
   std::size_t rows_ = 0;
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;
+  double input_gain_ = 1.0;
 };
 
 }  // namespace ipsim

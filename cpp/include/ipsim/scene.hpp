@@ -15,6 +15,8 @@
 //   controller = lqr           (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
 //   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
 //   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
+//   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
+//                              volt; the parameters are then the motor-folded ones, docs/model.md)
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
@@ -174,6 +176,12 @@ struct Scene {
   /// `controller = lqr`: the feedback that sets settings.input (which is then a feedback or
   /// sampled input).
   std::optional<LinearFeedback> controller;
+  /// `actuator = dc_motor`: the force [N] or torque [N m] per volt, b. The file's parameters are
+  /// then the equivalent direct model's (back-EMF in delta[0], the rotor's inertia in m[0] or
+  /// J[0]); the inputs and the controller are in volts in the file and scaled by b here, so
+  /// settings.input and controller are in N or N m. 1 for a direct drive.
+  double input_gain = 1.0;
+  bool motor = false;  ///< `actuator = dc_motor`
 };
 
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
@@ -187,7 +195,7 @@ Scene<Model> load(const SceneFile& file) {
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
-      "com", "J", "J_axial", "tip"};
+      "com", "J", "J_axial", "tip", "actuator", "actuator.gain"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -266,6 +274,21 @@ Scene<Model> load(const SceneFile& file) {
     }
   }
 
+  if (file.has("actuator")) {
+    const std::string& actuator = file.text("actuator");
+    if (actuator != "direct" && actuator != "dc_motor") {
+      file.fail(file.line("actuator"), "actuator must be `direct` or `dc_motor`, got `" + detail::abbreviate(actuator) + "`");
+    }
+    scene.motor = actuator == "dc_motor";
+    if (scene.motor) {
+      scene.input_gain = file.number("actuator.gain");
+      if (!(std::isfinite(scene.input_gain) && scene.input_gain > 0.0)) {
+        file.fail(file.line("actuator.gain"), "actuator.gain must be a finite number > 0 (N or N m per volt)");
+      }
+    }
+  }
+  const double b = scene.input_gain;
+
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");
   const auto parsed_method = parse_method(method);
@@ -289,13 +312,13 @@ Scene<Model> load(const SceneFile& file) {
   if (kind == "zero") {
     s.input = Input::zero();
   } else if (kind == "constant") {
-    s.input = Input::constant(file.number("input.amplitude"));
+    s.input = Input::constant(b * file.number("input.amplitude"));
   } else if (kind == "pulse") {
-    s.input = Input::pulse(file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
+    s.input = Input::pulse(b * file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
   } else if (kind == "step") {
-    s.input = Input::step(file.number("input.amplitude"), file.number("input.time"));
+    s.input = Input::step(b * file.number("input.amplitude"), file.number("input.time"));
   } else if (kind == "sine") {
-    s.input = Input::sine(file.number("input.amplitude"), file.number("input.frequency"),
+    s.input = Input::sine(b * file.number("input.amplitude"), file.number("input.frequency"),
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
   } else {
     file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
@@ -322,6 +345,8 @@ Scene<Model> load(const SceneFile& file) {
     if (file.has("controller.period")) controller.period = file.number("controller.period");
     const auto problems = controller.problems(2 * Model::kDof);
     if (!problems.empty()) file.fail(0, problems.front());
+    controller.gain *= b;  // volts per unit of state -> N or N m (b = 1 for a direct drive)
+    controller.saturation *= b;
     s.input = controller.input();
     scene.controller = std::move(controller);
   }
