@@ -146,3 +146,24 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     for row in data[data[:, 0] <= 1.0][::10]:
         assert np.allclose(row[1:5], sol.sol(row[0]), atol=1e-6), row[0]
     assert not math.isclose(data[1, 1], 0.0)  # the arm moved
+
+
+def test_the_c_header_carries_the_lqr_in_volts(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "ipgen", "--scene", str(RIGS / "qube_servo2.toml"), "-o", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 0, result.stderr
+    header = (tmp_path / "qube_servo2.h").read_text()
+    assert "(motor voltage [V]), clipped to |u| <= 10.0." in header
+
+
+@pytest.mark.parametrize("extra", ["specialise = true", 'emit = ["fmu"]'])
+def test_a_motor_scene_refuses_what_it_cannot_fold_yet(tmp_path: Path, extra: str) -> None:
+    text = (RIGS / "qube_servo2.toml").read_text().replace('emit = ["cpp", "c"]', extra)
+    scene = tmp_path / "motor.toml"
+    scene.write_text(text)
+    with pytest.raises(ipgen.Error, match=r"dc_motor with specialise = true or an FMU") as caught:
+        load_scene(scene)
+    assert "\n" not in str(caught.value)

@@ -187,4 +187,5 @@ def controller(table: Any, system: Any, params: Any, actuator: Any = None) -> Co
         equilibrium=tuple(float(x) for x in x_eq),
         saturation=None if table.saturation is None else table.saturation.value,
         period=None if table.period is None else table.period.value,
+        unit="motor voltage [V]" if actuator is not None and actuator.is_motor else "",
     )

@@ -414,10 +414,10 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
     actuator = tables["actuator"].actuator()
-    if actuator.is_motor and system.specialise:
+    if actuator.is_motor and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
         reader.fail(
-            "[actuator] dc_motor with specialise = true is not supported yet: "
-            "remove specialise (the header then takes the motor's folded parameters at run time)"
+            "[actuator] dc_motor with specialise = true or an FMU in emit is not supported yet: "
+            "remove them (the header then takes the motor-folded parameters of DIR/<scene>.cfg at run time)"
         )
     if tables["controller"] is not None:
         params = _Parameters(
