@@ -20,6 +20,7 @@ comes out km/Rm = 0.042/8.4 = 1/200 of the true value (200× too small).
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -180,3 +181,60 @@ def test_lqr_in_volts() -> None:
     assert np.max(np.linalg.eigvals(a - b @ k).real) < 0
     k_torque = ipgen.lqr("rotary", 1, [MR, MP], [LR, LP], [DR, DP], [1, 1, 1, 1], 1.0, g=G, J=[JR, JP])
     assert not np.allclose(k, k_torque)
+
+
+CPP_MOTOR = """
+#include <cstdio>
+#include "model.hpp"
+namespace m = ipgen::model;
+int main() {
+  m::Params<double> p{{M}, {L}, {D}};
+  p.J = {J};
+  m::DcMotor motor{RM, KT, KM, KG, ETA_G, ETA_M, JM R};
+  const m::Vector<double> q{0.3, -0.2}, qd{1.5, -2.0};
+  const auto qdd = m::forward_dynamics<double>(q, qd, motor.gain() * 4.0, m::with_motor(p, motor));
+  std::printf("%.17g %.17g\\n", qdd(0), qdd(1));
+}
+"""
+
+
+@pytest.mark.parametrize("kind", ["rotary", "classical"])
+def test_cpp_header_dc_motor(kind: str, tmp_path: Path) -> None:
+    """The C++ header's DcMotor and with_motor, driven by 4 V, against θ̈ from the mechanics
+    with the manufacturer's torque (or force) and the rotor's inertia added by hand."""
+    import subprocess
+
+    from cxx import cxx_command, require_toolchain
+
+    from ipgen.codegen.header import HeaderRequest, render_header
+
+    require_toolchain()
+    system = System(kind, 1)  # type: ignore[arg-type]
+    rm, kt, km, kg, eta_g, eta_m, jm, r = 2.6, 0.0077, 0.0075, 3.71, 0.9, 0.69, 3.9e-7, 6.35e-3
+    m, l, delta, j = [0.5, 0.2], [0.3 if kind == "rotary" else 0.0, 0.6], [0.2, 0.003], [0.004, 0.007]  # noqa: E741
+    values = {"M": m, "L": l, "D": delta, "J": j}
+    program = CPP_MOTOR
+    for key, value in values.items():
+        program = program.replace("{" + key + "}", "{" + ", ".join(repr(v) for v in value) + "}")
+    constants = {"RM": rm, "KT": kt, "KM": km, "KG": kg, "ETA_G": eta_g, "ETA_M": eta_m, "JM": jm}
+    for key, value in constants.items():
+        program = program.replace(key, repr(value), 1)
+    program = program.replace(" R}", f", {r!r}}}" if kind == "classical" else "}")
+    (tmp_path / "model.hpp").write_text(render_header(derive(system), HeaderRequest("model", "test")))
+    (tmp_path / "main.cpp").write_text(program)
+    subprocess.run(
+        cxx_command(f"-I{tmp_path}", str(tmp_path / "main.cpp"), "-o", str(tmp_path / "main")), check=True
+    )
+    out = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout
+    qdd_cpp = np.array([float(x) for x in out.split()])
+
+    q, qd, volts = np.array([0.3, -0.2]), np.array([1.5, -2.0]), 4.0
+    if kind == "rotary":  # τ = ηg Kg ηm kt (V − Kg km θ̇0)/Rm, ηg Kg² Jm on the arm
+        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0]) / rm
+        m_hand, j_hand = m, [j[0] + eta_g * kg**2 * jm, j[1]]
+    else:  # F = ηg Kg ηm kt (V − Kg km ẋ/r)/(Rm r), ηg Kg² Jm / r² on the cart
+        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0] / r) / (rm * r)
+        m_hand, j_hand = [m[0] + eta_g * kg**2 * jm / r**2, m[1]], j
+    params = _params(system, m_hand, l, delta, 9.81, {"J": j_hand})
+    qdd_hand = dynamics(system).forward_dynamics(q, qd, force, params)
+    assert np.allclose(qdd_cpp, qdd_hand, rtol=1e-12, atol=1e-12), (qdd_cpp, qdd_hand)
