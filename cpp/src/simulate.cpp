@@ -119,6 +119,8 @@ input.phase [rad]; t_end, sample [s], method, jacobian, rtol, atol, step, max_st
 (true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
+coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
+c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
 actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
 and multiplied by b (the parameters are the motor-folded ones ipgen writes).
 
@@ -467,6 +469,10 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
+  if ((s.coulomb.array() != 0.0).any()) {
+    std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
+                result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+  }
   if (scene.motor) {
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
                 scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");

@@ -112,6 +112,8 @@ class Scene:
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
     actuator: Actuator = DIRECT  # [actuator]: what u is (direct: N or N m; dc_motor: V)
+    coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
+    coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
 
     @property
     def system(self) -> System:
@@ -232,6 +234,14 @@ def _parameter_lines(scene: Scene) -> list[str]:
         f"g = {format_number(scene.g)}",
         *(f"{group} = {_format_list(built[group])}" for group in order),
         *lines,
+        *(
+            [
+                f"coulomb = {_format_list(scene.coulomb)}",
+                f"coulomb_speed = {format_number(scene.coulomb_speed)}",
+            ]
+            if scene.coulomb is not None
+            else []
+        ),
     ]
 
 
@@ -453,6 +463,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         warnings=_warnings(reader, simulation["rtol"]),
         controller=controller,
         actuator=actuator,
+        coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
+        coulomb_speed=parameters.coulomb_speed.value,
     )
 
 

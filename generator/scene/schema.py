@@ -82,6 +82,7 @@ DEFAULT_INERTIA = "pivot"
 DEFAULT_G = 9.81  # its decimal text "9.81" is kept next to the float (repr)
 DEFAULT_SAMPLE = 0.01
 DEFAULT_METHOD = "bdf"
+DEFAULT_COULOMB_SPEED = 0.01  # m/s or rad/s: the smooth Coulomb law's rate (docs/rigs.md)
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000
@@ -230,6 +231,19 @@ class ParametersTable(Table):
         PerLink(Number(bounds=(Ge(0, "a mass cannot be negative"),))),
         Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
     ] = None
+    coulomb: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "friction must be >= 0"),))),
+        Field(
+            description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
+            f"{_PER_LINK}; default 0"
+        ),
+    ] = None
+    coulomb_speed: Annotated[
+        Exact,
+        Number(bounds=(Gt(0, "must be > 0 (m/s or rad/s)"),)),
+        Field(description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]"),
+    ] = _default(DEFAULT_COULOMB_SPEED)
     free: Annotated[
         tuple[str, ...],
         Custom(validate=checks.free_names, schema={"type": "array", "items": {"type": "string"}}),

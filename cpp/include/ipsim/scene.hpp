@@ -15,6 +15,7 @@
 //   controller = lqr           (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
 //   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
 //   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
+//   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
 //
@@ -195,7 +196,7 @@ Scene<Model> load(const SceneFile& file) {
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
-      "com", "J", "J_axial", "tip", "actuator", "actuator.gain"};
+      "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -288,6 +289,11 @@ Scene<Model> load(const SceneFile& file) {
     }
   }
   const double b = scene.input_gain;
+  if (file.has("coulomb")) {
+    const auto coulomb = list("coulomb");
+    for (int i = 0; i < Model::kDof; ++i) scene.settings.coulomb(i) = coulomb[static_cast<std::size_t>(i)];
+  }
+  if (file.has("coulomb_speed")) scene.settings.coulomb_speed = file.number("coulomb_speed");
 
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");
