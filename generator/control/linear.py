@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
+from ipgen.control.coordinates import CoordinateError, Coordinates
 from ipgen.errors import Error
 from ipgen.model.actuator import Actuator, ActuatorError, as_actuator, fold
 from ipgen.model.links import LinkError, resolve_links, rod_value
@@ -204,6 +205,9 @@ def linearize(
     J_axial: Sequence[float] | None = None,
     tip: Sequence[float] | None = None,
     actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
 ) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
 
@@ -220,8 +224,29 @@ def linearize(
     `actuator` (an `ipgen.Actuator`, a dict of its fields, or None: "direct") says what u is: with
     kind "dc_motor" u is the motor voltage [V], B is per volt and A has the back-EMF's damping
     and the rotor's reflected inertia (docs/model.md, "A DC motor on the base").
+
+    `angles` ("absolute" | "relative"), `zero` ("upright" | "hanging") and `positive`
+    ("clockwise" | "counterclockwise") give the link angles in the rig's own convention
+    (`control.coordinates`): q, qd are then in it, and so are the rows and columns of A and B.
     """
     import numpy as np
+
+    convention = _coordinates(angles, zero, positive)
+    if not convention.is_canonical:
+        dof = links + 1
+        x_user = np.concatenate(
+            [
+                _vector("q", q, dof, "one angle per coordinate"),
+                _vector("qd", qd, dof, "one rate per coordinate"),
+            ]
+        )
+        p, _ = convention.matrices(links)
+        x = convention.to_canonical(x_user, links)
+        a, b = linearize(
+            type, links, m, l, delta, g, inertia, q=x[:dof], qd=x[dof:], u=u,
+            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,
+        )  # fmt: skip
+        return p @ a @ np.linalg.inv(p), p @ b
 
     system = _system(type, links, inertia)
     m, delta, J, gain = _with_actuator(system, m, l, delta, J, actuator)
@@ -245,6 +270,13 @@ def linearize(
     b = np.zeros((2 * dof, 1))
     b[dof:, 0] = du * gain
     return a, b
+
+
+def _coordinates(angles: str, zero: str, positive: str) -> Coordinates:
+    try:
+        return Coordinates(angles, zero, positive)
+    except CoordinateError as exc:
+        raise ControlError(str(exc)) from None
 
 
 def _with_actuator(
@@ -374,6 +406,9 @@ def lqr(
     J_axial: Sequence[float] | None = None,
     tip: Sequence[float] | None = None,
     actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
 ) -> np.ndarray:
     """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
 
@@ -387,12 +422,20 @@ def lqr(
     returning a gain that does not stabilise. K comes from scipy's `solve_continuous_are`.
     `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods);
     `actuator`: as for `linearize` (a "dc_motor" gives K in volts per unit of state).
+    `angles`, `zero`, `positive`: the rig's convention, as for `linearize`: K (and Q, and an
+    `equilibrium` given as angles) are then in the rig's coordinates.
     """
     import numpy as np
     from scipy.linalg import solve_continuous_are
 
-    x_eq = equilibrium_state(links, equilibrium)
+    convention = _coordinates(angles, zero, positive)
     dof = links + 1
+    if not convention.is_canonical and equilibrium is not None and not isinstance(equilibrium, str):
+        user = np.concatenate(
+            [_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
+        )
+        equilibrium = list(convention.to_canonical(user, links)[:dof])
+    x_eq = equilibrium_state(links, equilibrium)
     a, b = linearize(
         type,
         links,
@@ -410,6 +453,9 @@ def lqr(
         tip=tip,
         actuator=actuator,
     )
+    if not convention.is_canonical:
+        p, _ = convention.matrices(links)
+        a, b = p @ a @ np.linalg.inv(p), p @ b
     q, r = _weights(Q, R, 2 * dof)
     _check_stabilisable(a, b, q)
     try:
