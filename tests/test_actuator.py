@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sp
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from test_published_rig import DP, DR, JP, JR, LP, LR, MP, MR, G, published
 
@@ -238,3 +240,34 @@ def test_cpp_header_dc_motor(kind: str, tmp_path: Path) -> None:
     params = _params(system, m_hand, l, delta, 9.81, {"J": j_hand})
     qdd_hand = dynamics(system).forward_dynamics(q, qd, force, params)
     assert np.allclose(qdd_cpp, qdd_hand, rtol=1e-12, atol=1e-12), (qdd_cpp, qdd_hand)
+
+
+_NUMBERS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-5, 5),
+    st.none(),
+    st.text(max_size=3),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    kind=st.sampled_from(["direct", "dc_motor", "servo", ""]),
+    constants=st.dictionaries(
+        st.sampled_from(["Rm", "kt", "km", "Kg", "eta_g", "eta_m", "Jm", "r", "Lm", "kind2"]), _NUMBERS
+    ),
+    cart=st.booleans(),
+)
+@example(kind="dc_motor", constants={"Rm": 5e-324, "kt": 1, "km": 1}, cart=False)  # an infinite gain
+def test_any_actuator_is_a_model_or_one_line_error(kind: str, constants: dict, cart: bool) -> None:
+    """Bad input class: actuator constants of any type and value, through the Python API. Either
+    a finite linear model or a ControlError of one line; nothing else escapes."""
+    try:
+        a, b = ipgen.linearize(
+            "classical" if cart else "rotary", 1, [0.5, 0.2], [0.3, 0.5], [0.1, 0.01],
+            actuator={"kind": kind, **constants},
+        )  # fmt: skip
+    except ControlError as exc:
+        assert "\n" not in str(exc) and str(exc)
+        return
+    assert np.all(np.isfinite(a)) and np.all(np.isfinite(b))

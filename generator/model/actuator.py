@@ -93,6 +93,15 @@ class Actuator:
                 raise ActuatorError(f"actuator Jm = {value:g}: an inertia cannot be negative (0 for none)")
             if name not in ("eta_g", "eta_m", "Jm") and value <= 0:
                 raise ActuatorError(f"actuator {name} = {value:g}: must be > 0 [{MOTOR_CONSTANTS[name][0]}]")
+        for what, value in (
+            ("gain", self.gain()),
+            ("back-EMF damping", self.damping()),
+            ("rotor inertia", self.inertia()),
+        ):
+            if not math.isfinite(value):
+                raise ActuatorError(
+                    f"the motor's {what} overflows a double ({value}): check Rm, kt, km, Kg, Jm and r"
+                )
 
     def gain(self) -> float:
         """b: the generalised force on θ0 per unit of u (1 for "direct"; N m/V or N/V)."""
