@@ -167,3 +167,32 @@ def test_a_motor_scene_refuses_what_it_cannot_fold_yet(tmp_path: Path, extra: st
     with pytest.raises(ipgen.Error, match=r"dc_motor with specialise = true or an FMU") as caught:
         load_scene(scene)
     assert "\n" not in str(caught.value)
+
+
+def test_the_simulator_refuses_a_bad_actuator_line(tmp_path: Path) -> None:
+    """The resolved config's actuator lines as the simulator reads them: a wrong kind or gain
+    is a one-line error naming the line, exit status 2."""
+    require_toolchain()
+    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    out = tmp_path / "out"
+    first = subprocess.run(
+        [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+    )
+    assert first.returncode == 0, first.stderr
+    simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_qube_servo2"))
+    config = (out / "qube_servo2.cfg").read_text()
+    for old, new, message in (
+        ("actuator = dc_motor", "actuator = servo", "actuator must be `direct` or `dc_motor`"),
+        ("actuator.gain = 0.005", "actuator.gain = -1", "actuator.gain must be a finite number > 0"),
+    ):
+        assert old in config
+        bad = tmp_path / "bad.cfg"
+        bad.write_text(config.replace(old, new))
+        result = subprocess.run(
+            [str(simulator), str(bad), "--csv", str(tmp_path / "bad.csv")], capture_output=True, text=True
+        )
+        assert result.returncode == 2, result.stderr
+        assert message in result.stderr and result.stderr.count("\n") == 1, result.stderr
