@@ -66,8 +66,9 @@ test: lint test-python test-cpp
 	@echo "make test: all tests passed"
 
 demo: configure
-	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr
+	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr scene_cdip_lqr_tilt
 	$(PY) tools/demo.py --build $(BUILD)
+	$(PY) tools/fmu_demo.py --build $(BUILD) --out out/demo
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
 ## Pinocchio, the integrators' work-precision, general against specialised headers; writes

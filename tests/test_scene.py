@@ -110,6 +110,8 @@ def test_expected_scenes_are_shipped() -> None:
         "rsip": "rsip_pulse",
         "ctip": "ctip_pulse",
         "rdip": "rdip_pulse",
+        "rotary1": "rsip_swingup",
+        "classical2": "cdip_swingup",
     }
 
 

@@ -323,10 +323,10 @@ def test_an_optional_per_link_array_is_one_declaration(
     JSON Schema all follow from the one field."""
 
     class Parameters(schema.ParametersTable):
-        com: Annotated[
+        backlash: Annotated[
             tuple[Exact, ...] | None,
-            PerLink(Number(bounds=(Ge(0, "must be >= 0 m"),))),
-            Field(description="centre of mass of each link from its pivot [m]"),
+            PerLink(Number(bounds=(Ge(0, "must be >= 0 rad"),))),
+            Field(description="backlash of each joint [rad]"),
         ] = None
 
     monkeypatch.setitem(schema.TABLE_MODELS, "parameters", Parameters)
@@ -334,16 +334,16 @@ def test_an_optional_per_link_array_is_one_declaration(
     reader._adapter.cache_clear()
     try:
         path = tmp_path / "x.toml"
-        path.write_text(scene_text({"parameters.com": "[0, 0.25, -1]"}))
-        with pytest.raises(SceneError, match=r"parameters\.com\[2\] = -1: must be >= 0 m$"):
+        path.write_text(scene_text({"parameters.backlash": "[0, 0.25, -1]"}))
+        with pytest.raises(SceneError, match=r"parameters\.backlash\[2\] = -1: must be >= 0 rad$"):
             load_scene(path)
-        path.write_text(scene_text({"parameters.com": "[0, 0.25]"}))
-        with pytest.raises(SceneError, match=r"parameters\.com has 2 entries, expected 3"):
+        path.write_text(scene_text({"parameters.backlash": "[0, 0.25]"}))
+        with pytest.raises(SceneError, match=r"parameters\.backlash has 2 entries, expected 3"):
             load_scene(path)
         path.write_text(scene_text({}))
         load_scene(path)
         properties = Parameters.model_json_schema()["properties"]
-        assert properties["com"]["items"] == {"type": "number", "minimum": 0}
+        assert properties["backlash"]["items"] == {"type": "number", "minimum": 0}
     finally:
         reader._adapter.cache_clear()
     assert BASE["parameters"]["m"]  # the base scene is unchanged

@@ -1,7 +1,8 @@
 """`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6),
-stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), and balance a real rig,
-the Quanser QUBE-Servo 2, by LQR in motor volts (scenes/rigs/qube_servo2.toml, through
-`ipgen run`, its simulator cached in <build>/ipgen-cache).
+stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), balance a real rig, the
+Quanser QUBE-Servo 2, by LQR in motor volts (scenes/rigs/qube_servo2.toml, through `ipgen run`,
+its simulator cached in <build>/ipgen-cache), and show a closed loop that leaves its controller's
+region being stopped (scenes/cdip_lqr_tilt.toml).
 
 Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
@@ -10,9 +11,17 @@ For each scene it runs build/bin/simulate_<model> on build/scenes/<stem>.cfg, wr
 <out>/<short>.csv and <out>/<short>.png, and prints the simulator's summary. For the paper's two
 systems it also writes the equations for people (ipgen --emit equations): <out>/<short>.md and
 .tex, and the .pdf pdflatex makes of it. The LQR run must end upright and at rest: every angle
-and rate within 1e-3 of zero in the CSV's last row, or the demo fails. With --docs the plots are
-also copied there (docs/simulator.md and docs/control.md show docs/cdip.png, docs/rsip.png and
-docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
+and rate within 1e-3 of zero in the CSV's last row, or the demo fails. The diverging run must end
+with the simulator's exit status 3 and its message, its CSV cut where the loop diverged. With
+--docs the plots are also copied there (docs/simulator.md and docs/control.md show docs/cdip.png,
+docs/rsip.png and docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
+
+Then the swing-ups (scenes/rsip_swingup.toml: energy control of the rotary single pendulum;
+scenes/cdip_swingup.toml: a planned trajectory of the cart double pendulum), each through
+`ipgen run` (its cached simulator) into <out>/<stem>.csv, .png, .txt, and `ipgen animate` into
+<out>/<stem>.gif. Each must end upright and at rest: in the CSV's last row every link within
+SWING_ANGLE rad of upright (a whole turn counts as upright), every rate within SWING_RATE, and
+the run in the hold phase; or the demo fails.
 """
 
 from __future__ import annotations
@@ -47,6 +56,17 @@ CONTROL = [("rdip_lqr", "rdip_lqr", "Rotary double inverted pendulum stabilised 
 # Rig presets run through `ipgen run` (scenes/rigs/<stem>.toml): (stem, title); u in volts.
 RIGS = [("qube_servo2", "Quanser QUBE-Servo 2 balanced by LQR in motor volts")]
 SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
+# A closed loop outside its basin: (scene stem, short name, title); the simulator must stop it.
+DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR from 0.1 rad: diverges")]
+DIVERGED = 3  # the simulator's exit status for a diverged closed loop (cpp/README.md)
+# Swing-ups: (scene stem, title); the last row: |θi − 2πk| <= SWING_ANGLE [rad] for the links,
+# |θ̇| <= SWING_RATE [m/s or rad/s] for every rate, and phase "hold".
+SWINGUP = [
+    ("rsip_swingup", "Rotary single pendulum swung up by energy control"),
+    ("cdip_swingup", "Cart double pendulum swung up along a planned trajectory"),
+]
+SWING_ANGLE = 1e-2
+SWING_RATE = 1e-2
 
 
 def read_csv(path: Path) -> dict[str, list[float]]:
@@ -156,9 +176,12 @@ class DemoError(Exception):
     """A run that failed or did not end as the demo requires; the message says which."""
 
 
-def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Path, Path, str]:
+def simulate(
+    args: argparse.Namespace, stem: str, short: str, expected_status: int = 0
+) -> tuple[Scene, Path, Path, str]:
     """Run build/bin/simulate_<model> on the scene's resolved config, writing <out>/<short>.csv.
-    Returns the scene, the CSV and PNG paths and the simulator's summary."""
+    Returns the scene, the CSV and PNG paths and the simulator's summary (and, for a run that
+    must fail with `expected_status`, its error line)."""
     scene = load_scene(ROOT / "scenes" / f"{stem}.toml")
     csv_path, png_path = args.out / f"{short}.csv", args.out / f"{short}.png"
     simulator = args.build / "bin" / f"simulate_{scene.name}"
@@ -166,9 +189,12 @@ def simulate(args: argparse.Namespace, stem: str, short: str) -> tuple[Scene, Pa
     result = subprocess.run(
         [str(simulator), str(config), "--csv", str(csv_path)], capture_output=True, text=True
     )
-    if result.returncode != 0:
-        raise DemoError(f"{stem} failed: {result.stderr.strip()}")
-    return scene, csv_path, png_path, result.stdout.strip()
+    if result.returncode != expected_status:
+        raise DemoError(
+            f"{stem} ended with exit status {result.returncode}, expected {expected_status}: "
+            f"{result.stderr.strip()}"
+        )
+    return scene, csv_path, png_path, "\n".join(filter(None, (result.stdout.strip(), result.stderr.strip())))
 
 
 def publish(png_path: Path, docs: Path | None) -> None:
@@ -219,6 +245,52 @@ def run_demo(args: argparse.Namespace) -> None:
         if problems or not math.isclose(columns["t"][-1], scene.t_end):
             raise DemoError(f"rigs/{stem} did not end upright and at rest: {', '.join(problems)}")
         print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
+    for stem, short, title in DIVERGING:
+        scene, csv_path, png_path, summary = simulate(args, stem, short, expected_status=DIVERGED)
+        columns = read_csv(csv_path)
+        if "diverged" not in summary or not columns["t"][-1] < scene.t_end:
+            raise DemoError(f"{stem}: the simulator did not report the divergence it must stop")
+        plot_control(columns, scene, title, png_path)
+        print(f"== {title}\n{summary}")
+        print(f"   exit status {DIVERGED} as expected; wrote {csv_path} and {png_path}\n")
+
+
+def swingup_problems(path: Path) -> list[str]:
+    """What keeps the last row of a swing-up's CSV from upright and at rest (see SWING_*)."""
+    with path.open() as f:
+        rows = list(csv.reader(f))
+    header, last = rows[0], rows[-1]
+    problems = [] if last[-1] == "hold" else [f"phase {last[-1]}"]
+    for name, text in zip(header[:-1], last[:-1], strict=True):
+        value = float(text)
+        if name.startswith("theta") and name != "theta0":
+            if not abs(math.remainder(value, 2 * math.pi)) <= SWING_ANGLE:
+                problems.append(f"{name} = {value:.3g}")
+        elif name.startswith("dtheta") and not abs(value) <= SWING_RATE:
+            problems.append(f"{name} = {value:.3g}")
+    return problems
+
+
+def run_swingups(args: argparse.Namespace) -> None:
+    """`ipgen run` and `ipgen animate` for each swing-up scene, and the upright check."""
+    from ipgen.command.cli import run
+
+    for stem, title in SWINGUP:
+        print(f"== {title}", flush=True)
+        if run(["run", str(ROOT / "scenes" / f"{stem}.toml"), "-o", str(args.out), "--force"]) != 0:
+            raise DemoError(f"{stem}: ipgen run failed")
+        csv_path = args.out / f"{stem}.csv"
+        gif = args.out / f"{stem}.gif"
+        if run(["animate", str(csv_path), "-o", str(gif), "--force"]) != 0:
+            raise DemoError(f"{stem}: ipgen animate failed")
+        problems = swingup_problems(csv_path)
+        if problems:
+            raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
+        print(
+            f"   wrote {gif}; last row upright (links within {SWING_ANGLE:g} rad) and at rest "
+            f"(rates within {SWING_RATE:g})\n"
+        )
+        publish(args.out / f"{stem}.png", args.docs)
 
 
 def main() -> int:
@@ -232,6 +304,7 @@ def main() -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     try:
         run_demo(args)
+        run_swingups(args)
     except DemoError as e:
         print(f"demo: {e}", file=sys.stderr)
         return 1

@@ -15,6 +15,9 @@
 // states the gain, the closed-loop poles of the linearised model and the largest |u|; a closed
 // loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
 // from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
+// A swing-up scene (swingup = energy | trajectory: ipsim/swingup.hpp) adds the columns u and phase
+// (swing, track or hold), checks divergence only in the hold phase (exit 3), and ends the run
+// `swingup.hold` s into the hold phase (or at t_end).
 // Samples are written to the temporary CSV as the integration reaches them (memory stays flat);
 // SIGINT, SIGTERM, SIGHUP and SIGXFSZ remove the temporary file, then end the process by the same
 // signal (exit status 128 + signal in a shell).
@@ -28,6 +31,7 @@
 #include <array>
 #include <cerrno>
 #include <climits>
+#include <memory>
 #include <csignal>
 #include <cmath>
 #include <cstdio>
@@ -107,6 +111,7 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
   u                    scenes with a controller: the input [N or N m; V with actuator = dc_motor]
                        applied from t on
+  phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
 earlier file untouched and no temporary file.
@@ -123,6 +128,8 @@ coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb fric
 c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
 actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
 and multiplied by b (the parameters are the motor-folded ones ipgen writes).
+swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
+ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
 
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
@@ -313,6 +320,7 @@ bool written_by_simulator(const std::string& path) {
   }
   // Optional columns: the energies, then u (scenes with a controller).
   std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
+  if (!rest.empty() && rest.back() == "phase") rest.pop_back();
   if (!rest.empty() && rest.back() == "u") rest.pop_back();
   const std::vector<std::string> energy = {"kinetic", "potential", "input_work", "dissipated"};
   return rest.empty() || rest == energy;
@@ -478,6 +486,15 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                 scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");
   }
   if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0);
+  if (scene.swingup) {
+    const ipsim::SwingUp::State& state = *scene.swingup_state;
+    std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g; ",
+                scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
+                scene.swingup->period, scene.swingup->u_max);
+    if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (LQR) from t = %.6g s", state.hold_since);
+    else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
+    std::printf("; largest |u| %.6g.", result.max_abs_input);
+  }
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
 }
@@ -525,9 +542,15 @@ int run(int argc, char** argv) {
   if (options.check) return 0;
   install_cleanup_handlers();
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
-  ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy, scene.controller.has_value(),
-                             shown_path(options.csv_path));
+  ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
+                             scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
+  std::optional<ipsim::SwingUpMonitor> swing_monitor;
+  if (scene.swingup) {
+    const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;
+    rows.phase_column([state] { return ipsim::to_string(state->phase); });
+    swing_monitor.emplace(rows, state, kDof, scene.swingup->hold, options.divergence_angle);
+  }
   std::optional<ipsim::DivergenceMonitor> monitor;
   if (scene.controller && std::isfinite(options.divergence_angle)) {
     monitor.emplace(rows, scene.controller->equilibrium, kDof, options.divergence_angle);
@@ -542,7 +565,9 @@ int run(int argc, char** argv) {
                    link, deviation, options.divergence_angle);
     }
   }
-  ipsim::SampleSink& sink = monitor ? static_cast<ipsim::SampleSink&>(*monitor) : rows;
+  ipsim::SampleSink& sink = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
+                            : monitor     ? static_cast<ipsim::SampleSink&>(*monitor)
+                                          : rows;
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, sink);
   csv.commit();
   print_summary(options, scene, result, rows);
@@ -550,6 +575,16 @@ int run(int argc, char** argv) {
     std::fflush(stdout);
     std::fprintf(stderr, "simulate: error: %s\n",
                  divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows()).c_str());
+    return kExitDiverged;
+  }
+  if (swing_monitor && swing_monitor->divergence()) {
+    const ipsim::Divergence& d = *swing_monitor->divergence();
+    std::fflush(stdout);
+    std::fprintf(stderr,
+                 "simulate: error: the swing-up's hold diverged at t = %.6g s: link %d is %.4g rad from upright, beyond "
+                 "--divergence-angle %.4g rad; stopped there, the %zu samples up to then are in %s. Try a larger "
+                 "[swingup] u_max, a shorter period or (trajectory) a longer duration\n",
+                 d.t, d.link, d.deviation, swing_monitor->angle(), rows.rows(), shown_path(options.csv_path).c_str());
     return kExitDiverged;
   }
   return 0;

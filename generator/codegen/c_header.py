@@ -5,13 +5,15 @@ The same equations, specialisation and common-subexpression elimination as the C
 (matrices row-major), the scalar type the macro `IPGEN_SCALAR` (double unless defined as float
 before the include), constants cast to it and sin/cos chosen by its size (sinf/cosf for float;
 <math.h> only, as newlib's <tgmath.h> does not work in C99), so that float mode computes in
-float only. Optionally the controller u = −K (x − x_eq) of a scene.
+float only. Optionally the controller u = −K (x − x_eq) of a scene, or its swing-up (energy law,
+or the plan and gain schedule as const tables).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ipgen.codegen.functions import C_SYNTAX, FunctionBody
 from ipgen.codegen.header import (
@@ -27,6 +29,9 @@ from ipgen.control.controller import Controller
 from ipgen.errors import Error
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import specialise
+
+if TYPE_CHECKING:
+    from ipgen.control.swingup import SwingUpLaw
 
 TEMPLATE = "model.h.jinja"
 # Functions whose outputs use θ̈, and the C array holding it once solved for.
@@ -96,6 +101,39 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
     }
 
 
+def _c_list(values: tuple[float, ...] | list[float], what: str) -> str:
+    for i, v in enumerate(values):
+        if not math.isfinite(v):
+            raise ControllerError(f"swing-up {what}[{i}] = {v!r} is not a finite number")
+    return ", ".join(c_number(v) for v in values)
+
+
+def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
+    """The swing-up for the template: limits, hold LQR, the energy law's constants or the plan's
+    tables (ū_k, x̄_k, K_k as const arrays: `table_bytes` of flash in double)."""
+    size = 2 * dof
+    if len(law.hold_gain) != size or len(law.target) != size:
+        raise ControllerError(f"swing-up hold gain and target need {size} entries each")
+    context: dict[str, object] = {
+        "method": law.method,
+        "u_max": c_number(law.u_max),
+        "u_max_value": repr(float(law.u_max)),
+        "period": repr(float(law.period)),
+        "hold_gain": _c_list(law.hold_gain, "hold gain"),
+        "target": _c_list(law.target, "target"),
+        "energy": {name: c_number(value) for name, value in law.energy},
+        "steps": law.steps,
+    }
+    if law.method == "trajectory":
+        rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]
+        gains = [law.gains[k * size : (k + 1) * size] for k in range(law.steps)]
+        context["inputs"] = _c_list(law.inputs, "inputs")
+        context["states"] = [_c_list(row, "states") for row in rows]
+        context["gains"] = [_c_list(row, "gains") for row in gains]
+        context["table_bytes"] = 8 * (law.steps + (2 * law.steps + 1) * size)
+    return context
+
+
 def c_bodies(eqs: Equations, wanted: tuple[str, ...]) -> dict[str, FunctionBody]:
     """The C99 body of every function in `wanted` (same expressions as the C++ header's)."""
     return function_bodies(eqs, wanted, syntax=C_SYNTAX, late=_LATE)
@@ -111,4 +149,5 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     context["folded"] = folded_entries(eqs.system, spec, C_SYNTAX, lambda v: c_number(float(v)))
     dof = eqs.system.dof
     context["controller"] = control_context(request.controller, dof) if request.controller else None
+    context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None
     return environment().get_template(TEMPLATE).render(context)

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import jinja2
 
@@ -24,6 +25,9 @@ from ipgen.control.controller import Controller
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 from ipgen.model.system import System, split_parameter
+
+if TYPE_CHECKING:
+    from ipgen.control.swingup import SwingUpLaw
 
 TEMPLATE = "model.hpp.jinja"
 
@@ -73,6 +77,7 @@ class HeaderRequest:
     # carry start values (the FMU); empty: the targets' defaults.
     parameters: tuple[tuple[str, float], ...] = ()
     initial: tuple[float, ...] = ()
+    swingup: SwingUpLaw | None = None  # a scene's swing-up (control.swingup), for the C header
 
 
 def templates_dir() -> Path:

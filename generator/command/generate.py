@@ -6,6 +6,7 @@ import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
@@ -14,6 +15,9 @@ from ipgen.control.controller import Controller
 from ipgen.model.derivation import derive
 from ipgen.model.specialise import FUNCTIONS, Specialisation, format_exact
 from ipgen.model.system import System
+
+if TYPE_CHECKING:
+    from ipgen.control.swingup import SwingUpLaw
 
 GENERAL = Specialisation()
 
@@ -57,16 +61,17 @@ def generate(
     controller: Controller | None = None,
     parameters: tuple[tuple[str, float], ...] = (),
     initial: tuple[float, ...] = (),
+    swingup: SwingUpLaw | None = None,
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
     write them all or none (`output.write_files`). `controller` (a scene's) is handed to the
     targets that print it; `parameters` (name, value) and `initial` (θ then θ̇), a scene's, to
-    the targets that carry start values (the FMU)."""
+    the targets that carry start values (the FMU); `swingup` (a scene's) to the C header."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
     request = HeaderRequest(
-        name, canonical_command(system, name, spec, emit), spec, controller, parameters, initial
+        name, canonical_command(system, name, spec, emit), spec, controller, parameters, initial, swingup
     )
     files: list[tuple[Path, str | bytes]] = []
     for target in emit:

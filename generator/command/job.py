@@ -189,6 +189,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         emit=job.emit,
         extra_files=extra,
         controller=job.scene.controller if job.scene is not None else None,
+        swingup=job.scene.swingup if job.scene is not None else None,
         parameters=parameters,
         initial=initial,
     )

@@ -11,16 +11,18 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant
+from ipgen.control.energy import EnergySwingUp
 from ipgen.control.trajectory import Plan, PlanError, finite_number, plan_swingup
 from ipgen.control.tvlqr import GainSchedule, track
 
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["trajectory_swingup"]
+__all__ = ["SwingUpLaw", "energy_law", "schedule_law", "trajectory_swingup"]
 
 
 def trajectory_swingup(
@@ -53,3 +55,79 @@ def trajectory_swingup(
     )
     plan = dataclasses.replace(plan, u_max=u_limit)
     return plan, track(plan, period, q=q, r=r)
+
+
+@dataclass(frozen=True)
+class SwingUpLaw:
+    """What a simulator or a C controller needs to run a swing-up scene (data only).
+
+    Both methods sample every `period` s (zero-order hold) and clip to |u| ≤ u_max; the hold
+    phase is the discrete LQR u = −hold_gain (x − target), stopped `hold` s after it begins.
+
+    method "energy" (`energy.EnergySwingUp`): `energy` holds k_E, k_x, k_v, a_max, the catch
+    angle and rate, E0 and the link energy's constants J = `energy_inertia` and
+    m1 g l1 / 2 = `energy_weight` (E = ½ J θ̇1² + energy_weight (cos θ1 − 1)).
+    method "trajectory" (`tvlqr.GainSchedule`): `inputs` ū_k (K), `states` x̄_k ((K+1) × 2·dof,
+    flattened row by row), `gains` K_k (K × 2·dof, flattened); target = x̄_K.
+    """
+
+    method: str  # "energy" | "trajectory"
+    u_max: float
+    period: float
+    hold: float  # s in the hold phase before the run ends
+    hold_gain: tuple[float, ...]
+    target: tuple[float, ...]
+    energy: tuple[tuple[str, float], ...] = ()
+    inputs: tuple[float, ...] = ()
+    states: tuple[float, ...] = ()
+    gains: tuple[float, ...] = ()
+    plan_iterations: int = 0
+    plan_time: float = 0.0  # s, IPOPT wall clock
+
+    @property
+    def steps(self) -> int:
+        return len(self.inputs)
+
+
+def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
+    """The `SwingUpLaw` of an energy controller (catch about θ1 = 0)."""
+    plant = law.plant
+    dof = plant.dof
+    m1, l1 = plant.m[1], plant.l[1]
+    constants = (
+        ("gain_energy", law.gain_energy),
+        ("gain_position", law.gain_position),
+        ("gain_velocity", law.gain_velocity),
+        ("accel_max", law.accel_max),
+        ("catch_angle", law.catch_angle),
+        ("catch_rate", law.catch_rate),
+        ("energy_target", law.energy_target),
+        ("energy_inertia", m1 * l1**2 / 3),
+        ("energy_weight", 0.5 * m1 * plant.g * l1),
+    )
+    return SwingUpLaw(
+        method="energy",
+        u_max=law.u_max,
+        period=law.period,
+        hold=hold,
+        hold_gain=tuple(float(k) for k in law.hold_gain.ravel()),
+        target=(0.0,) * (2 * dof),
+        energy=tuple((name, float(value)) for name, value in constants),
+    )
+
+
+def schedule_law(plan: Plan, schedule: GainSchedule, hold: float) -> SwingUpLaw:
+    """The `SwingUpLaw` of a planned swing-up tracked by `schedule`."""
+    return SwingUpLaw(
+        method="trajectory",
+        u_max=schedule.u_max,
+        period=schedule.period,
+        hold=hold,
+        hold_gain=tuple(float(k) for k in schedule.hold_gain.ravel()),
+        target=tuple(float(v) for v in schedule.target),
+        inputs=tuple(float(u) for u in schedule.inputs),
+        states=tuple(float(v) for v in schedule.states.ravel()),
+        gains=tuple(float(v) for v in schedule.gains.ravel()),
+        plan_iterations=plan.iterations,
+        plan_time=plan.solve_time,
+    )

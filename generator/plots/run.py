@@ -33,6 +33,7 @@ class Run:
 
     columns: dict[str, list[float]]
     links: int
+    phases: list[str] | None = None  # a swing-up's phase column (swing, track, hold), if any
 
     @property
     def time(self) -> list[float]:
@@ -63,6 +64,11 @@ def read_run(path: Path) -> Run:
             f"{shown_path(path)} is not a CSV the simulator wrote: its first line should be "
             "t,theta0,...,dtheta0,..."
         )
+    phases = None
+    if header[-1:] == ["phase"]:  # a swing-up: the last column names the controller's phase
+        header = header[:-1]
+        phases = [row[-1] for row in rows[1:] if row]
+        rows = [rows[0]] + [row[:-1] for row in rows[1:] if row]
     try:
         data = [[float(value) for value in row] for row in rows[1:] if row]
     except ValueError as e:
@@ -77,7 +83,7 @@ def read_run(path: Path) -> Run:
             f"(values must be finite, |x| <= {LARGEST:g})"
         )
     columns = {name: [row[i] for row in data] for i, name in enumerate(header)}
-    return Run(columns, links=len(angles) - 1)
+    return Run(columns, links=len(angles) - 1, phases=phases)
 
 
 def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
@@ -157,6 +163,14 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
         unit = {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
         axes[2].plot(t, run.columns["u"], color="tab:red", label=f"input u [{unit}]")
         axes[2].set_ylabel(f"u [{unit}]")
+    if run.phases:  # a swing-up: a dashed line where the controller changes phase, named on top
+        for k in range(1, len(run.phases)):
+            if run.phases[k] != run.phases[k - 1]:
+                for ax in axes:
+                    ax.axvline(t[k], color="grey", linestyle="--", linewidth=0.8)
+                base.annotate(
+                    run.phases[k], (t[k], 1.0), xycoords=("data", "axes fraction"), fontsize=8, va="bottom"
+                )
     axes[-1].set_xlabel("time t [s]")
     base.set_title(f"{title}\ndotted lines: hanging down (±π)" if hanging else title)
     for ax in axes:

@@ -26,11 +26,13 @@ from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
 from ipgen.model.links import rod_value
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
+from ipgen.scene import swingup as swing
 from ipgen.scene.fields import _one_of, _Reader, format_number
 from ipgen.scene.fieldtypes import Exact, Kind
 from ipgen.scene.nesting import shape_problem
@@ -114,6 +116,7 @@ class Scene:
     actuator: Actuator = DIRECT  # [actuator]: what u is (direct: N or N m; dc_motor: V)
     coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
     coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
+    swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
 
     @property
     def system(self) -> System:
@@ -195,6 +198,7 @@ def resolved_config(scene: Scene) -> str:
     if scene.energy:
         lines.append("energy = true")
     lines += _controller_lines(scene.controller)
+    lines += _swingup_lines(scene.swingup)
     return "\n".join(lines) + "\n"
 
 
@@ -243,6 +247,30 @@ def _parameter_lines(scene: Scene) -> list[str]:
             else []
         ),
     ]
+
+
+def _swingup_lines(law: SwingUpLaw | None) -> list[str]:
+    """The swing-up for the simulator: method, limits, hold LQR, and the energy law's constants
+    or the plan's inputs, states and gain schedule (one long line each)."""
+    if law is None:
+        return []
+    lines = [
+        f"swingup = {law.method}",
+        f"swingup.u_max = {format_number(law.u_max)}",
+        f"swingup.period = {format_number(law.period)}",
+        f"swingup.hold = {format_number(law.hold)}",
+        f"swingup.hold_gain = {_format_list(law.hold_gain)}",
+        f"swingup.target = {_format_list(law.target)}",
+    ]
+    lines += [f"swingup.{name} = {format_number(value)}" for name, value in law.energy]
+    if law.method == "trajectory":
+        lines += [
+            f"swingup.steps = {law.steps}",
+            f"swingup.inputs = {_format_list(law.inputs)}",
+            f"swingup.states = {_format_list(law.states)}",
+            f"swingup.gains = {_format_list(law.gains)}",
+        ]
+    return lines
 
 
 def _controller_lines(controller: Controller | None) -> list[str]:
@@ -437,6 +465,21 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             controller = control.controller(tables["controller"], system, params, actuator)
         except control.GainError as error:
             reader.fail(str(error))
+    theta = zeros if initial.theta is None else _floats(initial.theta)
+    dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
+    law = None
+    if tables["swingup"] is not None:
+        if actuator.is_motor:
+            reader.fail("[swingup] with [actuator] dc_motor is not supported yet: remove one of them")
+        if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
+            theta = (0.0,) + (math.pi,) * links
+        params = _Parameters(
+            _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
+        )
+        try:
+            law = swing.law(tables["swingup"], system, params, theta + dtheta)
+        except swing.SwingUpError as error:
+            reader.fail(str(error))
     return Scene(
         path=reader.path,
         stem=reader.path.stem,
@@ -448,8 +491,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         l=lengths,
         delta=_floats(parameters.delta),
         g=parameters.g.value,
-        theta=zeros if initial.theta is None else _floats(initial.theta),
-        dtheta=zeros if initial.dtheta is None else _floats(initial.dtheta),
+        theta=theta,
+        dtheta=dtheta,
         input=InputSpec(
             kind=spec.kind, **{key: getattr(spec, key).value for key in schema.INPUT_KEYS[spec.kind]}
         ),
@@ -465,6 +508,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         actuator=actuator,
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
         coulomb_speed=parameters.coulomb_speed.value,
+        swingup=law,
     )
 
 

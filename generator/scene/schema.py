@@ -33,6 +33,7 @@ from ipgen.common import limits
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
+from ipgen.scene import swingup as swing
 from ipgen.scene.fieldtypes import (
     Choice,
     Custom,
@@ -579,6 +580,57 @@ class ControllerTable(Table):
         control.relations(self, info.context)
         return self
 
+    def context(self) -> dict[str, Any]:
+        return {"controller": True}
+
+
+# ---------------------------------------------------------------------------- [swingup]
+
+
+class SwingupTable(Table):
+    """[swingup]: from the initial state (default hanging) to upright, then held by LQR."""
+
+    method: Annotated[
+        str,
+        Choice(options=swing.METHODS),
+        Field(
+            description="energy: Åström–Furuta energy control (one link); "
+            "trajectory: a plan on the exact model tracked by time-varying LQR"
+        ),
+    ]
+    u_max: Annotated[
+        Exact,
+        Number(bounds=(Gt(0, "the input limit must be > 0 {u_unit}"),)),
+        Field(description="the input limit |u| <= u_max [N or N m]"),
+    ]
+    x_max: Annotated[
+        Exact | None,
+        Number(bounds=(Gt(0, "the travel limit must be > 0 (m on a cart, rad on an arm)"),)),
+        Field(description="trajectory only: the plan keeps |θ0| <= x_max [m or rad] (default: no limit)"),
+    ] = None
+    duration: Annotated[
+        Exact | None,
+        Number(bounds=(Gt(0, "the manoeuvre's time must be > 0 s"),)),
+        Field(description="trajectory only (required there): the manoeuvre's time [s]"),
+    ] = None
+    period: Annotated[
+        Exact,
+        Number(bounds=(Gt(0, "the sampling period must be > 0 s"),)),
+        Field(
+            description="controller sampling period [s], a whole multiple or fraction of simulation.sample"
+        ),
+    ] = _default(swing.DEFAULT_PERIOD)
+    hold: Annotated[
+        Exact,
+        Number(bounds=(Ge(0, "must be >= 0 s"),)),
+        Field(description="seconds held upright (LQR) after arrival; then the run ends"),
+    ] = _default(swing.DEFAULT_HOLD)
+
+    @model_validator(mode="after")
+    def _relations(self, info: Any) -> SwingupTable:
+        swing.relations(self, info.context)
+        return self
+
 
 # ---------------------------------------------------------------------------- the document
 
@@ -600,6 +652,7 @@ class SceneDocument(BaseModel):
     simulation: SimulationTable
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
     controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
+    swingup: SwingupTable = Field(default=None, description="swing-up from hanging, then hold")  # type: ignore[assignment]
 
 
 # Every table a scene may have, its model (`Input` for [input]) and its keys, documented order.
@@ -612,6 +665,7 @@ TABLE_MODELS: dict[str, Any] = {
     "simulation": SimulationTable,
     "outputs": OutputsTable,
     "controller": ControllerTable,
+    "swingup": SwingupTable,
 }
 assert tuple(TABLE_MODELS) == tuple(SceneDocument.model_fields)  # one order, checked at import
 TABLES: dict[str, tuple[str, ...]] = {
@@ -624,7 +678,7 @@ TABLES: dict[str, tuple[str, ...]] = {
 }
 # Tables that are None when absent (an open loop has no controller), and what an absent or
 # empty table reads as where that is not {} (no [input] is a zero input).
-ABSENT_IS_NONE: tuple[str, ...] = ("controller",)
+ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup")
 WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
 
 

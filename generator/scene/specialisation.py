@@ -22,10 +22,12 @@ def from_scene(scene: Scene) -> Specialisation:
         if name not in scene.free and unused_parameter(scene.type, name) is None
     ) + _rod_links(scene)
     outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
+    if scene.swingup is not None and scene.swingup.method == "energy":
+        outputs += ("mass_matrix", "bias")  # the energy law evaluates M and the bias at the state
     return Specialisation(
         fixed=fixed,
         outputs=tuple(f for f in FUNCTIONS if f in outputs),
-        zero_input=scene.input.kind == "zero" and scene.controller is None,
+        zero_input=scene.input.kind == "zero" and scene.controller is None and scene.swingup is None,
         scene=quote_path(scene.path.as_posix()),  # it is quoted in the header's comments
     )
 

@@ -1,6 +1,6 @@
 // CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
 // output), so a run of any length needs the memory of one row. Columns:
-//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u]
+//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,phase]
 // every value printed with %.17g (round-trips to the same double).
 #pragma once
 
@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -42,6 +43,7 @@ class CsvSink : public SampleSink {
     for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",dtheta%d", i);
     if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
     if (input_) std::fputs(",u", out_);
+    if (phase_) std::fputs(",phase", out_);
     std::fputc('\n', out_);
     first_ = Eigen::VectorXd::Zero(state_size);
     last_ = Eigen::VectorXd::Zero(state_size);
@@ -63,6 +65,7 @@ class CsvSink : public SampleSink {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
     if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
+    if (phase_) std::fprintf(out_, ",%s", phase_());
     std::fputc('\n', out_);
     check_stream();
     if (rows_ == 0) first_ = x;
@@ -77,6 +80,10 @@ class CsvSink : public SampleSink {
   /// The u column is the applied force or torque divided by `gain` (> 0; default 1): with a DC
   /// motor, gain = b [N or N m per volt] writes u in volts.
   void set_input_gain(double gain) noexcept { input_gain_ = gain; }
+
+  /// Adds a last column `phase` whose text at each row is `phase()` (a swing-up's phase: swing,
+  /// track or hold). Call before the run.
+  void phase_column(std::function<const char*()> phase) { phase_ = std::move(phase); }
 
   /// Rows written (not counting the header).
   std::size_t rows() const noexcept { return rows_; }
@@ -113,6 +120,7 @@ class CsvSink : public SampleSink {
   const ParamsOf<Model>& params_;
   bool energy_, input_;
   std::string name_;
+  std::function<const char*()> phase_;
   std::size_t rows_ = 0;
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;

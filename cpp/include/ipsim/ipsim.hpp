@@ -21,3 +21,4 @@
 #include "ipsim/simulate.hpp"
 #include "ipsim/sink.hpp"
 #include "ipsim/sundials.hpp"
+#include "ipsim/swingup.hpp"

@@ -18,6 +18,11 @@
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
+//   swingup = energy | trajectory   (optional, with input = zero and no controller: ipsim/swingup.hpp)
+//   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
+//   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
+//          energy_inertia energy_weight                                               (energy)
+//   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
@@ -29,6 +34,7 @@
 #include <fstream>
 #include <istream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -42,6 +48,7 @@
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/settings.hpp"
+#include "ipsim/swingup.hpp"
 
 namespace ipsim::scene {
 
@@ -183,7 +190,73 @@ struct Scene {
   /// settings.input and controller are in N or N m. 1 for a direct drive.
   double input_gain = 1.0;
   bool motor = false;  ///< `actuator = dc_motor`
+  /// `swingup = energy | trajectory`: the swing-up that sets settings.input (sampled), and the
+  /// phase it is in (shared with the input).
+  std::optional<SwingUp> swingup;
+  std::shared_ptr<SwingUp::State> swingup_state;
 };
+
+/// A list of `count` numbers under `key` (fails with the key's line otherwise).
+inline Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count) {
+  const auto values = file.numbers(key);
+  if (static_cast<Eigen::Index>(values.size()) != count) {
+    file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, expected " + std::to_string(count));
+  }
+  return Eigen::Map<const Eigen::VectorXd>(values.data(), count).eval();
+}
+
+/// The swing-up keys of a scene file into scene.swingup, its input into scene.settings.input.
+template <class Model>
+void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string& kind) {
+  const std::string& method = file.text("swingup");
+  if (method != "energy" && method != "trajectory") {
+    file.fail(file.line("swingup"), "swingup must be `energy` or `trajectory`, got `" + detail::abbreviate(method) + "`");
+  }
+  if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
+  if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
+  if (scene.motor) file.fail(file.line("swingup"), "a swing-up with actuator = dc_motor is not supported yet");
+  constexpr Eigen::Index size = 2 * Model::kDof;
+  SwingUp sw;
+  sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
+  sw.u_max = file.number("swingup.u_max");
+  sw.period = file.number("swingup.period");
+  sw.hold = file.number("swingup.hold");
+  sw.hold_gain = numbers_of(file, "swingup.hold_gain", size);
+  sw.target = numbers_of(file, "swingup.target", size);
+  if (sw.method == SwingUp::Method::energy) {
+    if (Model::kLinks != 1) file.fail(file.line("swingup"), "energy swing-up needs a single link");
+    if (!has_mass_and_bias<Model>) {
+      file.fail(file.line("swingup"), "energy swing-up needs the model's mass_matrix and bias: regenerate its header");
+    }
+    sw.gain_energy = file.number("swingup.gain_energy");
+    sw.gain_position = file.number("swingup.gain_position");
+    sw.gain_velocity = file.number("swingup.gain_velocity");
+    sw.accel_max = file.number("swingup.accel_max");
+    sw.catch_angle = file.number("swingup.catch_angle");
+    sw.catch_rate = file.number("swingup.catch_rate");
+    sw.energy_target = file.number("swingup.energy_target");
+    sw.energy_inertia = file.number("swingup.energy_inertia");
+    sw.energy_weight = file.number("swingup.energy_weight");
+  } else {
+    const long steps = file.integer("swingup.steps");
+    if (steps < 1 || steps > 10'000'000) file.fail(file.line("swingup.steps"), "swingup.steps must be in 1 .. 10000000");
+    sw.inputs = numbers_of(file, "swingup.inputs", steps);
+    const Eigen::VectorXd states = numbers_of(file, "swingup.states", (steps + 1) * size);
+    const Eigen::VectorXd gains = numbers_of(file, "swingup.gains", steps * size);
+    // Row by row in the file: one state or gain (2·kDof numbers) after the other.
+    sw.states = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(states.data(), steps + 1, size);
+    sw.gains = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(gains.data(), steps, size);
+  }
+  const auto problems = sw.problems(static_cast<int>(size));
+  if (!problems.empty()) file.fail(0, problems.front());
+  if (std::isfinite(scene.settings.t_end) && scene.settings.t_end / sw.period > kMaxSamples) {
+    file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
+                                               ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
+  }
+  scene.swingup_state = std::make_shared<SwingUp::State>();
+  scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);
+  scene.swingup = std::move(sw);
+}
 
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
 /// missing, a value does not parse, a list has the wrong length, or the file was written for a
@@ -196,7 +269,11 @@ Scene<Model> load(const SceneFile& file) {
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
-      "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed"};
+      "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
+      "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
+      "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
+      "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
+      "swingup.inputs", "swingup.states", "swingup.gains"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -356,6 +433,7 @@ Scene<Model> load(const SceneFile& file) {
     s.input = controller.input();
     scene.controller = std::move(controller);
   }
+  if (file.has("swingup")) load_swingup<Model>(file, scene, kind);
   return scene;
 }
 

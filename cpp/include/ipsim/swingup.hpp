@@ -1,0 +1,238 @@
+// A swing-up controller (ipgen's [swingup] scene table) as an ipsim Input, and a sink that
+// writes its phase, ends the run `hold` s into the hold phase and watches divergence only there.
+//
+// x = [θ; θ̇] (2·kDof), u the force [N] or torque [N m] on the base. The controller is sampled:
+// at t_k = k·period it computes u from x(t_k) and holds it until t_k+1; |u| ≤ u_max. Phases:
+//   swing  (method energy)     Åström–Furuta energy control of link 1 (generator/control/energy.py):
+//                              E = ½ J θ̇1² + w (cos θ1 − 1),
+//                              a = sat_amax(k_E (E − E0) sign(θ̇1 M10)) − k_x θ0 − k_v θ̇0,
+//                              θ̈1 = −(M10 a + b1)/M11, u = M00 a + M01 θ̈1 + b0 (M, b the model's
+//                              mass matrix and bias at x), until |θ1 − 2πk| ≤ catch_angle and
+//                              |θ̇1| ≤ catch_rate: then hold about θ1 = 2πk;
+//   track  (method trajectory) u_k = ū_k − K_k (x − x̄_k) along the plan (k < steps);
+//   hold                       u = −K_hold (x − x_target).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "ipsim/divergence.hpp"
+#include "ipsim/errors.hpp"
+#include "ipsim/input.hpp"
+#include "ipsim/model.hpp"
+#include "ipsim/sink.hpp"
+
+namespace ipsim {
+
+namespace detail {
+template <class Model, class = void>
+struct HasMassAndBias : std::false_type {};
+template <class Model>
+struct HasMassAndBias<Model, std::void_t<decltype(Model::template mass_matrix<double>(
+                                              std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>())),
+                                          decltype(Model::template bias<double>(
+                                              std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
+                                              std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model defines mass_matrix and bias (the energy law needs them; a header
+/// specialised to a scene without an energy swing-up omits them).
+template <class Model>
+inline constexpr bool has_mass_and_bias = detail::HasMassAndBias<Model>::value;
+
+/// The phase a swing-up controller is in (the phase column of the CSV).
+enum class SwingPhase { swing, track, hold };
+
+inline const char* to_string(SwingPhase phase) {
+  switch (phase) {
+    case SwingPhase::swing: return "swing";
+    case SwingPhase::track: return "track";
+    case SwingPhase::hold: return "hold";
+  }
+  return "?";
+}
+
+/// The data of a swing-up (what ipgen writes into the resolved scene) and its controller state.
+struct SwingUp {
+  enum class Method { energy, trajectory };
+  Method method = Method::energy;
+  double u_max = 0.0;   ///< |u| ≤ u_max [N or N m]
+  double period = 0.0;  ///< sampling period [s]
+  double hold = 0.0;    ///< the run ends this long into the hold phase [s]
+  Eigen::VectorXd hold_gain, target;  ///< K_hold, x_target (2·kDof)
+  // energy
+  double gain_energy = 0.0, gain_position = 0.0, gain_velocity = 0.0, accel_max = 0.0;
+  double catch_angle = 0.0, catch_rate = 0.0, energy_target = 0.0, energy_inertia = 0.0, energy_weight = 0.0;
+  // trajectory: ū_k (steps), x̄_k (steps + 1 rows), K_k (steps rows)
+  Eigen::VectorXd inputs;
+  Eigen::MatrixXd states, gains;
+
+  /// What the controller did last: its phase, the time it entered the hold phase, and the
+  /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
+  struct State {
+    SwingPhase phase = SwingPhase::swing;
+    double hold_since = std::numeric_limits<double>::quiet_NaN();
+    Eigen::VectorXd equilibrium;
+  };
+
+  /// Problems, one line each (empty when valid).
+  std::vector<std::string> problems(int state_size) const {
+    std::vector<std::string> found;
+    auto positive = [&](const char* name, double value) {
+      if (!(std::isfinite(value) && value > 0.0)) {
+        found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and > 0");
+      }
+    };
+    positive("u_max", u_max);
+    positive("period", period);
+    if (!(std::isfinite(hold) && hold >= 0.0)) found.push_back("invalid setting swingup.hold: must be finite and >= 0");
+    if (hold_gain.size() != state_size || target.size() != state_size || !hold_gain.allFinite() || !target.allFinite()) {
+      found.push_back("invalid setting swingup.hold_gain or swingup.target: 2·kDof finite numbers each");
+    }
+    if (method == Method::trajectory) {
+      const auto steps = inputs.size();
+      if (steps < 1 || states.rows() != steps + 1 || gains.rows() != steps || states.cols() != state_size ||
+          gains.cols() != state_size || !inputs.allFinite() || !states.allFinite() || !gains.allFinite()) {
+        found.emplace_back("invalid setting swingup.inputs, states or gains: steps, (steps + 1)·2·kDof and steps·2·kDof finite numbers");
+      }
+    } else {
+      positive("energy_inertia", energy_inertia);
+      positive("catch_angle", catch_angle);
+      positive("catch_rate", catch_rate);
+      for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
+                                        {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
+                                        {"accel_max", accel_max}}) {
+        if (!(std::isfinite(value) && value >= 0.0)) {
+          found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
+        }
+      }
+      if (!std::isfinite(energy_target) || !std::isfinite(energy_weight)) {
+        found.emplace_back("invalid setting swingup.energy_target or energy_weight: must be finite");
+      }
+    }
+    return found;
+  }
+
+  /// The sampled input that runs this swing-up on `Model` with `params`; `state` receives the
+  /// phase (shared with the SwingUpMonitor).
+  template <class Model>
+  Input input(const ParamsOf<Model>& params, std::shared_ptr<State> state) const {
+    state->equilibrium = target;
+    state->phase = method == Method::energy ? SwingPhase::swing : SwingPhase::track;
+    const SwingUp copy = *this;
+    auto law = [copy, params, state](double t, const Eigen::VectorXd& x) {
+      return copy.control<Model>(t, x, params, *state);
+    };
+    return Input::sampled(period, std::move(law));
+  }
+
+  /// u at sampling instant t (k = round(t / period)) in state x; updates `state`.
+  template <class Model>
+  double control(double t, const Eigen::VectorXd& x, const ParamsOf<Model>& params, State& state) const {
+    constexpr int n = Model::kDof;
+    const long k = std::lround(t / period);
+    double u = 0.0;
+    if (state.phase != SwingPhase::hold) {
+      if (method == Method::trajectory) {
+        if (k < inputs.size()) {
+          u = inputs(k) - gains.row(k).dot(x - states.row(k).transpose());
+        } else {
+          enter_hold(state, t, target);
+        }
+      } else {
+        const double turns = std::round(x(1) / (2.0 * kPi));
+        if (std::abs(x(1) - 2.0 * kPi * turns) <= catch_angle && std::abs(x(n + 1)) <= catch_rate) {
+          Eigen::VectorXd caught = target;
+          caught(1) = 2.0 * kPi * turns;
+          enter_hold(state, t, caught);
+        } else {
+          u = energy_input<Model>(x, params);
+        }
+      }
+    }
+    if (state.phase == SwingPhase::hold) u = -hold_gain.dot(x - state.equilibrium);
+    return std::clamp(u, -u_max, u_max);
+  }
+
+ private:
+  static void enter_hold(State& state, double t, const Eigen::VectorXd& equilibrium) {
+    state.phase = SwingPhase::hold;
+    state.hold_since = t;
+    state.equilibrium = equilibrium;
+  }
+
+  template <class Model>
+  double energy_input(const Eigen::VectorXd& x, const ParamsOf<Model>& params) const {
+    if constexpr (has_mass_and_bias<Model>) {
+      constexpr int n = Model::kDof;
+      const VectorOf<Model> q = x.head<n>();
+      const VectorOf<Model> qd = x.segment<n>(n);
+      const auto mass = Model::template mass_matrix<double>(q, params);
+      const auto bias = Model::template bias<double>(q, qd, params);
+      const double energy = 0.5 * energy_inertia * qd(1) * qd(1) + energy_weight * (std::cos(q(1)) - 1.0);
+      const double product = qd(1) * mass(1, 0);
+      const double direction = product != 0.0 ? std::copysign(1.0, product) : 1.0;
+      double a = std::clamp(gain_energy * (energy - energy_target) * direction, -accel_max, accel_max);
+      a -= gain_position * q(0) + gain_velocity * qd(0);
+      const double qdd1 = -(mass(1, 0) * a + bias(1)) / mass(1, 1);
+      return mass(0, 0) * a + mass(0, 1) * qdd1 + bias(0);
+    } else {  // scene::load refuses this case before any run
+      (void)x;
+      (void)params;
+      throw InvalidInput({"swingup = energy needs the model's mass_matrix and bias (regenerate its header)"});
+    }
+  }
+};
+
+/// Passes every sample on to `inner`; in the hold phase only, stops the run at a link more than
+/// `angle` from the held equilibrium (divergence()), and `hold` s after the hold began (finished()).
+class SwingUpMonitor : public SampleSink {
+ public:
+  SwingUpMonitor(SampleSink& inner, std::shared_ptr<const SwingUp::State> state, int dof, double hold,
+                 double angle = DivergenceMonitor::kHalfPi)
+      : inner_(inner), state_(std::move(state)), dof_(dof), hold_(hold), angle_(angle) {}
+
+  void begin(std::size_t samples, int state_size, bool energy_ledger) override {
+    inner_.begin(samples, state_size, energy_ledger);
+  }
+
+  bool record(const Sample& sample) override {
+    const bool more = inner_.record(sample);
+    if (state_->phase != SwingPhase::hold) return more;
+    const auto [link, deviation] = farthest_link(sample.x(), state_->equilibrium, dof_);
+    if (deviation > angle_) {
+      divergence_ = Divergence{sample.t, link, deviation};
+      return false;
+    }
+    // Half a sampling period of slack: t is a multiple of sample, hold_since of period.
+    if (sample.t - state_->hold_since >= hold_ - 1e-9 * std::max(1.0, sample.t)) {
+      finished_ = true;
+      return false;
+    }
+    return more;
+  }
+
+  const std::optional<Divergence>& divergence() const noexcept { return divergence_; }
+  bool finished() const noexcept { return finished_; }
+  double angle() const noexcept { return angle_; }
+
+ private:
+  SampleSink& inner_;
+  std::shared_ptr<const SwingUp::State> state_;
+  int dof_;
+  double hold_, angle_;
+  bool finished_ = false;
+  std::optional<Divergence> divergence_;
+};
+
+}  // namespace ipsim

@@ -1,0 +1,125 @@
+"""The `[swingup]` table of a scene: its value rules, and the plan and gains it needs.
+
+    [swingup]  method = "energy" (a single link: Åström–Furuta energy control, then LQR catch)
+                        | "trajectory" (any n: a plan on the exact model, tracked by TVLQR);
+               u_max = the input limit [N or N m], > 0 (required);
+               x_max = cart travel [m] or arm angle [rad] limit of the plan (trajectory only);
+               duration = the manoeuvre's time [s] (trajectory only, required there);
+               period = controller sampling [s] (default 0.01), commensurate with sample;
+               hold = s upright after arrival, then the run ends (default 2).
+
+The scene's initial state is where the swing-up starts (no [initial] table: every link hanging
+at rest). The keys are declared in `schema.SwingupTable`; `relations` checks what a type cannot
+say; `law` plans (trajectory) or sets up the energy law, and computes the gains
+(`control.swingup`). Every problem is one line naming the key and the fix.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from ipgen.control.swingup import SwingUpLaw
+from ipgen.scene.fields import format_number
+from ipgen.scene.fieldtypes import refuse
+
+METHODS: tuple[str, ...] = ("energy", "trajectory")
+DEFAULT_PERIOD = 0.01
+DEFAULT_HOLD = 2.0
+COMMENSURATE_TOLERANCE = 1e-9
+
+
+class SwingUpError(Exception):
+    """No swing-up for this scene (the message says what to relax)."""
+
+
+def relations(table: Any, context: dict[str, Any]) -> None:
+    """Keys by method, no [controller] or driving [input], the period against t_end and sample."""
+    if context.get("controller"):
+        refuse(
+            "a swing-up scene has its own controller (the hold LQR); remove the [controller] table",
+            key="method",
+            value=table.method,
+        )
+    input_kind = context.get("input_kind", "zero")
+    if input_kind != "zero":
+        refuse(
+            f'the swing-up sets u, but [input] kind "{input_kind}" drives it too; remove [input]',
+            key="method",
+            value=table.method,
+        )
+    if table.method == "energy":
+        if context.get("links", 1) != 1:
+            refuse(
+                f"energy control swings up a single link, this system has {context['links']}; "
+                'use method = "trajectory"',
+                key="method",
+                value=table.method,
+            )
+        for key in ("duration", "x_max"):
+            if getattr(table, key) is not None:
+                refuse('is for method = "trajectory" only; remove it', key=key, value=getattr(table, key))
+    elif table.duration is None:
+        refuse(
+            'method = "trajectory" needs duration = the manoeuvre\'s time in s',
+            key="method",
+            value=table.method,
+        )
+    t_end, sample = context.get("t_end", math.inf), context.get("sample", DEFAULT_PERIOD)
+    period = table.period.value
+    if not period <= t_end:
+        refuse(f"must be <= t_end ({format_number(t_end)} s)", key="period", value=table.period)
+    ratio = max(period, sample) / min(period, sample)
+    if abs(ratio - round(ratio)) > COMMENSURATE_TOLERANCE * ratio:
+        refuse(
+            f"must be a whole multiple or a whole fraction of simulation.sample ({format_number(sample)} s)",
+            key="period",
+            value=table.period,
+        )
+    if table.duration is not None and table.duration.value > t_end:
+        refuse(
+            f"the manoeuvre must fit in t_end ({format_number(t_end)} s): "
+            "a longer t_end or a shorter duration",
+            key="duration",
+            value=table.duration,
+        )
+    if table.duration is not None and table.duration.value / period > 20_000:
+        refuse(
+            "is more than 20000 controller periods: a shorter duration or a longer period",
+            key="duration",
+            value=table.duration,
+        )
+
+
+def law(table: Any, system: Any, params: Any, start: tuple[float, ...]) -> SwingUpLaw:
+    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`)."""
+    from ipgen.control.casadi_model import plant
+    from ipgen.control.energy import energy_swingup
+    from ipgen.control.linear import ControlError
+    from ipgen.control.swingup import energy_law, schedule_law, trajectory_swingup
+
+    period, u_max, hold = table.period.value, table.u_max.value, table.hold.value
+    try:
+        model = plant(
+            system.type,
+            system.links,
+            params.m,
+            params.l,
+            params.delta,
+            params.g,
+            system.inertia,
+            **dict(params.links),
+        )
+        if table.method == "energy":
+            return energy_law(energy_swingup(model, u_max=u_max, period=period), hold)
+        plan, schedule = trajectory_swingup(
+            model,
+            duration=table.duration.value,
+            u_max=u_max,
+            x_max=None if table.x_max is None else table.x_max.value,
+            period=period,
+            start=start,
+        )
+    except ControlError as exc:
+        raise SwingUpError(f"swingup: {exc}") from None
+    return schedule_law(plan, schedule, hold)
