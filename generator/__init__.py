@@ -12,7 +12,9 @@ The public API (stable; everything else is internal):
 - `linearize(type, links, m, l, delta, ...) -> (A, B)`: the linear model ẋ = A x + B u about a
   state (default upright at rest), from the exact derivation (control/linear.py, numpy and scipy);
 - `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
-  u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop).
+  u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
+- `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
+  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -32,7 +34,17 @@ if TYPE_CHECKING:
     from ipgen.model.derivation import Equations
 
 
-__all__ = ["Equations", "Error", "__version__", "cmake_dir", "derive", "linearize", "lqr", "write_header"]
+__all__ = [
+    "Actuator",
+    "Equations",
+    "Error",
+    "__version__",
+    "cmake_dir",
+    "derive",
+    "linearize",
+    "lqr",
+    "write_header",
+]
 
 
 def derive(type: str, links: int, inertia: str = "pivot", *, general: bool = False) -> Equations:
@@ -103,6 +115,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.derivation import Equations
 
         return Equations
+    if attribute == "Actuator":
+        from ipgen.model.actuator import Actuator
+
+        return Actuator
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

@@ -1,6 +1,8 @@
 """`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6),
-stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), and show a closed loop that
-leaves its controller's region being stopped (scenes/cdip_lqr_tilt.toml).
+stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), balance a real rig, the
+Quanser QUBE-Servo 2, by LQR in motor volts (scenes/rigs/qube_servo2.toml, through `ipgen run`,
+its simulator cached in <build>/ipgen-cache), and show a closed loop that leaves its controller's
+region being stopped (scenes/cdip_lqr_tilt.toml).
 
 Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
@@ -51,6 +53,8 @@ EXPERIMENTS = [
 ]
 # Closed-loop experiments: (scene stem, short name, title); the CSV has a column u.
 CONTROL = [("rdip_lqr", "rdip_lqr", "Rotary double inverted pendulum stabilised by LQR")]
+# Rig presets run through `ipgen run` (scenes/rigs/<stem>.toml): (stem, title); u in volts.
+RIGS = [("qube_servo2", "Quanser QUBE-Servo 2 balanced by LQR in motor volts")]
 SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
 # A closed loop outside its basin: (scene stem, short name, title); the simulator must stop it.
 DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR from 0.1 rad: diverges")]
@@ -137,9 +141,13 @@ def plot_control(columns: dict[str, list[float]], scene: Scene, title: str, path
     for i in range(1, scene.links + 1):
         angles.plot(t, columns[f"theta{i}"], label=f"link {i} angle θ{i} [rad]")
     angles.set_ylabel("angle from upright")
-    unit = "N" if scene.type == "classical" else "N m"
+    unit = "V" if scene.actuator.is_motor else "N" if scene.type == "classical" else "N m"
+    what = "motor voltage" if scene.actuator.is_motor else "force" if scene.type == "classical" else "torque"
     force.plot(t, columns["u"], color="tab:red", label=f"u = −K (x − x_eq) [{unit}]")
-    force.set_ylabel(f"{'force' if scene.type == 'classical' else 'torque'} u [{unit}]")
+    if scene.controller is not None and scene.controller.saturation is not None:
+        for level in (-scene.controller.saturation, scene.controller.saturation):
+            force.axhline(level, color="grey", linestyle=":", linewidth=0.8)
+    force.set_ylabel(f"{what} u [{unit}]")
     force.set_xlabel("time t [s]")
     controller = scene.controller
     assert controller is not None
@@ -196,6 +204,21 @@ def publish(png_path: Path, docs: Path | None) -> None:
         shutil.copyfile(png_path, docs / png_path.name)
 
 
+def run_rig(args: argparse.Namespace, stem: str) -> tuple[Scene, Path, Path, str]:
+    """`ipgen run scenes/rigs/<stem>.toml -o <out>/rigs` (simulator cached in <build>/ipgen-cache);
+    returns the scene, the CSV and PNG paths and the simulator's summary."""
+    toml = ROOT / "scenes" / "rigs" / f"{stem}.toml"
+    out = args.out / "rigs"
+    command = [sys.executable, "-m", "ipgen", "run", str(toml), "-o", str(out), "--force"]
+    result = subprocess.run(
+        [*command, "--cache-dir", str(args.build / "ipgen-cache")], capture_output=True, text=True
+    )
+    if result.returncode != 0:
+        raise DemoError(f"rigs/{stem} failed: {result.stderr.strip()}")
+    summary = (out / f"{stem}.txt").read_text().strip()
+    return load_scene(toml), out / f"{stem}.csv", out / f"{stem}.png", summary
+
+
 def run_demo(args: argparse.Namespace) -> None:
     for stem, short, title in EXPERIMENTS:
         scene, csv_path, png_path, summary = simulate(args, stem, short)
@@ -213,6 +236,15 @@ def run_demo(args: argparse.Namespace) -> None:
             raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
         print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
         publish(png_path, args.docs)
+    for stem, title in RIGS:
+        scene, csv_path, png_path, summary = run_rig(args, stem)
+        columns = read_csv(csv_path)
+        plot_control(columns, scene, title, png_path)  # replaces ipgen run's plot with the demo's
+        print(f"== {title}\n{summary}\n   wrote {csv_path} and {png_path}")
+        problems = upright_problems(columns)
+        if problems or not math.isclose(columns["t"][-1], scene.t_end):
+            raise DemoError(f"rigs/{stem} did not end upright and at rest: {', '.join(problems)}")
+        print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
     for stem, short, title in DIVERGING:
         scene, csv_path, png_path, summary = simulate(args, stem, short, expected_status=DIVERGED)
         columns = read_csv(csv_path)

@@ -109,7 +109,8 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   dtheta0..dthetaN     their rates [m/s or rad/s]
   kinetic,potential    T and V [J] (--energy or energy = true)
   input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
-  u                    scenes with a controller: the input [N or N m] applied from t on
+  u                    scenes with a controller: the input [N or N m; V with actuator = dc_motor]
+                       applied from t on
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -123,6 +124,10 @@ input.phase [rad]; t_end, sample [s], method, jacobian, rtol, atol, step, max_st
 (true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
+coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
+c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
+actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
+and multiplied by b (the parameters are the motor-folded ones ipgen writes).
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
 
@@ -430,13 +435,17 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
 
 /// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
 template <class M>
-void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result) {
+void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result,
+                      double volts = 0.0) {
+  // volts = b > 0 (actuator = dc_motor): K, the saturation and u are stated in volts, c holds them times b.
+  const double per = volts > 0.0 ? volts : 1.0;
+  const Eigen::VectorXd gain = c.gain / per;
   const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
                                             : std::string("continuous");
   std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
-              ipsim::detail::format_values(c.gain.data(), c.gain.size()).c_str(),
+              ipsim::detail::format_values(gain.data(), gain.size()).c_str(),
               ipsim::detail::format_values(c.equilibrium.data(), c.equilibrium.size()).c_str());
-  if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation);
+  if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation / per);
   if constexpr (ipsim::has_linearize<M>) {
     const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c);
     std::string text;
@@ -451,7 +460,7 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
   } else {
     (void)params;  // a model without linearize (a hand-written tag): no poles to state
   }
-  std::printf("; largest |u| %.6g.", result.max_abs_input);
+  std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, volts > 0.0 ? " V" : "");
 }
 
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result,
@@ -468,7 +477,15 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
-  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result);
+  if ((s.coulomb.array() != 0.0).any()) {
+    std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
+                result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+  }
+  if (scene.motor) {
+    std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
+                scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");
+  }
+  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0);
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
     std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g; ",
@@ -527,6 +544,7 @@ int run(int argc, char** argv) {
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
                              scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
+  rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;

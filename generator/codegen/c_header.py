@@ -89,6 +89,7 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
         raise ControllerError("controller K x_eq overflows a double: scale the gain or the equilibrium")
     return {
         "kind": comment_safe(controller.kind),
+        "unit": comment_safe(controller.unit),
         "terms": terms,
         "unused": [a for a in ("q", "qd") if not any(t.variable.startswith(a + "[") for t in terms)],
         "offset": c_number(offset) if offset != 0 else "",

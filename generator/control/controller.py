@@ -15,5 +15,6 @@ class Controller:
     kind: str  # "lqr"
     gain: tuple[float, ...]  # K, 2·dof entries, in the order of x = [θ0..θn, θ̇0..θ̇n]
     equilibrium: tuple[float, ...]  # x_eq, 2·dof entries
-    saturation: float | None = None  # |u| ≤ saturation [N or N m]; None: unbounded
+    saturation: float | None = None  # |u| ≤ saturation [N or N m, or `unit`]; None: unbounded
     period: float | None = None  # sampling period [s]; None: continuous
+    unit: str = ""  # what u is, for comments ("" = the direct input: force [N] or torque [N m])

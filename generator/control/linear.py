@@ -22,8 +22,10 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
+from ipgen.control.coordinates import CoordinateError, Coordinates
 from ipgen.errors import Error
-from ipgen.model.links import LinkError, resolve_links
+from ipgen.model.actuator import Actuator, ActuatorError, as_actuator, fold
+from ipgen.model.links import LinkError, resolve_links, rod_value
 from ipgen.model.system import System
 
 if TYPE_CHECKING:
@@ -202,6 +204,10 @@ def linearize(
     J: Sequence[float] | None = None,
     J_axial: Sequence[float] | None = None,
     tip: Sequence[float] | None = None,
+    actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
 ) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
 
@@ -214,10 +220,36 @@ def linearize(
     default to zero (upright, at rest). A state that is not an equilibrium for `u` (θ̇ ≠ 0 or
     θ̈ ≠ 0) is allowed — A and B are then the Jacobians along a moving trajectory — but warned
     about with an `EquilibriumWarning`.
+
+    `actuator` (an `ipgen.Actuator`, a dict of its fields, or None: "direct") says what u is: with
+    kind "dc_motor" u is the motor voltage [V], B is per volt and A has the back-EMF's damping
+    and the rotor's reflected inertia (docs/model.md, "A DC motor on the base").
+
+    `angles` ("absolute" | "relative"), `zero` ("upright" | "hanging") and `positive`
+    ("clockwise" | "counterclockwise") give the link angles in the rig's own convention
+    (`control.coordinates`): q, qd are then in it, and so are the rows and columns of A and B.
     """
     import numpy as np
 
+    convention = _coordinates(angles, zero, positive)
+    if not convention.is_canonical:
+        dof = links + 1
+        x_user = np.concatenate(
+            [
+                _vector("q", q, dof, "one angle per coordinate"),
+                _vector("qd", qd, dof, "one rate per coordinate"),
+            ]
+        )
+        p, _ = convention.matrices(links)
+        x = convention.to_canonical(x_user, links)
+        a, b = linearize(
+            type, links, m, l, delta, g, inertia, q=x[:dof], qd=x[dof:], u=u,
+            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,
+        )  # fmt: skip
+        return p @ a @ np.linalg.inv(p), p @ b
+
     system = _system(type, links, inertia)
+    m, delta, J, gain = _with_actuator(system, m, l, delta, J, actuator)
     params = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
     dof = system.dof
     q_ = _vector("q", q, dof, "one angle or position per degree of freedom")
@@ -236,8 +268,41 @@ def linearize(
     a[dof:, :dof] = dq
     a[dof:, dof:] = dqd
     b = np.zeros((2 * dof, 1))
-    b[dof:, 0] = du
+    b[dof:, 0] = du * gain
     return a, b
+
+
+def _coordinates(angles: str, zero: str, positive: str) -> Coordinates:
+    try:
+        return Coordinates(angles, zero, positive)
+    except CoordinateError as exc:
+        raise ControlError(str(exc)) from None
+
+
+def _with_actuator(
+    system: System,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741
+    delta: Sequence[float],
+    J: Sequence[float] | None,
+    actuator: Actuator | dict | None,
+) -> tuple[Sequence[float], Sequence[float], Sequence[float] | None, float]:
+    """(m, delta, J, b) of the direct model equivalent to `actuator` driving the base (`fold`)."""
+    try:
+        drive = as_actuator(actuator)
+        drive.check(system)
+    except ActuatorError as exc:
+        raise ControlError(str(exc)) from None
+    if not drive.is_motor:
+        return m, delta, J, 1.0
+    dof = system.dof
+    if len(m) != dof or len(l) != dof or len(delta) != dof:
+        return m, delta, J, 1.0  # _params names the wrong length
+    inertias = list(J) if J is not None else [rod_value(system, "J", i, m, l) for i in range(dof)]
+    if len(inertias) != dof:
+        return m, delta, J, 1.0  # resolve_links names the wrong length
+    m_, delta_, J_, gain = fold(drive, system, [float(x) for x in m], [float(x) for x in delta], inertias)
+    return m_, delta_, J_ if (J is not None or system.is_rotary) else None, gain
 
 
 def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> np.ndarray:
@@ -340,6 +405,10 @@ def lqr(
     J: Sequence[float] | None = None,
     J_axial: Sequence[float] | None = None,
     tip: Sequence[float] | None = None,
+    actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
 ) -> np.ndarray:
     """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
 
@@ -351,13 +420,22 @@ def lqr(
     (e.g. [0, π, 0]: link 1 hanging, link 2 upright); velocities are zero there and u = 0.
     An unstabilisable (A, B) or undetectable (A, Q) pair raises `ControlError` instead of
     returning a gain that does not stabilise. K comes from scipy's `solve_continuous_are`.
-    `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods).
+    `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods);
+    `actuator`: as for `linearize` (a "dc_motor" gives K in volts per unit of state).
+    `angles`, `zero`, `positive`: the rig's convention, as for `linearize`: K (and Q, and an
+    `equilibrium` given as angles) are then in the rig's coordinates.
     """
     import numpy as np
     from scipy.linalg import solve_continuous_are
 
-    x_eq = equilibrium_state(links, equilibrium)
+    convention = _coordinates(angles, zero, positive)
     dof = links + 1
+    if not convention.is_canonical and equilibrium is not None and not isinstance(equilibrium, str):
+        user = np.concatenate(
+            [_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
+        )
+        equilibrium = list(convention.to_canonical(user, links)[:dof])
+    x_eq = equilibrium_state(links, equilibrium)
     a, b = linearize(
         type,
         links,
@@ -373,7 +451,11 @@ def lqr(
         J=J,
         J_axial=J_axial,
         tip=tip,
+        actuator=actuator,
     )
+    if not convention.is_canonical:
+        p, _ = convention.matrices(links)
+        a, b = p @ a @ np.linalg.inv(p), p @ b
     q, r = _weights(Q, R, 2 * dof)
     _check_stabilisable(a, b, q)
     try:

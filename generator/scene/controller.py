@@ -158,7 +158,7 @@ class GainError(Exception):
     """No LQR gain for this scene (the message says why)."""
 
 
-def controller(table: Any, system: Any, params: Any) -> Controller:
+def controller(table: Any, system: Any, params: Any, actuator: Any = None) -> Controller:
     """The controller of a validated [controller] table, with its LQR gain (raises `GainError`)."""
     from ipgen.control.linear import ControlError, equilibrium_state, lqr
 
@@ -176,6 +176,7 @@ def controller(table: Any, system: Any, params: Any) -> Controller:
             inertia=system.inertia,
             equilibrium=table.equilibrium,
             **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
+            actuator=actuator,  # [actuator]: a dc_motor makes K volts per unit of state
         )
     except ControlError as exc:
         raise GainError(f"controller: no LQR gain: {exc}") from None
@@ -186,4 +187,5 @@ def controller(table: Any, system: Any, params: Any) -> Controller:
         equilibrium=tuple(float(x) for x in x_eq),
         saturation=None if table.saturation is None else table.saturation.value,
         period=None if table.period is None else table.period.value,
+        unit="motor voltage [V]" if actuator is not None and actuator.is_motor else "",
     )

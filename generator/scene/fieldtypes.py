@@ -91,6 +91,10 @@ def Lt(limit: float, message: str) -> Bound:
     return Bound("<", limit, message)
 
 
+def Le(limit: float, message: str) -> Bound:
+    return Bound("<=", limit, message)
+
+
 # ---------------------------------------------------------------------------- kinds
 
 

@@ -42,14 +42,18 @@ from ipgen.scene.fieldtypes import (
     Ge,
     Gt,
     Integer,
+    Le,
     Lt,
     Number,
     PerLink,
     Text,
     refuse,
+    refuse_line,
 )
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
+ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor")  # = model.actuator.ACTUATOR_KINDS
+MOTOR_KEYS: tuple[str, ...] = ("Rm", "kt", "km", "Kg", "eta_g", "eta_m", "Jm", "r")
 INERTIAS = model.INERTIA_VARIANTS
 # Integration methods (the C++ simulator's names): CVODE's, ARKODE's explicit Runge-Kutta and a
 # fixed-step RK4. Which settings each one uses:
@@ -79,6 +83,7 @@ DEFAULT_INERTIA = "pivot"
 DEFAULT_G = 9.81  # its decimal text "9.81" is kept next to the float (repr)
 DEFAULT_SAMPLE = 0.01
 DEFAULT_METHOD = "bdf"
+DEFAULT_COULOMB_SPEED = 0.01  # m/s or rad/s: the smooth Coulomb law's rate (docs/rigs.md)
 DEFAULT_RTOL = 1e-10
 DEFAULT_ATOL = 1e-12
 DEFAULT_MAX_STEPS = 100_000
@@ -227,6 +232,19 @@ class ParametersTable(Table):
         PerLink(Number(bounds=(Ge(0, "a mass cannot be negative"),))),
         Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
     ] = None
+    coulomb: Annotated[
+        tuple[Exact, ...] | None,
+        PerLink(Number(bounds=(Ge(0, "friction must be >= 0"),))),
+        Field(
+            description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
+            f"{_PER_LINK}; default 0"
+        ),
+    ] = None
+    coulomb_speed: Annotated[
+        Exact,
+        Number(bounds=(Gt(0, "must be > 0 (m/s or rad/s)"),)),
+        Field(description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]"),
+    ] = _default(DEFAULT_COULOMB_SPEED)
     free: Annotated[
         tuple[str, ...],
         Custom(validate=checks.free_names, schema={"type": "array", "items": {"type": "string"}}),
@@ -271,6 +289,60 @@ class ParametersTable(Table):
         return tuple(
             (group, values) for group in model.LINK_GROUPS if (values := getattr(self, group)) is not None
         )
+
+
+# ---------------------------------------------------------------------------- [actuator]
+
+
+def _motor_constant(description: str, bounds: tuple = ()) -> Any:
+    return Annotated[Exact | None, Number(bounds=bounds), Field(description=description)]
+
+
+_POSITIVE = (Gt(0, "must be > 0"),)
+_EFFICIENCY = (Gt(0, "an efficiency is in (0, 1]"), Le(1, "an efficiency is in (0, 1]"))
+
+
+class ActuatorTable(Table):
+    """[actuator]: what drives the base. direct: u is the force [N] or torque [N m]; dc_motor:
+    u is the motor voltage [V] (docs/model.md, "A DC motor on the base")."""
+
+    kind: Annotated[
+        str,
+        Choice(options=ACTUATOR_KINDS),
+        Field(
+            description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]"
+        ),
+    ] = "direct"
+    Rm: _motor_constant("dc_motor: armature resistance [Ω] (required)", _POSITIVE) = None
+    kt: _motor_constant("dc_motor: torque constant [N m/A] (required)", _POSITIVE) = None
+    km: _motor_constant("dc_motor: back-EMF constant [V s/rad] (required)", _POSITIVE) = None
+    Kg: _motor_constant("dc_motor: gear ratio, motor turns per output turn (default 1)", _POSITIVE) = None
+    eta_g: _motor_constant("dc_motor: gearbox efficiency in (0, 1] (default 1)", _EFFICIENCY) = None
+    eta_m: _motor_constant("dc_motor: motor efficiency in (0, 1] (default 1)", _EFFICIENCY) = None
+    Jm: _motor_constant(
+        "dc_motor: rotor inertia [kg m^2] (default 0)", (Ge(0, "an inertia cannot be negative"),)
+    ) = None
+    r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", _POSITIVE) = None
+
+    @model_validator(mode="after")
+    def _relations(self, info: Any) -> ActuatorTable:
+        from ipgen.model.actuator import ActuatorError
+
+        try:
+            self.actuator().check(model.System(info.context["type"], info.context["links"]))
+        except ActuatorError as exc:
+            refuse_line(str(exc))
+        return self
+
+    def actuator(self) -> Any:
+        """The `ipgen.model.actuator.Actuator` this table declares."""
+        from ipgen.model.actuator import Actuator
+
+        given = {name: value.value for name in MOTOR_KEYS if (value := getattr(self, name)) is not None}
+        return Actuator(self.kind, **given)
+
+    def context(self) -> dict[str, Any]:
+        return {"u_unit": "V"} if self.kind == "dc_motor" else {}
 
 
 # ---------------------------------------------------------------------------- [initial]
@@ -574,6 +646,7 @@ class SceneDocument(BaseModel):
 
     system: SystemTable
     parameters: ParametersTable
+    actuator: ActuatorTable = Field(default=None, description="what drives the base (default: direct)")  # type: ignore[assignment]
     initial: InitialTable = Field(default=None, description="the state at t = 0")  # type: ignore[assignment]
     input: Input = Field(default=None, description="the input on the base")  # type: ignore[assignment]
     simulation: SimulationTable
@@ -586,6 +659,7 @@ class SceneDocument(BaseModel):
 TABLE_MODELS: dict[str, Any] = {
     "system": SystemTable,
     "parameters": ParametersTable,
+    "actuator": ActuatorTable,
     "initial": InitialTable,
     "input": Input,
     "simulation": SimulationTable,

@@ -64,7 +64,7 @@ class CsvSink : public SampleSink {
     if (energy_) {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
-    if (input_) std::fprintf(out_, ",%.17g", sample.input);
+    if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
     if (phase_) std::fprintf(out_, ",%s", phase_());
     std::fputc('\n', out_);
     check_stream();
@@ -76,6 +76,10 @@ class CsvSink : public SampleSink {
     ++rows_;
     return true;
   }
+
+  /// The u column is the applied force or torque divided by `gain` (> 0; default 1): with a DC
+  /// motor, gain = b [N or N m per volt] writes u in volts.
+  void set_input_gain(double gain) noexcept { input_gain_ = gain; }
 
   /// Adds a last column `phase` whose text at each row is `phase()` (a swing-up's phase: swing,
   /// track or hold). Call before the run.
@@ -120,6 +124,7 @@ class CsvSink : public SampleSink {
   std::size_t rows_ = 0;
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;
+  double input_gain_ = 1.0;
 };
 
 }  // namespace ipsim

@@ -42,13 +42,6 @@ namespace ipsim {
 
 namespace detail {
 template <class Model, class = void>
-struct HasMassMatrix : std::false_type {};
-template <class Model>
-struct HasMassMatrix<Model, std::void_t<decltype(Model::template mass_matrix<double>(
-                                std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>()))>>
-    : std::true_type {};
-
-template <class Model, class = void>
 struct HasBias : std::false_type {};
 template <class Model>
 struct HasBias<Model, std::void_t<decltype(Model::template bias<double>(std::declval<const VectorOf<Model>&>(),
@@ -57,9 +50,6 @@ struct HasBias<Model, std::void_t<decltype(Model::template bias<double>(std::dec
     : std::true_type {};
 }  // namespace detail
 
-/// True when the model defines mass_matrix (a specialised header may omit it).
-template <class Model>
-inline constexpr bool has_mass_matrix = detail::HasMassMatrix<Model>::value;
 
 /// True when the model defines bias.
 template <class Model>

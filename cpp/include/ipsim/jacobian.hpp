@@ -108,6 +108,15 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
       ledger_jacobian<Model>(context, u, qd, gradient, jacobian);
     }
   }
+  if constexpr (has_mass_matrix<Model>) {
+    // Coulomb friction: M⁻¹ ∂Q/∂θ̇ (the smaller ∂M⁻¹/∂θ Q term and the ledger rows are left to
+    // the Newton iteration: an approximate Jacobian costs iterations, not accuracy).
+    if (context.coulomb_index >= 0) {
+      Eigen::Matrix<double, n, n> slope;
+      coulomb_force<Model>(context, qd, &slope);
+      jacobian.block(n, n, n, n) += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(slope);
+    }
+  }
 }
 
 /// CVODE Jacobian callback (CVLsJacFn) for a dense SUNMatrix: 0 on success, -1 (fatal) when the

@@ -114,4 +114,17 @@ constexpr bool check_model() {
 }
 }  // namespace detail
 
+namespace detail {
+template <class Model, class = void>
+struct HasMassMatrix : std::false_type {};
+template <class Model>
+struct HasMassMatrix<Model, std::void_t<decltype(Model::template mass_matrix<double>(
+                                std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>()))>>
+    : std::true_type {};
+}  // namespace detail
+
+/// True when the model defines mass_matrix (a specialised header may omit it).
+template <class Model>
+inline constexpr bool has_mass_matrix = detail::HasMassMatrix<Model>::value;
+
 }  // namespace ipsim

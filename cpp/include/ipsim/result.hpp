@@ -45,6 +45,8 @@ struct Result {
   /// Largest |u| over the samples and, for piecewise-constant inputs (a sampled controller
   /// included), over every value held between two stops.
   double max_abs_input = 0.0;
+  /// Energy Coulomb friction dissipated from t = 0 to the last sample [J] (0 without Settings::coulomb).
+  double coulomb_dissipated = 0.0;
   /// Number of samples recorded (times.size() when kept in memory).
   std::size_t samples = 0;
   /// True when a SampleSink stopped the run before t_end (SampleSink::record returned false);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <exception>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <sundials/sundials_nvector.h>
 
@@ -34,7 +35,40 @@ struct RhsContext {
   Eigen::VectorXd x;         ///< preallocated copy of [θ; θ̇] for feedback inputs (dim 2·kDof)
   std::exception_ptr error;  ///< exception thrown by a feedback callback, rethrown after the step
   NonFiniteEvaluation nonfinite;  ///< set by evaluate_rhs when a derivative is not finite
+  /// Coulomb friction (Settings::coulomb, coulomb_speed); `coulomb_index` ≥ 0: the state that
+  /// integrates its dissipated power.
+  VectorOf<Model> coulomb = VectorOf<Model>::Zero();
+  double coulomb_speed = 1.0;
+  int coulomb_index = -1;
 };
+
+/// The Coulomb friction's generalised force Q (Settings::coulomb) at rates qd; with `slope`, also
+/// ∂Q/∂θ̇ (kDof × kDof, symmetric negative semidefinite).
+template <class Model>
+VectorOf<Model> coulomb_force(const RhsContext<Model>& context, const VectorOf<Model>& qd,
+                              Eigen::Matrix<double, Model::kDof, Model::kDof>* slope = nullptr) {
+  constexpr int n = Model::kDof;
+  VectorOf<Model> force = VectorOf<Model>::Zero();
+  if (slope) slope->setZero();
+  for (int i = 0; i < n; ++i) {
+    const double c = context.coulomb(i);
+    if (c == 0.0) continue;
+    const double w = i >= 2 ? qd(i) - qd(i - 1) : qd(i);  // the joint's rate, as for delta[i]
+    const double t = std::tanh(w / context.coulomb_speed);
+    force(i) -= c * t;
+    if (i >= 2) force(i - 1) += c * t;
+    if (slope) {
+      const double s = c * (1.0 - t * t) / context.coulomb_speed;
+      (*slope)(i, i) -= s;
+      if (i >= 2) {
+        (*slope)(i - 1, i - 1) -= s;
+        (*slope)(i, i - 1) += s;
+        (*slope)(i - 1, i) += s;
+      }
+    }
+  }
+  return force;
+}
 
 /// u at time t [s] in state `state` = [θ; θ̇, …] (the first 2·kDof entries are read, and only by a
 /// feedback input). Throws whatever a feedback callback throws.
@@ -55,14 +89,23 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
   const double u = input_at(context, t, in);
-  const VectorOf<Model> qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
+  VectorOf<Model> qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
+  double coulomb_power = 0.0;
+  if constexpr (has_mass_matrix<Model>) {
+    if (context.coulomb_index >= 0) {
+      const VectorOf<Model> friction = coulomb_force<Model>(context, qd);
+      qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
+      coulomb_power = -friction.dot(qd);
+      out[context.coulomb_index] = coulomb_power;
+    }
+  }
   Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
   velocity_out = qd;
   acceleration_out = qdd;
   if constexpr (has_energy<Model>) {
     if (context.energy_ledger) {
       out[2 * n] = u * qd(0);
-      out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params);
+      out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + coulomb_power;
     }
   }
   for (long i = 0; i < size; ++i) {

@@ -15,6 +15,9 @@
 //   controller = lqr           (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
 //   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
 //   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
+//   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
+//   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
+//                              volt; the parameters are then the motor-folded ones, docs/model.md)
 //   swingup = energy | trajectory   (optional, with input = zero and no controller: ipsim/swingup.hpp)
 //   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
@@ -181,6 +184,12 @@ struct Scene {
   /// `controller = lqr`: the feedback that sets settings.input (which is then a feedback or
   /// sampled input).
   std::optional<LinearFeedback> controller;
+  /// `actuator = dc_motor`: the force [N] or torque [N m] per volt, b. The file's parameters are
+  /// then the equivalent direct model's (back-EMF in delta[0], the rotor's inertia in m[0] or
+  /// J[0]); the inputs and the controller are in volts in the file and scaled by b here, so
+  /// settings.input and controller are in N or N m. 1 for a direct drive.
+  double input_gain = 1.0;
+  bool motor = false;  ///< `actuator = dc_motor`
   /// `swingup = energy | trajectory`: the swing-up that sets settings.input (sampled), and the
   /// phase it is in (shared with the input).
   std::optional<SwingUp> swingup;
@@ -205,6 +214,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
+  if (scene.motor) file.fail(file.line("swingup"), "a swing-up with actuator = dc_motor is not supported yet");
   constexpr Eigen::Index size = 2 * Model::kDof;
   SwingUp sw;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
@@ -259,7 +269,7 @@ Scene<Model> load(const SceneFile& file) {
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
-      "com", "J", "J_axial", "tip", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
+      "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
       "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
       "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
       "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
@@ -342,6 +352,26 @@ Scene<Model> load(const SceneFile& file) {
     }
   }
 
+  if (file.has("actuator")) {
+    const std::string& actuator = file.text("actuator");
+    if (actuator != "direct" && actuator != "dc_motor") {
+      file.fail(file.line("actuator"), "actuator must be `direct` or `dc_motor`, got `" + detail::abbreviate(actuator) + "`");
+    }
+    scene.motor = actuator == "dc_motor";
+    if (scene.motor) {
+      scene.input_gain = file.number("actuator.gain");
+      if (!(std::isfinite(scene.input_gain) && scene.input_gain > 0.0)) {
+        file.fail(file.line("actuator.gain"), "actuator.gain must be a finite number > 0 (N or N m per volt)");
+      }
+    }
+  }
+  const double b = scene.input_gain;
+  if (file.has("coulomb")) {
+    const auto coulomb = list("coulomb");
+    for (int i = 0; i < Model::kDof; ++i) scene.settings.coulomb(i) = coulomb[static_cast<std::size_t>(i)];
+  }
+  if (file.has("coulomb_speed")) scene.settings.coulomb_speed = file.number("coulomb_speed");
+
   Settings<Model>& s = scene.settings;
   const std::string& method = file.text("method");
   const auto parsed_method = parse_method(method);
@@ -365,13 +395,13 @@ Scene<Model> load(const SceneFile& file) {
   if (kind == "zero") {
     s.input = Input::zero();
   } else if (kind == "constant") {
-    s.input = Input::constant(file.number("input.amplitude"));
+    s.input = Input::constant(b * file.number("input.amplitude"));
   } else if (kind == "pulse") {
-    s.input = Input::pulse(file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
+    s.input = Input::pulse(b * file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
   } else if (kind == "step") {
-    s.input = Input::step(file.number("input.amplitude"), file.number("input.time"));
+    s.input = Input::step(b * file.number("input.amplitude"), file.number("input.time"));
   } else if (kind == "sine") {
-    s.input = Input::sine(file.number("input.amplitude"), file.number("input.frequency"),
+    s.input = Input::sine(b * file.number("input.amplitude"), file.number("input.frequency"),
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
   } else {
     file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
@@ -398,6 +428,8 @@ Scene<Model> load(const SceneFile& file) {
     if (file.has("controller.period")) controller.period = file.number("controller.period");
     const auto problems = controller.problems(2 * Model::kDof);
     if (!problems.empty()) file.fail(0, problems.front());
+    controller.gain *= b;  // volts per unit of state -> N or N m (b = 1 for a direct drive)
+    controller.saturation *= b;
     s.input = controller.input();
     scene.controller = std::move(controller);
   }

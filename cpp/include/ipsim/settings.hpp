@@ -119,6 +119,13 @@ struct Settings {
   /// Also integrate the input work W_in = ∫ u θ̇0 dt and the dissipated energy E_diss = ∫ 2D dt
   /// [J] as two extra CVODE states (they take part in error control), reported in Result.
   bool energy_ledger = false;
+  /// Coulomb friction per coordinate [N or N m], ≥ 0 (default 0: none), as the smooth law
+  /// f_i = coulomb[i] tanh(w_i / coulomb_speed), w_i the rate the viscous delta[i] acts on (θ̇0,
+  /// θ̇1, then θ̇i − θ̇(i−1)): the generalised force Q = −∂Φ/∂θ̇ of Φ = Σ coulomb[i] coulomb_speed
+  /// ln cosh(w_i / coulomb_speed), added to M θ̈ = … (not part of the model header, nor of
+  /// its linearisation). Its dissipated energy is integrated and reported (Result::coulomb_dissipated).
+  VectorOf<Model> coulomb = VectorOf<Model>::Zero();
+  double coulomb_speed = 0.01;  ///< [m/s or rad/s], > 0: below it the friction is ~viscous
 };
 
 /// The settings that shape the integration, for messages and summaries:
@@ -193,6 +200,13 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   auto report = [&](const std::string& field, double v, const char* rule) {
     found.push_back("invalid setting " + field + " = " + detail::format_number(v) + ": " + rule);
   };
+  for (int i = 0; i < Model::kDof; ++i) {
+    const double c = settings.coulomb(i);
+    if (!(std::isfinite(c) && c >= 0.0)) report("coulomb[" + std::to_string(i) + "]", c, "must be finite and >= 0");
+  }
+  if (!(std::isfinite(settings.coulomb_speed) && settings.coulomb_speed > 0.0)) {
+    report("coulomb_speed", settings.coulomb_speed, "must be finite and > 0");
+  }
   if (!(std::isfinite(settings.rtol) && settings.rtol > 0.0)) {
     report("rtol", settings.rtol, "must be finite and > 0");
   } else if (!(settings.rtol >= kRtolMin && settings.rtol < 1.0)) {  // limits.hpp, shared with ipgen

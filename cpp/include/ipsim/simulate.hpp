@@ -125,6 +125,7 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
       sample.dissipated_energy = y_values(2 * n + 1);
     }
     sample.input = u;
+    if (rhs_context.coulomb_index >= 0) result.coulomb_dissipated = y_values(rhs_context.coulomb_index);
     ++result.samples;
     return sink.record(sample);
   };
@@ -201,7 +202,8 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings, 
   require_valid_run<Model>(params, settings);
 
   constexpr int n = Model::kDof;
-  const int size = 2 * n + (settings.energy_ledger ? 2 : 0);
+  const bool coulomb = (settings.coulomb.array() != 0.0).any();
+  const int size = 2 * n + (settings.energy_ledger ? 2 : 0) + (coulomb ? 1 : 0);
   // Declared before the stepper (created in run_schedule), so destroyed after it.
   sundials::Context context;
   sundials::NVector y(size, context);
@@ -220,6 +222,11 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings, 
   rhs_context.params = &params;
   rhs_context.input = &settings.input;
   rhs_context.energy_ledger = settings.energy_ledger;
+  if (coulomb) {
+    rhs_context.coulomb = settings.coulomb;
+    rhs_context.coulomb_speed = settings.coulomb_speed;
+    rhs_context.coulomb_index = size - 1;
+  }
   rhs_context.x = Eigen::VectorXd::Zero(2 * n);
   detail::Diagnostics diagnostics{{}, &result.warnings};
 
