@@ -163,13 +163,18 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
         unit = {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
         axes[2].plot(t, run.columns["u"], color="tab:red", label=f"input u [{unit}]")
         axes[2].set_ylabel(f"u [{unit}]")
-    if run.phases:  # a swing-up: a dashed line where the controller changes phase, named on top
-        for k in range(1, len(run.phases)):
+    if run.phases:  # a swing-up: a dashed line where the controller changes phase, named inside
+        for k in range(1, len(run.phases)):  # the top panel (above it, the title's second line)
             if run.phases[k] != run.phases[k - 1]:
                 for ax in axes:
                     ax.axvline(t[k], color="grey", linestyle="--", linewidth=0.8)
                 base.annotate(
-                    run.phases[k], (t[k], 1.0), xycoords=("data", "axes fraction"), fontsize=8, va="bottom"
+                    f" {run.phases[k]}",
+                    (t[k], 0.97),
+                    xycoords=("data", "axes fraction"),
+                    fontsize=8,
+                    va="top",
+                    color="grey",
                 )
     axes[-1].set_xlabel("time t [s]")
     base.set_title(f"{title}\ndotted lines: hanging down (±π)" if hanging else title)
