@@ -58,8 +58,12 @@ _COST = re.compile(r"Cost: (\d+) arithmetic operations")
 _IN_PROCESS = """
 import json, sys, time
 from ipgen.codegen.header import HeaderRequest, render_header
-from ipgen.model.derivation import derive
-from ipgen.model.system import System
+try:
+    from ipgen.model.derivation import derive
+    from ipgen.model.system import System
+except ModuleNotFoundError:  # a checkout from before the package's stages (the baseline)
+    from ipgen.derive import derive
+    from ipgen.model import System
 kind, links = sys.argv[1], int(sys.argv[2])
 start = time.perf_counter()
 equations = derive(System(kind, links))
@@ -69,11 +73,12 @@ print(json.dumps({"derive_s": derived - start, "codegen_s": time.perf_counter() 
 """
 
 
-def materialise(commit: str) -> Path:
-    """A folder holding `commit`'s generator as the importable package `ipgen` (cached)."""
-    target = BUILD / f"baseline-{commit}"
+def materialise(commit: str, label: str = "baseline") -> Path:
+    """A folder (build/bench/<label>-<commit>) holding `commit`'s generator as the importable
+    package `ipgen` (cached): what the benchmarks compare this checkout with."""
+    target = BUILD / f"{label}-{commit}"
     package = target / "ipgen"
-    if (package / "derive.py").exists():
+    if (package / "__init__.py").exists():
         return target
     archive = subprocess.run(
         ["git", "-C", str(ROOT), "archive", "--format=tar", commit, "generator", "templates"],

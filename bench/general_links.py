@@ -30,13 +30,12 @@ import os
 import re
 import statistics
 import subprocess
-import tarfile
-import tempfile
 from pathlib import Path
 
 from tqdm import tqdm
 
-from bench.report import BUILD, PYTHON, ROOT, machine
+from bench.against_baseline import materialise
+from bench.report import PYTHON, ROOT, machine
 
 BASELINE = "67de603"  # main before issue 21: the paper's rods only
 SYSTEMS = (
@@ -121,30 +120,6 @@ print(json.dumps(out))
 """
 
 
-def materialise(commit: str) -> Path:
-    """A folder holding `commit`'s generator as the importable package `ipgen` (cached)."""
-    target = BUILD / f"general-links-{commit}"
-    package = target / "ipgen"
-    if (package / "model" / "derivation.py").exists():
-        return target
-    archive = subprocess.run(
-        ["git", "-C", str(ROOT), "archive", "--format=tar", commit, "generator", "templates"],
-        capture_output=True,
-        check=True,
-    ).stdout
-    source = target / "src"
-    source.mkdir(parents=True, exist_ok=True)
-    with tempfile.NamedTemporaryFile(suffix=".tar") as tar:
-        tar.write(archive)
-        tar.flush()
-        with tarfile.open(tar.name) as opened:
-            opened.extractall(source, filter="data")
-    (source / "generator").rename(package)
-    (source / "templates").rename(package / "templates")
-    subprocess.run([PYTHON, "-m", "compileall", "-q", str(package)], check=True)
-    return target
-
-
 def _run(code: str, arguments: list[str], path: Path | None) -> object:
     """JSON printed by `code` in a fresh process importing ipgen from `path` (None: here)."""
     env = dict(os.environ)
@@ -173,7 +148,7 @@ def given_path(lines: list[str]) -> int:
 def measure(rounds: int) -> list[dict]:
     from ipgen.codegen.functions import count_operations
 
-    baseline = materialise(BASELINE)
+    baseline = materialise(BASELINE, "general-links")
     rows = []
     for kind, links, inertia in tqdm(SYSTEMS, desc="general links", unit="system"):
         arguments = [kind, str(links), inertia]
@@ -257,7 +232,7 @@ def markdown(rows: list[dict], rounds: int) -> str:
 
 def write_golden() -> None:
     """BASELINE's equations at fixed random states, for tests/test_links_as_built.py."""
-    data = _run(_GOLDEN, [json.dumps(GOLDEN_SYSTEMS)], materialise(BASELINE))
+    data = _run(_GOLDEN, [json.dumps(GOLDEN_SYSTEMS)], materialise(BASELINE, "general-links"))
     GOLDEN.write_text(json.dumps({"commit": BASELINE, "cases": data}, indent=None) + "\n")
     print(f"wrote {GOLDEN.relative_to(ROOT)}")
 
