@@ -355,11 +355,14 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
 def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bool) -> None:
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
-    from ipgen.plots.run import plot_run, read_run, system_type_beside
+    from ipgen.plots.run import coordinates_beside, plot_run, read_run, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
-    plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
+    plot_run(
+        run, target, csv.name, system_type or system_type_beside(csv), force=force,
+        coordinates=coordinates_beside(csv),
+    )  # fmt: skip
     click.echo(f"wrote {target}")
 
 
@@ -384,7 +387,7 @@ def animate_command(
 ) -> None:
     """Animate a CSV a simulator wrote (ipgen run, simulate_<model>), drawn to scale from above and
     from the side: an animated GIF (needs pillow: the extra swingup)."""
-    from ipgen.plots.run import scene_beside
+    from ipgen.plots.run import coordinates_beside, scene_beside
 
     beside = scene_beside(csv)
     kind = system_type or (beside[0] if beside else None)
@@ -411,7 +414,9 @@ def animate_command(
             "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
-    written = animate_run(csv, target, kind, l_values, fps=fps, force=force)
+    written = animate_run(
+        csv, target, kind, l_values, fps=fps, force=force, coordinates=coordinates_beside(csv)
+    )
     click.echo(f"wrote {written}")
 
 
