@@ -131,6 +131,25 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
     + f"  [default: {','.join(DEFAULT_EMIT)}; with --scene: the scene's [system] emit]",
 )
 @click.option(
+    "--angles",
+    default=None,
+    metavar="absolute|relative",
+    help="The rig's coordinates (docs/model.md): the headers' functions take link angles measured "
+    "from the vertical (absolute, ipgen's) or link i from link i - 1 (relative).",
+)
+@click.option(
+    "--zero",
+    default=None,
+    metavar="upright|hanging",
+    help="The rig's coordinates: where the link angles are 0 (upright, ipgen's; or hanging).",
+)
+@click.option(
+    "--positive",
+    default=None,
+    metavar="clockwise|counterclockwise",
+    help="The rig's coordinates: the link angles' positive sense (clockwise, ipgen's).",
+)
+@click.option(
     "--force",
     is_flag=True,
     help="Overwrite files in DIR even if ipgen did not write them; "
@@ -163,6 +182,9 @@ def cli(
     fix: str | None,
     outputs: str | None,
     emit: str | None,
+    angles: str | None,
+    zero: str | None,
+    positive: str | None,
     force: bool,
     cmake_dir: bool,
 ) -> None:
@@ -205,6 +227,9 @@ def cli(
         outputs=outputs,
         emit=emit,
         force=force,
+        angles=angles,
+        zero=zero,
+        positive=positive,
     )
     written = _generate(planned)
     scene_ = planned.scene
