@@ -20,9 +20,12 @@ import numpy as np
 import pytest
 from c_models import c_command, compile_c, require_cc
 from cxx import cxx_command, require_toolchain
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import ipgen
-from ipgen.control.coordinates import Coordinates
+from ipgen.command.job import OptionsError, plan
+from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.control.linear import EquilibriumWarning
 
 CASES = [
@@ -268,3 +271,33 @@ def test_the_command_takes_the_options(tmp_path: Path) -> None:
     header = (tmp_path / "rotary1.hpp").read_text()
     assert "--positive counterclockwise -o <dir>" in header  # the regenerate command says it
     assert run(["--type", "rotary", "--links", "1", "--zero", "sideways", "-o", str(tmp_path / "x")]) == 2
+
+
+# Any value of the three options: a job in that convention, or one line naming the option.
+OPTION_VALUES = st.one_of(
+    st.none(),
+    st.sampled_from([*ANGLES, *ZEROS, *POSITIVE, "Relative", "ccw", ""]),
+    st.text(max_size=20),
+    st.integers(-2, 2),
+    st.lists(st.sampled_from(ANGLES), max_size=2),
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(OPTION_VALUES, OPTION_VALUES, OPTION_VALUES)
+def test_any_coordinate_options_plan_or_fail_in_one_line(
+    angles: object, zero: object, positive: object
+) -> None:
+    options = {"angles": angles, "zero": zero, "positive": positive}
+    try:
+        job = plan("out", system_type="rotary", links=2, **options)
+    except OptionsError as exc:
+        message = str(exc)
+        assert "\n" not in message and message.startswith("--"), message
+        wrong = message.split()[0][2:]
+        assert wrong in options and options[wrong] is not None, message
+        allowed = {"angles": ANGLES, "zero": ZEROS, "positive": POSITIVE}[wrong]
+        assert options[wrong] not in allowed and "expected " + " or ".join(allowed) in message
+        return
+    for key, value in options.items():
+        assert getattr(job.coordinates, key) == (value if value is not None else getattr(Coordinates(), key))

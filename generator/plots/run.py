@@ -177,7 +177,12 @@ def plot_run(
     base.plot(t, run.columns["theta0"], color="black", label=base_label)
     base.set_ylabel(base_label)
     for i in range(1, run.links + 1):
-        links.plot(t, run.columns[f"theta{i}"], label=f"link {i} angle θ{i}")
+        relative = not frame.is_canonical and frame.angles == "relative" and i >= 2
+        links.plot(
+            t,
+            run.columns[f"theta{i}"],
+            label=f"link {i} angle θ{i}" + (f" from link {i - 1}" if relative else ""),
+        )
     # ±π: hanging down in ipgen's coordinates; in a rig's, whatever its convention puts there.
     meaning = "hanging down (±π)" if frame.is_canonical else "±π"
     largest = max((abs(v) for i in range(1, run.links + 1) for v in run.columns[f"theta{i}"]), default=0.0)
@@ -187,7 +192,7 @@ def plot_run(
     links.set_ylabel(
         "link angle from upright [rad]"
         if frame.is_canonical
-        else f"link angle [rad]: {frame.angles}, 0 {frame.zero}, {frame.positive}"
+        else f"link angle [rad] (0 {frame.zero}, {'ccw' if frame.positive == 'counterclockwise' else 'cw'})"
     )
     if has_input:
         unit = {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
