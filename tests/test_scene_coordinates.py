@@ -227,6 +227,19 @@ def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
     for part in drawn_own:
         assert np.allclose(drawn_rig[part], drawn_own[part], atol=1e-7)
 
+    # a CSV without its .cfg: the options say the convention (ipgen plot and ipgen animate share them)
+    from ipgen.command.cli import _csv_coordinates, run
+
+    alone = tmp_path / "alone" / "rig.csv"
+    alone.parent.mkdir()
+    alone.write_text((tmp_path / "out" / "rig.csv").read_text())
+    assert _csv_coordinates(alone, None, None, None).is_canonical
+    assert _csv_coordinates(alone, "relative", "hanging", "counterclockwise") == RIG
+    assert _csv_coordinates(tmp_path / "out" / "rig.csv", None, None, None) == RIG
+    assert run(["plot", str(alone), "--angles", "relative", "--zero", "hanging"]) == 0
+    assert alone.with_suffix(".png").is_file()
+    assert run(["plot", str(alone), "--zero", "sideways", "--force"]) == 2
+
     simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_rdip_frame"))
     config = (tmp_path / "out" / "rig.cfg").read_text()
     for old, new in (
