@@ -89,8 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         ok = low <= values[name] <= high
         inside += ok
         print(
-            f"{name:<9} {prior.value(name):11.4g} {values[name]:11.4g} {fit.estimate[name]:11.4g} "
-            f"  [{low:10.4g}, {high:10.4g}]  {'yes' if ok else 'no'}"
+            f"{name:<9} {prior.value(name):11.5g} {values[name]:11.5g} {fit.estimate[name]:11.5g} "
+            f"  [{low:10.5g}, {high:10.5g}]  {'yes' if ok else 'no'}"
         )
     print(
         f"\n{inside} of {len(FREE)} true values inside their 95 % intervals (identified in {seconds:.1f} s)"

@@ -41,6 +41,7 @@ MAX_STEP = 5e-3  # RK4 substep of the output-error simulation [s]
 # Simulations with more RK4 substeps than this are compiled (CasADi's JIT through the system's C
 # compiler: ~2 s once, then ~10× faster evaluations); smaller ones run in CasADi's interpreter.
 COMPILE_FROM_SUBSTEPS = 20_000
+MAX_ITERATIONS = 60  # output-error simulations (with sensitivities) at most
 # Parameters that cannot be negative (everything else, com and g, may have either sign)
 NONNEGATIVE = (
     "m",
@@ -165,7 +166,7 @@ def identify_measurements(
 
     report("derivatives (Savitzky-Golay) and the equation-error fit")
     clock = time.perf_counter()
-    grid, theta, rates, accel, u_grid = _derivatives(data, u)
+    grid, theta, rates, accel, u_grid, noise_level = _derivatives(data, u)
     known = [prior[n] for n in model.known_names]
     columns = model.columns(theta, rates, accel, u_grid, known)
     if not np.any(columns[0]):
@@ -191,7 +192,7 @@ def identify_measurements(
         )
     rms_start = tuple(float(v) for v in np.sqrt(np.mean((sim_start - oe.measured) ** 2, axis=0)))
     if output_error:
-        x0_hat, p_hat, jac, residual = oe.fit(x0, p_start, [prior[n] for n in free], report)
+        x0_hat, p_hat, jac, residual = oe.fit(x0, p_start, [prior[n] for n in free], noise_level, report)
     else:
         x0_hat, p_hat = x0, p_start
         residual, jac = oe.residual_and_jacobian(x0, p_hat)
@@ -280,7 +281,14 @@ def _derivatives(data: Measurements, u: np.ndarray) -> tuple[np.ndarray, ...]:
     rates = savgol_filter(theta, window, order, deriv=1, delta=dt, axis=0)
     accel = savgol_filter(theta, window, order, deriv=2, delta=dt, axis=0)
     cut = slice(window, len(grid) - window)
-    return grid[cut], smooth[cut], rates[cut], accel[cut], u[cut]
+    # the measurement noise per coordinate: the smoothing's residual, corrected for the part of
+    # the noise the filter keeps (its central coefficient c0: E r² = σ² (1 − c0))
+    from scipy.signal import savgol_coeffs
+
+    kept = float(savgol_coeffs(window, order)[window // 2])
+    spread = np.sqrt(np.mean((theta - smooth)[cut] ** 2, axis=0) / (1.0 - kept))
+    noise = np.maximum(spread, 1e-9 * np.maximum(np.ptp(theta, axis=0), 1e-9))
+    return grid[cut], smooth[cut], rates[cut], accel[cut], u[cut], noise
 
 
 def _phi(model: StructuralModel, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -418,8 +426,14 @@ class _OutputError:
         return (self.measured - y).reshape(-1) * w, -jac * w[:, None]
 
     def fit(
-        self, x0: np.ndarray, p: np.ndarray, prior: Sequence[float], report: Callable[[str], None]
+        self,
+        x0: np.ndarray,
+        p: np.ndarray,
+        prior: Sequence[float],
+        noise: np.ndarray,
+        report: Callable[[str], None],
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Least squares over (x0, p), each coordinate's residual divided by its `noise`."""
         import numpy as np
         from scipy.optimize import least_squares
 
@@ -431,9 +445,7 @@ class _OutputError:
             [np.full(n, -np.inf), [_lower(m, v) for m, v in zip(self.model.free, p, strict=True)]]
         )
         z = np.concatenate([x0, np.maximum(p, lower[n:])])
-        # noise per coordinate from the start's fit, refined once after the first solve
-        sim = self.simulate(x0, p)
-        self.weights = 1.0 / np.maximum(np.sqrt(np.mean((sim - self.measured) ** 2, axis=0)), 1e-12)
+        self.weights = 1.0 / noise
         cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
         calls = [0]
 
@@ -448,23 +460,19 @@ class _OutputError:
                 cache[key] = (r, j)
             return cache[key]
 
-        for sweep in range(2):
-            cache.clear()  # the weights changed
-            solution = least_squares(
-                lambda z: both(z)[0],
-                z,
-                jac=lambda z: both(z)[1],
-                bounds=(lower, np.inf),
-                x_scale=scale,
-                method="trf",
-                xtol=1e-10,
-                ftol=1e-10,
-                max_nfev=50,
-            )
-            z = solution.x
-            report(f"output error: pass {sweep + 1}, {solution.nfev} simulations, cost {solution.cost:.6g}")
-            sim = self.simulate(z[:n], z[n:])
-            self.weights = 1.0 / np.maximum(np.sqrt(np.mean((sim - self.measured) ** 2, axis=0)), 1e-12)
+        solution = least_squares(
+            lambda z: both(z)[0],
+            z,
+            jac=lambda z: both(z)[1],
+            bounds=(lower, np.inf),
+            x_scale=scale,
+            method="trf",
+            xtol=1e-9,
+            ftol=1e-9,
+            max_nfev=MAX_ITERATIONS,
+        )
+        z = solution.x
+        report(f"output error: {solution.nfev} simulations with sensitivities, cost {solution.cost:.6g}")
         residual, jac = self.residual_and_jacobian(z[:n], z[n:])
         return z[:n], z[n:], jac, residual
 

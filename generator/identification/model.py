@@ -116,6 +116,9 @@ class StructuralModel:
     _mass: Any  # sympy matrix, for the CasADi model
     _rhs: Any  # sympy column
     _symbols: Any  # Symbols-like: q, qd, u and the parameter symbols by name
+    # Groups of monomials (indices) whose regressor columns are proportional for any data: the
+    # data can only ever see a weighted sum of them (e.g. delta0 and kt·km, both on θ̇0).
+    shared: tuple[tuple[int, ...], ...] = ()
 
     def columns(
         self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray, u: np.ndarray, known: Sequence[float]
@@ -261,6 +264,7 @@ def structural_model(
     matrix = [constant, *(coefficients[k] for k in keys)]
     arguments = [*q, *qd, *qdd, u, *known_symbols]
     columns = sp.lambdify(arguments, matrix, modules="numpy", cse=True)
+    shared = _proportional_columns(columns, 3 * system.dof + 1, len(arguments), len(keys))
     return StructuralModel(
         system=system,
         free=tuple(free),
@@ -270,7 +274,45 @@ def structural_model(
         _mass=mass,
         _rhs=rhs,
         _symbols=(q, qd, u, [by_name[n] for n in (*free, *known_names)]),
+        shared=shared,
     )
+
+
+def _proportional_columns(
+    columns: Callable[..., Any], data: int, arguments: int, count: int
+) -> tuple[tuple[int, ...], ...]:
+    """Groups of monomial columns that are proportional, found by evaluating every column at a
+    few random data points (the first `data` arguments; the known parameters drawn at random
+    once): two columns whose entries keep one ratio at every point and in every row are the same
+    function of the data up to a constant."""
+    import numpy as np
+
+    rng = np.random.default_rng(20261124)
+    points = rng.uniform(0.3, 1.7, size=(arguments, 4))
+    points[data:] = points[data:, :1]  # the known parameters: the same at every point
+    values = np.array(
+        [[np.broadcast_to(np.asarray(e, dtype=float), (4,)) for e in column] for column in columns(*points)]
+    )[1:]  # (count, dof, points)
+    flat = values.reshape(count, -1)
+    parent = list(range(count))
+
+    def root(k: int) -> int:
+        while parent[k] != k:
+            k = parent[k]
+        return k
+
+    for a in range(count):
+        for b in range(a + 1, count):
+            x, y = flat[a], flat[b]
+            if not np.any(x) or not np.any(y) or np.any((x == 0) != (y == 0)):
+                continue
+            ratio = x[x != 0] / y[y != 0]
+            if np.allclose(ratio, ratio[0], rtol=1e-9, atol=0.0):
+                parent[root(b)] = root(a)
+    groups: dict[int, list[int]] = {}
+    for k in range(count):
+        groups.setdefault(root(k), []).append(k)
+    return tuple(tuple(g) for g in groups.values() if len(g) > 1)
 
 
 @lru_cache(maxsize=32)

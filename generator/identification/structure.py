@@ -4,7 +4,9 @@ The residual is Σ_k φ_k(p) Y_k with monomials φ_k = Π_j p_j^(e_kj) (model.py
 parameters as p_j → p_j · exp(s v_j) leaves every monomial unchanged exactly when E v = 0 (E the
 integer exponent matrix): then no data, however rich, can tell those parameters apart — they
 enter only through the monomials restricted to v's support, e.g. "m1 and com1 enter only as
-m1·com1". `structural_statements` lists a basis of E's (rational) null space in those words.
+m1·com1". `structural_statements` lists a basis of E's (rational) null space in those words, and
+the monomials whose regressor columns are proportional whatever the data (model.py, `shared`:
+delta0 and kt·km both multiply θ̇0), which the data can only see as a sum.
 """
 
 from __future__ import annotations
@@ -54,4 +56,10 @@ def structural_statements(model: StructuralModel) -> list[str]:
             )
         else:
             statements.append(f"{names} do not enter these equations: they cannot be identified")
+    for group in model.shared:
+        texts = [model.monomials[k].text() for k in group]
+        statements.append(
+            f"{' and '.join([', '.join(texts[:-1]), texts[-1]])} multiply the same term of the equations "
+            "(they enter only as a weighted sum): the data cannot separate them (fix all but one)"
+        )
     return statements
