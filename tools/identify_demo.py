@@ -22,7 +22,7 @@ import numpy as np
 import ipgen
 from ipgen.command.identify import setup_from_scene
 from ipgen.identification.model import Setup
-from ipgen.identification.synthetic import measure
+from ipgen.identification.synthetic import measure, multisine, write_csv
 from ipgen.scene.reader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -30,23 +30,6 @@ SCENE = ROOT / "scenes" / "rigs" / "qube_servo2.toml"
 # The rig as it is: what the datasheet (the preset) gets wrong, by how much.
 TRUTH_FACTORS = {"delta0": 1.3, "delta1": 0.7, "kt": 0.93, "J1": 1.08}
 FREE = ("J1", "delta0", "delta1", "kt")
-
-
-def multisine(t: float) -> float:
-    """±2.5 V at most: four sines between 0.4 and 3 Hz (the pendulum hangs at ~1.5 Hz)."""
-    return (
-        0.9 * math.sin(2 * math.pi * 0.4 * t)
-        + 0.6 * math.sin(2 * math.pi * 1.1 * t + 1.0)
-        + 0.5 * math.sin(2 * math.pi * 1.9 * t + 2.0)
-        + 0.4 * math.sin(2 * math.pi * 3.0 * t + 0.5)
-    )
-
-
-def write_csv(path: Path, t: np.ndarray, theta: np.ndarray, u: np.ndarray) -> None:
-    """The measurements in the simulator's CSV format, without rates (encoders measure angles)."""
-    header = "t," + ",".join(f"theta{i}" for i in range(theta.shape[1])) + ",u"
-    table = np.column_stack([t, theta, u])
-    np.savetxt(path, table, delimiter=",", header=header, comments="", fmt="%.9g")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,7 +8,9 @@ The simulation is independent of the fit's CasADi model: θ̈ from `control.line
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.control.linear import dynamics
@@ -20,7 +22,7 @@ from ipgen.model.system import LINK_GROUPS, group_indices
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["measure", "simulate"]
+__all__ = ["measure", "multisine", "simulate", "write_csv"]
 
 
 def _flat_params(setup: Setup) -> tuple[list[float], float, float, float]:
@@ -109,3 +111,22 @@ def measure(
     dtheta = state[:, dof:] + 10 * noise * rng.standard_normal((len(t), dof)) if rates else None
     u = np.array([input_fn(float(x)) for x in t]) if record_u else None
     return Measurements(t=np.asarray(t, dtype=float), theta=theta, dtheta=dtheta, u=u, source="synthetic")
+
+
+def multisine(t: float) -> float:
+    """±2.5 V at most: four sines between 0.4 and 3 Hz (the pendulum hangs at ~1.5 Hz)."""
+    return (
+        0.9 * math.sin(2 * math.pi * 0.4 * t)
+        + 0.6 * math.sin(2 * math.pi * 1.1 * t + 1.0)
+        + 0.5 * math.sin(2 * math.pi * 1.9 * t + 2.0)
+        + 0.4 * math.sin(2 * math.pi * 3.0 * t + 0.5)
+    )
+
+
+def write_csv(path: Path, t: np.ndarray, theta: np.ndarray, u: np.ndarray) -> None:
+    """The measurements in the simulator's CSV format, without rates (encoders measure angles)."""
+    import numpy as np
+
+    header = "t," + ",".join(f"theta{i}" for i in range(theta.shape[1])) + ",u"
+    table = np.column_stack([t, theta, u])
+    np.savetxt(path, table, delimiter=",", header=header, comments="", fmt="%.9g")
