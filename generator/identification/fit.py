@@ -180,21 +180,38 @@ def identify_measurements(
     clock = time.perf_counter()
     oe = _OutputError(model, data, u, known)
     x0 = _initial_state(data, grid, theta, rates)
-    p_start = np.array([start[n] for n in free])
     report(
         f"output-error fit on {oe.points} samples ({oe.steps} RK4 steps of the model, exact sensitivities)"
     )
-    sim_start = oe.simulate(x0, p_start)
-    if not np.all(np.isfinite(sim_start)):
+    # Start from the equation-error estimate, or from the prior if that simulates closer to the
+    # data (errors in the differentiated signals bias the equation error, most where an equation
+    # has no known term: a pendulum's own equation when its mass moment and inertia are free).
+    candidates = {
+        "equation error": np.array([start[n] for n in free]),
+        "prior": np.array([prior[n] for n in free]),
+    }
+    costs = {}
+    for label, p in candidates.items():
+        simulated = oe.simulate(x0, p)
+        costs[label] = float(np.sum(((simulated - oe.measured) / noise_level) ** 2))
+        if not math.isfinite(costs[label]):
+            costs[label] = math.inf
+    chosen = min(costs, key=lambda k: costs[k])
+    if not math.isfinite(costs[chosen]):
         raise IdentifyError(
-            "the model simulated from the equation-error estimate diverges: the data may come from a closed "
-            "loop or an unstable experiment; record one about the hanging position"
+            "the model simulated from the equation-error estimate and from the prior diverges: the data may "
+            "come from a closed loop or an unstable experiment; record one about the hanging position"
         )
+    p_start = candidates[chosen]
+    sim_start = oe.simulate(x0, candidates["equation error"])
+    if not np.all(np.isfinite(sim_start)):
+        sim_start = oe.simulate(x0, p_start)
     rms_start = tuple(float(v) for v in np.sqrt(np.mean((sim_start - oe.measured) ** 2, axis=0)))
     if output_error:
+        report(f"output error from the {chosen}")
         x0_hat, p_hat, jac, residual = oe.fit(x0, p_start, [prior[n] for n in free], noise_level, report)
     else:
-        x0_hat, p_hat = x0, p_start
+        x0_hat, p_hat = x0, candidates["equation error"]
         residual, jac = oe.residual_and_jacobian(x0, p_hat)
     seconds["output error"] = time.perf_counter() - clock
 
@@ -230,10 +247,11 @@ def _check_excitation(data: Measurements, u: np.ndarray, free: Sequence[str], se
         raise DataError(f"{data.source}: the input u is not finite")
     duration = float(data.t[-1] - data.t[0])
     dt = duration / (data.samples - 1)
-    if duration < 20 * SMOOTHING_SECONDS or data.samples < 10 * (len(free) + 2 * data.dof):
+    shortest, fewest = 20 * SMOOTHING_SECONDS, 10 * (len(free) + 2 * data.dof)
+    if duration < shortest or data.samples < fewest:
         raise DataError(
             f"{data.source}: {data.samples} samples over {duration:.3g} s are too short to identify "
-            f"{len(free)} parameters: record at least 1 s and {10 * (len(free) + 2 * data.dof)} samples"
+            f"{len(free)} parameters: record at least {shortest:g} s and {fewest} samples"
         )
     if dt * 5 > SMOOTHING_SECONDS * 2:
         raise DataError(

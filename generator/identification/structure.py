@@ -57,9 +57,29 @@ def structural_statements(model: StructuralModel) -> list[str]:
         else:
             statements.append(f"{names} do not enter these equations: they cannot be identified")
     for group in model.shared:
+        if not _group_loses_rank(model, group):
+            continue  # e.g. J1 and m1·com1² share a column, but m1·com1 alone fixes com1
         texts = [model.monomials[k].text() for k in group]
         statements.append(
             f"{' and '.join([', '.join(texts[:-1]), texts[-1]])} multiply the same term of the equations "
             "(they enter only as a weighted sum): the data cannot separate them (fix all but one)"
         )
     return statements
+
+
+def _group_loses_rank(model: StructuralModel, group: tuple[int, ...]) -> bool:
+    """Whether seeing only a weighted sum of the monomials in `group` (rather than each) leaves a
+    direction of the free parameters unseen: the rank of the monomials' gradients at a generic
+    point drops when the group's rows are summed (random weights and point: generic rank)."""
+    import numpy as np
+
+    rng = np.random.default_rng(7)
+    p = rng.uniform(0.5, 1.5, len(model.free))
+    exponents = np.array(model.exponents(), dtype=float).reshape(len(model.monomials), len(model.free))
+    phi = np.prod(p[None, :] ** exponents, axis=1)
+    gradients = exponents * phi[:, None] / p[None, :]
+    weights = rng.uniform(0.5, 1.5, len(group))
+    summed = weights @ gradients[list(group)]
+    others = np.delete(gradients, list(group), axis=0)
+    seen = np.vstack([others, summed[None, :]])
+    return int(np.linalg.matrix_rank(seen)) < int(np.linalg.matrix_rank(gradients))

@@ -84,7 +84,7 @@ def simulate(setup: Setup, t: np.ndarray, input_fn: Callable[[float], float], x0
             qdd = qdd + np.linalg.solve(mass, force)
         return np.concatenate([qd, qdd])
 
-    solution = solve_ivp(rhs, (t[0], t[-1]), x0, t_eval=t, method="DOP853", rtol=1e-10, atol=1e-10)
+    solution = solve_ivp(rhs, (t[0], t[-1]), x0, t_eval=t, method="DOP853", rtol=1e-9, atol=1e-10)
     if not solution.success:  # pragma: no cover - a bad test model
         raise RuntimeError(solution.message)
     return solution.y.T
