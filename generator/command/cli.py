@@ -373,7 +373,7 @@ dtheta0..dthetaN and u (the simulator's CSV as it is; without u the scene's [inp
 others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene with the
 estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
-STEM_identify.png (measured against simulated angles). Needs CasADi (pip install 'ipgen[identify]').
+STEM_identify.png (measured against simulated angles). Needs CasADi (pip install 'ipgen-pendulum[identify]').
 
 \b
 Example:
@@ -405,7 +405,7 @@ def identify_command(
         import casadi  # noqa: F401
     except ImportError:
         raise job.OptionsError(
-            "ipgen identify needs CasADi: pip install 'ipgen[identify]' (or pip install casadi)"
+            "ipgen identify needs CasADi: pip install 'ipgen-pendulum[identify]' (or pip install casadi)"
         ) from None
     result = identify(
         scene,

@@ -253,7 +253,7 @@ def _check_excitation(data: Measurements, u: np.ndarray, free: Sequence[str], se
             f"{data.source}: {data.samples} samples over {duration:.3g} s are too short to identify "
             f"{len(free)} parameters: record at least {shortest:g} s and {fewest} samples"
         )
-    if dt * 5 > SMOOTHING_SECONDS * 2:
+    if dt > 0.01 * (1 + 1e-9):
         raise DataError(
             f"{data.source}: samples {dt:.3g} s apart are too sparse for the derivatives: "
             "record at 100 Hz or faster"
