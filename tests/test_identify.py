@@ -474,3 +474,18 @@ def test_updated_scene_text_keeps_the_file_and_changes_only_the_values() -> None
     assert document["parameters"]["J"] == [0.0, 0.01] and document["input"]["kind"] == "zero"
     with pytest.raises(SceneError):
         updated_scene_text("[parameters]\nm = [1,\n", {("parameters", "m"): [1.0]}, "#")
+
+
+def test_coulomb_friction_identified() -> None:
+    """The smooth Coulomb law on the arm (c0 = 3 mN m, v_s = 0.05 rad/s, stiff for RK4 at the
+    sample rate: the steps shrink) identified beside the viscous damping."""
+    base = qube_setup()
+    values = dict(base.values) | {"coulomb0": 0.0, "coulomb1": 0.0}
+    prior = Setup(base.system, base.actuator_kind, tuple(values.items()), base.explicit, True, 0.05)
+    values |= {"coulomb0": 0.003, "delta0": 0.002}
+    truth = Setup(base.system, base.actuator_kind, tuple(values.items()), base.explicit, True, 0.05)
+    t = np.arange(0.0, 4.0, 1 / 250)
+    data = measure(truth, t, volts, np.array([0.0, math.pi + 0.1, 0, 0]), 0.001, np.random.default_rng(6))
+    fit = identify_measurements(prior, data, ("coulomb0", "delta0", "delta1"))
+    for name in ("coulomb0", "delta0"):
+        assert abs(fit.estimate[name] - values[name]) < 4 * fit.stderr[name] + 1e-3 * values[name], name

@@ -373,12 +373,12 @@ dtheta0..dthetaN and u (the simulator's CSV as it is; without u the scene's [inp
 others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene with the
 estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
-STEM_identify.png (measured against simulated angles). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+STEM_identify.png (measured against simulated angles). Record open loop about the hanging
+position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
 
 \b
-Example:
-  ipgen run scenes/rigs/qube_servo2.toml -o out/      # or a recording from the rig
-  ipgen identify --scene scenes/rigs/qube_servo2.toml --data out/qube_servo2.csv \\
+Example (tools/identify_demo.py simulates such a recording):
+  ipgen identify --scene scenes/rigs/qube_servo2.toml --data rig.csv \\
       --free J1,delta0,delta1,kt -o out/ident/
 """
 

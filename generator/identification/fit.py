@@ -178,7 +178,8 @@ def identify_measurements(
     seconds["equation error"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    oe = _OutputError(model, data, u, known)
+    values = {**prior, **start}
+    oe = _OutputError(model, data, u, known, _largest_step(model, setup, data, values))
     x0 = _initial_state(data, grid, theta, rates)
     report(
         f"output-error fit on {oe.points} samples ({oe.steps} RK4 steps of the model, exact sensitivities)"
@@ -390,11 +391,37 @@ def _initial_state(data: Measurements, grid: np.ndarray, theta: np.ndarray, rate
     return np.concatenate([q0, qd0]).astype(float)
 
 
+def _largest_step(
+    model: StructuralModel, setup: Setup, data: Measurements, values: dict[str, float]
+) -> float:
+    """MAX_STEP, or less where Coulomb friction is stiff: its slope c_i / v_s over the
+    coordinate's inertia M_ii is an eigenvalue λ of the linearised rates, and RK4 needs h λ ≲ 2.8
+    to stay stable; h ≤ 1/λ keeps it accurate too (c_i the larger of the prior and the start)."""
+    import numpy as np
+
+    if not setup.friction:
+        return MAX_STEP
+    dof = setup.system.dof
+    friction = [max(abs(values.get(f"coulomb{i}", 0.0)), abs(setup.value(f"coulomb{i}"))) for i in range(dof)]
+    if not any(friction):
+        return MAX_STEP
+    parameters = [values[n] for n in (*model.free, *model.known_names)]
+    rows = np.linspace(0, data.samples - 1, 20).astype(int)
+    diagonal = np.min([model.mass_diagonal(data.theta[k], parameters) for k in rows], axis=0)
+    slope = max(c / setup.coulomb_speed / max(m, 1e-300) for c, m in zip(friction, diagonal, strict=True))
+    return min(MAX_STEP, 1.0 / slope) if slope > 0 else MAX_STEP
+
+
 class _OutputError:
     """The output-error problem on evenly spaced samples of the data (module docstring)."""
 
     def __init__(
-        self, model: StructuralModel, data: Measurements, u: np.ndarray, known: Sequence[float]
+        self,
+        model: StructuralModel,
+        data: Measurements,
+        u: np.ndarray,
+        known: Sequence[float],
+        largest_step: float = MAX_STEP,
     ) -> None:
         import numpy as np
 
@@ -407,7 +434,7 @@ class _OutputError:
         self.measured = data.theta[keep]
         self.points = len(keep)
         h = np.diff(self.t)
-        substeps = max(1, math.ceil(float(np.max(h)) / MAX_STEP - 1e-9))
+        substeps = max(1, math.ceil(float(np.max(h)) / largest_step - 1e-9))
         self.steps = (len(keep) - 1) * substeps
         # u at each substep's start, midpoint and end: the samples where they fall on one, a cubic
         # spline through the samples in between (u is taken to be smooth; see docs/identify.md)

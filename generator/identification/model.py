@@ -149,6 +149,11 @@ class StructuralModel:
     def casadi_acceleration(self) -> Any:
         return _casadi_acceleration(self)
 
+    def mass_diagonal(self, q: Sequence[float], params: Sequence[float]) -> list[float]:
+        """The diagonal of the mass matrix (motor inertia included) at angles q; `params` the free
+        then the known values."""
+        return [float(v) for v in _mass_diagonal(self)(*q, *params)]
+
 
 def _sympy_model(
     system: System, actuator_kind: str, explicit: frozenset[str], friction: bool
@@ -313,6 +318,15 @@ def _proportional_columns(
     for k in range(count):
         groups.setdefault(root(k), []).append(k)
     return tuple(tuple(g) for g in groups.values() if len(g) > 1)
+
+
+@lru_cache(maxsize=32)
+def _mass_diagonal(model: StructuralModel) -> Callable[..., Any]:
+    import sympy as sp
+
+    q, _, _, params = model._symbols
+    dof = model.system.dof
+    return sp.lambdify([*q, *params], [model._mass[i, i] for i in range(dof)], modules="math")
 
 
 @lru_cache(maxsize=32)
