@@ -41,7 +41,7 @@ MAX_STEP = 5e-3  # RK4 substep of the output-error simulation [s]
 # Simulations with more RK4 substeps than this are compiled (CasADi's JIT through the system's C
 # compiler: ~2 s once, then ~10× faster evaluations); smaller ones run in CasADi's interpreter.
 COMPILE_FROM_SUBSTEPS = 20_000
-MAX_ITERATIONS = 60  # output-error simulations (with sensitivities) at most
+MAX_ITERATIONS = 80  # output-error simulations (with sensitivities) at most, then a polish
 # Parameters that cannot be negative (everything else, com and g, may have either sign)
 NONNEGATIVE = (
     "m",
@@ -512,13 +512,35 @@ class _OutputError:
             bounds=(lower, np.inf),
             x_scale=scale,
             method="trf",
-            xtol=1e-9,
-            ftol=1e-9,
+            xtol=1e-10,
+            ftol=1e-10,
             max_nfev=MAX_ITERATIONS,
         )
         z = solution.x
-        report(f"output error: {solution.nfev} simulations with sensitivities, cost {solution.cost:.6g}")
+        # Gauss-Newton polish: the trust region stops early in long, narrow valleys (a link's
+        # com and J, correlated -0.999); full Gauss-Newton steps (SVD, scaled) finish the descent.
         residual, jac = self.residual_and_jacobian(z[:n], z[n:])
+        cost = float(residual @ residual)
+        polish = 0
+        for _ in range(6):
+            u_, sv, vt = np.linalg.svd(jac * scale[None, :], full_matrices=False)
+            keep = sv > RANK_TOLERANCE * sv[0]
+            step = -scale * ((vt[keep].T / sv[keep]) @ (u_[:, keep].T @ residual))
+            improved = False
+            for fraction in (1.0, 0.5, 0.25):
+                trial = np.maximum(z + fraction * step, lower)
+                r, j = self.residual_and_jacobian(trial[:n], trial[n:])
+                polish += 1
+                value = float(r @ r)
+                if np.isfinite(value) and value < cost:
+                    z, residual, jac, improved = trial, r, j, cost - value > 1e-12 * cost
+                    cost = value
+                    break
+            if not improved:
+                break
+        report(
+            f"output error: {solution.nfev} + {polish} simulations with sensitivities, cost {cost / 2:.6g}"
+        )
         return z[:n], z[n:], jac, residual
 
 
