@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-import test_identify as cases  # noqa: E402  (the test's experiments)
+import test_identify as cases  # the test's experiments
 
 
 def main(argv: list[str] | None = None) -> int:
