@@ -142,23 +142,24 @@ def _coverage(setup: Setup, truth: Setup, free, u, x0, noise: float, seed: int, 
 
 
 def test_true_values_inside_the_95_percent_intervals_rotary_motor() -> None:
-    """QUBE-Servo 2 (rotary, DC motor): 8 seeded experiments at two noise levels, 4 parameters
-    each; a correct 95 % interval misses with probability 0.05, so ≥ 26 of 32 hits (P(fewer)
-    < 1e-3 for correct intervals), and the misses are not all one parameter."""
+    """QUBE-Servo 2 (rotary, DC motor): 6 seeded experiments at two noise levels, 4 parameters
+    each; a correct 95 % interval misses with probability 0.05, so ≥ 19 of 24 hits (P(fewer)
+    < 1e-3 for correct intervals), and the misses are not all one parameter
+    (tools/identify_coverage.py runs many more)."""
     setup = qube_setup()
     free = ("J1", "delta0", "delta1", "kt")
     truth = truth_of(setup, {"J1": 1.08, "delta0": 1.3, "delta1": 0.7, "kt": 0.93})
     x0 = np.array([0.0, math.pi + 0.1, 0.0, 0.0])
     hits = []
-    for seed in range(8):
+    for seed in range(6):
         noise = (0.001, 0.005)[seed % 2]
         inside, fit = _coverage(setup, truth, free, volts, x0, noise, seed)
         hits.append(inside)
         assert fit.statements == []
         assert all(math.isfinite(fit.stderr[n]) for n in free)
     hits = np.array(hits)
-    assert hits.sum() >= 26, hits
-    assert hits.sum(axis=0).min() >= 5, hits
+    assert hits.sum() >= 19, hits
+    assert hits.sum(axis=0).min() >= 4, hits
 
 
 def test_true_values_inside_the_95_percent_intervals_cart_general_links() -> None:
