@@ -179,7 +179,8 @@ def identify_measurements(
 
     clock = time.perf_counter()
     values = {**prior, **start}
-    oe = _OutputError(model, data, u, known, _largest_step(model, setup, data, values))
+    exact_input = input_fn if data.u is None else None  # the scene's [input]: exact between samples
+    oe = _OutputError(model, data, u, known, _largest_step(model, setup, data, values), exact_input)
     x0 = _initial_state(data, grid, theta, rates)
     report(
         f"output-error fit on {oe.points} samples ({oe.steps} RK4 steps of the model, exact sensitivities)"
@@ -422,6 +423,7 @@ class _OutputError:
         u: np.ndarray,
         known: Sequence[float],
         largest_step: float = MAX_STEP,
+        input_fn: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> None:
         import numpy as np
 
@@ -442,8 +444,11 @@ class _OutputError:
 
         fractions = np.arange(2 * substeps + 1) / (2 * substeps)
         times = self.t[:-1, None] + h[:, None] * fractions[None, :]
-        spline = CubicSpline(data.t, u)
-        self.inputs = np.vstack([spline(times).T, h[None, :]])
+        if input_fn is not None:
+            inside = np.asarray(input_fn(times.reshape(-1)), dtype=float).reshape(times.shape)
+        else:
+            inside = CubicSpline(data.t, u)(times)
+        self.inputs = np.vstack([inside.T, h[None, :]])
         self.known = np.asarray(known, dtype=float)
         compiled = self.steps > COMPILE_FROM_SUBSTEPS
         self.function, self.simulation = _simulator(model, substeps, len(keep) - 1, compiled)
