@@ -226,9 +226,10 @@ def markdown(rows: list[dict], rounds: int) -> str:
         "(tests/test_links_as_built.py: classical the same count as this generator's rod equations "
         "folded alike, rotary no more).",
         "",
-        "Both generators write the Rayleigh damping the same way since the joint torques "
-        "r_i = δ_i ω_i are computed once (docs/model.md); the rods' side is the commit above, "
-        "from before that too, so both columns gain from it.",
+        "This checkout writes the Rayleigh damping with the joint torques r_i = δ_i ω_i, each "
+        "computed once (docs/model.md, \"Rayleigh dissipation function\"), which the rods' "
+        "generator (the commit above) predates: one or two operations fewer per joint in every "
+        "column of this checkout (folded included), not only in the links as built.",
         "",
         "*Rod defaults* is the price of `Params{m, l, delta}` keeping its meaning (the paper's rods): "
         "its com and J entries are NaN, and every call computes their rod values from that call's m "

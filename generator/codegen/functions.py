@@ -7,7 +7,8 @@ subexpressions are shared over all its outputs (`cse.py`: M and the bias share t
 ones with `syntax=C_SYNTAX` (the same graph and the same CSE, only the spelling differs).
 Outputs that hold generalised forces (`Output.damped`: the bias, ∂D/∂θ̇) take their Rayleigh
 damping as the joint torques r_i = δ_i ω_i (`bodies.joint_rates`), each computed once, rather
-than from the expanded δ θ̇ terms: +r_i on the body a joint turns, −r_{i+1} from the next one.
+than from the expanded δ θ̇ terms: +r_i on the body a joint turns, −r_{i+1} from the next one;
+the Rayleigh function itself (`Output.rayleigh`) as ½ Σ δ_i ω_i ω_i, each ω_i computed once.
 """
 
 from __future__ import annotations
@@ -83,6 +84,7 @@ class Output:
     # A vector of generalised forces whose entry k includes the damping force ∂D/∂θ̇_k (the bias,
     # ∂D/∂θ̇): that part is written with the joint torques r_i = δ_i ω_i (see the module docstring).
     damped: bool = False
+    rayleigh: bool = False  # a scalar holding the Rayleigh function D: written as ½ Σ δ_i ω_i²
 
 
 @dataclass
@@ -132,20 +134,30 @@ def _targets(outputs: Sequence[Output], syntax: Syntax) -> list[tuple[str, Poly,
                 p = out.value[r][c]
                 damped = r if out.damped and cols == 1 and not out.scalar else None
                 if out.scalar:
-                    targets.append((out.name, p, None))
+                    targets.append((out.name, p, RAYLEIGH if out.rayleigh else None))
                 elif p and not ((out.symmetric and r > c) or (out.lower_only and r < c)):
                     targets.append((syntax.element(out.name, r, c, rows, cols), p, damped))
     return targets
 
 
-# A joint torque r_i = δ_i ω_i: its graph node with sign, its polynomial, and {coordinate: ±1}
-# (∂ω_i/∂θ̇_k, the sign it enters the force on coordinate k with).
-_Torque = tuple[Signed, Poly, dict[int, int]]
+RAYLEIGH = -1  # in place of a coordinate: the target is the Rayleigh function D itself
+
+
+@dataclass(frozen=True)
+class _Torque:
+    """A joint torque r_i = δ_i ω_i of the Rayleigh damping (`bodies.joint_rates`) in a graph."""
+
+    node: Signed  # r_i
+    coefficient: Signed  # δ_i (folded where the algebra fixes it)
+    rate: Signed  # ω_i
+    poly: Poly  # r_i as a polynomial
+    square: Poly  # δ_i ω_i², its part of 2 D
+    acts: dict[int, int]  # {coordinate k: ∂ω_i/∂θ̇_k = ±1}: r_i enters the force on k with that sign
 
 
 def _joint_torques(eqs: Equations, graph: Graph, leaves: _Leaves) -> list[_Torque]:
-    """The joint torques of the Rayleigh damping (`bodies.joint_rates`) as graph nodes δ_i·ω_i,
-    δ_i folded where the algebra fixes it; dampers fixed at δ_i = 0 are left out."""
+    """The joint torques δ_i·ω_i as graph nodes, δ_i folded where the algebra fixes it; dampers
+    fixed at δ_i = 0 are left out."""
     algebra = eqs.algebra
     # The rates' leaves from the last coordinate down, so that a sum's normal form (its first
     # node positive) is ω_i = θ̇_i − θ̇_{i−1}: r_i then enters coordinate i's force with a plus
@@ -162,8 +174,35 @@ def _joint_torques(eqs: Equations, graph: Graph, leaves: _Leaves) -> list[_Torqu
         omega = algebra.total(s * algebra.gens[algebra.qd(k)] for k, s in rate.items())
         unit = graph.kind[c_node] == CONST and graph.data[c_node] == 1  # δ_i folded to 1
         node = r_node if unit else graph.mul((c_node, r_node))
-        torques.append(((c_sign * r_sign, node), coefficient * omega, rate))
+        torques.append(
+            _Torque(
+                (c_sign * r_sign, node),
+                (c_sign, c_node),
+                (r_sign, r_node),
+                coefficient * omega,
+                coefficient * omega * omega,
+                rate,
+            )
+        )
     return torques
+
+
+def _with_terms(
+    eqs: Equations, graph: Graph, leaves: _Leaves, p: Poly, rest: Poly, extra: dict[int, int]
+) -> Signed:
+    """p as the graph of `rest` plus the signed nodes `extra` (whose sum is p − rest); p whole if
+    the rest already has one of those nodes."""
+    n_parameters = eqs.algebra.n_parameters
+    sign, node = graph.polynomial(rest, leaves, n_parameters)
+    if node < 0:
+        terms: dict[int, int] = {}
+    elif graph.kind[node] == ADD:
+        terms = {t: sign * s for t, s in graph.data[node].items()}
+    else:
+        terms = {node: sign}
+    if terms.keys() & extra.keys():
+        return graph.polynomial(p, leaves, n_parameters)
+    return graph.add({**terms, **extra})
 
 
 def _damped_root(
@@ -172,21 +211,30 @@ def _damped_root(
     """p, the generalised force on coordinate k including its damping force Σ_i r_i ∂ω_i/∂θ̇_k,
     as the graph of (p − that force) plus the joint torques' nodes: exact, since the force is
     subtracted and added back as the same polynomial."""
-    algebra = eqs.algebra
-    acting = [(node, poly, rate[k]) for node, poly, rate in torques if k in rate]
-    force = algebra.total(s * poly for _, poly, s in acting)
-    sign, node = graph.polynomial(p - force, leaves, algebra.n_parameters)
-    if node < 0:
-        terms: dict[int, int] = {}
-    elif graph.kind[node] == ADD:
-        terms = {t: sign * s for t, s in graph.data[node].items()}
-    else:
-        terms = {node: sign}
-    for (r_sign, r_node), _, s in acting:
-        if r_node in terms:  # the rest already has this product: keep p whole
-            return graph.polynomial(p, leaves, algebra.n_parameters)
-        terms[r_node] = r_sign * s
-    return graph.add(terms)
+    acting = [t for t in torques if k in t.acts]
+    force = eqs.algebra.total(t.acts[k] * t.poly for t in acting)
+    extra: dict[int, int] = {}
+    for t in acting:
+        if t.node[1] in extra:
+            return graph.polynomial(p, leaves, eqs.algebra.n_parameters)
+        extra[t.node[1]] = t.node[0] * t.acts[k]
+    return _with_terms(eqs, graph, leaves, p, p - force, extra)
+
+
+def _rayleigh_root(eqs: Equations, graph: Graph, leaves: _Leaves, p: Poly, torques: list[_Torque]) -> Signed:
+    """p, the Rayleigh function D = ½ Σ_i δ_i ω_i², as ½ (Σ_i δ_i ω_i ω_i) with each joint rate
+    computed once, plus the graph of whatever else p holds (p − D: nothing)."""
+    if not torques:
+        return graph.polynomial(p, leaves, eqs.algebra.n_parameters)
+    squares: dict[int, int] = {}
+    for t in torques:
+        (c_sign, c_node), (_, r_node) = t.coefficient, t.rate
+        unit = graph.kind[c_node] == CONST and graph.data[c_node] == 1
+        squares[graph.mul((r_node, r_node) if unit else (c_node, r_node, r_node))] = c_sign
+    sign, total = graph.add(squares)
+    half = graph.mul((graph.const(1, 2), total))
+    rayleigh = eqs.algebra.total(t.square for t in torques) / 2
+    return _with_terms(eqs, graph, leaves, p, p - rayleigh, {half: sign})
 
 
 def _mirror_lines(outputs: Sequence[Output], syntax: Syntax) -> list[str]:
@@ -279,6 +327,8 @@ def build_body(
     roots = [
         graph.polynomial(p, leaves, algebra.n_parameters)
         if k is None
+        else _rayleigh_root(eqs, graph, leaves, p, torques)
+        if k == RAYLEIGH
         else _damped_root(eqs, graph, leaves, p, k, torques)
         for _, p, k in targets
     ]

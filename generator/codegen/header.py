@@ -42,6 +42,7 @@ class _Read:
     symmetric: bool = False
     lower_only: bool = False
     damped: bool = False  # generalised forces including the damping (`functions.Output.damped`)
+    rayleigh: bool = False  # the Rayleigh function D (`functions.Output.rayleigh`)
 
 
 _ARGS_Q_P = ("q", "p")
@@ -60,7 +61,7 @@ _FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
     ),
     "kinetic_energy": ((_Read("T", "kinetic_energy", scalar=True),), _ARGS_Q_QD_P),
     "potential_energy": ((_Read("V", "potential_energy", scalar=True),), _ARGS_Q_P),
-    "dissipation": ((_Read("D", "dissipation", scalar=True),), ("qd", "p")),
+    "dissipation": ((_Read("D", "dissipation", scalar=True, rayleigh=True),), ("qd", "p")),
 }
 # Functions whose outputs use θ̈, and the C++ vector holding it once solved for.
 _LATE = {"forward_dynamics_derivatives": "d.qdd"}
@@ -151,6 +152,7 @@ def function_bodies(
                 symmetric=r.symmetric,
                 lower_only=r.lower_only,
                 damped=r.damped,
+                rayleigh=r.rayleigh,
             )
             for r in reads
         ]
