@@ -227,7 +227,7 @@ def markdown(rows: list[dict], rounds: int) -> str:
         "folded alike, rotary no more).",
         "",
         "This checkout writes the Rayleigh damping with the joint torques r_i = δ_i ω_i, each "
-        "computed once (docs/model.md, \"Rayleigh dissipation function\"), which the rods' "
+        'computed once (docs/model.md, "Rayleigh dissipation function"), which the rods\' '
         "generator (the commit above) predates: one or two operations fewer per joint in every "
         "column of this checkout (folded included), not only in the links as built.",
         "",
