@@ -14,7 +14,11 @@ The public API (stable; everything else is internal):
 - `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
-  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]).
+  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]);
+- `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
+  fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
+  data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
+  PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -41,6 +45,7 @@ __all__ = [
     "__version__",
     "cmake_dir",
     "derive",
+    "identify",
     "linearize",
     "lqr",
     "write_header",
@@ -119,6 +124,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.actuator import Actuator
 
         return Actuator
+    if attribute == "identify":
+        from ipgen.command.identify import identify
+
+        return identify
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 
