@@ -88,13 +88,20 @@ def write_header(
     outputs: str | Iterable[str] | None = None,
     emit: str | Iterable[str] | None = None,
     force: bool = False,
+    angles: str | None = None,
+    zero: str | None = None,
+    positive: str | None = None,
 ) -> list[Path]:
     """Write the files of `ipgen --type TYPE --links N -o OUTPUT [...]` (or `--scene SCENE`) and
     return their paths: `OUTPUT/<name>.hpp` by default, every file of `emit`, and `<stem>.cfg`
     last for a scene. The keyword arguments are the command's options: `fix` as text
     ("m0=0.3,delta2=0") or a mapping ({"m0": "0.3"}; a float is taken by its shortest repr),
-    `outputs` and `emit` as text or a list of names. All files are written or none; bad input
-    raises an `Error` with the message the command prints.
+    `outputs` and `emit` as text or a list of names. `angles` ("absolute" | "relative"), `zero`
+    ("upright" | "hanging") and `positive` ("clockwise" | "counterclockwise") make every function
+    of the headers take and return the rig's coordinates (the canonical ones stay: namespace
+    `canonical` in C++, the `_canonical` suffix in C; docs/model.md); a scene says them in its
+    [system]. All files are written or none; bad input raises an `Error` with the message the
+    command prints.
     """
     from ipgen.command.job import plan, run
 
@@ -109,6 +116,9 @@ def write_header(
         outputs=outputs,
         emit=emit,
         force=force,
+        angles=angles,
+        zero=zero,
+        positive=positive,
     )
     return [written.path for written in run(job)]
 

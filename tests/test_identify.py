@@ -268,7 +268,10 @@ def test_command_writes_scene_report_and_png(tmp_path: Path, capsys) -> None:
     t = np.arange(0.0, 4.0, 1 / 250)
     data = measure(truth, t, volts, np.array([0.0, math.pi + 0.1, 0, 0]), 0.002, np.random.default_rng(4))
     csv = tmp_path / "rig.csv"
-    write_csv(csv, t, data.theta, data.u)
+    frame = load_scene(QUBE).coordinates  # the rig measures in its own convention (Quanser's α)
+    state = np.hstack([data.theta, np.zeros_like(data.theta)])
+    measured = np.array([frame.to_user(x, setup.system.links) for x in state])[:, : setup.system.dof]
+    write_csv(csv, t, measured, data.u)
     out = tmp_path / "out"
     before = QUBE.read_bytes()
     assert (

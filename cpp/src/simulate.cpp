@@ -436,15 +436,17 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
 /// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
 template <class M>
 void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result,
-                      double volts = 0.0) {
+                      double volts = 0.0, const ipsim::Coordinates& coordinates = {}) {
   // volts = b > 0 (actuator = dc_motor): K, the saturation and u are stated in volts, c holds them times b.
+  // K and x_eq are stated in the scene's coordinates (c holds ipgen's).
   const double per = volts > 0.0 ? volts : 1.0;
-  const Eigen::VectorXd gain = c.gain / per;
+  const Eigen::VectorXd gain = coordinates.gain_to_user(c.gain) / per;
+  const Eigen::VectorXd equilibrium = coordinates.to_user(c.equilibrium);
   const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
                                             : std::string("continuous");
   std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
               ipsim::detail::format_values(gain.data(), gain.size()).c_str(),
-              ipsim::detail::format_values(c.equilibrium.data(), c.equilibrium.size()).c_str());
+              ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
   if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation / per);
   if constexpr (ipsim::has_linearize<M>) {
     const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c);
@@ -467,7 +469,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                    const ipsim::CsvSink<Model>& csv) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
-  const Eigen::VectorXd& final_state = csv.last_state();
+  const Eigen::VectorXd final_state = scene.coordinates.to_user(csv.last_state());
   std::printf(
       "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
@@ -476,6 +478,10 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
+  if (!scene.coordinates.canonical()) {
+    std::printf(" Coordinates: the rig's (%s): the CSV's angles and rates, the states and the controller here are in them.",
+                scene.coordinates.describe().c_str());
+  }
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
   if ((s.coulomb.array() != 0.0).any()) {
     std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
@@ -485,7 +491,8 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
                 scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");
   }
-  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0);
+  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
+                                                  scene.coordinates);
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
     std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g; ",
@@ -502,12 +509,12 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
 /// The one-line report of a closed loop stopped because it left the controller's region: when,
 /// which link, where the CSV is, and what to change in the scene.
 std::string divergence_message(const ipsim::Divergence& d, double angle, const ipsim::LinearFeedback& controller,
-                               const Options& options, std::size_t rows) {
+                               const Options& options, std::size_t rows, const ipsim::Coordinates& coordinates) {
   char where[200];
   std::snprintf(where, sizeof where,
                 "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the controller's equilibrium "
                 "(theta%d = %.4g), beyond --divergence-angle %.4g rad",
-                d.t, d.link, d.deviation, d.link, controller.equilibrium(d.link), angle);
+                d.t, d.link, d.deviation, d.link, coordinates.to_user(controller.equilibrium)(d.link), angle);
   std::string fixes = "a smaller initial tilt ([initial] theta), other weights ([controller] q, r)";
   if (controller.period > 0.0) fixes += ", a shorter [controller] period";
   if (std::isfinite(controller.saturation)) fixes += ", a larger [controller] saturation";
@@ -545,6 +552,7 @@ int run(int argc, char** argv) {
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
                              scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
+  rows.set_coordinates(scene.coordinates);  // the state columns in the scene's coordinates
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;
@@ -574,7 +582,9 @@ int run(int argc, char** argv) {
   if (monitor && monitor->divergence()) {
     std::fflush(stdout);
     std::fprintf(stderr, "simulate: error: %s\n",
-                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows()).c_str());
+                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows(),
+                                    scene.coordinates)
+                     .c_str());
     return kExitDiverged;
   }
   if (swing_monitor && swing_monitor->divergence()) {

@@ -156,6 +156,31 @@ void check_scene_reader() {
   CHECK(ipsim::validate<Model>(negative.params).at(0) == "invalid parameter m[1] = -1: masses must be > 0");
 }
 
+void check_coordinates() {
+  // relative, hanging, counter-clockwise, two links: by hand, q1 = -(theta1 - pi), q2 = -(theta2 - theta1).
+  ipsim::Coordinates rig;
+  rig.relative = rig.hanging = rig.counterclockwise = true;
+  Eigen::VectorXd x(6);
+  x << 0.1, 3.0, 2.5, 0.2, -0.5, 0.7;
+  Eigen::VectorXd expected(6);
+  expected << 0.1, 3.141592653589793 - 3.0, 0.5, 0.2, 0.5, -1.2;
+  const Eigen::VectorXd user = rig.to_user(x);
+  CHECK((user - expected).cwiseAbs().maxCoeff() < 1e-15);
+  CHECK((rig.to_canonical(user) - x).cwiseAbs().maxCoeff() < 1e-15);
+  Eigen::VectorXd k_user(6);
+  k_user << 1.0, 2.0, 3.0, 4.0, 5.0, 6.0;  // u = -K_user (x_user - x_eq,user) = -(K_user P)(x - x_eq)
+  const Eigen::VectorXd k = rig.gain_to_canonical(k_user);
+  CHECK(std::abs(k_user.dot(rig.to_user(x) - rig.to_user(Eigen::VectorXd::Zero(6))) - k.dot(x)) < 1e-12);
+  CHECK((rig.gain_to_user(k) - k_user).cwiseAbs().maxCoeff() < 1e-14);
+  CHECK(ipsim::Coordinates{}.canonical() && !rig.canonical());
+  // A scene in the rig's coordinates: the initial state is mapped into ipgen's.
+  const auto scene = load_text(std::string(kScene) + "zero = hanging\npositive = counterclockwise\n");
+  CHECK(scene.coordinates.hanging && scene.coordinates.counterclockwise && !scene.coordinates.relative);
+  CHECK(std::abs(scene.settings.theta(1) - (3.141592653589793 - 0.1)) < 1e-15 && scene.settings.theta(0) == 0.0);
+  CHECK_THROWS(load_text(std::string(kScene) + "angles = joint\n"), SceneError,
+               "angles must be `absolute` or `relative`, got `joint`");
+}
+
 void check_scene_method_keys() {
   // jacobian defaults to exact; step is read when present; both are optional.
   CHECK(load_text(kScene).settings.jacobian == ipsim::Jacobian::exact);
@@ -301,6 +326,7 @@ int main() {
   check_schedule();
   check_scene_reader();
   check_scene_method_keys();
+  check_coordinates();
   check_model_without_derivatives();
   std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
   return ipsim_test::failures();

@@ -22,6 +22,7 @@ from ipgen.codegen.functions import (
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 from ipgen.model.system import System, split_parameter
@@ -80,6 +81,9 @@ class HeaderRequest:
     parameters: tuple[tuple[str, float], ...] = ()
     initial: tuple[float, ...] = ()
     swingup: SwingUpLaw | None = None  # a scene's swing-up (control.swingup), for the C header
+    # The rig's coordinates the headers' functions take and return (default: ipgen's own; the
+    # canonical functions stay in them, docs/model.md "The rig's coordinates").
+    coordinates: Coordinates = field(default_factory=Coordinates)
 
 
 def templates_dir() -> Path:
@@ -179,6 +183,22 @@ def header_context(eqs: Equations, request: HeaderRequest, template: str) -> dic
         "input_used": not spec.zero_input,
         "specialisation": [comment_safe(note) for note in spec.notes()],
         "origin": comment_safe(spec.origin),
+        "frame": frame_context(request.coordinates),
+    }
+
+
+def frame_context(coordinates: Coordinates) -> dict[str, object] | None:
+    """The rig's coordinates for the templates, or None for ipgen's own (the header is then as
+    it always was)."""
+    if coordinates.is_canonical:
+        return None
+    return {
+        "angles": coordinates.angles,
+        "zero": coordinates.zero,
+        "positive": coordinates.positive,
+        "relative": coordinates.angles == "relative",
+        "hanging": coordinates.zero == "hanging",
+        "counterclockwise": coordinates.positive == "counterclockwise",
     }
 
 

@@ -17,7 +17,10 @@ from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ipgen.command.generate import Written
+    from ipgen.control.coordinates import Coordinates
 
 __all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
 
@@ -132,6 +135,25 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
     + f"  [default: {','.join(DEFAULT_EMIT)}; with --scene: the scene's [system] emit]",
 )
 @click.option(
+    "--angles",
+    default=None,
+    metavar="absolute|relative",
+    help="The rig's coordinates (docs/model.md): the headers' functions take link angles measured "
+    "from the vertical (absolute, ipgen's) or link i from link i - 1 (relative).",
+)
+@click.option(
+    "--zero",
+    default=None,
+    metavar="upright|hanging",
+    help="The rig's coordinates: where the link angles are 0 (upright, ipgen's; or hanging).",
+)
+@click.option(
+    "--positive",
+    default=None,
+    metavar="clockwise|counterclockwise",
+    help="The rig's coordinates: the link angles' positive sense (clockwise, ipgen's).",
+)
+@click.option(
     "--force",
     is_flag=True,
     help="Overwrite files in DIR even if ipgen did not write them; "
@@ -164,6 +186,9 @@ def cli(
     fix: str | None,
     outputs: str | None,
     emit: str | None,
+    angles: str | None,
+    zero: str | None,
+    positive: str | None,
     force: bool,
     cmake_dir: bool,
 ) -> None:
@@ -206,6 +231,9 @@ def cli(
         outputs=outputs,
         emit=emit,
         force=force,
+        angles=angles,
+        zero=zero,
+        positive=positive,
     )
     written = _generate(planned)
     scene_ = planned.scene
@@ -334,6 +362,33 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
     return outcome.status
 
 
+def _coordinate_options(command: Callable[..., None]) -> Callable[..., None]:
+    """--angles, --zero, --positive of `ipgen plot` and `ipgen animate`: the CSV's convention."""
+    options = (
+        ("--angles", "absolute|relative"),
+        ("--zero", "upright|hanging"),
+        ("--positive", "clockwise|counterclockwise"),
+    )
+    for option, values in reversed(options):
+        command = click.option(
+            option,
+            default=None,
+            metavar=values,
+            help="The convention of the CSV's link angles (docs/model.md) [default: the .cfg next to "
+            "the CSV says, else ipgen's].",
+        )(command)
+    return command
+
+
+def _csv_coordinates(csv: Path, angles: str | None, zero: str | None, positive: str | None) -> Coordinates:
+    """The options' convention when any is given (the others ipgen's), else the .cfg's beside the CSV."""
+    from ipgen.plots.run import coordinates_beside
+
+    if any(value is not None for value in (angles, zero, positive)):
+        return job.check_coordinates(angles, zero, positive)
+    return coordinates_beside(csv)
+
+
 @cli.command("plot", context_settings=CONTEXT)
 @click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
 @click.option(
@@ -352,15 +407,22 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
     default=None,
     help="Label θ0 as a cart position or an arm angle [default: from the .cfg next to the CSV].",
 )
+@_coordinate_options
 @click.option("--force", is_flag=True, help="Replace a PNG that ipgen did not write.")
-def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bool) -> None:
+def plot_command(
+    csv: Path, png: Path | None, system_type: str | None, angles: str | None, zero: str | None,
+    positive: str | None, force: bool,
+) -> None:  # fmt: skip
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
     from ipgen.plots.run import plot_run, read_run, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
-    plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
+    plot_run(
+        run, target, csv.name, system_type or system_type_beside(csv), force=force,
+        coordinates=_csv_coordinates(csv, angles, zero, positive),
+    )  # fmt: skip
     click.echo(f"wrote {target}")
 
 
@@ -435,10 +497,12 @@ def identify_command(
     help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
 )  # fmt: skip
 @click.option("--fps", type=float, default=15.0, show_default=True, help="Frames per second of the run.")
+@_coordinate_options
 @click.option("--force", is_flag=True, help="Replace an existing GIF.")
 def animate_command(
-    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float, force: bool
-) -> None:
+    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float,
+    angles: str | None, zero: str | None, positive: str | None, force: bool,
+) -> None:  # fmt: skip
     """Animate a CSV a simulator wrote (ipgen run, simulate_<model>), drawn to scale from above and
     from the side: an animated GIF (needs pillow: the extra swingup)."""
     from ipgen.plots.run import scene_beside
@@ -468,7 +532,8 @@ def animate_command(
             "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
-    written = animate_run(csv, target, kind, l_values, fps=fps, force=force)
+    frame = _csv_coordinates(csv, angles, zero, positive)
+    written = animate_run(csv, target, kind, l_values, fps=fps, force=force, coordinates=frame)
     click.echo(f"wrote {written}")
 
 

@@ -15,7 +15,7 @@ import difflib
 import functools
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
@@ -26,6 +26,7 @@ from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
 from ipgen.model.links import rod_value
@@ -117,6 +118,9 @@ class Scene:
     coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
     coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
     swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
+    # [system] angles, zero, positive: the rig's convention, in which `theta`, `dtheta`, the
+    # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
+    coordinates: Coordinates = field(default_factory=Coordinates)
 
     @property
     def system(self) -> System:
@@ -175,6 +179,7 @@ def resolved_config(scene: Scene) -> str:
         f"type = {scene.type}",
         f"links = {scene.links}",
         f"inertia = {scene.inertia}",
+        *_coordinate_lines(scene.coordinates),
         *_parameter_lines(scene),
         f"theta = {_format_list(scene.theta)}",
         f"dtheta = {_format_list(scene.dtheta)}",
@@ -200,6 +205,19 @@ def resolved_config(scene: Scene) -> str:
     lines += _controller_lines(scene.controller)
     lines += _swingup_lines(scene.swingup)
     return "\n".join(lines) + "\n"
+
+
+def _coordinate_lines(coordinates: Coordinates) -> list[str]:
+    """The rig's convention, when it is not ipgen's (nothing otherwise: the file is as before)."""
+    if coordinates.is_canonical:
+        return []
+    return [
+        "# the rig's coordinates (docs/model.md): theta, dtheta, controller.* and the CSV's columns are in",
+        "# them; the simulator integrates in ipgen's and maps at the edges (swingup.* are ipgen's)",
+        f"angles = {coordinates.angles}",
+        f"zero = {coordinates.zero}",
+        f"positive = {coordinates.positive}",
+    ]
 
 
 def _parameter_lines(scene: Scene) -> list[str]:
@@ -452,6 +470,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
     actuator = tables["actuator"].actuator()
+    coordinates = system.coordinates()
     if actuator.is_motor and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
         reader.fail(
             "[actuator] dc_motor with specialise = true or an FMU in emit is not supported yet: "
@@ -462,7 +481,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
         try:
-            controller = control.controller(tables["controller"], system, params, actuator)
+            controller = control.controller(tables["controller"], system, params, actuator, coordinates)
         except control.GainError as error:
             reader.fail(str(error))
     theta = zeros if initial.theta is None else _floats(initial.theta)
@@ -471,6 +490,11 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     if tables["swingup"] is not None:
         if actuator.is_motor:
             reader.fail("[swingup] with [actuator] dc_motor is not supported yet: remove one of them")
+        if not coordinates.is_canonical:
+            reader.fail(
+                "[swingup] in the rig's coordinates is not supported yet: remove [system] angles, zero "
+                "and positive (the swing-up then uses ipgen's, docs/model.md)"
+            )
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
         params = _Parameters(
@@ -509,6 +533,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
         coulomb_speed=parameters.coulomb_speed.value,
         swingup=law,
+        coordinates=coordinates,
     )
 
 

@@ -30,6 +30,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
+from ipgen.control import coordinates as frame
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
@@ -161,9 +162,40 @@ class SystemTable(Table):
             description="what ipgen writes for the model", json_schema_extra={"default": list(DEFAULT_EMIT)}
         ),
     ] = DEFAULT_EMIT
+    # The rig's own coordinates (docs/scenes.md, "The rig's coordinates"): how [initial],
+    # [controller], the CSV, the plots and the scene's headers measure the link angles.
+    angles: Annotated[
+        str,
+        Choice(options=frame.ANGLES),
+        Field(
+            description="link angles: absolute (each from the vertical) or relative (link i from link "
+            "i - 1), in [initial], [controller], the CSV, the plots and the headers"
+        ),
+    ] = frame.Coordinates.angles
+    zero: Annotated[
+        str,
+        Choice(options=frame.ZEROS),
+        Field(
+            description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
+            "the others are 0 in line with the link below)"
+        ),
+    ] = frame.Coordinates.zero
+    positive: Annotated[
+        str,
+        Choice(options=frame.POSITIVE),
+        Field(
+            description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or "
+            "counterclockwise"
+        ),
+    ] = frame.Coordinates.positive
+
+    def coordinates(self) -> frame.Coordinates:
+        """The convention of the link angles this table declares."""
+        return frame.Coordinates(self.angles, self.zero, self.positive)
 
     def context(self) -> dict[str, Any]:
         return {
+            "coordinates": self.coordinates(),
             "type": self.type,
             "links": self.links,
             "count": self.links + 1,

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "ipsim/controller.hpp"
+#include "ipsim/coordinates.hpp"
 #include "ipsim/csv.hpp"
 #include "ipsim/divergence.hpp"
 #include "ipsim/errors.hpp"

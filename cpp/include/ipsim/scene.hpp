@@ -6,6 +6,9 @@
 //   inertia = pivot            (rotary: must match the model; ignored for classical)
 //   m = 0.3 0.275 0.275        l = 0 0.5 0.5       delta = 0.3 0.1 0.1  g = 9.81
 //   theta = 0 0 0              dtheta = 0 0 0
+//   angles = absolute | relative   zero = upright | hanging   positive = clockwise | counterclockwise
+//                              (optional, default the first: the rig's coordinates, ipsim/coordinates.hpp; theta,
+//                              dtheta and controller.* are in them, swingup.* in ipgen's)
 //   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
 //   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
 //   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
@@ -44,6 +47,7 @@
 #include <vector>
 
 #include "ipsim/controller.hpp"
+#include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -194,6 +198,10 @@ struct Scene {
   /// phase it is in (shared with the input).
   std::optional<SwingUp> swingup;
   std::shared_ptr<SwingUp::State> swingup_state;
+  /// `angles`, `zero`, `positive`: the rig's coordinates. The file's theta, dtheta and controller
+  /// are in them and mapped here: settings and controller are in ipgen's coordinates (what
+  /// simulate() integrates); the CSV and the summary map back (CsvSink::set_coordinates).
+  Coordinates coordinates;
 };
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
@@ -273,7 +281,7 @@ Scene<Model> load(const SceneFile& file) {
       "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
       "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
       "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
-      "swingup.inputs", "swingup.states", "swingup.gains"};
+      "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -323,6 +331,19 @@ Scene<Model> load(const SceneFile& file) {
     scene.energy = energy == "true";
     scene.settings.energy_ledger = scene.energy;
   }
+  // The rig's coordinates (optional; default ipgen's).
+  auto convention = [&](const char* key, const char* usual, const char* other) {
+    if (!file.has(key)) return false;
+    const std::string& value = file.text(key);
+    if (value != usual && value != other) {
+      file.fail(file.line(key), std::string(key) + " must be `" + usual + "` or `" + other + "`, got `" +
+                                    detail::abbreviate(value) + "`");
+    }
+    return value == other;
+  };
+  scene.coordinates.relative = convention("angles", "absolute", "relative");
+  scene.coordinates.hanging = convention("zero", "upright", "hanging");
+  scene.coordinates.counterclockwise = convention("positive", "clockwise", "counterclockwise");
   const auto m = list("m");
   const auto l = list("l");
   const auto delta = list("delta");
@@ -335,6 +356,13 @@ Scene<Model> load(const SceneFile& file) {
     scene.params.delta[k] = delta[k];
     scene.settings.theta(i) = theta[k];
     scene.settings.dtheta(i) = dtheta[k];
+  }
+  if (!scene.coordinates.canonical()) {  // the rig's initial state -> ipgen's
+    Eigen::VectorXd start(2 * Model::kDof);
+    start << scene.settings.theta, scene.settings.dtheta;
+    const Eigen::VectorXd x = scene.coordinates.to_canonical(start);
+    scene.settings.theta = x.head(Model::kDof);
+    scene.settings.dtheta = x.tail(Model::kDof);
   }
   scene.params.g = file.number("g");
   // The links as built (optional; absent: the homogeneous rods, the Params defaults).
@@ -422,8 +450,9 @@ Scene<Model> load(const SceneFile& file) {
       return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())).eval();
     };
     LinearFeedback controller;
-    controller.gain = state_list("controller.gain");
-    controller.equilibrium = state_list("controller.equilibrium");
+    // In the rig's coordinates in the file: u = −K_user (x_user − x_eq,user) = −(K_user P) (x − x_eq).
+    controller.gain = scene.coordinates.gain_to_canonical(state_list("controller.gain"));
+    controller.equilibrium = scene.coordinates.to_canonical(state_list("controller.equilibrium"));
     if (file.has("controller.saturation")) controller.saturation = file.number("controller.saturation");
     if (file.has("controller.period")) controller.period = file.number("controller.period");
     const auto problems = controller.problems(2 * Model::kDof);
