@@ -151,7 +151,9 @@ def excitation(
     sample = sample if sample is not None else min(rig.sample, _nice(1.0 / (20.0 * f_hi)))
     _positive("sample", sample, "s")
     if t_end / sample > 1e7:
-        raise ExcitationError(f"{t_end:g} s sampled every {sample:g} s is more than 1e7 samples: raise sample")
+        raise ExcitationError(
+            f"{t_end:g} s sampled every {sample:g} s is more than 1e7 samples: raise sample"
+        )
     design = _predict(rig, a, b, signal, f_lo, f_hi, period, t_end, sweep, travel, u_max, margin, swing)
     design = replace(
         design,
@@ -180,7 +182,11 @@ def _check_limits(rig: object, u_max: float, travel: float | None, margin: float
 
 
 def _positive(name: str, value: object, unit: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value > 0):
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not (math.isfinite(value) and value > 0)
+    ):
         raise ExcitationError(f"{name} = {abbreviate(repr(value))}: expected a finite number > 0 {unit}")
 
 
@@ -227,14 +233,16 @@ def _natural_frequencies(a: object, links: int) -> tuple[float, ...]:
 def _band(
     f_min: float | None, f_max: float | None, natural: tuple[float, ...], signal: str, sweep: str
 ) -> tuple[float, float]:
-    if natural:
-        default = (_nice(natural[0] / 5.0), float(f"{5.0 * natural[-1]:.2g}"))
-    else:
-        default = (0.1, 10.0)
+    default = (_nice(natural[0] / 5.0), float(f"{5.0 * natural[-1]:.2g}")) if natural else (0.1, 10.0)
     lo = default[0] if f_min is None else f_min
     hi = default[1] if f_max is None else f_max
     for name, value in (("f_min", lo), ("f_max", hi)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+            or value < 0
+        ):
             raise ExcitationError(f"{name} = {abbreviate(repr(value))}: expected a finite frequency >= 0 Hz")
     if not hi > lo:
         raise ExcitationError(f"f_max = {hi:g} Hz must be > f_min = {lo:g} Hz")
@@ -289,7 +297,10 @@ def _predict(
     gain = np.abs(predict.frequency_response(a_, b_, band)[:, 0])
     try:
         scaled = predict.scale_to_limits(
-            base, links_swing, rig.theta[0], predict.Limits(u_max, travel, swing, margin)  # type: ignore[attr-defined]
+            base,
+            links_swing,
+            rig.theta[0],
+            predict.Limits(u_max, travel, swing, margin),  # type: ignore[attr-defined]
         )
     except ValueError as exc:
         raise ExcitationError(str(exc)) from None
@@ -352,6 +363,11 @@ def _format(x: float) -> str:
     return format_number(float(x))
 
 
+def _line(text: str, comment: str) -> str:
+    """`text`, then `# comment` from column 31 (as the preset scenes align them)."""
+    return f"{text:<29} # {comment}"
+
+
 def scene_text(rig: object, design: Design) -> str:
     """The experiment scene: a generated header, the rig's own tables, then the new ones."""
     links = rig.links  # type: ignore[attr-defined]
@@ -359,43 +375,44 @@ def scene_text(rig: object, design: Design) -> str:
     theta = ", ".join(["0", *(["3.141592653589793"] * links)])
     zeros = ", ".join(["0"] * (links + 1))
     unit, base_unit = design._units
+    peak = f"peak |u| [{unit}], limited by {design.limited_by}"
     if design.signal == "multisine":
         table = [
-            "[input]                       # the excitation (docs/excitation.md)",
+            _line("[input]", "the excitation (docs/excitation.md)"),
             'kind = "multisine"',
-            f"amplitude = {_format(design.amplitude)}{' ' * 8}# peak |u| [{unit}], limited by {design.limited_by}",
-            f"f_min = {_format(design.f_min)}              # Hz",
-            f"f_max = {_format(design.f_max)}              # Hz",
-            f"period = {_format(design.period or 0.0)}             # s: {design.lines} lines, Schroeder phases",
+            _line(f"amplitude = {_format(design.amplitude)}", peak),
+            _line(f"f_min = {_format(design.f_min)}", "Hz"),
+            _line(f"f_max = {_format(design.f_max)}", "Hz"),
+            _line(f"period = {_format(design.period or 0.0)}", f"s: {design.lines} lines, Schroeder phases"),
         ]
     else:
         table = [
-            "[input]                       # the excitation (docs/excitation.md)",
+            _line("[input]", "the excitation (docs/excitation.md)"),
             'kind = "chirp"',
-            f"amplitude = {_format(design.amplitude)}{' ' * 8}# peak |u| [{unit}], limited by {design.limited_by}",
-            f"f0 = {_format(design.f_min)}                 # Hz",
-            f"f1 = {_format(design.f_max)}                 # Hz",
-            f"duration = {_format(design.duration)}           # s",
+            _line(f"amplitude = {_format(design.amplitude)}", peak),
+            _line(f"f0 = {_format(design.f_min)}", "Hz"),
+            _line(f"f1 = {_format(design.f_max)}", "Hz"),
+            _line(f"duration = {_format(design.duration)}", "s"),
             f'sweep = "{design.sweep}"',
         ]
     header = [
         f"# Generated by ipgen excite from {source}: an identification experiment about hanging.",
         f"# Predicted (linear model): base within ±{design.base:.3g} {base_unit} of its start, links within "
         f"±{design.swing:.3g} rad of hanging;",
-        f"# limits: |u| <= {design.u_max:g} {unit}, travel {design.travel:g} {base_unit}, margin {design.margin:g}, "
-        f"swing {design.swing_limit:g} rad.",
+        f"# limits: |u| <= {design.u_max:g} {unit}, travel {design.travel:g} {base_unit}, "
+        f"margin {design.margin:g}, swing {design.swing_limit:g} rad.",
         "",
     ]
     tail = [
         "",
-        "[initial]                     # hanging at rest",
+        _line("[initial]", "hanging at rest"),
         f"theta = [{theta}]",
         f"dtheta = [{zeros}]",
         "",
         *table,
         "",
-        "[limits]                      # the simulator stops a run beyond it (exit status 4)",
-        f"travel = {_format(design.travel)}{' ' * 10}# {base_unit}: |θ0| limit",
+        _line("[limits]", "the simulator stops a run beyond it (exit status 4)"),
+        _line(f"travel = {_format(design.travel)}", f"{base_unit}: the limit on |θ0|"),
         "",
         "[simulation]",
         f"t_end = {_format(design.duration)}",
@@ -425,3 +442,84 @@ def _write(rig: object, output: Path, design: Design, force: bool) -> Path:
     except OutputError as exc:
         raise ExcitationError(str(exc)) from None
     return output
+
+
+# ---------------------------------------------------------------------------- the command
+
+EXCITE_HELP = """Design the identification experiment for a rig: an excitation about the hanging
+equilibrium that keeps the rig within its limits, written as a new scene to run with ipgen run
+(or on the rig).
+
+\b
+The amplitude is the largest whose motion, predicted by the linear model about hanging over the
+whole run, keeps the base within (1 - margin) of --travel and the links within (1 - margin) of
+--swing, and at most --u-max. The experiment scene carries [limits] travel: the simulator stops
+a run whose base leaves it (exit status 4). Without -o the design is only reported.
+
+\b
+Examples:
+  ipgen excite scenes/rigs/qube_servo2.toml --u-max 10 --travel 1 -o qube_identify.toml
+  ipgen excite rig.toml --u-max 5 --travel 0.4 --signal chirp --f-min 0.2 --f-max 5 --duration 60
+"""
+
+
+def _command() -> object:
+    import click
+
+    @click.command("excite", help=EXCITE_HELP, context_settings={"help_option_names": ["-h", "--help"]})
+    @click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+    @click.option(
+        "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
+        help="The experiment scene to write (a new file; an existing one only with --force).",
+    )  # fmt: skip
+    @click.option(
+        "--u-max", type=float, required=True, help="Largest |u| allowed [N, N m, or V with a dc_motor]."
+    )
+    @click.option(
+        "--travel", type=float, default=None,
+        help="The base's limit |θ0| [m on a cart, rad on an arm] [default: the scene's [limits] travel].",
+    )  # fmt: skip
+    @click.option("--signal", type=click.Choice(SIGNALS), default="multisine", show_default=True)
+    @click.option("--f-min", type=float, default=None, help="Band's low end [Hz] [default: from the model].")
+    @click.option("--f-max", type=float, default=None, help="Band's high end [Hz] [default: from the model].")
+    @click.option(
+        "--period", type=float, default=None, help="Multisine period [s] [default: max(10, 2/f_min)]."
+    )
+    @click.option(
+        "--periods", type=int, default=DEFAULT_PERIODS, show_default=True, help="Multisine periods run."
+    )
+    @click.option(
+        "--duration",
+        type=float,
+        default=None,
+        help=f"Chirp length [s] [default: {DEFAULT_CHIRP_DURATION:g}].",
+    )
+    @click.option(
+        "--sweep", type=click.Choice(("linear", "logarithmic")), default="logarithmic", show_default=True
+    )
+    @click.option(
+        "--margin",
+        type=float,
+        default=DEFAULT_MARGIN,
+        show_default=True,
+        help="Fraction of each limit kept free.",
+    )
+    @click.option(
+        "--swing", type=float, default=DEFAULT_SWING, show_default=True, help="Links' largest swing [rad]."
+    )
+    @click.option(
+        "--sample", type=float, default=None, help="Output interval [s] [default: 1/(20 f_max), rounded]."
+    )
+    @click.option("--force", is_flag=True, help="Replace an existing experiment scene.")
+    def excite_command(scene: Path, output: Path | None, **options: object) -> None:
+        design = excitation(scene, output, **options)  # type: ignore[arg-type]
+        if design.written is not None:
+            click.echo(f"wrote {design.written}")
+        else:
+            click.echo("(no -o: nothing written)")
+        click.echo(design.report())
+
+    return excite_command
+
+
+command = _command()

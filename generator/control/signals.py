@@ -64,7 +64,9 @@ def harmonics(f_min: float, f_max: float, period: float) -> tuple[int, int]:
 def schroeder_phases(count: int) -> np.ndarray:
     """Schroeder's phases φ_j = −π j (j − 1) / N for N = count equal lines, j = 1..N [rad],
     each reduced to [−π, π] (the same cosines; smaller arguments keep the sums accurate)."""
-    return np.array([math.remainder(-math.pi * j * (j - 1) / count, 2.0 * math.pi) for j in range(1, count + 1)])
+    return np.array(
+        [math.remainder(-math.pi * j * (j - 1) / count, 2.0 * math.pi) for j in range(1, count + 1)]
+    )
 
 
 def multisine(f_min: float, f_max: float, period: float) -> Multisine:
@@ -81,9 +83,7 @@ def multisine(f_min: float, f_max: float, period: float) -> Multisine:
     if count > MAX_LINES:
         raise ValueError(f"{count} lines, more than {MAX_LINES}: narrow the band or shorten the period")
     if k_hi > MAX_HARMONIC:
-        raise ValueError(
-            f"f_max · period = {k_hi} harmonics, more than {MAX_HARMONIC}: shorten the period"
-        )
+        raise ValueError(f"f_max · period = {k_hi} harmonics, more than {MAX_HARMONIC}: shorten the period")
     ks = np.arange(k_lo, k_hi + 1)
     phases = schroeder_phases(count)
     peak = _peak(ks, phases, period)
@@ -94,7 +94,7 @@ def multisine(f_min: float, f_max: float, period: float) -> Multisine:
 def _peak(ks: np.ndarray, phases: np.ndarray, period: float) -> float:
     """max over one period of |Σ cos(2π k t / T + φ)|: an FFT grid, then Newton on the
     derivative from every grid point that can be near the maximum."""
-    size = 1 << max(12, int(math.ceil(math.log2(32 * int(ks[-1]) + 2))))
+    size = 1 << max(12, math.ceil(math.log2(32 * int(ks[-1]) + 2)))
     spectrum = np.zeros(size // 2 + 1, dtype=complex)
     spectrum[ks] = np.exp(1j * phases) * (size / 2.0)  # irfft: Σ cos(2π k n / size + φ)
     grid = np.fft.irfft(spectrum, size)

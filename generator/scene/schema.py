@@ -421,7 +421,9 @@ class SineInput(InputTable):
 _PEAK = Annotated[
     Exact,
     Number("a number > 0: N on a cart, N m on an arm", (Gt(0, "must be > 0 {u_unit} (the peak |u|)"),)),
-    Field(description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"),
+    Field(
+        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
+    ),
 ]
 _FREQUENCY = Number("a frequency in Hz, >= 0", (Ge(0, "must be >= 0 Hz"),))
 
@@ -454,9 +456,15 @@ class ChirpInput(InputTable):
     @model_validator(mode="after")
     def _relations(self) -> ChirpInput:
         if not self.f1.value > self.f0.value:
-            refuse(f"must be > f0 = {self.f0.text} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1)
+            refuse(
+                f"must be > f0 = {self.f0.text} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1
+            )
         if self.sweep == "logarithmic" and not self.f0.value > 0:
-            refuse('a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"', key="f0", value=self.f0)
+            refuse(
+                'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"',
+                key="f0",
+                value=self.f0,
+            )
         return self
 
 
