@@ -14,7 +14,11 @@ The public API (stable; everything else is internal):
 - `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
-  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]).
+  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]);
+- `excitation(scene, output=None, *, u_max, travel=None, signal="multisine", ...) -> Design`: an
+  identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
+  that the linear model's predicted base travel stays within the limits), written as a new scene
+  (what `ipgen excite` does; docs/excitation.md).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -41,6 +45,7 @@ __all__ = [
     "__version__",
     "cmake_dir",
     "derive",
+    "excitation",
     "linearize",
     "lqr",
     "write_header",
@@ -110,7 +115,8 @@ def write_header(
 
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
-    imports numpy and scipy), so that `import ipgen` and the ipgen command start fast."""
+    imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
+    ipgen command start fast."""
     if attribute == "Equations":
         from ipgen.model.derivation import Equations
 
@@ -119,6 +125,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.actuator import Actuator
 
         return Actuator
+    if attribute == "excitation":
+        from ipgen.command.excite import excitation
+
+        return excitation
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 
