@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from independent_model import reference
 from scipy.integrate import solve_ivp
@@ -451,3 +451,62 @@ def test_excite_refuses_bad_limits_in_one_line(tmp_path: Path) -> None:
             done.stderr,
         )
     assert not list(tmp_path.iterdir())
+
+
+BAD_VALUES = {
+    "u_max": [math.nan, math.inf, 0.0, -1.0],
+    "travel": [math.nan, math.inf, 0.0, -0.1],
+    "margin": [1.0, -0.1, math.nan],
+    "f_min": [0.0, -1.0, math.nan],
+    "span": [0.0, -1.0],
+}
+
+
+@st.composite
+def designs(draw: st.DrawFn) -> dict[str, object]:
+    """Arguments of `excitation`: valid, or with one value broken."""
+    args: dict[str, object] = {
+        "u_max": draw(st.floats(0.01, 20)),
+        "travel": draw(st.floats(0.05, 2)),
+        "margin": draw(st.floats(0, 0.9)),
+        "f_min": draw(st.floats(0.05, 3)),
+        "span": draw(st.floats(0.5, 12)),
+        "signal": draw(st.sampled_from(["multisine", "chirp"])),
+    }
+    if draw(st.integers(0, 3)) == 0:  # one time in four, one value broken
+        broken = draw(st.sampled_from(sorted(BAD_VALUES)))
+        args[broken] = draw(st.sampled_from(BAD_VALUES[broken]))
+    return args
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(args=designs())
+def test_any_design_respects_its_limits_or_is_refused_in_one_line(args: dict[str, object]) -> None:
+    """`ipgen.excitation` either returns an amplitude <= u_max whose predicted excursions are
+    within (1 − margin) of the travel and the swing limit, or raises one line naming the bad
+    value (never a traceback of numpy or scipy)."""
+    u_max, travel, margin, f_min, span, signal = (
+        args[key] for key in ("u_max", "travel", "margin", "f_min", "span", "signal")
+    )
+    f_max = f_min + span  # type: ignore[operator]
+    try:
+        design = excitation(
+            RIGS / "qube_servo2.toml",
+            u_max=u_max,
+            travel=travel,
+            margin=margin,
+            f_min=f_min,
+            f_max=f_max,
+            signal=signal,
+            duration=10.0,
+            period=5.0,
+            periods=1,
+        )
+    except ExcitationError as error:
+        assert "\n" not in str(error) and len(str(error)) < 300, str(error)
+        event(f"refused: {str(error)[:70]}")
+        return
+    event(f"designed, limited by {design.limited_by}")
+    assert 0 < design.amplitude <= u_max
+    assert design.base <= (1 - margin) * travel * (1 + 1e-9)
+    assert design.swing <= (1 - margin) * design.swing_limit * (1 + 1e-9)
