@@ -419,7 +419,7 @@ def animate_command(
 def _register() -> None:
     from ipgen.command.excite import command as excite_command
 
-    cli.add_command(excite_command)  # type: ignore[arg-type]
+    cli.add_command(excite_command)
 
 
 _register()

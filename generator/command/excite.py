@@ -24,9 +24,17 @@ import re
 import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
 
 from ipgen.common.safetext import abbreviate, quote_path, shown_path
 from ipgen.errors import Error
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ipgen.scene.reader import Scene
 
 SIGNALS: tuple[str, ...] = ("multisine", "chirp")
 DEFAULT_MARGIN = 0.3
@@ -167,8 +175,8 @@ def excitation(
     return design
 
 
-def _check_limits(rig: object, u_max: float, travel: float | None, margin: float, swing: float) -> float:
-    travel = travel if travel is not None else rig.travel  # type: ignore[attr-defined]
+def _check_limits(rig: Scene, u_max: float, travel: float | None, margin: float, swing: float) -> float:
+    travel = travel if travel is not None else rig.travel
     if travel is None:
         raise ExcitationError(
             "no travel limit: pass --travel (m on a cart, rad on an arm) or give the scene [limits] travel"
@@ -199,29 +207,29 @@ def _nice(x: float) -> float:
     return float(f"{10.0**exponent:.3g}")
 
 
-def _hanging_model(rig: object) -> tuple[object, object]:
+def _hanging_model(rig: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of the rig about hanging at rest (canonical coordinates; B per unit of u)."""
     from ipgen.control.linear import ControlError, linearize
 
-    links = rig.links  # type: ignore[attr-defined]
+    links = rig.links
     try:
         return linearize(
-            rig.type,  # type: ignore[attr-defined]
+            rig.type,
             links,
-            rig.m,  # type: ignore[attr-defined]
-            rig.l,  # type: ignore[attr-defined]
-            rig.delta,  # type: ignore[attr-defined]
-            rig.g,  # type: ignore[attr-defined]
-            rig.inertia,  # type: ignore[attr-defined]
+            rig.m,
+            rig.l,
+            rig.delta,
+            rig.g,
+            rig.inertia,
             q=[0.0] + [math.pi] * links,
-            **rig.link_values(),  # type: ignore[attr-defined]
-            actuator=rig.actuator,  # type: ignore[attr-defined]
+            **rig.link_values(),
+            actuator=rig.actuator,
         )
     except ControlError as exc:
         raise ExcitationError(f"no linear model about hanging: {exc}") from None
 
 
-def _natural_frequencies(a: object, links: int) -> tuple[float, ...]:
+def _natural_frequencies(a: np.ndarray, links: int) -> tuple[float, ...]:
     """The oscillatory modes' frequencies |λ| / 2π [Hz] of the hanging model, ascending."""
     import numpy as np
 
@@ -254,9 +262,9 @@ def _band(
 
 
 def _predict(
-    rig: object,
-    a: object,
-    b: object,
+    rig: Scene,
+    a: np.ndarray,
+    b: np.ndarray,
     signal: str,
     f_lo: float,
     f_hi: float,
@@ -274,7 +282,7 @@ def _predict(
     from ipgen.control import signals
 
     a_, b_ = np.asarray(a), np.asarray(b)
-    dof = rig.links + 1  # type: ignore[attr-defined]
+    dof = rig.links + 1
     t = predict.grid(t_end, f_hi)
     lines = None
     if signal == "multisine":
@@ -300,7 +308,7 @@ def _predict(
             base,
             links_swing,
             rig.theta[0],
-            predict.Limits(u_max, travel, swing, margin),  # type: ignore[attr-defined]
+            predict.Limits(u_max, travel, swing, margin),
         )
     except ValueError as exc:
         raise ExcitationError(str(exc)) from None
@@ -330,11 +338,11 @@ def _predict(
 # ---------------------------------------------------------------------------- the scene
 
 
-def _kept_text(rig: object) -> str:
+def _kept_text(rig: Scene) -> str:
     """The rig scene's text without the tables the experiment writes anew."""
     import tomllib
 
-    text = rig.path.read_text(encoding="utf-8")  # type: ignore[attr-defined]
+    text = rig.path.read_text(encoding="utf-8")
     document = tomllib.loads(text)
     kept: list[str] = []
     dropping = False
@@ -368,10 +376,10 @@ def _line(text: str, comment: str) -> str:
     return f"{text:<29} # {comment}"
 
 
-def scene_text(rig: object, design: Design) -> str:
+def scene_text(rig: Scene, design: Design) -> str:
     """The experiment scene: a generated header, the rig's own tables, then the new ones."""
-    links = rig.links  # type: ignore[attr-defined]
-    source = quote_path(rig.path.as_posix())  # type: ignore[attr-defined]
+    links = rig.links
+    source = quote_path(rig.path.as_posix())
     theta = ", ".join(["0", *(["3.141592653589793"] * links)])
     zeros = ", ".join(["0"] * (links + 1))
     unit, base_unit = design._units
@@ -421,11 +429,11 @@ def scene_text(rig: object, design: Design) -> str:
     return "\n".join(header) + _kept_text(rig) + "\n".join(tail) + "\n"
 
 
-def _write(rig: object, output: Path, design: Design, force: bool) -> Path:
+def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
     from ipgen.command.output import OutputError, write_file
     from ipgen.scene.reader import load_scene
 
-    source = rig.path  # type: ignore[attr-defined]
+    source = rig.path
     if output.suffix != ".toml":
         raise ExcitationError(f"-o {shown_path(output)}: name a .toml scene file")
     if output.exists() and source.exists() and output.samefile(source):
@@ -463,63 +471,57 @@ Examples:
 """
 
 
-def _command() -> object:
-    import click
-
-    @click.command("excite", help=EXCITE_HELP, context_settings={"help_option_names": ["-h", "--help"]})
-    @click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
-    @click.option(
-        "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
-        help="The experiment scene to write (a new file; an existing one only with --force).",
-    )  # fmt: skip
-    @click.option(
-        "--u-max", type=float, required=True, help="Largest |u| allowed [N, N m, or V with a dc_motor]."
-    )
-    @click.option(
-        "--travel", type=float, default=None,
-        help="The base's limit |θ0| [m on a cart, rad on an arm] [default: the scene's [limits] travel].",
-    )  # fmt: skip
-    @click.option("--signal", type=click.Choice(SIGNALS), default="multisine", show_default=True)
-    @click.option("--f-min", type=float, default=None, help="Band's low end [Hz] [default: from the model].")
-    @click.option("--f-max", type=float, default=None, help="Band's high end [Hz] [default: from the model].")
-    @click.option(
-        "--period", type=float, default=None, help="Multisine period [s] [default: max(10, 2/f_min)]."
-    )
-    @click.option(
-        "--periods", type=int, default=DEFAULT_PERIODS, show_default=True, help="Multisine periods run."
-    )
-    @click.option(
-        "--duration",
-        type=float,
-        default=None,
-        help=f"Chirp length [s] [default: {DEFAULT_CHIRP_DURATION:g}].",
-    )
-    @click.option(
-        "--sweep", type=click.Choice(("linear", "logarithmic")), default="logarithmic", show_default=True
-    )
-    @click.option(
-        "--margin",
-        type=float,
-        default=DEFAULT_MARGIN,
-        show_default=True,
-        help="Fraction of each limit kept free.",
-    )
-    @click.option(
-        "--swing", type=float, default=DEFAULT_SWING, show_default=True, help="Links' largest swing [rad]."
-    )
-    @click.option(
-        "--sample", type=float, default=None, help="Output interval [s] [default: 1/(20 f_max), rounded]."
-    )
-    @click.option("--force", is_flag=True, help="Replace an existing experiment scene.")
-    def excite_command(scene: Path, output: Path | None, **options: object) -> None:
-        design = excitation(scene, output, **options)  # type: ignore[arg-type]
-        if design.written is not None:
-            click.echo(f"wrote {design.written}")
-        else:
-            click.echo("(no -o: nothing written)")
-        click.echo(design.report())
-
-    return excite_command
-
-
-command = _command()
+@click.command(
+    "excite",
+    help=EXCITE_HELP,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
+@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.option(
+    "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
+    help="The experiment scene to write (a new file; an existing one only with --force).",
+)  # fmt: skip
+@click.option(
+    "--u-max", type=float, required=True, help="Largest |u| allowed [N, N m, or V with a dc_motor]."
+)
+@click.option(
+    "--travel", type=float, default=None,
+    help="The base's limit |θ0| [m on a cart, rad on an arm] [default: the scene's [limits] travel].",
+)  # fmt: skip
+@click.option("--signal", type=click.Choice(SIGNALS), default="multisine", show_default=True)
+@click.option("--f-min", type=float, default=None, help="Band's low end [Hz] [default: from the model].")
+@click.option("--f-max", type=float, default=None, help="Band's high end [Hz] [default: from the model].")
+@click.option("--period", type=float, default=None, help="Multisine period [s] [default: max(10, 2/f_min)].")
+@click.option(
+    "--periods", type=int, default=DEFAULT_PERIODS, show_default=True, help="Multisine periods run."
+)
+@click.option(
+    "--duration",
+    type=float,
+    default=None,
+    help=f"Chirp length [s] [default: {DEFAULT_CHIRP_DURATION:g}].",
+)
+@click.option(
+    "--sweep", type=click.Choice(("linear", "logarithmic")), default="logarithmic", show_default=True
+)
+@click.option(
+    "--margin",
+    type=float,
+    default=DEFAULT_MARGIN,
+    show_default=True,
+    help="Fraction of each limit kept free.",
+)
+@click.option(
+    "--swing", type=float, default=DEFAULT_SWING, show_default=True, help="Links' largest swing [rad]."
+)
+@click.option(
+    "--sample", type=float, default=None, help="Output interval [s] [default: 1/(20 f_max), rounded]."
+)
+@click.option("--force", is_flag=True, help="Replace an existing experiment scene.")
+def command(scene: Path, output: Path | None, **options: object) -> None:
+    design = excitation(scene, output, **options)  # type: ignore[arg-type]
+    if design.written is not None:
+        click.echo(f"wrote {design.written}")
+    else:
+        click.echo("(no -o: nothing written)")
+    click.echo(design.report())
