@@ -321,16 +321,22 @@ def kane_trajectory(spec: InputSpec, t_end: float, samples: np.ndarray) -> np.nd
 def test_the_simulator_applies_the_same_input_as_python(
     tmp_path: Path, cache: dict[str, str], table: str
 ) -> None:
-    """`ipgen run` of a scene with the input against Kane's equations integrated by scipy with
-    u = InputSpec.value(t): the trajectories agree to 1e-7 over 2 s (a sign, a phase or a scale
-    the C++ side got wrong moves the arm by far more). One compile for the three."""
+    """`ipgen run` of a scene with the input: its CSV's u column is InputSpec.value(t) at every
+    sample (to rounding), and its trajectory is that of Kane's equations integrated by scipy with
+    u = InputSpec.value(t), to 1e-7 over 2 s (a sign, a phase or a scale the C++ side got wrong
+    moves the arm by far more). One compile for the three."""
     require_toolchain()
     path = write_scene(tmp_path, table, t_end=2.0)
     done = ipgen("run", str(path), "-o", str(tmp_path / "out"), env=cache)
     assert done.returncode == 0, done.stderr
-    _, data = read_csv(tmp_path / "out" / "s.csv")
-    expected = kane_trajectory(load_scene(path).input, 2.0, data[:, 0])
-    assert np.max(np.abs(data[:, 1:] - expected)) < 1e-7, np.max(np.abs(data[:, 1:] - expected))
+    header, data = read_csv(tmp_path / "out" / "s.csv")
+    assert header[-1] == "u"  # an excitation's recording carries its input
+    spec = load_scene(path).input
+    python_u = np.array([spec.value(t) for t in data[:, 0]])
+    assert np.max(np.abs(data[:, -1] - python_u)) <= 1e-12 * 0.2, np.max(np.abs(data[:, -1] - python_u))
+    expected = kane_trajectory(spec, 2.0, data[:, 0])
+    states = data[:, 1:5]
+    assert np.max(np.abs(states - expected)) < 1e-7, np.max(np.abs(states - expected))
     assert np.max(np.abs(data[:, 1])) > 1e-3  # the input did move the arm
 
 
@@ -393,8 +399,9 @@ def test_the_rig_experiments_are_what_excite_allows_and_stay_within_their_limits
     assert scene.t_end == design.duration
     done = ipgen("run", str(RIGS / f"{experiment}.toml"), "-o", str(tmp_path), env=cache)
     assert done.returncode == 0, done.stderr
-    _header, data = read_csv(tmp_path / f"{experiment}.csv")
-    assert data[-1, 0] == pytest.approx(scene.t_end)
+    header, data = read_csv(tmp_path / f"{experiment}.csv")
+    assert data[-1, 0] == pytest.approx(scene.t_end) and header[-1] == "u"
+    assert np.max(np.abs(data[:, -1])) <= scene.input.amplitude * (1 + 1e-12)  # volts, as in the scene
     base = np.max(np.abs(data[:, 1]))
     swing = np.max(np.abs(data[:, 2] - math.pi))
     assert base <= (1 - design.margin) * travel * 1.03, (base, design.base)

@@ -11,7 +11,8 @@
 //   the header `t,theta0,...,dtheta0,...`), or with --force; never the scene file itself. The CSV
 //   is written to a temporary file next to it and renamed into place. --check validates the scene
 //   and options and exits without integrating or writing.
-// A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
+// A scene with a controller adds a column u (the input applied from each sample on) to the CSV (so
+// does an input = chirp or multisine, without the rest) and
 // states the gain, the closed-loop poles of the linearised model and the largest |u|; a closed
 // loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
 // from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
@@ -112,8 +113,8 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   dtheta0..dthetaN     their rates [m/s or rad/s]
   kinetic,potential    T and V [J] (--energy or energy = true)
   input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
-  u                    scenes with a controller: the input [N or N m; V with actuator = dc_motor]
-                       applied from t on
+  u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
+                       input [N or N m; V with actuator = dc_motor] applied from t on
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -549,8 +550,12 @@ int run(int argc, char** argv) {
   if (options.check) return 0;
   install_cleanup_handlers();
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
+  // The u column: closed loops, and the excitation signals (a recording of an identification
+  // experiment carries its input).
+  const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
-                             scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
+                             scene.controller.has_value() || scene.swingup.has_value() || excitation,
+                             shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {

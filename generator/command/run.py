@@ -117,7 +117,8 @@ def run_scene(
         if done.returncode != 0:
             title += f"; the run ended with status {done.returncode}"
         try:
-            plot_run(read_run(paths["csv"]), paths["png"], title, scene.type, force=True)
+            unit = "V" if scene.actuator.is_motor else None  # u in volts with a dc_motor
+            plot_run(read_run(paths["csv"]), paths["png"], title, scene.type, force=True, input_unit=unit)
             files.append(paths["png"])
         except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary
             unplotted = f"No plot: {exc}."
