@@ -434,6 +434,7 @@ def test_excite_writes_a_new_valid_scene_and_refuses_to_overwrite(tmp_path: Path
 
 def test_excite_refuses_bad_limits_in_one_line(tmp_path: Path) -> None:
     rig = str(RIGS / "qube_servo2.toml")
+    (tmp_path / "folder.toml").mkdir()
     cases = [
         (["--u-max", "10"], "no travel limit"),
         (["--u-max", "-1", "--travel", "1"], "u_max"),
@@ -446,6 +447,26 @@ def test_excite_refuses_bad_limits_in_one_line(tmp_path: Path) -> None:
             "lines",
         ),
         (["--u-max", "10", "--travel", "1", "-o", str(tmp_path / "x.txt")], ".toml"),
+        (
+            [
+                "--u-max",
+                "10",
+                "--travel",
+                "1",
+                "--f-min",
+                "1",
+                "--f-max",
+                "700",
+                "--period",
+                "1",
+                "--periods",
+                "100",
+                "--sample",
+                "0.001",
+            ],
+            "prediction points",
+        ),
+        (["--u-max", "10", "--travel", "1", "-o", str(tmp_path / "folder.toml")], "directory"),
     ]
     for args, words in cases:
         done = subprocess.run(
@@ -457,7 +478,7 @@ def test_excite_refuses_bad_limits_in_one_line(tmp_path: Path) -> None:
             args,
             done.stderr,
         )
-    assert not list(tmp_path.iterdir())
+    assert [p.name for p in tmp_path.iterdir()] == ["folder.toml"]  # nothing written
 
 
 BAD_VALUES = {

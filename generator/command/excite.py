@@ -138,6 +138,8 @@ def excitation(
     from ipgen.scene.reader import load_scene
 
     rig = load_scene(scene)
+    if output is not None:
+        _check_output(rig, Path(output), force)  # before any work
     travel = _check_limits(rig, u_max, travel, margin, swing)
     if signal not in SIGNALS:
         raise ExcitationError(f"signal {abbreviate(str(signal))!r}: expected one of {', '.join(SIGNALS)}")
@@ -283,7 +285,6 @@ def _predict(
 
     a_, b_ = np.asarray(a), np.asarray(b)
     dof = rig.links + 1
-    t = predict.grid(t_end, f_hi)
     lines = None
     if signal == "multisine":
         assert period is not None
@@ -291,6 +292,11 @@ def _predict(
             lines = signals.multisine(f_lo, f_hi, period)
         except ValueError as exc:
             raise ExcitationError(f"multisine: {exc}") from None
+    try:
+        t = predict.grid(t_end, f_hi)
+    except ValueError as exc:
+        raise ExcitationError(str(exc)) from None
+    if lines is not None:
         u = signals.multisine_values(t, 1.0, lines)
     else:
         u = signals.chirp_values(t, 1.0, f_lo, f_hi, t_end, 0.0, sweep)
@@ -429,17 +435,24 @@ def scene_text(rig: Scene, design: Design) -> str:
     return "\n".join(header) + _kept_text(rig) + "\n".join(tail) + "\n"
 
 
+def _check_output(rig: Scene, output: Path, force: bool) -> None:
+    """An ExcitationError unless `output` is a .toml path that may be written: a new file, or an
+    existing one with `force` — never the rig's own scene."""
+    if output.suffix != ".toml":
+        raise ExcitationError(f"-o {shown_path(output)}: name a .toml scene file")
+    if output.exists() and rig.path.exists() and output.samefile(rig.path):
+        raise ExcitationError(f"-o {shown_path(output)} is the rig's scene itself: choose a new file")
+    if output.is_dir():
+        raise ExcitationError(f"-o {shown_path(output)} is a directory: name a .toml scene file")
+    if output.exists() and not force:
+        raise ExcitationError(f"{shown_path(output)} exists: choose another -o or pass --force")
+
+
 def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
     from ipgen.command.output import OutputError, write_file
     from ipgen.scene.reader import load_scene
 
-    source = rig.path
-    if output.suffix != ".toml":
-        raise ExcitationError(f"-o {shown_path(output)}: name a .toml scene file")
-    if output.exists() and source.exists() and output.samefile(source):
-        raise ExcitationError(f"-o {shown_path(output)} is the rig's scene itself: choose a new file")
-    if output.exists() and not force:
-        raise ExcitationError(f"{shown_path(output)} exists: choose another -o or pass --force")
+    _check_output(rig, output, force)
     text = scene_text(rig, design)
     with tempfile.TemporaryDirectory(prefix="ipgen-excite.") as folder:
         trial = Path(folder) / output.name

@@ -20,8 +20,7 @@ import numpy as np
 from ipgen.control.signals import Multisine
 
 # Grid points per period of the highest frequency for the time-domain prediction, and the most
-# points (a grid that would be finer is coarsened to this many: 2 million points of a 6-state
-# model take about a second).
+# points allowed (2 million points of a 6-state model take a few seconds).
 POINTS_PER_PERIOD = 40
 MAX_POINTS = 2_000_000
 
@@ -62,8 +61,14 @@ def steady_peaks(a: np.ndarray, b: np.ndarray, lines: Multisine) -> np.ndarray:
 
 
 def grid(t_end: float, f_max: float) -> np.ndarray:
-    """The time grid of the prediction: POINTS_PER_PERIOD per period of f_max, at most MAX_POINTS."""
-    count = int(min(MAX_POINTS, max(2001, math.ceil(t_end * f_max * POINTS_PER_PERIOD) + 1)))
+    """The time grid of the prediction: POINTS_PER_PERIOD per period of f_max (at least 2001
+    points); ValueError when that is more than MAX_POINTS (the prediction would take minutes)."""
+    count = max(2001, math.ceil(t_end * f_max * POINTS_PER_PERIOD) + 1)
+    if count > MAX_POINTS:
+        raise ValueError(
+            f"{t_end:g} s up to {f_max:g} Hz needs {count} prediction points, more than {MAX_POINTS}: "
+            "shorten the run or lower f_max"
+        )
     return np.linspace(0.0, t_end, count)
 
 
