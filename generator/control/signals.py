@@ -104,7 +104,8 @@ def _peak(ks: np.ndarray, phases: np.ndarray, period: float) -> float:
     # sit next to the true peak.
     slack = 0.5 * float(np.sum(omega**2)) * h * h
     best = float(np.max(np.abs(grid)))
-    candidates = np.flatnonzero(np.abs(grid) >= best - slack)[:256]
+    near = np.flatnonzero(np.abs(grid) >= best - slack)
+    candidates = near[np.argsort(-np.abs(grid[near]))[:256]]  # the highest first
     peak = best
     for index in candidates:
         t = index * h
