@@ -179,6 +179,7 @@ def test_bad_excitation_keys_get_one_line_naming_the_key() -> None:
         'kind = "multisine"\namplitude = 1\nf_min = 1\nf_max = 0.5\nperiod = 10': "input.f_max",
         'kind = "multisine"\namplitude = 1\nf_min = 0.1\nf_max = 500\nperiod = 100': "input.period",
         'kind = "multisine"\namplitude = 1\nf_min = 0.31\nf_max = 0.39\nperiod = 1': "input.period",
+        'kind = "multisine"\namplitude = 1\nf_min = 0\nf_max = 2\nperiod = 1e308': "input.period",
         'kind = "multisine"\namplitude = nan\nf_min = 0.1\nf_max = 1\nperiod = 10': "input.amplitude",
         'kind = "multisine"\namplitude = 1\nf_min = 0.1\nf_max = inf\nperiod = 10': "input.f_max",
         'kind = "multisine"\namplitude = 1\nf_min = 0.1\nf_max = 1\nperiod = 10\nfrequency = 3': (

@@ -55,9 +55,13 @@ class Multisine:
 
 
 def harmonics(f_min: float, f_max: float, period: float) -> tuple[int, int]:
-    """(k_lo, k_hi): the harmonics k / period in [f_min, f_max] (k >= 1); empty when k_lo > k_hi."""
-    k_lo = max(1, math.ceil(f_min * period - 1e-9))
-    k_hi = math.floor(f_max * period + 1e-9)
+    """(k_lo, k_hi): the harmonics k / period in [f_min, f_max] (k >= 1); empty when k_lo > k_hi.
+    Beyond MAX_HARMONIC (or an infinite product) k_hi is MAX_HARMONIC + 1, which callers refuse."""
+    top, bottom = f_max * period, f_min * period
+    if not top <= MAX_HARMONIC + 1:  # beyond the limit, inf or nan
+        return 1, MAX_HARMONIC + 1
+    k_lo = max(1, math.ceil(bottom - 1e-9))
+    k_hi = math.floor(top + 1e-9)
     return k_lo, k_hi
 
 
@@ -74,6 +78,10 @@ def multisine(f_min: float, f_max: float, period: float) -> Multisine:
     scaled to a peak of exactly 1. Raises ValueError when the band holds no harmonic, or more
     than MAX_LINES, or reaches beyond MAX_HARMONIC."""
     k_lo, k_hi = harmonics(f_min, f_max, period)
+    if k_hi > MAX_HARMONIC:
+        raise ValueError(
+            f"f_max · period = {f_max * period:g}, more than {MAX_HARMONIC} harmonics: shorten the period"
+        )
     count = k_hi - k_lo + 1
     if count < 1:
         raise ValueError(
@@ -82,8 +90,6 @@ def multisine(f_min: float, f_max: float, period: float) -> Multisine:
         )
     if count > MAX_LINES:
         raise ValueError(f"{count} lines, more than {MAX_LINES}: narrow the band or shorten the period")
-    if k_hi > MAX_HARMONIC:
-        raise ValueError(f"f_max · period = {k_hi} harmonics, more than {MAX_HARMONIC}: shorten the period")
     ks = np.arange(k_lo, k_hi + 1)
     phases = schroeder_phases(count)
     peak = _peak(ks, phases, period)

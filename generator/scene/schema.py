@@ -492,7 +492,8 @@ class MultisineInput(InputTable):
         k_lo, k_hi = signals.harmonics(self.f_min.value, self.f_max.value, self.period.value)
         if k_hi > signals.MAX_HARMONIC:
             refuse(
-                f"f_max · period is {k_hi} harmonics, more than {signals.MAX_HARMONIC}: shorten the period",
+                f"f_max · period = {self.f_max.value * self.period.value:g}, more than "
+                f"{signals.MAX_HARMONIC} harmonics: shorten the period",
                 key="period",
                 value=self.period,
             )
