@@ -19,6 +19,10 @@ The public API (stable; everything else is internal):
   identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
   that the linear model's predicted base travel stays within the limits), written as a new scene
   (what `ipgen excite` does; docs/excitation.md).
+- `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
+  fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
+  data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
+  PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -46,6 +50,7 @@ __all__ = [
     "cmake_dir",
     "derive",
     "excitation",
+    "identify",
     "linearize",
     "lqr",
     "write_header",
@@ -129,6 +134,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.command.excite import excitation
 
         return excitation
+    if attribute == "identify":
+        from ipgen.command.identify import identify
+
+        return identify
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

@@ -41,11 +41,13 @@ class _Read:
     scalar: bool = False
     symmetric: bool = False
     lower_only: bool = False
+    damped: bool = False  # generalised forces including the damping (`functions.Output.damped`)
+    rayleigh: bool = False  # the Rayleigh function D (`functions.Output.rayleigh`)
 
 
 _ARGS_Q_P = ("q", "p")
 _ARGS_Q_QD_P = ("q", "qd", "p")
-_M_LOWER, _B = _Read("M", "mass_matrix", lower_only=True), _Read("b", "bias")
+_M_LOWER, _B = _Read("M", "mass_matrix", lower_only=True), _Read("b", "bias", damped=True)
 # Each function's outputs, and the arguments of its C++ signature that the body may use.
 _FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
     "mass_matrix": ((_Read("M", "mass_matrix", symmetric=True),), _ARGS_Q_P),
@@ -59,7 +61,7 @@ _FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
     ),
     "kinetic_energy": ((_Read("T", "kinetic_energy", scalar=True),), _ARGS_Q_QD_P),
     "potential_energy": ((_Read("V", "potential_energy", scalar=True),), _ARGS_Q_P),
-    "dissipation": ((_Read("D", "dissipation", scalar=True),), ("qd", "p")),
+    "dissipation": ((_Read("D", "dissipation", scalar=True, rayleigh=True),), ("qd", "p")),
 }
 # Functions whose outputs use θ̈, and the C++ vector holding it once solved for.
 _LATE = {"forward_dynamics_derivatives": "d.qdd"}
@@ -143,7 +145,15 @@ def function_bodies(
     for name in wanted:
         reads, arguments = _FUNCTIONS[name]
         outputs = [
-            Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
+            Output(
+                r.cpp,
+                eqs.poly[r.key],
+                scalar=r.scalar,
+                symmetric=r.symmetric,
+                lower_only=r.lower_only,
+                damped=r.damped,
+                rayleigh=r.rayleigh,
+            )
             for r in reads
         ]
         if name != "dissipation":  # Rayleigh's D reads the damping only: no links argument
@@ -179,7 +189,30 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context["fn"] = function_bodies(eqs, spec.outputs)
     context["folded"] = folded_entries(eqs.system, spec, CPP_SYNTAX, lambda v: repr(float(v)))
+    context["rod_fills"] = rod_fills(eqs.system, spec)
     return environment().get_template(TEMPLATE).render(context)
+
+
+def rod_fills(system: System, spec: Specialisation) -> list[tuple[str, str]]:
+    """(Params field, its rod value from m and l) of every com and J entry a header reads and
+    falls back on when unset (a cart's J0 is unused; folded entries are not read), for
+    `with_rod_links`."""
+    fixed = {name for name, _ in spec.fixed}
+    names = [f"{group}{i}" for i in range(1, system.dof) for group in ("com", "J")]
+    if system.is_rotary:
+        names.insert(0, "J0")
+    fills = []
+    for name in names:
+        if name in fixed:
+            continue
+        group, index = split_parameter(name)
+        m, length = params_field(f"m{index}"), params_field(f"l{index}")
+        if group == "com":
+            rod = f"{length} / Scalar(2)"
+        else:
+            rod = f"{m} * {length} * {length} / Scalar({3 if index == 0 else 12})"
+        fills.append((params_field(name), rod))
+    return fills
 
 
 def folded_entries(

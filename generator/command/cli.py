@@ -53,6 +53,7 @@ Examples:
   ipgen plot out/my_scene.csv       # out/my_scene.png
   ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
   ipgen excite rig.toml --u-max 10 --travel 1 -o rig_identify.toml  # a safe experiment
+  ipgen identify --scene my_scene.toml --data rig.csv --free m1,delta0 -o out/  # fit parameters
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
@@ -362,6 +363,62 @@ def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bo
     run = read_run(csv)
     plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
     click.echo(f"wrote {target}")
+
+
+IDENTIFY_HELP = """Fit parameters of a scene to measurements from the rig (docs/identify.md).
+
+\b
+DATA is a CSV with a header: t, theta0..thetaN (in the scene's coordinates), optionally
+dtheta0..dthetaN and u (the simulator's CSV as it is; without u the scene's [input] says it).
+--free names the parameters to fit (m1, delta0, com1, J1, kt, Rm, Jm, coulomb0, ...); the
+others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene with the
+estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
+errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
+STEM_identify.png (measured against simulated angles). Record open loop about the hanging
+position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+
+\b
+Example (tools/identify_demo.py simulates such a recording):
+  ipgen identify --scene scenes/rigs/qube_servo2.toml --data rig.csv \\
+      --free J1,delta0,delta1,kt -o out/ident/
+"""
+
+
+@cli.command("identify", help=IDENTIFY_HELP, context_settings=CONTEXT)
+@click.option("--scene", "scene", type=click.Path(path_type=Path), required=True, metavar="S.toml",
+              help="The scene: the rig's model and the prior values.")  # fmt: skip
+@click.option("--data", "data", type=click.Path(path_type=Path), required=True, metavar="D.csv",
+              help="The measurements (CSV).")  # fmt: skip
+@click.option("--free", "free", required=True, metavar="P1,P2,...", help="The parameters to fit.")
+@click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
+              help="Folder for the results.")  # fmt: skip
+@click.option("--equation-error-only", is_flag=True,
+              help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
+@click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
+def identify_command(
+    scene: Path, data: Path, free: str, directory: Path | None, equation_error_only: bool, force: bool
+) -> None:
+    from ipgen.command.identify import identify
+
+    if directory is None:
+        raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
+    try:
+        import casadi  # noqa: F401
+    except ImportError:
+        raise job.OptionsError(
+            "ipgen identify needs CasADi: pip install 'ipgen-pendulum[identify]' (or pip install casadi)"
+        ) from None
+    result = identify(
+        scene,
+        data,
+        free,
+        directory,
+        force=force,
+        output_error=not equation_error_only,
+        progress=lambda line: click.echo(f"ipgen: {line}", err=True),
+    )
+    click.echo(result.report, nl=False)
+    click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
 
 
 @cli.command("animate", context_settings=CONTEXT)
