@@ -15,6 +15,10 @@ The public API (stable; everything else is internal):
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
   `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]);
+- `excitation(scene, output=None, *, u_max, travel=None, signal="multisine", ...) -> Design`: an
+  identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
+  that the linear model's predicted base travel stays within the limits), written as a new scene
+  (what `ipgen excite` does; docs/excitation.md).
 - `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
   fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
   data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
@@ -45,6 +49,7 @@ __all__ = [
     "__version__",
     "cmake_dir",
     "derive",
+    "excitation",
     "identify",
     "linearize",
     "lqr",
@@ -125,7 +130,8 @@ def write_header(
 
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
-    imports numpy and scipy), so that `import ipgen` and the ipgen command start fast."""
+    imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
+    ipgen command start fast."""
     if attribute == "Equations":
         from ipgen.model.derivation import Equations
 
@@ -134,6 +140,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.actuator import Actuator
 
         return Actuator
+    if attribute == "excitation":
+        from ipgen.command.excite import excitation
+
+        return excitation
     if attribute == "identify":
         from ipgen.command.identify import identify
 

@@ -11,7 +11,8 @@
 //   the header `t,theta0,...,dtheta0,...`), or with --force; never the scene file itself. The CSV
 //   is written to a temporary file next to it and renamed into place. --check validates the scene
 //   and options and exits without integrating or writing.
-// A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
+// A scene with a controller adds a column u (the input applied from each sample on) to the CSV (so
+// does an input = chirp or multisine, without the rest) and
 // states the gain, the closed-loop poles of the linearised model and the largest |u|; a closed
 // loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
 // from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
@@ -22,7 +23,8 @@
 // SIGINT, SIGTERM, SIGHUP and SIGXFSZ remove the temporary file, then end the process by the same
 // signal (exit status 128 + signal in a shell).
 // Exit codes: 0 success, 1 integration failure or write error, 2 bad command line, scene,
-// parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged.
+// parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged,
+// 4 the base left the scene's travel (limits.travel: |theta0| beyond it at a sample; ipsim/travel.hpp).
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
 #endif
@@ -75,6 +77,8 @@ struct Options {
 
 /// Exit code of a closed loop stopped because it diverged.
 constexpr int kExitDiverged = 3;
+/// Exit code of a run stopped because the base left the scene's travel (limits.travel).
+constexpr int kExitTravel = 4;
 
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
@@ -109,8 +113,8 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   dtheta0..dthetaN     their rates [m/s or rad/s]
   kinetic,potential    T and V [J] (--energy or energy = true)
   input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
-  u                    scenes with a controller: the input [N or N m; V with actuator = dc_motor]
-                       applied from t on
+  u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
+                       input [N or N m; V with actuator = dc_motor] applied from t on
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -120,7 +124,10 @@ SCENE.cfg: one `key = value` a line (# comments), lists space-separated, per coo
 base first: name, model, type (classical|rotary), links, inertia (pivot|full); m [kg], l [m],
 delta [kg/s or N m s], g [m/s^2]; theta, dtheta (initial state); input = zero|constant|pulse|step|sine
 with input.amplitude [N or N m], input.start, input.duration, input.time [s], input.frequency [Hz],
-input.phase [rad]; t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
+input.phase [rad]; input = chirp with input.f0, input.f1 [Hz], input.sweep = linear|logarithmic
+(and amplitude, start, duration); input = multisine with input.frequencies [Hz], input.phases [rad]
+and input.scale (u = amplitude scale sum cos(2 pi f t + phase), lines computed by ipgen);
+limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
 (true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
@@ -133,7 +140,8 @@ ends swingup.hold s after the hold phase begins, divergence is checked in the ho
 
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
-(a link left the controller's region: the CSV up to that sample is written); 128 + n when ended
+(a link left the controller's region: the CSV up to that sample is written); 4 the base left the
+scene's travel (limits.travel = X: |theta0| > X at a sample; the CSV up to it is written); 128 + n when ended
 by signal n (the temporary file removed).
 )";
 
@@ -549,8 +557,12 @@ int run(int argc, char** argv) {
   if (options.check) return 0;
   install_cleanup_handlers();
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
+  // The u column: closed loops, and the excitation signals (a recording of an identification
+  // experiment carries its input).
+  const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
-                             scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
+                             scene.controller.has_value() || scene.swingup.has_value() || excitation,
+                             shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   rows.set_coordinates(scene.coordinates);  // the state columns in the scene's coordinates
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
@@ -573,12 +585,27 @@ int run(int argc, char** argv) {
                    link, deviation, options.divergence_angle);
     }
   }
-  ipsim::SampleSink& sink = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
-                            : monitor     ? static_cast<ipsim::SampleSink&>(*monitor)
-                                          : rows;
+  ipsim::SampleSink& inner = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
+                             : monitor     ? static_cast<ipsim::SampleSink&>(*monitor)
+                                           : rows;
+  std::optional<ipsim::TravelMonitor> travel;
+  if (std::isfinite(scene.travel)) travel.emplace(inner, scene.travel);
+  ipsim::SampleSink& sink = travel ? static_cast<ipsim::SampleSink&>(*travel) : inner;
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, sink);
   csv.commit();
   print_summary(options, scene, result, rows);
+  if (travel && travel->exceeded()) {
+    const ipsim::TravelExceeded& e = *travel->exceeded();
+    const bool cart = Model::kType == std::string_view("classical");
+    std::fflush(stdout);
+    std::fprintf(stderr,
+                 "simulate: error: the base left its travel at t = %.6g s: theta0 = %.6g %s, beyond limits.travel = "
+                 "%.6g %s; stopped there, the %zu samples up to then are in %s. Lower the input's amplitude (ipgen "
+                 "excite scales it to the travel) or widen limits.travel if the rig allows\n",
+                 e.t, e.position, cart ? "m" : "rad", travel->travel(), cart ? "m" : "rad", rows.rows(),
+                 shown_path(options.csv_path).c_str());
+    return kExitTravel;
+  }
   if (monitor && monitor->divergence()) {
     std::fflush(stdout);
     std::fprintf(stderr, "simulate: error: %s\n",

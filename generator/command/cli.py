@@ -30,7 +30,7 @@ PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header;
 or, with a command, run a scene (ipgen run), plot or animate a simulator's CSV (ipgen plot,
-ipgen animate).
+ipgen animate), design a rig's identification experiment (ipgen excite).
 
 \b
 Systems (docs/model.md in the repository has the exact model):
@@ -55,6 +55,7 @@ Examples:
   ipgen run my_scene.toml -o out/   # generate, build, simulate: out/my_scene.csv, .png, .txt
   ipgen plot out/my_scene.csv       # out/my_scene.png
   ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
+  ipgen excite rig.toml --u-max 10 --travel 1 -o rig_identify.toml  # a safe experiment
   ipgen identify --scene my_scene.toml --data rig.csv --free m1,delta0 -o out/  # fit parameters
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
@@ -535,6 +536,15 @@ def animate_command(
     frame = _csv_coordinates(csv, angles, zero, positive)
     written = animate_run(csv, target, kind, l_values, fps=fps, force=force, coordinates=frame)
     click.echo(f"wrote {written}")
+
+
+def _register() -> None:
+    from ipgen.command.excite import command as excite_command
+
+    cli.add_command(excite_command)
+
+
+_register()
 
 
 def run(argv: list[str] | None = None) -> int:

@@ -117,6 +117,7 @@ def run_scene(
         if done.returncode != 0:
             title += f"; the run ended with status {done.returncode}"
         try:
+            unit = "V" if scene.actuator.is_motor else None  # u in volts with a dc_motor
             plot_run(
                 read_run(paths["csv"]),
                 paths["png"],
@@ -124,6 +125,7 @@ def run_scene(
                 scene.type,
                 force=True,
                 coordinates=scene.coordinates,
+                input_unit=unit,
             )
             files.append(paths["png"])
         except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary

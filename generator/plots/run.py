@@ -152,9 +152,11 @@ def plot_run(
     system_type: str | None = None,
     force: bool = False,
     coordinates: Coordinates | None = None,
+    input_unit: str | None = None,
 ) -> None:
     """Draw `run` into `png` (temporary file, then rename); `coordinates` (default ipgen's) names
-    the convention of the run's angles in the labels."""
+    the convention of the run's angles in the labels; `input_unit` labels u (default: N on a
+    cart, N m on an arm; "V" with a dc_motor)."""
     frame = coordinates if coordinates is not None else Coordinates()
     check_replaceable(png, force)
     # The object-oriented API without pyplot: no GUI backend, no global state, a faster import.
@@ -195,7 +197,7 @@ def plot_run(
         else f"link angle [rad] (0 {frame.zero}, {'ccw' if frame.positive == 'counterclockwise' else 'cw'})"
     )
     if has_input:
-        unit = {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
+        unit = input_unit or {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
         axes[2].plot(t, run.columns["u"], color="tab:red", label=f"input u [{unit}]")
         axes[2].set_ylabel(f"u [{unit}]")
     if run.phases:  # a swing-up: a dashed line where the controller changes phase, named inside

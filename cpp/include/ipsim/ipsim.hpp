@@ -23,3 +23,4 @@
 #include "ipsim/sink.hpp"
 #include "ipsim/sundials.hpp"
 #include "ipsim/swingup.hpp"
+#include "ipsim/travel.hpp"

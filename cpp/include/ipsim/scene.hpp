@@ -10,7 +10,11 @@
 //                              (optional, default the first: the rig's coordinates, ipsim/coordinates.hpp; theta,
 //                              dtheta and controller.* are in them, swingup.* in ipgen's)
 //   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
-//   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
+//   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine; chirp: input.f0,
+//   input.f1 [Hz], input.duration, input.start [s], input.sweep = linear | logarithmic; multisine:
+//   input.frequencies [Hz], input.phases [rad], input.scale — the lines ipgen computed — beside
+//   its input.f_min, input.f_max, input.period, which only document them)
+//   limits.travel = 0.2        (optional: |theta0| limit [m or rad]; simulate_<model> stops beyond it, exit 4)
 //   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
 //   jacobian = exact           (optional, bdf and adams: exact | dq; default exact)
 //   step = 0.001               (optional; required by method = rk4: its fixed step [s])
@@ -37,6 +41,7 @@
 #include <fstream>
 #include <istream>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -202,6 +207,8 @@ struct Scene {
   /// are in them and mapped here: settings and controller are in ipgen's coordinates (what
   /// simulate() integrates); the CSV and the summary map back (CsvSink::set_coordinates).
   Coordinates coordinates;
+  /// `limits.travel`: the base's limit |θ0| [m or rad]; infinity when the scene has none.
+  double travel = std::numeric_limits<double>::infinity();
 };
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
@@ -275,6 +282,8 @@ Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known = {
       "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
+      "input.f0", "input.f1", "input.sweep", "input.f_min", "input.f_max", "input.period", "input.frequencies",
+      "input.phases", "input.scale", "limits.travel",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
       "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
@@ -431,8 +440,26 @@ Scene<Model> load(const SceneFile& file) {
   } else if (kind == "sine") {
     s.input = Input::sine(b * file.number("input.amplitude"), file.number("input.frequency"),
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
+  } else if (kind == "chirp") {
+    const std::string sweep = file.has("input.sweep") ? file.text("input.sweep") : "linear";
+    if (sweep != "linear" && sweep != "logarithmic") {
+      file.fail(file.line("input.sweep"), "input.sweep must be `linear` or `logarithmic`, got `" + detail::abbreviate(sweep) + "`");
+    }
+    s.input = Input::chirp(b * file.number("input.amplitude"), file.number("input.f0"), file.number("input.f1"),
+                           file.number("input.duration"), file.has("input.start") ? file.number("input.start") : 0.0,
+                           sweep == "logarithmic");
+  } else if (kind == "multisine") {
+    s.input = Input::multisine(b * file.number("input.amplitude"), file.numbers("input.frequencies"),
+                               file.numbers("input.phases"), file.number("input.scale"));
   } else {
-    file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
+    file.fail(file.line("input"), "input must be zero, constant, pulse, step, sine, chirp or multisine, got `" +
+                                      detail::abbreviate(kind) + "`");
+  }
+  if (file.has("limits.travel")) {
+    scene.travel = file.number("limits.travel");
+    if (!(std::isfinite(scene.travel) && scene.travel > 0.0)) {
+      file.fail(file.line("limits.travel"), "limits.travel must be a finite number > 0 (m on a cart, rad on an arm)");
+    }
   }
   if (file.has("controller")) {
     if (file.text("controller") != "lqr") {
