@@ -69,6 +69,7 @@ demo: configure
 	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr scene_cdip_lqr_tilt
 	$(PY) tools/demo.py --build $(BUILD)
 	$(PY) tools/fmu_demo.py --build $(BUILD) --out out/demo
+	$(PY) tools/identify_demo.py --out out/demo/identify
 
 ## Benchmarks (bench/): generation against sympy.physics.mechanics, generated code against
 ## Pinocchio, the integrators' work-precision, general against specialised headers; writes
