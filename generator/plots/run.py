@@ -130,8 +130,16 @@ def check_replaceable(png: Path, force: bool) -> None:
         )
 
 
-def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, force: bool = False) -> None:
-    """Draw `run` into `png` (temporary file, then rename)."""
+def plot_run(
+    run: Run,
+    png: Path,
+    title: str,
+    system_type: str | None = None,
+    force: bool = False,
+    input_unit: str | None = None,
+) -> None:
+    """Draw `run` into `png` (temporary file, then rename). `input_unit`: u's unit when it is not
+    the force or torque (e.g. "V" for a dc_motor, "m/s²" for an acceleration-driven cart)."""
     check_replaceable(png, force)
     # The object-oriented API without pyplot: no GUI backend, no global state, a faster import.
     from matplotlib.figure import Figure
@@ -160,7 +168,7 @@ def plot_run(run: Run, png: Path, title: str, system_type: str | None = None, fo
         links.axhline(level, color="grey", linestyle=":", linewidth=0.8)
     links.set_ylabel("link angle from upright [rad]")
     if has_input:
-        unit = {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
+        unit = input_unit or {"classical": "N", "rotary": "N m", None: "N or N m"}[system_type]
         axes[2].plot(t, run.columns["u"], color="tab:red", label=f"input u [{unit}]")
         axes[2].set_ylabel(f"u [{unit}]")
     if run.phases:  # a swing-up: a dashed line where the controller changes phase, named inside

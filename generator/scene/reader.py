@@ -113,7 +113,9 @@ class Scene:
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
-    actuator: Actuator = DIRECT  # [actuator]: what u is (direct: N or N m; dc_motor: V)
+    actuator: Actuator = (
+        DIRECT  # [actuator]: what u is (direct: N, N m; dc_motor: V; acceleration: m/s², rad/s²)
+    )
     coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
     coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
     swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
@@ -229,6 +231,11 @@ def _parameter_lines(scene: Scene) -> list[str]:
             f"eta_m {motor.eta_m!r}, Jm {motor.Jm!r}, r {motor.r!r}",
             "actuator = dc_motor",
             f"actuator.gain = {format_number(gain)}",
+        ]
+    if scene.actuator.is_acceleration:
+        lines += [
+            "# [actuator] acceleration (docs/model.md): u is the base's acceleration; the links follow",
+            "actuator = acceleration",
         ]
     order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
     return [
@@ -457,6 +464,11 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             "[actuator] dc_motor with specialise = true or an FMU in emit is not supported yet: "
             "remove them (the header then takes the motor-folded parameters of DIR/<scene>.cfg at run time)"
         )
+    if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
+        reader.fail(
+            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
+            "remove them (the FMU's input is the force or torque; see docs/model.md)"
+        )
     if tables["controller"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
@@ -469,8 +481,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
-        if actuator.is_motor:
-            reader.fail("[swingup] with [actuator] dc_motor is not supported yet: remove one of them")
+        if actuator.is_motor or actuator.is_acceleration:
+            reader.fail(f"[swingup] with [actuator] {actuator.kind} is not supported yet: remove one of them")
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
         params = _Parameters(

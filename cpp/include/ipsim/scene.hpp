@@ -18,6 +18,7 @@
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
+//   actuator = acceleration    (optional: u is the base's acceleration [m/s^2 or rad/s^2], the links follow)
 //   swingup = energy | trajectory   (optional, with input = zero and no controller: ipsim/swingup.hpp)
 //   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
@@ -215,6 +216,9 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
   if (scene.motor) file.fail(file.line("swingup"), "a swing-up with actuator = dc_motor is not supported yet");
+  if (scene.settings.acceleration) {
+    file.fail(file.line("swingup"), "a swing-up with actuator = acceleration is not supported yet");
+  }
   constexpr Eigen::Index size = 2 * Model::kDof;
   SwingUp sw;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
@@ -354,10 +358,18 @@ Scene<Model> load(const SceneFile& file) {
 
   if (file.has("actuator")) {
     const std::string& actuator = file.text("actuator");
-    if (actuator != "direct" && actuator != "dc_motor") {
-      file.fail(file.line("actuator"), "actuator must be `direct` or `dc_motor`, got `" + detail::abbreviate(actuator) + "`");
+    if (actuator != "direct" && actuator != "dc_motor" && actuator != "acceleration") {
+      file.fail(file.line("actuator"),
+                "actuator must be `direct` or `dc_motor` (or `acceleration`), got `" + detail::abbreviate(actuator) + "`");
     }
     scene.motor = actuator == "dc_motor";
+    scene.settings.acceleration = actuator == "acceleration";
+    if (scene.settings.acceleration && !has_mass_and_bias<Model>) {
+      file.fail(file.line("actuator"), "actuator = acceleration needs the model's mass_matrix and bias: regenerate its header");
+    }
+    if (scene.settings.acceleration && file.has("actuator.gain")) {
+      file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
+    }
     if (scene.motor) {
       scene.input_gain = file.number("actuator.gain");
       if (!(std::isfinite(scene.input_gain) && scene.input_gain > 0.0)) {

@@ -34,22 +34,6 @@
 
 namespace ipsim {
 
-namespace detail {
-template <class Model, class = void>
-struct HasMassAndBias : std::false_type {};
-template <class Model>
-struct HasMassAndBias<Model, std::void_t<decltype(Model::template mass_matrix<double>(
-                                              std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>())),
-                                          decltype(Model::template bias<double>(
-                                              std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
-                                              std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
-}  // namespace detail
-
-/// True when the model defines mass_matrix and bias (the energy law needs them; a header
-/// specialised to a scene without an energy swing-up omits them).
-template <class Model>
-inline constexpr bool has_mass_and_bias = detail::HasMassAndBias<Model>::value;
-
 /// The phase a swing-up controller is in (the phase column of the CSV).
 enum class SwingPhase { swing, track, hold };
 
