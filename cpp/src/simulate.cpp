@@ -537,12 +537,13 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
-    std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g; ",
+    const double per = scene.input_gain;  // volts for a dc motor (b), else 1
+    std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g%s; ",
                 scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
-                scene.swingup->period, scene.swingup->u_max);
+                scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
     if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (LQR) from t = %.6g s", state.hold_since);
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
-    std::printf("; largest |u| %.6g.", result.max_abs_input);
+    std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());

@@ -481,15 +481,18 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
-        if actuator.is_motor or actuator.is_acceleration:
-            reader.fail(f"[swingup] with [actuator] {actuator.kind} is not supported yet: remove one of them")
+        if actuator.is_acceleration:
+            reader.fail("[swingup] with [actuator] acceleration is not supported yet: remove one of them")
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
+        gain = 1.0
+        if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
+            params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(tables["swingup"], system, params, theta + dtheta)
+            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain)
         except swing.SwingUpError as error:
             reader.fail(str(error))
     return Scene(
@@ -533,6 +536,25 @@ class _Parameters:
     delta: tuple[float, ...]
     g: float
     links: tuple[tuple[str, tuple[float, ...]], ...] = ()  # com, J, J_axial, tip the scene gives
+
+
+def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
+    """The motor-folded parameters (`actuator.fold`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
+    from ipgen.model.actuator import fold
+
+    built = dict(params.links)
+    given = built.get("J")
+    inertias = (
+        list(given)
+        if given is not None
+        else [rod_value(system, "J", i, params.m, params.l) for i in range(system.dof)]
+    )
+    m, delta, j, gain = fold(actuator, system, list(params.m), list(params.delta), inertias)
+    if system.is_rotary or given is not None:
+        built["J"] = tuple(j)
+    order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
+    links = tuple((group, tuple(built[group])) for group in order)
+    return _Parameters(tuple(m), params.l, tuple(delta), params.g, links), gain
 
 
 def _floats(numbers: tuple[Exact, ...]) -> tuple[float, ...]:

@@ -91,14 +91,23 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
 
 
-def law(table: Any, system: Any, params: Any, start: tuple[float, ...]) -> SwingUpLaw:
-    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`)."""
+def law(table: Any, system: Any, params: Any, start: tuple[float, ...], gain: float = 1.0) -> SwingUpLaw:
+    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`).
+    `gain`: a dc_motor's force or torque per volt b, `params` then the motor-folded ones; the
+    law is designed in force units (u_max b) and returned in volts (`in_volts`)."""
+    from ipgen.control.swingup import in_volts
+
+    designed = _law(table, system, params, start, table.u_max.value * gain)
+    return designed if gain == 1.0 else in_volts(designed, gain)
+
+
+def _law(table: Any, system: Any, params: Any, start: tuple[float, ...], u_max: float) -> SwingUpLaw:
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
     from ipgen.control.linear import ControlError
     from ipgen.control.swingup import energy_law, schedule_law, trajectory_swingup
 
-    period, u_max, hold = table.period.value, table.u_max.value, table.hold.value
+    period, hold = table.period.value, table.hold.value
     try:
         model = plant(
             system.type,

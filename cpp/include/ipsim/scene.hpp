@@ -215,7 +215,6 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
-  if (scene.motor) file.fail(file.line("swingup"), "a swing-up with actuator = dc_motor is not supported yet");
   if (scene.settings.acceleration) {
     file.fail(file.line("swingup"), "a swing-up with actuator = acceleration is not supported yet");
   }
@@ -253,6 +252,13 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   const auto problems = sw.problems(static_cast<int>(size));
   if (!problems.empty()) file.fail(0, problems.front());
+  // actuator = dc_motor: the file's u-valued numbers are in volts, the energy law's output is the
+  // motor-folded model's torque or force; scale to N m or N like the controller (b = 1 otherwise).
+  const double b = scene.input_gain;
+  sw.u_max *= b;
+  sw.hold_gain *= b;
+  sw.inputs *= b;
+  sw.gains *= b;
   if (std::isfinite(scene.settings.t_end) && scene.settings.t_end / sw.period > kMaxSamples) {
     file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
                                                ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
