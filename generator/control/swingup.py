@@ -86,6 +86,8 @@ class SwingUpLaw:
     # The force or torque per unit of u: 1, or a dc_motor's b [N m/V or N/V] (`in_volts`): then
     # u_max, hold_gain, inputs and gains are in volts, and the energy law's force is divided by it.
     input_gain: float = 1.0
+    # u is the base's acceleration ([actuator] kind "acceleration"): the energy law's a is u.
+    base_acceleration: bool = False
 
     @property
     def steps(self) -> int:
@@ -116,6 +118,7 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         hold_gain=tuple(float(k) for k in law.hold_gain.ravel()),
         target=(0.0,) * (2 * dof),
         energy=tuple((name, float(value)) for name, value in constants),
+        base_acceleration=law.acceleration,
     )
 
 

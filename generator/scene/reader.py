@@ -481,8 +481,6 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
-        if actuator.is_acceleration:
-            reader.fail("[swingup] with [actuator] acceleration is not supported yet: remove one of them")
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
         params = _Parameters(
@@ -492,7 +490,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
             params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain)
+            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
         except swing.SwingUpError as error:
             reader.fail(str(error))
     return Scene(

@@ -215,11 +215,9 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
-  if (scene.settings.acceleration) {
-    file.fail(file.line("swingup"), "a swing-up with actuator = acceleration is not supported yet");
-  }
   constexpr Eigen::Index size = 2 * Model::kDof;
   SwingUp sw;
+  sw.acceleration = scene.settings.acceleration;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
   sw.u_max = file.number("swingup.u_max");
   sw.period = file.number("swingup.period");
@@ -241,6 +239,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.energy_inertia = file.number("swingup.energy_inertia");
     sw.energy_weight = file.number("swingup.energy_weight");
   } else {
+    if (sw.acceleration) file.fail(file.line("swingup"), "swingup = trajectory with actuator = acceleration is not supported yet");
     const long steps = file.integer("swingup.steps");
     if (steps < 1 || steps > 10'000'000) file.fail(file.line("swingup.steps"), "swingup.steps must be in 1 .. 10000000");
     sw.inputs = numbers_of(file, "swingup.inputs", steps);
