@@ -425,6 +425,25 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
     stated = np.sort_complex(np.array([complex(p.strip().replace("i", "j")) for p in text.split(",")]))
     np.testing.assert_allclose(stated, poles, rtol=1e-5)
 
+    # The simulator's own checks of the resolved config's actuator lines: one line, exit 2.
+    simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_acin_double_accel"))
+    config = (tmp_path / "out" / "acin_double_accel.cfg").read_text()
+    for old, new, message in (
+        (
+            "actuator = acceleration",
+            "actuator = acceleration\nactuator.gain = 2",
+            "applies to actuator = dc_motor",
+        ),
+        ("actuator = acceleration", "actuator = accelerate", "(or `acceleration`)"),
+    ):
+        bad = tmp_path / "bad.cfg"
+        bad.write_text(config.replace(old, new))
+        result = subprocess.run(
+            [str(simulator), str(bad), "--csv", str(tmp_path / "bad.csv")], capture_output=True, text=True
+        )
+        assert result.returncode == 2, result.stderr
+        assert message in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
 
 SWING = """
 [system]
@@ -516,3 +535,44 @@ def test_energy_swingup_with_an_acceleration_input(tmp_path: Path) -> None:
     subprocess.run(
         c_command(f"-I{tmp_path / 'gen'}", str(tmp_path / "main.c"), "-o", str(tmp_path / "a")), check=True
     )
+
+
+_SCENE_VALUES = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False, width=32),
+    st.integers(-3, 3),
+    st.text(alphabet="abcdeilnortu_ ", max_size=14),
+    st.booleans(),
+)
+
+
+@settings(max_examples=120, deadline=None)
+@given(
+    kind=st.one_of(st.sampled_from(["acceleration", "direct", "dc_motor"]), st.text(max_size=8)),
+    extra=st.dictionaries(
+        st.sampled_from(["Rm", "kt", "km", "r", "Jm", "a_max", "gain"]), _SCENE_VALUES, max_size=2
+    ),
+    saturation=st.one_of(st.none(), st.floats(allow_nan=False, allow_infinity=False, width=32)),
+)
+def test_any_actuator_table_is_a_scene_or_one_line_error(tmp_path_factory, kind, extra, saturation) -> None:
+    """Bad input class: an [actuator] table with any kind and stray keys of any type, and any
+    [controller] saturation, on the acceleration preset. Either a scene (its actuator the one
+    declared) or one `ipgen.Error` line; nothing else escapes."""
+    import json
+
+    from ipgen.scene.reader import load_scene
+
+    table = "[actuator]\n" + f"kind = {json.dumps(kind)}\n"
+    table += "".join(f"{key} = {json.dumps(value)}\n" for key, value in extra.items())
+    text = RIG.read_text().replace(
+        '[actuator]\nkind = "acceleration"             # u is the cart\'s acceleration [m/s²]\n', table
+    )
+    if saturation is not None:
+        text = text.replace("saturation = 20 ", f"saturation = {json.dumps(saturation)} ")
+    path = tmp_path_factory.mktemp("scene") / "s.toml"
+    path.write_text(text)
+    try:
+        scene = load_scene(path)
+    except ipgen.Error as exc:
+        assert str(exc) and "\n" not in str(exc)
+        return
+    assert scene.actuator.kind == kind

@@ -145,6 +145,37 @@ class Scene:
         """{group: values} of the links as built the scene gives (com, J, J_axial, tip)."""
         return dict(self.links_as_built)
 
+    def motor_folded(self) -> dict[str, Fraction]:
+        """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
+        + the rotor's reflected inertia, as rationals of the decimals written (the motor
+        constants by their shortest repr), so that the resolved config and a specialised
+        header agree to the last bit (`actuator.fold` in exact arithmetic)."""
+        motor = self.actuator
+        if not motor.is_motor:
+            return {}
+
+        def exact(value: float | None) -> Fraction:
+            return Fraction(1) if value is None else Fraction(repr(float(value)))
+
+        radius = exact(motor.r)  # 1 on an arm
+        gain = (
+            exact(motor.eta_g)
+            * exact(motor.Kg)
+            * exact(motor.eta_m)
+            * exact(motor.kt)
+            / (exact(motor.Rm) * radius)
+        )
+        damping = gain * exact(motor.Kg) * exact(motor.km) / radius
+        inertia = exact(motor.eta_g) * exact(motor.Kg) ** 2 * exact(motor.Jm) / radius**2
+        folded = {"delta0": self.exact("delta0") + damping}
+        if self.type == "classical":
+            folded["m0"] = self.exact("m0") + inertia
+        else:
+            given = "J" in self.link_values()
+            base = self.exact("J0") if given else self.exact("m0") * self.exact("l0") ** 2 / 3
+            folded["J0"] = base + inertia
+        return folded
+
 
 # ---------------------------------------------------------------------------- public API
 
@@ -221,6 +252,12 @@ def _parameter_lines(scene: Scene) -> list[str]:
             else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
         )
         m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
+        exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
+        delta_[0] = float(exact["delta0"])
+        if system.is_rotary:
+            j_[0] = float(exact["J0"])
+        else:
+            m_[0] = float(exact["m0"])
         m, delta = tuple(m_), tuple(delta_)
         if system.is_rotary or given is not None:
             built["J"] = tuple(j_)
@@ -459,10 +496,10 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
     actuator = tables["actuator"].actuator()
-    if actuator.is_motor and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
+    if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
         reader.fail(
-            "[actuator] dc_motor with specialise = true or an FMU in emit is not supported yet: "
-            "remove them (the header then takes the motor-folded parameters of DIR/<scene>.cfg at run time)"
+            "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
+            "or torque): remove the FMU, or declare the motor-folded model (docs/rigs.md) without [actuator]"
         )
     if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
         reader.fail(
