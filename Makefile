@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify stability configure build clean
 
 all: test
 
@@ -82,7 +82,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -91,6 +91,12 @@ bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-c
 GENERAL_LINKS_ARGS ?=
 bench-general-links: $(VENV)/.bench-installed
 	$(PY) -m bench.general_links $(GENERAL_LINKS_ARGS)
+
+## Identification of a 60 s, 1 kHz recording of the QUBE-Servo 2 preset (rotary, DC motor):
+## target <= 10 s (bench/identify.py, docs/bench/identify.md). IDENTIFY_ARGS: e.g. --quick
+IDENTIFY_ARGS ?= $(BENCH_QUICK)
+bench-identify: $(VENV)/.bench-installed
+	$(PY) -m bench.identify $(IDENTIFY_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
 ## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import sympy as sp
 from sympy.codegen.rewriting import create_expand_pow_optimization
 
-from ipgen.codegen.functions import Output, _targets, build_body, count_operations
+from ipgen.codegen.functions import CPP_SYNTAX, Output, _targets, build_body, count_operations
 from ipgen.codegen.header import _FUNCTIONS
 from ipgen.model.derivation import Equations, derive
 from ipgen.model.polynomial import Poly, sparse
@@ -60,7 +60,14 @@ class Comparison:
 def _outputs(eqs: Equations) -> tuple[list[Output], tuple[str, ...]]:
     reads, arguments = _FUNCTIONS[FUNCTION]
     outputs = [
-        Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
+        Output(
+            r.cpp,
+            eqs.poly[r.key],
+            scalar=r.scalar,
+            symmetric=r.symmetric,
+            lower_only=r.lower_only,
+            damped=r.damped,
+        )
         for r in reads
     ]
     return outputs, arguments
@@ -93,7 +100,7 @@ def compare(kind: str, links: int, rounds: int = ROUNDS) -> Comparison:
     ipgen_s, body = _median_time(lambda: build_body(eqs, outputs, arguments), rounds)
     ipgen_operations = sum(count_operations(line) for line in [*body.temporaries, *body.outputs])
 
-    targets = _targets(outputs)
+    targets = [(target, p) for target, p, _ in _targets(outputs, CPP_SYNTAX)]
     symbols = [sp.Symbol(name) for name in eqs.algebra.ring.names()]
     exprs = [_as_expr(p, symbols) for _, p in targets]
     sympy_s, (replacements, reduced) = _median_time(lambda: sp.cse(exprs, optimizations="basic"), rounds)

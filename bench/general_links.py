@@ -215,7 +215,6 @@ def markdown(rows: list[dict], rounds: int) -> str:
     given = max(r["given"] / r["old"] for r in rows)
     defaults = max(r["defaults"] / r["old"] for r in rows)
     time_ratio = max(r["new_s"] / r["old_s"] for r in rows)
-    same = all(r["old_folded"] == r["new_folded"] for r in rows if r["system"].startswith("classical"))
     fewer = all(r["new_folded"] <= r["old_folded"] for r in rows)
     lines += [
         "",
@@ -223,8 +222,28 @@ def markdown(rows: list[dict], rounds: int) -> str:
         f"({'met' if given <= TARGET_OPERATIONS else 'missed'}), rod defaults: worst {defaults:.3f}× "
         f"({'met' if defaults <= TARGET_OPERATIONS else 'missed'}); generation time ≤ {TARGET_TIME:.2f}×: "
         f"worst {time_ratio:.3f}× ({'met' if time_ratio <= TARGET_TIME else 'missed'}); folded to rod "
-        f"values: {'the same count as the rods (classical)' if same else 'classical counts differ'}, "
-        f"{'no more than the rods (rotary: fewer)' if fewer else 'some count is higher'}.",
+        f"values: {'no more than the rods' if fewer else 'some count is higher than the rods'} "
+        "(tests/test_links_as_built.py: classical the same count as this generator's rod equations "
+        "folded alike, rotary no more).",
+        "",
+        "The times are wall clock under the load stated above: on a shared machine, repeated runs "
+        "move these medians by tens of percent (the operation counts are exact).",
+        "",
+        "This checkout writes the Rayleigh damping with the joint torques r_i = δ_i ω_i, each "
+        'computed once (docs/model.md, "Rayleigh dissipation function"), which the rods\' '
+        "generator (the commit above) predates: one or two operations fewer per joint in every "
+        "column of this checkout (folded included), not only in the links as built.",
+        "",
+        "*Rod defaults* is the price of `Params{m, l, delta}` keeping its meaning (the paper's rods): "
+        "its com and J entries are NaN, and every call computes their rod values from that call's m "
+        "and l, l_i/2 (1 operation) and m_i l_i²/12 (3), per link (the arm's J0, m0 l0²/3: 3 more). "
+        "It cannot be computed once when Params is made: Params is a plain aggregate whose m and l "
+        "may be assigned after it is made (member by member, or changed between calls), and a value "
+        "computed at construction would then silently stay the old one. The fallback is not cheaper "
+        "per combination either: each of com and J may be given alone (com given, J the rod's about "
+        "the CoG), so J's default needs m_i l_i² whatever com is. Code that gives com and J (the "
+        "rods' values, once: `with_rod_links(p)` in C++, `ipgen_NAME_rod_links` in C) runs the "
+        "*given* column; a header with them folded (`--fix`, a specialised scene) runs the *folded* one.",
         "",
     ]
     return "\n".join(lines)

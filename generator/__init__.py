@@ -16,6 +16,14 @@ The public API (stable; everything else is internal):
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
   `actuator=` argument of `derive`, `linearize` and `lqr` (u is then the motor voltage [V]);
   `Actuator("acceleration")`: the base follows a commanded acceleration (u = θ̈0).
+- `excitation(scene, output=None, *, u_max, travel=None, signal="multisine", ...) -> Design`: an
+  identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
+  that the linear model's predicted base travel stays within the limits), written as a new scene
+  (what `ipgen excite` does; docs/excitation.md).
+- `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
+  fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
+  data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
+  PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -43,6 +51,8 @@ __all__ = [
     "__version__",
     "cmake_dir",
     "derive",
+    "excitation",
+    "identify",
     "linearize",
     "lqr",
     "write_header",
@@ -100,13 +110,20 @@ def write_header(
     outputs: str | Iterable[str] | None = None,
     emit: str | Iterable[str] | None = None,
     force: bool = False,
+    angles: str | None = None,
+    zero: str | None = None,
+    positive: str | None = None,
 ) -> list[Path]:
     """Write the files of `ipgen --type TYPE --links N -o OUTPUT [...]` (or `--scene SCENE`) and
     return their paths: `OUTPUT/<name>.hpp` by default, every file of `emit`, and `<stem>.cfg`
     last for a scene. The keyword arguments are the command's options: `fix` as text
     ("m0=0.3,delta2=0") or a mapping ({"m0": "0.3"}; a float is taken by its shortest repr),
-    `outputs` and `emit` as text or a list of names. All files are written or none; bad input
-    raises an `Error` with the message the command prints.
+    `outputs` and `emit` as text or a list of names. `angles` ("absolute" | "relative"), `zero`
+    ("upright" | "hanging") and `positive` ("clockwise" | "counterclockwise") make every function
+    of the headers take and return the rig's coordinates (the canonical ones stay: namespace
+    `canonical` in C++, the `_canonical` suffix in C; docs/model.md); a scene says them in its
+    [system]. All files are written or none; bad input raises an `Error` with the message the
+    command prints.
     """
     from ipgen.command.job import plan, run
 
@@ -121,13 +138,17 @@ def write_header(
         outputs=outputs,
         emit=emit,
         force=force,
+        angles=angles,
+        zero=zero,
+        positive=positive,
     )
     return [written.path for written in run(job)]
 
 
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
-    imports numpy and scipy), so that `import ipgen` and the ipgen command start fast."""
+    imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
+    ipgen command start fast."""
     if attribute == "Equations":
         from ipgen.model.derivation import Equations
 
@@ -136,6 +157,14 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.actuator import Actuator
 
         return Actuator
+    if attribute == "excitation":
+        from ipgen.command.excite import excitation
+
+        return excitation
+    if attribute == "identify":
+        from ipgen.command.identify import identify
+
+        return identify
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

@@ -12,8 +12,20 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent.parent / "generator"
 
 # The stages in order: a module may import its own stage and the stages before it.
-# plots (pictures of runs: matplotlib) comes after control, before the stages that use it.
-STAGES = ("errors", "common", "model", "control", "plots", "codegen", "scene", "command", "ipgen")
+# plots (pictures of runs: matplotlib) comes after control, before the stages that use it;
+# identification (fitting parameters to measurements) between control, whose models it uses, and plots.
+STAGES = (
+    "errors",
+    "common",
+    "model",
+    "control",
+    "identification",
+    "plots",
+    "codegen",
+    "scene",
+    "command",
+    "ipgen",
+)
 
 
 def _module_name(path: Path) -> str:

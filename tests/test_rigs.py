@@ -33,11 +33,14 @@ PRESETS = ("qube_servo2", "ip02_sip", "srv02_dbip")
 
 
 def model(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(A, B, K) of a preset, through the scene reader (K: its controller's gain, volts)."""
+    """(A, B, K) of a preset, through the scene reader (K: its controller's gain, volts), all in
+    the rig's coordinates the preset declares ([system] angles, zero, positive)."""
     scene = load_scene(RIGS / f"{name}.toml")
+    frame = scene.coordinates
     a, b = ipgen.linearize(
         scene.type, scene.links, scene.m, scene.l, scene.delta, scene.g, scene.inertia,
         actuator=scene.actuator, **scene.link_values(),
+        angles=frame.angles, zero=frame.zero, positive=frame.positive,
     )  # fmt: skip
     assert scene.controller is not None
     return a, b, np.array(scene.controller.gain).reshape(1, -1)
@@ -64,17 +67,27 @@ def test_preset_loads_and_its_lqr_in_volts_stabilises(name: str, tmp_path: Path)
 
 
 def test_qube_servo_2_preset_reproduces_quanser_in_volts() -> None:
+    """The preset declares Quanser's counter-clockwise α: its A, B are Quanser's as published,
+    and ipgen's own (clockwise) ones are S A S, S B with S = diag(1, −1, 1, −1)."""
     a, b, _ = model("qube_servo2")
-    s = np.diag([1.0, -1.0, 1.0, -1.0])  # Quanser's α is counter-clockwise
     a_hand, b_hand = by_hand()
-    assert np.allclose(s @ a @ s, a_hand, rtol=1e-9, atol=1e-9)
-    assert np.allclose(s @ b, b_hand, rtol=1e-9, atol=1e-12)
+    assert load_scene(RIGS / "qube_servo2.toml").coordinates.positive == "counterclockwise"
+    assert np.allclose(a, a_hand, rtol=1e-9, atol=1e-9)
+    assert np.allclose(b, b_hand, rtol=1e-9, atol=1e-12)
+    scene = load_scene(RIGS / "qube_servo2.toml")
+    a_own, b_own = ipgen.linearize(
+        "rotary", 1, scene.m, scene.l, scene.delta, actuator=scene.actuator, **scene.link_values()
+    )
+    s = np.diag([1.0, -1.0, 1.0, -1.0])
+    assert np.allclose(s @ a_own @ s, a_hand, rtol=1e-9, atol=1e-9)
+    assert np.allclose(s @ b_own, b_hand, rtol=1e-9, atol=1e-12)
 
 
 def test_ip02_preset_matches_the_hand_derived_cart_pendulum() -> None:
     """(Mc + ηg Kg² Jm/r² + Mp) ẍ + Mp lp θ̈ + (Beq + b Kg km/r) ẋ = b V,
     Mp lp ẍ + (Jp + Mp lp²) θ̈ + Bp θ̇ − Mp g lp θ = 0 (θ clockwise from upright, x to the right),
-    b = ηg Kg ηm kt/(Rm r), from config_ip02.m and config_sp.m's numbers."""
+    b = ηg Kg ηm kt/(Rm r), from config_ip02.m and config_sp.m's numbers; the preset is in
+    Quanser's α = −θ (counter-clockwise), so its A, B are S A S, S B, S = diag(1, −1, 1, −1)."""
     rm, kt, km, kg, jm, r = 2.6, 0.00767, 0.00767, 3.71, 3.9e-7, 6.35e-3
     mc, beq, mp, lp_, lp, bp, g = 0.57, 4.3, 0.230, 0.6413, 0.3302, 0.0024, 9.81
     jp = mp * lp_**2 / 12
@@ -86,8 +99,9 @@ def test_ip02_preset_matches_the_hand_derived_cart_pendulum() -> None:
     a_hand = np.block([[np.zeros((2, 2)), np.eye(2)], [-inverse @ stiffness, -inverse @ damping]])
     b_hand = np.vstack([np.zeros((2, 1)), inverse @ np.array([[gain], [0.0]])])
     a, b, _ = model("ip02_sip")
-    assert np.allclose(a, a_hand, rtol=1e-9, atol=1e-9), (a, a_hand)
-    assert np.allclose(b, b_hand, rtol=1e-9, atol=1e-12)
+    s = np.diag([1.0, -1.0, 1.0, -1.0])
+    assert np.allclose(s @ a @ s, a_hand, rtol=1e-9, atol=1e-9), (a, a_hand)
+    assert np.allclose(s @ b, b_hand, rtol=1e-9, atol=1e-12)
 
 
 def test_srv02_dbip_motor_fold_by_hand() -> None:
@@ -104,7 +118,8 @@ def test_srv02_dbip_motor_fold_by_hand() -> None:
 def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     """`ipgen run scenes/rigs/qube_servo2.toml` balances the pendulum; the CSV's u is volts,
     clipped at 10 V, and the trajectory is the one of an independent simulation in which the
-    motor's torque is the manufacturer's kt (V − km θ̇0)/Rm on the unmodified arm."""
+    motor's torque is the manufacturer's kt (V − km θ̇0)/Rm on the unmodified arm. The CSV is
+    in Quanser's coordinates (α = −θ1), the independent simulation in ipgen's."""
     require_toolchain()
     env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
     result = subprocess.run(
@@ -137,14 +152,17 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     )
     dyn = dynamics(system)
 
+    s = np.diag([1.0, -1.0, 1.0, -1.0])  # Quanser's state = S (ipgen's state)
+
     def rhs(_: float, x: np.ndarray) -> np.ndarray:
-        v = float(np.clip(-(k.ravel() @ x), -10.0, 10.0))
+        v = float(np.clip(-(k.ravel() @ (s @ x)), -10.0, 10.0))
         torque = 0.042 * (v - 0.042 * x[2]) / 8.4
         return np.concatenate([x[2:], dyn.forward_dynamics(x[:2], x[2:], torque, mech)])
 
-    sol = solve_ivp(rhs, (0.0, 1.0), data[0, 1:5], rtol=1e-10, atol=1e-12, dense_output=True)
+    sol = solve_ivp(rhs, (0.0, 1.0), s @ data[0, 1:5], rtol=1e-10, atol=1e-12, dense_output=True)
     for row in data[data[:, 0] <= 1.0][::10]:
-        assert np.allclose(row[1:5], sol.sol(row[0]), atol=1e-6), row[0]
+        assert np.allclose(row[1:5], s @ sol.sol(row[0]), atol=1e-6), row[0]
+    assert sol.sol(0.0)[1] == pytest.approx(-0.1)  # [initial] 0.1 rad counter-clockwise
     assert not math.isclose(data[1, 1], 0.0)  # the arm moved
 
 

@@ -466,7 +466,7 @@ ERRORS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
     (
         "input kind",
         {"input.kind": '"square"'},
-        ('input.kind = "square"', '"zero", "constant", "pulse", "step" or "sine"'),
+        ('input.kind = "square"', '"zero", "constant", "pulse", "step", "sine", "chirp" or "multisine"'),
     ),
     ("input without kind", {"input.kind": None}, ("missing required key 'input.kind'",)),
     (

@@ -307,6 +307,32 @@ inputs = st.one_of(
         magnitudes,
         signed,
     ),
+    st.builds(
+        lambda a, f0, f1, d, sweep: (
+            f'kind = "chirp"\namplitude = {toml_number(a)}\nf0 = {toml_number(f0)}\nf1 = {toml_number(f1)}\n'
+            f'duration = {toml_number(d)}\nsweep = "{sweep}"'
+        ),
+        signed,
+        signed,
+        magnitudes,
+        magnitudes,
+        st.sampled_from(["linear", "logarithmic"]),
+    ),
+    st.builds(
+        lambda a, lo, hi, period: (
+            f'kind = "multisine"\namplitude = {toml_number(a)}\nf_min = {toml_number(lo)}\n'
+            f"f_max = {toml_number(hi)}\nperiod = {toml_number(period)}"
+        ),
+        signed,
+        st.floats(0, 20) | magnitudes,
+        st.floats(0, 50) | magnitudes,
+        st.floats(0.01, 100) | magnitudes,
+    ),
+).flatmap(
+    # Half of them with a travel limit (a [limits] table after [input]).
+    lambda table: st.one_of(
+        st.just(table), st.builds(lambda x: f"{table}\n[limits]\ntravel = {toml_number(x)}", signed)
+    )
 )
 
 

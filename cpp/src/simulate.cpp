@@ -11,7 +11,8 @@
 //   the header `t,theta0,...,dtheta0,...`), or with --force; never the scene file itself. The CSV
 //   is written to a temporary file next to it and renamed into place. --check validates the scene
 //   and options and exits without integrating or writing.
-// A scene with a controller adds a column u (the input applied from each sample on) to the CSV and
+// A scene with a controller adds a column u (the input applied from each sample on) to the CSV (so
+// does an input = chirp or multisine, without the rest) and
 // states the gain, the closed-loop poles of the linearised model and the largest |u|; a closed
 // loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
 // from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
@@ -22,7 +23,8 @@
 // SIGINT, SIGTERM, SIGHUP and SIGXFSZ remove the temporary file, then end the process by the same
 // signal (exit status 128 + signal in a shell).
 // Exit codes: 0 success, 1 integration failure or write error, 2 bad command line, scene,
-// parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged.
+// parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged,
+// 4 the base left the scene's travel (limits.travel: |theta0| beyond it at a sample; ipsim/travel.hpp).
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
 #endif
@@ -75,6 +77,8 @@ struct Options {
 
 /// Exit code of a closed loop stopped because it diverged.
 constexpr int kExitDiverged = 3;
+/// Exit code of a run stopped because the base left the scene's travel (limits.travel).
+constexpr int kExitTravel = 4;
 
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
@@ -110,9 +114,9 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   kinetic,potential    T and V [J] (--energy or energy = true)
   input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same;
                        actuator = acceleration: W_in = int tau dtheta0 dt, tau the base's force)
-  u                    scenes with a controller: the input [N or N m; V with actuator = dc_motor;
-                       m/s^2 or rad/s^2 with actuator = acceleration]
-                       applied from t on
+  u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
+                       input [N or N m; V with actuator = dc_motor; m/s^2 or rad/s^2 with
+                       actuator = acceleration] applied from t on
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -122,7 +126,10 @@ SCENE.cfg: one `key = value` a line (# comments), lists space-separated, per coo
 base first: name, model, type (classical|rotary), links, inertia (pivot|full); m [kg], l [m],
 delta [kg/s or N m s], g [m/s^2]; theta, dtheta (initial state); input = zero|constant|pulse|step|sine
 with input.amplitude [N or N m], input.start, input.duration, input.time [s], input.frequency [Hz],
-input.phase [rad]; t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
+input.phase [rad]; input = chirp with input.f0, input.f1 [Hz], input.sweep = linear|logarithmic
+(and amplitude, start, duration); input = multisine with input.frequencies [Hz], input.phases [rad]
+and input.scale (u = amplitude scale sum cos(2 pi f t + phase), lines computed by ipgen);
+limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
 (true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
@@ -136,7 +143,8 @@ ends swingup.hold s after the hold phase begins, divergence is checked in the ho
 
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
-(a link left the controller's region: the CSV up to that sample is written); 128 + n when ended
+(a link left the controller's region: the CSV up to that sample is written); 4 the base left the
+scene's travel (limits.travel = X: |theta0| > X at a sample; the CSV up to it is written); 128 + n when ended
 by signal n (the temporary file removed).
 )";
 
@@ -439,15 +447,17 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
 /// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
 template <class M>
 void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result,
-                      double volts = 0.0, bool acceleration = false) {
+                      double volts = 0.0, const ipsim::Coordinates& coordinates = {}, bool acceleration = false) {
   // volts = b > 0 (actuator = dc_motor): K, the saturation and u are stated in volts, c holds them times b.
+  // K and x_eq are stated in the scene's coordinates (c holds ipgen's).
   const double per = volts > 0.0 ? volts : 1.0;
-  const Eigen::VectorXd gain = c.gain / per;
+  const Eigen::VectorXd gain = coordinates.gain_to_user(c.gain) / per;
+  const Eigen::VectorXd equilibrium = coordinates.to_user(c.equilibrium);
   const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
                                             : std::string("continuous");
   std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
               ipsim::detail::format_values(gain.data(), gain.size()).c_str(),
-              ipsim::detail::format_values(c.equilibrium.data(), c.equilibrium.size()).c_str());
+              ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
   if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation / per);
   if constexpr (ipsim::has_linearize<M>) {
     const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c, acceleration);
@@ -508,7 +518,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                    const ipsim::CsvSink<Model>& csv, const BaseForceMonitor& base_force) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
-  const Eigen::VectorXd& final_state = csv.last_state();
+  const Eigen::VectorXd final_state = scene.coordinates.to_user(csv.last_state());
   std::printf(
       "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
@@ -517,6 +527,10 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
       ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
+  if (!scene.coordinates.canonical()) {
+    std::printf(" Coordinates: the rig's (%s): the CSV's angles and rates, the states and the controller here are in them.",
+                scene.coordinates.describe().c_str());
+  }
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
   if ((s.coulomb.array() != 0.0).any()) {
     std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
@@ -533,7 +547,8 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                 base_force.largest(), ipsim::is_classical<Model>() ? "N" : "N m");
   }
   if (scene.controller) {
-    print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0, s.acceleration);
+    print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
+                            scene.coordinates, s.acceleration);
   }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
@@ -552,12 +567,12 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
 /// The one-line report of a closed loop stopped because it left the controller's region: when,
 /// which link, where the CSV is, and what to change in the scene.
 std::string divergence_message(const ipsim::Divergence& d, double angle, const ipsim::LinearFeedback& controller,
-                               const Options& options, std::size_t rows) {
+                               const Options& options, std::size_t rows, const ipsim::Coordinates& coordinates) {
   char where[200];
   std::snprintf(where, sizeof where,
                 "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the controller's equilibrium "
                 "(theta%d = %.4g), beyond --divergence-angle %.4g rad",
-                d.t, d.link, d.deviation, d.link, controller.equilibrium(d.link), angle);
+                d.t, d.link, d.deviation, d.link, coordinates.to_user(controller.equilibrium)(d.link), angle);
   std::string fixes = "a smaller initial tilt ([initial] theta), other weights ([controller] q, r)";
   if (controller.period > 0.0) fixes += ", a shorter [controller] period";
   if (std::isfinite(controller.saturation)) fixes += ", a larger [controller] saturation";
@@ -592,9 +607,14 @@ int run(int argc, char** argv) {
   if (options.check) return 0;
   install_cleanup_handlers();
   PendingCsv csv(options.csv_path, options.scene_path, options.force);  // before integrating
+  // The u column: closed loops, and the excitation signals (a recording of an identification
+  // experiment carries its input).
+  const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
-                             scene.controller.has_value() || scene.swingup.has_value(), shown_path(options.csv_path));
+                             scene.controller.has_value() || scene.swingup.has_value() || excitation,
+                             shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
+  rows.set_coordinates(scene.coordinates);  // the state columns in the scene's coordinates
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;
@@ -615,17 +635,34 @@ int run(int argc, char** argv) {
                    link, deviation, options.divergence_angle);
     }
   }
-  ipsim::SampleSink& sink = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
-                            : monitor     ? static_cast<ipsim::SampleSink&>(*monitor)
-                                          : rows;
+  ipsim::SampleSink& inner = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
+                             : monitor     ? static_cast<ipsim::SampleSink&>(*monitor)
+                                           : rows;
+  std::optional<ipsim::TravelMonitor> travel;
+  if (std::isfinite(scene.travel)) travel.emplace(inner, scene.travel);
+  ipsim::SampleSink& sink = travel ? static_cast<ipsim::SampleSink&>(*travel) : inner;
   BaseForceMonitor base_force(sink, scene.params, s);
   const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, base_force);
   csv.commit();
   print_summary(options, scene, result, rows, base_force);
+  if (travel && travel->exceeded()) {
+    const ipsim::TravelExceeded& e = *travel->exceeded();
+    const bool cart = Model::kType == std::string_view("classical");
+    std::fflush(stdout);
+    std::fprintf(stderr,
+                 "simulate: error: the base left its travel at t = %.6g s: theta0 = %.6g %s, beyond limits.travel = "
+                 "%.6g %s; stopped there, the %zu samples up to then are in %s. Lower the input's amplitude (ipgen "
+                 "excite scales it to the travel) or widen limits.travel if the rig allows\n",
+                 e.t, e.position, cart ? "m" : "rad", travel->travel(), cart ? "m" : "rad", rows.rows(),
+                 shown_path(options.csv_path).c_str());
+    return kExitTravel;
+  }
   if (monitor && monitor->divergence()) {
     std::fflush(stdout);
     std::fprintf(stderr, "simulate: error: %s\n",
-                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows()).c_str());
+                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows(),
+                                    scene.coordinates)
+                     .c_str());
     return kExitDiverged;
   }
   if (swing_monitor && swing_monitor->divergence()) {

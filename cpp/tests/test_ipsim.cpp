@@ -56,6 +56,50 @@ void check_inputs() {
   CHECK(!sine.piecewise_constant() && sine.switching_times().empty());
   CHECK(ipsim::Input::constant(0.5).value(7.0, x) == 0.5);
   CHECK(ipsim::Input().value(1.0, x) == 0.0);
+
+  // Chirp: 0 outside [start, start + duration), continuous at start (u = 0 there), both edges stops.
+  for (const bool logarithmic : {false, true}) {
+    const auto chirp = ipsim::Input::chirp(2.0, 0.5, 8.0, 10.0, 1.0, logarithmic);
+    CHECK(chirp.value(0.99, x) == 0.0 && chirp.value(1.0, x) == 0.0 && chirp.value(11.0, x) == 0.0);
+    CHECK(!chirp.piecewise_constant() && chirp.switching_times() == std::vector<double>({1.0, 11.0}));
+    CHECK(chirp.problems().empty());
+  }
+  // Linear: φ(τ) = 2π (0.5 τ + 0.375 τ²): 5π at τ = 2, 1.75π at τ = 1.
+  const auto linear = ipsim::Input::chirp(2.0, 0.5, 8.0, 10.0, 1.0, false);
+  CHECK_NEAR(linear.value(3.0, x), 0.0, 1e-13);
+  CHECK_NEAR(linear.value(2.0, x), -std::sqrt(2.0), 1e-13);
+  // Logarithmic, k = 16: 16^(τ/10) = 2 at τ = 2.5, so φ = 2π · 0.5 · 10 · (2 − 1) / ln 16.
+  const auto log_sweep = ipsim::Input::chirp(2.0, 0.5, 8.0, 10.0, 1.0, true);
+  CHECK_NEAR(log_sweep.value(3.5, x), 2.0 * std::sin(10.0 * ipsim::kPi / std::log(16.0)), 1e-13);
+  CHECK(!ipsim::Input::chirp(1.0, 2.0, 2.0, 1.0, 0.0, false).problems().empty());  // f1 = f0
+  CHECK(!ipsim::Input::chirp(1.0, 0.0, 2.0, 1.0, 0.0, true).problems().empty());   // log from 0 Hz
+  // Multisine: amplitude · scale · Σ cos(2π f t + φ), as ipgen passes the lines.
+  const auto multi = ipsim::Input::multisine(2.0, {1.0, 2.0}, {0.0, -ipsim::kPi / 2.0}, 0.5);
+  CHECK_NEAR(multi.value(0.0, x), 2.0 * 0.5 * (1.0 + 0.0), 1e-15);
+  CHECK_NEAR(multi.value(0.125, x), 2.0 * 0.5 * (std::cos(ipsim::kPi / 4.0) + 1.0), 1e-15);  // 2nd: cos 0
+  CHECK(!multi.piecewise_constant() && multi.switching_times().empty() && multi.problems().empty());
+  CHECK(!ipsim::Input::multisine(1.0, {1.0}, {}, 1.0).problems().empty());  // a phase missing
+}
+
+/// TravelMonitor: passes samples on while |θ0| <= travel, stops at the first beyond.
+void check_travel_monitor() {
+  struct Count : ipsim::SampleSink {
+    int seen = 0;
+    bool record(const ipsim::Sample&) override { return ++seen, true; }
+  } inner;
+  ipsim::TravelMonitor monitor(inner, 0.5);
+  double state[2] = {0.0, 0.0};
+  ipsim::Sample sample;
+  sample.state = state;
+  sample.state_size = 2;
+  for (const double position : {0.0, 0.3, -0.5}) {
+    state[0] = position;
+    CHECK(monitor.record(sample));
+  }
+  state[0] = -0.51;
+  sample.t = 1.5;
+  CHECK(!monitor.record(sample) && inner.seen == 4);
+  CHECK(monitor.exceeded() && monitor.exceeded()->t == 1.5 && monitor.exceeded()->position == -0.51);
 }
 
 void check_schedule() {
@@ -143,6 +187,18 @@ void check_scene_reader() {
                "test.cfg:22: jacobian must be `exact` or `dq`, got `numeric`");
   CHECK_THROWS(load_text(edited("method", "method = rk4\nstep = fast")), SceneError, "`step`: `fast` is not a number");
   CHECK_THROWS(load_text(edited("input", "input = ramp")), SceneError, "input must be zero, constant");
+  // A chirp and a multisine as ipgen writes them; limits.travel.
+  const auto chirp = load_text(edited("input", "input = chirp\ninput.f0 = 0.5\ninput.f1 = 4\ninput.sweep = logarithmic"));
+  CHECK(chirp.settings.input.kind == ipsim::Input::Kind::chirp && chirp.settings.input.logarithmic);
+  CHECK(chirp.settings.input.f1 == 4.0 && chirp.settings.input.start == 0.0);
+  CHECK_THROWS(load_text(edited("input", "input = chirp\ninput.f0 = 0\ninput.f1 = 4\ninput.sweep = cubic")), SceneError,
+               "input.sweep must be `linear` or `logarithmic`");
+  const auto multi = load_text(edited(
+      "input", "input = multisine\ninput.frequencies = 0.5 1\ninput.phases = 0 -1.5\ninput.scale = 0.6\nlimits.travel = 0.25"));
+  CHECK(multi.settings.input.kind == ipsim::Input::Kind::multisine && multi.settings.input.frequencies.size() == 2);
+  CHECK(multi.settings.input.phases.at(1) == -1.5 && multi.settings.input.scale == 0.6 && multi.travel == 0.25);
+  CHECK(std::isinf(scene.travel));
+  CHECK_THROWS(load_text(std::string(kScene) + "limits.travel = -1\n"), SceneError, "limits.travel must be");
   CHECK_THROWS(load_text(std::string(kScene) + "colour = red\n"), SceneError, "unknown key `colour`");
   CHECK_THROWS(load_text(std::string(kScene) + "g = 1\n"), SceneError, "key `g` repeated (first on line 9)");
   CHECK_THROWS(load_text(std::string(kScene) + "just words\n"), SceneError, "expected `key = value`");
@@ -154,6 +210,31 @@ void check_scene_reader() {
   // Ranges are validate()'s job, with the API's messages.
   const auto negative = load_text(edited("m", "m = 0.5 -1"));
   CHECK(ipsim::validate<Model>(negative.params).at(0) == "invalid parameter m[1] = -1: masses must be > 0");
+}
+
+void check_coordinates() {
+  // relative, hanging, counter-clockwise, two links: by hand, q1 = -(theta1 - pi), q2 = -(theta2 - theta1).
+  ipsim::Coordinates rig;
+  rig.relative = rig.hanging = rig.counterclockwise = true;
+  Eigen::VectorXd x(6);
+  x << 0.1, 3.0, 2.5, 0.2, -0.5, 0.7;
+  Eigen::VectorXd expected(6);
+  expected << 0.1, 3.141592653589793 - 3.0, 0.5, 0.2, 0.5, -1.2;
+  const Eigen::VectorXd user = rig.to_user(x);
+  CHECK((user - expected).cwiseAbs().maxCoeff() < 1e-15);
+  CHECK((rig.to_canonical(user) - x).cwiseAbs().maxCoeff() < 1e-15);
+  Eigen::VectorXd k_user(6);
+  k_user << 1.0, 2.0, 3.0, 4.0, 5.0, 6.0;  // u = -K_user (x_user - x_eq,user) = -(K_user P)(x - x_eq)
+  const Eigen::VectorXd k = rig.gain_to_canonical(k_user);
+  CHECK(std::abs(k_user.dot(rig.to_user(x) - rig.to_user(Eigen::VectorXd::Zero(6))) - k.dot(x)) < 1e-12);
+  CHECK((rig.gain_to_user(k) - k_user).cwiseAbs().maxCoeff() < 1e-14);
+  CHECK(ipsim::Coordinates{}.canonical() && !rig.canonical());
+  // A scene in the rig's coordinates: the initial state is mapped into ipgen's.
+  const auto scene = load_text(std::string(kScene) + "zero = hanging\npositive = counterclockwise\n");
+  CHECK(scene.coordinates.hanging && scene.coordinates.counterclockwise && !scene.coordinates.relative);
+  CHECK(std::abs(scene.settings.theta(1) - (3.141592653589793 - 0.1)) < 1e-15 && scene.settings.theta(0) == 0.0);
+  CHECK_THROWS(load_text(std::string(kScene) + "angles = joint\n"), SceneError,
+               "angles must be `absolute` or `relative`, got `joint`");
 }
 
 void check_scene_method_keys() {
@@ -298,9 +379,11 @@ int main() {
   check_energy_helpers();
   check_raii_moves();
   check_inputs();
+  check_travel_monitor();
   check_schedule();
   check_scene_reader();
   check_scene_method_keys();
+  check_coordinates();
   check_model_without_derivatives();
   std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
   return ipsim_test::failures();

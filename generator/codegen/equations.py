@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 
 import sympy as sp
 
+from ipgen.codegen.header import frame_context
 from ipgen.codegen.latex import break_lines, latex, readable_terms
 from ipgen.common.version import __version__
 from ipgen.model.specialise import format_exact
@@ -266,6 +267,7 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
         "cap": TERM_CAP,
         "fixed": fixed,
         "rod_links": eqs.rod_links,
+        "frame": frame_context(request.coordinates),
     }
 
 

@@ -86,7 +86,7 @@ def energy_gradients(eqs: Equations) -> FunctionBody:
         "dV_dq": eqs.poly["gravity"],
         "dD_dqd": [[dissipation.derivative(algebra.qd(k))] for k in range(dof)],
     }
-    outputs = [Output(name, value) for name, value in columns.items()]
+    outputs = [Output(name, value, damped=name == "dD_dqd") for name, value in columns.items()]
     extra = tuple(getattr(C_SYNTAX, "extra_arguments", ()))  # the links struct, where there is one
     return build_body(eqs, outputs, ("q", "qd", "p", *extra), syntax=C_SYNTAX)
 

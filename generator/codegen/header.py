@@ -22,6 +22,7 @@ from ipgen.codegen.functions import (
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 from ipgen.model.system import System, split_parameter
@@ -41,11 +42,13 @@ class _Read:
     scalar: bool = False
     symmetric: bool = False
     lower_only: bool = False
+    damped: bool = False  # generalised forces including the damping (`functions.Output.damped`)
+    rayleigh: bool = False  # the Rayleigh function D (`functions.Output.rayleigh`)
 
 
 _ARGS_Q_P = ("q", "p")
 _ARGS_Q_QD_P = ("q", "qd", "p")
-_M_LOWER, _B = _Read("M", "mass_matrix", lower_only=True), _Read("b", "bias")
+_M_LOWER, _B = _Read("M", "mass_matrix", lower_only=True), _Read("b", "bias", damped=True)
 # Each function's outputs, and the arguments of its C++ signature that the body may use.
 _FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
     "mass_matrix": ((_Read("M", "mass_matrix", symmetric=True),), _ARGS_Q_P),
@@ -59,7 +62,7 @@ _FUNCTIONS: dict[str, tuple[tuple[_Read, ...], tuple[str, ...]]] = {
     ),
     "kinetic_energy": ((_Read("T", "kinetic_energy", scalar=True),), _ARGS_Q_QD_P),
     "potential_energy": ((_Read("V", "potential_energy", scalar=True),), _ARGS_Q_P),
-    "dissipation": ((_Read("D", "dissipation", scalar=True),), ("qd", "p")),
+    "dissipation": ((_Read("D", "dissipation", scalar=True, rayleigh=True),), ("qd", "p")),
 }
 # Functions whose outputs use θ̈, and the C++ vector holding it once solved for.
 _LATE = {"forward_dynamics_derivatives": "d.qdd"}
@@ -78,6 +81,9 @@ class HeaderRequest:
     parameters: tuple[tuple[str, float], ...] = ()
     initial: tuple[float, ...] = ()
     swingup: SwingUpLaw | None = None  # a scene's swing-up (control.swingup), for the C header
+    # The rig's coordinates the headers' functions take and return (default: ipgen's own; the
+    # canonical functions stay in them, docs/model.md "The rig's coordinates").
+    coordinates: Coordinates = field(default_factory=Coordinates)
 
 
 def templates_dir() -> Path:
@@ -143,7 +149,15 @@ def function_bodies(
     for name in wanted:
         reads, arguments = _FUNCTIONS[name]
         outputs = [
-            Output(r.cpp, eqs.poly[r.key], scalar=r.scalar, symmetric=r.symmetric, lower_only=r.lower_only)
+            Output(
+                r.cpp,
+                eqs.poly[r.key],
+                scalar=r.scalar,
+                symmetric=r.symmetric,
+                lower_only=r.lower_only,
+                damped=r.damped,
+                rayleigh=r.rayleigh,
+            )
             for r in reads
         ]
         if name != "dissipation":  # Rayleigh's D reads the damping only: no links argument
@@ -169,6 +183,22 @@ def header_context(eqs: Equations, request: HeaderRequest, template: str) -> dic
         "input_used": not spec.zero_input,
         "specialisation": [comment_safe(note) for note in spec.notes()],
         "origin": comment_safe(spec.origin),
+        "frame": frame_context(request.coordinates),
+    }
+
+
+def frame_context(coordinates: Coordinates) -> dict[str, object] | None:
+    """The rig's coordinates for the templates, or None for ipgen's own (the header is then as
+    it always was)."""
+    if coordinates.is_canonical:
+        return None
+    return {
+        "angles": coordinates.angles,
+        "zero": coordinates.zero,
+        "positive": coordinates.positive,
+        "relative": coordinates.angles == "relative",
+        "hanging": coordinates.zero == "hanging",
+        "counterclockwise": coordinates.positive == "counterclockwise",
     }
 
 
@@ -179,7 +209,30 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     eqs = specialise(eqs, spec, poly_keys(spec.outputs))
     context["fn"] = function_bodies(eqs, spec.outputs)
     context["folded"] = folded_entries(eqs.system, spec, CPP_SYNTAX, lambda v: repr(float(v)))
+    context["rod_fills"] = rod_fills(eqs.system, spec)
     return environment().get_template(TEMPLATE).render(context)
+
+
+def rod_fills(system: System, spec: Specialisation) -> list[tuple[str, str]]:
+    """(Params field, its rod value from m and l) of every com and J entry a header reads and
+    falls back on when unset (a cart's J0 is unused; folded entries are not read), for
+    `with_rod_links`."""
+    fixed = {name for name, _ in spec.fixed}
+    names = [f"{group}{i}" for i in range(1, system.dof) for group in ("com", "J")]
+    if system.is_rotary:
+        names.insert(0, "J0")
+    fills = []
+    for name in names:
+        if name in fixed:
+            continue
+        group, index = split_parameter(name)
+        m, length = params_field(f"m{index}"), params_field(f"l{index}")
+        if group == "com":
+            rod = f"{length} / Scalar(2)"
+        else:
+            rod = f"{m} * {length} * {length} / Scalar({3 if index == 0 else 12})"
+        fills.append((params_field(name), rod))
+    return fills
 
 
 def folded_entries(

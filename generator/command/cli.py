@@ -17,7 +17,10 @@ from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ipgen.command.generate import Written
+    from ipgen.control.coordinates import Coordinates
 
 __all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
 
@@ -27,7 +30,7 @@ PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header;
 or, with a command, run a scene (ipgen run), plot or animate a simulator's CSV (ipgen plot,
-ipgen animate).
+ipgen animate), design a rig's identification experiment (ipgen excite).
 
 \b
 Systems (docs/model.md in the repository has the exact model):
@@ -52,6 +55,8 @@ Examples:
   ipgen run my_scene.toml -o out/   # generate, build, simulate: out/my_scene.csv, .png, .txt
   ipgen plot out/my_scene.csv       # out/my_scene.png
   ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
+  ipgen excite rig.toml --u-max 10 --travel 1 -o rig_identify.toml  # a safe experiment
+  ipgen identify --scene my_scene.toml --data rig.csv --free m1,delta0 -o out/  # fit parameters
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
@@ -131,6 +136,25 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
     + f"  [default: {','.join(DEFAULT_EMIT)}; with --scene: the scene's [system] emit]",
 )
 @click.option(
+    "--angles",
+    default=None,
+    metavar="absolute|relative",
+    help="The rig's coordinates (docs/model.md): the headers' functions take link angles measured "
+    "from the vertical (absolute, ipgen's) or link i from link i - 1 (relative).",
+)
+@click.option(
+    "--zero",
+    default=None,
+    metavar="upright|hanging",
+    help="The rig's coordinates: where the link angles are 0 (upright, ipgen's; or hanging).",
+)
+@click.option(
+    "--positive",
+    default=None,
+    metavar="clockwise|counterclockwise",
+    help="The rig's coordinates: the link angles' positive sense (clockwise, ipgen's).",
+)
+@click.option(
     "--force",
     is_flag=True,
     help="Overwrite files in DIR even if ipgen did not write them; "
@@ -163,6 +187,9 @@ def cli(
     fix: str | None,
     outputs: str | None,
     emit: str | None,
+    angles: str | None,
+    zero: str | None,
+    positive: str | None,
     force: bool,
     cmake_dir: bool,
 ) -> None:
@@ -205,6 +232,9 @@ def cli(
         outputs=outputs,
         emit=emit,
         force=force,
+        angles=angles,
+        zero=zero,
+        positive=positive,
     )
     written = _generate(planned)
     scene_ = planned.scene
@@ -333,6 +363,33 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
     return outcome.status
 
 
+def _coordinate_options(command: Callable[..., None]) -> Callable[..., None]:
+    """--angles, --zero, --positive of `ipgen plot` and `ipgen animate`: the CSV's convention."""
+    options = (
+        ("--angles", "absolute|relative"),
+        ("--zero", "upright|hanging"),
+        ("--positive", "clockwise|counterclockwise"),
+    )
+    for option, values in reversed(options):
+        command = click.option(
+            option,
+            default=None,
+            metavar=values,
+            help="The convention of the CSV's link angles (docs/model.md) [default: the .cfg next to "
+            "the CSV says, else ipgen's].",
+        )(command)
+    return command
+
+
+def _csv_coordinates(csv: Path, angles: str | None, zero: str | None, positive: str | None) -> Coordinates:
+    """The options' convention when any is given (the others ipgen's), else the .cfg's beside the CSV."""
+    from ipgen.plots.run import coordinates_beside
+
+    if any(value is not None for value in (angles, zero, positive)):
+        return job.check_coordinates(angles, zero, positive)
+    return coordinates_beside(csv)
+
+
 @cli.command("plot", context_settings=CONTEXT)
 @click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
 @click.option(
@@ -351,16 +408,79 @@ def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Pat
     default=None,
     help="Label θ0 as a cart position or an arm angle [default: from the .cfg next to the CSV].",
 )
+@_coordinate_options
 @click.option("--force", is_flag=True, help="Replace a PNG that ipgen did not write.")
-def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bool) -> None:
+def plot_command(
+    csv: Path, png: Path | None, system_type: str | None, angles: str | None, zero: str | None,
+    positive: str | None, force: bool,
+) -> None:  # fmt: skip
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
     from ipgen.plots.run import plot_run, read_run, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
-    plot_run(run, target, csv.name, system_type or system_type_beside(csv), force=force)
+    plot_run(
+        run, target, csv.name, system_type or system_type_beside(csv), force=force,
+        coordinates=_csv_coordinates(csv, angles, zero, positive),
+    )  # fmt: skip
     click.echo(f"wrote {target}")
+
+
+IDENTIFY_HELP = """Fit parameters of a scene to measurements from the rig (docs/identify.md).
+
+\b
+DATA is a CSV with a header: t, theta0..thetaN (in the scene's coordinates), optionally
+dtheta0..dthetaN and u (the simulator's CSV as it is; without u the scene's [input] says it).
+--free names the parameters to fit (m1, delta0, com1, J1, kt, Rm, Jm, coulomb0, ...); the
+others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene with the
+estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
+errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
+STEM_identify.png (measured against simulated angles). Record open loop about the hanging
+position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+
+\b
+Example (tools/identify_demo.py simulates such a recording):
+  ipgen identify --scene scenes/rigs/qube_servo2.toml --data rig.csv \\
+      --free J1,delta0,delta1,kt -o out/ident/
+"""
+
+
+@cli.command("identify", help=IDENTIFY_HELP, context_settings=CONTEXT)
+@click.option("--scene", "scene", type=click.Path(path_type=Path), required=True, metavar="S.toml",
+              help="The scene: the rig's model and the prior values.")  # fmt: skip
+@click.option("--data", "data", type=click.Path(path_type=Path), required=True, metavar="D.csv",
+              help="The measurements (CSV).")  # fmt: skip
+@click.option("--free", "free", required=True, metavar="P1,P2,...", help="The parameters to fit.")
+@click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
+              help="Folder for the results.")  # fmt: skip
+@click.option("--equation-error-only", is_flag=True,
+              help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
+@click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
+def identify_command(
+    scene: Path, data: Path, free: str, directory: Path | None, equation_error_only: bool, force: bool
+) -> None:
+    from ipgen.command.identify import identify
+
+    if directory is None:
+        raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
+    try:
+        import casadi  # noqa: F401
+    except ImportError:
+        raise job.OptionsError(
+            "ipgen identify needs CasADi: pip install 'ipgen-pendulum[identify]' (or pip install casadi)"
+        ) from None
+    result = identify(
+        scene,
+        data,
+        free,
+        directory,
+        force=force,
+        output_error=not equation_error_only,
+        progress=lambda line: click.echo(f"ipgen: {line}", err=True),
+    )
+    click.echo(result.report, nl=False)
+    click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
 
 
 @cli.command("animate", context_settings=CONTEXT)
@@ -378,10 +498,12 @@ def plot_command(csv: Path, png: Path | None, system_type: str | None, force: bo
     help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
 )  # fmt: skip
 @click.option("--fps", type=float, default=15.0, show_default=True, help="Frames per second of the run.")
+@_coordinate_options
 @click.option("--force", is_flag=True, help="Replace an existing GIF.")
 def animate_command(
-    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float, force: bool
-) -> None:
+    csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float,
+    angles: str | None, zero: str | None, positive: str | None, force: bool,
+) -> None:  # fmt: skip
     """Animate a CSV a simulator wrote (ipgen run, simulate_<model>), drawn to scale from above and
     from the side: an animated GIF (needs pillow: the extra swingup)."""
     from ipgen.plots.run import scene_beside
@@ -411,8 +533,18 @@ def animate_command(
             "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
-    written = animate_run(csv, target, kind, l_values, fps=fps, force=force)
+    frame = _csv_coordinates(csv, angles, zero, positive)
+    written = animate_run(csv, target, kind, l_values, fps=fps, force=force, coordinates=frame)
     click.echo(f"wrote {written}")
+
+
+def _register() -> None:
+    from ipgen.command.excite import command as excite_command
+
+    cli.add_command(excite_command)
+
+
+_register()
 
 
 def run(argv: list[str] | None = None) -> int:

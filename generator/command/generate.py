@@ -12,6 +12,7 @@ from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
 from ipgen.command.output import prepare_directory, write_files
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.model.derivation import derive
 from ipgen.model.specialise import FUNCTIONS, Specialisation, format_exact
 from ipgen.model.system import System
@@ -25,7 +26,11 @@ STEPS = 7  # progress steps reported besides one per target: six by the derivati
 
 
 def canonical_command(
-    system: System, name: str, spec: Specialisation = GENERAL, emit: tuple[str, ...] = DEFAULT_EMIT
+    system: System,
+    name: str,
+    spec: Specialisation = GENERAL,
+    emit: tuple[str, ...] = DEFAULT_EMIT,
+    coordinates: Coordinates | None = None,
 ) -> str:
     """The ipgen command that regenerates these files (in any output folder)."""
     emitting = "" if emit == DEFAULT_EMIT else " --emit " + ",".join(emit)
@@ -39,6 +44,11 @@ def canonical_command(
         command += " --fix " + ",".join(f"{n}={format_exact(v)}" for n, v in spec.fixed)
     if spec.outputs != FUNCTIONS:
         command += " --outputs " + ",".join(spec.outputs)
+    default = Coordinates()
+    for option in ("angles", "zero", "positive"):
+        value = getattr(coordinates or default, option)
+        if value != getattr(default, option):
+            command += f" --{option} {value}"
     return command + emitting + " -o <dir>"
 
 
@@ -62,16 +72,26 @@ def generate(
     parameters: tuple[tuple[str, float], ...] = (),
     initial: tuple[float, ...] = (),
     swingup: SwingUpLaw | None = None,
+    coordinates: Coordinates | None = None,
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
     write them all or none (`output.write_files`). `controller` (a scene's) is handed to the
     targets that print it; `parameters` (name, value) and `initial` (θ then θ̇), a scene's, to
-    the targets that carry start values (the FMU); `swingup` (a scene's) to the C header."""
+    the targets that carry start values (the FMU); `swingup` (a scene's) to the C header;
+    `coordinates` (default ipgen's) are those the headers' functions take and return."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
+    frame = coordinates if coordinates is not None else Coordinates()
     request = HeaderRequest(
-        name, canonical_command(system, name, spec, emit), spec, controller, parameters, initial, swingup
+        name,
+        canonical_command(system, name, spec, emit, frame),
+        spec,
+        controller,
+        parameters,
+        initial,
+        swingup,
+        frame,
     )
     files: list[tuple[Path, str | bytes]] = []
     for target in emit:

@@ -5,13 +5,14 @@ input with the same one-line message (an `OptionsError`, or the `Error` a parser
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
+from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 
@@ -43,6 +44,9 @@ class Job:
     spec: Specialisation
     emit: tuple[str, ...]
     scene: Scene | None = None  # a scene job also writes DIR/<stem>.cfg
+    # The rig's coordinates the headers' functions take (--angles, --zero, --positive, or a
+    # scene's [system] keys); default ipgen's own.
+    coordinates: Coordinates = field(default_factory=Coordinates)
 
 
 def cost_estimate(links: int) -> str:
@@ -98,6 +102,38 @@ def _check_no_system_options(*clashing: object) -> None:
         )
 
 
+# Targets that cannot be written in the rig's coordinates yet (their variables are ipgen's).
+CANONICAL_ONLY_TARGETS: tuple[str, ...] = ("fmu", "fmu3")
+
+
+def check_coordinates(angles: object, zero: object, positive: object) -> Coordinates:
+    """The convention --angles, --zero, --positive name (None: the default), or an OptionsError."""
+    chosen = {}
+    for option, value, allowed in (
+        ("angles", angles, ANGLES),
+        ("zero", zero, ZEROS),
+        ("positive", positive, POSITIVE),
+    ):
+        if value is None:
+            continue
+        if not isinstance(value, str) or value not in allowed:
+            raise OptionsError(
+                f"--{option} {abbreviate(str(value))!r}: expected {' or '.join(allowed)} "
+                "(the rig's coordinates, docs/model.md)"
+            )
+        chosen[option] = value
+    return Coordinates(**chosen)
+
+
+def _check_targets(coordinates: Coordinates, targets: tuple[str, ...]) -> None:
+    refused = [target for target in targets if target in CANONICAL_ONLY_TARGETS]
+    if refused and not coordinates.is_canonical:
+        raise OptionsError(
+            f"--emit {refused[0]} in the rig's coordinates is not supported yet: the FMU's variables are "
+            "ipgen's; drop the coordinates (--angles, --zero, --positive or the scene's) or the FMU"
+        )
+
+
 def describe(scene_path: Path | str | None, *clashing: object) -> Scene:
     """The scene `--scene FILE --describe` describes (none of the system options may be given)."""
     if scene_path is None:
@@ -120,6 +156,9 @@ def plan(
     outputs: ListOption = None,
     emit: ListOption = None,
     force: bool = False,
+    angles: object = None,
+    zero: object = None,
+    positive: object = None,
 ) -> Job:
     """Validate one command's options (in the order the command reports them) into a Job."""
     from ipgen.model.specialise import FUNCTIONS, Specialisation, parse_fix, parse_outputs
@@ -137,6 +176,11 @@ def plan(
         _check_no_system_options(system_type, links, name, inertia, fix, outputs)
         from ipgen.scene.reader import load_scene  # only scene commands need it
 
+        if any(value is not None for value in (angles, zero, positive)):
+            raise OptionsError(
+                "--scene says the coordinates in its [system] angles, zero and positive: drop --angles, "
+                "--zero and --positive"
+            )
         loaded = load_scene(Path(scene))
         if loaded.links > LINKS_WITHOUT_FORCE and not force:
             raise OptionsError(
@@ -145,7 +189,17 @@ def plan(
                 f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
             )
         spec = from_scene(loaded) if loaded.specialise else Specialisation()
-        return Job(loaded.system, loaded.name, directory, force, spec, targets or loaded.emit, loaded)
+        _check_targets(loaded.coordinates, targets or loaded.emit)
+        return Job(
+            loaded.system,
+            loaded.name,
+            directory,
+            force,
+            spec,
+            targets or loaded.emit,
+            loaded,
+            loaded.coordinates,
+        )
     if system_type is None or links is None:
         missing = "--type" if system_type is None else "--links"
         raise OptionsError(f"missing {missing}: say which system to derive, e.g. --type rotary --links 3")
@@ -163,7 +217,9 @@ def plan(
         fixed=parse_fix(system, _fix_text(fix)) if fix is not None else (),
         outputs=parse_outputs(_text(outputs)) if outputs is not None else FUNCTIONS,
     )
-    return Job(system, name, directory, force, spec, targets or DEFAULT_EMIT)
+    coordinates = check_coordinates(angles, zero, positive)
+    _check_targets(coordinates, targets or DEFAULT_EMIT)
+    return Job(system, name, directory, force, spec, targets or DEFAULT_EMIT, coordinates=coordinates)
 
 
 def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written]:
@@ -192,4 +248,5 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         swingup=job.scene.swingup if job.scene is not None else None,
         parameters=parameters,
         initial=initial,
+        coordinates=job.coordinates,
     )

@@ -56,7 +56,7 @@ RESERVED_NAMES: frozenset[str] = frozenset(
     {"std", "posix", "main", "Eigen", "ipgen", "detail"}
     | {"Model", "Params", "Vector", "Matrix", "Derivatives", "Scalar"}
     | {"kLinks", "kDof", "kSpecialised", "kName", "kType", "kInertia", "check_folded"}
-    | {"DcMotor", "with_motor"}
+    | {"DcMotor", "with_motor", "with_rod_links"}
     | {"mass_matrix", "bias", "gravity", "n_matrix", "forward_dynamics", "forward_dynamics_derivatives"}
     | {"kinetic_energy", "potential_energy", "dissipation", "factorize_ldlt", "solve_ldlt"}
     | {"linearize", "Linearization", "StateVector", "StateMatrix"}

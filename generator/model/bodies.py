@@ -185,9 +185,15 @@ def rod_defaults(system: System, alg: Algebra) -> dict[int, Poly]:
     return values
 
 
+def joint_rates(system: System) -> list[dict[int, int]]:
+    """The rate each damper i = 0..n acts on, as {coordinate: ±1} (θ̇0 for the base, θ̇1 for link 1,
+    θ̇i − θ̇_{i−1} for the joint between links i−1 and i; docs/model.md: link 1 uses its absolute
+    rate). Damper i's torque is r_i = δ_i ω_i, and the generalised damping force on coordinate
+    k is ∂D/∂θ̇_k = Σ_i r_i ∂ω_i/∂θ̇_k: +r_i on the body it turns, −r_{i+1} from the next joint."""
+    return [{0: 1}, {1: 1}, *({i: 1, i - 1: -1} for i in range(2, system.dof))]
+
+
 def rayleigh_dissipation(system: System, alg: Algebra) -> Poly:
-    """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² (docs/model.md: link 1 uses its absolute rate)."""
-    rate = [alg.gens[alg.qd(i)] for i in range(system.dof)]
-    terms = [alg.delta(0) * rate[0] ** 2, alg.delta(1) * rate[1] ** 2]
-    terms += [alg.delta(i) * (rate[i] - rate[i - 1]) ** 2 for i in range(2, system.dof)]
-    return alg.total(terms) / 2
+    """D = ½δ0θ̇0² + ½δ1θ̇1² + Σ_{i≥2} ½δ_i(θ̇_i − θ̇_{i−1})² = ½ Σ_i δ_i ω_i² (`joint_rates`)."""
+    rates = [alg.total(c * alg.gens[alg.qd(k)] for k, c in rate.items()) for rate in joint_rates(system)]
+    return alg.total(alg.delta(i) * rate**2 for i, rate in enumerate(rates)) / 2

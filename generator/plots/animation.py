@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ipgen.control.coordinates import Coordinates
 from ipgen.errors import Error
 
 if TYPE_CHECKING:
@@ -103,6 +104,18 @@ def read_run(path: str | Path) -> RunData:
     )
 
 
+def canonical_angles(data: RunData, coordinates: Coordinates | None) -> np.ndarray:
+    """The run's angle rows (K × dof) in ipgen's coordinates (absolute, from upright, clockwise),
+    from the rig's `coordinates` the CSV is in (None: already ipgen's)."""
+    import numpy as np
+
+    if coordinates is None or coordinates.is_canonical:
+        return data.theta
+    states = np.hstack([data.theta, data.dtheta])
+    p, c = coordinates.matrices(data.links)
+    return np.linalg.solve(p, (states - c).T).T[:, : data.links + 1]
+
+
 def _lengths(type: str, links: int, l: Sequence[float]) -> list[float]:  # noqa: E741
     if type not in ("classical", "rotary"):
         raise PlotError(f"type {type!r}: expected 'classical' or 'rotary'")
@@ -177,9 +190,11 @@ def animate_run(
     trace: float = 1.0,
     dpi: int = 60,
     force: bool = False,
+    coordinates: Coordinates | None = None,
 ) -> Path:
     """Write an animated GIF of `run` (a RunData or the path of a simulator CSV) to `output`,
-    drawn to scale (module docstring) at `fps` frames per second of the run."""
+    drawn to scale (module docstring) at `fps` frames per second of the run. `coordinates`: the
+    convention of the run's angles (a scene's [system] angles, zero, positive; default ipgen's)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -195,7 +210,7 @@ def animate_run(
     count = max(2, int(duration * fps) + 1)
     times = np.linspace(data.t[0], data.t[-1], count)
     frames = np.searchsorted(data.t, times).clip(0, len(data.t) - 1)
-    points = geometry(type, lengths, data.theta)
+    points = geometry(type, lengths, canonical_angles(data, coordinates))
     reach = float(np.sum(lengths[1:]))
     fig, (ax_top, ax_side) = plt.subplots(1, 2, figsize=(7.0, 3.6))
     for ax in (ax_top, ax_side):

@@ -24,6 +24,7 @@ from decimal import Decimal
 from typing import Any
 
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.scene.fields import _one_of, _type_name, format_number
 from ipgen.scene.fieldtypes import at, check_count, refuse, refuse_key
 
@@ -158,9 +159,17 @@ class GainError(Exception):
     """No LQR gain for this scene (the message says why)."""
 
 
-def controller(table: Any, system: Any, params: Any, actuator: Any = None) -> Controller:
-    """The controller of a validated [controller] table, with its LQR gain (raises `GainError`)."""
+def controller(
+    table: Any, system: Any, params: Any, actuator: Any = None, coordinates: Coordinates | None = None
+) -> Controller:
+    """The controller of a validated [controller] table, with its LQR gain (raises `GainError`).
+
+    In the rig's `coordinates` (default: ipgen's) the weights, an equilibrium given as angles,
+    the gain and the equilibrium returned are in them; "upright" and "hanging" name the same
+    physical state in any convention (its angles there follow the map, docs/model.md)."""
     from ipgen.control.linear import ControlError, equilibrium_state, lqr
+
+    frame = coordinates if coordinates is not None else Coordinates()
 
     weights_ = table.q if table.q is not None else [1.0] * (2 * (system.links + 1))
     try:
@@ -177,10 +186,15 @@ def controller(table: Any, system: Any, params: Any, actuator: Any = None) -> Co
             equilibrium=table.equilibrium,
             **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
             actuator=actuator,  # [actuator]: K in volts (dc_motor) or m/s², rad/s² (acceleration)
+            angles=frame.angles,
+            zero=frame.zero,
+            positive=frame.positive,
         )
     except ControlError as exc:
         raise GainError(f"controller: no LQR gain: {exc}") from None
-    x_eq = equilibrium_state(system.links, table.equilibrium)
+    x_eq = equilibrium_state(system.links, table.equilibrium)  # angles as written: the rig's
+    if isinstance(table.equilibrium, str) and not frame.is_canonical:
+        x_eq = frame.to_user(x_eq, system.links)  # a named state, mapped
     return Controller(
         kind=table.kind,
         gain=tuple(float(k) for k in gain.ravel()),  # K is 1 x 2(n+1)

@@ -15,7 +15,7 @@ import difflib
 import functools
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
@@ -25,7 +25,9 @@ from ipgen.codegen.emit import DEFAULT_EMIT
 from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
+from ipgen.control import signals
 from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
 from ipgen.model.links import rod_value
@@ -44,15 +46,28 @@ class InputSpec:
 
     kind: str = "zero"
     amplitude: float = 0.0
-    start: float = 0.0  # pulse
-    duration: float = 0.0  # pulse
+    start: float = 0.0  # pulse, chirp
+    duration: float = 0.0  # pulse, chirp
     time: float = 0.0  # step
     frequency: float = 0.0  # sine, Hz
     phase: float = 0.0  # sine, rad
+    f0: float = 0.0  # chirp, Hz
+    f1: float = 0.0  # chirp, Hz
+    sweep: str = "linear"  # chirp: linear | logarithmic
+    f_min: float = 0.0  # multisine, Hz
+    f_max: float = 0.0  # multisine, Hz
+    period: float = 0.0  # multisine, s
 
-    def fields(self) -> tuple[tuple[str, float], ...]:
+    def fields(self) -> tuple[tuple[str, float | str], ...]:
         """The (key, value) pairs this kind uses, in resolved-config order."""
         return tuple((key, getattr(self, key)) for key in schema.INPUT_KEYS[self.kind])
+
+    @functools.cached_property
+    def lines(self) -> signals.Multisine:
+        """A multisine's lines: frequencies, Schroeder phases and the scale (`control.signals`)."""
+        if self.kind != "multisine":
+            raise ValueError(f"a {self.kind!r} input has no multisine lines")
+        return signals.multisine(self.f_min, self.f_max, self.period)
 
     def value(self, t: float) -> float:
         """The input at time t (pulses are on for start <= t < start + duration)."""
@@ -65,11 +80,17 @@ class InputSpec:
             return self.amplitude if t >= self.time else 0.0
         if self.kind == "sine":
             return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t + self.phase)
+        if self.kind == "chirp":
+            return signals.chirp_value(
+                t, self.amplitude, self.f0, self.f1, self.duration, self.start, self.sweep
+            )
+        if self.kind == "multisine":
+            return signals.multisine_value(t, self.amplitude, self.lines)
         return 0.0
 
     def breakpoints(self) -> tuple[float, ...]:
-        """Times where the input jumps: an integrator must stop and restart there."""
-        if self.kind == "pulse":
+        """Times where the input jumps (or its slope does): an integrator must stop and restart there."""
+        if self.kind in ("pulse", "chirp"):
             return (self.start, self.start + self.duration)
         if self.kind == "step":
             return (self.time,)
@@ -119,6 +140,10 @@ class Scene:
     coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
     coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
     swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
+    # [system] angles, zero, positive: the rig's convention, in which `theta`, `dtheta`, the
+    # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
+    coordinates: Coordinates = field(default_factory=Coordinates)
+    travel: float | None = None  # [limits] travel: |θ0| limit [m or rad]; the simulator stops beyond it
 
     @property
     def system(self) -> System:
@@ -208,12 +233,25 @@ def resolved_config(scene: Scene) -> str:
         f"type = {scene.type}",
         f"links = {scene.links}",
         f"inertia = {scene.inertia}",
+        *_coordinate_lines(scene.coordinates),
         *_parameter_lines(scene),
         f"theta = {_format_list(scene.theta)}",
         f"dtheta = {_format_list(scene.dtheta)}",
         f"input = {scene.input.kind}",
     ]
-    lines += [f"input.{key} = {format_number(value)}" for key, value in scene.input.fields()]
+    lines += [
+        f"input.{key} = {value if isinstance(value, str) else format_number(value)}"
+        for key, value in scene.input.fields()
+    ]
+    if scene.input.kind == "multisine":  # the lines the simulator sums (control/signals.py)
+        ms = scene.input.lines
+        lines += [
+            f"input.frequencies = {_format_list(ms.frequencies)}",
+            f"input.phases = {_format_list(ms.phases)}",
+            f"input.scale = {format_number(ms.scale)}",
+        ]
+    if scene.travel is not None:
+        lines.append(f"limits.travel = {format_number(scene.travel)}")
     lines += [
         f"t_end = {format_number(scene.t_end)}",
         f"sample = {format_number(scene.sample)}",
@@ -233,6 +271,19 @@ def resolved_config(scene: Scene) -> str:
     lines += _controller_lines(scene.controller)
     lines += _swingup_lines(scene.swingup)
     return "\n".join(lines) + "\n"
+
+
+def _coordinate_lines(coordinates: Coordinates) -> list[str]:
+    """The rig's convention, when it is not ipgen's (nothing otherwise: the file is as before)."""
+    if coordinates.is_canonical:
+        return []
+    return [
+        "# the rig's coordinates (docs/model.md): theta, dtheta, controller.* and the CSV's columns are in",
+        "# them; the simulator integrates in ipgen's and maps at the edges (swingup.* are ipgen's)",
+        f"angles = {coordinates.angles}",
+        f"zero = {coordinates.zero}",
+        f"positive = {coordinates.positive}",
+    ]
 
 
 def _parameter_lines(scene: Scene) -> list[str]:
@@ -496,6 +547,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
     controller = None
     actuator = tables["actuator"].actuator()
+    coordinates = system.coordinates()
     if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
         reader.fail(
             "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
@@ -511,13 +563,18 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
         try:
-            controller = control.controller(tables["controller"], system, params, actuator)
+            controller = control.controller(tables["controller"], system, params, actuator, coordinates)
         except control.GainError as error:
             reader.fail(str(error))
     theta = zeros if initial.theta is None else _floats(initial.theta)
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
+        if not coordinates.is_canonical:
+            reader.fail(
+                "[swingup] in the rig's coordinates is not supported yet: remove [system] angles, zero "
+                "and positive (the swing-up then uses ipgen's, docs/model.md)"
+            )
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
         params = _Parameters(
@@ -530,6 +587,12 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
         except swing.SwingUpError as error:
             reader.fail(str(error))
+    travel = None if tables["limits"].travel is None else tables["limits"].travel.value
+    if travel is not None and abs(theta[0]) > travel:
+        reader.fail(
+            f"initial.theta[0] = {format_number(theta[0])} is beyond limits.travel = {format_number(travel)} "
+            "(the base starts outside its travel): move it inside or widen the limit"
+        )
     return Scene(
         path=reader.path,
         stem=reader.path.stem,
@@ -544,7 +607,11 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         theta=theta,
         dtheta=dtheta,
         input=InputSpec(
-            kind=spec.kind, **{key: getattr(spec, key).value for key in schema.INPUT_KEYS[spec.kind]}
+            kind=spec.kind,
+            **{
+                key: value if isinstance(value := getattr(spec, key), str) else value.value
+                for key in schema.INPUT_KEYS[spec.kind]
+            },
         ),
         **simulation,
         free=parameters.free,
@@ -559,6 +626,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
         coulomb_speed=parameters.coulomb_speed.value,
         swingup=law,
+        coordinates=coordinates,
+        travel=travel,
     )
 
 

@@ -30,6 +30,8 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
+from ipgen.control import coordinates as frame
+from ipgen.control import signals
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
@@ -161,9 +163,40 @@ class SystemTable(Table):
             description="what ipgen writes for the model", json_schema_extra={"default": list(DEFAULT_EMIT)}
         ),
     ] = DEFAULT_EMIT
+    # The rig's own coordinates (docs/scenes.md, "The rig's coordinates"): how [initial],
+    # [controller], the CSV, the plots and the scene's headers measure the link angles.
+    angles: Annotated[
+        str,
+        Choice(options=frame.ANGLES),
+        Field(
+            description="link angles: absolute (each from the vertical) or relative (link i from link "
+            "i - 1), in [initial], [controller], the CSV, the plots and the headers"
+        ),
+    ] = frame.Coordinates.angles
+    zero: Annotated[
+        str,
+        Choice(options=frame.ZEROS),
+        Field(
+            description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
+            "the others are 0 in line with the link below)"
+        ),
+    ] = frame.Coordinates.zero
+    positive: Annotated[
+        str,
+        Choice(options=frame.POSITIVE),
+        Field(
+            description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or "
+            "counterclockwise"
+        ),
+    ] = frame.Coordinates.positive
+
+    def coordinates(self) -> frame.Coordinates:
+        """The convention of the link angles this table declares."""
+        return frame.Coordinates(self.angles, self.zero, self.positive)
 
     def context(self) -> dict[str, Any]:
         return {
+            "coordinates": self.coordinates(),
             "type": self.type,
             "links": self.links,
             "count": self.links + 1,
@@ -424,6 +457,102 @@ class SineInput(InputTable):
     phase: Annotated[Exact, Number("an angle in rad"), Field(description="[rad]")] = _default(0.0)
 
 
+_PEAK = Annotated[
+    Exact,
+    Number("a number > 0: N on a cart, N m on an arm", (Gt(0, "must be > 0 {u_unit} (the peak |u|)"),)),
+    Field(
+        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
+    ),
+]
+_FREQUENCY = Number("a frequency in Hz, >= 0", (Ge(0, "must be >= 0 Hz"),))
+
+
+class ChirpInput(InputTable):
+    kind: Annotated[
+        Literal["chirp"],
+        Field(
+            description="a swept sine u = amplitude sin φ(t − start) for start <= t < start + duration, "
+            "its frequency going from f0 to f1 (docs/excitation.md has φ)"
+        ),
+    ]
+    amplitude: _PEAK
+    f0: Annotated[Exact, _FREQUENCY, Field(description="the frequency at the start [Hz]")]
+    f1: Annotated[Exact, _FREQUENCY, Field(description="the frequency at the end [Hz], > f0")]
+    duration: Annotated[
+        Exact,
+        Number("a time in s, > 0", (Gt(0, "the sweep's duration must be > 0 s"),)),
+        Field(description="the sweep's length [s]"),
+    ]
+    start: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")] = (
+        _default(0.0)
+    )
+    sweep: Annotated[
+        str,
+        Choice(options=signals.SWEEPS),
+        Field(description="linear: f rises linearly in time; logarithmic: exponentially (needs f0 > 0)"),
+    ] = "linear"
+
+    @model_validator(mode="after")
+    def _relations(self) -> ChirpInput:
+        if not self.f1.value > self.f0.value:
+            refuse(
+                f"must be > f0 = {self.f0.text} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1
+            )
+        if self.sweep == "logarithmic" and not self.f0.value > 0:
+            refuse(
+                'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"',
+                key="f0",
+                value=self.f0,
+            )
+        return self
+
+
+class MultisineInput(InputTable):
+    kind: Annotated[
+        Literal["multisine"],
+        Field(
+            description="a periodic sum of cosines at every harmonic of 1/period in [f_min, f_max], "
+            "Schroeder phases (low crest factor), scaled so that max |u| = amplitude"
+        ),
+    ]
+    amplitude: _PEAK
+    f_min: Annotated[Exact, _FREQUENCY, Field(description="the band's lowest frequency [Hz]")]
+    f_max: Annotated[Exact, _FREQUENCY, Field(description="the band's highest frequency [Hz], > f_min")]
+    period: Annotated[
+        Exact,
+        Number("a time in s, > 0", (Gt(0, "the multisine's period must be > 0 s"),)),
+        Field(description="the signal's period [s]: its lines are the harmonics k / period in the band"),
+    ]
+
+    @model_validator(mode="after")
+    def _relations(self) -> MultisineInput:
+        if not self.f_max.value > self.f_min.value:
+            refuse(f"must be > f_min = {self.f_min.text} Hz", key="f_max", value=self.f_max)
+        k_lo, k_hi = signals.harmonics(self.f_min.value, self.f_max.value, self.period.value)
+        if k_hi > signals.MAX_HARMONIC:
+            refuse(
+                f"f_max · period = {self.f_max.value * self.period.value:g}, more than "
+                f"{signals.MAX_HARMONIC} harmonics: shorten the period",
+                key="period",
+                value=self.period,
+            )
+        if k_hi - k_lo + 1 < 1:
+            refuse(
+                f"no harmonic k / period lies in [{self.f_min.text}, {self.f_max.text}] Hz: "
+                "lengthen the period or widen the band",
+                key="period",
+                value=self.period,
+            )
+        if k_hi - k_lo + 1 > signals.MAX_LINES:
+            refuse(
+                f"gives {k_hi - k_lo + 1} lines in the band, more than {signals.MAX_LINES}: "
+                "shorten the period or narrow the band",
+                key="period",
+                value=self.period,
+            )
+        return self
+
+
 # Each kind of input and its model, in the documented order; `kind` tells them apart.
 INPUTS: dict[str, type[InputTable]] = {
     "zero": ZeroInput,
@@ -431,9 +560,11 @@ INPUTS: dict[str, type[InputTable]] = {
     "pulse": PulseInput,
     "step": StepInput,
     "sine": SineInput,
+    "chirp": ChirpInput,
+    "multisine": MultisineInput,
 }
 Input = Annotated[
-    ZeroInput | ConstantInput | PulseInput | StepInput | SineInput,
+    ZeroInput | ConstantInput | PulseInput | StepInput | SineInput | ChirpInput | MultisineInput,
     Field(discriminator="kind"),
 ]
 # The keys each kind uses (in resolved-config order) and which of them are required.
@@ -444,6 +575,25 @@ INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
     kind: tuple(key for key in INPUT_KEYS[kind] if table.model_fields[key].is_required())
     for kind, table in INPUTS.items()
 }
+
+
+# ---------------------------------------------------------------------------- [limits]
+
+
+class LimitsTable(Table):
+    """[limits]: where the rig ends; the simulator stops a run that goes beyond (exit status 4)."""
+
+    travel: Annotated[
+        Exact | None,
+        Number(
+            "a travel limit > 0 (m on a cart, rad on an arm)",
+            (Gt(0, "the travel limit must be > 0 (m on a cart, rad on an arm)"),),
+        ),
+        Field(
+            description="the base's limit |θ0| <= travel: the cart's position [m] or the arm's angle [rad] "
+            "(default: none); checked at every sample"
+        ),
+    ] = None
 
 
 # ---------------------------------------------------------------------------- [simulation]
@@ -656,6 +806,7 @@ class SceneDocument(BaseModel):
     actuator: ActuatorTable = Field(default=None, description="what drives the base (default: direct)")  # type: ignore[assignment]
     initial: InitialTable = Field(default=None, description="the state at t = 0")  # type: ignore[assignment]
     input: Input = Field(default=None, description="the input on the base")  # type: ignore[assignment]
+    limits: LimitsTable = Field(default=None, description="the rig's travel limit")  # type: ignore[assignment]
     simulation: SimulationTable
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
     controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
@@ -669,6 +820,7 @@ TABLE_MODELS: dict[str, Any] = {
     "actuator": ActuatorTable,
     "initial": InitialTable,
     "input": Input,
+    "limits": LimitsTable,
     "simulation": SimulationTable,
     "outputs": OutputsTable,
     "controller": ControllerTable,

@@ -1,7 +1,8 @@
 // CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
 // output), so a run of any length needs the memory of one row. Columns:
 //   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,phase]
-// every value printed with %.17g (round-trips to the same double).
+// every value printed with %.17g (round-trips to the same double). The state columns are in the
+// rig's coordinates when set_coordinates() says so (ipsim/coordinates.hpp), else in ipgen's.
 #pragma once
 
 #include <array>
@@ -15,6 +16,7 @@
 
 #include <Eigen/Core>
 
+#include "ipsim/coordinates.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sink.hpp"
 
@@ -60,7 +62,12 @@ class CsvSink : public SampleSink {
                                " s has a non-finite value (NaN or inf)");
     }
     std::fprintf(out_, "%.17g", sample.t);
-    for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(out_, ",%.17g", x(j));
+    if (coordinates_.canonical()) {
+      for (Eigen::Index j = 0; j < x.size(); ++j) std::fprintf(out_, ",%.17g", x(j));
+    } else {
+      const Eigen::VectorXd user = coordinates_.to_user(x);
+      for (Eigen::Index j = 0; j < user.size(); ++j) std::fprintf(out_, ",%.17g", user(j));
+    }
     if (energy_) {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
@@ -81,13 +88,18 @@ class CsvSink : public SampleSink {
   /// motor, gain = b [N or N m per volt] writes u in volts.
   void set_input_gain(double gain) noexcept { input_gain_ = gain; }
 
+  /// Writes the state columns in the rig's `coordinates` (default: ipgen's). first_state() and
+  /// last_state() stay in ipgen's. Call before the run.
+  void set_coordinates(const Coordinates& coordinates) { coordinates_ = coordinates; }
+  const Coordinates& coordinates() const noexcept { return coordinates_; }
+
   /// Adds a last column `phase` whose text at each row is `phase()` (a swing-up's phase: swing,
   /// track or hold). Call before the run.
   void phase_column(std::function<const char*()> phase) { phase_ = std::move(phase); }
 
   /// Rows written (not counting the header).
   std::size_t rows() const noexcept { return rows_; }
-  /// The first and the last state written, x = [θ; θ̇].
+  /// The first and the last state written, x = [θ; θ̇], in ipgen's coordinates.
   const Eigen::VectorXd& first_state() const noexcept { return first_; }
   const Eigen::VectorXd& last_state() const noexcept { return last_; }
   /// Time of the last row [s].
@@ -125,6 +137,7 @@ class CsvSink : public SampleSink {
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;
   double input_gain_ = 1.0;
+  Coordinates coordinates_;
 };
 
 }  // namespace ipsim

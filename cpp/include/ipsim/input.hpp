@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <functional>
 #include <string>
 #include <utility>
@@ -27,6 +28,8 @@ struct Input {
     pulse,     ///< u = amplitude for start ≤ t < start + duration, else 0
     step,      ///< u = 0 for t < time, amplitude for t ≥ time
     sine,      ///< u = amplitude · sin(2π · frequency · t + phase)
+    chirp,     ///< u = amplitude · sin φ(t − start) on [start, start + duration): a sweep f0 → f1
+    multisine, ///< u = amplitude · scale · Σ_j cos(2π f_j t + φ_j) (lines computed by ipgen)
     feedback,  ///< u = feedback(t, x), e.g. a controller
     sampled,   ///< u = feedback(t_k, x(t_k)) held on [t_k, t_k + period), t_k = k · period (sampled data)
   };
@@ -41,6 +44,12 @@ struct Input {
   double frequency = 0.0;  ///< sine frequency [Hz]
   double phase = 0.0;      ///< sine phase [rad]
   double period = 0.0;     ///< sampling period [s] of Kind::sampled, > 0
+  double f0 = 0.0;         ///< chirp: frequency at start [Hz]
+  double f1 = 0.0;         ///< chirp: frequency at start + duration [Hz], > f0
+  bool logarithmic = false;  ///< chirp: exponential (true) or linear (false) sweep
+  std::vector<double> frequencies;  ///< multisine: the lines' frequencies f_j [Hz]
+  std::vector<double> phases;       ///< multisine: the lines' phases φ_j [rad]
+  double scale = 1.0;               ///< multisine: 1 / peak of Σ_j cos(…), so that max |u| = amplitude
   Feedback feedback;       ///< used only by Kind::feedback and Kind::sampled
 
   /// u = 0.
@@ -78,6 +87,34 @@ struct Input {
     in.phase = phase_rad;
     return in;
   }
+  /// A chirp (swept sine) on [start, start + duration), 0 elsewhere: u = amplitude · sin φ(τ),
+  /// τ = t − start, D = duration; linear: φ = 2π (f0 τ + (f1 − f0) τ² / (2D)); logarithmic
+  /// (f0 > 0): φ = 2π f0 D (k^(τ/D) − 1) / ln k, k = f1 / f0. Both edges are integrator stops.
+  static Input chirp(double amplitude, double f0_hz, double f1_hz, double duration_s, double start_s,
+                     bool logarithmic_sweep) {
+    Input in;
+    in.kind = Kind::chirp;
+    in.amplitude = amplitude;
+    in.f0 = f0_hz;
+    in.f1 = f1_hz;
+    in.duration = duration_s;
+    in.start = start_s;
+    in.logarithmic = logarithmic_sweep;
+    return in;
+  }
+  /// A multisine u = amplitude · scale · Σ_j cos(2π f_j t + φ_j) for all t (smooth and periodic;
+  /// ipgen chooses the lines and Schroeder's phases and the scale that makes max |u| = amplitude).
+  static Input multisine(double amplitude, std::vector<double> frequencies_hz, std::vector<double> phases_rad,
+                         double scale) {
+    Input in;
+    in.kind = Kind::multisine;
+    in.amplitude = amplitude;
+    in.frequencies = std::move(frequencies_hz);
+    in.phases = std::move(phases_rad);
+    in.scale = scale;
+    return in;
+  }
+
   /// u = callback(t, x). The callback must be smooth in t and x between integrator stops (CVODE
   /// assumes a smooth right-hand side); an exception it throws aborts the simulation and is
   /// rethrown to the caller of simulate().
@@ -108,10 +145,30 @@ struct Input {
       case Kind::pulse: return (t >= start && t < start + duration) ? amplitude : 0.0;
       case Kind::step: return t >= time ? amplitude : 0.0;
       case Kind::sine: return amplitude * std::sin(2.0 * kPi * frequency * t + phase);
+      case Kind::chirp: return chirp_value(t);
+      case Kind::multisine: {
+        double total = 0.0;
+        for (std::size_t j = 0; j < frequencies.size(); ++j) total += std::cos(2.0 * kPi * frequencies[j] * t + phases[j]);
+        return amplitude * scale * total;
+      }
       case Kind::feedback:
       case Kind::sampled: return feedback(t, x);
     }
     return 0.0;
+  }
+
+  /// The chirp's u(t) (see chirp()).
+  double chirp_value(double t) const {
+    const double tau = t - start;
+    if (!(tau >= 0.0 && tau < duration)) return 0.0;
+    double phi = 0.0;
+    if (logarithmic) {
+      const double log_k = std::log(f1 / f0);
+      phi = 2.0 * kPi * f0 * duration * std::expm1(log_k * tau / duration) / log_k;
+    } else {
+      phi = 2.0 * kPi * (f0 * tau + (f1 - f0) * tau * tau / (2.0 * duration));
+    }
+    return amplitude * std::sin(phi);
   }
 
   /// True when u depends on t only through jumps, i.e. is constant between switching_times().
@@ -123,7 +180,7 @@ struct Input {
   /// Times [s] at which u jumps (pulse edges, step time, sampling instants k · period below
   /// t_end), ascending. The integrator stops and restarts exactly there instead of stepping across.
   std::vector<double> switching_times(double t_end = 0.0) const {
-    if (kind == Kind::pulse) return {start, start + duration};
+    if (kind == Kind::pulse || kind == Kind::chirp) return {start, start + duration};
     if (kind == Kind::step) return {time};
     std::vector<double> instants;
     if (kind == Kind::sampled && period > 0.0 && std::isfinite(period)) {
@@ -164,6 +221,32 @@ struct Input {
         need_finite("frequency", frequency);
         need_finite("phase", phase);
         break;
+      case Kind::chirp:
+        need_finite("amplitude", amplitude);
+        need_finite("start", start);
+        if (need_finite("duration", duration) && !(duration > 0.0)) {
+          found.push_back("invalid setting input.duration = " + detail::format_number(duration) + ": must be > 0");
+        }
+        if (need_finite("f0", f0) && need_finite("f1", f1) && !(f1 > f0 && f0 >= 0.0 && (!logarithmic || f0 > 0.0))) {
+          found.push_back("invalid setting input.f0 = " + detail::format_number(f0) + ", input.f1 = " +
+                          detail::format_number(f1) + ": need 0 <= f0 < f1 (f0 > 0 for a logarithmic sweep)");
+        }
+        break;
+      case Kind::multisine:
+        need_finite("amplitude", amplitude);
+        need_finite("scale", scale);
+        if (frequencies.empty() || frequencies.size() != phases.size()) {
+          found.push_back("invalid setting input.frequencies: need one or more lines and as many input.phases (" +
+                          std::to_string(frequencies.size()) + " frequencies, " + std::to_string(phases.size()) +
+                          " phases)");
+        }
+        for (std::size_t j = 0; j < frequencies.size(); ++j) {
+          if (!std::isfinite(frequencies[j]) || (j < phases.size() && !std::isfinite(phases[j]))) {
+            found.emplace_back("invalid setting input.frequencies/phases: must be finite");
+            break;
+          }
+        }
+        break;
       case Kind::feedback:
         if (!feedback) found.emplace_back("invalid setting input: feedback input without a callback");
         break;
@@ -186,6 +269,8 @@ inline const char* to_string(Input::Kind kind) {
     case Input::Kind::pulse: return "pulse";
     case Input::Kind::step: return "step";
     case Input::Kind::sine: return "sine";
+    case Input::Kind::chirp: return "chirp";
+    case Input::Kind::multisine: return "multisine";
     case Input::Kind::feedback: return "feedback";
     case Input::Kind::sampled: return "sampled";
   }

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "ipsim/controller.hpp"
+#include "ipsim/coordinates.hpp"
 #include "ipsim/csv.hpp"
 #include "ipsim/divergence.hpp"
 #include "ipsim/errors.hpp"
@@ -22,3 +23,4 @@
 #include "ipsim/sink.hpp"
 #include "ipsim/sundials.hpp"
 #include "ipsim/swingup.hpp"
+#include "ipsim/travel.hpp"

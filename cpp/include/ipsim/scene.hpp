@@ -6,8 +6,15 @@
 //   inertia = pivot            (rotary: must match the model; ignored for classical)
 //   m = 0.3 0.275 0.275        l = 0 0.5 0.5       delta = 0.3 0.1 0.1  g = 9.81
 //   theta = 0 0 0              dtheta = 0 0 0
+//   angles = absolute | relative   zero = upright | hanging   positive = clockwise | counterclockwise
+//                              (optional, default the first: the rig's coordinates, ipsim/coordinates.hpp; theta,
+//                              dtheta and controller.* are in them, swingup.* in ipgen's)
 //   input = pulse              input.amplitude = 0.4   input.start = 0   input.duration = 1
-//   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine)
+//   (input.time for step; input.frequency [Hz] and input.phase [rad] for sine; chirp: input.f0,
+//   input.f1 [Hz], input.duration, input.start [s], input.sweep = linear | logarithmic; multisine:
+//   input.frequencies [Hz], input.phases [rad], input.scale — the lines ipgen computed — beside
+//   its input.f_min, input.f_max, input.period, which only document them)
+//   limits.travel = 0.2        (optional: |theta0| limit [m or rad]; simulate_<model> stops beyond it, exit 4)
 //   t_end = 10   sample = 0.01   method = bdf   rtol = 1e-10   atol = 1e-12   max_steps = 100000
 //   jacobian = exact           (optional, bdf and adams: exact | dq; default exact)
 //   step = 0.001               (optional; required by method = rk4: its fixed step [s])
@@ -35,6 +42,7 @@
 #include <fstream>
 #include <istream>
 #include <map>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <set>
@@ -45,6 +53,7 @@
 #include <vector>
 
 #include "ipsim/controller.hpp"
+#include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
@@ -195,6 +204,12 @@ struct Scene {
   /// phase it is in (shared with the input).
   std::optional<SwingUp> swingup;
   std::shared_ptr<SwingUp::State> swingup_state;
+  /// `angles`, `zero`, `positive`: the rig's coordinates. The file's theta, dtheta and controller
+  /// are in them and mapped here: settings and controller are in ipgen's coordinates (what
+  /// simulate() integrates); the CSV and the summary map back (CsvSink::set_coordinates).
+  Coordinates coordinates;
+  /// `limits.travel`: the base's limit |θ0| [m or rad]; infinity when the scene has none.
+  double travel = std::numeric_limits<double>::infinity();
 };
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
@@ -276,13 +291,15 @@ Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known = {
       "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
       "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
+      "input.f0", "input.f1", "input.sweep", "input.f_min", "input.f_max", "input.period", "input.frequencies",
+      "input.phases", "input.scale", "limits.travel",
       "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
       "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
       "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
       "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
       "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
       "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
-      "swingup.inputs", "swingup.states", "swingup.gains"};
+      "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -332,6 +349,19 @@ Scene<Model> load(const SceneFile& file) {
     scene.energy = energy == "true";
     scene.settings.energy_ledger = scene.energy;
   }
+  // The rig's coordinates (optional; default ipgen's).
+  auto convention = [&](const char* key, const char* usual, const char* other) {
+    if (!file.has(key)) return false;
+    const std::string& value = file.text(key);
+    if (value != usual && value != other) {
+      file.fail(file.line(key), std::string(key) + " must be `" + usual + "` or `" + other + "`, got `" +
+                                    detail::abbreviate(value) + "`");
+    }
+    return value == other;
+  };
+  scene.coordinates.relative = convention("angles", "absolute", "relative");
+  scene.coordinates.hanging = convention("zero", "upright", "hanging");
+  scene.coordinates.counterclockwise = convention("positive", "clockwise", "counterclockwise");
   const auto m = list("m");
   const auto l = list("l");
   const auto delta = list("delta");
@@ -344,6 +374,13 @@ Scene<Model> load(const SceneFile& file) {
     scene.params.delta[k] = delta[k];
     scene.settings.theta(i) = theta[k];
     scene.settings.dtheta(i) = dtheta[k];
+  }
+  if (!scene.coordinates.canonical()) {  // the rig's initial state -> ipgen's
+    Eigen::VectorXd start(2 * Model::kDof);
+    start << scene.settings.theta, scene.settings.dtheta;
+    const Eigen::VectorXd x = scene.coordinates.to_canonical(start);
+    scene.settings.theta = x.head(Model::kDof);
+    scene.settings.dtheta = x.tail(Model::kDof);
   }
   scene.params.g = file.number("g");
   // The links as built (optional; absent: the homogeneous rods, the Params defaults).
@@ -420,8 +457,26 @@ Scene<Model> load(const SceneFile& file) {
   } else if (kind == "sine") {
     s.input = Input::sine(b * file.number("input.amplitude"), file.number("input.frequency"),
                           file.has("input.phase") ? file.number("input.phase") : 0.0);
+  } else if (kind == "chirp") {
+    const std::string sweep = file.has("input.sweep") ? file.text("input.sweep") : "linear";
+    if (sweep != "linear" && sweep != "logarithmic") {
+      file.fail(file.line("input.sweep"), "input.sweep must be `linear` or `logarithmic`, got `" + detail::abbreviate(sweep) + "`");
+    }
+    s.input = Input::chirp(b * file.number("input.amplitude"), file.number("input.f0"), file.number("input.f1"),
+                           file.number("input.duration"), file.has("input.start") ? file.number("input.start") : 0.0,
+                           sweep == "logarithmic");
+  } else if (kind == "multisine") {
+    s.input = Input::multisine(b * file.number("input.amplitude"), file.numbers("input.frequencies"),
+                               file.numbers("input.phases"), file.number("input.scale"));
   } else {
-    file.fail(file.line("input"), "input must be zero, constant, pulse, step or sine, got `" + detail::abbreviate(kind) + "`");
+    file.fail(file.line("input"), "input must be zero, constant, pulse, step, sine, chirp or multisine, got `" +
+                                      detail::abbreviate(kind) + "`");
+  }
+  if (file.has("limits.travel")) {
+    scene.travel = file.number("limits.travel");
+    if (!(std::isfinite(scene.travel) && scene.travel > 0.0)) {
+      file.fail(file.line("limits.travel"), "limits.travel must be a finite number > 0 (m on a cart, rad on an arm)");
+    }
   }
   if (file.has("controller")) {
     if (file.text("controller") != "lqr") {
@@ -439,8 +494,9 @@ Scene<Model> load(const SceneFile& file) {
       return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())).eval();
     };
     LinearFeedback controller;
-    controller.gain = state_list("controller.gain");
-    controller.equilibrium = state_list("controller.equilibrium");
+    // In the rig's coordinates in the file: u = −K_user (x_user − x_eq,user) = −(K_user P) (x − x_eq).
+    controller.gain = scene.coordinates.gain_to_canonical(state_list("controller.gain"));
+    controller.equilibrium = scene.coordinates.to_canonical(state_list("controller.equilibrium"));
     if (file.has("controller.saturation")) controller.saturation = file.number("controller.saturation");
     if (file.has("controller.period")) controller.period = file.number("controller.period");
     const auto problems = controller.problems(2 * Model::kDof);

@@ -1,0 +1,1 @@
+"""Identification: fitting a scene's parameters to measurements (docs/identify.md)."""

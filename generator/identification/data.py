@@ -1,0 +1,154 @@
+"""Measurements for identification: a CSV of t, the link coordinates and (optionally) rates and u.
+
+The format is the simulator's own (`t,theta0..thetaN,dtheta0..dthetaN[,kinetic,...][,u]`): a
+header line naming the columns, then one row of numbers per sample. Required: `t` and
+`theta0..thetaN`; `dtheta*` may be missing (the rates are then differentiated from the angles),
+`u` may be missing when the scene's [input] says what it was; other columns (the simulator's
+energy columns) are ignored. Every problem is one `DataError` line naming the file and the fix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ipgen.common.safetext import abbreviate, shown_path
+from ipgen.identification.model import IdentifyError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+__all__ = ["MAX_DATA_BYTES", "MAX_ROWS", "MIN_ROWS", "DataError", "Measurements", "read_measurements"]
+
+# A 60 s recording at 1 kHz of a triple pendulum with rates and u is ~7 MB; 256 MB is a
+# recording of hours: more is a wrong file (or one to decimate first), not an experiment.
+MAX_DATA_BYTES = 1 << 28
+MAX_ROWS = 5_000_000
+# Fewer samples than this cannot carry a fit with its statistics (and smoothing windows).
+MIN_ROWS = 50
+
+
+class DataError(IdentifyError):
+    """A data file that cannot be used; one line: `<file>: <problem>; <fix>`."""
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """Samples in ipgen's coordinates: t (N), theta (N × dof), dtheta (N × dof or None), u (N or None)."""
+
+    t: np.ndarray
+    theta: np.ndarray
+    dtheta: np.ndarray | None
+    u: np.ndarray | None
+    source: str = "data"
+
+    @property
+    def dof(self) -> int:
+        return int(self.theta.shape[1])
+
+    @property
+    def samples(self) -> int:
+        return int(self.t.shape[0])
+
+
+def read_measurements(path: str | Path, dof: int) -> Measurements:
+    """The CSV at `path` for a system with `dof` coordinates, checked (module docstring)."""
+
+    path = Path(path)
+    where = shown_path(path)
+    try:
+        size = path.stat().st_size
+    except OSError as e:
+        raise DataError(f"{where}: cannot read the data file ({e.strerror}); check the path") from None
+    if path.is_dir():
+        raise DataError(f"{where} is a directory: pass the CSV file")
+    if size > MAX_DATA_BYTES:
+        raise DataError(
+            f"{where}: {size / 2**20:.0f} MB is larger than {MAX_DATA_BYTES >> 20} MB: "
+            "decimate or cut the recording first"
+        )
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        raise DataError(f"{where}: not a text (UTF-8) CSV file") from None
+    except OSError as e:
+        raise DataError(f"{where}: cannot read the data file ({e.strerror})") from None
+    return parse_measurements(text, dof, where)
+
+
+def parse_measurements(text: str, dof: int, where: str = "data") -> Measurements:
+    """`read_measurements` on the file's text."""
+    import numpy as np
+
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
+        raise DataError(f"{where}: empty file; expected a header line t,theta0,... and rows of numbers")
+    header = [name.strip() for name in lines[0].split(",")]
+    if len(lines) - 1 > MAX_ROWS:
+        raise DataError(f"{where}: {len(lines) - 1} rows, more than {MAX_ROWS}: decimate the recording first")
+    index: dict[str, int] = {}
+    for k, name in enumerate(header):
+        if name in index:
+            raise DataError(f"{where}: column {abbreviate(name)!r} appears twice in the header")
+        index[name] = k
+    angles = [f"theta{i}" for i in range(dof)]
+    missing = [name for name in ("t", *angles) if name not in index]
+    if missing:
+        raise DataError(
+            f"{where}: missing column {missing[0]} (the header needs t,{','.join(angles)}"
+            f"[,dtheta0..][,u]; it is {abbreviate(lines[0])!r})"
+        )
+    rates = [f"dtheta{i}" for i in range(dof)]
+    has_rates = all(name in index for name in rates)
+    if any(name in index for name in rates) and not has_rates:
+        absent = next(name for name in rates if name not in index)
+        raise DataError(f"{where}: column {absent} is missing: give every dtheta column or none")
+    rows = lines[1:]
+    if len(rows) < MIN_ROWS:
+        raise DataError(
+            f"{where}: {len(rows)} samples are too few to identify anything: record at least {MIN_ROWS}"
+        )
+    width = len(header)
+    table = np.empty((len(rows), width))
+    for r, line in enumerate(rows):
+        fields = line.split(",")
+        if len(fields) != width:
+            raise DataError(f"{where}: line {r + 2} has {len(fields)} fields, the header {width}")
+        try:
+            table[r] = [float(field) for field in fields]
+        except ValueError:
+            bad = next(f for f in fields if not _is_float(f))
+            raise DataError(f"{where}: line {r + 2}: {abbreviate(bad.strip())!r} is not a number") from None
+    used = ["t", *angles, *(rates if has_rates else []), *(["u"] if "u" in index else [])]
+    for name in used:
+        column = table[:, index[name]]
+        if not np.all(np.isfinite(column)):
+            line = int(np.flatnonzero(~np.isfinite(column))[0]) + 2
+            raise DataError(
+                f"{where}: line {line}: {name} is not finite (NaN or inf); remove or repair the sample"
+            )
+    t = table[:, index["t"]]
+    steps = np.diff(t)
+    if np.any(steps <= 0):
+        line = int(np.flatnonzero(steps <= 0)[0]) + 3
+        raise DataError(
+            f"{where}: line {line}: t does not increase; sort the samples and drop repeated times"
+        )
+    return Measurements(
+        t=t,
+        theta=table[:, [index[n] for n in angles]],
+        dtheta=table[:, [index[n] for n in rates]] if has_rates else None,
+        u=table[:, index["u"]] if "u" in index else None,
+        source=where,
+    )
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
