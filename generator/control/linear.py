@@ -322,6 +322,10 @@ def linearize(
     a[dof:, dof:] = dqd
     b = np.zeros((2 * dof, 1))
     b[dof:, 0] = du * gain
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ControlError(
+            f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
+        )
     return a, b
 
 
