@@ -67,4 +67,5 @@ def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> No
     header = (tmp_path / "gen" / "qube_servo2_special.hpp").read_text()
     folded = load_scene(tmp_path / "special.toml").motor_folded()
     assert "kSpecialised = true" in header and f"Scalar({float(folded['delta0'])!r})" in header
-    np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-8, atol=1e-10)
+    # Same model, expressions rounded differently: the runs agree to the integrator's tolerance.
+    np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-7, atol=1e-8)
