@@ -14,7 +14,8 @@ The public API (stable; everything else is internal):
 - `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
-  `actuator=` argument of `linearize` and `lqr` (u is then the motor voltage [V]);
+  `actuator=` argument of `derive`, `linearize` and `lqr` (u is then the motor voltage [V]);
+  `Actuator("acceleration")`: the base follows a commanded acceleration (u = θ̈0).
 - `excitation(scene, output=None, *, u_max, travel=None, signal="multisine", ...) -> Design`: an
   identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
   that the linear model's predicted base travel stays within the limits), written as a new scene
@@ -39,6 +40,7 @@ from ipgen.common.version import __version__
 from ipgen.errors import Error
 
 if TYPE_CHECKING:
+    from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
 
 
@@ -57,7 +59,14 @@ __all__ = [
 ]
 
 
-def derive(type: str, links: int, inertia: str = "pivot", *, general: bool = False) -> Equations:
+def derive(
+    type: str,
+    links: int,
+    inertia: str = "pivot",
+    *,
+    general: bool = False,
+    actuator: Actuator | Mapping[str, object] | None = None,
+) -> Equations:
     """The equations of motion of a `type` ("classical" or "rotary") pendulum with `links` rods.
 
     `inertia` (rotary only) is "pivot" (the published model: a link's spin about its pivot axis
@@ -71,14 +80,22 @@ def derive(type: str, links: int, inertia: str = "pivot", *, general: bool = Fal
     arm's about the vertical), `symbols.J_axial` (about the links' own axes, rotary "full" only)
     and `symbols.tip` (point masses at the links' far ends); by default they are the paper's
     homogeneous rods, written in m, l, delta and g only.
+    `actuator` (an `Actuator`, a dict of its fields, or None: direct) says what drives the base:
+    a "dc_motor" is folded into the views (`Equations.driven`: M00, damping, bias, T and D gain
+    the rotor's inertia and the back-EMF, and `input_matrix` = (b, 0, …)ᵀ makes u the voltage);
+    for "acceleration", `link_equations` are the equations of motion.
     Raises an `Error` naming the bad argument.
     """
     from ipgen.command.job import check_system
+    from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
 
     system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
+    drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
+    drive.check(system)
     equations = derive_system(system)
-    return equations if general else equations.rod()
+    equations = equations if general else equations.rod()
+    return equations if actuator is None else equations.driven(drive)
 
 
 def write_header(

@@ -112,9 +112,11 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   theta1..thetaN       link angles [rad] from the upward vertical (absolute, clockwise positive)
   dtheta0..dthetaN     their rates [m/s or rad/s]
   kinetic,potential    T and V [J] (--energy or energy = true)
-  input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same)
+  input_work,dissipated  W_in = int u dtheta0 dt and E_diss = int 2D dt from t = 0 [J] (same;
+                       actuator = acceleration: W_in = int tau dtheta0 dt, tau the base's force)
   u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
-                       input [N or N m; V with actuator = dc_motor] applied from t on
+                       input [N or N m; V with actuator = dc_motor; m/s^2 or rad/s^2 with
+                       actuator = acceleration] applied from t on
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -134,7 +136,8 @@ controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or ab
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
 c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
 actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
-and multiplied by b (the parameters are the motor-folded ones ipgen writes).
+and multiplied by b (the parameters are the motor-folded ones ipgen writes); actuator = acceleration:
+u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
 
@@ -444,7 +447,7 @@ std::string describe_run(const ipsim::Settings<Model>& s, const ipsim::Statistic
 /// The summary's controller part: gain, closed-loop poles of the linear model, largest |u|.
 template <class M>
 void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& params, const ipsim::Result& result,
-                      double volts = 0.0, const ipsim::Coordinates& coordinates = {}) {
+                      double volts = 0.0, const ipsim::Coordinates& coordinates = {}, bool acceleration = false) {
   // volts = b > 0 (actuator = dc_motor): K, the saturation and u are stated in volts, c holds them times b.
   // K and x_eq are stated in the scene's coordinates (c holds ipgen's).
   const double per = volts > 0.0 ? volts : 1.0;
@@ -457,7 +460,7 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
               ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
   if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation / per);
   if constexpr (ipsim::has_linearize<M>) {
-    const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c);
+    const Eigen::VectorXcd poles = ipsim::closed_loop_poles<M>(params, c, acceleration);
     std::string text;
     for (Eigen::Index i = 0; i < poles.size(); ++i) {
       char pole[64];
@@ -470,11 +473,49 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
   } else {
     (void)params;  // a model without linearize (a hand-written tag): no poles to state
   }
-  std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, volts > 0.0 ? " V" : "");
+  std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, volts > 0.0 ? " V" : acceleration ? (ipsim::is_classical<M>() ? " m/s^2" : " rad/s^2") : "");
 }
 
+/// Passes every sample on to `inner`; for an acceleration-driven base (Settings::acceleration)
+/// it also finds the largest |τ| over the samples, τ = M_0· θ̈ + b_0 − Q_0 the force [N] or
+/// torque [N m] the base's drive applies (for sizing it).
+class BaseForceMonitor : public ipsim::SampleSink {
+ public:
+  BaseForceMonitor(ipsim::SampleSink& inner, const ipsim::ParamsOf<Model>& params, const ipsim::Settings<Model>& settings)
+      : inner_(inner), params_(params), enabled_(settings.acceleration) {
+    context_.coulomb = settings.coulomb;
+    context_.coulomb_speed = settings.coulomb_speed;
+  }
+
+  void begin(std::size_t samples, int state_size, bool energy_ledger) override {
+    inner_.begin(samples, state_size, energy_ledger);
+  }
+
+  bool record(const ipsim::Sample& sample) override {
+    if (enabled_) {
+      const ipsim::VectorOf<Model> q = sample.x().head<kDof>();
+      const ipsim::VectorOf<Model> qd = sample.x().segment<kDof>(kDof);
+      double force = 0.0;
+      ipsim::detail::acceleration_dynamics<Model>(q, qd, sample.input, ipsim::detail::coulomb_force<Model>(context_, qd),
+                                                  params_, force);
+      largest_ = std::max(largest_, std::abs(force));
+    }
+    return inner_.record(sample);
+  }
+
+  /// The largest |τ| seen [N or N m] (0 unless the base is acceleration-driven).
+  double largest() const noexcept { return largest_; }
+
+ private:
+  ipsim::SampleSink& inner_;
+  const ipsim::ParamsOf<Model>& params_;
+  bool enabled_;
+  ipsim::detail::RhsContext<Model> context_;
+  double largest_ = 0.0;
+};
+
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result,
-                   const ipsim::CsvSink<Model>& csv) {
+                   const ipsim::CsvSink<Model>& csv, const BaseForceMonitor& base_force) {
   const ipsim::Settings<Model>& s = scene.settings;
   const ipsim::Statistics& st = result.stats;
   const Eigen::VectorXd final_state = scene.coordinates.to_user(csv.last_state());
@@ -499,16 +540,25 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
                 scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");
   }
-  if (scene.controller) print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
-                                                  scene.coordinates);
+  if (s.acceleration) {
+    std::printf(" Actuator: acceleration, u is the base's acceleration [%s]; the base's %s peaked at %.6g %s "
+                "over the samples.",
+                ipsim::is_classical<Model>() ? "m/s^2" : "rad/s^2", ipsim::is_classical<Model>() ? "force" : "torque",
+                base_force.largest(), ipsim::is_classical<Model>() ? "N" : "N m");
+  }
+  if (scene.controller) {
+    print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
+                            scene.coordinates, s.acceleration);
+  }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
-    std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g; ",
+    const double per = scene.input_gain;  // volts for a dc motor (b), else 1
+    std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g%s; ",
                 scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
-                scene.swingup->period, scene.swingup->u_max);
+                scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
     if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (LQR) from t = %.6g s", state.hold_since);
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
-    std::printf("; largest |u| %.6g.", result.max_abs_input);
+    std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
@@ -591,9 +641,10 @@ int run(int argc, char** argv) {
   std::optional<ipsim::TravelMonitor> travel;
   if (std::isfinite(scene.travel)) travel.emplace(inner, scene.travel);
   ipsim::SampleSink& sink = travel ? static_cast<ipsim::SampleSink&>(*travel) : inner;
-  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, sink);
+  BaseForceMonitor base_force(sink, scene.params, s);
+  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, base_force);
   csv.commit();
-  print_summary(options, scene, result, rows);
+  print_summary(options, scene, result, rows, base_force);
   if (travel && travel->exceeded()) {
     const ipsim::TravelExceeded& e = *travel->exceeded();
     const bool cart = Model::kType == std::string_view("classical");

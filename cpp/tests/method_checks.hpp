@@ -89,7 +89,8 @@ void check_derivatives_against_differences() {
 }
 
 /// The whole integrator Jacobian (exact_jacobian: ledger rows, and ∂u/∂x of a feedback input)
-/// against central differences of the right-hand side.
+/// against central differences of the right-hand side; also for an acceleration-driven base
+/// (u = θ̈0: the chain rule through the base force, and the ledger's τ θ̇0).
 template <class Model>
 void check_system_jacobian() {
   constexpr int n = Model::kDof;
@@ -97,10 +98,12 @@ void check_system_jacobian() {
   const auto p = paper_params<Model>(true);
   const ipsim::Input feedback = ipsim::Input::from_feedback(
       [](double t, const Eigen::VectorXd& x) { return -3.0 * x(0) - 2.0 * x(n) + 0.5 * std::sin(x(1)) + t; });
-  for (const ipsim::Input* input : {&feedback}) {
+  for (const bool acceleration : {false, true}) {
+    if (acceleration && !ipsim::has_mass_and_bias<Model>) continue;
     ipsim::detail::RhsContext<Model> context;
     context.params = &p;
-    context.input = input;
+    context.input = &feedback;
+    context.acceleration = acceleration;
     context.energy_ledger = true;
     context.x = Eigen::VectorXd::Zero(2 * n);
     Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(size, -0.8, 1.3);
@@ -118,7 +121,10 @@ void check_system_jacobian() {
       differences.col(j) = (up - down) / (2 * h);
     }
     const double relative = max_difference(exact, differences) / std::max(1.0, max_abs(exact));
-    if (!(relative <= 1e-6)) fail(__FILE__, __LINE__, "system Jacobian differs from differences by " + number(relative));
+    if (!(relative <= 1e-6)) {
+      fail(__FILE__, __LINE__, std::string(acceleration ? "acceleration-driven: " : "") +
+                                   "system Jacobian differs from differences by " + number(relative));
+    }
   }
 }
 

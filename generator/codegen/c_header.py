@@ -123,6 +123,9 @@ def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
         "target": _c_list(law.target, "target"),
         "energy": {name: c_number(value) for name, value in law.energy},
         "steps": law.steps,
+        # a dc_motor: u in volts, the energy law's force divided by b (None: u is the force)
+        "input_gain": c_number(law.input_gain) if law.input_gain != 1.0 else None,
+        "base_acceleration": law.base_acceleration,  # u is the base's acceleration: the law's a
     }
     if law.method == "trajectory":
         rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]

@@ -23,6 +23,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ipgen.command import job
 from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
@@ -30,6 +31,9 @@ from ipgen.command.simulator import Simulator, build
 from ipgen.common.safetext import shown_path
 from ipgen.plots.run import PlotError, plot_run, read_run
 from ipgen.plots.run import check_replaceable as check_png
+
+if TYPE_CHECKING:
+    from ipgen.scene.reader import Scene
 
 # The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
 SIMULATOR_CSV = re.compile(
@@ -117,7 +121,7 @@ def run_scene(
         if done.returncode != 0:
             title += f"; the run ended with status {done.returncode}"
         try:
-            unit = "V" if scene.actuator.is_motor else None  # u in volts with a dc_motor
+            unit = _unit(scene)  # V with a dc_motor, m/s² or rad/s² with an acceleration input
             plot_run(
                 read_run(paths["csv"]),
                 paths["png"],
@@ -156,3 +160,12 @@ def run_scene(
     )
     files.append(paths["txt"])
     return Outcome(done.returncode, files, simulator, summary, done.stderr, seconds)
+
+
+def _unit(scene: Scene) -> str | None:
+    """u's unit when the scene's actuator makes it other than a force or torque."""
+    if scene.actuator.is_motor:
+        return "V"
+    if scene.actuator.is_acceleration:
+        return "rad/s²" if scene.type == "rotary" else "m/s²"
+    return None

@@ -33,7 +33,7 @@ from ipgen.control.tvlqr import discrete_lqr
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["EnergySwingUp", "energy_swingup", "link_energy"]
+__all__ = ["EnergySwingUp", "discrete_acceleration_lqr", "energy_swingup", "link_energy"]
 
 
 def link_energy(plant: Plant, x: np.ndarray) -> float:
@@ -58,6 +58,7 @@ class EnergySwingUp:
     catch_angle: float  # rad
     catch_rate: float  # rad/s
     energy_target: float = 0.0  # E0 [J]
+    acceleration: bool = False  # u is the base's acceleration ([actuator] kind "acceleration"): u = a
     _caught: int | None = field(default=None, repr=False)  # 2π·k of the upright caught
 
     def reset(self) -> None:
@@ -89,6 +90,8 @@ class EnergySwingUp:
         pump = self.gain_energy * (energy - self.energy_target) * direction
         a = float(np.clip(pump, -self.accel_max, self.accel_max))
         a -= self.gain_position * float(q[0]) + self.gain_velocity * float(qd[0])
+        if self.acceleration:
+            return float(np.clip(a, -self.u_max, self.u_max)), "swing"
         qdd1 = -(mass[1, 0] * a + bias[1]) / mass[1, 1]
         u = mass[0, 0] * a + mass[0, 1] * qdd1 + bias[0]
         return float(np.clip(u, -self.u_max, self.u_max)), "swing"
@@ -107,6 +110,7 @@ def energy_swingup(
     catch_rate: float = 3.0,
     q: np.ndarray | list[float] | None = None,
     r: float = 1.0,
+    acceleration: bool = False,
 ) -> EnergySwingUp:
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
@@ -114,6 +118,9 @@ def energy_swingup(
     the input limit buys), k_E = 10 a_max / (m1 g l1) so that the energy term saturates until
     E is within a tenth of the hanging pendulum's deficit, k_x and k_v a slow second-order
     centring (ω = 1 rad/s, ζ = 1). `q` and `r` weigh the hold LQR (default Q = I, R = 1).
+    `acceleration`: u is the base's acceleration ([actuator] kind "acceleration"): the law's a
+    is the input (clipped to u_max), a_max defaults to u_max, and the hold LQR is that of the
+    acceleration-driven linear model (`discrete_acceleration_lqr`).
     """
     import numpy as np
 
@@ -133,7 +140,9 @@ def energy_swingup(
     g = plant.g
     # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,
     # or the arm's inertia about the vertical with the link's mass at its tip).
-    if accel_max is None:
+    if accel_max is None and acceleration:
+        a_max = float(u_max)
+    elif accel_max is None:
         hanging = [0.0, math.pi]
         inertia = float(np.asarray(casadi_model(plant).mass(hanging), dtype=float)[0, 0])
         a_max = float(u_max) / inertia
@@ -149,7 +158,10 @@ def energy_swingup(
             raise PlanError(f"{name} = {value!r}: expected a finite number >= 0")
     dof = plant.dof
     weights_q, weights_r = _weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
-    hold, _, _, _ = discrete_lqr(plant, float(period), weights_q, weights_r, np.zeros(2 * dof))
+    if acceleration:
+        hold = discrete_acceleration_lqr(plant, float(period), weights_q, weights_r)
+    else:
+        hold, _, _, _ = discrete_lqr(plant, float(period), weights_q, weights_r, np.zeros(2 * dof))
     return EnergySwingUp(
         plant=plant,
         u_max=float(u_max),
@@ -161,4 +173,31 @@ def energy_swingup(
         accel_max=a_max,
         catch_angle=float(catch_angle),
         catch_rate=float(catch_rate),
+        acceleration=acceleration,
     )
+
+
+def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The discrete LQR gain about upright at rest for an acceleration-driven base, u held over
+    `period`: the linear model of `linearize(..., actuator="acceleration")` discretised exactly
+    for a zero-order hold (matrix exponential), then scipy's DARE."""
+    import numpy as np
+    from scipy.linalg import expm, solve_discrete_are
+
+    from ipgen.control.linear import _check_stabilisable, linearize
+
+    system = plant.system
+    dof = plant.dof
+    links = plant.links_as_built
+    a, b = linearize(
+        system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
+        actuator={"kind": "acceleration"}, **links,
+    )  # fmt: skip
+    _check_stabilisable(a, b, q)
+    size = 2 * dof
+    block = np.zeros((size + 1, size + 1))
+    block[:size, :size], block[:size, size:] = a, b
+    flow = expm(block * period)
+    ad, bd = flow[:size, :size], flow[:size, size:]
+    p = solve_discrete_are(ad, bd, q, r)
+    return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)

@@ -2,7 +2,8 @@
 
 The state is x = [θ; θ̇] (2·dof entries: θ0 the cart position [m] or arm angle [rad], θ1..θn
 the absolute link angles [rad] from upright, then their rates), the input u the force on the
-cart [N] or the torque on the arm [N m]. About a state x* and input u*,
+cart [N] or the torque on the arm [N m] (or, with `actuator=`, a motor voltage or the base's
+acceleration). About a state x* and input u*,
 
     ẋ ≈ f(x*, u*) + A (x − x*) + B (u − u*),   A = [[0, I], [∂θ̈/∂θ, ∂θ̈/∂θ̇]],   B = [0; ∂θ̈/∂u],
 
@@ -112,6 +113,46 @@ class Dynamics:
             -np.linalg.solve(mass, residual_dqd),
             np.linalg.solve(mass, unit),
         )
+
+    def acceleration_dynamics(
+        self, q: np.ndarray, qd: np.ndarray, a: float, params: Sequence[float]
+    ) -> tuple[np.ndarray, float]:
+        """(θ̈, τ) for a base that follows the acceleration θ̈0 = a (actuator kind "acceleration"):
+        the link rows of M θ̈ + bias = e0 τ give θ̈_L = −M_LL⁻¹ (M_L0 a + bias_L); τ = M_0· θ̈ +
+        bias_0 is the force [N] or torque [N m] the base's drive must apply for it."""
+        import numpy as np
+
+        params = self._complete(params)
+        mass = np.asarray(self._mass(*q, *params), dtype=float)
+        bias = np.asarray(self._bias(*q, *qd, *params), dtype=float).reshape(-1)
+        qdd = np.empty(self.system.dof)
+        qdd[0] = a
+        qdd[1:] = np.linalg.solve(mass[1:, 1:], -(mass[1:, 0] * a + bias[1:]))
+        return qdd, float(mass[0] @ qdd + bias[0])
+
+    def acceleration_jacobians(
+        self, q: np.ndarray, qd: np.ndarray, a: float, params: Sequence[float]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(θ̈, ∂θ̈/∂θ, ∂θ̈/∂θ̇, ∂θ̈/∂a) of `acceleration_dynamics`, by implicit differentiation
+        of the link rows M_L· θ̈ + bias_L = 0 with θ̈0 = a: row 0 is (0, 0, 1)."""
+        import numpy as np
+
+        dof = self.system.dof
+        qdd, _ = self.acceleration_dynamics(q, qd, a, params)
+        params = self._complete(params)
+        mass = np.asarray(self._mass(*q, *params), dtype=float)
+        mass_dq = np.asarray(self._mass_dq(*q, *params), dtype=float).reshape(dof, dof, dof)  # [j, k, i]
+        residual_dq = np.einsum("jki,k->ji", mass_dq, qdd) + np.asarray(
+            self._bias_dq(*q, *qd, *params), float
+        )
+        residual_dqd = np.asarray(self._bias_dqd(*q, *qd, *params), dtype=float)
+        links = mass[1:, 1:]
+        dq, dqd, du = np.zeros((dof, dof)), np.zeros((dof, dof)), np.zeros(dof)
+        dq[1:] = -np.linalg.solve(links, residual_dq[1:])
+        dqd[1:] = -np.linalg.solve(links, residual_dqd[1:])
+        du[0] = 1.0
+        du[1:] = -np.linalg.solve(links, mass[1:, 0])
+        return qdd, dq, dqd, du
 
 
 @lru_cache(maxsize=32)
@@ -223,7 +264,10 @@ def linearize(
 
     `actuator` (an `ipgen.Actuator`, a dict of its fields, or None: "direct") says what u is: with
     kind "dc_motor" u is the motor voltage [V], B is per volt and A has the back-EMF's damping
-    and the rotor's reflected inertia (docs/model.md, "A DC motor on the base").
+    and the rotor's reflected inertia (docs/model.md, "A DC motor on the base"); with kind
+    "acceleration" u is the base's acceleration θ̈0 [m/s² or rad/s²]: A's θ̈0 row is zero, B's
+    is 1, and the links follow θ̈_L = −M_LL⁻¹ (M_L0 u + b_L) (docs/model.md, "An
+    acceleration-driven base"); m0, δ0 (and J0 of an arm) then do not enter A or B.
 
     `angles` ("absolute" | "relative"), `zero` ("upright" | "hanging") and `positive`
     ("clockwise" | "counterclockwise") give the link angles in the rig's own convention
@@ -254,7 +298,16 @@ def linearize(
     dof = system.dof
     q_ = _vector("q", q, dof, "one angle or position per degree of freedom")
     qd_ = _vector("qd", qd, dof, "one rate per degree of freedom")
-    qdd, dq, dqd, du = dynamics(system).jacobians(q_, qd_, float(u), params)
+    try:
+        u = float(u)
+    except (TypeError, ValueError):
+        u = math.nan
+    if not math.isfinite(u):
+        raise ControlError("u must be a finite number (the input about which to linearise)")
+    if as_actuator(actuator).is_acceleration:  # checked by _with_actuator
+        qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q_, qd_, float(u), params)
+    else:
+        qdd, dq, dqd, du = dynamics(system).jacobians(q_, qd_, float(u), params)
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
     if np.any(qd_ != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
         warnings.warn(
@@ -269,6 +322,10 @@ def linearize(
     a[dof:, dof:] = dqd
     b = np.zeros((2 * dof, 1))
     b[dof:, 0] = du * gain
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ControlError(
+            f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
+        )
     return a, b
 
 
@@ -293,7 +350,7 @@ def _with_actuator(
         drive.check(system)
     except ActuatorError as exc:
         raise ControlError(str(exc)) from None
-    if not drive.is_motor:
+    if not drive.is_motor:  # direct, or acceleration (m0, δ0 and J0 then do not enter θ̈)
         return m, delta, J, 1.0
     dof = system.dof
     if len(m) != dof or len(l) != dof or len(delta) != dof:
@@ -421,7 +478,8 @@ def lqr(
     An unstabilisable (A, B) or undetectable (A, Q) pair raises `ControlError` instead of
     returning a gain that does not stabilise. K comes from scipy's `solve_continuous_are`.
     `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods);
-    `actuator`: as for `linearize` (a "dc_motor" gives K in volts per unit of state).
+    `actuator`: as for `linearize` (a "dc_motor" gives K in volts per unit of state, an
+    "acceleration" K in m/s² or rad/s² per unit of state).
     `angles`, `zero`, `positive`: the rig's convention, as for `linearize`: K (and Q, and an
     `equilibrium` given as angles) are then in the rig's coordinates.
     """

@@ -22,7 +22,7 @@ from ipgen.control.tvlqr import GainSchedule, track
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["SwingUpLaw", "energy_law", "schedule_law", "trajectory_swingup"]
+__all__ = ["SwingUpLaw", "energy_law", "in_volts", "schedule_law", "trajectory_swingup"]
 
 
 def trajectory_swingup(
@@ -83,6 +83,11 @@ class SwingUpLaw:
     gains: tuple[float, ...] = ()
     plan_iterations: int = 0
     plan_time: float = 0.0  # s, IPOPT wall clock
+    # The force or torque per unit of u: 1, or a dc_motor's b [N m/V or N/V] (`in_volts`): then
+    # u_max, hold_gain, inputs and gains are in volts, and the energy law's force is divided by it.
+    input_gain: float = 1.0
+    # u is the base's acceleration ([actuator] kind "acceleration"): the energy law's a is u.
+    base_acceleration: bool = False
 
     @property
     def steps(self) -> int:
@@ -113,6 +118,7 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         hold_gain=tuple(float(k) for k in law.hold_gain.ravel()),
         target=(0.0,) * (2 * dof),
         energy=tuple((name, float(value)) for name, value in constants),
+        base_acceleration=law.acceleration,
     )
 
 
@@ -130,4 +136,18 @@ def schedule_law(plan: Plan, schedule: GainSchedule, hold: float) -> SwingUpLaw:
         gains=tuple(float(v) for v in schedule.gains.ravel()),
         plan_iterations=plan.iterations,
         plan_time=plan.solve_time,
+    )
+
+
+def in_volts(law: SwingUpLaw, gain: float) -> SwingUpLaw:
+    """`law`, designed on the motor-folded model in force or torque units, with every u-valued
+    number (u_max, hold gain, planned inputs, gain schedule) divided by the motor's gain b, so
+    that u is the motor voltage (docs/model.md, "A DC motor on the base")."""
+    return dataclasses.replace(
+        law,
+        u_max=law.u_max / gain,
+        hold_gain=tuple(k / gain for k in law.hold_gain),
+        inputs=tuple(u / gain for u in law.inputs),
+        gains=tuple(k / gain for k in law.gains),
+        input_gain=gain,
     )

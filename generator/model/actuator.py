@@ -1,4 +1,5 @@
-"""What drives the base: the input u as a force or torque ("direct") or a DC motor's voltage.
+"""What drives the base: the input u as a force or torque ("direct"), a DC motor's voltage
+("dc_motor") or the base's commanded acceleration ("acceleration").
 
 A permanent-magnet DC motor through a gear (ratio Kg, efficiency eta_g) on the arm, or through a
 gear and a pinion of radius r on the cart, as the manufacturers' manuals model it (Quanser's
@@ -13,6 +14,11 @@ Both are exact rewrites of the mechanical model: with b = η_g K_g η_m k_t / R_
 (cart). So a motor is the direct model with the input scaled by b, the base damping δ0 raised
 by c and the base inertia (J0 of the arm, m0 of the cart) raised by the reflected rotor inertia
 (`fold`). docs/model.md, "A DC motor on the base", derives it.
+
+kind "acceleration" (servo-driven rigs: the base follows a commanded acceleration u = θ̈0,
+[m/s²] on a cart, [rad/s²] on an arm) is not a fold: the base coordinate becomes kinematic and
+the links follow from the link rows of M θ̈ + b = e0 τ, θ̈_L = −M_LL⁻¹ (M_L0 u + b_L); the base
+force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration-driven base").
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ from dataclasses import dataclass, fields
 from ipgen.errors import Error
 from ipgen.model.system import System
 
-ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor")
+ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor", "acceleration")
 # The motor constants, their units and whether they have a default (None: required).
 MOTOR_CONSTANTS: dict[str, tuple[str, float | None]] = {
     "Rm": ("Ω, armature resistance", None),
@@ -46,7 +52,8 @@ class Actuator:
     """The base's drive. kind "direct": u is the force [N] on the cart or torque [N m] on the
     arm (the paper's model; every other field unused). kind "dc_motor": u is the motor voltage
     [V]; Rm, kt, km are required, Kg, eta_g, eta_m default to 1, Jm to 0; r (pinion radius)
-    is required on a cart and refused on an arm."""
+    is required on a cart and refused on an arm. kind "acceleration": u is the base's
+    acceleration θ̈0 [m/s² on a cart, rad/s² on an arm], imposed by a servo; no constants."""
 
     kind: str = "direct"
     Rm: float | None = None
@@ -62,10 +69,18 @@ class Actuator:
     def is_motor(self) -> bool:
         return self.kind == "dc_motor"
 
+    @property
+    def is_acceleration(self) -> bool:
+        """u is the base's acceleration θ̈0 (the base coordinate is kinematic)."""
+        return self.kind == "acceleration"
+
     def check(self, system: System) -> None:
         """ActuatorError (one line) unless this actuator can drive `system`."""
         if self.kind not in ACTUATOR_KINDS:
-            raise ActuatorError(f"actuator kind {self.kind!r}: expected 'direct' or 'dc_motor'")
+            raise ActuatorError(
+                f"actuator kind {self.kind!r}: expected 'direct' or 'dc_motor' (u a force or a voltage) "
+                "or 'acceleration' (u the base's acceleration)"
+            )
         given = [f.name for f in fields(self) if f.name != "kind" and getattr(self, f.name) != f.default]
         if not self.is_motor:
             if given:
@@ -156,8 +171,11 @@ def fold(
     actuator: Actuator, system: System, m: list[float], delta: list[float], J: list[float]
 ) -> tuple[list[float], list[float], list[float], float]:
     """(m, delta, J, b) of the equivalent direct model: δ0 + c, the reflected inertia on m0
-    (cart) or J0 (arm; `J` has every entry, the rods' filled in), and the input gain b."""
+    (cart) or J0 (arm; `J` has every entry, the rods' filled in), and the input gain b.
+    kind "acceleration" has no equivalent direct model: ActuatorError."""
     actuator.check(system)
+    if actuator.is_acceleration:
+        raise ActuatorError("an acceleration-driven base is not a folded direct model (see reduced_dynamics)")
     m, delta, J = list(m), list(delta), list(J)
     delta[0] += actuator.damping()
     if system.is_rotary:

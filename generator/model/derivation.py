@@ -31,6 +31,7 @@ from ipgen.model.system import System
 if TYPE_CHECKING:
     import sympy as sp
 
+    from ipgen.model.actuator import Actuator
     from ipgen.model.symbols import Symbols
 
 ProgressCallback = Callable[[str], None]
@@ -49,6 +50,10 @@ class Equations:
     algebra: Algebra
     poly: dict[str, PolyMatrix]  # name -> matrix of polynomials (vectors: one column)
     rod_links: bool = False  # the paper's rods substituted (`rod`): no com, J, J_axial, tip
+    # What drives the base (`driven`); None: the paper's direct force or torque. Only the sympy
+    # views read it (a dc_motor is folded into them); `poly`, what code generation reads, is the
+    # direct model's.
+    drive: Actuator | None = None
 
     @property
     def symbols(self) -> Symbols:
@@ -61,12 +66,71 @@ class Equations:
         values = rod_defaults(self.system, self.algebra)
         algebra = self.algebra.composed(values)
         poly = {key: [[algebra.compose(p, values) for p in row] for row in m] for key, m in self.poly.items()}
-        return Equations(system=self.system, algebra=algebra, poly=poly, rod_links=True)
+        return Equations(system=self.system, algebra=algebra, poly=poly, rod_links=True, drive=self.drive)
+
+    def driven(self, actuator: Actuator) -> Equations:
+        """These equations with `actuator` driving the base (checked: `ActuatorError`). A
+        "dc_motor" is folded into the sympy views exactly (docs/model.md, "A DC motor on the
+        base"): M00 + the rotor's reflected inertia, the damping's and N's (0, 0) entry + the
+        back-EMF's c, bias0 + c θ̇0, T + ½ I_r θ̇0², D + ½ c θ̇0², and `input_matrix` = (b, 0, …)ᵀ,
+        so that M θ̈ + bias = input_matrix · V with V the voltage; the motor constants enter as
+        the exact decimals of their values. "direct" and "acceleration" leave the views as they
+        are (for "acceleration" see `link_equations`)."""
+        import dataclasses
+
+        actuator.check(self.system)
+        return dataclasses.replace(self, drive=actuator)
+
+    def _fold(self) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+        """(I_r, c, b) of the drive as exact sympy numbers: the rotor's reflected inertia, the
+        back-EMF damping and the input gain ((0, 0, 1) unless a dc_motor drives the base)."""
+        import sympy as sp
+
+        drive = self.drive
+        if drive is None or not drive.is_motor:
+            return sp.Integer(0), sp.Integer(0), sp.Integer(1)
+
+        def exact(value: float | None) -> sp.Expr:
+            return sp.Rational(repr(float(value))) if value is not None else sp.Integer(1)
+
+        rm, kt, km, kg = exact(drive.Rm), exact(drive.kt), exact(drive.km), exact(drive.Kg)
+        eta_g, eta_m, jm = exact(drive.eta_g), exact(drive.eta_m), exact(drive.Jm)
+        radius = exact(drive.r)  # 1 on an arm (r is a cart's)
+        gain = eta_g * kg * eta_m * kt / (rm * radius)
+        return eta_g * kg**2 * jm / radius**2, gain * kg * km / radius, gain
 
     def _matrix(self, name: str) -> sp.Matrix:
         import sympy as sp
 
-        return sp.Matrix([[self.algebra.to_sympy(e) for e in row] for row in self.poly[name]])
+        matrix = sp.Matrix([[self.algebra.to_sympy(e) for e in row] for row in self.poly[name]])
+        inertia, damping, _ = self._fold()
+        if name == "mass_matrix":
+            matrix[0, 0] += inertia
+        elif name in ("damping", "n_matrix"):
+            matrix[0, 0] += damping
+        elif name == "bias":
+            matrix[0, 0] += damping * self.symbols.qd[0]
+        return matrix
+
+    @cached_property
+    def input_matrix(self) -> sp.Matrix:
+        """B of M θ̈ + bias = B u (column): (1, 0, …, 0)ᵀ for a direct drive (u the force or
+        torque; also for "acceleration", where the base force is then τ), (b, 0, …, 0)ᵀ for a
+        dc_motor (u the voltage, b the force or torque per volt)."""
+        import sympy as sp
+
+        column = sp.zeros(self.system.dof, 1)
+        column[0, 0] = self._fold()[2]
+        return column
+
+    @cached_property
+    def link_equations(self) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+        """(M_LL, M_L0, bias_L): the links' rows of M θ̈ + bias = B u, which for a base that
+        follows a commanded acceleration u = θ̈0 ([actuator] kind = "acceleration") are the
+        equations of motion: M_LL θ̈_L = −(M_L0 u + bias_L), θ̈_L = (θ̈1, …, θ̈n)
+        (docs/model.md, "An acceleration-driven base"). M_LL is n × n, M_L0 and bias_L columns."""
+        mass, bias = self.mass_matrix, self.bias
+        return mass[1:, 1:], mass[1:, :1], bias[1:, :]
 
     @cached_property
     def mass_matrix(self) -> sp.Matrix:
@@ -100,7 +164,8 @@ class Equations:
 
     @cached_property
     def kinetic_energy(self) -> sp.Expr:
-        return self.algebra.to_sympy(self.poly["kinetic_energy"][0][0])
+        rate = self.symbols.qd[0]
+        return self.algebra.to_sympy(self.poly["kinetic_energy"][0][0]) + self._fold()[0] * rate**2 / 2
 
     @cached_property
     def potential_energy(self) -> sp.Expr:
@@ -109,7 +174,8 @@ class Equations:
     @cached_property
     def dissipation(self) -> sp.Expr:
         """Rayleigh D; the power it removes is 2D."""
-        return self.algebra.to_sympy(self.poly["dissipation"][0][0])
+        rate = self.symbols.qd[0]
+        return self.algebra.to_sympy(self.poly["dissipation"][0][0]) + self._fold()[1] * rate**2 / 2
 
 
 def _mass_matrix(system: System, algebra: Algebra) -> PolyMatrix:

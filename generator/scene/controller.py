@@ -185,7 +185,7 @@ def controller(
             inertia=system.inertia,
             equilibrium=table.equilibrium,
             **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
-            actuator=actuator,  # [actuator]: a dc_motor makes K volts per unit of state
+            actuator=actuator,  # [actuator]: K in volts (dc_motor) or m/s², rad/s² (acceleration)
             angles=frame.angles,
             zero=frame.zero,
             positive=frame.positive,
@@ -201,5 +201,14 @@ def controller(
         equilibrium=tuple(float(x) for x in x_eq),
         saturation=None if table.saturation is None else table.saturation.value,
         period=None if table.period is None else table.period.value,
-        unit="motor voltage [V]" if actuator is not None and actuator.is_motor else "",
+        unit=_unit(system, actuator),
     )
+
+
+def _unit(system: Any, actuator: Any) -> str:
+    """What u is when it is not the force or torque ("" then)."""
+    if actuator is not None and actuator.is_motor:
+        return "motor voltage [V]"
+    if actuator is not None and actuator.is_acceleration:
+        return "base acceleration [rad/s^2]" if system.type == "rotary" else "base acceleration [m/s^2]"
+    return ""

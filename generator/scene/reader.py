@@ -134,7 +134,9 @@ class Scene:
     # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
     warnings: tuple[str, ...] = ()
     controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
-    actuator: Actuator = DIRECT  # [actuator]: what u is (direct: N or N m; dc_motor: V)
+    actuator: Actuator = (
+        DIRECT  # [actuator]: what u is (direct: N, N m; dc_motor: V; acceleration: m/s², rad/s²)
+    )
     coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
     coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
     swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
@@ -167,6 +169,37 @@ class Scene:
     def link_values(self) -> dict[str, tuple[float, ...]]:
         """{group: values} of the links as built the scene gives (com, J, J_axial, tip)."""
         return dict(self.links_as_built)
+
+    def motor_folded(self) -> dict[str, Fraction]:
+        """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
+        + the rotor's reflected inertia, as rationals of the decimals written (the motor
+        constants by their shortest repr), so that the resolved config and a specialised
+        header agree to the last bit (`actuator.fold` in exact arithmetic)."""
+        motor = self.actuator
+        if not motor.is_motor:
+            return {}
+
+        def exact(value: float | None) -> Fraction:
+            return Fraction(1) if value is None else Fraction(repr(float(value)))
+
+        radius = exact(motor.r)  # 1 on an arm
+        gain = (
+            exact(motor.eta_g)
+            * exact(motor.Kg)
+            * exact(motor.eta_m)
+            * exact(motor.kt)
+            / (exact(motor.Rm) * radius)
+        )
+        damping = gain * exact(motor.Kg) * exact(motor.km) / radius
+        inertia = exact(motor.eta_g) * exact(motor.Kg) ** 2 * exact(motor.Jm) / radius**2
+        folded = {"delta0": self.exact("delta0") + damping}
+        if self.type == "classical":
+            folded["m0"] = self.exact("m0") + inertia
+        else:
+            given = "J" in self.link_values()
+            base = self.exact("J0") if given else self.exact("m0") * self.exact("l0") ** 2 / 3
+            folded["J0"] = base + inertia
+        return folded
 
 
 # ---------------------------------------------------------------------------- public API
@@ -270,6 +303,12 @@ def _parameter_lines(scene: Scene) -> list[str]:
             else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
         )
         m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
+        exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
+        delta_[0] = float(exact["delta0"])
+        if system.is_rotary:
+            j_[0] = float(exact["J0"])
+        else:
+            m_[0] = float(exact["m0"])
         m, delta = tuple(m_), tuple(delta_)
         if system.is_rotary or given is not None:
             built["J"] = tuple(j_)
@@ -280,6 +319,11 @@ def _parameter_lines(scene: Scene) -> list[str]:
             f"eta_m {motor.eta_m!r}, Jm {motor.Jm!r}, r {motor.r!r}",
             "actuator = dc_motor",
             f"actuator.gain = {format_number(gain)}",
+        ]
+    if scene.actuator.is_acceleration:
+        lines += [
+            "# [actuator] acceleration (docs/model.md): u is the base's acceleration; the links follow",
+            "actuator = acceleration",
         ]
     order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
     return [
@@ -504,10 +548,15 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     controller = None
     actuator = tables["actuator"].actuator()
     coordinates = system.coordinates()
-    if actuator.is_motor and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
+    if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
         reader.fail(
-            "[actuator] dc_motor with specialise = true or an FMU in emit is not supported yet: "
-            "remove them (the header then takes the motor-folded parameters of DIR/<scene>.cfg at run time)"
+            "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
+            "or torque): remove the FMU, or declare the motor-folded model (docs/rigs.md) without [actuator]"
+        )
+    if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
+        reader.fail(
+            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
+            "remove them (the FMU's input is the force or torque; see docs/model.md)"
         )
     if tables["controller"] is not None:
         params = _Parameters(
@@ -521,8 +570,6 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
-        if actuator.is_motor:
-            reader.fail("[swingup] with [actuator] dc_motor is not supported yet: remove one of them")
         if not coordinates.is_canonical:
             reader.fail(
                 "[swingup] in the rig's coordinates is not supported yet: remove [system] angles, zero "
@@ -533,8 +580,11 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
+        gain = 1.0
+        if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
+            params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(tables["swingup"], system, params, theta + dtheta)
+            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
         except swing.SwingUpError as error:
             reader.fail(str(error))
     travel = None if tables["limits"].travel is None else tables["limits"].travel.value
@@ -590,6 +640,25 @@ class _Parameters:
     delta: tuple[float, ...]
     g: float
     links: tuple[tuple[str, tuple[float, ...]], ...] = ()  # com, J, J_axial, tip the scene gives
+
+
+def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
+    """The motor-folded parameters (`actuator.fold`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
+    from ipgen.model.actuator import fold
+
+    built = dict(params.links)
+    given = built.get("J")
+    inertias = (
+        list(given)
+        if given is not None
+        else [rod_value(system, "J", i, params.m, params.l) for i in range(system.dof)]
+    )
+    m, delta, j, gain = fold(actuator, system, list(params.m), list(params.delta), inertias)
+    if system.is_rotary or given is not None:
+        built["J"] = tuple(j)
+    order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
+    links = tuple((group, tuple(built[group])) for group in order)
+    return _Parameters(tuple(m), params.l, tuple(delta), params.g, links), gain
 
 
 def _floats(numbers: tuple[Exact, ...]) -> tuple[float, ...]:

@@ -26,7 +26,7 @@ from __future__ import annotations
 import re
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
@@ -54,7 +54,7 @@ from ipgen.scene.fieldtypes import (
 )
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
-ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor")  # = model.actuator.ACTUATOR_KINDS
+ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor", "acceleration")  # = model.actuator.ACTUATOR_KINDS
 MOTOR_KEYS: tuple[str, ...] = ("Rm", "kt", "km", "Kg", "eta_g", "eta_m", "Jm", "r")
 INERTIAS = model.INERTIA_VARIANTS
 # Integration methods (the C++ simulator's names): CVODE's, ARKODE's explicit Runge-Kutta and a
@@ -337,13 +337,16 @@ _EFFICIENCY = (Gt(0, "an efficiency is in (0, 1]"), Le(1, "an efficiency is in (
 
 class ActuatorTable(Table):
     """[actuator]: what drives the base. direct: u is the force [N] or torque [N m]; dc_motor:
-    u is the motor voltage [V] (docs/model.md, "A DC motor on the base")."""
+    u is the motor voltage [V] (docs/model.md, "A DC motor on the base"); acceleration: u is
+    the base's acceleration [m/s² or rad/s²], imposed by a servo (docs/model.md, "An
+    acceleration-driven base")."""
 
     kind: Annotated[
         str,
         Choice(options=ACTUATOR_KINDS),
         Field(
-            description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]"
+            description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]; "
+            "acceleration: u is the base's acceleration [m/s^2 on a cart, rad/s^2 on an arm]"
         ),
     ] = "direct"
     Rm: _motor_constant("dc_motor: armature resistance [Ω] (required)", _POSITIVE) = None
@@ -356,6 +359,7 @@ class ActuatorTable(Table):
         "dc_motor: rotor inertia [kg m^2] (default 0)", (Ge(0, "an inertia cannot be negative"),)
     ) = None
     r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", _POSITIVE) = None
+    _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")
     def _relations(self, info: Any) -> ActuatorTable:
@@ -365,6 +369,7 @@ class ActuatorTable(Table):
             self.actuator().check(model.System(info.context["type"], info.context["links"]))
         except ActuatorError as exc:
             refuse_line(str(exc))
+        self._rotary = info.context["type"] == "rotary"
         return self
 
     def actuator(self) -> Any:
@@ -375,6 +380,8 @@ class ActuatorTable(Table):
         return Actuator(self.kind, **given)
 
     def context(self) -> dict[str, Any]:
+        if self.kind == "acceleration":
+            return {"u_unit": "rad/s^2" if self._rotary else "m/s^2"}
         return {"u_unit": "V"} if self.kind == "dc_motor" else {}
 
 

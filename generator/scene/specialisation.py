@@ -16,11 +16,12 @@ if TYPE_CHECKING:
 def from_scene(scene: Scene) -> Specialisation:
     """What a scene with `specialise = true` needs: every parameter but its `free` ones folded,
     the simulator's functions (and the energies for an energy ledger), a zero input pruned."""
+    motor = scene.motor_folded()  # a dc_motor: delta0 and m0 or J0 folded with it (exactly)
     fixed = tuple(
-        (name, scene.exact(name))
+        (name, motor.get(name, scene.exact(name)))
         for name in scene.parameter_names()
         if name not in scene.free and unused_parameter(scene.type, name) is None
-    ) + _rod_links(scene)
+    ) + tuple((name, motor.get(name, value)) for name, value in _rod_links(scene))
     outputs = SIMULATOR_FUNCTIONS + (ENERGY_FUNCTIONS if scene.energy else ())
     if scene.swingup is not None and scene.swingup.method == "energy":
         outputs += ("mass_matrix", "bias")  # the energy law evaluates M and the bias at the state

@@ -91,14 +91,38 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
 
 
-def law(table: Any, system: Any, params: Any, start: tuple[float, ...]) -> SwingUpLaw:
-    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`)."""
+def law(
+    table: Any,
+    system: Any,
+    params: Any,
+    start: tuple[float, ...],
+    gain: float = 1.0,
+    acceleration: bool = False,
+) -> SwingUpLaw:
+    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`).
+    `gain`: a dc_motor's force or torque per volt b, `params` then the motor-folded ones; the
+    law is designed in force units (u_max b) and returned in volts (`in_volts`).
+    `acceleration`: u is the base's acceleration (energy method only)."""
+    from ipgen.control.swingup import in_volts
+
+    if acceleration and table.method != "energy":
+        raise SwingUpError(
+            'swingup: method "trajectory" plans a force or torque, not yet an acceleration input: '
+            'use method "energy" or [actuator] kind "direct"'
+        )
+    designed = _law(table, system, params, start, table.u_max.value * gain, acceleration)
+    return designed if gain == 1.0 else in_volts(designed, gain)
+
+
+def _law(
+    table: Any, system: Any, params: Any, start: tuple[float, ...], u_max: float, acceleration: bool
+) -> SwingUpLaw:
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
     from ipgen.control.linear import ControlError
     from ipgen.control.swingup import energy_law, schedule_law, trajectory_swingup
 
-    period, u_max, hold = table.period.value, table.u_max.value, table.hold.value
+    period, hold = table.period.value, table.hold.value
     try:
         model = plant(
             system.type,
@@ -111,7 +135,9 @@ def law(table: Any, system: Any, params: Any, start: tuple[float, ...]) -> Swing
             **dict(params.links),
         )
         if table.method == "energy":
-            return energy_law(energy_swingup(model, u_max=u_max, period=period), hold)
+            return energy_law(
+                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration), hold
+            )
         plan, schedule = trajectory_swingup(
             model,
             duration=table.duration.value,

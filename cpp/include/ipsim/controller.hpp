@@ -2,7 +2,7 @@
 // and the closed-loop poles of the model linearised at x_eq (the header's linearize).
 //
 // x = [θ; θ̇] (2·kDof): θ0 the cart position [m] or arm angle [rad], θ1..θn the absolute link
-// angles [rad], then the rates; u the force [N] or torque [N m] on the base.
+// angles [rad], then the rates; u the force [N] or torque [N m] on the base (or its acceleration).
 #pragma once
 
 #include <algorithm>
@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "ipsim/eigenvalues.hpp"
@@ -84,14 +85,34 @@ inline constexpr bool has_linearize = detail::HasLinearize<Model>::value;
 
 /// Eigenvalues of A − B K, the model linearised at the controller's equilibrium with u = 0 (the
 /// saturation and the sampling are not part of this continuous linear model), sorted by real
-/// part, then imaginary part [1/s].
+/// part, then imaginary part [1/s]. `acceleration`: u is the base's acceleration
+/// (Settings::acceleration); A and B are then those of the links' rows with θ̈0 = u, from the
+/// header's linearisation at the base force τ that holds θ̈0 = 0 by the chain rule through τ:
+/// A ← A − B A_θ̈0 / B_θ̈0, B ← B / B_θ̈0 (A_θ̈0, B_θ̈0 the θ̈0 row).
 template <class Model>
-Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFeedback& controller) {
+Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFeedback& controller,
+                                   bool acceleration = false) {
   static_assert(has_linearize<Model>, "closed_loop_poles needs the model's linearize (forward_dynamics_derivatives)");
   constexpr int n = Model::kDof;
   const VectorOf<Model> q = controller.equilibrium.head<n>();
   const VectorOf<Model> qd = controller.equilibrium.segment<n>(n);
-  const auto lin = Model::template linearize<double>(q, qd, 0.0, params);
+  double force = 0.0;
+  if (acceleration) {
+    if constexpr (has_mass_and_bias<Model>) {  // τ = b_0 + M_0L θ̈_L at θ̈0 = 0 (0 at rest upright)
+      const auto mass = Model::template mass_matrix<double>(q, params);
+      const auto bias = Model::template bias<double>(q, qd, params);
+      const auto links = mass.template bottomRightCorner<Model::kLinks, Model::kLinks>().eval();
+      const auto qdd = links.ldlt().solve(-bias.template tail<Model::kLinks>()).eval();
+      force = bias(0) + mass.template block<1, Model::kLinks>(0, 1).dot(qdd);
+    }
+  }
+  auto lin = Model::template linearize<double>(q, qd, force, params);
+  if (acceleration) {
+    const double b0 = lin.B(n);
+    const Eigen::Matrix<double, 1, 2 * n> row = lin.A.row(n);
+    lin.A -= lin.B * row / b0;
+    lin.B /= b0;
+  }
   const Eigen::MatrixXd closed = lin.A - lin.B * controller.gain.transpose();
   Eigen::VectorXcd poles = detail::general_eigenvalues(closed);  // LAPACK: no Eigen solver to compile
   std::sort(poles.data(), poles.data() + poles.size(), [](const std::complex<double>& a, const std::complex<double>& b) {

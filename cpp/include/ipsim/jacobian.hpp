@@ -9,7 +9,9 @@
 //
 // A feedback input u(t, x) adds ∂θ̈/∂u (∂u/∂x)ᵀ to the θ̈ rows (and θ̇0 (∂u/∂x)ᵀ to the W_in row);
 // ∂u/∂x is not known analytically, so it is taken by forward differences of the callback
-// (2·kDof extra callback calls per Jacobian, no extra model evaluations).
+// (2·kDof extra callback calls per Jacobian, no extra model evaluations). An acceleration-driven
+// base (Settings::acceleration) is the force-driven model at the force τ(x) that gives θ̈0 = u:
+// the chain rule through τ (exact_jacobian).
 #pragma once
 
 #include <algorithm>
@@ -92,29 +94,44 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n);
   const double u = input_at(context, t, x);
-  const auto d = Model::template forward_dynamics_derivatives<double>(q, qd, u, *context.params);
+  double force = u;  // the base's force or torque: u, or what an acceleration-driven base needs
+  if (context.acceleration) {
+    const VectorOf<Model> friction =
+        context.coulomb_index >= 0 ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
+    acceleration_dynamics<Model>(q, qd, u, friction, *context.params, force);
+  }
+  const auto d = Model::template forward_dynamics_derivatives<double>(q, qd, force, *context.params);
 
   jacobian.setZero();
   jacobian.block(0, n, n, n).setIdentity();
-  jacobian.block(n, 0, n, n) = d.dqdd_dq;
-  jacobian.block(n, n, n, n) = d.dqdd_dqd;
-  Eigen::Matrix<double, 2 * n, 1> gradient;
-  input_gradient(context, t, x, u, gradient);
-  if (context.input->kind == Input::Kind::feedback) {
-    jacobian.block(n, 0, n, 2 * n).noalias() += d.dqdd_du * gradient.transpose();
-  }
-  if constexpr (has_energy<Model>) {
-    if (context.energy_ledger) {
-      ledger_jacobian<Model>(context, u, qd, gradient, jacobian);
-    }
-  }
+  Eigen::Matrix<double, n, 2 * n> rows;  // ∂θ̈/∂x of the force-driven model at `force`
+  rows << d.dqdd_dq, d.dqdd_dqd;
   if constexpr (has_mass_matrix<Model>) {
     // Coulomb friction: M⁻¹ ∂Q/∂θ̇ (the smaller ∂M⁻¹/∂θ Q term and the ledger rows are left to
     // the Newton iteration: an approximate Jacobian costs iterations, not accuracy).
     if (context.coulomb_index >= 0) {
       Eigen::Matrix<double, n, n> slope;
       coulomb_force<Model>(context, qd, &slope);
-      jacobian.block(n, n, n, n) += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(slope);
+      rows.template rightCols<n>() += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(slope);
+    }
+  }
+  Eigen::Matrix<double, 2 * n, 1> gradient;
+  input_gradient(context, t, x, u, gradient);
+  if (context.acceleration) {
+    // θ̈ = f(x, τ(x)) with τ chosen so that θ̈0 = u(x): τ_x = (∂u/∂x − ∂f0/∂x) / (∂f0/∂τ), and
+    // ∂θ̈/∂x = ∂f/∂x + ∂f/∂τ τ_xᵀ (row 0 becomes ∂u/∂x). The ledger's W_in' = τ θ̇0.
+    const Eigen::Matrix<double, 2 * n, 1> force_gradient = (gradient - rows.row(0).transpose()) / d.dqdd_du(0);
+    jacobian.block(n, 0, n, 2 * n) = rows + d.dqdd_du * force_gradient.transpose();
+    if constexpr (has_energy<Model>) {
+      if (context.energy_ledger) ledger_jacobian<Model>(context, force, qd, force_gradient, jacobian);
+    }
+    return;
+  }
+  if (context.input->kind == Input::Kind::feedback) rows.noalias() += d.dqdd_du * gradient.transpose();
+  jacobian.block(n, 0, n, 2 * n) = rows;
+  if constexpr (has_energy<Model>) {
+    if (context.energy_ledger) {
+      ledger_jacobian<Model>(context, u, qd, gradient, jacobian);
     }
   }
 }

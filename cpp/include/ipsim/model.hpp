@@ -127,4 +127,20 @@ struct HasMassMatrix<Model, std::void_t<decltype(Model::template mass_matrix<dou
 template <class Model>
 inline constexpr bool has_mass_matrix = detail::HasMassMatrix<Model>::value;
 
+namespace detail {
+template <class Model, class = void>
+struct HasMassAndBias : std::false_type {};
+template <class Model>
+struct HasMassAndBias<Model, std::void_t<decltype(Model::template mass_matrix<double>(
+                                              std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>())),
+                                          decltype(Model::template bias<double>(
+                                              std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
+                                              std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// True when the model defines mass_matrix and bias (the energy swing-up and an
+/// acceleration-driven base need them; a specialised header may omit them).
+template <class Model>
+inline constexpr bool has_mass_and_bias = detail::HasMassAndBias<Model>::value;
+
 }  // namespace ipsim

@@ -34,7 +34,8 @@ struct Result {
   std::vector<double> times;
   /// Row k is the state x(times[k]) = [θ; θ̇] (2·kDof columns).
   Eigen::MatrixXd states;
-  /// Input work W_in(times[k]) = ∫₀ᵗ u θ̇0 dt [J]; empty unless Settings::energy_ledger.
+  /// Input work W_in(times[k]) = ∫₀ᵗ u θ̇0 dt [J] (τ θ̇0, the base's force, for an acceleration-driven
+  /// base); empty unless Settings::energy_ledger.
   std::vector<double> input_work;
   /// Dissipated energy E_diss(times[k]) = ∫₀ᵗ 2D dt [J]; empty unless Settings::energy_ledger.
   std::vector<double> dissipated_energy;

@@ -1,9 +1,11 @@
 // The first-order system ẋ = f(t, x) that every integrator advances: x = [θ; θ̇] (2·kDof), plus
-// [W_in, E_diss] when the energy ledger is on, with θ̈ from the model's forward dynamics.
+// [W_in, E_diss] when the energy ledger is on, with θ̈ from the model's forward dynamics (or, for
+// an acceleration-driven base, from the links' rows with θ̈0 = u: acceleration_dynamics).
 #pragma once
 
 #include <cmath>
 #include <exception>
+#include <limits>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -40,6 +42,8 @@ struct RhsContext {
   VectorOf<Model> coulomb = VectorOf<Model>::Zero();
   double coulomb_speed = 1.0;
   int coulomb_index = -1;
+  /// Settings::acceleration: u is the base's acceleration θ̈0, not its force.
+  bool acceleration = false;
 };
 
 /// The Coulomb friction's generalised force Q (Settings::coulomb) at rates qd; with `slope`, also
@@ -70,6 +74,31 @@ VectorOf<Model> coulomb_force(const RhsContext<Model>& context, const VectorOf<M
   return force;
 }
 
+/// θ̈ of a base that follows the acceleration θ̈0 = a, with the generalised force `applied`
+/// (Coulomb friction) on the coordinates: the link rows of M θ̈ + b = e0 τ + applied give
+/// θ̈_L = M_LL⁻¹ (applied_L − b_L − M_L0 a); `force` receives τ = M_0· θ̈ + b_0 − applied_0,
+/// the force [N] or torque [N m] the base's drive applies.
+template <class Model>
+VectorOf<Model> acceleration_dynamics(const VectorOf<Model>& q, const VectorOf<Model>& qd, double a,
+                                      const VectorOf<Model>& applied, const ParamsOf<Model>& params, double& force) {
+  if constexpr (has_mass_and_bias<Model>) {
+    constexpr int links = Model::kLinks;
+    const auto mass = Model::template mass_matrix<double>(q, params);
+    const VectorOf<Model> residual = Model::template bias<double>(q, qd, params) - applied;
+    VectorOf<Model> qdd;
+    qdd(0) = a;
+    const Eigen::Matrix<double, links, links> links_mass = mass.template bottomRightCorner<links, links>();
+    qdd.template tail<links>() =
+        links_mass.ldlt().solve(-(mass.template block<links, 1>(1, 0) * a + residual.template tail<links>()));
+    force = mass.row(0).dot(qdd) + residual(0);
+    return qdd;
+  } else {  // simulate() refuses Settings::acceleration for such a model before any run
+    (void)q, (void)qd, (void)a, (void)applied, (void)params;
+    force = 0.0;
+    return VectorOf<Model>::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+}
+
 /// u at time t [s] in state `state` = [θ; θ̇, …] (the first 2·kDof entries are read, and only by a
 /// feedback input). Throws whatever a feedback callback throws.
 template <class Model>
@@ -89,14 +118,26 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
   const double u = input_at(context, t, in);
-  VectorOf<Model> qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
   double coulomb_power = 0.0;
-  if constexpr (has_mass_matrix<Model>) {
+  double force = u;  // the base's force or torque (u itself unless the base is acceleration-driven)
+  VectorOf<Model> qdd;
+  if (context.acceleration) {
+    const VectorOf<Model> friction =
+        context.coulomb_index >= 0 ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
+    qdd = acceleration_dynamics<Model>(q, qd, u, friction, *context.params, force);
     if (context.coulomb_index >= 0) {
-      const VectorOf<Model> friction = coulomb_force<Model>(context, qd);
-      qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
       coulomb_power = -friction.dot(qd);
       out[context.coulomb_index] = coulomb_power;
+    }
+  } else {
+    qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
+    if constexpr (has_mass_matrix<Model>) {
+      if (context.coulomb_index >= 0) {
+        const VectorOf<Model> friction = coulomb_force<Model>(context, qd);
+        qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
+        coulomb_power = -friction.dot(qd);
+        out[context.coulomb_index] = coulomb_power;
+      }
     }
   }
   Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
@@ -104,7 +145,7 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   acceleration_out = qdd;
   if constexpr (has_energy<Model>) {
     if (context.energy_ledger) {
-      out[2 * n] = u * qd(0);
+      out[2 * n] = force * qd(0);  // the base's power (τ θ̇0 for an acceleration-driven base)
       out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + coulomb_power;
     }
   }

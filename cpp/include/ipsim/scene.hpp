@@ -25,6 +25,7 @@
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
+//   actuator = acceleration    (optional: u is the base's acceleration [m/s^2 or rad/s^2], the links follow)
 //   swingup = energy | trajectory   (optional, with input = zero and no controller: ipsim/swingup.hpp)
 //   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
@@ -229,9 +230,9 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
-  if (scene.motor) file.fail(file.line("swingup"), "a swing-up with actuator = dc_motor is not supported yet");
   constexpr Eigen::Index size = 2 * Model::kDof;
   SwingUp sw;
+  sw.acceleration = scene.settings.acceleration;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
   sw.u_max = file.number("swingup.u_max");
   sw.period = file.number("swingup.period");
@@ -253,6 +254,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.energy_inertia = file.number("swingup.energy_inertia");
     sw.energy_weight = file.number("swingup.energy_weight");
   } else {
+    if (sw.acceleration) file.fail(file.line("swingup"), "swingup = trajectory with actuator = acceleration is not supported yet");
     const long steps = file.integer("swingup.steps");
     if (steps < 1 || steps > 10'000'000) file.fail(file.line("swingup.steps"), "swingup.steps must be in 1 .. 10000000");
     sw.inputs = numbers_of(file, "swingup.inputs", steps);
@@ -264,6 +266,13 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   const auto problems = sw.problems(static_cast<int>(size));
   if (!problems.empty()) file.fail(0, problems.front());
+  // actuator = dc_motor: the file's u-valued numbers are in volts, the energy law's output is the
+  // motor-folded model's torque or force; scale to N m or N like the controller (b = 1 otherwise).
+  const double b = scene.input_gain;
+  sw.u_max *= b;
+  sw.hold_gain *= b;
+  sw.inputs *= b;
+  sw.gains *= b;
   if (std::isfinite(scene.settings.t_end) && scene.settings.t_end / sw.period > kMaxSamples) {
     file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
                                                ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
@@ -391,10 +400,18 @@ Scene<Model> load(const SceneFile& file) {
 
   if (file.has("actuator")) {
     const std::string& actuator = file.text("actuator");
-    if (actuator != "direct" && actuator != "dc_motor") {
-      file.fail(file.line("actuator"), "actuator must be `direct` or `dc_motor`, got `" + detail::abbreviate(actuator) + "`");
+    if (actuator != "direct" && actuator != "dc_motor" && actuator != "acceleration") {
+      file.fail(file.line("actuator"),
+                "actuator must be `direct` or `dc_motor` (or `acceleration`), got `" + detail::abbreviate(actuator) + "`");
     }
     scene.motor = actuator == "dc_motor";
+    scene.settings.acceleration = actuator == "acceleration";
+    if (scene.settings.acceleration && !has_mass_and_bias<Model>) {
+      file.fail(file.line("actuator"), "actuator = acceleration needs the model's mass_matrix and bias: regenerate its header");
+    }
+    if (scene.settings.acceleration && file.has("actuator.gain")) {
+      file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
+    }
     if (scene.motor) {
       scene.input_gain = file.number("actuator.gain");
       if (!(std::isfinite(scene.input_gain) && scene.input_gain > 0.0)) {

@@ -116,7 +116,7 @@ struct Settings {
   VectorOf<Model> theta = VectorOf<Model>::Zero();   ///< initial θ: base [m or rad], link angles [rad]
   VectorOf<Model> dtheta = VectorOf<Model>::Zero();  ///< initial θ̇ [m/s or rad/s]
   Input input;               ///< u(t) on θ0 [N or N m]
-  /// Also integrate the input work W_in = ∫ u θ̇0 dt and the dissipated energy E_diss = ∫ 2D dt
+  /// Also integrate the input work W_in = ∫ u θ̇0 dt (∫ τ θ̇0 dt with `acceleration`) and the dissipated energy E_diss = ∫ 2D dt
   /// [J] as two extra CVODE states (they take part in error control), reported in Result.
   bool energy_ledger = false;
   /// Coulomb friction per coordinate [N or N m], ≥ 0 (default 0: none), as the smooth law
@@ -126,6 +126,11 @@ struct Settings {
   /// its linearisation). Its dissipated energy is integrated and reported (Result::coulomb_dissipated).
   VectorOf<Model> coulomb = VectorOf<Model>::Zero();
   double coulomb_speed = 0.01;  ///< [m/s or rad/s], > 0: below it the friction is ~viscous
+  /// An acceleration-driven base ([actuator] kind = "acceleration"): u is θ̈0 [m/s² or rad/s²],
+  /// imposed by a servo; the links follow θ̈_L = −M_LL⁻¹ (M_L0 u + b_L − Q_L) (rhs.hpp), and the
+  /// energy ledger's input work is that of the base force τ = M_0· θ̈ + b_0 − Q_0 the servo
+  /// applies. Needs the model's mass_matrix and bias.
+  bool acceleration = false;
 };
 
 /// The settings that shape the integration, for messages and summaries:

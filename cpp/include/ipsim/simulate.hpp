@@ -159,6 +159,10 @@ std::vector<std::string> model_setting_problems(const Settings<Model>& settings)
     problems.push_back(std::string("invalid setting jacobian = exact: model ") + Model::kName +
                        " has no forward_dynamics_derivatives (regenerate its header, or use jacobian = dq)");
   }
+  if (settings.acceleration && !has_mass_and_bias<Model>) {
+    problems.push_back(std::string("invalid setting acceleration-driven base: model ") + Model::kName +
+                       " has no mass_matrix and bias (regenerate its header without specialising it)");
+  }
   if (settings.energy_ledger && !has_energy<Model>) {
     problems.push_back(std::string("invalid setting energy ledger: model ") + Model::kName +
                        " has no energy functions (specialised without [outputs] energy = true; regenerate it)");
@@ -222,6 +226,7 @@ Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings, 
   rhs_context.params = &params;
   rhs_context.input = &settings.input;
   rhs_context.energy_ledger = settings.energy_ledger;
+  rhs_context.acceleration = settings.acceleration;
   if (coulomb) {
     rhs_context.coulomb = settings.coulomb;
     rhs_context.coulomb_speed = settings.coulomb_speed;

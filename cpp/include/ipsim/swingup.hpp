@@ -34,22 +34,6 @@
 
 namespace ipsim {
 
-namespace detail {
-template <class Model, class = void>
-struct HasMassAndBias : std::false_type {};
-template <class Model>
-struct HasMassAndBias<Model, std::void_t<decltype(Model::template mass_matrix<double>(
-                                              std::declval<const VectorOf<Model>&>(), std::declval<const ParamsOf<Model>&>())),
-                                          decltype(Model::template bias<double>(
-                                              std::declval<const VectorOf<Model>&>(), std::declval<const VectorOf<Model>&>(),
-                                              std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
-}  // namespace detail
-
-/// True when the model defines mass_matrix and bias (the energy law needs them; a header
-/// specialised to a scene without an energy swing-up omits them).
-template <class Model>
-inline constexpr bool has_mass_and_bias = detail::HasMassAndBias<Model>::value;
-
 /// The phase a swing-up controller is in (the phase column of the CSV).
 enum class SwingPhase { swing, track, hold };
 
@@ -73,6 +57,8 @@ struct SwingUp {
   // energy
   double gain_energy = 0.0, gain_position = 0.0, gain_velocity = 0.0, accel_max = 0.0;
   double catch_angle = 0.0, catch_rate = 0.0, energy_target = 0.0, energy_inertia = 0.0, energy_weight = 0.0;
+  /// u is the base's acceleration (Settings::acceleration): the energy law returns a itself.
+  bool acceleration = false;
   // trajectory: ū_k (steps), x̄_k (steps + 1 rows), K_k (steps rows)
   Eigen::VectorXd inputs;
   Eigen::MatrixXd states, gains;
@@ -184,6 +170,7 @@ struct SwingUp {
       const double direction = product != 0.0 ? std::copysign(1.0, product) : 1.0;
       double a = std::clamp(gain_energy * (energy - energy_target) * direction, -accel_max, accel_max);
       a -= gain_position * q(0) + gain_velocity * qd(0);
+      if (acceleration) return a;
       const double qdd1 = -(mass(1, 0) * a + bias(1)) / mass(1, 1);
       return mass(0, 0) * a + mass(0, 1) * qdd1 + bias(0);
     } else {  // scene::load refuses this case before any run

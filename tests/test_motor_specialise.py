@@ -1,0 +1,71 @@
+"""A dc_motor scene with `specialise = true`: the motor-folded parameters (δ0 + back-EMF, J0 or
+m0 + the rotor) are folded exactly into the header, the resolved config carries the same values
+to the last bit (check_folded passes), and the run is the general header's run."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+from cxx import require_toolchain
+
+from ipgen.scene.reader import load_scene, resolved_config
+
+RIGS = Path(__file__).resolve().parents[1] / "scenes" / "rigs"
+
+
+def _csv(path: Path) -> np.ndarray:
+    _, *rows = path.read_text().splitlines()
+    return np.array([[float(v) for v in row.split(",")] for row in rows])
+
+
+def test_motor_folded_exactly() -> None:
+    """The QUBE preset with the rotor (Jm) and a gear: the config's δ0 and J0 are the exact fold
+    rounded once (by hand: δ0 + kt km Kg² / Rm, J0 + Kg² Jm)."""
+    text = (RIGS / "qube_servo2.toml").read_text().replace("# Jm = 4.0e-6", "Jm = 4.0e-6\nKg = 1.5")
+    path = Path(os.environ.get("TMPDIR", "/tmp")) / f"qube_fold_{os.getpid()}.toml"
+    path.write_text(text)
+    try:
+        scene = load_scene(path)
+    finally:
+        path.unlink()
+    folded = scene.motor_folded()
+    kg, kt, km, rm = Fraction("1.5"), Fraction("0.042"), Fraction("0.042"), Fraction("8.4")
+    assert folded["delta0"] == Fraction("0.0015") + kt * km * kg**2 / rm
+    assert folded["J0"] == Fraction("5.7197916666666667e-05") + kg**2 * Fraction("4.0e-6")
+    config = resolved_config(scene)
+    delta = next(line for line in config.splitlines() if line.startswith("delta = "))
+    j = next(line for line in config.splitlines() if line.startswith("J = "))
+    assert float(delta.split()[2]) == float(folded["delta0"])
+    assert float(j.split()[2]) == float(folded["J0"])
+
+
+def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> None:
+    require_toolchain()
+    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    general = (RIGS / "qube_servo2.toml").read_text()
+    special = general.replace('name = "qube_servo2"', 'name = "qube_servo2_special"\nspecialise = true')
+    runs = {}
+    for stem, text in (("general", general), ("special", special)):
+        scene = tmp_path / f"{stem}.toml"
+        scene.write_text(text)
+        done = subprocess.run(
+            [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem)],
+            capture_output=True,
+            text=True,
+            env=env,
+        )
+        assert done.returncode == 0, done.stderr
+        runs[stem] = _csv(tmp_path / stem / f"{stem}.csv")
+    import ipgen
+
+    ipgen.write_header(tmp_path / "gen", scene=tmp_path / "special.toml")
+    header = (tmp_path / "gen" / "qube_servo2_special.hpp").read_text()
+    folded = load_scene(tmp_path / "special.toml").motor_folded()
+    assert "kSpecialised = true" in header and f"Scalar({float(folded['delta0'])!r})" in header
+    # Same model, expressions rounded differently: the runs agree to the integrator's tolerance.
+    np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-7, atol=1e-8)
