@@ -227,10 +227,12 @@ def rod_fills(system: System, spec: Specialisation) -> list[tuple[str, str]]:
             continue
         group, index = split_parameter(name)
         m, length = params_field(f"m{index}"), params_field(f"l{index}")
+        # The same expression, operation for operation, as the per-call fallback in the functions
+        # (so a run with the fills gives the same bits as one without).
         if group == "com":
-            rod = f"{length} / Scalar(2)"
+            rod = f"Scalar(1)/Scalar(2)*{length}"
         else:
-            rod = f"{m} * {length} * {length} / Scalar({3 if index == 0 else 12})"
+            rod = f"Scalar(1)/Scalar({3 if index == 0 else 12})*{m}*{length}*{length}"
         fills.append((params_field(name), rod))
     return fills
 

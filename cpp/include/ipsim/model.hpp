@@ -89,6 +89,26 @@ inline constexpr bool has_links_as_built = detail::HasLinksAsBuilt<Model>::value
 template <class Model>
 inline constexpr bool has_energy = detail::HasEnergy<Model>::value;
 
+namespace detail {
+template <class Model, class = void>
+struct HasWithRodLinks : std::false_type {};
+template <class Model>
+struct HasWithRodLinks<Model, std::void_t<decltype(Model::template with_rod_links<double>(
+                                  std::declval<const ParamsOf<Model>&>()))>> : std::true_type {};
+}  // namespace detail
+
+/// `params` with every unset (NaN) com and J entry replaced by the homogeneous rod's value, once
+/// (the model's with_rod_links): the right-hand side then reads them instead of computing the
+/// rod values in every call. Models without it (rods only, or older headers) get `params`.
+template <class Model>
+ParamsOf<Model> with_rod_links(const ParamsOf<Model>& params) {
+  if constexpr (detail::HasWithRodLinks<Model>::value) {
+    return Model::template with_rod_links<double>(params);
+  } else {
+    return params;
+  }
+}
+
 /// The first parameter whose value differs from the one folded into a specialised header
 /// (its name, e.g. "m1"), or nullptr: general headers and model tags without check_folded fold
 /// nothing.

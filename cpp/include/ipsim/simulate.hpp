@@ -190,7 +190,7 @@ void require_valid_run(const ParamsOf<Model>& params, const Settings<Model>& set
 /// Integrates `Model` from t = 0 to settings.t_end, handing every sample to `sink` as soon as
 /// it is reached (nothing of the trajectory is kept: memory stays flat however long the run).
 ///
-/// \param[in] params   Physical parameters (see validate(const ParamsOf<Model>&)).
+/// \param[in] given    Physical parameters (see validate(const ParamsOf<Model>&)); unset com/J: the rods.
 /// \param[in] settings Method, Jacobian, tolerances or step, output interval, initial state and input.
 /// \param[in] sink     Receives the samples at t = k·settings.sample and t_end; returning false
 ///                     from SampleSink::record stops the run there (Result::stopped_early).
@@ -200,10 +200,12 @@ void require_valid_run(const ParamsOf<Model>& params, const Settings<Model>& set
 /// \throws IntegrationError when the integrator fails (flag name, time reached and settings in what()).
 /// \throws whatever a feedback input callback or the sink throws, unchanged.
 template <class Model>
-Result simulate(const ParamsOf<Model>& params, const Settings<Model>& settings, SampleSink& sink) {
+Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, SampleSink& sink) {
   static_assert(detail::check_model<Model>());
   const auto started = std::chrono::steady_clock::now();
-  require_valid_run<Model>(params, settings);
+  require_valid_run<Model>(given, settings);
+  // The rods' com and J once, not in every right-hand-side call (same values: l/2, m l²/12).
+  const ParamsOf<Model> params = with_rod_links<Model>(given);
 
   constexpr int n = Model::kDof;
   const bool coulomb = (settings.coulomb.array() != 0.0).any();
