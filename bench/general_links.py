@@ -243,7 +243,8 @@ def markdown(rows: list[dict], rounds: int) -> str:
         "per combination either: each of com and J may be given alone (com given, J the rod's about "
         "the CoG), so J's default needs m_i l_i² whatever com is. Code that gives com and J (the "
         "rods' values, once: `with_rod_links(p)` in C++, `ipgen_NAME_rod_links` in C) runs the "
-        "*given* column; a header with them folded (`--fix`, a specialised scene) runs the *folded* one.",
+        "*given* column (the simulator does this once per run); a header with them folded (`--fix`, a "
+        "specialised scene) runs the *folded* one.",
         "",
     ]
     return "\n".join(lines)
