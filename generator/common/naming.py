@@ -56,7 +56,9 @@ RESERVED_NAMES: frozenset[str] = frozenset(
     {"std", "posix", "main", "Eigen", "ipgen", "detail"}
     | {"Model", "Params", "Vector", "Matrix", "Derivatives", "Scalar"}
     | {"kLinks", "kDof", "kSpecialised", "kName", "kType", "kInertia", "check_folded"}
-    | {"DcMotor", "with_motor", "with_rod_links"}
+    | {"DcMotor", "with_motor", "with_rod_links", "forward_dynamics_acceleration", "linearize_acceleration"}
+    | {"canonical", "to_canonical", "from_canonical", "rates_to_canonical", "rates_from_canonical"}
+    | {"forces_from_canonical", "congruence", "similarity"}
     | {"mass_matrix", "bias", "gravity", "n_matrix", "forward_dynamics", "forward_dynamics_derivatives"}
     | {"kinetic_energy", "potential_energy", "dissipation", "factorize_ldlt", "solve_ldlt"}
     | {"linearize", "Linearization", "StateVector", "StateMatrix"}
