@@ -30,7 +30,8 @@ PROGRESS_FROM_LINKS = {"classical": 20, "rotary": 16}
 
 HELP = """Derive the equations of motion of an n-link inverted pendulum and write a C++ header;
 or, with a command, run a scene (ipgen run), plot or animate a simulator's CSV (ipgen plot,
-ipgen animate), design a rig's identification experiment (ipgen excite).
+ipgen animate), design a rig's identification experiment (ipgen excite) and fit the model's
+parameters to its recording (ipgen identify).
 
 \b
 Systems (docs/model.md in the repository has the exact model):
