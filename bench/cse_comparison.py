@@ -32,7 +32,7 @@ import sympy as sp
 from sympy.codegen.rewriting import create_expand_pow_optimization
 
 from ipgen.codegen.functions import CPP_SYNTAX, Output, _targets, build_body, count_operations
-from ipgen.codegen.header import _FUNCTIONS
+from ipgen.codegen.header import function_outputs
 from ipgen.model.derivation import Equations, derive
 from ipgen.model.polynomial import Poly, sparse
 from ipgen.model.system import System
@@ -58,19 +58,7 @@ class Comparison:
 
 
 def _outputs(eqs: Equations) -> tuple[list[Output], tuple[str, ...]]:
-    reads, arguments = _FUNCTIONS[FUNCTION]
-    outputs = [
-        Output(
-            r.cpp,
-            eqs.poly[r.key],
-            scalar=r.scalar,
-            symmetric=r.symmetric,
-            lower_only=r.lower_only,
-            damped=r.damped,
-        )
-        for r in reads
-    ]
-    return outputs, arguments
+    return function_outputs(eqs, FUNCTION)
 
 
 def _c_operations(name: str, expr: sp.Expr) -> int:

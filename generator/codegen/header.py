@@ -137,6 +137,24 @@ def poly_keys(wanted: tuple[str, ...] = FUNCTIONS) -> tuple[str, ...]:
     return tuple(dict.fromkeys(read.key for name in wanted for read in _FUNCTIONS[name][0]))
 
 
+def function_outputs(eqs: Equations, name: str) -> tuple[list[Output], tuple[str, ...]]:
+    """The outputs the generated function `name` assigns (from `eqs.poly`) and its arguments."""
+    reads, arguments = _FUNCTIONS[name]
+    outputs = [
+        Output(
+            r.cpp,
+            eqs.poly[r.key],
+            scalar=r.scalar,
+            symmetric=r.symmetric,
+            lower_only=r.lower_only,
+            damped=r.damped,
+            rayleigh=r.rayleigh,
+        )
+        for r in reads
+    ]
+    return outputs, arguments
+
+
 def function_bodies(
     eqs: Equations,
     wanted: tuple[str, ...] = FUNCTIONS,
@@ -147,19 +165,7 @@ def function_bodies(
     (the vector holding θ̈ where a function needs it) choose the language, C++ by default."""
     bodies = {}
     for name in wanted:
-        reads, arguments = _FUNCTIONS[name]
-        outputs = [
-            Output(
-                r.cpp,
-                eqs.poly[r.key],
-                scalar=r.scalar,
-                symmetric=r.symmetric,
-                lower_only=r.lower_only,
-                damped=r.damped,
-                rayleigh=r.rayleigh,
-            )
-            for r in reads
-        ]
+        outputs, arguments = function_outputs(eqs, name)
         if name != "dissipation":  # Rayleigh's D reads the damping only: no links argument
             arguments = (*arguments, *syntax.extra_arguments)
         bodies[name] = build_body(eqs, outputs, arguments, late_source=late.get(name, ""), syntax=syntax)
