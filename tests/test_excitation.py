@@ -562,3 +562,38 @@ def test_the_ip02_experiment_identifies_the_rigs_damping(tmp_path: Path, cache: 
     assert done.returncode == 0, done.stderr
     found = load_scene(tmp_path / "id" / "wrong_identified.toml")
     assert found.delta == pytest.approx((4.3, 0.0024), rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("angles", "zero", "positive"),
+    list(
+        itertools.product(("absolute", "relative"), ("upright", "hanging"), ("clockwise", "counterclockwise"))
+    ),
+)
+def test_the_experiment_starts_hanging_in_the_rigs_own_coordinates(
+    angles: str, zero: str, positive: str
+) -> None:
+    """[initial] is read in the rig's convention: the written angles must mean hanging in it (a
+    rig measured from hanging starts at 0, not at π, which would be upright)."""
+    from ipgen.command.excite import Design, scene_text
+
+    text = (RIGS / "srv02_dbip.toml").read_text()
+    lines = [line for line in text.splitlines() if not line.startswith(("angles =", "zero =", "positive ="))]
+    at = lines.index("[system]") + 1
+    lines[at:at] = [f'angles = "{angles}"', f'zero = "{zero}"', f'positive = "{positive}"']
+    with tempfile.TemporaryDirectory() as folder:
+        rig_path = Path(folder) / "rig.toml"
+        rig_path.write_text("\n".join(lines) + "\n")
+        rig = load_scene(rig_path)
+        design = Design(
+            signal="multisine", amplitude=1.0, limited_by="travel", f_min=0.2, f_max=5.0, period=10.0,
+            lines=49, crest_factor=1.8, duration=40.0, sample=0.005, sweep=None, base=0.1, swing=0.1,
+            u_max=10.0, travel=1.0, swing_limit=0.5, margin=0.3, gain_band=(0.1, 1.0),
+        )  # fmt: skip
+        experiment_path = Path(folder) / "experiment.toml"
+        experiment_path.write_text(scene_text(rig, design))
+        experiment = load_scene(experiment_path)
+    state = np.array([*experiment.theta, *experiment.dtheta])
+    canonical = experiment.coordinates.to_canonical(state, experiment.links)
+    absolute = canonical[1 : experiment.links + 1]
+    assert np.allclose(np.cos(absolute), -1.0, atol=1e-12), (angles, zero, positive, experiment.theta)

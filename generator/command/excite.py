@@ -382,11 +382,24 @@ def _line(text: str, comment: str) -> str:
     return f"{text:<29} # {comment}"
 
 
+def _hanging(rig: Scene) -> list[float]:
+    """The hanging state's angles in the rig's own coordinates, each in (−π, π], as its [initial]
+    is written (ipgen's: every link at π; 0 with zero = "hanging"; relative: the links above 1 at 0)."""
+    import numpy as np
+
+    dof = rig.links + 1
+    canonical = np.zeros(2 * dof)
+    canonical[1:dof] = math.pi
+    user = rig.coordinates.to_user(canonical, rig.links)[:dof]
+    wrapped = [float(x) % (2 * math.pi) for x in user[1:]]
+    return [float(user[0]), *(x - 2 * math.pi if x > math.pi else x + 0.0 for x in wrapped)]
+
+
 def scene_text(rig: Scene, design: Design) -> str:
     """The experiment scene: a generated header, the rig's own tables, then the new ones."""
     links = rig.links
     source = quote_path(rig.path.as_posix())
-    theta = ", ".join(["0", *(["3.141592653589793"] * links)])
+    theta = ", ".join(_format(angle) for angle in _hanging(rig))
     zeros = ", ".join(["0"] * (links + 1))
     unit, base_unit = design._units
     peak = f"peak |u| [{unit}], limited by {design.limited_by}"
