@@ -207,21 +207,21 @@ def test_cpp_header_dc_motor(kind: str, tmp_path: Path) -> None:
     import subprocess
 
     from cxx import cxx_command, require_toolchain
+    from motor_by_hand import MOTOR, R, accelerations_by_hand, rig
 
     from ipgen.codegen.header import HeaderRequest, render_header
 
     require_toolchain()
     system = System(kind, 1)  # type: ignore[arg-type]
-    rm, kt, km, kg, eta_g, eta_m, jm, r = 2.6, 0.0077, 0.0075, 3.71, 0.9, 0.69, 3.9e-7, 6.35e-3
-    m, l, delta, j = [0.5, 0.2], [0.3 if kind == "rotary" else 0.0, 0.6], [0.2, 0.003], [0.004, 0.007]  # noqa: E741
+    m, l, delta, j = rig(kind)  # noqa: E741
     values = {"M": m, "L": l, "D": delta, "J": j}
     program = CPP_MOTOR
     for key, value in values.items():
         program = program.replace("{" + key + "}", "{" + ", ".join(repr(v) for v in value) + "}")
-    constants = {"RM": rm, "KT": kt, "KM": km, "KG": kg, "ETA_G": eta_g, "ETA_M": eta_m, "JM": jm}
+    constants = dict(zip(("RM", "KT", "KM", "KG", "ETA_G", "ETA_M", "JM"), MOTOR, strict=True))
     for key, value in constants.items():
         program = program.replace(key, repr(value), 1)
-    program = program.replace(" R}", f", {r!r}}}" if kind == "classical" else "}")
+    program = program.replace(" R}", f", {R!r}}}" if kind == "classical" else "}")
     (tmp_path / "model.hpp").write_text(render_header(derive(system), HeaderRequest("model", "test")))
     (tmp_path / "main.cpp").write_text(program)
     subprocess.run(
@@ -230,15 +230,7 @@ def test_cpp_header_dc_motor(kind: str, tmp_path: Path) -> None:
     out = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout
     qdd_cpp = np.array([float(x) for x in out.split()])
 
-    q, qd, volts = np.array([0.3, -0.2]), np.array([1.5, -2.0]), 4.0
-    if kind == "rotary":  # τ = ηg Kg ηm kt (V − Kg km θ̇0)/Rm, ηg Kg² Jm on the arm
-        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0]) / rm
-        m_hand, j_hand = m, [j[0] + eta_g * kg**2 * jm, j[1]]
-    else:  # F = ηg Kg ηm kt (V − Kg km ẋ/r)/(Rm r), ηg Kg² Jm / r² on the cart
-        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0] / r) / (rm * r)
-        m_hand, j_hand = [m[0] + eta_g * kg**2 * jm / r**2, m[1]], j
-    params = _params(system, m_hand, l, delta, 9.81, {"J": j_hand})
-    qdd_hand = dynamics(system).forward_dynamics(q, qd, force, params)
+    qdd_hand = accelerations_by_hand(kind)
     assert np.allclose(qdd_cpp, qdd_hand, rtol=1e-12, atol=1e-12), (qdd_cpp, qdd_hand)
 
 

@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from c_models import c_command, require_cc
+from motor_by_hand import MOTOR, R, accelerations_by_hand, rig
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest
-from ipgen.control.linear import _params, dynamics
 from ipgen.model.derivation import derive
 from ipgen.model.system import System
 
@@ -45,9 +45,8 @@ int main(void) {
 def test_c_header_dc_motor(kind: str, scalar: str, tmp_path: Path) -> None:
     require_cc()
     system = System(kind, 1)  # type: ignore[arg-type]
-    rm, kt, km, kg, eta_g, eta_m, jm, r = 2.6, 0.0077, 0.0075, 3.71, 0.9, 0.69, 3.9e-7, 6.35e-3
-    m, l, delta, j = [0.5, 0.2], [0.3 if kind == "rotary" else 0.0, 0.6], [0.2, 0.003], [0.004, 0.007]  # noqa: E741
-    constants = [rm, kt, km, kg, eta_g, eta_m, jm] + ([r] if kind == "classical" else [])
+    m, l, delta, j = rig(kind)  # noqa: E741
+    constants = [*MOTOR] + ([R] if kind == "classical" else [])
 
     def c_list(values: list[float]) -> str:
         return ", ".join(f"(IPGEN_SCALAR){v!r}" for v in values)
@@ -66,14 +65,6 @@ def test_c_header_dc_motor(kind: str, scalar: str, tmp_path: Path) -> None:
     out = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout
     qdd_c = np.array([float(x) for x in out.split()])
 
-    q, qd, volts = np.array([0.3, -0.2]), np.array([1.5, -2.0]), 4.0
-    if kind == "rotary":  # τ = ηg Kg ηm kt (V − Kg km θ̇0)/Rm, ηg Kg² Jm on the arm
-        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0]) / rm
-        m_hand, j_hand = m, [j[0] + eta_g * kg**2 * jm, j[1]]
-    else:  # F = ηg Kg ηm kt (V − Kg km ẋ/r)/(Rm r), ηg Kg² Jm / r² on the cart
-        force = eta_g * kg * eta_m * kt * (volts - kg * km * qd[0] / r) / (rm * r)
-        m_hand, j_hand = [m[0] + eta_g * kg**2 * jm / r**2, m[1]], j
-    params = _params(system, m_hand, l, delta, 9.81, {"J": j_hand})
-    qdd_hand = dynamics(system).forward_dynamics(q, qd, force, params)
+    qdd_hand = accelerations_by_hand(kind)
     tolerance = 1e-12 if scalar == "double" else 2e-4
     np.testing.assert_allclose(qdd_c, qdd_hand, rtol=tolerance, atol=tolerance)
