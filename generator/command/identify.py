@@ -84,11 +84,11 @@ def setup_from_scene(scene: Scene, free: Sequence[str] = ()) -> Setup:
 
 def canonical(scene: Scene, data: Measurements) -> Measurements:
     """The measurements in ipgen's coordinates: the scene's [system] convention (angles, zero,
-    positive), when it has one, undone by `Coordinates.to_canonical`."""
+    positive) undone, as `Coordinates.to_canonical` does, for every sample at once."""
     import numpy as np
 
-    coordinates = getattr(scene, "coordinates", None)
-    if coordinates is None or coordinates.is_canonical:
+    coordinates = scene.coordinates
+    if coordinates.is_canonical:
         return data
     p, c = coordinates.matrices(scene.links)
     dof = scene.links + 1
