@@ -121,24 +121,20 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   double coulomb_power = 0.0;
   double force = u;  // the base's force or torque (u itself unless the base is acceleration-driven)
   VectorOf<Model> qdd;
+  // Coulomb friction: a generalised force, applied through M (as before, not with a model without M).
+  const bool friction_on = has_mass_matrix<Model> && context.coulomb_index >= 0;
+  const VectorOf<Model> friction = friction_on ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
   if (context.acceleration) {
-    const VectorOf<Model> friction =
-        context.coulomb_index >= 0 ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
     qdd = acceleration_dynamics<Model>(q, qd, u, friction, *context.params, force);
-    if (context.coulomb_index >= 0) {
-      coulomb_power = -friction.dot(qd);
-      out[context.coulomb_index] = coulomb_power;
-    }
   } else {
     qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
     if constexpr (has_mass_matrix<Model>) {
-      if (context.coulomb_index >= 0) {
-        const VectorOf<Model> friction = coulomb_force<Model>(context, qd);
-        qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
-        coulomb_power = -friction.dot(qd);
-        out[context.coulomb_index] = coulomb_power;
-      }
+      if (friction_on) qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
     }
+  }
+  if (friction_on) {
+    coulomb_power = -friction.dot(qd);
+    out[context.coulomb_index] = coulomb_power;
   }
   Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
   velocity_out = qd;
