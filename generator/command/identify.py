@@ -25,8 +25,6 @@ from ipgen.common.version import __version__
 from ipgen.identification.data import Measurements, read_measurements
 from ipgen.identification.model import IdentifyError, Setup
 from ipgen.model.actuator import MOTOR_CONSTANTS
-from ipgen.model.links import resolve_links
-from ipgen.model.system import LINK_GROUPS, group_indices
 from ipgen.plots.run import check_replaceable as check_png
 from ipgen.scene.reader import Scene, load_scene
 
@@ -49,37 +47,8 @@ class Identified:
 
 
 def setup_from_scene(scene: Scene, free: Sequence[str] = ()) -> Setup:
-    """The prior of a fit: every parameter's value from `scene` (rods filled in)."""
-    system = scene.system
-    dof = system.dof
-    values: dict[str, float] = {}
-    for group in ("m", "l", "delta"):
-        for i, v in enumerate(getattr(scene, group)):
-            values[f"{group}{i}"] = float(v)
-    values["g"] = float(scene.g)
-    given = scene.link_values()
-    built = resolve_links(system, scene.m, scene.l, {g: given.get(g) for g in LINK_GROUPS})
-    for group in LINK_GROUPS:
-        for i in group_indices(group, scene.links):
-            values[f"{group}{i}"] = float(getattr(built, group)[i])
-    actuator = scene.actuator
-    if actuator.is_motor:
-        for name in MOTOR_CONSTANTS:
-            value = getattr(actuator, name)
-            if value is not None:
-                values[name] = float(value)
-    friction = scene.coulomb is not None or any(n.startswith("coulomb") for n in free)
-    if friction:
-        for i in range(dof):
-            values[f"coulomb{i}"] = float(scene.coulomb[i]) if scene.coulomb is not None else 0.0
-    return Setup(
-        system=system,
-        actuator_kind=actuator.kind,
-        values=tuple(values.items()),
-        explicit=frozenset(given),
-        friction=friction,
-        coulomb_speed=float(scene.coulomb_speed),
-    )
+    """The prior of a fit: every parameter's value from `scene` (`Setup.from_pendulum`)."""
+    return Setup.from_pendulum(scene.pendulum, free)
 
 
 def canonical(scene: Scene, data: Measurements) -> Measurements:

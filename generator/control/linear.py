@@ -83,6 +83,12 @@ class Dynamics:
         rhs[0] += u
         return np.linalg.solve(mass, rhs)
 
+    def mass_matrix(self, q: np.ndarray, params: Sequence[float]) -> np.ndarray:
+        """M(θ) (dof × dof) at the angles q for the flat `params`."""
+        import numpy as np
+
+        return np.asarray(self._mass(*q, *self._complete(params)), dtype=float)
+
     def _complete(self, params: Sequence[float]) -> list[float]:
         """`params` with the rods' com, J, J_axial, tip appended if it has m, l, delta, g only."""
         dof = self.system.dof

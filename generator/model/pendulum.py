@@ -205,7 +205,7 @@ class Pendulum:
                 _fail(f"coulomb[{i}] = {_shown(friction)}: friction must be >= 0")
         if self.coulomb_speed <= 0:
             _fail(f"coulomb_speed = {_shown(self.coulomb_speed)}: must be > 0 (m/s or rad/s)")
-        problem = link_problem(self.system, self._floats(m), self._floats(l), self.link_values())
+        problem = link_problem(self.system, self._floats(m), self._floats(l), self.resolved_links())
         if problem:
             _fail(problem)
 
@@ -243,7 +243,7 @@ class Pendulum:
         """{group: values} of the link arrays given (com, J, J_axial, tip), in that order."""
         return {group: values for group in LINK_GROUPS if (values := getattr(self, group)) is not None}
 
-    def link_values(self) -> LinkValues:
+    def resolved_links(self) -> LinkValues:
         """com, J, J_axial, tip as floats, every entry filled in (the rods' where not given)."""
         m, l = self._floats(self.m), self._floats(self.l)  # noqa: E741
         groups = {}
@@ -260,7 +260,7 @@ class Pendulum:
         """The arrays the generated C++ and C `Params` take, as floats: m, l, delta, g, and com,
         J, J_axial, tip with every entry filled in (the rods' where not given; the generated
         code's NaN default computes the same rods)."""
-        links = self.link_values()
+        links = self.resolved_links()
         return {
             "m": tuple(self._floats(self.m)),
             "l": tuple(self._floats(self.l)),
@@ -276,7 +276,7 @@ class Pendulum:
         """m, l, delta, g, com, J, J_axial, tip in one list: the parameters of
         `control.linear.Dynamics` and `Symbols.parameters` + `Symbols.link_parameters`."""
         values = self.params()
-        return [*values["m"], *values["l"], *values["delta"], values["g"], *self.link_values().flat()]  # type: ignore[misc]
+        return [*values["m"], *values["l"], *values["delta"], values["g"], *self.resolved_links().flat()]  # type: ignore[misc]
 
     def value(self, name: str) -> Number:
         """A parameter by its name in scenes and --fix ("m1", "delta0", "g", "J0", "tip2", ...);
