@@ -346,3 +346,43 @@ def test_replace_validates_again_and_refuses_unknown_fields() -> None:
 def test_the_examples_in_the_docstrings_hold() -> None:
     failures, tried = doctest.testmod(pendulum_module, optionflags=doctest.ELLIPSIS)
     assert tried >= 5 and failures == 0
+
+
+# --------------------------------------------------------------------------- identify, swing-up
+
+
+def test_identify_a_pendulum_equals_identify_its_scene(tmp_path: Path) -> None:
+    """ipgen.identify(p, csv, free) gives the scene file's estimates, on data simulated from a
+    known truth in the rig's coordinates (Quanser's: the pendulum counter-clockwise)."""
+    from ipgen.identification.model import Setup
+    from ipgen.identification.synthetic import measure, multisine, write_csv
+
+    scene_path = ROOT / "scenes" / "rigs" / "qube_servo2.toml"
+    p = Pendulum.preset("qube_servo2")
+    truth = Setup.from_pendulum(p.replace(delta=[0.0015, 0.0008]))
+    t = np.arange(0.0, 6.0, 0.005)
+    data = measure(truth, t, multisine, np.array([0.0, math.pi, 0.0, 0.0]), 1e-4, np.random.default_rng(5))
+    user = np.array([p.coordinates.to_user(np.r_[th, 0.0, 0.0], 1)[:2] for th in data.theta])
+    csv = tmp_path / "qube.csv"
+    write_csv(csv, t, user, np.array([multisine(x) for x in t]))
+    fit = ipgen.identify(p, csv, "delta1", output_error=False)
+    assert fit.estimate["delta1"] == pytest.approx(0.0008, rel=0.05)
+    by_scene = ipgen.identify(scene_path, csv, ["delta1"], output_error=False)
+    assert by_scene.fit.estimate == fit.estimate
+    with pytest.raises(ipgen.Error) as refused:
+        ipgen.identify(p, csv, "delta1", tmp_path / "out")
+    one_line(refused.value)
+
+
+def test_the_energy_swing_up_of_a_pendulum_is_that_of_its_plant() -> None:
+    from ipgen.control.energy import energy_swingup
+    from ipgen.control.trajectory import PlanError
+
+    values = ([0.5, 0.275], [0.6, 0.5], [0.3, 0.011458])
+    by_pendulum = energy_swingup(Pendulum("rotary", 1, *values), u_max=2.0)
+    by_plant = energy_swingup(plant("rotary", 1, *values), u_max=2.0)
+    assert np.array_equal(by_pendulum.hold_gain, by_plant.hold_gain)
+    assert by_pendulum.gain_energy == by_plant.gain_energy
+    with pytest.raises(PlanError) as refused:
+        energy_swingup(Pendulum.preset("qube_servo2"), u_max=2.0)
+    assert "p.folded()" in one_line(refused.value)

@@ -52,24 +52,8 @@ def setup_from_scene(scene: Scene, free: Sequence[str] = ()) -> Setup:
 
 
 def canonical(scene: Scene, data: Measurements) -> Measurements:
-    """The measurements in ipgen's coordinates: the scene's [system] convention (angles, zero,
-    positive) undone, as `Coordinates.to_canonical` does, for every sample at once."""
-    import numpy as np
-
-    coordinates = scene.coordinates
-    if coordinates.is_canonical:
-        return data
-    p, c = coordinates.matrices(scene.links)
-    dof = scene.links + 1
-    rates = data.dtheta if data.dtheta is not None else np.zeros_like(data.theta)
-    state = np.linalg.solve(p, (np.hstack([data.theta, rates]) - c).T).T
-    return Measurements(
-        t=data.t,
-        theta=state[:, :dof],
-        dtheta=state[:, dof:] if data.dtheta is not None else None,
-        u=data.u,
-        source=data.source,
-    )
+    """The measurements in ipgen's coordinates (`Measurements.canonical` with the scene's)."""
+    return data.canonical(scene.coordinates)
 
 
 def input_function(scene: Scene) -> Callable[[np.ndarray], np.ndarray] | None:

@@ -21,11 +21,13 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ipgen.identification.data import DataError, Measurements
 from ipgen.identification.model import IdentifyError, Setup, StructuralModel, structural_model
 from ipgen.identification.structure import structural_statements
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import LINK_GROUPS
 
 if TYPE_CHECKING:
@@ -667,3 +669,66 @@ def _statistics(
         "singular_values": [float(v) for v in s_p],
         "statements": statements,
     }
+
+
+def identify_pendulum(
+    pendulum: Pendulum,
+    data: str | Path | Measurements,
+    free: str | Sequence[str],
+    *,
+    input_fn: Callable[[np.ndarray], np.ndarray] | None = None,
+    output_error: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> Fit:
+    """Fit the `free` parameters of a `Pendulum` to measurements (what `ipgen.identify(p, ...)`
+    does; a scene file instead also writes the updated scene, the report and a PNG).
+
+    Parameters
+    ----------
+    pendulum : Pendulum
+        The prior: every parameter's value, the drive, the friction and the rig's coordinates.
+    data : str, Path or Measurements
+        A CSV in the simulator's format (t, theta0..thetan[, dtheta0..][, u]) or measurements,
+        in the pendulum's coordinates.
+    free : str or sequence of str
+        The parameters to fit ("m1,delta0" or ["m1", "delta0"]): m, l, delta, g, the links as
+        built, the motor's constants, coulomb.
+    input_fn : callable, optional
+        u(t) for data without a u column.
+    output_error : bool, default True
+        Refine the equation-error estimate by simulation (output error; needs CasADi).
+    progress : callable, optional
+        Called with a short message at each stage.
+
+    Returns
+    -------
+    Fit
+        Estimates, standard errors, 95 % intervals, correlations and what the data cannot
+        determine (`Fit.table()`, `Fit.statements`).
+
+    Raises
+    ------
+    IdentifyError
+        One line: a free name this model has not, data that cannot identify them, a bad file.
+
+    Examples
+    --------
+    >>> import ipgen  # doctest: +SKIP
+    >>> fit = ipgen.identify(ipgen.Pendulum.preset("qube_servo2"), "rig.csv", "J1,delta0")  # doctest: +SKIP
+    """
+    from ipgen.identification.data import read_measurements
+
+    if not isinstance(pendulum, Pendulum):
+        raise IdentifyError(
+            f"identify needs an ipgen.Pendulum or a scene file, got {type(pendulum).__name__}"
+        )
+    names = [n.strip() for n in free.split(",")] if isinstance(free, str) else list(free)
+    measured = data if isinstance(data, Measurements) else read_measurements(Path(data), pendulum.dof)
+    return identify_measurements(
+        Setup.from_pendulum(pendulum, names),
+        measured.canonical(pendulum.coordinates),
+        names,
+        input_fn=input_fn,
+        output_error=output_error,
+        progress=progress,
+    )
