@@ -30,6 +30,7 @@ from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
+from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
@@ -179,14 +180,32 @@ class Scene:
         """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
         + the rotor's reflected inertia, as rationals of the decimals written (the motor
         constants by their shortest repr), so that the resolved config and a specialised
-        header agree to the last bit (`Pendulum.folded` of the exact pendulum)."""
-        if not self.actuator.is_motor:
+        header agree to the last bit (`actuator.fold` in exact arithmetic)."""
+        motor = self.actuator
+        if not motor.is_motor:
             return {}
-        folded = from_scene_object(self, exact=True).folded()
+
+        def exact(value: float | None) -> Fraction:
+            return Fraction(1) if value is None else Fraction(repr(float(value)))
+
+        radius = exact(motor.r)  # 1 on an arm
+        gain = (
+            exact(motor.eta_g)
+            * exact(motor.Kg)
+            * exact(motor.eta_m)
+            * exact(motor.kt)
+            / (exact(motor.Rm) * radius)
+        )
+        damping = gain * exact(motor.Kg) * exact(motor.km) / radius
+        inertia = exact(motor.eta_g) * exact(motor.Kg) ** 2 * exact(motor.Jm) / radius**2
+        folded = {"delta0": self.exact("delta0") + damping}
         if self.type == "classical":
-            return {"delta0": Fraction(folded.delta[0]), "m0": Fraction(folded.m[0])}
-        assert folded.J is not None  # an arm's folded J has every entry
-        return {"delta0": Fraction(folded.delta[0]), "J0": Fraction(folded.J[0])}
+            folded["m0"] = self.exact("m0") + inertia
+        else:
+            given = "J" in self.link_values()
+            base = self.exact("J0") if given else self.exact("m0") * self.exact("l0") ** 2 / 3
+            folded["J0"] = base + inertia
+        return folded
 
 
 # ---------------------------------------------------------------------------- public API
@@ -280,20 +299,24 @@ def _parameter_lines(scene: Scene) -> list[str]:
     m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
     lines: list[str] = []
     if scene.actuator.is_motor:
+        from ipgen.model.actuator import fold
+
         system = scene.system
-        folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
-        m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
+        given = built.get("J")
+        inertias = (
+            list(given)
+            if given is not None
+            else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
+        )
+        m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
         exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
         delta_[0] = float(exact["delta0"])
         if system.is_rotary:
-            assert folded.J is not None
-            j_ = list(folded.J)
             j_[0] = float(exact["J0"])
         else:
             m_[0] = float(exact["m0"])
-            j_ = None if folded.J is None else list(folded.J)
         m, delta = tuple(m_), tuple(delta_)
-        if j_ is not None:
+        if system.is_rotary or given is not None:
             built["J"] = tuple(j_)
         motor = scene.actuator
         lines += [
@@ -626,18 +649,22 @@ class _Parameters:
 
 
 def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
-    """The motor-folded parameters (`Pendulum.folded`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
+    """The motor-folded parameters (`actuator.fold`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
+    from ipgen.model.actuator import fold
+
     built = dict(params.links)
-    pendulum = Pendulum(
-        system.type, system.links, params.m, params.l, params.delta, params.g, system.inertia,
-        actuator=actuator, **built,
-    )  # fmt: skip
-    folded = pendulum.folded()
-    if folded.J is not None:
-        built["J"] = tuple(folded.J)
+    given = built.get("J")
+    inertias = (
+        list(given)
+        if given is not None
+        else [rod_value(system, "J", i, params.m, params.l) for i in range(system.dof)]
+    )
+    m, delta, j, gain = fold(actuator, system, list(params.m), list(params.delta), inertias)
+    if system.is_rotary or given is not None:
+        built["J"] = tuple(j)
     order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
     links = tuple((group, tuple(built[group])) for group in order)
-    return _Parameters(tuple(folded.m), params.l, tuple(folded.delta), params.g, links), pendulum.gain
+    return _Parameters(tuple(m), params.l, tuple(delta), params.g, links), gain
 
 
 def _floats(numbers: tuple[Exact, ...]) -> tuple[float, ...]:
