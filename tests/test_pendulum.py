@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 import ipgen
 from ipgen.control.casadi_model import plant
 from ipgen.control.linear import ControlError, EquilibriumWarning
-from ipgen.model import pendulum as pendulum_module
 from ipgen.model.actuator import Actuator, motor_terms
 from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, PendulumError, presets
@@ -343,9 +342,51 @@ def test_replace_validates_again_and_refuses_unknown_fields() -> None:
         p.g = 1.0  # type: ignore[misc]
 
 
-def test_the_examples_in_the_docstrings_hold() -> None:
-    failures, tried = doctest.testmod(pendulum_module, optionflags=doctest.ELLIPSIS)
-    assert tried >= 5 and failures == 0
+@pytest.mark.parametrize(
+    "module",
+    [
+        "ipgen.model.pendulum",
+        "ipgen.model.actuator",
+        "ipgen.model.system",
+        "ipgen.control.linear",
+        "ipgen.control.casadi_model",
+        "ipgen.identification.model",
+        "ipgen.identification.synthetic",
+        "ipgen.identification.data",
+    ],
+)
+def test_the_examples_in_the_docstrings_hold(module: str) -> None:
+    import importlib
+
+    failures, tried = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert tried >= 1 and failures == 0
+
+
+ODD = st.one_of(
+    st.none(),
+    st.text(max_size=3),
+    st.just(math.nan),
+    st.just(math.inf),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=4),
+    st.lists(st.text(max_size=2), min_size=2, max_size=2),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(q=ODD, qd=ODD, u=st.one_of(st.floats(allow_nan=True), st.text(max_size=3), st.none()))
+def test_linearize_refuses_a_bad_state_with_one_line(q: object, qd: object, u: object) -> None:
+    """Any q, qd, u: (A, B) of the right shape, finite, or a one-line ControlError; nothing else."""
+    import warnings
+
+    p = Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.001])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EquilibriumWarning)
+        try:
+            a, b = ipgen.linearize(p, q, qd, u)
+        except ControlError as error:
+            one_line(error)
+            return
+    assert a.shape == (4, 4) and b.shape == (4, 1) and np.all(np.isfinite(a))
 
 
 # --------------------------------------------------------------------------- identify, swing-up

@@ -107,10 +107,32 @@ class Plant:
 
 
 def as_plant(system: Plant | Pendulum, what: str) -> Plant:
-    """`system` as a Plant: a Plant as it is, a Pendulum with a "direct" or "acceleration" drive
-    wrapped; a "dc_motor" Pendulum is refused (one line, naming `what` plans): a plan's u is a
-    force or torque, so plan on `p.folded()` with u_max · `p.gain` (a scene's [swingup] does
-    that and converts the law to volts)."""
+    """`system` as a Plant, for the swing-up planners.
+
+    Parameters
+    ----------
+    system : Plant or Pendulum
+        A Plant is returned as it is; a Pendulum with a "direct" or "acceleration" drive wrapped.
+    what : str
+        What plans, for the message.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    ControlError
+        A "dc_motor" Pendulum (a plan's u is a force or torque: plan on `p.folded()` with
+        u_max · `p.gain`; a scene's [swingup] does that and converts the law to volts), or
+        something else than a Plant or a Pendulum.
+
+    Examples
+    --------
+    >>> p = Pendulum("rotary", 1, [0.5, 0.275], [0.6, 0.5], [0.3, 0.01])
+    >>> as_plant(p, "a test").params == plant(p).params
+    True
+    """
     if isinstance(system, Plant):
         return system
     if isinstance(system, Pendulum) and system.actuator.is_motor:

@@ -55,7 +55,25 @@ class Measurements:
     def canonical(self, coordinates: Coordinates) -> Measurements:
         """These samples, measured in a rig's `coordinates`, in ipgen's: the convention undone
         as `Coordinates.to_canonical` does it, for every sample at once (the one place that
-        converts measurements)."""
+        converts measurements).
+
+        Parameters
+        ----------
+        coordinates : Coordinates
+            The rig's convention the samples are in.
+
+        Returns
+        -------
+        Measurements
+            In ipgen's coordinates (these if the convention is ipgen's).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> data = Measurements(np.zeros(1), np.array([[0.0, 0.5]]), None, None)
+        >>> data.canonical(Coordinates(positive="counterclockwise")).theta.tolist()
+        [[0.0, -0.5]]
+        """
         import numpy as np
 
         if coordinates.is_canonical:

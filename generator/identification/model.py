@@ -110,9 +110,25 @@ class Setup:
         )
 
     def pendulum(self) -> Pendulum:
-        """This setup's values as a `Pendulum` (every link array given, as the values have them;
-        the motor from its constants; friction if the setup has it). Raises `PendulumError` for
-        values no system has."""
+        """This setup's values as a `Pendulum`.
+
+        Returns
+        -------
+        Pendulum
+            Every link array given, as the values have them; the motor from its constants;
+            friction if the setup has it.
+
+        Raises
+        ------
+        PendulumError
+            Values no system has (one line).
+
+        Examples
+        --------
+        >>> p = Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.0])
+        >>> Setup.from_pendulum(p).pendulum().flat() == p.flat()
+        True
+        """
         values, system, dof = dict(self.values), self.system, self.system.dof
 
         def array(group: str) -> list[float]:

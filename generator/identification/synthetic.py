@@ -24,8 +24,30 @@ __all__ = ["folded_parameters", "measure", "multisine", "simulate", "write_csv"]
 
 
 def folded_parameters(setup: Setup) -> tuple[list[float], float]:
-    """(flat, b): `Dynamics`' flat parameters of the setup's direct model (a dc_motor folded in
-    by `Pendulum.folded`) and the input gain b (1 without a motor)."""
+    """(flat, b): `Dynamics`' flat parameters of the setup's direct model and the input gain.
+
+    Parameters
+    ----------
+    setup : Setup
+
+    Returns
+    -------
+    (list of float, float)
+        `Pendulum.flat` of `setup.pendulum()`, a dc_motor folded in (`Pendulum.folded`), and b
+        (1 without a motor).
+
+    Raises
+    ------
+    PendulumError
+        Setup values no system has.
+
+    Examples
+    --------
+    >>> from ipgen.model.pendulum import Pendulum
+    >>> setup = Setup.from_pendulum(Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.0]))
+    >>> folded_parameters(setup)[1]
+    1.0
+    """
     pendulum = setup.pendulum()
     folded = pendulum.folded() if pendulum.actuator.is_motor else pendulum
     return folded.flat(), pendulum.gain
