@@ -427,3 +427,17 @@ def test_the_energy_swing_up_of_a_pendulum_is_that_of_its_plant() -> None:
     with pytest.raises(PlanError) as refused:
         energy_swingup(Pendulum.preset("qube_servo2"), u_max=2.0)
     assert "p.folded()" in one_line(refused.value)
+
+
+def test_a_trajectory_plan_of_a_pendulum_is_that_of_its_plant() -> None:
+    """plan_swingup(p) plans the same swing-up as plan_swingup(plant(...)) of the same values."""
+    from ipgen.control.trajectory import plan_swingup
+
+    values = ([0.5, 0.275], [0.6, 0.5], [0.3, 0.011458])
+    options = {"duration": 2.0, "u_max": 5.0, "intervals": 30}
+    by_pendulum = plan_swingup(Pendulum("rotary", 1, *values), **options)
+    by_plant = plan_swingup(plant("rotary", 1, *values), **options)
+    assert by_pendulum.plant == by_plant.plant
+    assert np.array_equal(by_pendulum.inputs, by_plant.inputs)
+    assert np.array_equal(by_pendulum.states, by_plant.states)
+    assert abs(by_pendulum.states[-1][1]) < 1e-6  # it reaches upright (the test can fail)
