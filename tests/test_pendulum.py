@@ -441,3 +441,17 @@ def test_a_trajectory_plan_of_a_pendulum_is_that_of_its_plant() -> None:
     assert np.array_equal(by_pendulum.inputs, by_plant.inputs)
     assert np.array_equal(by_pendulum.states, by_plant.states)
     assert abs(by_pendulum.states[-1][1]) < 1e-6  # it reaches upright (the test can fail)
+
+
+def test_canonical_is_the_same_physics_in_ipgens_coordinates() -> None:
+    """A − B K of the QUBE in Quanser's coordinates and in ipgen's have the same poles, and the
+    state map between them is the one `Coordinates.matrices` gives."""
+    qube = Pendulum.preset("qube_servo2")
+    a_rig, b_rig = ipgen.linearize(qube)
+    a, b = ipgen.linearize(qube.canonical())
+    matrix, _ = qube.coordinates.matrices(1)
+    assert not np.array_equal(a_rig, a)  # the pendulum's sign differs: the test can fail
+    assert np.allclose(a_rig, matrix @ a @ np.linalg.inv(matrix)) and np.allclose(b_rig, matrix @ b)
+    k_rig = ipgen.lqr(qube, [5, 1, 1, 1], 1.0)
+    k = ipgen.lqr(qube.canonical(), [5, 1, 1, 1], 1.0)
+    assert np.allclose(k_rig @ matrix, k, rtol=1e-9)

@@ -390,6 +390,21 @@ class Pendulum:
             )
         return dataclasses.replace(self, **changes)
 
+    def canonical(self) -> Pendulum:
+        """This pendulum in ipgen's own coordinates (absolute angles from upright, clockwise):
+        the same physics, with `linearize`, `lqr` and the CSVs then in ipgen's state.
+
+        Returns
+        -------
+        Pendulum
+
+        Examples
+        --------
+        >>> Pendulum.preset("qube_servo2").canonical().coordinates.is_canonical
+        True
+        """
+        return dataclasses.replace(self, angles="absolute", zero="upright", positive="clockwise")
+
     def folded(self) -> Pendulum:
         """The direct model equivalent to this pendulum's drive (docs/model.md, "A DC motor on
         the base"): a "dc_motor" raises delta[0] by the back-EMF damping c and J[0] (an arm; J
