@@ -1,4 +1,12 @@
-"""Shared fixtures: generated model headers compiled into the C++ test driver, once per session.
+"""Shared fixtures: generated model headers compiled into the C++ test driver, once per session;
+one simulator cache for the whole test run.
+
+The simulators `ipgen run` compiles go into one cache for every test and every xdist worker:
+$IPGEN_CACHE_DIR if it is set, else build/test-cache/ in the checkout (kept between runs, so a
+second `make test` compiles none of them; `make clean` removes it). The cache is keyed by the
+model's content and locks each key, so two workers that need one model compile it once. They are
+compiled at -O1 ($IPGEN_SIM_OPT, unless set): no test measures a simulator's speed, and the
+compile takes less than at the users' -O2 (docs/testing.md).
 
 `cpp_models` (session scope) generates each requested model's header with
 `generate_header` into a temporary folder and compiles it into `tests/cpp/eval_model.cpp`.
@@ -25,6 +33,16 @@ from ipgen.command.generate import generate_header
 from ipgen.model.system import System
 
 CPP_DIR = Path(__file__).resolve().parent / "cpp"
+ROOT = CPP_DIR.parents[1]
+TEST_CACHE = ROOT / "build" / "test-cache"  # `ipgen run`'s simulators for every test (IPGEN_CACHE_DIR)
+TEST_OPTIMISATION = "-O1"  # the simulators' optimisation level in the tests (IPGEN_SIM_OPT)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """One simulator cache and one optimisation level for the whole run, set before any test (and
+    before xdist starts its workers, which inherit the environment). Set by the caller, they stay."""
+    os.environ.setdefault("IPGEN_CACHE_DIR", str(TEST_CACHE))
+    os.environ.setdefault("IPGEN_SIM_OPT", TEST_OPTIMISATION)
 DRIVER = CPP_DIR / "eval_model.cpp"
 STDERR_LINES = 40  # compiler output quoted in a failure message
 

@@ -46,7 +46,7 @@ def test_motor_folded_exactly() -> None:
 
 def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> None:
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     general = (RIGS / "qube_servo2.toml").read_text()
     special = general.replace('name = "qube_servo2"', 'name = "qube_servo2_special"\nspecialise = true')
     runs = {}

@@ -66,7 +66,7 @@ def _run(scene: Path, out: Path, env: dict[str, str]) -> np.ndarray:
 
 def test_motor_swingup_is_the_folded_direct_swingup(tmp_path: Path) -> None:
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     motor = _run(_scene(tmp_path, "rsip_motor", True), tmp_path / "motor", env)
     direct = _run(_scene(tmp_path, "rsip_direct", False), tmp_path / "direct", env)
     assert motor.shape == direct.shape
