@@ -14,8 +14,9 @@ Models with the same number of degrees of freedom are compiled together into one
 (Eigen is parsed and instantiated once for them), and the groups are built in parallel in
 the background: a test waits only for the program it needs. The programs are kept in the run's
 cache (<cache>/test-programs/<key>/, keyed by the flags, the compiler and the sources' text, one
-lock per key): the xdist workers, which each have their own session, compile each program once. The compiler, flags and Eigen
-come from tests/cxx.py: without them the fixture fails, unless IPGEN_ALLOW_NO_CXX=1.
+lock per key): the xdist workers, which each have their own session, compile each program once.
+The compiler, flags and Eigen come from tests/cxx.py: without them the fixture fails, unless
+IPGEN_ALLOW_NO_CXX=1.
 """
 
 from __future__ import annotations
