@@ -20,12 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
+from motor_by_hand import flat_parameters
 from run_summary import simulator_of
 from scipy.integrate import solve_ivp
 from test_actuator import by_hand
 
 import ipgen
-from ipgen.control.linear import _params, dynamics
+from ipgen.control.linear import dynamics
 from ipgen.scene.reader import load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -143,7 +144,7 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     from ipgen.model.system import System
 
     system = System("rotary", 1)
-    mech = _params(
+    mech = flat_parameters(
         system,
         [0.095, 0.024],
         [0.085, 0.129],
