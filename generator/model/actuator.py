@@ -24,6 +24,7 @@ force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 from ipgen.errors import Error
@@ -111,7 +112,7 @@ class Actuator:
         for what, value in (
             ("gain", self.gain()),
             ("back-EMF damping", self.damping()),
-            ("rotor inertia", self.inertia()),
+            ("rotor inertia", _or_inf(self.inertia)),  # Kg**2 raises OverflowError past 1.8e308
         ):
             if not math.isfinite(value):
                 raise ActuatorError(
@@ -143,6 +144,14 @@ class Actuator:
 
 
 DIRECT = Actuator()
+
+
+def _or_inf(value: Callable[[], float]) -> float:
+    """value(), or inf where a power overflows a double."""
+    try:
+        return value()
+    except OverflowError:
+        return math.inf
 
 
 def as_actuator(value: Actuator | dict | None) -> Actuator:

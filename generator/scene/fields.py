@@ -54,6 +54,8 @@ def _show(value: object) -> str:
         text = "[" + ", ".join(_show(item) for item in value) + "]"
     elif isinstance(value, dict):
         text = "{" + ", ".join(f"{k} = {_show(v)}" for k, v in value.items()) + "}"
+    elif isinstance(value, int) and value.bit_length() > 14_000:  # str() stops at 4300 digits
+        text = hex(value)
     else:
         text = str(value)
     return abbreviate(text)
