@@ -119,12 +119,17 @@ def _refuse(
 ) -> NoReturn:
     """The first problem: an unknown table or key, or a table that is not one, first (in the
     file's order: a typo explains a missing key), else the first of pydantic's `errors`."""
+    given = document.get("input")
+    if isinstance(given, dict) and "kind" not in given:  # no model to find [input]'s unknown keys
+        errors = [{"type": "extra_forbidden", "loc": ("input", key)} for key in given] + errors
     order = {name: i for i, name in enumerate(document)}
     structural = [error for error in errors if _structural(error, document)]
     if structural:
         first = min(structural, key=lambda e: (order.get(e["loc"][0], -1), _key_order(e, document)))
         _unknown(reader, first, document)
-    reader.fail(_message(errors[0], document, context))
+    table = errors[0]["loc"][0]  # in it, a key of another input kind first
+    extra = (e for e in errors if e["loc"][0] == table and e["type"] == "extra_forbidden")
+    reader.fail(_message(next(extra, errors[0]), document, context))
 
 
 def _structural(error: dict[str, Any], document: dict[str, Any]) -> bool:

@@ -120,89 +120,67 @@ Flag = Annotated[bool, Field(strict=True)]
 # ---------------------------------------------------------------------------- [system]
 
 
+_LINKS = "expected an integer >= 1 (the number of pendulum links)"
+
+
 class SystemTable(Table):
     """[system]: which pendulum, and what ipgen writes for it."""
 
-    type: Annotated[
-        Literal[SYSTEM_TYPES],
-        Field(description="classical: a cart on a rail; rotary: a Furuta arm turning about the vertical"),
-    ]
-    links: Annotated[
-        int,
-        Field(strict=True, ge=1, description="the number of pendulum links (rods)"),
-        Says(
-            "expected an integer >= 1 (the number of pendulum links)",
-            "an integer >= 1: the number of pendulum links",
-        ),
-    ]
-    inertia: Annotated[
-        Literal[INERTIAS],
-        BeforeValidator(checks.inertia),
-        Field(description="rotary only: pivot (the published model) or full (complete thin-rod inertia)"),
-    ] = DEFAULT_INERTIA
-    name: Annotated[
-        str | None,
-        Field(
-            strict=True,
-            description="C++ model name: namespace ipgen::NAME, file NAME.hpp (default: <type><links>)",
-            json_schema_extra={"pattern": r"^[A-Za-z][A-Za-z0-9_]*$", "maxLength": limits.MAX_NAME_LENGTH},
-        ),
-        AfterValidator(checks.model_name),
-    ] = None
-    specialise: Annotated[
-        Flag, Field(description="fold this scene's parameters into the header as exact constants")
-    ] = False
-    emit: Annotated[
-        tuple[str, ...],
-        PlainValidator(checks.emit_targets),
-        Field(
-            description="what ipgen writes for the model",
-            json_schema_extra={
-                "type": "array",
-                "items": {"type": "string", "enum": list(TARGETS)},
-                "minItems": 1,
-                "default": list(DEFAULT_EMIT),
-            },
-        ),
-    ] = DEFAULT_EMIT
+    type: Literal[SYSTEM_TYPES] = Field(
+        description="classical: a cart on a rail; rotary: a Furuta arm turning about the vertical"
+    )
+    links: Annotated[int, Says(_LINKS, "an integer >= 1: the number of pendulum links")] = Field(
+        strict=True, ge=1, description="the number of pendulum links (rods)"
+    )
+    inertia: Annotated[Literal[INERTIAS], BeforeValidator(checks.inertia)] = Field(
+        DEFAULT_INERTIA,
+        description="rotary only: pivot (the published model) or full (complete thin-rod inertia)",
+    )
+    name: Annotated[str | None, AfterValidator(checks.model_name)] = Field(
+        None,
+        strict=True,
+        description="C++ model name: namespace ipgen::NAME, file NAME.hpp (default: <type><links>)",
+        json_schema_extra={"pattern": r"^[A-Za-z][A-Za-z0-9_]*$", "maxLength": limits.MAX_NAME_LENGTH},
+    )
+    specialise: Flag = Field(
+        False, description="fold this scene's parameters into the header as exact constants"
+    )
+    emit: Annotated[tuple[str, ...], PlainValidator(checks.emit_targets)] = Field(
+        DEFAULT_EMIT,
+        description="what ipgen writes for the model",
+        json_schema_extra={"type": "array", "items": {"type": "string", "enum": list(TARGETS)}}
+        | {"minItems": 1, "default": list(DEFAULT_EMIT)},
+    )
     # The rig's own coordinates (docs/scenes.md, "The rig's coordinates"): how [initial],
     # [controller], the CSV, the plots and the scene's headers measure the link angles.
-    angles: Annotated[
-        Literal[frame.ANGLES],
-        Field(
-            description="link angles: absolute (each from the vertical) or relative (link i from link "
-            "i - 1), in [initial], [controller], the CSV, the plots and the headers"
-        ),
-    ] = frame.Coordinates.angles
-    zero: Annotated[
-        Literal[frame.ZEROS],
-        Field(
-            description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
-            "the others are 0 in line with the link below)"
-        ),
-    ] = frame.Coordinates.zero
-    positive: Annotated[
-        Literal[frame.POSITIVE],
-        Field(
-            description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or "
-            "counterclockwise"
-        ),
-    ] = frame.Coordinates.positive
+    angles: Literal[frame.ANGLES] = Field(
+        frame.Coordinates.angles,
+        description="link angles: absolute (each from the vertical) or relative (link i from link "
+        "i - 1), in [initial], [controller], the CSV, the plots and the headers",
+    )
+    zero: Literal[frame.ZEROS] = Field(
+        frame.Coordinates.zero,
+        description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
+        "the others are 0 in line with the link below)",
+    )
+    positive: Literal[frame.POSITIVE] = Field(
+        frame.Coordinates.positive,
+        description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or counterclockwise",
+    )
 
     def coordinates(self) -> frame.Coordinates:
         """The convention of the link angles this table declares."""
         return frame.Coordinates(self.angles, self.zero, self.positive)
 
     def context(self) -> dict[str, Any]:
-        return {
-            "coordinates": self.coordinates(),
+        unit = "N" if self.type == "classical" else "N m"
+        given = {
             "type": self.type,
             "links": self.links,
-            "count": self.links + 1,
             "specialise": self.specialise,
             "inertia": self.inertia,
-            "u_unit": "N" if self.type == "classical" else "N m",
         }
+        return given | {"coordinates": self.coordinates(), "count": self.links + 1, "u_unit": unit}
 
 
 # ---------------------------------------------------------------------------- [parameters]
@@ -215,66 +193,49 @@ _INERTIA = Real(ge=0, says="an inertia cannot be negative")
 class ParametersTable(Table):
     """[parameters]: masses, lengths, damping and gravity (SI units)."""
 
-    m: Annotated[
-        PerLink(Real(gt=0, says="masses must be > 0 kg")), Field(description=f"masses [kg], {_PER_LINK}")
-    ]
-    l: Annotated[  # noqa: E741 (the paper's name for the lengths)
-        PerLink(Real()),
-        Field(description=f"lengths [m], {_PER_LINK}; l[0] is the arm (rotary, > 0), a cart has none: 0"),
-    ]
-    delta: Annotated[
-        PerLink(Real(ge=0, says="damping must be >= 0")),
-        Field(description=f"viscous damping coefficients, {_PER_LINK}"),
-    ]
-    g: Annotated[
-        Real(ge=0, says="gravity must be >= 0 m/s^2 (0 switches it off)", what="gravity in m/s^2"),
-        Field(description="gravity [m/s^2] (0 switches it off)"),
-    ] = _exact(DEFAULT_G)
+    m: PerLink(Real(gt=0, says="masses must be > 0 kg")) = Field(description=f"masses [kg], {_PER_LINK}")
+    l: PerLink(Real()) = Field(  # noqa: E741 (the paper's name for the lengths)
+        description=f"lengths [m], {_PER_LINK}; l[0] is the arm (rotary, > 0), a cart has none: 0"
+    )
+    delta: PerLink(Real(ge=0, says="damping must be >= 0")) = Field(
+        description=f"viscous damping coefficients, {_PER_LINK}"
+    )
+    g: Real(ge=0, says="gravity must be >= 0 m/s^2 (0 switches it off)", what="gravity in m/s^2") = Field(
+        _exact(DEFAULT_G), description="gravity [m/s^2] (0 switches it off)"
+    )
     # The links as built (docs/model.md, "Links as built"); absent: the paper's rods.
-    com: Annotated[
-        PerLink(Real()) | None,
-        Field(
-            description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} "
-            "(0 unused); default l/2"
-        ),
-    ] = None
-    J: Annotated[
-        PerLink(_INERTIA) | None,
-        Field(
-            description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
-            "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)"
-        ),
-    ] = None
-    J_axial: Annotated[
-        PerLink(_INERTIA) | None,
-        Field(
-            description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
-            f"{_PER_LINK}; default 0"
-        ),
-    ] = None
-    tip: Annotated[
-        PerLink(Real(ge=0, says="a mass cannot be negative")) | None,
-        Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
-    ] = None
-    coulomb: Annotated[
-        PerLink(Real(ge=0, says="friction must be >= 0")) | None,
-        Field(
-            description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
-            f"{_PER_LINK}; default 0"
-        ),
-    ] = None
-    coulomb_speed: Annotated[
-        Real(gt=0, says="must be > 0 (m/s or rad/s)"),
-        Field(description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]"),
-    ] = _exact(DEFAULT_COULOMB_SPEED)
-    free: Annotated[
-        tuple[str, ...],
-        PlainValidator(checks.free_names),
-        Field(
-            description="with specialise = true: parameters kept symbolic (m0, l1, delta2, g, ...)",
-            json_schema_extra={"type": "array", "items": {"type": "string"}, "default": []},
-        ),
-    ] = ()
+    com: PerLink(Real()) | None = Field(
+        None,
+        description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} (0 unused); "
+        "default l/2",
+    )
+    J: PerLink(_INERTIA) | None = Field(
+        None,
+        description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
+        "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)",
+    )
+    J_axial: PerLink(_INERTIA) | None = Field(
+        None,
+        description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
+        f"{_PER_LINK}; default 0",
+    )
+    tip: PerLink(Real(ge=0, says="a mass cannot be negative")) | None = Field(
+        None, description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"
+    )
+    coulomb: PerLink(Real(ge=0, says="friction must be >= 0")) | None = Field(
+        None,
+        description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
+        f"{_PER_LINK}; default 0",
+    )
+    coulomb_speed: Real(gt=0, says="must be > 0 (m/s or rad/s)") = Field(
+        _exact(DEFAULT_COULOMB_SPEED),
+        description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]",
+    )
+    free: Annotated[tuple[str, ...], PlainValidator(checks.free_names)] = Field(
+        (),
+        description="with specialise = true: parameters kept symbolic (m0, l1, delta2, g, ...)",
+        json_schema_extra={"type": "array", "items": {"type": "string"}, "default": []},
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> ParametersTable:
@@ -284,11 +245,8 @@ class ParametersTable(Table):
         checks.lengths(self.l, context["type"])
         checks.links_as_built(self, context)
         if self.free and not context["specialise"]:
-            refuse(
-                "applies to specialised code only: add specialise = true to [system]",
-                key="free",
-                value=list(self.free),
-            )
+            expected = "applies to specialised code only: add specialise = true to [system]"
+            refuse(expected, key="free", value=list(self.free))
         if context["specialise"]:
             checks.foldable(self.decimals(context["type"]), self.free, context["type"])
         return self
@@ -300,11 +258,9 @@ class ParametersTable(Table):
     def decimals(self, system_type: str) -> tuple[tuple[str, str], ...]:
         """("m0", "0.3"), ..., ("g", "9.81"): each parameter's decimal text as written."""
         groups = (("m", self.m), ("l", self.lengths(system_type)), ("delta", self.delta))
-        named = [(f"{base}{i}", str(number)) for base, values in groups for i, number in enumerate(values)]
+        named = [(f"{base}{i}", str(x)) for base, values in groups for i, x in enumerate(values)]
         built = [
-            (f"{group}{i}", str(number))
-            for group, values in self.links_as_built()
-            for i, number in enumerate(values)
+            (f"{group}{i}", str(x)) for group, values in self.links_as_built() for i, x in enumerate(values)
         ]
         return (*named, ("g", str(self.g)), *built)
 
@@ -317,12 +273,12 @@ class ParametersTable(Table):
 
 # ---------------------------------------------------------------------------- [actuator]
 
-
-def _motor_constant(description: str, **bounds: Any) -> Any:
-    return Annotated[Real(**bounds) | None, Field(description=description)]
-
-
+_POSITIVE = {"gt": 0, "says": "must be > 0"}
 _EFFICIENCY = {"gt": 0, "le": 1, "says": "an efficiency is in (0, 1]"}
+
+
+def _motor(description: str, **bounds: Any) -> Any:
+    return Annotated[Real(**bounds) | None, Field(description=description)]
 
 
 class ActuatorTable(Table):
@@ -331,27 +287,21 @@ class ActuatorTable(Table):
     the base's acceleration [m/s² or rad/s²], imposed by a servo (docs/model.md, "An
     acceleration-driven base")."""
 
-    kind: Annotated[
-        Literal[ACTUATOR_KINDS],
-        Field(
-            description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]; "
-            "acceleration: u is the base's acceleration [m/s^2 on a cart, rad/s^2 on an arm]"
-        ),
-    ] = "direct"
-    Rm: _motor_constant("dc_motor: armature resistance [Ω] (required)", gt=0, says="must be > 0") = None
-    kt: _motor_constant("dc_motor: torque constant [N m/A] (required)", gt=0, says="must be > 0") = None
-    km: _motor_constant("dc_motor: back-EMF constant [V s/rad] (required)", gt=0, says="must be > 0") = None
-    Kg: _motor_constant(
-        "dc_motor: gear ratio, motor turns per output turn (default 1)", gt=0, says="must be > 0"
-    ) = None
-    eta_g: _motor_constant("dc_motor: gearbox efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
-    eta_m: _motor_constant("dc_motor: motor efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
-    Jm: _motor_constant(
-        "dc_motor: rotor inertia [kg m^2] (default 0)", ge=0, says="an inertia cannot be negative"
-    ) = None
-    r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", gt=0, says="must be > 0") = (
+    kind: Literal[ACTUATOR_KINDS] = Field(
+        "direct",
+        description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]; "
+        "acceleration: u is the base's acceleration [m/s^2 on a cart, rad/s^2 on an arm]",
+    )
+    Rm: _motor("dc_motor: armature resistance [Ω] (required)", **_POSITIVE) = None
+    kt: _motor("dc_motor: torque constant [N m/A] (required)", **_POSITIVE) = None
+    km: _motor("dc_motor: back-EMF constant [V s/rad] (required)", **_POSITIVE) = None
+    Kg: _motor("dc_motor: gear ratio, motor turns per output turn (default 1)", **_POSITIVE) = None
+    eta_g: _motor("dc_motor: gearbox efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
+    eta_m: _motor("dc_motor: motor efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
+    Jm: _motor("dc_motor: rotor inertia [kg m^2] (default 0)", ge=0, says="an inertia cannot be negative") = (
         None
     )
+    r: _motor("dc_motor on a cart: pinion radius [m] (required there)", **_POSITIVE) = None
     _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")
@@ -366,7 +316,7 @@ class ActuatorTable(Table):
         except ActuatorError as exc:
             refuse_line(str(exc))
         self._rotary = context["type"] == "rotary"
-        info.context.update(self.context())  # type: ignore[union-attr] (after _rotary)
+        context.update(self.context())  # with _rotary known
         return self
 
     def actuator(self) -> Any:
@@ -388,13 +338,12 @@ class ActuatorTable(Table):
 class InitialTable(Table):
     """[initial]: the state at t = 0 (default: upright, at rest)."""
 
-    theta: Annotated[
-        PerLink(Real()) | None,
-        Field(description=f"angles [rad] (the base: position [m] or angle [rad]), {_PER_LINK}"),
-    ] = None
-    dtheta: Annotated[
-        PerLink(Real()) | None, Field(description=f"velocities [rad/s] (a cart: [m/s]), {_PER_LINK}")
-    ] = None
+    theta: PerLink(Real()) | None = Field(
+        None, description=f"angles [rad] (the base: position [m] or angle [rad]), {_PER_LINK}"
+    )
+    dtheta: PerLink(Real()) | None = Field(
+        None, description=f"velocities [rad/s] (a cart: [m/s]), {_PER_LINK}"
+    )
 
 
 # ---------------------------------------------------------------------------- [input]
@@ -407,6 +356,13 @@ _START = Annotated[
     Real(ge=0, says="must be >= 0 s (the simulation starts at 0)", what="a time in s"),
     Field(description="[s]"),
 ]
+_FREQUENCY = Real(ge=0, says="must be >= 0 Hz", what="a frequency in Hz, >= 0")
+_PEAK = Annotated[
+    Real(gt=0, says="must be > 0 {u_unit} (the peak |u|)", what="a number > 0: N on a cart, N m on an arm"),
+    Field(
+        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
+    ),
+]
 
 
 class InputTable(Table):
@@ -417,96 +373,73 @@ class InputTable(Table):
 
 
 class ZeroInput(InputTable):
-    kind: Annotated[Literal["zero"], Field(description="no input")]
+    kind: Literal["zero"] = Field(description="no input")
 
 
 class ConstantInput(InputTable):
-    kind: Annotated[Literal["constant"], Field(description="u = amplitude")]
+    kind: Literal["constant"] = Field(description="u = amplitude")
     amplitude: _AMPLITUDE
 
 
 class PulseInput(InputTable):
-    kind: Annotated[Literal["pulse"], Field(description="u = amplitude for start <= t < start + duration")]
+    kind: Literal["pulse"] = Field(description="u = amplitude for start <= t < start + duration")
     amplitude: _AMPLITUDE
     start: _START = _exact(0.0)
-    duration: Annotated[
-        Real(gt=0, says="a pulse duration must be > 0 s", what="a time in s, > 0"), Field(description="[s]")
-    ]
+    duration: Real(gt=0, says="a pulse duration must be > 0 s", what="a time in s, > 0") = Field(
+        description="[s]"
+    )
 
 
 class StepInput(InputTable):
-    kind: Annotated[Literal["step"], Field(description="u = amplitude from t = time on")]
+    kind: Literal["step"] = Field(description="u = amplitude from t = time on")
     amplitude: _AMPLITUDE
     time: _START
 
 
-_FREQUENCY = Real(ge=0, says="must be >= 0 Hz", what="a frequency in Hz, >= 0")
-
-
 class SineInput(InputTable):
-    kind: Annotated[Literal["sine"], Field(description="u = amplitude sin(2π frequency t + phase)")]
+    kind: Literal["sine"] = Field(description="u = amplitude sin(2π frequency t + phase)")
     amplitude: _AMPLITUDE
-    frequency: Annotated[_FREQUENCY, Field(description="[Hz]")]
-    phase: Annotated[Real(what="an angle in rad"), Field(description="[rad]")] = _exact(0.0)
-
-
-_PEAK = Annotated[
-    Real(gt=0, says="must be > 0 {u_unit} (the peak |u|)", what="a number > 0: N on a cart, N m on an arm"),
-    Field(
-        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
-    ),
-]
+    frequency: _FREQUENCY = Field(description="[Hz]")
+    phase: Real(what="an angle in rad") = Field(_exact(0.0), description="[rad]")
 
 
 class ChirpInput(InputTable):
-    kind: Annotated[
-        Literal["chirp"],
-        Field(
-            description="a swept sine u = amplitude sin φ(t − start) for start <= t < start + duration, "
-            "its frequency going from f0 to f1 (docs/excitation.md has φ)"
-        ),
-    ]
+    kind: Literal["chirp"] = Field(
+        description="a swept sine u = amplitude sin φ(t − start) for start <= t < start + duration, "
+        "its frequency going from f0 to f1 (docs/excitation.md has φ)"
+    )
     amplitude: _PEAK
-    f0: Annotated[_FREQUENCY, Field(description="the frequency at the start [Hz]")]
-    f1: Annotated[_FREQUENCY, Field(description="the frequency at the end [Hz], > f0")]
-    duration: Annotated[
-        Real(gt=0, says="the sweep's duration must be > 0 s", what="a time in s, > 0"),
-        Field(description="the sweep's length [s]"),
-    ]
+    f0: _FREQUENCY = Field(description="the frequency at the start [Hz]")
+    f1: _FREQUENCY = Field(description="the frequency at the end [Hz], > f0")
+    duration: Real(gt=0, says="the sweep's duration must be > 0 s", what="a time in s, > 0") = Field(
+        description="the sweep's length [s]"
+    )
     start: _START = _exact(0.0)
-    sweep: Annotated[
-        Literal[signals.SWEEPS],
-        Field(description="linear: f rises linearly in time; logarithmic: exponentially (needs f0 > 0)"),
-    ] = "linear"
+    sweep: Literal[signals.SWEEPS] = Field(
+        "linear", description="linear: f rises linearly in time; logarithmic: exponentially (needs f0 > 0)"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> ChirpInput:
         if not float(self.f1) > float(self.f0):
             refuse(f"must be > f0 = {self.f0} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1)
         if self.sweep == "logarithmic" and not float(self.f0) > 0:
-            refuse(
-                'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"',
-                key="f0",
-                value=self.f0,
-            )
+            expected = 'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"'
+            refuse(expected, key="f0", value=self.f0)
         return self
 
 
 class MultisineInput(InputTable):
-    kind: Annotated[
-        Literal["multisine"],
-        Field(
-            description="a periodic sum of cosines at every harmonic of 1/period in [f_min, f_max], "
-            "Schroeder phases (low crest factor), scaled so that max |u| = amplitude"
-        ),
-    ]
+    kind: Literal["multisine"] = Field(
+        description="a periodic sum of cosines at every harmonic of 1/period in [f_min, f_max], "
+        "Schroeder phases (low crest factor), scaled so that max |u| = amplitude"
+    )
     amplitude: _PEAK
-    f_min: Annotated[_FREQUENCY, Field(description="the band's lowest frequency [Hz]")]
-    f_max: Annotated[_FREQUENCY, Field(description="the band's highest frequency [Hz], > f_min")]
-    period: Annotated[
-        Real(gt=0, says="the multisine's period must be > 0 s", what="a time in s, > 0"),
-        Field(description="the signal's period [s]: its lines are the harmonics k / period in the band"),
-    ]
+    f_min: _FREQUENCY = Field(description="the band's lowest frequency [Hz]")
+    f_max: _FREQUENCY = Field(description="the band's highest frequency [Hz], > f_min")
+    period: Real(gt=0, says="the multisine's period must be > 0 s", what="a time in s, > 0") = Field(
+        description="the signal's period [s]: its lines are the harmonics k / period in the band"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> MultisineInput:
@@ -514,28 +447,19 @@ class MultisineInput(InputTable):
             refuse(f"must be > f_min = {self.f_min} Hz", key="f_max", value=self.f_max)
         f_min, f_max, period = float(self.f_min), float(self.f_max), float(self.period)
         k_lo, k_hi = signals.harmonics(f_min, f_max, period)
+        lines = k_hi - k_lo + 1
         if k_hi > signals.MAX_HARMONIC:
-            refuse(
-                f"f_max · period = {f_max * period:g}, more than "
-                f"{signals.MAX_HARMONIC} harmonics: shorten the period",
-                key="period",
-                value=self.period,
-            )
-        if k_hi - k_lo + 1 < 1:
-            refuse(
-                f"no harmonic k / period lies in [{self.f_min}, {self.f_max}] Hz: "
-                "lengthen the period or widen the band",
-                key="period",
-                value=self.period,
-            )
-        if k_hi - k_lo + 1 > signals.MAX_LINES:
-            refuse(
-                f"gives {k_hi - k_lo + 1} lines in the band, more than {signals.MAX_LINES}: "
-                "shorten the period or narrow the band",
-                key="period",
-                value=self.period,
-            )
-        return self
+            expected = f"f_max · period = {f_max * period:g}, more than {signals.MAX_HARMONIC} harmonics"
+            expected += ": shorten the period"
+        elif lines < 1:
+            expected = f"no harmonic k / period lies in [{self.f_min}, {self.f_max}] Hz"
+            expected += ": lengthen the period or widen the band"
+        elif lines > signals.MAX_LINES:
+            expected = f"gives {lines} lines in the band, more than {signals.MAX_LINES}"
+            expected += ": shorten the period or narrow the band"
+        else:
+            return self
+        refuse(expected, key="period", value=self.period)
 
 
 # Each kind of input and its model, in the documented order; `kind` tells them apart.
@@ -564,22 +488,17 @@ INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
 
 # ---------------------------------------------------------------------------- [limits]
 
+_TRAVEL = "the travel limit must be > 0 (m on a cart, rad on an arm)"
+
 
 class LimitsTable(Table):
     """[limits]: where the rig ends; the simulator stops a run that goes beyond (exit status 4)."""
 
-    travel: Annotated[
-        Real(
-            gt=0,
-            says="the travel limit must be > 0 (m on a cart, rad on an arm)",
-            what="a travel limit > 0 (m on a cart, rad on an arm)",
-        )
-        | None,
-        Field(
-            description="the base's limit |θ0| <= travel: the cart's position [m] or the arm's angle [rad] "
-            "(default: none); checked at every sample"
-        ),
-    ] = None
+    travel: Real(gt=0, says=_TRAVEL, what="a travel limit > 0 (m on a cart, rad on an arm)") | None = Field(
+        None,
+        description="the base's limit |θ0| <= travel: the cart's position [m] or the arm's angle [rad] "
+        "(default: none); checked at every sample",
+    )
 
 
 # ---------------------------------------------------------------------------- [simulation]
@@ -588,48 +507,41 @@ class LimitsTable(Table):
 class SimulationTable(Table):
     """[simulation]: how long, how often to sample, and how to integrate."""
 
-    t_end: Annotated[
-        Real(gt=0, says="must be > 0 s", what="the simulated time in s, > 0"),
-        Field(description="the simulated time [s]"),
-    ]
-    sample: Annotated[
-        Real(),
-        AfterValidator(checks.sample),
-        Field(description="output interval [s], > 0 and <= t_end", json_schema_extra={"exclusiveMinimum": 0}),
-    ] = _exact(DEFAULT_SAMPLE)
-    method: Annotated[
-        Literal[METHODS],
-        Field(description="integration method: CVODE bdf/adams, ARKODE erk-*, or fixed-step rk4"),
-    ] = DEFAULT_METHOD
-    jacobian: Annotated[
-        Any,  # checked by method (`checks.method_settings`)
-        Field(
-            description="bdf and adams only: exact (generated) or dq (difference quotients)",
-            json_schema_extra={"type": "string", "enum": list(JACOBIANS), "default": DEFAULT_JACOBIAN},
-        ),
-    ] = None
+    t_end: Real(gt=0, says="must be > 0 s", what="the simulated time in s, > 0") = Field(
+        description="the simulated time [s]"
+    )
+    sample: Annotated[Real(), AfterValidator(checks.sample)] = Field(
+        _exact(DEFAULT_SAMPLE),
+        validate_default=True,  # against t_end
+        description="output interval [s], > 0 and <= t_end",
+        json_schema_extra={"exclusiveMinimum": 0},
+    )
+    method: Literal[METHODS] = Field(
+        DEFAULT_METHOD, description="integration method: CVODE bdf/adams, ARKODE erk-*, or fixed-step rk4"
+    )
+    jacobian: Any = Field(  # checked by method (`method_settings`)
+        None,
+        description="bdf and adams only: exact (generated) or dq (difference quotients)",
+        json_schema_extra={"type": "string", "enum": list(JACOBIANS), "default": DEFAULT_JACOBIAN},
+    )
     rtol: Annotated[
-        Real(gt=0, lt=1, says="must be in (0, 1); 1e-10 is a good choice"),
-        AfterValidator(checks.rtol),
-        Field(
-            description="relative tolerance (every method but rk4)", json_schema_extra={"minimum": RTOL_MIN}
-        ),
-    ] = _exact(DEFAULT_RTOL)
-    atol: Annotated[
-        Real(ge=0, says="must be >= 0"), Field(description="absolute tolerance (every method but rk4)")
-    ] = _exact(DEFAULT_ATOL)
-    step: Annotated[
-        Any,  # checked by method (`checks.method_settings`)
-        Field(
-            description="rk4 only (required there): the fixed step [s], > 0 and <= sample",
-            json_schema_extra={"type": "number", "exclusiveMinimum": 0},
-        ),
-    ] = None
-    max_steps: Annotated[
-        int,
-        Field(strict=True, ge=1, description="the integrator's step limit between two samples"),
-        Says("must be an integer >= 1"),
-    ] = DEFAULT_MAX_STEPS
+        Real(gt=0, lt=1, says="must be in (0, 1); 1e-10 is a good choice"), AfterValidator(checks.rtol)
+    ] = Field(
+        _exact(DEFAULT_RTOL),
+        description="relative tolerance (every method but rk4)",
+        json_schema_extra={"minimum": RTOL_MIN},
+    )
+    atol: Real(ge=0, says="must be >= 0") = Field(
+        _exact(DEFAULT_ATOL), description="absolute tolerance (every method but rk4)"
+    )
+    step: Any = Field(  # checked by method (`method_settings`)
+        None,
+        description="rk4 only (required there): the fixed step [s], > 0 and <= sample",
+        json_schema_extra={"type": "number", "exclusiveMinimum": 0},
+    )
+    max_steps: Annotated[int, Says("must be an integer >= 1")] = Field(
+        DEFAULT_MAX_STEPS, strict=True, ge=1, description="the integrator's step limit between two samples"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> SimulationTable:
@@ -646,47 +558,40 @@ class SimulationTable(Table):
             if jacobian not in JACOBIANS:
                 refuse(f"expected {_one_of(JACOBIANS)}", key="jacobian", value=self.jacobian)
         elif "jacobian" in given:
-            refuse(
-                f'applies to methods {_one_of(JACOBIAN_METHODS)} only (method is "{method}"); remove it',
-                key="jacobian",
-                value=self.jacobian,
+            expected = (
+                f'applies to methods {_one_of(JACOBIAN_METHODS)} only (method is "{method}"); remove it'
             )
+            refuse(expected, key="jacobian", value=self.jacobian)
         if method not in FIXED_STEP_METHODS:
             if "step" in given:
-                refuse(
-                    f'applies to method "rk4" only (method "{method}" chooses its own steps); remove it',
-                    key="step",
-                    value=self.step,
+                expected = (
+                    f'applies to method "rk4" only (method "{method}" chooses its own steps); remove it'
                 )
+                refuse(expected, key="step", value=self.step)
             return jacobian, None
         for key in ("rtol", "atol"):
             if key in given:
                 fixed = 'does not apply to method "rk4" (it has a fixed step); remove it'
                 refuse(fixed, key=key, value=getattr(self, key))
         if self.step is None:
-            refuse_line(
-                "missing required key 'simulation.step' "
-                '(the fixed step of method "rk4" in s, > 0 and <= sample)'
-            )
+            missing = "missing required key 'simulation.step'"
+            refuse_line(f'{missing} (the fixed step of method "rk4" in s, > 0 and <= sample)')
         step = keyed("step", self.step)
         if not 0 < float(step) <= float(self.sample):
-            refuse(
-                f"must be > 0 s and <= sample ({format_number(float(self.sample))} s)", key="step", value=step
-            )
+            expected = f"must be > 0 s and <= sample ({format_number(float(self.sample))} s)"
+            refuse(expected, key="step", value=step)
         return jacobian, step
 
     def settings(self) -> dict[str, Any]:
         """The Scene's simulation fields (floats; jacobian and step by method)."""
         jacobian, step = self.method_settings()
-        return {
-            "t_end": float(self.t_end),
-            "sample": float(self.sample),
+        numbers = {key: float(getattr(self, key)) for key in ("t_end", "sample", "rtol", "atol")}
+        step_ = None if step is None else float(step)
+        return numbers | {
             "method": self.method,
-            "rtol": float(self.rtol),
-            "atol": float(self.atol),
             "max_steps": self.max_steps,
             "jacobian": jacobian,
-            "step": None if step is None else float(step),
+            "step": step_,
         }
 
     def context(self) -> dict[str, Any]:
@@ -699,9 +604,9 @@ class SimulationTable(Table):
 class OutputsTable(Table):
     """[outputs]: extra columns of the simulator's CSV."""
 
-    energy: Annotated[
-        Flag, Field(description="add the energy ledger columns (kinetic, potential, dissipated, input work)")
-    ] = False
+    energy: Flag = Field(
+        False, description="add the energy ledger columns (kinetic, potential, dissipated, input work)"
+    )
 
 
 # ---------------------------------------------------------------------------- [controller]
@@ -710,39 +615,29 @@ class OutputsTable(Table):
 class ControllerTable(Table):
     """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen."""
 
-    kind: Annotated[Literal[CONTROLLER_KINDS], Field(description="lqr: a linear-quadratic regulator")]
-    q: Annotated[
-        Any,
-        PlainValidator(control.weights),
-        Field(
-            description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)",
-            json_schema_extra=control.WEIGHTS_SCHEMA,
-        ),
-    ] = None
-    r: Annotated[
-        Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0"),
-        Field(description="weight of u²"),
-    ] = _exact(DEFAULT_R)
-    equilibrium: Annotated[
-        Any,
-        PlainValidator(control.equilibrium),
-        Field(
-            description="upright, hanging, or the angles [θ0, θ1, ...] (links at 0 or π)",
-            json_schema_extra={**control.EQUILIBRIUM_SCHEMA, "default": DEFAULT_EQUILIBRIUM},
-        ),
-    ] = DEFAULT_EQUILIBRIUM
-    saturation: Annotated[
-        Real(gt=0, says="the largest |u| must be > 0 {u_unit}") | None,
-        Field(description="the largest |u| [N or N m] (default: unbounded)"),
-    ] = None
-    period: Annotated[
-        Real() | None,  # > 0, <= t_end and commensurate with sample: `controller.relations`
-        Field(
-            description="sampling period [s], a whole multiple or fraction of simulation.sample "
-            "(default: continuous)",
-            json_schema_extra={"exclusiveMinimum": 0},
-        ),
-    ] = None
+    kind: Literal[CONTROLLER_KINDS] = Field(description="lqr: a linear-quadratic regulator")
+    q: Annotated[Any, PlainValidator(control.weights)] = Field(
+        None,
+        description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)",
+        json_schema_extra=control.WEIGHTS_SCHEMA,
+    )
+    r: Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0") = Field(
+        _exact(DEFAULT_R), description="weight of u²"
+    )
+    equilibrium: Annotated[Any, PlainValidator(control.equilibrium)] = Field(
+        DEFAULT_EQUILIBRIUM,
+        description="upright, hanging, or the angles [θ0, θ1, ...] (links at 0 or π)",
+        json_schema_extra={**control.EQUILIBRIUM_SCHEMA, "default": DEFAULT_EQUILIBRIUM},
+    )
+    saturation: Real(gt=0, says="the largest |u| must be > 0 {u_unit}") | None = Field(
+        None, description="the largest |u| [N or N m] (default: unbounded)"
+    )
+    period: Real() | None = Field(  # > 0, <= t_end, commensurate with sample: `controller.relations`
+        None,
+        description="sampling period [s], a whole multiple or fraction of simulation.sample "
+        "(default: continuous)",
+        json_schema_extra={"exclusiveMinimum": 0},
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> ControllerTable:
@@ -761,35 +656,26 @@ class ControllerTable(Table):
 class SwingupTable(Table):
     """[swingup]: from the initial state (default hanging) to upright, then held by LQR."""
 
-    method: Annotated[
-        Literal[swing.METHODS],
-        Field(
-            description="energy: Åström–Furuta energy control (one link); "
-            "trajectory: a plan on the exact model tracked by time-varying LQR"
-        ),
-    ]
-    u_max: Annotated[
-        Real(gt=0, says="the input limit must be > 0 {u_unit}"),
-        Field(description="the input limit |u| <= u_max [N or N m]"),
-    ]
-    x_max: Annotated[
-        Real(gt=0, says="the travel limit must be > 0 (m on a cart, rad on an arm)") | None,
-        Field(description="trajectory only: the plan keeps |θ0| <= x_max [m or rad] (default: no limit)"),
-    ] = None
-    duration: Annotated[
-        Real(gt=0, says="the manoeuvre's time must be > 0 s") | None,
-        Field(description="trajectory only (required there): the manoeuvre's time [s]"),
-    ] = None
-    period: Annotated[
-        Real(gt=0, says="the sampling period must be > 0 s"),
-        Field(
-            description="controller sampling period [s], a whole multiple or fraction of simulation.sample"
-        ),
-    ] = _exact(swing.DEFAULT_PERIOD)
-    hold: Annotated[
-        Real(ge=0, says="must be >= 0 s"),
-        Field(description="seconds held upright (LQR) after arrival; then the run ends"),
-    ] = _exact(swing.DEFAULT_HOLD)
+    method: Literal[swing.METHODS] = Field(
+        description="energy: Åström–Furuta energy control (one link); "
+        "trajectory: a plan on the exact model tracked by time-varying LQR"
+    )
+    u_max: Real(gt=0, says="the input limit must be > 0 {u_unit}") = Field(
+        description="the input limit |u| <= u_max [N or N m]"
+    )
+    x_max: Real(gt=0, says=_TRAVEL) | None = Field(
+        None, description="trajectory only: the plan keeps |θ0| <= x_max [m or rad] (default: no limit)"
+    )
+    duration: Real(gt=0, says="the manoeuvre's time must be > 0 s") | None = Field(
+        None, description="trajectory only (required there): the manoeuvre's time [s]"
+    )
+    period: Real(gt=0, says="the sampling period must be > 0 s") = Field(
+        _exact(swing.DEFAULT_PERIOD),
+        description="controller sampling period [s], a whole multiple or fraction of simulation.sample",
+    )
+    hold: Real(ge=0, says="must be >= 0 s") = Field(
+        _exact(swing.DEFAULT_HOLD), description="seconds held upright (LQR) after arrival; then the run ends"
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> SwingupTable:
