@@ -62,9 +62,14 @@ def _read_text(reader: _Reader) -> str:
         reader.fail(f"not UTF-8 text (bad byte at offset {exc.start})")
 
 
-# The largest exponent a Decimal may have: a TOML float beyond it (1e9999999999999999999) reads
-# as the largest Decimal of its sign, refused as too large for a double like 1e400.
-_HUGE = f"1e{decimal.MAX_EMAX}"
+class _Beyond(Decimal):
+    """A TOML float whose exponent no Decimal holds (1e9999999999999999999): the largest Decimal
+    of its sign, refused as too large for a double like 1e400, shown as written."""
+
+    text: str
+
+    def __str__(self) -> str:
+        return self.text
 
 
 def _decimal(text: str) -> Decimal:
@@ -72,7 +77,11 @@ def _decimal(text: str) -> Decimal:
         return Decimal(text)
     except decimal.InvalidOperation:  # an exponent beyond ±MAX_EMAX
         sign = "-" if text.startswith("-") else ""
-        return Decimal(sign + ("0" if "-" in text.lower().split("e", 1)[-1] else _HUGE))
+        if "-" in text.lower().split("e", 1)[-1]:
+            return Decimal(sign + "0")  # below every double: 0, as 1e-400 is
+        beyond = _Beyond(f"{sign}1e{decimal.MAX_EMAX}")
+        beyond.text = text
+        return beyond
 
 
 def _parse_toml(reader: _Reader, text: str) -> dict[str, Any]:
@@ -121,7 +130,8 @@ def _refuse(
     file's order: a typo explains a missing key), else the first of pydantic's `errors`."""
     given = document.get("input")
     if isinstance(given, dict) and "kind" not in given:  # no model to find [input]'s unknown keys
-        errors = [{"type": "extra_forbidden", "loc": ("input", key)} for key in given] + errors
+        unknown = [key for key in given if key not in schema.TABLES["input"]]
+        errors = [{"type": "extra_forbidden", "loc": ("input", key)} for key in unknown] + errors
     order = {name: i for i, name in enumerate(document)}
     structural = [error for error in errors if _structural(error, document)]
     if structural:
