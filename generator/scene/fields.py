@@ -72,7 +72,8 @@ def _show_decimal(value: Decimal) -> str:
 def _type_name(value: object) -> str:
     names = {bool: "a boolean", str: "a string", list: "an array", dict: "a table"}
     names.update({int: "an integer", Decimal: "a float"})
-    return names.get(type(value), f"a {type(value).__name__}")
+    kind = Decimal if isinstance(value, Decimal) else type(value)
+    return names.get(kind, f"a {kind.__name__}")
 
 
 def _one_of(options: tuple[str, ...]) -> str:
