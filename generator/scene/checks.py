@@ -17,7 +17,7 @@ from ipgen.codegen.emit import EmitError, parse_emit
 from ipgen.common import limits
 from ipgen.common.naming import name_problem
 from ipgen.model.system import parameter_names, parameter_range, split_parameter, unused_parameter
-from ipgen.scene.fields import _type_name, format_number
+from ipgen.scene.fields import format_number, type_name
 from ipgen.scene.values import at, context_of, refuse, refuse_line
 
 
@@ -39,7 +39,7 @@ def inertia(value: Any, info: ValidationInfo) -> Any:
 def emit_targets(value: Any) -> tuple[str, ...]:
     """[system] emit: an array of target names (`codegen.emit.TARGETS`)."""
     if not isinstance(value, list):
-        refuse(f'expected an array of target names, e.g. ["cpp"], got {_type_name(value)}')
+        refuse(f'expected an array of target names, e.g. ["cpp"], got {type_name(value)}')
     try:
         names = [_Shown(name) if isinstance(name, (list, dict)) else name for name in value]
         return parse_emit(names, where="system.emit")
@@ -60,7 +60,7 @@ class _Shown:
 def free_names(value: Any, info: ValidationInfo) -> tuple[str, ...]:
     """[parameters] free: distinct names of the system's parameters (m0, delta1, g, ...)."""
     if not isinstance(value, list):
-        refuse(f"expected an array of names, got {_type_name(value)}")
+        refuse(f"expected an array of names, got {type_name(value)}")
     context = context_of(info, "links", "type")
     if context is None:
         return ()

@@ -27,7 +27,7 @@ from pydantic import ValidationInfo
 from ipgen.common import limits
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
-from ipgen.scene.fields import _one_of, _type_name, format_number
+from ipgen.scene.fields import format_number, one_of, type_name
 from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
 # Feedback controllers ([controller] kind) and the named equilibria they stabilise.
@@ -102,13 +102,13 @@ def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     if context is None:
         return "upright"
     dof = context["count"]
-    expected = f"{_one_of(EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
+    expected = f"{one_of(EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
     if isinstance(value, str):
         if value not in EQUILIBRIA:
             refuse(f"expected {expected}")
         return value
     if not isinstance(value, list):
-        refuse(f"expected {expected}, got {_type_name(value)}")
+        refuse(f"expected {expected}, got {type_name(value)}")
     check_count(value, dof, "θ0 and one angle per link")
     angles = [at(i, number, item, context) for i, item in enumerate(value)]
     for i, angle in enumerate(angles[1:], start=1):

@@ -20,14 +20,14 @@ from ipgen.common import limits
 from ipgen.common.safetext import abbreviate
 from ipgen.model.system import PARAMETER_GROUPS
 from ipgen.scene import schema
-from ipgen.scene.fields import _one_of, _Reader, _type_name
+from ipgen.scene.fields import Reader, one_of, type_name
 from ipgen.scene.nesting import shape_problem
 from ipgen.scene.values import Says
 
 
-def load_document(path: Path) -> tuple[_Reader, schema.SceneDocument]:
+def load_document(path: Path) -> tuple[Reader, schema.SceneDocument]:
     """The scene at `path`, validated; raises `SceneError` (one line) on any problem."""
-    reader = _Reader(path)
+    reader = Reader(path)
     if not schema.STEM.match(path.stem):
         reader.fail(
             f"scene file name '{abbreviate(path.stem)}' must be letters, digits, '_', '.', '+' or '-' "
@@ -42,7 +42,7 @@ def load_document(path: Path) -> tuple[_Reader, schema.SceneDocument]:
     return reader, _validate(reader, document)
 
 
-def _read_text(reader: _Reader) -> str:
+def _read_text(reader: Reader) -> str:
     try:
         if reader.path.stat().st_size > limits.MAX_SCENE_BYTES:
             reader.fail(
@@ -84,7 +84,7 @@ def _decimal(text: str) -> Decimal:
         return beyond
 
 
-def _parse_toml(reader: _Reader, text: str) -> dict[str, Any]:
+def _parse_toml(reader: Reader, text: str) -> dict[str, Any]:
     """Parse TOML keeping floats as Decimal, i.e. exactly as written; refuse, before parsing,
     nesting deeper than a scene can need and very long dotted keys (`nesting.py`)."""
     problem = shape_problem(text)
@@ -103,7 +103,7 @@ def _parse_toml(reader: _Reader, text: str) -> dict[str, Any]:
 # ---------------------------------------------------------------------------- validation
 
 
-def _validate(reader: _Reader, document: dict[str, Any]) -> schema.SceneDocument:
+def _validate(reader: Reader, document: dict[str, Any]) -> schema.SceneDocument:
     """The document validated in one call, the tables in the order of `SceneDocument` sharing
     one context (`Table.context`); the first problem as one line."""
     from pydantic import ValidationError
@@ -123,9 +123,7 @@ def _adapter() -> Any:
     return TypeAdapter(schema.SceneDocument)
 
 
-def _refuse(
-    reader: _Reader, document: dict[str, Any], errors: list[Any], context: dict[str, Any]
-) -> NoReturn:
+def _refuse(reader: Reader, document: dict[str, Any], errors: list[Any], context: dict[str, Any]) -> NoReturn:
     """The first problem: an unknown table or key, or a table that is not one, first (in the
     file's order: a typo explains a missing key), else the first of pydantic's `errors`."""
     given = document.get("input")
@@ -158,7 +156,7 @@ def _key_order(error: dict[str, Any], document: dict[str, Any]) -> int:
     return list(table).index(error["loc"][-1]) if isinstance(table, dict) and len(error["loc"]) > 1 else -1
 
 
-def _unknown(reader: _Reader, error: dict[str, Any], document: dict[str, Any]) -> NoReturn:
+def _unknown(reader: Reader, error: dict[str, Any], document: dict[str, Any]) -> NoReturn:
     loc = error["loc"]
     name = loc[0]
     if len(loc) == 1 and name in schema.TABLES:
@@ -194,7 +192,7 @@ def _message(error: dict[str, Any], document: dict[str, Any], context: dict[str,
         if kind in ("union_tag_not_found", "union_tag_invalid", "model_attributes_type"):
             if not isinstance(data, dict) or "kind" not in data:
                 return f"missing required key 'input.kind' (one of: {', '.join(schema.INPUTS)})"
-            return _bad("input.kind", data["kind"], f"expected {_one_of(tuple(schema.INPUTS))}")
+            return _bad("input.kind", data["kind"], f"expected {one_of(tuple(schema.INPUTS))}")
         model = schema.INPUTS[loc.pop(0)]  # the kind's model: loc = [kind, key, ...]
     model = next(
         a for a in (*get_args(model), model) if isinstance(a, type) and issubclass(a, schema.BaseModel)
@@ -217,15 +215,15 @@ def _message(error: dict[str, Any], document: dict[str, Any], context: dict[str,
         return f"{dotted} is not used by a '{kind_name}' input ({kind_name} takes {takes})"
     expected = {
         "scene_value": ctx.get("expected", ""),
-        "number_type": f"expected a number, got {_type_name(value)}",
+        "number_type": f"expected a number, got {type_name(value)}",
         "double_range": "is too large for a double",
         "finite_number": "must be a finite number (inf and nan are not allowed)",
-        "int_type": f"expected an integer, got {_type_name(value)}"
+        "int_type": f"expected an integer, got {type_name(value)}"
         + (" (write it without '.' or an exponent)" if isinstance(value, Decimal) else ""),
-        "bool_type": f"expected true or false, got {_type_name(value)}",
-        "string_type": f"expected a string, got {_type_name(value)}",
+        "bool_type": f"expected true or false, got {type_name(value)}",
+        "string_type": f"expected a string, got {type_name(value)}",
         "literal_error": f"expected {ctx.get('expected', '').replace(chr(39), chr(34))}",
-        "tuple_type": f"expected an array of {context.get('count', 2)} numbers, got {_type_name(value)}",
+        "tuple_type": f"expected an array of {context.get('count', 2)} numbers, got {type_name(value)}",
     }.get(kind)
     if expected is None and kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         expected = says.bound.format(**context)
@@ -235,9 +233,9 @@ def _message(error: dict[str, Any], document: dict[str, Any], context: dict[str,
 
 
 def _bad(key: str, value: object, expected: str) -> str:
-    from ipgen.scene.fields import _show
+    from ipgen.scene.fields import show
 
-    return f"{key} = {_show(value)}: {expected}"
+    return f"{key} = {show(value)}: {expected}"
 
 
 def _says(field: Any) -> Says:
@@ -258,4 +256,4 @@ def _what(field: Any, says: Says, context: dict[str, Any]) -> str:
     if says.what:
         return says.what.format(**context)
     choices = [arg for arg in get_args(field.annotation) if isinstance(arg, str)]
-    return _one_of(tuple(choices)) if choices else ""
+    return one_of(tuple(choices)) if choices else ""

@@ -26,7 +26,7 @@ from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
 from ipgen.scene import swingup as swing
-from ipgen.scene.fields import _Reader, format_number
+from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.schema import SceneDocument
 
 
@@ -197,7 +197,7 @@ class Scene:
         return folded
 
 
-def build_scene(reader: _Reader, document: SceneDocument) -> Scene:
+def build_scene(reader: Reader, document: SceneDocument) -> Scene:
     """The `Scene` of a validated document: defaults filled in, the controller's gain and the
     swing-up's plan computed; what no table can say alone refused in one line."""
     tables = dict(document)
@@ -330,7 +330,7 @@ def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
 
 
-def _warnings(reader: _Reader, rtol: float) -> tuple[str, ...]:
+def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:
     if rtol < schema.RTOL_ADVISED:
         return (
             reader.warning(

@@ -46,7 +46,7 @@ from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
 from ipgen.scene import swingup as swing
-from ipgen.scene.fields import _one_of, format_number
+from ipgen.scene.fields import format_number, one_of
 from ipgen.scene.values import PerLink, Real, Says, SceneJsonSchema, context_of, keyed, refuse, refuse_line
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
@@ -556,11 +556,9 @@ class SimulationTable(Table):
         if method in JACOBIAN_METHODS:
             jacobian = DEFAULT_JACOBIAN if self.jacobian is None else self.jacobian
             if jacobian not in JACOBIANS:
-                refuse(f"expected {_one_of(JACOBIANS)}", key="jacobian", value=self.jacobian)
+                refuse(f"expected {one_of(JACOBIANS)}", key="jacobian", value=self.jacobian)
         elif "jacobian" in given:
-            expected = (
-                f'applies to methods {_one_of(JACOBIAN_METHODS)} only (method is "{method}"); remove it'
-            )
+            expected = f'applies to methods {one_of(JACOBIAN_METHODS)} only (method is "{method}"); remove it'
             refuse(expected, key="jacobian", value=self.jacobian)
         if method not in FIXED_STEP_METHODS:
             if "step" in given:

@@ -145,9 +145,9 @@ def at(index: int, check: Callable[[Any, dict[str, Any]], Any], value: Any, cont
 def number(value: Any, context: dict[str, Any] | None = None) -> float:
     """An entry of an array that is not a per-link array (weights, angles) as a float."""
     if isinstance(value, bool) or not isinstance(value, int | Decimal):
-        from ipgen.scene.fields import _type_name
+        from ipgen.scene.fields import type_name
 
-        refuse(f"expected a number, got {_type_name(value)}")
+        refuse(f"expected a number, got {type_name(value)}")
     try:
         as_float = float(value)
     except OverflowError:
@@ -159,7 +159,7 @@ def number(value: Any, context: dict[str, Any] | None = None) -> float:
 
 def keyed(key: str, value: Any) -> Decimal:
     """A number checked in a table's rule (e.g. [simulation] step, by method): errors name `key`."""
-    from ipgen.scene.fields import _type_name
+    from ipgen.scene.fields import type_name
 
     if isinstance(value, Decimal) and not value.is_finite():
         refuse("must be a finite number (inf and nan are not allowed)", key=key, value=value)
@@ -168,7 +168,7 @@ def keyed(key: str, value: Any) -> Decimal:
     except PydanticCustomError as error:
         wrong_type = error.type == "number_type"
         refuse(
-            f"expected a number, got {_type_name(value)}" if wrong_type else str(error), key=key, value=value
+            f"expected a number, got {type_name(value)}" if wrong_type else str(error), key=key, value=value
         )
 
 
