@@ -252,7 +252,9 @@ def build_scene(reader: Reader, document: SceneDocument) -> Scene:
         if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
             params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(tables["swingup"], system, params, start, gain, actuator.is_acceleration)
+            law = swing.law(
+                tables["swingup"], system, params, start, gain, actuator.is_acceleration, coordinates
+            )
         except swing.SwingUpError as error:
             reader.fail(str(error))
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)

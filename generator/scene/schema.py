@@ -708,6 +708,15 @@ class SwingupTable(Table):
     gain_velocity: Real(ge=0, says="must be >= 0") | None = Field(
         None, description="energy only: centring k_v [1/s] of the base (default 2)"
     )
+    q: Annotated[Any, PlainValidator(control.weights)] = Field(
+        None,
+        description="energy only: the hold LQR's weights of x = [θ, θ̇] in the scene's coordinates, "
+        "2 (links + 1) numbers or a symmetric PSD matrix (default: identity)",
+        json_schema_extra=control.WEIGHTS_SCHEMA,
+    )
+    r: Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0") | None = Field(
+        None, description="energy only: the hold LQR's weight of u² in the input's units (V² for a dc_motor; default 1 per (N or N m)²)"
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> SwingupTable:

@@ -38,6 +38,8 @@ ENERGY_KEYS: tuple[str, ...] = (
     "catch_rate",
     "gain_position",
     "gain_velocity",
+    "q",
+    "r",
 )
 DEFAULT_PERIOD = 0.01
 DEFAULT_HOLD = 2.0
@@ -118,13 +120,16 @@ def law(
     start: tuple[float, ...],
     gain: float = 1.0,
     acceleration: bool = False,
+    coordinates: Any = None,
 ) -> SwingUpLaw:
     """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`).
     `gain`: a dc_motor's force or torque per volt b, `params` then the motor-folded ones; the
     law is designed in force units (u_max b) and returned in volts (`in_volts`); its messages
     state the limits in volts (`params.delta[0]` then includes the back-EMF, which the energy
     law's `design_speed` takes off a_max).
-    `acceleration`: u is the base's acceleration (energy method only)."""
+    `acceleration`: u is the base's acceleration (energy method only).
+    `coordinates`: the scene's (`model.coordinates.Coordinates`, default ipgen's): the hold
+    weights q are in them (Q in ipgen's = Pᵀ Q P), r in the input's units (R / b² in force units)."""
     from ipgen.control.swingup import in_volts
 
     if acceleration and table.method != "energy":
@@ -132,7 +137,7 @@ def law(
             'swingup: method "trajectory" plans a force or torque, not yet an acceleration input: '
             'use method "energy" or [actuator] kind "direct"'
         )
-    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration, gain)
+    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration, gain, coordinates)
     return designed if gain == 1.0 else in_volts(designed, gain)
 
 
@@ -144,6 +149,7 @@ def _law(
     u_max: float,
     acceleration: bool,
     gain: float,
+    coordinates: Any,
 ) -> SwingUpLaw:
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
@@ -164,7 +170,20 @@ def _law(
         )
         if table.method == "energy":
             keys = {key: getattr(table, key) for key in ENERGY_KEYS if getattr(table, key) is not None}
-            constants: dict[str, Any] = {key: value if key == "law" else float(value) for key, value in keys.items()}
+            constants: dict[str, Any] = {
+                key: value if key in ("law", "q") else float(value) for key, value in keys.items()
+            }
+            if "q" in constants:
+                import numpy as np
+
+                weights = np.asarray(constants["q"], dtype=float)
+                weights = np.diag(weights) if weights.ndim == 1 else weights
+                if coordinates is not None:
+                    p, _ = coordinates.matrices(system.links)
+                    weights = p.T @ weights @ p
+                constants["q"] = weights
+            if "r" in constants:
+                constants["r"] /= gain**2
             return energy_law(
                 energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration, **constants), hold
             )
