@@ -122,15 +122,51 @@ def test_bad_energy_key_is_one_line(tmp_path: Path, changes: dict, key: str, exp
     expect_error(make(tmp_path, {**ENERGY, **changes}), key, expected)
 
 
-def test_qube_preset_in_quansers_coordinates() -> None:
-    """The preset loads in α (counter-clockwise) coordinates: it starts hanging (α = −π ≡ π),
-    its law constants are Quanser's mapped to the arm (μ / r, a_max / r, E_r − mp g Lp), in volts."""
+def test_qube_preset_in_quansers_coordinates(tmp_path: Path) -> None:
+    """The preset loads in α (counter-clockwise) coordinates and starts hanging (α = ±π); its
+    a_max is what 10 V buys at the 50 rad/s design speed, by hand: (b·10 − (Dr + kt km/Rm)·50) /
+    (Jr + Mp Lr²); switched to law = "proportional" its constants are Quanser's mapped to the
+    arm (μ / r, a_max / r, E_r − Mp g Lp), with u_max in volts."""
     scene = load_scene(QUBE)
     assert not scene.coordinates.is_canonical
     assert abs(abs(scene.theta[1]) - math.pi) < 1e-15 and scene.theta[0] == 0.0
     config = config_dict(resolved_config(scene))
-    r, mp, lp = 0.085, 0.024, 0.129
+    r, mp, lp, b = 0.085, 0.024, 0.129, 0.042 / 8.4
+    damping = 5e-6 + 0.042 * 0.042 / 8.4
+    inertia = 5.7197916666666667e-05 + mp * r**2  # arm about the vertical, pendulum hanging at its tip
+    assert float(config["swingup.accel_max"]) == pytest.approx((b * 10 - damping * 50) / inertia, rel=1e-9)
+    assert float(config["swingup.u_max"]) == 10.0  # volts
+    text = QUBE.read_text().replace('law = "energy"', 'law = "proportional"')
+    text = text.replace("design_speed = 50", "gain_energy = 50\naccel_max = 6\nenergy_target = 0.030")
+    (tmp_path / "qube.toml").write_text(text)
+    config = config_dict(resolved_config(load_scene(tmp_path / "qube.toml")))
     assert float(config["swingup.gain_energy"]) == pytest.approx(50 / r, rel=1e-12)
     assert float(config["swingup.accel_max"]) == pytest.approx(6 / r, rel=1e-12)
     assert float(config["swingup.energy_target"]) == pytest.approx(0.030 - mp * 9.81 * lp, rel=1e-12)
-    assert float(config["swingup.u_max"]) == 10.0  # volts
+
+
+def _hold_gain(tmp_path: Path, changes: dict[str, str]) -> np.ndarray:
+    config = config_dict(resolved_config(load_scene(make(tmp_path, {**ENERGY, **changes}))))
+    return np.array([float(v) for v in config["swingup.hold_gain"].split()])
+
+
+def test_hold_weights_are_keys(tmp_path: Path) -> None:
+    """An LQR gain is unchanged when Q and R scale together, and changes when only R does."""
+    plain = _hold_gain(tmp_path, {})
+    scaled = _hold_gain(tmp_path, {"swingup.q": "[4, 4, 4, 4]", "swingup.r": "4"})
+    np.testing.assert_allclose(scaled, plain, rtol=1e-9)
+    cheap = _hold_gain(tmp_path, {"swingup.r": "0.01"})
+    assert np.linalg.norm(cheap) > 2 * np.linalg.norm(plain)
+
+
+def test_demo_fails_a_swingup_beyond_its_voltage(tmp_path: Path) -> None:
+    import sys
+
+    sys.path.insert(0, str(ROOT / "tools"))
+    from demo import swingup_problems
+
+    path = tmp_path / "run.csv"
+    path.write_text("t,theta0,theta1,dtheta0,dtheta1,u,phase\n0,0,3.1,0,0,-10.5,swing\n1,0,0,0,0,0,hold\n")
+    assert swingup_problems(path) == []
+    assert swingup_problems(path, 10.0) == ["|u| reached 10.5 > 10"]
+    assert swingup_problems(path, 11.0) == []

@@ -403,7 +403,8 @@ def plan_swingup(
         if not ok:
             status = trial_status
     if status not in SUCCESS:
-        limits = f"|u| ≤ {u_max_ / input_gain:g}{' V' if input_gain != 1.0 else ''}" + ("" if x_max_ is None else f", |θ0| ≤ {x_max_:g}")
+        volts = " V" if input_gain != 1.0 else ""
+        limits = f"|u| ≤ {u_max_ / input_gain:g}{volts}" + ("" if x_max_ is None else f", |θ0| ≤ {x_max_:g}")
         raise PlanError(
             f"no swing-up plan found for {plant.system.type} n = {plant.links} in {duration_:g} s with "
             f"{limits} (IPOPT: {status}); relax {'u_max' if x_max_ is None else 'u_max, x_max'} "

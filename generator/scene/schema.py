@@ -715,7 +715,9 @@ class SwingupTable(Table):
         json_schema_extra=control.WEIGHTS_SCHEMA,
     )
     r: Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0") | None = Field(
-        None, description="energy only: the hold LQR's weight of u² in the input's units (V² for a dc_motor; default 1 per (N or N m)²)"
+        None,
+        description="energy only: the hold LQR's weight of u² in the input's units "
+        "(V² for a dc_motor; default 1 per (N or N m)²)",
     )
 
     @model_validator(mode="after")

@@ -185,7 +185,8 @@ def _law(
             if "r" in constants:
                 constants["r"] /= gain**2
             return energy_law(
-                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration, **constants), hold
+                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration, **constants),
+                hold,
             )
         plan, schedule = trajectory_swingup(
             model,
