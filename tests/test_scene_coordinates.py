@@ -22,7 +22,7 @@ from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from run_summary import simulator_of
-from test_scene import ROTARY, config_dict, expect_error, make
+from test_scene import ROTARY, config_dict, make
 
 import ipgen
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates

@@ -170,3 +170,19 @@ def test_demo_fails_a_swingup_beyond_its_voltage(tmp_path: Path) -> None:
     assert swingup_problems(path) == []
     assert swingup_problems(path, 10.0) == ["|u| reached 10.5 > 10"]
     assert swingup_problems(path, 11.0) == []
+
+
+def test_margin_is_trajectory_only_and_a_fraction(tmp_path: Path) -> None:
+    expect_error(make(tmp_path, {**ENERGY, "swingup.margin": "0.9"}), "margin", 'method = "trajectory" only')
+    trajectory = {**ENERGY, "swingup.method": '"trajectory"', "swingup.duration": "2"}
+    expect_error(make(tmp_path, {**trajectory, "swingup.margin": "1.5"}), "margin", "(0, 1]")
+
+
+def test_no_plan_message_states_the_limit_in_volts() -> None:
+    """A dc_motor rig (b = 0.005 N m/V) that cannot swing up in 0.2 s: the limit in V, not N m."""
+    from ipgen.control.swingup import trajectory_swingup
+
+    with pytest.raises(PlanError, match=r"\|u\| ≤ 9 V"):
+        trajectory_swingup(
+            _qube_plant(), duration=0.2, u_max=0.05, margin=0.9, period=0.01, input_gain=0.005, intervals=20
+        )

@@ -41,7 +41,7 @@ def trajectory_swingup(
     input_gain: float = 1.0,
 ) -> tuple[Plan, GainSchedule]:
     """(plan, gain schedule) of a swing-up from `start` (default hanging at rest) to upright at
-    rest in `duration` s, planned within |u| ≤ margin·u_max (0 < margin ≤ 1) and |θ0| ≤ x_max,
+    rest in `duration` s, planned within |u| ≤ margin·u_max (0 < margin ≤ 1) and |θ0| ≤ margin·x_max,
     tracked every `period` s with |u| ≤ u_max. Raises `PlanError` (an `ipgen.Error`).
     `input_gain`: force or torque per unit of the rig's input (a dc_motor's b): messages state
     the input limit in the rig's units (u_max / input_gain, volts)."""
@@ -53,7 +53,7 @@ def trajectory_swingup(
         plant,
         duration=duration,
         u_max=u_limit * margin_,
-        x_max=x_max,
+        x_max=None if x_max is None else finite_number("x_max", x_max) * margin_,
         start=start,
         intervals=intervals,
         input_gain=input_gain,

@@ -674,6 +674,11 @@ class SwingupTable(Table):
     hold: Real(ge=0, says="must be >= 0 s") = Field(
         _exact(swing.DEFAULT_HOLD), description="seconds held upright (LQR) after arrival; then the run ends"
     )
+    margin: Real(gt=0, le=1, says="must be in (0, 1]") | None = Field(
+        None,
+        description="trajectory only: plan within margin·u_max and margin·x_max, track within the full "
+        "limits (default 1)",
+    )
     # The energy law's constants (method = "energy" only; docs/swingup.md). Absent: today's defaults.
     law: Literal[swing.LAWS] | None = Field(
         None,

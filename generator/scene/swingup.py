@@ -73,7 +73,7 @@ def relations(table: Any, context: dict[str, Any]) -> None:
                 key="method",
                 value=table.method,
             )
-        for key in ("duration", "x_max"):
+        for key in ("duration", "x_max", "margin"):
             if getattr(table, key) is not None:
                 refuse('is for method = "trajectory" only; remove it', key=key, value=getattr(table, key))
     else:
@@ -195,6 +195,7 @@ def _law(
             x_max=None if table.x_max is None else float(table.x_max),
             period=period,
             start=start,
+            margin=1.0 if table.margin is None else float(table.margin),
             input_gain=gain,
         )
     except ControlError as exc:
