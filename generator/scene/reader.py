@@ -233,7 +233,9 @@ def read_document(path: str | Path) -> dict[str, Any]:
     return document
 
 
-def scene_from_document(path: str | Path, document: dict[str, Any], *, designed: Scene | None = None) -> Scene:
+def scene_from_document(
+    path: str | Path, document: dict[str, Any], *, designed: Scene | None = None
+) -> Scene:
     """The scene of a TOML `document` (as `read_document` gives it, possibly changed), its
     messages naming `path`. With `designed`, the controller and swing-up law are that scene's
     (designed on its model) instead of designed anew on this document's parameters: the plant

@@ -47,12 +47,15 @@ def executor(dask: str | None = None, jobs: int | None = None) -> Iterator[tuple
     except (OSError, TimeoutError, ValueError) as error:
         raise SweepError(
             f"--dask {abbreviate(dask)}: cannot reach a Dask scheduler there "
-            f"({abbreviate(' '.join(str(error).split()), 120)}); start one with `dask scheduler` (docs/sweep.md)"
+            f"({abbreviate(' '.join(str(error).split()), 120)}); "
+            "start one with `dask scheduler` (docs/sweep.md)"
         ) from None
     try:
         workers = sum(client.nthreads().values())
         if workers == 0:
-            raise SweepError(f"--dask {abbreviate(dask)}: the scheduler has no workers; start `dask worker ADDRESS`")
+            raise SweepError(
+                f"--dask {abbreviate(dask)}: the scheduler has no workers; start `dask worker ADDRESS`"
+            )
         with client.get_executor(pure=False) as pool:
             yield pool, workers
     finally:

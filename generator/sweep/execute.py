@@ -176,7 +176,9 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     elif scene.swingup is not None:
         goal = scene.swingup.target
     else:
-        return _refused(task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started)
+        return _refused(
+            task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
+        )
     stem = f"run{task.index}_{threading.get_ident()}"
     cfg, csv = prepared.scratch / f"{stem}.cfg", prepared.scratch / f"{stem}.csv"
     cfg.write_text(resolved_config(scene))
@@ -191,12 +193,32 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
             t, states = _read_csv(csv, dof)
         except (OSError, ValueError):
             nan = float("nan")
-            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan,
-                          time.perf_counter() - started)  # fmt: skip
+            return Result(
+                task,
+                "fail",
+                "no trajectory",
+                done.returncode,
+                nan,
+                nan,
+                nan,
+                nan,
+                nan,
+                time.perf_counter() - started,
+            )
         if len(t) == 0:
             nan = float("nan")
-            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan,
-                          time.perf_counter() - started)  # fmt: skip
+            return Result(
+                task,
+                "fail",
+                "no trajectory",
+                done.returncode,
+                nan,
+                nan,
+                nan,
+                nan,
+                nan,
+                time.perf_counter() - started,
+            )
         verdict = judge(
             test, t, states, goal, rotary=scene.type == "rotary", status=done.returncode, travel=scene.travel
         )

@@ -53,7 +53,9 @@ def nominal_array(scene: Scene, key: Key) -> list[float] | None:
     return None
 
 
-def apply(document: dict[str, Any], scene: Scene, overrides: tuple[tuple[str, object], ...]) -> dict[str, Any]:
+def apply(
+    document: dict[str, Any], scene: Scene, overrides: tuple[tuple[str, object], ...]
+) -> dict[str, Any]:
     """A copy of `document` with each (key text, value) of `overrides` set."""
     changed = copy.deepcopy(document)
     for text, value in overrides:
@@ -74,7 +76,8 @@ def apply(document: dict[str, Any], scene: Scene, overrides: tuple[tuple[str, ob
             raise SweepError(f"{key.text}: {key.table}.{key.name} is not an array; drop the index")
         if key.index >= len(current):
             raise SweepError(
-                f"{key.text}: {key.table}.{key.name} has {len(current)} entries (indices 0..{len(current) - 1})"
+                f"{key.text}: {key.table}.{key.name} has {len(current)} entries "
+                f"(indices 0..{len(current) - 1})"
             )
         current = list(current)
         current[key.index] = as_toml(value)

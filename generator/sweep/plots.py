@@ -1,5 +1,6 @@
-"""The sweep's pictures (PNG, matplotlib's Agg backend): per criterion each run's end-state angle
-error across the levels with the success band, a bar chart of the scores, a heatmap of a 2-D grid.
+"""The sweep's pictures (PNG, matplotlib's Agg backend): per criterion each run's end-state
+error (over the tolerance) across the levels with the success band, a bar chart of the scores,
+a heatmap of a 2-D grid.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from pathlib import Path
 from ipgen.sweep.scores import CriterionScore
 from ipgen.sweep.success import Success
 
-FLOOR = 1e-8  # rad: errors below are drawn at the floor of the log axis
+FLOOR = 1e-8  # relative errors below are drawn at the floor of the log axis
 COLOURS = {"pass": "#2a9d3a", "fail": "#d62728", "refused": "#999999"}
 
 
@@ -31,38 +32,55 @@ def _save(figure, path: Path) -> Path:
 
 
 def criterion_plot(s: CriterionScore, rows: list[dict[str, str]], test: Success, path: Path) -> Path:
-    """Each run's end-state link angle error at each level (log axis), the success band shaded,
+    """Each run's end-state error over the tolerance at each level (log axis), the band shaded,
     the levels that pass marked on top; refused levels drawn grey on the floor."""
     plt = _pyplot()
     levels = s.criterion.levels
     labels = [f"{level.values[0]:g}" for level in levels]
     uniform = len(levels) > 2 and all(
         math.isclose(
-            levels[i + 1].values[0] - levels[i].values[0], levels[1].values[0] - levels[0].values[0], rel_tol=1e-6
+            levels[i + 1].values[0] - levels[i].values[0],
+            levels[1].values[0] - levels[0].values[0],
+            rel_tol=1e-6,
         )
         for i in range(len(levels) - 1)
     )
     xs = [level.values[0] for level in levels] if uniform else list(range(len(levels)))
     figure, axis = plt.subplots(figsize=(7.5, 4.0))
-    axis.axhspan(FLOOR, test.angle, color="#2a9d3a", alpha=0.12, label=f"success band (≤ {test.angle:g} rad)")
+    axis.axhspan(FLOOR, 1.0, color="#2a9d3a", alpha=0.12, label="success band (within the tolerance)")
     seen = set()
     for row in rows:
         if row["criterion"] != s.criterion.name:
             continue
         level = int(row["level"])
-        error = float(row["angle_error"]) if row["angle_error"] else math.nan
+        error = _relative(row, test)
         outcome = row["outcome"]
-        y = FLOOR if math.isnan(error) or outcome == "refused" else min(max(error, FLOOR), 10.0)
-        axis.scatter(xs[level], y, s=16, color=COLOURS[outcome], alpha=0.7,
-                     label=outcome if outcome not in seen else None, zorder=3)  # fmt: skip
+        y = FLOOR if math.isnan(error) or outcome == "refused" else min(max(error, FLOOR), 30.0)
+        axis.scatter(
+            xs[level],
+            y,
+            s=16,
+            color=COLOURS[outcome],
+            alpha=0.7,
+            label=outcome if outcome not in seen else None,
+            zorder=3,
+        )
         seen.add(outcome)
     for x, level in zip(xs, s.levels, strict=True):
         marker = "✓" if level.passes else ("×" if level.counted else "–")
-        axis.annotate(marker, (x, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom",
-                      color=COLOURS["pass" if level.passes else "fail" if level.counted else "refused"])  # fmt: skip
+        axis.annotate(
+            marker,
+            (x, 1.0),
+            xycoords=("data", "axes fraction"),
+            ha="center",
+            va="bottom",
+            color=COLOURS["pass" if level.passes else "fail" if level.counted else "refused"],
+        )
     axis.set_yscale("log")
-    axis.set_ylim(FLOOR / 2, 20)
-    axis.set_ylabel("largest link angle error at the end [rad]")
+    axis.set_ylim(FLOOR / 2, 50)
+    axis.set_ylabel(
+        f"end-state error / tolerance\n(max of angle/{test.angle:g} rad, rate/{test.rate:g} rad/s)"
+    )
     axis.set_xlabel(s.criterion.label)
     if not uniform:
         axis.set_xticks(xs, labels, rotation=45 if len(levels) > 8 else 0)
@@ -74,6 +92,14 @@ def criterion_plot(s: CriterionScore, rows: list[dict[str, str]], test: Success,
     _save(figure, path)
     plt.close(figure)
     return path
+
+
+def _relative(row: dict[str, str], test: Success) -> float:
+    """The end state's error in units of the tolerance: the larger of angle and rate."""
+    try:
+        return max(float(row["angle_error"]) / test.angle, float(row["rate_error"]) / test.rate)
+    except ValueError:
+        return math.nan
 
 
 def scores_plot(scores: list[CriterionScore], total: float | None, scene: str, path: Path) -> Path:
@@ -114,8 +140,15 @@ def heatmap(s: CriterionScore, path: Path) -> Path:
             )
     figure, axis = plt.subplots(figsize=(6.5, 5.0))
     axis.set_facecolor("#bbbbbb")
-    image = axis.imshow(grid, origin="lower", aspect="auto", cmap="RdYlGn", vmin=0, vmax=1,
-                        extent=_extent(first) + _extent(second))  # fmt: skip
+    image = axis.imshow(
+        grid,
+        origin="lower",
+        aspect="auto",
+        cmap="RdYlGn",
+        vmin=0,
+        vmax=1,
+        extent=_extent(first) + _extent(second),
+    )
     figure.colorbar(image, ax=axis, label="fraction of runs passed (grey: refused)")
     axis.set_xlabel(s.criterion.axes[0])
     axis.set_ylabel(s.criterion.axes[1])

@@ -57,7 +57,8 @@ def _check_out(out: Path, force: bool) -> None:
         raise SweepError(f"-o {shown_path(out)} is a file: name a folder")
     if out.is_dir() and any(out.iterdir()) and not (out / "runs.csv").exists() and not force:
         raise SweepError(
-            f"{shown_path(out)} holds files and no runs.csv of a sweep: pass another -o, or --force to write there"
+            f"{shown_path(out)} holds files and no runs.csv of a sweep: pass another -o, "
+            "or --force to write there"
         )
 
 
@@ -94,7 +95,8 @@ def sweep(
     nominal = load_scene(path)  # a scene with a problem stops here, with its own message
     if nominal.specialise and any(spec.strip().startswith("parameters.") for spec in vary):
         raise SweepError(
-            f"{shown_path(path)} is specialised (its parameters are compiled in): set specialise = false to sweep them"
+            f"{shown_path(path)} is specialised (its parameters are compiled in): "
+            "set specialise = false to sweep them"
         )
     criteria: list[Criterion] = []
     if scorecard_criteria:
@@ -113,7 +115,12 @@ def sweep(
     out.mkdir(parents=True, exist_ok=True)
     runs_csv = out / "runs.csv"
     finished = table.resumable(runs_csv, tasks, force)
-    values = {(t.criterion, t.level): c.levels[t.level].values for c in criteria for t in tasks if t.criterion == c.name}
+    values = {
+        (t.criterion, t.level): c.levels[t.level].values
+        for c in criteria
+        for t in tasks
+        if t.criterion == c.name
+    }
     todo = [task for task in tasks if task.index not in finished]
     prepare(source)  # generate and build once here: the workers find the simulator in the cache
     rows = dict(finished)
@@ -143,9 +150,17 @@ def sweep(
 
 
 def _write_outputs(
-    out: Path, stem: str, criteria: list[Criterion], rows: list[dict[str, str]], test: Success, seed: int,
-    ran: int, workers: int, seconds: float, plot: bool,
-) -> Outcome:  # fmt: skip
+    out: Path,
+    stem: str,
+    criteria: list[Criterion],
+    rows: list[dict[str, str]],
+    test: Success,
+    seed: int,
+    ran: int,
+    workers: int,
+    seconds: float,
+    plot: bool,
+) -> Outcome:
     found = scoring.score(criteria, rows)
     total = scoring.total(found)
     files = [out / "runs.csv"]

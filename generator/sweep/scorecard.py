@@ -40,14 +40,19 @@ CRITERIA: tuple[Default, ...] = (
     Default("damping", "damping δ ×", "0:2:21"),
     Default("coulomb", "Coulomb friction [N or N m]", "0:0.1:21"),
     Default("period", "controller period [s]", "0.0005,0.001,0.002,0.005,0.01,0.02,0.05"),
-    Default("resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"),
+    Default(
+        "resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"
+    ),
     Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10, needs="sensors.noise"),
     Default("delay", "delay [s]", "0:0.04:21", needs="sensors.delay"),
-    Default("drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise",
-            relative=True),
+    Default(
+        "drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise", relative=True
+    ),
     Default("lag", "drive lag τ [s]", "0:0.05:21", needs="actuator.lag"),
-    Default("pulses", "pulse amplitude / u limit", "0:0.5:5", repeat=10, needs="actuator.pulses", relative=True),
-)  # fmt: skip
+    Default(
+        "pulses", "pulse amplitude / u limit", "0:0.5:5", repeat=10, needs="actuator.pulses", relative=True
+    ),
+)
 NAMES = tuple(default.name for default in CRITERIA)
 PULSE_DURATION = 0.05  # s: one pulse per run, at a time drawn from the run's seed
 
@@ -113,17 +118,23 @@ def pulse(scene: Scene, amplitude: float, seed: int) -> list[list[float]]:
 
 
 def criteria(
-    scene: Scene, chosen: tuple[str, ...] | None = None, levels: dict[str, str] | None = None,
+    scene: Scene,
+    chosen: tuple[str, ...] | None = None,
+    levels: dict[str, str] | None = None,
     repeat: int | None = None,
-) -> list[Criterion]:  # fmt: skip
+) -> list[Criterion]:
     """The scorecard's criteria for `scene` (`chosen`: a subset by name; `levels`: new levels by
     name; `repeat`: the repetitions of the seeded criteria)."""
     levels = dict(levels or {})
     unknown = [name for name in [*(chosen or ()), *levels] if name not in NAMES]
     if unknown:
-        raise SweepError(f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(NAMES)}")
+        raise SweepError(
+            f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(NAMES)}"
+        )
     if scene.controller is None and scene.swingup is None:
-        raise SweepError("--scorecard needs a scene with a [controller] or a [swingup]: it scores a closed loop")
+        raise SweepError(
+            "--scorecard needs a scene with a [controller] or a [swingup]: it scores a closed loop"
+        )
     found = []
     for default in CRITERIA:
         if chosen is not None and default.name not in chosen:
@@ -136,6 +147,8 @@ def criteria(
             refused = NEEDS_SENSORS
         elif default.name == "period" and scene.controller is not None and scene.controller.period is None:
             refused = "the scene's controller is continuous (no controller.period): nothing to vary"
-        built = tuple(Level((value,), _overrides(scene, default.name, value) if not refused else ()) for value in values)
+        built = tuple(
+            Level((value,), _overrides(scene, default.name, value) if not refused else ()) for value in values
+        )
         found.append(Criterion(default.name, default.label, (default.label,), built, reps, refused, seeded))
     return found

@@ -150,7 +150,8 @@ def as_markdown(scene: str, test: Success, scores: list[CriterionScore], runs: i
     for s in scores:
         if s.criterion.refused:
             lines.append(
-                f"| {s.criterion.name} | {s.criterion.label} | {_range(s)} | {s.criterion.repeat} | — | not run | "
+                f"| {s.criterion.name} | {s.criterion.label} | {_range(s)} | {s.criterion.repeat} | — | "
+                f"not run | "
                 f"{s.criterion.refused} |"
             )
             continue

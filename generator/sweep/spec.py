@@ -140,7 +140,8 @@ def parse_vary(spec: str) -> tuple[Key, tuple[float, ...]]:
     """`KEY=LO:HI:N` or `KEY=v1,v2,…` as (key, levels)."""
     if "=" not in spec:
         raise SweepError(
-            f"--vary {abbreviate(spec)!r}: expected KEY=LO:HI:N or KEY=v1,v2,..., e.g. parameters.m[1]=0.2:0.3:5"
+            f"--vary {abbreviate(spec)!r}: expected KEY=LO:HI:N or KEY=v1,v2,..., "
+            "e.g. parameters.m[1]=0.2:0.3:5"
         )
     key_text, _, levels = spec.partition("=")
     return parse_key(key_text), parse_levels(levels, spec)

@@ -117,9 +117,11 @@ def judge(
         if t[last] < test.hold - 1e-9:
             reason = "ended before the hold time"
         elif (links[window] > test.angle).any() or (rates[window] > test.rate).any():
-            reason = "not within the tolerance" if (links[last] > test.angle).any() or (
-                rates[last] > test.rate
-            ).any() else "left the tolerance in the hold time"
+            reason = (
+                "not within the tolerance"
+                if (links[last] > test.angle).any() or (rates[last] > test.rate).any()
+                else "left the tolerance in the hold time"
+            )
         elif test.base is not None and (base[window] > test.base).any():
             reason = "base not within the tolerance"
     return Judgement(passed=not reason, reason=reason, **judgement)

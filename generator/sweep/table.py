@@ -21,9 +21,23 @@ from ipgen.sweep.execute import Result, Task
 from ipgen.sweep.spec import SweepError
 
 COLUMNS: tuple[str, ...] = (
-    "run", "criterion", "level", "values", "repeat", "seed", "overrides", "outcome", "reason", "status",
-    "angle_error", "rate_error", "base_error", "max_travel", "t_final", "seconds",
-)  # fmt: skip
+    "run",
+    "criterion",
+    "level",
+    "values",
+    "repeat",
+    "seed",
+    "overrides",
+    "outcome",
+    "reason",
+    "status",
+    "angle_error",
+    "rate_error",
+    "base_error",
+    "max_travel",
+    "t_final",
+    "seconds",
+)
 OUTCOMES: tuple[str, ...] = ("pass", "fail", "refused")
 # Columns that say what the run was (checked on resume) and what it gave (compared across engines).
 IDENTITY: tuple[str, ...] = ("run", "criterion", "level", "repeat", "seed", "overrides")
