@@ -24,6 +24,9 @@ The public API (stable; everything else is internal):
   fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
   data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
   PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
+- `sweep(scene, out, *, scorecard=False, vary=(), ...) -> Outcome`: the scene run over levels of
+  its keys (the robustness scorecard, or grids of any scene key), scored, with runs.csv,
+  scores.json, scores.md and PNGs written into `out` (`ipgen sweep`, docs/sweep.md).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -55,6 +58,7 @@ __all__ = [
     "identify",
     "linearize",
     "lqr",
+    "sweep",
     "write_header",
 ]
 
@@ -143,6 +147,61 @@ def write_header(
         positive=positive,
     )
     return [written.path for written in run(job)]
+
+
+def sweep(
+    scene: str | Path,
+    out: str | Path,
+    *,
+    scorecard: bool | Iterable[str] = False,
+    vary: Iterable[str] = (),
+    levels: Mapping[str, str] | None = None,
+    repeat: int | None = None,
+    seed: int = 0,
+    angle_tolerance: float = 0.35,
+    rate_tolerance: float = 1.0,
+    hold: float = 1.0,
+    base_tolerance: float | None = None,
+    travel: float | None = None,
+    dask: str | None = None,
+    jobs: int | None = None,
+    force: bool = False,
+    cache_dir: str | Path | None = None,
+    plots: bool = True,
+) -> object:
+    """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
+
+    `scorecard` True runs the robustness scorecard (or an iterable of its criteria's names:
+    mass, com, inertia, damping, coulomb, period, resolution, sensor_noise, delay, drive_noise,
+    lag, pulses), `levels` replaces a criterion's levels ({"mass": "0.5:1.5:11"}); `vary` are
+    "KEY=LO:HI:N" or "KEY=v1,v2,..." texts (several: the grid of all combinations). A run passes
+    when its links end within `angle_tolerance` rad and `rate_tolerance` rad/s of the goal for the
+    last `hold` s, the base within `base_tolerance` (unchecked if None) and its travel (`travel`,
+    default the scene's). `repeat` runs per level with seeds from `seed`; runs go to `jobs` local
+    processes (default all cores) or the Dask scheduler at `dask`. Writes runs.csv, scores.json,
+    scores.md and PNGs into `out` (resuming from its runs.csv unless `force`) and returns the
+    outcome (`.score`, `.scores`, `.rows`, `.files`). Raises an `Error` with a one-line message
+    for a bad specification. docs/sweep.md.
+    """
+    from ipgen.sweeps.runner import sweep as run_sweep
+    from ipgen.sweeps.success import Success
+
+    chosen = scorecard if isinstance(scorecard, bool) else tuple(scorecard)
+    return run_sweep(
+        scene,
+        out,
+        scorecard_criteria=chosen,
+        vary=(vary,) if isinstance(vary, str) else tuple(vary),
+        levels=dict(levels or {}),
+        repeat=repeat,
+        seed=seed,
+        success=Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel),
+        dask=dask,
+        jobs=jobs,
+        force=force,
+        cache=cache_dir,
+        plot=plots,
+    )
 
 
 def __getattr__(attribute: str) -> object:

@@ -129,8 +129,8 @@ def command(
     force: bool,
     cache_dir: Path | None,
 ) -> int:
-    from ipgen.sweep.runner import sweep
-    from ipgen.sweep.success import Success
+    from ipgen.sweeps.runner import sweep
+    from ipgen.sweeps.success import Success
 
     if out is None:
         raise Error(

@@ -8,15 +8,16 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ipgen.common.safetext import shown_path
-from ipgen.sweep import engine, plots, scorecard, table
-from ipgen.sweep import scores as scoring
-from ipgen.sweep.execute import Result, SceneSource, Task, prepare
-from ipgen.sweep.spec import Criterion, SweepError, grid, parse_vary
-from ipgen.sweep.success import Success
+from ipgen.sweeps import engine, plots, scorecard, table
+from ipgen.sweeps import scores as scoring
+from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
+from ipgen.sweeps.spec import Criterion, SweepError, grid, parse_vary
+from ipgen.sweeps.success import Success
 
 MAX_SCENE_CHARS = 1_000_000
 
@@ -62,6 +63,22 @@ def _check_out(out: Path, force: bool) -> None:
         )
 
 
+@dataclass(frozen=True)
+class Planned:
+    """A planned sweep: the scene by value, its criteria, every run, the success test."""
+
+    source: SceneSource
+    criteria: list[Criterion]
+    tasks: list[Task]
+    test: Success
+    seed: int
+
+    def values(self, task: Task) -> tuple[float, ...]:
+        """The values of the run's level."""
+        criterion = next(c for c in self.criteria if c.name == task.criterion)
+        return criterion.levels[task.level].values
+
+
 def sweep(
     scene: str | Path,
     out: str | Path,
@@ -80,13 +97,13 @@ def sweep(
     plot: bool = True,
 ) -> Outcome:
     """Run the sweep of `scene` into the folder `out` (see `ipgen.sweep`)."""
-    import time
-
     from ipgen.scene.reader import load_scene
 
     test = success or Success()
     if repeat is not None and repeat < 1:
         raise SweepError(f"--repeat {repeat}: give a number of runs per level >= 1")
+    if jobs is not None and jobs < 1:
+        raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
     if not isinstance(seed, int) or seed < 0:
         raise SweepError(f"--seed {seed!r}: give an integer >= 0")
     if not scorecard_criteria and not vary:
@@ -110,63 +127,71 @@ def sweep(
     if len(text) > MAX_SCENE_CHARS:
         raise SweepError(f"{shown_path(path)} is too large for a sweep")
     source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
-    tasks = plan(criteria, seed, nominal)
+    planned = Planned(source, criteria, plan(criteria, seed, nominal), test, seed)
     _check_out(out, force)
-    out.mkdir(parents=True, exist_ok=True)
-    runs_csv = out / "runs.csv"
-    finished = table.resumable(runs_csv, tasks, force)
-    values = {
-        (t.criterion, t.level): c.levels[t.level].values
-        for c in criteria
-        for t in tasks
-        if t.criterion == c.name
-    }
-    todo = [task for task in tasks if task.index not in finished]
+    finished = table.resumable(out / "runs.csv", planned.tasks, force)
     prepare(source)  # generate and build once here: the workers find the simulator in the cache
+    with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+        out.mkdir(parents=True, exist_ok=True)
+        return _run(planned, finished, pool, workers, out, progress, plot)
+
+
+def _run(
+    planned: Planned,
+    finished: dict[int, dict[str, str]],
+    pool: Executor,
+    workers: int,
+    out: Path,
+    progress: Callable[[int, int], None] | None,
+    plot: bool,
+) -> Outcome:
+    """Run what the table lacks on `pool`, appending to runs.csv as batches finish; write the outputs."""
+    import time
+
+    runs_csv = out / "runs.csv"
+    todo = [task for task in planned.tasks if task.index not in finished]
     rows = dict(finished)
     appender = table.Appender(runs_csv, [rows[i] for i in sorted(rows)])
-    count = [len(finished)]
+    total = len(planned.tasks)
     if progress is not None:
-        progress(count[0], len(tasks))
+        progress(len(rows), total)
 
     def done(results: list[Result]) -> None:
-        new = [table.row(result, values[result.task.criterion, result.task.level]) for result in results]
+        new = [table.row(result, planned.values(result.task)) for result in results]
         appender.add(new)
         for result, written in zip(results, new, strict=True):
             rows[result.task.index] = written
-        count[0] += len(results)
         if progress is not None:
-            progress(count[0], len(tasks))
+            progress(len(rows), total)
 
     started = time.perf_counter()
     try:
-        workers = engine.execute(source, todo, test, dask=dask, jobs=jobs, done=done)
+        if todo:
+            engine.execute(pool, workers, planned.source, todo, planned.test, done)
     finally:
         appender.close()
     seconds = time.perf_counter() - started
     ordered = [rows[i] for i in sorted(rows)]
     table.write_all(runs_csv, ordered)
-    return _write_outputs(out, nominal.stem, criteria, ordered, test, seed, len(todo), workers, seconds, plot)
+    found = scoring.score(planned.criteria, ordered)
+    files = _write_outputs(out, planned.source.stem, planned, found, ordered, plot)
+    return Outcome(files, found, scoring.total(found), len(ordered), len(todo), workers, seconds, ordered)
 
 
 def _write_outputs(
     out: Path,
     stem: str,
-    criteria: list[Criterion],
+    planned: Planned,
+    found: list[scoring.CriterionScore],
     rows: list[dict[str, str]],
-    test: Success,
-    seed: int,
-    ran: int,
-    workers: int,
-    seconds: float,
     plot: bool,
-) -> Outcome:
-    found = scoring.score(criteria, rows)
+) -> list[Path]:
+    """scores.json, scores.md and the PNGs; the files written (runs.csv first)."""
     total = scoring.total(found)
     files = [out / "runs.csv"]
     for name, text in (
-        ("scores.json", scoring.as_json(stem, test, found, seed)),
-        ("scores.md", scoring.as_markdown(stem, test, found, len(rows))),
+        ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed)),
+        ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows))),
     ):
         partial = out / f".{name}.partial"
         partial.write_text(text)
@@ -177,8 +202,10 @@ def _write_outputs(
             if s.criterion.refused or not s.criterion.levels:
                 continue
             if len(s.criterion.axes) == 1:
-                files.append(plots.criterion_plot(s, rows, test, out / f"criterion_{s.criterion.name}.png"))
+                files.append(
+                    plots.criterion_plot(s, rows, planned.test, out / f"criterion_{s.criterion.name}.png")
+                )
             elif len(s.criterion.axes) == 2:
                 files.append(plots.heatmap(s, out / f"{s.criterion.name}.png"))
         files.append(plots.scores_plot(found, total, stem, out / "scores.png"))
-    return Outcome(files, found, total, len(rows), ran, workers, seconds, rows)
+    return files

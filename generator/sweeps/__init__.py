@@ -1,4 +1,5 @@
-"""Robustness sweeps (`ipgen sweep`, `ipgen.sweep`): a scene run over levels of its keys.
+"""Robustness sweeps (`ipgen sweep`; `ipgen.sweep`, this package `ipgen.sweeps`): a scene run over
+levels of its keys.
 
 A sweep is a list of criteria (`spec.Criterion`), each a list of levels, each level a set of
 scene-key overrides run `repeat` times with explicit seeds. A run is a pure function of (scene

@@ -14,7 +14,7 @@ from decimal import Decimal
 from typing import TYPE_CHECKING, Any
 
 from ipgen.model.links import rod_value
-from ipgen.sweep.spec import Key, SweepError, parse_key
+from ipgen.sweeps.spec import Key, SweepError, parse_key
 
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene

@@ -23,9 +23,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.errors import Error
-from ipgen.sweep import overrides as override
-from ipgen.sweep.spec import supported
-from ipgen.sweep.success import Success, judge
+from ipgen.sweeps import overrides as override
+from ipgen.sweeps.spec import supported
+from ipgen.sweeps.success import Success, judge
 
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene

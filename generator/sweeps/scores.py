@@ -8,8 +8,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
-from ipgen.sweep.spec import Criterion
-from ipgen.sweep.success import Success
+from ipgen.sweeps.spec import Criterion
+from ipgen.sweeps.success import Success
 
 
 @dataclass(frozen=True)

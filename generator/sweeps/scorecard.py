@@ -14,8 +14,8 @@ import hashlib
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.sweep.overrides import nominal_array
-from ipgen.sweep.spec import NEEDS_SENSORS, Criterion, Key, Level, SweepError, parse_levels, supported
+from ipgen.sweeps.overrides import nominal_array
+from ipgen.sweeps.spec import NEEDS_SENSORS, Criterion, Key, Level, SweepError, parse_levels, supported
 
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene

@@ -12,12 +12,12 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 
 from ipgen.common.safetext import abbreviate
-from ipgen.sweep.execute import Result, SceneSource, Task, run_batch
-from ipgen.sweep.spec import SweepError
-from ipgen.sweep.success import Success
+from ipgen.sweeps.execute import Result, SceneSource, Task, run_batch
+from ipgen.sweeps.spec import SweepError
+from ipgen.sweeps.success import Success
 
 DASK_INSTALL = "pip install 'ipgen-pendulum[dask]'"
-CONNECT_TIMEOUT = "10s"
+CONNECT_TIMEOUT = "5s"
 
 
 def default_jobs() -> int:
@@ -69,24 +69,19 @@ def batches(tasks: list[Task], workers: int) -> list[list[Task]]:
 
 
 def execute(
+    pool: Executor,
+    workers: int,
     source: SceneSource,
     tasks: list[Task],
     test: Success,
-    *,
-    dask: str | None = None,
-    jobs: int | None = None,
     done: Callable[[list[Result]], None] = lambda results: None,
-) -> int:
-    """Run `tasks`, calling `done` with each finished batch's results; the number of workers."""
-    if not tasks:
-        return 0
-    with executor(dask, jobs) as (pool, workers):
-        futures = [pool.submit(run_batch, source, batch, test) for batch in batches(tasks, workers)]
-        try:
-            for future in as_completed(futures):
-                done(future.result())
-        except BaseException:
-            for future in futures:
-                future.cancel()
-            raise
-    return workers
+) -> None:
+    """Run `tasks` on `pool` (from `executor`), calling `done` with each finished batch's results."""
+    futures = [pool.submit(run_batch, source, batch, test) for batch in batches(tasks, workers)]
+    try:
+        for future in as_completed(futures):
+            done(future.result())
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        raise

@@ -8,8 +8,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from ipgen.sweep.scores import CriterionScore
-from ipgen.sweep.success import Success
+from ipgen.sweeps.scores import CriterionScore
+from ipgen.sweeps.success import Success
 
 FLOOR = 1e-8  # relative errors below are drawn at the floor of the log axis
 COLOURS = {"pass": "#2a9d3a", "fail": "#d62728", "refused": "#999999"}

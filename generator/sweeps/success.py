@@ -15,7 +15,7 @@ import math
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.sweep.spec import SweepError
+from ipgen.sweeps.spec import SweepError
 
 if TYPE_CHECKING:
     import numpy as np

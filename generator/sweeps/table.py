@@ -17,8 +17,8 @@ import os
 from pathlib import Path
 
 from ipgen.common.safetext import shown_path
-from ipgen.sweep.execute import Result, Task
-from ipgen.sweep.spec import SweepError
+from ipgen.sweeps.execute import Result, Task
+from ipgen.sweeps.spec import SweepError
 
 COLUMNS: tuple[str, ...] = (
     "run",
