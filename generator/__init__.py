@@ -45,6 +45,7 @@ from ipgen.errors import Error
 if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
+    from ipgen.sweeps.runner import Outcome
 
 
 __all__ = [
@@ -168,7 +169,7 @@ def sweep(
     force: bool = False,
     cache_dir: str | Path | None = None,
     plots: bool = True,
-) -> object:
+) -> Outcome:
     """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
 
     `scorecard` True runs the robustness scorecard (or an iterable of its criteria's names:

@@ -38,6 +38,8 @@ class SceneSource:
     stem: str
     text: str
     cache: str | None = None  # the simulators' cache folder (None: ipgen's default)
+    model: str = ""  # the model's name and generated header, when the caller has them (else the
+    header: str = ""  # worker generates them: the same text, as generation is deterministic)
 
     @property
     def digest(self) -> str:
@@ -82,6 +84,8 @@ class Prepared:
     document: dict
     simulator: Path
     scratch: Path
+    model: str
+    header: str
 
 
 _PREPARED: dict[str, Prepared] = {}
@@ -115,9 +119,13 @@ def prepare(source: SceneSource) -> Prepared:
         atexit.register(shutil.rmtree, scratch, ignore_errors=True)
         path = scratch / f"{source.stem}.toml"
         path.write_text(source.text)
-        name, header = header_text(path, scratch / "model")
+        name, header = (
+            (source.model, source.header) if source.header else header_text(path, scratch / "model")
+        )
         simulator = build(header, name, None if source.cache is None else Path(source.cache))
-        prepared = Prepared(path, load_scene(path), read_document(path), simulator.path, scratch)
+        prepared = Prepared(
+            path, load_scene(path), read_document(path), simulator.path, scratch, name, header
+        )
         _PREPARED[source.digest] = prepared
         return prepared
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ipgen.common.safetext import shown_path
@@ -126,11 +126,15 @@ def sweep(
     text = path.read_text()
     if len(text) > MAX_SCENE_CHARS:
         raise SweepError(f"{shown_path(path)} is too large for a sweep")
-    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
-    planned = Planned(source, criteria, plan(criteria, seed, nominal), test, seed)
+    tasks = plan(criteria, seed, nominal)
     _check_out(out, force)
-    finished = table.resumable(out / "runs.csv", planned.tasks, force)
-    prepare(source)  # generate and build once here: the workers find the simulator in the cache
+    finished = table.resumable(out / "runs.csv", tasks, force)
+    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
+    # Generated and built once here: the workers get the header and find the simulator in the cache
+    # (forked local workers inherit this preparation).
+    prepared = prepare(source)
+    source = replace(source, model=prepared.model, header=prepared.header)
+    planned = Planned(source, criteria, tasks, test, seed)
     with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
         out.mkdir(parents=True, exist_ok=True)
         return _run(planned, finished, pool, workers, out, progress, plot)
