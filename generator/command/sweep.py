@@ -46,6 +46,7 @@ class _Progress:
     def close(self) -> None:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
+            self.bar = None
 
 
 def _criterion(spec: str) -> tuple[str, str]:
@@ -159,6 +160,13 @@ def command(
             cache=cache_dir,
             progress=progress,
         )
+    except KeyboardInterrupt:
+        progress.close()
+        click.echo(
+            f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
+            err=True,
+        )
+        return 130
     finally:
         progress.close()
     resumed = outcome.runs - outcome.ran
