@@ -44,7 +44,7 @@ CRITERIA: tuple[Default, ...] = (
         "resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"
     ),
     Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10, needs="sensors.noise"),
-    Default("delay", "delay [s]", "0:0.04:21", needs="sensors.delay"),
+    Default("delay", "delay [s]", "0:0.04:21", needs="sensors.delay"),  # multiples of the period: _delays
     Default(
         "drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise", relative=True
     ),
@@ -117,6 +117,21 @@ def pulse(scene: Scene, amplitude: float, seed: int) -> list[list[float]]:
     return [[round(start, 6), PULSE_DURATION, sign * amplitude * input_limit(scene)]]
 
 
+def _delays(scene: Scene) -> str:
+    """The delay levels: whole multiples of the loop's period from 0 to 40 ms (at most 21 of them,
+    evenly spaced), as a delay must be a multiple of the period; "" without a period."""
+    period = (
+        scene.swingup.period
+        if scene.swingup is not None
+        else (scene.controller.period if scene.controller is not None else None)
+    )
+    if not period:
+        return ""
+    steps = int(0.04 / period + 1e-9)
+    stride = max(1, -(-steps // 20))
+    return ",".join(repr(k * period) for k in range(0, steps + 1, stride))
+
+
 def criteria(
     scene: Scene,
     chosen: tuple[str, ...] | None = None,
@@ -139,7 +154,9 @@ def criteria(
     for default in CRITERIA:
         if chosen is not None and default.name not in chosen:
             continue
-        values = parse_levels(levels.get(default.name, default.levels), f"{default.name}={default.levels}")
+        text = levels.get(default.name) or _delays(scene) if default.name == "delay" else None
+        text = text or levels.get(default.name, default.levels)
+        values = parse_levels(text, f"{default.name}={text}")
         reps = default.repeat if repeat is None or default.repeat == 1 else repeat
         seeded = default.repeat > 1
         refused = ""
