@@ -29,6 +29,7 @@ from ipgen.sweeps.spec import SweepError, parse_key, parse_levels, parse_vary
 from ipgen.sweeps.success import Success, judge
 from ipgen.sweeps.table import RESULT
 
+ROOT = Path(__file__).resolve().parents[1]
 SCENE = """\
 [system]
 type = "rotary"
@@ -336,3 +337,13 @@ def test_no_scheduler_at_the_address_is_one_line(scene: Path, tmp_path: Path, ca
                   "tcp://127.0.0.1:9"])  # fmt: skip
     err = capsys.readouterr().err
     assert status == 2 and "cannot reach a Dask scheduler" in err and err.count("\n") == 1
+
+
+def test_delay_levels_are_whole_multiples_of_the_period() -> None:
+    from ipgen.sweeps.scorecard import delay_levels
+
+    kilohertz = [float(v) for v in delay_levels(load_scene(ROOT / "scenes" / "rsip_lqr.toml")).split(",")]
+    assert len(kilohertz) == 21 and kilohertz[0] == 0 and math.isclose(kilohertz[-1], 0.04)
+    assert all(math.isclose(v / 0.001, round(v / 0.001), abs_tol=1e-9) for v in kilohertz)
+    hundred = delay_levels(load_scene(ROOT / "scenes" / "rsip_swingup.toml"))
+    assert [float(v) for v in hundred.split(",")] == [0.0, 0.01, 0.02, 0.03, 0.04]

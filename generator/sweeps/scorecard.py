@@ -44,7 +44,9 @@ CRITERIA: tuple[Default, ...] = (
         "resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"
     ),
     Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10, needs="sensors.noise"),
-    Default("delay", "delay [s]", "0:0.04:21", needs="sensors.delay"),  # multiples of the period: _delays
+    Default(
+        "delay", "delay [s]", "0:0.04:21", needs="sensors.delay"
+    ),  # multiples of the period: delay_levels
     Default(
         "drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise", relative=True
     ),
@@ -117,7 +119,7 @@ def pulse(scene: Scene, amplitude: float, seed: int) -> list[list[float]]:
     return [[round(start, 6), PULSE_DURATION, sign * amplitude * input_limit(scene)]]
 
 
-def _delays(scene: Scene) -> str:
+def delay_levels(scene: Scene) -> str:
     """The delay levels: whole multiples of the loop's period from 0 to 40 ms (at most 21 of them,
     evenly spaced), as a delay must be a multiple of the period; "" without a period."""
     period = (
@@ -154,7 +156,7 @@ def criteria(
     for default in CRITERIA:
         if chosen is not None and default.name not in chosen:
             continue
-        text = levels.get(default.name) or _delays(scene) if default.name == "delay" else None
+        text = levels.get(default.name) or delay_levels(scene) if default.name == "delay" else None
         text = text or levels.get(default.name, default.levels)
         values = parse_levels(text, f"{default.name}={text}")
         reps = default.repeat if repeat is None or default.repeat == 1 else repeat
