@@ -213,17 +213,58 @@ def sweep(
 ) -> Outcome:
     """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
 
-    `scorecard` True runs the robustness scorecard (or an iterable of its criteria's names:
-    mass, com, inertia, damping, coulomb, period, resolution, sensor_noise, delay, drive_noise,
-    lag, pulses), `levels` replaces a criterion's levels ({"mass": "0.5:1.5:11"}); `vary` are
-    "KEY=LO:HI:N" or "KEY=v1,v2,..." texts (several: the grid of all combinations). A run passes
-    when its links end within `angle_tolerance` rad and `rate_tolerance` rad/s of the goal for the
-    last `hold` s, the base within `base_tolerance` (unchecked if None) and its travel (`travel`,
-    default the scene's). `repeat` runs per level with seeds from `seed`; runs go to `jobs` local
-    processes (default all cores) or the Dask scheduler at `dask`. Writes runs.csv, scores.json,
-    scores.md and PNGs into `out` (resuming from its runs.csv unless `force`) and returns the
-    outcome (`.score`, `.scores`, `.rows`, `.files`). Raises an `Error` with a one-line message
-    for a bad specification. docs/sweep.md.
+    Each run is the scene with some keys overridden in memory: the plant changes, the controller
+    stays the one designed on the nominal scene (a [controller]/[swingup] key designs it anew).
+    docs/sweep.md is the guide.
+
+    Parameters
+    ----------
+    scene : str or Path
+        The scene file (TOML) with a [controller] or a [swingup].
+    out : str or Path
+        The folder for runs.csv, scores.json, scores.md and the PNGs; its runs.csv, if there, is
+        resumed.
+    scorecard : bool or iterable of str, optional
+        True: the robustness scorecard's criteria; or some of their names (mass, com, inertia,
+        damping, coulomb, period, resolution, sensor_noise, delay, drive_noise, lag, pulses).
+    vary : iterable of str, optional
+        "KEY=LO:HI:N" or "KEY=v1,v2,..." (e.g. "initial.theta[1]=-1:1:21"); several make the grid
+        of all their combinations.
+    levels : mapping of str to str, optional
+        A scorecard criterion's levels in the same notation, e.g. {"mass": "0.5:1.5:11"}.
+    repeat : int, optional
+        Runs per level (the seeded criteria; `vary`: default 1).
+    seed : int, optional
+        The base of every run's seed (each run's seed is written in runs.csv).
+    angle_tolerance, rate_tolerance, hold : float, optional
+        The success test: every link within `angle_tolerance` rad of the goal and `rate_tolerance`
+        rad/s over the last `hold` s (defaults 0.35, 1, 1).
+    base_tolerance : float, optional
+        The base's tolerance about the goal [m or rad] (default: not checked).
+    travel : float, optional
+        The base's travel limit |θ0| (default: the scene's limits.travel).
+    dask : str, optional
+        A Dask scheduler's address: run there (needs ``pip install 'ipgen-pendulum[dask]'``).
+    jobs : int, optional
+        Local worker processes (default: all cores).
+    force : bool, optional
+        Start over (ignore an earlier runs.csv), write into a folder holding other files.
+    cache_dir : str or Path, optional
+        The compiled simulators' cache (default: ipgen's).
+    plots : bool, optional
+        Write the PNGs (default True).
+
+    Returns
+    -------
+    Outcome
+        `.score` (the mean of the criteria's scores), `.scores` (per criterion), `.rows` (the
+        table), `.files`, `.runs`, `.ran` (run now), `.workers`, `.seconds`.
+
+    Raises
+    ------
+    Error
+        A one-line message for a bad specification (unknown key, empty range, ...), a scene ipgen
+        refuses, an unreachable scheduler; nothing is written then.
     """
     from ipgen.sweeps.runner import sweep as run_sweep
     from ipgen.sweeps.success import Success
