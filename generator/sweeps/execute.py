@@ -18,7 +18,7 @@ import subprocess
 import tempfile
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -154,6 +154,25 @@ def _seeded(prepared: Prepared, task: Task) -> tuple[tuple[str, object], ...]:
     return (*task.overrides, ("sensors.seed", task.seed))
 
 
+# The estimator's model in a scene's measured loop (issue 32's `Loop`): designed on the nominal scene
+# like the controller, kept when a run changes the plant or the sensors (not an [estimator] key).
+ESTIMATOR_MODEL: tuple[str, ...] = (
+    "A", "B", "gain", "equilibrium", "input_equilibrium", "process_noise", "measurement_noise",
+)  # fmt: skip
+
+
+def nominal_estimator(scene: Scene, nominal: Scene, changes: tuple[tuple[str, object], ...]) -> Scene:
+    """`scene` with the nominal scene's estimator model (gains, linearisation, covariances), unless
+    the run designs anew (a [controller], [swingup] or [estimator] key) or has no measured loop."""
+    loop, designed = getattr(scene, "loop", None), getattr(nominal, "loop", None)
+    if loop is None or designed is None or loop.estimator != designed.estimator:
+        return scene
+    if override.designs(changes) or any(key.startswith("estimator.") for key, _ in changes):
+        return scene
+    kept = {name: getattr(designed, name) for name in ESTIMATOR_MODEL if hasattr(designed, name)}
+    return replace(scene, loop=replace(loop, **kept))  # type: ignore[call-arg]
+
+
 def _refused(task: Task, reason: str, started: float) -> Result:
     nan = float("nan")
     return Result(task, "refused", reason, None, nan, nan, nan, nan, nan, time.perf_counter() - started)
@@ -180,7 +199,9 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         changes = _seeded(prepared, task)
         document = override.apply(prepared.document, prepared.scene, changes)
         designed = None if override.designs(changes) else prepared.scene
-        scene = scene_from_document(prepared.path, document, designed=designed)
+        scene = nominal_estimator(
+            scene_from_document(prepared.path, document, designed=designed), prepared.scene, changes
+        )
     except Error as error:
         return _refused(task, _message(error, prepared.path), started)
     if scene.controller is not None:

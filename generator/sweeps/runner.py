@@ -118,7 +118,10 @@ def sweep(
     criteria: list[Criterion] = []
     if scorecard_criteria:
         chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
-        criteria += scorecard.criteria(nominal, chosen, levels, repeat)
+        from ipgen.scene.reader import read_document
+
+        estimator = read_document(path).get("estimator", {}).get("kind", "exact")
+        criteria += scorecard.criteria(nominal, chosen, levels, repeat, str(estimator))
     elif levels:
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:

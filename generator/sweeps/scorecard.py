@@ -56,6 +56,7 @@ CRITERIA: tuple[Default, ...] = (
     ),
 )
 NAMES = tuple(default.name for default in CRITERIA)
+MEASUREMENT = ("resolution", "sensor_noise")  # criteria that act through the estimator only
 PULSE_DURATION = 0.05  # s: one pulse per run, at a time drawn from the run's seed
 
 
@@ -139,9 +140,12 @@ def criteria(
     chosen: tuple[str, ...] | None = None,
     levels: dict[str, str] | None = None,
     repeat: int | None = None,
+    estimator: str = "exact",
 ) -> list[Criterion]:
     """The scorecard's criteria for `scene` (`chosen`: a subset by name; `levels`: new levels by
-    name; `repeat`: the repetitions of the seeded criteria)."""
+    name; `repeat`: the repetitions of the seeded criteria; `estimator`: the scene's
+    [estimator] kind — with "exact" the controller sees the true state, so the measurement's
+    resolution and noise change nothing and those criteria are not run)."""
     levels = dict(levels or {})
     unknown = [name for name in [*(chosen or ()), *levels] if name not in NAMES]
     if unknown:
@@ -166,6 +170,11 @@ def criteria(
             refused = NEEDS_SENSORS
         elif default.name == "period" and scene.controller is not None and scene.controller.period is None:
             refused = "the scene's controller is continuous (no controller.period): nothing to vary"
+        elif default.name in MEASUREMENT and estimator == "exact":
+            refused = (
+                'the controller sees the exact state ([estimator] kind = "exact"): the measurement changes '
+                "nothing; give the scene an estimator to score it"
+            )
         built = tuple(
             Level((value,), _overrides(scene, default.name, value) if not refused else ()) for value in values
         )
