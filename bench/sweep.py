@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import time
 from pathlib import Path
@@ -52,12 +53,26 @@ SCALING = ("initial.theta[1]=-1.2:1.2:12", "initial.dtheta[1]=-6:6:12")
 TARGET = 120.0  # s for the ≈ 700-run sweep
 
 
+CPU: dict[str, float] = {}  # label -> CPU seconds of the sweep (this process and every worker)
+
+
+def _cpu() -> float:
+    """CPU seconds (user + system) of this process and its reaped descendants (workers, simulators)."""
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def _timed(label: str, **kwargs: Any) -> tuple[Outcome, float]:
     print(f"{label} ...", flush=True)
+    cpu = _cpu()
     started = time.perf_counter()
     outcome = ipgen.sweep(force=True, **kwargs)
     seconds = time.perf_counter() - started
-    print(f"  {outcome.runs} runs in {seconds:.1f} s (load {os.getloadavg()[0]:.1f})", flush=True)
+    CPU[label] = _cpu() - cpu
+    print(
+        f"  {outcome.runs} runs in {seconds:.1f} s, {CPU[label]:.1f} CPU s (load {os.getloadavg()[0]:.1f})",
+        flush=True,
+    )
     return outcome, seconds
 
 
@@ -73,9 +88,11 @@ def _dask_cluster(workers: int) -> object:
     )
 
 
-def _row(label: str, outcome: Outcome, seconds: float, workers: int) -> list[str]:
-    """A table row: runs, wall time of the whole command, of the runs alone, runs/s (runs alone)."""
+def _row(label: str, outcome: Outcome, seconds: float, workers: int, cpu: float | None = None) -> list[str]:
+    """A table row: runs, wall time of the whole command and of the runs alone, runs/s (runs alone),
+    CPU ms per run (the whole command's CPU time in every process, over its runs)."""
     rate = outcome.runs / outcome.seconds
+    shown = "–" if cpu is None else f"{1000 * cpu / outcome.runs:.0f}"
     return [
         label,
         str(outcome.runs),
@@ -83,6 +100,7 @@ def _row(label: str, outcome: Outcome, seconds: float, workers: int) -> list[str
         f"{outcome.seconds:.1f}",
         f"{rate:.1f}",
         f"{rate / workers:.1f}",
+        shown,
     ]
 
 
@@ -93,7 +111,15 @@ def speed(out: Path, quick: bool) -> list[str]:
     card, card_s = _timed(
         "the scorecard, 2 local workers", scene=RSIP, out=work / "card", scorecard=True, jobs=2
     )
-    rows.append(_row("the scorecard (the criteria this ipgen has), 2 local workers", card, card_s, 2))
+    rows.append(
+        _row(
+            "the scorecard (the criteria this ipgen has), 2 local workers",
+            card,
+            card_s,
+            2,
+            CPU["the scorecard, 2 local workers"],
+        )
+    )
     basin = BASIN if not quick else ("initial.theta[1]=-1.2:1.2:8", "initial.dtheta[1]=-6:6:8")
     load_before = os.getloadavg()
     big, big_s = _timed(
@@ -106,7 +132,15 @@ def speed(out: Path, quick: bool) -> list[str]:
     )
     load_after = os.getloadavg()
     grid = big.scores[-1]
-    rows.append(_row(f"the scorecard + the basin {grid.criterion.label}, 2 local workers", big, big_s, 2))
+    rows.append(
+        _row(
+            f"the scorecard + the basin {grid.criterion.label}, 2 local workers",
+            big,
+            big_s,
+            2,
+            CPU["the scorecard + the basin grid, 2 local workers"],
+        )
+    )
     shutil.copyfile(work / "big" / "grid.png", out / "sweep_basin.png")
     scaling = SCALING if not quick else ("initial.theta[1]=-1.2:1.2:6", "initial.dtheta[1]=-6:6:6")
     tables = {}
@@ -126,6 +160,7 @@ def speed(out: Path, quick: bool) -> list[str]:
                 outcome,
                 seconds,
                 jobs,
+                CPU[f"the scaling grid, {jobs} local worker(s)"],
             )
         )
     dask_version = "not installed"
@@ -153,7 +188,9 @@ def speed(out: Path, quick: bool) -> list[str]:
                     )
                 )
     except ImportError:
-        rows.append(["Dask LocalCluster", "–", "not run: pip install 'ipgen-pendulum[dask]'", "–", "–", "–"])
+        rows.append(
+            ["Dask LocalCluster", "–", "not run: pip install 'ipgen-pendulum[dask]'", "–", "–", "–", "–"]
+        )
     same = all(t == tables["1 local"] for t in tables.values())
     per_run = [float(row["seconds"]) for row in big.rows]
     mean_run = sum(per_run) / len(per_run)
@@ -172,9 +209,14 @@ def speed(out: Path, quick: bool) -> list[str]:
         "design —, generating its header, the pool's start, the runs, the plots); *runs* the runs alone "
         "(from the first submission to the last result), from which runs/s is computed. *cold*: the Dask "
         "workers' first sweep (each worker process imports ipgen and prepares the scene); *warm*: the same "
-        "sweep again on the running cluster.",
+        "sweep again on the running cluster. *CPU ms per run*: the CPU time (user + system) of the whole "
+        "command in every process — this one, the workers, the simulators — over its runs; it does not "
+        "depend on the other sessions' load (the Dask workers are not this process's children: not counted).",
         "",
-        *table(["sweep", "runs", "command [s]", "runs [s]", "runs/s", "runs/s per worker"], rows),
+        *table(
+            ["sweep", "runs", "command [s]", "runs [s]", "runs/s", "runs/s per worker", "CPU ms per run"],
+            rows,
+        ),
         "",
         f"- Target: ≈ 700 runs of 10 s in ≤ {TARGET:.0f} s on this 2-core machine: "
         f"{big.runs} runs took {big_s:.1f} s — " + ("met" if big_s <= TARGET else "NOT met") + ".",
