@@ -52,7 +52,12 @@ CRITERIA: tuple[Default, ...] = (
     ),
     Default("lag", "drive lag τ [s]", "0:0.05:21", needs="actuator.lag"),
     Default(
-        "pulses", "pulse amplitude / u limit", "0:0.5:5", repeat=10, needs="actuator.pulses", relative=True
+        "pulses",
+        "pulse amplitude / input limit (as force)",
+        "0:0.5:5",
+        repeat=10,
+        needs="actuator.pulses",
+        relative=True,
     ),
 )
 NAMES = tuple(default.name for default in CRITERIA)
@@ -73,6 +78,13 @@ def input_limit(scene: Scene) -> float:
     if scene.controller is not None and scene.controller.saturation is not None:
         return scene.controller.saturation
     return 1.0
+
+
+def force_limit(scene: Scene) -> float:
+    """The input limit as a force or torque on the base [N or N m] (pulses act there): with a
+    dc_motor the voltage limit times the motor's gain (N m or N per volt)."""
+    limit = input_limit(scene)
+    return limit * scene.actuator.gain() if scene.actuator.is_motor else limit
 
 
 def _scaled(scene: Scene, name: str, factor: float) -> list[float]:
@@ -110,14 +122,15 @@ def _overrides(scene: Scene, name: str, value: float) -> tuple[tuple[str, object
 
 
 def pulse(scene: Scene, amplitude: float, seed: int) -> list[list[float]]:
-    """One pulse of `PULSE_DURATION` s, sign and start drawn from `seed` (numpy PCG64): its start
-    uniform in [1 s, t_end − 2 s] (the run has time to recover before the hold window)."""
+    """One pulse of `PULSE_DURATION` s on the base, `amplitude` times `force_limit`, sign and start
+    drawn from `seed` (numpy PCG64): its start uniform in [1 s, t_end − 2 s] (the run has time to
+    recover before the hold window)."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
     start = float(rng.uniform(1.0, max(1.0, scene.t_end - 2.0)))
     sign = 1.0 if rng.random() < 0.5 else -1.0
-    return [[round(start, 6), PULSE_DURATION, sign * amplitude * input_limit(scene)]]
+    return [[round(start, 6), PULSE_DURATION, sign * amplitude * force_limit(scene)]]
 
 
 def delay_levels(scene: Scene) -> str:
@@ -170,6 +183,8 @@ def criteria(
             refused = NEEDS_SENSORS
         elif default.name == "period" and scene.controller is not None and scene.controller.period is None:
             refused = "the scene's controller is continuous (no controller.period): nothing to vary"
+        elif default.name == "pulses" and scene.actuator.is_acceleration:
+            refused = "the base follows the commanded acceleration: a force pulse on it changes nothing"
         elif default.name in MEASUREMENT and estimator == "exact":
             refused = (
                 'the controller sees the exact state ([estimator] kind = "exact"): the measurement changes '
