@@ -273,6 +273,7 @@ def robustness(out: Path, quick: bool) -> list[str]:
             "",
         ]
     summary = []
+    summary_at = len(lines)
     for label, scene, own in ROBUSTNESS:
         stem = scene.stem
         outcome, seconds = _timed(
@@ -299,7 +300,10 @@ def robustness(out: Path, quick: bool) -> list[str]:
             f"![scores](robustness_{stem}.png)",
             "",
         ]
-    lines[7:7] = [*table(["controller", "scene", "score", "runs", "wall time [s]"], summary), ""]
+    lines[summary_at:summary_at] = [
+        *table(["controller", "scene", "score", "runs", "wall time [s]"], summary),
+        "",
+    ]
     lines += [
         f"Success test: {Success().text()}.",
         "",
