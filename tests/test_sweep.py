@@ -347,3 +347,10 @@ def test_delay_levels_are_whole_multiples_of_the_period() -> None:
     assert all(math.isclose(v / 0.001, round(v / 0.001), abs_tol=1e-9) for v in kilohertz)
     hundred = delay_levels(load_scene(ROOT / "scenes" / "rsip_swingup.toml"))
     assert [float(v) for v in hundred.split(",")] == [0.0, 0.01, 0.02, 0.03, 0.04]
+
+
+def test_the_package_does_not_shadow_the_function() -> None:
+    """The library is the package ipgen.sweeps; ipgen.sweep stays the function after importing it."""
+    import ipgen.sweeps.runner
+
+    assert callable(ipgen.sweep) and ipgen.sweep.__module__ == "ipgen"
