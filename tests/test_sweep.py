@@ -354,3 +354,25 @@ def test_the_package_does_not_shadow_the_function() -> None:
     import ipgen.sweeps.runner
 
     assert callable(ipgen.sweep) and ipgen.sweep.__module__ == "ipgen"
+
+
+def test_the_estimator_stays_the_nominal_design() -> None:
+    """With issue 32's measured loop: a run on a heavier plant keeps the Kalman filter designed on the
+    nominal scene (its A, gain), and gets its own seed; an [estimator] key designs it anew."""
+    path = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"
+    if not spec.supported("sensors.noise") or not path.is_file():
+        pytest.skip("needs [sensors] support (issue 32)")
+    from ipgen.scene.reader import read_document, scene_from_document
+    from ipgen.sweeps import overrides
+    from ipgen.sweeps.execute import nominal_estimator
+
+    nominal, document = load_scene(path), read_document(path)
+    heavier = (("parameters.m", [1.2 * m for m in nominal.m]), ("sensors.seed", 7))
+    changed = scene_from_document(path, overrides.apply(document, nominal, heavier), designed=nominal)
+    assert changed.loop.A != nominal.loop.A  # the scene format designs on the changed parameters...
+    kept = nominal_estimator(changed, nominal, heavier)
+    assert kept.loop.A == nominal.loop.A and kept.loop.gain == nominal.loop.gain  # ...the sweep keeps it
+    assert kept.loop.seed == 7 and kept.m == changed.m
+    retuned = (*heavier, ("estimator.kind", "kalman"))
+    anew = scene_from_document(path, overrides.apply(document, nominal, retuned), designed=nominal)
+    assert nominal_estimator(anew, nominal, retuned).loop.A == changed.loop.A
