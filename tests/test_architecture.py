@@ -165,7 +165,7 @@ def test_no_private_name_is_imported_across_modules() -> None:
     assert not new, f"private names imported from another module (make them public or move them): {new}"
     sources = {name.rsplit(".", 1)[0] for _, name in found}
     fixed = sorted(KNOWN_PRIVATE_SOURCES - sources)
-    assert not fixed, f"no private names imported from these any more, remove from KNOWN_PRIVATE_SOURCES: {fixed}"
+    assert not fixed, f"not imported privately any more, remove from KNOWN_PRIVATE_SOURCES: {fixed}"
 
 
 def test_the_private_import_check_finds_one(tmp_path: Path) -> None:
