@@ -20,7 +20,6 @@ from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
-from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import controller as control
@@ -169,32 +168,14 @@ class Scene:
         """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
         + the rotor's reflected inertia, as rationals of the decimals written (the motor
         constants by their shortest repr), so that the resolved config and a specialised
-        header agree to the last bit (`actuator.fold` in exact arithmetic)."""
-        motor = self.actuator
-        if not motor.is_motor:
+        header agree to the last bit (`Pendulum.folded` of the exact pendulum)."""
+        if not self.actuator.is_motor:
             return {}
-
-        def exact(value: float | None) -> Fraction:
-            return Fraction(1) if value is None else Fraction(repr(float(value)))
-
-        radius = exact(motor.r)  # 1 on an arm
-        gain = (
-            exact(motor.eta_g)
-            * exact(motor.Kg)
-            * exact(motor.eta_m)
-            * exact(motor.kt)
-            / (exact(motor.Rm) * radius)
-        )
-        damping = gain * exact(motor.Kg) * exact(motor.km) / radius
-        inertia = exact(motor.eta_g) * exact(motor.Kg) ** 2 * exact(motor.Jm) / radius**2
-        folded = {"delta0": self.exact("delta0") + damping}
+        folded = from_scene_object(self, exact=True).folded()
         if self.type == "classical":
-            folded["m0"] = self.exact("m0") + inertia
-        else:
-            given = "J" in self.link_values()
-            base = self.exact("J0") if given else self.exact("m0") * self.exact("l0") ** 2 / 3
-            folded["J0"] = base + inertia
-        return folded
+            return {"delta0": Fraction(folded.delta[0]), "m0": Fraction(folded.m[0])}
+        assert folded.J is not None  # an arm's folded J has every entry
+        return {"delta0": Fraction(folded.delta[0]), "J0": Fraction(folded.J[0])}
 
 
 def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None = None) -> Scene:
@@ -315,22 +296,18 @@ class _Parameters:
 
 
 def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
-    """The motor-folded parameters (`actuator.fold`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
-    from ipgen.model.actuator import fold
-
+    """The motor-folded parameters (`Pendulum.folded`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
     built = dict(params.links)
-    given = built.get("J")
-    inertias = (
-        list(given)
-        if given is not None
-        else [rod_value(system, "J", i, params.m, params.l) for i in range(system.dof)]
-    )
-    m, delta, j, gain = fold(actuator, system, list(params.m), list(params.delta), inertias)
-    if system.is_rotary or given is not None:
-        built["J"] = tuple(j)
+    pendulum = Pendulum(
+        system.type, system.links, params.m, params.l, params.delta, params.g, system.inertia,
+        actuator=actuator, **built,
+    )  # fmt: skip
+    folded = pendulum.folded()
+    if folded.J is not None:
+        built["J"] = tuple(folded.J)
     order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
     links = tuple((group, tuple(built[group])) for group in order)
-    return _Parameters(tuple(m), params.l, tuple(delta), params.g, links), gain
+    return _Parameters(tuple(folded.m), params.l, tuple(folded.delta), params.g, links), pendulum.gain
 
 
 def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
@@ -358,22 +335,15 @@ def motor_folded_parameters(
     m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
     if not scene.actuator.is_motor:
         return m, delta, built, 1.0
-    from ipgen.model.actuator import fold
-
-    system = scene.system
-    given = built.get("J")
-    inertias = (
-        list(given)
-        if given is not None
-        else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
-    )
-    m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
+    folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
+    m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
     exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
     delta_[0] = float(exact["delta0"])
-    if system.is_rotary:
+    j_ = None if folded.J is None else list(folded.J)
+    if j_ is not None and scene.system.is_rotary:
         j_[0] = float(exact["J0"])
-    else:
+    if not scene.system.is_rotary:
         m_[0] = float(exact["m0"])
-    if system.is_rotary or given is not None:
+    if j_ is not None:
         built["J"] = tuple(j_)
     return tuple(m_), tuple(delta_), built, gain
