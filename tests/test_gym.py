@@ -1,0 +1,228 @@
+"""ipgen.gym: gymnasium's CartPole-v1 reproduced step for step, the env checker, the vector
+environment equal to N single ones bitwise, and one step against ipgen's CVODE simulator."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+gymnasium = pytest.importorskip("gymnasium")
+
+import ipgen.gym  # noqa: E402  (registers the ids)
+from ipgen.gym.make import paper_system, spec_for  # noqa: E402
+from ipgen.gym.spec import GymError  # noqa: E402
+from ipgen.gym.vector import PendulumVectorEnv  # noqa: E402
+
+
+def test_cartpole_preset_reproduces_gymnasiums_cartpole_step_for_step() -> None:
+    ours, theirs = ipgen.gym.make("cartpole-v1"), gymnasium.make("CartPole-v1")
+    actions = np.random.default_rng(7)
+    steps = worst = 0
+    for episode in range(40):
+        mine, info = ours.reset(seed=episode)
+        reference, _ = theirs.reset(seed=episode)
+        np.testing.assert_array_equal(mine, reference)
+        assert set(info["params"]) >= {"m", "l", "delta", "g"}
+        while True:
+            action = int(actions.integers(2))
+            mine, reward, terminated, truncated, _ = ours.step(action)
+            reference, reward_ref, terminated_ref, truncated_ref, _ = theirs.step(action)
+            worst = max(worst, float(np.max(np.abs(mine - reference))))
+            assert (reward, terminated, truncated) == (reward_ref, terminated_ref, truncated_ref), episode
+            steps += 1
+            if terminated or truncated:
+                break
+    assert steps > 400
+    assert worst <= 1e-6  # float32 observations; the accelerations differ only in rounding
+
+
+def test_cartpole_preset_balanced_by_a_fixed_policy_is_truncated_at_500_steps() -> None:
+    env = ipgen.gym.make("cartpole-v1")
+    obs, _ = env.reset(seed=3)
+    for step in range(1, 501):  # a hand-tuned linear policy on (x, ẋ, θ, θ̇)
+        obs, _, terminated, truncated, _ = env.step(int(obs @ np.array([0.1, 0.5, 10.0, 2.0]) > 0))
+        assert not terminated, step
+    assert truncated
+
+
+@pytest.mark.parametrize(
+    "source",
+    ["cartpole-v1", ("classical", 2, "swingup"), ("rotary", 1, "balance"), ("rotary", 2, "swingup")],
+)
+def test_the_environments_pass_gymnasiums_env_checker(source: object) -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    if source == "cartpole-v1":
+        env = ipgen.gym.make(source)
+    else:
+        type, links, task = source  # type: ignore[misc]
+        env = gymnasium.make(
+            f"ipgen/{'Cart' if type == 'classical' else 'Rotary'}"
+            f"{['', 'Single', 'Double'][links]}-{'SwingUp' if task == 'swingup' else 'Balance'}-v0"
+        )
+    check_env(env.unwrapped, skip_render_check=True)
+
+
+def _run_singles(spec: object, seed: int, actions: np.ndarray) -> list[list[np.ndarray]]:
+    """Each sub-environment as a single env seeded seed + i, reset when it ended (NEXT_STEP)."""
+    from ipgen.gym.env import PendulumEnv
+
+    outputs = []
+    for i in range(actions.shape[1]):
+        env = PendulumEnv(spec)  # type: ignore[arg-type]
+        obs, _ = env.reset(seed=seed + i)
+        rows, ended, elapsed = [obs], False, 0
+        for k in range(actions.shape[0]):
+            if ended:
+                obs, _ = env.reset()
+                ended, elapsed = False, 0
+                rows.append(obs)
+                continue
+            obs, _, terminated, truncated, _ = env.step(actions[k, i : i + 1])
+            elapsed += 1
+            ended = terminated or truncated or elapsed >= spec.max_episode_steps  # type: ignore[attr-defined]
+            rows.append(obs)
+        outputs.append(rows)
+    return outputs
+
+
+def test_the_vector_env_equals_n_single_envs_bitwise_with_spread_and_autoreset() -> None:
+    system, row = paper_system("classical", 2)
+    spec = spec_for(system, row, "balance", spread={"m": 0.1, "delta": 0.5}, max_episode_steps=40)
+    n, steps, seed = 5, 150, 11
+    actions = np.random.default_rng(0).uniform(-1, 1, size=(steps, n))
+    vector = PendulumVectorEnv(spec, n)
+    obs, info = vector.reset(seed=seed)
+    rows = [obs]
+    assert info["params"]["m"].shape == (n, 3)
+    resets = 0
+    for k in range(steps):
+        obs, _, terminations, truncations, _ = vector.step(actions[k].reshape(n, 1))
+        resets += int(np.sum(terminations | truncations))
+        rows.append(obs)
+    assert resets >= n  # every sub-environment ended at least once: autoreset was exercised
+    singles = _run_singles(spec, seed, actions)
+    for i in range(n):
+        np.testing.assert_array_equal(np.array([r[i] for r in rows]), np.array(singles[i]))
+
+
+def test_a_spread_draws_new_parameters_each_episode_and_options_set_them() -> None:
+    system, row = paper_system("rotary", 1)
+    from ipgen.gym.env import PendulumEnv
+
+    spec = spec_for(system, row, "swingup", spread={"m": 0.1, "delta": 0.5})
+    single = PendulumEnv(spec)
+    _, first = single.reset(seed=1)
+    _, second = single.reset()
+    assert not np.array_equal(first["params"]["m"], second["params"]["m"])
+    assert np.all(np.abs(first["params"]["m"] / np.array([0.5, 0.275]) - 1) <= 0.1)
+    assert np.all(np.abs(first["params"]["delta"] / np.array([0.3, 0.011458]) - 1) <= 0.5)
+    _, fixed = single.reset(options={"params": {"m": [0.4, 0.3]}})
+    np.testing.assert_array_equal(fixed["params"]["m"], [0.4, 0.3])
+    with pytest.raises(GymError, match="must be 2 finite numbers"):
+        single.reset(options={"params": {"m": [0.4, math.nan]}})
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"dt": 0.0}, "dt = 0.0 must be a number > 0"),
+        ({"substeps": 0}, "substeps = 0 must be an integer"),
+        ({"spread": {"mass": 0.1}}, "spread names 'mass'"),
+        ({"spread": {"m": 1.5}}, "relative half-width"),
+        ({"max_episode_steps": 0}, "max_episode_steps = 0"),
+    ],
+)
+def test_bad_options_are_one_line_errors(options: dict, message: str) -> None:
+    system, row = paper_system("classical", 1)
+    with pytest.raises(GymError, match=message.replace("(", r"\(")) as caught:
+        spec_for(system, row, "balance", **options)
+    assert "\n" not in str(caught.value)
+
+
+SCENE = """\
+[system]
+type = "{type}"
+links = {links}
+name = "{name}"
+
+[parameters]
+m = {m}
+l = {l}
+delta = {delta}
+
+[initial]
+theta = {theta}
+dtheta = {dtheta}
+
+[input]
+kind = "constant"
+amplitude = {u}
+
+[simulation]
+t_end = {t_end}
+sample = {dt}
+rtol = 1e-12
+atol = 1e-14
+"""
+
+
+# The shipped scenes' model names (cdip, rsip): their simulators are built by other tests too.
+@pytest.mark.parametrize(("type", "links", "name"), [("classical", 2, "cdip"), ("rotary", 1, "rsip")])
+def test_env_steps_agree_with_ipgens_cvode_simulator(
+    tmp_path: Path, type: str, links: int, name: str
+) -> None:
+    """Ten steps with the action held equal the simulator (BDF, rtol 1e-12) with the input held
+    over the same ten intervals: the RK4 substeps' error, stated in docs/gym.md."""
+    from ipgen.gym.env import PendulumEnv
+
+    system, row = paper_system(type, links)
+    spec = spec_for(system, row, "swingup", x_limit=math.inf)
+    env = PendulumEnv(spec)
+    start = np.random.default_rng(links).uniform(-0.5, 0.5, size=2 * system.dof)
+    start[1 : system.dof] += math.pi  # near hanging: the swing-up's regime, large motions
+    env.reset(seed=0, options={"state": start})
+    action, steps = 0.4, 10
+    states = []
+    for _ in range(steps):
+        env.step(np.array([action], dtype=np.float32))
+        states.append(env.state[0].copy())
+    dof = system.dof
+    value = lambda group: spec.group(row, group).tolist()  # noqa: E731
+    scene = tmp_path / "truth.toml"
+    scene.write_text(
+        SCENE.format(
+            type=type,
+            links=links,
+            name=name,
+            m=value("m"),
+            l=value("l"),
+            delta=value("delta"),
+            theta=start[:dof].tolist(),
+            dtheta=start[dof:].tolist(),
+            u=action * spec.u_max,
+            t_end=steps * spec.dt,
+            dt=spec.dt,
+        )
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
+        capture_output=True,
+        text=True,
+        env=os.environ.copy(),
+    )
+    assert done.returncode == 0, done.stderr
+    header, *lines = (tmp_path / "out" / "truth.csv").read_text().splitlines()
+    table = np.array([[float(v) for v in line.split(",")] for line in lines])
+    columns = header.split(",")
+    wanted = [f"theta{i}" for i in range(dof)] + [f"dtheta{i}" for i in range(dof)]
+    simulated = table[1 : steps + 1, [columns.index(c) for c in wanted]]
+    error = np.max(np.abs(np.array(states) - simulated))
+    print(f"{type}{links}: largest state error over {steps} steps {error:.2e}")
+    assert error < 1e-6, error
