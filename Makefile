@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify stability configure build clean
+.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-gym stability configure build clean
 
 all: test
 
@@ -83,7 +83,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-gym
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -98,6 +98,12 @@ bench-general-links: $(VENV)/.bench-installed
 IDENTIFY_ARGS ?= $(BENCH_QUICK)
 bench-identify: $(VENV)/.bench-installed
 	$(PY) -m bench.identify $(IDENTIFY_ARGS)
+
+## ipgen.gym's throughput on one core against gymnasium's CartPole-v1 and MuJoCo's
+## InvertedDoublePendulum-v5 in the same run (bench/gym.py, docs/bench/gym.md). GYM_ARGS: e.g. --quick
+GYM_ARGS ?= $(BENCH_QUICK)
+bench-gym: $(VENV)/.bench-installed
+	$(PY) -m bench.gym $(GYM_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
 ## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).

@@ -59,14 +59,15 @@ def test_the_environments_pass_gymnasiums_env_checker(source: object) -> None:
     from gymnasium.utils.env_checker import check_env
 
     if source == "cartpole-v1":
-        env = ipgen.gym.make(source)
+        env = gymnasium.make("ipgen/CartPole-v1", render_mode="rgb_array")
     else:
         type, links, task = source  # type: ignore[misc]
         env = gymnasium.make(
             f"ipgen/{'Cart' if type == 'classical' else 'Rotary'}"
-            f"{['', 'Single', 'Double'][links]}-{'SwingUp' if task == 'swingup' else 'Balance'}-v0"
+            f"{['', 'Single', 'Double'][links]}-{'SwingUp' if task == 'swingup' else 'Balance'}-v0",
+            render_mode="rgb_array",
         )
-    check_env(env.unwrapped, skip_render_check=True)
+    check_env(env.unwrapped)  # with its rgb_array render check
 
 
 def _run_singles(spec: object, seed: int, actions: np.ndarray) -> list[list[np.ndarray]]:
