@@ -14,6 +14,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ipgen.gym.kernel import load
+from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
 
 OBS_BOUND = np.float32(np.finfo(np.float32).max)
@@ -86,6 +87,8 @@ class PendulumEnv(gymnasium.Env):
         )
         self._call = lambda: function(*arguments)
         self._discrete = spec.task == "cartpole"
+        self.loop = MeasuredLoop(spec.sensing, dof, 1, spec.dt) if spec.sensing is not None else None
+        self._row = np.array([0])
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -97,7 +100,10 @@ class PendulumEnv(gymnasium.Env):
         if "state" in options:
             start = np.asarray(options["state"], dtype=np.float64).reshape(self.state.shape[1])
         self.state[0] = start
-        self.kernel.observe(self.state, self.cfg, self.obs)
+        if self.loop is None:
+            self.kernel.observe(self.state, self.cfg, self.obs)
+        else:
+            self.loop.reset(self._row, self.state, [self.np_random], self.obs)
         return self._obs_row.copy(), {"params": self.ipgen_spec.params_info(self.params[0])}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -105,7 +111,25 @@ class PendulumEnv(gymnasium.Env):
             self._action.value = 1.0 if action == 1 else -1.0
         else:
             self._action.value = action[0] if hasattr(action, "__len__") else action
+        if self.loop is not None:
+            return self._measured_step()
         self._call()
+        ended = self._ended.value
+        return (
+            self._obs_row.copy(),
+            self._reward.value,
+            ended != 0,
+            False,
+            {"failed": True} if ended == 2 else {},
+        )
+
+    def _measured_step(self) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The step with the rig's sensors: the delayed, noisy action, then the measurement."""
+        assert self.loop is not None
+        rngs = [self.np_random]
+        self._action.value = float(self.loop.apply(self._row, np.array([self._action.value]), rngs)[0])
+        self._call()
+        self.loop.observe(self._row, self.state, rngs, self.obs)
         ended = self._ended.value
         return (
             self._obs_row.copy(),

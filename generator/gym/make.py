@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ipgen.gym.sensing import Sensing
 from ipgen.gym.spec import GROUPS, EnvSpec, GymError
 from ipgen.model.actuator import Actuator, fold
 from ipgen.model.links import resolve_links
@@ -79,6 +80,7 @@ def spec_for(
     spread: Mapping[str, float] | None = None,
     initial_noise: float = 0.05,
     max_episode_steps: int | None = None,
+    sensors: Mapping[str, object] | None = None,
 ) -> EnvSpec:
     """An `EnvSpec` with the task's defaults (`TASK_DEFAULTS`) for every option left None."""
     if task == "cartpole":
@@ -86,11 +88,19 @@ def spec_for(
     if (system.type, task) not in TASK_DEFAULTS:
         raise GymError(f"task {task!r:.40} is unknown: choose balance or swingup")
     default_u, default_x, default_dt, default_sub, default_steps = TASK_DEFAULTS[(system.type, task)]
+    interval = default_dt if dt is None else dt
+    sensing = None
+    if sensors is not None:
+        if not isinstance(sensors, Mapping):
+            raise GymError("sensors must be a dict, e.g. {'resolution': 2048, 'delay': 0.01}")
+        if not (isinstance(interval, int | float) and interval > 0):
+            raise GymError(f"dt = {interval!r:.40} must be a number > 0")
+        sensing = Sensing.from_options(sensors, system.type, system.dof, interval)
     return EnvSpec(
         system,
         row,
         task,
-        dt=default_dt if dt is None else dt,
+        dt=interval,
         substeps=default_sub if substeps is None else substeps,
         u_max=default_u if u_max is None else u_max,
         x_limit=default_x if x_limit is None else x_limit,
@@ -98,6 +108,7 @@ def spec_for(
         spread=dict(spread or {}),
         initial_noise=initial_noise,
         max_episode_steps=default_steps if max_episode_steps is None else max_episode_steps,
+        sensing=sensing,
     )
 
 

@@ -7,12 +7,16 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ipgen.errors import Error
 from ipgen.gym.kernel import CFG_FIELDS, INTEGRATOR_CODES, TASK_CODES, parameter_count
 from ipgen.model.system import System
+
+if TYPE_CHECKING:
+    from ipgen.gym.sensing import Sensing
 
 # The parameter groups of one row, in the kernel's order (each has dof entries), then g and gain.
 GROUPS = ("m", "l", "delta", "com", "J", "J_axial", "tip")
@@ -63,6 +67,7 @@ class EnvSpec:
     spread: Mapping[str, float] = field(default_factory=dict)
     initial_noise: float = 0.05
     max_episode_steps: int = 500
+    sensing: Sensing | None = None  # None: the exact state; else what the rig measures
 
     def __post_init__(self) -> None:
         if self.task not in TASKS:
@@ -91,6 +96,8 @@ class EnvSpec:
                 raise GymError(f"spread names {key!r:.40}: choose from {', '.join((*GROUPS, 'g'))}")
             if not (isinstance(width, int | float) and 0 <= width < 1):
                 raise GymError(f"spread[{key!r}] = {width!r:.40} must be a relative half-width in [0, 1)")
+        if self.sensing is not None and self.task == "cartpole":
+            raise GymError("the cartpole-v1 preset observes the exact state: sensors are not supported there")
         if self.nominal.shape != (parameter_count(self.system.dof),):
             raise GymError("the parameter row has the wrong length for this model")
 

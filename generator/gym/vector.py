@@ -16,6 +16,7 @@ from gymnasium.vector.utils import batch_space
 
 from ipgen.gym.env import action_space, observation_space
 from ipgen.gym.kernel import load
+from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
 
 
@@ -61,6 +62,7 @@ class PendulumVectorEnv(VectorEnv):
         self.elapsed = np.zeros(num_envs, dtype=np.int64)
         self.needs_reset = np.zeros(num_envs, dtype=bool)
         self.generators = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        self.loop = MeasuredLoop(spec.sensing, dof, num_envs, spec.dt) if spec.sensing is not None else None
 
     def _reset_one(self, i: int, options: dict[str, Any]) -> None:
         rng = self.generators[i]
@@ -84,7 +86,10 @@ class PendulumVectorEnv(VectorEnv):
         for i in range(self.num_envs):
             self._reset_one(i, options or {})
         self.needs_reset[:] = False
-        self.kernel.observe(self.state, self.cfg, self.obs)
+        if self.loop is None:
+            self.kernel.observe(self.state, self.cfg, self.obs)
+        else:
+            self.loop.reset(np.arange(self.num_envs), self.state, self.generators, self.obs)
         return self.obs.copy(), self._params_info(np.ones(self.num_envs, dtype=bool))
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -93,7 +98,12 @@ class PendulumVectorEnv(VectorEnv):
             self.actions[:] = np.where(given.reshape(self.num_envs) == 1, 1.0, -1.0)
         else:
             self.actions[:] = given.reshape(self.num_envs)
+        active = np.flatnonzero(~self.needs_reset)
+        if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
+            self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)
         self.kernel.step(self.params, self.state, self.actions, self.cfg, self.obs, self.rewards, self.ended)
+        if self.loop is not None:
+            self.loop.observe(active, self.state, self.generators, self.obs)
         self.elapsed += 1
         terminations = self.ended.astype(bool)
         truncations = self.elapsed >= self.ipgen_spec.max_episode_steps
@@ -103,9 +113,12 @@ class PendulumVectorEnv(VectorEnv):
         if resetting.any():
             for i in np.flatnonzero(resetting):
                 self._reset_one(int(i), {})
-            fresh = np.zeros_like(self.obs)
-            self.kernel.observe(self.state, self.cfg, fresh)
-            self.obs[resetting] = fresh[resetting]
+            if self.loop is None:
+                fresh = np.zeros_like(self.obs)
+                self.kernel.observe(self.state, self.cfg, fresh)
+                self.obs[resetting] = fresh[resetting]
+            else:
+                self.loop.reset(np.flatnonzero(resetting), self.state, self.generators, self.obs)
             rewards[resetting] = 0.0
             terminations[resetting] = False
             truncations[resetting] = False
