@@ -282,3 +282,13 @@ def test_encoder_filter_and_delay_by_hand() -> None:
         previous = y
         np.testing.assert_allclose(obs[3:], rates.astype(np.float32), rtol=1e-6, atol=1e-6)
     assert np.any(rates != 0)
+
+
+def test_the_python_examples_of_docs_gym_md_run() -> None:
+    text = (Path(__file__).resolve().parents[1] / "docs" / "gym.md").read_text()
+    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
+    assert blocks
+    for block in blocks:
+        namespace: dict[str, object] = {}
+        exec(compile(block, "docs/gym.md", "exec"), namespace)  # the reader's copy, verbatim
+        assert "obs" in namespace

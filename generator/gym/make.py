@@ -34,6 +34,7 @@ TASK_DEFAULTS = {
     ("rotary", "balance"): (5.0, math.pi, 0.01, 4, 500),
     ("rotary", "swingup"): (5.0, math.inf, 0.01, 4, 1000),
 }
+MOTOR_VOLTS = 10.0  # the action's scale with a DC motor (the QUBE-Servo 2's amplifier limit)
 CARTPOLE_ANGLE = 12 * 2 * math.pi / 360  # gymnasium's theta_threshold_radians
 
 
@@ -143,6 +144,8 @@ def spec_from_source(source: Any, task: str, **options: Any) -> EnvSpec:
         {"com": pendulum.com, "J": pendulum.J, "J_axial": pendulum.J_axial, "tip": pendulum.tip},
         pendulum.actuator,
     )
+    if pendulum.actuator is not None and pendulum.actuator.is_motor:
+        options.setdefault("u_max", MOTOR_VOLTS)
     return spec_for(system, row, task, **options)
 
 
