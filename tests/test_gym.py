@@ -21,7 +21,7 @@ from ipgen.gym.vector import PendulumVectorEnv  # noqa: E402
 
 
 def test_cartpole_preset_reproduces_gymnasiums_cartpole_step_for_step() -> None:
-    ours, theirs = ipgen.gym.make("cartpole-v1"), gymnasium.make("CartPole-v1")
+    ours, theirs = ipgen.gym.make(preset="cartpole-v1"), gymnasium.make("CartPole-v1")
     actions = np.random.default_rng(7)
     steps = worst = 0
     for episode in range(40):
@@ -292,3 +292,46 @@ def test_the_python_examples_of_docs_gym_md_run() -> None:
         namespace: dict[str, object] = {}
         exec(compile(block, "docs/gym.md", "exec"), namespace)  # the reader's copy, verbatim
         assert "obs" in namespace
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+ANY_VALUE = st.one_of(
+    st.none(),
+    st.integers(-(10**30), 10**30),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=5),
+    st.lists(st.floats(), max_size=3),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    key=st.sampled_from(
+        ["dt", "substeps", "u_max", "x_limit", "angle_limit", "initial_noise", "max_episode_steps"]
+    ),
+    value=ANY_VALUE,
+    spread_key=st.sampled_from(["m", "J", "mass", "g", 3]),
+    spread_value=ANY_VALUE,
+    sensors=st.one_of(
+        st.none(),
+        st.dictionaries(
+            st.sampled_from(["resolution", "noise", "delay", "rates", "cutoff", "drive_noise", "bogus"]),
+            ANY_VALUE,
+            max_size=3,
+        ),
+    ),
+)
+def test_any_option_makes_an_environment_or_one_line_gym_error(
+    key: str, value: object, spread_key: object, spread_value: object, sensors: object
+) -> None:
+    system, row = paper_system("rotary", 1)
+    try:
+        spec = spec_for(
+            system, row, "balance", **{key: value}, spread={spread_key: spread_value}, sensors=sensors
+        )
+    except GymError as e:
+        assert "\n" not in str(e) and len(str(e)) < 300
+        return
+    assert spec.dt > 0 and spec.substeps >= 1 and 0 <= spec.spread[spread_key] < 1  # type: ignore[index]

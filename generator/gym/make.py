@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ipgen.gym.sensing import Sensing
-from ipgen.gym.spec import GROUPS, EnvSpec, GymError
+from ipgen.gym.spec import GROUPS, EnvSpec, GymError, is_number
 from ipgen.model.actuator import Actuator, fold
 from ipgen.model.links import resolve_links
 from ipgen.model.system import System
@@ -91,11 +91,13 @@ def spec_for(
     default_u, default_x, default_dt, default_sub, default_steps = TASK_DEFAULTS[(system.type, task)]
     interval = default_dt if dt is None else dt
     sensing = None
+    if spread is not None and not isinstance(spread, Mapping):
+        raise GymError("spread must be a dict of relative half-widths, e.g. {'m': 0.1, 'delta': 0.5}")
     if sensors is not None:
         if not isinstance(sensors, Mapping):
             raise GymError("sensors must be a dict, e.g. {'resolution': 2048, 'delay': 0.01}")
-        if not (isinstance(interval, int | float) and interval > 0):
-            raise GymError(f"dt = {interval!r:.40} must be a number > 0")
+        if not (is_number(interval) and 0 < interval <= 10):
+            raise GymError(f"dt = {interval!r:.40} must be a number > 0 (at most 10 s)")
         sensing = Sensing.from_options(sensors, system.type, system.dof, interval)
     return EnvSpec(
         system,

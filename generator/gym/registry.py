@@ -9,7 +9,7 @@ from gymnasium.wrappers import TimeLimit
 
 from ipgen.gym.env import PendulumEnv
 from ipgen.gym.make import paper_system, spec_for, spec_from_source
-from ipgen.gym.spec import EnvSpec
+from ipgen.gym.spec import EnvSpec, GymError
 from ipgen.gym.vector import PendulumVectorEnv
 
 SIZES = {1: "Single", 2: "Double", 3: "Triple"}
@@ -26,7 +26,12 @@ def _spec(
 
 
 def make(
-    source: Any, task: str = "balance", *, render_mode: str | None = None, **options: Any
+    source: Any = None,
+    task: str = "balance",
+    *,
+    preset: str | None = None,
+    render_mode: str | None = None,
+    **options: Any,
 ) -> gymnasium.Env:
     """An environment of `source` (an ipgen.Pendulum, a scene file, a preset name or
     "cartpole-v1") for `task` ("balance" or "swingup"), wrapped in gymnasium's TimeLimit.
@@ -35,6 +40,8 @@ def make(
     ----------
     source : ipgen.Pendulum, str or pathlib.Path
         What to simulate.
+    preset : str, optional
+        The same as a preset's name as `source` (e.g. `preset="cartpole-v1"`).
     task : str
         "balance" or "swingup".
     render_mode : str, optional
@@ -52,7 +59,9 @@ def make(
     >>> env = make("cartpole-v1")
     >>> obs, info = env.reset(seed=0)
     """
-    spec = _spec(source, task, **options)
+    if (source is None) == (preset is None):
+        raise GymError("make() takes what to simulate: a Pendulum, a scene file or preset=NAME (one of them)")
+    spec = _spec(preset if source is None else source, task, **options)
     return TimeLimit(PendulumEnv(spec, render_mode=render_mode), spec.max_episode_steps)
 
 

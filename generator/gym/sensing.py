@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ipgen.gym.spec import GymError
+from ipgen.gym.spec import GymError, is_number
 
 KEYS = ("resolution", "noise", "delay", "rates", "cutoff", "drive_noise")
 
@@ -59,28 +59,26 @@ class Sensing:
         if unknown:
             raise GymError(f"sensors has no key {unknown[0]!r:.40}: choose from {', '.join(KEYS)}")
         resolution = options.get("resolution", 2048)
-        counts = np.broadcast_to(np.asarray(resolution, dtype=np.float64), (dof,)).copy()
-        if not np.all(np.isfinite(counts)) or np.any(counts < 0):
-            raise GymError(
-                "sensors.resolution must be counts >= 0 (0: exact), one number or one per coordinate"
-            )
+        entries = resolution if isinstance(resolution, list | tuple) else [resolution]
+        if not (len(entries) in (1, dof) and all(is_number(c) and 0 <= c < math.inf for c in entries)):
+            raise GymError(f"sensors.resolution must be counts >= 0 (0: exact), one number or {dof} numbers")
+        counts = np.broadcast_to(np.asarray(entries, dtype=np.float64), (dof,)).copy()
         per_unit = np.array([1.0 if (i == 0 and type == "classical") else 2 * math.pi for i in range(dof)])
         quantum = np.where(counts > 0, per_unit / np.where(counts > 0, counts, 1.0), 0.0)
-        delay = float(options.get("delay", 0.0))  # type: ignore[arg-type]
-        steps = round(delay / dt)
-        if not (delay >= 0 and math.isclose(steps * dt, delay, rel_tol=1e-9, abs_tol=1e-12)):
-            raise GymError(f"sensors.delay = {delay!r:.40} must be a whole multiple of dt = {dt!r} (>= 0)")
+        delay = options.get("delay", 0.0)
+        steps = round(delay / dt) if is_number(delay) and 0 <= delay <= 1000 * dt else -1
+        if steps < 0 or not math.isclose(steps * dt, delay, rel_tol=1e-9, abs_tol=1e-12):  # type: ignore[arg-type]
+            raise GymError(
+                f"sensors.delay = {delay!r:.40} must be a whole multiple of dt = {dt!r} (0 to 1000 dt)"
+            )
         rates = options.get("rates", "filter")
         if rates not in ("filter", "difference"):
             raise GymError(f"sensors.rates = {rates!r:.40}: choose filter or difference")
-        numbers = {
-            k: float(options.get(k, d)) for k, d in (("noise", 0.0), ("cutoff", 50.0), ("drive_noise", 0.0))
-        }  # type: ignore[arg-type]
-        if not (numbers["noise"] >= 0 and numbers["drive_noise"] >= 0 and numbers["cutoff"] > 0) or not all(
-            math.isfinite(v) for v in numbers.values()
-        ):
-            raise GymError("sensors.noise and drive_noise must be >= 0 and cutoff > 0, all finite")
-        return cls(quantum, numbers["noise"], steps, str(rates), numbers["cutoff"], numbers["drive_noise"])
+        numbers = {k: options.get(k, d) for k, d in (("noise", 0.0), ("cutoff", 50.0), ("drive_noise", 0.0))}
+        if not all(is_number(v) and 0 <= v < math.inf for v in numbers.values()) or not numbers["cutoff"]:
+            raise GymError("sensors.noise and drive_noise must be numbers >= 0 and cutoff > 0, all finite")
+        noise, cutoff, drive_noise = (float(numbers[k]) for k in ("noise", "cutoff", "drive_noise"))  # type: ignore[arg-type]
+        return cls(quantum, noise, steps, str(rates), cutoff, drive_noise)
 
     def measure(self, angles: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         """y for a batch of coordinates (N × dof): quantised, then noise drawn per env."""

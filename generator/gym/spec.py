@@ -27,6 +27,16 @@ class GymError(Error, ValueError):
     """An environment that cannot be made as asked; the message names the option and the fix."""
 
 
+def is_number(value: object) -> bool:
+    """A real number that is not NaN (int or float, not bool); infinities pass."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and not math.isnan(value)
+
+
+def is_integer(value: object) -> bool:
+    """An int (not bool)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
 @dataclass(frozen=True)
 class EnvSpec:
     """One environment's model, task and randomisation.
@@ -74,27 +84,24 @@ class EnvSpec:
             raise GymError(f"task {self.task!r:.40} is unknown: choose one of {', '.join(TASKS)}")
         if self.integrator not in INTEGRATOR_CODES:
             raise GymError(f"integrator {self.integrator!r:.40} is unknown: choose rk4 or euler")
-        positive = {
-            "dt": self.dt,
-            "u_max": self.u_max,
-            "x_limit": self.x_limit,
-            "angle_limit": self.angle_limit,
-        }
-        for key, value in positive.items():
-            if not (isinstance(value, int | float) and value > 0 and not math.isnan(value)):
-                raise GymError(f"{key} = {value!r:.40} must be a number > 0")
-        if not math.isfinite(self.dt) or self.dt > 10:
-            raise GymError(f"dt = {self.dt!r} must be a finite interval of at most 10 s")
-        if not (isinstance(self.substeps, int) and 1 <= self.substeps <= 10_000):
+        if not (is_number(self.dt) and 0 < self.dt <= 10):
+            raise GymError(f"dt = {self.dt!r:.40} must be a number > 0 (at most 10 s)")
+        for key in ("u_max", "x_limit", "angle_limit"):
+            value = getattr(self, key)
+            if not (is_number(value) and value > 0):
+                raise GymError(f"{key} = {value!r:.40} must be a number > 0 (inf: no limit)")
+        if not (is_number(self.u_max) and math.isfinite(self.u_max)):
+            raise GymError(f"u_max = {self.u_max!r:.40} must be a finite number > 0")
+        if not (is_integer(self.substeps) and 1 <= self.substeps <= 10_000):
             raise GymError(f"substeps = {self.substeps!r:.40} must be an integer in 1..10000")
-        if not (isinstance(self.max_episode_steps, int) and self.max_episode_steps >= 1):
+        if not (is_integer(self.max_episode_steps) and self.max_episode_steps >= 1):
             raise GymError(f"max_episode_steps = {self.max_episode_steps!r:.40} must be an integer >= 1")
-        if not (0 <= self.initial_noise < math.inf):
+        if not (is_number(self.initial_noise) and 0 <= self.initial_noise < math.inf):
             raise GymError(f"initial_noise = {self.initial_noise!r:.40} must be a finite number >= 0")
         for key, width in self.spread.items():
             if key not in (*GROUPS, "g"):
                 raise GymError(f"spread names {key!r:.40}: choose from {', '.join((*GROUPS, 'g'))}")
-            if not (isinstance(width, int | float) and 0 <= width < 1):
+            if not (is_number(width) and 0 <= width < 1):
                 raise GymError(f"spread[{key!r}] = {width!r:.40} must be a relative half-width in [0, 1)")
         if self.sensing is not None and self.task == "cartpole":
             raise GymError("the cartpole-v1 preset observes the exact state: sensors are not supported there")
