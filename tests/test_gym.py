@@ -335,3 +335,18 @@ def test_any_option_makes_an_environment_or_one_line_gym_error(
         assert "\n" not in str(e) and len(str(e)) < 300
         return
     assert spec.dt > 0 and spec.substeps >= 1 and 0 <= spec.spread[spread_key] < 1  # type: ignore[index]
+
+
+def test_a_preset_with_a_dc_motor_is_folded_once_and_driven_in_volts() -> None:
+    """The QUBE-Servo 2: the kernel's row is the Pendulum's direct model (back-EMF in delta[0],
+    gain kt/Rm N m per volt) and action +1 is 10 V."""
+    qube = ipgen.Pendulum.preset("qube_servo2")
+    env = gymnasium.make("ipgen/QubeServo2-Balance-v0").unwrapped
+    spec = env.ipgen_spec
+    assert spec.u_max == 10.0
+    np.testing.assert_allclose(spec.group(spec.nominal, "gain"), [0.042 / 8.4])
+    np.testing.assert_allclose(spec.group(spec.nominal, "delta"), [0.0015 + 0.042 * 0.042 / 8.4, 0.0005])
+    np.testing.assert_allclose(spec.group(spec.nominal, "m"), qube.m)
+    env.reset(seed=0)
+    obs, *_ = env.step(np.array([1.0], np.float32))
+    assert obs.shape == (5,)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -17,16 +17,10 @@ import numpy as np
 
 from ipgen.gym.sensing import Sensing
 from ipgen.gym.spec import GROUPS, EnvSpec, GymError, is_number
-from ipgen.model.actuator import Actuator, fold
-from ipgen.model.links import resolve_links
+from ipgen.model.paper import paper_pendulum
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System
 
-# The paper's rigs (Jadlovská & Sarnovský 2013; scenes/cdip_pulse.toml, scenes/rsip_pulse.toml):
-# base then every link alike.
-PAPER = {
-    "classical": {"m": (0.3, 0.275), "l": (0.0, 0.5), "delta": (0.3, 0.1)},
-    "rotary": {"m": (0.5, 0.275), "l": (0.6, 0.5), "delta": (0.3, 0.011458)},
-}
 # Defaults per task: (u_max [N or N m], x_limit [m or rad], dt [s], substeps, max_episode_steps)
 TASK_DEFAULTS = {
     ("classical", "balance"): (20.0, 2.4, 0.01, 4, 500),
@@ -38,34 +32,22 @@ MOTOR_VOLTS = 10.0  # the action's scale with a DC motor (the QUBE-Servo 2's amp
 CARTPOLE_ANGLE = 12 * 2 * math.pi / 360  # gymnasium's theta_threshold_radians
 
 
-def parameter_row(
-    system: System,
-    m: Sequence[float],
-    l: Sequence[float],  # noqa: E741
-    delta: Sequence[float],
-    g: float = 9.81,
-    links: Mapping[str, Sequence[float] | None] | None = None,
-    actuator: Actuator | None = None,
-) -> np.ndarray:
-    """The kernel's parameter row of one model: m, l, delta, com, J, J_axial, tip, g, gain."""
-    built = resolve_links(system, m, l, dict(links or {}))
-    m, delta, J, gain = list(m), list(delta), list(built.J), 1.0
-    if actuator is not None and actuator.is_motor:
-        m, delta, J, gain = fold(actuator, system, m, delta, J)
-    elif actuator is not None and actuator.is_acceleration:
+def parameter_row(pendulum: Pendulum) -> np.ndarray:
+    """The kernel's parameter row of `pendulum`: its direct model (a DC motor folded in once by
+    `Pendulum.folded`), m, l, delta, com, J, J_axial, tip with the rods filled in, g, and the
+    input's gain."""
+    if pendulum.actuator.is_acceleration:
         raise GymError("an acceleration-driven base is not supported by ipgen.gym: use a force or a dc_motor")
-    groups = {"m": m, "l": l, "delta": delta, "com": built.com, "J": J, "J_axial": built.J_axial,
-              "tip": built.tip}  # fmt: skip
-    row = [float(v) for name in GROUPS for v in groups[name]] + [float(g), float(gain)]
-    return np.array(row, dtype=np.float64)
+    direct = pendulum.folded()
+    values = direct.params()
+    row = [float(v) for name in GROUPS for v in values[name]]  # type: ignore[union-attr]
+    return np.array([*row, float(values["g"]), float(pendulum.gain)], dtype=np.float64)
 
 
 def paper_system(type: str, links: int, inertia: str = "pivot") -> tuple[System, np.ndarray]:
-    """The paper's rig of `type` with `links` equal links, and its parameter row."""
-    system = System(type, links, inertia if type == "rotary" else "pivot")
-    values = PAPER[type]
-    m, l, delta = ([values[k][0]] + [values[k][1]] * links for k in ("m", "l", "delta"))  # noqa: E741
-    return system, parameter_row(system, m, l, delta)
+    """The paper's rig of `type` with `links` equal links (`model.paper`), and its parameter row."""
+    pendulum = paper_pendulum(type, links, inertia)
+    return pendulum.system, parameter_row(pendulum)
 
 
 def spec_for(
@@ -119,9 +101,9 @@ def cartpole_spec() -> EnvSpec:
     """gymnasium's CartPole-v1 on ipgen's exact model: cart 1 kg, a uniform 0.1 kg rod of 1 m
     (gymnasium's `length` 0.5 is half of it), no friction, g = 9.8, ±10 N, explicit Euler at
     50 Hz, ends beyond 2.4 m or 12°, 500 steps."""
-    system = System("classical", 1, "pivot")
-    row = parameter_row(system, [1.0, 0.1], [0.0, 1.0], [0.0, 0.0], g=9.8)
-    return EnvSpec(system, row, "cartpole", dt=0.02, substeps=1, u_max=10.0, x_limit=2.4,
+    pendulum = Pendulum("classical", 1, m=(1.0, 0.1), l=(0.0, 1.0), delta=(0.0, 0.0), g=9.8)
+    row = parameter_row(pendulum)
+    return EnvSpec(pendulum.system, row, "cartpole", dt=0.02, substeps=1, u_max=10.0, x_limit=2.4,
                    angle_limit=CARTPOLE_ANGLE, integrator="euler", max_episode_steps=500)  # fmt: skip
 
 
@@ -136,34 +118,20 @@ def spec_from_source(source: Any, task: str, **options: Any) -> EnvSpec:
         spec = cartpole_spec()
         return spec if steps is None else dataclasses.replace(spec, max_episode_steps=steps)
     pendulum = as_pendulum(source)
-    system = System(pendulum.type, pendulum.links, pendulum.inertia)
-    row = parameter_row(
-        system,
-        pendulum.m,
-        pendulum.l,
-        pendulum.delta,
-        pendulum.g,
-        {"com": pendulum.com, "J": pendulum.J, "J_axial": pendulum.J_axial, "tip": pendulum.tip},
-        pendulum.actuator,
-    )
-    if pendulum.actuator is not None and pendulum.actuator.is_motor:
+    system, row = pendulum.system, parameter_row(pendulum)
+    if pendulum.actuator.is_motor:
         options.setdefault("u_max", MOTOR_VOLTS)
     return spec_for(system, row, task, **options)
 
 
-def as_pendulum(source: Any) -> Any:
+def as_pendulum(source: Any) -> Pendulum:
     """`source` as an ipgen.Pendulum: itself, a scene file (path) or a preset's name."""
-    import ipgen
-
-    pendulum_type = getattr(ipgen, "Pendulum", None)
-    if pendulum_type is not None and isinstance(source, pendulum_type):
+    if isinstance(source, Pendulum):
         return source
-    if pendulum_type is None:
-        raise GymError("ipgen.Pendulum is not available in this version")
     if isinstance(source, Path) or (isinstance(source, str) and source.endswith(".toml")):
-        return pendulum_type.from_scene(source)
+        return Pendulum.from_scene(source)
     if isinstance(source, str):
-        return pendulum_type.preset(source)
+        return Pendulum.preset(source)
     raise GymError(
         f"make() takes an ipgen.Pendulum, a scene file or a preset name, not {type(source).__name__}"
     )
