@@ -111,25 +111,13 @@ class PendulumEnv(gymnasium.Env):
             self._action.value = 1.0 if action == 1 else -1.0
         else:
             self._action.value = action[0] if hasattr(action, "__len__") else action
-        if self.loop is not None:
-            return self._measured_step()
-        self._call()
-        ended = self._ended.value
-        return (
-            self._obs_row.copy(),
-            self._reward.value,
-            ended != 0,
-            False,
-            {"failed": True} if ended == 2 else {},
-        )
-
-    def _measured_step(self) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """The step with the rig's sensors: the delayed, noisy action, then the measurement."""
-        assert self.loop is not None
-        rngs = [self.np_random]
-        self._action.value = float(self.loop.apply(self._row, np.array([self._action.value]), rngs)[0])
-        self._call()
-        self.loop.observe(self._row, self.state, rngs, self.obs)
+        if self.loop is not None:  # the rig's sensors: the delayed, noisy action, then the measurement
+            rngs = [self.np_random]
+            self._action.value = float(self.loop.apply(self._row, np.array([self._action.value]), rngs)[0])
+            self._call()
+            self.loop.observe(self._row, self.state, rngs, self.obs)
+        else:
+            self._call()
         ended = self._ended.value
         return (
             self._obs_row.copy(),
