@@ -36,11 +36,13 @@ __all__ = [
     "ControlError",
     "Dynamics",
     "EquilibriumWarning",
+    "VectorField",
     "closed_loop_poles",
     "dynamics",
     "equilibrium_state",
     "linearize",
     "lqr",
+    "vector_field",
 ]
 
 
@@ -307,7 +309,7 @@ def linearize(
     if as_actuator(actuator).is_acceleration:  # checked by _with_actuator
         qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q_, qd_, float(u), params)
     else:
-        qdd, dq, dqd, du = dynamics(system).jacobians(q_, qd_, float(u), params)
+        qdd, dq, dqd, du = dynamics(system).jacobians(q_, qd_, float(u) * gain, params)  # u in volts: b u
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
     if np.any(qd_ != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
         warnings.warn(
@@ -327,6 +329,105 @@ def linearize(
             f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
         )
     return a, b
+
+
+@dataclass(frozen=True)
+class VectorField:
+    """ẋ = f(x, u) of one pendulum with numeric parameters, and its exact Jacobians, in the rig's
+    coordinates x_user = P x + c (`control.coordinates`; P = I, c = 0 for ipgen's own).
+
+    The same model as `linearize` (the actuator folded in: u is the force/torque, the motor
+    voltage or the base's acceleration), evaluated at any state: `f` is the forward dynamics, and
+    `jacobians` returns f with A = ∂f/∂x and B = ∂f/∂u (the Jacobians of `Dynamics`, by implicit
+    differentiation of M θ̈ + bias = B u, not finite differences). Built by `vector_field`.
+    """
+
+    system: System
+    params: tuple[float, ...]  # the flat parameters of `Dynamics`, the motor folded in
+    input_gain: float  # b: the force or torque per unit of u (1 without a motor)
+    acceleration: bool  # u is the base's acceleration
+    transform: np.ndarray  # P of x_user = P x + c
+    offset: np.ndarray  # c
+
+    @property
+    def dof(self) -> int:
+        return self.system.dof
+
+    def _canonical(self, x: np.ndarray) -> np.ndarray:
+        import numpy as np
+
+        return np.linalg.solve(self.transform, np.asarray(x, dtype=float).reshape(-1) - self.offset)
+
+    def f(self, x: np.ndarray, u: float) -> np.ndarray:
+        """ẋ at the state x = [θ; θ̇] (2·dof entries, the rig's coordinates) and input u."""
+        import numpy as np
+
+        dof = self.dof
+        xc = self._canonical(x)
+        model = dynamics(self.system)
+        if self.acceleration:
+            qdd, _ = model.acceleration_dynamics(xc[:dof], xc[dof:], float(u), self.params)
+        else:
+            qdd = model.forward_dynamics(xc[:dof], xc[dof:], float(u) * self.input_gain, self.params)
+        return self.transform @ np.concatenate([xc[dof:], qdd])
+
+    def jacobians(self, x: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, A, B) at (x, u): ẋ, ∂f/∂x (2·dof × 2·dof) and ∂f/∂u (2·dof × 1)."""
+        import numpy as np
+
+        dof = self.dof
+        xc = self._canonical(x)
+        model = dynamics(self.system)
+        if self.acceleration:
+            qdd, dq, dqd, du = model.acceleration_jacobians(xc[:dof], xc[dof:], float(u), self.params)
+        else:
+            qdd, dq, dqd, du = model.jacobians(xc[:dof], xc[dof:], float(u) * self.input_gain, self.params)
+            du = du * self.input_gain
+        a = np.zeros((2 * dof, 2 * dof))
+        a[:dof, dof:] = np.eye(dof)
+        a[dof:, :dof] = dq
+        a[dof:, dof:] = dqd
+        b = np.zeros((2 * dof, 1))
+        b[dof:, 0] = du
+        p = self.transform
+        p_inv = np.linalg.inv(p)
+        return p @ np.concatenate([xc[dof:], qdd]), p @ a @ p_inv, p @ b
+
+
+def vector_field(
+    type: str,
+    links: int,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741 (the paper's name for the lengths)
+    delta: Sequence[float],
+    g: float = 9.81,
+    inertia: str = "pivot",
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
+    actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
+) -> VectorField:
+    """The nonlinear model ẋ = f(x, u) of `linearize`'s pendulum (the same arguments, without the
+    point q, qd, u), for estimators and simulations that need it away from an equilibrium.
+    Bad arguments raise `ControlError` as `linearize` does."""
+    convention = _coordinates(angles, zero, positive)
+    system = _system(type, links, inertia)
+    m, delta, J, gain = _with_actuator(system, m, l, delta, J, actuator)
+    params = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
+    p, c = convention.matrices(links)
+    return VectorField(
+        system=system,
+        params=tuple(params),
+        input_gain=float(gain),
+        acceleration=as_actuator(actuator).is_acceleration,
+        transform=p,
+        offset=c,
+    )
 
 
 def _coordinates(angles: str, zero: str, positive: str) -> Coordinates:
