@@ -166,3 +166,15 @@ def test_an_undetectable_choice_is_refused() -> None:
 def test_difference_and_filter_need_every_coordinate() -> None:
     with pytest.raises(EstimationError, match="needs every coordinate measured"):
         design(RSIP, "filter", 1e-3, Sensors.of(2, [1]))
+
+
+def test_a_pendulum_and_its_keywords_give_the_same_filter() -> None:
+    """ipgen.Pendulum.from_scene of the QUBE preset and the keyword description agree."""
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parent.parent / "scenes" / "rigs" / "qube_servo2.toml"
+    pendulum = ipgen.Pendulum.from_scene(scene)
+    a = ipgen.kalman(pendulum, 1e-3, 1e-6 * np.eye(4), 1e-6)
+    b = ipgen.kalman(QUBE, 1e-3, 1e-6 * np.eye(4), 1e-6)
+    for name in ("A", "B", "C", "L", "P", "M"):
+        assert_close(getattr(a, name), getattr(b, name), 1e-12, name)

@@ -66,7 +66,7 @@ def flow(model: VectorField, period: float, substeps: int | None = None) -> Any:
     """x(t + T) = F(x, u) in ipgen's coordinates, u in the model's input units (CasADi RK4)."""
     from ipgen.control.casadi_model import Plant, casadi_model
 
-    plant = Plant(model.system, tuple(model.params))
+    plant = Plant(model.pendulum)  # its params fold a motor in: u is then b · V
     steps = substeps or max(1, math.ceil(period / 1e-4 - 1e-9))
     return casadi_model(plant).flow_map(period, steps)
 

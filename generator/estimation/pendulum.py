@@ -1,8 +1,8 @@
 """The pendulum an estimator models: ẋ = f(x, u) with its exact Jacobians (`VectorField`).
 
-A pendulum is given as ipgen's keyword description (the arguments of `ipgen.linearize` without
-the point: type, links, m, l, delta, g, inertia, com, J, J_axial, tip, actuator, angles, zero,
-positive), as an object with a `vector_field()` method, or as a ready `VectorField`.
+A pendulum is given as an `ipgen.Pendulum`, as ipgen's keyword description (a mapping of the
+arguments of `ipgen.linearize` without the point: type, links, m, l, delta, g, inertia, com, J,
+J_axial, tip, actuator, angles, zero, positive), or as a ready `VectorField`.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from ipgen.control.linear import ControlError, VectorField, equilibrium_state, vector_field
 from ipgen.errors import Error
+from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
     import numpy as np
@@ -45,11 +46,8 @@ def as_model(pendulum: Any) -> VectorField:
             raise EstimationError(f"pendulum: {exc}") from None
         except TypeError as exc:
             raise EstimationError(f"pendulum: {exc} (type, links, m, l and delta are required)") from None
-    method = getattr(pendulum, "vector_field", None)
-    if callable(method):
-        model = method()
-        if isinstance(model, VectorField):
-            return model
+    if isinstance(pendulum, Pendulum):
+        return vector_field(pendulum)
     raise EstimationError(
         f"pendulum: expected a mapping of ipgen.linearize's keywords or an ipgen.Pendulum, "
         f"got {type(pendulum).__name__}"
