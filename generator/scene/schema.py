@@ -35,6 +35,7 @@ from ipgen.control import signals
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fieldtypes import (
     Choice,
@@ -335,7 +336,7 @@ _POSITIVE = (Gt(0, "must be > 0"),)
 _EFFICIENCY = (Gt(0, "an efficiency is in (0, 1]"), Le(1, "an efficiency is in (0, 1]"))
 
 
-class ActuatorTable(Table):
+class ActuatorTable(measuring.DriveKeys, Table):
     """[actuator]: what drives the base. direct: u is the force [N] or torque [N m]; dc_motor:
     u is the motor voltage [V] (docs/model.md, "A DC motor on the base"); acceleration: u is
     the base's acceleration [m/s² or rad/s²], imposed by a servo (docs/model.md, "An
@@ -811,6 +812,12 @@ class SceneDocument(BaseModel):
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
     controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
     swingup: SwingupTable = Field(default=None, description="swing-up from hanging, then hold")  # type: ignore[assignment]
+    sensors: measuring.SensorsTable = Field(
+        default=None, description="what the rig measures (default: the exact state)"
+    )  # type: ignore[assignment]
+    estimator: measuring.EstimatorTable = Field(
+        default=None, description="how the controller's state estimate is made"
+    )  # type: ignore[assignment]
 
 
 # Every table a scene may have, its model (`Input` for [input]) and its keys, documented order.
@@ -825,6 +832,8 @@ TABLE_MODELS: dict[str, Any] = {
     "outputs": OutputsTable,
     "controller": ControllerTable,
     "swingup": SwingupTable,
+    "sensors": measuring.SensorsTable,
+    "estimator": measuring.EstimatorTable,
 }
 assert tuple(TABLE_MODELS) == tuple(SceneDocument.model_fields)  # one order, checked at import
 TABLES: dict[str, tuple[str, ...]] = {
@@ -837,7 +846,7 @@ TABLES: dict[str, tuple[str, ...]] = {
 }
 # Tables that are None when absent (an open loop has no controller), and what an absent or
 # empty table reads as where that is not {} (no [input] is a zero input).
-ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup")
+ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup", "sensors", "estimator")
 WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
 
 

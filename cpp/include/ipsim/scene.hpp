@@ -364,7 +364,6 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       if (!(std::isfinite(loop.cutoff) && loop.cutoff > 0.0)) file.fail(file.line("estimator.cutoff"), "estimator.cutoff must be finite and > 0 rad/s");
     }
     if (loop.kind == EstimatorKind::kalman || loop.kind == EstimatorKind::ekf) {
-      if (!scene.coordinates.canonical()) file.fail(file.line("estimator"), "estimator " + kind + " in the rig's coordinates is not supported yet");
       loop.equilibrium = numbers_of(file, "estimator.equilibrium", 2 * n);
     }
     if (loop.kind == EstimatorKind::kalman) {

@@ -11,6 +11,9 @@
 //   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
 //
+// Every estimator works in the scene's coordinates (the CSV's; ipsim/coordinates.hpp): the kalman
+// filter's A, B, M and x_eq are given in them, the ekf maps the model's f and A into them.
+//
 // Random numbers: two std::mt19937_64 streams seeded from `seed` (one for the sensors, one for the
 // drive), normal deviates by Box–Muller from 53-bit uniforms (portable: no library distribution);
 // one draw per measured coordinate per sample and one per interval for the drive, always (also when
@@ -238,13 +241,15 @@ class MeasuredLoop {
     }
   }
 
-  /// ẋ = f(x, u) of the model (u in N or N m): the header's forward dynamics, no Coulomb friction.
-  Eigen::VectorXd derivative(const Eigen::VectorXd& x, double u) const {
+  /// ẋ = f(x, u) of the model in the scene's coordinates (x_user = P x + c, so ẋ_user = P f(x)),
+  /// u in N or N m: the header's forward dynamics, no Coulomb friction.
+  Eigen::VectorXd derivative(const Eigen::VectorXd& x_user, double u) const {
+    const Eigen::VectorXd x = coordinates_.to_canonical(x_user);
     const VectorOf<Model> q = x.head<n>();
     const VectorOf<Model> qd = x.segment<n>(n);
     Eigen::VectorXd f(2 * n);
     f << qd, Model::template forward_dynamics<double>(q, qd, u, params_);
-    return f;
+    return coordinates_.canonical() ? f : Eigen::VectorXd(coordinates_.matrix(n) * f);
   }
 
   void predict_ekf(double u) {
@@ -256,9 +261,15 @@ class MeasuredLoop {
       const Eigen::VectorXd k3 = derivative(x + 0.5 * T * k2, u);
       const Eigen::VectorXd k4 = derivative(x + T * k3, u);
       predicted_ = x + T / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-      const VectorOf<Model> q = x.head<n>();
-      const VectorOf<Model> qd = x.segment<n>(n);
-      const Eigen::MatrixXd TA = T * Eigen::MatrixXd(Model::template linearize<double>(q, qd, u, params_).A);
+      const Eigen::VectorXd canonical = coordinates_.to_canonical(x);
+      const VectorOf<Model> q = canonical.head<n>();
+      const VectorOf<Model> qd = canonical.segment<n>(n);
+      Eigen::MatrixXd A = Model::template linearize<double>(q, qd, u, params_).A;  // ∂f/∂x, exact
+      if (!coordinates_.canonical()) {  // A_user = P A P⁻¹
+        const Eigen::MatrixXd P = coordinates_.matrix(n);
+        A = P * A * P.inverse();
+      }
+      const Eigen::MatrixXd TA = T * A;
       const Eigen::MatrixXd F = Eigen::MatrixXd::Identity(2 * n, 2 * n) + TA + 0.5 * TA * TA;
       covariance_ = F * covariance_ * F.transpose() + s_.process_noise;
     } else {
