@@ -336,7 +336,7 @@ _POSITIVE = (Gt(0, "must be > 0"),)
 _EFFICIENCY = (Gt(0, "an efficiency is in (0, 1]"), Le(1, "an efficiency is in (0, 1]"))
 
 
-class ActuatorTable(measuring.DriveKeys, Table):
+class ActuatorTable(Table):
     """[actuator]: what drives the base. direct: u is the force [N] or torque [N m]; dc_motor:
     u is the motor voltage [V] (docs/model.md, "A DC motor on the base"); acceleration: u is
     the base's acceleration [m/s² or rad/s²], imposed by a servo (docs/model.md, "An
@@ -360,6 +360,9 @@ class ActuatorTable(measuring.DriveKeys, Table):
         "dc_motor: rotor inertia [kg m^2] (default 0)", (Ge(0, "an inertia cannot be negative"),)
     ) = None
     r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", _POSITIVE) = None
+    noise: measuring.DriveNoise = None  # the drive (any kind): sensors.py
+    lag: measuring.DriveLag = None
+    pulses: measuring.DrivePulses = None
     _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")

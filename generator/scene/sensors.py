@@ -225,30 +225,27 @@ class EstimatorTable(BaseModel):
         return {}
 
 
-class DriveKeys(BaseModel):
-    """The drive's keys of [actuator] (any kind): input noise, a first-order lag, disturbance pulses."""
-
-    noise: Annotated[
-        Exact | None,
-        Number(bounds=(Ge(0, "must be >= 0"),)),
-        Field(
-            description="σ of the Gaussian noise on the applied input [N, N m or V], "
-            "held per sampling interval"
-        ),
-    ] = None
-    lag: Annotated[
-        Exact | None,
-        Number(bounds=(Ge(0, "must be >= 0 s"),)),
-        Field(description="the drive's first-order time constant [s] (default 0: none)"),
-    ] = None
-    pulses: Annotated[
-        Any,
-        Custom(
-            validate=_pulses,
-            schema={"type": "array", "items": {"type": "array", "items": {"type": "number"}, "minItems": 3}},
-        ),
-        Field(description="disturbance pulses on the base: [[start s, duration s, amplitude N or N m], ...]"),
-    ] = None
+# The drive's keys of [actuator] (any kind), declared here and listed in `schema.ActuatorTable`.
+DriveNoise = Annotated[
+    Exact | None,
+    Number(bounds=(Ge(0, "must be >= 0"),)),
+    Field(
+        description="σ of the Gaussian noise on the applied input [N, N m or V], held per sampling interval"
+    ),
+]
+DriveLag = Annotated[
+    Exact | None,
+    Number(bounds=(Ge(0, "must be >= 0 s"),)),
+    Field(description="the drive's first-order time constant [s] (default 0: none)"),
+]
+DrivePulses = Annotated[
+    Any,
+    Custom(
+        validate=_pulses,
+        schema={"type": "array", "items": {"type": "array", "items": {"type": "number"}, "minItems": 3}},
+    ),
+    Field(description="disturbance pulses on the base: [[start s, duration s, amplitude N or N m], ...]"),
+]
 
 
 # ---------------------------------------------------------------------------- the loop
@@ -294,7 +291,7 @@ def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tup
 def loop(
     sensors: SensorsTable | None,
     estimator: EstimatorTable | None,
-    drive: DriveKeys,
+    drive: Any,
     *,
     links: int,
     period: float | None,
@@ -303,9 +300,10 @@ def loop(
 ) -> Loop | None:
     """The measured loop of a scene, or None when it has none (today's exact loop).
 
-    `period` is the sampled controller's or swing-up's (None: no sampled loop); `design(loop)`
-    fills in a kalman or ekf estimator's matrices (the caller's: it knows the model). Raises
-    `SensorsError` with one line naming the key and the fix.
+    `drive` is the [actuator] table (its `noise`, `lag`, `pulses`); `period` the sampled
+    controller's or swing-up's (None: no sampled loop); `design(loop, table)` fills in a kalman
+    or ekf estimator's matrices (the caller's: it knows the model). Raises `SensorsError` with
+    one line naming the key and the fix.
     """
     dof = links + 1
     drive_noise = 0.0 if drive.noise is None else drive.noise.value
