@@ -117,6 +117,9 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
                        input [N or N m; V with actuator = dc_motor; m/s^2 or rad/s^2 with
                        actuator = acceleration] applied from t on
+  y_thetaI             scenes with sensors.*: the measured value of each measured coordinate I
+  hat_theta0..N, hat_dtheta0..N  and the estimate the controller sees (both at the latest
+                       sampling instant; in the CSV's coordinates; docs/scenes.md)
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -140,6 +143,11 @@ and multiplied by b (the parameters are the motor-folded ones ipgen writes); act
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
+sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, estimator =
+exact|difference|filter|kalman|ekf with estimator.* (with a sampled controller or swing-up): the
+controller sees the estimate from quantised, noisy, delayed measurements; actuator.noise, actuator.lag,
+actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
+(written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged

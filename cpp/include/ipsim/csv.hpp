@@ -1,6 +1,6 @@
 // CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
 // output), so a run of any length needs the memory of one row. Columns:
-//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,phase][,y_…,hat_…]
+//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,y_…,hat_…][,phase]
 // every value printed with %.17g (round-trips to the same double). The state columns are in the
 // rig's coordinates when set_coordinates() says so (ipsim/coordinates.hpp), else in ipgen's.
 #pragma once
@@ -46,8 +46,8 @@ class CsvSink : public SampleSink {
     for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",dtheta%d", i);
     if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
     if (input_) std::fputs(",u", out_);
-    if (phase_) std::fputs(",phase", out_);
     for (const auto& name : extra_names_) std::fprintf(out_, ",%s", name.c_str());
+    if (phase_) std::fputs(",phase", out_);
     std::fputc('\n', out_);
     first_ = Eigen::VectorXd::Zero(state_size);
     last_ = Eigen::VectorXd::Zero(state_size);
@@ -74,7 +74,6 @@ class CsvSink : public SampleSink {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
     if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
-    if (phase_) std::fprintf(out_, ",%s", phase_());
     if (extra_) {
       const Eigen::VectorXd values = extra_();
       if (!values.allFinite()) {
@@ -83,6 +82,7 @@ class CsvSink : public SampleSink {
       }
       for (Eigen::Index j = 0; j < values.size(); ++j) std::fprintf(out_, ",%.17g", values(j));
     }
+    if (phase_) std::fprintf(out_, ",%s", phase_());
     std::fputc('\n', out_);
     check_stream();
     if (rows_ == 0) first_ = x;
@@ -107,7 +107,7 @@ class CsvSink : public SampleSink {
   /// track or hold). Call before the run.
   void phase_column(std::function<const char*()> phase) { phase_ = std::move(phase); }
 
-  /// Adds last columns `names` whose values at each row are `values()` (the measured loop's
+  /// Adds columns `names` (after u, before phase, which stays last) whose values at each row are `values()` (the measured loop's
   /// y_* and hat_* columns, sensors.hpp). Call before the run.
   void extra_columns(std::vector<std::string> names, std::function<Eigen::VectorXd()> values) {
     extra_names_ = std::move(names);

@@ -31,6 +31,12 @@
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
 //          energy_inertia energy_weight                                               (energy)
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
+//   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
+//   sensors.seed = 0         (optional, with a sampled controller or swing-up: the measured loop, sensors.hpp)
+//   estimator = exact | difference | filter | kalman | ekf   estimator.cutoff (filter)
+//   estimator.equilibrium, estimator.A, estimator.B, estimator.gain, estimator.input   (kalman, row-major)
+//   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
+//   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
