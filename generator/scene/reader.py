@@ -35,6 +35,7 @@ from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import _one_of, _Reader, format_number
 from ipgen.scene.fieldtypes import Exact, Kind
@@ -145,6 +146,7 @@ class Scene:
     # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
     coordinates: Coordinates = field(default_factory=Coordinates)
     travel: float | None = None  # [limits] travel: |θ0| limit [m or rad]; the simulator stops beyond it
+    loop: measuring.Loop | None = None  # [sensors], [estimator], drive keys: the measured loop (None: exact)
 
     @property
     def system(self) -> System:
@@ -276,6 +278,7 @@ def resolved_config(scene: Scene) -> str:
         lines.append("energy = true")
     lines += _controller_lines(scene.controller)
     lines += _swingup_lines(scene.swingup)
+    lines += measuring.config_lines(scene.loop)
     return "\n".join(lines) + "\n"
 
 
@@ -593,6 +596,7 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
         except swing.SwingUpError as error:
             reader.fail(str(error))
+    loop = _loop(reader, tables, system, controller, law, actuator, coordinates, links_as_built, lengths)
     travel = None if tables["limits"].travel is None else tables["limits"].travel.value
     if travel is not None and abs(theta[0]) > travel:
         reader.fail(
@@ -634,7 +638,57 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         swingup=law,
         coordinates=coordinates,
         travel=travel,
+        loop=loop,
     )
+
+
+def _loop(
+    reader: _Reader,
+    tables: dict[str, Any],
+    system: Any,
+    controller: Controller | None,
+    law: SwingUpLaw | None,
+    actuator: Actuator,
+    coordinates: Coordinates,
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...],
+    lengths: tuple[float, ...],
+) -> measuring.Loop | None:
+    """The scene's measured loop (`sensors.loop`), its kalman or ekf numbers from the exact
+    linearisation at the controller's (or the swing-up's hold) equilibrium."""
+    period = controller.period if controller is not None else (law.period if law is not None else None)
+    if controller is not None:
+        equilibrium, scale = controller.equilibrium, controller.saturation
+    elif law is not None:
+        equilibrium, scale = law.target, law.u_max
+    else:
+        equilibrium, scale = (), None
+
+    def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
+        from ipgen.control.linear import ControlError, linearize
+
+        parameters = tables["parameters"]
+        dof = system.links + 1
+        try:
+            linear = linearize(
+                system.type, system.links, _floats(parameters.m), lengths, _floats(parameters.delta),
+                parameters.g.value, system.inertia, q=equilibrium[:dof], qd=equilibrium[dof:], u=0.0,
+                **dict(links_as_built), actuator=actuator,
+                angles=coordinates.angles, zero=coordinates.zero, positive=coordinates.positive,
+            )  # fmt: skip
+        except ControlError as exc:
+            raise measuring.SensorsError(f"estimator: no linear model: {exc}") from None
+        return measuring.design(
+            loop, table, linear=linear, equilibrium=tuple(equilibrium), period=float(period or 0.0),
+            classical=system.type == "classical", input_scale=1.0 if scale is None else float(scale),
+        )  # fmt: skip
+
+    try:
+        return measuring.loop(
+            tables["sensors"], tables["estimator"], tables["actuator"], links=system.links, period=period,
+            acceleration=actuator.is_acceleration, design=design,
+        )  # fmt: skip
+    except measuring.SensorsError as error:
+        reader.fail(str(error))
 
 
 @dataclass(frozen=True)

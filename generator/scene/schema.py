@@ -35,6 +35,7 @@ from ipgen.control import signals
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fieldtypes import (
     Choice,
@@ -359,6 +360,9 @@ class ActuatorTable(Table):
         "dc_motor: rotor inertia [kg m^2] (default 0)", (Ge(0, "an inertia cannot be negative"),)
     ) = None
     r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", _POSITIVE) = None
+    noise: measuring.DriveNoise = None  # the drive (any kind): sensors.py
+    lag: measuring.DriveLag = None
+    pulses: measuring.DrivePulses = None
     _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")
@@ -811,6 +815,12 @@ class SceneDocument(BaseModel):
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
     controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
     swingup: SwingupTable = Field(default=None, description="swing-up from hanging, then hold")  # type: ignore[assignment]
+    sensors: measuring.SensorsTable = Field(
+        default=None, description="what the rig measures (default: the exact state)"
+    )  # type: ignore[assignment]
+    estimator: measuring.EstimatorTable = Field(
+        default=None, description="how the controller's state estimate is made"
+    )  # type: ignore[assignment]
 
 
 # Every table a scene may have, its model (`Input` for [input]) and its keys, documented order.
@@ -825,6 +835,8 @@ TABLE_MODELS: dict[str, Any] = {
     "outputs": OutputsTable,
     "controller": ControllerTable,
     "swingup": SwingupTable,
+    "sensors": measuring.SensorsTable,
+    "estimator": measuring.EstimatorTable,
 }
 assert tuple(TABLE_MODELS) == tuple(SceneDocument.model_fields)  # one order, checked at import
 TABLES: dict[str, tuple[str, ...]] = {
@@ -837,7 +849,7 @@ TABLES: dict[str, tuple[str, ...]] = {
 }
 # Tables that are None when absent (an open loop has no controller), and what an absent or
 # empty table reads as where that is not {} (no [input] is a zero input).
-ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup")
+ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup", "sensors", "estimator")
 WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
 
 
