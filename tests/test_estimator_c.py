@@ -184,3 +184,37 @@ def test_python_estimators_on_the_simulators_samples(generated, name) -> None:
     assert np.all(np.abs(got.estimate[: len(hat)] - hat) <= DOUBLE * scale), np.max(
         np.abs(got.estimate[: len(hat)] - hat), axis=0
     )
+
+
+def test_an_ekf_header_without_the_dynamics_is_refused() -> None:
+    """The EKF needs the header's forward dynamics and their derivatives (a scene always emits
+    them; a header request without them is refused in one line naming the fix)."""
+    from ipgen.codegen.c_header import ControllerError, estimator_context
+    from ipgen.estimation.printed import PrintedEstimator
+
+    ekf = PrintedEstimator(kind="ekf", period=1e-3, measured=(0, 1), equilibrium=(0.0,) * 4)
+    with pytest.raises(ControllerError) as info:
+        estimator_context(ekf, 2, ("mass_matrix", "bias"))
+    message = str(info.value)
+    assert "\n" not in message and "forward_dynamics" in message and "outputs" in message, message
+    with pytest.raises(ControllerError, match="every coordinate measured"):
+        estimator_context(PrintedEstimator(kind="filter", period=1e-3, measured=(1,), cutoff=50.0), 2, ())
+    nan = PrintedEstimator(
+        kind="ekf", period=1e-3, measured=(0, 1), equilibrium=(0.0, float("nan"), 0.0, 0.0)
+    )
+    with pytest.raises(ControllerError, match="not a finite number"):
+        estimator_context(nan, 2, ("forward_dynamics", "forward_dynamics_derivatives"))
+
+
+def test_scenes_without_an_estimator_print_none(tmp_path) -> None:
+    """The shipped QUBE preset (no [sensors]) has no estimator in its C header; its sensors
+    variant has the Kalman filter's tables."""
+    for source, expected in (("qube_servo2.toml", False), ("qube_servo2_sensors.toml", True)):
+        text = (ROOT / "scenes" / "rigs" / source).read_text().replace('emit = ["cpp"]', 'emit = ["c"]')
+        scene = tmp_path / source
+        scene.write_text(text)
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+            assert run(["--scene", str(scene), "-o", str(tmp_path / source.removesuffix(".toml"))]) == 0
+        header = (tmp_path / source.removesuffix(".toml") / "qube_servo2.h").read_text()
+        assert ("ipgen_qube_servo2_estimator_update" in header) is expected
+        assert ("static const IPGEN_SCALAR ipgen_qube_servo2_estimator_M[8]" in header) is expected
