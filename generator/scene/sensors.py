@@ -29,7 +29,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from ipgen.scene.fields import _type_name, format_number
+from ipgen.scene.fields import format_number
 from ipgen.scene.fieldtypes import (
     Choice,
     Custom,
@@ -59,9 +59,15 @@ class SensorsError(Exception):
 # ---------------------------------------------------------------------------- value checks
 
 
+def _written_as(value: Any) -> str:
+    """What a TOML value is, for a message ("a string", "an array", ...)."""
+    kinds = {bool: "a boolean", str: "a string", list: "an array", dict: "a table"}
+    return kinds.get(type(value), "a date or time")
+
+
 def _finite(item: Any, _: dict[str, Any]) -> float:
     if isinstance(item, bool) or not isinstance(item, (int, Decimal)):
-        refuse(f"expected a number, got {_type_name(item)}")
+        refuse(f"expected a number, got {_written_as(item)}")
     try:
         number = float(item)
     except OverflowError:

@@ -350,8 +350,8 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       file.fail(file.line("sensors.delay"), "sensors.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
     }
     loop.delay_periods = static_cast<long>(periods);
-    const double seed = file.number("sensors.seed");
-    if (!(seed >= 0.0 && seed < 0x1.0p63 && seed == std::floor(seed))) file.fail(file.line("sensors.seed"), "sensors.seed must be an integer >= 0");
+    const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
+    if (seed < 0) file.fail(file.line("sensors.seed"), "sensors.seed must be an integer >= 0");
     loop.seed = static_cast<std::uint64_t>(seed);
     const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";
     const std::pair<const char*, EstimatorKind> kinds[] = {{"exact", EstimatorKind::exact}, {"difference", EstimatorKind::difference},
