@@ -30,10 +30,11 @@ The public API (stable; everything else is internal):
   identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
   that the linear model's predicted base travel stays within the limits), written as a new scene
   (what `ipgen excite` does; docs/excitation.md).
-- `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
-  fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
-  data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
-  PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
+- `identify(scene, data, free=[...], output=None) -> Identified` (or `identify(p, data, free)
+  -> Fit` for a Pendulum): the `free` parameters fitted to measurements (a CSV), with standard
+  errors, 95 % intervals, correlations and what the data cannot determine (`.fit`, `.report`);
+  with `output`, the updated scene, the report and a PNG written there (`ipgen identify`,
+  docs/identify.md; needs CasADi).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -41,9 +42,9 @@ Importing ipgen is cheap: the modules behind these functions are imported on fir
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ipgen.common.locations import cmake_dir
 from ipgen.common.version import __version__
@@ -191,6 +192,75 @@ def write_header(
     return [written.path for written in run(job)]
 
 
+def identify(
+    scene: str | Path | Pendulum,
+    data: str | Path,
+    free: str | Iterable[str],
+    output: str | Path | None = None,
+    *,
+    force: bool = False,
+    output_error: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> Any:
+    """Fit the `free` parameters of a rig to measurements (docs/identify.md; needs CasADi).
+
+    Parameters
+    ----------
+    scene : str, Path or Pendulum
+        A scene file (the prior, the drive, the input, the coordinates), or a `Pendulum` (the
+        data must then have a u column).
+    data : str or Path
+        The measurements: a CSV in the simulator's format, in the rig's coordinates.
+    free : str or iterable of str
+        The parameters to fit, "m1,delta0" or ["m1", "delta0"].
+    output : str or Path, optional
+        Scene files only: the folder to write the updated scene, the report and a PNG into.
+    force : bool, default False
+        Replace files of an earlier run in `output`.
+    output_error : bool, default True
+        Refine the equation-error estimate by simulation.
+    progress : callable, optional
+        Called with a short message at each stage.
+
+    Returns
+    -------
+    Identified or Fit
+        For a scene file an `Identified` (`.fit`, `.report`, `.files`, `.scene`); for a
+        Pendulum its `Fit` (`.table()`, `.estimate`, `.stderr`, `.statements`).
+
+    Raises
+    ------
+    Error
+        One line: a bad scene or data file, a free name the model has not, data that cannot
+        identify the free parameters, an output that would overwrite without `force`.
+
+    Examples
+    --------
+    >>> import ipgen  # doctest: +SKIP
+    >>> ipgen.identify("scenes/rigs/qube_servo2.toml", "rig.csv", "J1,delta0", "out").report  # doctest: +SKIP
+    """
+    from ipgen.model.pendulum import Pendulum
+
+    if isinstance(scene, Pendulum):
+        if output is not None:
+            raise Error("identify(p, ...) writes no files: pass a scene file to write the updated scene")
+        from ipgen.identification.fit import identify_pendulum
+
+        return identify_pendulum(
+            scene,
+            data,
+            free if isinstance(free, str) else list(free),
+            output_error=output_error,
+            progress=progress,
+        )
+    from ipgen.command.identify import identify as identify_scene
+
+    return identify_scene(
+        scene, data, free if isinstance(free, str) else list(free), output,
+        force=force, output_error=output_error, progress=progress,
+    )  # fmt: skip
+
+
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
     imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
@@ -211,10 +281,6 @@ def __getattr__(attribute: str) -> object:
         from ipgen.command.excite import excitation
 
         return excitation
-    if attribute == "identify":
-        from ipgen.command.identify import identify
-
-        return identify
     if attribute == "kalman":
         from ipgen.estimation.kalman import kalman
 
