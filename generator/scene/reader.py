@@ -664,22 +664,16 @@ def _loop(
         equilibrium, scale = (), None
 
     def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
-        from ipgen.control.linear import ControlError, linearize
-
         parameters = tables["parameters"]
-        dof = system.links + 1
-        try:
-            linear = linearize(
-                system.type, system.links, _floats(parameters.m), lengths, _floats(parameters.delta),
-                parameters.g.value, system.inertia, q=equilibrium[:dof], qd=equilibrium[dof:], u=0.0,
-                **dict(links_as_built), actuator=actuator,
-                angles=coordinates.angles, zero=coordinates.zero, positive=coordinates.positive,
-            )  # fmt: skip
-        except ControlError as exc:
-            raise measuring.SensorsError(f"estimator: no linear model: {exc}") from None
+        pendulum = {
+            "type": system.type, "links": system.links, "m": _floats(parameters.m), "l": lengths,
+            "delta": _floats(parameters.delta), "g": parameters.g.value, "inertia": system.inertia,
+            **dict(links_as_built), "actuator": actuator,
+            "angles": coordinates.angles, "zero": coordinates.zero, "positive": coordinates.positive,
+        }  # fmt: skip
         return measuring.design(
-            loop, table, linear=linear, equilibrium=tuple(equilibrium), period=float(period or 0.0),
-            classical=system.type == "classical", input_scale=1.0 if scale is None else float(scale),
+            loop, table, pendulum=pendulum, equilibrium=tuple(equilibrium), period=float(period or 0.0),
+            input_scale=1.0 if scale is None else float(scale),
         )  # fmt: skip
 
     try:

@@ -453,38 +453,37 @@ def config_lines(loop_: Loop | None) -> list[str]:
 # ---------------------------------------------------------------------------- kalman and ekf
 
 
-def quantum(index: int, resolution: float, classical: bool) -> float:
-    """Δ of an encoder: 2π/resolution [rad], or 1/resolution [m] for a cart's position; 0 if exact."""
-    if resolution == 0:
-        return 0.0
-    return (1.0 if classical and index == 0 else 2.0 * math.pi) / resolution
-
-
 def design(
     loop_: Loop,
     table: EstimatorTable | None,
     *,
-    linear: Any,
+    pendulum: dict[str, Any],
     equilibrium: tuple[float, ...],
     period: float,
-    classical: bool,
     input_scale: float,
 ) -> Loop:
-    """`loop_` with a kalman or ekf estimator's numbers: the ZOH discretisation (A_d, B_d) of
-    `linear` = (A, B) (the exact linearisation at `equilibrium`, in the scene's coordinates and
-    input unit), Rn and Qn (given, or the defaults of `ipgen.estimation`) and, for kalman, the
-    steady-state current-form gain M."""
+    """`loop_` with a kalman or ekf estimator's numbers, from `ipgen.estimation`: Rn and Qn (the
+    table's, or `estimation.default_covariances`) and, for kalman, `ipgen.kalman`'s ZOH model
+    (A_d, B_d) of the exact linearisation at `equilibrium` and its current-form gain M.
+    `pendulum` is `ipgen.linearize`'s keywords (the scene's coordinates and input unit)."""
     import dataclasses
 
     import numpy as np
 
-    a, b = (np.asarray(m, dtype=float) for m in linear)
-    a_d, b_d = _zoh(a, b.reshape(-1), period)
-    size, count = a.shape[0], len(loop_.measured)
-    quanta = [quantum(i, r, classical) for i, r in zip(loop_.measured, loop_.resolution, strict=True)]
-    q_default, r_default = _default_covariances(
-        b_d, period, noise=loop_.noise, quanta=quanta, drive_noise=loop_.drive_noise, input_scale=input_scale
-    )
+    from ipgen.estimation import EstimationError, Sensors, default_covariances, kalman
+
+    dof = len(equilibrium) // 2
+    size, count = 2 * dof, len(loop_.measured)
+    try:
+        sensors = Sensors.of(
+            dof, loop_.measured, loop_.resolution, loop_.noise, cart=pendulum["type"] == "classical"
+        )
+        q_default, r_default = default_covariances(
+            pendulum, period, sensors, input_noise=loop_.drive_noise, u_scale=input_scale,
+            equilibrium=list(equilibrium[:dof]),
+        )  # fmt: skip
+    except EstimationError as exc:
+        raise SensorsError(f"estimator: {exc}") from None
     given_q = None if table is None else table.process_noise
     given_r = None if table is None else table.measurement_noise
     qn = np.array(covariance(given_q, size, "process_noise")) if given_q is not None else q_default
@@ -506,54 +505,15 @@ def design(
             process_noise=rows(qn),
             measurement_noise=rows(rn),
         )
-    c = np.zeros((count, size))
-    for row, i in enumerate(loop_.measured):
-        c[row, i] = 1.0
     try:
-        gain = _steady_state_gain(a_d, c, qn, rn)
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        raise SensorsError(
-            f"estimator: no steady-state Kalman gain ({exc}): measure more coordinates"
-        ) from None
+        gains = kalman(pendulum, period, qn, rn, measured=loop_.measured, equilibrium=list(equilibrium[:dof]))
+    except EstimationError as exc:
+        raise SensorsError(f"estimator: {exc}") from None
     return dataclasses.replace(
         loop_,
-        A=rows(a_d),
-        B=tuple(float(x) for x in b_d),
-        gain=rows(gain),
+        A=rows(gains.A),
+        B=tuple(float(x) for x in np.asarray(gains.B).reshape(-1)),
+        gain=rows(gains.M),
         equilibrium=tuple(float(x) for x in equilibrium),
         input_equilibrium=0.0,
     )
-
-
-# Provisional until ipgen.estimation (h-est32) lands: the same formulas as SENSORS_SPEC.
-
-
-def _zoh(a: Any, b: Any, period: float) -> tuple[Any, Any]:
-    import numpy as np
-    from scipy.linalg import expm
-
-    n = a.shape[0]
-    block = np.zeros((n + 1, n + 1))
-    block[:n, :n], block[:n, n] = a, b
-    e = expm(block * period)
-    return e[:n, :n], e[:n, n]
-
-
-def _default_covariances(
-    b_d: Any, period: float, *, noise: Any, quanta: Any, drive_noise: float, input_scale: float
-) -> tuple[Any, Any]:
-    import numpy as np
-
-    rn = np.diag([max(s * s + q * q / 12.0, 1e-12) for s, q in zip(noise, quanta, strict=True)])
-    n = b_d.shape[0]
-    rates = np.diag([0.0] * (n // 2) + [1.0] * (n // 2))
-    qn = np.outer(b_d, b_d) * (drive_noise**2 + (0.01 * input_scale) ** 2) + period * rates
-    return qn, rn
-
-
-def _steady_state_gain(a_d: Any, c: Any, qn: Any, rn: Any) -> Any:
-    import numpy as np
-    from scipy.linalg import solve_discrete_are
-
-    p = solve_discrete_are(a_d.T, c.T, qn, rn)
-    return p @ c.T @ np.linalg.inv(c @ p @ c.T + rn)
