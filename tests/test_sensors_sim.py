@@ -24,10 +24,12 @@ from cxx import require_toolchain
 import ipgen
 from ipgen.command.cli import run
 from ipgen.command.simulator import build
+from ipgen.estimation import ExtendedKalman, Sensors, SteadyStateKalman, default_covariances, replay
 from ipgen.scene.reader import load_scene, resolved_config
 
 PERIOD = 0.001
 M, L, DELTA = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]
+PENDULUM = {"type": "rotary", "links": 1, "m": M, "l": L, "delta": DELTA}
 SCENE = """\
 [system]
 type = "rotary"
@@ -178,6 +180,11 @@ def test_kalman_estimates_equal_the_reference_on_the_recorded_samples(
         r = Run(simulator, tmp_path, scene_text(table + '[estimator]\nkind = "kalman"\n'))
         hat = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
         np.testing.assert_allclose(hat, kalman_reference(r, measured), rtol=1e-9, atol=1e-9)
+        # ipgen.estimation's Python filter (h-est32's) on the recorded y_* and u: the same estimates.
+        sensors = Sensors.of(2, measured, 2048, 0.001)
+        qn, rn = default_covariances(PENDULUM, PERIOD, sensors, u_scale=5.0)
+        python = replay(SteadyStateKalman(ipgen.kalman(PENDULUM, PERIOD, qn, rn, measured=measured)), r.csv)
+        np.testing.assert_allclose(python.estimate[: len(hat)], hat, rtol=1e-9, atol=1e-9)
         assert abs(r.data[-1, 2]) < 0.05  # the 0.05 rad tilt not grown: balanced on the estimate
 
 
@@ -232,6 +239,8 @@ def test_ekf_estimates_equal_an_independent_ekf_on_the_recorded_samples(
         p = big_f @ p @ big_f.T + qn
     got = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
     np.testing.assert_allclose(got, np.array(hat), rtol=1e-9, atol=1e-9)
+    python = replay(ExtendedKalman(PENDULUM, PERIOD, qn, rn, measured=[0, 1]), r.csv)  # ipgen.estimation's
+    np.testing.assert_allclose(python.estimate[: len(got)], got, rtol=1e-9, atol=1e-9)
 
 
 def noise_of(r: Run) -> np.ndarray:
@@ -305,3 +314,37 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
     assert rows[-1].endswith(",hold") and "Estimator: ekf" in result.stdout
     last = [float(v) for v in rows[-1].split(",")[:-1]]
     assert abs(math.remainder(last[2], 2 * math.pi)) < 0.05  # θ1 upright
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"sensors.delay": "0.0015"}, "whole multiple of the period"),
+        ({"sensors.resolution": "-1 2048"}, "sensors.resolution must be finite and >= 0"),
+        ({"sensors.noise": "nan 0"}, "sensors.noise must be finite and >= 0"),
+        ({"sensors.measured": "1 0"}, "ascending"),
+        ({"sensors.resolution": "2048"}, "has 1 values, expected 2"),
+        ({"estimator": "luenberger"}, "estimator must be"),
+        ({"estimator": "filter", "sensors.measured": "1", "sensors.resolution": "0", "sensors.noise": "0"},
+         "needs every coordinate measured"),
+        ({"controller.period": "0"}, "need a sampled loop"),
+        ({"actuator.pulses": "0.1 0.2"}, "3 numbers a pulse"),
+    ],
+)  # fmt: skip
+def test_the_simulator_refuses_bad_loop_keys(
+    simulator: Path, tmp_path: Path, change: dict, message: str
+) -> None:
+    """A .cfg not written by ipgen: one line `simulate: error: ...`, exit 2, no CSV."""
+    path = tmp_path / "bad.toml"
+    path.write_text(scene_text('[sensors]\nresolution = 2048\n[estimator]\nkind = "difference"\n'))
+    keys = [line.split(" = ", 1) for line in resolved_config(load_scene(path)).splitlines() if " = " in line]
+    keys = [(key, change.get(key, value)) for key, value in keys]
+    keys += [(key, value) for key, value in change.items() if key not in dict(keys)]
+    cfg = tmp_path / "bad.cfg"
+    cfg.write_text("".join(f"{key} = {value}\n" for key, value in keys))
+    result = subprocess.run(
+        [str(simulator), str(cfg), "--csv", str(tmp_path / "bad.csv")], capture_output=True, text=True
+    )
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+    assert result.stderr.startswith("simulate: error: ") and result.stderr.count("\n") == 1
+    assert not (tmp_path / "bad.csv").exists()
