@@ -19,6 +19,10 @@ The public API (stable; everything else is internal):
 - `lqr(p, Q, R, equilibrium=None) -> K` (or `lqr(type, links, m, l, delta, Q, R, ...)`): an
   LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
+- `kalman(pendulum, period, Qn, Rn, *, measured=None, equilibrium=None) -> Kalman`: the
+  steady-state discrete Kalman filter on the ZOH-discretised exact linearisation (`.L`, `.P` in
+  python-control's `dlqe` convention, `.M` the current-form gain, `.A`, `.B`, `.C`;
+  estimation/kalman.py; the estimators that run on a recording are in `ipgen.estimation`);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
   `actuator=` argument of `derive`, `linearize` and `lqr` (u is then the motor voltage [V]);
   `Actuator("acceleration")`: the base follows a commanded acceleration (u = θ̈0).
@@ -31,6 +35,9 @@ The public API (stable; everything else is internal):
   errors, 95 % intervals, correlations and what the data cannot determine (`.fit`, `.report`);
   with `output`, the updated scene, the report and a PNG written there (`ipgen identify`,
   docs/identify.md; needs CasADi).
+- `sweep(scene, out, *, scorecard=False, vary=(), ...) -> Outcome`: the scene run over levels of
+  its keys (the robustness scorecard, or grids of any scene key), scored, with runs.csv,
+  scores.json, scores.md and PNGs written into `out` (`ipgen sweep`, docs/sweep.md).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -50,6 +57,7 @@ if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
     from ipgen.model.pendulum import Pendulum
+    from ipgen.sweeps.runner import Outcome
 
 
 __all__ = [
@@ -62,8 +70,10 @@ __all__ = [
     "derive",
     "excitation",
     "identify",
+    "kalman",
     "linearize",
     "lqr",
+    "sweep",
     "write_header",
 ]
 
@@ -256,6 +266,102 @@ def identify(
     )  # fmt: skip
 
 
+def sweep(
+    scene: str | Path,
+    out: str | Path,
+    *,
+    scorecard: bool | Iterable[str] = False,
+    vary: Iterable[str] = (),
+    levels: Mapping[str, str] | None = None,
+    repeat: int | None = None,
+    seed: int = 0,
+    angle_tolerance: float = 0.35,
+    rate_tolerance: float = 1.0,
+    hold: float = 1.0,
+    base_tolerance: float | None = None,
+    travel: float | None = None,
+    dask: str | None = None,
+    jobs: int | None = None,
+    force: bool = False,
+    cache_dir: str | Path | None = None,
+    plots: bool = True,
+) -> Outcome:
+    """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
+
+    Each run is the scene with some keys overridden in memory: the plant changes, the controller
+    stays the one designed on the nominal scene (a [controller]/[swingup] key designs it anew).
+    docs/sweep.md is the guide.
+
+    Parameters
+    ----------
+    scene : str or Path
+        The scene file (TOML) with a [controller] or a [swingup].
+    out : str or Path
+        The folder for runs.csv, scores.json, scores.md and the PNGs; its runs.csv, if there, is
+        resumed.
+    scorecard : bool or iterable of str, optional
+        True: the robustness scorecard's criteria; or some of their names (mass, com, inertia,
+        damping, coulomb, period, resolution, sensor_noise, delay, drive_noise, lag, pulses).
+    vary : iterable of str, optional
+        "KEY=LO:HI:N" or "KEY=v1,v2,..." (e.g. "initial.theta[1]=-1:1:21"); several make the grid
+        of all their combinations.
+    levels : mapping of str to str, optional
+        A scorecard criterion's levels in the same notation, e.g. {"mass": "0.5:1.5:11"}.
+    repeat : int, optional
+        Runs per level (the seeded criteria; `vary`: default 1).
+    seed : int, optional
+        The base of every run's seed (each run's seed is written in runs.csv).
+    angle_tolerance, rate_tolerance, hold : float, optional
+        The success test: every link within `angle_tolerance` rad of the goal and `rate_tolerance`
+        rad/s over the last `hold` s (defaults 0.35, 1, 1).
+    base_tolerance : float, optional
+        The base's tolerance about the goal [m or rad] (default: not checked).
+    travel : float, optional
+        The base's travel limit |θ0| (default: the scene's limits.travel).
+    dask : str, optional
+        A Dask scheduler's address: run there (needs ``pip install 'ipgen-pendulum[dask]'``).
+    jobs : int, optional
+        Local worker processes (default: all cores).
+    force : bool, optional
+        Start over (ignore an earlier runs.csv), write into a folder holding other files.
+    cache_dir : str or Path, optional
+        The compiled simulators' cache (default: ipgen's).
+    plots : bool, optional
+        Write the PNGs (default True).
+
+    Returns
+    -------
+    Outcome
+        `.score` (the mean of the criteria's scores), `.scores` (per criterion), `.rows` (the
+        table), `.files`, `.runs`, `.ran` (run now), `.workers`, `.seconds`.
+
+    Raises
+    ------
+    Error
+        A one-line message for a bad specification (unknown key, empty range, ...), a scene ipgen
+        refuses, an unreachable scheduler; nothing is written then.
+    """
+    from ipgen.sweeps.runner import sweep as run_sweep
+    from ipgen.sweeps.success import Success
+
+    chosen = scorecard if isinstance(scorecard, bool) else tuple(scorecard)
+    return run_sweep(
+        scene,
+        out,
+        scorecard_criteria=chosen,
+        vary=(vary,) if isinstance(vary, str) else tuple(vary),
+        levels=dict(levels or {}),
+        repeat=repeat,
+        seed=seed,
+        success=Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel),
+        dask=dask,
+        jobs=jobs,
+        force=force,
+        cache=cache_dir,
+        plot=plots,
+    )
+
+
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
     imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
@@ -276,6 +382,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.command.excite import excitation
 
         return excitation
+    if attribute == "kalman":
+        from ipgen.estimation.kalman import kalman
+
+        return kalman
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

@@ -303,20 +303,8 @@ def _hanging_model(rig: Any) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of the rig about hanging at rest (canonical coordinates; B per unit of u)."""
     from ipgen.control.linear import ControlError, linearize
 
-    links = rig.links
     try:
-        return linearize(
-            rig.type,
-            links,
-            rig.m,
-            rig.l,
-            rig.delta,
-            rig.g,
-            rig.inertia,
-            q=[0.0] + [math.pi] * links,
-            **rig.link_values(),
-            actuator=rig.actuator,
-        )
+        return linearize(rig.pendulum.canonical(), q=[0.0] + [math.pi] * rig.links)
     except ControlError as exc:
         raise ExcitationError(f"no linear model about hanging: {exc}") from None
 

@@ -27,6 +27,13 @@ from ipgen.scene.values import Says
 
 def load_document(path: Path) -> tuple[Reader, schema.SceneDocument]:
     """The scene at `path`, validated; raises `SceneError` (one line) on any problem."""
+    reader, document = parse_document(path)
+    return reader, validate_document(reader, document)
+
+
+def parse_document(path: Path) -> tuple[Reader, dict[str, Any]]:
+    """The scene file's TOML document (numbers as exact `Decimal`s), not yet validated: what
+    `validate_document` checks, possibly after a sweep changed some values."""
     reader = Reader(path)
     if not schema.STEM.match(path.stem):
         reader.fail(
@@ -38,8 +45,12 @@ def load_document(path: Path) -> tuple[Reader, schema.SceneDocument]:
             f"scene file name is {len(path.stem)} characters long: use at most {limits.MAX_STEM_LENGTH} "
             "(it names the output files)"
         )
-    document = _parse_toml(reader, _read_text(reader))
-    return reader, _validate(reader, document)
+    return reader, _parse_toml(reader, _read_text(reader))
+
+
+def validate_document(reader: Reader, document: dict[str, Any]) -> schema.SceneDocument:
+    """`document` validated against the scene format; `SceneError` (one line) naming `reader`'s file."""
+    return _validate(reader, document)
 
 
 def _read_text(reader: Reader) -> str:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 from ipgen.codegen.emit import DEFAULT_EMIT
 from ipgen.control import signals
@@ -20,11 +21,11 @@ from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
-from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.schema import SceneDocument
@@ -134,6 +135,7 @@ class Scene:
     # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
     coordinates: Coordinates = field(default_factory=Coordinates)
     travel: float | None = None  # [limits] travel: |θ0| limit [m or rad]; the simulator stops beyond it
+    loop: measuring.Loop | None = None  # [sensors], [estimator], drive keys: the measured loop (None: exact)
 
     @property
     def system(self) -> System:
@@ -169,37 +171,21 @@ class Scene:
         """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
         + the rotor's reflected inertia, as rationals of the decimals written (the motor
         constants by their shortest repr), so that the resolved config and a specialised
-        header agree to the last bit (`actuator.fold` in exact arithmetic)."""
-        motor = self.actuator
-        if not motor.is_motor:
+        header agree to the last bit (`Pendulum.folded` of the exact pendulum)."""
+        if not self.actuator.is_motor:
             return {}
-
-        def exact(value: float | None) -> Fraction:
-            return Fraction(1) if value is None else Fraction(repr(float(value)))
-
-        radius = exact(motor.r)  # 1 on an arm
-        gain = (
-            exact(motor.eta_g)
-            * exact(motor.Kg)
-            * exact(motor.eta_m)
-            * exact(motor.kt)
-            / (exact(motor.Rm) * radius)
-        )
-        damping = gain * exact(motor.Kg) * exact(motor.km) / radius
-        inertia = exact(motor.eta_g) * exact(motor.Kg) ** 2 * exact(motor.Jm) / radius**2
-        folded = {"delta0": self.exact("delta0") + damping}
+        folded = from_scene_object(self, exact=True).folded()
         if self.type == "classical":
-            folded["m0"] = self.exact("m0") + inertia
-        else:
-            given = "J" in self.link_values()
-            base = self.exact("J0") if given else self.exact("m0") * self.exact("l0") ** 2 / 3
-            folded["J0"] = base + inertia
-        return folded
+            return {"delta0": Fraction(folded.delta[0]), "m0": Fraction(folded.m[0])}
+        assert folded.J is not None  # an arm's folded J has every entry
+        return {"delta0": Fraction(folded.delta[0]), "J0": Fraction(folded.J[0])}
 
 
-def build_scene(reader: Reader, document: SceneDocument) -> Scene:
+def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None = None) -> Scene:
     """The `Scene` of a validated document: defaults filled in, the controller's gain and the
-    swing-up's plan computed; what no table can say alone refused in one line."""
+    swing-up's plan computed; what no table can say alone refused in one line. With `designed`,
+    the controller and swing-up law are that scene's (designed on its model) instead of designed
+    anew on this document's parameters: the plant changes, the controller does not (`ipgen sweep`)."""
     tables = dict(document)
     system, parameters = tables["system"], tables["parameters"]
     kind, links = system.type, system.links
@@ -223,7 +209,9 @@ def build_scene(reader: Reader, document: SceneDocument) -> Scene:
             "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
             "remove them (the FMU's input is the force or torque; see docs/model.md)"
         )
-    if tables["controller"] is not None:
+    if tables["controller"] is not None and designed is not None:
+        controller = designed.controller
+    elif tables["controller"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
         )
@@ -245,6 +233,9 @@ def build_scene(reader: Reader, document: SceneDocument) -> Scene:
                 user = coordinates.to_user(np.array(hanging + (0.0,) * (links + 1)), links)
                 theta = tuple(float(v) for v in user[: links + 1])
         start = tuple(float(v) for v in coordinates.to_canonical(np.array(theta + dtheta), links))
+    if tables["swingup"] is not None and designed is not None:
+        law = designed.swingup
+    elif tables["swingup"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
         )
@@ -257,6 +248,7 @@ def build_scene(reader: Reader, document: SceneDocument) -> Scene:
             )
         except swing.SwingUpError as error:
             reader.fail(str(error))
+    loop = _loop(reader, tables, system, controller, law, actuator, coordinates, links_as_built, lengths)
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
     if travel is not None and abs(theta[0]) > travel:
         reader.fail(
@@ -298,6 +290,7 @@ def build_scene(reader: Reader, document: SceneDocument) -> Scene:
         swingup=law,
         coordinates=coordinates,
         travel=travel,
+        loop=loop,
     )
 
 
@@ -313,26 +306,65 @@ class _Parameters:
 
 
 def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
-    """The motor-folded parameters (`actuator.fold`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
-    from ipgen.model.actuator import fold
-
+    """The motor-folded parameters (`Pendulum.folded`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
     built = dict(params.links)
-    given = built.get("J")
-    inertias = (
-        list(given)
-        if given is not None
-        else [rod_value(system, "J", i, params.m, params.l) for i in range(system.dof)]
-    )
-    m, delta, j, gain = fold(actuator, system, list(params.m), list(params.delta), inertias)
-    if system.is_rotary or given is not None:
-        built["J"] = tuple(j)
+    pendulum = Pendulum(
+        system.type, system.links, params.m, params.l, params.delta, params.g, system.inertia,
+        actuator=actuator, **built,
+    )  # fmt: skip
+    folded = pendulum.folded()
+    if folded.J is not None:
+        built["J"] = tuple(folded.J)
     order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
     links = tuple((group, tuple(built[group])) for group in order)
-    return _Parameters(tuple(m), params.l, tuple(delta), params.g, links), gain
+    return _Parameters(tuple(folded.m), params.l, tuple(folded.delta), params.g, links), pendulum.gain
 
 
 def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
+
+
+def _loop(
+    reader: Reader,
+    tables: dict[str, Any],
+    system: Any,
+    controller: Controller | None,
+    law: SwingUpLaw | None,
+    actuator: Actuator,
+    coordinates: Coordinates,
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...],
+    lengths: tuple[float, ...],
+) -> measuring.Loop | None:
+    """The scene's measured loop (`sensors.loop`), its kalman or ekf numbers from the exact
+    linearisation at the controller's (or the swing-up's hold) equilibrium."""
+    period = controller.period if controller is not None else (law.period if law is not None else None)
+    if controller is not None:
+        equilibrium, scale = controller.equilibrium, controller.saturation
+    elif law is not None:
+        equilibrium, scale = law.target, law.u_max
+    else:
+        equilibrium, scale = (), None
+
+    def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
+        parameters = tables["parameters"]
+        pendulum = {
+            "type": system.type, "links": system.links, "m": _floats(parameters.m), "l": lengths,
+            "delta": _floats(parameters.delta), "g": float(parameters.g), "inertia": system.inertia,
+            **dict(links_as_built), "actuator": actuator,
+            "angles": coordinates.angles, "zero": coordinates.zero, "positive": coordinates.positive,
+        }  # fmt: skip
+        return measuring.design(
+            loop, table, pendulum=pendulum, equilibrium=tuple(equilibrium), period=float(period or 0.0),
+            input_scale=1.0 if scale is None else float(scale),
+        )  # fmt: skip
+
+    try:
+        return measuring.loop(
+            tables["sensors"], tables["estimator"], tables["actuator"], links=system.links, period=period,
+            acceleration=actuator.is_acceleration, design=design,
+        )  # fmt: skip
+    except measuring.SensorsError as error:
+        reader.fail(str(error))
 
 
 def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:
@@ -356,22 +388,15 @@ def motor_folded_parameters(
     m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
     if not scene.actuator.is_motor:
         return m, delta, built, 1.0
-    from ipgen.model.actuator import fold
-
-    system = scene.system
-    given = built.get("J")
-    inertias = (
-        list(given)
-        if given is not None
-        else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
-    )
-    m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
+    folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
+    m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
     exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
     delta_[0] = float(exact["delta0"])
-    if system.is_rotary:
+    j_ = None if folded.J is None else list(folded.J)
+    if j_ is not None and scene.system.is_rotary:
         j_[0] = float(exact["J0"])
-    else:
+    if not scene.system.is_rotary:
         m_[0] = float(exact["m0"])
-    if system.is_rotary or given is not None:
+    if j_ is not None:
         built["J"] = tuple(j_)
     return tuple(m_), tuple(delta_), built, gain

@@ -38,8 +38,8 @@ def updated_scene_text(
 ) -> str:
     """`text` with each (table, key) of `updates` set to its value (floats, written so that they
     read back exactly), `header` (comment lines, each starting with '#') put first: a key
-    the table lacks is added after its last key, a missing table appended. Raises SceneError
-    if the result does not read back."""
+    the table lacks is added at the table's end (after its comment lines), a missing table
+    appended. Raises SceneError if the result does not read back."""
     import tomlkit
 
     document = _document(text)
