@@ -531,7 +531,7 @@ def animate_command(
         from ipgen.plots.animation import animate_run
     except ImportError:
         raise job.OptionsError(
-            "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
+            "ipgen animate needs pillow: pip install 'ipgen-pendulum[swingup]' (or pip install pillow)"
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
     frame = _csv_coordinates(csv, angles, zero, positive)
