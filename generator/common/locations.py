@@ -1,4 +1,5 @@
-"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`)."""
+"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`) and the preset
+scenes (`ipgen presets`)."""
 
 from __future__ import annotations
 
@@ -20,5 +21,23 @@ def cmake_dir() -> Path:
         return checkout
     raise Error(
         "ipgen's CMake package is missing from this installation: reinstall it with "
+        "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
+    )
+
+
+def presets_dir() -> Path:
+    """The folder holding the preset scenes (`ipgen presets`, `ipgen run --preset NAME`): the
+    package's `presets/` when installed (the checkout's scenes/, shipped as package data), else
+    an uninstalled checkout's scenes/."""
+    spec = importlib.util.find_spec("ipgen.presets")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    for location in locations:
+        if any(Path(location).glob("*.toml")):
+            return Path(location).resolve()
+    checkout = Path(__file__).resolve().parents[2] / "scenes"  # an uninstalled checkout
+    if any(checkout.glob("*.toml")):
+        return checkout
+    raise Error(
+        "ipgen's preset scenes are missing from this installation: reinstall it with "
         "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
     )
