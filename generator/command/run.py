@@ -97,6 +97,8 @@ def run_scene(
         planned = job.plan(staging, scene=scene_path, emit=("cpp",), force=force)
         assert planned.scene is not None
         scene = planned.scene
+        for warning in scene.warnings:  # e.g. a unit slip: the run goes on
+            announce(warning)
         stem = scene.stem
         paths = {suffix: out / f"{stem}.{suffix}" for suffix in ("cfg", "csv", "png", "txt")}
         prepare_directory(out)

@@ -38,6 +38,7 @@ from ipgen.scene import swingup as swing
 from ipgen.scene.fields import _one_of, _Reader, format_number
 from ipgen.scene.fieldtypes import Exact, Kind
 from ipgen.scene.nesting import shape_problem
+from ipgen.scene.plausibility import unit_slips
 
 
 @dataclass(frozen=True)
@@ -620,7 +621,8 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
         emit=system.emit,
         decimals=parameters.decimals(kind),
         links_as_built=links_as_built,
-        warnings=_warnings(reader, simulation["rtol"]),
+        warnings=_warnings(reader, simulation["rtol"])
+        + tuple(map(reader.warning, unit_slips(kind, _floats(parameters.m), lengths, theta))),
         controller=controller,
         actuator=actuator,
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
