@@ -425,13 +425,13 @@ def plot_command(
 ) -> None:  # fmt: skip
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
-    from ipgen.plots.run import plot_run, read_run, system_type_beside
+    from ipgen.plots.run import plot_run, read_run, sampled_beside, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
     plot_run(
         run, target, csv.name, system_type or system_type_beside(csv), force=force,
-        coordinates=_csv_coordinates(csv, angles, zero, positive),
+        coordinates=_csv_coordinates(csv, angles, zero, positive), sampled=sampled_beside(csv),
     )  # fmt: skip
     click.echo(f"wrote {target}")
 

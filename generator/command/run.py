@@ -29,7 +29,7 @@ from ipgen.command import job
 from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.command.simulator import Simulator, build
 from ipgen.common.safetext import shown_path
-from ipgen.plots.run import PlotError, plot_run, read_run
+from ipgen.plots.run import PlotError, plot_run, read_run, sampled_beside
 from ipgen.plots.run import check_replaceable as check_png
 
 if TYPE_CHECKING:
@@ -132,6 +132,7 @@ def run_scene(
                 force=True,
                 coordinates=scene.coordinates,
                 input_unit=unit,
+                sampled=sampled_beside(paths["cfg"]),
             )
             files.append(paths["png"])
         except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary
