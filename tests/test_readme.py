@@ -140,7 +140,8 @@ def github_anchor(heading: str) -> str:
 def test_readme_is_a_short_guide_and_its_links_resolve() -> None:
     """The README stays a user guide (the details live in docs/), and every relative link of the
     README, docs/ and cpp/README.md names a file that exists and, with #, one of its headings."""
-    assert len((ROOT / "README.md").read_text().splitlines()) <= 260
+    # 330: the README's examples are complete programs and commands that run verbatim
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 330
     documents = [ROOT / "README.md", ROOT / "cpp" / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
     for document in documents:
         text = re.sub(r"^```.*?^```$", "", document.read_text(), flags=re.S | re.M)  # not in code
