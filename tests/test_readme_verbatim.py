@@ -5,8 +5,8 @@ of its own; each example's outputs checked (the files it says it writes, what it
 How (slow by design: marker `fresh_venv`, `make test-slow`; about a minute unloaded, plus a
 simulator compile for each model the machine has not built before):
 
-- the wheel is built from a copy of the tracked sources (`pip wheel --no-deps
-  --no-build-isolation`, the project virtualenv's setuptools) and installed with `--no-deps` into
+- the wheel is built from a copy of the sources (`pip wheel --no-deps`: the build backend,
+  setuptools, from pip's cache as for tests/test_package.py) and installed with `--no-deps` into
   a virtualenv made at the README's own path, `~/.venvs/ipgen`, in the fresh HOME; its
   dependencies come from the project's .venv through one .pth line (a "--system-site-packages"
   of the project's virtualenv: nothing downloaded, nothing copied). The install lines themselves
@@ -175,8 +175,7 @@ def install_wheel(tmp: Path) -> tuple[Path, Path]:
     shutil.copytree(ROOT, source, ignore=ignore)
     dist = tmp / "dist"
     built = subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w", str(dist),
-         str(source)],
+        [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(dist), str(source)],
         capture_output=True, text=True,
     )  # fmt: skip
     assert built.returncode == 0, built.stdout[-2000:] + built.stderr[-2000:]
