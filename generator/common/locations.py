@@ -26,9 +26,21 @@ def cmake_dir() -> Path:
 
 
 def presets_dir() -> Path:
-    """The folder holding the preset scenes (`ipgen presets`, `ipgen run --preset NAME`): the
-    package's `presets/` when installed (the checkout's scenes/, shipped as package data), else
-    an uninstalled checkout's scenes/."""
+    """The folder of the preset scenes (`ipgen presets`, `ipgen run --preset NAME`,
+    `ipgen.Pendulum.preset`): the installed package's `presets/` (the checkout's scenes/ with
+    scenes/rigs/, shipped in the wheel as package data), else an uninstalled checkout's scenes/.
+
+    Returns
+    -------
+    Path
+        The folder holding the paper's scenes (cdip_pulse.toml, ...) and, in rigs/, one scene
+        file per rig (qube_servo2.toml, ...).
+
+    Raises
+    ------
+    Error
+        The presets are not part of this installation.
+    """
     spec = importlib.util.find_spec("ipgen.presets")
     locations = list(spec.submodule_search_locations or []) if spec is not None else []
     for location in locations:
