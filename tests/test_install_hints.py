@@ -102,3 +102,19 @@ except Exception as e:
 """
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert "pip install 'ipgen-pendulum[swingup]'" in done.stdout, done.stdout + done.stderr
+
+
+def test_the_energy_swingup_scene_loads_without_casadi() -> None:
+    """The scene stage designs the preset rsip_swingup's law without CasADi (what `ipgen run
+    --preset rsip_swingup` needs before it compiles)."""
+    code = """
+import sys
+sys.modules["casadi"] = None
+from ipgen.common.presets import preset_path
+from ipgen.scene.reader import load_scene
+scene = load_scene(preset_path("rsip_swingup"))
+print(type(scene.swingup).__name__, scene.swingup is not None)
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("True"), done.stdout
