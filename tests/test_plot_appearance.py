@@ -42,12 +42,14 @@ def test_a_run_about_hanging_keeps_its_own_range() -> None:
     assert high - low < 1.0
     dotted = [line for line in links_axes(fig).lines if line.get_linestyle() == ":"]
     assert [line.get_ydata()[0] for line in dotted] == [math.pi]  # hanging is marked, −π is not
+    assert fig.axes[0].get_title().endswith("dotted lines: hanging down (π)")
 
 
 def test_a_run_through_both_hanging_levels_shows_both() -> None:
     fig = draw_run(run_of(T, [0 * T, 3.5 * np.sin(T)]), "swinging", "rotary")
     levels = sorted(line.get_ydata()[0] for line in links_axes(fig).lines if line.get_linestyle() == ":")
     assert levels == [-math.pi, math.pi]
+    assert fig.axes[0].get_title().endswith("dotted lines: hanging down (−π, π)")
 
 
 def test_a_sampled_input_is_drawn_as_steps(tmp_path: Path) -> None:

@@ -177,6 +177,11 @@ def _turns_label(k: int) -> str:
     return f" {sign} {2 * abs(k) if abs(k) > 1 else 2}π"
 
 
+def _multiple_of_pi(level: float) -> str:
+    k = round(level / math.pi)
+    return f"{'−' if k < 0 else ''}{abs(k) if abs(k) != 1 else ''}π"
+
+
 def _reference_levels(low: float, high: float, levels: tuple[float, ...]) -> list[float]:
     """The levels (±π, ...) within reach of the data [low, high]: a run about one of them is not
     stretched to show the other."""
@@ -230,10 +235,11 @@ def draw_run(
             label=f"link {i} angle θ{i}{_turns_label(k)}" + (f" from link {i - 1}" if relative else ""),
         )
     # ±π: hanging down in ipgen's coordinates; in a rig's, whatever its convention puts there.
-    meaning = "hanging down (±π)" if frame.is_canonical else "±π"
     low = min((min(v) for v in shown if v), default=0.0)
     high = max((max(v) for v in shown if v), default=0.0)
     levels = _reference_levels(low, high, (-3 * math.pi, -math.pi, math.pi, 3 * math.pi))
+    named = ", ".join(_multiple_of_pi(level) for level in levels)
+    meaning = f"hanging down ({named})" if frame.is_canonical else named
     for level in levels:
         links.axhline(level, color="grey", linestyle=":", linewidth=0.8)
     links.set_ylabel(
