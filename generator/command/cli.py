@@ -310,7 +310,8 @@ def _generate(planned: job.Job) -> list[Written]:
         return job.run(planned, progress=lambda step: bar.update(1, step))
 
 
-RUN_HELP = """Run a scene: generate its model, build its simulator (optimised, cached by the
+RUN_HELP = """Run a scene (a file, or --preset NAME: one shipped with ipgen, ipgen presets
+lists them): generate its model, build its simulator (optimised, cached by the
 model's content: later runs of the same model do not compile), simulate, and write into OUT:
 SCENE.cfg (the resolved scene), SCENE.csv (the trajectory), SCENE.png (a plot) and SCENE.txt
 (the simulator's summary of the run).
@@ -325,7 +326,7 @@ liblapack-dev).
 
 
 @cli.command("run", help=RUN_HELP, context_settings=CONTEXT)
-@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml", required=False)
+@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
     "-o",

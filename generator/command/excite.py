@@ -503,7 +503,7 @@ Examples:
     help=EXCITE_HELP,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
-@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml", required=False)
+@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
     "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
