@@ -30,10 +30,11 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from ipgen.control.casadi_model import Plant, casadi_model
-from ipgen.control.linear import dynamics, weights
+from ipgen.control.casadi_model import Plant, as_plant, casadi_model
+from ipgen.control.linear import ControlError, dynamics, weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
+from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
     import numpy as np
@@ -108,7 +109,7 @@ class EnergySwingUp:
 
 
 def energy_swingup(
-    plant: Plant,
+    plant: Plant | Pendulum,
     *,
     u_max: float,
     period: float = 0.01,
@@ -131,9 +132,17 @@ def energy_swingup(
     `acceleration`: u is the base's acceleration ([actuator] kind "acceleration"): the law's a
     is the input (clipped to u_max), a_max defaults to u_max, and the hold LQR is that of the
     acceleration-driven linear model (`discrete_acceleration_lqr`).
+    `plant`: a `Plant` or an `ipgen.Pendulum` ("direct" or "acceleration" drive: a Pendulum's
+    drive sets `acceleration`).
     """
     import numpy as np
 
+    if isinstance(plant, Pendulum):
+        acceleration = plant.actuator.is_acceleration
+    try:
+        plant = as_plant(plant, "the energy swing-up")
+    except ControlError as exc:
+        raise PlanError(str(exc)) from None
     if plant.links != 1:
         raise PlanError(
             f'energy swing-up is for a single link, this system has {plant.links}; use method "trajectory"'
@@ -210,7 +219,7 @@ def mass_and_bias(plant: Plant, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarr
             np.asarray(model.bias(q, qd), dtype=float).reshape(-1),
         )
     model_ = dynamics(plant.system)
-    return model_.mass(q, plant.params), model_.bias(q, qd, plant.params)
+    return model_.mass_matrix(q, plant.params), model_.bias(q, qd, plant.params)
 
 
 def discrete_zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray) -> np.ndarray:

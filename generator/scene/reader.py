@@ -231,6 +231,27 @@ def load_scene(path: str | Path) -> Scene:
     return _build_scene(reader, _validate(reader, document))
 
 
+def read_document(path: str | Path) -> dict[str, Any]:
+    """The scene file's TOML document (numbers as exact `Decimal`s), its tables and keys checked,
+    not yet validated: what `scene_from_document` reads after a sweep changed some values."""
+    reader = _Reader(Path(path))
+    document = _parse_toml(reader, _read_text(reader))
+    _check_keys(reader, document)
+    return document
+
+
+def scene_from_document(
+    path: str | Path, document: dict[str, Any], *, designed: Scene | None = None
+) -> Scene:
+    """The scene of a TOML `document` (as `read_document` gives it, possibly changed), its
+    messages naming `path`. With `designed`, the controller and swing-up law are that scene's
+    (designed on its model) instead of designed anew on this document's parameters: the plant
+    changes, the controller does not (`ipgen sweep`)."""
+    reader = _Reader(Path(path))
+    _check_keys(reader, document)
+    return _build_scene(reader, _validate(reader, document), designed)
+
+
 def resolved_config(scene: Scene) -> str:
     """The flat `key = value` text the C++ simulator reads (deterministic, numbers exact)."""
     lines = [
@@ -542,7 +563,7 @@ def _written(value: object) -> object:
 # ---------------------------------------------------------------------------- the scene
 
 
-def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
+def _build_scene(reader: _Reader, tables: dict[str, Any], designed: Scene | None = None) -> Scene:
     system, parameters = tables["system"], tables["parameters"]
     kind, links = system.type, system.links
     name = system.name or System(kind, links, system.inertia).default_name
@@ -565,7 +586,9 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
             "remove them (the FMU's input is the force or torque; see docs/model.md)"
         )
-    if tables["controller"] is not None:
+    if tables["controller"] is not None and designed is not None:
+        controller = designed.controller
+    elif tables["controller"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
@@ -584,6 +607,9 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
             )
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
             theta = (0.0,) + (math.pi,) * links
+    if tables["swingup"] is not None and designed is not None:
+        law = designed.swingup
+    elif tables["swingup"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
         )
