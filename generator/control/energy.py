@@ -157,6 +157,8 @@ def energy_swingup(
         if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
     g = plant.g
+    if not g > 0:  # k_E below divides by g: no gravity, no energy to pump
+        raise PlanError(f"energy swing-up needs gravity: g = {g:g}; use method \"trajectory\"")
     # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,
     # or the arm's inertia about the vertical with the link's mass at its tip).
     if accel_max is None and acceleration:

@@ -24,7 +24,7 @@ force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -111,9 +111,9 @@ class Actuator:
             if name not in ("eta_g", "eta_m", "Jm") and value <= 0:
                 raise ActuatorError(f"actuator {name} = {value:g}: must be > 0 [{MOTOR_CONSTANTS[name][0]}]")
         for what, value in (
-            ("gain", self.gain()),
-            ("back-EMF damping", self.damping()),
-            ("rotor inertia", self.inertia()),
+            ("gain", _or_inf(self.gain)),  # motor_terms' Kg**2 raises OverflowError past 1.8e308
+            ("back-EMF damping", _or_inf(self.damping)),
+            ("rotor inertia", _or_inf(self.inertia)),
         ):
             if not math.isfinite(value):
                 raise ActuatorError(
@@ -231,6 +231,14 @@ def fold_base(
 
 
 DIRECT = Actuator()
+
+
+def _or_inf(value: Callable[[], float]) -> float:
+    """value(), or inf where a power overflows a double."""
+    try:
+        return value()
+    except OverflowError:
+        return math.inf
 
 
 def as_actuator(value: Actuator | dict | None) -> Actuator:
