@@ -43,7 +43,7 @@ from tqdm import tqdm
 from bench.report import BUILD, ROOT, machine, table
 
 DOCS = ROOT / "docs" / "bench"
-T_END = 3.0  # s per run
+T_END = 2.0  # s per run
 SMALLEST, LARGEST = 0.01, 1.5  # rad: the basin's bisection bracket
 TILT_RMS = 0.1  # rad
 TILT_DELAY = 0.05  # rad
@@ -350,7 +350,7 @@ def main() -> int:
     if args.from_json:
         render(json.loads(args.from_json.read_text()), out)
         return 0
-    steps, refine = (3, 1) if args.quick else (5, 2)
+    steps, refine = (2, 0) if args.quick else (3, 0)
     started = time.perf_counter()
     out.mkdir(parents=True, exist_ok=True)
     partial = out / "estimation.partial.jsonl"  # one line per finished case: a rerun resumes
