@@ -52,6 +52,7 @@ CUTOFF = 50.0  # rad/s
 PERIODS = {"1 kHz": 1e-3, "500 Hz": 2e-3}
 MAX_DELAY = 128  # periods: the doubling stops here
 ESTIMATORS = ("exact", "difference", "filter", "kalman")
+COLORS = {"exact": "black", "difference": "tab:orange", "filter": "tab:green", "kalman": "tab:red"}
 SYSTEMS = {
     "rsip": {"type": "rotary", "links": 1, "m": [0.5, 0.275], "l": [0.6, 0.5], "delta": [0.3, 0.011458]},
     "rdip": {
@@ -205,7 +206,13 @@ def plot_basins(results: list[dict], path: Path) -> None:
                 )
                 value = row[metric]
                 values.append(0.0 if value is None else (value * 1e3 if metric == "delay_s" else value))
-            axis.bar(np.arange(len(groups)) + (j - 1.5) * width, values, width, label=estimator)
+            axis.bar(
+                np.arange(len(groups)) + (j - 1.5) * width,
+                values,
+                width,
+                label=estimator,
+                color=COLORS[estimator],
+            )
         axis.set_xticks(range(len(groups)), [f"{s}\n{r}" for s, r in groups])
         axis.set_ylabel(label)
         axis.grid(True, axis="y", alpha=0.3)
@@ -222,11 +229,12 @@ def plot_traces(path: Path) -> None:
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True)
     for estimator in ESTIMATORS:
         loop = run("qube", estimator, 1e-3, 0.2, 0)
+        color = COLORS[estimator]
         if estimator == "exact":
-            axes[0].plot(loop.t, loop.x[:, 3], "k", lw=2, label="true α̇")
+            axes[0].plot(loop.t, loop.x[:, 3], color=color, lw=2, label="true α̇")
         else:
-            axes[0].plot(loop.t, loop.estimate[:, 3], lw=0.8, label=f"{estimator} estimate")
-        axes[1].plot(loop.t, loop.u, lw=0.8, label=estimator)
+            axes[0].plot(loop.t, loop.estimate[:, 3], color=color, lw=0.8, label=f"{estimator} estimate")
+        axes[1].plot(loop.t, loop.u, color=color, lw=0.8, label=estimator)
     axes[0].set_ylabel("pendulum rate α̇ [rad/s]")
     axes[0].set_xlim(0, 1.0)
     axes[0].legend(fontsize="small")
@@ -290,7 +298,8 @@ def render(results: dict, out: Path) -> None:
         "(θ0 the arm; exact = 0);",
         f"- largest delay (ms, in periods) that still balances from {TILT_DELAY} rad: doubling 1, 2, 4, … "
         f"periods (up to {MAX_DELAY}),",
-        f"  then {results.get('refine', 0)} bisection steps (a lower bound within a factor 2^(1−steps)).",
+        f"  then {results.get('refine', 0)} bisection steps: a lower bound, the limit is below "
+        f"{1 + 2 ** -results.get('refine', 0):g}× it.",
         "",
         *table(
             [
@@ -345,10 +354,15 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=None, help="where estimation.md/.json/.png go")
     parser.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--from-json", type=Path, default=None, help="render a previous run's JSON only")
+    parser.add_argument(
+        "--traces", action="store_true", help="with --from-json: run and plot the QUBE traces"
+    )
     args = parser.parse_args()
     out = args.out or (BUILD / "quick" if args.quick else DOCS)
     if args.from_json:
         render(json.loads(args.from_json.read_text()), out)
+        if args.traces:
+            plot_traces(out / "estimation_qube.png")
         return 0
     steps, refine = (2, 0) if args.quick else (3, 0)
     started = time.perf_counter()
