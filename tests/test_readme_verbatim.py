@@ -133,7 +133,7 @@ def test_readme_blocks_are_all_accounted_for() -> None:
             assert not re.search(r"^\s*(ipgen|pip|gcc|g\+\+) ", block.body, flags=re.M), block.body
         if k in ("shell", "python", "file"):
             assert "scenes/" not in block.body, f"a checkout path in a README block:\n{block.body}"
-    assert sorted(inline_commands()) == ["ipgen --cmake-dir", "ipgen --help", "ipgen --scene-schema"]
+    assert "ipgen --help" in inline_commands()  # each one the slow test runs too
     # the swing-up fragment is the table of the preset the README names after it
     fragment = next(b for b, k in zip(blocks, kinds, strict=True) if k == "fragment")
     table = tomllib.loads(fragment.body)["swingup"]
