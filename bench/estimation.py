@@ -43,14 +43,16 @@ from tqdm import tqdm
 from bench.report import BUILD, ROOT, machine, table
 
 DOCS = ROOT / "docs" / "bench"
-T_END = 4.0  # s per run
+T_END = 2.0  # s per run
 SMALLEST, LARGEST = 0.01, 1.5  # rad: the basin's bisection bracket
 TILT_RMS = 0.1  # rad
 TILT_DELAY = 0.05  # rad
 RESOLUTION = 2048  # counts per revolution
 CUTOFF = 50.0  # rad/s
 PERIODS = {"1 kHz": 1e-3, "500 Hz": 2e-3}
+MAX_DELAY = 128  # periods: the doubling stops here
 ESTIMATORS = ("exact", "difference", "filter", "kalman")
+COLORS = {"exact": "black", "difference": "tab:orange", "filter": "tab:green", "kalman": "tab:red"}
 SYSTEMS = {
     "rsip": {"type": "rotary", "links": 1, "m": [0.5, 0.275], "l": [0.6, 0.5], "delta": [0.3, 0.011458]},
     "rdip": {
@@ -109,9 +111,9 @@ def run(system: str, estimator: str, period: float, tilt: float, delay: int, see
     )  # fmt: skip
 
 
-def case(args: tuple[str, str, str, int]) -> dict:
+def case(args: tuple[str, str, str, int, int]) -> dict:
     """Basin, RMS error and largest delay of one (system, estimator, rate)."""
-    system, estimator, rate, steps = args
+    system, estimator, rate, steps, refine = args
     period = PERIODS[rate]
     started = time.perf_counter()
     runs = 0
@@ -135,14 +137,16 @@ def case(args: tuple[str, str, str, int]) -> dict:
     reference = run(system, estimator, period, TILT_RMS, 0)
     runs += 1
     rms = reference.rms_error().tolist()
-    # largest delay in periods: doubling, then bisection
+    # largest delay in periods: doubling (1, 2, 4, ... periods), then `refine` bisection steps
     if not balanced(TILT_DELAY, 0):
         delay = -1
     else:
         good, bad = 0, 1
-        while bad <= 256 and balanced(TILT_DELAY, bad):
+        while bad <= MAX_DELAY and balanced(TILT_DELAY, bad):
             good, bad = bad, bad * 2
-        while bad - good > 1:
+        for _ in range(refine):
+            if bad - good <= 1:
+                break
             mid = (good + bad) // 2
             good, bad = (mid, bad) if balanced(TILT_DELAY, mid) else (good, mid)
         delay = good
@@ -202,7 +206,13 @@ def plot_basins(results: list[dict], path: Path) -> None:
                 )
                 value = row[metric]
                 values.append(0.0 if value is None else (value * 1e3 if metric == "delay_s" else value))
-            axis.bar(np.arange(len(groups)) + (j - 1.5) * width, values, width, label=estimator)
+            axis.bar(
+                np.arange(len(groups)) + (j - 1.5) * width,
+                values,
+                width,
+                label=estimator,
+                color=COLORS[estimator],
+            )
         axis.set_xticks(range(len(groups)), [f"{s}\n{r}" for s, r in groups])
         axis.set_ylabel(label)
         axis.grid(True, axis="y", alpha=0.3)
@@ -219,11 +229,12 @@ def plot_traces(path: Path) -> None:
     fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, constrained_layout=True)
     for estimator in ESTIMATORS:
         loop = run("qube", estimator, 1e-3, 0.2, 0)
+        color = COLORS[estimator]
         if estimator == "exact":
-            axes[0].plot(loop.t, loop.x[:, 3], "k", lw=2, label="true α̇")
+            axes[0].plot(loop.t, loop.x[:, 3], color=color, lw=2, label="true α̇")
         else:
-            axes[0].plot(loop.t, loop.estimate[:, 3], lw=0.8, label=f"{estimator} estimate")
-        axes[1].plot(loop.t, loop.u, lw=0.8, label=estimator)
+            axes[0].plot(loop.t, loop.estimate[:, 3], color=color, lw=0.8, label=f"{estimator} estimate")
+        axes[1].plot(loop.t, loop.u, color=color, lw=0.8, label=estimator)
     axes[0].set_ylabel("pendulum rate α̇ [rad/s]")
     axes[0].set_xlim(0, 1.0)
     axes[0].legend(fontsize="small")
@@ -285,8 +296,10 @@ def render(results: dict, out: Path) -> None:
         f"geometric bisection on [{SMALLEST}, {LARGEST}] rad;",
         f"- RMS estimation error over a {T_END:g} s run from {TILT_RMS} rad: angles in mrad, rates in rad/s "
         "(θ0 the arm; exact = 0);",
-        f"- largest delay (ms, in periods) that still balances from {TILT_DELAY} rad",
-        "  (doubling, then bisection).",
+        f"- largest delay (ms, in periods) that still balances from {TILT_DELAY} rad: doubling 1, 2, 4, … "
+        f"periods (up to {MAX_DELAY}),",
+        f"  then {results.get('refine', 0)} bisection steps: a lower bound, the limit is below "
+        f"{1 + 2 ** -results.get('refine', 0):g}× it.",
         "",
         *table(
             [
@@ -341,22 +354,41 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=None, help="where estimation.md/.json/.png go")
     parser.add_argument("--jobs", type=int, default=2, help="processes (default 2)")
     parser.add_argument("--from-json", type=Path, default=None, help="render a previous run's JSON only")
+    parser.add_argument(
+        "--traces", action="store_true", help="with --from-json: run and plot the QUBE traces"
+    )
     args = parser.parse_args()
     out = args.out or (BUILD / "quick" if args.quick else DOCS)
     if args.from_json:
         render(json.loads(args.from_json.read_text()), out)
+        if args.traces:
+            plot_traces(out / "estimation_qube.png")
         return 0
-    steps = 4 if args.quick else 7
+    steps, refine = (2, 0) if args.quick else (3, 0)
     started = time.perf_counter()
-    tasks = [(s, e, r, steps) for s in SYSTEMS for r in PERIODS for e in ESTIMATORS]
-    with ProcessPoolExecutor(args.jobs) as pool:
-        cases = list(tqdm(pool.map(case, tasks), total=len(tasks), desc="estimation", unit="case"))
+    out.mkdir(parents=True, exist_ok=True)
+    partial = out / "estimation.partial.jsonl"  # one line per finished case: a rerun resumes
+    done = [json.loads(line) for line in partial.read_text().splitlines()] if partial.exists() else []
+    have = {(c["system"], c["estimator"], c["rate"]) for c in done}
+    order = ("qube", "rsip", "rdip")
+    tasks = [
+        (s, e, r, steps, refine) for s in order for r in PERIODS for e in ESTIMATORS if (s, e, r) not in have
+    ]
+    cases = list(done)
+    with ProcessPoolExecutor(args.jobs) as pool, partial.open("a") as log:
+        for result in tqdm(pool.map(case, tasks), total=len(tasks), desc="estimation", unit="case"):
+            cases.append(result)
+            log.write(json.dumps(result) + "\n")
+            log.flush()
+    cases.sort(key=lambda c: (list(SYSTEMS).index(c["system"]), list(PERIODS).index(c["rate"]),
+                              ESTIMATORS.index(c["estimator"])))  # fmt: skip
     results = {
         "cases": cases,
         "steps": steps,
+        "refine": refine,
         "cross_check": cross_check(),
         "runs": sum(c["runs"] for c in cases),
-        "seconds": time.perf_counter() - started,
+        "seconds": time.perf_counter() - started + sum(c["seconds"] for c in done) / args.jobs,
         "jobs": args.jobs,
         "machine": machine(),
     }
@@ -364,6 +396,7 @@ def main() -> int:
     (out / "estimation.json").write_text(json.dumps(results, indent=1))
     render(results, out)
     plot_traces(out / "estimation_qube.png")
+    partial.unlink()
     print(f"wrote {out / 'estimation.md'}, estimation.png, estimation_qube.png")
     return 0
 

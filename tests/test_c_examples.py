@@ -43,15 +43,21 @@ int main(void) {
 """
 
 
+def without_main(example: str) -> str:
+    """The README's program with its own main renamed (tests/test_readme_verbatim.py runs that
+    one as it is), so that CHECK's main checks observer_tick."""
+    return "#define main readme_main\n" + example + "#undef main\n"
+
+
 def test_readme_c_example(tmp_path: Path) -> None:
     require_cc()
     readme = (ROOT / "README.md").read_text()
     blocks = re.findall(r"```c\n(.*?)```", readme, flags=re.S)
     example = next(b for b in blocks if "observer_tick" in b)
-    assert len(example.strip().splitlines()) <= 14, "the README's C example should stay short"
+    assert len(example.strip().splitlines()) <= 24, "the README's C example should stay short"
     generate(System("rotary", 1), "rsip", tmp_path / "out", emit=("c",))
     source = tmp_path / "example.c"
-    source.write_text(example + CHECK)
+    source.write_text(without_main(example) + CHECK)
     binary = tmp_path / "example"
     error = compile_c(c_command(f"-I{tmp_path}", str(source), "-o", str(binary), scalar="float"))
     assert error is None, error
@@ -101,7 +107,7 @@ def test_readme_c_compile_line_builds_the_example(tmp_path: Path) -> None:
     assert command[-1] == "-lm"
     example = next(b for b in re.findall(r"```c\n(.*?)```", readme, flags=re.S) if "observer_tick" in b)
     generate(System("rotary", 1), "rsip", tmp_path / "out", emit=("c",))
-    (tmp_path / command[command.index("-o") - 1]).write_text(example + CHECK)
+    (tmp_path / command[command.index("-o") - 1]).write_text(without_main(example) + CHECK)
     build = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(tmp_path / command[command.index("-o") + 1])], capture_output=True, text=True)

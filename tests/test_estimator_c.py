@@ -11,7 +11,6 @@ encoders, with noise, sampled at 1 kHz; every estimator kind, one with a delay o
 from __future__ import annotations
 
 import io
-import os
 import subprocess
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
@@ -23,7 +22,7 @@ from cxx import require_toolchain
 
 import ipgen
 from ipgen.command.cli import run
-from ipgen.command.simulator import build
+from ipgen.command.simulator import build, cache_root
 from ipgen.estimation import Sensors, design, replay
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -93,7 +92,7 @@ def scene_text(sensors: str, estimator: str) -> str:
 
 @pytest.fixture(scope="module")
 def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    """Every variant generated (.h, .hpp, .cfg); the simulator built once from the first .hpp."""
+    """Every variant generated (.h, .hpp, .cfg); the simulator built from the kalman variant's .hpp."""
     require_toolchain()
     require_cc()
     root = tmp_path_factory.mktemp("sil")
@@ -106,8 +105,8 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
             assert run(["--scene", str(folder / "scene.toml"), "-o", str(folder)]) == 0, err.getvalue()
         folders[name] = folder
     header = (folders["kalman"] / "qube_servo2.hpp").read_text()
-    cache = Path(os.environ.get("IPGEN_CACHE_DIR") or root / "cache")
-    folders["simulator"] = build(header, "qube_servo2", cache).path
+    # the shared content-keyed cache (locked per key): the xdist workers and later runs build it once
+    folders["simulator"] = build(header, "qube_servo2", cache_root()).path
     return folders
 
 

@@ -40,8 +40,11 @@ def one_line(error: BaseException) -> str:
 # --------------------------------------------------------------------------- presets
 
 
-def test_presets_are_the_rig_scenes() -> None:
-    assert presets() == tuple(path.stem for path in RIGS)
+def test_presets_are_the_shipped_scenes() -> None:
+    """The rigs and the paper's scenes (`ipgen presets` lists the same)."""
+    scenes = sorted((ROOT / "scenes").rglob("*.toml"), key=lambda path: path.stem)
+    assert presets() == tuple(path.stem for path in scenes)
+    assert set(presets()) >= {path.stem for path in RIGS}
     assert "qube_servo2" in presets()
     with pytest.raises(PendulumError) as refused:
         Pendulum.preset("qube_servo3")

@@ -11,6 +11,7 @@ import click
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.command import job
 from ipgen.command.job import LINKS_WITHOUT_FORCE, cost_estimate
+from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
@@ -54,11 +55,14 @@ Examples:
   ipgen --scene scenes/cdip_pulse.toml --describe # one line: name=cdip type=classical ...
   ipgen --type rotary --links 2 --emit equations -o out/  # out/rotary2.md and .tex
   ipgen run my_scene.toml -o out/   # generate, build, simulate: out/my_scene.csv, .png, .txt
+  ipgen presets                     # the scenes shipped with ipgen (rigs, the paper's)
+  ipgen run --preset qube_servo2 -o out/   # one of them: out/qube_servo2.csv, .png, .txt
   ipgen plot out/my_scene.csv       # out/my_scene.png
   ipgen animate out/my_scene.csv    # out/my_scene.gif, drawn to scale
   ipgen excite rig.toml --u-max 10 --travel 1 -o rig_identify.toml  # a safe experiment
-  ipgen identify --scene my_scene.toml --data rig.csv --free m1,delta0 -o out/  # fit parameters
+  ipgen identify --scene rig.toml --data rig_identify.csv --free m1,delta0 -o out/  # fit parameters
 
+--preset NAME (ipgen run, excite, identify) takes one of the scenes shipped with ipgen.
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it (else pass --force); the header is written to a temporary file, then renamed.
 """
@@ -306,7 +310,8 @@ def _generate(planned: job.Job) -> list[Written]:
         return job.run(planned, progress=lambda step: bar.update(1, step))
 
 
-RUN_HELP = """Run a scene: generate its model, build its simulator (optimised, cached by the
+RUN_HELP = """Run a scene (a file, or --preset NAME: one shipped with ipgen, ipgen presets
+lists them): generate its model, build its simulator (optimised, cached by the
 model's content: later runs of the same model do not compile), simulate, and write into OUT:
 SCENE.cfg (the resolved scene), SCENE.csv (the trajectory), SCENE.png (a plot) and SCENE.txt
 (the simulator's summary of the run).
@@ -321,7 +326,8 @@ liblapack-dev).
 
 
 @cli.command("run", help=RUN_HELP, context_settings=CONTEXT)
-@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@preset_option
 @click.option(
     "-o",
     "--output",
@@ -339,9 +345,12 @@ liblapack-dev).
     help="Where compiled simulators are kept [default: $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen, "
     "else ~/.cache/ipgen].",
 )
-def run_command(scene: Path, directory: Path | None, force: bool, cache_dir: Path | None) -> int:
+def run_command(
+    scene: Path | None, preset: str | None, directory: Path | None, force: bool, cache_dir: Path | None
+) -> int:
     from ipgen.command.run import run_scene
 
+    scene = chosen_scene(scene, preset, "ipgen run --preset qube_servo2 -o out/")
     if directory is None:
         raise job.OptionsError(
             "missing -o OUT: say where to write the results, e.g. ipgen run SCENE.toml -o out/"
@@ -417,13 +426,13 @@ def plot_command(
 ) -> None:  # fmt: skip
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
-    from ipgen.plots.run import plot_run, read_run, system_type_beside
+    from ipgen.plots.run import plot_run, read_run, sampled_beside, system_type_beside
 
     target = png if png is not None else csv.with_suffix(".png")
     run = read_run(csv)
     plot_run(
         run, target, csv.name, system_type or system_type_beside(csv), force=force,
-        coordinates=_csv_coordinates(csv, angles, zero, positive),
+        coordinates=_csv_coordinates(csv, angles, zero, positive), sampled=sampled_beside(csv),
     )  # fmt: skip
     click.echo(f"wrote {target}")
 
@@ -441,15 +450,18 @@ STEM_identify.png (measured against simulated angles). Record open loop about th
 position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
 
 \b
-Example (tools/identify_demo.py simulates such a recording):
-  ipgen identify --scene scenes/rigs/qube_servo2.toml --data rig.csv \\
+Example (the recording simulated: the experiment designed by ipgen excite, run by ipgen run):
+  ipgen excite --preset qube_servo2 --u-max 10 --travel 1 -o qube_experiment.toml
+  ipgen run qube_experiment.toml -o out/
+  ipgen identify --preset qube_servo2 --data out/qube_experiment.csv \\
       --free J1,delta0,delta1,kt -o out/ident/
 """
 
 
 @cli.command("identify", help=IDENTIFY_HELP, context_settings=CONTEXT)
-@click.option("--scene", "scene", type=click.Path(path_type=Path), required=True, metavar="S.toml",
+@click.option("--scene", "scene", type=click.Path(path_type=Path), default=None, metavar="S.toml",
               help="The scene: the rig's model and the prior values.")  # fmt: skip
+@preset_option
 @click.option("--data", "data", type=click.Path(path_type=Path), required=True, metavar="D.csv",
               help="The measurements (CSV).")  # fmt: skip
 @click.option("--free", "free", required=True, metavar="P1,P2,...", help="The parameters to fit.")
@@ -459,10 +471,13 @@ Example (tools/identify_demo.py simulates such a recording):
               help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
 def identify_command(
-    scene: Path, data: Path, free: str, directory: Path | None, equation_error_only: bool, force: bool
-) -> None:
+    scene: Path | None, preset: str | None, data: Path, free: str, directory: Path | None,
+    equation_error_only: bool, force: bool,
+) -> None:  # fmt: skip
     from ipgen.command.identify import identify
 
+    example = "ipgen identify --preset qube_servo2 --data rig.csv --free J1 -o out/"
+    scene = chosen_scene(scene, preset, example)
     if directory is None:
         raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
     try:
@@ -531,12 +546,29 @@ def animate_command(
         from ipgen.plots.animation import animate_run
     except ImportError:
         raise job.OptionsError(
-            "ipgen animate needs pillow: pip install './[swingup]' in the checkout (or pip install pillow)"
+            "ipgen animate needs pillow: pip install 'ipgen-pendulum[swingup]' (or pip install pillow)"
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
     frame = _csv_coordinates(csv, angles, zero, positive)
     written = animate_run(csv, target, kind, l_values, fps=fps, force=force, coordinates=frame)
     click.echo(f"wrote {written}")
+
+
+@cli.command("presets", context_settings=CONTEXT)
+@click.argument("name", required=False, metavar="[NAME]")
+def presets_command(name: str | None) -> None:
+    """List the preset scenes shipped with ipgen, with where their values come from; with NAME,
+    print that preset's scene file (ipgen presets qube_servo2 > my_rig.toml starts your own)."""
+    from ipgen.common.presets import preset_path, presets
+
+    if name is not None:
+        click.echo(preset_path(name).read_text(encoding="utf-8"), nl=False)
+        return
+    for preset in presets():
+        click.echo(f"{preset.name}  ({preset.system})  {preset.path}")
+        click.echo(f"    {preset.title}")
+        click.echo(f"    values from: {preset.source}")
+    click.echo("Run one: ipgen run --preset NAME -o out/; copy one: ipgen presets NAME > my_scene.toml")
 
 
 def _register() -> None:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 
 import click
 
+from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.common.safetext import shown_path
 from ipgen.control.excitation import (
     DEFAULT_CHIRP_DURATION,
@@ -128,7 +129,7 @@ a run whose base leaves it (exit status 4). Without -o the design is only report
 
 \b
 Examples:
-  ipgen excite scenes/rigs/qube_servo2.toml --u-max 10 --travel 1 -o qube_identify.toml
+  ipgen excite --preset qube_servo2 --u-max 10 --travel 1 -o qube_identify.toml
   ipgen excite rig.toml --u-max 5 --travel 0.4 --signal chirp --f-min 0.2 --f-max 5 --duration 60
 """
 
@@ -138,7 +139,8 @@ Examples:
     help=EXCITE_HELP,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
-@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@preset_option
 @click.option(
     "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
     help="The experiment scene to write (a new file; an existing one only with --force).",
@@ -180,7 +182,8 @@ Examples:
     "--sample", type=float, default=None, help="Output interval [s] [default: 1/(20 f_max), rounded]."
 )
 @click.option("--force", is_flag=True, help="Replace an existing experiment scene.")
-def command(scene: Path, output: Path | None, **options: object) -> None:
+def command(scene: Path | None, preset: str | None, output: Path | None, **options: object) -> None:
+    scene = chosen_scene(scene, preset, "ipgen excite --preset qube_servo2 --u-max 10 --travel 1 -o x.toml")
     design = excitation(scene, output, **options)  # type: ignore[arg-type]
     if design.written is not None:
         click.echo(f"wrote {design.written}")

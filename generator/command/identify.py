@@ -180,7 +180,9 @@ def identify(
     original = scene_path.read_text(encoding="utf-8")
     updated = updated_scene_text(original, _updates(fit, setup, loaded), header)
     _check_updated(updated, loaded.stem)
-    png = identify_png(fit, loaded.type, f"ipgen identify: {loaded.stem}, free {', '.join(fit.free)}")
+    png = identify_png(
+        fit, loaded.type, f"ipgen identify: {loaded.stem}, free {', '.join(fit.free)}", loaded.coordinates
+    )
     prepare_directory(Path(output))  # type: ignore[arg-type]
     write_files([(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=True)
     return Identified(fit=fit, scene=loaded, files=tuple(paths.values()), report=text)

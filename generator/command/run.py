@@ -29,7 +29,7 @@ from ipgen.command import job
 from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.command.simulator import Simulator, build
 from ipgen.common.safetext import shown_path
-from ipgen.plots.run import PlotError, plot_run, read_run
+from ipgen.plots.run import PlotError, plot_run, read_run, sampled_beside
 from ipgen.plots.run import check_replaceable as check_png
 
 if TYPE_CHECKING:
@@ -97,6 +97,8 @@ def run_scene(
         planned = job.plan(staging, scene=scene_path, emit=("cpp",), force=force)
         assert planned.scene is not None
         scene = planned.scene
+        for warning in scene.warnings:  # e.g. a unit slip: the run goes on
+            announce(warning)
         stem = scene.stem
         paths = {suffix: out / f"{stem}.{suffix}" for suffix in ("cfg", "csv", "png", "txt")}
         prepare_directory(out)
@@ -130,6 +132,7 @@ def run_scene(
                 force=True,
                 coordinates=scene.coordinates,
                 input_unit=unit,
+                sampled=sampled_beside(paths["cfg"]),
             )
             files.append(paths["png"])
         except PlotError as exc:  # e.g. a run that grew beyond what can be drawn: still a summary

@@ -204,7 +204,9 @@ def build(
         entry.mkdir(exist_ok=True)
         header = entry / f"{name}.hpp"
         header.write_text(header_text)
-        announce(f"building the simulator for model {name} (first run for this model, ~10 s)…")
+        last = last_build(folder)
+        history = f" (the last build in this cache took {last:.0f} s)" if last is not None else ""
+        announce(f"building the simulator for model {name}{history}…")
         start = time.perf_counter()
         with tempfile.TemporaryDirectory(dir=entry, prefix=".build.") as scratch:
             partial = Path(scratch) / binary.name
@@ -221,4 +223,26 @@ def build(
                 raise BuildError(f"compiling the simulator failed: {last.strip()[:300]}")
             os.replace(partial, binary)
         (entry / "command.txt").write_text(shlex.join(compile_command(cxx, header, name, binary)) + "\n")
-        return Simulator(binary, built=True, seconds=time.perf_counter() - start)
+        seconds = time.perf_counter() - start
+        _record_build(folder, seconds)
+        return Simulator(binary, built=True, seconds=seconds)
+
+
+LAST_BUILD = "last_build_seconds.txt"
+
+
+def last_build(folder: Path) -> float | None:
+    """How long the last simulator build in the cache folder `folder` took [s] (this machine's
+    own history, shown before the next build), or None when there is none or it is unreadable."""
+    try:
+        seconds = float((folder / LAST_BUILD).read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return None
+    return seconds if seconds >= 0 and seconds < 1e6 else None
+
+
+def _record_build(folder: Path, seconds: float) -> None:
+    with contextlib.suppress(OSError):  # a history is a courtesy: never fail a build over it
+        with tempfile.NamedTemporaryFile("w", dir=folder, prefix=".last_build.", delete=False) as handle:
+            handle.write(f"{seconds:.3f}\n")
+        os.replace(handle.name, folder / LAST_BUILD)

@@ -1,4 +1,5 @@
-"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`)."""
+"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`) and the preset
+scenes (`ipgen presets`)."""
 
 from __future__ import annotations
 
@@ -25,22 +26,30 @@ def cmake_dir() -> Path:
 
 
 def presets_dir() -> Path:
-    """The folder of the rig presets (`ipgen.Pendulum.preset`): a checkout's scenes/rigs/.
+    """The folder of the preset scenes (`ipgen presets`, `ipgen run --preset NAME`,
+    `ipgen.Pendulum.preset`): the installed package's `presets/` (the checkout's scenes/ with
+    scenes/rigs/, shipped in the wheel as package data), else an uninstalled checkout's scenes/.
 
     Returns
     -------
     Path
-        The folder holding one scene file per rig (qube_servo2.toml, ...).
+        The folder holding the paper's scenes (cdip_pulse.toml, ...) and, in rigs/, one scene
+        file per rig (qube_servo2.toml, ...).
 
     Raises
     ------
     Error
         The presets are not part of this installation.
     """
-    checkout = Path(__file__).resolve().parents[2] / "scenes" / "rigs"
-    if checkout.is_dir():
+    spec = importlib.util.find_spec("ipgen.presets")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    for location in locations:
+        if any(Path(location).glob("*.toml")):
+            return Path(location).resolve()
+    checkout = Path(__file__).resolve().parents[2] / "scenes"  # an uninstalled checkout
+    if any(checkout.glob("*.toml")):
         return checkout
     raise Error(
-        "ipgen's rig presets are missing from this installation: use a checkout of the repository, "
-        "or pass the scene file to Pendulum.from_scene"
+        "ipgen's preset scenes are missing from this installation: reinstall it with "
+        "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
     )

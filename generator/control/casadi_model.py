@@ -29,7 +29,10 @@ if TYPE_CHECKING:
 
 __all__ = ["CasadiModel", "Plant", "as_plant", "casadi_model", "plant"]
 
-_INSTALL_HINT = "swing-up planning needs CasADi: pip install 'ipgen[swingup]'"
+_INSTALL_HINT = (
+    "swing-up planning needs CasADi: pip install 'ipgen-pendulum[swingup]' (or pip install casadi); "
+    'method "energy" (one link) runs without it'
+)
 
 
 def import_casadi() -> Any:

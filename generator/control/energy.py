@@ -14,6 +14,11 @@ pumps energy in while E < E0 (Åström & Furuta 2000), the last two terms keep t
 near θ0 = 0. The force or torque that produces a is exact (ipgen's M and bias at the measured
 state): θ̈1 = −(M10 a + bias1)/M11, u = M00 a + M01 θ̈1 + bias0, then clipped to |u| ≤ u_max.
 
+The law plans nothing: M and bias come from CasADi's graph when CasADi is installed (the
+swing-up extra), else from the same derivation evaluated with numpy, and the hold gain from the
+exact one-period flow map (CasADi) or, without it, from the linear model discretised exactly for
+a zero-order hold (matrix exponential): the energy method runs without CasADi.
+
 Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
 the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
 and stays there ("swing" → "hold").
@@ -26,7 +31,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, as_plant, casadi_model
-from ipgen.control.linear import ControlError, weights
+from ipgen.control.linear import ControlError, dynamics, weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
 from ipgen.model.pendulum import Pendulum
@@ -34,7 +39,15 @@ from ipgen.model.pendulum import Pendulum
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["LAWS", "EnergySwingUp", "discrete_acceleration_lqr", "energy_swingup", "link_energy"]
+__all__ = [
+    "LAWS",
+    "EnergySwingUp",
+    "discrete_acceleration_lqr",
+    "discrete_zoh_lqr",
+    "energy_swingup",
+    "link_energy",
+    "mass_and_bias",
+]
 
 LAWS: tuple[str, ...] = ("energy", "proportional")  # ipgen's constants | Quanser's (energy_swingup)
 QUANSER_GAIN = 50.0  # μ [m/s² per J at the arm tip]: Quanser's QUBE-Servo 2 swing-up lab
@@ -86,10 +99,8 @@ class EnergySwingUp:
             target[1] = 2 * math.pi * self._caught
             u = -float(self.hold_gain @ (x - target))
             return float(np.clip(u, -self.u_max, self.u_max)), "hold"
-        model = casadi_model(self.plant)
         q, qd = x[:dof], x[dof:]
-        mass = np.asarray(model.mass(q), dtype=float)
-        bias = np.asarray(model.bias(q, qd), dtype=float).reshape(-1)
+        mass, bias = mass_and_bias(self.plant, q, qd)
         energy = link_energy(self.plant, x)
         direction = math.copysign(1.0, float(qd[1]) * mass[1, 0]) if qd[1] * mass[1, 0] != 0 else 1.0
         pump = self.gain_energy * (energy - self.energy_target) * direction
@@ -188,8 +199,8 @@ def energy_swingup(
     if accel_max is None and acceleration:
         a_max = float(u_max)
     elif accel_max is None:
-        hanging = [0.0, math.pi]
-        inertia = float(np.asarray(casadi_model(plant).mass(hanging), dtype=float)[0, 0])
+        hanging = np.array([0.0, math.pi])
+        inertia = float(mass_and_bias(plant, hanging, np.zeros(2))[0][0, 0])
         force = float(u_max) - plant.delta[0] * speed
         if force <= 0:
             raise PlanError(
@@ -212,8 +223,10 @@ def energy_swingup(
     weights_q, weights_r = weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
     if acceleration:
         hold = discrete_acceleration_lqr(plant, float(period), weights_q, weights_r)
-    else:
+    elif _has_casadi():
         hold, _, _, _ = discrete_lqr(plant, float(period), weights_q, weights_r, np.zeros(2 * dof))
+    else:
+        hold = discrete_zoh_lqr(plant, float(period), weights_q, weights_r)
     return EnergySwingUp(
         plant=plant,
         u_max=float(u_max),
@@ -230,10 +243,45 @@ def energy_swingup(
     )
 
 
+def _has_casadi() -> bool:
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("casadi") is not None
+    except (ImportError, ValueError):  # a broken or blocked installation counts as absent
+        return False
+
+
+def mass_and_bias(plant: Plant, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(M(θ), bias(θ, θ̇)) of the plant at a numeric state: CasADi's graph when CasADi is
+    installed, else the same derivation lambdified onto numpy (no CasADi needed)."""
+    import numpy as np
+
+    if _has_casadi():
+        model = casadi_model(plant)
+        return (
+            np.asarray(model.mass(q), dtype=float),
+            np.asarray(model.bias(q, qd), dtype=float).reshape(-1),
+        )
+    model_ = dynamics(plant.system)
+    return model_.mass_matrix(q, plant.params), model_.bias(q, qd, plant.params)
+
+
+def discrete_zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """The discrete LQR gain about upright at rest for a force or torque u held over `period`:
+    the linear model of `linearize` discretised exactly for a zero-order hold (matrix
+    exponential), then scipy's DARE (`tvlqr.discrete_lqr` without CasADi)."""
+    return _zoh_lqr(plant, period, q, r, acceleration=False)
+
+
 def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray) -> np.ndarray:
     """The discrete LQR gain about upright at rest for an acceleration-driven base, u held over
     `period`: the linear model of `linearize(..., actuator="acceleration")` discretised exactly
     for a zero-order hold (matrix exponential), then scipy's DARE."""
+    return _zoh_lqr(plant, period, q, r, acceleration=True)
+
+
+def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, acceleration: bool) -> np.ndarray:
     import numpy as np
     from scipy.linalg import expm, solve_discrete_are
 
@@ -242,9 +290,10 @@ def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.
     system = plant.system
     dof = plant.dof
     links = plant.links_as_built
+    kind = {"actuator": {"kind": "acceleration"}} if acceleration else {}
     a, b = linearize(
         system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
-        actuator={"kind": "acceleration"}, **links,
+        **kind, **links,
     )  # fmt: skip
     check_stabilisable(a, b, q)
     size = 2 * dof

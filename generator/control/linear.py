@@ -92,6 +92,12 @@ class Dynamics:
 
         return np.asarray(self._mass(*q, *self._complete(params)), dtype=float)
 
+    def bias(self, q: Sequence[float], qd: Sequence[float], params: Sequence[float]) -> np.ndarray:
+        """bias(θ, θ̇) = N θ̇ + P, dof entries."""
+        import numpy as np
+
+        return np.asarray(self._bias(*q, *qd, *self._complete(params)), dtype=float).reshape(-1)
+
     def _complete(self, params: Sequence[float]) -> list[float]:
         """`params` with the rods' com, J, J_axial, tip appended if it has m, l, delta, g only."""
         dof = self.system.dof

@@ -478,7 +478,7 @@ class Pendulum:
 
         Examples
         --------
-        >>> Pendulum.from_scene(presets_dir() / "qube_servo2.toml").positive  # doctest: +SKIP
+        >>> Pendulum.from_scene(presets_dir() / "rigs" / "qube_servo2.toml").positive  # doctest: +SKIP
         'counterclockwise'
         """
         if not isinstance(scene, str | Path):
@@ -489,12 +489,13 @@ class Pendulum:
 
     @classmethod
     def preset(cls, name: str, *, exact: bool = False) -> Pendulum:
-        """A rig shipped with ipgen, by name: one of `presets()` ("qube_servo2", "ip02_sip", ...).
+        """A preset shipped with ipgen, by name: one of `presets()` (the rigs "qube_servo2",
+        "ip02_sip", ..., and the paper's systems "cdip_pulse", ...; `ipgen presets` lists them).
 
         Parameters
         ----------
         name : str
-            The preset's name (its file's stem in `common.locations.presets_dir()`).
+            The preset's name (its file's stem under `common.locations.presets_dir()`).
         exact : bool, default False
             As for `from_scene`.
 
@@ -515,13 +516,14 @@ class Pendulum:
         names = presets()
         if not isinstance(name, str) or name not in names:
             raise PendulumError(f"no preset {_shown(name)!r}: expected one of {', '.join(names)}")
-        from ipgen.common.locations import presets_dir
+        from ipgen.common.presets import preset_path
 
-        return cls.from_scene(presets_dir() / f"{name}.toml", exact=exact)
+        return cls.from_scene(preset_path(name), exact=exact)
 
 
 def presets() -> tuple[str, ...]:
-    """The names `Pendulum.preset` knows: the rig scenes shipped with ipgen, sorted.
+    """The names `Pendulum.preset` knows: the scenes shipped with ipgen (the rigs and the
+    paper's systems; `ipgen presets` lists them), sorted.
 
     Returns
     -------
@@ -537,9 +539,9 @@ def presets() -> tuple[str, ...]:
     >>> "qube_servo2" in presets()
     True
     """
-    from ipgen.common.locations import presets_dir
+    from ipgen.common.presets import presets as shipped
 
-    return tuple(sorted(path.stem for path in presets_dir().glob("*.toml")))
+    return tuple(preset.name for preset in shipped())
 
 
 def from_scene_object(scene: Scene, *, exact: bool = False) -> Pendulum:

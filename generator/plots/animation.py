@@ -180,6 +180,73 @@ def _write_atomically(path: Path, force: bool, write: Any) -> Path:
     return path
 
 
+FIGURE_SIZE = (7.0, 3.6)  # inches (rotary): 700 × 360 pixels at the default 100 dpi
+CART_HEIGHT = 4.4  # inches (classical; the width follows the side view's shape)
+AXES_WIDTH, SIDE_SHARE, STRIP_SHARE = 0.84, 0.60, 0.10  # fractions of the cart's figure
+
+
+def figure(type: str, lengths: np.ndarray, points: dict[str, np.ndarray]) -> tuple[Any, Any, Any]:
+    """(figure, top view, side view) of an animation, laid out and scaled.
+
+    Rotary: the view from above (the arm's circle) and the links' plane side by side, both to
+    scale. Classical: everything seen from above lies on the rail's line, so the side view
+    (x, z) takes the figure's width and most of its height, and the view from above is a strip
+    under it on the same x scale (the cart and the links' shadow on the rail)."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    reach = float(np.sum(lengths[1:]))
+    if type == "classical":
+        x_lo = min(float(points["side"][:, :, 0].min()), -reach) - 0.2
+        x_hi = max(float(points["side"][:, :, 0].max()), reach) + 0.2
+        z_half = reach + 0.2
+        # The figure takes the shape of what it shows (the side view to scale), 4.4 in high and
+        # 5 to 10 in wide; what is left over widens the shorter range.
+        height = CART_HEIGHT
+        side_height = SIDE_SHARE * height
+        width = min(max((x_hi - x_lo) / (2 * z_half) * side_height / AXES_WIDTH, 5.0), 10.0)
+        fig = plt.figure(figsize=(width, height))
+        # [left, bottom, width, height] as fractions: the title above, the strip at the bottom
+        ax_side = fig.add_axes((0.13, 0.30, AXES_WIDTH, SIDE_SHARE))
+        ax_top = fig.add_axes((0.13, 0.10, AXES_WIDTH, STRIP_SHARE))
+        width_in = AXES_WIDTH * width
+        if (x_hi - x_lo) / (2 * z_half) < width_in / side_height:
+            middle, half = 0.5 * (x_lo + x_hi), z_half * width_in / side_height
+            x_lo, x_hi = middle - half, middle + half
+        else:
+            z_half = 0.5 * (x_hi - x_lo) * side_height / width_in
+        ax_side.set_xlim(x_lo, x_hi)
+        ax_side.set_ylim(-z_half, z_half)
+        strip = 0.5 * (x_hi - x_lo) * (STRIP_SHARE * height) / width_in
+        ax_top.set_xlim(x_lo, x_hi)
+        ax_top.set_ylim(-strip, strip)
+        for ax in (ax_top, ax_side):
+            ax.set_aspect("equal", adjustable="box")
+        ax_top.tick_params(labelleft=False, left=False)
+        ax_side.tick_params(labelbottom=False)
+        ax_side.set_ylabel("side: z [m]")
+        ax_top.set_ylabel("above", fontsize=8)
+        ax_top.set_xlabel("x [m] (the rail; below: seen from above)", fontsize=8)
+        ax_top.axhline(0.0, color="0.6", lw=2)  # the rail
+        ax_side.axhline(0.0, color="0.6", lw=2)
+    else:
+        fig, (ax_top, ax_side) = plt.subplots(1, 2, figsize=FIGURE_SIZE)
+        span = lengths[0] + reach + 0.1
+        ax_top.set_xlim(-span, span)
+        ax_top.set_ylim(-span, span)
+        ax_side.set_xlim(-reach - 0.1, reach + 0.1)
+        ax_side.set_ylim(-reach - 0.1, reach + 0.1)
+        ax_top.set_title("from above (x, y) [m]")
+        ax_side.set_title("side: the links' plane (r, z) [m]")
+        ax_top.add_patch(plt.Circle((0, 0), lengths[0], fill=False, ls=":", color="0.6"))
+        for ax in (ax_top, ax_side):
+            ax.set_aspect("equal")
+        fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.93))
+    for ax in (ax_top, ax_side):
+        ax.grid(True, lw=0.3)
+    return fig, ax_top, ax_side
+
+
 def animate_run(
     run: RunData | str | Path,
     output: str | Path,
@@ -188,13 +255,15 @@ def animate_run(
     *,
     fps: float = 15.0,
     trace: float = 1.0,
-    dpi: int = 60,
+    dpi: int = 100,
     force: bool = False,
     coordinates: Coordinates | None = None,
 ) -> Path:
     """Write an animated GIF of `run` (a RunData or the path of a simulator CSV) to `output`,
-    drawn to scale (module docstring) at `fps` frames per second of the run. `coordinates`: the
-    convention of the run's angles (a scene's [system] angles, zero, positive; default ipgen's)."""
+    drawn to scale (module docstring) at `fps` frames per second of the run, `dpi` dots per inch
+    (a rotary pendulum's GIF is 700 × 360 pixels at the default 100, a cart's 440 high and as
+    wide as its side view needs, 500 to 1000). `coordinates`: the convention of the
+    run's angles (a scene's [system] angles, zero, positive; default ipgen's)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -211,31 +280,7 @@ def animate_run(
     times = np.linspace(data.t[0], data.t[-1], count)
     frames = np.searchsorted(data.t, times).clip(0, len(data.t) - 1)
     points = geometry(type, lengths, canonical_angles(data, coordinates))
-    reach = float(np.sum(lengths[1:]))
-    fig, (ax_top, ax_side) = plt.subplots(1, 2, figsize=(7.0, 3.6))
-    for ax in (ax_top, ax_side):
-        ax.set_aspect("equal")
-        ax.grid(True, lw=0.3)
-    if type == "classical":
-        x_lo = min(float(points["side"][:, :, 0].min()), -reach) - 0.2
-        x_hi = max(float(points["side"][:, :, 0].max()), reach) + 0.2
-        ax_side.set_xlim(x_lo, x_hi)
-        ax_side.set_ylim(-reach - 0.2, reach + 0.2)
-        ax_top.set_xlim(x_lo, x_hi)
-        ax_top.set_ylim(-0.5 * (x_hi - x_lo) / 2, 0.5 * (x_hi - x_lo) / 2)
-        ax_side.set_title("side (x, z) [m]")
-        ax_top.set_title("from above (x, y) [m]")
-        ax_top.axhline(0.0, color="0.6", lw=2)  # the rail
-        ax_side.axhline(0.0, color="0.6", lw=2)
-    else:
-        span = lengths[0] + reach + 0.1
-        ax_top.set_xlim(-span, span)
-        ax_top.set_ylim(-span, span)
-        ax_side.set_xlim(-reach - 0.1, reach + 0.1)
-        ax_side.set_ylim(-reach - 0.1, reach + 0.1)
-        ax_top.set_title("from above (x, y) [m]")
-        ax_side.set_title("side: the links' plane (r, z) [m]")
-        ax_top.add_patch(plt.Circle((0, 0), lengths[0], fill=False, ls=":", color="0.6"))
+    fig, ax_top, ax_side = figure(type, lengths, points)
     (top_arm,) = ax_top.plot([], [], "-", color="tab:blue", lw=4, solid_capstyle="round")
     (top_links,) = ax_top.plot([], [], "-o", color="tab:red", lw=2, ms=3)
     (top_trace,) = ax_top.plot([], [], "-", color="tab:orange", lw=0.8, alpha=0.7)
@@ -267,7 +312,6 @@ def animate_run(
         return [top_arm, top_links, top_trace, side_links, side_trace, side_base, label]
 
     fig.set_dpi(dpi)
-    fig.tight_layout(rect=(0.0, 0.0, 1.0, 0.93))
 
     # Frames rendered straight from the Agg canvas and quantised to one shared 64-colour palette
     # (lines on white need no more), then written by pillow as one looping GIF.

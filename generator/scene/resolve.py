@@ -28,6 +28,7 @@ from ipgen.scene import schema
 from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import Reader, format_number
+from ipgen.scene.plausibility import unit_slips
 from ipgen.scene.schema import SceneDocument
 
 
@@ -282,7 +283,8 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         emit=system.emit,
         decimals=parameters.decimals(kind),
         links_as_built=links_as_built,
-        warnings=_warnings(reader, simulation["rtol"]),
+        warnings=_warnings(reader, simulation["rtol"])
+        + tuple(map(reader.warning, unit_slips(kind, _floats(parameters.m), lengths, theta))),
         controller=controller,
         actuator=actuator,
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),

@@ -1,0 +1,68 @@
+"""The preset scenes shipped with ipgen (the checkout's scenes/, installed as `ipgen/presets/`):
+found by name (`ipgen run --preset qube_servo2`), listed with the source of their values
+(`ipgen presets`)."""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from ipgen.common.locations import presets_dir
+from ipgen.common.safetext import abbreviate
+from ipgen.errors import Error
+
+__all__ = ["Preset", "preset_path", "presets"]
+
+SOURCE_PREFIX = "# Values from: "
+
+
+@dataclass(frozen=True)
+class Preset:
+    """One preset: its name (the file's stem), file, system, what it shows and where its values
+    come from (the scene's `# Values from:` comment)."""
+
+    name: str
+    path: Path
+    system: str  # e.g. "rotary, 1 link"
+    title: str  # the scene's first comment sentence
+    source: str
+
+
+def _describe(path: Path) -> Preset:
+    text = path.read_text(encoding="utf-8")
+    header: list[str] = []
+    for line in text.splitlines():
+        if not line.startswith("#") or line.strip() == "#":
+            break
+        header.append(line[1:].strip())
+    marker = SOURCE_PREFIX.removeprefix("# ")
+    source = next((line.removeprefix(marker) for line in header if line.startswith(marker)), "")
+    paragraph = " ".join(line for line in header if not line.startswith(marker))
+    title = re.split(r"\.\s+(?=[A-Z`])", paragraph, maxsplit=1)[0].rstrip(".") + "."
+    try:
+        system = tomllib.loads(text).get("system", {})
+        links = int(system.get("links", 0))
+        kind = f"{system.get('type', '?')}, {links} link{'s' if links != 1 else ''}"
+    except (tomllib.TOMLDecodeError, ValueError, TypeError, AttributeError):
+        kind = "?"
+    return Preset(path.stem, path, kind, title, source.rstrip("."))
+
+
+def presets() -> list[Preset]:
+    """Every preset, sorted by name (the paper's scenes, then rigs/ merged in one namespace)."""
+    folder = presets_dir()
+    return sorted((_describe(path) for path in folder.rglob("*.toml")), key=lambda p: p.name)
+
+
+def preset_path(name: str) -> Path:
+    """The scene file of the preset `name`; an `Error` naming the presets there are otherwise."""
+    folder = presets_dir()
+    found = [path for path in folder.rglob("*.toml") if path.stem == name]
+    if len(found) == 1:
+        return found[0]
+    names = sorted(path.stem for path in folder.rglob("*.toml"))
+    raise Error(
+        f"no preset {abbreviate(name)!r}: choose one of {', '.join(names)} (ipgen presets lists them)"
+    )

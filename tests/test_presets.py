@@ -1,0 +1,104 @@
+"""Presets travel with the package: found through `presets_dir()` (the installed package's
+presets/, a checkout's scenes/), listed by `ipgen presets` with where their values come from,
+taken by `--preset NAME` in ipgen run, excite and identify. (The installed wheel's presets are
+checked by tests/test_readme_verbatim.py.) Also: the build announcement states the cache's own
+history, not a guess."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from ipgen.command import simulator
+from ipgen.command.cli import run as cli
+from ipgen.common.locations import presets_dir
+from ipgen.common.presets import preset_path, presets
+from ipgen.errors import Error
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_the_presets_are_the_shipped_scenes() -> None:
+    assert presets_dir() == (ROOT / "scenes").resolve()
+    names = [preset.name for preset in presets()]
+    shipped = sorted(path.stem for path in (ROOT / "scenes").rglob("*.toml"))
+    assert names == shipped and len(set(names)) == len(names)  # one namespace, no clash
+    assert {"qube_servo2", "ip02_sip", "srv02_dbip", "rdip_lqr", "rsip_swingup"} <= set(names)
+
+
+def test_every_preset_says_where_its_values_come_from() -> None:
+    for preset in presets():
+        assert len(preset.source) > 10, preset
+        assert preset.title.endswith(".") and len(preset.title) > 15, preset
+        system = tomllib.loads(preset.path.read_text(encoding="utf-8"))["system"]
+        assert preset.system.startswith(system["type"] + ", ")
+
+
+def test_the_wheel_ships_the_presets() -> None:
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert "ipgen.presets" in project["packages"]
+    assert project["package-dir"]["ipgen.presets"] == "scenes"
+    assert set(project["package-data"]["ipgen.presets"]) == {"*.toml", "rigs/*.toml"}
+    assert not list((ROOT / "scenes").rglob("*/*/*.toml"))  # nothing deeper than rigs/
+
+
+def test_an_unknown_preset_names_the_choices(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(Error, match="qube_servo2"):
+        preset_path("qube")
+    assert cli(["run", "--preset", "qube", "-o", "out"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no preset 'qube'" in err and "ipgen presets" in err
+
+
+def test_ipgen_presets_lists_and_prints(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli(["presets"]) == 0
+    listing = capsys.readouterr().out
+    for preset in presets():
+        assert f"{preset.name}  ({preset.system})  {preset.path}" in listing
+        assert f"values from: {preset.source}" in listing
+    assert cli(["presets", "srv02_dbip"]) == 0
+    assert capsys.readouterr().out == (ROOT / "scenes" / "rigs" / "srv02_dbip.toml").read_text()
+
+
+def test_a_scene_file_or_a_preset(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli(["run", "-o", str(tmp_path)]) == 2
+    assert "missing the scene" in capsys.readouterr().err
+    scene = ROOT / "scenes" / "rsip_pulse.toml"
+    assert cli(["run", str(scene), "--preset", "rsip_pulse", "-o", str(tmp_path)]) == 2
+    assert "not both" in capsys.readouterr().err
+
+
+def test_excite_takes_a_preset(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    experiment = tmp_path / "qube_experiment.toml"
+    assert (
+        cli(["excite", "--preset", "qube_servo2", "--u-max", "10", "--travel", "1", "-o", str(experiment)])
+        == 0
+    )
+    assert f"wrote {experiment}" in capsys.readouterr().out
+    assert tomllib.loads(experiment.read_text())["input"]["kind"] == "multisine"
+
+
+def test_the_build_announcement_states_the_last_build(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No '~10 s' guess: the first build in a cache says nothing about time, the next states how
+    long the previous one took (before: 'first run for this model, ~10 s' whatever the machine)."""
+
+    def fake_compile(cxx: str, header: Path, name: str, binary: Path) -> list[str]:
+        return ["sh", "-c", 'sleep 0.2 && cp /bin/true "$0"', str(binary)]
+
+    monkeypatch.setattr(simulator, "compile_command", fake_compile)
+    said: list[str] = []
+    first = simulator.build("// model a\n", "a", tmp_path, said.append)
+    assert first.built and said == ["building the simulator for model a…"]
+    assert simulator.last_build(tmp_path / "simulators") == pytest.approx(first.seconds, abs=1e-3)
+    second = simulator.build("// model b\n", "b", tmp_path, said.append)
+    assert second.built
+    assert (
+        said[1]
+        == f"building the simulator for model b (the last build in this cache took {first.seconds:.0f} s)…"
+    )
+    (tmp_path / "simulators" / simulator.LAST_BUILD).write_text("garbage\n")
+    assert simulator.last_build(tmp_path / "simulators") is None
