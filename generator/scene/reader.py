@@ -21,7 +21,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ipgen.codegen.emit import DEFAULT_EMIT
+from ipgen.codegen.emit import DEFAULT_EMIT, unsupported
 from ipgen.common import limits
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.common.version import __version__
@@ -286,6 +286,17 @@ def _coordinate_lines(coordinates: Coordinates) -> list[str]:
     ]
 
 
+def _rod_inertia(scene: Scene, i: int) -> float:
+    """The rod's J[i] from the decimals written, rounded once: what a specialised header folds
+    (`specialisation._rod_links`), so that the simulator's check of it agrees to the last bit."""
+    exact = [scene.exact(f"{group}{i}") for group in ("m", "l")]
+    m, l = [0.0] * i + [exact[0]], [0.0] * i + [exact[1]]  # noqa: E741
+    try:
+        return float(rod_value(scene.system, "J", i, m, l))
+    except OverflowError:  # beyond the doubles: what the float products give (inf)
+        return rod_value(scene.system, "J", i, scene.m, scene.l)
+
+
 def _parameter_lines(scene: Scene) -> list[str]:
     """m, l, delta, g and the links as built; with a dc_motor the equivalent direct model's
     (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 + the rotor's reflected inertia) and
@@ -297,11 +308,7 @@ def _parameter_lines(scene: Scene) -> list[str]:
 
         system = scene.system
         given = built.get("J")
-        inertias = (
-            list(given)
-            if given is not None
-            else [rod_value(system, "J", i, scene.m, scene.l) for i in range(system.dof)]
-        )
+        inertias = list(given) if given is not None else [_rod_inertia(scene, i) for i in range(system.dof)]
         m_, delta_, j_, gain = fold(scene.actuator, system, list(m), list(delta), inertias)
         exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
         delta_[0] = float(exact["delta0"])
@@ -548,16 +555,9 @@ def _build_scene(reader: _Reader, tables: dict[str, Any]) -> Scene:
     controller = None
     actuator = tables["actuator"].actuator()
     coordinates = system.coordinates()
-    if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
-        reader.fail(
-            "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
-            "or torque): remove the FMU, or declare the motor-folded model (docs/rigs.md) without [actuator]"
-        )
-    if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
-        reader.fail(
-            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
-            "remove them (the FMU's input is the force or torque; see docs/model.md)"
-        )
+    problem = unsupported(system.emit, actuator, coordinates, system.specialise)
+    if problem is not None:
+        reader.fail(problem)
     if tables["controller"] is not None:
         params = _Parameters(
             _floats(parameters.m), lengths, _floats(parameters.delta), parameters.g.value, links_as_built
