@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 from typing import TYPE_CHECKING
 
-from ipgen.plots.run import MARKER
+from ipgen.common.files import MARKER
 
 if TYPE_CHECKING:
     from ipgen.identification.fit import Fit
@@ -49,6 +49,6 @@ def identify_png(fit: Fit, system_type: str, title: str) -> bytes:
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     buffer = io.BytesIO()
-    fig.savefig(buffer, dpi=100, format="png", metadata={"Software": f"{MARKER.decode()} (ipgen identify)"})
+    fig.savefig(buffer, dpi=100, format="png", metadata={"Software": f"{MARKER} (ipgen identify)"})
     plt.close(fig)
     return buffer.getvalue()
