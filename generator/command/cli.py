@@ -60,7 +60,8 @@ Examples:
   ipgen identify --scene my_scene.toml --data rig.csv --free m1,delta0 -o out/  # fit parameters
 
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
-wrote it (else pass --force); the header is written to a temporary file, then renamed.
+wrote it, as the same kind of file (else pass --force); every file is written to a temporary
+file, then renamed.
 """
 
 
