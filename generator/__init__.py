@@ -3,15 +3,21 @@ Furuta arm), as sympy expressions or as generated C++ headers.
 
 The public API (stable; everything else is internal):
 
-- `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
+- `Pendulum(type, links, m, l, delta, g=9.81, inertia="pivot", *, com, J, J_axial, tip,
+  coulomb, coulomb_speed, actuator, angles, zero, positive)`: one immutable, validated
+  description of a system (`Pendulum.preset("qube_servo2")`, `Pendulum.from_scene(path)`,
+  `.replace(...)`, `.folded()`, `.params()`), what the functions below take;
+- `derive(p)` or `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
   M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ as sympy matrices and expressions;
 - `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;
 - `Error`: the base of every error ipgen raises for bad input (one line: what is wrong and how
   to fix it, the message the command prints);
 - `cmake_dir()`: the folder of ipgen's CMake package (`ipgen --cmake-dir`);
-- `linearize(type, links, m, l, delta, ...) -> (A, B)`: the linear model ẋ = A x + B u about a
-  state (default upright at rest), from the exact derivation (control/linear.py, numpy and scipy);
-- `lqr(type, links, m, l, delta, Q, R, ...) -> K`: an LQR gain, a 1 × 2(n+1) array with
+- `linearize(p, q=None, qd=None, u=0.0) -> (A, B)` (or the keyword form `linearize(type, links,
+  m, l, delta, ...)`): the linear model ẋ = A x + B u about a state (default upright at rest),
+  from the exact derivation (control/linear.py, numpy and scipy);
+- `lqr(p, Q, R, equilibrium=None) -> K` (or `lqr(type, links, m, l, delta, Q, R, ...)`): an
+  LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
   `actuator=` argument of `derive`, `linearize` and `lqr` (u is then the motor voltage [V]);
@@ -42,12 +48,14 @@ from ipgen.errors import Error
 if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
+    from ipgen.model.pendulum import Pendulum
 
 
 __all__ = [
     "Actuator",
     "Equations",
     "Error",
+    "Pendulum",
     "__version__",
     "cmake_dir",
     "derive",
@@ -60,39 +68,72 @@ __all__ = [
 
 
 def derive(
-    type: str,
-    links: int,
+    type: str | Pendulum,
+    links: int | None = None,
     inertia: str = "pivot",
     *,
     general: bool = False,
     actuator: Actuator | Mapping[str, object] | None = None,
 ) -> Equations:
-    """The equations of motion of a `type` ("classical" or "rotary") pendulum with `links` rods.
+    """The equations of motion M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ, as sympy views.
 
-    `inertia` (rotary only) is "pivot" (the published model: a link's spin about its pivot axis
-    only) or "full" (the complete thin-rod inertia). The result's sympy views: `mass_matrix` M,
-    `coriolis` C (Christoffel), `damping` (constant matrix), `n_matrix` N = C + damping, `gravity`
-    P = ∂V/∂θ, `bias` N θ̇ + P (all matrices, vectors as columns), `kinetic_energy`,
-    `potential_energy` and `dissipation` (Rayleigh's D; the damping removes power 2D), written in
-    `symbols`: `q`, `qd` (θ, θ̇), `m`, `l`, `delta` (tuples, index 0 the base) and `g`, `u`.
-    With `general=True` the links are as built (docs/model.md): the views are also written in
-    `symbols.com` (pivot-to-CoG distances), `symbols.J` (inertias about the CoGs; `J[0]` the
-    arm's about the vertical), `symbols.J_axial` (about the links' own axes, rotary "full" only)
-    and `symbols.tip` (point masses at the links' far ends); by default they are the paper's
-    homogeneous rods, written in m, l, delta and g only.
-    `actuator` (an `Actuator`, a dict of its fields, or None: direct) says what drives the base:
-    a "dc_motor" is folded into the views (`Equations.driven`: M00, damping, bias, T and D gain
-    the rotor's inertia and the back-EMF, and `input_matrix` = (b, 0, …)ᵀ makes u the voltage);
-    for "acceleration", `link_equations` are the equations of motion.
-    Raises an `Error` naming the bad argument.
+    Called as ``derive(p)`` with a `Pendulum` (its type, links, inertia and actuator; its numbers
+    are not substituted: the views are symbolic), or as ``derive(type, links, inertia="pivot",
+    *, general=False, actuator=None)``.
+
+    Parameters
+    ----------
+    type : str or Pendulum
+        "classical" (a cart) or "rotary" (a Furuta arm), or a Pendulum.
+    links : int
+        Number of links >= 1 (not with a Pendulum).
+    inertia : str, default "pivot"
+        Rotary only: "pivot" (the published model: a link's spin about its pivot axis only) or
+        "full" (the complete thin-rod inertia).
+    general : bool, default False
+        True: the links as built, the views also written in `symbols.com` (pivot-to-CoG
+        distances), `symbols.J` (inertias about the CoGs; `J[0]` the arm's about the vertical),
+        `symbols.J_axial` (about the links' own axes, rotary "full" only) and `symbols.tip`
+        (point masses at the far ends); False: the paper's homogeneous rods, in m, l, delta, g.
+    actuator : Actuator, dict or None
+        What drives the base (not with a Pendulum, which has its own): a "dc_motor" is folded
+        into the views (M00, damping, bias, T and D gain the rotor's inertia and the back-EMF,
+        and `input_matrix` = (b, 0, …)ᵀ makes u the voltage); for "acceleration",
+        `link_equations` are the equations of motion; None: direct.
+
+    Returns
+    -------
+    Equations
+        Its sympy views: `mass_matrix` M, `coriolis` C (Christoffel), `damping` (constant),
+        `n_matrix` N = C + damping, `gravity` P = ∂V/∂θ, `bias` N θ̇ + P (matrices; vectors as
+        columns), `kinetic_energy`, `potential_energy`, `dissipation` (Rayleigh's D), written in
+        `symbols`: `q`, `qd` (θ, θ̇), `m`, `l`, `delta` (tuples, index 0 the base), `g`, `u`.
+
+    Raises
+    ------
+    Error
+        One line naming the bad argument (a `SystemChoiceError` for type, links or inertia).
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> ipgen.derive("classical", 1).mass_matrix.shape
+    (2, 2)
     """
-    from ipgen.command.job import check_system
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
+    from ipgen.model.pendulum import Pendulum
+    from ipgen.model.system import check_system
 
-    system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
-    drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
-    drive.check(system)
+    if isinstance(type, Pendulum):
+        if links is not None or actuator is not None:
+            raise Error("derive(p) takes the links and the actuator from the Pendulum: pass neither")
+        system, drive = type.system, type.actuator
+        actuator = None if drive.kind == "direct" else drive
+    else:
+        system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
+        drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
+        drive.check(system)
     equations = derive_system(system)
     equations = equations if general else equations.rod()
     return equations if actuator is None else equations.driven(drive)
@@ -153,6 +194,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.derivation import Equations
 
         return Equations
+    if attribute == "Pendulum":
+        from ipgen.model.pendulum import Pendulum
+
+        return Pendulum
     if attribute == "Actuator":
         from ipgen.model.actuator import Actuator
 

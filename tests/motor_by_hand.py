@@ -7,8 +7,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from ipgen.control.linear import _params, dynamics
+from ipgen.control.linear import dynamics
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System
+
+
+def flat_parameters(system, m, l, delta, g, links=None):  # noqa: E741
+    """`Dynamics`' flat parameters of these values (the Pendulum's `flat`)."""
+    return Pendulum(system.type, system.links, m, l, delta, g, system.inertia, **(links or {})).flat()
+
 
 # An SRV02-like motor and gearbox: Rm [Ω], kt [N m/A], km [V s/rad], Kg, ηg, ηm, Jm [kg m²], r [m].
 RM, KT, KM, KG, ETA_G, ETA_M, JM, R = 2.6, 0.0077, 0.0075, 3.71, 0.9, 0.69, 3.9e-7, 6.35e-3
@@ -32,5 +39,5 @@ def accelerations_by_hand(kind: str) -> np.ndarray:
         force = ETA_G * KG * ETA_M * KT * (VOLTS - KG * KM * QD[0] / R) / (RM * R)
         m_hand, j_hand = [m[0] + ETA_G * KG**2 * JM / R**2, m[1]], j
     system = System(kind, 1)  # type: ignore[arg-type]
-    params = _params(system, m_hand, l, delta, 9.81, {"J": j_hand})
+    params = flat_parameters(system, m_hand, l, delta, 9.81, {"J": j_hand})
     return dynamics(system).forward_dynamics(Q, QD, force, params)

@@ -25,10 +25,17 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 import ipgen
-from ipgen.control.linear import ControlError, EquilibriumWarning, _params, dynamics
+from ipgen.control.linear import ControlError, EquilibriumWarning, dynamics
 from ipgen.model.actuator import Actuator, ActuatorError, fold
 from ipgen.model.derivation import derive
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System
+
+
+def flat_parameters(system, m, l, delta, g, links=None):  # noqa: E741
+    """`Dynamics`' flat parameters of these values (the Pendulum's `flat`)."""
+    return Pendulum(system.type, system.links, m, l, delta, g, system.inertia, **(links or {})).flat()
+
 
 ACCEL = {"kind": "acceleration"}
 
@@ -82,7 +89,9 @@ def test_rotary_pendulum_textbook_model() -> None:
 
 
 def _p_rotary(m0: float, m1: float, l0: float, l1: float, c: float, j: float, g: float) -> list[float]:
-    return _params(System("rotary", 1), [m0, m1], [l0, l1], [0, 0], g, {"com": [0, c], "J": [5e-4, j]})
+    return flat_parameters(
+        System("rotary", 1), [m0, m1], [l0, l1], [0, 0], g, {"com": [0, c], "J": [5e-4, j]}
+    )
 
 
 CASES = [
@@ -99,7 +108,7 @@ def test_linearisation_matches_central_differences(kind, links, inertia, m, l, d
     system = System(kind, links, inertia)
     dof = system.dof
     rng = np.random.default_rng(7)
-    params = _params(system, m, l, delta, 9.81)
+    params = flat_parameters(system, m, l, delta, 9.81)
     dyn = dynamics(system)
     for _ in range(3):
         q, qd, u = rng.uniform(-2, 2, dof), rng.uniform(-3, 3, dof), float(rng.uniform(-4, 4))
@@ -122,7 +131,7 @@ def test_base_force_reproduces_the_acceleration(kind, links, inertia, m, l, delt
     """The force-driven model with the reported base force τ gives θ̈0 = u and the same link
     accelerations (a second solve, of the full M)."""
     system = System(kind, links, inertia)
-    params = _params(system, m, l, delta, 9.81)
+    params = flat_parameters(system, m, l, delta, 9.81)
     dyn = dynamics(system)
     rng = np.random.default_rng(3)
     for _ in range(5):
@@ -150,7 +159,7 @@ def test_power_balance_of_the_servo() -> None:
     dissipated. T, V, D from the derivation's energies (sympy), not from the dynamics."""
     system = System("rotary", 2, "full")
     m, l, delta = [0.3, 0.2, 0.1], [0.25, 0.3, 0.2], [0.02, 0.01, 0.005]  # noqa: E741
-    params = _params(system, m, l, delta, 9.81)
+    params = flat_parameters(system, m, l, delta, 9.81)
     dyn = dynamics(system)
     eq = derive(system)
     s = eq.symbols
@@ -295,7 +304,7 @@ def test_cpp_header_acceleration_functions(kind, links, inertia, m, l, delta, tm
     ).stdout.splitlines()
     first = np.array([float(v) for v in lines[0].split()])
     table = np.array([[float(v) for v in line.split()] for line in lines[1:]])
-    params = _params(system, m, l, delta, 9.81)
+    params = flat_parameters(system, m, l, delta, 9.81)
     qdd, tau = dynamics(system).acceleration_dynamics(q, qd, u, params)
     np.testing.assert_allclose(first[:dof], qdd, rtol=1e-11, atol=1e-11)
     assert first[dof] == pytest.approx(tau, rel=1e-11, abs=1e-11)
@@ -400,7 +409,7 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
     assert np.max(np.abs(x[-1])) < 1e-3  # balanced at the end
 
     system = System("classical", 2)
-    params = _params(system, m, l, delta, 9.81, links)
+    params = flat_parameters(system, m, l, delta, 9.81, links)
     dyn = dynamics(system)
 
     def rhs(_: float, y: np.ndarray) -> np.ndarray:

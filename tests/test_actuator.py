@@ -31,10 +31,17 @@ from scipy.integrate import solve_ivp
 from test_published_rig import DP, DR, JP, JR, LP, LR, MP, MR, G, published
 
 import ipgen
-from ipgen.control.linear import ControlError, _params, dynamics
+from ipgen.control.linear import ControlError, dynamics
 from ipgen.model.actuator import Actuator, fold
 from ipgen.model.derivation import derive
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System
+
+
+def flat_parameters(system, m, l, delta, g, links=None):  # noqa: E741
+    """`Dynamics`' flat parameters of these values (the Pendulum's `flat`)."""
+    return Pendulum(system.type, system.links, m, l, delta, g, system.inertia, **(links or {})).flat()
+
 
 RM, KT, KM = 8.4, 0.042, 0.042  # qube2_rotpen_param.m
 QUBE = Actuator("dc_motor", Rm=RM, kt=KT, km=KM)
@@ -109,14 +116,14 @@ def test_energy_balance_with_the_motor() -> None:
     motor = Actuator("dc_motor", Rm=RM, kt=KT, km=KM, Kg=kg, Jm=jm)
     system = System("rotary", 1)
     m, delta, j, gain = fold(motor, system, [MR, MP], [DR, DP], [JR, JP])
-    folded = _params(system, m, [LR, LP], delta, G, {"J": j})
+    folded = flat_parameters(system, m, [LR, LP], delta, G, {"J": j})
     dyn = dynamics(system)
     eq = derive(system)
     s = eq.symbols
     mech = dict(
         zip(
             (*s.parameters, *s.link_parameters),
-            _params(system, [MR, MP], [LR, LP], [DR, DP], G, {"J": [JR, JP]}),
+            flat_parameters(system, [MR, MP], [LR, LP], [DR, DP], G, {"J": [JR, JP]}),
             strict=True,
         )
     )

@@ -28,6 +28,14 @@ STAGES = (
 )
 
 
+# Imports that go to a later stage on purpose, each inside the one function that needs it (checked
+# below) and left out of the stage and circle checks: `Pendulum.from_scene(path)` reads a scene file
+# (the scene stage builds on the model's Pendulum; this one call goes the other way, on request).
+LATE_IMPORTS: dict[tuple[str, str], str] = {
+    ("ipgen.model.pendulum", "ipgen.scene.reader"): "Pendulum.from_scene reads a scene file",
+}
+
+
 def _module_name(path: Path) -> str:
     parts = path.relative_to(PACKAGE).with_suffix("").parts
     if parts[-1] == "__init__":
@@ -59,7 +67,28 @@ def _stage(module: str) -> str:
 
 def _graph() -> dict[str, set[str]]:
     modules = _modules()
-    return {name: _imports(path, modules) - {name} for name, path in modules.items()}
+    return {
+        name: {t for t in _imports(path, modules) if t != name and (name, t) not in LATE_IMPORTS}
+        for name, path in modules.items()
+    }
+
+
+def test_late_imports_are_inside_functions() -> None:
+    """Each import of `LATE_IMPORTS` exists and is made inside a function, never at module level
+    (importing the module does not import the later stage)."""
+    modules = _modules()
+    for (source, target), why in LATE_IMPORTS.items():
+        tree = ast.parse(modules[source].read_text())
+        top = {node.module for node in tree.body if isinstance(node, ast.ImportFrom)}
+        lazy = {
+            node.module
+            for function in ast.walk(tree)
+            if isinstance(function, ast.FunctionDef | ast.AsyncFunctionDef)
+            for node in ast.walk(function)
+            if isinstance(node, ast.ImportFrom)
+        }
+        assert target in lazy, f"{source} no longer imports {target} ({why}): remove it from LATE_IMPORTS"
+        assert target not in top, f"{source} imports {target} at module level; import it where it is used"
 
 
 def test_every_import_names_a_module_of_the_package() -> None:
@@ -104,3 +133,46 @@ def test_the_checker_finds_a_circle(tmp_path: Path) -> None:
     modules = {"ipgen.a": tmp_path / "a.py", "ipgen.b": tmp_path / "b.py"}
     graph = {name: _imports(path, modules) for name, path in modules.items()}
     assert graph == {"ipgen.a": {"ipgen.b"}, "ipgen.b": {"ipgen.a"}}
+
+
+# Private names still imported across modules, to be made public or moved (generator/scene/ is
+# being restructured separately); the list may only shrink: an entry that is gone fails below.
+KNOWN_PRIVATE_IMPORTS: frozenset[tuple[str, str]] = frozenset(
+    {
+        ("ipgen.scene.controller", "ipgen.scene.fields._one_of"),
+        ("ipgen.scene.controller", "ipgen.scene.fields._type_name"),
+        ("ipgen.scene.reader", "ipgen.scene.fields._one_of"),
+        ("ipgen.scene.reader", "ipgen.scene.fields._Reader"),
+        ("ipgen.scene.fieldtypes", "ipgen.scene.fields._one_of"),
+        ("ipgen.scene.fieldtypes", "ipgen.scene.fields._type_name"),
+        ("ipgen.scene.checks", "ipgen.scene.fields._one_of"),
+        ("ipgen.scene.checks", "ipgen.scene.fields._type_name"),
+    }
+)
+
+
+def _private_imports(modules: dict[str, Path] | None = None) -> set[tuple[str, str]]:
+    """(module, imported name) of every `from ipgen.x import _name` in the package (typing and
+    function-level imports too)."""
+    found = set()
+    for name, path in (modules or _modules()).items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("ipgen"):
+                for alias in node.names:
+                    if alias.name.startswith("_") and not alias.name.startswith("__"):
+                        found.add((name, f"{node.module}.{alias.name}"))
+    return found
+
+
+def test_no_private_name_is_imported_across_modules() -> None:
+    found = _private_imports()
+    new = sorted(found - KNOWN_PRIVATE_IMPORTS)
+    assert not new, f"private names imported from another module (make them public or move them): {new}"
+    fixed = sorted(KNOWN_PRIVATE_IMPORTS - found)
+    assert not fixed, f"no longer imported, remove from KNOWN_PRIVATE_IMPORTS: {fixed}"
+
+
+def test_the_private_import_check_finds_one(tmp_path: Path) -> None:
+    """The check above is not vacuous: `from ipgen.a import _hidden` is reported."""
+    (tmp_path / "b.py").write_text("def f():\n    from ipgen.a import _hidden, public, __version__\n")
+    assert _private_imports({"ipgen.b": tmp_path / "b.py"}) == {("ipgen.b", "ipgen.a._hidden")}

@@ -142,8 +142,8 @@ def test_unstabilisable_pair_is_an_error() -> None:
     a = np.diag([1.0, 1.0])
     b = np.array([[1.0], [1.0]])
     with pytest.raises(ControlError, match="not stabilisable"):
-        control._check_stabilisable(a, b, np.eye(2))
-    control._check_stabilisable(np.diag([1.0, 2.0]), b, np.eye(2))  # distinct modes: controllable
+        control.check_stabilisable(a, b, np.eye(2))
+    control.check_stabilisable(np.diag([1.0, 2.0]), b, np.eye(2))  # distinct modes: controllable
 
 
 @pytest.mark.parametrize(

@@ -15,8 +15,14 @@ import pytest
 from test_published_rig import DP, DR, JP, JR, LP, LR, MP, MR, G, published
 
 import ipgen
-from ipgen.control.linear import ControlError, EquilibriumWarning, _params, dynamics
+from ipgen.control.linear import ControlError, EquilibriumWarning, dynamics
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System
+
+
+def flat_parameters(system, m, l, delta, g, links=None):  # noqa: E741
+    """`Dynamics`' flat parameters of these values (the Pendulum's `flat`)."""
+    return Pendulum(system.type, system.links, m, l, delta, g, system.inertia, **(links or {})).flat()
 
 
 def test_qube_in_quanser_s_own_angle() -> None:
@@ -45,7 +51,7 @@ def test_relative_hanging_counterclockwise_by_differences() -> None:
         return np.array([xdot_c[0], -xdot_c[1], -(xdot_c[2] - xdot_c[1])])
 
     system = System("rotary", 2)
-    params = _params(system, m, l, delta, 9.81)
+    params = flat_parameters(system, m, l, delta, 9.81)
     dyn = dynamics(system)
 
     def f(x: np.ndarray, u: float) -> np.ndarray:

@@ -15,7 +15,7 @@ from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT
-from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from ipgen.model.system import System, system_problem
 
 if TYPE_CHECKING:
     from ipgen.command.generate import Written
@@ -66,20 +66,14 @@ def cost_estimate(links: int) -> str:
 
 
 def check_system(system_type: object, links: object, inertia: object = None) -> System:
-    """The System these values name, or an OptionsError saying which value is wrong."""
-    if system_type not in SYSTEM_TYPES:
-        raise OptionsError(f"--type must be one of {', '.join(SYSTEM_TYPES)} (got {system_type!r:.40})")
-    if isinstance(links, bool) or not isinstance(links, int):
-        raise OptionsError(
-            f"--links must be an integer >= 1 (got {links!r:.40}): it counts the rods in the chain"
-        )
-    if links < 1:
-        raise OptionsError(f"--links must be an integer >= 1 (got {links}): it counts the rods in the chain")
-    if inertia is not None and inertia not in INERTIA_VARIANTS:
-        raise OptionsError(f"--inertia must be one of {', '.join(INERTIA_VARIANTS)} (got {inertia!r:.40})")
-    if inertia is not None and system_type != "rotary":
+    """The System these values name, or an OptionsError saying which option is wrong (the check
+    is `model.system.system_problem`; here it speaks of --type, --links and --inertia)."""
+    problem = system_problem(system_type, links, inertia)
+    if problem is None:
+        return System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
+    if problem.field == "rotary-only":
         raise OptionsError("--inertia applies to rotary systems only: drop it, or use --type rotary")
-    return System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
+    raise OptionsError(f"--{problem}")
 
 
 def _text(value: str | Iterable[object]) -> str:

@@ -22,3 +22,25 @@ def cmake_dir() -> Path:
         "ipgen's CMake package is missing from this installation: reinstall it with "
         "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
     )
+
+
+def presets_dir() -> Path:
+    """The folder of the rig presets (`ipgen.Pendulum.preset`): a checkout's scenes/rigs/.
+
+    Returns
+    -------
+    Path
+        The folder holding one scene file per rig (qube_servo2.toml, ...).
+
+    Raises
+    ------
+    Error
+        The presets are not part of this installation.
+    """
+    checkout = Path(__file__).resolve().parents[2] / "scenes" / "rigs"
+    if checkout.is_dir():
+        return checkout
+    raise Error(
+        "ipgen's rig presets are missing from this installation: use a checkout of the repository, "
+        "or pass the scene file to Pendulum.from_scene"
+    )

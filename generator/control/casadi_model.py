@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
-from ipgen.control.linear import ControlError, _params, _system
+from ipgen.control.linear import ControlError, as_pendulum
+from ipgen.model.pendulum import Pendulum, PendulumError
 from ipgen.model.system import System
 
 if TYPE_CHECKING:
@@ -42,20 +43,29 @@ def import_casadi() -> Any:
 
 @dataclass(frozen=True)
 class Plant:
-    """A system with numeric parameters: (m0..mn, l0..ln, δ0..δn, g), the order of `ipgen.lqr`,
-    then the links as built (com, J, J_axial, tip; `Dynamics`' order, the rods' values if not
-    given)."""
+    """A `Pendulum` as the planners see it: the direct model's numbers in one flat tuple
+    `params` (m0..mn, l0..ln, δ0..δn, g, then com, J, J_axial, tip with the rods filled in:
+    `Pendulum.flat`, `Dynamics`' order). A "dc_motor" pendulum is planned on its folded model
+    (`Pendulum.folded`; u is then the force or torque, b · V)."""
 
-    system: System
-    params: tuple[float, ...]
+    pendulum: Pendulum
+
+    @property
+    def system(self) -> System:
+        return self.pendulum.system
+
+    @property
+    def params(self) -> tuple[float, ...]:
+        p = self.pendulum
+        return tuple((p.folded() if p.actuator.is_motor else p).flat())
 
     @property
     def dof(self) -> int:
-        return self.system.dof
+        return self.pendulum.dof
 
     @property
     def links(self) -> int:
-        return self.system.links
+        return self.pendulum.links
 
     @property
     def m(self) -> tuple[float, ...]:
@@ -86,44 +96,43 @@ class Plant:
         l: Sequence[float] | None = None,  # noqa: E741
         delta: Sequence[float] | None = None,
     ) -> Plant:
-        """The same system with some parameter arrays replaced (robustness studies)."""
-        values = _params(
-            self.system,
-            self.m if m is None else m,
-            self.l if l is None else l,
-            self.delta if delta is None else delta,
-            self.g,
-            dict(self.links_as_built),
-        )
-        return Plant(self.system, tuple(values))
+        """The same system with some parameter arrays replaced (robustness studies); the links
+        as built keep their values (the rods' of the original where not given)."""
+        changes = {name: value for name, value in (("m", m), ("l", l), ("delta", delta)) if value is not None}
+        p = self.pendulum
+        try:
+            return Plant(p.replace(**self.links_as_built, **changes) if changes else p)
+        except PendulumError as exc:
+            raise ControlError(str(exc)) from None
 
 
-def plant(
-    type: str,
-    links: int,
-    m: Sequence[float],
-    l: Sequence[float],  # noqa: E741 (the paper's name for the lengths)
-    delta: Sequence[float],
-    g: float = 9.81,
-    inertia: str = "pivot",
-    *,
-    com: Sequence[float] | None = None,
-    J: Sequence[float] | None = None,
-    J_axial: Sequence[float] | None = None,
-    tip: Sequence[float] | None = None,
-) -> Plant:
-    """A validated `Plant` (the arguments of `ipgen.lqr`, the links as built included); bad
-    input raises `ControlError`."""
-    system = _system(type, links, inertia)
-    values = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
-    masses, link_lengths = values[: system.dof], values[system.dof + 1 : 2 * system.dof]
-    if any(v <= 0 for v in masses) or any(v <= 0 for v in link_lengths):
-        raise ControlError("masses m and link lengths l[1:] must be > 0")
-    if values[0 + system.dof] <= 0 and system.is_rotary:
-        raise ControlError("the arm length l[0] of a rotary pendulum must be > 0")
-    if any(v < 0 for v in values[2 * system.dof : 3 * system.dof]):
-        raise ControlError("damping delta must be >= 0")
-    return Plant(system, tuple(values))
+def plant(*args: Any, **kwargs: Any) -> Plant:
+    """A validated `Plant`: ``plant(p)`` of a `Pendulum`, or (the keyword API) ``plant(type,
+    links, m, l, delta, g=9.81, inertia="pivot", *, com=None, J=None, J_axial=None, tip=None)``,
+    the arguments of `as_pendulum`.
+
+    Parameters
+    ----------
+    p : Pendulum
+        The system to plan for.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    ControlError
+        With the keyword API, a value the `Pendulum` refuses (one line).
+
+    Examples
+    --------
+    >>> plant("rotary", 1, [0.5, 0.275], [0.6, 0.5], [0.3, 0.01]).dof
+    2
+    """
+    if args and isinstance(args[0], Pendulum) and len(args) == 1 and not kwargs:
+        return Plant(args[0])
+    return Plant(as_pendulum(*args, **kwargs))
 
 
 @lru_cache(maxsize=16)

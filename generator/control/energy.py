@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model
-from ipgen.control.linear import _weights
+from ipgen.control.linear import weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
 
@@ -157,7 +157,7 @@ def energy_swingup(
         if not math.isfinite(value) or value < 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number >= 0")
     dof = plant.dof
-    weights_q, weights_r = _weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
+    weights_q, weights_r = weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
     if acceleration:
         hold = discrete_acceleration_lqr(plant, float(period), weights_q, weights_r)
     else:
@@ -184,7 +184,7 @@ def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.
     import numpy as np
     from scipy.linalg import expm, solve_discrete_are
 
-    from ipgen.control.linear import _check_stabilisable, linearize
+    from ipgen.control.linear import check_stabilisable, linearize
 
     system = plant.system
     dof = plant.dof
@@ -193,7 +193,7 @@ def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.
         system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
         actuator={"kind": "acceleration"}, **links,
     )  # fmt: skip
-    _check_stabilisable(a, b, q)
+    check_stabilisable(a, b, q)
     size = 2 * dof
     block = np.zeros((size + 1, size + 1))
     block[:size, :size], block[:size, size:] = a, b

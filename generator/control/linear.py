@@ -21,12 +21,12 @@ import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
-from ipgen.control.coordinates import CoordinateError, Coordinates
 from ipgen.errors import Error
-from ipgen.model.actuator import Actuator, ActuatorError, as_actuator, fold
-from ipgen.model.links import LinkError, resolve_links, rod_value
+from ipgen.model.actuator import Actuator
+from ipgen.model.links import resolve_links
+from ipgen.model.pendulum import Pendulum, PendulumError
 from ipgen.model.system import System
 
 if TYPE_CHECKING:
@@ -36,11 +36,14 @@ __all__ = [
     "ControlError",
     "Dynamics",
     "EquilibriumWarning",
+    "as_pendulum",
+    "check_stabilisable",
     "closed_loop_poles",
     "dynamics",
     "equilibrium_state",
     "linearize",
     "lqr",
+    "weights",
 ]
 
 
@@ -184,44 +187,15 @@ def dynamics(system: System) -> Dynamics:
     )
 
 
-def _system(type: str, links: int, inertia: str) -> System:
-    try:
-        return System(type, links, inertia if type == "rotary" else "pivot")  # type: ignore[arg-type]
-    except (ValueError, TypeError) as exc:
-        raise ControlError(
-            f"{exc}: expected type 'classical' or 'rotary', links >= 1, inertia 'pivot' or 'full'"
-        ) from None
-
-
-def _params(
-    system: System,
-    m: Sequence[float],
-    l: Sequence[float],  # noqa: E741
-    delta: Sequence[float],
-    g: float,
-    links: dict[str, Sequence[float] | None] | None = None,
-) -> list[float]:
-    """The flat parameters of `Dynamics`; `links`: com, J, J_axial, tip (None: the rods)."""
-    dof = system.dof
-    for name, values in (("m", m), ("l", l), ("delta", delta)):
-        if len(values) != dof:
-            raise ControlError(f"{name} has {len(values)} entries, expected {dof} (links + 1 = base + links)")
-    values = [float(v) for v in (*m, *l, *delta, g)]
-    if not all(math.isfinite(v) for v in values):
-        raise ControlError("parameters must be finite numbers")
-    try:
-        built = resolve_links(system, values[:dof], values[dof : 2 * dof], links or {})
-    except LinkError as exc:
-        raise ControlError(str(exc)) from None
-    return values + built.flat()
-
-
 def _vector(name: str, value: Sequence[float] | None, size: int, what: str) -> np.ndarray:
     import numpy as np
 
     if value is None:
         return np.zeros(size)
-    array = np.asarray(value, dtype=float).reshape(-1)
+    try:
+        array = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ControlError(f"{name} must be {size} numbers ({what})") from None
     if array.size != size:
         raise ControlError(f"{name} has {array.size} entries, expected {size} ({what})")
     if not np.all(np.isfinite(array)):
@@ -229,7 +203,136 @@ def _vector(name: str, value: Sequence[float] | None, size: int, what: str) -> n
     return array
 
 
-def linearize(
+def as_pendulum(
+    type: str,
+    links: int,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741
+    delta: Sequence[float],
+    g: float = 9.81,
+    inertia: str = "pivot",
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
+    actuator: Actuator | dict | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
+) -> Pendulum:
+    """The `Pendulum` of the keyword API (`linearize`, `lqr` and `casadi_model.plant` called with
+    type, links, m, l, delta, ...): a cart ignores `inertia` as it always has; a value the
+    Pendulum refuses raises `ControlError` with the Pendulum's message.
+
+    Parameters
+    ----------
+    type, links, m, l, delta, g, inertia, com, J, J_axial, tip, actuator, angles, zero, positive
+        As for `Pendulum`.
+
+    Returns
+    -------
+    Pendulum
+
+    Raises
+    ------
+    ControlError
+        The one-line message of the `PendulumError`.
+
+    Examples
+    --------
+    >>> as_pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.0, 0.0], inertia="full").inertia
+    'pivot'
+    """
+    try:
+        return Pendulum(
+            type, links, m, l, delta, g, inertia if type == "rotary" else "pivot",
+            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,  # type: ignore[arg-type]
+            angles=angles, zero=zero, positive=positive,
+        )  # fmt: skip
+    except PendulumError as exc:
+        raise ControlError(str(exc)) from None
+
+
+def _pendulum_call(name: str, args: tuple, kwargs: dict) -> tuple[Pendulum, tuple, dict]:
+    """(p, rest) of a call `name(p, ...)`, or None-free: a TypeError naming the call if the first
+    argument is missing."""
+    if args:
+        return args[0], args[1:], kwargs
+    if "p" in kwargs:
+        rest = dict(kwargs)
+        return rest.pop("p"), (), rest
+    raise TypeError(f"{name}() needs a Pendulum (or the keyword API's type, links, m, l, delta)")
+
+
+def _is_pendulum_call(args: tuple, kwargs: dict) -> bool:
+    return bool(args and isinstance(args[0], Pendulum)) or isinstance(kwargs.get("p"), Pendulum)
+
+
+def linearize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
+
+    Called as ``linearize(p, q=None, qd=None, u=0.0)`` with a `Pendulum` `p`, or (the keyword
+    API, unchanged) as ``linearize(type, links, m, l, delta, g=9.81, inertia="pivot", q=None,
+    qd=None, u=0.0, *, com=None, J=None, J_axial=None, tip=None, actuator=None,
+    angles="absolute", zero="upright", positive="clockwise")``, which is
+    ``linearize(as_pendulum(type, links, m, l, delta, g, inertia, com=..., ...), q, qd, u)``.
+
+    Parameters
+    ----------
+    p : Pendulum
+        The system: its parameters, the links as built, the drive and the rig's coordinates.
+    q, qd : sequence of float, optional
+        The state about which to linearise: dof = links + 1 angles (θ0 the cart position [m] or
+        arm angle [rad]) and rates, in the pendulum's coordinates; default zero (upright at
+        rest in ipgen's coordinates).
+    u : float, default 0.0
+        The input about which to linearise (a force [N] or torque [N m]; with a "dc_motor" a
+        voltage [V]; with "acceleration" the base's acceleration).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        2·dof × 2·dof, ∂f/∂x.
+    B : numpy.ndarray
+        2·dof × 1, ∂f/∂u (per volt for a "dc_motor").
+
+    Raises
+    ------
+    ControlError
+        A bad state or input (one line), or a linear model that overflows; with the keyword API
+        also a value the `Pendulum` refuses.
+
+    Warns
+    -----
+    EquilibriumWarning
+        The state is not an equilibrium for u (θ̇ ≠ 0 or θ̈ ≠ 0): A and B then describe the
+        motion about a moving point.
+
+    Notes
+    -----
+    A "dc_motor" is folded into the direct model (`Pendulum.folded`): A has the back-EMF's
+    damping and the rotor's reflected inertia, B is b times the direct one (docs/model.md, "A DC
+    motor on the base"). With "acceleration" A's θ̈0 row is zero, B's is 1, and the links follow
+    θ̈_L = −M_LL⁻¹ (M_L0 u + b_L) (docs/model.md, "An acceleration-driven base"); m0, δ0 (and J0
+    of an arm) do not enter A or B. In a rig's own coordinates (`angles`, `zero`, `positive`)
+    q, qd and the rows and columns of A and B are in them: A_u = P A P⁻¹, B_u = P B.
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> p = ipgen.Pendulum("classical", 1, m=[1.0, 0.1], l=[0.0, 0.5], delta=[0.0, 0.0])
+    >>> a, b = ipgen.linearize(p)
+    >>> a.shape, b.shape
+    ((4, 4), (4, 1))
+    """
+    if _is_pendulum_call(args, kwargs):
+        p, rest, options = _pendulum_call("linearize", args, kwargs)
+        return _linearize(p, *rest, **options)
+    return _linearize_keywords(*args, **kwargs)
+
+
+def _linearize_keywords(
     type: str,
     links: int,
     m: Sequence[float],
@@ -250,71 +353,73 @@ def linearize(
     zero: str = "upright",
     positive: str = "clockwise",
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
+    """`linearize`'s keyword API: the same A and B as `linearize(as_pendulum(...), q, qd, u)`."""
+    p = as_pendulum(
+        type, links, m, l, delta, g, inertia, com=com, J=J, J_axial=J_axial, tip=tip,
+        actuator=actuator, angles=angles, zero=zero, positive=positive,
+    )  # fmt: skip
+    return _linearize(p, q, qd, u, stacklevel=4)
 
-    `com`, `J`, `J_axial`, `tip` (dof entries each, index 0 the base) describe the links as built
-    (docs/model.md): CoG distances, inertias about the CoGs (J[0]: the rotary arm's about the
-    vertical), about the links' axes (rotary "full" only) and tip masses; each left out is the
-    paper's rod (l/2, m l²/12 and m0 l0²/3, 0, 0). Values no body has raise `ControlError`.
 
-    A is 2·dof × 2·dof, B is 2·dof × 1 (dof = links + 1); both are numpy float arrays. q and qd
-    default to zero (upright, at rest). A state that is not an equilibrium for `u` (θ̇ ≠ 0 or
-    θ̈ ≠ 0) is allowed — A and B are then the Jacobians along a moving trajectory — but warned
-    about with an `EquilibriumWarning`.
-
-    `actuator` (an `ipgen.Actuator`, a dict of its fields, or None: "direct") says what u is: with
-    kind "dc_motor" u is the motor voltage [V], B is per volt and A has the back-EMF's damping
-    and the rotor's reflected inertia (docs/model.md, "A DC motor on the base"); with kind
-    "acceleration" u is the base's acceleration θ̈0 [m/s² or rad/s²]: A's θ̈0 row is zero, B's
-    is 1, and the links follow θ̈_L = −M_LL⁻¹ (M_L0 u + b_L) (docs/model.md, "An
-    acceleration-driven base"); m0, δ0 (and J0 of an arm) then do not enter A or B.
-
-    `angles` ("absolute" | "relative"), `zero` ("upright" | "hanging") and `positive`
-    ("clockwise" | "counterclockwise") give the link angles in the rig's own convention
-    (`control.coordinates`): q, qd are then in it, and so are the rows and columns of A and B.
-    """
+def _linearize(
+    p: Pendulum,
+    q: Sequence[float] | None = None,
+    qd: Sequence[float] | None = None,
+    u: float = 0.0,
+    *,
+    stacklevel: int = 3,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`linearize` of a Pendulum, in its coordinates."""
     import numpy as np
 
-    convention = _coordinates(angles, zero, positive)
+    dof = p.dof
+    convention = p.coordinates
     if not convention.is_canonical:
-        dof = links + 1
         x_user = np.concatenate(
             [
                 _vector("q", q, dof, "one angle per coordinate"),
                 _vector("qd", qd, dof, "one rate per coordinate"),
             ]
         )
-        p, _ = convention.matrices(links)
-        x = convention.to_canonical(x_user, links)
-        a, b = linearize(
-            type, links, m, l, delta, g, inertia, q=x[:dof], qd=x[dof:], u=u,
-            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,
-        )  # fmt: skip
-        return p @ a @ np.linalg.inv(p), p @ b
+        matrix, _ = convention.matrices(p.links)
+        x = convention.to_canonical(x_user, p.links)
+        a, b = _linearize_canonical(p, x[:dof], x[dof:], u, stacklevel + 1)
+        return matrix @ a @ np.linalg.inv(matrix), matrix @ b
+    return _linearize_canonical(
+        p,
+        _vector("q", q, dof, "one angle or position per degree of freedom"),
+        _vector("qd", qd, dof, "one rate per degree of freedom"),
+        u,
+        stacklevel + 1,
+    )
 
-    system = _system(type, links, inertia)
-    m, delta, J, gain = _with_actuator(system, m, l, delta, J, actuator)
-    params = _params(system, m, l, delta, g, {"com": com, "J": J, "J_axial": J_axial, "tip": tip})
-    dof = system.dof
-    q_ = _vector("q", q, dof, "one angle or position per degree of freedom")
-    qd_ = _vector("qd", qd, dof, "one rate per degree of freedom")
+
+def _linearize_canonical(
+    p: Pendulum, q: np.ndarray, qd: np.ndarray, u: object, stacklevel: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) in ipgen's coordinates about (q, qd, u); the motor folded (`Pendulum.folded`)."""
+    import numpy as np
+
     try:
-        u = float(u)
+        u = float(u)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         u = math.nan
     if not math.isfinite(u):
         raise ControlError("u must be a finite number (the input about which to linearise)")
-    if as_actuator(actuator).is_acceleration:  # checked by _with_actuator
-        qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q_, qd_, float(u), params)
+    system, dof = p.system, p.dof
+    if p.actuator.is_acceleration:
+        qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q, qd, u, p.flat())
+        gain = 1.0
     else:
-        qdd, dq, dqd, du = dynamics(system).jacobians(q_, qd_, float(u), params)
+        qdd, dq, dqd, du = dynamics(system).jacobians(q, qd, u, p.folded().flat())
+        gain = p.gain
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
-    if np.any(qd_ != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
+    if np.any(qd != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
         warnings.warn(
-            f"linearize: the state is not an equilibrium for u = {u:g} (|θ̇| max {np.max(np.abs(qd_)):.3g}, "
+            f"linearize: the state is not an equilibrium for u = {u:g} (|θ̇| max {np.max(np.abs(qd)):.3g}, "
             f"|θ̈| max {np.max(np.abs(qdd)):.3g}); A and B describe the motion about a moving point",
             EquilibriumWarning,
-            stacklevel=2,
+            stacklevel=stacklevel + 1,
         )
     a = np.zeros((2 * dof, 2 * dof))
     a[:dof, dof:] = np.eye(dof)
@@ -327,39 +432,6 @@ def linearize(
             f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
         )
     return a, b
-
-
-def _coordinates(angles: str, zero: str, positive: str) -> Coordinates:
-    try:
-        return Coordinates(angles, zero, positive)
-    except CoordinateError as exc:
-        raise ControlError(str(exc)) from None
-
-
-def _with_actuator(
-    system: System,
-    m: Sequence[float],
-    l: Sequence[float],  # noqa: E741
-    delta: Sequence[float],
-    J: Sequence[float] | None,
-    actuator: Actuator | dict | None,
-) -> tuple[Sequence[float], Sequence[float], Sequence[float] | None, float]:
-    """(m, delta, J, b) of the direct model equivalent to `actuator` driving the base (`fold`)."""
-    try:
-        drive = as_actuator(actuator)
-        drive.check(system)
-    except ActuatorError as exc:
-        raise ControlError(str(exc)) from None
-    if not drive.is_motor:  # direct, or acceleration (m0, δ0 and J0 then do not enter θ̈)
-        return m, delta, J, 1.0
-    dof = system.dof
-    if len(m) != dof or len(l) != dof or len(delta) != dof:
-        return m, delta, J, 1.0  # _params names the wrong length
-    inertias = list(J) if J is not None else [rod_value(system, "J", i, m, l) for i in range(dof)]
-    if len(inertias) != dof:
-        return m, delta, J, 1.0  # resolve_links names the wrong length
-    m_, delta_, J_, gain = fold(drive, system, [float(x) for x in m], [float(x) for x in delta], inertias)
-    return m_, delta_, J_ if (J is not None or system.is_rotary) else None, gain
 
 
 def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> np.ndarray:
@@ -394,9 +466,11 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
     return x
 
 
-def _weights(
+def weights(
     Q: np.ndarray | Sequence, R: float | np.ndarray | Sequence, size: int
 ) -> tuple[np.ndarray, np.ndarray]:
+    """(Q, R) as arrays: Q from `size` diagonal weights or a size × size matrix, checked symmetric
+    positive semidefinite and finite; R one number > 0 (1 × 1). ControlError otherwise."""
     import numpy as np
 
     q = np.asarray(Q, dtype=float)
@@ -421,7 +495,7 @@ def _weights(
     return q, r.reshape(1, 1)
 
 
-def _check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
+def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
     """PBH tests: (A, B) stabilisable and (A, Q^½) detectable, or a ControlError naming the mode."""
     import numpy as np
 
@@ -446,7 +520,60 @@ def _check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
             )
 
 
-def lqr(
+def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
+    """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
+
+    Called as ``lqr(p, Q, R, equilibrium=None)`` with a `Pendulum` `p`, or (the keyword API,
+    unchanged) as ``lqr(type, links, m, l, delta, Q, R, g=9.81, inertia="pivot",
+    equilibrium=None, *, com=None, J=None, J_axial=None, tip=None, actuator=None,
+    angles="absolute", zero="upright", positive="clockwise")``, which is
+    ``lqr(as_pendulum(type, links, m, l, delta, g, inertia, com=..., ...), Q, R, equilibrium)``.
+
+    Parameters
+    ----------
+    p : Pendulum
+        The system (its drive says what u is: K is in volts per unit of state for a
+        "dc_motor", in m/s² or rad/s² per unit for "acceleration").
+    Q : array_like
+        2·dof diagonal weights, or a symmetric positive semidefinite 2·dof × 2·dof matrix.
+    R : float
+        The weight of u², > 0.
+    equilibrium : str or sequence of float, optional
+        "upright" (default), "hanging", or the dof angles (e.g. [0, π, 0]: link 1 hanging, link 2
+        upright); the velocities are zero there and u = 0.
+
+    Returns
+    -------
+    numpy.ndarray
+        K, 1 × 2·dof (python-control's shape: ``A - B @ K`` is the closed loop; ``K[0]`` the row).
+        In a rig's own coordinates (the pendulum's `angles`, `zero`, `positive`) K, Q and an
+        `equilibrium` given as angles are in them.
+
+    Raises
+    ------
+    ControlError
+        Bad weights, an unstabilisable (A, B) or undetectable (A, Q) pair (instead of a gain
+        that does not stabilise), a Riccati equation without a stabilising solution; with the
+        keyword API also a value the `Pendulum` refuses.
+
+    Notes
+    -----
+    K comes from scipy's `solve_continuous_are` on `linearize`'s (A, B) about the equilibrium.
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> p = ipgen.Pendulum("classical", 1, m=[1.0, 0.1], l=[0.0, 0.5], delta=[0.0, 0.0])
+    >>> ipgen.lqr(p, Q=[1, 1, 1, 1], R=1.0).shape
+    (1, 4)
+    """
+    if _is_pendulum_call(args, kwargs):
+        p, rest, options = _pendulum_call("lqr", args, kwargs)
+        return _lqr(p, *rest, **options)
+    return _lqr_keywords(*args, **kwargs)
+
+
+def _lqr_keywords(
     type: str,
     links: int,
     m: Sequence[float],
@@ -467,60 +594,43 @@ def lqr(
     zero: str = "upright",
     positive: str = "clockwise",
 ) -> np.ndarray:
-    """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
+    """`lqr`'s keyword API: the same K as `lqr(as_pendulum(...), Q, R, equilibrium)`."""
+    p = as_pendulum(
+        type, links, m, l, delta, g, inertia, com=com, J=J, J_axial=J_axial, tip=tip,
+        actuator=actuator, angles=angles, zero=zero, positive=positive,
+    )  # fmt: skip
+    return _lqr(p, Q, R, equilibrium)
 
-    The shape is python-control's (`control.lqr`), so the textbook `A - B @ K` is the closed
-    loop's matrix; `K[0]` or `K.ravel()` is the row as a vector.
 
-    `Q` is 2·dof diagonal weights or a symmetric positive semidefinite 2·dof × 2·dof matrix, `R`
-    the weight of u² (> 0). `equilibrium` is "upright" (default), "hanging", or the dof angles
-    (e.g. [0, π, 0]: link 1 hanging, link 2 upright); velocities are zero there and u = 0.
-    An unstabilisable (A, B) or undetectable (A, Q) pair raises `ControlError` instead of
-    returning a gain that does not stabilise. K comes from scipy's `solve_continuous_are`.
-    `com`, `J`, `J_axial`, `tip`: the links as built, as for `linearize` (default: the rods);
-    `actuator`: as for `linearize` (a "dc_motor" gives K in volts per unit of state, an
-    "acceleration" K in m/s² or rad/s² per unit of state).
-    `angles`, `zero`, `positive`: the rig's convention, as for `linearize`: K (and Q, and an
-    `equilibrium` given as angles) are then in the rig's coordinates.
-    """
+def _lqr(
+    p: Pendulum,
+    Q: np.ndarray | Sequence,
+    R: float | Sequence[float],
+    equilibrium: Sequence[float] | str | None = None,
+) -> np.ndarray:
+    """`lqr` of a Pendulum (its coordinates for K, Q and an equilibrium given as angles)."""
     import numpy as np
     from scipy.linalg import solve_continuous_are
 
-    convention = _coordinates(angles, zero, positive)
-    dof = links + 1
+    convention = p.coordinates
+    links, dof = p.links, p.dof
     if not convention.is_canonical and equilibrium is not None and not isinstance(equilibrium, str):
         user = np.concatenate(
             [_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
         )
         equilibrium = list(convention.to_canonical(user, links)[:dof])
     x_eq = equilibrium_state(links, equilibrium)
-    a, b = linearize(
-        type,
-        links,
-        m,
-        l,
-        delta,
-        g,
-        inertia,
-        q=x_eq[:dof],
-        qd=x_eq[dof:],
-        u=0.0,
-        com=com,
-        J=J,
-        J_axial=J_axial,
-        tip=tip,
-        actuator=actuator,
-    )
+    a, b = _linearize_canonical(p, x_eq[:dof], x_eq[dof:], 0.0, stacklevel=3)
     if not convention.is_canonical:
-        p, _ = convention.matrices(links)
-        a, b = p @ a @ np.linalg.inv(p), p @ b
-    q, r = _weights(Q, R, 2 * dof)
-    _check_stabilisable(a, b, q)
+        matrix, _ = convention.matrices(links)
+        a, b = matrix @ a @ np.linalg.inv(matrix), matrix @ b
+    q, r = weights(Q, R, 2 * dof)
+    check_stabilisable(a, b, q)
     try:
-        p = solve_continuous_are(a, b, q, r)
+        riccati = solve_continuous_are(a, b, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
         raise ControlError(f"the Riccati equation has no stabilising solution ({exc})") from None
-    k = np.linalg.solve(r, b.T @ p).reshape(1, -1)
+    k = np.linalg.solve(r, b.T @ riccati).reshape(1, -1)
     poles = np.linalg.eigvals(a - b @ k)
     if not np.all(np.isfinite(k)) or np.max(poles.real) >= 0:
         raise ControlError(f"the LQR gain does not stabilise the linear model (poles {np.round(poles, 4)})")

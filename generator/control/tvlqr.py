@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model
-from ipgen.control.linear import _check_stabilisable, _weights, linearize
+from ipgen.control.linear import check_stabilisable, linearize, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
 if TYPE_CHECKING:
@@ -119,7 +119,7 @@ def discrete_lqr(
         q=target[:dof],
         qd=target[dof:],
     )
-    _check_stabilisable(a_c, b_c, q)
+    check_stabilisable(a_c, b_c, q)
     p = solve_discrete_are(ad, bd, q, r)
     gain = np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)
     return gain, p, ad, bd
@@ -151,7 +151,7 @@ def track(
             "choose a duration of k·period"
         )
     dof = plan.plant.dof
-    weights_q, weights_r = _weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
+    weights_q, weights_r = weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
     target = plan.states[-1]
     hold_gain, terminal, _, _ = discrete_lqr(plan.plant, period_, weights_q, weights_r, target)
     times = np.arange(steps + 1) * period_

@@ -24,7 +24,9 @@ force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
+from typing import Any
 
 from ipgen.errors import Error
 from ipgen.model.system import System
@@ -118,28 +120,73 @@ class Actuator:
                     f"the motor's {what} overflows a double ({value}): check Rm, kt, km, Kg, Jm and r"
                 )
 
+    def constants(self) -> dict[str, float]:
+        """The motor's constants by name (`MOTOR_CONSTANTS`; r only when given, i.e. on a cart)."""
+        return {name: getattr(self, name) for name in MOTOR_CONSTANTS if getattr(self, name) is not None}
+
     def gain(self) -> float:
         """b: the generalised force on θ0 per unit of u (1 for "direct"; N m/V or N/V)."""
-        if not self.is_motor:
-            return 1.0
-        assert self.Rm is not None and self.kt is not None
-        b = self.eta_g * self.Kg * self.eta_m * self.kt / self.Rm
-        return b / self.r if self.r is not None else b
+        return motor_terms(self.constants())[0] if self.is_motor else 1.0
 
     def damping(self) -> float:
         """c: the back-EMF's damping on θ0 (N m s/rad on an arm, N s/m on a cart; 0 for "direct")."""
-        if not self.is_motor:
-            return 0.0
-        assert self.km is not None
-        c = self.gain() * self.Kg * self.km
-        return c / self.r if self.r is not None else c
+        return motor_terms(self.constants())[1] if self.is_motor else 0.0
 
     def inertia(self) -> float:
         """The rotor's inertia reflected to θ0: η_g K_g² J_m [kg m²] (arm), / r² [kg] (cart)."""
-        if not self.is_motor:
-            return 0.0
-        reflected = self.eta_g * self.Kg**2 * self.Jm
-        return reflected / self.r**2 if self.r is not None else reflected
+        return motor_terms(self.constants())[2] if self.is_motor else 0.0
+
+
+def motor_terms(constants: Mapping[str, Any]) -> tuple[Any, Any, Any]:
+    """(b, c, I_r) of a DC motor: the input gain, the back-EMF damping and the rotor's reflected
+    inertia (module docstring), in whatever arithmetic the constants are: floats, Fractions or
+    sympy expressions. This is the motor's one formula; everything that folds a motor into the
+    direct model (`fold_base`, `Actuator.gain`, the derivation's sympy views, a scene's exact
+    values, the identification model) computes it here.
+
+    Parameters
+    ----------
+    constants : mapping
+        Rm, kt, km (required), Kg, eta_g, eta_m (default 1), Jm (default 0) and r: the pinion
+        radius of a cart; absent or None on an arm.
+
+    Returns
+    -------
+    tuple
+        (b, c, I_r): b = η_g K_g η_m k_t / R_m (/ r on a cart), c = b K_g k_m (/ r on a cart),
+        I_r = η_g K_g² J_m (/ r² on a cart).
+
+    Examples
+    --------
+    >>> from fractions import Fraction
+    >>> motor_terms({"Rm": Fraction(8), "kt": Fraction(1, 2), "km": Fraction(1, 2)})
+    (Fraction(1, 16), Fraction(1, 32), 0)
+    """
+    kg, eta_g, eta_m = constants.get("Kg", 1), constants.get("eta_g", 1), constants.get("eta_m", 1)
+    radius = constants.get("r")
+    # The operations in the order the float results have always had (byte-identical outputs).
+    gain = eta_g * kg * eta_m * constants["kt"] / constants["Rm"]
+    if radius is not None:
+        gain = gain / radius
+    damping = gain * kg * constants["km"]
+    if radius is not None:
+        damping = damping / radius
+    inertia = eta_g * kg**2 * constants.get("Jm", 0)
+    if radius is not None:
+        inertia = inertia / radius**2
+    return gain, damping, inertia
+
+
+def fold_base(
+    constants: Mapping[str, Any], rotary: bool, m0: Any, delta0: Any, J0: Any
+) -> tuple[Any, Any, Any, Any]:
+    """(m0, δ0, J0, b) of the direct model a DC motor with `constants` is (`motor_terms`):
+    δ0 + c, and the reflected inertia on J0 (an arm, `rotary`) or m0 (a cart); b the input gain.
+    Exact in the arithmetic of the arguments (floats, Fractions, sympy)."""
+    gain, damping, inertia = motor_terms(constants)
+    if rotary:
+        return m0, delta0 + damping, J0 + inertia, gain
+    return m0 + inertia, delta0 + damping, J0, gain
 
 
 DIRECT = Actuator()
@@ -170,16 +217,14 @@ def as_actuator(value: Actuator | dict | None) -> Actuator:
 def fold(
     actuator: Actuator, system: System, m: list[float], delta: list[float], J: list[float]
 ) -> tuple[list[float], list[float], list[float], float]:
-    """(m, delta, J, b) of the equivalent direct model: δ0 + c, the reflected inertia on m0
-    (cart) or J0 (arm; `J` has every entry, the rods' filled in), and the input gain b.
-    kind "acceleration" has no equivalent direct model: ActuatorError."""
+    """(m, delta, J, b) of the equivalent direct model (`fold_base`): δ0 + c, the reflected
+    inertia on m0 (cart) or J0 (arm; `J` has every entry, the rods' filled in), and the input
+    gain b. kind "acceleration" has no equivalent direct model: ActuatorError."""
     actuator.check(system)
     if actuator.is_acceleration:
         raise ActuatorError("an acceleration-driven base is not a folded direct model (see reduced_dynamics)")
     m, delta, J = list(m), list(delta), list(J)
-    delta[0] += actuator.damping()
-    if system.is_rotary:
-        J[0] += actuator.inertia()
-    else:
-        m[0] += actuator.inertia()
-    return m, delta, J, actuator.gain()
+    if not actuator.is_motor:
+        return m, delta, J, 1.0
+    m[0], delta[0], J[0], gain = fold_base(actuator.constants(), system.is_rotary, m[0], delta[0], J[0])
+    return m, delta, J, gain

@@ -90,14 +90,11 @@ class Equations:
         if drive is None or not drive.is_motor:
             return sp.Integer(0), sp.Integer(0), sp.Integer(1)
 
-        def exact(value: float | None) -> sp.Expr:
-            return sp.Rational(repr(float(value))) if value is not None else sp.Integer(1)
+        from ipgen.model.actuator import motor_terms
 
-        rm, kt, km, kg = exact(drive.Rm), exact(drive.kt), exact(drive.km), exact(drive.Kg)
-        eta_g, eta_m, jm = exact(drive.eta_g), exact(drive.eta_m), exact(drive.Jm)
-        radius = exact(drive.r)  # 1 on an arm (r is a cart's)
-        gain = eta_g * kg * eta_m * kt / (rm * radius)
-        return eta_g * kg**2 * jm / radius**2, gain * kg * km / radius, gain
+        constants = {name: sp.Rational(repr(float(value))) for name, value in drive.constants().items()}
+        gain, damping, inertia = motor_terms(constants)
+        return inertia, damping, gain
 
     def _matrix(self, name: str) -> sp.Matrix:
         import sympy as sp

@@ -12,10 +12,86 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from ipgen.common.safetext import abbreviate
+from ipgen.errors import Error
+
 SystemType = Literal["classical", "rotary"]
 Inertia = Literal["pivot", "full"]
 SYSTEM_TYPES: tuple[str, ...] = ("classical", "rotary")
 INERTIA_VARIANTS: tuple[str, ...] = ("pivot", "full")
+
+
+class SystemChoiceError(Error, ValueError):
+    """A system type, link count or inertia variant ipgen does not have. `field` says which
+    ("type", "links" or "inertia"; "rotary-only" for an inertia given to a cart), so that the
+    command can say it with its option names."""
+
+    def __init__(self, message: str, field: str) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+def system_problem(system_type: object, links: object, inertia: object = None) -> SystemChoiceError | None:
+    """What is wrong with (type, links, inertia), or None: the one check of these three values
+    (`System`, `check_system`, `model.pendulum.Pendulum`, the command's options). `inertia`
+    None means not given (a cart then has "pivot"); given to a cart it must be "pivot"."""
+    if not isinstance(system_type, str) or system_type not in SYSTEM_TYPES:
+        return SystemChoiceError(
+            f"type must be one of {', '.join(SYSTEM_TYPES)} (got {abbreviate(repr(system_type))})", "type"
+        )
+    if isinstance(links, bool) or not isinstance(links, int):
+        return SystemChoiceError(
+            f"links must be an integer >= 1 (got {abbreviate(repr(links))}): it counts the rods in the chain",
+            "links",
+        )
+    if links < 1:
+        return SystemChoiceError(
+            f"links must be an integer >= 1 (got {links}): it counts the rods in the chain", "links"
+        )
+    if inertia is not None and (not isinstance(inertia, str) or inertia not in INERTIA_VARIANTS):
+        return SystemChoiceError(
+            f"inertia must be one of {', '.join(INERTIA_VARIANTS)} (got {abbreviate(repr(inertia))})",
+            "inertia",
+        )
+    if inertia not in (None, "pivot") and system_type != "rotary":
+        return SystemChoiceError(
+            f"inertia {abbreviate(repr(inertia))} applies to rotary systems only: "
+            "use 'pivot' or type 'rotary'",
+            "rotary-only",
+        )
+    return None
+
+
+def check_system(system_type: object, links: object, inertia: object = None) -> System:
+    """The `System` (type, links, inertia) name, or the `SystemChoiceError` of `system_problem`.
+
+    Parameters
+    ----------
+    system_type : str
+        "classical" (a cart) or "rotary" (a Furuta arm).
+    links : int
+        The number of rods in the chain, >= 1.
+    inertia : str or None
+        "pivot" or "full" (rotary only); None: not given ("pivot").
+
+    Returns
+    -------
+    System
+
+    Raises
+    ------
+    SystemChoiceError
+        One line naming the wrong value and what is expected.
+
+    Examples
+    --------
+    >>> check_system("rotary", 2, "full").dof
+    3
+    """
+    problem = system_problem(system_type, links, inertia)
+    if problem is not None:
+        raise problem
+    return System(system_type, links, inertia or "pivot")  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -27,12 +103,12 @@ class System:
     inertia: Inertia = "pivot"  # rotary only: "pivot" (published model) or "full" thin rod
 
     def __post_init__(self) -> None:
-        if self.type not in SYSTEM_TYPES:
-            raise ValueError(f"unknown system type {self.type!r}")
-        if self.links < 1:
-            raise ValueError("a system needs at least one link")
-        if self.inertia not in INERTIA_VARIANTS:
-            raise ValueError(f"unknown inertia variant {self.inertia!r}")
+        # A cart keeps whichever variant it is given (it has no arm for it to change).
+        problem = system_problem(self.type, self.links, self.inertia if self.type == "rotary" else None)
+        if problem is None and self.inertia not in INERTIA_VARIANTS:
+            problem = system_problem(self.type, self.links, self.inertia)
+        if problem is not None:
+            raise problem
 
     @property
     def dof(self) -> int:

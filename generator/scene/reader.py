@@ -31,6 +31,7 @@ from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
 from ipgen.model.links import rod_value
+from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import PARAMETER_GROUPS, System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
@@ -149,6 +150,11 @@ class Scene:
     def system(self) -> System:
         """The system the scene simulates."""
         return System(self.type, self.links, self.inertia)  # type: ignore[arg-type]
+
+    @property
+    def pendulum(self) -> Pendulum:
+        """The scene's system, parameters, drive and coordinates as one `ipgen.Pendulum`."""
+        return from_scene_object(self)
 
     def parameter_names(self) -> tuple[str, ...]:
         """m0..mn, l0..ln, delta0..deltan, g: the names `free`, `value` and `exact` use."""
