@@ -501,7 +501,7 @@ def identify_command(
 )  # fmt: skip
 @click.option(
     "--fps", type=float, default=15.0, show_default=True,
-    help="Frames per second of the run, 0.1 to 50; a run longer than 600 frames plays time-lapsed.",
+    help="Frames per second of the run, 0.1 to 50; a run longer than 400 frames plays time-lapsed.",
 )  # fmt: skip
 @_coordinate_options
 @click.option("--force", is_flag=True, help="Replace a file that ipgen did not write (or of another kind).")

@@ -125,11 +125,12 @@ def canonical_angles(data: RunData, coordinates: Coordinates | None) -> np.ndarr
     return np.linalg.solve(p, (states - c).T).T[:, : data.links + 1]
 
 
-# Bounds of an animation: frames (each kept in memory until the GIF is written: 600 frames of
-# 420 × 216 pixels are about 55 MB and half a minute of drawing on a 2-core machine), frames per
+# Bounds of an animation: frames (each kept in memory until the GIF is written: 400 frames of
+# 420 × 216 pixels are about 36 MB; drawing one takes ~70 ms of CPU; 400 frames are a 26 s run
+# at the default 15 per second, longer than every shipped swing-up), frames per
 # second of the run (a GIF frame lasts at most 655 s; below 0.1 nothing moves), and the
 # distances drawn to scale [m].
-MAX_FRAMES = 600
+MAX_FRAMES = 400
 MAX_ROWS = 200_000  # rows of a CSV read (more are thinned evenly): a few MB, more than frames need
 FPS_RANGE = (0.1, 50.0)
 LARGEST_DRAWN = 1e9
