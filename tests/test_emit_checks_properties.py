@@ -59,8 +59,8 @@ TARGET_SETS = st.lists(st.sampled_from(list(TARGETS)), min_size=1, max_size=3)
 def test_the_option_and_the_key_meet_the_same_check(
     tmp_path: Path, actuator: str, zero: str, specialise: bool, targets: list[str]
 ) -> None:
-    if "fmu" in targets and "fmu3" in targets:
-        targets.remove("fmu3")  # both write NAME.fmu: refused by parse_emit, another class
+    if "fmu" in targets:  # fmu and fmu3 both write NAME.fmu: refused by parse_emit, another class
+        targets = [target for target in targets if target != "fmu3"]
     emit = tuple(dict.fromkeys(targets))
     keyed, plain = tmp_path / "keyed.toml", tmp_path / "plain.toml"
     keyed.write_text(_scene(actuator, zero, specialise, emit))
