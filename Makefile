@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify stability configure build clean
+.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify stability configure build clean
 
 all: test
 
@@ -49,12 +49,25 @@ $(VENV)/.installed: pyproject.toml | deps
 lint: venv
 	$(VENV)/bin/ruff check generator tests tools bench
 
+## pytest, all but the tests marked fresh_venv (make test-slow). The simulators `ipgen run` compiles
+## go to one cache for the whole run, build/test-cache/, at -O1 (tests/conftest.py): a second
+## make test compiles none of them.
 test-python: venv
-	$(PY) -m pytest -q -n $(JOBS)
+	$(PY) -m pytest -q -n $(JOBS) -m "not fresh_venv"
+
+## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
+## a fresh virtualenv, then its CMake project (tests/test_package.py). CI runs it after make test.
+test-slow: venv
+	$(PY) -m pytest -q -n $(JOBS) -m fresh_venv
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
+## CMAKE_OPT: the optimisation level of the Release build (CMake's own is -O3). -O1 by default: no
+## ctest measures speed, and Eigen-heavy targets compile in less time (docs/testing.md); make
+## stability, whose report states run times, builds at -O3.
+CMAKE_OPT ?= -O1
 configure: venv
-	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG" \
+	  -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -153,6 +166,7 @@ bench-workprecision: $(VENV)/.workprecision-installed
 
 ## Numerical stability at the extremes (cpp/stability/, tools/stability.py): builds every scenario
 ## driver (the n = 20 models too) and writes docs/stability.md; fails if a scenario misses its bound.
+stability: CMAKE_OPT := -O3
 stability: configure
 	cmake --build $(BUILD) -j $(JOBS) --target stability_drivers
 	$(PY) tools/stability.py --build $(BUILD) --out docs/stability.md

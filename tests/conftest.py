@@ -1,15 +1,29 @@
-"""Shared fixtures: generated model headers compiled into the C++ test driver, once per session.
+"""Shared fixtures: generated model headers compiled into the C++ test driver, once per session;
+one simulator cache for the whole test run.
+
+The simulators `ipgen run` compiles go into one cache for every test and every xdist worker:
+$IPGEN_CACHE_DIR if it is set, else build/test-cache/ in the checkout (kept between runs, so a
+second `make test` compiles none of them; `make clean` removes it). The cache is keyed by the
+model's content and locks each key, so two workers that need one model compile it once. They are
+compiled at -O1 ($IPGEN_SIM_OPT, unless set): no test measures a simulator's speed, and the
+compile takes less than at the users' -O2 (docs/testing.md).
 
 `cpp_models` (session scope) generates each requested model's header with
 `generate_header` into a temporary folder and compiles it into `tests/cpp/eval_model.cpp`.
 Models with the same number of degrees of freedom are compiled together into one program
 (Eigen is parsed and instantiated once for them), and the groups are built in parallel in
-the background: a test waits only for the program it needs. The compiler, flags and Eigen
-come from tests/cxx.py: without them the fixture fails, unless IPGEN_ALLOW_NO_CXX=1.
+the background: a test waits only for the program it needs. The programs are kept in the run's
+cache (<cache>/test-programs/<key>/, keyed by the flags, the compiler and the sources' text, one
+lock per key): the xdist workers, which each have their own session, compile each program once.
+The compiler, flags and Eigen come from tests/cxx.py: without them the fixture fails, unless
+IPGEN_ALLOW_NO_CXX=1.
 """
 
 from __future__ import annotations
 
+import fcntl
+import functools
+import hashlib
 import os
 import shlex
 import subprocess
@@ -19,12 +33,33 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from cxx import cxx_command, require_toolchain
+from cxx import CXX, cxx_command, require_toolchain
 
 from ipgen.command.generate import generate_header
 from ipgen.model.system import System
 
 CPP_DIR = Path(__file__).resolve().parent / "cpp"
+ROOT = CPP_DIR.parents[1]
+TEST_CACHE = ROOT / "build" / "test-cache"  # `ipgen run`'s simulators for every test (IPGEN_CACHE_DIR)
+TEST_OPTIMISATION = "-O1"  # the simulators' optimisation level in the tests (IPGEN_SIM_OPT)
+
+
+@functools.cache
+def compiler_version() -> str:
+    """`$CXX --version`: part of the key of the test programs cached across runs."""
+    return subprocess.run([CXX, "--version"], capture_output=True, text=True).stdout
+
+
+def shared_cache() -> Path:
+    """The run's cache folder (set by pytest_configure)."""
+    return Path(os.environ.get("IPGEN_CACHE_DIR") or TEST_CACHE)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """One simulator cache and one optimisation level for the whole run, set before any test (and
+    before xdist starts its workers, which inherit the environment). Set by the caller, they stay."""
+    os.environ.setdefault("IPGEN_CACHE_DIR", str(TEST_CACHE))
+    os.environ.setdefault("IPGEN_SIM_OPT", TEST_OPTIMISATION)
 DRIVER = CPP_DIR / "eval_model.cpp"
 STDERR_LINES = 40  # compiler output quoted in a failure message
 
@@ -90,7 +125,8 @@ class CppModels:
         umbrella = self.workdir / f"{label}.hpp"
         umbrella.write_text("".join(f'#include "{name}.hpp"\n' for name in names))
         models = "-DIPGEN_MODELS=" + " ".join(f"X({name})" for name in names)
-        program = self._build(self.workdir / label, f"{umbrella.name}", models)
+        headers = [umbrella, *(self.headers / f"{name}.hpp" for name in names)]
+        program = self._build(self.workdir / label, f"{umbrella.name}", models, headers)
         if program.error is None or len(members) == 1:
             return dict.fromkeys(members, program)
         return {system: self.build_alone(system) for system in members}
@@ -100,9 +136,13 @@ class CppModels:
         name = model_name(system)
         if not (self.headers / f"{name}.hpp").is_file():
             generate_header(system, name, self.headers, force=True)
-        return self._build(self.workdir / f"{name}_alone", f"{name}.hpp", f"-DIPGEN_NAMESPACE={name}")
+        header = self.headers / f"{name}.hpp"
+        return self._build(self.workdir / f"{name}_alone", header.name, f"-DIPGEN_NAMESPACE={name}", [header])
 
-    def _build(self, executable: Path, header: str, models: str) -> Program:
+    def _build(self, executable: Path, header: str, models: str, sources: list[Path]) -> Program:
+        """Compile the driver with `header` (which includes `sources`), or take the program from the
+        run's cache (another xdist worker may have built it): keyed by the command, the driver and
+        the headers' contents, compiled under a lock, so the workers build each program once."""
         command = cxx_command(
             f"-I{self.workdir}",
             f"-I{self.headers}",
@@ -113,9 +153,25 @@ class CppModels:
             str(executable),
             optimisation="-O2",
         )
-        result = subprocess.run(command, capture_output=True, text=True, check=False)
-        if result.returncode == 0:
-            return Program(executable, command)
+        # The key: the flags (not the folders, the umbrella's name or the output), the compiler's
+        # version, the driver and every header's text.
+        flags = [part for part in command[:-3] if not part.startswith(("-I", "-DIPGEN_HEADER="))]
+        digest = hashlib.sha256()
+        for part in (*flags, compiler_version(), DRIVER.read_text(), *(path.read_text() for path in sources)):
+            digest.update(part.encode() + b"\0")
+        entry = shared_cache() / "test-programs" / digest.hexdigest()[:24]
+        cached = entry / "program"
+        entry.mkdir(parents=True, exist_ok=True)
+        with (entry / "lock").open("a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+            if cached.is_file():  # built before, or by the other worker while this one waited
+                return Program(cached, command)
+            partial = entry / f".program.{os.getpid()}"
+            result = subprocess.run([*command[:-1], str(partial)], capture_output=True, text=True)
+            if result.returncode == 0:
+                os.replace(partial, cached)
+                return Program(cached, command)
+            partial.unlink(missing_ok=True)
         lines = (result.stderr or result.stdout).splitlines()
         shown = "\n".join(lines[:STDERR_LINES])
         if len(lines) > STDERR_LINES:

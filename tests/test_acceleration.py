@@ -22,6 +22,7 @@ import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from run_summary import simulator_of
 from scipy.integrate import solve_ivp
 
 import ipgen
@@ -386,7 +387,7 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
     from cxx import require_toolchain
 
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     done = subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(RIG), "-o", str(tmp_path / "out")],
         capture_output=True,
@@ -435,7 +436,7 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
     np.testing.assert_allclose(stated, poles, rtol=1e-5)
 
     # The simulator's own checks of the resolved config's actuator lines: one line, exit 2.
-    simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_acin_double_accel"))
+    simulator = simulator_of(summary)
     config = (tmp_path / "out" / "acin_double_accel.cfg").read_text()
     for old, new, message in (
         (
@@ -502,7 +503,7 @@ def test_energy_swingup_with_an_acceleration_input(tmp_path: Path) -> None:
     require_toolchain()
     scene = tmp_path / "cart_accel_swing.toml"
     scene.write_text(SWING)
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     done = subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
         capture_output=True,

@@ -78,7 +78,7 @@ def test_coulomb_run_against_kane_and_its_energy(tmp_path: Path) -> None:
     require_toolchain()
     scene = tmp_path / "fric.toml"
     scene.write_text(SCENE)
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     result = subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
         capture_output=True,

@@ -271,7 +271,8 @@ def test_the_resolved_config_carries_the_lines_and_the_travel(tmp_path: Path) ->
 
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
-    return {"IPGEN_CACHE_DIR": str(tmp_path_factory.mktemp("cache"))}
+    """The run's simulator cache (tests/conftest.py), shared with every module and worker."""
+    return {"IPGEN_CACHE_DIR": os.environ.get("IPGEN_CACHE_DIR") or str(tmp_path_factory.mktemp("cache"))}
 
 
 def ipgen(*args: str, env: dict[str, str]) -> subprocess.CompletedProcess:

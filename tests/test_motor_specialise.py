@@ -46,13 +46,19 @@ def test_motor_folded_exactly() -> None:
 
 def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> None:
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     general = (RIGS / "qube_servo2.toml").read_text()
     special = general.replace('name = "qube_servo2"', 'name = "qube_servo2_special"\nspecialise = true')
     runs = {}
+    # A specialised header names its scene's path: the scenes live in a fixed folder of the run's
+    # cache (tests/conftest.py), so the header, and its cached simulator, are the same every run.
+    scenes = Path(os.environ.get("IPGEN_CACHE_DIR") or tmp_path) / "scenes" / "test_motor_specialise"
+    scenes.mkdir(parents=True, exist_ok=True)
     for stem, text in (("general", general), ("special", special)):
-        scene = tmp_path / f"{stem}.toml"
-        scene.write_text(text)
+        scene = scenes / f"{stem}.toml"
+        partial = scenes / f".{stem}.{os.getpid()}.toml"
+        partial.write_text(text)
+        partial.replace(scene)
         done = subprocess.run(
             [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem)],
             capture_output=True,
@@ -63,9 +69,9 @@ def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> No
         runs[stem] = _csv(tmp_path / stem / f"{stem}.csv")
     import ipgen
 
-    ipgen.write_header(tmp_path / "gen", scene=tmp_path / "special.toml")
+    ipgen.write_header(tmp_path / "gen", scene=scenes / "special.toml")
     header = (tmp_path / "gen" / "qube_servo2_special.hpp").read_text()
-    folded = load_scene(tmp_path / "special.toml").motor_folded()
+    folded = load_scene(scenes / "special.toml").motor_folded()
     assert "kSpecialised = true" in header and f"Scalar({float(folded['delta0'])!r})" in header
     # Same model, expressions rounded differently: the runs agree to the integrator's tolerance.
     np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-7, atol=1e-8)

@@ -4,7 +4,8 @@ the checkout, `pip install ./` of a copy of this repository, not editable), then
 ("Using ipgen from CMake") built in a temporary folder against that installation, and run.
 
 Expected duration: 1-3 min on the shared 2-core machine (the install, one simulator compile,
-one CMake build); pip takes the dependencies from its cache (PIP_CACHE_DIR, else ~/.cache/pip)."""
+one CMake build); pip takes the dependencies from its cache (PIP_CACHE_DIR, else ~/.cache/pip).
+Marked fresh_venv: `make test-slow` runs it (CI runs make test, then make test-slow)."""
 
 from __future__ import annotations
 
@@ -66,6 +67,7 @@ def install(folder: Path) -> Path:
         "XDG_CACHE_HOME": str(folder / "cache"),  # ipgen run's compiled simulators
     }
     env.pop("IPGEN_CACHE_DIR", None)
+    env.pop("IPGEN_SIM_OPT", None)  # the user's -O2, not the test suite's -O1 (tests/conftest.py)
     done = subprocess.run(
         ["bash", "-eu", "-o", "pipefail", "-c", script], cwd=source, capture_output=True, text=True, env=env
     )
@@ -79,6 +81,7 @@ def install(folder: Path) -> Path:
     return home / ".venvs" / "ipgen" / "bin" / "python"
 
 
+@pytest.mark.fresh_venv  # minutes by design: make test-slow (CI runs it), not make test
 def test_installed_package_builds_the_readme_cmake_project(tmp_path: Path) -> None:
     """One test, so that parallel workers do not each install: the README's install and run
     lines, the package's files, then the CMake project. Takes 1-3 min."""

@@ -20,11 +20,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
+from motor_by_hand import flat_parameters
+from run_summary import simulator_of
 from scipy.integrate import solve_ivp
 from test_actuator import by_hand
 
 import ipgen
-from ipgen.control.linear import _params, dynamics
+from ipgen.control.linear import dynamics
 from ipgen.scene.reader import load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -121,7 +123,7 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     motor's torque is the manufacturer's kt (V − km θ̇0)/Rm on the unmodified arm. The CSV is
     in Quanser's coordinates (α = −θ1), the independent simulation in ipgen's."""
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     result = subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(tmp_path / "out")],
         capture_output=True,
@@ -142,7 +144,7 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     from ipgen.model.system import System
 
     system = System("rotary", 1)
-    mech = _params(
+    mech = flat_parameters(
         system,
         [0.095, 0.024],
         [0.085, 0.129],
@@ -191,7 +193,7 @@ def test_the_simulator_refuses_a_bad_actuator_line(tmp_path: Path) -> None:
     """The resolved config's actuator lines as the simulator reads them: a wrong kind or gain
     is a one-line error naming the line, exit status 2."""
     require_toolchain()
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     out = tmp_path / "out"
     first = subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(out)],
@@ -200,7 +202,7 @@ def test_the_simulator_refuses_a_bad_actuator_line(tmp_path: Path) -> None:
         env=env,
     )
     assert first.returncode == 0, first.stderr
-    simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_qube_servo2"))
+    simulator = simulator_of((out / "qube_servo2.txt").read_text())
     config = (out / "qube_servo2.cfg").read_text()
     for old, new, message in (
         ("actuator = dc_motor", "actuator = servo", "actuator must be `direct` or `dc_motor`"),

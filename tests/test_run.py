@@ -27,6 +27,7 @@ from cxx import require_toolchain
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from independent_model import reference
+from run_summary import simulator_of, was_built
 from scipy.integrate import solve_ivp
 
 from ipgen.command.cli import run
@@ -60,8 +61,9 @@ t_end = 1.0
 
 @pytest.fixture(scope="module")
 def cache(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
-    """One simulator cache for the module's real compiles: each model is compiled once."""
-    return {"IPGEN_CACHE_DIR": str(tmp_path_factory.mktemp("cache"))}
+    """The run's simulator cache (tests/conftest.py), shared with every module and worker: each
+    model is compiled once."""
+    return {"IPGEN_CACHE_DIR": os.environ.get("IPGEN_CACHE_DIR") or str(tmp_path_factory.mktemp("cache"))}
 
 
 def ipgen_command(
@@ -117,13 +119,11 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     require_toolchain()
     env = cache
     simulators = Path(cache["IPGEN_CACHE_DIR"]) / "simulators"
-    cached_before = list(simulators.glob("*/simulate_rotary3"))
+    cached_before = set(simulators.glob("*/simulate_rotary3"))  # the cache is shared: maybe built
     scene = tmp_path / "triple.toml"
     scene.write_text(TRIPLE.replace("THETA1", "0.1"))
     first = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=env)
     assert first.returncode == 0, first.stderr
-    if not cached_before:  # the first test of the module to need rotary3 (file order: this one)
-        assert "building the simulator for model rotary3" in first.stderr
     out = tmp_path / "out"
     header, data = read_csv(out / "triple.csv")
     assert header == ["t", *(f"theta{i}" for i in range(4)), *(f"dtheta{i}" for i in range(4))]
@@ -132,10 +132,15 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     assert (out / "triple.png").read_bytes()[:8] == PNG_SIGNATURE
     summary = (out / "triple.txt").read_text()
     assert summary.startswith("scene triple: model rotary3 (rotary, 3 links)")
-    assert ("built in" in summary) == (not cached_before)
+    binary = simulator_of(summary)
+    # Built now (said on stderr and in the summary) exactly when the binary was not in the cache
+    # before; another worker may have built it meanwhile, then this run waited and took it.
+    assert was_built(summary) == ("building the simulator for model rotary3" in first.stderr)
+    assert not (was_built(summary) and binary in cached_before)
     assert "type = rotary" in (out / "triple.cfg").read_text()
-    binaries = list(simulators.glob("*/simulate_rotary3"))
-    assert len(binaries) == 1
+    assert binary.parent.parent == simulators  # in the cache, one binary for the model
+    assert set(simulators.glob("*/simulate_rotary3")) - cached_before <= {binary}
+    binaries = [binary]
     built = binaries[0].stat().st_mtime_ns
 
     scene.write_text(TRIPLE.replace("THETA1", "-0.2"))
@@ -177,6 +182,9 @@ def test_run_reports_a_diverging_closed_loop(tmp_path: Path, cache: dict[str, st
     assert "the closed loop diverged at t = " in result.stderr
     assert "ipgen: the simulation ended with exit status 3" in result.stderr
     assert (tmp_path / "out" / "cdip_diverges.csv").is_file()  # the run up to the divergence
+
+
+LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og")  # what IPGEN_SIM_OPT takes
 
 
 # A stand-in compiler: writes a Python "simulator" at -o that writes a two-row CSV and a summary,
@@ -246,6 +254,61 @@ def test_concurrent_runs_of_one_model_compile_once(tmp_path: Path) -> None:
     )  # fmt: skip
     assert ipgen_command("run", str(other), "-o", str(tmp_path / "out"), env=env).returncode == 0
     assert (tmp_path / "count").read_text() == "compile\ncompile\n"
+
+
+def test_the_optimisation_level_is_a_build_flag_and_part_of_the_key(tmp_path: Path) -> None:
+    """$IPGEN_SIM_OPT replaces -O2 in the compile command (command.txt) and in the cache key: each
+    level is its own binary, compiled once; unset or empty is -O2, the default."""
+    env = fake_compiler(tmp_path)
+    scene = single_scene(tmp_path)
+    simulators = tmp_path / "cache" / "simulators"
+    expected = 0
+    for level, compiles in (("-O1", True), ("-O3", True), ("", True), ("-O2", False), ("-O1", False)):
+        result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--force",
+                               env={**env, "IPGEN_SIM_OPT": level})  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        expected += compiles
+        assert (tmp_path / "count").read_text() == "compile\n" * expected
+        summary = (tmp_path / "out" / f"{scene.stem}.txt").read_text()
+        binary = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
+        flags = (binary.parent / "command.txt").read_text().split()
+        assert flags[1:4] == ["-std=c++17", level or "-O2", "-DNDEBUG"]
+    assert len(list(simulators.glob("*/simulate_*"))) == 3  # -O1, -O3, -O2
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.text(min_size=1, max_size=60).filter(lambda t: t.strip() not in ("", *LEVELS)))
+@example("-O4")
+@example("O1")
+@example("-O1 -march=native")
+@example("-O2; rm -rf ~")
+def test_a_bad_optimisation_level_is_one_line_naming_the_variable(level: str) -> None:
+    """Anything but one of the six levels is refused before compiling, in one line naming the
+    variable and the levels it takes (the value escaped, at most 40 characters of it)."""
+    from unittest import mock
+
+    from ipgen.command.simulator import BuildError, optimisation
+
+    if "\0" in level:
+        return  # an environment variable cannot hold NUL
+    with mock.patch.dict(os.environ, {"IPGEN_SIM_OPT": level}), pytest.raises(BuildError) as raised:
+        optimisation()
+    message = str(raised.value)
+    assert "\n" not in message and "\r" not in message  # the value is shown as a Python literal
+    assert message.startswith("IPGEN_SIM_OPT=") and "-O0, -O1, -O2, -O3, -Os, -Og" in message
+    assert "unset it (default -O2)" in message
+
+
+def test_a_bad_optimisation_level_stops_ipgen_run_with_one_line(tmp_path: Path) -> None:
+    env = fake_compiler(tmp_path)
+    result = ipgen_command("run", str(single_scene(tmp_path)), "-o", str(tmp_path / "out"),
+                           env={**env, "IPGEN_SIM_OPT": "-O9"})  # fmt: skip
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.strip() == (
+        "ipgen: error: IPGEN_SIM_OPT='-O9' is not an optimisation level: set it to one of "
+        "-O0, -O1, -O2, -O3, -Os, -Og or unset it (default -O2)"
+    )
+    assert not (tmp_path / "count").exists() and not (tmp_path / "out" / "single_0_1.csv").exists()
 
 
 def test_a_missing_library_is_named(tmp_path: Path) -> None:

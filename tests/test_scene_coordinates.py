@@ -21,6 +21,7 @@ import pytest
 from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from run_summary import simulator_of
 from test_scene import ROTARY, config_dict, expect_error, make
 
 import ipgen
@@ -153,8 +154,8 @@ def test_any_convention_loads_or_fails_in_one_line(tmp_path: Path, table: dict[s
 # ---------------------------------------------------------------------------- the simulator
 
 
-def _run(scene: Path, out: Path, cache: Path) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "IPGEN_CACHE_DIR": str(cache)}
+def _run(scene: Path, out: Path) -> subprocess.CompletedProcess[str]:
+    env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     return subprocess.run(
         [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out)],
         capture_output=True,
@@ -200,7 +201,7 @@ def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
         {**common, **keys(RIG), "initial.theta": listed(user[:3]), "initial.dtheta": listed(user[3:])},
     ).rename(tmp_path / "rig.toml")
     for scene in (own, rig):
-        result = _run(scene, tmp_path / "out", tmp_path / "cache")
+        result = _run(scene, tmp_path / "out")
         assert result.returncode == 0, result.stderr
     header_own, data_own = _csv(tmp_path / "out" / "own.csv")
     header_rig, data_rig = _csv(tmp_path / "out" / "rig.csv")
@@ -240,7 +241,7 @@ def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
     assert alone.with_suffix(".png").is_file()
     assert run(["plot", str(alone), "--zero", "sideways", "--force"]) == 2
 
-    simulator = next((tmp_path / "cache" / "simulators").glob("*/simulate_rdip_frame"))
+    simulator = simulator_of(summary)
     config = (tmp_path / "out" / "rig.cfg").read_text()
     for old, new in (
         ("angles = relative", "angles = joint"),

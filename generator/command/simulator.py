@@ -4,7 +4,9 @@ The simulator is cpp/src/simulate.cpp built against the model's generated header
 header-only ipsim library (cpp/include, installed with the package), linked with SUNDIALS and
 LAPACK: the same sources and libraries CMake's `ipgen_add_simulator` uses, compiled here by one
 direct compiler call (no CMake project to configure, which takes longer than the compile's
-link step). The flags are the Release build's (-O2 -DNDEBUG).
+link step). The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1,
+-O2, -O3, -Os, -Og) replaces -O2, e.g. -O1 in the test suite, where compile time matters and the
+run time of a simulation does not (docs/testing.md has the compile times measured).
 
 Cache: `<cache>/simulators/<key>/simulate_<name>`, where the key is a SHA-256 over the generated
 header, simulate.cpp and every ipsim header, the compiler (its path and `--version`) and the
@@ -40,6 +42,9 @@ from ipgen.common.safetext import shown_path
 from ipgen.errors import Error
 
 OPTIMISATION = ("-std=c++17", "-O2", "-DNDEBUG")
+# $IPGEN_SIM_OPT: another optimisation level in place of OPTIMISATION's -O2 (part of the cache key).
+OPT_VARIABLE = "IPGEN_SIM_OPT"
+OPT_LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og")
 # The libraries of cmake/ipgen.cmake's ipgen::ipsim: SUNDIALS 6 (CVODE, ARKODE) and LAPACK.
 LIBRARIES = (
     "-lsundials_cvode",
@@ -113,12 +118,25 @@ def _eigen_flags() -> list[str]:
     raise BuildError("Eigen 3 headers not found: install them (Debian: apt-get install libeigen3-dev)")
 
 
+def optimisation() -> tuple[str, ...]:
+    """OPTIMISATION with $IPGEN_SIM_OPT's level in place of -O2 when it is set (and not empty)."""
+    level = os.environ.get(OPT_VARIABLE, "").strip()
+    if not level:
+        return OPTIMISATION
+    if level not in OPT_LEVELS:
+        raise BuildError(
+            f"{OPT_VARIABLE}={level[:40]!r} is not an optimisation level: set it to one of "
+            f"{', '.join(OPT_LEVELS)} or unset it (default -O2)"
+        )
+    return tuple(level if flag == "-O2" else flag for flag in OPTIMISATION)
+
+
 def compile_command(cxx: str, header: Path, name: str, binary: Path) -> list[str]:
     """The compiler call that builds simulate.cpp for the model `name` in `header`."""
     source, include = simulator_sources()
     return [
         cxx,
-        *OPTIMISATION,
+        *optimisation(),
         f"-I{include}",
         f"-I{header.parent}",
         *_eigen_flags(),
@@ -136,7 +154,7 @@ def cache_key(cxx: str, header_text: str) -> str:
     source, include = simulator_sources()
     digest = hashlib.sha256()
     version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
-    for part in (shutil.which(cxx) or cxx, version, " ".join(OPTIMISATION + LIBRARIES), header_text):
+    for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
         digest.update(part.encode() + b"\0")
     for path in [source, *sorted((include / "ipsim").glob("*.hpp"))]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
