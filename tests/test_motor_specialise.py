@@ -95,9 +95,14 @@ def test_specialised_rsip_with_a_motor_runs_like_the_general_one(tmp_path: Path)
     general = (Path(__file__).resolve().parents[1] / "scenes" / "rsip_pulse.toml").read_text() + RSIP_MOTOR
     special = general.replace('inertia = "pivot"', 'inertia = "pivot"\nspecialise = true')
     runs = {}
+    # In a fixed folder of the run's cache (as above): the specialised header names its scene.
+    scenes = Path(os.environ.get("IPGEN_CACHE_DIR") or tmp_path) / "scenes" / "test_motor_specialise_rsip"
+    scenes.mkdir(parents=True, exist_ok=True)
     for stem, text in (("general", general), ("special", special)):
-        scene = tmp_path / f"{stem}.toml"
-        scene.write_text(text)
+        scene = scenes / f"{stem}.toml"
+        partial = scenes / f".{stem}.{os.getpid()}.toml"
+        partial.write_text(text)
+        partial.replace(scene)
         done = subprocess.run(
             [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem)],
             capture_output=True,
