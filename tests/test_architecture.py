@@ -25,6 +25,7 @@ STAGES = (
     "scene",
     "command",
     "sweeps",
+    "gym",
     "ipgen",
 )
 # The command line's front of the sweeps (parsing and printing only): like the public API, it

@@ -15,8 +15,8 @@ import pytest
 gymnasium = pytest.importorskip("gymnasium")
 
 import ipgen.gym  # noqa: E402  (registers the ids)
+from ipgen.gym.checks import GymError  # noqa: E402
 from ipgen.gym.make import paper_system, spec_for  # noqa: E402
-from ipgen.gym.spec import GymError  # noqa: E402
 from ipgen.gym.vector import PendulumVectorEnv  # noqa: E402
 
 

@@ -15,8 +15,9 @@ from typing import Any
 
 import numpy as np
 
+from ipgen.gym.checks import GymError, is_number
 from ipgen.gym.sensing import Sensing
-from ipgen.gym.spec import GROUPS, EnvSpec, GymError, is_number
+from ipgen.gym.spec import GROUPS, EnvSpec
 from ipgen.model.paper import paper_pendulum
 from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import System

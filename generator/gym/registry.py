@@ -7,9 +7,10 @@ from typing import Any
 import gymnasium
 from gymnasium.wrappers import TimeLimit
 
+from ipgen.gym.checks import GymError
 from ipgen.gym.env import PendulumEnv
 from ipgen.gym.make import paper_system, spec_for, spec_from_source
-from ipgen.gym.spec import EnvSpec, GymError
+from ipgen.gym.spec import EnvSpec
 from ipgen.gym.vector import PendulumVectorEnv
 
 SIZES = {1: "Single", 2: "Double", 3: "Triple"}

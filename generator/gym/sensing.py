@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ipgen.gym.spec import GymError, is_number
+from ipgen.gym.checks import GymError, is_number
 
 KEYS = ("resolution", "noise", "delay", "rates", "cutoff", "drive_noise")
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ipgen.errors import Error
+from ipgen.gym.checks import GymError, is_integer, is_number
 from ipgen.gym.kernel import CFG_FIELDS, INTEGRATOR_CODES, TASK_CODES, parameter_count
 from ipgen.model.system import System
 
@@ -21,20 +21,6 @@ if TYPE_CHECKING:
 # The parameter groups of one row, in the kernel's order (each has dof entries), then g and gain.
 GROUPS = ("m", "l", "delta", "com", "J", "J_axial", "tip")
 TASKS = ("balance", "swingup", "cartpole")
-
-
-class GymError(Error, ValueError):
-    """An environment that cannot be made as asked; the message names the option and the fix."""
-
-
-def is_number(value: object) -> bool:
-    """A real number that is not NaN (int or float, not bool); infinities pass."""
-    return isinstance(value, int | float) and not isinstance(value, bool) and not math.isnan(value)
-
-
-def is_integer(value: object) -> bool:
-    """An int (not bool)."""
-    return isinstance(value, int) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ class PendulumVectorEnv(VectorEnv):
 
     def __init__(self, spec: EnvSpec, num_envs: int = 1) -> None:
         if not (isinstance(num_envs, int) and num_envs >= 1):
-            from ipgen.gym.spec import GymError
+            from ipgen.gym.checks import GymError
 
             raise GymError(f"num_envs = {num_envs!r:.40} must be an integer >= 1")
         self.ipgen_spec = spec
