@@ -72,7 +72,7 @@ def test_a_corrupt_cache_is_reported_and_rebuilt(
     first = build(HEADER, NAME, cache)
     assert first.built and _whole(first.path)
     entry, binary = first.path.parent, first.path
-    checksum = binary.with_name(binary.name + ".sha256")
+    checksum = simulator.checksum_path(binary)
     data = binary.read_bytes()
     if corruption in ("truncated", "no_checksum_truncated"):
         binary.write_bytes(data[: min(cut, 9)])  # not even the interpreter line is whole

@@ -15,7 +15,7 @@ specialised) parameters reuses the binary, and any change of the model or the si
 sources builds a new one. `<cache>` is `--cache-dir`, else $IPGEN_CACHE_DIR, else
 $XDG_CACHE_HOME/ipgen, else ~/.cache/ipgen. An exclusive lock file per key serialises concurrent
 builds of one model; the binary is compiled to a temporary name and renamed, so a run never sees
-half a binary, and its SHA-256 is recorded beside it (`simulate_<name>.sha256`): an entry that is
+half a binary, and its SHA-256 is recorded beside it (`.simulate_<name>.sha256`): an entry that is
 checked corrupt before use (a truncated binary, an entry that is a file, a binary that is a
 folder) is reported, removed and rebuilt. Anchors for the design: cmdstanpy's compiled-model
 cache and PyTorch's `torch.utils.cpp_extension.load` (a content hash naming a build folder,
@@ -184,8 +184,9 @@ def _missing_package(output: str) -> str | None:
 MISSING = "missing"
 
 
-def _checksum_path(binary: Path) -> Path:
-    return binary.with_name(binary.name + ".sha256")
+def checksum_path(binary: Path) -> Path:
+    """Where the binary's SHA-256 is recorded: a hidden file beside it (not a `simulate_*`)."""
+    return binary.with_name(f".{binary.name}.sha256")
 
 
 def _sha256(path: Path) -> str:
@@ -215,7 +216,7 @@ def _cache_problem(entry: Path, binary: Path) -> str | None:
             return MISSING
         if not binary.is_file():
             return "the simulator is not a regular file"
-        checksum = _checksum_path(binary)
+        checksum = checksum_path(binary)
         if checksum.exists():
             recorded = checksum.read_text().strip() if checksum.is_file() else ""
             if recorded != _sha256(binary):
@@ -230,7 +231,7 @@ def _cache_problem(entry: Path, binary: Path) -> str | None:
     if done.returncode != 0 or "usage: simulate" not in done.stdout:
         return "the simulator does not run"
     with contextlib.suppress(OSError):
-        _write_checksum(binary, _checksum_path(binary))
+        _write_checksum(binary, checksum_path(binary))
     return None
 
 
@@ -302,7 +303,7 @@ def build(
                     )
                 last = next((line for line in reversed(output.splitlines()) if "error" in line), "")
                 raise BuildError(f"compiling the simulator failed: {last.strip()[:300]}")
-            _write_checksum(partial, _checksum_path(binary))
+            _write_checksum(partial, checksum_path(binary))
             os.replace(partial, binary)
         (entry / "command.txt").write_text(shlex.join(compile_command(cxx, header, name, binary)) + "\n")
         return Simulator(binary, built=True, seconds=time.perf_counter() - start)
