@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
+.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
 all: test
 
@@ -96,7 +96,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-sweep bench-gym
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -159,6 +159,14 @@ bench-control: $(VENV)/.bench-installed
 SWINGUP_ARGS ?= $(BENCH_QUICK)
 bench-swingup: $(VENV)/.bench-installed
 	$(PY) -m bench.swingup $(SWINGUP_ARGS)
+
+## What measuring costs the loop: LQR on the exact state, the backward difference, the 50 rad/s
+## filter and the Kalman filter with 2048-count encoders at 1 kHz and 500 Hz (rsip, rdip, QUBE):
+## basin, RMS estimation error, largest delay (bench/estimation.py, docs/bench/estimation.md).
+## ESTIMATION_ARGS passes options, e.g. make bench-estimation ESTIMATION_ARGS=--quick
+ESTIMATION_ARGS ?= $(BENCH_QUICK)
+bench-estimation: $(VENV)/.bench-installed
+	$(PY) -m bench.estimation $(ESTIMATION_ARGS)
 
 ## Peak resident memory of simulate_cdip for 10^4 and 10^7 output samples: the CSV is streamed,
 ## so both must be within 20 MB (bench/simulator_memory.py, docs/bench/simulator_memory.md).

@@ -19,6 +19,10 @@ The public API (stable; everything else is internal):
 - `lqr(p, Q, R, equilibrium=None) -> K` (or `lqr(type, links, m, l, delta, Q, R, ...)`): an
   LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
+- `kalman(pendulum, period, Qn, Rn, *, measured=None, equilibrium=None) -> Kalman`: the
+  steady-state discrete Kalman filter on the ZOH-discretised exact linearisation (`.L`, `.P` in
+  python-control's `dlqe` convention, `.M` the current-form gain, `.A`, `.B`, `.C`;
+  estimation/kalman.py; the estimators that run on a recording are in `ipgen.estimation`);
 - `Actuator(kind="dc_motor", Rm=..., kt=..., km=..., ...)`: a DC motor on the base, for the
   `actuator=` argument of `derive`, `linearize` and `lqr` (u is then the motor voltage [V]);
   `Actuator("acceleration")`: the base follows a commanded acceleration (u = θ̈0).
@@ -66,6 +70,7 @@ __all__ = [
     "derive",
     "excitation",
     "identify",
+    "kalman",
     "linearize",
     "lqr",
     "sweep",
@@ -377,6 +382,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.command.excite import excitation
 
         return excitation
+    if attribute == "kalman":
+        from ipgen.estimation.kalman import kalman
+
+        return kalman
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

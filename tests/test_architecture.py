@@ -14,11 +14,14 @@ PACKAGE = Path(__file__).resolve().parent.parent / "generator"
 # The stages in order: a module may import its own stage and the stages before it.
 # plots (pictures of runs: matplotlib) comes after control, before the stages that use it;
 # identification (fitting parameters to measurements) between control, whose models it uses, and plots.
+# estimation (what a sampled loop knows of the state: sensors, Kalman filters) uses control's models;
+# the C header (codegen) prints its numbers.
 STAGES = (
     "errors",
     "common",
     "model",
     "control",
+    "estimation",
     "identification",
     "plots",
     "codegen",

@@ -23,6 +23,9 @@ HELP_OMITS = {
     "swingup.gain_position", "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle",
     "swingup.catch_rate", "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight",
     "swingup.steps", "swingup.inputs", "swingup.states", "swingup.gains",
+    # the help says "estimator.*" for the estimator's numbers
+    "estimator.cutoff", "estimator.equilibrium", "estimator.A", "estimator.B", "estimator.gain",
+    "estimator.input", "estimator.process_noise", "estimator.measurement_noise",
 }  # fmt: skip
 
 

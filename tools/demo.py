@@ -1,8 +1,10 @@
 """`make demo`: run the paper's two open-loop experiments and plot them (Figs. 4 and 6),
 stabilise the rotary double pendulum with LQR (scenes/rdip_lqr.toml), balance a real rig, the
 Quanser QUBE-Servo 2, by LQR in motor volts (scenes/rigs/qube_servo2.toml, through `ipgen run`,
-its simulator cached in <build>/ipgen-cache), and show a closed loop that leaves its controller's
-region being stopped (scenes/cdip_lqr_tilt.toml).
+its simulator cached in <build>/ipgen-cache), and again as it measures itself, on its
+2048-count encoders with a Kalman filter (scenes/rigs/qube_servo2_sensors.toml: it must end
+upright within MEASURED_ANGLE and at rest within MEASURED_RATE, or the demo fails), and show a
+closed loop that leaves its controller's region being stopped (scenes/cdip_lqr_tilt.toml).
 
 Run after the CMake build (the Makefile does both):
     .venv/bin/python tools/demo.py --build build --out out/demo [--docs docs]
@@ -55,6 +57,14 @@ EXPERIMENTS = [
 CONTROL = [("rdip_lqr", "rdip_lqr", "Rotary double inverted pendulum stabilised by LQR")]
 # Rig presets run through `ipgen run` (scenes/rigs/<stem>.toml): (stem, title); u in volts.
 RIGS = [("qube_servo2", "Quanser QUBE-Servo 2 balanced by LQR in motor volts")]
+# Rigs as they measure (encoders, an estimator): (stem, title); the last row within MEASURED_ANGLE
+# [rad] of upright for every angle and MEASURED_RATE [rad/s] of rest for every rate (the
+# quantised loop settles into a cycle of a few encoder counts, not to rest).
+MEASURED_RIGS = [
+    ("qube_servo2_sensors", "Quanser QUBE-Servo 2 on its 2048-count encoders, Kalman filter, LQR in volts")
+]
+MEASURED_ANGLE = 0.01
+MEASURED_RATE = 0.5
 SETTLED = 1e-3  # the last row of a closed-loop run: |angle|, |rate| <= SETTLED
 # A closed loop outside its basin: (scene stem, short name, title); the simulator must stop it.
 DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR from 0.1 rad: diverges")]
@@ -245,6 +255,24 @@ def run_demo(args: argparse.Namespace) -> None:
         if problems or not math.isclose(columns["t"][-1], scene.t_end):
             raise DemoError(f"rigs/{stem} did not end upright and at rest: {', '.join(problems)}")
         print(f"   last row (t = {columns['t'][-1]:g} s) upright and at rest to {SETTLED:g}\n")
+    for stem, title in MEASURED_RIGS:
+        scene, csv_path, png_path, summary = run_rig(args, stem)
+        columns = read_csv(csv_path)
+        plot_control(columns, scene, title, png_path)
+        print(f"== {title}\n{summary}\n   wrote {csv_path} and {png_path}")
+        problems = [
+            f"{name} = {values[-1]:.3g}"
+            for name, values in columns.items()
+            if name.startswith(("theta", "dtheta"))
+            and not abs(values[-1]) <= (MEASURED_ANGLE if name.startswith("theta") else MEASURED_RATE)
+        ]
+        if (
+            problems
+            or not math.isclose(columns["t"][-1], scene.t_end)
+            or "RMS estimation error" not in summary
+        ):
+            raise DemoError(f"rigs/{stem} did not balance on its measurements: {', '.join(problems)}")
+        print(f"   last row upright within {MEASURED_ANGLE:g} rad, at rest within {MEASURED_RATE:g} rad/s\n")
     for stem, short, title in DIVERGING:
         scene, csv_path, png_path, summary = simulate(args, stem, short, expected_status=DIVERGED)
         columns = read_csv(csv_path)

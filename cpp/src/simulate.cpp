@@ -117,6 +117,9 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
                        input [N or N m; V with actuator = dc_motor; m/s^2 or rad/s^2 with
                        actuator = acceleration] applied from t on
+  y_thetaI             scenes with sensors.*: the measured value of each measured coordinate I
+  hat_theta0..N, hat_dtheta0..N  and the estimate the controller sees (both at the latest
+                       sampling instant; in the CSV's coordinates; docs/scenes.md)
   phase                swing-up scenes: swing, track or hold (the controller's phase from t on)
 The CSV is written to a temporary file .simulate.XXXXXX beside it as the run proceeds and renamed
 into place at the end: a failed or interrupted run (SIGINT, SIGTERM, SIGHUP, SIGXFSZ) leaves any
@@ -140,6 +143,11 @@ and multiplied by b (the parameters are the motor-folded ones ipgen writes); act
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
+sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, estimator =
+exact|difference|filter|kalman|ekf with estimator.* (with a sampled controller or swing-up): the
+controller sees the estimate from quantised, noisy, delayed measurements; actuator.noise, actuator.lag,
+actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
+(written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
@@ -514,6 +522,39 @@ class BaseForceMonitor : public ipsim::SampleSink {
   double largest_ = 0.0;
 };
 
+/// The summary's measured loop: sensors, delay, drive, estimator and its RMS error per state.
+void print_loop(const ipsim::scene::Scene<Model>& scene) {
+  const ipsim::Settings<Model>& s = scene.settings;
+  const char* unit = scene.motor ? "V" : ipsim::is_classical<Model>() ? "N" : "N m";
+  if (s.lag > 0.0) std::printf(" Drive: first-order lag %g s.", s.lag);
+  for (const ipsim::Pulse& pulse : s.pulses) {
+    std::printf(" Disturbance pulse %g %s on the base from t = %g s for %g s.", pulse.amplitude,
+                ipsim::is_classical<Model>() ? "N" : "N m", pulse.start, pulse.duration);
+  }
+  if (!scene.loop) return;
+  const ipsim::LoopSettings& loop = scene.loop->settings();
+  if (loop.drive_noise > 0.0) std::printf(" Drive noise: sigma %g %s per sampling interval.", loop.drive_noise, unit);
+  if (!loop.sensors) return;
+  std::string measured;
+  for (std::size_t j = 0; j < loop.measured.size(); ++j) {
+    char text[120];
+    std::snprintf(text, sizeof text, "%stheta%d (%s, sigma %g)", j == 0 ? "" : ", ", loop.measured[j],
+                  loop.resolution[j] > 0.0 ? (ipsim::detail::format_number(loop.resolution[j]) + " counts").c_str() : "exact",
+                  loop.noise[j]);
+    measured += text;
+  }
+  std::printf(" Sensors: %s, delay %ld sampling period%s, seed %llu. Estimator: %s", measured.c_str(),
+              loop.delay_periods, loop.delay_periods == 1 ? "" : "s", static_cast<unsigned long long>(loop.seed),
+              ipsim::to_string(loop.kind));
+  if (loop.kind == ipsim::EstimatorKind::filter) std::printf(" (cutoff %g rad/s)", loop.cutoff);
+  const Eigen::VectorXd rms = scene.loop->rms_error();
+  std::printf("; RMS estimation error over %ld samples:", scene.loop->samples());
+  for (int i = 0; i < 2 * kDof; ++i) {
+    std::printf("%s %s%d %.3g", i == 0 ? "" : ",", i < kDof ? "theta" : "dtheta", i % kDof, rms(i));
+  }
+  std::putchar('.');
+}
+
 void print_summary(const Options& options, const ipsim::scene::Scene<Model>& scene, const ipsim::Result& result,
                    const ipsim::CsvSink<Model>& csv, const BaseForceMonitor& base_force) {
   const ipsim::Settings<Model>& s = scene.settings;
@@ -560,6 +601,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
     std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }
+  print_loop(scene);
   std::putchar('\n');
   for (const auto& warning : result.warnings) std::fprintf(stderr, "simulate: warning: %s\n", warning.c_str());
 }
@@ -615,6 +657,10 @@ int run(int argc, char** argv) {
                              shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   rows.set_coordinates(scene.coordinates);  // the state columns in the scene's coordinates
+  if (scene.loop && scene.loop->settings().sensors) {  // y_* and hat_*, in the scene's coordinates
+    const std::shared_ptr<const ipsim::MeasuredLoop<Model>> loop = scene.loop;
+    rows.extra_columns(loop->column_names(), [loop] { return loop->column_values(); });
+  }
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;

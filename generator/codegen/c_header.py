@@ -27,6 +27,7 @@ from ipgen.codegen.header import (
 from ipgen.common.safetext import comment_safe
 from ipgen.control.controller import Controller
 from ipgen.errors import Error
+from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import specialise
 
@@ -153,4 +154,73 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     dof = eqs.system.dof
     context["controller"] = control_context(request.controller, dof) if request.controller else None
     context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None
+    context["estimator"] = (
+        estimator_context(request.estimator, dof, spec.outputs) if request.estimator is not None else None
+    )
     return environment().get_template(TEMPLATE).render(context)
+
+
+def _c_rows(rows: tuple[tuple[float, ...], ...] | tuple[float, ...], what: str) -> str:
+    """Row-major C initialiser of a matrix (or a vector) of finite numbers."""
+    flat = [float(v) for row in rows for v in (row if isinstance(row, tuple) else (row,))]
+    for i, v in enumerate(flat):
+        if not math.isfinite(v):
+            raise ControllerError(f"estimator {what}[{i}] = {v!r} is not a finite number")
+    return ", ".join(c_number(v) for v in flat)
+
+
+def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[str, ...]) -> dict[str, object]:
+    """The estimator of a scene's sampled loop for the template (estimation/printed.py)."""
+    size = 2 * dof
+    count = len(estimator.measured)
+    if estimator.kind not in ("difference", "filter", "kalman", "ekf"):
+        raise ControllerError(f"estimator kind {estimator.kind!r} has no C implementation")
+    if estimator.kind in ("difference", "filter") and estimator.measured != tuple(range(dof)):
+        raise ControllerError(f'estimator "{estimator.kind}" needs every coordinate measured')
+    if estimator.kind == "ekf":
+        missing = [f for f in ("forward_dynamics", "forward_dynamics_derivatives") if f not in functions]
+        if missing:
+            raise ControllerError(
+                f"estimator \"ekf\" needs the header's {' and '.join(missing)}: "
+                "add them to the scene's outputs"
+            )
+    context: dict[str, object] = {
+        "kind": estimator.kind,
+        "period": c_number(estimator.period),
+        "period_value": repr(float(estimator.period)),
+        "measured": ", ".join(str(i) for i in estimator.measured),
+        "measured_list": list(estimator.measured),
+        "count": count,
+        "size": size,
+        "delay": estimator.delay,
+    }
+    if estimator.kind == "filter":
+        cutoff = float(estimator.cutoff or 0.0)
+        context["cutoff"] = c_number(cutoff)
+        context["cutoff_value"] = repr(cutoff)
+        context["pole"] = c_number(math.exp(-cutoff * estimator.period))
+    if estimator.kind in ("kalman", "ekf"):
+        if len(estimator.equilibrium) != size:
+            raise ControllerError(
+                f"estimator equilibrium has {len(estimator.equilibrium)} entries, expected {size}"
+            )
+        context["equilibrium"] = _c_rows(estimator.equilibrium, "equilibrium")
+    if estimator.kind == "kalman":
+        shapes = (
+            (estimator.A, size * size, "A"),
+            (estimator.B, size, "B"),
+            (estimator.gain, size * count, "M"),
+        )
+        for rows, expected, what in shapes:
+            if sum(len(r) if isinstance(r, tuple) else 1 for r in rows) != expected:
+                raise ControllerError(f"estimator {what} has the wrong size (expected {expected} numbers)")
+        context["A"] = _c_rows(estimator.A, "A")
+        context["B"] = _c_rows(estimator.B, "B")
+        context["M"] = _c_rows(estimator.gain, "M")
+        context["u_eq"] = c_number(estimator.input_equilibrium)
+    if estimator.kind == "ekf":
+        context["Qn"] = _c_rows(estimator.process_noise, "process_noise")
+        context["Rn"] = _c_rows(estimator.measurement_noise, "measurement_noise")
+        context["input_gain"] = c_number(estimator.input_gain)
+        context["input_gain_value"] = repr(float(estimator.input_gain))
+    return context

@@ -23,6 +23,7 @@ from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
+from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 from ipgen.model.system import System, split_parameter
@@ -84,6 +85,8 @@ class HeaderRequest:
     # The rig's coordinates the headers' functions take and return (default: ipgen's own; the
     # canonical functions stay in them, docs/model.md "The rig's coordinates").
     coordinates: Coordinates = field(default_factory=Coordinates)
+    # A scene's state estimator for the sampled loop ([sensors], [estimator]), for the C header.
+    estimator: PrintedEstimator | None = None
 
 
 def templates_dir() -> Path:

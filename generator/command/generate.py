@@ -13,6 +13,7 @@ from ipgen.codegen.header import HeaderRequest
 from ipgen.common.files import prepare_directory, write_files
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
+from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.derivation import derive
 from ipgen.model.specialise import FUNCTIONS, Specialisation, format_exact
 from ipgen.model.system import System
@@ -73,13 +74,15 @@ def generate(
     initial: tuple[float, ...] = (),
     swingup: SwingUpLaw | None = None,
     coordinates: Coordinates | None = None,
+    estimator: PrintedEstimator | None = None,
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
     write them all or none (`output.write_files`). `controller` (a scene's) is handed to the
     targets that print it; `parameters` (name, value) and `initial` (θ then θ̇), a scene's, to
     the targets that carry start values (the FMU); `swingup` (a scene's) to the C header;
-    `coordinates` (default ipgen's) are those the headers' functions take and return."""
+    `coordinates` (default ipgen's) are those the headers' functions take and return;
+    `estimator` (a scene's sampled loop's) to the C header."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
     frame = coordinates if coordinates is not None else Coordinates()
@@ -92,6 +95,7 @@ def generate(
         initial,
         swingup,
         frame,
+        estimator,
     )
     files: list[tuple[Path, str | bytes]] = []
     for target in emit:

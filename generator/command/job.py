@@ -14,6 +14,7 @@ from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
+from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.actuator import DIRECT
 from ipgen.model.system import System, system_problem
 
@@ -244,4 +245,35 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         parameters=parameters,
         initial=initial,
         coordinates=job.coordinates,
+        estimator=printed_estimator(job.scene) if job.scene is not None else None,
+    )
+
+
+def printed_estimator(scene: Scene) -> PrintedEstimator | None:
+    """The scene's estimator as the C header prints it (None: no [sensors]/[estimator], or the
+    exact state): the numbers of its measured loop (scene/sensors.py), the sampled loop's period
+    and, for the EKF, the drive's input gain."""
+    loop = scene.loop
+    if loop is None or not loop.sensors or loop.estimator == "exact":
+        return None
+    if scene.controller is not None and scene.controller.period is not None:
+        period = scene.controller.period
+    elif scene.swingup is not None:
+        period = scene.swingup.period
+    else:  # the scene's checks refuse a measured loop without a sampled controller
+        return None
+    return PrintedEstimator(
+        kind=loop.estimator,
+        period=float(period),
+        measured=tuple(loop.measured),
+        delay=round(loop.delay / period),
+        cutoff=loop.cutoff,
+        A=loop.A,
+        B=loop.B,
+        gain=loop.gain,
+        equilibrium=loop.equilibrium,
+        input_equilibrium=loop.input_equilibrium,
+        process_noise=loop.process_noise,
+        measurement_noise=loop.measurement_noise,
+        input_gain=float(scene.actuator.gain()),
     )

@@ -36,6 +36,7 @@ __all__ = [
     "ControlError",
     "Dynamics",
     "EquilibriumWarning",
+    "VectorField",
     "as_pendulum",
     "check_stabilisable",
     "closed_loop_poles",
@@ -43,6 +44,7 @@ __all__ = [
     "equilibrium_state",
     "linearize",
     "lqr",
+    "vector_field",
     "weights",
 ]
 
@@ -418,8 +420,9 @@ def _linearize_canonical(
         qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q, qd, u, p.flat())
         gain = 1.0
     else:
-        qdd, dq, dqd, du = dynamics(system).jacobians(q, qd, u, p.folded().flat())
         gain = p.gain
+        # u is the motor's voltage with a dc_motor: the folded model's force or torque is b u
+        qdd, dq, dqd, du = dynamics(system).jacobians(q, qd, u * gain, p.folded().flat())
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
     if np.any(qd != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
         warnings.warn(
@@ -439,6 +442,94 @@ def _linearize_canonical(
             f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
         )
     return a, b
+
+
+@dataclass(frozen=True)
+class VectorField:
+    """ẋ = f(x, u) of one pendulum with numeric parameters, and its exact Jacobians, in the
+    pendulum's coordinates x_user = P x + c (`Coordinates.matrices`; P = I, c = 0 for ipgen's).
+
+    The same model as `linearize` (the drive folded in: u is the force or torque, the motor
+    voltage or the base's acceleration), at any state: `f` is the forward dynamics, `jacobians`
+    returns f with A = ∂f/∂x and B = ∂f/∂u (the derivatives of `Dynamics`, by implicit
+    differentiation of M θ̈ + bias = B u, not finite differences). Built by `vector_field`.
+    """
+
+    pendulum: Pendulum
+    params: tuple[float, ...]  # the flat parameters of `Dynamics`: the motor folded in
+    input_gain: float  # b: the force or torque per unit of u (1 without a motor)
+    acceleration: bool  # u is the base's acceleration
+    transform: np.ndarray  # P of x_user = P x + c
+    offset: np.ndarray  # c
+
+    @property
+    def system(self) -> System:
+        return self.pendulum.system
+
+    @property
+    def dof(self) -> int:
+        return self.pendulum.dof
+
+    def _canonical(self, x: np.ndarray) -> np.ndarray:
+        import numpy as np
+
+        return np.linalg.solve(self.transform, np.asarray(x, dtype=float).reshape(-1) - self.offset)
+
+    def f(self, x: np.ndarray, u: float) -> np.ndarray:
+        """ẋ at the state x = [θ; θ̇] (2·dof entries, the pendulum's coordinates) and input u."""
+        import numpy as np
+
+        dof = self.dof
+        xc = self._canonical(x)
+        model = dynamics(self.system)
+        if self.acceleration:
+            qdd, _ = model.acceleration_dynamics(xc[:dof], xc[dof:], float(u), self.params)
+        else:
+            qdd = model.forward_dynamics(xc[:dof], xc[dof:], float(u) * self.input_gain, self.params)
+        return self.transform @ np.concatenate([xc[dof:], qdd])
+
+    def jacobians(self, x: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, A, B) at (x, u): ẋ, ∂f/∂x (2·dof × 2·dof) and ∂f/∂u (2·dof × 1)."""
+        import numpy as np
+
+        dof = self.dof
+        xc = self._canonical(x)
+        model = dynamics(self.system)
+        if self.acceleration:
+            qdd, dq, dqd, du = model.acceleration_jacobians(xc[:dof], xc[dof:], float(u), self.params)
+        else:
+            qdd, dq, dqd, du = model.jacobians(xc[:dof], xc[dof:], float(u) * self.input_gain, self.params)
+            du = du * self.input_gain
+        a = np.zeros((2 * dof, 2 * dof))
+        a[:dof, dof:] = np.eye(dof)
+        a[dof:, :dof] = dq
+        a[dof:, dof:] = dqd
+        b = np.zeros((2 * dof, 1))
+        b[dof:, 0] = du
+        p = self.transform
+        return p @ np.concatenate([xc[dof:], qdd]), p @ a @ np.linalg.inv(p), p @ b
+
+
+def vector_field(*args: Any, **kwargs: Any) -> VectorField:
+    """The nonlinear model ẋ = f(x, u) of a pendulum, for estimators and simulations that need
+    it away from an equilibrium.
+
+    Called as ``vector_field(p)`` with a `Pendulum`, or with the keyword API of `linearize`
+    without the point (type, links, m, l, delta, g, inertia, com, J, J_axial, tip, actuator,
+    angles, zero, positive). Bad arguments raise `ControlError` as `linearize` does.
+    """
+    p = args[0] if args and isinstance(args[0], Pendulum) else as_pendulum(*args, **kwargs)
+    acceleration = p.actuator.is_acceleration
+    params = p.flat() if acceleration else p.folded().flat()
+    matrix, offset = p.coordinates.matrices(p.links)
+    return VectorField(
+        pendulum=p,
+        params=tuple(float(v) for v in params),
+        input_gain=1.0 if acceleration else float(p.gain),
+        acceleration=acceleration,
+        transform=matrix,
+        offset=offset,
+    )
 
 
 def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> np.ndarray:

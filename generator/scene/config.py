@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
 from ipgen.scene.fields import format_number
+from ipgen.scene.sensors import config_lines
 
 if TYPE_CHECKING:
     from ipgen.control.controller import Controller
@@ -76,7 +77,23 @@ CFG_KEYS: dict[str, str] = {
             "u_max period hold hold_gain target gain_energy gain_position gain_velocity accel_max "
             "catch_angle catch_rate energy_target energy_inertia energy_weight steps inputs states gains"
         ).split()
-    },
+    },    "actuator.noise": "σ of the noise on the applied input, held per sample interval (the drive)",
+    "actuator.lag": "the drive's first-order time constant [s]",
+    "actuator.pulses": "disturbance pulses on the base: start duration amplitude, ...",
+    "sensors.measured": "the measured coordinates (indices of θ)",
+    "sensors.resolution": "encoder counts per revolution or metre, per measured coordinate (0: exact)",
+    "sensors.noise": "σ of the measurement noise per measured coordinate",
+    "sensors.delay": "s from sampling to applying the output (k periods)",
+    "sensors.seed": "the seed of the run's random streams",
+    "estimator": "exact | difference | filter | kalman | ekf",
+    "estimator.cutoff": "filter: ω_c [rad/s]",
+    "estimator.equilibrium": "kalman, ekf: x_eq",
+    "estimator.A": "kalman: A_d, row-major",
+    "estimator.B": "kalman: B_d",
+    "estimator.gain": "kalman: the current-form gain M, row-major",
+    "estimator.input": "kalman: u_eq",
+    "estimator.process_noise": "ekf: Qn, row-major",
+    "estimator.measurement_noise": "ekf: Rn, row-major",
 }
 
 
@@ -139,6 +156,8 @@ def resolved_config(scene: Scene) -> str:
         lines.put("energy", True)
     _controller(lines, scene.controller)
     _swingup(lines, scene.swingup)
+    for line in config_lines(scene.loop):  # the measured loop's keys (scene/sensors.py)
+        lines.put(*line.split(" = ", 1))
     return "\n".join(lines) + "\n"
 
 

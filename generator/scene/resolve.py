@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 from ipgen.codegen.emit import DEFAULT_EMIT, unsupported
 from ipgen.control import signals
@@ -25,6 +26,7 @@ from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import controller as control
 from ipgen.scene import schema
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.schema import SceneDocument
@@ -134,6 +136,7 @@ class Scene:
     # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
     coordinates: Coordinates = field(default_factory=Coordinates)
     travel: float | None = None  # [limits] travel: |θ0| limit [m or rad]; the simulator stops beyond it
+    loop: measuring.Loop | None = None  # [sensors], [estimator], drive keys: the measured loop (None: exact)
 
     @property
     def system(self) -> System:
@@ -234,6 +237,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
         except swing.SwingUpError as error:
             reader.fail(str(error))
+    loop = _loop(reader, tables, system, controller, law, actuator, coordinates, links_as_built, lengths)
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
     if travel is not None and abs(theta[0]) > travel:
         reader.fail(
@@ -275,6 +279,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         swingup=law,
         coordinates=coordinates,
         travel=travel,
+        loop=loop,
     )
 
 
@@ -306,6 +311,49 @@ def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tu
 
 def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
+
+
+def _loop(
+    reader: Reader,
+    tables: dict[str, Any],
+    system: Any,
+    controller: Controller | None,
+    law: SwingUpLaw | None,
+    actuator: Actuator,
+    coordinates: Coordinates,
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...],
+    lengths: tuple[float, ...],
+) -> measuring.Loop | None:
+    """The scene's measured loop (`sensors.loop`), its kalman or ekf numbers from the exact
+    linearisation at the controller's (or the swing-up's hold) equilibrium."""
+    period = controller.period if controller is not None else (law.period if law is not None else None)
+    if controller is not None:
+        equilibrium, scale = controller.equilibrium, controller.saturation
+    elif law is not None:
+        equilibrium, scale = law.target, law.u_max
+    else:
+        equilibrium, scale = (), None
+
+    def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
+        parameters = tables["parameters"]
+        pendulum = {
+            "type": system.type, "links": system.links, "m": _floats(parameters.m), "l": lengths,
+            "delta": _floats(parameters.delta), "g": float(parameters.g), "inertia": system.inertia,
+            **dict(links_as_built), "actuator": actuator,
+            "angles": coordinates.angles, "zero": coordinates.zero, "positive": coordinates.positive,
+        }  # fmt: skip
+        return measuring.design(
+            loop, table, pendulum=pendulum, equilibrium=tuple(equilibrium), period=float(period or 0.0),
+            input_scale=1.0 if scale is None else float(scale),
+        )  # fmt: skip
+
+    try:
+        return measuring.loop(
+            tables["sensors"], tables["estimator"], tables["actuator"], links=system.links, period=period,
+            acceleration=actuator.is_acceleration, design=design,
+        )  # fmt: skip
+    except measuring.SensorsError as error:
+        reader.fail(str(error))
 
 
 def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:

@@ -45,6 +45,7 @@ from ipgen.control import signals
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
+from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import format_number, one_of
 from ipgen.scene.values import PerLink, Real, Says, SceneJsonSchema, context_of, keyed, refuse, refuse_line
@@ -302,6 +303,9 @@ class ActuatorTable(Table):
         None
     )
     r: _motor("dc_motor on a cart: pinion radius [m] (required there)", **_POSITIVE) = None
+    noise: measuring.DriveNoise = None  # the drive (any kind): sensors.py
+    lag: measuring.DriveLag = None
+    pulses: measuring.DrivePulses = None
     _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")
@@ -686,6 +690,10 @@ class SwingupTable(Table):
 # ---------------------------------------------------------------------------- the document
 
 
+# Tables that are None when absent (an open loop has no controller, an exact loop no sensors).
+ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup", "sensors", "estimator")
+
+
 class SceneDocument(BaseModel):
     """An ipgen scene: one experiment (SI units; arrays have links + 1 entries, index 0 the base).
 
@@ -705,16 +713,22 @@ class SceneDocument(BaseModel):
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
     controller: ControllerTable | None = Field(default=None, description="closed loop: LQR feedback")
     swingup: SwingupTable | None = Field(default=None, description="swing-up from hanging, then hold")
+    sensors: measuring.SensorsTable | None = Field(
+        default=None, description="what the rig measures (default: the exact state)"
+    )
+    estimator: measuring.EstimatorTable | None = Field(
+        default=None, description="how the controller's state estimate is made"
+    )
 
     @model_validator(mode="before")
     @classmethod
     def _absent_tables(cls, document: Any) -> Any:
         """An absent table reads as an empty one (validated: its defaults and context, or "missing
         required key"), an absent or empty [input] as a zero input; [controller] and [swingup]
-        are None when absent."""
+        and the measured loop's tables are None when absent."""
         if not isinstance(document, dict):
             return document
-        filled = {name: {} for name in cls.model_fields if name not in ("controller", "swingup")} | document
+        filled = {name: {} for name in cls.model_fields if name not in ABSENT_IS_NONE} | document
         if not filled.get("input"):
             filled["input"] = {"kind": "zero"}
         return filled
@@ -724,7 +738,7 @@ def _keys(name: str, annotation: Any) -> tuple[str, ...]:
     if name == "input":
         return tuple(dict.fromkeys(key for table in INPUTS.values() for key in table.model_fields))
     model_ = next(
-        a for a in (*get_args(annotation), annotation) if isinstance(a, type) and issubclass(a, Table)
+        a for a in (*get_args(annotation), annotation) if isinstance(a, type) and issubclass(a, BaseModel)
     )
     return tuple(model_.model_fields)
 

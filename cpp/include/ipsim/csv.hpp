@@ -1,6 +1,6 @@
 // CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
 // output), so a run of any length needs the memory of one row. Columns:
-//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,phase]
+//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,y_…,hat_…][,phase]
 // every value printed with %.17g (round-trips to the same double). The state columns are in the
 // rig's coordinates when set_coordinates() says so (ipsim/coordinates.hpp), else in ipgen's.
 #pragma once
@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -45,6 +46,7 @@ class CsvSink : public SampleSink {
     for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",dtheta%d", i);
     if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
     if (input_) std::fputs(",u", out_);
+    for (const auto& name : extra_names_) std::fprintf(out_, ",%s", name.c_str());
     if (phase_) std::fputs(",phase", out_);
     std::fputc('\n', out_);
     first_ = Eigen::VectorXd::Zero(state_size);
@@ -72,6 +74,14 @@ class CsvSink : public SampleSink {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
     if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
+    if (extra_) {
+      const Eigen::VectorXd values = extra_();
+      if (!values.allFinite()) {
+        throw std::runtime_error("refusing to write `" + name_ + "`: the row at t = " + std::to_string(sample.t) +
+                                 " s has a non-finite measurement or estimate (NaN or inf)");
+      }
+      for (Eigen::Index j = 0; j < values.size(); ++j) std::fprintf(out_, ",%.17g", values(j));
+    }
     if (phase_) std::fprintf(out_, ",%s", phase_());
     std::fputc('\n', out_);
     check_stream();
@@ -96,6 +106,13 @@ class CsvSink : public SampleSink {
   /// Adds a last column `phase` whose text at each row is `phase()` (a swing-up's phase: swing,
   /// track or hold). Call before the run.
   void phase_column(std::function<const char*()> phase) { phase_ = std::move(phase); }
+
+  /// Adds columns `names` (after u, before phase, which stays last) whose values at each row are `values()` (the measured loop's
+  /// y_* and hat_* columns, sensors.hpp). Call before the run.
+  void extra_columns(std::vector<std::string> names, std::function<Eigen::VectorXd()> values) {
+    extra_names_ = std::move(names);
+    extra_ = std::move(values);
+  }
 
   /// Rows written (not counting the header).
   std::size_t rows() const noexcept { return rows_; }
@@ -133,6 +150,8 @@ class CsvSink : public SampleSink {
   bool energy_, input_;
   std::string name_;
   std::function<const char*()> phase_;
+  std::vector<std::string> extra_names_;
+  std::function<Eigen::VectorXd()> extra_;
   std::size_t rows_ = 0;
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;

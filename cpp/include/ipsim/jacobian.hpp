@@ -93,7 +93,8 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
   constexpr int n = Model::kDof;
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n);
-  const double u = input_at(context, t, x);
+  const double command = input_at(context, t, x);
+  const double u = drive_input(context, command, x) + context.segment_pulse;
   double force = u;  // the base's force or torque: u, or what an acceleration-driven base needs
   if (context.acceleration) {
     const VectorOf<Model> friction =
@@ -116,7 +117,22 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
     }
   }
   Eigen::Matrix<double, 2 * n, 1> gradient;
-  input_gradient(context, t, x, u, gradient);
+  input_gradient(context, t, x, command, gradient);
+  if (context.lag_index >= 0) {
+    // A lagged drive (Settings::lag): θ̈ depends on the state u_a, u_a' = (u − u_a) / lag on u(x).
+    const int a = context.lag_index;
+    jacobian.block(n, 0, n, 2 * n) = rows;
+    jacobian.block(n, a, n, 1) = d.dqdd_du;
+    jacobian.block(a, 0, 1, 2 * n) = gradient.transpose() / context.lag;
+    jacobian(a, a) = -1.0 / context.lag;
+    if constexpr (has_energy<Model>) {
+      if (context.energy_ledger) {
+        ledger_jacobian<Model>(context, u, qd, Eigen::Matrix<double, 2 * n, 1>::Zero().eval(), jacobian);
+        jacobian(2 * n, a) = qd(0);
+      }
+    }
+    return;
+  }
   if (context.acceleration) {
     // θ̈ = f(x, τ(x)) with τ chosen so that θ̈0 = u(x): τ_x = (∂u/∂x − ∂f0/∂x) / (∂f0/∂τ), and
     // ∂θ̈/∂x = ∂f/∂x + ∂f/∂τ τ_xᵀ (row 0 becomes ∂u/∂x). The ledger's W_in' = τ θ̇0.

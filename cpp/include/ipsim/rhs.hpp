@@ -44,7 +44,18 @@ struct RhsContext {
   int coulomb_index = -1;
   /// Settings::acceleration: u is the base's acceleration θ̈0, not its force.
   bool acceleration = false;
+  /// Settings::pulses: the disturbance force on the base on the current segment [N or N m].
+  double segment_pulse = 0.0;
+  /// Settings::lag > 0: `lag_index` is the state u_a the model sees, u_a' = (u − u_a) / lag.
+  double lag = 0.0;
+  int lag_index = -1;
 };
+
+/// The input the model sees: u itself, or the lagged drive's state u_a (Settings::lag).
+template <class Model>
+double drive_input(const RhsContext<Model>& context, double u, const double* state) {
+  return context.lag_index >= 0 ? state[context.lag_index] : u;
+}
 
 /// The Coulomb friction's generalised force Q (Settings::coulomb) at rates qd; with `slope`, also
 /// ∂Q/∂θ̇ (kDof × kDof, symmetric negative semidefinite).
@@ -117,7 +128,9 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   constexpr int n = Model::kDof;
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
-  const double u = input_at(context, t, in);
+  const double command = input_at(context, t, in);
+  const double u = drive_input(context, command, in) + context.segment_pulse;
+  if (context.lag_index >= 0) out[context.lag_index] = (command - in[context.lag_index]) / context.lag;
   double coulomb_power = 0.0;
   double force = u;  // the base's force or torque (u itself unless the base is acceleration-driven)
   VectorOf<Model> qdd;

@@ -31,6 +31,12 @@
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
 //          energy_inertia energy_weight                                               (energy)
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
+//   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
+//   sensors.seed = 0         (optional, with a sampled controller or swing-up: the measured loop, sensors.hpp)
+//   estimator = exact | difference | filter | kalman | ekf   estimator.cutoff (filter)
+//   estimator.equilibrium, estimator.A, estimator.B, estimator.gain, estimator.input   (kalman, row-major)
+//   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
+//   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
 // lengths against the compiled model, and the model's name, type and link count.
@@ -57,6 +63,7 @@
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
+#include "ipsim/sensors.hpp"
 #include "ipsim/settings.hpp"
 #include "ipsim/swingup.hpp"
 
@@ -210,6 +217,9 @@ struct Scene {
   Coordinates coordinates;
   /// `limits.travel`: the base's limit |θ0| [m or rad]; infinity when the scene has none.
   double travel = std::numeric_limits<double>::infinity();
+  /// `sensors.*`, `estimator.*`, `actuator.noise`: the measured loop around the sampled controller
+  /// or swing-up (sensors.hpp); null for today's exact loop.
+  std::shared_ptr<MeasuredLoop<Model>> loop;
 };
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
@@ -282,6 +292,112 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   scene.swingup = std::move(sw);
 }
 
+/// A row-major rows × cols matrix under `key`.
+inline Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols) {
+  const Eigen::VectorXd values = numbers_of(file, key, rows * cols);
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(values.data(), rows, cols);
+}
+
+/// The drive keys (actuator.lag, actuator.pulses into the settings; actuator.noise) and the
+/// measured loop (sensors.*, estimator.*) around the sampled controller or swing-up (scene.loop).
+template <class Model>
+void load_drive(const SceneFile& file, Scene<Model>& scene) {
+  constexpr int n = Model::kDof;
+  Settings<Model>& s = scene.settings;
+  if (file.has("actuator.lag")) s.lag = file.number("actuator.lag");
+  if (file.has("actuator.pulses")) {
+    const auto values = file.numbers("actuator.pulses");
+    if (values.size() % 3 != 0) file.fail(file.line("actuator.pulses"), "`actuator.pulses` needs 3 numbers a pulse (start duration amplitude)");
+    for (std::size_t i = 0; i < values.size(); i += 3) s.pulses.push_back(Pulse{values[i], values[i + 1], values[i + 2]});
+  }
+  LoopSettings loop;
+  if (file.has("actuator.noise")) {
+    loop.drive_noise = file.number("actuator.noise");
+    if (!(std::isfinite(loop.drive_noise) && loop.drive_noise >= 0.0)) {
+      file.fail(file.line("actuator.noise"), "actuator.noise must be a finite number >= 0");
+    }
+  }
+  loop.sensors = file.has("sensors.measured");
+  if (!loop.sensors && file.has("estimator")) file.fail(file.line("estimator"), "`estimator` needs the `sensors.*` keys");
+  const bool wanted = loop.sensors || loop.drive_noise > 0.0;
+  if (!wanted) return;
+  const bool sampled = s.input.kind == Input::Kind::sampled;
+  const int line = file.line(loop.sensors ? "sensors.measured" : "actuator.noise");
+  if (!sampled) file.fail(line, "sensors, an estimator and drive noise need a sampled loop: a controller.period or a swingup");
+  const double period = s.input.period;
+  if (loop.sensors) {
+    for (const double value : file.numbers("sensors.measured")) {
+      const int i = static_cast<int>(value);
+      if (value != i || i < 0 || i >= n || (!loop.measured.empty() && i <= loop.measured.back())) {
+        file.fail(file.line("sensors.measured"), "sensors.measured must be ascending coordinates 0.." + std::to_string(n - 1));
+      }
+      loop.measured.push_back(i);
+    }
+    const auto m = static_cast<Eigen::Index>(loop.measured.size());
+    if (m == 0) file.fail(file.line("sensors.measured"), "sensors.measured is empty");
+    const Eigen::VectorXd resolution = numbers_of(file, "sensors.resolution", m);
+    const Eigen::VectorXd noise = numbers_of(file, "sensors.noise", m);
+    loop.resolution.assign(resolution.data(), resolution.data() + m);
+    loop.noise.assign(noise.data(), noise.data() + m);
+    for (Eigen::Index j = 0; j < m; ++j) {
+      if (!(std::isfinite(resolution(j)) && resolution(j) >= 0.0)) file.fail(file.line("sensors.resolution"), "sensors.resolution must be finite and >= 0");
+      if (!(std::isfinite(noise(j)) && noise(j) >= 0.0)) file.fail(file.line("sensors.noise"), "sensors.noise must be finite and >= 0");
+    }
+    const double delay = file.number("sensors.delay");
+    const double periods = std::round(delay / period);
+    if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= 1e-9 * std::max(delay, period) &&
+          periods < 1e6)) {
+      file.fail(file.line("sensors.delay"), "sensors.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
+    }
+    loop.delay_periods = static_cast<long>(periods);
+    const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
+    if (seed < 0) file.fail(file.line("sensors.seed"), "sensors.seed must be an integer >= 0");
+    loop.seed = static_cast<std::uint64_t>(seed);
+    const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";
+    const std::pair<const char*, EstimatorKind> kinds[] = {{"exact", EstimatorKind::exact}, {"difference", EstimatorKind::difference},
+                                                           {"filter", EstimatorKind::filter}, {"kalman", EstimatorKind::kalman},
+                                                           {"ekf", EstimatorKind::ekf}};
+    bool known = false;
+    for (const auto& [name, value] : kinds) {
+      if (kind == name) loop.kind = value, known = true;
+    }
+    if (!known) file.fail(file.line("estimator"), "estimator must be exact, difference, filter, kalman or ekf, got `" + detail::abbreviate(kind) + "`");
+    if ((loop.kind == EstimatorKind::difference || loop.kind == EstimatorKind::filter) && m != n) {
+      file.fail(file.line("estimator"), "estimator " + kind + " needs every coordinate measured (sensors.measured = 0.." + std::to_string(n - 1) + ")");
+    }
+    if (loop.kind == EstimatorKind::filter) {
+      loop.cutoff = file.number("estimator.cutoff");
+      if (!(std::isfinite(loop.cutoff) && loop.cutoff > 0.0)) file.fail(file.line("estimator.cutoff"), "estimator.cutoff must be finite and > 0 rad/s");
+    }
+    if (loop.kind == EstimatorKind::kalman || loop.kind == EstimatorKind::ekf) {
+      loop.equilibrium = numbers_of(file, "estimator.equilibrium", 2 * n);
+    }
+    if (loop.kind == EstimatorKind::kalman) {
+      loop.A = matrix_of(file, "estimator.A", 2 * n, 2 * n);
+      loop.B = numbers_of(file, "estimator.B", 2 * n);
+      loop.gain = matrix_of(file, "estimator.gain", 2 * n, m);
+      loop.input_equilibrium = file.number("estimator.input");
+      if (!loop.A.allFinite() || !loop.B.allFinite() || !loop.gain.allFinite() || !loop.equilibrium.allFinite() ||
+          !std::isfinite(loop.input_equilibrium)) {
+        file.fail(file.line("estimator.A"), "estimator.A, B, gain, equilibrium and input must be finite");
+      }
+    }
+    if (loop.kind == EstimatorKind::ekf) {
+      if (!has_linearize<Model>) file.fail(file.line("estimator"), "estimator ekf needs the model's linearize: regenerate its header");
+      if (s.acceleration) file.fail(file.line("estimator"), "estimator ekf with actuator = acceleration is not supported yet");
+      loop.process_noise = matrix_of(file, "estimator.process_noise", 2 * n, 2 * n);
+      loop.measurement_noise = matrix_of(file, "estimator.measurement_noise", m, m);
+      if (!loop.process_noise.allFinite() || !loop.measurement_noise.allFinite() || !loop.equilibrium.allFinite()) {
+        file.fail(file.line("estimator.process_noise"), "estimator.process_noise, measurement_noise and equilibrium must be finite");
+      }
+    }
+  }
+  auto measured = std::make_shared<MeasuredLoop<Model>>(std::move(loop), s.input.feedback, period, scene.input_gain,
+                                                        scene.params, scene.coordinates);
+  s.input.feedback = [measured](double t, const Eigen::VectorXd& x) { return measured->step(t, x); };
+  scene.loop = std::move(measured);
+}
+
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
 /// missing, a value does not parse, a list has the wrong length, or the file was written for a
 /// different model (name, type or link count). Parameter and setting ranges are left to
@@ -299,7 +415,11 @@ Scene<Model> load(const SceneFile& file) {
       "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
       "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
       "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
-      "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive"};
+      "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive",
+      "sensors.measured", "sensors.resolution", "sensors.noise", "sensors.delay", "sensors.seed", "estimator",
+      "estimator.cutoff", "estimator.A", "estimator.B", "estimator.gain", "estimator.equilibrium",
+      "estimator.input", "estimator.process_noise", "estimator.measurement_noise", "actuator.noise",
+      "actuator.lag", "actuator.pulses"};
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
@@ -507,6 +627,7 @@ Scene<Model> load(const SceneFile& file) {
     scene.controller = std::move(controller);
   }
   if (file.has("swingup")) load_swingup<Model>(file, scene, kind);
+  load_drive<Model>(file, scene);
   return scene;
 }
 

@@ -16,6 +16,13 @@
 
 namespace ipsim {
 
+/// A disturbance pulse on the base: `amplitude` [N or N m] on start ≤ t < start + duration [s].
+struct Pulse {
+  double start = 0.0;
+  double duration = 0.0;
+  double amplitude = 0.0;
+};
+
 /// Integration method.
 enum class Method {
   bdf,                ///< CVODE BDF, orders 1–5, Newton iteration with a dense direct solver (stiff-safe)
@@ -131,6 +138,12 @@ struct Settings {
   /// energy ledger's input work is that of the base force τ = M_0· θ̈ + b_0 − Q_0 the servo
   /// applies. Needs the model's mass_matrix and bias.
   bool acceleration = false;
+  /// The drive's first-order lag [s] ([actuator] lag), ≥ 0; 0: none. With lag > 0 the force
+  /// the model sees is an extra state u_a with u_a' = (u − u_a) / lag, u_a(0) = 0 (rhs.hpp).
+  double lag = 0.0;
+  /// Disturbance pulses on the base ([actuator] pulses): each adds its amplitude [N or N m] to the
+  /// base's generalised force on start ≤ t < start + duration; both edges are integrator stops.
+  std::vector<Pulse> pulses;
 };
 
 /// The settings that shape the integration, for messages and summaries:
@@ -242,6 +255,20 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   if (settings.input.kind == Input::Kind::sampled && settings.input.period > 0.0 && std::isfinite(settings.t_end) &&
       settings.t_end / settings.input.period > kMaxSamples) {
     report("input.period", settings.input.period, "t_end / period exceeds 1e8 sampling instants");
+  }
+  if (!(std::isfinite(settings.lag) && settings.lag >= 0.0)) report("actuator.lag", settings.lag, "must be finite and >= 0 s");
+  for (const Pulse& pulse : settings.pulses) {
+    if (!(std::isfinite(pulse.start) && std::isfinite(pulse.duration) && std::isfinite(pulse.amplitude) &&
+          pulse.start >= 0.0 && pulse.duration > 0.0)) {
+      found.emplace_back("invalid setting actuator.pulses: each pulse is [start >= 0 s, duration > 0 s, amplitude], finite");
+      break;
+    }
+  }
+  if (settings.lag > 0.0 && settings.acceleration) {
+    found.emplace_back("invalid setting actuator.lag: not supported with an acceleration-driven base yet");
+  }
+  if (!settings.pulses.empty() && settings.acceleration) {
+    found.emplace_back("invalid setting actuator.pulses: an acceleration-driven base has no force to disturb");
   }
   const auto input_problems = settings.input.problems();
   found.insert(found.end(), input_problems.begin(), input_problems.end());

@@ -73,9 +73,13 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
 
   const bool sampled = settings.input.kind == Input::Kind::sampled;
   // The stops are generated as the run reaches them: no list of every sample in memory.
-  StopSchedule schedule(settings.t_end, settings.sample,
-                        sampled ? std::vector<double>{} : settings.input.switching_times(settings.t_end),
-                        sampled ? settings.input.period : 0.0);
+  // Disturbance pulses (Settings::pulses) switch too: their edges are restarts as well.
+  std::vector<double> switching = sampled ? std::vector<double>{} : settings.input.switching_times(settings.t_end);
+  for (const Pulse& pulse : settings.pulses) {
+    switching.push_back(pulse.start);
+    switching.push_back(pulse.start + pulse.duration);
+  }
+  StopSchedule schedule(settings.t_end, settings.sample, std::move(switching), sampled ? settings.input.period : 0.0);
   sink.begin(static_cast<std::size_t>(schedule.sample_count()), 2 * n, settings.energy_ledger);
 
   auto check_finite = [&](double t) {
@@ -91,9 +95,26 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
   // small). A sampled controller instead computes u once from the state at the segment's first
   // stop (a sampling instant) and holds it.
   auto set_segment_input = [&](double start) {
+    if (!settings.pulses.empty()) {  // the pulses' force on this segment, from its middle
+      StopSchedule ahead = schedule;
+      double end = settings.t_end;
+      while (const auto stop = ahead.next()) {
+        end = stop->t;
+        if (stop->restart) break;
+      }
+      const double middle = 0.5 * (start + end);
+      rhs_context.segment_pulse = 0.0;
+      for (const Pulse& pulse : settings.pulses) {
+        if (middle >= pulse.start && middle < pulse.start + pulse.duration) rhs_context.segment_pulse += pulse.amplitude;
+      }
+    }
     if (sampled) {
-      rhs_context.x = y_values.head(2 * n);
-      rhs_context.segment_input = settings.input.value(start, rhs_context.x);
+      // A restart at a pulse's edge between two sampling instants keeps the held u.
+      const double k = std::round(start / settings.input.period);
+      if (settings.pulses.empty() || std::abs(start - k * settings.input.period) <= 1e-9 * settings.input.period) {
+        rhs_context.x = y_values.head(2 * n);
+        rhs_context.segment_input = settings.input.value(start, rhs_context.x);
+      }
     } else if (settings.input.piecewise_constant()) {
       StopSchedule ahead = schedule;
       double end = start;
@@ -209,7 +230,8 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
 
   constexpr int n = Model::kDof;
   const bool coulomb = (settings.coulomb.array() != 0.0).any();
-  const int size = 2 * n + (settings.energy_ledger ? 2 : 0) + (coulomb ? 1 : 0);
+  const bool lag = settings.lag > 0.0;
+  const int size = 2 * n + (settings.energy_ledger ? 2 : 0) + (coulomb ? 1 : 0) + (lag ? 1 : 0);
   // Declared before the stepper (created in run_schedule), so destroyed after it.
   sundials::Context context;
   sundials::NVector y(size, context);
@@ -232,7 +254,11 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
   if (coulomb) {
     rhs_context.coulomb = settings.coulomb;
     rhs_context.coulomb_speed = settings.coulomb_speed;
-    rhs_context.coulomb_index = size - 1;
+    rhs_context.coulomb_index = size - 1 - (lag ? 1 : 0);
+  }
+  if (lag) {  // the drive's state u_a, last; u_a(0) = 0
+    rhs_context.lag = settings.lag;
+    rhs_context.lag_index = size - 1;
   }
   rhs_context.x = Eigen::VectorXd::Zero(2 * n);
   detail::Diagnostics diagnostics{{}, &result.warnings};

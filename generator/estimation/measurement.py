@@ -1,0 +1,106 @@
+"""What a rig's sensors give at a sample: quantised, noisy angles (the shared spec of issue 32).
+
+    Δ = 2π / resolution (an angle) or 1 / resolution (a cart's position, m),
+    y_k = Δ · floor(θ(t_k) / Δ + 1/2) + n_k,   n_k ~ N(0, σ²)
+
+(quantised first, then the noise; exact when resolution = 0, noiseless when σ = 0). `Sensors`
+holds the [sensors] settings with their values per measured coordinate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ipgen.estimation.pendulum import EstimationError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tuple[float, ...]:
+    """`value` as one finite number >= 0 per measured coordinate (a scalar is repeated)."""
+    values = [value] * count if isinstance(value, int | float) else list(value)
+    if len(values) != count:
+        raise EstimationError(
+            f"{name}: {len(values)} entries, expected 1 or {count} (one per measured coordinate)"
+        )
+    result = []
+    for i, v in enumerate(values):
+        try:
+            number = float(v)
+        except (TypeError, ValueError):
+            raise EstimationError(f"{name}[{i}] = {v!r}: expected a number") from None
+        if not math.isfinite(number) or number < 0:
+            raise EstimationError(f"{name}[{i}] = {v!r}: expected a finite number >= 0")
+        result.append(number)
+    return tuple(result)
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """The measured coordinates (indices of θ, 0 = base) and, per measured coordinate, the
+    encoder resolution (counts per revolution or per metre; 0 = exact) and the noise σ."""
+
+    measured: tuple[int, ...]
+    resolution: tuple[float, ...]
+    noise: tuple[float, ...]
+    cart: bool = False  # coordinate 0 is a cart's position [m] (its Δ = 1 / resolution)
+
+    @classmethod
+    def of(
+        cls,
+        dof: int,
+        measured: Sequence[int] | None = None,
+        resolution: float | Sequence[float] = 0.0,
+        noise: float | Sequence[float] = 0.0,
+        *,
+        cart: bool = False,
+    ) -> Sensors:
+        """Checked settings for a system of `dof` coordinates (default: all measured)."""
+        indices = tuple(range(dof)) if measured is None else tuple(measured)
+        if not indices:
+            raise EstimationError("measured: at least one coordinate must be measured")
+        for i in indices:
+            if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < dof:
+                raise EstimationError(f"measured: {i!r} is not a coordinate index 0..{dof - 1}")
+        if len(set(indices)) != len(indices) or list(indices) != sorted(indices):
+            raise EstimationError(f"measured: {list(indices)} must be increasing without repeats")
+        count = len(indices)
+        return cls(
+            measured=indices,
+            resolution=per_coordinate("resolution", resolution, count),
+            noise=per_coordinate("noise", noise, count),
+            cart=cart,
+        )
+
+    def steps(self) -> tuple[float, ...]:
+        """Δ per measured coordinate (0 for an exact one)."""
+        result = []
+        for index, counts in zip(self.measured, self.resolution, strict=True):
+            if counts == 0:
+                result.append(0.0)
+            elif self.cart and index == 0:
+                result.append(1.0 / counts)
+            else:
+                result.append(2.0 * math.pi / counts)
+        return tuple(result)
+
+    def quantise(self, theta: np.ndarray) -> np.ndarray:
+        """Δ · floor(θ / Δ + 1/2) of the measured coordinates of θ (dof angles)."""
+        import numpy as np
+
+        values = np.asarray(theta, dtype=float)[list(self.measured)]
+        out = values.copy()
+        for j, step in enumerate(self.steps()):
+            if step > 0:
+                out[j] = step * math.floor(values[j] / step + 0.5)
+        return out
+
+    def sample(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """y_k: quantised, then one Gaussian draw per measured coordinate (drawn even when σ = 0,
+        so that the stream does not depend on which σ are zero)."""
+        draws = rng.standard_normal(len(self.measured))
+        return self.quantise(theta) + draws * self.noise

@@ -1,0 +1,350 @@
+"""The measured loop in the C++ simulator (issue 32): encoders, delay, drive noise, lag, pulses
+and the estimators, each against a computation written here from the CSV's own columns.
+
+One simulator (the rotary single pendulum, the paper's parameters) is built for the module and
+driven with resolved configs of scene variants; the CSV rows are the sampling instants
+(sample = period = 1 ms), so every row is a sample k of the loop.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import subprocess
+import warnings
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+from cxx import require_toolchain
+
+import ipgen
+from ipgen.command.cli import run
+from ipgen.command.simulator import build
+from ipgen.estimation import ExtendedKalman, Sensors, SteadyStateKalman, default_covariances, replay
+from ipgen.scene.reader import load_scene, resolved_config
+
+PERIOD = 0.001
+M, L, DELTA = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]
+PENDULUM = {"type": "rotary", "links": 1, "m": M, "l": L, "delta": DELTA}
+SCENE = """\
+[system]
+type = "rotary"
+links = 1
+[parameters]
+m = {m}
+l = {l}
+delta = {delta}
+[initial]
+theta = [0, {tilt}]
+{actuator}
+[controller]
+kind = "lqr"
+saturation = 5
+period = 0.001
+[simulation]
+t_end = {t_end}
+sample = 0.001
+{extra}
+"""
+
+
+def scene_text(extra: str = "", actuator: str = "", tilt: float = 0.05, t_end: float = 0.5) -> str:
+    return SCENE.format(m=M, l=L, delta=DELTA, tilt=tilt, actuator=actuator, t_end=t_end, extra=extra)
+
+
+@pytest.fixture(scope="module")
+def simulator(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    require_toolchain()
+    folder = tmp_path_factory.mktemp("model")
+    (folder / "base.toml").write_text(scene_text())
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+        assert run(["--scene", str(folder / "base.toml"), "-o", str(folder / "out")]) == 0
+    header = (folder / "out" / "rotary1.hpp").read_text()
+    cache = Path(os.environ.get("IPGEN_CACHE_DIR") or folder / "cache")
+    return build(header, "rotary1", cache).path
+
+
+class Run:
+    """One simulator run: the CSV's columns by name, the summary, the resolved config's keys."""
+
+    def __init__(self, simulator: Path, folder: Path, text: str, *options: str, name: str = "loop") -> None:
+        path = folder / f"{name}.toml"
+        path.write_text(text)
+        cfg = folder / f"{name}.cfg"
+        cfg.write_text(resolved_config(load_scene(path)))
+        self.keys = dict(line.split(" = ", 1) for line in cfg.read_text().splitlines() if " = " in line)
+        self.csv = folder / f"{name}.csv"
+        result = subprocess.run(
+            [str(simulator), str(cfg), "--csv", str(self.csv), "--force", *options],
+            capture_output=True,
+            text=True,
+        )
+        assert result.returncode == 0, result.stderr
+        self.summary = result.stdout
+        header, *rows = self.csv.read_text().splitlines()
+        self.names = header.split(",")
+        self.data = np.array([[float(v) for v in row.split(",")] for row in rows])
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.data[:-1, self.names.index(name)]  # the sampling instants (the last row is t_end)
+
+    def matrix(self, key: str, rows: int) -> np.ndarray:
+        return np.array(self.keys[key].split(), dtype=float).reshape(rows, -1)
+
+
+def quantise(theta: np.ndarray, counts: float) -> np.ndarray:
+    delta = 2.0 * np.pi / counts
+    return delta * np.floor(theta / delta + 0.5)
+
+
+def test_encoders_quantise_the_true_angles(simulator: Path, tmp_path: Path) -> None:
+    r = Run(simulator, tmp_path, scene_text("[sensors]\nresolution = [1000, 2048]\n"))
+    assert r.names[-6:] == ["y_theta0", "y_theta1", "hat_theta0", "hat_theta1", "hat_dtheta0", "hat_dtheta1"]
+    np.testing.assert_array_equal(r["y_theta0"], quantise(r["theta0"], 1000))
+    np.testing.assert_array_equal(r["y_theta1"], quantise(r["theta1"], 2048))
+    # By hand at the first sample: θ1 = 0.05 rad is 16.297 counts of 2π/2048 -> 16 counts.
+    assert r["y_theta1"][0] == 16 * (2 * math.pi / 2048)
+    assert np.max(np.abs(r["y_theta1"] - r["theta1"])) <= math.pi / 2048 * (1 + 1e-12)
+    assert "RMS estimation error" in r.summary
+
+
+def test_the_exact_loop_with_sensors_is_todays_loop_byte_for_byte(simulator: Path, tmp_path: Path) -> None:
+    """[sensors] with exact encoders and the exact estimator: the state and u columns are the
+    same bytes as without [sensors] (the wrapper does not touch the loop)."""
+    plain = Run(simulator, tmp_path, scene_text(), name="plain")
+    exact = Run(simulator, tmp_path, scene_text("[sensors]\n"), name="exact")
+    width = len(plain.names)
+    assert exact.names[:width] == plain.names and len(exact.names) == width + 2 + 4
+    lines = plain.csv.read_text().splitlines()
+    for mine, theirs in zip(exact.csv.read_text().splitlines(), lines, strict=True):
+        assert ",".join(mine.split(",")[:width]) == theirs
+    np.testing.assert_array_equal(exact.data[:-1, width + 2 :], exact.data[:-1, 1 : 1 + 4])  # x̂ = x
+
+
+def test_the_delay_applies_each_command_whole_periods_later(simulator: Path, tmp_path: Path) -> None:
+    r = Run(simulator, tmp_path, scene_text("[sensors]\ndelay = 0.003\n", tilt=0.02))
+    gain = np.array(r.keys["controller.gain"].split(), dtype=float)
+    x = np.column_stack([r["theta0"], r["theta1"], r["dtheta0"], r["dtheta1"]])
+    command = np.clip(-(x @ gain), -5, 5)
+    np.testing.assert_array_equal(r["u"][:3], 0.0)  # nothing arrived yet
+    np.testing.assert_allclose(r["u"][3:], command[:-3], rtol=1e-13, atol=1e-15)
+    assert "delay 3 sampling periods" in r.summary
+
+
+def test_difference_and_filter_estimates_from_the_measured_angles(simulator: Path, tmp_path: Path) -> None:
+    for kind, extra in (("difference", ""), ("filter", "cutoff = 80\n")):
+        r = Run(
+            simulator,
+            tmp_path,
+            scene_text(f'[sensors]\nresolution = 2048\n[estimator]\nkind = "{kind}"\n{extra}'),
+        )
+        y = np.column_stack([r["y_theta0"], r["y_theta1"]])
+        step = np.vstack([np.zeros((1, 2)), np.diff(y, axis=0)])
+        if kind == "difference":
+            rate = step / PERIOD
+        else:
+            a, rate = math.exp(-80 * PERIOD), np.zeros_like(y)
+            for k in range(1, len(y)):
+                rate[k] = a * rate[k - 1] + 80 * step[k]
+        np.testing.assert_array_equal(r["hat_theta0"], y[:, 0])
+        np.testing.assert_allclose(
+            np.column_stack([r["hat_dtheta0"], r["hat_dtheta1"]]), rate, rtol=1e-12, atol=1e-9
+        )
+
+
+def kalman_reference(r: Run, measured: list[int]) -> np.ndarray:
+    """The current-form steady-state Kalman filter of SENSORS_SPEC on the CSV's y_* and u."""
+    a, b = r.matrix("estimator.A", 4), r.matrix("estimator.B", 4)[:, 0]
+    gain, x_eq = r.matrix("estimator.gain", 4), np.array(r.keys["estimator.equilibrium"].split(), dtype=float)
+    c = np.eye(4)[measured]
+    y = np.column_stack([r[f"y_theta{i}"] for i in measured])
+    predicted = x_eq.copy()
+    predicted[measured] = y[0]
+    estimates = []
+    for k in range(len(y)):
+        estimate = predicted + gain @ (y[k] - c @ predicted)
+        estimates.append(estimate)
+        predicted = x_eq + a @ (estimate - x_eq) + b * r["u"][k]
+    return np.array(estimates)
+
+
+def test_kalman_estimates_equal_the_reference_on_the_recorded_samples(
+    simulator: Path, tmp_path: Path
+) -> None:
+    for measured in ([0, 1], [0]):
+        table = f"[sensors]\nmeasured = {measured}\nresolution = 2048\nnoise = 0.001\nseed = 4\n"
+        r = Run(simulator, tmp_path, scene_text(table + '[estimator]\nkind = "kalman"\n'))
+        hat = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+        np.testing.assert_allclose(hat, kalman_reference(r, measured), rtol=1e-9, atol=1e-9)
+        # ipgen.estimation's Python filter (h-est32's) on the recorded y_* and u: the same estimates.
+        sensors = Sensors.of(2, measured, 2048, 0.001)
+        qn, rn = default_covariances(PENDULUM, PERIOD, sensors, u_scale=5.0)
+        python = replay(SteadyStateKalman(ipgen.kalman(PENDULUM, PERIOD, qn, rn, measured=measured)), r.csv)
+        np.testing.assert_allclose(python.estimate[: len(hat)], hat, rtol=1e-9, atol=1e-9)
+        assert abs(r.data[-1, 2]) < 0.05  # the 0.05 rad tilt not grown: balanced on the estimate
+
+
+def model_functions() -> tuple:
+    """ẋ = f(x, u) from ipgen.derive's M and bias (sympy, lambdified here) and ∂f/∂x from ipgen.linearize."""
+    eq = ipgen.derive("rotary", 1)
+    s = eq.symbols
+    values = dict(zip([*s.m, *s.l, *s.delta, s.g], [*M, *L, *DELTA, 9.81], strict=True))
+    mass = sp.lambdify([*s.q], eq.mass_matrix.subs(values), "numpy")
+    bias = sp.lambdify([*s.q, *s.qd], eq.bias.subs(values), "numpy")
+
+    def f(x: np.ndarray, u: float) -> np.ndarray:
+        qdd = np.linalg.solve(
+            np.array(mass(*x[:2]), float), np.array([u, 0.0]) - np.array(bias(*x), float).ravel()
+        )
+        return np.concatenate([x[2:], qdd])
+
+    def jacobian(x: np.ndarray, u: float) -> np.ndarray:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return ipgen.linearize("rotary", 1, M, L, DELTA, q=x[:2], qd=x[2:], u=u)[0]
+
+    return f, jacobian
+
+
+def test_ekf_estimates_equal_an_independent_ekf_on_the_recorded_samples(
+    simulator: Path, tmp_path: Path
+) -> None:
+    r = Run(simulator, tmp_path, scene_text('[sensors]\nmeasured = [0, 1]\nresolution = 2048\nnoise = 0.002\n'
+                                            '[estimator]\nkind = "ekf"\n', t_end=0.2))  # fmt: skip
+    f, jacobian = model_functions()
+    qn, rn = r.matrix("estimator.process_noise", 4), r.matrix("estimator.measurement_noise", 2)
+    x_eq = np.array(r.keys["estimator.equilibrium"].split(), dtype=float)
+    c, eye, t = np.eye(4)[:2], np.eye(4), PERIOD
+    y = np.column_stack([r["y_theta0"], r["y_theta1"]])
+    x, p = x_eq.copy(), np.diag([rn[0, 0], rn[1, 1], 1.0, 1.0])
+    x[:2] = y[0]
+    hat = []
+    for k in range(len(y)):
+        gain = p @ c.T @ np.linalg.inv(c @ p @ c.T + rn)
+        x = x + gain @ (y[k] - c @ x)
+        p = (eye - gain @ c) @ p @ (eye - gain @ c).T + gain @ rn @ gain.T
+        hat.append(x)
+        u = r["u"][k]
+        k1 = f(x, u)
+        k2 = f(x + t / 2 * k1, u)
+        k3 = f(x + t / 2 * k2, u)
+        k4 = f(x + t * k3, u)
+        ta = t * jacobian(x, u)
+        big_f = eye + ta + ta @ ta / 2
+        x = x + t / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        p = big_f @ p @ big_f.T + qn
+    got = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    np.testing.assert_allclose(got, np.array(hat), rtol=1e-9, atol=1e-9)
+    python = replay(ExtendedKalman(PENDULUM, PERIOD, qn, rn, measured=[0, 1]), r.csv)  # ipgen.estimation's
+    np.testing.assert_allclose(python.estimate[: len(got)], got, rtol=1e-9, atol=1e-9)
+
+
+def noise_of(r: Run) -> np.ndarray:
+    return np.column_stack([r["y_theta0"] - r["theta0"], r["y_theta1"] - r["theta1"]])
+
+
+def test_noise_is_reproducible_from_the_seed_and_independent_of_the_integrator(
+    simulator: Path, tmp_path: Path
+) -> None:
+    text = scene_text("[sensors]\nnoise = 0.002\nseed = 11\n", actuator="[actuator]\nnoise = 0.05")
+    first = Run(simulator, tmp_path, text, name="a")
+    again = Run(simulator, tmp_path, text, name="b")
+    assert first.csv.read_bytes() == again.csv.read_bytes()
+    other = Run(simulator, tmp_path, text.replace("seed = 11", "seed = 12"), name="c")
+    n, n_other = noise_of(first), noise_of(other)
+    assert np.max(np.abs(n - n_other)) > 1e-3
+    # σ = 2 mrad: the sample standard deviation of 1000 draws within 10 % (5 standard errors).
+    assert np.std(n) == pytest.approx(0.002, rel=0.1) and abs(np.mean(n)) < 5 * 0.002 / math.sqrt(n.size)
+    assert abs(np.corrcoef(n[:, 0], n[:, 1])[0, 1]) < 0.15
+    loose = Run(simulator, tmp_path, text, "--rtol", "1e-6", name="d")
+    fixed = Run(simulator, tmp_path, text, "--method", "rk4", "--step", "0.0002", name="e")
+    for r in (loose, fixed):
+        assert not np.array_equal(r["theta1"], first["theta1"])  # another integration...
+        np.testing.assert_allclose(noise_of(r), n, atol=1e-13)  # ...the same draws
+
+
+def test_a_disturbance_pulse_is_an_input_pulse(simulator: Path, tmp_path: Path) -> None:
+    """An [actuator] pulse of 0.2 N m on [0.1, 0.15) s moves the open loop exactly as an
+    [input] pulse of the same force does."""
+    open_loop = SCENE.split("[controller]")[0].format(m=M, l=L, delta=DELTA, tilt=0.0, actuator="{actuator}")
+    tail = "[simulation]\nt_end = 0.4\nsample = 0.001\n"
+    given = open_loop.format(
+        actuator='[input]\nkind = "pulse"\namplitude = 0.2\nstart = 0.1\nduration = 0.05\n'
+    )
+    pulsed = open_loop.format(actuator="[actuator]\npulses = [[0.1, 0.05, 0.2]]\n")
+    a = Run(simulator, tmp_path, given + tail, name="input")
+    b = Run(simulator, tmp_path, pulsed + tail, name="pulses")
+    np.testing.assert_allclose(b.data[:, 1:5], a.data[:, 1:5], rtol=1e-12, atol=1e-15)
+    assert np.max(np.abs(a.data[:, 3])) > 0.01  # it did move the arm
+    assert "Disturbance pulse 0.2 N m" in b.summary
+
+
+def test_the_drive_lag_is_a_first_order_state(simulator: Path, tmp_path: Path) -> None:
+    """A lag far below the period changes nothing visible; a 20 ms lag does; and the energy
+    ledger, integrated with the lagged force, still balances."""
+    plain = Run(simulator, tmp_path, scene_text(), name="plain")
+    quick = Run(simulator, tmp_path, scene_text(actuator="[actuator]\nlag = 1e-6"), name="quick")
+    slow = Run(simulator, tmp_path, scene_text(actuator="[actuator]\nlag = 0.02"), "--energy", name="slow")
+    np.testing.assert_allclose(quick.data[:, 1:5], plain.data[:, 1:5], atol=1e-4)
+    assert np.max(np.abs(slow.data[:, 2] - plain.data[:, 2])) > 1e-3
+    balance = float(slow.summary.split("balance error ")[1].split(" J")[0])
+    assert abs(balance) < 1e-8
+
+
+def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: Path, tmp_path: Path) -> None:
+    """The swing-up law sees the EKF's estimate from 2048-count encoders; it still swings up and
+    holds, and the phase stays the CSV's last column."""
+    text = SCENE.split("[initial]")[0].format(m=M, l=L, delta=DELTA) + (
+        '[simulation]\nt_end = 8.0\nsample = 0.01\n[swingup]\nmethod = "energy"\nu_max = 5.0\nhold = 0.5\n'
+        '[sensors]\nresolution = 2048\n[estimator]\nkind = "ekf"\n'
+    )
+    path = tmp_path / "swing.toml"
+    path.write_text(text)
+    cfg = tmp_path / "swing.cfg"
+    cfg.write_text(resolved_config(load_scene(path)))
+    csv = tmp_path / "swing.csv"
+    result = subprocess.run([str(simulator), str(cfg), "--csv", str(csv)], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    header, *rows = csv.read_text().splitlines()
+    assert header.split(",")[-1] == "phase" and "hat_dtheta1" in header
+    assert rows[-1].endswith(",hold") and "Estimator: ekf" in result.stdout
+    last = [float(v) for v in rows[-1].split(",")[:-1]]
+    assert abs(math.remainder(last[2], 2 * math.pi)) < 0.05  # θ1 upright
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"sensors.delay": "0.0015"}, "whole multiple of the period"),
+        ({"sensors.resolution": "-1 2048"}, "sensors.resolution must be finite and >= 0"),
+        ({"sensors.noise": "nan 0"}, "sensors.noise must be finite and >= 0"),
+        ({"sensors.measured": "1 0"}, "ascending"),
+        ({"sensors.resolution": "2048"}, "has 1 values, expected 2"),
+        ({"estimator": "luenberger"}, "estimator must be"),
+        ({"estimator": "filter", "sensors.measured": "1", "sensors.resolution": "0", "sensors.noise": "0"},
+         "needs every coordinate measured"),
+        ({"controller.period": "0"}, "need a sampled loop"),
+        ({"actuator.pulses": "0.1 0.2"}, "3 numbers a pulse"),
+    ],
+)  # fmt: skip
+def test_the_simulator_refuses_bad_loop_keys(
+    simulator: Path, tmp_path: Path, change: dict, message: str
+) -> None:
+    """A .cfg not written by ipgen: one line `simulate: error: ...`, exit 2, no CSV."""
+    path = tmp_path / "bad.toml"
+    path.write_text(scene_text('[sensors]\nresolution = 2048\n[estimator]\nkind = "difference"\n'))
+    keys = [line.split(" = ", 1) for line in resolved_config(load_scene(path)).splitlines() if " = " in line]
+    keys = [(key, change.get(key, value)) for key, value in keys]
+    keys += [(key, value) for key, value in change.items() if key not in dict(keys)]
+    cfg = tmp_path / "bad.cfg"
+    cfg.write_text("".join(f"{key} = {value}\n" for key, value in keys))
+    result = subprocess.run(
+        [str(simulator), str(cfg), "--csv", str(tmp_path / "bad.csv")], capture_output=True, text=True
+    )
+    assert result.returncode == 2 and message in result.stderr, result.stderr
+    assert result.stderr.startswith("simulate: error: ") and result.stderr.count("\n") == 1
+    assert not (tmp_path / "bad.csv").exists()
