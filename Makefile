@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify stability configure build clean
+.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
 all: test
 
@@ -96,7 +96,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-memory bench-general-links bench-identify bench-sweep bench-gym
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -111,6 +111,20 @@ bench-general-links: $(VENV)/.bench-installed
 IDENTIFY_ARGS ?= $(BENCH_QUICK)
 bench-identify: $(VENV)/.bench-installed
 	$(PY) -m bench.identify $(IDENTIFY_ARGS)
+
+## ipgen sweep: the rotary single pendulum's scorecard and a ~700-run sweep (LQR at 1 kHz, 10 s runs;
+## target <= 2 min on 2 cores), 1 vs 2 local workers and a Dask LocalCluster (docs/bench/sweep.md);
+## the robustness scorecards of LQR (rotary single, double) and both swing-ups (docs/bench/robustness.md).
+## SWEEP_ARGS: e.g. --quick, --part speed
+SWEEP_ARGS ?= $(BENCH_QUICK)
+bench-sweep: $(VENV)/.bench-installed
+	$(PY) -m bench.sweep $(SWEEP_ARGS)
+
+## ipgen.gym's throughput on one core against gymnasium's CartPole-v1 and MuJoCo's
+## InvertedDoublePendulum-v5 in the same run (bench/gym.py, docs/bench/gym.md). GYM_ARGS: e.g. --quick
+GYM_ARGS ?= $(BENCH_QUICK)
+bench-gym: $(VENV)/.bench-installed
+	$(PY) -m bench.gym $(GYM_ARGS)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
 ## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).

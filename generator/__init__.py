@@ -26,10 +26,14 @@ The public API (stable; everything else is internal):
   identification experiment for a rig (a multisine or chirp about hanging, its amplitude scaled so
   that the linear model's predicted base travel stays within the limits), written as a new scene
   (what `ipgen excite` does; docs/excitation.md).
-- `identify(scene, data, free=[...], output=None) -> Identified`: the scene's `free` parameters
-  fitted to measurements (a CSV), with standard errors, 95 % intervals, correlations and what the
-  data cannot determine (`.fit`, `.report`); with `output`, the updated scene, the report and a
-  PNG written there (`ipgen identify`, docs/identify.md; needs CasADi).
+- `identify(scene, data, free=[...], output=None) -> Identified` (or `identify(p, data, free)
+  -> Fit` for a Pendulum): the `free` parameters fitted to measurements (a CSV), with standard
+  errors, 95 % intervals, correlations and what the data cannot determine (`.fit`, `.report`);
+  with `output`, the updated scene, the report and a PNG written there (`ipgen identify`,
+  docs/identify.md; needs CasADi).
+- `sweep(scene, out, *, scorecard=False, vary=(), ...) -> Outcome`: the scene run over levels of
+  its keys (the robustness scorecard, or grids of any scene key), scored, with runs.csv,
+  scores.json, scores.md and PNGs written into `out` (`ipgen sweep`, docs/sweep.md).
 
 The model (coordinates, bodies, energies, damping) is specified in docs/model.md of the repository.
 Importing ipgen is cheap: the modules behind these functions are imported on first use.
@@ -37,9 +41,9 @@ Importing ipgen is cheap: the modules behind these functions are imported on fir
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ipgen.common.locations import cmake_dir
 from ipgen.common.version import __version__
@@ -49,6 +53,7 @@ if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
     from ipgen.model.pendulum import Pendulum
+    from ipgen.sweeps.runner import Outcome
 
 
 __all__ = [
@@ -63,6 +68,7 @@ __all__ = [
     "identify",
     "linearize",
     "lqr",
+    "sweep",
     "write_header",
 ]
 
@@ -186,6 +192,171 @@ def write_header(
     return [written.path for written in run(job)]
 
 
+def identify(
+    scene: str | Path | Pendulum,
+    data: str | Path,
+    free: str | Iterable[str],
+    output: str | Path | None = None,
+    *,
+    force: bool = False,
+    output_error: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> Any:
+    """Fit the `free` parameters of a rig to measurements (docs/identify.md; needs CasADi).
+
+    Parameters
+    ----------
+    scene : str, Path or Pendulum
+        A scene file (the prior, the drive, the input, the coordinates), or a `Pendulum` (the
+        data must then have a u column).
+    data : str or Path
+        The measurements: a CSV in the simulator's format, in the rig's coordinates.
+    free : str or iterable of str
+        The parameters to fit, "m1,delta0" or ["m1", "delta0"].
+    output : str or Path, optional
+        Scene files only: the folder to write the updated scene, the report and a PNG into.
+    force : bool, default False
+        Replace files of an earlier run in `output`.
+    output_error : bool, default True
+        Refine the equation-error estimate by simulation.
+    progress : callable, optional
+        Called with a short message at each stage.
+
+    Returns
+    -------
+    Identified or Fit
+        For a scene file an `Identified` (`.fit`, `.report`, `.files`, `.scene`); for a
+        Pendulum its `Fit` (`.table()`, `.estimate`, `.stderr`, `.statements`).
+
+    Raises
+    ------
+    Error
+        One line: a bad scene or data file, a free name the model has not, data that cannot
+        identify the free parameters, an output that would overwrite without `force`.
+
+    Examples
+    --------
+    >>> import ipgen  # doctest: +SKIP
+    >>> ipgen.identify("scenes/rigs/qube_servo2.toml", "rig.csv", "J1,delta0", "out").report  # doctest: +SKIP
+    """
+    from ipgen.model.pendulum import Pendulum
+
+    if isinstance(scene, Pendulum):
+        if output is not None:
+            raise Error("identify(p, ...) writes no files: pass a scene file to write the updated scene")
+        from ipgen.identification.fit import identify_pendulum
+
+        return identify_pendulum(
+            scene,
+            data,
+            free if isinstance(free, str) else list(free),
+            output_error=output_error,
+            progress=progress,
+        )
+    from ipgen.command.identify import identify as identify_scene
+
+    return identify_scene(
+        scene, data, free if isinstance(free, str) else list(free), output,
+        force=force, output_error=output_error, progress=progress,
+    )  # fmt: skip
+
+
+def sweep(
+    scene: str | Path,
+    out: str | Path,
+    *,
+    scorecard: bool | Iterable[str] = False,
+    vary: Iterable[str] = (),
+    levels: Mapping[str, str] | None = None,
+    repeat: int | None = None,
+    seed: int = 0,
+    angle_tolerance: float = 0.35,
+    rate_tolerance: float = 1.0,
+    hold: float = 1.0,
+    base_tolerance: float | None = None,
+    travel: float | None = None,
+    dask: str | None = None,
+    jobs: int | None = None,
+    force: bool = False,
+    cache_dir: str | Path | None = None,
+    plots: bool = True,
+) -> Outcome:
+    """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
+
+    Each run is the scene with some keys overridden in memory: the plant changes, the controller
+    stays the one designed on the nominal scene (a [controller]/[swingup] key designs it anew).
+    docs/sweep.md is the guide.
+
+    Parameters
+    ----------
+    scene : str or Path
+        The scene file (TOML) with a [controller] or a [swingup].
+    out : str or Path
+        The folder for runs.csv, scores.json, scores.md and the PNGs; its runs.csv, if there, is
+        resumed.
+    scorecard : bool or iterable of str, optional
+        True: the robustness scorecard's criteria; or some of their names (mass, com, inertia,
+        damping, coulomb, period, resolution, sensor_noise, delay, drive_noise, lag, pulses).
+    vary : iterable of str, optional
+        "KEY=LO:HI:N" or "KEY=v1,v2,..." (e.g. "initial.theta[1]=-1:1:21"); several make the grid
+        of all their combinations.
+    levels : mapping of str to str, optional
+        A scorecard criterion's levels in the same notation, e.g. {"mass": "0.5:1.5:11"}.
+    repeat : int, optional
+        Runs per level (the seeded criteria; `vary`: default 1).
+    seed : int, optional
+        The base of every run's seed (each run's seed is written in runs.csv).
+    angle_tolerance, rate_tolerance, hold : float, optional
+        The success test: every link within `angle_tolerance` rad of the goal and `rate_tolerance`
+        rad/s over the last `hold` s (defaults 0.35, 1, 1).
+    base_tolerance : float, optional
+        The base's tolerance about the goal [m or rad] (default: not checked).
+    travel : float, optional
+        The base's travel limit |θ0| (default: the scene's limits.travel).
+    dask : str, optional
+        A Dask scheduler's address: run there (needs ``pip install 'ipgen-pendulum[dask]'``).
+    jobs : int, optional
+        Local worker processes (default: all cores).
+    force : bool, optional
+        Start over (ignore an earlier runs.csv), write into a folder holding other files.
+    cache_dir : str or Path, optional
+        The compiled simulators' cache (default: ipgen's).
+    plots : bool, optional
+        Write the PNGs (default True).
+
+    Returns
+    -------
+    Outcome
+        `.score` (the mean of the criteria's scores), `.scores` (per criterion), `.rows` (the
+        table), `.files`, `.runs`, `.ran` (run now), `.workers`, `.seconds`.
+
+    Raises
+    ------
+    Error
+        A one-line message for a bad specification (unknown key, empty range, ...), a scene ipgen
+        refuses, an unreachable scheduler; nothing is written then.
+    """
+    from ipgen.sweeps.runner import sweep as run_sweep
+    from ipgen.sweeps.success import Success
+
+    chosen = scorecard if isinstance(scorecard, bool) else tuple(scorecard)
+    return run_sweep(
+        scene,
+        out,
+        scorecard_criteria=chosen,
+        vary=(vary,) if isinstance(vary, str) else tuple(vary),
+        levels=dict(levels or {}),
+        repeat=repeat,
+        seed=seed,
+        success=Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel),
+        dask=dask,
+        jobs=jobs,
+        force=force,
+        cache=cache_dir,
+        plot=plots,
+    )
+
+
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
     imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
@@ -206,10 +377,6 @@ def __getattr__(attribute: str) -> object:
         from ipgen.command.excite import excitation
 
         return excitation
-    if attribute == "identify":
-        from ipgen.command.identify import identify
-
-        return identify
     if attribute in ("linearize", "lqr"):
         from ipgen.control import linear as control
 

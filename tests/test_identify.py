@@ -26,7 +26,7 @@ from ipgen.identification.data import DataError, parse_measurements, read_measur
 from ipgen.identification.fit import identify_measurements
 from ipgen.identification.model import IdentifyError, Setup, structural_model
 from ipgen.identification.structure import structural_statements
-from ipgen.identification.synthetic import _flat_params, measure, simulate, write_csv
+from ipgen.identification.synthetic import folded_parameters, measure, simulate, write_csv
 from ipgen.model.system import System
 from ipgen.scene.reader import load_scene
 
@@ -100,7 +100,7 @@ def test_residual_vanishes_on_the_independent_model(setup_factory, free, tmp_pat
     dof = setup.system.dof
     q, qd = rng.uniform(-2, 2, (40, dof)), rng.uniform(-3, 3, (40, dof))
     u = rng.uniform(-2, 2, 40)
-    flat, b, _, _ = _flat_params(setup)
+    flat, b = folded_parameters(setup)
     dyn = dynamics(setup.system)
     qdd = np.array([dyn.forward_dynamics(q[k], qd[k], b * u[k], flat) for k in range(40)])
     columns = model.columns(q, qd, qdd, u, [values[n] for n in model.known_names])
@@ -424,7 +424,7 @@ def test_synthetic_simulation_conserves_energy_without_damping() -> None:
     s = eq.symbols
     import sympy as sp
 
-    flat, _, _, _ = _flat_params(free_swing)
+    flat, _ = folded_parameters(free_swing)
     params = dict(zip((*s.parameters, *s.link_parameters), flat, strict=True))
     energy = sp.lambdify([*s.q, *s.qd], (eq.kinetic_energy + eq.potential_energy).subs(params))
     t = np.linspace(0, 2, 201)

@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 import ipgen
 from ipgen.control.casadi_model import plant
 from ipgen.control.linear import ControlError, EquilibriumWarning
-from ipgen.model import pendulum as pendulum_module
 from ipgen.model.actuator import Actuator, motor_terms
 from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, PendulumError, presets
@@ -343,6 +342,116 @@ def test_replace_validates_again_and_refuses_unknown_fields() -> None:
         p.g = 1.0  # type: ignore[misc]
 
 
-def test_the_examples_in_the_docstrings_hold() -> None:
-    failures, tried = doctest.testmod(pendulum_module, optionflags=doctest.ELLIPSIS)
-    assert tried >= 5 and failures == 0
+@pytest.mark.parametrize(
+    "module",
+    [
+        "ipgen.model.pendulum",
+        "ipgen.model.actuator",
+        "ipgen.model.system",
+        "ipgen.control.linear",
+        "ipgen.control.casadi_model",
+        "ipgen.identification.model",
+        "ipgen.identification.synthetic",
+        "ipgen.identification.data",
+    ],
+)
+def test_the_examples_in_the_docstrings_hold(module: str) -> None:
+    import importlib
+
+    failures, tried = doctest.testmod(importlib.import_module(module), optionflags=doctest.ELLIPSIS)
+    assert tried >= 1 and failures == 0
+
+
+ODD = st.one_of(
+    st.none(),
+    st.text(max_size=3),
+    st.just(math.nan),
+    st.just(math.inf),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=4),
+    st.lists(st.text(max_size=2), min_size=2, max_size=2),
+)
+
+
+@settings(max_examples=60, deadline=None)
+@given(q=ODD, qd=ODD, u=st.one_of(st.floats(allow_nan=True), st.text(max_size=3), st.none()))
+def test_linearize_refuses_a_bad_state_with_one_line(q: object, qd: object, u: object) -> None:
+    """Any q, qd, u: (A, B) of the right shape, finite, or a one-line ControlError; nothing else."""
+    import warnings
+
+    p = Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.001])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EquilibriumWarning)
+        try:
+            a, b = ipgen.linearize(p, q, qd, u)
+        except ControlError as error:
+            one_line(error)
+            return
+    assert a.shape == (4, 4) and b.shape == (4, 1) and np.all(np.isfinite(a))
+
+
+# --------------------------------------------------------------------------- identify, swing-up
+
+
+def test_identify_a_pendulum_equals_identify_its_scene(tmp_path: Path) -> None:
+    """ipgen.identify(p, csv, free) gives the scene file's estimates, on data simulated from a
+    known truth in the rig's coordinates (Quanser's: the pendulum counter-clockwise)."""
+    from ipgen.identification.model import Setup
+    from ipgen.identification.synthetic import measure, multisine, write_csv
+
+    scene_path = ROOT / "scenes" / "rigs" / "qube_servo2.toml"
+    p = Pendulum.preset("qube_servo2")
+    truth = Setup.from_pendulum(p.replace(delta=[0.0015, 0.0008]))
+    t = np.arange(0.0, 6.0, 0.005)
+    data = measure(truth, t, multisine, np.array([0.0, math.pi, 0.0, 0.0]), 1e-4, np.random.default_rng(5))
+    user = np.array([p.coordinates.to_user(np.r_[th, 0.0, 0.0], 1)[:2] for th in data.theta])
+    csv = tmp_path / "qube.csv"
+    write_csv(csv, t, user, np.array([multisine(x) for x in t]))
+    fit = ipgen.identify(p, csv, "delta1", output_error=False)
+    assert fit.estimate["delta1"] == pytest.approx(0.0008, rel=0.05)
+    by_scene = ipgen.identify(scene_path, csv, ["delta1"], output_error=False)
+    assert by_scene.fit.estimate == fit.estimate
+    with pytest.raises(ipgen.Error) as refused:
+        ipgen.identify(p, csv, "delta1", tmp_path / "out")
+    one_line(refused.value)
+
+
+def test_the_energy_swing_up_of_a_pendulum_is_that_of_its_plant() -> None:
+    from ipgen.control.energy import energy_swingup
+    from ipgen.control.trajectory import PlanError
+
+    values = ([0.5, 0.275], [0.6, 0.5], [0.3, 0.011458])
+    by_pendulum = energy_swingup(Pendulum("rotary", 1, *values), u_max=2.0)
+    by_plant = energy_swingup(plant("rotary", 1, *values), u_max=2.0)
+    assert np.array_equal(by_pendulum.hold_gain, by_plant.hold_gain)
+    assert by_pendulum.gain_energy == by_plant.gain_energy
+    with pytest.raises(PlanError) as refused:
+        energy_swingup(Pendulum.preset("qube_servo2"), u_max=2.0)
+    assert "p.folded()" in one_line(refused.value)
+
+
+def test_a_trajectory_plan_of_a_pendulum_is_that_of_its_plant() -> None:
+    """plan_swingup(p) plans the same swing-up as plan_swingup(plant(...)) of the same values."""
+    from ipgen.control.trajectory import plan_swingup
+
+    values = ([0.5, 0.275], [0.6, 0.5], [0.3, 0.011458])
+    options = {"duration": 2.0, "u_max": 5.0, "intervals": 30}
+    by_pendulum = plan_swingup(Pendulum("rotary", 1, *values), **options)
+    by_plant = plan_swingup(plant("rotary", 1, *values), **options)
+    assert by_pendulum.plant == by_plant.plant
+    assert np.array_equal(by_pendulum.inputs, by_plant.inputs)
+    assert np.array_equal(by_pendulum.states, by_plant.states)
+    assert abs(by_pendulum.states[-1][1]) < 1e-6  # it reaches upright (the test can fail)
+
+
+def test_canonical_is_the_same_physics_in_ipgens_coordinates() -> None:
+    """A − B K of the QUBE in Quanser's coordinates and in ipgen's have the same poles, and the
+    state map between them is the one `Coordinates.matrices` gives."""
+    qube = Pendulum.preset("qube_servo2")
+    a_rig, b_rig = ipgen.linearize(qube)
+    a, b = ipgen.linearize(qube.canonical())
+    matrix, _ = qube.coordinates.matrices(1)
+    assert not np.array_equal(a_rig, a)  # the pendulum's sign differs: the test can fail
+    assert np.allclose(a_rig, matrix @ a @ np.linalg.inv(matrix)) and np.allclose(b_rig, matrix @ b)
+    k_rig = ipgen.lqr(qube, [5, 1, 1, 1], 1.0)
+    k = ipgen.lqr(qube.canonical(), [5, 1, 1, 1], 1.0)
+    assert np.allclose(k_rig @ matrix, k, rtol=1e-9)

@@ -23,10 +23,10 @@ from test_scene import BASE, scene_text
 from ipgen.command.cli import run
 from ipgen.common import limits
 from ipgen.errors import SceneError
-from ipgen.scene import reader, schema
-from ipgen.scene.fieldtypes import Exact, Ge, Number, PerLink
+from ipgen.scene import load, schema
 from ipgen.scene.nesting import shape_problem
 from ipgen.scene.reader import load_scene
+from ipgen.scene.values import PerLink, Real, SceneJsonSchema
 
 REPO = Path(__file__).resolve().parent.parent
 SCHEMA_FILE = REPO / "docs" / "scene.schema.json"
@@ -324,14 +324,16 @@ def test_an_optional_per_link_array_is_one_declaration(
 
     class Parameters(schema.ParametersTable):
         backlash: Annotated[
-            tuple[Exact, ...] | None,
-            PerLink(Number(bounds=(Ge(0, "must be >= 0 rad"),))),
+            PerLink(Real(ge=0, says="must be >= 0 rad")) | None,
             Field(description="backlash of each joint [rad]"),
         ] = None
 
-    monkeypatch.setitem(schema.TABLE_MODELS, "parameters", Parameters)
+    class Document(schema.SceneDocument):
+        parameters: Parameters
+
+    monkeypatch.setattr(schema, "SceneDocument", Document)
     monkeypatch.setitem(schema.TABLES, "parameters", tuple(Parameters.model_fields))
-    reader._adapter.cache_clear()
+    load._adapter.cache_clear()
     try:
         path = tmp_path / "x.toml"
         path.write_text(scene_text({"parameters.backlash": "[0, 0.25, -1]"}))
@@ -340,12 +342,19 @@ def test_an_optional_per_link_array_is_one_declaration(
         path.write_text(scene_text({"parameters.backlash": "[0, 0.25]"}))
         with pytest.raises(SceneError, match=r"parameters\.backlash has 2 entries, expected 3"):
             load_scene(path)
+        path.write_text(scene_text({"parameters.backlashes": "[0, 0.25, 1]"}))
+        with pytest.raises(
+            SceneError, match=r"unknown key 'parameters\.backlashes' \(did you mean 'backlash'\?\)"
+        ):
+            load_scene(path)
         path.write_text(scene_text({}))
         load_scene(path)
-        properties = Parameters.model_json_schema()["properties"]
+        properties = Document.model_json_schema(schema_generator=SceneJsonSchema)["$defs"]["Parameters"][
+            "properties"
+        ]
         assert properties["backlash"]["items"] == {"type": "number", "minimum": 0}
     finally:
-        reader._adapter.cache_clear()
+        load._adapter.cache_clear()
     assert BASE["parameters"]["m"]  # the base scene is unchanged
 
 

@@ -19,16 +19,11 @@ from fractions import Fraction
 
 from ipgen.codegen.functions import C_SYNTAX, params_field
 from ipgen.model.derivation import Equations
+from ipgen.model.paper import PAPER_RIGS
 from ipgen.model.polynomial import LETTER, PARAMETER, VELOCITY
 from ipgen.model.specialise import check_parameter
 from ipgen.model.system import System, split_parameter
 
-# Start values without a scene: the paper's systems (scenes/cdip_pulse.toml for a cart,
-# scenes/rsip_pulse.toml for an arm); every link like the paper's links.
-_PAPER = {
-    "classical": {"m": (0.3, 0.275), "l": (0.0, 0.5), "delta": (0.3, 0.1)},
-    "rotary": {"m": (0.5, 0.275), "l": (0.6, 0.5), "delta": (0.3, 0.011458)},
-}
 DEFAULT_G = 9.81
 
 
@@ -74,7 +69,7 @@ def default_start(system: System, name: str, given: dict[str, float] | None = No
         return DEFAULT_G
     if index is None:
         return 0.0
-    paper = _PAPER[system.type]
+    paper = PAPER_RIGS[system.type]  # start values without a scene: the paper's systems
     if group in paper:
         return paper[group][0 if index == 0 else 1]
     known = given or {}

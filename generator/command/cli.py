@@ -541,8 +541,10 @@ def animate_command(
 
 def _register() -> None:
     from ipgen.command.excite import command as excite_command
+    from ipgen.command.sweep import command as sweep_command
 
     cli.add_command(excite_command)
+    cli.add_command(sweep_command)
 
 
 _register()

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     import casadi as ca
     import numpy as np
 
-__all__ = ["CasadiModel", "Plant", "casadi_model", "plant"]
+__all__ = ["CasadiModel", "Plant", "as_plant", "casadi_model", "plant"]
 
 _INSTALL_HINT = "swing-up planning needs CasADi: pip install 'ipgen[swingup]'"
 
@@ -104,6 +104,45 @@ class Plant:
             return Plant(p.replace(**self.links_as_built, **changes) if changes else p)
         except PendulumError as exc:
             raise ControlError(str(exc)) from None
+
+
+def as_plant(system: Plant | Pendulum, what: str) -> Plant:
+    """`system` as a Plant, for the swing-up planners.
+
+    Parameters
+    ----------
+    system : Plant or Pendulum
+        A Plant is returned as it is; a Pendulum with a "direct" or "acceleration" drive wrapped.
+    what : str
+        What plans, for the message.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    ControlError
+        A "dc_motor" Pendulum (a plan's u is a force or torque: plan on `p.folded()` with
+        u_max · `p.gain`; a scene's [swingup] does that and converts the law to volts), or
+        something else than a Plant or a Pendulum.
+
+    Examples
+    --------
+    >>> p = Pendulum("rotary", 1, [0.5, 0.275], [0.6, 0.5], [0.3, 0.01])
+    >>> as_plant(p, "a test").params == plant(p).params
+    True
+    """
+    if isinstance(system, Plant):
+        return system
+    if isinstance(system, Pendulum) and system.actuator.is_motor:
+        raise ControlError(
+            f"{what} plans a force or torque, this Pendulum is driven by a dc_motor: pass p.folded() "
+            "and u_max times p.gain (volts times the force per volt)"
+        )
+    if isinstance(system, Pendulum):
+        return Plant(system)
+    raise ControlError(f"{what} needs an ipgen.Pendulum or a Plant, got {type(system).__name__}")
 
 
 def plant(*args: Any, **kwargs: Any) -> Plant:

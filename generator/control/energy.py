@@ -25,10 +25,11 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from ipgen.control.casadi_model import Plant, casadi_model
-from ipgen.control.linear import weights
+from ipgen.control.casadi_model import Plant, as_plant, casadi_model
+from ipgen.control.linear import ControlError, weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
+from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
     import numpy as np
@@ -98,7 +99,7 @@ class EnergySwingUp:
 
 
 def energy_swingup(
-    plant: Plant,
+    plant: Plant | Pendulum,
     *,
     u_max: float,
     period: float = 0.01,
@@ -121,9 +122,17 @@ def energy_swingup(
     `acceleration`: u is the base's acceleration ([actuator] kind "acceleration"): the law's a
     is the input (clipped to u_max), a_max defaults to u_max, and the hold LQR is that of the
     acceleration-driven linear model (`discrete_acceleration_lqr`).
+    `plant`: a `Plant` or an `ipgen.Pendulum` ("direct" or "acceleration" drive: a Pendulum's
+    drive sets `acceleration`).
     """
     import numpy as np
 
+    if isinstance(plant, Pendulum):
+        acceleration = plant.actuator.is_acceleration
+    try:
+        plant = as_plant(plant, "the energy swing-up")
+    except ControlError as exc:
+        raise PlanError(str(exc)) from None
     if plant.links != 1:
         raise PlanError(
             f'energy swing-up is for a single link, this system has {plant.links}; use method "trajectory"'
@@ -138,6 +147,8 @@ def energy_swingup(
         if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
     g = plant.g
+    if not g > 0:  # k_E below divides by g: no gravity, no energy to pump
+        raise PlanError(f"energy swing-up needs gravity: g = {g:g}; use method \"trajectory\"")
     # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,
     # or the arm's inertia about the vertical with the link's mass at its tip).
     if accel_max is None and acceleration:

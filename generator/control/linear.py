@@ -83,6 +83,13 @@ class Dynamics:
         rhs[0] += u
         return np.linalg.solve(mass, rhs)
 
+    def mass_matrix(self, q: np.ndarray, params: Sequence[float]) -> np.ndarray:
+        """M(θ) (dof × dof) at the angles q for the flat `params` (`Pendulum.flat`; m, l, delta,
+        g alone: the rods)."""
+        import numpy as np
+
+        return np.asarray(self._mass(*q, *self._complete(params)), dtype=float)
+
     def _complete(self, params: Sequence[float]) -> list[float]:
         """`params` with the rods' com, J, J_axial, tip appended if it has m, l, delta, g only."""
         dof = self.system.dof
@@ -469,8 +476,33 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
 def weights(
     Q: np.ndarray | Sequence, R: float | np.ndarray | Sequence, size: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(Q, R) as arrays: Q from `size` diagonal weights or a size × size matrix, checked symmetric
-    positive semidefinite and finite; R one number > 0 (1 × 1). ControlError otherwise."""
+    """(Q, R) of an LQR as arrays, checked.
+
+    Parameters
+    ----------
+    Q : array_like
+        `size` diagonal weights (>= 0) or a symmetric positive semidefinite size × size matrix.
+    R : float or array_like
+        One number > 0, the weight of u².
+    size : int
+        The state's size, 2 (links + 1).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Q as a size × size matrix (symmetrised), R as 1 × 1.
+
+    Raises
+    ------
+    ControlError
+        A wrong shape, a non-finite or negative weight, an asymmetric or indefinite Q, R <= 0.
+
+    Examples
+    --------
+    >>> q, r = weights([1, 2], 0.5, 2)
+    >>> q.tolist(), r.tolist()
+    ([[1.0, 0.0], [0.0, 2.0]], [[0.5]])
+    """
     import numpy as np
 
     q = np.asarray(Q, dtype=float)
@@ -496,7 +528,25 @@ def weights(
 
 
 def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
-    """PBH tests: (A, B) stabilisable and (A, Q^½) detectable, or a ControlError naming the mode."""
+    """PBH tests: (A, B) stabilisable and (A, Q^½) detectable, or a ControlError naming the mode.
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        The continuous linear model (n × n, n × 1).
+    q : numpy.ndarray
+        The state weight (n × n, positive semidefinite).
+
+    Raises
+    ------
+    ControlError
+        A mode with Re s >= 0 that the input cannot move, or that Q does not see.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> check_stabilisable(np.diag([1.0, -1.0]), np.array([[1.0], [0.0]]), np.eye(2))  # fine: None
+    """
     import numpy as np
 
     size = a.shape[0]

@@ -18,6 +18,7 @@ from ipgen.control.casadi_model import Plant
 from ipgen.control.energy import EnergySwingUp
 from ipgen.control.trajectory import Plan, PlanError, finite_number, plan_swingup
 from ipgen.control.tvlqr import GainSchedule, track
+from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
     import numpy as np
@@ -26,7 +27,7 @@ __all__ = ["SwingUpLaw", "energy_law", "in_volts", "schedule_law", "trajectory_s
 
 
 def trajectory_swingup(
-    plant: Plant,
+    plant: Plant | Pendulum,
     *,
     duration: float,
     u_max: float,

@@ -30,8 +30,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ipgen.control.casadi_model import Plant, casadi_model, import_casadi
+from ipgen.control.casadi_model import Plant, as_plant, casadi_model, import_casadi
 from ipgen.control.linear import ControlError
+from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
     import numpy as np
@@ -342,7 +343,7 @@ def _solve(
 
 
 def plan_swingup(
-    plant: Plant,
+    plant: Plant | Pendulum,
     *,
     duration: float,
     u_max: float,
@@ -357,10 +358,14 @@ def plan_swingup(
     |θ0| ≤ `x_max`; `intervals` collocation intervals (default: duration / 0.05 s, 20 … 300).
 
     Returns a `Plan`; raises `PlanError` for bad input or when no plan is found (the message
-    names what to relax).
+    names what to relax). `plant`: a `Plant` or an `ipgen.Pendulum` (a "direct" drive).
     """
     import numpy as np
 
+    try:
+        plant = as_plant(plant, "a trajectory swing-up")
+    except ControlError as exc:
+        raise PlanError(str(exc)) from None
     duration_, u_max_, x_max_, x0, x1, n = _check(plant, duration, u_max, x_max, start, target, intervals)
     t_build = time.perf_counter()
     nlp = _build(plant, duration_, n, max_iter)

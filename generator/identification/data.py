@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.identification.model import IdentifyError
+from ipgen.model.coordinates import Coordinates
 
 if TYPE_CHECKING:
     import numpy as np
@@ -50,6 +51,43 @@ class Measurements:
     @property
     def samples(self) -> int:
         return int(self.t.shape[0])
+
+    def canonical(self, coordinates: Coordinates) -> Measurements:
+        """These samples, measured in a rig's `coordinates`, in ipgen's: the convention undone
+        as `Coordinates.to_canonical` does it, for every sample at once (the one place that
+        converts measurements).
+
+        Parameters
+        ----------
+        coordinates : Coordinates
+            The rig's convention the samples are in.
+
+        Returns
+        -------
+        Measurements
+            In ipgen's coordinates (these if the convention is ipgen's).
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> data = Measurements(np.zeros(1), np.array([[0.0, 0.5]]), None, None)
+        >>> data.canonical(Coordinates(positive="counterclockwise")).theta.tolist()
+        [[0.0, -0.5]]
+        """
+        import numpy as np
+
+        if coordinates.is_canonical:
+            return self
+        p, c = coordinates.matrices(self.dof - 1)
+        rates = self.dtheta if self.dtheta is not None else np.zeros_like(self.theta)
+        state = np.linalg.solve(p, (np.hstack([self.theta, rates]) - c).T).T
+        return Measurements(
+            t=self.t,
+            theta=state[:, : self.dof],
+            dtheta=state[:, self.dof :] if self.dtheta is not None else None,
+            u=self.u,
+            source=self.source,
+        )
 
 
 def read_measurements(path: str | Path, dof: int) -> Measurements:

@@ -23,7 +23,8 @@ from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 from ipgen.errors import Error
-from ipgen.model.actuator import MOTOR_CONSTANTS, Actuator
+from ipgen.model.actuator import MOTOR_CONSTANTS, Actuator, motor_terms
+from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import LINK_GROUPS, PARAMETER_GROUPS, System, group_indices, unused_parameter
 
 if TYPE_CHECKING:
@@ -56,6 +57,92 @@ class Setup:
 
     def value(self, name: str) -> float:
         return dict(self.values)[name]
+
+    @classmethod
+    def from_pendulum(cls, pendulum: Pendulum, free: Sequence[str] = ()) -> Setup:
+        """The prior of a fit from a `Pendulum`: every parameter's value (the links' rods filled
+        in, the motor's constants of a dc_motor, coulomb0.. when the pendulum has friction or a
+        coulomb parameter is `free`).
+
+        Parameters
+        ----------
+        pendulum : Pendulum
+            The rig as known before the fit.
+        free : sequence of str
+            The names to be fitted (only their friction matters here).
+
+        Returns
+        -------
+        Setup
+
+        Examples
+        --------
+        >>> from ipgen.model.pendulum import Pendulum
+        >>> setup = Setup.from_pendulum(Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.0]))
+        >>> setup.value("J1") == 0.1 * 0.5 * 0.5 / 12
+        True
+        """
+        system, dof = pendulum.system, pendulum.dof
+        values: dict[str, float] = {}
+        for group in PARAMETER_GROUPS:
+            for i, v in enumerate(getattr(pendulum, group)):
+                values[f"{group}{i}"] = float(v)
+        values["g"] = float(pendulum.g)
+        built = pendulum.resolved_links()
+        for group in LINK_GROUPS:
+            for i in group_indices(group, pendulum.links):
+                values[f"{group}{i}"] = float(getattr(built, group)[i])
+        actuator = pendulum.actuator
+        if actuator.is_motor:
+            values.update({name: float(value) for name, value in actuator.constants().items()})
+        coulomb = pendulum.coulomb
+        friction = coulomb is not None or any(name.startswith("coulomb") for name in free)
+        if friction:
+            for i in range(dof):
+                values[f"coulomb{i}"] = float(coulomb[i]) if coulomb is not None else 0.0
+        return cls(
+            system=system,
+            actuator_kind=actuator.kind,
+            values=tuple(values.items()),
+            explicit=frozenset(pendulum.links_given()),
+            friction=friction,
+            coulomb_speed=float(pendulum.coulomb_speed),
+        )
+
+    def pendulum(self) -> Pendulum:
+        """This setup's values as a `Pendulum`.
+
+        Returns
+        -------
+        Pendulum
+            Every link array given, as the values have them; the motor from its constants;
+            friction if the setup has it.
+
+        Raises
+        ------
+        PendulumError
+            Values no system has (one line).
+
+        Examples
+        --------
+        >>> p = Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.0])
+        >>> Setup.from_pendulum(p).pendulum().flat() == p.flat()
+        True
+        """
+        values, system, dof = dict(self.values), self.system, self.system.dof
+
+        def array(group: str) -> list[float]:
+            return [values.get(f"{group}{i}", 0.0) for i in range(dof)]
+
+        motor = {name: values[name] for name in MOTOR_CONSTANTS if name in values}
+        return Pendulum(
+            system.type, system.links, array("m"), array("l"), array("delta"), values["g"], system.inertia,
+            **{group: array(group) for group in LINK_GROUPS},
+            coulomb=array("coulomb") if self.friction else None,
+            coulomb_speed=self.coulomb_speed,
+            actuator={"kind": self.actuator_kind, **motor} if self.actuator_kind == "dc_motor" else
+            {"kind": self.actuator_kind},
+        )  # fmt: skip
 
     def parameter_names(self) -> tuple[str, ...]:
         """Every name a fit may free (those that change this model)."""
@@ -193,16 +280,9 @@ def _sympy_model(
     reflected: sp.Expr = sp.Integer(0)
     if actuator_kind == "dc_motor":
         motor = {name: sp.Symbol(name, positive=True) for name in MOTOR_CONSTANTS}
-        by_name.update({k: v for k, v in motor.items() if k != "r" or not system.is_rotary})
-        gain = motor["eta_g"] * motor["Kg"] * motor["eta_m"] * motor["kt"] / motor["Rm"]
-        back_emf = gain * motor["Kg"] * motor["km"]
-        reflected = motor["eta_g"] * motor["Kg"] ** 2 * motor["Jm"]
-        if not system.is_rotary:
-            gain, back_emf, reflected = (
-                gain / motor["r"],
-                back_emf / motor["r"] ** 2,
-                reflected / motor["r"] ** 2,
-            )
+        constants = {k: v for k, v in motor.items() if k != "r" or not system.is_rotary}
+        by_name.update(constants)
+        gain, back_emf, reflected = motor_terms(constants)  # the fold, in symbols
     mass = mass.copy()
     mass[0, 0] = mass[0, 0] + reflected
     rhs = sp.zeros(dof, 1)

@@ -1,8 +1,8 @@
 """Synthetic experiments: a known model simulated and measured with noise (tests, demo, bench).
 
 The simulation is independent of the fit's CasADi model: θ̈ from `control.linear.dynamics`
-(numpy lambdified from the derivation), the motor folded by `model.actuator.fold`'s formulas
-(b, c, reflected inertia from an `Actuator`), the simulator's Coulomb law, integrated by scipy's
+(numpy lambdified from the derivation), the motor folded by `Pendulum.folded` (b, c, the
+reflected inertia), the simulator's Coulomb law, integrated by scipy's
 `solve_ivp` (DOP853, tight tolerances) and sampled at the requested times.
 """
 
@@ -16,43 +16,41 @@ from typing import TYPE_CHECKING
 from ipgen.control.linear import dynamics
 from ipgen.identification.data import Measurements
 from ipgen.identification.model import Setup
-from ipgen.model.actuator import Actuator
-from ipgen.model.system import LINK_GROUPS, group_indices
 
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["measure", "multisine", "simulate", "write_csv"]
+__all__ = ["folded_parameters", "measure", "multisine", "simulate", "write_csv"]
 
 
-def _flat_params(setup: Setup) -> tuple[list[float], float, float, float]:
-    """(Dynamics' flat parameters with the motor folded in, b, Coulomb speed, unused)."""
-    values = dict(setup.values)
-    system = setup.system
-    dof = system.dof
-    m = [values[f"m{i}"] for i in range(dof)]
-    l = [values[f"l{i}"] for i in range(dof)]  # noqa: E741
-    delta = [values[f"delta{i}"] for i in range(dof)]
-    links: dict[str, list[float]] = {}
-    for group in LINK_GROUPS:
-        entries = [0.0] * dof
-        for i in group_indices(group, system.links):
-            entries[i] = values.get(f"{group}{i}", 0.0)
-        links[group] = entries
-    b = 1.0
-    if setup.actuator_kind == "dc_motor":
-        motor = {k: values[k] for k in ("Rm", "kt", "km", "Kg", "eta_g", "eta_m", "Jm") if k in values}
-        actuator = Actuator(kind="dc_motor", r=values.get("r"), **motor)
-        b = actuator.gain()
-        delta[0] += actuator.damping()
-        if system.is_rotary:
-            links["J"][0] += actuator.inertia()
-        else:
-            m[0] += actuator.inertia()
-    flat = [*m, *l, *delta, values["g"]]
-    for group in LINK_GROUPS:
-        flat += links[group]
-    return flat, b, setup.coulomb_speed, 0.0
+def folded_parameters(setup: Setup) -> tuple[list[float], float]:
+    """(flat, b): `Dynamics`' flat parameters of the setup's direct model and the input gain.
+
+    Parameters
+    ----------
+    setup : Setup
+
+    Returns
+    -------
+    (list of float, float)
+        `Pendulum.flat` of `setup.pendulum()`, a dc_motor folded in (`Pendulum.folded`), and b
+        (1 without a motor).
+
+    Raises
+    ------
+    PendulumError
+        Setup values no system has.
+
+    Examples
+    --------
+    >>> from ipgen.model.pendulum import Pendulum
+    >>> setup = Setup.from_pendulum(Pendulum("classical", 1, [1.0, 0.1], [0.0, 0.5], [0.1, 0.0]))
+    >>> folded_parameters(setup)[1]
+    1.0
+    """
+    pendulum = setup.pendulum()
+    folded = pendulum.folded() if pendulum.actuator.is_motor else pendulum
+    return folded.flat(), pendulum.gain
 
 
 def simulate(setup: Setup, t: np.ndarray, input_fn: Callable[[float], float], x0: np.ndarray) -> np.ndarray:
@@ -63,7 +61,8 @@ def simulate(setup: Setup, t: np.ndarray, input_fn: Callable[[float], float], x0
     system = setup.system
     dof = system.dof
     model = dynamics(system)
-    params, b, speed, _ = _flat_params(setup)
+    params, b = folded_parameters(setup)
+    speed = setup.coulomb_speed
     values = dict(setup.values)
     coulomb = [values.get(f"coulomb{i}", 0.0) for i in range(dof)] if setup.friction else [0.0] * dof
 
@@ -80,7 +79,7 @@ def simulate(setup: Setup, t: np.ndarray, input_fn: Callable[[float], float], x0
         # the friction enters as a generalised force: add M⁻¹ Q to θ̈ of the input alone
         qdd = model.forward_dynamics(q, qd, b * input_fn(time), params)
         if np.any(force):
-            mass = np.asarray(model._mass(*q, *params), dtype=float)
+            mass = model.mass_matrix(q, params)
             qdd = qdd + np.linalg.solve(mass, force)
         return np.concatenate([qd, qdd])
 

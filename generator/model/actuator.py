@@ -24,7 +24,7 @@ force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
@@ -111,9 +111,9 @@ class Actuator:
             if name not in ("eta_g", "eta_m", "Jm") and value <= 0:
                 raise ActuatorError(f"actuator {name} = {value:g}: must be > 0 [{MOTOR_CONSTANTS[name][0]}]")
         for what, value in (
-            ("gain", self.gain()),
-            ("back-EMF damping", self.damping()),
-            ("rotor inertia", self.inertia()),
+            ("gain", _or_inf(self.gain)),  # motor_terms' Kg**2 raises OverflowError past 1.8e308
+            ("back-EMF damping", _or_inf(self.damping)),
+            ("rotor inertia", _or_inf(self.inertia)),
         ):
             if not math.isfinite(value):
                 raise ActuatorError(
@@ -121,7 +121,18 @@ class Actuator:
                 )
 
     def constants(self) -> dict[str, float]:
-        """The motor's constants by name (`MOTOR_CONSTANTS`; r only when given, i.e. on a cart)."""
+        """The motor's constants by name (`MOTOR_CONSTANTS`; r only when given, i.e. on a cart).
+
+        Returns
+        -------
+        dict
+            {"Rm": ..., "kt": ..., ...}: what `motor_terms` takes.
+
+        Examples
+        --------
+        >>> sorted(Actuator("dc_motor", Rm=8.4, kt=0.042, km=0.042).constants())
+        ['Jm', 'Kg', 'Rm', 'eta_g', 'eta_m', 'km', 'kt']
+        """
         return {name: getattr(self, name) for name in MOTOR_CONSTANTS if getattr(self, name) is not None}
 
     def gain(self) -> float:
@@ -156,6 +167,11 @@ def motor_terms(constants: Mapping[str, Any]) -> tuple[Any, Any, Any]:
         (b, c, I_r): b = η_g K_g η_m k_t / R_m (/ r on a cart), c = b K_g k_m (/ r on a cart),
         I_r = η_g K_g² J_m (/ r² on a cart).
 
+    Raises
+    ------
+    KeyError
+        Rm, kt or km missing (an `Actuator` checks them before it calls this).
+
     Examples
     --------
     >>> from fractions import Fraction
@@ -180,9 +196,34 @@ def motor_terms(constants: Mapping[str, Any]) -> tuple[Any, Any, Any]:
 def fold_base(
     constants: Mapping[str, Any], rotary: bool, m0: Any, delta0: Any, J0: Any
 ) -> tuple[Any, Any, Any, Any]:
-    """(m0, δ0, J0, b) of the direct model a DC motor with `constants` is (`motor_terms`):
-    δ0 + c, and the reflected inertia on J0 (an arm, `rotary`) or m0 (a cart); b the input gain.
-    Exact in the arithmetic of the arguments (floats, Fractions, sympy)."""
+    """(m0, δ0, J0, b) of the direct model a DC motor with `constants` is (`motor_terms`).
+
+    Parameters
+    ----------
+    constants : mapping
+        The motor's constants, as for `motor_terms`.
+    rotary : bool
+        True for an arm (the rotor's inertia adds to J0), False for a cart (to m0).
+    m0, delta0, J0
+        The base's mass, damping and inertia (J0: the arm's about the vertical; a cart's unused).
+
+    Returns
+    -------
+    tuple
+        (m0, δ0 + c, J0 + I_r, b) on an arm, (m0 + I_r, δ0 + c, J0, b) on a cart, in the
+        arithmetic of the arguments (floats, Fractions, sympy: exact where they are).
+
+    Raises
+    ------
+    KeyError
+        Rm, kt or km missing from `constants`.
+
+    Examples
+    --------
+    >>> from fractions import Fraction as F
+    >>> fold_base({"Rm": F(8), "kt": F(1, 2), "km": F(1, 2), "Jm": F(1, 100)}, True, F(1), F(0), F(1, 10))
+    (Fraction(1, 1), Fraction(1, 32), Fraction(11, 100), Fraction(1, 16))
+    """
     gain, damping, inertia = motor_terms(constants)
     if rotary:
         return m0, delta0 + damping, J0 + inertia, gain
@@ -190,6 +231,14 @@ def fold_base(
 
 
 DIRECT = Actuator()
+
+
+def _or_inf(value: Callable[[], float]) -> float:
+    """value(), or inf where a power overflows a double."""
+    try:
+        return value()
+    except OverflowError:
+        return math.inf
 
 
 def as_actuator(value: Actuator | dict | None) -> Actuator:

@@ -205,7 +205,7 @@ class Pendulum:
                 _fail(f"coulomb[{i}] = {_shown(friction)}: friction must be >= 0")
         if self.coulomb_speed <= 0:
             _fail(f"coulomb_speed = {_shown(self.coulomb_speed)}: must be > 0 (m/s or rad/s)")
-        problem = link_problem(self.system, self._floats(m), self._floats(l), self.link_values())
+        problem = link_problem(self.system, self._floats(m), self._floats(l), self.resolved_links())
         if problem:
             _fail(problem)
 
@@ -240,11 +240,33 @@ class Pendulum:
         return self.actuator.gain()
 
     def links_given(self) -> dict[str, tuple[Number, ...]]:
-        """{group: values} of the link arrays given (com, J, J_axial, tip), in that order."""
+        """{group: values} of the link arrays given (com, J, J_axial, tip), in that order.
+
+        Returns
+        -------
+        dict
+            Only the groups given (not None): the others are the paper's rods.
+
+        Examples
+        --------
+        >>> Pendulum("classical", 1, [1.0, 0.1], [0, 0.5], [0, 0], tip=[0, 0.02]).links_given()
+        {'tip': (0.0, 0.02)}
+        """
         return {group: values for group in LINK_GROUPS if (values := getattr(self, group)) is not None}
 
-    def link_values(self) -> LinkValues:
-        """com, J, J_axial, tip as floats, every entry filled in (the rods' where not given)."""
+    def resolved_links(self) -> LinkValues:
+        """com, J, J_axial, tip as floats, every entry filled in (the rods' where not given).
+
+        Returns
+        -------
+        LinkValues
+            `.com`, `.J`, `.J_axial`, `.tip`: dof floats each; `.flat()` concatenates them.
+
+        Examples
+        --------
+        >>> Pendulum("classical", 1, [1.0, 0.1], [0, 0.5], [0, 0]).resolved_links().com
+        (0.0, 0.25)
+        """
         m, l = self._floats(self.m), self._floats(self.l)  # noqa: E741
         groups = {}
         for group in LINK_GROUPS:
@@ -259,8 +281,20 @@ class Pendulum:
     def params(self) -> dict[str, tuple[float, ...] | float]:
         """The arrays the generated C++ and C `Params` take, as floats: m, l, delta, g, and com,
         J, J_axial, tip with every entry filled in (the rods' where not given; the generated
-        code's NaN default computes the same rods)."""
-        links = self.link_values()
+        code's NaN default computes the same rods).
+
+        Returns
+        -------
+        dict
+            {"m": (...), "l": (...), "delta": (...), "g": float, "com": (...), "J": (...),
+            "J_axial": (...), "tip": (...)}, dof floats per array.
+
+        Examples
+        --------
+        >>> Pendulum("classical", 1, [1.0, 0.1], [0, 0.5], [0, 0]).params()["J"]
+        (0.0, 0.0020833333333333333)
+        """
+        links = self.resolved_links()
         return {
             "m": tuple(self._floats(self.m)),
             "l": tuple(self._floats(self.l)),
@@ -274,13 +308,45 @@ class Pendulum:
 
     def flat(self) -> list[float]:
         """m, l, delta, g, com, J, J_axial, tip in one list: the parameters of
-        `control.linear.Dynamics` and `Symbols.parameters` + `Symbols.link_parameters`."""
+        `control.linear.Dynamics` and `Symbols.parameters` + `Symbols.link_parameters`.
+
+        Returns
+        -------
+        list of float
+            3 dof + 1 + 4 dof numbers.
+
+        Examples
+        --------
+        >>> len(Pendulum("rotary", 2, [1, 1, 1], [1, 1, 1], [0, 0, 0]).flat())
+        22
+        """
         values = self.params()
-        return [*values["m"], *values["l"], *values["delta"], values["g"], *self.link_values().flat()]  # type: ignore[misc]
+        return [*values["m"], *values["l"], *values["delta"], values["g"], *self.resolved_links().flat()]  # type: ignore[misc]
 
     def value(self, name: str) -> Number:
         """A parameter by its name in scenes and --fix ("m1", "delta0", "g", "J0", "tip2", ...);
-        the links' rods where not given. KeyError for a name this pendulum has not."""
+        the links' rods where not given.
+
+        Parameters
+        ----------
+        name : str
+            A parameter's name: m<i>, l<i>, delta<i>, g, com<i>, J<i>, J_axial<i>, tip<i>.
+
+        Returns
+        -------
+        float or Fraction
+            In the pendulum's arithmetic (a rod's value computed in it).
+
+        Raises
+        ------
+        KeyError
+            A name this pendulum has not.
+
+        Examples
+        --------
+        >>> Pendulum("rotary", 1, [0.3, 0.1], [0.2, 0.5], [0, 0]).value("J0") == 0.3 * 0.2 * 0.2 / 3
+        True
+        """
         group, index = split_parameter(name)
         if index is None:
             return self.g
@@ -323,6 +389,21 @@ class Pendulum:
                 f"Pendulum has no field {unknown[0]!r}: expected one of {', '.join(sorted(known))}"
             )
         return dataclasses.replace(self, **changes)
+
+    def canonical(self) -> Pendulum:
+        """This pendulum in ipgen's own coordinates (absolute angles from upright, clockwise):
+        the same physics, with `linearize`, `lqr` and the CSVs then in ipgen's state.
+
+        Returns
+        -------
+        Pendulum
+
+        Examples
+        --------
+        >>> Pendulum.preset("qube_servo2").canonical().coordinates.is_canonical
+        True
+        """
+        return dataclasses.replace(self, angles="absolute", zero="upright", positive="clockwise")
 
     def folded(self) -> Pendulum:
         """The direct model equivalent to this pendulum's drive (docs/model.md, "A DC motor on
@@ -440,7 +521,22 @@ class Pendulum:
 
 
 def presets() -> tuple[str, ...]:
-    """The names `Pendulum.preset` knows: the rig scenes shipped with ipgen, sorted."""
+    """The names `Pendulum.preset` knows: the rig scenes shipped with ipgen, sorted.
+
+    Returns
+    -------
+    tuple of str
+
+    Raises
+    ------
+    Error
+        The presets are not part of this installation.
+
+    Examples
+    --------
+    >>> "qube_servo2" in presets()
+    True
+    """
     from ipgen.common.locations import presets_dir
 
     return tuple(sorted(path.stem for path in presets_dir().glob("*.toml")))
@@ -448,7 +544,30 @@ def presets() -> tuple[str, ...]:
 
 def from_scene_object(scene: Scene, *, exact: bool = False) -> Pendulum:
     """The Pendulum of a loaded `Scene` (the conversion `Scene.pendulum` and `Pendulum.from_scene`
-    use); `exact`: the parameters as Fractions of the decimals the file writes."""
+    use).
+
+    Parameters
+    ----------
+    scene : Scene
+        A scene as `load_scene` returns it.
+    exact : bool, default False
+        The parameters as Fractions of the decimals the file writes.
+
+    Returns
+    -------
+    Pendulum
+
+    Raises
+    ------
+    PendulumError
+        Not expected for a loaded scene (the scene's checks are at least as strict).
+
+    Examples
+    --------
+    >>> from ipgen.scene.reader import load_scene  # doctest: +SKIP
+    >>> from_scene_object(load_scene("scenes/rigs/ip02_sip.toml")).type  # doctest: +SKIP
+    'classical'
+    """
 
     def values(group: str, given: Sequence[float]) -> tuple[Number, ...]:
         if not exact:

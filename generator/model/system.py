@@ -33,8 +33,30 @@ class SystemChoiceError(Error, ValueError):
 
 def system_problem(system_type: object, links: object, inertia: object = None) -> SystemChoiceError | None:
     """What is wrong with (type, links, inertia), or None: the one check of these three values
-    (`System`, `check_system`, `model.pendulum.Pendulum`, the command's options). `inertia`
-    None means not given (a cart then has "pivot"); given to a cart it must be "pivot"."""
+    (`System`, `check_system`, `model.pendulum.Pendulum`, the command's options).
+
+    Parameters
+    ----------
+    system_type : object
+        Expected "classical" or "rotary".
+    links : object
+        Expected an int >= 1 (not a bool).
+    inertia : object
+        "pivot" or "full"; None means not given (a cart then has "pivot"); given to a cart it
+        must be "pivot".
+
+    Returns
+    -------
+    SystemChoiceError or None
+        The error to raise (one line in the library's words; `field` names the value), or None.
+
+    Examples
+    --------
+    >>> str(system_problem("rotary", 0))
+    'links must be an integer >= 1 (got 0): it counts the rods in the chain'
+    >>> system_problem("rotary", 2, "full") is None
+    True
+    """
     if not isinstance(system_type, str) or system_type not in SYSTEM_TYPES:
         return SystemChoiceError(
             f"type must be one of {', '.join(SYSTEM_TYPES)} (got {abbreviate(repr(system_type))})", "type"

@@ -20,13 +20,15 @@ an `[input]` other than zero. Every problem is one line naming the file and the 
 from __future__ import annotations
 
 import math
-from decimal import Decimal
 from typing import Any
 
+from pydantic import ValidationInfo
+
+from ipgen.common import limits
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
-from ipgen.scene.fields import _one_of, _type_name, format_number
-from ipgen.scene.fieldtypes import at, check_count, refuse, refuse_key
+from ipgen.scene.fields import format_number, one_of, type_name
+from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
 # Feedback controllers ([controller] kind) and the named equilibria they stabilise.
 CONTROLLER_KINDS: tuple[str, ...] = ("lqr",)
@@ -51,8 +53,11 @@ EQUILIBRIUM_SCHEMA: dict[str, Any] = {
 }
 
 
-def weights(value: Any, context: dict[str, Any]) -> list[list[float]] | list[float]:
+def weights(value: Any, info: ValidationInfo) -> list[list[float]] | list[float] | None:
     """q: diagonal weights (size numbers >= 0) or a symmetric positive semidefinite matrix."""
+    context = context_of(info, "count")
+    if context is None:
+        return None
     size = 2 * context["count"]
     if not isinstance(value, list):
         refuse(f"expected an array of {size} weights or a {size} × {size} matrix")
@@ -63,16 +68,16 @@ def weights(value: Any, context: dict[str, Any]) -> list[list[float]] | list[flo
 
 
 def _weight(item: Any, context: dict[str, Any]) -> float:
-    number = _finite(item, context)
-    if number < 0:
+    weight = number(item)
+    if weight < 0:
         refuse("weights must be >= 0")
-    return number
+    return weight
 
 
 def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[float]]:
     def row_of(row: list[Any], _: dict[str, Any]) -> list[float]:
         check_count(row, size, f"a {size} × {size} matrix")
-        return [at(j, _finite, item, context) for j, item in enumerate(row)]
+        return [at(j, number, item, context) for j, item in enumerate(row)]
 
     matrix = [at(i, row_of, row, context) for i, row in enumerate(rows)]
     scale = max(1.0, max(abs(x) for row in matrix for x in row))
@@ -91,30 +96,21 @@ def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[fl
     return matrix
 
 
-def _finite(item: Any, context: dict[str, Any]) -> float:
-    if isinstance(item, bool) or not isinstance(item, (int, Decimal)):
-        refuse(f"expected a number, got {_type_name(item)}")
-    try:
-        number = float(item)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        refuse("must be a finite number")
-    return number
-
-
-def equilibrium(value: Any, context: dict[str, Any]) -> str | list[float]:
+def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     """ "upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
+    context = context_of(info, "count")
+    if context is None:
+        return "upright"
     dof = context["count"]
-    expected = f"{_one_of(EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
+    expected = f"{one_of(EQUILIBRIA)}, or an array of {dof} angles [θ0, θ1, ...]"
     if isinstance(value, str):
         if value not in EQUILIBRIA:
             refuse(f"expected {expected}")
         return value
     if not isinstance(value, list):
-        refuse(f"expected {expected}, got {_type_name(value)}")
+        refuse(f"expected {expected}, got {type_name(value)}")
     check_count(value, dof, "θ0 and one angle per link")
-    angles = [at(i, _finite, item, context) for i, item in enumerate(value)]
+    angles = [at(i, number, item, context) for i, item in enumerate(value)]
     for i, angle in enumerate(angles[1:], start=1):
         if abs(math.remainder(angle, math.pi)) > 1e-9:
             refuse(
@@ -138,14 +134,26 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
     if table.period is None:
         return
-    period, t_end, sample = table.period.value, context["t_end"], context["sample"]
+    period, t_end, sample = float(table.period), context["t_end"], context["sample"]
     if not 0 < period <= t_end:
         refuse(f"must be > 0 s and <= t_end ({format_number(t_end)} s)", key="period", value=table.period)
+    periods_within(table.period, t_end)
     if not _commensurate(period, sample):
         refuse(
             f"must be a whole multiple or a whole fraction of simulation.sample ({format_number(sample)} s)",
             key="period",
             value=table.period,
+        )
+
+
+def periods_within(period: Any, t_end: float, key: str = "period") -> None:
+    """At most `limits.MAX_SAMPLES` controller periods in t_end (each is a stop of the integrator)."""
+    if t_end / float(period) > limits.MAX_SAMPLES:
+        refuse(
+            f"t_end / period = {t_end / float(period):.3g} controller periods, more than the "
+            f"{limits.MAX_SAMPLES:.0e} the simulator accepts: a longer period or a shorter t_end",
+            key=key,
+            value=period,
         )
 
 
@@ -180,7 +188,7 @@ def controller(
             params.l,
             params.delta,
             weights_,
-            table.r.value,
+            float(table.r),
             g=params.g,
             inertia=system.inertia,
             equilibrium=table.equilibrium,
@@ -199,8 +207,8 @@ def controller(
         kind=table.kind,
         gain=tuple(float(k) for k in gain.ravel()),  # K is 1 x 2(n+1)
         equilibrium=tuple(float(x) for x in x_eq),
-        saturation=None if table.saturation is None else table.saturation.value,
-        period=None if table.period is None else table.period.value,
+        saturation=None if table.saturation is None else float(table.saturation),
+        period=None if table.period is None else float(table.period),
         unit=_unit(system, actuator),
     )
 

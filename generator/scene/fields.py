@@ -1,5 +1,5 @@
-"""What scene messages share: the file they name (`_Reader`), values shown as written in
-TOML (`_show`), type names, choices, and numbers written so that they read back exactly.
+"""What scene messages share: the file they name (`Reader`), values shown as written in
+TOML (`show`), type names, choices, and numbers written so that they read back exactly.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def format_number(x: float) -> str:
     return repr(x)
 
 
-class _Reader:
+class Reader:
     """Raises `SceneError`s that name the scene file."""
 
     def __init__(self, path: Path) -> None:
@@ -34,13 +34,13 @@ class _Reader:
         raise SceneError(" ".join(text.split()))
 
     def bad(self, key: str, value: object, expected: str) -> NoReturn:
-        self.fail(f"{key} = {_show(value)}: {expected}")
+        self.fail(f"{key} = {show(value)}: {expected}")
 
     def warning(self, message: str) -> str:
         return f"{shown_path(self.path.as_posix())}: warning: {message}"
 
 
-def _show(value: object) -> str:
+def show(value: object) -> str:
     """A value as it would be written in TOML, shortened to stay readable in one line."""
     if isinstance(value, bool):
         text = "true" if value else "false"
@@ -51,9 +51,11 @@ def _show(value: object) -> str:
     elif isinstance(value, str):
         text = json.dumps(value)
     elif isinstance(value, list):
-        text = "[" + ", ".join(_show(item) for item in value) + "]"
+        text = "[" + ", ".join(show(item) for item in value) + "]"
     elif isinstance(value, dict):
-        text = "{" + ", ".join(f"{k} = {_show(v)}" for k, v in value.items()) + "}"
+        text = "{" + ", ".join(f"{k} = {show(v)}" for k, v in value.items()) + "}"
+    elif isinstance(value, int) and value.bit_length() > 14_000:  # str() stops at 4300 digits
+        text = hex(value)
     else:
         text = str(value)
     return abbreviate(text)
@@ -67,13 +69,14 @@ def _show_decimal(value: Decimal) -> str:
     return str(value).lower()  # as written, up to exponent style: 1e5 -> 1e+5
 
 
-def _type_name(value: object) -> str:
+def type_name(value: object) -> str:
     names = {bool: "a boolean", str: "a string", list: "an array", dict: "a table"}
     names.update({int: "an integer", Decimal: "a float"})
-    return names.get(type(value), f"a {type(value).__name__}")
+    kind = Decimal if isinstance(value, Decimal) else type(value)
+    return names.get(kind, f"a {kind.__name__}")
 
 
-def _one_of(options: tuple[str, ...]) -> str:
+def one_of(options: tuple[str, ...]) -> str:
     """'"a" or "b"', '"a", "b" or "c"'."""
     quoted = [f'"{option}"' for option in options]
     return quoted[0] if len(quoted) == 1 else ", ".join(quoted[:-1]) + " or " + quoted[-1]

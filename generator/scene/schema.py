@@ -1,21 +1,20 @@
 """The scene format, declared once: every table, key, type, bound, default and description.
 
-From this one declaration come both the validation (`reader.load_scene` validates each table
-with its model, in the order of `SceneDocument`, and turns the first problem into one line)
-and the JSON Schema (`json_schema()`, printed by `ipgen --scene-schema`, shipped as
-docs/scene.schema.json for editors).
+From this one declaration come both the validation (`load.py` validates the whole document in
+one pydantic call and turns the first problem into one line) and the JSON Schema
+(`json_schema()`, printed by `ipgen --scene-schema`, shipped as docs/scene.schema.json).
 
-A table is a pydantic model (`Table`); a key is an annotated field whose annotation is a kind
-of value from `fieldtypes` (`Number`, `Integer`, `Choice`, `Flag`, `Text`, `PerLink`, `Custom`)
-carrying its bounds and messages, plus a `Field(description=...)` for the schema. Rules
+A table is a pydantic model (`Table`, `extra="forbid"`); a key is a field annotated with
+pydantic's own types and constraints (`Literal`, `Field(strict=True, ge=1)`) or the two of
+`values` (`Real(gt=0, says=...)`, `PerLink(...)`), plus a `Field(description=...)`. Rules
 between keys of a table are its `model_validator`; rules between tables read the validation
-context, which each table extends with `context()` (e.g. [system] gives `links`, `count` =
-links + 1 and `type` to the tables after it).
+context, which each table extends with `context()` as it is validated, in the order of
+`SceneDocument` (e.g. [system] gives `links`, `count` = links + 1 and `type` to the tables after).
 
 Extending (docs/scenes.md, "Extending the format"): a new optional per-link array is one line
 in its table, e.g. in `ParametersTable`
 
-    com: Annotated[tuple[Exact, ...] | None, PerLink(Number(bounds=(Ge(0, "must be >= 0 m"),))),
+    com: Annotated[PerLink(Real(ge=0, says="must be >= 0 m")) | None,
                    Field(description="centre of mass of each link from its pivot [m]")] = None
 
 and a new table is a `Table` subclass with its keys plus one field in `SceneDocument`.
@@ -24,9 +23,20 @@ and a new table is a `Table` subclass with its keys plus one field in `SceneDocu
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any, Literal
+from decimal import Decimal
+from typing import Annotated, Any, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PlainValidator,
+    PrivateAttr,
+    ValidationInfo,
+    model_validator,
+)
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
@@ -36,22 +46,8 @@ from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
 from ipgen.scene import swingup as swing
-from ipgen.scene.fieldtypes import (
-    Choice,
-    Custom,
-    Exact,
-    Flag,
-    Ge,
-    Gt,
-    Integer,
-    Le,
-    Lt,
-    Number,
-    PerLink,
-    Text,
-    refuse,
-    refuse_line,
-)
+from ipgen.scene.fields import format_number, one_of
+from ipgen.scene.values import PerLink, Real, Says, SceneJsonSchema, context_of, keyed, refuse, refuse_line
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
 ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor", "acceleration")  # = model.actuator.ACTUATOR_KINDS
@@ -71,8 +67,6 @@ JACOBIAN_METHODS: tuple[str, ...] = ("bdf", "adams")  # Newton iteration: jacobi
 FIXED_STEP_METHODS: tuple[str, ...] = ("rk4",)  # step required; rtol and atol do not apply
 JACOBIANS: tuple[str, ...] = ("exact", "dq")
 DEFAULT_JACOBIAN = "exact"
-# Which keys of [simulation] each method uses (see `checks.method_settings`).
-METHOD_KEYS = checks.MethodKeys(JACOBIAN_METHODS, JACOBIANS, DEFAULT_JACOBIAN, FIXED_STEP_METHODS)
 
 CONTROLLER_KINDS = control.CONTROLLER_KINDS
 EQUILIBRIA = control.EQUILIBRIA
@@ -108,216 +102,169 @@ class Table(BaseModel):
         """What the tables after this one may need to know of it (see the module docstring)."""
         return {}
 
+    @model_validator(mode="after")
+    def _tell(self, info: ValidationInfo) -> Table:
+        if info.context is not None:
+            info.context.update(self.context())
+        return self
 
-def _default(value: Any) -> Any:
-    """A default that is validated like a written value (numbers become `Exact`)."""
-    return Field(default=value, validate_default=True)
+
+def _exact(value: float) -> Decimal:
+    """A default as the number it stands for written in decimal (9.81 -> Decimal("9.81"))."""
+    return Decimal(repr(value))
+
+
+Flag = Annotated[bool, Field(strict=True)]
 
 
 # ---------------------------------------------------------------------------- [system]
 
 
+_LINKS = "expected an integer >= 1 (the number of pendulum links)"
+
+
 class SystemTable(Table):
     """[system]: which pendulum, and what ipgen writes for it."""
 
-    type: Annotated[
-        str,
-        Choice(options=SYSTEM_TYPES),
-        Field(description="classical: a cart on a rail; rotary: a Furuta arm turning about the vertical"),
-    ]
-    links: Annotated[
-        int,
-        Integer(
-            "an integer >= 1: the number of pendulum links",
-            (Ge(1, "expected an integer >= 1 (the number of pendulum links)"),),
-        ),
-        Field(description="the number of pendulum links (rods)"),
-    ]
-    inertia: Annotated[
-        str,
-        Custom(validate=checks.inertia, schema={"type": "string", "enum": list(INERTIAS)}),
-        Field(description="rotary only: pivot (the published model) or full (complete thin-rod inertia)"),
-    ] = DEFAULT_INERTIA
-    name: Annotated[
-        str | None,
-        Text(
-            problem=checks.model_name_problem,
-            fix="choose another model name",
-            pattern=r"^[A-Za-z][A-Za-z0-9_]*$",
-            max_length=limits.MAX_NAME_LENGTH,
-        ),
-        Field(description="C++ model name: namespace ipgen::NAME, file NAME.hpp (default: <type><links>)"),
-    ] = None
-    specialise: Annotated[
-        bool,
-        Flag(),
-        Field(description="fold this scene's parameters into the header as exact constants"),
-    ] = False
-    emit: Annotated[
-        tuple[str, ...],
-        Custom(
-            validate=checks.emit_targets,
-            schema={"type": "array", "items": {"type": "string", "enum": list(TARGETS)}, "minItems": 1},
-        ),
-        Field(
-            description="what ipgen writes for the model", json_schema_extra={"default": list(DEFAULT_EMIT)}
-        ),
-    ] = DEFAULT_EMIT
+    type: Literal[SYSTEM_TYPES] = Field(
+        description="classical: a cart on a rail; rotary: a Furuta arm turning about the vertical"
+    )
+    links: Annotated[int, Says(_LINKS, "an integer >= 1: the number of pendulum links")] = Field(
+        strict=True, ge=1, description="the number of pendulum links (rods)"
+    )
+    inertia: Annotated[Literal[INERTIAS], BeforeValidator(checks.inertia)] = Field(
+        DEFAULT_INERTIA,
+        description="rotary only: pivot (the published model) or full (complete thin-rod inertia)",
+    )
+    name: Annotated[str | None, AfterValidator(checks.model_name)] = Field(
+        None,
+        strict=True,
+        description="C++ model name: namespace ipgen::NAME, file NAME.hpp (default: <type><links>)",
+        json_schema_extra={"pattern": r"^[A-Za-z][A-Za-z0-9_]*$", "maxLength": limits.MAX_NAME_LENGTH},
+    )
+    specialise: Flag = Field(
+        False, description="fold this scene's parameters into the header as exact constants"
+    )
+    emit: Annotated[tuple[str, ...], PlainValidator(checks.emit_targets)] = Field(
+        DEFAULT_EMIT,
+        description="what ipgen writes for the model",
+        json_schema_extra={"type": "array", "items": {"type": "string", "enum": list(TARGETS)}}
+        | {"minItems": 1, "default": list(DEFAULT_EMIT)},
+    )
     # The rig's own coordinates (docs/scenes.md, "The rig's coordinates"): how [initial],
     # [controller], the CSV, the plots and the scene's headers measure the link angles.
-    angles: Annotated[
-        str,
-        Choice(options=frame.ANGLES),
-        Field(
-            description="link angles: absolute (each from the vertical) or relative (link i from link "
-            "i - 1), in [initial], [controller], the CSV, the plots and the headers"
-        ),
-    ] = frame.Coordinates.angles
-    zero: Annotated[
-        str,
-        Choice(options=frame.ZEROS),
-        Field(
-            description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
-            "the others are 0 in line with the link below)"
-        ),
-    ] = frame.Coordinates.zero
-    positive: Annotated[
-        str,
-        Choice(options=frame.POSITIVE),
-        Field(
-            description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or "
-            "counterclockwise"
-        ),
-    ] = frame.Coordinates.positive
+    angles: Literal[frame.ANGLES] = Field(
+        frame.Coordinates.angles,
+        description="link angles: absolute (each from the vertical) or relative (link i from link "
+        "i - 1), in [initial], [controller], the CSV, the plots and the headers",
+    )
+    zero: Literal[frame.ZEROS] = Field(
+        frame.Coordinates.zero,
+        description="where a link angle is 0: upright or hanging (relative angles: link 1's; "
+        "the others are 0 in line with the link below)",
+    )
+    positive: Literal[frame.POSITIVE] = Field(
+        frame.Coordinates.positive,
+        description="the link angles' positive sense: clockwise (ipgen's, docs/model.md) or counterclockwise",
+    )
 
     def coordinates(self) -> frame.Coordinates:
         """The convention of the link angles this table declares."""
         return frame.Coordinates(self.angles, self.zero, self.positive)
 
     def context(self) -> dict[str, Any]:
-        return {
-            "coordinates": self.coordinates(),
+        unit = "N" if self.type == "classical" else "N m"
+        given = {
             "type": self.type,
             "links": self.links,
-            "count": self.links + 1,
             "specialise": self.specialise,
             "inertia": self.inertia,
-            "u_unit": "N" if self.type == "classical" else "N m",
         }
+        return given | {"coordinates": self.coordinates(), "count": self.links + 1, "u_unit": unit}
 
 
 # ---------------------------------------------------------------------------- [parameters]
 
 
 _PER_LINK = "links + 1 entries: index 0 the base (cart or arm), 1..n the links"
+_INERTIA = Real(ge=0, says="an inertia cannot be negative")
 
 
 class ParametersTable(Table):
     """[parameters]: masses, lengths, damping and gravity (SI units)."""
 
-    m: Annotated[
-        tuple[Exact, ...],
-        PerLink(Number(bounds=(Gt(0, "masses must be > 0 kg"),))),
-        Field(description=f"masses [kg], {_PER_LINK}"),
-    ]
-    l: Annotated[  # noqa: E741 (the paper's name for the lengths)
-        tuple[Exact, ...],
-        PerLink(Number()),
-        Field(description=f"lengths [m], {_PER_LINK}; l[0] is the arm (rotary, > 0), a cart has none: 0"),
-    ]
-    delta: Annotated[
-        tuple[Exact, ...],
-        PerLink(Number(bounds=(Ge(0, "damping must be >= 0"),))),
-        Field(description=f"viscous damping coefficients, {_PER_LINK}"),
-    ]
-    g: Annotated[
-        Exact,
-        Number("gravity in m/s^2", (Ge(0, "gravity must be >= 0 m/s^2 (0 switches it off)"),)),
-        Field(description="gravity [m/s^2] (0 switches it off)"),
-    ] = _default(DEFAULT_G)
+    m: PerLink(Real(gt=0, says="masses must be > 0 kg")) = Field(description=f"masses [kg], {_PER_LINK}")
+    l: PerLink(Real()) = Field(  # noqa: E741 (the paper's name for the lengths)
+        description=f"lengths [m], {_PER_LINK}; l[0] is the arm (rotary, > 0), a cart has none: 0"
+    )
+    delta: PerLink(Real(ge=0, says="damping must be >= 0")) = Field(
+        description=f"viscous damping coefficients, {_PER_LINK}"
+    )
+    g: Real(ge=0, says="gravity must be >= 0 m/s^2 (0 switches it off)", what="gravity in m/s^2") = Field(
+        _exact(DEFAULT_G), description="gravity [m/s^2] (0 switches it off)"
+    )
     # The links as built (docs/model.md, "Links as built"); absent: the paper's rods.
-    com: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number()),
-        Field(
-            description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} "
-            "(0 unused); default l/2"
-        ),
-    ] = None
-    J: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
-        Field(
-            description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
-            "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)"
-        ),
-    ] = None
-    J_axial: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number(bounds=(Ge(0, "an inertia cannot be negative"),))),
-        Field(
-            description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
-            f"{_PER_LINK}; default 0"
-        ),
-    ] = None
-    tip: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number(bounds=(Ge(0, "a mass cannot be negative"),))),
-        Field(description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"),
-    ] = None
-    coulomb: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number(bounds=(Ge(0, "friction must be >= 0"),))),
-        Field(
-            description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
-            f"{_PER_LINK}; default 0"
-        ),
-    ] = None
-    coulomb_speed: Annotated[
-        Exact,
-        Number(bounds=(Gt(0, "must be > 0 (m/s or rad/s)"),)),
-        Field(description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]"),
-    ] = _default(DEFAULT_COULOMB_SPEED)
-    free: Annotated[
-        tuple[str, ...],
-        Custom(validate=checks.free_names, schema={"type": "array", "items": {"type": "string"}}),
-        Field(
-            description="with specialise = true: parameters kept symbolic (m0, l1, delta2, g, ...)",
-            json_schema_extra={"default": []},
-        ),
-    ] = ()
+    com: PerLink(Real()) | None = Field(
+        None,
+        description=f"pivot-to-CoG distance of each link [m] (any finite number), {_PER_LINK} (0 unused); "
+        "default l/2",
+    )
+    J: PerLink(_INERTIA) | None = Field(
+        None,
+        description=f"inertia of each link about its CoG, across it [kg m^2], {_PER_LINK}; "
+        "J[0]: the rotary arm's about the vertical; default m l^2/12 (J[0]: m0 l0^2/3)",
+    )
+    J_axial: PerLink(_INERTIA) | None = Field(
+        None,
+        description=f"inertia of each link about its own axis [kg m^2] (<= 2 J; rotary, inertia full), "
+        f"{_PER_LINK}; default 0",
+    )
+    tip: PerLink(Real(ge=0, says="a mass cannot be negative")) | None = Field(
+        None, description=f"point mass at the far end of each link [kg], {_PER_LINK} (0 unused); default 0"
+    )
+    coulomb: PerLink(Real(ge=0, says="friction must be >= 0")) | None = Field(
+        None,
+        description=f"Coulomb friction per coordinate [N or N m] (simulator only, not linearised), "
+        f"{_PER_LINK}; default 0",
+    )
+    coulomb_speed: Real(gt=0, says="must be > 0 (m/s or rad/s)") = Field(
+        _exact(DEFAULT_COULOMB_SPEED),
+        description="the Coulomb law's smoothing rate v_s: f = c tanh(w / v_s) [m/s or rad/s]",
+    )
+    free: Annotated[tuple[str, ...], PlainValidator(checks.free_names)] = Field(
+        (),
+        description="with specialise = true: parameters kept symbolic (m0, l1, delta2, g, ...)",
+        json_schema_extra={"type": "array", "items": {"type": "string"}, "default": []},
+    )
 
     @model_validator(mode="after")
-    def _relations(self, info: Any) -> ParametersTable:
-        context = info.context
+    def _relations(self, info: ValidationInfo) -> ParametersTable:
+        context = context_of(info, "type", "specialise")
+        if context is None:
+            return self
         checks.lengths(self.l, context["type"])
         checks.links_as_built(self, context)
         if self.free and not context["specialise"]:
-            refuse(
-                "applies to specialised code only: add specialise = true to [system]",
-                key="free",
-                value=list(self.free),
-            )
+            expected = "applies to specialised code only: add specialise = true to [system]"
+            refuse(expected, key="free", value=list(self.free))
         if context["specialise"]:
             checks.foldable(self.decimals(context["type"]), self.free, context["type"])
         return self
 
-    def lengths(self, system_type: str) -> tuple[Exact, ...]:
+    def lengths(self, system_type: str) -> tuple[Decimal, ...]:
         """l, with a cart's (ignored) length written as 0."""
-        return (Exact(0.0, "0"), *self.l[1:]) if system_type == "classical" else self.l
+        return (Decimal(0), *self.l[1:]) if system_type == "classical" else self.l
 
     def decimals(self, system_type: str) -> tuple[tuple[str, str], ...]:
         """("m0", "0.3"), ..., ("g", "9.81"): each parameter's decimal text as written."""
         groups = (("m", self.m), ("l", self.lengths(system_type)), ("delta", self.delta))
-        named = [(f"{base}{i}", number.text) for base, values in groups for i, number in enumerate(values)]
+        named = [(f"{base}{i}", str(x)) for base, values in groups for i, x in enumerate(values)]
         built = [
-            (f"{group}{i}", number.text)
-            for group, values in self.links_as_built()
-            for i, number in enumerate(values)
+            (f"{group}{i}", str(x)) for group, values in self.links_as_built() for i, x in enumerate(values)
         ]
-        return (*named, ("g", self.g.text), *built)
+        return (*named, ("g", str(self.g)), *built)
 
-    def links_as_built(self) -> tuple[tuple[str, tuple[Exact, ...]], ...]:
+    def links_as_built(self) -> tuple[tuple[str, tuple[Decimal, ...]], ...]:
         """(group, values) of the link arrays the scene gives (com, J, J_axial, tip)."""
         return tuple(
             (group, values) for group in model.LINK_GROUPS if (values := getattr(self, group)) is not None
@@ -326,13 +273,12 @@ class ParametersTable(Table):
 
 # ---------------------------------------------------------------------------- [actuator]
 
+_POSITIVE = {"gt": 0, "says": "must be > 0"}
+_EFFICIENCY = {"gt": 0, "le": 1, "says": "an efficiency is in (0, 1]"}
 
-def _motor_constant(description: str, bounds: tuple = ()) -> Any:
-    return Annotated[Exact | None, Number(bounds=bounds), Field(description=description)]
 
-
-_POSITIVE = (Gt(0, "must be > 0"),)
-_EFFICIENCY = (Gt(0, "an efficiency is in (0, 1]"), Le(1, "an efficiency is in (0, 1]"))
+def _motor(description: str, **bounds: Any) -> Any:
+    return Annotated[Real(**bounds) | None, Field(description=description)]
 
 
 class ActuatorTable(Table):
@@ -341,42 +287,43 @@ class ActuatorTable(Table):
     the base's acceleration [m/s² or rad/s²], imposed by a servo (docs/model.md, "An
     acceleration-driven base")."""
 
-    kind: Annotated[
-        str,
-        Choice(options=ACTUATOR_KINDS),
-        Field(
-            description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]; "
-            "acceleration: u is the base's acceleration [m/s^2 on a cart, rad/s^2 on an arm]"
-        ),
-    ] = "direct"
-    Rm: _motor_constant("dc_motor: armature resistance [Ω] (required)", _POSITIVE) = None
-    kt: _motor_constant("dc_motor: torque constant [N m/A] (required)", _POSITIVE) = None
-    km: _motor_constant("dc_motor: back-EMF constant [V s/rad] (required)", _POSITIVE) = None
-    Kg: _motor_constant("dc_motor: gear ratio, motor turns per output turn (default 1)", _POSITIVE) = None
-    eta_g: _motor_constant("dc_motor: gearbox efficiency in (0, 1] (default 1)", _EFFICIENCY) = None
-    eta_m: _motor_constant("dc_motor: motor efficiency in (0, 1] (default 1)", _EFFICIENCY) = None
-    Jm: _motor_constant(
-        "dc_motor: rotor inertia [kg m^2] (default 0)", (Ge(0, "an inertia cannot be negative"),)
-    ) = None
-    r: _motor_constant("dc_motor on a cart: pinion radius [m] (required there)", _POSITIVE) = None
+    kind: Literal[ACTUATOR_KINDS] = Field(
+        "direct",
+        description="direct: u is the force or torque on the base; dc_motor: u is the motor voltage [V]; "
+        "acceleration: u is the base's acceleration [m/s^2 on a cart, rad/s^2 on an arm]",
+    )
+    Rm: _motor("dc_motor: armature resistance [Ω] (required)", **_POSITIVE) = None
+    kt: _motor("dc_motor: torque constant [N m/A] (required)", **_POSITIVE) = None
+    km: _motor("dc_motor: back-EMF constant [V s/rad] (required)", **_POSITIVE) = None
+    Kg: _motor("dc_motor: gear ratio, motor turns per output turn (default 1)", **_POSITIVE) = None
+    eta_g: _motor("dc_motor: gearbox efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
+    eta_m: _motor("dc_motor: motor efficiency in (0, 1] (default 1)", **_EFFICIENCY) = None
+    Jm: _motor("dc_motor: rotor inertia [kg m^2] (default 0)", ge=0, says="an inertia cannot be negative") = (
+        None
+    )
+    r: _motor("dc_motor on a cart: pinion radius [m] (required there)", **_POSITIVE) = None
     _rotary: bool = PrivateAttr(default=False)  # the system's type, for u's unit
 
     @model_validator(mode="after")
-    def _relations(self, info: Any) -> ActuatorTable:
+    def _relations(self, info: ValidationInfo) -> ActuatorTable:
         from ipgen.model.actuator import ActuatorError
 
+        context = context_of(info, "type", "links")
+        if context is None:
+            return self
         try:
-            self.actuator().check(model.System(info.context["type"], info.context["links"]))
+            self.actuator().check(model.System(context["type"], context["links"]))
         except ActuatorError as exc:
             refuse_line(str(exc))
-        self._rotary = info.context["type"] == "rotary"
+        self._rotary = context["type"] == "rotary"
+        context.update(self.context())  # with _rotary known
         return self
 
     def actuator(self) -> Any:
         """The `ipgen.model.actuator.Actuator` this table declares."""
         from ipgen.model.actuator import Actuator
 
-        given = {name: value.value for name in MOTOR_KEYS if (value := getattr(self, name)) is not None}
+        given = {name: float(value) for name in MOTOR_KEYS if (value := getattr(self, name)) is not None}
         return Actuator(self.kind, **given)
 
     def context(self) -> dict[str, Any]:
@@ -391,26 +338,31 @@ class ActuatorTable(Table):
 class InitialTable(Table):
     """[initial]: the state at t = 0 (default: upright, at rest)."""
 
-    theta: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number()),
-        Field(description=f"angles [rad] (the base: position [m] or angle [rad]), {_PER_LINK}"),
-    ] = None
-    dtheta: Annotated[
-        tuple[Exact, ...] | None,
-        PerLink(Number()),
-        Field(description=f"velocities [rad/s] (a cart: [m/s]), {_PER_LINK}"),
-    ] = None
+    theta: PerLink(Real()) | None = Field(
+        None, description=f"angles [rad] (the base: position [m] or angle [rad]), {_PER_LINK}"
+    )
+    dtheta: PerLink(Real()) | None = Field(
+        None, description=f"velocities [rad/s] (a cart: [m/s]), {_PER_LINK}"
+    )
 
 
 # ---------------------------------------------------------------------------- [input]
 
 _AMPLITUDE = Annotated[
-    Exact,
-    Number("a number: N on a cart, N m on an arm"),
+    Real(what="a number: N on a cart, N m on an arm"),
     Field(description="force on the cart [N] or torque on the arm [N m]"),
 ]
-_NOT_BEFORE_START = "must be >= 0 s (the simulation starts at 0)"
+_START = Annotated[
+    Real(ge=0, says="must be >= 0 s (the simulation starts at 0)", what="a time in s"),
+    Field(description="[s]"),
+]
+_FREQUENCY = Real(ge=0, says="must be >= 0 Hz", what="a frequency in Hz, >= 0")
+_PEAK = Annotated[
+    Real(gt=0, says="must be > 0 {u_unit} (the peak |u|)", what="a number > 0: N on a cart, N m on an arm"),
+    Field(
+        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
+    ),
+]
 
 
 class InputTable(Table):
@@ -421,136 +373,93 @@ class InputTable(Table):
 
 
 class ZeroInput(InputTable):
-    kind: Annotated[Literal["zero"], Field(description="no input")]
+    kind: Literal["zero"] = Field(description="no input")
 
 
 class ConstantInput(InputTable):
-    kind: Annotated[Literal["constant"], Field(description="u = amplitude")]
+    kind: Literal["constant"] = Field(description="u = amplitude")
     amplitude: _AMPLITUDE
 
 
 class PulseInput(InputTable):
-    kind: Annotated[Literal["pulse"], Field(description="u = amplitude for start <= t < start + duration")]
+    kind: Literal["pulse"] = Field(description="u = amplitude for start <= t < start + duration")
     amplitude: _AMPLITUDE
-    start: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")] = (
-        _default(0.0)
+    start: _START = _exact(0.0)
+    duration: Real(gt=0, says="a pulse duration must be > 0 s", what="a time in s, > 0") = Field(
+        description="[s]"
     )
-    duration: Annotated[
-        Exact,
-        Number("a time in s, > 0", (Gt(0, "a pulse duration must be > 0 s"),)),
-        Field(description="[s]"),
-    ]
 
 
 class StepInput(InputTable):
-    kind: Annotated[Literal["step"], Field(description="u = amplitude from t = time on")]
+    kind: Literal["step"] = Field(description="u = amplitude from t = time on")
     amplitude: _AMPLITUDE
-    time: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")]
+    time: _START
 
 
 class SineInput(InputTable):
-    kind: Annotated[Literal["sine"], Field(description="u = amplitude sin(2π frequency t + phase)")]
+    kind: Literal["sine"] = Field(description="u = amplitude sin(2π frequency t + phase)")
     amplitude: _AMPLITUDE
-    frequency: Annotated[
-        Exact, Number("a frequency in Hz, >= 0", (Ge(0, "must be >= 0 Hz"),)), Field(description="[Hz]")
-    ]
-    phase: Annotated[Exact, Number("an angle in rad"), Field(description="[rad]")] = _default(0.0)
-
-
-_PEAK = Annotated[
-    Exact,
-    Number("a number > 0: N on a cart, N m on an arm", (Gt(0, "must be > 0 {u_unit} (the peak |u|)"),)),
-    Field(
-        description="the peak |u|: force on the cart [N] or torque on the arm [N m] (volts with a dc_motor)"
-    ),
-]
-_FREQUENCY = Number("a frequency in Hz, >= 0", (Ge(0, "must be >= 0 Hz"),))
+    frequency: _FREQUENCY = Field(description="[Hz]")
+    phase: Real(what="an angle in rad") = Field(_exact(0.0), description="[rad]")
 
 
 class ChirpInput(InputTable):
-    kind: Annotated[
-        Literal["chirp"],
-        Field(
-            description="a swept sine u = amplitude sin φ(t − start) for start <= t < start + duration, "
-            "its frequency going from f0 to f1 (docs/excitation.md has φ)"
-        ),
-    ]
-    amplitude: _PEAK
-    f0: Annotated[Exact, _FREQUENCY, Field(description="the frequency at the start [Hz]")]
-    f1: Annotated[Exact, _FREQUENCY, Field(description="the frequency at the end [Hz], > f0")]
-    duration: Annotated[
-        Exact,
-        Number("a time in s, > 0", (Gt(0, "the sweep's duration must be > 0 s"),)),
-        Field(description="the sweep's length [s]"),
-    ]
-    start: Annotated[Exact, Number("a time in s", (Ge(0, _NOT_BEFORE_START),)), Field(description="[s]")] = (
-        _default(0.0)
+    kind: Literal["chirp"] = Field(
+        description="a swept sine u = amplitude sin φ(t − start) for start <= t < start + duration, "
+        "its frequency going from f0 to f1 (docs/excitation.md has φ)"
     )
-    sweep: Annotated[
-        str,
-        Choice(options=signals.SWEEPS),
-        Field(description="linear: f rises linearly in time; logarithmic: exponentially (needs f0 > 0)"),
-    ] = "linear"
+    amplitude: _PEAK
+    f0: _FREQUENCY = Field(description="the frequency at the start [Hz]")
+    f1: _FREQUENCY = Field(description="the frequency at the end [Hz], > f0")
+    duration: Real(gt=0, says="the sweep's duration must be > 0 s", what="a time in s, > 0") = Field(
+        description="the sweep's length [s]"
+    )
+    start: _START = _exact(0.0)
+    sweep: Literal[signals.SWEEPS] = Field(
+        "linear", description="linear: f rises linearly in time; logarithmic: exponentially (needs f0 > 0)"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> ChirpInput:
-        if not self.f1.value > self.f0.value:
-            refuse(
-                f"must be > f0 = {self.f0.text} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1
-            )
-        if self.sweep == "logarithmic" and not self.f0.value > 0:
-            refuse(
-                'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"',
-                key="f0",
-                value=self.f0,
-            )
+        if not float(self.f1) > float(self.f0):
+            refuse(f"must be > f0 = {self.f0} Hz (the sweep rises from f0 to f1)", key="f1", value=self.f1)
+        if self.sweep == "logarithmic" and not float(self.f0) > 0:
+            expected = 'a logarithmic sweep starts above 0 Hz: give f0 > 0 or sweep = "linear"'
+            refuse(expected, key="f0", value=self.f0)
         return self
 
 
 class MultisineInput(InputTable):
-    kind: Annotated[
-        Literal["multisine"],
-        Field(
-            description="a periodic sum of cosines at every harmonic of 1/period in [f_min, f_max], "
-            "Schroeder phases (low crest factor), scaled so that max |u| = amplitude"
-        ),
-    ]
+    kind: Literal["multisine"] = Field(
+        description="a periodic sum of cosines at every harmonic of 1/period in [f_min, f_max], "
+        "Schroeder phases (low crest factor), scaled so that max |u| = amplitude"
+    )
     amplitude: _PEAK
-    f_min: Annotated[Exact, _FREQUENCY, Field(description="the band's lowest frequency [Hz]")]
-    f_max: Annotated[Exact, _FREQUENCY, Field(description="the band's highest frequency [Hz], > f_min")]
-    period: Annotated[
-        Exact,
-        Number("a time in s, > 0", (Gt(0, "the multisine's period must be > 0 s"),)),
-        Field(description="the signal's period [s]: its lines are the harmonics k / period in the band"),
-    ]
+    f_min: _FREQUENCY = Field(description="the band's lowest frequency [Hz]")
+    f_max: _FREQUENCY = Field(description="the band's highest frequency [Hz], > f_min")
+    period: Real(gt=0, says="the multisine's period must be > 0 s", what="a time in s, > 0") = Field(
+        description="the signal's period [s]: its lines are the harmonics k / period in the band"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> MultisineInput:
-        if not self.f_max.value > self.f_min.value:
-            refuse(f"must be > f_min = {self.f_min.text} Hz", key="f_max", value=self.f_max)
-        k_lo, k_hi = signals.harmonics(self.f_min.value, self.f_max.value, self.period.value)
+        if not float(self.f_max) > float(self.f_min):
+            refuse(f"must be > f_min = {self.f_min} Hz", key="f_max", value=self.f_max)
+        f_min, f_max, period = float(self.f_min), float(self.f_max), float(self.period)
+        k_lo, k_hi = signals.harmonics(f_min, f_max, period)
+        lines = k_hi - k_lo + 1
         if k_hi > signals.MAX_HARMONIC:
-            refuse(
-                f"f_max · period = {self.f_max.value * self.period.value:g}, more than "
-                f"{signals.MAX_HARMONIC} harmonics: shorten the period",
-                key="period",
-                value=self.period,
-            )
-        if k_hi - k_lo + 1 < 1:
-            refuse(
-                f"no harmonic k / period lies in [{self.f_min.text}, {self.f_max.text}] Hz: "
-                "lengthen the period or widen the band",
-                key="period",
-                value=self.period,
-            )
-        if k_hi - k_lo + 1 > signals.MAX_LINES:
-            refuse(
-                f"gives {k_hi - k_lo + 1} lines in the band, more than {signals.MAX_LINES}: "
-                "shorten the period or narrow the band",
-                key="period",
-                value=self.period,
-            )
-        return self
+            expected = f"f_max · period = {f_max * period:g}, more than {signals.MAX_HARMONIC} harmonics"
+            expected += ": shorten the period"
+        elif lines < 1:
+            expected = f"no harmonic k / period lies in [{self.f_min}, {self.f_max}] Hz"
+            expected += ": lengthen the period or widen the band"
+        elif lines > signals.MAX_LINES:
+            expected = f"gives {lines} lines in the band, more than {signals.MAX_LINES}"
+            expected += ": shorten the period or narrow the band"
+        else:
+            return self
+        refuse(expected, key="period", value=self.period)
 
 
 # Each kind of input and its model, in the documented order; `kind` tells them apart.
@@ -579,21 +488,17 @@ INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
 
 # ---------------------------------------------------------------------------- [limits]
 
+_TRAVEL = "the travel limit must be > 0 (m on a cart, rad on an arm)"
+
 
 class LimitsTable(Table):
     """[limits]: where the rig ends; the simulator stops a run that goes beyond (exit status 4)."""
 
-    travel: Annotated[
-        Exact | None,
-        Number(
-            "a travel limit > 0 (m on a cart, rad on an arm)",
-            (Gt(0, "the travel limit must be > 0 (m on a cart, rad on an arm)"),),
-        ),
-        Field(
-            description="the base's limit |θ0| <= travel: the cart's position [m] or the arm's angle [rad] "
-            "(default: none); checked at every sample"
-        ),
-    ] = None
+    travel: Real(gt=0, says=_TRAVEL, what="a travel limit > 0 (m on a cart, rad on an arm)") | None = Field(
+        None,
+        description="the base's limit |θ0| <= travel: the cart's position [m] or the arm's angle [rad] "
+        "(default: none); checked at every sample",
+    )
 
 
 # ---------------------------------------------------------------------------- [simulation]
@@ -602,77 +507,93 @@ class LimitsTable(Table):
 class SimulationTable(Table):
     """[simulation]: how long, how often to sample, and how to integrate."""
 
-    t_end: Annotated[
-        Exact,
-        Number("the simulated time in s, > 0", (Gt(0, "must be > 0 s"),)),
-        Field(description="the simulated time [s]"),
-    ]
-    sample: Annotated[
-        Exact,
-        Custom(validate=checks.sample, schema={"type": "number", "exclusiveMinimum": 0}),
-        Field(description="output interval [s], > 0 and <= t_end"),
-    ] = _default(DEFAULT_SAMPLE)
-    method: Annotated[
-        str,
-        Choice(options=METHODS),
-        Field(description="integration method: CVODE bdf/adams, ARKODE erk-*, or fixed-step rk4"),
-    ] = DEFAULT_METHOD
-    jacobian: Annotated[
-        str | None,
-        Custom(validate=checks.raw, schema={"type": "string", "enum": list(JACOBIANS)}),  # method_settings
-        Field(
-            description="bdf and adams only: exact (generated) or dq (difference quotients)",
-            json_schema_extra={"default": DEFAULT_JACOBIAN},
-        ),
-    ] = None
+    t_end: Real(gt=0, says="must be > 0 s", what="the simulated time in s, > 0") = Field(
+        description="the simulated time [s]"
+    )
+    sample: Annotated[Real(), AfterValidator(checks.sample)] = Field(
+        _exact(DEFAULT_SAMPLE),
+        validate_default=True,  # against t_end
+        description="output interval [s], > 0 and <= t_end",
+        json_schema_extra={"exclusiveMinimum": 0},
+    )
+    method: Literal[METHODS] = Field(
+        DEFAULT_METHOD, description="integration method: CVODE bdf/adams, ARKODE erk-*, or fixed-step rk4"
+    )
+    jacobian: Any = Field(  # checked by method (`method_settings`)
+        None,
+        description="bdf and adams only: exact (generated) or dq (difference quotients)",
+        json_schema_extra={"type": "string", "enum": list(JACOBIANS), "default": DEFAULT_JACOBIAN},
+    )
     rtol: Annotated[
-        Exact,
-        Number(
-            bounds=(
-                Gt(0, "must be in (0, 1); 1e-10 is a good choice"),
-                Lt(1, "must be in (0, 1); 1e-10 is a good choice"),
-                Ge(RTOL_MIN, "cannot be met in double precision; use >= 1e-14"),
-            )
-        ),
-        Field(description="relative tolerance (every method but rk4)"),
-    ] = _default(DEFAULT_RTOL)
-    atol: Annotated[
-        Exact,
-        Number(bounds=(Ge(0, "must be >= 0"),)),
-        Field(description="absolute tolerance (every method but rk4)"),
-    ] = _default(DEFAULT_ATOL)
-    step: Annotated[
-        Exact | None,
-        Custom(validate=checks.raw, schema={"type": "number", "exclusiveMinimum": 0}),  # method_settings
-        Field(description="rk4 only (required there): the fixed step [s], > 0 and <= sample"),
-    ] = None
-    max_steps: Annotated[
-        int,
-        Integer(bounds=(Ge(1, "must be an integer >= 1"),)),
-        Field(description="the integrator's step limit between two samples"),
-    ] = DEFAULT_MAX_STEPS
+        Real(gt=0, lt=1, says="must be in (0, 1); 1e-10 is a good choice"), AfterValidator(checks.rtol)
+    ] = Field(
+        _exact(DEFAULT_RTOL),
+        description="relative tolerance (every method but rk4)",
+        json_schema_extra={"minimum": RTOL_MIN},
+    )
+    atol: Real(ge=0, says="must be >= 0") = Field(
+        _exact(DEFAULT_ATOL), description="absolute tolerance (every method but rk4)"
+    )
+    step: Any = Field(  # checked by method (`method_settings`)
+        None,
+        description="rk4 only (required there): the fixed step [s], > 0 and <= sample",
+        json_schema_extra={"type": "number", "exclusiveMinimum": 0},
+    )
+    max_steps: Annotated[int, Says("must be an integer >= 1")] = Field(
+        DEFAULT_MAX_STEPS, strict=True, ge=1, description="the integrator's step limit between two samples"
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> SimulationTable:
-        checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
+        self.method_settings()
         return self
+
+    def method_settings(self) -> tuple[str | None, Decimal | None]:
+        """(jacobian, step) of `method`, whose keys are checked only when the method uses them:
+        a Jacobian choice for bdf and adams (default "exact"); a fixed step for rk4 (required,
+        in (0, sample]), which takes no rtol and atol."""
+        given, method, jacobian = self.model_fields_set, self.method, None
+        if method in JACOBIAN_METHODS:
+            jacobian = DEFAULT_JACOBIAN if self.jacobian is None else self.jacobian
+            if jacobian not in JACOBIANS:
+                refuse(f"expected {one_of(JACOBIANS)}", key="jacobian", value=self.jacobian)
+        elif "jacobian" in given:
+            expected = f'applies to methods {one_of(JACOBIAN_METHODS)} only (method is "{method}"); remove it'
+            refuse(expected, key="jacobian", value=self.jacobian)
+        if method not in FIXED_STEP_METHODS:
+            if "step" in given:
+                expected = (
+                    f'applies to method "rk4" only (method "{method}" chooses its own steps); remove it'
+                )
+                refuse(expected, key="step", value=self.step)
+            return jacobian, None
+        for key in ("rtol", "atol"):
+            if key in given:
+                fixed = 'does not apply to method "rk4" (it has a fixed step); remove it'
+                refuse(fixed, key=key, value=getattr(self, key))
+        if self.step is None:
+            missing = "missing required key 'simulation.step'"
+            refuse_line(f'{missing} (the fixed step of method "rk4" in s, > 0 and <= sample)')
+        step = keyed("step", self.step)
+        if not 0 < float(step) <= float(self.sample):
+            expected = f"must be > 0 s and <= sample ({format_number(float(self.sample))} s)"
+            refuse(expected, key="step", value=step)
+        return jacobian, step
 
     def settings(self) -> dict[str, Any]:
         """The Scene's simulation fields (floats; jacobian and step by method)."""
-        jacobian, step = checks.method_settings(self, self.model_fields_set, METHOD_KEYS)
-        return {
-            "t_end": self.t_end.value,
-            "sample": self.sample.value,
+        jacobian, step = self.method_settings()
+        numbers = {key: float(getattr(self, key)) for key in ("t_end", "sample", "rtol", "atol")}
+        step_ = None if step is None else float(step)
+        return numbers | {
             "method": self.method,
-            "rtol": self.rtol.value,
-            "atol": self.atol.value,
             "max_steps": self.max_steps,
             "jacobian": jacobian,
-            "step": None if step is None else step.value,
+            "step": step_,
         }
 
     def context(self) -> dict[str, Any]:
-        return {"t_end": self.t_end.value, "sample": self.sample.value}
+        return {"t_end": float(self.t_end), "sample": float(self.sample)}
 
 
 # ---------------------------------------------------------------------------- [outputs]
@@ -681,11 +602,9 @@ class SimulationTable(Table):
 class OutputsTable(Table):
     """[outputs]: extra columns of the simulator's CSV."""
 
-    energy: Annotated[
-        bool,
-        Flag(),
-        Field(description="add the energy ledger columns (kinetic, potential, dissipated, input work)"),
-    ] = False
+    energy: Flag = Field(
+        False, description="add the energy ledger columns (kinetic, potential, dissipated, input work)"
+    )
 
 
 # ---------------------------------------------------------------------------- [controller]
@@ -694,47 +613,35 @@ class OutputsTable(Table):
 class ControllerTable(Table):
     """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen."""
 
-    kind: Annotated[
-        str, Choice(options=CONTROLLER_KINDS), Field(description="lqr: a linear-quadratic regulator")
-    ]
-    q: Annotated[
-        Any,
-        Custom(validate=control.weights, schema=control.WEIGHTS_SCHEMA),
-        Field(
-            description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)"
-        ),
-    ] = None
-    r: Annotated[
-        Exact,
-        Number("the weight of u², > 0", (Gt(0, "the weight of u² must be > 0"),)),
-        Field(description="weight of u²"),
-    ] = _default(DEFAULT_R)
-    equilibrium: Annotated[
-        Any,
-        Custom(validate=control.equilibrium, schema=control.EQUILIBRIUM_SCHEMA),
-        Field(
-            description="upright, hanging, or the angles [θ0, θ1, ...] (links at 0 or π)",
-            json_schema_extra={"default": DEFAULT_EQUILIBRIUM},
-        ),
-    ] = DEFAULT_EQUILIBRIUM
-    saturation: Annotated[
-        Exact | None,
-        Number(bounds=(Gt(0, "the largest |u| must be > 0 {u_unit}"),)),
-        Field(description="the largest |u| [N or N m] (default: unbounded)"),
-    ] = None
-    period: Annotated[
-        Exact | None,
-        Number(),  # > 0, <= t_end and commensurate with sample: `controller.relations`
-        Field(
-            description="sampling period [s], a whole multiple or fraction of simulation.sample "
-            "(default: continuous)",
-            json_schema_extra={"exclusiveMinimum": 0},
-        ),
-    ] = None
+    kind: Literal[CONTROLLER_KINDS] = Field(description="lqr: a linear-quadratic regulator")
+    q: Annotated[Any, PlainValidator(control.weights)] = Field(
+        None,
+        description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)",
+        json_schema_extra=control.WEIGHTS_SCHEMA,
+    )
+    r: Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0") = Field(
+        _exact(DEFAULT_R), description="weight of u²"
+    )
+    equilibrium: Annotated[Any, PlainValidator(control.equilibrium)] = Field(
+        DEFAULT_EQUILIBRIUM,
+        description="upright, hanging, or the angles [θ0, θ1, ...] (links at 0 or π)",
+        json_schema_extra={**control.EQUILIBRIUM_SCHEMA, "default": DEFAULT_EQUILIBRIUM},
+    )
+    saturation: Real(gt=0, says="the largest |u| must be > 0 {u_unit}") | None = Field(
+        None, description="the largest |u| [N or N m] (default: unbounded)"
+    )
+    period: Real() | None = Field(  # > 0, <= t_end, commensurate with sample: `controller.relations`
+        None,
+        description="sampling period [s], a whole multiple or fraction of simulation.sample "
+        "(default: continuous)",
+        json_schema_extra={"exclusiveMinimum": 0},
+    )
 
     @model_validator(mode="after")
-    def _relations(self, info: Any) -> ControllerTable:
-        control.relations(self, info.context)
+    def _relations(self, info: ValidationInfo) -> ControllerTable:
+        context = context_of(info, "count", "input_kind", "t_end", "sample")
+        if context is not None:
+            control.relations(self, context)
         return self
 
     def context(self) -> dict[str, Any]:
@@ -747,45 +654,32 @@ class ControllerTable(Table):
 class SwingupTable(Table):
     """[swingup]: from the initial state (default hanging) to upright, then held by LQR."""
 
-    method: Annotated[
-        str,
-        Choice(options=swing.METHODS),
-        Field(
-            description="energy: Åström–Furuta energy control (one link); "
-            "trajectory: a plan on the exact model tracked by time-varying LQR"
-        ),
-    ]
-    u_max: Annotated[
-        Exact,
-        Number(bounds=(Gt(0, "the input limit must be > 0 {u_unit}"),)),
-        Field(description="the input limit |u| <= u_max [N or N m]"),
-    ]
-    x_max: Annotated[
-        Exact | None,
-        Number(bounds=(Gt(0, "the travel limit must be > 0 (m on a cart, rad on an arm)"),)),
-        Field(description="trajectory only: the plan keeps |θ0| <= x_max [m or rad] (default: no limit)"),
-    ] = None
-    duration: Annotated[
-        Exact | None,
-        Number(bounds=(Gt(0, "the manoeuvre's time must be > 0 s"),)),
-        Field(description="trajectory only (required there): the manoeuvre's time [s]"),
-    ] = None
-    period: Annotated[
-        Exact,
-        Number(bounds=(Gt(0, "the sampling period must be > 0 s"),)),
-        Field(
-            description="controller sampling period [s], a whole multiple or fraction of simulation.sample"
-        ),
-    ] = _default(swing.DEFAULT_PERIOD)
-    hold: Annotated[
-        Exact,
-        Number(bounds=(Ge(0, "must be >= 0 s"),)),
-        Field(description="seconds held upright (LQR) after arrival; then the run ends"),
-    ] = _default(swing.DEFAULT_HOLD)
+    method: Literal[swing.METHODS] = Field(
+        description="energy: Åström–Furuta energy control (one link); "
+        "trajectory: a plan on the exact model tracked by time-varying LQR"
+    )
+    u_max: Real(gt=0, says="the input limit must be > 0 {u_unit}") = Field(
+        description="the input limit |u| <= u_max [N or N m]"
+    )
+    x_max: Real(gt=0, says=_TRAVEL) | None = Field(
+        None, description="trajectory only: the plan keeps |θ0| <= x_max [m or rad] (default: no limit)"
+    )
+    duration: Real(gt=0, says="the manoeuvre's time must be > 0 s") | None = Field(
+        None, description="trajectory only (required there): the manoeuvre's time [s]"
+    )
+    period: Real(gt=0, says="the sampling period must be > 0 s") = Field(
+        _exact(swing.DEFAULT_PERIOD),
+        description="controller sampling period [s], a whole multiple or fraction of simulation.sample",
+    )
+    hold: Real(ge=0, says="must be >= 0 s") = Field(
+        _exact(swing.DEFAULT_HOLD), description="seconds held upright (LQR) after arrival; then the run ends"
+    )
 
     @model_validator(mode="after")
-    def _relations(self, info: Any) -> SwingupTable:
-        swing.relations(self, info.context)
+    def _relations(self, info: ValidationInfo) -> SwingupTable:
+        context = context_of(info, "links", "input_kind", "t_end", "sample")
+        if context is not None:
+            swing.relations(self, context)
         return self
 
 
@@ -809,42 +703,44 @@ class SceneDocument(BaseModel):
     limits: LimitsTable = Field(default=None, description="the rig's travel limit")  # type: ignore[assignment]
     simulation: SimulationTable
     outputs: OutputsTable = Field(default=None, description="extra CSV columns")  # type: ignore[assignment]
-    controller: ControllerTable = Field(default=None, description="closed loop: LQR feedback")  # type: ignore[assignment]
-    swingup: SwingupTable = Field(default=None, description="swing-up from hanging, then hold")  # type: ignore[assignment]
+    controller: ControllerTable | None = Field(default=None, description="closed loop: LQR feedback")
+    swingup: SwingupTable | None = Field(default=None, description="swing-up from hanging, then hold")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _absent_tables(cls, document: Any) -> Any:
+        """An absent table reads as an empty one (validated: its defaults and context, or "missing
+        required key"), an absent or empty [input] as a zero input; [controller] and [swingup]
+        are None when absent."""
+        if not isinstance(document, dict):
+            return document
+        filled = {name: {} for name in cls.model_fields if name not in ("controller", "swingup")} | document
+        if not filled.get("input"):
+            filled["input"] = {"kind": "zero"}
+        return filled
 
 
-# Every table a scene may have, its model (`Input` for [input]) and its keys, documented order.
-TABLE_MODELS: dict[str, Any] = {
-    "system": SystemTable,
-    "parameters": ParametersTable,
-    "actuator": ActuatorTable,
-    "initial": InitialTable,
-    "input": Input,
-    "limits": LimitsTable,
-    "simulation": SimulationTable,
-    "outputs": OutputsTable,
-    "controller": ControllerTable,
-    "swingup": SwingupTable,
-}
-assert tuple(TABLE_MODELS) == tuple(SceneDocument.model_fields)  # one order, checked at import
-TABLES: dict[str, tuple[str, ...]] = {
-    name: (
-        tuple(dict.fromkeys(key for table in INPUTS.values() for key in table.model_fields))
-        if name == "input"
-        else tuple(table.model_fields)
+def _keys(name: str, annotation: Any) -> tuple[str, ...]:
+    if name == "input":
+        return tuple(dict.fromkeys(key for table in INPUTS.values() for key in table.model_fields))
+    model_ = next(
+        a for a in (*get_args(annotation), annotation) if isinstance(a, type) and issubclass(a, Table)
     )
-    for name, table in TABLE_MODELS.items()
+    return tuple(model_.model_fields)
+
+
+# Every table a scene may have and its keys (the input kinds' together), in documented order.
+TABLES: dict[str, tuple[str, ...]] = {
+    name: _keys(name, field.annotation) for name, field in SceneDocument.model_fields.items()
 }
-# Tables that are None when absent (an open loop has no controller), and what an absent or
-# empty table reads as where that is not {} (no [input] is a zero input).
-ABSENT_IS_NONE: tuple[str, ...] = ("controller", "swingup")
-WHEN_EMPTY: dict[str, dict[str, Any]] = {"input": {"kind": "zero"}}
 
 
 def json_schema() -> dict[str, Any]:
     """The JSON Schema of scene files, for editors: draft 4, the draft Taplo (and so Even Better
     TOML) implements; newer validators read it too."""
-    schema = SceneDocument.model_json_schema(ref_template="#/definitions/{model}")
+    schema = SceneDocument.model_json_schema(
+        ref_template="#/definitions/{model}", schema_generator=SceneJsonSchema
+    )
     schema["definitions"] = schema.pop("$defs")
     # An empty [input] table is no input, like none at all.
     schema["properties"]["input"]["oneOf"].append(

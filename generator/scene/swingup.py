@@ -20,8 +20,9 @@ import math
 from typing import Any
 
 from ipgen.control.swingup import SwingUpLaw
+from ipgen.scene.controller import periods_within
 from ipgen.scene.fields import format_number
-from ipgen.scene.fieldtypes import refuse
+from ipgen.scene.values import refuse
 
 METHODS: tuple[str, ...] = ("energy", "trajectory")
 DEFAULT_PERIOD = 0.01
@@ -66,9 +67,10 @@ def relations(table: Any, context: dict[str, Any]) -> None:
             value=table.method,
         )
     t_end, sample = context.get("t_end", math.inf), context.get("sample", DEFAULT_PERIOD)
-    period = table.period.value
+    period = float(table.period)
     if not period <= t_end:
         refuse(f"must be <= t_end ({format_number(t_end)} s)", key="period", value=table.period)
+    periods_within(table.period, t_end)
     ratio = max(period, sample) / min(period, sample)
     if abs(ratio - round(ratio)) > COMMENSURATE_TOLERANCE * ratio:
         refuse(
@@ -76,14 +78,14 @@ def relations(table: Any, context: dict[str, Any]) -> None:
             key="period",
             value=table.period,
         )
-    if table.duration is not None and table.duration.value > t_end:
+    if table.duration is not None and float(table.duration) > t_end:
         refuse(
             f"the manoeuvre must fit in t_end ({format_number(t_end)} s): "
             "a longer t_end or a shorter duration",
             key="duration",
             value=table.duration,
         )
-    if table.duration is not None and table.duration.value / period > 20_000:
+    if table.duration is not None and float(table.duration) / period > 20_000:
         refuse(
             "is more than 20000 controller periods: a shorter duration or a longer period",
             key="duration",
@@ -110,7 +112,7 @@ def law(
             'swingup: method "trajectory" plans a force or torque, not yet an acceleration input: '
             'use method "energy" or [actuator] kind "direct"'
         )
-    designed = _law(table, system, params, start, table.u_max.value * gain, acceleration)
+    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration)
     return designed if gain == 1.0 else in_volts(designed, gain)
 
 
@@ -122,7 +124,7 @@ def _law(
     from ipgen.control.linear import ControlError
     from ipgen.control.swingup import energy_law, schedule_law, trajectory_swingup
 
-    period, hold = table.period.value, table.hold.value
+    period, hold = float(table.period), float(table.hold)
     try:
         model = plant(
             system.type,
@@ -140,9 +142,9 @@ def _law(
             )
         plan, schedule = trajectory_swingup(
             model,
-            duration=table.duration.value,
+            duration=float(table.duration),
             u_max=u_max,
-            x_max=None if table.x_max is None else table.x_max.value,
+            x_max=None if table.x_max is None else float(table.x_max),
             period=period,
             start=start,
         )

@@ -1,0 +1,187 @@
+"""`ipgen sweep SCENE.toml -o OUT/`: parses the options, shows progress, prints the scores."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from ipgen.errors import Error
+
+HELP = """Sweep a scene: run it over levels of its keys and score how robust its controller is.
+
+\b
+--scorecard runs the robustness criteria (model parameters x0.75..1.25, damping, Coulomb
+friction, controller period; encoder resolution, noise, delay, drive noise, lag and pulses
+with [sensors] support), --vary KEY=LO:HI:N or KEY=v1,v2,... (repeatable: a 1-D or 2-D grid)
+any scene key, e.g. parameters.m[1], initial.theta[1], controller.period. The plant changes,
+the controller stays the one designed on the scene (unless a [controller]/[swingup] key is
+varied). Writes OUT/runs.csv (every run; an interrupted sweep resumes from it), scores.json,
+scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask ADDRESS
+(pip install 'ipgen-pendulum[dask]'); results are the same either way. docs/sweep.md.
+
+\b
+Examples:
+  ipgen sweep scenes/rsip_lqr.toml --scorecard -o out/rsip
+  ipgen sweep scenes/rsip_lqr.toml --vary 'initial.theta[1]=-0.6:0.6:13' \\
+              --vary 'initial.dtheta[1]=-3:3:13' -o out/basin
+"""
+
+
+class _Progress:
+    """A click progress bar on stderr, opened at the first report."""
+
+    def __init__(self) -> None:
+        self.bar = None
+        self.shown = 0
+
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = click.progressbar(length=total, label="runs", file=sys.stderr, show_pos=True)
+            self.bar.__enter__()
+        self.bar.update(done - self.shown)
+        self.shown = done
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+            self.bar = None
+
+
+def _criterion(spec: str) -> tuple[str, str]:
+    name, equals, levels = spec.partition("=")
+    if not equals:
+        raise click.BadParameter(
+            f"{spec!r}: expected NAME=LO:HI:N or NAME=v1,v2,...", param_hint="--criterion"
+        )
+    return name.strip(), levels
+
+
+@click.command("sweep", help=HELP, context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.option(
+    "-o", "--output", "out", type=click.Path(path_type=Path), metavar="OUT", help="Folder for the results."
+)
+@click.option("--scorecard", is_flag=True, help="Run the robustness scorecard's criteria.")
+@click.option(
+    "--only", default=None, metavar="NAMES", help="With --scorecard: these criteria only (comma list)."
+)
+@click.option(
+    "--criterion",
+    "criteria",
+    multiple=True,
+    metavar="NAME=LEVELS",
+    help="With --scorecard: a criterion's levels (LO:HI:N or v1,v2,...), e.g. mass=0.5:1.5:11.",
+)
+@click.option(
+    "--vary",
+    multiple=True,
+    metavar="KEY=LO:HI:N",
+    help="A scene key over a range or list (repeatable: the grid of all combinations).",
+)
+@click.option("--repeat", type=int, default=None, help="Runs per level (seeded criteria; --vary: default 1).")
+@click.option("--seed", type=int, default=0, show_default=True, help="The base of every run's seed.")
+@click.option(
+    "--angle-tolerance",
+    type=float,
+    default=0.35,
+    show_default=True,
+    help="Success: |link angle − goal| [rad].",
+)
+@click.option(
+    "--rate-tolerance", type=float, default=1.0, show_default=True, help="Success: |link rate| [rad/s]."
+)
+@click.option("--hold", type=float, default=1.0, show_default=True, help="Success: held for the last HOLD s.")
+@click.option(
+    "--base-tolerance", type=float, default=None, help="Success: |θ0 − goal| [m or rad] (default: unchecked)."
+)
+@click.option(
+    "--travel", type=float, default=None, help="Success: |θ0| limit [default: the scene's limits.travel]."
+)
+@click.option("--dask", default=None, metavar="ADDRESS", help="A Dask scheduler, e.g. tcp://10.0.0.5:8786.")
+@click.option("--jobs", type=int, default=None, help="Local worker processes [default: all cores].")
+@click.option(
+    "--force", is_flag=True, help="Start over (ignore OUT/runs.csv), write into a folder with other files."
+)
+@click.option(
+    "--cache-dir",
+    type=click.Path(path_type=Path),
+    default=None,
+    metavar="DIR",
+    help="Where compiled simulators are kept [default: ipgen's cache].",
+)
+def command(
+    scene: Path,
+    out: Path | None,
+    scorecard: bool,
+    only: str | None,
+    criteria: tuple[str, ...],
+    vary: tuple[str, ...],
+    repeat: int | None,
+    seed: int,
+    angle_tolerance: float,
+    rate_tolerance: float,
+    hold: float,
+    base_tolerance: float | None,
+    travel: float | None,
+    dask: str | None,
+    jobs: int | None,
+    force: bool,
+    cache_dir: Path | None,
+) -> int:
+    from ipgen.sweeps.runner import sweep
+    from ipgen.sweeps.success import Success
+
+    if out is None:
+        raise Error(
+            "missing -o OUT: say where to write the sweep, e.g. ipgen sweep SCENE.toml --scorecard -o out/"
+        )
+    chosen: bool | tuple[str, ...] = scorecard
+    if only is not None:
+        if not scorecard:
+            raise Error("--only chooses scorecard criteria: add --scorecard")
+        chosen = tuple(name.strip() for name in only.split(",") if name.strip())
+    test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel)
+    progress = _Progress()
+    try:
+        outcome = sweep(
+            scene,
+            out,
+            scorecard_criteria=chosen,
+            vary=vary,
+            levels=dict(map(_criterion, criteria)),
+            repeat=repeat,
+            seed=seed,
+            success=test,
+            dask=dask,
+            jobs=jobs,
+            force=force,
+            cache=cache_dir,
+            progress=progress,
+        )
+    except KeyboardInterrupt:
+        progress.close()
+        click.echo(
+            f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
+            err=True,
+        )
+        return 130
+    finally:
+        progress.close()
+    resumed = outcome.runs - outcome.ran
+    rate = f", {outcome.ran / outcome.seconds:.1f} runs/s" if outcome.ran and outcome.seconds > 0 else ""
+    click.echo(
+        f"{outcome.runs} runs ({outcome.ran} now on {outcome.workers} workers "
+        f"in {outcome.seconds:.1f} s{rate}" + (f"; {resumed} from OUT/runs.csv" if resumed else "") + ")"
+    )
+    for s in outcome.scores:
+        shown = (
+            "not run: " + s.criterion.refused
+            if s.criterion.refused
+            else ("—" if s.score is None else f"{100 * s.score:.0f} %")
+        )
+        click.echo(f"  {s.criterion.name:<13} {shown}")
+    total = "—" if outcome.score is None else f"{100 * outcome.score:.0f} %"
+    click.echo(f"score {total}; wrote {', '.join(str(path) for path in outcome.files)}")
+    return 0

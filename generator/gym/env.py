@@ -1,0 +1,135 @@
+"""One environment (gymnasium.Env) on the batched kernel with N = 1.
+
+The hot path of `step` is one ctypes call into preallocated arrays: the kernel integrates,
+observes, rewards and checks the limits in C, so a step costs a few microseconds of Python.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Any, ClassVar
+
+import gymnasium
+import numpy as np
+from gymnasium import spaces
+
+from ipgen.gym.kernel import load
+from ipgen.gym.sensing import MeasuredLoop
+from ipgen.gym.spec import EnvSpec
+
+OBS_BOUND = np.float32(np.finfo(np.float32).max)
+
+
+def observation_space(spec: EnvSpec) -> spaces.Box:
+    """float32 Box: (q0, sin/cos of each link, rates), or CartPole-v1's four entries."""
+    size = 4 if spec.task == "cartpole" else 1 + 2 * spec.system.links + spec.system.dof
+    if spec.task == "cartpole":  # gymnasium's own bounds
+        high = np.array([spec.x_limit * 2, OBS_BOUND, spec.angle_limit * 2, OBS_BOUND], dtype=np.float32)
+        return spaces.Box(-high, high, dtype=np.float32)
+    return spaces.Box(-OBS_BOUND, OBS_BOUND, shape=(size,), dtype=np.float32)
+
+
+def action_space(spec: EnvSpec) -> spaces.Space:
+    """Box [−1, 1] (scaled to ±u_max), or CartPole-v1's Discrete(2) (0: −u_max, 1: +u_max)."""
+    if spec.task == "cartpole":
+        return spaces.Discrete(2)
+    return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+
+class PendulumEnv(gymnasium.Env):
+    """An exact n-link cart or Furuta pendulum (`EnvSpec`) as a gymnasium environment.
+
+    Parameters
+    ----------
+    spec : EnvSpec
+        The model, task, interval and randomisation.
+    render_mode : str, optional
+        "rgb_array" (a drawing of the links) or None.
+
+    Notes
+    -----
+    `reset(options={"params": {"m": [...], ...}})` sets this episode's parameters (absolute, by
+    group) instead of drawing them; `options={"state": x}` sets the initial state
+    (θ0..θn, θ̇0..θ̇n). `info["params"]` records the episode's parameters.
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 50}
+
+    def __init__(self, spec: EnvSpec, render_mode: str | None = None) -> None:
+        self.ipgen_spec = spec
+        self.render_mode = render_mode
+        self.observation_space = observation_space(spec)
+        self.action_space = action_space(spec)
+        self.metadata = {**self.metadata, "render_fps": max(1, round(1 / spec.dt))}
+        dof = spec.system.dof
+        self.kernel = load(spec.system)
+        self.cfg = spec.cfg
+        self.params = spec.nominal.copy()[None, :]
+        self.state = np.zeros((1, 2 * dof))
+        self.obs = np.zeros((1, self.observation_space.shape[0]), dtype=np.float32)
+        self._obs_row = self.obs[0]
+        # Scalars as ctypes objects: reading and writing them costs far less than numpy indexing.
+        self._action = ctypes.c_double(0.0)
+        self._reward = ctypes.c_double(0.0)
+        self._ended = ctypes.c_ubyte(0)
+        function = self.kernel.step_function
+        function.restype = ctypes.c_long
+        function.argtypes = None  # the arguments below are ctypes objects already
+        arguments = (
+            ctypes.c_long(1),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (self.params, self.state)),
+            ctypes.byref(self._action),
+            ctypes.c_void_p(self.cfg.ctypes.data),
+            ctypes.c_void_p(self.obs.ctypes.data),
+            ctypes.c_long(self.obs.shape[1]),
+            ctypes.byref(self._reward),
+            ctypes.byref(self._ended),
+        )
+        self._call = lambda: function(*arguments)
+        self._discrete = spec.task == "cartpole"
+        self.loop = MeasuredLoop(spec.sensing, dof, 1, spec.dt) if spec.sensing is not None else None
+        self._row = np.array([0])
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = options or {}
+        self.params[0] = self.ipgen_spec.draw(self.np_random, options.get("params"))
+        start = self.ipgen_spec.initial_state(self.np_random)
+        if "state" in options:
+            start = np.asarray(options["state"], dtype=np.float64).reshape(self.state.shape[1])
+        self.state[0] = start
+        if self.loop is None:
+            self.kernel.observe(self.state, self.cfg, self.obs)
+        else:
+            self.loop.reset(self._row, self.state, [self.np_random], self.obs)
+        return self._obs_row.copy(), {"params": self.ipgen_spec.params_info(self.params[0])}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._discrete:
+            self._action.value = 1.0 if action == 1 else -1.0
+        else:
+            self._action.value = action[0] if hasattr(action, "__len__") else action
+        if self.loop is not None:  # the rig's sensors: the delayed, noisy action, then the measurement
+            rngs = [self.np_random]
+            self._action.value = float(self.loop.apply(self._row, np.array([self._action.value]), rngs)[0])
+            self._call()
+            self.loop.observe(self._row, self.state, rngs, self.obs)
+        else:
+            self._call()
+        ended = self._ended.value
+        return (
+            self._obs_row.copy(),
+            self._reward.value,
+            ended != 0,
+            False,
+            {"failed": True} if ended == 2 else {},
+        )
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        from ipgen.gym.render import draw
+
+        return draw(self.ipgen_spec, self.state[0], self.params[0])

@@ -1,0 +1,212 @@
+"""The batched step kernel of one model: the generated C99 header plus templates/gym_kernel.c.jinja,
+compiled once into a shared library and called through ctypes.
+
+Why C and not numpy: an environment step is a handful of RK4 stages of a small dense system;
+in numpy each stage costs microseconds of interpreter and array overhead per call, in C it is
+tens of nanoseconds, and one call advances N environments without allocating.
+
+Cache: `<cache>/gym/<key>/libipgen_gym_<name>.so`, the key a SHA-256 over the kernel's source
+(header included), the C compiler (path and --version) and the flags, next to the simulators'
+cache (`<cache>` as `ipgen run` has it: $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen, ~/.cache/ipgen).
+A lock file serialises concurrent builds; the library is compiled to a temporary name and
+renamed, so a process never loads half a file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import cache, cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ipgen.codegen.c_header import render_c_header
+from ipgen.codegen.header import HeaderRequest, environment
+from ipgen.common.version import __version__
+from ipgen.errors import Error
+from ipgen.model.derivation import derive
+from ipgen.model.system import System
+
+FLAGS = ("-std=c99", "-O3", "-fPIC", "-shared", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
+TEMPLATE = "gym_kernel.c.jinja"
+# The order of the task constants in the kernel's cfg[] (its enum).
+CFG_FIELDS = ("dt", "substeps", "u_max", "x_limit", "angle_limit", "task", "integrator")
+TASK_CODES = {"balance": 0, "swingup": 1, "cartpole": 2}
+INTEGRATOR_CODES = {"rk4": 0, "euler": 1}
+
+
+class KernelError(Error, RuntimeError):
+    """The kernel could not be built; the message names the missing piece."""
+
+
+def model_name(system: System) -> str:
+    """The header's and kernel's model name: classical2, rotary1_pivot, rotary3_full."""
+    name = f"{system.type}{system.links}"
+    return f"{name}_{system.inertia}" if system.is_rotary else name
+
+
+def parameter_count(dof: int) -> int:
+    """Entries of one environment's parameter row (the kernel's PARAMS)."""
+    return 7 * dof + 2
+
+
+def observation_size(system: System) -> int:
+    """q[0], (sin, cos) of each link angle, every rate."""
+    return 1 + 2 * system.links + system.dof
+
+
+def sources(system: System) -> tuple[str, str]:
+    """(the C header, the kernel's source) of `system`; deterministic."""
+    name = model_name(system)
+    header = render_c_header(
+        derive(system),
+        HeaderRequest(name, f"ipgen --type {system.type} --links {system.links} --emit c -o <dir>"),
+    )
+    kernel = (
+        environment()
+        .get_template(TEMPLATE)
+        .render(
+            name=name,
+            nameu=name.upper(),
+            type=system.type,
+            links=system.links,
+            dof=system.dof,
+            observation_size=observation_size(system),
+            version=__version__,
+        )
+    )
+    return header, kernel
+
+
+def c_compiler() -> str:
+    """$CC, else cc, else gcc."""
+    wanted = os.environ.get("CC") or next((c for c in ("cc", "gcc") if shutil.which(c)), None)
+    if wanted is None or shutil.which(wanted) is None:
+        raise KernelError(
+            "no C compiler found (tried $CC, cc, gcc): install one (Debian: apt-get install gcc)"
+        )
+    return wanted
+
+
+def cache_folder() -> Path:
+    """`<cache>/gym`, next to the simulators (the same rules as `ipgen run`'s cache)."""
+    from ipgen.command.simulator import cache_root
+
+    return cache_root() / "gym"
+
+
+@contextlib.contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    with path.open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def build(system: System) -> Path:
+    """The compiled kernel of `system`: from the cache, or compiled into it."""
+    header, kernel = sources(system)
+    name = model_name(system)
+    cc = c_compiler()
+    version = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout
+    digest = hashlib.sha256()
+    for part in (shutil.which(cc) or cc, version, " ".join(FLAGS), header, kernel):
+        digest.update(part.encode() + b"\0")
+    folder = cache_folder()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise KernelError(
+            f"cannot create the cache folder {folder}: {e.strerror}; set IPGEN_CACHE_DIR"
+        ) from e
+    entry = folder / digest.hexdigest()[:24]
+    library = entry / f"libipgen_gym_{name}.so"
+    if library.is_file():
+        return library
+    with _locked(folder / f"{entry.name}.lock"):
+        if library.is_file():
+            return library
+        entry.mkdir(exist_ok=True)
+        (entry / f"{name}.h").write_text(header)
+        (entry / f"gym_{name}.c").write_text(kernel)
+        with tempfile.TemporaryDirectory(dir=entry, prefix=".build.") as scratch:
+            partial = Path(scratch) / library.name
+            command = [cc, *FLAGS, f"-I{entry}", str(entry / f"gym_{name}.c"), "-o", str(partial), "-lm"]
+            done = subprocess.run(command, capture_output=True, text=True)
+            if done.returncode != 0:
+                last = next(
+                    (line for line in (done.stderr + done.stdout).splitlines() if "error" in line), ""
+                )
+                raise KernelError(f"compiling the gym kernel of {name} failed: {last.strip()[:300]}")
+            os.replace(partial, library)
+    return library
+
+
+_DOUBLES = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")
+_FLOATS = np.ctypeslib.ndpointer(dtype=np.float32, flags="C_CONTIGUOUS")
+_BYTES = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
+
+
+@dataclass(frozen=True)
+class Kernel:
+    """The loaded kernel of one model: `step` and `observe` over N environments at once."""
+
+    system: System
+    library: ctypes.CDLL
+
+    @property
+    def step_function(self) -> Any:
+        """A fresh handle on the C step function (its argtypes are the caller's to set: a single
+        environment passes prepared ctypes objects, `step` numpy arrays)."""
+        return self.library[f"ipgen_gym_{model_name(self.system)}_step"]
+
+    @cached_property
+    def _step(self) -> Any:
+        function = self.step_function
+        function.restype = ctypes.c_long
+        function.argtypes = [ctypes.c_long, _DOUBLES, _DOUBLES, _DOUBLES, _DOUBLES, _FLOATS, ctypes.c_long,
+                             _DOUBLES, _BYTES]  # fmt: skip
+        return function
+
+    @cached_property
+    def _observe(self) -> Any:
+        function = self.library[f"ipgen_gym_{model_name(self.system)}_observe"]
+        function.restype = None
+        function.argtypes = [ctypes.c_long, _DOUBLES, _DOUBLES, _FLOATS, ctypes.c_long]
+        return function
+
+    def step(
+        self,
+        params: np.ndarray,
+        state: np.ndarray,
+        action: np.ndarray,
+        cfg: np.ndarray,
+        obs: np.ndarray,
+        reward: np.ndarray,
+        terminated: np.ndarray,
+    ) -> int:
+        """Advance every row of `state` (N × 2 dof, in place) by cfg's dt; returns the failures.
+        `params` N rows, `action`, `reward`, `terminated` (uint8) N entries, `obs` N rows (float32)."""
+        return int(self._step(len(state), params, state, action, cfg, obs, obs.shape[1], reward, terminated))
+
+    def observe(self, state: np.ndarray, cfg: np.ndarray, obs: np.ndarray) -> None:
+        """The observations of every row of `state` (after a reset)."""
+        self._observe(len(state), state, cfg, obs, obs.shape[1])
+
+
+@cache
+def load(system: System) -> Kernel:
+    """The kernel of `system`, built if needed and loaded once per process."""
+    return Kernel(system, ctypes.CDLL(str(build(system))))

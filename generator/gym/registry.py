@@ -1,0 +1,108 @@
+"""The environments by name: `make`, `make_vec` and the ids registered with gymnasium."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+from gymnasium.wrappers import TimeLimit
+
+from ipgen.gym.checks import GymError
+from ipgen.gym.env import PendulumEnv
+from ipgen.gym.make import paper_system, spec_for, spec_from_source
+from ipgen.gym.spec import EnvSpec
+from ipgen.gym.vector import PendulumVectorEnv
+
+SIZES = {1: "Single", 2: "Double", 3: "Triple"}
+TASK_NAMES = {"balance": "Balance", "swingup": "SwingUp"}
+
+
+def _spec(
+    source: Any = None, task: str = "balance", paper: tuple[str, int] | None = None, **options: Any
+) -> EnvSpec:
+    if paper is not None:
+        system, row = paper_system(*paper)
+        return spec_for(system, row, task, **options)
+    return spec_from_source(source, task, **options)
+
+
+def make(
+    source: Any = None,
+    task: str = "balance",
+    *,
+    preset: str | None = None,
+    render_mode: str | None = None,
+    **options: Any,
+) -> gymnasium.Env:
+    """An environment of `source` (an ipgen.Pendulum, a scene file, a preset name or
+    "cartpole-v1") for `task` ("balance" or "swingup"), wrapped in gymnasium's TimeLimit.
+
+    Parameters
+    ----------
+    source : ipgen.Pendulum, str or pathlib.Path
+        What to simulate.
+    preset : str, optional
+        The same as a preset's name as `source` (e.g. `preset="cartpole-v1"`).
+    task : str
+        "balance" or "swingup".
+    render_mode : str, optional
+        "rgb_array" or None.
+    **options
+        `EnvSpec` fields: dt, substeps, u_max, x_limit, angle_limit, spread, initial_noise,
+        max_episode_steps.
+
+    Returns
+    -------
+    gymnasium.Env
+
+    Examples
+    --------
+    >>> env = make("cartpole-v1")
+    >>> obs, info = env.reset(seed=0)
+    """
+    if (source is None) == (preset is None):
+        raise GymError("make() takes what to simulate: a Pendulum, a scene file or preset=NAME (one of them)")
+    spec = _spec(preset if source is None else source, task, **options)
+    return TimeLimit(PendulumEnv(spec, render_mode=render_mode), spec.max_episode_steps)
+
+
+def make_vec(source: Any, num_envs: int, task: str = "balance", **options: Any) -> PendulumVectorEnv:
+    """`num_envs` environments of `source` in one batched kernel (see `make` for the arguments)."""
+    return PendulumVectorEnv(_spec(source, task, **options), num_envs)
+
+
+def _entry(**kwargs: Any) -> gymnasium.Env:
+    render_mode = kwargs.pop("render_mode", None)
+    return PendulumEnv(_spec(**kwargs), render_mode=render_mode)
+
+
+def _vector_entry(num_envs: int = 1, **kwargs: Any) -> PendulumVectorEnv:
+    kwargs.pop("render_mode", None)
+    return PendulumVectorEnv(_spec(**kwargs), num_envs)
+
+
+def ids() -> dict[str, dict[str, Any]]:
+    """Every registered id and its keyword arguments."""
+    table: dict[str, dict[str, Any]] = {"ipgen/CartPole-v1": {"source": "cartpole-v1"}}
+    for type, base in (("classical", "Cart"), ("rotary", "Rotary")):
+        for links, size in SIZES.items():
+            for task, task_name in TASK_NAMES.items():
+                table[f"ipgen/{base}{size}-{task_name}-v0"] = {"paper": (type, links), "task": task}
+    for task, task_name in TASK_NAMES.items():
+        table[f"ipgen/QubeServo2-{task_name}-v0"] = {"source": "qube_servo2", "task": task}
+    return table
+
+
+def register_all() -> None:
+    """Register `ids()` with gymnasium (idempotent)."""
+    for env_id, kwargs in ids().items():
+        if env_id in gymnasium.registry:
+            continue
+        steps = 500 if env_id.endswith("CartPole-v1") or kwargs.get("task") == "balance" else 1000
+        gymnasium.register(
+            env_id,
+            entry_point=_entry,
+            vector_entry_point=_vector_entry,
+            max_episode_steps=steps,
+            kwargs=kwargs,
+        )

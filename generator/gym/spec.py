@@ -1,0 +1,157 @@
+"""What an environment simulates and rewards: the model, its nominal parameters, the task and the
+parameter spread drawn per episode. Plain data, shared by the single and the vector environment.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ipgen.gym.checks import GymError, is_integer, is_number
+from ipgen.gym.kernel import CFG_FIELDS, INTEGRATOR_CODES, TASK_CODES, parameter_count
+from ipgen.model.system import System
+
+if TYPE_CHECKING:
+    from ipgen.gym.sensing import Sensing
+
+# The parameter groups of one row, in the kernel's order (each has dof entries), then g and gain.
+GROUPS = ("m", "l", "delta", "com", "J", "J_axial", "tip")
+TASKS = ("balance", "swingup", "cartpole")
+
+
+@dataclass(frozen=True)
+class EnvSpec:
+    """One environment's model, task and randomisation.
+
+    Attributes
+    ----------
+    system : System
+        The pendulum's type, links and inertia (one compiled kernel each).
+    nominal : numpy.ndarray
+        The parameter row (`GROUPS`, then g and the input's gain), the motor already folded in.
+    task : str
+        "balance" (reward 1 a step until a link leaves `angle_limit` or the base `x_limit`),
+        "swingup" (reward the links' mean upright-ness (1 + cos θi)/2, ends only at `x_limit`),
+        or "cartpole" (gymnasium's CartPole-v1: Discrete(2) actions, its observation).
+    dt, substeps : float, int
+        The control interval [s] and the RK4 steps inside it.
+    u_max : float
+        The input for action +1: N, N m, or V with a DC motor.
+    x_limit, angle_limit : float
+        Termination bounds [m or rad] (inf: none).
+    spread : Mapping[str, float]
+        Relative half-widths per parameter group drawn uniformly each episode, e.g. {"m": 0.1}.
+    initial_noise : float
+        Half-width of the uniform draw added to every state entry at reset.
+    max_episode_steps : int
+        Truncation (gymnasium's TimeLimit).
+    """
+
+    system: System
+    nominal: np.ndarray
+    task: str = "balance"
+    dt: float = 0.01
+    substeps: int = 4
+    u_max: float = 10.0
+    x_limit: float = math.inf
+    angle_limit: float = 0.2095
+    integrator: str = "rk4"
+    spread: Mapping[str, float] = field(default_factory=dict)
+    initial_noise: float = 0.05
+    max_episode_steps: int = 500
+    sensing: Sensing | None = None  # None: the exact state; else what the rig measures
+
+    def __post_init__(self) -> None:
+        if self.task not in TASKS:
+            raise GymError(f"task {self.task!r:.40} is unknown: choose one of {', '.join(TASKS)}")
+        if self.integrator not in INTEGRATOR_CODES:
+            raise GymError(f"integrator {self.integrator!r:.40} is unknown: choose rk4 or euler")
+        if not (is_number(self.dt) and 0 < self.dt <= 10):
+            raise GymError(f"dt = {self.dt!r:.40} must be a number > 0 (at most 10 s)")
+        for key in ("u_max", "x_limit", "angle_limit"):
+            value = getattr(self, key)
+            if not (is_number(value) and value > 0):
+                raise GymError(f"{key} = {value!r:.40} must be a number > 0 (inf: no limit)")
+        if not (is_number(self.u_max) and math.isfinite(self.u_max)):
+            raise GymError(f"u_max = {self.u_max!r:.40} must be a finite number > 0")
+        if not (is_integer(self.substeps) and 1 <= self.substeps <= 10_000):
+            raise GymError(f"substeps = {self.substeps!r:.40} must be an integer in 1..10000")
+        if not (is_integer(self.max_episode_steps) and self.max_episode_steps >= 1):
+            raise GymError(f"max_episode_steps = {self.max_episode_steps!r:.40} must be an integer >= 1")
+        if not (is_number(self.initial_noise) and 0 <= self.initial_noise < math.inf):
+            raise GymError(f"initial_noise = {self.initial_noise!r:.40} must be a finite number >= 0")
+        for key, width in self.spread.items():
+            if key not in (*GROUPS, "g"):
+                raise GymError(f"spread names {key!r:.40}: choose from {', '.join((*GROUPS, 'g'))}")
+            if not (is_number(width) and 0 <= width < 1):
+                raise GymError(f"spread[{key!r}] = {width!r:.40} must be a relative half-width in [0, 1)")
+        if self.sensing is not None and self.task == "cartpole":
+            raise GymError("the cartpole-v1 preset observes the exact state: sensors are not supported there")
+        if self.nominal.shape != (parameter_count(self.system.dof),):
+            raise GymError("the parameter row has the wrong length for this model")
+
+    @property
+    def cfg(self) -> np.ndarray:
+        """The kernel's constants (`CFG_FIELDS` order)."""
+        values = {
+            "dt": self.dt,
+            "substeps": float(self.substeps),
+            "u_max": self.u_max,
+            "x_limit": self.x_limit,
+            "angle_limit": self.angle_limit if self.task != "swingup" else math.inf,
+            "task": float(TASK_CODES[self.task]),
+            "integrator": float(INTEGRATOR_CODES[self.integrator]),
+        }
+        return np.array([values[name] for name in CFG_FIELDS], dtype=np.float64)
+
+    def group(self, row: np.ndarray, name: str) -> np.ndarray:
+        """The view of parameter group `name` (or "g", "gain") in a parameter row (or in the
+        last axis of a stack of rows)."""
+        dof = self.system.dof
+        if name == "g":
+            return row[..., 7 * dof : 7 * dof + 1]
+        if name == "gain":
+            return row[..., 7 * dof + 1 :]
+        i = GROUPS.index(name)
+        return row[..., i * dof : (i + 1) * dof]
+
+    def draw(self, rng: np.random.Generator, overrides: Mapping[str, object] | None = None) -> np.ndarray:
+        """One episode's parameter row: the nominal one, each group in `spread` scaled by
+        1 + U(−w, w) per entry (drawn in `GROUPS` order, then g), then `overrides` (absolute
+        values by group name) applied."""
+        row = self.nominal.copy()
+        for name in (*GROUPS, "g"):
+            width = self.spread.get(name, 0.0)
+            if width:
+                view = self.group(row, name)
+                view *= 1.0 + rng.uniform(-width, width, size=view.shape)
+        for name, value in (overrides or {}).items():
+            if name not in (*GROUPS, "g"):
+                raise GymError(
+                    f"options['params'] names {name!r:.40}: choose from {', '.join((*GROUPS, 'g'))}"
+                )
+            view = self.group(row, name)
+            given = np.asarray(value, dtype=np.float64).reshape(-1)
+            if given.shape != view.shape or not np.all(np.isfinite(given)):
+                raise GymError(f"options['params'][{name!r}] must be {view.size} finite numbers")
+            view[:] = given
+        return row
+
+    def initial_state(self, rng: np.random.Generator) -> np.ndarray:
+        """The state at reset: upright (balance) or hanging (swing-up), plus U(−noise, noise)."""
+        dof = self.system.dof
+        if self.task == "cartpole":  # gymnasium's draw: (x, x_dot, theta, theta_dot)
+            x, x_dot, theta, theta_dot = rng.uniform(low=-0.05, high=0.05, size=(4,))
+            return np.array([x, theta, x_dot, theta_dot])
+        state = np.zeros(2 * dof)
+        if self.task == "swingup":
+            state[1:dof] = math.pi
+        return state + rng.uniform(-self.initial_noise, self.initial_noise, size=2 * dof)
+
+    def params_info(self, row: np.ndarray) -> dict[str, np.ndarray]:
+        """The row (or stack of rows) as a dict for `info["params"]` (copies)."""
+        return {name: self.group(row, name).copy() for name in (*GROUPS, "g", "gain")}

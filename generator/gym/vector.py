@@ -1,0 +1,128 @@
+"""N environments in one kernel call: a native gymnasium VectorEnv (autoreset NEXT_STEP).
+
+Sub-environment i with reset(seed=s) draws from `seeding.np_random(s + i)` exactly as a single
+`PendulumEnv` reset with seed s + i does, and the kernel computes each row with the same code:
+the vector environment equals N single environments bitwise (tests/test_gym.py checks it).
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from ipgen.gym.env import action_space, observation_space
+from ipgen.gym.kernel import load
+from ipgen.gym.sensing import MeasuredLoop
+from ipgen.gym.spec import EnvSpec
+
+
+class PendulumVectorEnv(VectorEnv):
+    """`num_envs` copies of an `EnvSpec` environment, stepped together in C.
+
+    Parameters
+    ----------
+    spec : EnvSpec
+        The model, task, interval and randomisation (each sub-environment draws its own).
+    num_envs : int
+        The batch size N.
+
+    Notes
+    -----
+    Autoreset NEXT_STEP: the step after a sub-environment terminated or was truncated resets it
+    (its action ignored, reward 0, neither flag set) and returns its first observation.
+    Truncation after `spec.max_episode_steps` steps is built in (no TimeLimit wrapper needed).
+    """
+
+    metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(self, spec: EnvSpec, num_envs: int = 1) -> None:
+        if not (isinstance(num_envs, int) and num_envs >= 1):
+            from ipgen.gym.checks import GymError
+
+            raise GymError(f"num_envs = {num_envs!r:.40} must be an integer >= 1")
+        self.ipgen_spec = spec
+        self.num_envs = num_envs
+        self.single_observation_space = observation_space(spec)
+        self.single_action_space = action_space(spec)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.kernel = load(spec.system)
+        self.cfg = spec.cfg
+        dof = spec.system.dof
+        self.params = np.tile(spec.nominal, (num_envs, 1))
+        self.state = np.zeros((num_envs, 2 * dof))
+        self.actions = np.zeros(num_envs)
+        self.obs = np.zeros((num_envs, self.single_observation_space.shape[0]), dtype=np.float32)
+        self.rewards = np.zeros(num_envs)
+        self.ended = np.zeros(num_envs, dtype=np.uint8)
+        self.elapsed = np.zeros(num_envs, dtype=np.int64)
+        self.needs_reset = np.zeros(num_envs, dtype=bool)
+        self.generators = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        self.loop = MeasuredLoop(spec.sensing, dof, num_envs, spec.dt) if spec.sensing is not None else None
+
+    def _reset_one(self, i: int, options: dict[str, Any]) -> None:
+        rng = self.generators[i]
+        self.params[i] = self.ipgen_spec.draw(rng, options.get("params"))
+        self.state[i] = self.ipgen_spec.initial_state(rng)
+        self.elapsed[i] = 0
+
+    def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
+        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid)."""
+        return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
+
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        seeds = [None] * self.num_envs if seed is None else seed
+        if isinstance(seeds, int):
+            seeds = [seeds + i for i in range(self.num_envs)]
+        if seed is not None or not hasattr(self, "_seeded"):
+            self.generators = [seeding.np_random(s)[0] for s in seeds]
+            self._seeded = True
+        for i in range(self.num_envs):
+            self._reset_one(i, options or {})
+        self.needs_reset[:] = False
+        if self.loop is None:
+            self.kernel.observe(self.state, self.cfg, self.obs)
+        else:
+            self.loop.reset(np.arange(self.num_envs), self.state, self.generators, self.obs)
+        return self.obs.copy(), self._params_info(np.ones(self.num_envs, dtype=bool))
+
+    def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        given = np.asarray(actions)
+        if self.ipgen_spec.task == "cartpole":
+            self.actions[:] = np.where(given.reshape(self.num_envs) == 1, 1.0, -1.0)
+        else:
+            self.actions[:] = given.reshape(self.num_envs)
+        active = np.flatnonzero(~self.needs_reset)
+        if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
+            self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)
+        self.kernel.step(self.params, self.state, self.actions, self.cfg, self.obs, self.rewards, self.ended)
+        if self.loop is not None:
+            self.loop.observe(active, self.state, self.generators, self.obs)
+        self.elapsed += 1
+        terminations = self.ended.astype(bool)
+        truncations = self.elapsed >= self.ipgen_spec.max_episode_steps
+        rewards = self.rewards.copy()
+        infos: dict[str, Any] = {}
+        resetting = self.needs_reset
+        if resetting.any():
+            for i in np.flatnonzero(resetting):
+                self._reset_one(int(i), {})
+            if self.loop is None:
+                fresh = np.zeros_like(self.obs)
+                self.kernel.observe(self.state, self.cfg, fresh)
+                self.obs[resetting] = fresh[resetting]
+            else:
+                self.loop.reset(np.flatnonzero(resetting), self.state, self.generators, self.obs)
+            rewards[resetting] = 0.0
+            terminations[resetting] = False
+            truncations[resetting] = False
+            self.elapsed[resetting] = 0
+            infos = self._params_info(resetting)
+        self.needs_reset = terminations | truncations
+        return self.obs.copy(), rewards, terminations, truncations, infos

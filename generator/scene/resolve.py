@@ -1,0 +1,349 @@
+"""A validated scene resolved for use: the `Scene` (every default filled in, numbers as floats
+with their decimal text kept for exact folding), its input (`InputSpec`), and what is computed
+while reading: the LQR gain of a [controller] and the plan of a [swingup] (`controller.py`,
+`swingup.py`); rules between tables that need them (a dc_motor with an FMU, the start within
+the travel) are checked here.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass, field
+from decimal import Decimal
+from fractions import Fraction
+from pathlib import Path
+
+from ipgen.codegen.emit import DEFAULT_EMIT
+from ipgen.control import signals
+from ipgen.control.controller import Controller
+from ipgen.control.coordinates import Coordinates
+from ipgen.control.swingup import SwingUpLaw
+from ipgen.model.actuator import DIRECT, Actuator
+from ipgen.model.pendulum import Pendulum, from_scene_object
+from ipgen.model.system import System, parameter_names, split_parameter
+from ipgen.scene import controller as control
+from ipgen.scene import schema
+from ipgen.scene import swingup as swing
+from ipgen.scene.fields import Reader, format_number
+from ipgen.scene.schema import SceneDocument
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """The input on the base (force on the cart [N] or torque on the arm [N m]) over time."""
+
+    kind: str = "zero"
+    amplitude: float = 0.0
+    start: float = 0.0  # pulse, chirp
+    duration: float = 0.0  # pulse, chirp
+    time: float = 0.0  # step
+    frequency: float = 0.0  # sine, Hz
+    phase: float = 0.0  # sine, rad
+    f0: float = 0.0  # chirp, Hz
+    f1: float = 0.0  # chirp, Hz
+    sweep: str = "linear"  # chirp: linear | logarithmic
+    f_min: float = 0.0  # multisine, Hz
+    f_max: float = 0.0  # multisine, Hz
+    period: float = 0.0  # multisine, s
+
+    def fields(self) -> tuple[tuple[str, float | str], ...]:
+        """The (key, value) pairs this kind uses, in resolved-config order."""
+        return tuple((key, getattr(self, key)) for key in schema.INPUT_KEYS[self.kind])
+
+    @functools.cached_property
+    def lines(self) -> signals.Multisine:
+        """A multisine's lines: frequencies, Schroeder phases and the scale (`control.signals`)."""
+        if self.kind != "multisine":
+            raise ValueError(f"a {self.kind!r} input has no multisine lines")
+        return signals.multisine(self.f_min, self.f_max, self.period)
+
+    def value(self, t: float) -> float:
+        """The input at time t (pulses are on for start <= t < start + duration)."""
+        if self.kind == "constant":
+            return self.amplitude
+        if self.kind == "pulse":
+            on = self.start <= t < self.start + self.duration
+            return self.amplitude if on else 0.0
+        if self.kind == "step":
+            return self.amplitude if t >= self.time else 0.0
+        if self.kind == "sine":
+            return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t + self.phase)
+        if self.kind == "chirp":
+            return signals.chirp_value(
+                t, self.amplitude, self.f0, self.f1, self.duration, self.start, self.sweep
+            )
+        if self.kind == "multisine":
+            return signals.multisine_value(t, self.amplitude, self.lines)
+        return 0.0
+
+    def breakpoints(self) -> tuple[float, ...]:
+        """Times where the input jumps (or its slope does): an integrator must stop and restart there."""
+        if self.kind in ("pulse", "chirp"):
+            return (self.start, self.start + self.duration)
+        if self.kind == "step":
+            return (self.time,)
+        return ()
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene with every default filled in."""
+
+    path: Path
+    stem: str
+    type: str
+    links: int
+    inertia: str
+    name: str
+    m: tuple[float, ...]
+    l: tuple[float, ...]  # noqa: E741 (the paper's name for the lengths)
+    delta: tuple[float, ...]
+    g: float
+    theta: tuple[float, ...]
+    dtheta: tuple[float, ...]
+    input: InputSpec
+    t_end: float
+    sample: float
+    method: str
+    rtol: float
+    atol: float
+    max_steps: int
+    jacobian: str | None = None  # bdf and adams: "exact" or "dq"; None for the other methods
+    step: float | None = None  # rk4: the fixed step [s]; None for the other methods
+    free: tuple[str, ...] = ()
+    energy: bool = False
+    specialise: bool = False  # generate a header specialised to this scene (see specialise.py)
+    emit: tuple[str, ...] = DEFAULT_EMIT  # what ipgen writes for the model (emit.py)
+    # Each physical parameter's decimal text as written in the file ("m0" -> "0.3", "g" ->
+    # "9.81"), so that it can be used as an exact rational; see `exact`.
+    decimals: tuple[tuple[str, str], ...] = ()
+    # The links as built the scene gives: (group, values) for com, J, J_axial, tip (absent: rods)
+    links_as_built: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    # Non-fatal advice (e.g. a very tight rtol); one line each, prefixed with the file.
+    warnings: tuple[str, ...] = ()
+    controller: Controller | None = None  # [controller]: feedback u = −K (x − x_eq), gain computed
+    actuator: Actuator = (
+        DIRECT  # [actuator]: what u is (direct: N, N m; dc_motor: V; acceleration: m/s², rad/s²)
+    )
+    coulomb: tuple[float, ...] | None = None  # Coulomb friction per coordinate (simulator only)
+    coulomb_speed: float = schema.DEFAULT_COULOMB_SPEED  # the tanh law's rate
+    swingup: SwingUpLaw | None = None  # [swingup]: the planned swing-up and its gains
+    # [system] angles, zero, positive: the rig's convention, in which `theta`, `dtheta`, the
+    # controller's gain and equilibrium, the CSV and the plots are (default: ipgen's own).
+    coordinates: Coordinates = field(default_factory=Coordinates)
+    travel: float | None = None  # [limits] travel: |θ0| limit [m or rad]; the simulator stops beyond it
+
+    @property
+    def system(self) -> System:
+        """The system the scene simulates."""
+        return System(self.type, self.links, self.inertia)  # type: ignore[arg-type]
+
+    @property
+    def pendulum(self) -> Pendulum:
+        """The scene's system, parameters, drive and coordinates as one `ipgen.Pendulum`."""
+        return from_scene_object(self)
+
+    def parameter_names(self) -> tuple[str, ...]:
+        """m0..mn, l0..ln, delta0..deltan, g: the names `free`, `value` and `exact` use."""
+        return parameter_names(self.links)
+
+    def value(self, name: str) -> float:
+        """A parameter by name, e.g. "m1", "delta0", "g", as a float; KeyError if unknown."""
+        if name not in self.parameter_names():
+            raise KeyError(f"unknown parameter {name!r}")
+        group, index = split_parameter(name)
+        return self.g if index is None else getattr(self, group)[index]
+
+    def exact(self, name: str) -> Fraction:
+        """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
+        text = dict(self.decimals).get(name)
+        return Fraction(text) if text is not None else Fraction(repr(self.value(name)))
+
+    def link_values(self) -> dict[str, tuple[float, ...]]:
+        """{group: values} of the links as built the scene gives (com, J, J_axial, tip)."""
+        return dict(self.links_as_built)
+
+    def motor_folded(self) -> dict[str, Fraction]:
+        """A dc_motor folded exactly ({} without one): delta0 + c, and m0 (cart) or J0 (arm)
+        + the rotor's reflected inertia, as rationals of the decimals written (the motor
+        constants by their shortest repr), so that the resolved config and a specialised
+        header agree to the last bit (`Pendulum.folded` of the exact pendulum)."""
+        if not self.actuator.is_motor:
+            return {}
+        folded = from_scene_object(self, exact=True).folded()
+        if self.type == "classical":
+            return {"delta0": Fraction(folded.delta[0]), "m0": Fraction(folded.m[0])}
+        assert folded.J is not None  # an arm's folded J has every entry
+        return {"delta0": Fraction(folded.delta[0]), "J0": Fraction(folded.J[0])}
+
+
+def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None = None) -> Scene:
+    """The `Scene` of a validated document: defaults filled in, the controller's gain and the
+    swing-up's plan computed; what no table can say alone refused in one line. With `designed`,
+    the controller and swing-up law are that scene's (designed on its model) instead of designed
+    anew on this document's parameters: the plant changes, the controller does not (`ipgen sweep`)."""
+    tables = dict(document)
+    system, parameters = tables["system"], tables["parameters"]
+    kind, links = system.type, system.links
+    name = system.name or System(kind, links, system.inertia).default_name
+    lengths = _floats(parameters.lengths(kind))
+    initial = tables["initial"]
+    zeros = (0.0,) * (links + 1)
+    spec = tables["input"]
+    simulation = tables["simulation"].settings()
+    links_as_built = tuple((group, _floats(values)) for group, values in parameters.links_as_built())
+    controller = None
+    actuator = tables["actuator"].actuator()
+    coordinates = system.coordinates()
+    if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
+        reader.fail(
+            "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
+            "or torque): remove the FMU, or declare the motor-folded model (docs/rigs.md) without [actuator]"
+        )
+    if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
+        reader.fail(
+            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
+            "remove them (the FMU's input is the force or torque; see docs/model.md)"
+        )
+    if tables["controller"] is not None and designed is not None:
+        controller = designed.controller
+    elif tables["controller"] is not None:
+        params = _Parameters(
+            _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
+        )
+        try:
+            controller = control.controller(tables["controller"], system, params, actuator, coordinates)
+        except control.GainError as error:
+            reader.fail(str(error))
+    theta = zeros if initial.theta is None else _floats(initial.theta)
+    dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
+    law = None
+    if tables["swingup"] is not None:
+        if not coordinates.is_canonical:
+            reader.fail(
+                "[swingup] in the rig's coordinates is not supported yet: remove [system] angles, zero "
+                "and positive (the swing-up then uses ipgen's, docs/model.md)"
+            )
+        if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
+            theta = (0.0,) + (math.pi,) * links
+    if tables["swingup"] is not None and designed is not None:
+        law = designed.swingup
+    elif tables["swingup"] is not None:
+        params = _Parameters(
+            _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
+        )
+        gain = 1.0
+        if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
+            params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
+        try:
+            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
+        except swing.SwingUpError as error:
+            reader.fail(str(error))
+    travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
+    if travel is not None and abs(theta[0]) > travel:
+        reader.fail(
+            f"initial.theta[0] = {format_number(theta[0])} is beyond limits.travel = {format_number(travel)} "
+            "(the base starts outside its travel): move it inside or widen the limit"
+        )
+    return Scene(
+        path=reader.path,
+        stem=reader.path.stem,
+        type=kind,
+        links=links,
+        inertia=system.inertia,
+        name=name,
+        m=_floats(parameters.m),
+        l=lengths,
+        delta=_floats(parameters.delta),
+        g=float(parameters.g),
+        theta=theta,
+        dtheta=dtheta,
+        input=InputSpec(
+            kind=spec.kind,
+            **{
+                key: value if isinstance(value := getattr(spec, key), str) else float(value)
+                for key in schema.INPUT_KEYS[spec.kind]
+            },
+        ),
+        **simulation,
+        free=parameters.free,
+        energy=tables["outputs"].energy,
+        specialise=system.specialise,
+        emit=system.emit,
+        decimals=parameters.decimals(kind),
+        links_as_built=links_as_built,
+        warnings=_warnings(reader, simulation["rtol"]),
+        controller=controller,
+        actuator=actuator,
+        coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
+        coulomb_speed=float(parameters.coulomb_speed),
+        swingup=law,
+        coordinates=coordinates,
+        travel=travel,
+    )
+
+
+@dataclass(frozen=True)
+class _Parameters:
+    """The physical parameters as floats, for the LQR gain."""
+
+    m: tuple[float, ...]
+    l: tuple[float, ...]  # noqa: E741
+    delta: tuple[float, ...]
+    g: float
+    links: tuple[tuple[str, tuple[float, ...]], ...] = ()  # com, J, J_axial, tip the scene gives
+
+
+def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
+    """The motor-folded parameters (`Pendulum.folded`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
+    built = dict(params.links)
+    pendulum = Pendulum(
+        system.type, system.links, params.m, params.l, params.delta, params.g, system.inertia,
+        actuator=actuator, **built,
+    )  # fmt: skip
+    folded = pendulum.folded()
+    if folded.J is not None:
+        built["J"] = tuple(folded.J)
+    order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
+    links = tuple((group, tuple(built[group])) for group in order)
+    return _Parameters(tuple(folded.m), params.l, tuple(folded.delta), params.g, links), pendulum.gain
+
+
+def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
+    return tuple(float(number) for number in numbers)
+
+
+def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:
+    if rtol < schema.RTOL_ADVISED:
+        return (
+            reader.warning(
+                f"simulation.rtol = {format_number(rtol)} is below 1e-14 and "
+                "may not be met in double precision"
+            ),
+        )
+    return ()
+
+
+def motor_folded_parameters(
+    scene: Scene,
+) -> tuple[tuple[float, ...], tuple[float, ...], dict[str, tuple[float, ...]], float]:
+    """(m, delta, links as built, b) the simulator integrates: the scene's own, or with a
+    dc_motor the equivalent direct model's (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 +
+    the rotor's reflected inertia, rounded once from `Scene.motor_folded`) and its force or
+    torque per volt b."""
+    m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
+    if not scene.actuator.is_motor:
+        return m, delta, built, 1.0
+    folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
+    m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
+    exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
+    delta_[0] = float(exact["delta0"])
+    j_ = None if folded.J is None else list(folded.J)
+    if j_ is not None and scene.system.is_rotary:
+        j_[0] = float(exact["J0"])
+    if not scene.system.is_rotary:
+        m_[0] = float(exact["m0"])
+    if j_ is not None:
+        built["J"] = tuple(j_)
+    return tuple(m_), tuple(delta_), built, gain

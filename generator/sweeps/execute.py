@@ -1,0 +1,277 @@
+"""One run of a sweep, and a batch of them in one worker process.
+
+`run_one` is a pure function of (scene text, overrides, seed, success test): the worker prepares
+the scene once per process (`prepare`: the nominal scene, its TOML document, the generated header
+and the compiled simulator from ipgen's cache, so no run compiles or starts an interpreter), then
+per run applies the overrides in memory, validates the changed scene (a level the scene format
+refuses is `refused` with that one-line reason), writes the resolved config to a scratch folder,
+runs the simulator and judges its trajectory (`success.judge`).
+"""
+
+from __future__ import annotations
+
+import atexit
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ipgen.errors import Error
+from ipgen.sweeps import overrides as override
+from ipgen.sweeps.spec import SENSOR_KEYS, supported
+from ipgen.sweeps.success import Success, judge
+
+if TYPE_CHECKING:
+    from ipgen.scene.reader import Scene
+
+
+@dataclass(frozen=True)
+class SceneSource:
+    """The scene a sweep runs, by value (a Dask worker on another machine has no access to the file)."""
+
+    stem: str
+    text: str
+    cache: str | None = None  # the simulators' cache folder (None: ipgen's default)
+    model: str = ""  # the model's name and generated header, when the caller has them (else the
+    header: str = ""  # worker generates them: the same text, as generation is deterministic)
+
+    @property
+    def digest(self) -> str:
+        """SHA-256 of the stem and text: what a worker caches its preparation under."""
+        return hashlib.sha256(f"{self.stem}\0{self.text}\0{self.cache}".encode()).hexdigest()
+
+
+@dataclass(frozen=True)
+class Task:
+    """One run: its place in the sweep, its seed and its overrides (key text, value)."""
+
+    index: int
+    criterion: str
+    level: int
+    repeat: int
+    seed: int
+    overrides: tuple[tuple[str, object], ...]
+
+
+@dataclass(frozen=True)
+class Result:
+    """What one run did (`outcome`: pass, fail or refused)."""
+
+    task: Task
+    outcome: str
+    reason: str
+    status: int | None
+    angle_error: float
+    rate_error: float
+    base_error: float
+    max_travel: float
+    t_final: float
+    seconds: float
+
+
+@dataclass
+class Prepared:
+    """A scene prepared in this process: nominal scene, document, simulator, scratch folder."""
+
+    path: Path
+    scene: Scene
+    document: dict
+    simulator: Path
+    scratch: Path
+    model: str
+    header: str
+
+
+_PREPARED: dict[str, Prepared] = {}
+_LOCK = threading.Lock()
+
+
+def _scratch_root() -> str | None:
+    shm = "/dev/shm"  # a RAM disk where there is one: the cfg and CSV of a run never reach a disk
+    return shm if os.path.isdir(shm) and os.access(shm, os.W_OK) else None
+
+
+def header_text(path: Path, folder: Path) -> tuple[str, str]:
+    """(model name, generated C++ header) of the scene at `path`, generated into `folder`."""
+    from ipgen.command import job
+
+    planned = job.plan(folder, scene=path, emit=("cpp",), force=True)
+    job.run(planned)
+    return planned.name, (folder / f"{planned.name}.hpp").read_text()
+
+
+def prepare(source: SceneSource) -> Prepared:
+    """The scene prepared once per process (and per scene): cached."""
+    with _LOCK:
+        found = _PREPARED.get(source.digest)
+        if found is not None:
+            return found
+        from ipgen.command.simulator import build
+        from ipgen.scene.reader import load_scene, read_document
+
+        scratch = Path(tempfile.mkdtemp(prefix="ipgen-sweep.", dir=_scratch_root()))
+        atexit.register(shutil.rmtree, scratch, ignore_errors=True)
+        path = scratch / f"{source.stem}.toml"
+        path.write_text(source.text)
+        name, header = (
+            (source.model, source.header) if source.header else header_text(path, scratch / "model")
+        )
+        simulator = build(header, name, None if source.cache is None else Path(source.cache))
+        prepared = Prepared(
+            path, load_scene(path), read_document(path), simulator.path, scratch, name, header
+        )
+        _PREPARED[source.digest] = prepared
+        return prepared
+
+
+def _message(error: Exception, path: Path) -> str:
+    """A scene error's one line without the scratch file's name in front."""
+    text = " ".join(str(error).split())
+    for prefix in (f"{path.as_posix()}: ", f"{path.name}: "):
+        if text.startswith(prefix):
+            return text[len(prefix) :]
+    return text
+
+
+def _seeded(prepared: Prepared, task: Task) -> tuple[tuple[str, object], ...]:
+    """The overrides with the run's seed as sensors.seed (issue 32: the seed of every random stream of
+    a run: sensor noise, drive noise) when the scene has [sensors] or the run sets a sensor or drive key."""
+    if not supported("sensors.seed"):
+        return task.overrides
+    random = any(
+        k.split("[")[0] in SENSOR_KEYS for k, _ in task.overrides
+    )  # noise, pulses: drawn from the seed
+    if "sensors" not in prepared.document and not random:
+        return task.overrides
+    if any(k == "sensors.seed" for k, _ in task.overrides):
+        return task.overrides
+    return (*task.overrides, ("sensors.seed", task.seed))
+
+
+# The estimator's model in a scene's measured loop (issue 32's `Loop`): designed on the nominal scene
+# like the controller, kept when a run changes the plant or the sensors (not an [estimator] key).
+ESTIMATOR_MODEL: tuple[str, ...] = (
+    "A", "B", "gain", "equilibrium", "input_equilibrium", "process_noise", "measurement_noise",
+)  # fmt: skip
+
+
+def nominal_estimator(scene: Scene, nominal: Scene, changes: tuple[tuple[str, object], ...]) -> Scene:
+    """`scene` with the nominal scene's estimator model (gains, linearisation, covariances), unless
+    the run designs anew (a [controller], [swingup] or [estimator] key) or has no measured loop."""
+    loop, designed = getattr(scene, "loop", None), getattr(nominal, "loop", None)
+    if loop is None or designed is None or loop.estimator != designed.estimator:
+        return scene
+    if override.designs(changes) or any(key.startswith("estimator.") for key, _ in changes):
+        return scene
+    kept = {name: getattr(designed, name) for name in ESTIMATOR_MODEL if hasattr(designed, name)}
+    return replace(scene, loop=replace(loop, **kept))  # type: ignore[call-arg]
+
+
+def _refused(task: Task, reason: str, started: float) -> Result:
+    nan = float("nan")
+    return Result(task, "refused", reason, None, nan, nan, nan, nan, nan, time.perf_counter() - started)
+
+
+def _read_csv(path: Path, dof: int) -> tuple:
+    import numpy as np
+
+    with path.open() as f:
+        columns = f.readline().strip().split(",")
+    wanted = [columns.index("t")] + [columns.index(f"theta{i}") for i in range(dof)]
+    wanted += [columns.index(f"dtheta{i}") for i in range(dof)]
+    data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=wanted, ndmin=2)
+    return data[:, 0], data[:, 1:]
+
+
+def run_one(source: SceneSource, task: Task, test: Success) -> Result:
+    """Run `task` on the scene: refused, failed or passed, with its end-state errors."""
+    from ipgen.scene.reader import resolved_config, scene_from_document
+
+    started = time.perf_counter()
+    prepared = prepare(source)
+    try:
+        changes = _seeded(prepared, task)
+        document = override.apply(prepared.document, prepared.scene, changes)
+        designed = None if override.designs(changes) else prepared.scene
+        scene = nominal_estimator(
+            scene_from_document(prepared.path, document, designed=designed), prepared.scene, changes
+        )
+    except Error as error:
+        return _refused(task, _message(error, prepared.path), started)
+    if scene.controller is not None:
+        goal = scene.controller.equilibrium
+    elif scene.swingup is not None:
+        goal = scene.swingup.target
+    else:
+        return _refused(
+            task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
+        )
+    stem = f"run{task.index}_{threading.get_ident()}"
+    cfg, csv = prepared.scratch / f"{stem}.cfg", prepared.scratch / f"{stem}.csv"
+    cfg.write_text(resolved_config(scene))
+    try:
+        done = subprocess.run(
+            [str(prepared.simulator), str(cfg), "--csv", str(csv), "--force"], capture_output=True, text=True
+        )
+        if done.returncode == 2:  # the simulator refused the resolved scene
+            return _refused(task, " ".join(done.stderr.split())[:300] or "refused by the simulator", started)
+        dof = scene.links + 1
+        try:
+            t, states = _read_csv(csv, dof)
+        except (OSError, ValueError):
+            nan = float("nan")
+            return Result(
+                task,
+                "fail",
+                "no trajectory",
+                done.returncode,
+                nan,
+                nan,
+                nan,
+                nan,
+                nan,
+                time.perf_counter() - started,
+            )
+        if len(t) == 0:
+            nan = float("nan")
+            return Result(
+                task,
+                "fail",
+                "no trajectory",
+                done.returncode,
+                nan,
+                nan,
+                nan,
+                nan,
+                nan,
+                time.perf_counter() - started,
+            )
+        verdict = judge(
+            test, t, states, goal, rotary=scene.type == "rotary", status=done.returncode, travel=scene.travel
+        )
+    finally:
+        cfg.unlink(missing_ok=True)
+        csv.unlink(missing_ok=True)
+    return Result(
+        task,
+        "pass" if verdict.passed else "fail",
+        verdict.reason,
+        done.returncode,
+        verdict.angle_error,
+        verdict.rate_error,
+        verdict.base_error,
+        verdict.max_travel,
+        verdict.t_final,
+        time.perf_counter() - started,
+    )
+
+
+def run_batch(source: SceneSource, tasks: list[Task], test: Success) -> list[Result]:
+    """Run `tasks` one after another in this process (one submission per batch, not per run)."""
+    return [run_one(source, task, test) for task in tasks]

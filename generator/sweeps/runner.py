@@ -1,0 +1,218 @@
+"""A whole sweep: plan the runs, run those the table does not have yet, score, write the outputs.
+
+OUT/ receives runs.csv (`table.py`), scores.json and scores.md (`scores.py`) and the PNGs
+(`plots.py`): criterion_<name>.png per 1-D criterion run, grid.png for a 2-D grid, scores.png.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from concurrent.futures import Executor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ipgen.common.safetext import shown_path
+from ipgen.sweeps import engine, plots, scorecard, table
+from ipgen.sweeps import scores as scoring
+from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
+from ipgen.sweeps.spec import Criterion, SweepError, grid, parse_vary
+from ipgen.sweeps.success import Success
+
+MAX_SCENE_CHARS = 1_000_000
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a sweep wrote and found."""
+
+    files: list[Path]
+    scores: list[scoring.CriterionScore]
+    score: float | None
+    runs: int  # in the table
+    ran: int  # run now (the others were resumed from the table)
+    workers: int
+    seconds: float  # wall time of the runs made now
+    rows: list[dict[str, str]] = field(default_factory=list)
+
+
+def plan(criteria: list[Criterion], seed: int, scene_for_pulses: object = None) -> list[Task]:
+    """Every run of the sweep, numbered in order: criteria, levels, repetitions; seeds explicit."""
+    tasks = []
+    for criterion in criteria:
+        if criterion.refused:
+            continue
+        for index, level in enumerate(criterion.levels):
+            for repeat in range(criterion.repeat):
+                run_seed = scorecard.seed_of(seed, criterion.name, index, repeat)
+                overrides = level.overrides
+                if criterion.name == "pulses" and scene_for_pulses is not None:
+                    drawn = scorecard.pulse(scene_for_pulses, level.values[0], run_seed)  # type: ignore[arg-type]
+                    overrides = (("actuator.pulses", drawn),)
+                tasks.append(Task(len(tasks), criterion.name, index, repeat, run_seed, overrides))
+    return tasks
+
+
+def _check_out(out: Path, force: bool) -> None:
+    if out.exists() and not out.is_dir():
+        raise SweepError(f"-o {shown_path(out)} is a file: name a folder")
+    if out.is_dir() and any(out.iterdir()) and not (out / "runs.csv").exists() and not force:
+        raise SweepError(
+            f"{shown_path(out)} holds files and no runs.csv of a sweep: pass another -o, "
+            "or --force to write there"
+        )
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A planned sweep: the scene by value, its criteria, every run, the success test."""
+
+    source: SceneSource
+    criteria: list[Criterion]
+    tasks: list[Task]
+    test: Success
+    seed: int
+
+    def values(self, task: Task) -> tuple[float, ...]:
+        """The values of the run's level."""
+        criterion = next(c for c in self.criteria if c.name == task.criterion)
+        return criterion.levels[task.level].values
+
+
+def sweep(
+    scene: str | Path,
+    out: str | Path,
+    *,
+    scorecard_criteria: bool | tuple[str, ...] = False,
+    vary: tuple[str, ...] = (),
+    levels: dict[str, str] | None = None,
+    repeat: int | None = None,
+    seed: int = 0,
+    success: Success | None = None,
+    dask: str | None = None,
+    jobs: int | None = None,
+    force: bool = False,
+    cache: str | Path | None = None,
+    progress: Callable[[int, int], None] | None = None,
+    plot: bool = True,
+) -> Outcome:
+    """Run the sweep of `scene` into the folder `out` (see `ipgen.sweep`)."""
+    from ipgen.scene.reader import load_scene
+
+    test = success or Success()
+    if repeat is not None and repeat < 1:
+        raise SweepError(f"--repeat {repeat}: give a number of runs per level >= 1")
+    if jobs is not None and jobs < 1:
+        raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
+    if not isinstance(seed, int) or seed < 0:
+        raise SweepError(f"--seed {seed!r}: give an integer >= 0")
+    if not scorecard_criteria and not vary:
+        raise SweepError("nothing to sweep: pass --scorecard, or --vary KEY=LO:HI:N (repeatable)")
+    path, out = Path(scene), Path(out)
+    nominal = load_scene(path)  # a scene with a problem stops here, with its own message
+    if nominal.specialise and any(spec.strip().startswith("parameters.") for spec in vary):
+        raise SweepError(
+            f"{shown_path(path)} is specialised (its parameters are compiled in): "
+            "set specialise = false to sweep them"
+        )
+    criteria: list[Criterion] = []
+    if scorecard_criteria:
+        chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
+        from ipgen.scene.reader import read_document
+
+        estimator = read_document(path).get("estimator", {}).get("kind", "exact")
+        criteria += scorecard.criteria(nominal, chosen, levels, repeat, str(estimator))
+    elif levels:
+        raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
+    if vary:
+        criteria.append(grid([parse_vary(spec) for spec in vary], repeat or 1))
+    text = path.read_text()
+    if len(text) > MAX_SCENE_CHARS:
+        raise SweepError(f"{shown_path(path)} is too large for a sweep")
+    tasks = plan(criteria, seed, nominal)
+    _check_out(out, force)
+    finished = table.resumable(out / "runs.csv", tasks, force)
+    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
+    # Generated and built once here: the workers get the header and find the simulator in the cache
+    # (forked local workers inherit this preparation).
+    prepared = prepare(source)
+    source = replace(source, model=prepared.model, header=prepared.header)
+    planned = Planned(source, criteria, tasks, test, seed)
+    with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+        out.mkdir(parents=True, exist_ok=True)
+        return _run(planned, finished, pool, workers, out, progress, plot)
+
+
+def _run(
+    planned: Planned,
+    finished: dict[int, dict[str, str]],
+    pool: Executor,
+    workers: int,
+    out: Path,
+    progress: Callable[[int, int], None] | None,
+    plot: bool,
+) -> Outcome:
+    """Run what the table lacks on `pool`, appending to runs.csv as batches finish; write the outputs."""
+    import time
+
+    runs_csv = out / "runs.csv"
+    todo = [task for task in planned.tasks if task.index not in finished]
+    rows = dict(finished)
+    appender = table.Appender(runs_csv, [rows[i] for i in sorted(rows)])
+    total = len(planned.tasks)
+    if progress is not None:
+        progress(len(rows), total)
+
+    def done(results: list[Result]) -> None:
+        new = [table.row(result, planned.values(result.task)) for result in results]
+        appender.add(new)
+        for result, written in zip(results, new, strict=True):
+            rows[result.task.index] = written
+        if progress is not None:
+            progress(len(rows), total)
+
+    started = time.perf_counter()
+    try:
+        if todo:
+            engine.execute(pool, workers, planned.source, todo, planned.test, done)
+    finally:
+        appender.close()
+    seconds = time.perf_counter() - started
+    ordered = [rows[i] for i in sorted(rows)]
+    table.write_all(runs_csv, ordered)
+    found = scoring.score(planned.criteria, ordered)
+    files = _write_outputs(out, planned.source.stem, planned, found, ordered, plot)
+    return Outcome(files, found, scoring.total(found), len(ordered), len(todo), workers, seconds, ordered)
+
+
+def _write_outputs(
+    out: Path,
+    stem: str,
+    planned: Planned,
+    found: list[scoring.CriterionScore],
+    rows: list[dict[str, str]],
+    plot: bool,
+) -> list[Path]:
+    """scores.json, scores.md and the PNGs; the files written (runs.csv first)."""
+    total = scoring.total(found)
+    files = [out / "runs.csv"]
+    for name, text in (
+        ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed)),
+        ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows))),
+    ):
+        partial = out / f".{name}.partial"
+        partial.write_text(text)
+        os.replace(partial, out / name)
+        files.append(out / name)
+    if plot:
+        for s in found:
+            if s.criterion.refused or not s.criterion.levels:
+                continue
+            if len(s.criterion.axes) == 1:
+                files.append(
+                    plots.criterion_plot(s, rows, planned.test, out / f"criterion_{s.criterion.name}.png")
+                )
+            elif len(s.criterion.axes) == 2:
+                files.append(plots.heatmap(s, out / f"{s.criterion.name}.png"))
+        files.append(plots.scores_plot(found, total, stem, out / "scores.png"))
+    return files

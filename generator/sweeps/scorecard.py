@@ -1,0 +1,197 @@
+"""The robustness scorecard: the criteria of the DFKI double-pendulum leaderboard (model
+parameters, noise, delay, drive, perturbations) plus encoder resolution and sample rate.
+
+Each criterion varies one thing over stated levels (`CRITERIA`, overridable with
+`--criterion NAME=LO:HI:N`); the model parameters are scaled on every coordinate at once in the
+plant while the controller stays the one designed on the nominal scene. The criteria that need
+the scene format's [sensors] and drive keys (issue 32) are refused with that reason when this
+ipgen does not have them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from ipgen.sweeps.overrides import nominal_array
+from ipgen.sweeps.spec import NEEDS_SENSORS, Criterion, Key, Level, SweepError, parse_levels, supported
+
+if TYPE_CHECKING:
+    from ipgen.scene.reader import Scene
+
+
+@dataclass(frozen=True)
+class Default:
+    """A scorecard criterion: what it varies, its default levels and repetitions."""
+
+    name: str
+    label: str
+    levels: str  # LO:HI:N or v1,v2,... (parse_levels)
+    repeat: int = 1
+    needs: str = ""  # a scene key the criterion needs (issue 32's)
+    relative: bool = False  # levels are fractions of the input limit (u_max or the saturation)
+
+
+CRITERIA: tuple[Default, ...] = (
+    Default("mass", "masses ×", "0.75:1.25:21"),
+    Default("com", "mass·CoG (com) ×", "0.75:1.25:21"),
+    Default("inertia", "inertias J ×", "0.75:1.25:21"),
+    Default("damping", "damping δ ×", "0:2:21"),
+    Default("coulomb", "Coulomb friction [N or N m]", "0:0.1:21"),
+    Default("period", "controller period [s]", "0.0005,0.001,0.002,0.005,0.01,0.02,0.05"),
+    Default(
+        "resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"
+    ),
+    Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10, needs="sensors.noise"),
+    Default(
+        "delay", "delay [s]", "0:0.04:21", needs="sensors.delay"
+    ),  # multiples of the period: delay_levels
+    Default(
+        "drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise", relative=True
+    ),
+    Default("lag", "drive lag τ [s]", "0:0.05:21", needs="actuator.lag"),
+    Default(
+        "pulses",
+        "pulse amplitude / input limit (as force)",
+        "0:0.5:5",
+        repeat=10,
+        needs="actuator.pulses",
+        relative=True,
+    ),
+)
+NAMES = tuple(default.name for default in CRITERIA)
+MEASUREMENT = ("resolution", "sensor_noise")  # criteria that act through the estimator only
+PULSE_DURATION = 0.05  # s: one pulse per run, at a time drawn from the run's seed
+
+
+def seed_of(base: int, criterion: str, level: int, repeat: int) -> int:
+    """The run's seed: the first 4 bytes of SHA-256("base/criterion/level/repeat") (stated, stable)."""
+    digest = hashlib.sha256(f"{base}/{criterion}/{level}/{repeat}".encode()).digest()
+    return int.from_bytes(digest[:4], "big")
+
+
+def input_limit(scene: Scene) -> float:
+    """The input's limit the relative criteria scale by: u_max, the saturation, else 1."""
+    if scene.swingup is not None:
+        return scene.swingup.u_max
+    if scene.controller is not None and scene.controller.saturation is not None:
+        return scene.controller.saturation
+    return 1.0
+
+
+def force_limit(scene: Scene) -> float:
+    """The input limit as a force or torque on the base [N or N m] (pulses act there): with a
+    dc_motor the voltage limit times the motor's gain (N m or N per volt)."""
+    limit = input_limit(scene)
+    return limit * scene.actuator.gain() if scene.actuator.is_motor else limit
+
+
+def _scaled(scene: Scene, name: str, factor: float) -> list[float]:
+    values = nominal_array(scene, Key("parameters", name))
+    assert values is not None
+    return [value * factor for value in values]
+
+
+def _overrides(scene: Scene, name: str, value: float) -> tuple[tuple[str, object], ...]:
+    """The overrides of criterion `name` at level `value` (pulses: drawn per run, see `pulse`)."""
+    if name == "mass":
+        return (("parameters.m", _scaled(scene, "m", value)),)
+    if name == "com":
+        return (("parameters.com", _scaled(scene, "com", value)),)
+    if name == "inertia":
+        return (("parameters.J", _scaled(scene, "J", value)),)
+    if name == "damping":
+        return (("parameters.delta", _scaled(scene, "delta", value)),)
+    if name == "coulomb":
+        return (("parameters.coulomb", [value] * (scene.links + 1)),)
+    if name == "period":
+        table = "swingup" if scene.swingup is not None else "controller"
+        return ((f"{table}.period", value),)
+    if name == "resolution":
+        return (("sensors.resolution", int(value)),)
+    if name == "sensor_noise":
+        return (("sensors.noise", value),)
+    if name == "delay":
+        return (("sensors.delay", value),)
+    if name == "drive_noise":
+        return (("actuator.noise", value * input_limit(scene)),)
+    if name == "lag":
+        return (("actuator.lag", value),)
+    return ()
+
+
+def pulse(scene: Scene, amplitude: float, seed: int) -> list[list[float]]:
+    """One pulse of `PULSE_DURATION` s on the base, `amplitude` times `force_limit`, sign and start
+    drawn from `seed` (numpy PCG64): its start uniform in [1 s, t_end − 2 s] (the run has time to
+    recover before the hold window)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    start = float(rng.uniform(1.0, max(1.0, scene.t_end - 2.0)))
+    sign = 1.0 if rng.random() < 0.5 else -1.0
+    return [[round(start, 6), PULSE_DURATION, sign * amplitude * force_limit(scene)]]
+
+
+def delay_levels(scene: Scene) -> str:
+    """The delay levels: whole multiples of the loop's period from 0 to 40 ms (at most 21 of them,
+    evenly spaced), as a delay must be a multiple of the period; "" without a period."""
+    period = (
+        scene.swingup.period
+        if scene.swingup is not None
+        else (scene.controller.period if scene.controller is not None else None)
+    )
+    if not period:
+        return ""
+    steps = int(0.04 / period + 1e-9)
+    stride = max(1, -(-steps // 20))
+    return ",".join(repr(k * period) for k in range(0, steps + 1, stride))
+
+
+def criteria(
+    scene: Scene,
+    chosen: tuple[str, ...] | None = None,
+    levels: dict[str, str] | None = None,
+    repeat: int | None = None,
+    estimator: str = "exact",
+) -> list[Criterion]:
+    """The scorecard's criteria for `scene` (`chosen`: a subset by name; `levels`: new levels by
+    name; `repeat`: the repetitions of the seeded criteria; `estimator`: the scene's
+    [estimator] kind — with "exact" the controller sees the true state, so the measurement's
+    resolution and noise change nothing and those criteria are not run)."""
+    levels = dict(levels or {})
+    unknown = [name for name in [*(chosen or ()), *levels] if name not in NAMES]
+    if unknown:
+        raise SweepError(
+            f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(NAMES)}"
+        )
+    if scene.controller is None and scene.swingup is None:
+        raise SweepError(
+            "--scorecard needs a scene with a [controller] or a [swingup]: it scores a closed loop"
+        )
+    found = []
+    for default in CRITERIA:
+        if chosen is not None and default.name not in chosen:
+            continue
+        text = levels.get(default.name) or delay_levels(scene) if default.name == "delay" else None
+        text = text or levels.get(default.name, default.levels)
+        values = parse_levels(text, f"{default.name}={text}")
+        reps = default.repeat if repeat is None or default.repeat == 1 else repeat
+        seeded = default.repeat > 1
+        refused = ""
+        if default.needs and not supported(default.needs):
+            refused = NEEDS_SENSORS
+        elif default.name == "period" and scene.controller is not None and scene.controller.period is None:
+            refused = "the scene's controller is continuous (no controller.period): nothing to vary"
+        elif default.name == "pulses" and scene.actuator.is_acceleration:
+            refused = "the base follows the commanded acceleration: a force pulse on it changes nothing"
+        elif default.name in MEASUREMENT and estimator == "exact":
+            refused = (
+                'the controller sees the exact state ([estimator] kind = "exact"): the measurement changes '
+                "nothing; give the scene an estimator to score it"
+            )
+        built = tuple(
+            Level((value,), _overrides(scene, default.name, value) if not refused else ()) for value in values
+        )
+        found.append(Criterion(default.name, default.label, (default.label,), built, reps, refused, seeded))
+    return found

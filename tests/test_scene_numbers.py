@@ -1,0 +1,219 @@
+"""Numbers of any size and any TOML form in every numeric key of a scene (issue #31, "scenes"):
+the scene loads and its resolved config holds only finite numbers, or loading fails with one
+`SceneError` line that shows the value as written, never a traceback, never an internal repr.
+
+The reported cases are regressions here: a 4,301-digit t_end, long hex integers,
+`1e9999999999999999999` (decimal.InvalidOperation), `[actuator] Kg = 1e200` (OverflowError),
+`[swingup] period = 1e-300` and `5e-324`, an energy swing-up with `g = 0` or `-0.0`
+(ZeroDivisionError), and `parameters.J_axial = [Exact(value=0.0, text='0'), ...]` in a message.
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from ipgen.errors import SceneError
+from ipgen.scene import schema
+from ipgen.scene.reader import load_scene, resolved_config
+
+# Scenes that together use every table; each numeric key is replaced in the scenes that have it.
+PULSE_LQR = """\
+[system]
+type = "classical"
+links = 2
+[parameters]
+m = [0.3, 0.275, 0.275]
+l = [0, 0.5, 0.5]
+delta = [0.3, 0.1, 0.1]
+J = [0, 0.006, 0.006]
+tip = [0, 0, 0]
+com = [0, 0.25, 0.25]
+coulomb = [0.1, 0, 0]
+[controller]
+kind = "lqr"
+r = 1
+saturation = 20
+period = 0.01
+equilibrium = [0, 0, 0]
+q = [1, 1, 1, 1, 1, 1]
+[initial]
+theta = [0, 0.01, 0]
+dtheta = [0, 0, 0]
+[limits]
+travel = 2
+[simulation]
+t_end = 2
+sample = 0.01
+rtol = 1e-8
+atol = 1e-10
+max_steps = 1000
+"""
+MOTOR_SWINGUP = """\
+[system]
+type = "rotary"
+links = 1
+inertia = "full"
+[parameters]
+m = [0.095, 0.024]
+l = [0.085, 0.129]
+delta = [0.0005, 0.00003]
+g = 9.81
+J_axial = [0, 0]
+coulomb_speed = 0.01
+[actuator]
+kind = "dc_motor"
+Rm = 8.4
+kt = 0.042
+km = 0.042
+Kg = 1
+eta_g = 1
+eta_m = 1
+Jm = 4e-6
+[swingup]
+method = "energy"
+u_max = 10
+period = 0.01
+hold = 1
+[simulation]
+t_end = 5
+sample = 0.01
+"""
+INPUTS = {
+    "pulse": "kind = 'pulse'\namplitude = 0.4\nstart = 0.5\nduration = 1",
+    "step": "kind = 'step'\namplitude = 0.4\ntime = 1",
+    "sine": "kind = 'sine'\namplitude = 0.4\nfrequency = 2\nphase = 0.1",
+    "chirp": "kind = 'chirp'\namplitude = 0.4\nf0 = 0.1\nf1 = 5\nduration = 10\nstart = 0",
+    "multisine": "kind = 'multisine'\namplitude = 0.4\nf_min = 0.1\nf_max = 5\nperiod = 10",
+}
+RK4 = "[system]\ntype = 'rotary'\nlinks = 1\n[parameters]\nm = [0.2, 0.1]\nl = [0.3, 0.5]\n"
+RK4 += "delta = [0.01, 0.001]\n[simulation]\nt_end = 1\nsample = 0.01\nmethod = 'rk4'\nstep = 0.001\n"
+
+
+def _scenes() -> list[str]:
+    open_loop = PULSE_LQR.split("[controller]")[0] + "[initial]" + PULSE_LQR.split("[initial]")[1]
+    return [PULSE_LQR, MOTOR_SWINGUP, RK4, *(f"{open_loop}[input]\n{body}\n" for body in INPUTS.values())]
+
+
+def _numeric_keys(text: str) -> list[tuple[int, str, str]]:
+    """(line index, key, 'scalar' or 'array') of every number-valued key in `text`."""
+    found = []
+    for i, line in enumerate(text.splitlines()):
+        match = re.match(r"(\w+) = (\[?)[-0-9]", line)
+        if match and match.group(1) not in ("links", "max_steps"):
+            found.append((i, match.group(1), "array" if match.group(2) else "scalar"))
+        elif match:
+            found.append((i, match.group(1), "integer"))
+    return found
+
+
+SCENES = _scenes()
+KEYS = [(s, i, key, kind) for s, text in enumerate(SCENES) for i, key, kind in _numeric_keys(text)]
+
+digits = st.text("0123456789", min_size=1, max_size=40)
+NUMBERS = st.one_of(
+    st.integers(-(10**30), 10**30).map(str),
+    st.integers(1, 5000).map(lambda n: "9" * n),  # up to and past Python's 4300-digit limit
+    st.integers(1, 2000).map(lambda n: "0x" + "f" * n),  # hex, octal and binary of any length
+    st.integers(1, 400).map(lambda n: "0o" + "7" * n),
+    st.integers(1, 4000).map(lambda n: "0b" + "1" * n),
+    st.floats(allow_nan=True, allow_infinity=True).map(repr),
+    st.builds(
+        lambda sign, mantissa, exponent: f"{sign}{mantissa}e{exponent}",
+        st.sampled_from(["", "-", "+"]),
+        st.one_of(digits, st.builds(lambda a, b: f"{a}.{b}", digits, digits)),
+        st.one_of(st.integers(-400, 400), st.integers(-(10**25), 10**25)),
+    ),
+    st.sampled_from(["nan", "+inf", "-inf", "-0.0", "0.0", "5e-324", "1e-300", "1e200", "1e308", "2e308"]),
+)
+_CHECKS = [HealthCheck.too_slow, HealthCheck.data_too_large]
+
+
+def _outcome(text: str) -> str:
+    """load_scene + resolved_config on `text`: the config, or the one-line message."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "s.toml"
+        path.write_text(text, encoding="utf-8")
+        try:
+            scene = load_scene(path)
+        except SceneError as error:
+            message = str(error)
+            assert "\n" not in message and len(message) < 400, message
+            assert not re.search(r"Exact\(|Decimal\(|<[a-z_.]+ object|Traceback", message), message
+            return message
+        config = resolved_config(scene)
+    for line in config.splitlines():
+        if not line.startswith("#"):
+            for word in line.split(" = ", 1)[1].split():
+                assert word not in ("inf", "-inf", "nan"), line
+    return config
+
+
+def _replaced(scene: int, line: int, kind: str, number: str, position: int) -> str:
+    lines = SCENES[scene].splitlines()
+    key, value = lines[line].split(" = ", 1)
+    if kind == "array":
+        items = [item.strip() for item in value.strip("[]").split(",")]
+        items[position % len(items)] = number
+        lines[line] = f"{key} = [{', '.join(items)}]"
+    else:
+        lines[line] = f"{key} = {number}"
+    return "\n".join(lines) + "\n"
+
+
+def test_every_numeric_key_is_covered() -> None:
+    """The scenes above give every numeric key of the format a number to replace (but [swingup]
+    x_max: a trajectory plan per example would take minutes; it is a `Real(gt=0)` like the
+    others)."""
+    covered = {key for _, _, key, _ in KEYS}
+    numeric = {
+        key
+        for name, keys in schema.TABLES.items()
+        for key in keys
+        if key not in ("kind", "method", "type", "inertia", "name", "specialise", "emit", "free", "jacobian")
+        and key not in ("angles", "zero", "positive", "sweep", "energy", "x_max")
+    }
+    assert numeric <= covered, numeric - covered
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=_CHECKS)
+@given(key=st.sampled_from(KEYS), number=NUMBERS, position=st.integers(0, 6))
+def test_any_number_in_any_numeric_key_loads_or_is_one_line(
+    key: tuple[int, int, str, str], number: str, position: int
+) -> None:
+    scene, line, _, kind = key
+    started = time.process_time()
+    _outcome(_replaced(scene, line, kind, number, position))
+    assert time.process_time() - started < 10
+
+
+REGRESSIONS = [
+    (0, "t_end", "9" * 4301, "an integer of more than 4300 digits"),
+    (0, "t_end", "0x" + "f" * 1200, "...8566515865407717375: is too large for a double"),
+    (0, "t_end", "0x" + "f" * 4000, "simulation.t_end = 0xffff"),
+    (0, "t_end", "1e9999999999999999999", "t_end = 1e9999999999999999999: is too large for a double"),
+    (1, "Kg", "1e200", "overflows a double"),
+    (1, "period", "1e-300", "swingup.period = 1e-300: t_end / period"),
+    (1, "period", "5e-324", "swingup.period = 5e-324: t_end / period"),
+    (1, "g", "0", "energy swing-up needs gravity"),
+    (1, "g", "-0.0", "energy swing-up needs gravity"),
+]
+
+
+@pytest.mark.parametrize(("scene", "key", "number", "expected"), REGRESSIONS)
+def test_reported_numbers(scene: int, key: str, number: str, expected: str) -> None:
+    (line, kind) = next((i, k) for s, i, name, k in KEYS if s == scene and name == key)
+    outcome = _outcome(_replaced(scene, line, kind, number, 0))
+    assert expected in outcome, outcome
+
+
+def test_messages_show_values_as_written() -> None:
+    text = SCENES[0].replace("[parameters]\n", "[parameters]\nJ_axial = [0, 0.5, 0]\n")
+    outcome = _outcome(text)
+    assert "parameters.J_axial = [0, 0.5, 0]: counts only for a rotary system" in outcome, outcome

@@ -1,0 +1,378 @@
+"""`ipgen sweep` / `ipgen.sweep`: robustness scorecards and grids of scene keys.
+
+The runs use the paper's rotary single pendulum under a sampled LQR (one simulator compile, shared
+with every other test of model rsip through ipgen's cache), integrated with rk4 for short runs so
+that the whole file takes seconds. Checked independently: the plant a sweep simulates (a scaled
+mass, the nominal controller) against Kane's equations (tests/independent_model.py) integrated by
+scipy with the same zero-order hold; the success test on trajectories written by hand; the scores
+recomputed from the table; a Dask LocalCluster's table against the local pool's.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cxx import require_toolchain
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ipgen
+from ipgen.command.cli import run
+from ipgen.scene.reader import load_scene
+from ipgen.sweeps import spec
+from ipgen.sweeps.spec import SweepError, parse_key, parse_levels, parse_vary
+from ipgen.sweeps.success import Success, judge
+from ipgen.sweeps.table import RESULT
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = """\
+[system]
+type = "rotary"
+links = 1
+name = "rsip"
+
+[parameters]
+m = [0.5, 0.275]
+l = [0.6, 0.5]
+delta = [0.3, 0.011458]
+
+[initial]
+theta = [0, 0.1]
+
+[controller]
+kind = "lqr"
+q = [1, 1, 1, 1]
+r = 1
+saturation = 5.0
+period = 0.01
+
+[simulation]
+t_end = 2.0
+sample = 0.01
+method = "rk4"
+step = 0.001
+"""
+
+
+@pytest.fixture
+def scene(tmp_path: Path) -> Path:
+    require_toolchain()
+    path = tmp_path / "rsip_sweep.toml"
+    path.write_text(SCENE)
+    return path
+
+
+def _rows(folder: Path) -> list[dict[str, str]]:
+    with (folder / "runs.csv").open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _results(rows: list[dict[str, str]]) -> list[tuple[str, ...]]:
+    """What a run gave (not its wall time)."""
+    return [tuple(row[column] for column in RESULT) for row in rows]
+
+
+# ---------------------------------------------------------------------------- the success test
+
+
+def test_the_success_test_on_trajectories_written_by_hand() -> None:
+    t = np.linspace(0.0, 3.0, 301)
+    settled = np.zeros((t.size, 4))
+    settled[:, 1] = 0.5 * np.exp(-3 * t)  # the link's angle decays to 0.05 at 0.77 s
+    test = Success()
+    assert judge(test, t, settled, (0, 0, 0, 0), rotary=True, status=0, travel=None).passed
+    turned = settled.copy()
+    turned[:, 1] += 2 * math.pi  # a link that turned over once is upright again
+    verdict = judge(test, t, turned, (0, 0, 0, 0), rotary=True, status=0, travel=None)
+    assert verdict.passed and verdict.angle_error < 1e-3
+    late = settled.copy()
+    late[t > 2.5, 1] = 0.4  # leaves the 0.35 rad band in the last second, then...
+    late[-1, 1] = 0.0  # ...ends on the goal: still a failure
+    verdict = judge(test, t, late, (0, 0, 0, 0), rotary=True, status=0, travel=None)
+    assert not verdict.passed and verdict.reason == "left the tolerance in the hold time"
+    assert judge(Success(hold=0.4), t, late, (0, 0, 0, 0), rotary=True, status=0, travel=None).passed is False
+    spinning = settled.copy()
+    spinning[:, 3] = 1.5  # the rate tolerance (1 rad/s) counts too
+    assert judge(test, t, spinning, (0, 0, 0, 0), rotary=True, status=0, travel=None).reason == (
+        "not within the tolerance"
+    )
+    assert judge(test, t, settled, (0, 0, 0, 0), rotary=True, status=3, travel=None).reason == "diverged"
+    wide = settled.copy()
+    wide[:, 0] = np.sin(t)  # the base swings to |θ0| = 1 (rad)
+    assert judge(test, t, wide, (0, 0, 0, 0), rotary=True, status=0, travel=0.9).reason == "left the travel"
+    assert judge(test, t, wide, (0, 0, 0, 0), rotary=True, status=0, travel=1.1).passed
+    assert not judge(Success(base=0.1), t, wide, (0, 0, 0, 0), rotary=True, status=0, travel=None).passed
+    hanging_goal = (0.0, math.pi, 0.0, 0.0)
+    near_pi = settled.copy()
+    near_pi[:, 1] = -math.pi + 0.01  # 0.01 rad from π the other way round
+    assert judge(test, t, near_pi, hanging_goal, rotary=True, status=0, travel=None).passed
+
+
+# ---------------------------------------------------------------------------- specifications
+
+
+def test_keys_levels_and_one_line_errors() -> None:
+    assert parse_key("parameters.m[1]") == spec.Key("parameters", "m", 1)
+    assert parse_key("controller.period").designs
+    assert not parse_key("initial.theta[1]").designs
+    assert parse_levels("0:1:5", "x") == (0.0, 0.25, 0.5, 0.75, 1.0)
+    assert parse_levels("0.1,0.3", "x") == (0.1, 0.3)
+    assert parse_levels("2:2:1", "x") == (2.0,)
+    for bad, needle in (
+        ("parameters.mass=0:1:3", "has no key 'mass'"),
+        ("nosuch.m=0:1:3", "unknown table"),
+        ("system.links=1,2", "cannot be swept"),
+        ("parameters.m[1]=1:2:0", "the range is empty"),
+        ("parameters.m[1]=", "no values"),
+        ("parameters.m[1]=1,,2", "an empty value"),
+        ("parameters.m[1]=1:nan:3", "not a finite number"),
+        ("parameters.m[1]", "expected KEY=LO:HI:N"),
+        ("m1=0:1:3", "not a scene key"),
+    ):
+        with pytest.raises(SweepError, match=needle.replace("[", r"\[")) as caught:
+            parse_vary(bad)
+        assert "\n" not in str(caught.value)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.text(max_size=60))
+def test_any_vary_text_parses_or_is_refused_in_one_line(text: str) -> None:
+    try:
+        key, levels = parse_vary(text)
+    except SweepError as error:
+        assert "\n" not in str(error) and len(str(error)) < 400
+        return
+    assert levels and all(math.isfinite(value) for value in levels)
+    assert key.table in spec.schema.TABLES
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    st.from_regex(r"[a-z_]{1,12}\.[A-Za-z_]{1,12}(\[[0-9]{1,2}\])?", fullmatch=True),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-3, 30),
+)
+def test_ranges_over_any_key(key: str, low: float, high: float, count: int) -> None:
+    text = f"{key}={low!r}:{high!r}:{count}"
+    try:
+        _, levels = parse_vary(text)
+    except SweepError as error:
+        assert "\n" not in str(error)
+        return
+    assert len(levels) == count and levels[0] == low and math.isclose(levels[-1], high, rel_tol=1e-12)
+
+
+def test_bad_specifications_from_the_command_write_nothing(scene: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "out"
+    for arguments, needle in (
+        (["--vary", "parameters.nope=1:2:3"], "has no key 'nope'"),
+        (["--vary", "parameters.m[1]=1:2:0"], "the range is empty"),
+        ([], "nothing to sweep"),
+        (["--scorecard", "--only", "mass,wind"], "criterion 'wind' is unknown"),
+        (["--vary", "initial.theta[1]=0,1", "--repeat", "0"], "--repeat 0"),
+        (["--vary", "initial.theta[1]=0,1", "--jobs", "0"], "--jobs 0"),
+    ):
+        status = run(["sweep", str(scene), "-o", str(out), *arguments])
+        err = capsys.readouterr().err
+        assert status == 2, err
+        assert needle in err and err.count("\n") == 1 and "Traceback" not in err
+        assert not out.exists()
+
+
+# ---------------------------------------------------------------------------- runs
+
+
+def test_a_small_scorecard_scored_as_its_table_says(scene: Path, tmp_path: Path) -> None:
+    out = tmp_path / "card"
+    outcome = ipgen.sweep(
+        scene,
+        out,
+        scorecard=("mass", "damping", "period", "sensor_noise"),
+        levels={"mass": "0.75:1.25:3", "damping": "0,1,2", "period": "0.01,0.05,0.5"},
+        jobs=2,
+    )
+    rows = _rows(out)
+    assert len(rows) == 9 == outcome.runs  # sensor_noise: run only with [sensors] support
+    assert {p.name for p in outcome.files} >= {"runs.csv", "scores.json", "scores.md", "scores.png"}
+    assert (out / "criterion_mass.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    seeds = [int(row["seed"]) for row in rows]
+    assert len(set(seeds)) == len(seeds)  # one explicit seed per run
+    by_level: dict[tuple[str, str], list[str]] = {}
+    for row in rows:
+        by_level.setdefault((row["criterion"], row["level"]), []).append(row["outcome"])
+    scores = json.loads((out / "scores.json").read_text())
+    for criterion in scores["criteria"]:
+        if criterion["refused"]:
+            continue
+        passes = [
+            sum(o == "pass" for o in by_level[criterion["name"], str(i)]) * 2
+            > len(by_level[criterion["name"], str(i)])
+            for i in range(len(criterion["levels"]))
+        ]
+        assert [level["passes"] for level in criterion["levels"]] == passes
+        assert math.isclose(criterion["score"], sum(passes) / len(passes))
+    counted = [c["score"] for c in scores["criteria"] if c["score"] is not None]
+    assert math.isclose(scores["score"], sum(counted) / len(counted))
+    # the nominal levels pass; a 0.5 s sample period (poles at -26/s) cannot hold the link
+    outcomes = {(row["criterion"], row["values"]): row for row in rows}
+    assert outcomes["mass", "[1.0]"]["outcome"] == "pass"
+    assert outcomes["damping", "[1.0]"]["outcome"] == "pass"
+    assert outcomes["period", "[0.5]"]["outcome"] == "fail"
+    noise = next(c for c in scores["criteria"] if c["name"] == "sensor_noise")
+    if not spec.supported("sensors.noise"):
+        assert noise["refused"].startswith("needs [sensors] support")
+        assert "needs [sensors] support" in (out / "scores.md").read_text()
+
+
+def test_the_plant_changes_and_the_controller_stays_nominal(scene: Path, tmp_path: Path) -> None:
+    """A sweep's run with the masses × 1.25 against Kane's equations under the nominal gain with the
+    same zero-order hold (scipy); the gain designed on the heavier model gives another end state."""
+    from independent_model import reference
+    from scipy.integrate import solve_ivp
+
+    out = tmp_path / "mass"
+    ipgen.sweep(scene, out, scorecard=("mass",), levels={"mass": "1.25"}, jobs=1, plots=False)
+    (row,) = _rows(out)
+    nominal = load_scene(scene)
+    model = reference("rotary", 1, "pivot")
+    m = [1.25 * value for value in nominal.m]
+    params = (m, list(nominal.l), list(nominal.delta), 9.81)
+
+    def end_state(gain: np.ndarray) -> np.ndarray:
+        x = np.array([0.0, 0.1, 0.0, 0.0])
+        for k in range(200):  # 2 s at 10 ms, u held
+            u = float(np.clip(-gain @ x, -5, 5))
+
+            def f(t: float, state: np.ndarray, u: float = u) -> np.ndarray:
+                mass = np.asarray(model.mass_matrix(state[:2], state[2:], u, params), float)
+                forcing = np.asarray(model.forcing(state[:2], state[2:], u, params), float).reshape(-1)
+                return np.concatenate([state[2:], np.linalg.solve(mass, forcing)])
+
+            x = solve_ivp(f, (0.01 * k, 0.01 * (k + 1)), x, method="DOP853", rtol=1e-10, atol=1e-12).y[:, -1]
+        return x
+
+    expected = end_state(np.asarray(nominal.controller.gain))
+    got = (float(row["base_error"]), float(row["angle_error"]), float(row["rate_error"]))
+    assert np.allclose(got, np.abs([expected[0], expected[1], expected[3]]), rtol=1e-5, atol=1e-9), (
+        got,
+        expected,
+    )
+    redesigned = np.asarray(ipgen.lqr("rotary", 1, m, list(nominal.l), list(nominal.delta), np.eye(4), 1.0))
+    redesigned = redesigned.reshape(-1)
+    other = end_state(redesigned)
+    assert not np.allclose(got, np.abs([other[0], other[1], other[3]]), rtol=1e-3, atol=1e-9)
+
+
+def test_refused_levels_are_recorded_and_the_sweep_goes_on(scene: Path, tmp_path: Path) -> None:
+    out = tmp_path / "period"
+    outcome = ipgen.sweep(scene, out, vary=["controller.period=0.01,0.003,-1,0.02"], jobs=2, plots=False)
+    rows = _rows(out)
+    assert [row["outcome"] for row in rows] == ["pass", "refused", "refused", "pass"]
+    assert "whole multiple or a whole fraction of simulation.sample" in rows[1]["reason"]
+    assert "\n" not in rows[2]["reason"] and rows[2]["reason"].startswith("controller.period")
+    assert outcome.score == 1.0  # refused levels are not counted
+    text = (out / "scores.md").read_text()
+    assert "2/2" in text
+
+
+def test_an_interrupted_sweep_resumes_from_its_table(scene: Path, tmp_path: Path) -> None:
+    out = tmp_path / "basin"
+    grid = ["initial.theta[1]=-0.9:0.9:4", "initial.dtheta[1]=-1,1"]
+    whole = ipgen.sweep(scene, out, vary=grid, jobs=2)
+    assert whole.ran == 8 and (out / "grid.png").is_file()
+    complete = _rows(out)
+    assert {row["outcome"] for row in complete} == {"pass", "fail"}  # ±0.9 rad is outside the basin
+    lines = (out / "runs.csv").read_text().splitlines(keepends=True)
+    (out / "runs.csv").write_text("".join(lines[:4]) + lines[4][:20])  # 3 runs, then a cut line
+    resumed = ipgen.sweep(scene, out, vary=grid, jobs=2)
+    assert resumed.ran == 5 and resumed.runs == 8
+    assert _results(_rows(out)) == _results(complete)
+    with pytest.raises(SweepError, match="from another sweep"):
+        ipgen.sweep(scene, out, vary=["initial.theta[1]=0,0.1"], jobs=1)
+    assert ipgen.sweep(scene, out, vary=["initial.theta[1]=0,0.1"], jobs=1, force=True).ran == 2
+
+
+def test_sensor_keys_by_name(scene: Path, tmp_path: Path) -> None:
+    """The sensor and drive keys of issue 32: refused in one line until the scene format has them."""
+    if spec.supported("sensors.noise"):
+        outcome = ipgen.sweep(scene, tmp_path / "noise", vary=["sensors.noise=0,0.001"], repeat=2, jobs=2)
+        rows = _rows(tmp_path / "noise")
+        assert outcome.runs == 4 and rows[0]["outcome"] == "pass"
+        assert len({row["seed"] for row in rows}) == 4
+        return
+    for key in ("sensors.noise", "sensors.delay", "sensors.resolution", "actuator.noise", "actuator.lag"):
+        with pytest.raises(SweepError, match=r"needs \[sensors\] support"):
+            ipgen.sweep(scene, tmp_path / "x", vary=[f"{key}=0,1"])
+
+
+def test_a_dask_local_cluster_gives_the_local_table(scene: Path, tmp_path: Path) -> None:
+    distributed = pytest.importorskip("distributed")
+    grid = ["initial.theta[1]=-0.8:0.8:3", "parameters.m[1]=0.2,0.35"]
+    local = ipgen.sweep(scene, tmp_path / "local", vary=grid, jobs=2, plots=False)
+    with (
+        distributed.LocalCluster(
+            n_workers=1,
+            threads_per_worker=2,
+            processes=False,
+            protocol="tcp",
+            host="127.0.0.1",
+            dashboard_address=None,
+        ) as cluster,
+    ):
+        remote = ipgen.sweep(scene, tmp_path / "dask", vary=grid, dask=cluster.scheduler_address, plots=False)
+    assert remote.workers == 2 and local.runs == remote.runs == 6
+    assert _results(_rows(tmp_path / "dask")) == _results(_rows(tmp_path / "local"))
+    assert (tmp_path / "dask" / "scores.json").read_text() == (tmp_path / "local" / "scores.json").read_text()
+
+
+def test_no_scheduler_at_the_address_is_one_line(scene: Path, tmp_path: Path, capsys) -> None:
+    pytest.importorskip("distributed")
+    status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), "--vary", "initial.theta[1]=0", "--dask",
+                  "tcp://127.0.0.1:9"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert status == 2 and "cannot reach a Dask scheduler" in err and err.count("\n") == 1
+
+
+def test_delay_levels_are_whole_multiples_of_the_period() -> None:
+    from ipgen.sweeps.scorecard import delay_levels
+
+    kilohertz = [float(v) for v in delay_levels(load_scene(ROOT / "scenes" / "rsip_lqr.toml")).split(",")]
+    assert len(kilohertz) == 21 and kilohertz[0] == 0 and math.isclose(kilohertz[-1], 0.04)
+    assert all(math.isclose(v / 0.001, round(v / 0.001), abs_tol=1e-9) for v in kilohertz)
+    hundred = delay_levels(load_scene(ROOT / "scenes" / "rsip_swingup.toml"))
+    assert [float(v) for v in hundred.split(",")] == [0.0, 0.01, 0.02, 0.03, 0.04]
+
+
+def test_the_package_does_not_shadow_the_function() -> None:
+    """The library is the package ipgen.sweeps; ipgen.sweep stays the function after importing it."""
+    import ipgen.sweeps.runner
+
+    assert callable(ipgen.sweep) and ipgen.sweep.__module__ == "ipgen"
+
+
+def test_the_estimator_stays_the_nominal_design() -> None:
+    """With issue 32's measured loop: a run on a heavier plant keeps the Kalman filter designed on the
+    nominal scene (its A, gain), and gets its own seed; an [estimator] key designs it anew."""
+    path = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"
+    if not spec.supported("sensors.noise") or not path.is_file():
+        pytest.skip("needs [sensors] support (issue 32)")
+    from ipgen.scene.reader import read_document, scene_from_document
+    from ipgen.sweeps import overrides
+    from ipgen.sweeps.execute import nominal_estimator
+
+    nominal, document = load_scene(path), read_document(path)
+    heavier = (("parameters.m", [1.2 * m for m in nominal.m]), ("sensors.seed", 7))
+    changed = scene_from_document(path, overrides.apply(document, nominal, heavier), designed=nominal)
+    assert changed.loop.A != nominal.loop.A  # the scene format designs on the changed parameters...
+    kept = nominal_estimator(changed, nominal, heavier)
+    assert kept.loop.A == nominal.loop.A and kept.loop.gain == nominal.loop.gain  # ...the sweep keeps it
+    assert kept.loop.seed == 7 and kept.m == changed.m
+    retuned = (*heavier, ("estimator.kind", "kalman"))
+    anew = scene_from_document(path, overrides.apply(document, nominal, retuned), designed=nominal)
+    assert nominal_estimator(anew, nominal, retuned).loop.A == changed.loop.A

@@ -1,0 +1,30 @@
+"""Write the simulator's .cfg of every shipped scene (scenes/*.toml, scenes/rigs/*.toml) into a folder.
+
+Run it before and after a change to the scene layer and compare the folders (`diff -r`): the
+.cfg files must stay byte-identical (the CSVs follow from them).
+
+    python tools/scene_cfgs.py OUT_DIR
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ipgen.scene.reader import load_scene, resolved_config
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def main(out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    for scene_path in sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/rigs/*.toml")]):
+        relative = scene_path.relative_to(ROOT)
+        scene = load_scene(relative)
+        name = relative.as_posix().replace("/", "__").removesuffix(".toml") + ".cfg"
+        (out / name).write_text(resolved_config(scene), encoding="utf-8")
+        print(name)
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]))
