@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from ipgen.command import output
 from ipgen.command.cli import run
+from ipgen.common import files as output
 
 ROOT = Path(__file__).resolve().parents[1]
 

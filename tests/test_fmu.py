@@ -423,7 +423,7 @@ def test_writing_is_all_or_nothing_without_a_compiler(
 
 
 def test_an_fmu_ipgen_did_not_write_is_kept_without_force(tmp_path: Path) -> None:
-    from ipgen.command.output import OutputError
+    from ipgen.common.files import OutputError
 
     require_cc()
     foreign = tmp_path / "rotary1.fmu"

@@ -15,6 +15,8 @@ from ipgen.errors import Error
 
 if TYPE_CHECKING:
     from ipgen.codegen.header import HeaderRequest
+    from ipgen.control.coordinates import Coordinates
+    from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
 
 # file suffix -> text (or bytes, for an archive such as the .fmu), for the files of one target
@@ -112,3 +114,36 @@ def parse_emit(values: str | Iterable[str], where: str = "--emit") -> tuple[str,
                     "(fmu is FMI 2.0, fmu3 is FMI 3.0)"
                 )
     return chosen
+
+
+# Targets whose variables are ipgen's own: the force or torque as the input, ipgen's coordinates.
+FMU_TARGETS: tuple[str, ...] = ("fmu", "fmu3")
+
+
+def unsupported(
+    targets: Iterable[str],
+    actuator: Actuator,
+    coordinates: Coordinates,
+    specialise: bool = False,
+) -> str | None:
+    """Why `targets` cannot be written for a model with this actuator, in these coordinates and
+    specialisation (None if they can). The one check of what a model may emit: a scene's
+    `emit`/`specialise` keys and the `--emit` option (or `write_header(emit=...)`) both meet it."""
+    fmu = next((target for target in targets if target in FMU_TARGETS), None)
+    if actuator.is_motor and fmu:
+        return (
+            f"[actuator] dc_motor with an FMU in emit is not supported yet (--emit or emit = {fmu}: the "
+            "FMU's input is the force or torque, not the volts): remove the FMU, or declare the motor-folded "
+            "model (docs/rigs.md) without [actuator]"
+        )
+    if actuator.is_acceleration and (specialise or fmu):
+        return (
+            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: remove them "
+            "(the FMU's input is the force or torque, and --emit fmu or fmu3 is the same; see docs/model.md)"
+        )
+    if fmu and not coordinates.is_canonical:
+        return (
+            f"--emit {fmu} in the rig's coordinates is not supported yet: the FMU's variables are ipgen's; "
+            "drop the coordinates (--angles, --zero, --positive or the scene's) or the FMU"
+        )
+    return None

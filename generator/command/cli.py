@@ -64,7 +64,8 @@ Examples:
 
 --preset NAME (ipgen run, excite, identify) takes one of the scenes shipped with ipgen.
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
-wrote it (else pass --force); the header is written to a temporary file, then renamed.
+wrote it, as the same kind of file (else pass --force); every file is written to a temporary
+file, then renamed.
 """
 
 
@@ -419,7 +420,7 @@ def _csv_coordinates(csv: Path, angles: str | None, zero: str | None, positive: 
     help="Label θ0 as a cart position or an arm angle [default: from the .cfg next to the CSV].",
 )
 @_coordinate_options
-@click.option("--force", is_flag=True, help="Replace a PNG that ipgen did not write.")
+@click.option("--force", is_flag=True, help="Replace a file that ipgen did not write (or of another kind).")
 def plot_command(
     csv: Path, png: Path | None, system_type: str | None, angles: str | None, zero: str | None,
     positive: str | None, force: bool,
@@ -513,9 +514,12 @@ def identify_command(
     "--lengths", default=None, metavar="L0,L1,...",
     help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
 )  # fmt: skip
-@click.option("--fps", type=float, default=15.0, show_default=True, help="Frames per second of the run.")
+@click.option(
+    "--fps", type=float, default=15.0, show_default=True,
+    help="Frames per second of the run, 0.1 to 50; a run longer than 400 frames plays time-lapsed.",
+)  # fmt: skip
 @_coordinate_options
-@click.option("--force", is_flag=True, help="Replace an existing GIF.")
+@click.option("--force", is_flag=True, help="Replace a file that ipgen did not write (or of another kind).")
 def animate_command(
     csv: Path, gif: Path | None, system_type: str | None, lengths: str | None, fps: float,
     angles: str | None, zero: str | None, positive: str | None, force: bool,
@@ -550,7 +554,10 @@ def animate_command(
         ) from None
     target = gif if gif is not None else csv.with_suffix(".gif")
     frame = _csv_coordinates(csv, angles, zero, positive)
-    written = animate_run(csv, target, kind, l_values, fps=fps, force=force, coordinates=frame)
+    written = animate_run(
+        csv, target, kind, l_values, fps=fps, force=force, coordinates=frame,
+        announce=lambda line: click.echo(f"ipgen: {line}", err=True),
+    )  # fmt: skip
     click.echo(f"wrote {written}")
 
 

@@ -88,18 +88,20 @@ def excitation(
 def _check_output(rig: Scene, output: Path, force: bool) -> None:
     """An ExcitationError unless `output` is a .toml path that may be written: a new file, or an
     existing one with `force` — never the rig's own scene."""
+    from ipgen.common.files import OutputError, check_replaceable
+
     if output.suffix != ".toml":
         raise ExcitationError(f"-o {shown_path(output)}: name a .toml scene file")
-    if output.exists() and rig.path.exists() and output.samefile(rig.path):
-        raise ExcitationError(f"-o {shown_path(output)} is the rig's scene itself: choose a new file")
-    if output.is_dir():
-        raise ExcitationError(f"-o {shown_path(output)} is a directory: name a .toml scene file")
-    if output.exists() and not force:
+    try:  # the output-path policy's checks of the path itself (a directory, too long, ...)
+        check_replaceable(output, True, keep=[rig.path])
+    except OutputError as exc:
+        raise ExcitationError(str(exc)) from None
+    if output.exists() and not force:  # stricter than the policy: an experiment is a new file
         raise ExcitationError(f"{shown_path(output)} exists: choose another -o or pass --force")
 
 
 def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
-    from ipgen.command.output import OutputError, write_file
+    from ipgen.common.files import OutputError, write_file
     from ipgen.scene.reader import load_scene
 
     _check_output(rig, output, force)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
-from ipgen.command.output import prepare_directory, write_files
+from ipgen.common.files import prepare_directory, write_files
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.estimation.printed import PrintedEstimator

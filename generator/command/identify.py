@@ -19,14 +19,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_files
-from ipgen.common.safetext import quote_path, shown_path
+from ipgen.common.files import check_replaceable, prepare_directory, write_files
+from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
 from ipgen.identification.data import Measurements, read_measurements
 from ipgen.identification.fit import report_text
 from ipgen.identification.model import IdentifyError, Setup
 from ipgen.model.actuator import MOTOR_CONSTANTS
-from ipgen.plots.run import check_replaceable as check_png
+from ipgen.plots.run import PNG
 from ipgen.scene.reader import Scene, load_scene
 
 if TYPE_CHECKING:
@@ -141,13 +141,10 @@ def identify(
     names = [n.strip() for n in free.split(",")] if isinstance(free, str) else list(free)
     loaded = load_scene(scene_path)
     paths = _paths(loaded, Path(output)) if output is not None else {}
-    for path in paths.values():
-        if path.exists() and scene_path.exists() and path.samefile(scene_path):
-            raise OutputError(f"{shown_path(path)} is the scene file itself: pass another -o")
-    if paths:
-        check_replaceable(paths["toml"], force)
-        check_replaceable(paths["txt"], force)
-        check_png(paths["png"], force)
+    if paths:  # the output-path policy (common.files), before the fit; never the scene itself
+        check_replaceable(paths["toml"], force, keep=[scene_path])
+        check_replaceable(paths["txt"], force, keep=[scene_path])
+        check_replaceable(paths["png"], force, PNG, keep=[scene_path])
     setup = setup_from_scene(loaded, names)
     measurements = canonical(loaded, read_measurements(data_path, loaded.links + 1))
     clock = time.perf_counter()
@@ -184,5 +181,7 @@ def identify(
         fit, loaded.type, f"ipgen identify: {loaded.stem}, free {', '.join(fit.free)}", loaded.coordinates
     )
     prepare_directory(Path(output))  # type: ignore[arg-type]
-    write_files([(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=True)
+    write_files(
+        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=[scene_path]
+    )
     return Identified(fit=fit, scene=loaded, files=tuple(paths.values()), report=text)

@@ -9,12 +9,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit
+from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit, unsupported
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
 from ipgen.estimation.printed import PrintedEstimator
+from ipgen.model.actuator import DIRECT
 from ipgen.model.system import System, system_problem
 
 if TYPE_CHECKING:
@@ -97,10 +98,6 @@ def _check_no_system_options(*clashing: object) -> None:
         )
 
 
-# Targets that cannot be written in the rig's coordinates yet (their variables are ipgen's).
-CANONICAL_ONLY_TARGETS: tuple[str, ...] = ("fmu", "fmu3")
-
-
 def check_coordinates(angles: object, zero: object, positive: object) -> Coordinates:
     """The convention --angles, --zero, --positive name (None: the default), or an OptionsError."""
     chosen = {}
@@ -120,13 +117,17 @@ def check_coordinates(angles: object, zero: object, positive: object) -> Coordin
     return Coordinates(**chosen)
 
 
-def _check_targets(coordinates: Coordinates, targets: tuple[str, ...]) -> None:
-    refused = [target for target in targets if target in CANONICAL_ONLY_TARGETS]
-    if refused and not coordinates.is_canonical:
-        raise OptionsError(
-            f"--emit {refused[0]} in the rig's coordinates is not supported yet: the FMU's variables are "
-            "ipgen's; drop the coordinates (--angles, --zero, --positive or the scene's) or the FMU"
-        )
+def _check_targets(coordinates: Coordinates, targets: tuple[str, ...], scene: Scene | None = None) -> None:
+    """`emit.unsupported`, the one check of targets against the model (a scene's keys meet it
+    when it is read; --emit overrides them, so the targets meet it again here)."""
+    problem = unsupported(
+        targets,
+        scene.actuator if scene is not None else DIRECT,
+        coordinates,
+        scene.specialise if scene is not None else False,
+    )
+    if problem is not None:
+        raise OptionsError(problem)
 
 
 def describe(scene_path: Path | str | None, *clashing: object) -> Scene:
@@ -184,7 +185,7 @@ def plan(
                 f"(up to {LINKS_WITHOUT_FORCE} links need no --force)"
             )
         spec = from_scene(loaded) if loaded.specialise else Specialisation()
-        _check_targets(loaded.coordinates, targets or loaded.emit)
+        _check_targets(loaded.coordinates, targets or loaded.emit, loaded)
         return Job(
             loaded.system,
             loaded.name,

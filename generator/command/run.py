@@ -26,11 +26,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.command import job
-from ipgen.command.output import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.command.simulator import Simulator, build
+from ipgen.common.files import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.common.safetext import shown_path
-from ipgen.plots.run import PlotError, plot_run, read_run, sampled_beside
-from ipgen.plots.run import check_replaceable as check_png
+from ipgen.plots.run import PNG, PlotError, plot_run, read_run, sampled_beside
 
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene
@@ -63,14 +62,14 @@ def _csv_from_simulator(path: Path) -> bool:
 
 
 def _check_outputs(paths: dict[str, Path], scene: Path, force: bool) -> None:
-    for path in paths.values():  # never the scene itself, not even with --force
-        if path.exists() and scene.exists() and path.samefile(scene):
-            raise OutputError(f"{shown_path(path)} is the scene file itself: pass another -o")
-    check_replaceable(paths["cfg"], force)
-    check_replaceable(paths["txt"], force)
-    check_png(paths["png"], force)
+    """The output-path policy (common.files) for each file of the run; never the scene itself,
+    not even with --force. The CSV is the simulator's: replaced if it wrote it, else with force."""
+    check_replaceable(paths["cfg"], force, keep=[scene])
+    check_replaceable(paths["txt"], force, keep=[scene])
+    check_replaceable(paths["png"], force, PNG, keep=[scene])
     csv = paths["csv"]
-    if csv.is_dir() or (csv.exists() and not force and not _csv_from_simulator(csv)):
+    check_replaceable(csv, True, keep=[scene])  # the path itself: a directory, too long, ...
+    if csv.exists() and not force and not _csv_from_simulator(csv):
         raise OutputError(
             f"{shown_path(csv)} exists and was not written by the simulator: move it away or pass --force"
         )

@@ -15,8 +15,11 @@ specialised) parameters reuses the binary, and any change of the model or the si
 sources builds a new one. `<cache>` is `--cache-dir`, else $IPGEN_CACHE_DIR, else
 $XDG_CACHE_HOME/ipgen, else ~/.cache/ipgen. An exclusive lock file per key serialises concurrent
 builds of one model; the binary is compiled to a temporary name and renamed, so a run never sees
-half a binary. Anchors for the design: cmdstanpy's compiled-model cache and PyTorch's
-`torch.utils.cpp_extension.load` (a content hash naming a build folder, guarded by a lock).
+half a binary, and its SHA-256 is recorded beside it (`.simulate_<name>.sha256`): an entry that is
+checked corrupt before use (a truncated binary, an entry that is a file, a binary that is a
+folder) is reported, removed and rebuilt. Anchors for the design: cmdstanpy's compiled-model
+cache and PyTorch's `torch.utils.cpp_extension.load` (a content hash naming a build folder,
+guarded by a lock).
 """
 
 from __future__ import annotations
@@ -175,6 +178,82 @@ def _missing_package(output: str) -> str | None:
     return None
 
 
+# A cache entry is checked before use: it is corrupt when it is a file, its simulator is not a
+# regular file, or the simulator's SHA-256 differs from the one recorded beside it when it was
+# built (a truncated or altered binary); an entry from before the checksums must answer --help.
+MISSING = "missing"
+
+
+def checksum_path(binary: Path) -> Path:
+    """Where the binary's SHA-256 is recorded: a hidden file beside it (not a `simulate_*`)."""
+    return binary.with_name(f".{binary.name}.sha256")
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _write_checksum(binary: Path, target: Path) -> None:
+    """The SHA-256 of `binary` into `target` (temporary file, then rename)."""
+    partial = target.with_name(f".{target.name}.{os.getpid()}")
+    partial.write_text(_sha256(binary) + "\n")
+    os.replace(partial, target)
+
+
+def _cache_problem(entry: Path, binary: Path) -> str | None:
+    """What is wrong with the cache entry (module comment above): None if its simulator is whole,
+    MISSING if there is none yet, else the corruption in words."""
+    try:
+        if not entry.exists() and not entry.is_symlink():
+            return MISSING
+        if not entry.is_dir():
+            return "the entry is a file, not a folder"
+        if not binary.exists():
+            return MISSING
+        if not binary.is_file():
+            return "the simulator is not a regular file"
+        checksum = checksum_path(binary)
+        if checksum.exists():
+            recorded = checksum.read_text().strip() if checksum.is_file() else ""
+            if recorded != _sha256(binary):
+                return "the simulator's checksum does not match: a truncated or altered file"
+            return None
+    except (OSError, UnicodeDecodeError) as e:
+        return f"unreadable: {e.strerror if isinstance(e, OSError) else e}"
+    try:  # an entry built before checksums were recorded: whole if it runs
+        done = subprocess.run([str(binary), "--help"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired, UnicodeDecodeError):
+        return "the simulator does not run"
+    if done.returncode != 0 or "usage: simulate" not in done.stdout:
+        return "the simulator does not run"
+    with contextlib.suppress(OSError):
+        _write_checksum(binary, checksum_path(binary))
+    return None
+
+
+def _remove_corrupt(
+    path: Path, problem: str, announce: Callable[[str], None], fine: Callable[[Path], bool]
+) -> None:
+    """Remove the corrupt cache `path` (unless it does not exist or `fine(path)`), saying so."""
+    if not (path.exists() or path.is_symlink()) or fine(path):
+        return
+    announce(f"the cached simulator {shown_path(path)} is corrupt ({problem}): removing it and rebuilding")
+    try:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
+    except OSError as e:
+        raise BuildError(
+            f"the cache entry {shown_path(path)} is corrupt ({problem}) and cannot be removed "
+            f"({e.strerror}): delete it, or pass --cache-dir"
+        ) from e
+
+
 def build(
     header_text: str,
     name: str,
@@ -196,11 +275,16 @@ def build(
         ) from e
     entry = folder / key
     binary = entry / f"simulate_{name}"
-    if binary.is_file():  # the common case, without taking the lock
+    if _cache_problem(entry, binary) is None:  # the common case, without taking the lock
         return Simulator(binary, built=False)
-    with _locked(folder / f"{key}.lock"):
-        if binary.is_file():  # built by a concurrent run while we waited
+    lock = folder / f"{key}.lock"
+    _remove_corrupt(lock, "its lock is a folder", announce, lambda path: not path.is_dir())
+    with _locked(lock):
+        problem = _cache_problem(entry, binary)
+        if problem is None:  # built by a concurrent run while we waited
             return Simulator(binary, built=False)
+        if problem != MISSING:
+            _remove_corrupt(entry, problem, announce, lambda path: False)
         entry.mkdir(exist_ok=True)
         header = entry / f"{name}.hpp"
         header.write_text(header_text)
@@ -221,6 +305,7 @@ def build(
                     )
                 last = next((line for line in reversed(output.splitlines()) if "error" in line), "")
                 raise BuildError(f"compiling the simulator failed: {last.strip()[:300]}")
+            _write_checksum(partial, checksum_path(binary))
             os.replace(partial, binary)
         (entry / "command.txt").write_text(shlex.join(compile_command(cxx, header, name, binary)) + "\n")
         seconds = time.perf_counter() - start

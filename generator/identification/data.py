@@ -20,7 +20,19 @@ from ipgen.model.coordinates import Coordinates
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["MAX_DATA_BYTES", "MAX_ROWS", "MIN_ROWS", "DataError", "Measurements", "read_measurements"]
+__all__ = [
+    "LARGEST_TIME",
+    "LARGEST_VALUE",
+    "MAX_DATA_BYTES",
+    "MAX_GRID_FACTOR",
+    "MAX_ROWS",
+    "MIN_ROWS",
+    "DataError",
+    "Measurements",
+    "check_measurements",
+    "grid_points",
+    "read_measurements",
+]
 
 # A 60 s recording at 1 kHz of a triple pendulum with rates and u is ~7 MB; 256 MB is a
 # recording of hours: more is a wrong file (or one to decimate first), not an experiment.
@@ -28,6 +40,15 @@ MAX_DATA_BYTES = 1 << 28
 MAX_ROWS = 5_000_000
 # Fewer samples than this cannot carry a fit with its statistics (and smoothing windows).
 MIN_ROWS = 50
+# No measurement of a pendulum reaches these magnitudes (angles [rad], positions [m], rates, u
+# [N, N m, V]; times [s]): larger values are a wrong column or a corrupt sample, and in the fit's
+# squares they overflow.
+LARGEST_VALUE = 1e6
+LARGEST_TIME = 1e9
+# Unevenly spaced samples are resampled onto a grid at their median step (identification/fit.py):
+# that grid may have at most this many times more points than the samples (more is a recording
+# whose steps are mostly far shorter than its rate, e.g. repeated time stamps 1 ns apart).
+MAX_GRID_FACTOR = 4
 
 
 class DataError(IdentifyError):
@@ -168,6 +189,13 @@ def parse_measurements(text: str, dof: int, where: str = "data") -> Measurements
             raise DataError(
                 f"{where}: line {line}: {name} is not finite (NaN or inf); remove or repair the sample"
             )
+        largest = LARGEST_TIME if name == "t" else LARGEST_VALUE
+        if np.any(np.abs(column) > largest):
+            line = int(np.flatnonzero(np.abs(column) > largest)[0]) + 2
+            raise DataError(
+                f"{where}: line {line}: {name} = {column[line - 2]:.3g} is beyond ±{largest:g}, no "
+                "measurement of a pendulum; remove or repair the sample (or check the column)"
+            )
     t = table[:, index["t"]]
     steps = np.diff(t)
     if np.any(steps <= 0):
@@ -175,6 +203,7 @@ def parse_measurements(text: str, dof: int, where: str = "data") -> Measurements
         raise DataError(
             f"{where}: line {line}: t does not increase; sort the samples and drop repeated times"
         )
+    _check_spacing(t, steps, where)
     return Measurements(
         t=t,
         theta=table[:, [index[n] for n in angles]],
@@ -182,6 +211,55 @@ def parse_measurements(text: str, dof: int, where: str = "data") -> Measurements
         u=table[:, index["u"]] if "u" in index else None,
         source=where,
     )
+
+
+def grid_points(t: np.ndarray) -> int:
+    """The points of the uniform grid the fit resamples `t` onto (its median step; `t` itself
+    when the steps agree to 1e-3)."""
+    import numpy as np
+
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    if np.ptp(steps) <= 1e-3 * dt:
+        return len(t)
+    return int(min((t[-1] - t[0]) / dt, 2.0**62)) + 1
+
+
+def check_measurements(data: Measurements, u: np.ndarray | None = None) -> None:
+    """A DataError unless `data` (and the input `u`, if given) are what the fit can take: every
+    value finite and within LARGEST_VALUE (t within LARGEST_TIME), t increasing, and a
+    resampling grid of at most MAX_GRID_FACTOR times the samples. `read_measurements` checks a
+    CSV so (naming its lines); the fit checks measurements made any other way."""
+    import numpy as np
+
+    columns = {"t": data.t, "theta": data.theta, "dtheta": data.dtheta, "u": u if u is not None else data.u}
+    for name, values in columns.items():
+        if values is None:
+            continue
+        largest = LARGEST_TIME if name == "t" else LARGEST_VALUE
+        if not np.all(np.abs(np.asarray(values, dtype=float)) <= largest):  # NaN fails too
+            raise DataError(
+                f"{data.source}: {name} holds a value that is not finite or beyond ±{largest:g}: "
+                "remove or repair the sample"
+            )
+    steps = np.diff(data.t)
+    if np.any(steps <= 0):
+        raise DataError(f"{data.source}: t does not increase; sort the samples and drop repeated times")
+    _check_spacing(data.t, steps, data.source)
+
+
+def _check_spacing(t: np.ndarray, steps: np.ndarray, where: str) -> None:
+    """A DataError when resampling `t` onto the fit's grid would make it more than
+    MAX_GRID_FACTOR times larger (the grid's memory and time follow its points)."""
+    import numpy as np
+
+    points = grid_points(t)
+    if points > MAX_GRID_FACTOR * len(t):
+        raise DataError(
+            f"{where}: the samples are unevenly spaced (median step {float(np.median(steps)):.3g} s, "
+            f"{t[-1] - t[0]:.3g} s in all): resampling them would take {points:.3g} points, more than "
+            f"{MAX_GRID_FACTOR} times the {len(t)} samples; record at a steady rate or resample first"
+        )
 
 
 def _is_float(text: str) -> bool:

@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING, Any
 
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
-from ipgen.identification.data import DataError, Measurements
+from ipgen.errors import Error
+from ipgen.identification.data import DataError, Measurements, check_measurements
 from ipgen.identification.model import IdentifyError, Setup, StructuralModel, structural_model
 from ipgen.identification.structure import structural_statements
 from ipgen.model.pendulum import Pendulum
@@ -148,6 +149,28 @@ def identify_measurements(
     have no u column. Raises `IdentifyError` (one line) when the data cannot identify them."""
     import numpy as np
 
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):  # a diverging trial is judged by its cost
+            return _identify(setup, data, free, input_fn, output_error, progress)
+    except Error:
+        raise
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:  # the solvers' own failures
+        raise IdentifyError(
+            f"the fit failed numerically ({' '.join(str(e).split())[:120]}): the data cannot be fitted "
+            "with these free parameters; check the recording for outliers, or fix more parameters"
+        ) from None
+
+
+def _identify(
+    setup: Setup,
+    data: Measurements,
+    free: Sequence[str],
+    input_fn: Callable[[np.ndarray], np.ndarray] | None,
+    output_error: bool,
+    progress: Callable[[str], None] | None,
+) -> Fit:
+    import numpy as np
+
     report = progress or (lambda message: None)
     clock = time.perf_counter()
     seconds: dict[str, float] = {}
@@ -165,6 +188,7 @@ def identify_measurements(
         raise DataError(
             f"{data.source}: no u column, and the scene's input is feedback: record u as a column"
         )
+    check_measurements(data, u)  # values the fit's squares take, a bounded resampling grid
     _check_excitation(data, u, free, setup)
     seconds["structure"] = time.perf_counter() - clock
 

@@ -19,21 +19,21 @@ written to a temporary name and renamed, and an existing file is kept unless `fo
 from __future__ import annotations
 
 import csv
+import io
 import math
-import os
-import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common import files
 from ipgen.control.coordinates import Coordinates
 from ipgen.errors import Error
 
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["PlotError", "RunData", "animate_run", "plot_plan_and_run", "read_run"]
+__all__ = ["PlotError", "RunData", "animate_run", "check_fps", "frame_plan", "plot_plan_and_run", "read_run"]
 
 
 class PlotError(Error):
@@ -61,9 +61,18 @@ def read_run(path: str | Path) -> RunData:
     import numpy as np
 
     path = Path(path)
-    try:
+    try:  # a long run is thinned evenly to MAX_ROWS rows (and its last), read streaming
         with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
+            count = sum(1 for _ in handle)
+        stride = max(1, (count - 1) // MAX_ROWS)
+        with path.open(newline="") as handle:
+            rows = [
+                row
+                for i, row in enumerate(csv.reader(handle))
+                if i == 0 or (i - 1) % stride == 0 or i == count - 1
+            ]
+    except csv.Error as exc:
+        raise PlotError(f"{path}: not a CSV the simulator wrote ({exc})") from None
     except OSError as exc:
         raise PlotError(f"{path}: cannot read the run ({exc.strerror or exc})") from None
     except UnicodeDecodeError:
@@ -116,14 +125,46 @@ def canonical_angles(data: RunData, coordinates: Coordinates | None) -> np.ndarr
     return np.linalg.solve(p, (states - c).T).T[:, : data.links + 1]
 
 
+# Bounds of an animation: frames (each kept in memory until the GIF is written: 400 frames of
+# 420 × 216 pixels are about 36 MB; drawing one takes ~70 ms of CPU; 400 frames are a 26 s run
+# at the default 15 per second, longer than every shipped swing-up), frames per
+# second of the run (a GIF frame lasts at most 655 s; below 0.1 nothing moves), and the
+# distances drawn to scale [m].
+MAX_FRAMES = 400
+MAX_ROWS = 200_000  # rows of a CSV read (more are thinned evenly): a few MB, more than frames need
+FPS_RANGE = (0.1, 50.0)
+LARGEST_DRAWN = 1e9
+GIF = "GIF animation"  # the kind of file an animation is (common.files)
+
+
+def check_fps(fps: float) -> None:
+    """A PlotError unless `fps` is in FPS_RANGE."""
+    low, high = FPS_RANGE
+    if not (math.isfinite(fps) and low <= fps <= high):
+        raise PlotError(f"fps = {fps:g}: expected {low:g} <= fps <= {high:g} frames per second of the run")
+
+
+def frame_plan(duration: float, fps: float) -> tuple[int, float]:
+    """(frames, speed-up) of an animation of a run lasting `duration` s at `fps` frames per second
+    of the run: at most MAX_FRAMES frames; a longer run plays faster than real time (speed-up > 1)."""
+    if not (math.isfinite(duration) and duration >= 0):
+        raise PlotError(f"the run lasts {duration:g} s: its times must be finite and increase")
+    wanted = duration * fps + 1
+    if wanted <= MAX_FRAMES:
+        return max(2, int(wanted)), 1.0
+    return MAX_FRAMES, (duration * fps) / (MAX_FRAMES - 1)
+
+
 def _lengths(type: str, links: int, l: Sequence[float]) -> list[float]:  # noqa: E741
     if type not in ("classical", "rotary"):
         raise PlotError(f"type {type!r}: expected 'classical' or 'rotary'")
     values = [float(v) for v in l]
     if len(values) != links + 1:
         raise PlotError(f"l has {len(values)} entries, expected {links + 1} (l0 and one per link of the run)")
-    if not all(math.isfinite(v) for v in values) or any(v <= 0 for v in values[1:]):
-        raise PlotError("lengths l must be finite, the links' l1..ln > 0")
+    if not all(abs(v) <= LARGEST_DRAWN for v in values) or any(v <= 0 for v in values[1:]):
+        raise PlotError(f"lengths l must be at most {LARGEST_DRAWN:g} m, the links' l1..ln > 0")
+    if sum(values) > LARGEST_DRAWN:
+        raise PlotError(f"the lengths add up to {sum(values):.3g} m: at most {LARGEST_DRAWN:g} m are drawn")
     if type == "rotary" and values[0] <= 0:
         raise PlotError("a rotary pendulum needs its arm length l0 > 0")
     return values
@@ -160,23 +201,25 @@ def geometry(type: str, l: Sequence[float], theta: np.ndarray) -> dict[str, np.n
     return {"top": top, "side": side}
 
 
-def _write_atomically(path: Path, force: bool, write: Any) -> Path:
-    if path.exists() and not force:
-        raise PlotError(f"{path} exists; pass force=True (--force) to replace it")
-    if not path.parent.is_dir():
-        raise PlotError(f"{path.parent}: no such directory")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".ipgen.", suffix=path.suffix)
-    os.close(fd)
-    umask = os.umask(0)
-    os.umask(umask)
+def _check_output(path: Path, force: bool, kind: str) -> None:
+    """The output-path policy (common.files) as a PlotError, before any drawing."""
     try:
-        write(tmp)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would make the picture private
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        files.check_replaceable(path, force, kind)
+    except files.OutputError as exc:
+        raise PlotError(str(exc)) from None
+
+
+def _write_atomically(path: Path, force: bool, write: Any) -> Path:
+    """`write(buffer)` renders the file in memory; it is then written by the output-path policy
+    (common.files: temporary file and rename, never over a file ipgen did not write or of
+    another kind without force)."""
+    buffer = io.BytesIO()
+    write(buffer)
+    try:
+        files.prepare_directory(path.parent)
+        files.write_file(path, buffer.getvalue(), force)
+    except files.OutputError as exc:
+        raise PlotError(str(exc)) from None
     return path
 
 
@@ -258,12 +301,14 @@ def animate_run(
     dpi: int = 100,
     force: bool = False,
     coordinates: Coordinates | None = None,
+    announce: Callable[[str], None] | None = None,
 ) -> Path:
     """Write an animated GIF of `run` (a RunData or the path of a simulator CSV) to `output`,
     drawn to scale (module docstring) at `fps` frames per second of the run, `dpi` dots per inch
     (a rotary pendulum's GIF is 700 × 360 pixels at the default 100, a cart's 440 high and as
     wide as its side view needs, 500 to 1000). `coordinates`: the convention of the
-    run's angles (a scene's [system] angles, zero, positive; default ipgen's)."""
+    run's angles (a scene's [system] angles, zero, positive; default ipgen's). A run longer than
+    MAX_FRAMES frames plays time-lapsed; `announce` is told so in one line."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -271,15 +316,26 @@ def animate_run(
     import numpy as np
     from PIL import Image
 
+    check_fps(fps)
+    _check_output(Path(output), force, GIF)  # before the drawing
     data = run if isinstance(run, RunData) else read_run(run)
     lengths = np.asarray(_lengths(type, data.links, l))
-    if not (math.isfinite(fps) and 0 < fps <= 50):
-        raise PlotError(f"fps = {fps}: expected 0 < fps <= 50 frames per second")
     duration = float(data.t[-1] - data.t[0])
-    count = max(2, int(duration * fps) + 1)
+    count, speedup = frame_plan(duration, fps)
+    if speedup > 1 and announce is not None:
+        announce(
+            f"the run lasts {duration:.6g} s: at {fps:g} frames per second of the run that is more than "
+            f"{MAX_FRAMES} frames, so the GIF plays it {speedup:.3g} times faster (lower --fps for fewer)"
+        )
     times = np.linspace(data.t[0], data.t[-1], count)
     frames = np.searchsorted(data.t, times).clip(0, len(data.t) - 1)
     points = geometry(type, lengths, canonical_angles(data, coordinates))
+    reach_drawn = max(float(np.max(np.abs(points["side"]))), float(np.max(np.abs(points["top"]))))
+    if not reach_drawn <= LARGEST_DRAWN:
+        raise PlotError(
+            f"the run reaches {reach_drawn:.3g} m from the origin, beyond what can be drawn to scale "
+            f"(at most {LARGEST_DRAWN:g} m): check the CSV's θ0 column and the lengths"
+        )
     fig, ax_top, ax_side = figure(type, lengths, points)
     (top_arm,) = ax_top.plot([], [], "-", color="tab:blue", lw=4, solid_capstyle="round")
     (top_links,) = ax_top.plot([], [], "-o", color="tab:red", lw=2, ms=3)
@@ -303,7 +359,10 @@ def animate_run(
         start = max(0, k - window)
         top_trace.set_data(points["top"][start : k + 1, -1, 0], points["top"][start : k + 1, -1, 1])
         side_trace.set_data(points["side"][start : k + 1, -1, 0], points["side"][start : k + 1, -1, 1])
-        text = f"{type}, n = {data.links}   t = {data.t[k]:5.2f} s"
+        time = f"{data.t[k]:5.2f}" if abs(data.t[k]) < 1e6 else f"{data.t[k]:.6g}"
+        text = f"{type}, n = {data.links}   t = {time} s"
+        if speedup > 1:  # a long run, time-lapsed to MAX_FRAMES frames
+            text += f" (×{speedup:.3g})"
         if data.phase is not None:
             text += f"   {data.phase[k]}"
         if data.u is not None:
@@ -324,10 +383,11 @@ def animate_run(
     palette = render(count // 2).quantize(colors=64, method=Image.Quantize.MEDIANCUT)  # every artist shown
     images = [render(i).quantize(palette=palette, dither=Image.Dither.NONE) for i in range(count)]
 
-    def write(tmp: str) -> None:
+    def write(tmp: io.BytesIO) -> None:
         images[0].save(
             tmp,
             format="GIF",
+            comment=f"{files.MARKER} (ipgen animate)".encode(),  # a GIF ipgen may replace
             save_all=True,
             append_images=images[1:],
             duration=round(1000 / fps),
@@ -398,6 +458,10 @@ def plot_plan_and_run(
             axes[0].text(data.t[k], axes[0].get_ylim()[1], f" {data.phase[k]}", va="top", fontsize=8)
     fig.tight_layout()
     try:
-        return _write_atomically(Path(output), force, lambda tmp: fig.savefig(tmp, dpi=100, format="png"))
+        return _write_atomically(
+            Path(output),
+            force,
+            lambda tmp: fig.savefig(tmp, dpi=100, format="png", metadata={"Software": files.MARKER}),
+        )
     finally:
         plt.close(fig)

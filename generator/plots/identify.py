@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 from typing import TYPE_CHECKING
 
-from ipgen.plots.run import MARKER
+from ipgen.common.files import MARKER
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -78,5 +78,5 @@ def identify_png(fit: Fit, system_type: str, title: str, coordinates: Coordinate
     """The PNG of `identify_figure`."""
     fig = identify_figure(fit, system_type, title, coordinates)
     buffer = io.BytesIO()
-    fig.savefig(buffer, dpi=100, format="png", metadata={"Software": f"{MARKER.decode()} (ipgen identify)"})
+    fig.savefig(buffer, dpi=100, format="png", metadata={"Software": f"{MARKER} (ipgen identify)"})
     return buffer.getvalue()

@@ -15,12 +15,13 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
-from ipgen.codegen.emit import DEFAULT_EMIT
+from ipgen.codegen.emit import DEFAULT_EMIT, unsupported
 from ipgen.control import signals
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.actuator import DIRECT, Actuator
+from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import controller as control
@@ -200,16 +201,9 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     controller = None
     actuator = tables["actuator"].actuator()
     coordinates = system.coordinates()
-    if actuator.is_motor and {"fmu", "fmu3"} & set(system.emit):
-        reader.fail(
-            "[actuator] dc_motor with an FMU in emit is not supported yet (the FMU's input is the force "
-            "or torque): remove the FMU, or declare the motor-folded model (docs/rigs.md) without [actuator]"
-        )
-    if actuator.is_acceleration and (system.specialise or {"fmu", "fmu3"} & set(system.emit)):
-        reader.fail(
-            "[actuator] acceleration with specialise = true or an FMU in emit is not supported: "
-            "remove them (the FMU's input is the force or torque; see docs/model.md)"
-        )
+    problem = unsupported(system.emit, actuator, coordinates, system.specialise)
+    if problem is not None:
+        reader.fail(problem)
     if tables["controller"] is not None and designed is not None:
         controller = designed.controller
     elif tables["controller"] is not None:
@@ -395,6 +389,8 @@ def motor_folded_parameters(
     exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
     delta_[0] = float(exact["delta0"])
     j_ = None if folded.J is None else list(folded.J)
+    if j_ is not None and "J" not in dict(scene.links_as_built):  # the rods' J1..Jn, as a specialised
+        j_[1:] = [_rod_inertia(scene, i) for i in range(1, len(j_))]  # header folds them
     if j_ is not None and scene.system.is_rotary:
         j_[0] = float(exact["J0"])
     if not scene.system.is_rotary:
@@ -402,3 +398,15 @@ def motor_folded_parameters(
     if j_ is not None:
         built["J"] = tuple(j_)
     return tuple(m_), tuple(delta_), built, gain
+
+
+def _rod_inertia(scene: Scene, i: int) -> float:
+    """The rod's J[i] from the decimals written, rounded once: what a specialised header folds
+    (`specialisation._rod_links`), so that the simulator's check of it agrees to the last bit
+    (float products differ in the last bit, e.g. J1 of scenes/rsip_pulse.toml)."""
+    exact = [scene.exact(f"{group}{i}") for group in ("m", "l")]
+    m, l = [0.0] * i + [exact[0]], [0.0] * i + [exact[1]]  # noqa: E741
+    try:
+        return float(rod_value(scene.system, "J", i, m, l))
+    except OverflowError:  # beyond the doubles: what the float products give (inf)
+        return rod_value(scene.system, "J", i, scene.m, scene.l)
