@@ -22,7 +22,7 @@ from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from run_summary import simulator_of
-from test_scene import ROTARY, config_dict, expect_error, make
+from test_scene import ROTARY, config_dict, make
 
 import ipgen
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
@@ -106,20 +106,27 @@ def test_an_equilibrium_given_in_the_rig_s_angles(tmp_path: Path) -> None:
     assert np.allclose(np.array(scene.controller.gain), (k @ np.linalg.inv(p)).ravel(), rtol=1e-7, atol=1e-9)
 
 
-def test_a_swingup_in_the_rig_s_coordinates_is_refused(tmp_path: Path) -> None:
-    path = make(
-        tmp_path,
-        {
-            **ROTARY,
-            "input.kind": None,
-            "input.amplitude": None,
-            "input.duration": None,
-            "swingup.method": '"energy"',
-            "swingup.u_max": "2",
-            "system.positive": '"counterclockwise"',
-        },
-    )
-    expect_error(path, "[swingup] in the rig's coordinates is not supported yet")
+def test_a_swingup_in_the_rig_s_coordinates_is_ipgen_s_law(tmp_path: Path) -> None:
+    """[swingup] in the rig's coordinates: the same law (swingup.* are ipgen's) as the scene in
+    ipgen's, starting hanging written in the rig's angles (by hand: α = −θ1, hanging-zero α = π − θ1)."""
+    base = {
+        **ROTARY,
+        "input.kind": None,
+        "input.amplitude": None,
+        "input.duration": None,
+        "swingup.method": '"energy"',
+        "swingup.u_max": "2",
+    }
+    laws, starts = [], []
+    for extra in ({}, {"system.positive": '"counterclockwise"'},
+                  {"system.positive": '"counterclockwise"', "system.zero": '"hanging"'}):  # fmt: skip
+        scene = load_scene(make(tmp_path, {**base, **extra}))
+        config = config_dict(resolved_config(scene))
+        laws.append({key: value for key, value in config.items() if key.startswith("swingup")})
+        starts.append(scene.theta)
+    assert laws[0] == laws[1] == laws[2]
+    assert starts[0] == (0.0, math.pi) and starts[1] == (0.0, -math.pi)
+    assert abs(starts[2][1]) < 1e-15 and starts[2][0] == 0.0
 
 
 # Any value of the three keys: a scene in that convention, or one line naming the key.

@@ -19,7 +19,8 @@ with the simulator's exit status 3 and its message, its CSV cut where the loop d
 docs/rsip.png and docs/rdip_lqr.png), and the PDFs and PNGs of the equations' pages go to docs/equations/.
 
 Then the swing-ups (scenes/rsip_swingup.toml: energy control of the rotary single pendulum;
-scenes/cdip_swingup.toml: a planned trajectory of the cart double pendulum), each through
+scenes/cdip_swingup.toml: a planned trajectory of the cart double pendulum;
+scenes/rigs/qube_servo2_swingup.toml: the QUBE-Servo 2 in volts, every |u| within 10 V), each through
 `ipgen run` (its cached simulator) into <out>/<stem>.csv, .png, .txt, and `ipgen animate` into
 <out>/<stem>.gif. Each must end upright and at rest: in the CSV's last row every link within
 SWING_ANGLE rad of upright (a whole turn counts as upright), every rate within SWING_RATE, and
@@ -71,9 +72,12 @@ DIVERGING = [("cdip_lqr_tilt", "cdip_lqr_tilt", "Cart double pendulum under LQR 
 DIVERGED = 3  # the simulator's exit status for a diverged closed loop (cpp/README.md)
 # Swing-ups: (scene stem, title); the last row: |θi − 2πk| <= SWING_ANGLE [rad] for the links,
 # |θ̇| <= SWING_RATE [m/s or rad/s] for every rate, and phase "hold".
+# scenes/<path>.toml; u_limit: every |u| in the CSV must be within it (None: the scene's own clip);
+# rate: the last row's rate tolerance (on encoders a held pendulum cycles by a few counts).
 SWINGUP = [
-    ("rsip_swingup", "Rotary single pendulum swung up by energy control"),
-    ("cdip_swingup", "Cart double pendulum swung up along a planned trajectory"),
+    ("rsip_swingup", "Rotary single pendulum swung up by energy control", None, None),
+    ("cdip_swingup", "Cart double pendulum swung up along a planned trajectory", None, None),
+    ("rigs/qube_servo2_swingup", "Quanser QUBE-Servo 2 swung up on its encoders within ±10 V", 10.0, 0.5),
 ]
 SWING_ANGLE = 1e-2
 SWING_RATE = 1e-2
@@ -283,18 +287,24 @@ def run_demo(args: argparse.Namespace) -> None:
         print(f"   exit status {DIVERGED} as expected; wrote {csv_path} and {png_path}\n")
 
 
-def swingup_problems(path: Path) -> list[str]:
-    """What keeps the last row of a swing-up's CSV from upright and at rest (see SWING_*)."""
+def swingup_problems(path: Path, u_limit: float | None = None, rate: float | None = None) -> list[str]:
+    """What keeps the last row of a swing-up's CSV from upright and at rest (see SWING_*; `rate`
+    replaces SWING_RATE), and any |u| beyond `u_limit` in any row."""
+    rate_limit = SWING_RATE if rate is None else rate
     with path.open() as f:
         rows = list(csv.reader(f))
     header, last = rows[0], rows[-1]
     problems = [] if last[-1] == "hold" else [f"phase {last[-1]}"]
+    if u_limit is not None:
+        peak = max(abs(float(row[header.index("u")])) for row in rows[1:])
+        if not peak <= u_limit * (1 + 1e-12):
+            problems.append(f"|u| reached {peak:.4g} > {u_limit:g}")
     for name, text in zip(header[:-1], last[:-1], strict=True):
         value = float(text)
         if name.startswith("theta") and name != "theta0":
             if not abs(math.remainder(value, 2 * math.pi)) <= SWING_ANGLE:
                 problems.append(f"{name} = {value:.3g}")
-        elif name.startswith("dtheta") and not abs(value) <= SWING_RATE:
+        elif name.startswith("dtheta") and not abs(value) <= rate_limit:
             problems.append(f"{name} = {value:.3g}")
     return problems
 
@@ -303,20 +313,21 @@ def run_swingups(args: argparse.Namespace) -> None:
     """`ipgen run` and `ipgen animate` for each swing-up scene, and the upright check."""
     from ipgen.command.cli import run
 
-    for stem, title in SWINGUP:
+    for path, title, u_limit, rate in SWINGUP:
         print(f"== {title}", flush=True)
-        if run(["run", str(ROOT / "scenes" / f"{stem}.toml"), "-o", str(args.out), "--force"]) != 0:
+        stem = Path(path).name
+        if run(["run", str(ROOT / "scenes" / f"{path}.toml"), "-o", str(args.out), "--force"]) != 0:
             raise DemoError(f"{stem}: ipgen run failed")
         csv_path = args.out / f"{stem}.csv"
         gif = args.out / f"{stem}.gif"
         if run(["animate", str(csv_path), "-o", str(gif), "--force"]) != 0:
             raise DemoError(f"{stem}: ipgen animate failed")
-        problems = swingup_problems(csv_path)
+        problems = swingup_problems(csv_path, u_limit, rate)
         if problems:
             raise DemoError(f"{stem} did not end upright and at rest: {', '.join(problems)}")
         print(
             f"   wrote {gif}; last row upright (links within {SWING_ANGLE:g} rad) and at rest "
-            f"(rates within {SWING_RATE:g})\n"
+            f"(rates within {SWING_RATE if rate is None else rate:g})\n"
         )
         publish(args.out / f"{stem}.png", args.docs)
 

@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     import numpy as np
 
 __all__ = [
+    "LAWS",
     "EnergySwingUp",
     "discrete_acceleration_lqr",
     "discrete_zoh_lqr",
@@ -47,6 +48,10 @@ __all__ = [
     "link_energy",
     "mass_and_bias",
 ]
+
+LAWS: tuple[str, ...] = ("energy", "proportional")  # ipgen's constants | Quanser's (energy_swingup)
+QUANSER_GAIN = 50.0  # μ [m/s² per J at the arm tip]: Quanser's QUBE-Servo 2 swing-up lab
+QUANSER_ACCEL = 6.0  # a_max [m/s² at the arm tip]: the same lab
 
 
 def link_energy(plant: Plant, x: np.ndarray) -> float:
@@ -122,6 +127,9 @@ def energy_swingup(
     q: np.ndarray | list[float] | None = None,
     r: float = 1.0,
     acceleration: bool = False,
+    energy_target: float | None = None,
+    design_speed: float = 0.0,
+    law: str = "energy",
 ) -> EnergySwingUp:
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
@@ -134,6 +142,20 @@ def energy_swingup(
     acceleration-driven linear model (`discrete_acceleration_lqr`).
     `plant`: a `Plant` or an `ipgen.Pendulum` ("direct" or "acceleration" drive: a Pendulum's
     drive sets `acceleration`).
+
+    `design_speed` ω_d [m/s or rad/s of the base, ≥ 0]: a_max (when not given) is the base
+    acceleration the input buys while the base moves at ω_d, (u_max − δ0 ω_d) / M00, where δ0
+    is the base's viscous damping of `plant` (for a dc_motor's folded model: the arm's damping
+    plus the back-EMF kt km / Rm). ω_d = 0 (default) gives the stall acceleration.
+    `energy_target` E0 [J, relative to upright at rest; default 0].
+
+    `law = "proportional"`: Quanser's form of the same law (QUBE-Servo 2 swing-up lab), its
+    constants in the rig's units at the base's tip (the arm's tip at l0 for a rotary base, the
+    cart for a classical one): a_tip = sat_{a_max}(μ (E_r − E) sign(θ̇1 cos θ1)) with
+    μ = `gain_energy` [m/s² per J, default 50], a_max = `accel_max` [m/s², default 6] and
+    E_r = `energy_target` [J above hanging at rest, default m1 g l1: upright]. They map onto the
+    law above exactly: k_E = μ / l0, a_max / l0 and E0 = E_r − m1 g l1 (rotary; l0 → 1 for a
+    cart). The input that produces the acceleration is ipgen's exact one (module docstring).
     """
     import numpy as np
 
@@ -159,17 +181,37 @@ def energy_swingup(
     g = plant.g
     if not g > 0:  # k_E below divides by g: no gravity, no energy to pump
         raise PlanError(f"energy swing-up needs gravity: g = {g:g}; use method \"trajectory\"")
+    if law not in LAWS:
+        raise PlanError(f"law = {law!r}: expected {' or '.join(map(repr, LAWS))}")
+    speed = finite_number("design_speed", design_speed)
+    if speed < 0:
+        raise PlanError(f"design_speed = {design_speed!r}: expected a finite number >= 0")
+    depth = plant.m[1] * g * plant.l[1]  # J: the hanging link at rest has E = −depth
+    if law == "proportional":
+        tip = plant.l[0] if plant.system.type == "rotary" else 1.0  # base tip travel per unit θ0
+        mu = QUANSER_GAIN if gain_energy is None else finite_number("gain_energy", gain_energy)
+        tip_accel = QUANSER_ACCEL if accel_max is None else finite_number("accel_max", accel_max)
+        reference = depth if energy_target is None else finite_number("energy_target", energy_target)
+        gain_energy, accel_max, energy_target = mu / tip, tip_accel / tip, reference - depth
     # The base acceleration the input limit buys at hanging rest (M00 there: cart plus link,
-    # or the arm's inertia about the vertical with the link's mass at its tip).
+    # or the arm's inertia about the vertical with the link's mass at its tip), less what the
+    # base's damping takes at the design speed.
     if accel_max is None and acceleration:
         a_max = float(u_max)
     elif accel_max is None:
         hanging = np.array([0.0, math.pi])
         inertia = float(mass_and_bias(plant, hanging, np.zeros(2))[0][0, 0])
-        a_max = float(u_max) / inertia
+        force = float(u_max) - plant.delta[0] * speed
+        if force <= 0:
+            raise PlanError(
+                f"design_speed = {design_speed!r}: the base's damping takes the whole input there "
+                f"(no-load speed u_max / delta0 = {float(u_max) / plant.delta[0]:.4g}); choose a lower one"
+            )
+        a_max = force / inertia
     else:
         a_max = float(accel_max)
-    k_e = 10 * a_max / (plant.m[1] * g * plant.l[1]) if gain_energy is None else float(gain_energy)
+    k_e = 10 * a_max / depth if gain_energy is None else float(gain_energy)
+    e0 = 0.0 if energy_target is None else finite_number("energy_target", energy_target)
     omega = 1.0
     k_x = omega**2 if gain_position is None else float(gain_position)
     k_v = 2 * omega if gain_velocity is None else float(gain_velocity)
@@ -196,6 +238,7 @@ def energy_swingup(
         accel_max=a_max,
         catch_angle=float(catch_angle),
         catch_rate=float(catch_rate),
+        energy_target=e0,
         acceleration=acceleration,
     )
 

@@ -38,10 +38,13 @@ def trajectory_swingup(
     q: np.ndarray | Sequence[float] | None = None,
     r: float = 1e-4,
     intervals: int | None = None,
+    input_gain: float = 1.0,
 ) -> tuple[Plan, GainSchedule]:
     """(plan, gain schedule) of a swing-up from `start` (default hanging at rest) to upright at
-    rest in `duration` s, planned within |u| ≤ margin·u_max (0 < margin ≤ 1) and |θ0| ≤ x_max,
-    tracked every `period` s with |u| ≤ u_max. Raises `PlanError` (an `ipgen.Error`)."""
+    rest in `duration` s, planned within |u| ≤ margin·u_max (0 < margin ≤ 1) and |θ0| ≤ margin·x_max,
+    tracked every `period` s with |u| ≤ u_max. Raises `PlanError` (an `ipgen.Error`).
+    `input_gain`: force or torque per unit of the rig's input (a dc_motor's b): messages state
+    the input limit in the rig's units (u_max / input_gain, volts)."""
     margin_ = finite_number("margin", margin)
     if not 0 < margin_ <= 1:
         raise PlanError(f"margin = {margin!r}: expected a fraction of u_max in (0, 1]")
@@ -50,9 +53,10 @@ def trajectory_swingup(
         plant,
         duration=duration,
         u_max=u_limit * margin_,
-        x_max=x_max,
+        x_max=None if x_max is None else finite_number("x_max", x_max) * margin_,
         start=start,
         intervals=intervals,
+        input_gain=input_gain,
     )
     plan = dataclasses.replace(plan, u_max=u_limit)
     return plan, track(plan, period, q=q, r=r)

@@ -352,10 +352,13 @@ def plan_swingup(
     target: Sequence[float] | None = None,
     intervals: int | None = None,
     max_iter: int = 1000,
+    input_gain: float = 1.0,
 ) -> Plan:
     """Plan a swing-up of `plant` from `start` (default: hanging at rest) to `target` (default:
     upright at rest, θ0 = 0) in `duration` seconds with |u| ≤ `u_max` and, when given,
     |θ0| ≤ `x_max`; `intervals` collocation intervals (default: duration / 0.05 s, 20 … 300).
+    `input_gain`: force or torque per unit of the rig's input (a dc_motor's b, then messages
+    state the limit in volts).
 
     Returns a `Plan`; raises `PlanError` for bad input or when no plan is found (the message
     names what to relax). `plant`: a `Plant` or an `ipgen.Pendulum` (a "direct" drive).
@@ -400,7 +403,8 @@ def plan_swingup(
         if not ok:
             status = trial_status
     if status not in SUCCESS:
-        limits = f"|u| ≤ {u_max_:g}" + ("" if x_max_ is None else f", |θ0| ≤ {x_max_:g}")
+        volts = " V" if input_gain != 1.0 else ""
+        limits = f"|u| ≤ {u_max_ / input_gain:g}{volts}" + ("" if x_max_ is None else f", |θ0| ≤ {x_max_:g}")
         raise PlanError(
             f"no swing-up plan found for {plant.system.type} n = {plant.links} in {duration_:g} s with "
             f"{limits} (IPOPT: {status}); relax {'u_max' if x_max_ is None else 'u_max, x_max'} "

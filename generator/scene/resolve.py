@@ -218,13 +218,16 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
-        if not coordinates.is_canonical:
-            reader.fail(
-                "[swingup] in the rig's coordinates is not supported yet: remove [system] angles, zero "
-                "and positive (the swing-up then uses ipgen's, docs/model.md)"
-            )
+        import numpy as np
+
+        # theta, dtheta are in the rig's coordinates (as the .cfg and CSV); the law is ipgen's
+        hanging = (0.0,) + (math.pi,) * links
         if initial.theta is None:  # a swing-up starts hanging unless the scene says otherwise
-            theta = (0.0,) + (math.pi,) * links
+            theta = hanging
+            if not coordinates.is_canonical:
+                user = coordinates.to_user(np.array(hanging + (0.0,) * (links + 1)), links)
+                theta = tuple(float(v) for v in user[: links + 1])
+        start = tuple(float(v) for v in coordinates.to_canonical(np.array(theta + dtheta), links))
     if tables["swingup"] is not None and designed is not None:
         law = designed.swingup
     elif tables["swingup"] is not None:
@@ -235,7 +238,9 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
             params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(tables["swingup"], system, params, theta + dtheta, gain, actuator.is_acceleration)
+            law = swing.law(
+                tables["swingup"], system, params, start, gain, actuator.is_acceleration, coordinates
+            )
         except swing.SwingUpError as error:
             reader.fail(str(error))
     loop = _loop(reader, tables, system, controller, law, actuator, coordinates, links_as_built, lengths)

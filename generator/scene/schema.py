@@ -678,6 +678,56 @@ class SwingupTable(Table):
     hold: Real(ge=0, says="must be >= 0 s") = Field(
         _exact(swing.DEFAULT_HOLD), description="seconds held upright (LQR) after arrival; then the run ends"
     )
+    margin: Real(gt=0, le=1, says="must be in (0, 1]") | None = Field(
+        None,
+        description="trajectory only: plan within margin·u_max and margin·x_max, track within the full "
+        "limits (default 1)",
+    )
+    # The energy law's constants (method = "energy" only; docs/swingup.md). Absent: today's defaults.
+    law: Literal[swing.LAWS] | None = Field(
+        None,
+        description='energy only: "energy" (ipgen\'s constants, in the base\'s units) or "proportional" '
+        "(Quanser's: μ, a_max at the arm tip in m/s², E_r above hanging)",
+    )
+    gain_energy: Real(ge=0, says="the energy gain must be >= 0") | None = Field(
+        None, description="energy only: k_E [(m/s² or rad/s²)/J] (proportional: μ [m/s² per J], default 50)"
+    )
+    accel_max: Real(gt=0, says="the acceleration limit must be > 0") | None = Field(
+        None,
+        description="energy only: a_max of the energy term [m/s² or rad/s²] (proportional: at the arm tip "
+        "[m/s²], default 6); default: what u_max buys at design_speed",
+    )
+    design_speed: Real(ge=0, says="the design speed must be >= 0") | None = Field(
+        None,
+        description="energy only: base speed [m/s or rad/s] at which a_max is what u_max buys after "
+        "back-EMF and damping (default 0: the stall acceleration)",
+    )
+    energy_target: Real(says="must be a finite number of J") | None = Field(
+        None, description="energy only: E0 [J] relative to upright (proportional: E_r above hanging rest)"
+    )
+    catch_angle: Real(gt=0, says="must be > 0 rad") | None = Field(
+        None, description="energy only: switch to the hold within this angle of upright [rad] (default 0.3)"
+    )
+    catch_rate: Real(gt=0, says="must be > 0 rad/s") | None = Field(
+        None, description="energy only: ... and within this link rate [rad/s] (default 3)"
+    )
+    gain_position: Real(ge=0, says="must be >= 0") | None = Field(
+        None, description="energy only: centring k_x [1/s²] of the base (default 1)"
+    )
+    gain_velocity: Real(ge=0, says="must be >= 0") | None = Field(
+        None, description="energy only: centring k_v [1/s] of the base (default 2)"
+    )
+    q: Annotated[Any, PlainValidator(control.weights)] = Field(
+        None,
+        description="energy only: the hold LQR's weights of x = [θ, θ̇] in the scene's coordinates, "
+        "2 (links + 1) numbers or a symmetric PSD matrix (default: identity)",
+        json_schema_extra=control.WEIGHTS_SCHEMA,
+    )
+    r: Real(gt=0, says="the weight of u² must be > 0", what="the weight of u², > 0") | None = Field(
+        None,
+        description="energy only: the hold LQR's weight of u² in the input's units "
+        "(V² for a dc_motor; default 1 per (N or N m)²)",
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> SwingupTable:

@@ -25,6 +25,22 @@ from ipgen.scene.fields import format_number
 from ipgen.scene.values import refuse
 
 METHODS: tuple[str, ...] = ("energy", "trajectory")
+LAWS: tuple[str, ...] = ("energy", "proportional")  # = control.energy.LAWS (checked by a test)
+# The energy law's constants, each a key of [swingup] (method "energy" only) and an argument of
+# control.energy.energy_swingup; absent = that function's default (docs/swingup.md).
+ENERGY_KEYS: tuple[str, ...] = (
+    "law",
+    "gain_energy",
+    "accel_max",
+    "design_speed",
+    "energy_target",
+    "catch_angle",
+    "catch_rate",
+    "gain_position",
+    "gain_velocity",
+    "q",
+    "r",
+)
 DEFAULT_PERIOD = 0.01
 DEFAULT_HOLD = 2.0
 COMMENSURATE_TOLERANCE = 1e-9
@@ -57,10 +73,14 @@ def relations(table: Any, context: dict[str, Any]) -> None:
                 key="method",
                 value=table.method,
             )
-        for key in ("duration", "x_max"):
+        for key in ("duration", "x_max", "margin"):
             if getattr(table, key) is not None:
                 refuse('is for method = "trajectory" only; remove it', key=key, value=getattr(table, key))
-    elif table.duration is None:
+    else:
+        for key in ENERGY_KEYS:
+            if getattr(table, key) is not None:
+                refuse('is for method = "energy" only; remove it', key=key, value=getattr(table, key))
+    if table.method == "trajectory" and table.duration is None:
         refuse(
             'method = "trajectory" needs duration = the manoeuvre\'s time in s',
             key="method",
@@ -100,11 +120,16 @@ def law(
     start: tuple[float, ...],
     gain: float = 1.0,
     acceleration: bool = False,
+    coordinates: Any = None,
 ) -> SwingUpLaw:
     """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`).
     `gain`: a dc_motor's force or torque per volt b, `params` then the motor-folded ones; the
-    law is designed in force units (u_max b) and returned in volts (`in_volts`).
-    `acceleration`: u is the base's acceleration (energy method only)."""
+    law is designed in force units (u_max b) and returned in volts (`in_volts`); its messages
+    state the limits in volts (`params.delta[0]` then includes the back-EMF, which the energy
+    law's `design_speed` takes off a_max).
+    `acceleration`: u is the base's acceleration (energy method only).
+    `coordinates`: the scene's (`model.coordinates.Coordinates`, default ipgen's): the hold
+    weights q are in them (Q in ipgen's = Pᵀ Q P), r in the input's units (R / b² in force units)."""
     from ipgen.control.swingup import in_volts
 
     if acceleration and table.method != "energy":
@@ -112,12 +137,19 @@ def law(
             'swingup: method "trajectory" plans a force or torque, not yet an acceleration input: '
             'use method "energy" or [actuator] kind "direct"'
         )
-    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration)
+    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration, gain, coordinates)
     return designed if gain == 1.0 else in_volts(designed, gain)
 
 
 def _law(
-    table: Any, system: Any, params: Any, start: tuple[float, ...], u_max: float, acceleration: bool
+    table: Any,
+    system: Any,
+    params: Any,
+    start: tuple[float, ...],
+    u_max: float,
+    acceleration: bool,
+    gain: float,
+    coordinates: Any,
 ) -> SwingUpLaw:
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
@@ -137,8 +169,24 @@ def _law(
             **dict(params.links),
         )
         if table.method == "energy":
+            keys = {key: getattr(table, key) for key in ENERGY_KEYS if getattr(table, key) is not None}
+            constants: dict[str, Any] = {
+                key: value if key in ("law", "q") else float(value) for key, value in keys.items()
+            }
+            if "q" in constants:
+                import numpy as np
+
+                weights = np.asarray(constants["q"], dtype=float)
+                weights = np.diag(weights) if weights.ndim == 1 else weights
+                if coordinates is not None:
+                    p, _ = coordinates.matrices(system.links)
+                    weights = p.T @ weights @ p
+                constants["q"] = weights
+            if "r" in constants:
+                constants["r"] /= gain**2
             return energy_law(
-                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration), hold
+                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration, **constants),
+                hold,
             )
         plan, schedule = trajectory_swingup(
             model,
@@ -147,6 +195,8 @@ def _law(
             x_max=None if table.x_max is None else float(table.x_max),
             period=period,
             start=start,
+            margin=1.0 if table.margin is None else float(table.margin),
+            input_gain=gain,
         )
     except ControlError as exc:
         raise SwingUpError(f"swingup: {exc}") from None
