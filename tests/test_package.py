@@ -57,7 +57,7 @@ def install(folder: Path) -> Path:
         [
             readme_block("sh", "pip install ./"),
             f"cd {shlex.quote(str(work))}",
-            readme_block("sh", "ipgen run"),
+            readme_block("sh", "ipgen run my_pendulum.toml"),
         ]
     )
     env = clean_environment() | {
