@@ -422,13 +422,19 @@ def _linearize_canonical(
     if not math.isfinite(u):
         raise ControlError("u must be a finite number (the input about which to linearise)")
     system, dof = p.system, p.dof
-    if p.actuator.is_acceleration:
-        qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q, qd, u, p.flat())
-        gain = 1.0
-    else:
-        gain = p.gain
-        # u is the motor's voltage with a dc_motor: the folded model's force or torque is b u
-        qdd, dq, dqd, du = dynamics(system).jacobians(q, qd, u * gain, p.folded().flat())
+    try:
+        if p.actuator.is_acceleration:
+            qdd, dq, dqd, du = dynamics(system).acceleration_jacobians(q, qd, u, p.flat())
+            gain = 1.0
+        else:
+            gain = p.gain
+            # u is the motor's voltage with a dc_motor: the folded model's force or torque is b u
+            qdd, dq, dqd, du = dynamics(system).jacobians(q, qd, u * gain, p.folded().flat())
+    except (OverflowError, np.linalg.LinAlgError):  # e.g. a length of 1e155 m: M's terms overflow
+        raise ControlError(
+            "the model's terms overflow a double or leave the mass matrix singular: check the masses, "
+            "lengths and inertias (a value many orders of magnitude off?)"
+        ) from None
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
     if np.any(qd != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
         warnings.warn(

@@ -83,7 +83,9 @@ def _scalar_or_list(value: Any, context: dict[str, Any]) -> float | tuple[float,
 
 def _measured(value: Any, context: dict[str, Any]) -> tuple[int, ...]:
     """Ascending, distinct coordinates 0..links."""
-    count = context["count"]
+    count = context.get("count")
+    if count is None:  # [system] failed: its error is the one reported
+        return ()
     if not isinstance(value, list) or not value:
         refuse(f"expected a non-empty array of coordinates 0..{count - 1} (0 = the base)")
     indices: list[int] = []

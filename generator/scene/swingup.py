@@ -200,4 +200,11 @@ def _law(
         )
     except ControlError as exc:
         raise SwingUpError(f"swingup: {exc}") from None
+    except ValueError as exc:  # numpy's LinAlgError: the hold LQR has no solution at this period
+        if type(exc).__name__ != "LinAlgError":
+            raise
+        raise SwingUpError(
+            f"swingup: no hold gain at period = {format_number(period)} s "
+            f"({' '.join(str(exc).split())[:80]}): use a shorter period or other weights q, r"
+        ) from None
     return schedule_law(plan, schedule, hold)

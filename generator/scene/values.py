@@ -128,7 +128,9 @@ def check_count(value: list[Any], count: int, layout: str) -> None:
     """An array of exactly `count` entries, else "<key> has N entries, expected count (layout)"."""
     if len(value) != count:
         entries = f"{len(value)} entr{'y' if len(value) == 1 else 'ies'}"
-        refuse_key(f" has {entries}, expected {count} ({layout})")
+        from ipgen.common.safetext import abbreviate  # a huge `links` stays one short line
+
+        refuse_key(f" has {entries}, expected {abbreviate(str(count), 24)} ({abbreviate(layout, 60)})")
 
 
 def at(index: int, check: Callable[[Any, dict[str, Any]], Any], value: Any, context: dict[str, Any]) -> Any:
