@@ -162,7 +162,8 @@ def cache_key(cxx: str, header_text: str) -> str:
 
 
 @contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
+def locked(path: Path) -> Iterator[None]:
+    """An exclusive lock on the file `path` (created) while the block runs: one build per cache entry."""
     with path.open("a") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
         try:
@@ -279,7 +280,7 @@ def build(
         return Simulator(binary, built=False)
     lock = folder / f"{key}.lock"
     _remove_corrupt(lock, "its lock is a folder", announce, lambda path: not path.is_dir())
-    with _locked(lock):
+    with locked(lock):
         problem = _cache_problem(entry, binary)
         if problem is None:  # built by a concurrent run while we waited
             return Simulator(binary, built=False)

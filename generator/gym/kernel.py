@@ -14,15 +14,12 @@ renamed, so a process never loads half a file.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
-import fcntl
 import hashlib
 import os
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -32,6 +29,7 @@ import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest, environment
+from ipgen.command.simulator import cache_root, locked
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import derive
@@ -100,19 +98,7 @@ def c_compiler() -> str:
 
 def cache_folder() -> Path:
     """`<cache>/gym`, next to the simulators (the same rules as `ipgen run`'s cache)."""
-    from ipgen.command.simulator import cache_root
-
     return cache_root() / "gym"
-
-
-@contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
-    with path.open("a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def build(system: System) -> Path:
@@ -135,7 +121,7 @@ def build(system: System) -> Path:
     library = entry / f"libipgen_gym_{name}.so"
     if library.is_file():
         return library
-    with _locked(folder / f"{entry.name}.lock"):
+    with locked(folder / f"{entry.name}.lock"):
         if library.is_file():
             return library
         entry.mkdir(exist_ok=True)

@@ -225,33 +225,11 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         try:
             t, states = _read_csv(csv, dof)
         except (OSError, ValueError):
-            nan = float("nan")
-            return Result(
-                task,
-                "fail",
-                "no trajectory",
-                done.returncode,
-                nan,
-                nan,
-                nan,
-                nan,
-                nan,
-                time.perf_counter() - started,
-            )
+            t, states = [], []
         if len(t) == 0:
             nan = float("nan")
-            return Result(
-                task,
-                "fail",
-                "no trajectory",
-                done.returncode,
-                nan,
-                nan,
-                nan,
-                nan,
-                nan,
-                time.perf_counter() - started,
-            )
+            elapsed = time.perf_counter() - started
+            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan, elapsed)
         verdict = judge(
             test, t, states, goal, rotary=scene.type == "rotary", status=done.returncode, travel=scene.travel
         )
