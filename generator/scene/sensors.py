@@ -22,16 +22,14 @@ The formulas are in docs/scenes.md ("As a rig measures it") and cpp/include/ipsi
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from decimal import Decimal
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationInfo, model_validator
 
 from ipgen.scene.fields import format_number
-from ipgen.scene.values import Real, Says, at, refuse, refuse_key, refuse_line
+from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
 
 ESTIMATORS: tuple[str, ...] = ("exact", "difference", "filter", "kalman", "ekf")
 DEFAULT_CUTOFF = 50.0  # rad/s: Quanser's 50 s/(s + 50)
@@ -47,22 +45,9 @@ class SensorsError(Exception):
 # ---------------------------------------------------------------------------- value checks
 
 
-def _written_as(value: Any) -> str:
-    """What a TOML value is, for a message ("a string", "an array", ...)."""
-    kinds = {bool: "a boolean", str: "a string", list: "an array", dict: "a table"}
-    return kinds.get(type(value), "a date or time")
-
-
 def _finite(item: Any, _: dict[str, Any]) -> float:
-    if isinstance(item, bool) or not isinstance(item, (int, Decimal)):
-        refuse(f"expected a number, got {_written_as(item)}")
-    try:
-        number = float(item)
-    except OverflowError:
-        number = math.inf
-    if not math.isfinite(number):
-        refuse("must be a finite number")
-    return number
+    """A finite number (the scene layer's own check of an array entry, `values.number`)."""
+    return number(item)
 
 
 def _non_negative(item: Any, context: dict[str, Any]) -> float:
