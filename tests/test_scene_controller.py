@@ -130,6 +130,20 @@ BAD = [
         "controller.kind",
         'remove [input] (or set kind = "zero")',
     ),
+    ({"controller.kind": '"gain"'}, 'controller.kind = "gain"', "add gain = [...]"),
+    (
+        {"controller.kind": '"gain"', "controller.gain": "[1, 2, 3, 4]", "controller.r": "2"},
+        "controller.r = 2",
+        'kind = "gain" takes K as given',
+    ),
+    ({"controller.kind": '"gain"', "controller.gain": "[1, 2, 3]"}, "controller.gain has 3 entries", "4"),
+    ({"controller.kind": '"gain"', "controller.gain": "[1, 2, nan, 4]"}, "controller.gain[2]", "finite"),
+    (
+        {"controller.kind": '"gain"', "controller.gain": "2"},
+        "controller.gain = 2",
+        "an array of the 4 entries",
+    ),
+    ({"controller.gain": "[1, 2, 3, 4]"}, "controller.gain", 'is for kind = "gain"'),
 ]
 
 
@@ -145,6 +159,28 @@ def test_command_exits_2_and_writes_nothing(tmp_path: Path, capsys: pytest.Captu
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ipgen: error: ") and "controller.r = 0" in err[0]
     assert not out.exists()
+
+
+def test_a_given_gain_runs_as_the_same_lqr_gain_does(tmp_path: Path) -> None:
+    """kind = "gain" with the gain kind = "lqr" computes: the same resolved feedback, and the
+    simulator's trajectory is the same, bit for bit (a policy trained elsewhere runs this way)."""
+    sampled = {"controller.period": "0.01", "controller.saturation": "3"}
+    lqr = load_scene(controlled(tmp_path, sampled))
+    assert lqr.controller is not None
+    gain = "[" + ", ".join(repr(k) for k in lqr.controller.gain) + "]"
+    (tmp_path / "lqr").mkdir()
+    given_path = make(
+        tmp_path / "lqr", {**CONTROLLED, **sampled, "controller.kind": '"gain"', "controller.gain": gain}
+    )
+    given = load_scene(given_path)
+    assert given.controller is not None and given.controller.kind == "gain"
+    assert given.controller.gain == lqr.controller.gain
+    assert given.controller.equilibrium == lqr.controller.equilibrium
+    csvs = []
+    for name, path in (("a", controlled(tmp_path, sampled)), ("b", given_path)):
+        assert run(["run", str(path), "-o", str(tmp_path / name)]) == 0
+        csvs.append(next((tmp_path / name).glob("*.csv")).read_text().splitlines())
+    assert len(csvs[0]) > 10 and csvs[0][1:] == csvs[1][1:]
 
 
 def test_specialised_scene_keeps_the_input_path(tmp_path: Path) -> None:
@@ -164,7 +200,7 @@ def test_demo_scene() -> None:
 VALUES = st.one_of(
     st.integers(-3, 3).map(str),
     st.sampled_from(
-        ["0.5", "1e-3", "-0.0", "nan", "inf", "1e400", '"lqr"', '"upright"', '"hanging"', "true"]
+        ["0.5", "1e-3", "-0.0", "nan", "inf", "1e400", '"lqr"', '"gain"', '"upright"', '"hanging"', "true"]
     ),
     st.lists(st.sampled_from(["0", "1", "-1", "2.5", "3.141592653589793", '"x"']), max_size=5).map(
         lambda items: "[" + ", ".join(items) + "]"

@@ -90,6 +90,22 @@ def test_flow_map_jacobians_match_the_exact_zero_order_hold_discretisation() -> 
     np.testing.assert_allclose(np.asarray(bd).reshape(-1), exact[:n, n], atol=1e-9)
 
 
+@pytest.mark.parametrize(
+    "kind, links, period", [("rotary", 2, 0.01), ("classical", 2, 0.0237), ("rotary", 1, 0.2)]
+)
+def test_hold_jacobians_at_rest_equal_the_unrolled_flows(kind: str, links: int, period: float) -> None:
+    """discrete_lqr's shortcut at an equilibrium (RK4 of the linear model, matrix products) is
+    the Jacobian of the unrolled RK4 flow that CasADi differentiates, to rounding."""
+    from ipgen.control.tvlqr import _flow_jacobians_at_rest
+
+    p = paper_plant(kind, links)
+    n = 2 * p.dof
+    ad, bd = _flow_jacobians_at_rest(p, period, np.zeros(n))
+    _, ad0, bd0 = casadi_model(p).flow_jacobians(period)(np.zeros(n), 0.0)
+    np.testing.assert_allclose(ad, np.asarray(ad0), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(bd, np.asarray(bd0).reshape(-1, 1), rtol=1e-12, atol=1e-12)
+
+
 @pytest.fixture(scope="module")
 def rotary1_plan():
     kind, links, duration, u_max, x_max = CASES["rotary1"]

@@ -133,7 +133,7 @@ input.phase [rad]; input = chirp with input.f0, input.f1 [Hz], input.sweep = lin
 (and amplitude, start, duration); input = multisine with input.frequencies [Hz], input.phases [rad]
 and input.scale (u = amplitude scale sum cos(2 pi f t + phase), lines computed by ipgen);
 limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
-(true|false); controller = lqr with controller.gain K and controller.equilibrium x_eq (2*(links+1)
+(true|false); controller = lqr or gain (either: state feedback) with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
@@ -463,7 +463,7 @@ void print_controller(const ipsim::LinearFeedback& c, const ipsim::ParamsOf<M>& 
   const Eigen::VectorXd equilibrium = coordinates.to_user(c.equilibrium);
   const std::string timing = c.period > 0.0 ? "sampled every " + ipsim::detail::format_number(c.period) + " s"
                                             : std::string("continuous");
-  std::printf(" Controller: LQR, %s, u = -K (x - x_eq), K = %s, x_eq = %s", timing.c_str(),
+  std::printf(" Controller: %s, %s, u = -K (x - x_eq), K = %s, x_eq = %s", c.given ? "given gain" : "LQR", timing.c_str(),
               ipsim::detail::format_values(gain.data(), gain.size()).c_str(),
               ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
   if (std::isfinite(c.saturation)) std::printf(", |u| <= %g", c.saturation / per);

@@ -198,6 +198,11 @@ def _lambdified(system: System) -> tuple[Callable[..., Any], Callable[..., Any]]
     return dynamics, energies
 
 
+def rk4_substeps(period: float) -> int:
+    """The RK4 steps of `CasadiModel.flow_map` over `period`: steps of at most 1 ms, at least 4."""
+    return max(4, math.ceil(period / 1e-3 - 1e-9))
+
+
 @dataclass(frozen=True)
 class CasadiModel:
     """CasADi functions of one plant (SX graphs, parameters folded in as constants).
@@ -219,7 +224,7 @@ class CasadiModel:
         """F(x, u): the state after `period` seconds with u held, by classical RK4 in `substeps`
         steps (default: steps of at most 1 ms, at least 4), as a CasADi function (AD-exact
         Jacobians of the discretised map)."""
-        return _flow_map(self, float(period), substeps or max(4, math.ceil(period / 1e-3 - 1e-9)))
+        return _flow_map(self, float(period), substeps or rk4_substeps(period))
 
     def flow_jacobians(self, period: float, substeps: int | None = None) -> ca.Function:
         """(F, ∂F/∂x, ∂F/∂u) of `flow_map` as one CasADi function of (x, u)."""
@@ -230,6 +235,10 @@ class CasadiModel:
         u = casadi.SX.sym("u")
         xn = step(x, u)
         return casadi.Function("flow_jacobians", [x, u], [xn, casadi.jacobian(xn, x), casadi.jacobian(xn, u)])
+
+    def state_jacobians(self) -> ca.Function:
+        """(ẋ, ∂ẋ/∂x, ∂ẋ/∂u) of the continuous dynamics as one CasADi function of (x, u)."""
+        return _state_jacobians(self)
 
     def state_derivative(self, x: np.ndarray, u: float) -> np.ndarray:
         """ẋ = [θ̇; θ̈] at a numeric state (numpy)."""
@@ -259,6 +268,18 @@ def _flow_map(model: CasadiModel, period: float, substeps: int) -> ca.Function:
         k4 = f(state + h * k3)
         state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
     return casadi.Function("flow_map", [x, u], [state])
+
+
+@lru_cache(maxsize=32)
+def _state_jacobians(model: CasadiModel) -> ca.Function:
+    casadi = import_casadi()
+    dof = model.plant.dof
+    x = casadi.SX.sym("x", 2 * dof)
+    u = casadi.SX.sym("u")
+    xdot = casadi.vertcat(x[dof:], model.acceleration(x[:dof], x[dof:], u))
+    return casadi.Function(
+        "state_jacobians", [x, u], [xdot, casadi.jacobian(xdot, x), casadi.jacobian(xdot, u)]
+    )
 
 
 @lru_cache(maxsize=32)

@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.control.casadi_model import Plant, casadi_model
+from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps
 from ipgen.control.linear import check_stabilisable, linearize, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
@@ -93,6 +93,35 @@ def riccati_recursion(
     return gains, p
 
 
+def _flow_jacobians_at_rest(plant: Plant, period: float, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(A_d, B_d) of `CasadiModel.flow_map(period)` at `target`, u = 0.
+
+    At an equilibrium every RK4 stage is evaluated at the target itself, so the Jacobian of the
+    RK4 flow is RK4 applied to the linear model (A, B): per substep Φ = Σ_{k≤4} (hA)^k/k! and
+    Γ = h Σ_{k≤3} (hA)^k/(k+1)! B. That is the same map as differentiating the unrolled flow,
+    in matrix products instead of a graph whose size grows with period/1 ms (a 3 s period took
+    12 s to build). Away from an equilibrium the unrolled flow is differentiated as before."""
+    import numpy as np
+
+    model = casadi_model(plant)
+    xdot, a_c, b_c = model.state_jacobians()(target, 0.0)
+    if np.max(np.abs(np.asarray(xdot, dtype=float))) > 1e-12:
+        _, ad, bd = model.flow_jacobians(period)(target, 0.0)
+        return np.asarray(ad, dtype=float), np.asarray(bd, dtype=float).reshape(-1, 1)
+    substeps = rk4_substeps(period)
+    h = period / substeps
+    ha = h * np.asarray(a_c, dtype=float)
+    eye = np.eye(ha.shape[0])
+    phi = eye + ha @ (eye + ha @ (eye / 2 + ha @ (eye / 6 + ha / 24)))
+    gamma = (
+        h * (eye + ha @ (eye / 2 + ha @ (eye / 6 + ha / 24))) @ np.asarray(b_c, dtype=float).reshape(-1, 1)
+    )
+    ad, bd = eye, np.zeros_like(gamma)
+    for _ in range(substeps):
+        ad, bd = phi @ ad, phi @ bd + gamma
+    return ad, bd
+
+
 def discrete_lqr(
     plant: Plant, period: float, q: np.ndarray, r: np.ndarray, target: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -101,10 +130,7 @@ def discrete_lqr(
     import numpy as np
     from scipy.linalg import solve_discrete_are
 
-    jac = casadi_model(plant).flow_jacobians(period)
-    _, ad, bd = jac(target, 0.0)
-    ad = np.asarray(ad, dtype=float)
-    bd = np.asarray(bd, dtype=float).reshape(-1, 1)
+    ad, bd = _flow_jacobians_at_rest(plant, period, target)
     # Stabilisability and detectability, checked on the continuous linear model at the target.
     dof = plant.dof
     system = plant.system

@@ -1,6 +1,10 @@
-"""The `[controller]` table of a scene: its own value rules, and its LQR gain (`control.lqr`).
+"""The `[controller]` table of a scene: its own value rules, and its gain (`control.lqr`, or given).
 
-    [controller]  kind = "lqr" (required in the table);
+    [controller]  kind = "lqr" | "gain" (required in the table): the gain K of u = −K (x − x_eq)
+                      by LQR from q and r, or as given in `gain`;
+                  gain = the 2·(links + 1) entries of K (kind = "gain" only, required there), in
+                      the scene's coordinates and units of u (volts per rad with a dc_motor), e.g.
+                      a policy trained with ipgen.gym (docs/gym.md);
                   q = 2·(links + 1) diagonal weights, or a symmetric positive semidefinite
                       2·(links + 1) × 2·(links + 1) matrix (default: identity), in the order of
                       x = [θ0..θn, θ̇0..θ̇n];
@@ -31,7 +35,7 @@ from ipgen.scene.fields import format_number, one_of, type_name
 from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
 # Feedback controllers ([controller] kind) and the named equilibria they stabilise.
-CONTROLLER_KINDS: tuple[str, ...] = ("lqr",)
+CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain")
 EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
 DEFAULT_EQUILIBRIUM = "upright"
 DEFAULT_R = 1.0  # LQR weight of u²; the default Q is the identity
@@ -96,6 +100,18 @@ def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[fl
     return matrix
 
 
+def gain_values(value: Any, info: ValidationInfo) -> list[float] | None:
+    """gain: the 2·(links + 1) finite entries of K."""
+    context = context_of(info, "count")
+    if context is None:
+        return None
+    size = 2 * context["count"]
+    if not isinstance(value, list):
+        refuse(f"expected an array of the {size} entries of K (θ0.. then θ̇0..), got {type_name(value)}")
+    check_count(value, size, f"2 · (links + 1) = {size}: θ0.. then θ̇0..")
+    return [at(i, number, item, context) for i, item in enumerate(value)]
+
+
 def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     """ "upright", "hanging" or the dof angles [θ0, θ1, ...], each link at a multiple of π."""
     context = context_of(info, "count")
@@ -123,7 +139,29 @@ def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
 
 
 def relations(table: Any, context: dict[str, Any]) -> None:
-    """No other input than zero; a period in (0, t_end], commensurate with the output sample."""
+    """A gain given exactly for kind "gain"; no other input than zero; a period in (0, t_end],
+    commensurate with the output sample."""
+    given = table.model_fields_set
+    if table.kind == "gain":
+        if table.gain is None:
+            refuse(
+                'kind = "gain" runs the gain K you give: add gain = [...] (2 · (links + 1) entries)',
+                key="kind",
+                value=table.kind,
+            )
+        for key in ("q", "r") if given & {"q", "r"} else ():
+            if key in given:
+                refuse(
+                    'weights the LQR design; kind = "gain" takes K as given: remove it',
+                    key=key,
+                    value=getattr(table, key),
+                )
+    elif "gain" in given:
+        refuse(
+            'is for kind = "gain"; kind = "lqr" computes K from q and r: remove gain or set kind = "gain"',
+            key="gain",
+            value=table.gain,
+        )
     input_kind = context["input_kind"]
     if input_kind != "zero":
         refuse(
@@ -170,14 +208,34 @@ class GainError(Exception):
 def controller(
     table: Any, system: Any, params: Any, actuator: Any = None, coordinates: Coordinates | None = None
 ) -> Controller:
-    """The controller of a validated [controller] table, with its LQR gain (raises `GainError`).
+    """The controller of a validated [controller] table, with its LQR gain or the gain it gives
+    (raises `GainError`).
 
     In the rig's `coordinates` (default: ipgen's) the weights, an equilibrium given as angles,
     the gain and the equilibrium returned are in them; "upright" and "hanging" name the same
     physical state in any convention (its angles there follow the map, docs/model.md)."""
-    from ipgen.control.linear import ControlError, equilibrium_state, lqr
+    import numpy as np
+
+    from ipgen.control.linear import equilibrium_state
 
     frame = coordinates if coordinates is not None else Coordinates()
+    gain = table.gain if table.kind == "gain" else _lqr_gain(table, system, params, actuator, frame)
+    x_eq = equilibrium_state(system.links, table.equilibrium)  # angles as written: the rig's
+    if isinstance(table.equilibrium, str) and not frame.is_canonical:
+        x_eq = frame.to_user(x_eq, system.links)  # a named state, mapped
+    return Controller(
+        kind=table.kind,
+        gain=tuple(float(k) for k in np.ravel(gain)),  # K is 1 x 2(n+1)
+        equilibrium=tuple(float(x) for x in x_eq),
+        saturation=None if table.saturation is None else float(table.saturation),
+        period=None if table.period is None else float(table.period),
+        unit=_unit(system, actuator),
+    )
+
+
+def _lqr_gain(table: Any, system: Any, params: Any, actuator: Any, frame: Coordinates) -> Any:
+    """K by `control.lqr` from the table's weights, in the scene's coordinates and units of u."""
+    from ipgen.control.linear import ControlError, lqr
 
     weights_ = table.q if table.q is not None else [1.0] * (2 * (system.links + 1))
     try:
@@ -200,17 +258,7 @@ def controller(
         )
     except ControlError as exc:
         raise GainError(f"controller: no LQR gain: {exc}") from None
-    x_eq = equilibrium_state(system.links, table.equilibrium)  # angles as written: the rig's
-    if isinstance(table.equilibrium, str) and not frame.is_canonical:
-        x_eq = frame.to_user(x_eq, system.links)  # a named state, mapped
-    return Controller(
-        kind=table.kind,
-        gain=tuple(float(k) for k in gain.ravel()),  # K is 1 x 2(n+1)
-        equilibrium=tuple(float(x) for x in x_eq),
-        saturation=None if table.saturation is None else float(table.saturation),
-        period=None if table.period is None else float(table.period),
-        unit=_unit(system, actuator),
-    )
+    return gain
 
 
 def _unit(system: Any, actuator: Any) -> str:

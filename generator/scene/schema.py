@@ -615,9 +615,17 @@ class OutputsTable(Table):
 
 
 class ControllerTable(Table):
-    """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen."""
+    """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen or given."""
 
-    kind: Literal[CONTROLLER_KINDS] = Field(description="lqr: a linear-quadratic regulator")
+    kind: Literal[CONTROLLER_KINDS] = Field(
+        description="lqr: a linear-quadratic regulator from q and r; gain: the gain K given in `gain`"
+    )
+    gain: Annotated[Any, PlainValidator(control.gain_values)] = Field(
+        None,
+        description="kind = gain only: the 2 (links + 1) entries of K in u = −K (x − x_eq), in the "
+        "scene's coordinates and units of u",
+        json_schema_extra={"type": "array", "items": {"type": "number"}, "minItems": 4},
+    )
     q: Annotated[Any, PlainValidator(control.weights)] = Field(
         None,
         description="2 (links + 1) weights of x = [θ, θ̇], or a symmetric PSD matrix (default: identity)",

@@ -31,6 +31,7 @@ struct LinearFeedback {
   Eigen::VectorXd equilibrium;  ///< x_eq (2·kDof)
   double saturation = std::numeric_limits<double>::infinity();  ///< |u| ≤ saturation, > 0
   double period = 0.0;                                           ///< sampling period [s]; 0: continuous
+  bool given = false;  ///< true: K was given (a scene's `gain`), false: ipgen's LQR gain (for the summary)
 
   /// The (saturated) input in state x (2·kDof entries).
   double operator()(const Eigen::VectorXd& x) const {

@@ -19,7 +19,7 @@
 //   jacobian = exact           (optional, bdf and adams: exact | dq; default exact)
 //   step = 0.001               (optional; required by method = rk4: its fixed step [s])
 //   energy = false             (optional: true adds the energy ledger and energy columns)
-//   controller = lqr           (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
+//   controller = lqr | gain    (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
 //   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
 //   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
@@ -198,7 +198,7 @@ struct Scene {
   ParamsOf<Model> params{};
   Settings<Model> settings;
   bool energy = false;  ///< `energy = true`: report energies (settings.energy_ledger is set too)
-  /// `controller = lqr`: the feedback that sets settings.input (which is then a feedback or
+  /// `controller = lqr` or `gain`: the feedback that sets settings.input (which is then a feedback or
   /// sampled input).
   std::optional<LinearFeedback> controller;
   /// `actuator = dc_motor`: the force [N] or torque [N m] per volt, b. The file's parameters are
@@ -599,8 +599,9 @@ Scene<Model> load(const SceneFile& file) {
     }
   }
   if (file.has("controller")) {
-    if (file.text("controller") != "lqr") {
-      file.fail(file.line("controller"), "controller must be `lqr`, got `" + file.text("controller") + "`");
+    if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
+      file.fail(file.line("controller"),
+                "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
     }
     if (kind != "zero") {
       file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");
@@ -619,6 +620,7 @@ Scene<Model> load(const SceneFile& file) {
     controller.equilibrium = scene.coordinates.to_canonical(state_list("controller.equilibrium"));
     if (file.has("controller.saturation")) controller.saturation = file.number("controller.saturation");
     if (file.has("controller.period")) controller.period = file.number("controller.period");
+    controller.given = file.text("controller") == "gain";
     const auto problems = controller.problems(2 * Model::kDof);
     if (!problems.empty()) file.fail(0, problems.front());
     controller.gain *= b;  // volts per unit of state -> N or N m (b = 1 for a direct drive)
