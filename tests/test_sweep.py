@@ -198,7 +198,7 @@ def test_a_small_scorecard_scored_as_its_table_says(scene: Path, tmp_path: Path)
         jobs=2,
     )
     rows = _rows(out)
-    assert len(rows) == 9 == outcome.runs  # sensor_noise: run only with [sensors] support
+    assert len(rows) == 9 == outcome.runs  # sensor_noise: not run on the exact state
     assert {p.name for p in outcome.files} >= {"runs.csv", "scores.json", "scores.md", "scores.png"}
     assert (out / "criterion_mass.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     seeds = [int(row["seed"]) for row in rows]
@@ -225,9 +225,8 @@ def test_a_small_scorecard_scored_as_its_table_says(scene: Path, tmp_path: Path)
     assert outcomes["damping", "[1.0]"]["outcome"] == "pass"
     assert outcomes["period", "[0.5]"]["outcome"] == "fail"
     noise = next(c for c in scores["criteria"] if c["name"] == "sensor_noise")
-    if not spec.supported("sensors.noise"):
-        assert noise["refused"].startswith("needs [sensors] support")
-        assert "needs [sensors] support" in (out / "scores.md").read_text()
+    assert noise["refused"].startswith("the controller sees the exact state")  # the scene has no estimator
+    assert "give the scene an estimator to score it" in (out / "scores.md").read_text()
 
 
 def test_the_plant_changes_and_the_controller_stays_nominal(scene: Path, tmp_path: Path) -> None:
@@ -299,16 +298,11 @@ def test_an_interrupted_sweep_resumes_from_its_table(scene: Path, tmp_path: Path
 
 
 def test_sensor_keys_by_name(scene: Path, tmp_path: Path) -> None:
-    """The sensor and drive keys of issue 32: refused in one line until the scene format has them."""
-    if spec.supported("sensors.noise"):
-        outcome = ipgen.sweep(scene, tmp_path / "noise", vary=["sensors.noise=0,0.001"], repeat=2, jobs=2)
-        rows = _rows(tmp_path / "noise")
-        assert outcome.runs == 4 and rows[0]["outcome"] == "pass"
-        assert len({row["seed"] for row in rows}) == 4
-        return
-    for key in ("sensors.noise", "sensors.delay", "sensors.resolution", "actuator.noise", "actuator.lag"):
-        with pytest.raises(SweepError, match=r"needs \[sensors\] support"):
-            ipgen.sweep(scene, tmp_path / "x", vary=[f"{key}=0,1"])
+    """The sensor and drive keys sweep by name; a noisy run gets its own seed."""
+    outcome = ipgen.sweep(scene, tmp_path / "noise", vary=["sensors.noise=0,0.001"], repeat=2, jobs=2)
+    rows = _rows(tmp_path / "noise")
+    assert outcome.runs == 4 and rows[0]["outcome"] == "pass"
+    assert len({row["seed"] for row in rows}) == 4
 
 
 def test_a_dask_local_cluster_gives_the_local_table(scene: Path, tmp_path: Path) -> None:
@@ -360,8 +354,6 @@ def test_the_estimator_stays_the_nominal_design() -> None:
     """With issue 32's measured loop: a run on a heavier plant keeps the Kalman filter designed on the
     nominal scene (its A, gain), and gets its own seed; an [estimator] key designs it anew."""
     path = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"
-    if not spec.supported("sensors.noise") or not path.is_file():
-        pytest.skip("needs [sensors] support (issue 32)")
     from ipgen.scene.reader import read_document, scene_from_document
     from ipgen.sweeps import overrides
     from ipgen.sweeps.execute import nominal_estimator

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.errors import Error
 from ipgen.sweeps import overrides as override
-from ipgen.sweeps.spec import SENSOR_KEYS, supported
+from ipgen.sweeps.spec import SEEDED_KEYS
 from ipgen.sweeps.success import Success, judge
 
 if TYPE_CHECKING:
@@ -140,13 +140,9 @@ def _message(error: Exception, path: Path) -> str:
 
 
 def _seeded(prepared: Prepared, task: Task) -> tuple[tuple[str, object], ...]:
-    """The overrides with the run's seed as sensors.seed (issue 32: the seed of every random stream of
-    a run: sensor noise, drive noise) when the scene has [sensors] or the run sets a sensor or drive key."""
-    if not supported("sensors.seed"):
-        return task.overrides
-    random = any(
-        k.split("[")[0] in SENSOR_KEYS for k, _ in task.overrides
-    )  # noise, pulses: drawn from the seed
+    """The overrides with the run's seed as sensors.seed (the seed of every random stream of a run:
+    sensor noise, drive noise, pulses) when the scene has [sensors] or the run sets a seeded key."""
+    random = any(k.split("[")[0] in SEEDED_KEYS for k, _ in task.overrides)
     if "sensors" not in prepared.document and not random:
         return task.overrides
     if any(k == "sensors.seed" for k, _ in task.overrides):

@@ -3,9 +3,8 @@ parameters, noise, delay, drive, perturbations) plus encoder resolution and samp
 
 Each criterion varies one thing over stated levels (`CRITERIA`, overridable with
 `--criterion NAME=LO:HI:N`); the model parameters are scaled on every coordinate at once in the
-plant while the controller stays the one designed on the nominal scene. The criteria that need
-the scene format's [sensors] and drive keys (issue 32) are refused with that reason when this
-ipgen does not have them.
+plant while the controller (and the scene's estimator) stays the one designed on the nominal
+scene; the measurement, delay and drive criteria set [sensors] and [actuator] keys.
 """
 
 from __future__ import annotations
@@ -15,7 +14,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.sweeps.overrides import nominal_array
-from ipgen.sweeps.spec import NEEDS_SENSORS, Criterion, Key, Level, SweepError, parse_levels, supported
+from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels
 
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene
@@ -29,7 +28,6 @@ class Default:
     label: str
     levels: str  # LO:HI:N or v1,v2,... (parse_levels)
     repeat: int = 1
-    needs: str = ""  # a scene key the criterion needs (issue 32's)
     relative: bool = False  # levels are fractions of the input limit (u_max or the saturation)
 
 
@@ -40,23 +38,16 @@ CRITERIA: tuple[Default, ...] = (
     Default("damping", "damping δ ×", "0:2:21"),
     Default("coulomb", "Coulomb friction [N or N m]", "0:0.1:21"),
     Default("period", "controller period [s]", "0.0005,0.001,0.002,0.005,0.01,0.02,0.05"),
-    Default(
-        "resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64", needs="sensors.resolution"
-    ),
-    Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10, needs="sensors.noise"),
-    Default(
-        "delay", "delay [s]", "0:0.04:21", needs="sensors.delay"
-    ),  # multiples of the period: delay_levels
-    Default(
-        "drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, needs="actuator.noise", relative=True
-    ),
-    Default("lag", "drive lag τ [s]", "0:0.05:21", needs="actuator.lag"),
+    Default("resolution", "encoder counts", "0,8192,4096,2048,1024,512,256,128,64"),
+    Default("sensor_noise", "angle noise σ [rad or m]", "0:0.02:21", repeat=10),
+    Default("delay", "delay [s]", "0:0.04:21"),  # multiples of the period: delay_levels
+    Default("drive_noise", "drive noise σ / u limit", "0:0.2:21", repeat=10, relative=True),
+    Default("lag", "drive lag τ [s]", "0:0.05:21"),
     Default(
         "pulses",
         "pulse amplitude / input limit (as force)",
         "0:0.5:5",
         repeat=10,
-        needs="actuator.pulses",
         relative=True,
     ),
 )
@@ -179,9 +170,7 @@ def criteria(
         reps = default.repeat if repeat is None or default.repeat == 1 else repeat
         seeded = default.repeat > 1
         refused = ""
-        if default.needs and not supported(default.needs):
-            refused = NEEDS_SENSORS
-        elif default.name == "period" and scene.controller is not None and scene.controller.period is None:
+        if default.name == "period" and scene.controller is not None and scene.controller.period is None:
             refused = "the scene's controller is continuous (no controller.period): nothing to vary"
         elif default.name == "pulses" and scene.actuator.is_acceleration:
             refused = "the base follows the commanded acceleration: a force pulse on it changes nothing"

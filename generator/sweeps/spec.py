@@ -20,17 +20,9 @@ DESIGN_TABLES: tuple[str, ...] = ("controller", "swingup")
 # Tables a sweep may not change: [system] names the model (another simulator), [input] and
 # [outputs] are not robustness questions.
 FIXED_TABLES: tuple[str, ...] = ("system", "input", "outputs")
-# Keys of issue 32 (sensors, estimators, the drive): swept by name once the scene format has them.
-SENSOR_KEYS: tuple[str, ...] = (
-    "sensors.noise",
-    "sensors.delay",
-    "sensors.resolution",
-    "sensors.seed",
-    "actuator.noise",
-    "actuator.lag",
-    "actuator.pulses",
-)
-NEEDS_SENSORS = "needs [sensors] support (issue 32), which this ipgen's scene format does not have yet"
+# Keys that draw random numbers from the run's seed (noise, pulses): a run that sets one gets its
+# own sensors.seed.
+SEEDED_KEYS: tuple[str, ...] = ("sensors.noise", "actuator.noise", "actuator.pulses")
 MAX_LEVELS = 10_000
 _KEY = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
 
@@ -58,12 +50,6 @@ class Key:
         return self.table in DESIGN_TABLES
 
 
-def supported(dotted: str) -> bool:
-    """Whether this ipgen's scene format has the key `table.name` (no index)."""
-    table, _, name = dotted.partition(".")
-    return name in schema.TABLES.get(table, ())
-
-
 def parse_key(text: str) -> Key:
     """A `Key` from `table.name` or `table.name[i]`, checked against the scene format."""
     match = _KEY.match(text.strip())
@@ -74,8 +60,6 @@ def parse_key(text: str) -> Key:
         )
     table, name, index = match.group(1), match.group(2), match.group(3)
     key = Key(table, name, None if index is None else int(index))
-    if key.text.split("[")[0] in SENSOR_KEYS and not supported(f"{table}.{name}"):
-        raise SweepError(f"--vary {key.text}: {NEEDS_SENSORS}")
     if table not in schema.TABLES:
         raise SweepError(
             f"--vary {key.text}: unknown table [{abbreviate(table)}] (a scene has {', '.join(schema.TABLES)})"
