@@ -21,6 +21,7 @@ from c_models import c_command, compile_c, require_cc
 from cxx import require_toolchain
 
 import ipgen
+from ipgen.command import job
 from ipgen.command.cli import run
 from ipgen.command.simulator import build, cache_root
 from ipgen.estimation import Sensors, design, replay
@@ -103,17 +104,20 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         (folder / "scene.toml").write_text(scene_text(sensors, estimator))
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(["--scene", str(folder / "scene.toml"), "-o", str(folder)]) == 0, err.getvalue()
+        # what `ipgen run` compiles and reads: the model's header and a .cfg naming it (in sim/)
+        simulated = job.for_the_simulator(job.plan(folder / "sim", scene=folder / "scene.toml"))
+        job.run(simulated)
         folders[name] = folder
-    header = (folders["kalman"] / "qube_servo2.hpp").read_text()
     # the shared content-keyed cache (locked per key): the xdist workers and later runs build it once
-    folders["simulator"] = build(header, "qube_servo2", cache_root()).path
+    header = (folders["kalman"] / "sim" / f"{simulated.name}.hpp").read_text()
+    folders["simulator"] = build(header, simulated.name, cache_root()).path
     return folders
 
 
 def simulate(simulator: Path, folder: Path) -> dict[str, np.ndarray]:
     csv = folder / "run.csv"
     result = subprocess.run(
-        [str(simulator), str(folder / "scene.cfg"), "--csv", str(csv), "--force"],
+        [str(simulator), str(folder / "sim" / "scene.cfg"), "--csv", str(csv), "--force"],
         capture_output=True,
         text=True,
     )

@@ -174,7 +174,7 @@ atol = 1e-14
 """
 
 
-# The shipped scenes' model names (cdip, rsip): their simulators are built by other tests too.
+# The shipped scenes' models (cart double, rotary single): their simulators are built by other tests too.
 @pytest.mark.parametrize(("type", "links", "name"), [("classical", 2, "cdip"), ("rotary", 1, "rsip")])
 def test_env_steps_agree_with_ipgens_cvode_simulator(
     tmp_path: Path, type: str, links: int, name: str

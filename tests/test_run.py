@@ -155,6 +155,32 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     assert seconds < 10, f"a cached run took {seconds:.1f} s"  # ~1 s; generous for a loaded machine
 
 
+def test_every_scene_of_one_model_shares_its_simulator(tmp_path: Path, cache: dict[str, str]) -> None:
+    """Another scene name and the rig's coordinates (relative angles, clockwise) take the same
+    cached binary as the plain scene (the simulator compiles ipgen's own coordinates under the
+    model's name and maps the rig's at run time), and the trajectory is the same motion mapped."""
+    require_toolchain()
+    plain = tmp_path / "triple.toml"
+    plain.write_text(TRIPLE.replace("THETA1", "0.1"))
+    rig = TRIPLE.replace("THETA1", "0.1").replace(
+        "links = 3", 'links = 3\nname = "rig3"\nangles = "relative"'
+    )
+    rig = rig.replace("theta = [0, 0.1, 0, 0]", "theta = [0, 0.1, -0.1, 0]")
+    (tmp_path / "rig.toml").write_text(rig)
+    summaries, data = [], []
+    for stem in ("triple", "rig"):
+        done = ipgen_command("run", str(tmp_path / f"{stem}.toml"), "-o", str(tmp_path / stem), env=cache)
+        assert done.returncode == 0, done.stderr
+        summaries.append((tmp_path / stem / f"{stem}.txt").read_text())
+        data.append(read_csv(tmp_path / stem / f"{stem}.csv")[1])
+    assert simulator_of(summaries[0]) == simulator_of(summaries[1])
+    assert summaries[1].startswith("scene rig: model rotary3 (rotary, 3 links)")
+    absolute, relative = data[0][:, 1:5], data[1][:, 1:5]
+    assert np.allclose(relative[:, 0], absolute[:, 0], atol=1e-12)
+    assert np.allclose(relative[:, 1], absolute[:, 1], atol=1e-12)
+    assert np.allclose(relative[:, 2:], np.diff(absolute[:, 1:], axis=1), atol=1e-9)
+
+
 def test_run_passes_the_simulators_failure_through(tmp_path: Path, cache: dict[str, str]) -> None:
     """An integration failure (here: one step allowed) is the simulator's status and message."""
     require_toolchain()

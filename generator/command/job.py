@@ -5,7 +5,7 @@ input with the same one-line message (an `OptionsError`, or the `Error` a parser
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -218,6 +218,18 @@ def plan(
     return Job(system, name, directory, force, spec, targets or DEFAULT_EMIT, coordinates=coordinates)
 
 
+def for_the_simulator(job: Job) -> Job:
+    """The job whose C++ header a scene's simulator compiles: in ipgen's own coordinates (the
+    simulator maps the rig's at run time, from the .cfg) and named after the model alone
+    (rotary1, rotary2_full), so that every scene of one model shares one cached binary whatever
+    its name or conventions. A specialised scene keeps its name: its header holds its numbers."""
+    if job.scene is not None and job.scene.specialise:
+        return replace(job, emit=("cpp",), coordinates=Coordinates())
+    system = job.system
+    name = system.default_name + ("_full" if system.is_rotary and system.inertia == "full" else "")
+    return replace(job, name=name, emit=("cpp",), coordinates=Coordinates())
+
+
 def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written]:
     """Derive, render and write the job's files (all or none); the scene's .cfg comes last."""
     from ipgen.command.generate import generate
@@ -228,7 +240,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
     if job.scene is not None:
         from ipgen.scene.reader import resolved_config
 
-        extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene)),)
+        extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene, model=job.name)),)
         parameters = tuple((name, job.scene.value(name)) for name in job.scene.parameter_names())
         initial = (*job.scene.theta, *job.scene.dtheta)
     return generate(

@@ -93,7 +93,7 @@ def run_scene(
 ) -> Outcome:
     """Generate, build, simulate and plot `scene_path` into the folder `out`."""
     with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
-        planned = job.plan(staging, scene=scene_path, emit=("cpp",), force=force)
+        planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("cpp",), force=force))
         assert planned.scene is not None
         scene = planned.scene
         for warning in scene.warnings:  # e.g. a unit slip: the run goes on

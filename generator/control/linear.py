@@ -49,6 +49,11 @@ __all__ = [
 ]
 
 
+# The largest weight in Q or R, and 1 / it the smallest R: beyond them the Riccati solvers work
+# in overflow (a Q entry of 1e308 overflowed symmetrising it); only the ratio Q/R shapes K.
+MAX_WEIGHT = 1e100
+
+
 class ControlError(Error):
     """A controller that cannot be computed (bad weights, an uncontrollable pair, ...)."""
 
@@ -619,14 +624,23 @@ def weights(
         raise ControlError(f"Q has shape {q.shape}, expected ({size}, {size}) or {size} diagonal entries")
     if not np.all(np.isfinite(q)):
         raise ControlError("Q must be finite")
+    if float(np.max(np.abs(q))) > MAX_WEIGHT:
+        raise ControlError(
+            f"Q has an entry above {MAX_WEIGHT:g}: only the ratio of Q to R matters, scale both down"
+        )
     if not np.allclose(q, q.T, rtol=1e-12, atol=1e-12 * max(1.0, float(np.max(np.abs(q))))):
         raise ControlError("Q must be symmetric")
-    q = 0.5 * (q + q.T)
+    q = 0.5 * q + 0.5 * q.T
     if float(np.min(np.linalg.eigvalsh(q))) < -1e-12 * max(1.0, float(np.max(np.abs(q)))):
         raise ControlError("Q must be positive semidefinite (an eigenvalue is negative)")
     r = np.asarray(R, dtype=float).reshape(-1)
     if r.size != 1 or not math.isfinite(float(r[0])) or float(r[0]) <= 0:
         raise ControlError(f"R = {np.asarray(R).tolist()}: expected one number > 0 (the weight of u²)")
+    if not 1 / MAX_WEIGHT <= float(r[0]) <= MAX_WEIGHT:
+        raise ControlError(
+            f"R = {float(r[0]):g} is outside [{1 / MAX_WEIGHT:g}, {MAX_WEIGHT:g}]: only the ratio of Q to R "
+            "matters, scale both"
+        )
     return q, r.reshape(1, 1)
 
 

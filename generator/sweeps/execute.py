@@ -101,7 +101,7 @@ def header_text(path: Path, folder: Path) -> tuple[str, str]:
     """(model name, generated C++ header) of the scene at `path`, generated into `folder`."""
     from ipgen.command import job
 
-    planned = job.plan(folder, scene=path, emit=("cpp",), force=True)
+    planned = job.for_the_simulator(job.plan(folder, scene=path, emit=("cpp",), force=True))
     job.run(planned)
     return planned.name, (folder / f"{planned.name}.hpp").read_text()
 
@@ -210,7 +210,7 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         )
     stem = f"run{task.index}_{threading.get_ident()}"
     cfg, csv = prepared.scratch / f"{stem}.cfg", prepared.scratch / f"{stem}.csv"
-    cfg.write_text(resolved_config(scene))
+    cfg.write_text(resolved_config(scene, model=prepared.model))
     try:
         done = subprocess.run(
             [str(prepared.simulator), str(cfg), "--csv", str(csv), "--force"], capture_output=True, text=True
