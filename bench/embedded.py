@@ -13,6 +13,9 @@ object's .text is measured with arm-none-eabi-size: everything that function nee
 newlib's sinf/cosf, which are shared library code (their size is listed once). The controller
 u = −K (x − x_eq) with saturation is the same in both headers (it reads no model parameter).
 
+The estimators of the measured-loop scenes (ESTIMATOR_SCENES: Kalman filter, derivative filter,
+EKF) are compiled the same way, `estimator_update` and, with an LQR, `loop_step`.
+
 The swing-up scenes (scenes/rsip_swingup.toml: energy law; scenes/cdip_swingup.toml: a planned
 trajectory) are read as `ipgen --scene … --emit c` reads them, and their controller
 `NAME_swingup` with `NAME_swingup_init` is compiled the same way, in float and in double:
@@ -75,6 +78,27 @@ WRAPPERS = {
     ),
 }
 SWINGUP_SCENES = ("rsip_swingup", "cdip_swingup")
+# Scenes with a measured loop ([sensors], [estimator]): (scene path from the checkout, what it is).
+ESTIMATOR_SCENES = (
+    ("scenes/rigs/qube_servo2_sensors.toml", "QUBE LQR at 1 kHz, Kalman filter"),
+    ("scenes/rigs/qube_servo2_swingup.toml", "QUBE energy swing-up, derivative filter"),
+    ("bench/scenes/rsip_lqr_kalman.toml", "paper's Furuta LQR, Kalman filter"),
+    ("bench/scenes/rsip_swingup_ekf.toml", "paper's Furuta energy swing-up, EKF"),
+)
+ESTIMATOR_WRAPPERS = {
+    "update": (
+        "void bench_update(ipgen_{n}_estimator_state *s, const float y[], float u) {{"
+        " ipgen_{n}_estimator_update(s, y, u); }}\n"
+    ),
+    "update_ekf": (
+        "int bench_update(ipgen_{n}_estimator_state *s, const float y[], float u, const ipgen_{n}_params *p,"
+        " const ipgen_{n}_links *links) {{ return ipgen_{n}_estimator_update(s, y, u, p, links); }}\n"
+    ),
+    "loop_step": (
+        "float bench_loop_step(ipgen_{n}_estimator_state *s, const float y[]) {{"
+        " return ipgen_{n}_loop_step(s, y); }}\n"
+    ),
+}
 SCALARS = ("float", "double")
 
 
@@ -218,6 +242,38 @@ def swingup_rows(work: Path) -> tuple[list[list[str]], dict[str, set[str]]]:
     return rows, calls
 
 
+def scene_c_header(path: Path, work: Path) -> tuple[str, str, str]:
+    """(model name, C header text, estimator kind) of a scene, as `ipgen --scene … --emit c`
+    writes it."""
+    from ipgen.command import job
+
+    planned = job.plan(work / path.stem, scene=path, emit=("c",), force=True)
+    job.run(planned)
+    assert planned.scene is not None and planned.scene.loop is not None
+    return planned.name, (work / path.stem / f"{planned.name}.h").read_text(), planned.scene.loop.estimator
+
+
+def estimator_rows(work: Path) -> list[list[str]]:
+    """One row per measured-loop scene and function: text, rodata (the filter's tables), flash."""
+    rows: list[list[str]] = []
+    for relative, label in ESTIMATOR_SCENES:
+        name, header, kind = scene_c_header(ROOT / relative, work)
+        functions = ["update_ekf" if kind == "ekf" else "update"]
+        if f"ipgen_{name}_loop_step(" in header:
+            functions.append("loop_step")
+        for function in functions:
+            (work / f"{name}.h").write_text(header)
+            source = work / f"{name}_{function}.c"
+            source.write_text(f'#include "{name}.h"\n' + ESTIMATOR_WRAPPERS[function].format(n=name))
+            obj = source.with_suffix(".o")
+            subprocess.run([CC, *FLAGS, f"-I{work}", "-c", str(source), "-o", str(obj)], check=True)
+            text, rodata = section_bytes(obj, "text"), section_bytes(obj, "rodata")
+            shown = "estimator_update" if function.startswith("update") else "loop_step (estimate + LQR)"
+            rows.append([f"`{relative}`", label, kind, shown, str(text), str(rodata), str(text + rodata)])
+            print(" | ".join(rows[-1]), flush=True)
+    return rows
+
+
 def libm_sizes() -> str:
     """sinf and cosf of newlib's libm for this target (bytes), as arm-none-eabi-nm reports them."""
     if not LIBM.is_file():
@@ -273,6 +329,7 @@ def main(argv: list[str] | None = None) -> int:
                 )
                 print(" | ".join(rows[-1]), flush=True)
         swing_rows, calls = swingup_rows(work)
+        loop_rows = estimator_rows(work)
     version = subprocess.run([CC, "--version"], capture_output=True, text=True).stdout.splitlines()[0]
     lines = [
         "# Code size of the C header on a Cortex-M4F",
@@ -318,6 +375,19 @@ def main(argv: list[str] | None = None) -> int:
         _float_note(calls["float"]),
         "",
         *table(["scene", "scalar", "text", "rodata", "tables", "flash"], swing_rows),
+        "",
+        "## Estimators of the measured loop",
+        "",
+        "A scene with `[sensors]` and `[estimator]` (docs/estimation.md) gets",
+        "`ipgen_NAME_estimator_update` (one sample: predict with the previous command, correct with the",
+        "measured angles) and, with an LQR `[controller]`, `ipgen_NAME_loop_step` (update, then",
+        "u = −K (x̂ − x_eq), the delay line): float, compiled as above. The Kalman filter's and the",
+        "derivative filter's matrices are `static const` tables (.rodata); the EKF computes its",
+        "Jacobians from the exact model in the code (the parameters read at run time) and keeps P in",
+        "the caller's state. Cycles per call are not measured: this machine has no cycle-accurate",
+        "Cortex-M4 model (QEMU counts instructions, not cycles).",
+        "",
+        *table(["scene", "loop", "estimator", "function", "text", "rodata", "flash"], loop_rows),
         "",
     ]
     args.out.mkdir(parents=True, exist_ok=True)

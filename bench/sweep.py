@@ -42,6 +42,8 @@ SWINGUP_LEVELS = {
     "coulomb": "0:0.1:11",
     "period": "0.005,0.01,0.02",
 }
+# The QUBE-Servo 2's swing-up at 1 kHz: the swing-ups' levels, its own periods.
+QUBE_LEVELS = {**SWINGUP_LEVELS, "period": "0.0005,0.001,0.002,0.005"}
 SWINGUP_REPEAT = 4  # runs per level of the seeded criteria (drive noise, pulses) of the swing-ups
 BENCH_SCENES = ROOT / "bench" / "scenes"
 # (label, scene, levels, repeat): None = the scorecard's defaults.
@@ -56,6 +58,8 @@ ROBUSTNESS = (
      SWINGUP_REPEAT),
     ("cart double, trajectory swing-up, exact state", ROOT / "scenes" / "cdip_swingup.toml", SWINGUP_LEVELS,
      SWINGUP_REPEAT),
+    ("QUBE-Servo 2, energy swing-up in volts, encoders + filter", ROOT / "scenes" / "rigs" /
+     "qube_servo2_swingup.toml", QUBE_LEVELS, SWINGUP_REPEAT),
 )  # fmt: skip
 # The speed part's ≈ 700 runs: the exact-state scorecard of rsip_lqr.toml and this basin grid.
 BASIN = ("initial.theta[1]=-1.2:1.2:17", "initial.dtheta[1]=-6:6:17")

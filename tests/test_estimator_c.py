@@ -23,7 +23,8 @@ from cxx import require_toolchain
 import ipgen
 from ipgen.command import job
 from ipgen.command.cli import run
-from ipgen.command.simulator import build, cache_root
+from ipgen.command.simulator import build
+from ipgen.common.build_cache import cache_root
 from ipgen.estimation import Sensors, design, replay
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -13,6 +13,7 @@ import pytest
 
 from ipgen.command import simulator
 from ipgen.command.cli import run as cli
+from ipgen.common import build_cache
 from ipgen.common.locations import presets_dir
 from ipgen.common.presets import preset_path, presets
 from ipgen.errors import Error
@@ -93,12 +94,12 @@ def test_the_build_announcement_states_the_last_build(
     said: list[str] = []
     first = simulator.build("// model a\n", "a", tmp_path, said.append)
     assert first.built and said == ["building the simulator for model a…"]
-    assert simulator.last_build(tmp_path / "simulators") == pytest.approx(first.seconds, abs=1e-3)
+    assert build_cache.last_build(tmp_path / "simulators") == pytest.approx(first.seconds, abs=1e-3)
     second = simulator.build("// model b\n", "b", tmp_path, said.append)
     assert second.built
     assert (
         said[1]
         == f"building the simulator for model b (the last build in this cache took {first.seconds:.0f} s)…"
     )
-    (tmp_path / "simulators" / simulator.LAST_BUILD).write_text("garbage\n")
-    assert simulator.last_build(tmp_path / "simulators") is None
+    (tmp_path / "simulators" / build_cache.LAST_BUILD).write_text("garbage\n")
+    assert build_cache.last_build(tmp_path / "simulators") is None

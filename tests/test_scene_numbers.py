@@ -104,6 +104,10 @@ process_noise = 0.01
 measurement_noise = 1e-6
 """
 FILTER = "[sensors]\nresolution = 2048\n[estimator]\nkind = 'filter'\ncutoff = 50\n"
+# The sampled loop above with a gain given instead of designed ([controller] kind = "gain").
+GIVEN = PULSE_LQR.replace('kind = "lqr"\nr = 1\n', 'kind = "gain"\ngain = [1, -40, 60, 2, 1, 8]\n').replace(
+    "q = [1, 1, 1, 1, 1, 1]\n", ""
+)
 INPUTS = {
     "pulse": "kind = 'pulse'\namplitude = 0.4\nstart = 0.5\nduration = 1",
     "step": "kind = 'step'\namplitude = 0.4\ntime = 1",
@@ -118,7 +122,7 @@ RK4 += "delta = [0.01, 0.001]\n[simulation]\nt_end = 1\nsample = 0.01\nmethod = 
 def _scenes() -> list[str]:
     open_loop = PULSE_LQR.split("[controller]")[0] + "[initial]" + PULSE_LQR.split("[initial]")[1]
     return [
-        PULSE_LQR, MOTOR_SWINGUP, PULSE_LQR + LOOP, PULSE_LQR + FILTER, RK4,
+        PULSE_LQR, MOTOR_SWINGUP, PULSE_LQR + LOOP, PULSE_LQR + FILTER, RK4, GIVEN,
         *(f"{open_loop}[input]\n{body}\n" for body in INPUTS.values()),
     ]  # fmt: skip
 

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 from ipgen.command import simulator
 from ipgen.command.simulator import build, cache_key, compiler
+from ipgen.common import build_cache
 
 FAKE = (
     "#!/bin/sh\necho 'usage: simulate SCENE.cfg (a stand-in for the compiled simulator)'\n" + "# pad\n" * 200
@@ -72,7 +73,7 @@ def test_a_corrupt_cache_is_reported_and_rebuilt(
     first = build(HEADER, NAME, cache)
     assert first.built and _whole(first.path)
     entry, binary = first.path.parent, first.path
-    checksum = simulator.checksum_path(binary)
+    checksum = build_cache.checksum_path(binary)
     data = binary.read_bytes()
     if corruption in ("truncated", "no_checksum_truncated"):
         binary.write_bytes(data[: min(cut, 9)])  # not even the interpreter line is whole

@@ -24,19 +24,15 @@ guarded by a lock).
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import os
 import re
-import shlex
 import shutil
 import subprocess
-import tempfile
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 
+from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, last_error_line
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.errors import Error
@@ -70,23 +66,8 @@ class BuildError(Error):
     """The simulator could not be compiled; the message names the missing piece."""
 
 
-@dataclass(frozen=True)
-class Simulator:
-    """A compiled simulator: its executable and whether this call built it (and how long it took)."""
-
-    path: Path
-    built: bool
-    seconds: float = 0.0
-
-
-def cache_root(override: Path | None = None) -> Path:
-    """The cache folder: `override`, $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen."""
-    if override is not None:
-        return override
-    if os.environ.get("IPGEN_CACHE_DIR"):
-        return Path(os.environ["IPGEN_CACHE_DIR"])
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return Path(xdg) / "ipgen" if xdg else Path.home() / ".cache" / "ipgen"
+# A compiled simulator: its executable and whether this call built it (and how long it took).
+Simulator = Built
 
 
 def simulator_sources() -> tuple[Path, Path]:
@@ -161,17 +142,6 @@ def cache_key(cxx: str, header_text: str) -> str:
     return digest.hexdigest()[:24]
 
 
-@contextlib.contextmanager
-def locked(path: Path) -> Iterator[None]:
-    """An exclusive lock on the file `path` (created) while the block runs: one build per cache entry."""
-    with path.open("a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
-
-
 def _missing_package(output: str) -> str | None:
     for pattern, package in MISSING_PACKAGES:
         if pattern.search(output):
@@ -179,80 +149,22 @@ def _missing_package(output: str) -> str | None:
     return None
 
 
-# A cache entry is checked before use: it is corrupt when it is a file, its simulator is not a
-# regular file, or the simulator's SHA-256 differs from the one recorded beside it when it was
-# built (a truncated or altered binary); an entry from before the checksums must answer --help.
-MISSING = "missing"
+def _failed(output: str) -> str:
+    """The one-line message of a failed compile: the missing Debian package, else the error."""
+    package = _missing_package(output)
+    if package is not None:
+        missing = f"compiling the simulator failed: {package} is missing"
+        return f"{missing}; install it (Debian: apt-get install {package})"
+    return f"compiling the simulator failed: {last_error_line(output)}"
 
 
-def checksum_path(binary: Path) -> Path:
-    """Where the binary's SHA-256 is recorded: a hidden file beside it (not a `simulate_*`)."""
-    return binary.with_name(f".{binary.name}.sha256")
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _write_checksum(binary: Path, target: Path) -> None:
-    """The SHA-256 of `binary` into `target` (temporary file, then rename)."""
-    partial = target.with_name(f".{target.name}.{os.getpid()}")
-    partial.write_text(_sha256(binary) + "\n")
-    os.replace(partial, target)
-
-
-def _cache_problem(entry: Path, binary: Path) -> str | None:
-    """What is wrong with the cache entry (module comment above): None if its simulator is whole,
-    MISSING if there is none yet, else the corruption in words."""
+def _answers_help(binary: Path) -> bool:
+    """Whether `binary` runs as a simulator (an entry from before the checksums were recorded)."""
     try:
-        if not entry.exists() and not entry.is_symlink():
-            return MISSING
-        if not entry.is_dir():
-            return "the entry is a file, not a folder"
-        if not binary.exists():
-            return MISSING
-        if not binary.is_file():
-            return "the simulator is not a regular file"
-        checksum = checksum_path(binary)
-        if checksum.exists():
-            recorded = checksum.read_text().strip() if checksum.is_file() else ""
-            if recorded != _sha256(binary):
-                return "the simulator's checksum does not match: a truncated or altered file"
-            return None
-    except (OSError, UnicodeDecodeError) as e:
-        return f"unreadable: {e.strerror if isinstance(e, OSError) else e}"
-    try:  # an entry built before checksums were recorded: whole if it runs
         done = subprocess.run([str(binary), "--help"], capture_output=True, text=True, timeout=60)
     except (OSError, subprocess.TimeoutExpired, UnicodeDecodeError):
-        return "the simulator does not run"
-    if done.returncode != 0 or "usage: simulate" not in done.stdout:
-        return "the simulator does not run"
-    with contextlib.suppress(OSError):
-        _write_checksum(binary, checksum_path(binary))
-    return None
-
-
-def _remove_corrupt(
-    path: Path, problem: str, announce: Callable[[str], None], fine: Callable[[Path], bool]
-) -> None:
-    """Remove the corrupt cache `path` (unless it does not exist or `fine(path)`), saying so."""
-    if not (path.exists() or path.is_symlink()) or fine(path):
-        return
-    announce(f"the cached simulator {shown_path(path)} is corrupt ({problem}): removing it and rebuilding")
-    try:
-        if path.is_dir() and not path.is_symlink():
-            shutil.rmtree(path)
-        else:
-            path.unlink()
-    except OSError as e:
-        raise BuildError(
-            f"the cache entry {shown_path(path)} is corrupt ({problem}) and cannot be removed "
-            f"({e.strerror}): delete it, or pass --cache-dir"
-        ) from e
+        return False
+    return done.returncode == 0 and "usage: simulate" in done.stdout
 
 
 def build(
@@ -263,72 +175,15 @@ def build(
 ) -> Simulator:
     """The simulator for the model `name` whose generated header is `header_text`: from the
     cache, or compiled into it (calling `announce` with a progress line first)."""
-    import time
-
     cxx = compiler()
-    key = cache_key(cxx, header_text)
+    recipe = Recipe(
+        sources={f"{name}.hpp": header_text},
+        command=lambda entry, binary: compile_command(cxx, entry / f"{name}.hpp", name, binary),
+        error=BuildError,
+        failed=_failed,
+        what=f"the simulator for model {name}",
+        noun="simulator",
+        legacy_whole=_answers_help,
+    )
     folder = cache_root(cache) / "simulators"
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise BuildError(
-            f"cannot create the cache folder {shown_path(folder)}: {e.strerror}; pass --cache-dir"
-        ) from e
-    entry = folder / key
-    binary = entry / f"simulate_{name}"
-    if _cache_problem(entry, binary) is None:  # the common case, without taking the lock
-        return Simulator(binary, built=False)
-    lock = folder / f"{key}.lock"
-    _remove_corrupt(lock, "its lock is a folder", announce, lambda path: not path.is_dir())
-    with locked(lock):
-        problem = _cache_problem(entry, binary)
-        if problem is None:  # built by a concurrent run while we waited
-            return Simulator(binary, built=False)
-        if problem != MISSING:
-            _remove_corrupt(entry, problem, announce, lambda path: False)
-        entry.mkdir(exist_ok=True)
-        header = entry / f"{name}.hpp"
-        header.write_text(header_text)
-        last = last_build(folder)
-        history = f" (the last build in this cache took {last:.0f} s)" if last is not None else ""
-        announce(f"building the simulator for model {name}{history}…")
-        start = time.perf_counter()
-        with tempfile.TemporaryDirectory(dir=entry, prefix=".build.") as scratch:
-            partial = Path(scratch) / binary.name
-            done = subprocess.run(compile_command(cxx, header, name, partial), capture_output=True, text=True)
-            if done.returncode != 0:
-                output = done.stdout + done.stderr
-                package = _missing_package(output)
-                if package is not None:
-                    raise BuildError(
-                        f"compiling the simulator failed: {package} is missing; install it "
-                        f"(Debian: apt-get install {package})"
-                    )
-                last = next((line for line in reversed(output.splitlines()) if "error" in line), "")
-                raise BuildError(f"compiling the simulator failed: {last.strip()[:300]}")
-            _write_checksum(partial, checksum_path(binary))
-            os.replace(partial, binary)
-        (entry / "command.txt").write_text(shlex.join(compile_command(cxx, header, name, binary)) + "\n")
-        seconds = time.perf_counter() - start
-        _record_build(folder, seconds)
-        return Simulator(binary, built=True, seconds=seconds)
-
-
-LAST_BUILD = "last_build_seconds.txt"
-
-
-def last_build(folder: Path) -> float | None:
-    """How long the last simulator build in the cache folder `folder` took [s] (this machine's
-    own history, shown before the next build), or None when there is none or it is unreadable."""
-    try:
-        seconds = float((folder / LAST_BUILD).read_text().split()[0])
-    except (OSError, ValueError, IndexError):
-        return None
-    return seconds if seconds >= 0 and seconds < 1e6 else None
-
-
-def _record_build(folder: Path, seconds: float) -> None:
-    with contextlib.suppress(OSError):  # a history is a courtesy: never fail a build over it
-        with tempfile.NamedTemporaryFile("w", dir=folder, prefix=".last_build.", delete=False) as handle:
-            handle.write(f"{seconds:.3f}\n")
-        os.replace(handle.name, folder / LAST_BUILD)
+    return cached_build(folder, cache_key(cxx, header_text), f"simulate_{name}", recipe, announce)

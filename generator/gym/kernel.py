@@ -7,9 +7,8 @@ tens of nanoseconds, and one call advances N environments without allocating.
 
 Cache: `<cache>/gym/<key>/libipgen_gym_<name>.so`, the key a SHA-256 over the kernel's source
 (header included), the C compiler (path and --version) and the flags, next to the simulators'
-cache (`<cache>` as `ipgen run` has it: $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen, ~/.cache/ipgen).
-A lock file serialises concurrent builds; the library is compiled to a temporary name and
-renamed, so a process never loads half a file.
+cache and kept like it (common/build_cache.py: a lock per key, compiled to a temporary name and
+renamed, checksummed, a corrupt entry rebuilt).
 """
 
 from __future__ import annotations
@@ -19,7 +18,6 @@ import hashlib
 import os
 import shutil
 import subprocess
-import tempfile
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -29,7 +27,7 @@ import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest, environment
-from ipgen.command.simulator import cache_root, locked
+from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import derive
@@ -110,34 +108,16 @@ def build(system: System) -> Path:
     digest = hashlib.sha256()
     for part in (shutil.which(cc) or cc, version, " ".join(FLAGS), header, kernel):
         digest.update(part.encode() + b"\0")
-    folder = cache_folder()
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise KernelError(
-            f"cannot create the cache folder {folder}: {e.strerror}; set IPGEN_CACHE_DIR"
-        ) from e
-    entry = folder / digest.hexdigest()[:24]
-    library = entry / f"libipgen_gym_{name}.so"
-    if library.is_file():
-        return library
-    with locked(folder / f"{entry.name}.lock"):
-        if library.is_file():
-            return library
-        entry.mkdir(exist_ok=True)
-        (entry / f"{name}.h").write_text(header)
-        (entry / f"gym_{name}.c").write_text(kernel)
-        with tempfile.TemporaryDirectory(dir=entry, prefix=".build.") as scratch:
-            partial = Path(scratch) / library.name
-            command = [cc, *FLAGS, f"-I{entry}", str(entry / f"gym_{name}.c"), "-o", str(partial), "-lm"]
-            done = subprocess.run(command, capture_output=True, text=True)
-            if done.returncode != 0:
-                last = next(
-                    (line for line in (done.stderr + done.stdout).splitlines() if "error" in line), ""
-                )
-                raise KernelError(f"compiling the gym kernel of {name} failed: {last.strip()[:300]}")
-            os.replace(partial, library)
-    return library
+    recipe = Recipe(
+        sources={f"{name}.h": header, f"gym_{name}.c": kernel},
+        command=lambda entry, library: [cc, *FLAGS, f"-I{entry}", str(entry / f"gym_{name}.c"), "-o",
+                                        str(library), "-lm"],
+        error=KernelError,
+        failed=lambda output: f"compiling the gym kernel of {name} failed: {last_error_line(output)}",
+        what=f"the gym kernel of {name}",
+        noun="gym kernel",
+    )  # fmt: skip
+    return cached_build(cache_folder(), digest.hexdigest()[:24], f"libipgen_gym_{name}.so", recipe).path
 
 
 _DOUBLES = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")

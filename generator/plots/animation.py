@@ -344,7 +344,8 @@ def animate_run(
     (side_trace,) = ax_side.plot([], [], "-", color="tab:orange", lw=0.8, alpha=0.7)
     (side_base,) = ax_side.plot([], [], "s", color="tab:blue", ms=12)
     label = fig.suptitle("")
-    window = max(1, round(trace / max(float(np.median(np.diff(data.t))), 1e-12)))
+    steps = np.diff(data.t)  # empty for a run of one row
+    window = max(1, round(trace / max(float(np.median(steps)) if steps.size else 1.0, 1e-12)))
 
     def draw(i: int) -> list[Any]:
         k = frames[i]
