@@ -124,6 +124,8 @@ class EnvSpec:
         1 + U(−w, w) per entry (drawn in `GROUPS` order, then g), then `overrides` (absolute
         values by group name) applied."""
         row = self.nominal.copy()
+        if not self.spread and not overrides:  # the common case, without the loop (an autoreset)
+            return row
         for name in (*GROUPS, "g"):
             width = self.spread.get(name, 0.0)
             if width:
@@ -147,10 +149,10 @@ class EnvSpec:
         if self.task == "cartpole":  # gymnasium's draw: (x, x_dot, theta, theta_dot)
             x, x_dot, theta, theta_dot = rng.uniform(low=-0.05, high=0.05, size=(4,))
             return np.array([x, theta, x_dot, theta_dot])
-        state = np.zeros(2 * dof)
+        state = rng.uniform(-self.initial_noise, self.initial_noise, size=2 * dof)
         if self.task == "swingup":
-            state[1:dof] = math.pi
-        return state + rng.uniform(-self.initial_noise, self.initial_noise, size=2 * dof)
+            state[1:dof] += math.pi
+        return state
 
     def params_info(self, row: np.ndarray) -> dict[str, np.ndarray]:
         """The row (or stack of rows) as a dict for `info["params"]` (copies)."""
