@@ -18,6 +18,7 @@ import pytest
 from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from run_summary import simulator_of
 from swingup_reference import simulate
 
 from ipgen.control.casadi_model import plant
@@ -117,6 +118,37 @@ def test_swingup_ends_upright_and_at_rest(tmp_path: Path, cache: dict[str, str],
         assert abs(math.remainder(final[i], 2 * math.pi)) < 0.05, (i, final)
     assert np.max(np.abs(final[dof + 1 :])) < 0.5, final
     assert "Swing-up:" in summary and "hold (LQR) from t =" in summary
+
+
+def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, cache: dict[str, str]) -> None:
+    """While a plan is tracked, a link farther from its planned angle than --divergence-angle
+    stops the run with exit status 5 and a line naming the link (before: it ran on into the
+    hold). With a bound of 1 mrad the rotary single pendulum's tracking (ZOH, RK4 plan) leaves
+    it within the first second; the stop comes within one period of the first sample whose
+    deviation from the plan (the .cfg's swingup.states, checked here) exceeds the bound."""
+    case = ("rotary", 1, "trajectory", 5.0, 2.0, None, HOLD)
+    _, _, _, summary = run_scene(tmp_path, scene_text(*case), cache)  # exit 0 at the default bound
+    cfg = tmp_path / "out" / "swing.cfg"
+    lines = dict(line.split(" = ", 1) for line in cfg.read_text().splitlines() if " = " in line)
+    period = float(lines["swingup.period"])
+    states = np.array([float(v) for v in lines["swingup.states"].split()]).reshape(-1, 4)
+    csv = tmp_path / "lost.csv"
+    done = subprocess.run(
+        [str(simulator_of(summary)), str(cfg), "--csv", str(csv), "--divergence-angle", "0.001"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 5, done.stderr
+    message = done.stderr.strip()
+    assert "\n" not in message and "the swing-up lost its plan at t = " in message, message
+    assert "link 1 is " in message and "beyond --divergence-angle 0.001 rad" in message, message
+    _, *rows = csv.read_text().splitlines()
+    assert rows and all(row.endswith(",track") for row in rows)  # stopped before the hold
+    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
+    k = np.rint(data[:, 0] / period).astype(int)
+    off = np.abs(data[:, 2] - states[k, 1])
+    first = int(np.argmax(off > 0.001))
+    assert off[first] > 0.001 and data[-1, 0] - data[first, 0] <= period + 1e-9, (data[first, 0], data[-1, 0])
 
 
 def test_energy_swingup_matches_the_python_reference(tmp_path: Path, cache: dict[str, str]) -> None:

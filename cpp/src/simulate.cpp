@@ -17,14 +17,16 @@
 // loop that leaves the controller's region (a link more than --divergence-angle, default π/2,
 // from the equilibrium: ipsim/divergence.hpp) is stopped there, its CSV so far kept, exit code 3.
 // A swing-up scene (swingup = energy | trajectory: ipsim/swingup.hpp) adds the columns u and phase
-// (swing, track or hold), checks divergence only in the hold phase (exit 3), and ends the run
+// (swing, track or hold), checks divergence in the hold phase (exit 3) and a tracked plan in the
+// track phase (a link more than --divergence-angle from it: exit 5), and ends the run
 // `swingup.hold` s into the hold phase (or at t_end).
 // Samples are written to the temporary CSV as the integration reaches them (memory stays flat);
 // SIGINT, SIGTERM, SIGHUP and SIGXFSZ remove the temporary file, then end the process by the same
 // signal (exit status 128 + signal in a shell).
 // Exit codes: 0 success, 1 integration failure or write error, 2 bad command line, scene,
 // parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged,
-// 4 the base left the scene's travel (limits.travel: |theta0| beyond it at a sample; ipsim/travel.hpp).
+// 4 the base left the scene's travel (limits.travel: |theta0| beyond it at a sample; ipsim/travel.hpp),
+// 5 a swing-up lost its plan (ipsim/swingup.hpp).
 #ifndef IPGEN_MODEL_HEADER
 #error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
 #endif
@@ -79,6 +81,8 @@ struct Options {
 constexpr int kExitDiverged = 3;
 /// Exit code of a run stopped because the base left the scene's travel (limits.travel).
 constexpr int kExitTravel = 4;
+/// Exit code of a swing-up stopped because a link left its plan by more than --divergence-angle.
+constexpr int kExitLostPlan = 5;
 
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
@@ -142,7 +146,8 @@ actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and satur
 and multiplied by b (the parameters are the motor-folded ones ipgen writes); actuator = acceleration:
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
-ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase only.
+ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase, and a
+tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5).
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, estimator =
 exact|difference|filter|kalman|ekf with estimator.* (with a sampled controller or swing-up): the
 controller sees the estimate from quantised, noisy, delayed measurements; actuator.noise, actuator.lag,
@@ -152,7 +157,9 @@ actuator.pulses: drive noise per sampling interval, a first-order drive, disturb
 exit status: 0 success; 1 integration failure or write error (no CSV written); 2 bad command line,
 scene, parameters, settings or CSV path (reported before integrating); 3 the closed loop diverged
 (a link left the controller's region: the CSV up to that sample is written); 4 the base left the
-scene's travel (limits.travel = X: |theta0| > X at a sample; the CSV up to it is written); 128 + n when ended
+scene's travel (limits.travel = X: |theta0| > X at a sample; the CSV up to it is written); 5 a
+swing-up lost its plan (a link more than --divergence-angle from the planned angle while tracking:
+the CSV up to that sample is written); 128 + n when ended
 by signal n (the temporary file removed).
 )";
 
@@ -710,6 +717,17 @@ int run(int argc, char** argv) {
                                     scene.coordinates)
                      .c_str());
     return kExitDiverged;
+  }
+  if (swing_monitor && swing_monitor->lost()) {
+    const ipsim::LostPlan& lost = *swing_monitor->lost();
+    std::fflush(stdout);
+    std::fprintf(stderr,
+                 "simulate: error: the swing-up lost its plan at t = %.6g s: link %d is %.4g rad from the planned "
+                 "angle, beyond --divergence-angle %.4g rad, so the tracking cannot bring it back; stopped there "
+                 "(before the hold), the %zu samples up to then are in %s\n",
+                 lost.t, lost.link, lost.deviation, swing_monitor->angle(), rows.rows(),
+                 shown_path(options.csv_path).c_str());
+    return kExitLostPlan;
   }
   if (swing_monitor && swing_monitor->divergence()) {
     const ipsim::Divergence& d = *swing_monitor->divergence();

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     import numpy as np
 
 # The simulator's exit statuses (cpp/src/simulate.cpp) and what they mean for a run.
-STATUS_REASONS = {1: "integration failed", 3: "diverged", 4: "left the travel"}
+STATUS_REASONS = {1: "integration failed", 3: "diverged", 4: "left the travel", 5: "lost the plan"}
 
 
 @dataclass(frozen=True)

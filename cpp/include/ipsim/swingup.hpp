@@ -1,5 +1,6 @@
 // A swing-up controller (ipgen's [swingup] scene table) as an ipsim Input, and a sink that
-// writes its phase, ends the run `hold` s into the hold phase and watches divergence only there.
+// writes its phase, ends the run `hold` s into the hold phase, watches divergence there and, while
+// a plan is tracked, how far the links are from it.
 //
 // x = [θ; θ̇] (2·kDof), u the force [N] or torque [N m] on the base. The controller is sampled:
 // at t_k = k·period it computes u from x(t_k) and holds it until t_k+1; |u| ≤ u_max. Phases:
@@ -69,6 +70,9 @@ struct SwingUp {
     SwingPhase phase = SwingPhase::swing;
     double hold_since = std::numeric_limits<double>::quiet_NaN();
     Eigen::VectorXd equilibrium;
+    /// track phase: at the last sampling instant, the link farthest from the plan and by how much [rad]
+    int off_plan_link = 0;
+    double off_plan = 0.0;
   };
 
   /// Problems, one line each (empty when valid).
@@ -132,6 +136,14 @@ struct SwingUp {
       if (method == Method::trajectory) {
         if (k < inputs.size()) {
           u = inputs(k) - gains.row(k).dot(x - states.row(k).transpose());
+          state.off_plan = 0.0;
+          for (int i = 1; i < n; ++i) {
+            const double off = std::abs(x(i) - states(k, i));
+            if (!(off <= state.off_plan)) {  // NaN counts as off
+              state.off_plan = off;
+              state.off_plan_link = i;
+            }
+          }
         } else {
           enter_hold(state, t, target);
         }
@@ -181,8 +193,18 @@ struct SwingUp {
   }
 };
 
-/// Passes every sample on to `inner`; in the hold phase only, stops the run at a link more than
-/// `angle` from the held equilibrium (divergence()), and `hold` s after the hold began (finished()).
+/// Where a tracked swing-up lost its plan: a link more than `angle` from the plan's angle at the
+/// last sampling instant.
+struct LostPlan {
+  double t = 0.0;          ///< time of the sample that found it [s]
+  int link = 0;            ///< the link (1..n)
+  double deviation = 0.0;  ///< |θ_link − θ̄_link| [rad]
+};
+
+/// Passes every sample on to `inner`; in the track phase stops the run at a link more than `angle`
+/// from the plan (lost(): the plan cannot be recovered, and running on only turns the links and
+/// runs the base away), in the hold phase at a link more than `angle` from the held equilibrium
+/// (divergence()), and `hold` s after the hold began (finished()).
 class SwingUpMonitor : public SampleSink {
  public:
   SwingUpMonitor(SampleSink& inner, std::shared_ptr<const SwingUp::State> state, int dof, double hold,
@@ -195,6 +217,13 @@ class SwingUpMonitor : public SampleSink {
 
   bool record(const Sample& sample) override {
     const bool more = inner_.record(sample);
+    if (state_->phase == SwingPhase::track) {
+      if (!(state_->off_plan <= angle_)) {
+        lost_ = LostPlan{sample.t, state_->off_plan_link, state_->off_plan};
+        return false;
+      }
+      return more;
+    }
     if (state_->phase != SwingPhase::hold) return more;
     const auto [link, deviation] = farthest_link(sample.x(), state_->equilibrium, dof_);
     if (deviation > angle_) {
@@ -210,6 +239,7 @@ class SwingUpMonitor : public SampleSink {
   }
 
   const std::optional<Divergence>& divergence() const noexcept { return divergence_; }
+  const std::optional<LostPlan>& lost() const noexcept { return lost_; }
   bool finished() const noexcept { return finished_; }
   double angle() const noexcept { return angle_; }
 
@@ -220,6 +250,7 @@ class SwingUpMonitor : public SampleSink {
   double hold_, angle_;
   bool finished_ = false;
   std::optional<Divergence> divergence_;
+  std::optional<LostPlan> lost_;
 };
 
 }  // namespace ipsim
