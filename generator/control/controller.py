@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Controller:
-    kind: str  # "lqr"
+    kind: str  # "lqr" (K designed by ipgen) or "gain" (K given in the scene)
     gain: tuple[float, ...]  # K, 2·dof entries, in the order of x = [θ0..θn, θ̇0..θ̇n]
     equilibrium: tuple[float, ...]  # x_eq, 2·dof entries
     saturation: float | None = None  # |u| ≤ saturation [N or N m, or `unit`]; None: unbounded
