@@ -417,8 +417,8 @@ def cdip_lines(found: dict | None) -> list[str]:
         "- **what it costs**: in the hold the force is at its ±50 N limit "
         f"{100 * found['hold_saturated']:.0f} % of the samples (RMS {found['hold_u_rms']:.1f} N): the hold's",
         "  LQR gain (Q = I, R = 1e-4 by default) turns the estimate's quantisation noise into a",
-        "  chattering force. It holds, but a rig's drive would not thank it: weight u more",
-        "  (`[swingup] r`) or filter the estimate.",
+        "  chattering force (the plot shows it from the tracking's second half on). It holds, but a",
+        "  rig's drive would not thank it: weight u more (`[swingup] r`) or filter the estimate.",
         "",
         "![cart double pendulum, EKF at 1 kHz](estimation_cdip_ekf.png)",
         "",
