@@ -57,17 +57,26 @@ EQUILIBRIUM_SCHEMA: dict[str, Any] = {
 }
 
 
-def weights(value: Any, info: ValidationInfo) -> list[list[float]] | list[float] | None:
-    """q: diagonal weights (size numbers >= 0) or a symmetric positive semidefinite matrix."""
+def _per_state(value: Any, info: ValidationInfo, expected: str) -> dict[str, Any] | None:
+    """The context once `value` is an array of 2·(links + 1) entries (θ0.. then θ̇0..), or None
+    before [system] is known; `expected` (with {size}) is the message for a non-array."""
     context = context_of(info, "count")
     if context is None:
         return None
     size = 2 * context["count"]
     if not isinstance(value, list):
-        refuse(f"expected an array of {size} weights or a {size} × {size} matrix")
+        refuse(expected.format(size=size, type=type_name(value)))
     check_count(value, size, f"2 · (links + 1) = {size}: θ0.. then θ̇0..")
+    return context
+
+
+def weights(value: Any, info: ValidationInfo) -> list[list[float]] | list[float] | None:
+    """q: diagonal weights (size numbers >= 0) or a symmetric positive semidefinite matrix."""
+    context = _per_state(value, info, "expected an array of {size} weights or a {size} × {size} matrix")
+    if context is None:
+        return None
     if all(isinstance(row, list) for row in value) and value:
-        return _matrix(value, size, context)
+        return _matrix(value, len(value), context)
     return [at(i, _weight, item, context) for i, item in enumerate(value)]
 
 
@@ -102,13 +111,10 @@ def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[fl
 
 def gain_values(value: Any, info: ValidationInfo) -> list[float] | None:
     """gain: the 2·(links + 1) finite entries of K."""
-    context = context_of(info, "count")
+    expected = "expected an array of the {size} entries of K (θ0.. then θ̇0..), got {type}"
+    context = _per_state(value, info, expected)
     if context is None:
         return None
-    size = 2 * context["count"]
-    if not isinstance(value, list):
-        refuse(f"expected an array of the {size} entries of K (θ0.. then θ̇0..), got {type_name(value)}")
-    check_count(value, size, f"2 · (links + 1) = {size}: θ0.. then θ̇0..")
     return [at(i, number, item, context) for i, item in enumerate(value)]
 
 
