@@ -64,6 +64,11 @@ def process_covariance(
     rates = np.broadcast_to(np.asarray(q_rate, dtype=float), (dof,))
     if not np.all(np.isfinite(rates)) or np.any(rates < 0):
         raise EstimationError(f"q_rate = {q_rate!r}: expected finite numbers >= 0")
-    q = (b @ b.T) * (input_noise**2 + (INPUT_FRACTION * u_scale) ** 2)
+    variance = float(np.float64(input_noise) ** 2 + np.float64(INPUT_FRACTION * u_scale) ** 2)
+    if not np.isfinite(variance):
+        raise EstimationError(
+            f"u_scale = {u_scale:.3g}: the input's variance overflows; give the input a realistic limit"
+        )
+    q = (b @ b.T) * variance
     q[dof:, dof:] += period * np.diag(rates)
     return 0.5 * (q + q.T)
