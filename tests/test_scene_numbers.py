@@ -243,7 +243,35 @@ REGRESSIONS = [
     (1, "period", "5e-324", "swingup.period = 5e-324: t_end / period"),
     (1, "g", "0", "energy swing-up needs gravity"),
     (1, "g", "-0.0", "energy swing-up needs gravity"),
+    # Found by CI's property runs: over- and underflow in the measured loop and the motor's fold.
+    (1, "g", "5e-324", "m1 g l1 underflows to 0"),
+    (1, "Rm", "1e308", "the motor's gain is 4.2e-310, outside [1e-100, 1e+100]"),
+    (1, "Jm", "1e308", "the motor's rotor inertia is 1e+308"),
+    (2, "resolution", "1e-300", "must be 0 (exact) or >= 1 count per revolution or metre"),
+    (2, "delay", "1e308", "is more than 1,000,000 periods of 0.01 s"),
+    (2, "process_noise", "1e308", "must be <= 1e+100"),
+    (2, "measured", "9" * 310, "measured[0] = 99999999999999999999999999999999999999...9999999999999999999:"),
 ]
+
+
+# The numbers each regression above was an example of: the extremes of a double, and an integer
+# longer than any message should echo.
+EXTREMES = ("1e308", "-1e308", "1e200", "1e-300", "5e-324", "-0.0", "9" * 310)
+
+
+def test_every_numeric_key_takes_every_extreme() -> None:
+    """Each numeric key of every scene above with each extreme (first array entry): loads, or one
+    line. Exhaustive where the property above samples, so no key waits for a lucky draw."""
+    _warm_up()
+    failures = []
+    for scene, line, key, kind in KEYS:
+        for number in EXTREMES:
+            try:
+                _outcome(_replaced(scene, line, kind, number, 0))
+            except Exception as error:  # collect them all: one run names every broken key
+                failure = f"{key} = {number[:12]} in scene {scene}: {type(error).__name__}: {error}"
+                failures.append(failure[:300])
+    assert not failures, "\n".join(failures)
 
 
 @pytest.mark.parametrize(("scene", "key", "number", "expected"), REGRESSIONS)

@@ -182,18 +182,24 @@ def _load_within_a_second(text: str) -> None:
     """load_scene on `text`: a scene or one SceneError line, in under a second of this process's
     CPU time (time.process_time; the slowest shapes take 0.3 s on an idle machine, all in
     tomllib). The machine is shared, so wall time (time.perf_counter) may stretch with the load:
-    it is only held to 5 s, still far below a quadratic case (100,000 characters: minutes)."""
+    it is only held to 5 s, still far below a quadratic case (100,000 characters: minutes).
+    The best of three tries counts, as timeit's minimum does: CI once measured 9 s of CPU for a
+    shape that takes 0.6 s here and passed on the rerun, and a quadratic case is slow every time."""
     data = text.encode("utf-8", errors="surrogatepass")[: limits.MAX_SCENE_BYTES]
+    tries = []
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "s.toml"
         path.write_bytes(data)
-        wall, cpu = time.perf_counter(), time.process_time()
-        try:
-            load_scene(path)
-        except SceneError as error:
-            assert "\n" not in str(error)
-        wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    assert cpu < 1.0 and wall < 5.0, (text[:80], len(data), cpu, wall)
+        for _ in range(3):
+            wall, cpu = time.perf_counter(), time.process_time()
+            try:
+                load_scene(path)
+            except SceneError as error:
+                assert "\n" not in str(error)
+            tries.append((time.process_time() - cpu, time.perf_counter() - wall))
+            if tries[-1][0] < 1.0 and tries[-1][1] < 5.0:
+                return
+    raise AssertionError((text[:80], len(data), tries))
 
 
 def test_long_words_and_strings_load_in_linear_time() -> None:

@@ -180,7 +180,7 @@ def energy_swingup(
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
     g = plant.g
     if not g > 0:  # k_E below divides by g: no gravity, no energy to pump
-        raise PlanError(f"energy swing-up needs gravity: g = {g:g}; use method \"trajectory\"")
+        raise PlanError(f'energy swing-up needs gravity: g = {g:g}; use method "trajectory"')
     if law not in LAWS:
         raise PlanError(f"law = {law!r}: expected {' or '.join(map(repr, LAWS))}")
     speed = finite_number("design_speed", design_speed)
@@ -210,6 +210,8 @@ def energy_swingup(
         a_max = force / inertia
     else:
         a_max = float(accel_max)
+    if depth == 0:  # g, m1 or l1 so small that m1 g l1 underflows
+        raise PlanError(f"the link's potential energy m1 g l1 underflows to 0 (g = {g:g}): check g, m and l")
     k_e = 10 * a_max / depth if gain_energy is None else float(gain_energy)
     e0 = 0.0 if energy_target is None else finite_number("energy_target", energy_target)
     omega = 1.0
@@ -227,6 +229,8 @@ def energy_swingup(
         hold, _, _, _ = discrete_lqr(plant, float(period), weights_q, weights_r, np.zeros(2 * dof))
     else:
         hold = discrete_zoh_lqr(plant, float(period), weights_q, weights_r)
+    if not np.all(np.isfinite(hold)):
+        raise PlanError("the hold gain is not finite: a parameter is too large or too small for a double")
     return EnergySwingUp(
         plant=plant,
         u_max=float(u_max),

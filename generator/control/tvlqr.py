@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps
-from ipgen.control.linear import check_stabilisable, linearize, weights
+from ipgen.control.linear import ControlError, check_stabilisable, linearize, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
 if TYPE_CHECKING:
@@ -131,6 +131,10 @@ def discrete_lqr(
     from scipy.linalg import solve_discrete_are
 
     ad, bd = _flow_jacobians_at_rest(plant, period, target)
+    if not (np.all(np.isfinite(ad)) and np.all(np.isfinite(bd))):
+        raise ControlError(
+            f"the sampled linear model over {period:g} s overflows a double: check the parameters' units"
+        )
     # Stabilisability and detectability, checked on the continuous linear model at the target.
     dof = plant.dof
     system = plant.system
@@ -148,6 +152,8 @@ def discrete_lqr(
     check_stabilisable(a_c, b_c, q)
     p = solve_discrete_are(ad, bd, q, r)
     gain = np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)
+    if not np.all(np.isfinite(gain)):
+        raise ControlError("the sampled LQR gain is not finite: check the parameters' units and the weights")
     return gain, p, ad, bd
 
 

@@ -6,7 +6,7 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from ipgen.estimation.measurement import Sensors
+from ipgen.estimation.measurement import LARGEST, Sensors
 from ipgen.estimation.pendulum import EstimationError
 
 if TYPE_CHECKING:
@@ -46,6 +46,11 @@ def covariance_matrix(name: str, value: Any, size: int, what: str, *, definite: 
         raise EstimationError(f"{name} has shape {array.shape}, expected ({size}, {size}) ({what})")
     if not np.all(np.isfinite(array)):
         raise EstimationError(f"{name} must be finite")
+    if np.max(np.abs(array), initial=0.0) > LARGEST:
+        raise EstimationError(
+            f"{name} has an entry above {LARGEST:g}: only its ratio to the other covariance matters, "
+            "scale both down"
+        )
     scale = max(1e-300, float(np.max(np.abs(array))))
     if not np.allclose(array, array.T, rtol=0, atol=1e-12 * scale):
         raise EstimationError(f"{name} must be symmetric")

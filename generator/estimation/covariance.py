@@ -66,9 +66,8 @@ def process_covariance(
         raise EstimationError(f"q_rate = {q_rate!r}: expected finite numbers >= 0")
     variance = float(np.float64(input_noise) ** 2 + np.float64(INPUT_FRACTION * u_scale) ** 2)
     if not np.isfinite(variance):
-        raise EstimationError(
-            f"u_scale = {u_scale:.3g}: the input's variance overflows; give the input a realistic limit"
-        )
+        cause = f"input_noise = {input_noise:.3g}" if input_noise > u_scale else f"u_scale = {u_scale:.3g}"
+        raise EstimationError(f"{cause}: the input's variance overflows; give the input a realistic size")
     q = (b @ b.T) * variance
     q[dof:, dof:] += period * np.diag(rates)
     return 0.5 * (q + q.T)

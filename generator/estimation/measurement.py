@@ -19,6 +19,10 @@ from ipgen.estimation.pendulum import EstimationError
 if TYPE_CHECKING:
     import numpy as np
 
+# Noise σ and covariance entries are squared and multiplied; only their ratios matter, so values
+# beyond this are unit slips that would overflow a double.
+LARGEST = 1e100
+
 
 def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tuple[float, ...]:
     """`value` as one finite number >= 0 per measured coordinate (a scalar is repeated)."""
@@ -35,6 +39,14 @@ def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tup
             raise EstimationError(f"{name}[{i}] = {v!r}: expected a number") from None
         if not math.isfinite(number) or number < 0:
             raise EstimationError(f"{name}[{i}] = {v!r}: expected a finite number >= 0")
+        if name == "resolution" and 0 < number < 1:
+            raise EstimationError(
+                f"{name}[{i}] = {v!r}: expected 0 (exact) or >= 1 count per revolution or metre"
+            )
+        if name == "noise" and number > LARGEST:
+            raise EstimationError(
+                f"{name}[{i}] = {v!r}: expected <= {LARGEST:g} (only ratios of noises matter)"
+            )
         result.append(number)
     return tuple(result)
 

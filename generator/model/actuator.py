@@ -45,6 +45,9 @@ MOTOR_CONSTANTS: dict[str, tuple[str, float | None]] = {
 }
 
 
+MOTOR_TERM_RANGE = 1e100  # the motor's b, c and reflected inertia stay within [1e-100, 1e100]
+
+
 class ActuatorError(Error, ValueError):
     """An actuator that cannot be used; the message names the constant and the fix."""
 
@@ -118,6 +121,12 @@ class Actuator:
             if not math.isfinite(value):
                 raise ActuatorError(
                     f"the motor's {what} overflows a double ({value}): check Rm, kt, km, Kg, Jm and r"
+                )
+            # Gains in volts divide by b and weights by b²: outside this range they over- or underflow.
+            if value > MOTOR_TERM_RANGE or (what == "gain" and value < 1 / MOTOR_TERM_RANGE):
+                raise ActuatorError(
+                    f"the motor's {what} is {value:.3g}, outside [{1 / MOTOR_TERM_RANGE:g}, "
+                    f"{MOTOR_TERM_RANGE:g}]: check the units of Rm, kt, km, Kg, Jm and r"
                 )
 
     def constants(self) -> dict[str, float]:

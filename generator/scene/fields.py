@@ -10,6 +10,7 @@ from decimal import Decimal
 from pathlib import Path
 from typing import NoReturn
 
+from ipgen.common.limits import MESSAGE_PATH_CHARS
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.errors import SceneError
 
@@ -30,8 +31,10 @@ class Reader:
         self.path = path
 
     def fail(self, message: str) -> NoReturn:
+        """Raise the message as one line; a very long word in it (a value echoed from the
+        scene) is shortened in the middle, so every message stays readable."""
         text = f"{shown_path(self.path.as_posix())}: {message}"
-        raise SceneError(" ".join(text.split()))
+        raise SceneError(" ".join(abbreviate(word, MESSAGE_PATH_CHARS) for word in text.split()))
 
     def bad(self, key: str, value: object, expected: str) -> NoReturn:
         self.fail(f"{key} = {show(value)}: {expected}")

@@ -28,13 +28,15 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationInfo, model_validator
 
-from ipgen.scene.fields import format_number
+from ipgen.estimation.measurement import LARGEST
+from ipgen.scene.fields import format_number, show
 from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
 
 ESTIMATORS: tuple[str, ...] = ("exact", "difference", "filter", "kalman", "ekf")
 DEFAULT_CUTOFF = 50.0  # rad/s: Quanser's 50 s/(s + 50)
 # A delay is a whole number of periods to this relative tolerance.
 DELAY_TOLERANCE = 1e-9
+MAX_DELAY_PERIODS = 10**6  # a longer delay is a unit slip (and would hold a queue of that many outputs)
 MAX_SEED = 2**63 - 1
 
 
@@ -57,13 +59,37 @@ def _non_negative(item: Any, context: dict[str, Any]) -> float:
     return number
 
 
-def _scalar_or_list(value: Any, context: dict[str, Any]) -> float | tuple[float, ...]:
-    """One number >= 0, or an array of them (its length is checked against `measured` later)."""
+def _bounded(item: Any, context: dict[str, Any]) -> float:
+    """A number in [0, 1e100]: noise σ and covariance entries are squared or multiplied, and only
+    their ratios matter, so larger ones are unit slips that would overflow."""
+    number = _non_negative(item, context)
+    if number > LARGEST:
+        refuse(f"must be <= {LARGEST:g} (only ratios of noises matter: scale them down)")
+    return number
+
+
+def _counts(item: Any, context: dict[str, Any]) -> float:
+    """An encoder resolution: 0 (exact) or at least one count per revolution or metre."""
+    number = _non_negative(item, context)
+    if 0 < number < 1:
+        refuse("must be 0 (exact) or >= 1 count per revolution or metre")
+    return number
+
+
+def _scalar_or_list(
+    value: Any, context: dict[str, Any], item: Callable[[Any, dict[str, Any]], float] = _bounded
+) -> float | tuple[float, ...]:
+    """One number, or an array of them, each checked by `item` (the array's length is checked
+    against `measured` later)."""
     if isinstance(value, list):
         if not value:
             refuse("expected a number or a non-empty array of numbers")
-        return tuple(at(i, _non_negative, item, context) for i, item in enumerate(value))
-    return _non_negative(value, context)
+        return tuple(at(i, item, entry, context) for i, entry in enumerate(value))
+    return item(value, context)
+
+
+def _resolutions(value: Any, context: dict[str, Any]) -> float | tuple[float, ...]:
+    return _scalar_or_list(value, context, _counts)
 
 
 def _measured(value: Any, context: dict[str, Any]) -> tuple[int, ...]:
@@ -76,7 +102,7 @@ def _measured(value: Any, context: dict[str, Any]) -> tuple[int, ...]:
     indices: list[int] = []
     for i, item in enumerate(value):
         if isinstance(item, bool) or not isinstance(item, int) or not 0 <= item < count:
-            refuse_key(f" = {item!s}: expected a coordinate 0..{count - 1} (0 = the base)", index=(i,))
+            refuse_key(f" = {show(item)}: expected a coordinate 0..{count - 1} (0 = the base)", index=(i,))
         if indices and item <= indices[-1]:
             refuse_key(f" = {item}: list the measured coordinates once each, ascending", index=(i,))
         indices.append(item)
@@ -87,8 +113,14 @@ def _covariance(value: Any, context: dict[str, Any]) -> Any:
     """A number, a diagonal (array) or a full matrix (array of arrays); sizes checked in `loop()`."""
     if isinstance(value, list) and value and all(isinstance(row, list) for row in value):
 
+        def entry(item: Any, ctx: dict[str, Any]) -> float:
+            number = _finite(item, ctx)
+            if abs(number) > LARGEST:
+                refuse(f"must be within ±{LARGEST:g} (only ratios of noises matter: scale them down)")
+            return number
+
         def row_of(row: list[Any], ctx: dict[str, Any]) -> tuple[float, ...]:
-            return tuple(at(j, _finite, item, ctx) for j, item in enumerate(row))
+            return tuple(at(j, entry, item, ctx) for j, item in enumerate(row))
 
         return tuple(at(i, row_of, row, context) for i, row in enumerate(value))
     return _scalar_or_list(value, context)
@@ -111,14 +143,16 @@ def _pulses(value: Any, context: dict[str, Any]) -> tuple[tuple[float, float, fl
 
 
 Seed = Annotated[int, Field(strict=True, ge=0, lt=2**63), Says("must be an integer >= 0 and below 2^63")]
-_LIST_SCHEMA = {
-    "oneOf": [{"type": "number", "minimum": 0}, {"type": "array", "items": {"type": "number", "minimum": 0}}]
-}
+_NOISE = {"type": "number", "minimum": 0, "maximum": LARGEST}
+_NOISE_SCHEMA = {"oneOf": [_NOISE, {"type": "array", "items": _NOISE}]}
+_COUNTS = {"oneOf": [{"const": 0}, {"type": "number", "minimum": 1}]}
+_COUNTS_SCHEMA = {"oneOf": [_COUNTS, {"type": "array", "items": _COUNTS}]}
+_ENTRY = {"type": "number", "minimum": -LARGEST, "maximum": LARGEST}
 _MATRIX_SCHEMA = {
     "oneOf": [
-        {"type": "number", "minimum": 0},
-        {"type": "array", "items": {"type": "number"}},
-        {"type": "array", "items": {"type": "array", "items": {"type": "number"}}},
+        _NOISE,
+        {"type": "array", "items": _NOISE},
+        {"type": "array", "items": {"type": "array", "items": _ENTRY}},
     ]
 }
 
@@ -146,13 +180,13 @@ class SensorsTable(BaseModel):
         "the measured coordinates of θ, ascending (0 = the base; default: all)",
     ) = None
     resolution: _custom(
-        _scalar_or_list,
-        _LIST_SCHEMA,
+        _resolutions,
+        _COUNTS_SCHEMA,
         "encoder counts per revolution (angles) or per metre (a cart); 0 = exact",
     ) = 0.0
     noise: _custom(
         _scalar_or_list,
-        _LIST_SCHEMA,
+        _NOISE_SCHEMA,
         "σ of the Gaussian measurement noise [rad or m], one or per measured coordinate",
     ) = 0.0
     delay: Real(ge=0, says="must be >= 0 s") | None = Field(
@@ -203,7 +237,7 @@ class EstimatorTable(BaseModel):
 
 # The drive's keys of [actuator] (any kind), declared here and listed in `schema.ActuatorTable`.
 DriveNoise = Annotated[
-    Real(ge=0, says="must be >= 0") | None,
+    Real(ge=0, le=LARGEST, says=f"must be >= 0 and <= {LARGEST:g}") | None,
     Field(description="σ of the Gaussian noise on the applied input [N, N m or V], held per sample interval"),
 ]
 DriveLag = Annotated[
@@ -301,8 +335,13 @@ def loop(
     noise = _per_measured(table.noise, len(measured), "noise")
     delay = 0.0 if table.delay is None else float(table.delay)
     assert period is not None
+    if delay / period > MAX_DELAY_PERIODS:
+        raise SensorsError(
+            f"sensors.delay = {format_number(delay)} s is more than {MAX_DELAY_PERIODS:,} periods of "
+            f"{format_number(period)} s: is it in seconds?"
+        )
     periods = round(delay / period)
-    if abs(delay - periods * period) > DELAY_TOLERANCE * max(delay, period) or periods > 10**6:
+    if abs(delay - periods * period) > DELAY_TOLERANCE * max(delay, period):
         raise SensorsError(
             f"sensors.delay = {format_number(delay)} s is not a whole multiple of the period "
             f"{format_number(period)} s: "
