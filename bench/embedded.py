@@ -98,6 +98,16 @@ ESTIMATOR_WRAPPERS = {
         "float bench_loop_step(ipgen_{n}_estimator_state *s, const float y[]) {{"
         " return ipgen_{n}_loop_step(s, y); }}\n"
     ),
+    "step": (
+        "float bench_step(ipgen_{n}_loop_state *s, const long counts[]) {{"
+        " return ipgen_{n}_step(s, counts); }}\n"
+    ),
+}
+SHOWN = {
+    "update": "estimator_update",
+    "update_ekf": "estimator_update",
+    "loop_step": "loop_step (estimate + LQR)",
+    "step": "step (counts → estimate → control, the whole loop)",
 }
 SCALARS = ("float", "double")
 
@@ -261,6 +271,8 @@ def estimator_rows(work: Path) -> list[list[str]]:
         functions = ["update_ekf" if kind == "ekf" else "update"]
         if f"ipgen_{name}_loop_step(" in header:
             functions.append("loop_step")
+        if f"ipgen_{name}_step(" in header:
+            functions.append("step")
         for function in functions:
             (work / f"{name}.h").write_text(header)
             source = work / f"{name}_{function}.c"
@@ -268,8 +280,8 @@ def estimator_rows(work: Path) -> list[list[str]]:
             obj = source.with_suffix(".o")
             subprocess.run([CC, *FLAGS, f"-I{work}", "-c", str(source), "-o", str(obj)], check=True)
             text, rodata = section_bytes(obj, "text"), section_bytes(obj, "rodata")
-            shown = "estimator_update" if function.startswith("update") else "loop_step (estimate + LQR)"
-            rows.append([f"`{relative}`", label, kind, shown, str(text), str(rodata), str(text + rodata)])
+            sizes = [str(text), str(rodata), str(text + rodata)]
+            rows.append([f"`{relative}`", label, kind, SHOWN[function], *sizes])
             print(" | ".join(rows[-1]), flush=True)
     return rows
 
@@ -381,7 +393,9 @@ def main(argv: list[str] | None = None) -> int:
         "A scene with `[sensors]` and `[estimator]` (docs/estimation.md) gets",
         "`ipgen_NAME_estimator_update` (one sample: predict with the previous command, correct with the",
         "measured angles) and, with an LQR `[controller]`, `ipgen_NAME_loop_step` (update, then",
-        "u = −K (x̂ − x_eq), the delay line): float, compiled as above. The Kalman filter's and the",
+        "u = −K (x̂ − x_eq), the delay line); with encoder resolutions, `ipgen_NAME_step` (counts in, the",
+        "command out: for a swing-up the whole swing, catch and hold; the parameters it was designed",
+        "with are `static const`): float, compiled as above. The Kalman filter's and the",
         "derivative filter's matrices are `static const` tables (.rodata); the EKF computes its",
         "Jacobians from the exact model in the code (the parameters read at run time) and keeps P in",
         "the caller's state. Cycles per call are not measured: this machine has no cycle-accurate",

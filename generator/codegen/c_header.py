@@ -218,9 +218,40 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         context["B"] = _c_rows(estimator.B, "B")
         context["M"] = _c_rows(estimator.gain, "M")
         context["u_eq"] = c_number(estimator.input_equilibrium)
+    context["firmware"] = _firmware_context(estimator, dof) if estimator.resolution else None
     if estimator.kind == "ekf":
         context["Qn"] = _c_rows(estimator.process_noise, "process_noise")
         context["Rn"] = _c_rows(estimator.measurement_noise, "measurement_noise")
         context["input_gain"] = c_number(estimator.input_gain)
         context["input_gain_value"] = repr(float(estimator.input_gain))
+    return context
+
+
+def _firmware_context(estimator: PrintedEstimator, dof: int) -> dict[str, object]:
+    """The firmware entry's constants: Δ per measured coordinate (2π / counts per revolution, or
+    1 / counts per metre for a cart's position), the values where the counts are zero, and the
+    parameters the loop was designed with (`params`, the motor folded in)."""
+    steps = [
+        (1.0 if estimator.cart and index == 0 else 2 * math.pi) / counts
+        for index, counts in zip(estimator.measured, estimator.resolution, strict=True)
+    ]
+    if len(estimator.counts_zero) != len(estimator.measured):
+        raise ControllerError("estimator counts_zero needs one value per measured coordinate")
+    context: dict[str, object] = {
+        "steps": _c_rows(tuple(steps), "count steps"),
+        "resolution": ", ".join(f"{counts:g}" for counts in estimator.resolution),
+        "zero": _c_rows(estimator.counts_zero, "counts zero"),
+        "params": None,
+        "motor": estimator.input_gain != 1.0,
+    }
+    if estimator.params is not None:
+        params = estimator.params
+
+        def group(*names: str) -> str:
+            return ", ".join("{" + _c_rows(tuple(params[n]), n) + "}" for n in names)  # type: ignore[arg-type]
+
+        context["params"] = {
+            "params": group("m", "l", "delta") + ", " + c_number(float(params["g"])),  # type: ignore[arg-type]
+            "links": group("com", "J", "J_axial", "tip"),
+        }
     return context

@@ -288,4 +288,8 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
         process_noise=loop.process_noise,
         measurement_noise=loop.measurement_noise,
         input_gain=float(scene.actuator.gain()),
+        resolution=tuple(loop.resolution) if all(r > 0 for r in loop.resolution) else (),
+        counts_zero=tuple(float(scene.theta[i]) for i in loop.measured),
+        cart=scene.system.type == "classical",
+        params=scene.pendulum.folded().params(),
     )

@@ -22,3 +22,13 @@ class PrintedEstimator:
     process_noise: tuple[tuple[float, ...], ...] = ()  # ekf: Qn
     measurement_noise: tuple[tuple[float, ...], ...] = ()  # ekf: Rn
     input_gain: float = 1.0  # ekf: the force or torque per unit of u (a dc_motor's b)
+    # The firmware entry (ipgen_<name>_step): the encoders' counts per revolution (or metre, a
+    # cart's position) per measured coordinate, all > 0, else () and no entry; the measured
+    # coordinates' values where the counts are zero (the scene's initial pose); True when
+    # coordinate 0 is a cart's position (Δ = 1 / resolution m instead of 2π / resolution rad).
+    resolution: tuple[float, ...] = ()
+    counts_zero: tuple[float, ...] = ()
+    cart: bool = False
+    # The parameters the loop was designed with, the motor folded in (Pendulum.folded().params()):
+    # the swing-up's energy law and the EKF read them, so the firmware entry needs no arguments.
+    params: dict[str, tuple[float, ...] | float] | None = None

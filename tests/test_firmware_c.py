@@ -1,0 +1,177 @@
+"""The whole loop as firmware (issue 33): the C header's `ipgen_<name>_step(state, counts)` of the
+QUBE-Servo 2 swing-up preset (scenes/rigs/qube_servo2_swingup.toml: 2048-count encoders, the
+derivative filter, energy swing-up, catch and LQR hold, volts at 1 kHz).
+
+- Replay, double: fed the encoder counts of the simulator's own run (its y_* columns), `step`
+  returns the voltage the simulator applied at every sample (1e-9 of 10 V) and ends in the hold.
+- Closed loop, float: `step` compiled with IPGEN_SCALAR=float (C99, -Wdouble-promotion
+  -Wconversion -Werror) drives a plant integrated in double in another translation unit (RK4,
+  ten substeps per millisecond, the same header's forward dynamics) through quantised counts;
+  it swings up, catches and holds within 10 V, as the simulator's run does.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import subprocess
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
+from cxx import require_toolchain
+
+from ipgen.command.cli import run
+
+ROOT = Path(__file__).resolve().parent.parent
+PRESET = ROOT / "scenes" / "rigs" / "qube_servo2_swingup.toml"
+NAME = "qube_servo2_swingup"
+P = f"ipgen_{NAME}"
+U_MAX = 10.0  # V
+
+REPLAY = """\
+#include <stdio.h>
+#include "NAME.h"
+/* Reads counts per line, prints the voltage step returns and the swing-up's phase. */
+int main(void) {
+  P_loop_state s;
+  long counts[2];
+  P_loop_init(&s);
+  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) {
+    double u = P_step(&s, counts);
+    printf("%.17g %d\\n", u, s.swingup.phase);
+  }
+  return 0;
+}
+"""
+
+FIRMWARE = """\
+#define IPGEN_SCALAR float
+#include "NAME.h"
+/* The firmware's side of the loop, in float: its state and one sample. */
+static P_loop_state state;
+void firmware_init(void) { P_loop_init(&state); }
+float firmware_step(const long counts[]) { return P_step(&state, counts); }
+int firmware_phase(void) { return state.swingup.phase; }
+"""
+
+PLANT = """\
+#include <math.h>
+#include <stdio.h>
+#include "NAME.h"
+void firmware_init(void);
+float firmware_step(const long counts[]);
+int firmware_phase(void);
+
+/* x' of the rig in its own coordinates (q, qd) with the motor voltage V held. */
+static void rates(const double x[4], double volts, double dx[4]) {
+  const P_dc_motor motor = {8.4, 0.042, 0.042, 1.0, 1.0, 1.0, 0.0};
+  double qdd[2];
+  P_forward_dynamics_built(x, x + 2, P_motor_gain(&motor) * volts, &P_loop_params, &P_loop_links, qdd);
+  dx[0] = x[2]; dx[1] = x[3]; dx[2] = qdd[0]; dx[3] = qdd[1];
+}
+
+int main(void) {
+  double x[4] = {0.0, -3.141592653589793, 0.0, 0.0}; /* hanging at rest, the encoders reset here */
+  double worst = 0.0, caught = -1.0;
+  const int substeps = 10;
+  const double T = 0.001, h = T / substeps;
+  long k, counts[2];
+  int i, j;
+  firmware_init();
+  for (k = 0; k < 10000; ++k) {
+    double volts;
+    for (i = 0; i < 2; ++i) counts[i] = lround((x[i] - P_count_zero[i]) / P_count_step[i]);
+    volts = (double)firmware_step(counts);
+    if (fabs(volts) > worst) worst = fabs(volts);
+    if (caught < 0 && firmware_phase() == 2) caught = (double)k * T;
+    for (j = 0; j < substeps; ++j) { /* RK4 */
+      double k1[4], k2[4], k3[4], k4[4], y[4];
+      rates(x, volts, k1);
+      for (i = 0; i < 4; ++i) y[i] = x[i] + 0.5 * h * k1[i];
+      rates(y, volts, k2);
+      for (i = 0; i < 4; ++i) y[i] = x[i] + 0.5 * h * k2[i];
+      rates(y, volts, k3);
+      for (i = 0; i < 4; ++i) y[i] = x[i] + h * k3[i];
+      rates(y, volts, k4);
+      for (i = 0; i < 4; ++i) x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }
+  }
+  printf("%.17g %.17g %.17g %.17g %.17g %.17g\\n", x[0], x[1], x[2], x[3], worst, caught);
+  return 0;
+}
+"""
+
+
+def _source(text: str) -> str:
+    return text.replace("NAME", NAME).replace("P_", f"{P}_")
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The preset's C header (--emit c) and the simulator's run of the preset (CSV)."""
+    require_toolchain()
+    require_cc()
+    root = tmp_path_factory.mktemp("firmware")
+    scene = root / "scene.toml"
+    scene.write_text(PRESET.read_text().replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
+    for argv in (["--scene", str(scene), "-o", str(root)], ["run", str(scene), "-o", str(root / "run")]):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    return root
+
+
+def _csv(path: Path) -> dict[str, np.ndarray]:
+    header, *rows = path.read_text().splitlines()
+    names = header.split(",")
+    phase = names.index("phase")
+    data = np.array([[float(v) for j, v in enumerate(row.split(",")) if j != phase] for row in rows])
+    columns = [name for name in names if name != "phase"]
+    result = {name: data[:, i] for i, name in enumerate(columns)}
+    result["phase"] = np.array([row.split(",")[phase] for row in rows])
+    return result
+
+
+def _compile(command: list[str]) -> None:
+    result = subprocess.run(command, capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[:3000]
+
+
+def test_step_replays_the_simulators_voltages(folder: Path) -> None:
+    run_ = _csv(folder / "run" / "scene.csv")
+    step = 2 * math.pi / 2048
+    zero = np.array([0.0, -math.pi])  # the preset's initial angles (the rig's coordinates)
+    y = np.column_stack([run_["y_theta0"], run_["y_theta1"]])
+    counts = np.rint((y - zero) / step).astype(int)
+    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    (folder / "replay.c").write_text(_source(REPLAY))
+    program = folder / "replay"
+    flags = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{folder}"]
+    _compile([*flags, str(folder / "replay.c"), "-o", str(program), "-lm"])
+    text = "\n".join(f"{a} {b}" for a, b in counts.tolist()) + "\n"
+    out = subprocess.run([str(program)], input=text, capture_output=True, text=True, check=True).stdout
+    volts, phases = zip(*(line.split() for line in out.splitlines()), strict=True)
+    volts_c = np.array([float(v) for v in volts])
+    samples = len(volts_c) - 1  # the last row repeats the command held at the end
+    assert np.max(np.abs(volts_c[:samples] - run_["u"][:samples])) <= 1e-9 * U_MAX
+    assert int(phases[-1]) == 2 and run_["phase"][-1] == "hold"
+
+
+def test_float_firmware_swings_up_and_holds_a_double_plant(folder: Path) -> None:
+    (folder / "firmware.c").write_text(_source(FIRMWARE))
+    (folder / "plant.c").write_text(_source(PLANT))
+    objects = folder / "firmware.o"
+    base = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{folder}"]
+    _compile([*base, *FLOAT_WARNINGS[1:], "-c", str(folder / "firmware.c"), "-o", str(objects)])
+    program = folder / "plant"
+    _compile([*base, str(folder / "plant.c"), str(objects), "-o", str(program), "-lm"])
+    out = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
+    arm, link, arm_rate, link_rate, worst, caught = (float(v) for v in out.split())
+    upright = link - 2 * math.pi * round(link / (2 * math.pi))
+    simulated = _csv(folder / "run" / "scene.csv")
+    caught_simulated = float(simulated["t"][np.argmax(simulated["phase"] == "hold")])
+    assert 0 < caught < 3.0 and 0 < caught_simulated < 3.0, (caught, caught_simulated)
+    assert abs(upright) < 0.02 and abs(link_rate) < 0.5 and abs(arm_rate) < 0.5, out
+    assert abs(arm) < 1.0 and worst <= U_MAX, out
