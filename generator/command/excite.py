@@ -46,7 +46,7 @@ def excitation(
     scene: str | Path,
     output: str | Path | None = None,
     *,
-    u_max: float,
+    u_max: float | None = None,
     travel: float | None = None,
     signal: str = "multisine",
     f_min: float | None = None,
@@ -133,6 +133,7 @@ a run whose base leaves it (exit status 4). Without -o the design is only report
 Examples:
   ipgen excite --preset qube_servo2 --u-max 10 --travel 1 -o qube_identify.toml
   ipgen excite rig.toml --u-max 5 --travel 0.4 --signal chirp --f-min 0.2 --f-max 5 --duration 60
+  ipgen excite --preset qube_servo2 --signal free-decay --travel 1 --duration 30 -o decay.toml
 """
 
 
@@ -148,7 +149,10 @@ Examples:
     help="The experiment scene to write (a new file; an existing one only with --force).",
 )  # fmt: skip
 @click.option(
-    "--u-max", type=float, required=True, help="Largest |u| allowed [N, N m, or V with a dc_motor]."
+    "--u-max",
+    type=float,
+    default=None,
+    help="Largest |u| allowed [N, N m, or V with a dc_motor]; required but for a free decay.",
 )
 @click.option(
     "--travel", type=float, default=None,
@@ -165,7 +169,7 @@ Examples:
     "--duration",
     type=float,
     default=None,
-    help=f"Chirp length [s] [default: {DEFAULT_CHIRP_DURATION:g}].",
+    help=f"Chirp or free-decay length [s] [default: {DEFAULT_CHIRP_DURATION:g}].",
 )
 @click.option(
     "--sweep", type=click.Choice(("linear", "logarithmic")), default="logarithmic", show_default=True

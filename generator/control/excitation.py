@@ -147,7 +147,8 @@ def _round_down(x: float, digits: int = 3) -> float:
 
 # ---------------------------------------------------------------------------- the design
 
-SIGNALS: tuple[str, ...] = ("multisine", "chirp")
+FREE_DECAY = "free-decay"  # no input: link 1 released from an angle off hanging, at rest
+SIGNALS: tuple[str, ...] = ("multisine", "chirp", FREE_DECAY)
 DEFAULT_MARGIN = 0.3
 DEFAULT_SWING = 0.5  # rad: the links' largest predicted swing about hanging
 DEFAULT_PERIODS = 4
@@ -162,8 +163,8 @@ class ExcitationError(Error):
 class Design:
     """An excitation and what the linear model predicts it does."""
 
-    signal: str  # multisine | chirp
-    amplitude: float  # peak |u| [N, N m or V]
+    signal: str  # multisine | chirp | free-decay
+    amplitude: float  # peak |u| [N, N m or V]; free-decay: link 1's release angle from hanging [rad]
     limited_by: str  # u_max | travel | swing
     f_min: float  # the band [Hz] (a chirp's f0, f1)
     f_max: float
@@ -201,6 +202,13 @@ class Design:
             "swing": f"the links' swing: (1 − {self.margin:g}) × {self.swing_limit:g} rad",
         }[self.limited_by]
         natural = ", ".join(f"{f:.3g}" for f in self.natural) or "none"
+        if self.signal == FREE_DECAY:
+            return (
+                f"free decay: no input, link 1 released {self.amplitude:g} rad from hanging at rest, "
+                f"limited by {reason}. Predicted by the linear model about hanging: base within "
+                f"±{self.base:.3g} {unit[1]} (travel {self.travel:g}); the hanging pendulum's natural "
+                f"frequencies {natural} Hz. Run length {self.duration:g} s, sampled every {self.sample:g} s."
+            )
         return (
             f"{what}; amplitude {self.amplitude:g} {unit[0]}, limited by {reason}. Predicted by the linear "
             f"model about hanging: base within ±{self.base:.3g} {unit[1]} (travel {self.travel:g}), links "
@@ -217,7 +225,7 @@ class Design:
 def design(
     rig: Any,
     *,
-    u_max: float,
+    u_max: float | None = None,
     travel: float | None = None,
     signal: str = "multisine",
     f_min: float | None = None,
@@ -232,12 +240,16 @@ def design(
 ) -> Design:
     """The excitation for `rig` (a `Scene`: its type, links, parameters, actuator, [initial]
     state, [limits] travel and sample) as `ipgen.excitation` documents it; raises
-    `ExcitationError` with a one-line message."""
-    travel = _check_limits(rig, u_max, travel, margin, swing)
+    `ExcitationError` with a one-line message. A free decay needs no `u_max` (it applies none)."""
     if signal not in SIGNALS:
         raise ExcitationError(f"signal {abbreviate(str(signal))!r}: expected one of {', '.join(SIGNALS)}")
+    if u_max is None and signal != FREE_DECAY:
+        raise ExcitationError(f"a {signal} needs u_max, the largest |u| the drive may get (--u-max)")
+    travel = _check_limits(rig, math.inf if u_max is None else u_max, travel, margin, swing)
     a, b = _hanging_model(rig)
     natural = _natural_frequencies(a, rig.links)
+    if signal == FREE_DECAY:
+        return _free_decay(rig, a, natural, travel, margin, swing, duration, sample)
     f_lo, f_hi = _band(f_min, f_max, natural, signal, sweep)
     if signal == "multisine":
         period = period if period is not None else max(10.0, float(math.ceil(2.0 / f_lo)))
@@ -273,7 +285,8 @@ def _check_limits(rig: Any, u_max: float, travel: float | None, margin: float, s
         raise ExcitationError(
             "no travel limit: pass --travel (m on a cart, rad on an arm) or give the scene [limits] travel"
         )
-    _positive("u_max", u_max, "(the largest |u|)")
+    if u_max != math.inf:
+        _positive("u_max", u_max, "(the largest |u|)")
     _positive("travel", travel, "(m on a cart, rad on an arm)")
     _positive("swing", swing, "rad")
     if not (isinstance(margin, (int, float)) and 0.0 <= margin < 1.0):
@@ -415,4 +428,77 @@ def _predict(
         swing_limit=swing,
         margin=margin,
         gain_band=(float(np.min(gain)), float(np.max(gain))),
+    )
+
+
+def _free_decay(
+    rig: Any,
+    a: np.ndarray,
+    natural: tuple[float, ...],
+    travel: float,
+    margin: float,
+    swing: float,
+    duration: float | None,
+    sample: float | None,
+) -> Design:
+    """Link 1 released from rest at the largest angle off hanging whose predicted motion (the
+    linear model about hanging, no input) keeps the links within (1 − margin) of `swing` and the
+    base within (1 − margin) of `travel`: what identifies the joints' damping (the decay of the
+    swing) and, through the base's reaction, the base's."""
+    import numpy as np
+    from scipy.signal import lsim
+
+    t_end = DEFAULT_CHIRP_DURATION if duration is None else duration
+    _positive("duration", t_end, "s")
+    f_hi = natural[-1] if natural else 1.0
+    try:
+        t = grid(t_end, f_hi)
+    except ValueError as exc:
+        raise ExcitationError(str(exc)) from None
+    dof = rig.links + 1
+    released = np.zeros(2 * dof)
+    released[1] = 1.0  # a unit release of link 1: the response scales with the angle
+    size = np.asarray(a).shape[0]
+    _, _, x = lsim(
+        (np.asarray(a), np.zeros((size, 1)), np.eye(size), np.zeros((size, 1))),
+        np.zeros_like(t),
+        t,
+        X0=released,
+    )
+    base_per_rad = float(np.max(np.abs(x[:, 0])))
+    swing_per_rad = float(np.max(np.abs(x[:, 1:dof])))
+    try:
+        scaled = scale_to_limits(
+            base_per_rad, swing_per_rad, rig.theta[0], Limits(math.inf, travel, swing, margin)
+        )
+    except ValueError as exc:
+        raise ExcitationError(str(exc)) from None
+    sample = sample if sample is not None else min(rig.sample, _nice(1.0 / (20.0 * f_hi)))
+    _positive("sample", sample, "s")
+    if t_end / sample > 1e7:
+        raise ExcitationError(
+            f"{t_end:g} s sampled every {sample:g} s is more than 1e7 samples: raise sample"
+        )
+    return Design(
+        signal=FREE_DECAY,
+        amplitude=scaled.amplitude,
+        limited_by=scaled.limited_by,
+        f_min=0.0,
+        f_max=0.0,
+        period=None,
+        lines=0,
+        crest_factor=0.0,
+        duration=t_end,
+        sample=sample,
+        sweep=None,
+        base=scaled.base,
+        swing=scaled.swing,
+        u_max=0.0,
+        travel=travel,
+        swing_limit=swing,
+        margin=margin,
+        gain_band=(0.0, 0.0),
+        natural=natural,
+        u_unit="V" if rig.actuator.is_motor else ("N" if rig.type == "classical" else "N m"),
+        base_unit="m" if rig.type == "classical" else "rad",
     )
