@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from decimal import ROUND_FLOOR, Decimal
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -139,10 +140,11 @@ def _round_down(x: float, digits: int = 3) -> float:
     """x rounded down to `digits` significant digits (a decimal that reads well in a scene)."""
     if x <= 0.0 or not math.isfinite(x):
         return x
-    exponent = math.floor(math.log10(x)) - digits + 1
-    step = 10.0**exponent
-    value = math.floor(x / step * (1 + 1e-12)) * step
-    return float(f"{value:.{digits}g}")
+    # Floor the shortest decimal that reads back as x (repr): 0.35 stays 0.35, and the result is
+    # never above x (1.9999999999999996 gives 1.99, not 2.0, which would pass u_max).
+    exact = Decimal(repr(x))
+    step = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return float(exact.quantize(step, rounding=ROUND_FLOOR))
 
 
 # ---------------------------------------------------------------------------- the design
