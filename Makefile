@@ -141,7 +141,7 @@ bench-specialisation: venv
 
 ## Code size of the C header (--emit c) on a Cortex-M4F (bench/embedded.py, docs/bench/embedded.md).
 ## Debian's arm-none-eabi cross compiler and newlib are large: installed here when missing, never by make test.
-ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi
+ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 bench-embedded: venv
 	@$(call apt_install,$(ARM_PACKAGES))
 	$(PY) -m bench.embedded
