@@ -216,3 +216,28 @@ def test_the_simulator_refuses_a_bad_actuator_line(tmp_path: Path) -> None:
         )
         assert result.returncode == 2, result.stderr
         assert message in result.stderr and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_the_ip02_swings_up_within_its_rail_and_10_volts(tmp_path: Path) -> None:
+    """scenes/rigs/ip02_sip_swingup.toml (issue 33): from hanging at rest, caught and held
+    upright; the cart stays within 70 % of its ±0.407 m rail (the simulator would stop the run
+    at the rail, exit status 4), every |u| ≤ 10 V, the last row at rest upright and centred."""
+    require_toolchain()
+    result = subprocess.run(
+        [sys.executable, "-m", "ipgen", "run", str(RIGS / "ip02_sip_swingup.toml"), "-o", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ),  # the run's shared simulator cache (tests/conftest.py)
+    )
+    assert result.returncode == 0, result.stderr
+    header, *rows = (tmp_path / "ip02_sip_swingup.csv").read_text().splitlines()
+    columns = header.split(",")
+    phase = [row.split(",")[-1] for row in rows]
+    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
+    assert columns[-1] == "phase" and "hold" in phase and phase[-1] == "hold"
+    caught = data[phase.index("hold"), 0]
+    assert 0 < caught < 10 and data[-1, 0] == pytest.approx(caught + 5, abs=2e-3)
+    assert np.max(np.abs(data[:, 1])) <= 0.7 * 0.407
+    assert np.max(np.abs(data[:, columns.index("u")])) <= 10.0 + 1e-12
+    upright = data[-1, 2] - 2 * math.pi * round(data[-1, 2] / (2 * math.pi))
+    assert abs(upright) < 1e-3 and abs(data[-1, 1]) < 1e-2 and np.max(np.abs(data[-1, 3:5])) < 1e-2

@@ -78,6 +78,7 @@ SWINGUP = [
     ("rsip_swingup", "Rotary single pendulum swung up by energy control", None, None),
     ("cdip_swingup", "Cart double pendulum swung up along a planned trajectory", None, None),
     ("rigs/qube_servo2_swingup", "Quanser QUBE-Servo 2 swung up on its encoders within ±10 V", 10.0, 0.5),
+    ("rigs/ip02_sip_swingup", "Quanser IP02 cart pendulum swung up within ±10 V and its rail", 10.0, None),
 ]
 SWING_ANGLE = 1e-2
 SWING_RATE = 1e-2
