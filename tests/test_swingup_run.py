@@ -295,3 +295,14 @@ def test_simulator_refuses_bad_swingup_settings_in_one_line(
     if result.returncode == 2:
         err = result.stderr.strip().splitlines()
         assert len(err) == 1 and err[0].startswith("simulate: error: ") and "swingup" in err[0], err
+
+
+def test_a_lost_plan_gets_the_measured_hint() -> None:
+    """`ipgen run` follows exit status 5 with what docs/swingup.md measured to help (the plan's
+    duration), and names the section; no other status has a hint."""
+    from ipgen.command.cli import EXIT_HINTS
+
+    assert set(EXIT_HINTS) == {5}
+    assert "duration" in EXIT_HINTS[5] and "When the plan is lost" in EXIT_HINTS[5]
+    docs = (Path(__file__).resolve().parent.parent / "docs" / "swingup.md").read_text()
+    assert "### When the plan is lost" in docs

@@ -371,7 +371,17 @@ def run_command(
         click.echo(line, err=True)  # the simulator's warnings, or the error that ended the run
     if outcome.status != 0:
         click.echo(f"ipgen: the simulation ended with exit status {outcome.status}", err=True)
+    if outcome.status in EXIT_HINTS:
+        click.echo(f"ipgen: hint: {EXIT_HINTS[outcome.status]}", err=True)
     return outcome.status
+
+
+# What to try after a run that ended with one of these exit statuses (measured: docs/swingup.md).
+EXIT_HINTS = {
+    5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
+    "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
+    "docs/swingup.md, \"When the plan is lost\")",
+}
 
 
 def _coordinate_options(command: Callable[..., None]) -> Callable[..., None]:
