@@ -250,13 +250,14 @@ REGRESSIONS = [
     (2, "resolution", "1e-300", "must be 0 (exact) or >= 1 count per revolution or metre"),
     (2, "delay", "1e308", "is more than 1,000,000 periods of 0.01 s"),
     (2, "process_noise", "1e308", "must be <= 1e+100"),
+    (1, "Jm", "9" * 25, "swingup: the discrete Riccati equation at period 0.01 s has no solution"),
     (2, "measured", "9" * 310, "measured[0] = 99999999999999999999999999999999999999...9999999999999999999:"),
 ]
 
 
 # The numbers each regression above was an example of: the extremes of a double, and an integer
 # longer than any message should echo.
-EXTREMES = ("1e308", "-1e308", "1e200", "1e-300", "5e-324", "-0.0", "9" * 310)
+EXTREMES = ("1e308", "-1e308", "1e200", "1e25", "1e-300", "5e-324", "-0.0", "9" * 310)
 
 
 def test_every_numeric_key_takes_every_extreme() -> None:

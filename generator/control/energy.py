@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, as_plant, casadi_model
-from ipgen.control.linear import ControlError, dynamics, weights
+from ipgen.control.linear import ControlError, dynamics, solve_dare, weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
 from ipgen.model.pendulum import Pendulum
@@ -287,7 +287,7 @@ def discrete_acceleration_lqr(plant: Plant, period: float, q: np.ndarray, r: np.
 
 def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, acceleration: bool) -> np.ndarray:
     import numpy as np
-    from scipy.linalg import expm, solve_discrete_are
+    from scipy.linalg import expm
 
     from ipgen.control.linear import check_stabilisable, linearize
 
@@ -305,5 +305,5 @@ def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, accelera
     block[:size, :size], block[:size, size:] = a, b
     flow = expm(block * period)
     ad, bd = flow[:size, :size], flow[:size, size:]
-    p = solve_discrete_are(ad, bd, q, r)
+    p = solve_dare(ad, bd, q, r, period)
     return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)

@@ -644,6 +644,23 @@ def weights(
     return q, r.reshape(1, 1)
 
 
+def solve_dare(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, period: float) -> np.ndarray:
+    """P of the discrete LQR (scipy's `solve_discrete_are`) of the sampled model (A_d, B_d) at
+    `period` s; a problem scipy cannot solve (singular, or too ill-conditioned to order its
+    Schur form: a parameter far from any rig's) is a one-line `ControlError`."""
+    import numpy as np
+    from scipy.linalg import solve_discrete_are
+
+    try:
+        return solve_discrete_are(a, b, q, r)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        reason = " ".join(str(exc).split())[:80]
+        raise ControlError(
+            f"the discrete Riccati equation at period {period:g} s has no solution ({reason}): "
+            "check the parameters' units, the period and the weights"
+        ) from None
+
+
 def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
     """PBH tests: (A, B) stabilisable and (A, Q^½) detectable, or a ControlError naming the mode.
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps
-from ipgen.control.linear import ControlError, check_stabilisable, linearize, weights
+from ipgen.control.linear import ControlError, check_stabilisable, linearize, solve_dare, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
 if TYPE_CHECKING:
@@ -128,7 +128,6 @@ def discrete_lqr(
     """(K, P, A_d, B_d): the discrete LQR about the upright `target` at rest, u held over `period`
     (A_d, B_d the exact Jacobians of the one-period flow map; P from scipy's DARE)."""
     import numpy as np
-    from scipy.linalg import solve_discrete_are
 
     ad, bd = _flow_jacobians_at_rest(plant, period, target)
     if not (np.all(np.isfinite(ad)) and np.all(np.isfinite(bd))):
@@ -150,7 +149,7 @@ def discrete_lqr(
         qd=target[dof:],
     )
     check_stabilisable(a_c, b_c, q)
-    p = solve_discrete_are(ad, bd, q, r)
+    p = solve_dare(ad, bd, q, r, period)
     gain = np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)
     if not np.all(np.isfinite(gain)):
         raise ControlError("the sampled LQR gain is not finite: check the parameters' units and the weights")
