@@ -175,3 +175,65 @@ def test_float_firmware_swings_up_and_holds_a_double_plant(folder: Path) -> None
     assert 0 < caught < 3.0 and 0 < caught_simulated < 3.0, (caught, caught_simulated)
     assert abs(upright) < 0.02 and abs(link_rate) < 0.5 and abs(arm_rate) < 0.5, out
     assert abs(arm) < 1.0 and worst <= U_MAX, out
+
+
+CART = """\
+[system]
+type = "classical"
+links = 1
+name = "cart_fw"
+emit = ["c"]
+[parameters]
+m = [0.57, 0.23]
+l = [0, 0.6413]
+delta = [4.3, 0.0024]
+[initial]
+theta = [0.1, 0.02]
+[controller]
+kind = "lqr"
+q = [10, 10, 1, 1]
+r = 0.1
+period = 0.002
+saturation = 20
+[sensors]
+resolution = [40000, 4096]   # counts per metre (the cart), per revolution (the pendulum)
+[estimator]
+kind = "kalman"
+[simulation]
+t_end = 0.1
+"""
+
+CART_DRIVER = """\
+#define IPGEN_SCALAR float
+#include <stdio.h>
+#include "cart_fw.h"
+int main(void) {
+  ipgen_cart_fw_loop_state s;
+  long counts[2] = {4000, 0}; /* 0.1 m more than the start, the pendulum where it started */
+  float u;
+  ipgen_cart_fw_loop_init(&s);
+  u = ipgen_cart_fw_step(&s, counts);
+  printf("%.9g %.9g %.9g\\n", (double)u, (double)s.estimator.x[0], (double)s.estimator.x[1]);
+  return 0;
+}
+"""
+
+
+def test_a_carts_counts_are_per_metre_and_its_step_compiles_in_float(tmp_path: Path) -> None:
+    """A cart's coordinate 0 counts per metre (Δ = 1/resolution m), a link's per revolution
+    (Δ = 2π/resolution rad), both from the scene's initial pose; the balance loop's `step`
+    compiles in float with -Werror and estimates the pose its counts say (Kalman first sample:
+    the measured coordinates as measured)."""
+    require_cc()
+    scene = tmp_path / "cart.toml"
+    scene.write_text(CART)
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(scene), "-o", str(tmp_path)]) == 0, err.getvalue()
+    (tmp_path / "driver.c").write_text(CART_DRIVER)
+    program = tmp_path / "driver"
+    flags = [CC, "-std=c99", "-O1", *WARNINGS, *FLOAT_WARNINGS[1:], f"-I{tmp_path}"]
+    _compile([*flags, str(tmp_path / "driver.c"), "-o", str(program), "-lm"])
+    out = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
+    u, x, theta = (float(v) for v in out.split())
+    assert x == pytest.approx(0.1 + 4000 / 40000, abs=1e-6) and theta == pytest.approx(0.02, abs=1e-6)
+    assert math.isfinite(u) and abs(u) <= 20.0
