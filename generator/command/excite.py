@@ -64,8 +64,10 @@ def excitation(
 
     `u_max` is the largest |u| allowed (N, N m, or V with a dc_motor), `travel` the base's limit
     |θ0| (m or rad; default: the scene's [limits] travel). `signal` is "multisine" (every
-    harmonic of 1/`period` in [f_min, f_max], run for `periods` periods) or "chirp" (f_min to
-    f_max over `duration` s, `sweep` "linear" or "logarithmic"). The band defaults to a fifth of
+    harmonic of 1/`period` in [f_min, f_max], run for `periods` periods), "chirp" (f_min to
+    f_max over `duration` s, `sweep` "linear" or "logarithmic") or "free-decay" (no input, link
+    1 released from rest at (1 − `margin`) · `swing` off hanging or less, for `duration` s; no
+    `u_max`). The band defaults to a fifth of
     the hanging pendulum's lowest natural frequency up to five times its highest. The amplitude
     is the largest (3 significant digits) whose predicted excursions stay within (1 − `margin`)
     of `travel` and `swing` [rad], at most u_max. Raises `ExcitationError` (or `SceneError` for
