@@ -325,7 +325,6 @@ def cycle_rows(work: Path) -> list[list[str]]:
         table_rows = ", ".join(
             "{" + ", ".join(str(int(c[k])) for c in counts) + "}" for k in range(len(values))
         )
-        ekf = scene.loop.estimator == "ekf"
         prelude = (
             f'#define IPGEN_SCALAR float\n#include "{name}.h"\n'
             f"static const long counts[{len(values)}][{len(counts)}] = {{{table_rows}}};\n"
@@ -344,7 +343,7 @@ def cycle_rows(work: Path) -> list[list[str]]:
             instructions = [measured.instructions[i] for i in picked]
             cycles = [measured.cycles[i] for i in picked]
             rows.append([
-                f"`{relative}`", label, scene.loop.estimator + (" (float)" if not ekf else " (float, EKF)"),
+                f"`{relative}`", label, scene.loop.estimator,
                 phase, str(len(picked)), f"{sum(instructions) / len(picked):.0f}", str(max(instructions)),
                 f"{sum(cycles) / len(picked):.0f}", str(max(cycles)),
                 f"{max(cycles) / 168:.1f}",

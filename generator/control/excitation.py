@@ -41,13 +41,17 @@ POINTS_PER_PERIOD = 40
 MAX_POINTS = 2_000_000
 
 
-def response(a: np.ndarray, b: np.ndarray, u: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """The states x(t) (len(t) × n) of ẋ = A x + B u from x(0) = 0, u given on the grid t."""
+def response(
+    a: np.ndarray, b: np.ndarray, u: np.ndarray, t: np.ndarray, x0: np.ndarray | None = None
+) -> np.ndarray:
+    """The states x(t) (len(t) × n) of ẋ = A x + B u from x(0) = x0 (default 0), u given on the
+    grid t."""
     import numpy as np
     from scipy.signal import lsim
 
     n = a.shape[0]
-    _, _, x = lsim((a, b, np.eye(n), np.zeros((n, 1))), u, t, X0=np.zeros(n), interp=True)
+    start = np.zeros(n) if x0 is None else x0
+    _, _, x = lsim((a, b, np.eye(n), np.zeros((n, 1))), u, t, X0=start, interp=True)
     return np.atleast_2d(x).reshape(len(t), n)
 
 
@@ -251,18 +255,19 @@ def design(
     a, b = _hanging_model(rig)
     natural = _natural_frequencies(a, rig.links)
     if signal == FREE_DECAY:
-        return _free_decay(rig, a, natural, travel, margin, swing, duration, sample)
-    f_lo, f_hi = _band(f_min, f_max, natural, signal, sweep)
+        f_lo, f_hi = 0.0, natural[-1] if natural else 1.0  # f_hi: the grid's and the sample's
+    else:
+        f_lo, f_hi = _band(f_min, f_max, natural, signal, sweep)
     if signal == "multisine":
         period = period if period is not None else max(10.0, float(math.ceil(2.0 / f_lo)))
         _positive("period", period, "s")
         if not (isinstance(periods, int) and 1 <= periods <= 1000):
             raise ExcitationError(f"periods = {periods!r}: expected a whole number from 1 to 1000")
         t_end = periods * period
-    else:
+    else:  # a chirp or a free decay: a duration
         duration = DEFAULT_CHIRP_DURATION if duration is None else duration
         _positive("duration", duration, "s")
-        if sweep not in ("linear", "logarithmic"):
+        if signal == "chirp" and sweep not in ("linear", "logarithmic"):
             raise ExcitationError(f"sweep {abbreviate(str(sweep))!r}: expected linear or logarithmic")
         t_end = duration
     sample = sample if sample is not None else min(rig.sample, _nice(1.0 / (20.0 * f_hi)))
@@ -271,7 +276,13 @@ def design(
         raise ExcitationError(
             f"{t_end:g} s sampled every {sample:g} s is more than 1e7 samples: raise sample"
         )
-    predicted = _predict(rig, a, b, signal, f_lo, f_hi, period, t_end, sweep, travel, u_max, margin, swing)
+    if signal == FREE_DECAY:
+        predicted = _free_decay(rig, a, f_hi, t_end, travel, margin, swing)
+    else:
+        limit = float(u_max)  # type: ignore[arg-type]  # required above for a driven signal
+        predicted = _predict(
+            rig, a, b, signal, f_lo, f_hi, period, t_end, sweep, travel, limit, margin, swing
+        )
     return replace(
         predicted,
         sample=sample,
@@ -434,25 +445,14 @@ def _predict(
 
 
 def _free_decay(
-    rig: Any,
-    a: np.ndarray,
-    natural: tuple[float, ...],
-    travel: float,
-    margin: float,
-    swing: float,
-    duration: float | None,
-    sample: float | None,
+    rig: Any, a: np.ndarray, f_hi: float, t_end: float, travel: float, margin: float, swing: float
 ) -> Design:
     """Link 1 released from rest at the largest angle off hanging whose predicted motion (the
     linear model about hanging, no input) keeps the links within (1 − margin) of `swing` and the
     base within (1 − margin) of `travel`: what identifies the joints' damping (the decay of the
     swing) and, through the base's reaction, the base's."""
     import numpy as np
-    from scipy.signal import lsim
 
-    t_end = DEFAULT_CHIRP_DURATION if duration is None else duration
-    _positive("duration", t_end, "s")
-    f_hi = natural[-1] if natural else 1.0
     try:
         t = grid(t_end, f_hi)
     except ValueError as exc:
@@ -460,47 +460,20 @@ def _free_decay(
     dof = rig.links + 1
     released = np.zeros(2 * dof)
     released[1] = 1.0  # a unit release of link 1: the response scales with the angle
-    size = np.asarray(a).shape[0]
-    _, _, x = lsim(
-        (np.asarray(a), np.zeros((size, 1)), np.eye(size), np.zeros((size, 1))),
-        np.zeros_like(t),
-        t,
-        X0=released,
-    )
-    base_per_rad = float(np.max(np.abs(x[:, 0])))
-    swing_per_rad = float(np.max(np.abs(x[:, 1:dof])))
+    a_ = np.asarray(a)
+    x = response(a_, np.zeros((a_.shape[0], 1)), np.zeros_like(t), t, x0=released)
     try:
         scaled = scale_to_limits(
-            base_per_rad, swing_per_rad, rig.theta[0], Limits(math.inf, travel, swing, margin)
+            float(np.max(np.abs(x[:, 0]))),
+            float(np.max(np.abs(x[:, 1:dof]))),
+            rig.theta[0],
+            Limits(math.inf, travel, swing, margin),
         )
     except ValueError as exc:
         raise ExcitationError(str(exc)) from None
-    sample = sample if sample is not None else min(rig.sample, _nice(1.0 / (20.0 * f_hi)))
-    _positive("sample", sample, "s")
-    if t_end / sample > 1e7:
-        raise ExcitationError(
-            f"{t_end:g} s sampled every {sample:g} s is more than 1e7 samples: raise sample"
-        )
     return Design(
-        signal=FREE_DECAY,
-        amplitude=scaled.amplitude,
-        limited_by=scaled.limited_by,
-        f_min=0.0,
-        f_max=0.0,
-        period=None,
-        lines=0,
-        crest_factor=0.0,
-        duration=t_end,
-        sample=sample,
-        sweep=None,
-        base=scaled.base,
-        swing=scaled.swing,
-        u_max=0.0,
-        travel=travel,
-        swing_limit=swing,
-        margin=margin,
-        gain_band=(0.0, 0.0),
-        natural=natural,
-        u_unit="V" if rig.actuator.is_motor else ("N" if rig.type == "classical" else "N m"),
-        base_unit="m" if rig.type == "classical" else "rad",
-    )
+        signal=FREE_DECAY, amplitude=scaled.amplitude, limited_by=scaled.limited_by, f_min=0.0,
+        f_max=0.0, period=None, lines=0, crest_factor=0.0, duration=t_end, sample=0.0, sweep=None,
+        base=scaled.base, swing=scaled.swing, u_max=0.0, travel=travel, swing_limit=swing,
+        margin=margin, gain_band=(0.0, 0.0),
+    )  # fmt: skip

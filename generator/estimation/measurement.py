@@ -24,6 +24,19 @@ if TYPE_CHECKING:
 LARGEST = 1e100
 
 
+def resolution_problem(counts: float) -> str | None:
+    """Why an encoder resolution >= 0 cannot be used, or None: 0 (exact) or at least one count
+    (the rule of `Sensors.of` and of a scene's [sensors])."""
+    return "must be 0 (exact) or >= 1 count per revolution or metre" if 0 < counts < 1 else None
+
+
+def noise_problem(sigma: float) -> str | None:
+    """Why a noise σ (or a covariance entry's size) >= 0 cannot be used, or None."""
+    if sigma > LARGEST:
+        return f"must be <= {LARGEST:g} (only ratios of noises matter: scale them down)"
+    return None
+
+
 def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tuple[float, ...]:
     """`value` as one finite number >= 0 per measured coordinate (a scalar is repeated)."""
     values = [value] * count if isinstance(value, int | float) else list(value)
@@ -39,14 +52,9 @@ def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tup
             raise EstimationError(f"{name}[{i}] = {v!r}: expected a number") from None
         if not math.isfinite(number) or number < 0:
             raise EstimationError(f"{name}[{i}] = {v!r}: expected a finite number >= 0")
-        if name == "resolution" and 0 < number < 1:
-            raise EstimationError(
-                f"{name}[{i}] = {v!r}: expected 0 (exact) or >= 1 count per revolution or metre"
-            )
-        if name == "noise" and number > LARGEST:
-            raise EstimationError(
-                f"{name}[{i}] = {v!r}: expected <= {LARGEST:g} (only ratios of noises matter)"
-            )
+        problem = resolution_problem(number) if name == "resolution" else noise_problem(number)
+        if problem:
+            raise EstimationError(f"{name}[{i}] = {v!r}: {problem}")
         result.append(number)
     return tuple(result)
 

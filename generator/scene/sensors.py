@@ -28,7 +28,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationInfo, model_validator
 
-from ipgen.estimation.measurement import LARGEST
+from ipgen.estimation.measurement import LARGEST, noise_problem, resolution_problem
 from ipgen.scene.fields import format_number, show
 from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
 
@@ -63,16 +63,18 @@ def _bounded(item: Any, context: dict[str, Any]) -> float:
     """A number in [0, 1e100]: noise σ and covariance entries are squared or multiplied, and only
     their ratios matter, so larger ones are unit slips that would overflow."""
     number = _non_negative(item, context)
-    if number > LARGEST:
-        refuse(f"must be <= {LARGEST:g} (only ratios of noises matter: scale them down)")
+    problem = noise_problem(number)
+    if problem:
+        refuse(problem)
     return number
 
 
 def _counts(item: Any, context: dict[str, Any]) -> float:
     """An encoder resolution: 0 (exact) or at least one count per revolution or metre."""
     number = _non_negative(item, context)
-    if 0 < number < 1:
-        refuse("must be 0 (exact) or >= 1 count per revolution or metre")
+    problem = resolution_problem(number)
+    if problem:
+        refuse(problem)
     return number
 
 
