@@ -15,6 +15,7 @@ import io
 import string
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -130,6 +131,32 @@ def test_plot_and_animate_over_every_kind_of_output_file(
         assert not [p for p in folder.rglob(".ipgen.*")]
     else:
         _assert_refused(status, err, before, folder)
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+@pytest.mark.parametrize("kind", ("directory", "under_file", "long", "proc", "sys", "device", "the_input"))
+def test_a_refused_output_is_refused_before_the_drawing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str, kind: str
+) -> None:
+    """The output path is checked first (a 10-minute animation is not drawn to find that /proc
+    takes no file): the drawing is never reached. The CSV being drawn is never an output."""
+    import ipgen.plots.animation
+    import ipgen.plots.run
+
+    def drawn(*_: object, **__: object) -> None:
+        raise AssertionError("drew before refusing the output")
+
+    monkeypatch.setattr(ipgen.plots.run, "draw_run", drawn)
+    monkeypatch.setattr(ipgen.plots.animation, "read_run", drawn)
+    csv = _csv(tmp_path)
+    target = csv if kind == "the_input" else _file_path(kind, tmp_path, COMMANDS[command])
+    before = _snapshot(tmp_path)
+    argv = [command, str(csv), "-o", str(target), "--force"]
+    if command == "animate":
+        argv += ["--type", "classical", "--lengths", "0,0.5"]
+    status, err = _call(argv)
+    _assert_refused(status, err, before, tmp_path)
+    assert "drew before" not in err
 
 
 NAME_CHARS = string.ascii_letters + string.digits + "_-. +"

@@ -1,6 +1,6 @@
 """Presets travel with the package: found through `presets_dir()` (the installed package's
 presets/, a checkout's scenes/), listed by `ipgen presets` with where their values come from,
-taken by `--preset NAME` in ipgen run, excite and identify. (The installed wheel's presets are
+taken by `--preset NAME` in ipgen run, excite, identify and sweep. (The installed wheel's presets are
 checked by tests/test_readme_verbatim.py.) Also: the build announcement states the cache's own
 history, not a guess."""
 
@@ -79,6 +79,30 @@ def test_excite_takes_a_preset(tmp_path: Path, capsys: pytest.CaptureFixture[str
     )
     assert f"wrote {experiment}" in capsys.readouterr().out
     assert tomllib.loads(experiment.read_text())["input"]["kind"] == "multisine"
+
+
+def test_sweep_takes_a_preset(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The preset is read (its keys are known: a bad one is refused before anything runs)."""
+    out = str(tmp_path / "s")
+    assert cli(["sweep", "--preset", "rsip_lqr", "--vary", "parameters.mass=1,2", "-o", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "parameters.mass" in err and "rsip_lqr" not in err.split(":")[0]
+    assert cli(["sweep", "--preset", "rsip", "--scorecard", "-o", str(tmp_path / "s")]) == 2
+    assert "no preset 'rsip'" in capsys.readouterr().err
+    assert cli(["sweep", "--scorecard", "-o", str(tmp_path / "s")]) == 2
+    assert "missing the scene" in capsys.readouterr().err
+    assert not (tmp_path / "s").exists()
+
+
+def test_docs_blocks_a_reader_copies_name_no_checkout_file() -> None:
+    """docs/*.md shell and Python blocks run outside a checkout too: a shipped scene is named as
+    a preset (--preset NAME, Pendulum.preset, ipgen presets NAME > file), never as scenes/..."""
+    import re
+
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        for language, body in re.findall(r"```(\w*)\n(.*?)```", page.read_text(encoding="utf-8"), re.S):
+            if language in ("sh", "bash", "python", "console"):
+                assert not re.search(r"(^|[\s\"'])(bench/)?scenes/", body, re.M), f"{page.name}:\n{body}"
 
 
 def test_the_build_announcement_states_the_last_build(

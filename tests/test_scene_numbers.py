@@ -286,3 +286,44 @@ def test_messages_show_values_as_written() -> None:
     text = SCENES[0].replace("[parameters]\n", "[parameters]\nJ_axial = [0, 0.5, 0]\n")
     outcome = _outcome(text)
     assert "parameters.J_axial = [0, 0.5, 0]: counts only for a rotary system" in outcome, outcome
+
+
+
+def _through_the_command(key: tuple[int, int, str, str], number: str) -> None:
+    """`ipgen --scene S -o DIR` (the scene resolved, gains and plans designed) on the scene with
+    `number` at `key`: exit 0, or one line on stderr and status 2, and no numpy RuntimeWarning
+    (an overflow inside the design) shown to the user before it."""
+    import contextlib
+    import io
+    import warnings
+
+    from ipgen.command.cli import run as cli
+
+    scene, line, _, kind = key
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "s.toml"
+        path.write_text(_replaced(scene, line, kind, number, 0), encoding="utf-8")
+        stderr = io.StringIO()
+        with warnings.catch_warnings(record=True) as shown, contextlib.redirect_stderr(stderr):
+            warnings.simplefilter("always")
+            status = cli(["--scene", str(path), "-o", str(Path(tmp) / "out")])
+    printed = stderr.getvalue()
+    assert not [w for w in shown if issubclass(w.category, RuntimeWarning)], [str(w.message) for w in shown]
+    assert status == 0 or (status == 2 and printed.count("\n") == 1 and "error:" in printed), printed
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=_CHECKS)
+@given(key=st.sampled_from(KEYS), number=st.sampled_from(EXTREMES))
+def test_the_command_prints_one_line_and_no_numpy_warning(
+    key: tuple[int, int, str, str], number: str
+) -> None:
+    _through_the_command(key, number)
+
+
+def test_the_reported_overflow_warnings_stay_inside() -> None:
+    """The two reports: g = 1e200 under the motor's swing-up (tvlqr's matmul overflowed) and a
+    saturation of 1e308 under the measured loop (the covariance's)."""
+    for scene, name, number in ((1, "g", "1e200"), (2, "saturation", "1e308")):
+        matches = [k for k in KEYS if k[0] == scene and k[2] == name]
+        assert matches, (scene, name)
+        _through_the_command(matches[0], number)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -62,7 +63,7 @@ Examples:
   ipgen excite rig.toml --u-max 10 --travel 1 -o rig_identify.toml  # a safe experiment
   ipgen identify --scene rig.toml --data rig_identify.csv --free m1,delta0 -o out/  # fit parameters
 
---preset NAME (ipgen run, excite, identify) takes one of the scenes shipped with ipgen.
+--preset NAME (ipgen run, excite, identify, sweep) takes one of the scenes shipped with ipgen.
 Errors print one line and exit with status 2. An existing file is only replaced if ipgen
 wrote it, as the same kind of file (else pass --force); every file is written to a temporary
 file, then renamed.
@@ -411,6 +412,17 @@ def _csv_coordinates(csv: Path, angles: str | None, zero: str | None, positive: 
     return coordinates_beside(csv)
 
 
+def _not_the_input(target: Path, csv: Path) -> Path:
+    """`target`, unless it is the CSV being drawn (never replaced, even with --force)."""
+    try:
+        same = target.exists() and csv.exists() and target.samefile(csv)
+    except OSError:
+        same = False  # the output policy reports the path itself
+    if same:
+        raise job.OptionsError(f"{shown_path(target)} is the CSV being drawn: pass another -o")
+    return target
+
+
 @cli.command("plot", context_settings=CONTEXT)
 @click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
 @click.option(
@@ -439,7 +451,7 @@ def plot_command(
     for a closed loop, the input u against time."""
     from ipgen.plots.run import plot_run, read_run, sampled_beside, system_type_beside
 
-    target = png if png is not None else csv.with_suffix(".png")
+    target = _not_the_input(png if png is not None else csv.with_suffix(".png"), csv)
     run = read_run(csv)
     plot_run(
         run, target, csv.name, system_type or system_type_beside(csv), force=force,
@@ -562,7 +574,7 @@ def animate_command(
         raise job.OptionsError(
             "ipgen animate needs pillow: pip install 'ipgen-pendulum[swingup]' (or pip install pillow)"
         ) from None
-    target = gif if gif is not None else csv.with_suffix(".gif")
+    target = _not_the_input(gif if gif is not None else csv.with_suffix(".gif"), csv)
     frame = _csv_coordinates(csv, angles, zero, positive)
     written = animate_run(
         csv, target, kind, l_values, fps=fps, force=force, coordinates=frame,
@@ -599,10 +611,20 @@ def _register() -> None:
 _register()
 
 
+# numpy's floating-point warnings: "overflow encountered in matmul", "invalid value encountered in ..."
+_NUMPY_FLOATING = r"(overflow|underflow|invalid value|divide by zero) encountered"
+
+
 def run(argv: list[str] | None = None) -> int:
-    """Run the command; return its exit status instead of exiting (for tests and main)."""
+    """Run the command; return its exit status instead of exiting (for tests and main).
+
+    numpy's floating-point RuntimeWarnings (an overflow inside an LQR design on a hostile number,
+    say) are not shown: every result is checked for finiteness where it is used, and a problem is
+    the command's one line, not a stack of warnings before it."""
     try:
-        status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_FLOATING)
+            status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
         click.echo(f"ipgen: error: {_one_line(e.format_message())} (see ipgen --help)", err=True)
         return EXIT_USAGE

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import click
 
+from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.errors import Error
 
 HELP = """Sweep a scene: run it over levels of its keys and score how robust its controller is.
@@ -23,8 +24,8 @@ scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask AD
 
 \b
 Examples:
-  ipgen sweep scenes/rsip_lqr.toml --scorecard -o out/rsip
-  ipgen sweep scenes/rsip_lqr.toml --vary 'initial.theta[1]=-0.6:0.6:13' \\
+  ipgen sweep --preset rsip_lqr --scorecard -o out/rsip
+  ipgen sweep my_scene.toml --vary 'initial.theta[1]=-0.6:0.6:13' \\
               --vary 'initial.dtheta[1]=-3:3:13' -o out/basin
 """
 
@@ -59,7 +60,8 @@ def _criterion(spec: str) -> tuple[str, str]:
 
 
 @click.command("sweep", help=HELP, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("scene", type=click.Path(path_type=Path), metavar="SCENE.toml")
+@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@preset_option
 @click.option(
     "-o", "--output", "out", type=click.Path(path_type=Path), metavar="OUT", help="Folder for the results."
 )
@@ -112,7 +114,8 @@ def _criterion(spec: str) -> tuple[str, str]:
     help="Where compiled simulators are kept [default: ipgen's cache].",
 )
 def command(
-    scene: Path,
+    scene: Path | None,
+    preset: str | None,
     out: Path | None,
     scorecard: bool,
     only: str | None,
@@ -133,6 +136,7 @@ def command(
     from ipgen.sweeps.runner import sweep
     from ipgen.sweeps.success import Success
 
+    scene = chosen_scene(scene, preset, "ipgen sweep --preset rsip_lqr --scorecard -o out/")
     if out is None:
         raise Error(
             "missing -o OUT: say where to write the sweep, e.g. ipgen sweep SCENE.toml --scorecard -o out/"

@@ -41,6 +41,6 @@ def unit_slips(
         if i >= first_angle and abs(value) > WIDEST_ANGLE:
             found.append(
                 f"initial.theta[{i}] = {format_number(value)} rad is more than a full turn (2π): "
-                f"angles are in radians (degrees? {format_number(math.radians(value))} rad)"
+                f"angles are in radians (degrees? {math.radians(value):.4g} rad)"
             )
     return found
