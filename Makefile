@@ -75,7 +75,11 @@ build: configure
 test-cpp: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
 
-test: lint test-python test-cpp
+## pytest and the C++ build side by side: pytest alone keeps 2 cores about 60 % busy (its workers
+## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
+## (docs/testing.md). -O: each side's output is printed whole when it ends, not interleaved.
+test: lint
+	$(MAKE) --no-print-directory -O -j 2 test-python test-cpp
 	@echo "make test: all tests passed"
 
 demo: configure
