@@ -96,7 +96,8 @@ def test_animate_over_generated_runs_and_options(
         assert not gif.exists()
         return
     with Image.open(gif) as image:
-        assert image.format == "GIF" and 2 <= image.n_frames <= FRAMES
+        # a still run's identical frames are one GIF frame (Pillow merges them, summing durations)
+        assert image.format == "GIF" and 1 <= image.n_frames <= FRAMES
     low, high = animation.FPS_RANGE
     assert low <= fps <= high
     duration = run_[0][-1] - run_[0][0]
