@@ -113,6 +113,45 @@ def test_the_vector_env_equals_n_single_envs_bitwise_with_spread_and_autoreset()
         np.testing.assert_array_equal(np.array([r[i] for r in rows]), np.array(singles[i]))
 
 
+def test_without_a_spread_the_rows_stay_nominal_and_overrides_last_one_episode() -> None:
+    """The fast path of the autoreset (no spread: the parameter rows are not rewritten, one
+    read-only info["params"] serves every step) equals single envs bitwise, and parameters set
+    by reset(options=...) hold for that episode only, as in a single env."""
+    from ipgen.gym.env import PendulumEnv
+
+    system, row = paper_system("classical", 1)
+    spec = spec_for(system, row, "balance", max_episode_steps=25)
+    n, steps, seed, heavy = 4, 80, 3, {"m": [0.6, 0.4]}
+    actions = np.random.default_rng(1).uniform(-1, 1, size=(steps, n))
+    vector = PendulumVectorEnv(spec, n)
+    obs, info = vector.reset(seed=seed, options={"params": heavy})
+    np.testing.assert_array_equal(info["params"]["m"], [heavy["m"]] * n)
+    rows, seen = [obs], []
+    for k in range(steps):
+        obs, _, _, _, info = vector.step(actions[k].reshape(n, 1))
+        rows.append(obs)
+        if info:
+            seen.append(info)
+    assert seen and all(np.array_equal(i["params"]["m"][i["_params"]], [row[:2]] * int(i["_params"].sum()))
+                        for i in seen)  # fmt: skip
+    assert not seen[-1]["params"]["m"].flags.writeable
+    np.testing.assert_array_equal(vector.params, np.tile(spec.nominal, (n, 1)))  # back to nominal
+    for i in range(n):
+        env = PendulumEnv(spec)
+        single, _ = env.reset(seed=seed + i, options={"params": heavy})
+        expected, ended, elapsed = [single], False, 0
+        for k in range(steps):
+            if ended:
+                single, _ = env.reset()
+                ended, elapsed = False, 0
+            else:
+                single, _, terminated, truncated, _ = env.step(actions[k, i : i + 1])
+                elapsed += 1
+                ended = terminated or truncated or elapsed >= spec.max_episode_steps
+            expected.append(single)
+        np.testing.assert_array_equal(np.array([r[i] for r in rows]), np.array(expected))
+
+
 def test_a_spread_draws_new_parameters_each_episode_and_options_set_them() -> None:
     system, row = paper_system("rotary", 1)
     from ipgen.gym.env import PendulumEnv

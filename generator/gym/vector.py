@@ -7,6 +7,7 @@ the vector environment equals N single environments bitwise (tests/test_gym.py c
 
 from __future__ import annotations
 
+import ctypes
 from typing import Any, ClassVar
 
 import numpy as np
@@ -63,16 +64,44 @@ class PendulumVectorEnv(VectorEnv):
         self.needs_reset = np.zeros(num_envs, dtype=bool)
         self.generators = [seeding.np_random(None)[0] for _ in range(num_envs)]
         self.loop = MeasuredLoop(spec.sensing, dof, num_envs, spec.dt) if spec.sensing is not None else None
+        # Without a spread, a row holds the nominal parameters unless reset(options=...) set others
+        # for its current episode (`_overridden`): an autoreset need not rewrite a nominal row,
+        # and while every row is nominal one read-only info["params"] serves every step.
+        self._overridden = np.zeros(num_envs, dtype=bool)
+        self._nominal_info: dict[str, Any] | None = None
+        # The kernel's arguments as ctypes objects, once: the buffers are only ever written in
+        # place (numpy's per-call argument checks cost more than an environment's step).
+        function = self.kernel.step_function
+        function.restype = ctypes.c_long
+        function.argtypes = None
+        arguments = (
+            ctypes.c_long(num_envs),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (self.params, self.state, self.actions, self.cfg)),
+            ctypes.c_void_p(self.obs.ctypes.data),
+            ctypes.c_long(self.obs.shape[1]),
+            *(ctypes.c_void_p(a.ctypes.data) for a in (self.rewards, self.ended)),
+        )
+        self._kernel_step = lambda: function(*arguments)
 
-    def _reset_one(self, i: int, options: dict[str, Any]) -> None:
+    def _reset_one(self, i: int, overrides: Any = None, params: bool = True) -> None:
+        """Sub-environment i's new episode; `params=False` keeps its (nominal) parameter row,
+        which a draw without spread or overrides would rewrite unchanged, drawing nothing."""
         rng = self.generators[i]
-        self.params[i] = self.ipgen_spec.draw(rng, options.get("params"))
+        if params:
+            self.params[i] = self.ipgen_spec.draw(rng, overrides)
         self.state[i] = self.ipgen_spec.initial_state(rng)
         self.elapsed[i] = 0
 
     def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
-        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid)."""
-        return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
+        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid).
+        While every row is nominal, one read-only copy serves every step."""
+        if self.ipgen_spec.spread or self._overridden.any():
+            return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
+        if self._nominal_info is None:
+            self._nominal_info = self.ipgen_spec.params_info(self.params)
+            for array in self._nominal_info.values():
+                array.flags.writeable = False
+        return {"params": self._nominal_info, "_params": mask.copy()}
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
@@ -83,8 +112,10 @@ class PendulumVectorEnv(VectorEnv):
         if seed is not None or not hasattr(self, "_seeded"):
             self.generators = [seeding.np_random(s)[0] for s in seeds]
             self._seeded = True
+        overrides = (options or {}).get("params")
         for i in range(self.num_envs):
-            self._reset_one(i, options or {})
+            self._reset_one(i, overrides)
+        self._overridden[:] = bool(overrides)
         self.needs_reset[:] = False
         if self.loop is None:
             self.kernel.observe(self.state, self.cfg, self.obs)
@@ -98,10 +129,10 @@ class PendulumVectorEnv(VectorEnv):
             self.actions[:] = np.where(given.reshape(self.num_envs) == 1, 1.0, -1.0)
         else:
             self.actions[:] = given.reshape(self.num_envs)
-        active = np.flatnonzero(~self.needs_reset)
         if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
+            active = np.flatnonzero(~self.needs_reset)
             self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)
-        self.kernel.step(self.params, self.state, self.actions, self.cfg, self.obs, self.rewards, self.ended)
+        self._kernel_step()
         if self.loop is not None:
             self.loop.observe(active, self.state, self.generators, self.obs)
         self.elapsed += 1
@@ -111,14 +142,16 @@ class PendulumVectorEnv(VectorEnv):
         infos: dict[str, Any] = {}
         resetting = self.needs_reset
         if resetting.any():
-            for i in np.flatnonzero(resetting):
-                self._reset_one(int(i), {})
-            if self.loop is None:
-                fresh = np.zeros_like(self.obs)
-                self.kernel.observe(self.state, self.cfg, fresh)
-                self.obs[resetting] = fresh[resetting]
+            rows = np.flatnonzero(resetting)
+            for i in rows:
+                self._reset_one(int(i), params=bool(self.ipgen_spec.spread) or bool(self._overridden[i]))
+            self._overridden[rows] = False
+            if self.loop is None:  # the first observations of the reset rows only
+                fresh = np.empty((len(rows), self.obs.shape[1]), dtype=np.float32)
+                self.kernel.observe(np.ascontiguousarray(self.state[rows]), self.cfg, fresh)
+                self.obs[rows] = fresh
             else:
-                self.loop.reset(np.flatnonzero(resetting), self.state, self.generators, self.obs)
+                self.loop.reset(rows, self.state, self.generators, self.obs)
             rewards[resetting] = 0.0
             terminations[resetting] = False
             truncations[resetting] = False
