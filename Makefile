@@ -77,9 +77,9 @@ test-cpp: build
 
 ## pytest and the C++ build side by side: pytest alone keeps 2 cores about 60 % busy (its workers
 ## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
-## (docs/testing.md). -O: each side's output is printed whole when it ends, not interleaved.
+## (docs/testing.md). -Oline: whole lines of each side, never a line of both.
 test: lint
-	$(MAKE) --no-print-directory -O -j 2 test-python test-cpp
+	$(MAKE) --no-print-directory -Oline -j 2 test-python test-cpp
 	@echo "make test: all tests passed"
 
 demo: configure

@@ -134,7 +134,10 @@ def test_plot_and_animate_over_every_kind_of_output_file(
 
 
 @pytest.mark.parametrize("command", sorted(COMMANDS))
-@pytest.mark.parametrize("kind", ("directory", "under_file", "long", "proc", "sys", "device", "the_input"))
+@pytest.mark.parametrize(
+    "kind",
+    ("directory", "under_file", "long", "proc", "proc_nested", "sys", "device", "the_input", "a_recording"),
+)
 def test_a_refused_output_is_refused_before_the_drawing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str, kind: str
 ) -> None:
@@ -149,14 +152,24 @@ def test_a_refused_output_is_refused_before_the_drawing(
     monkeypatch.setattr(ipgen.plots.run, "draw_run", drawn)
     monkeypatch.setattr(ipgen.plots.animation, "read_run", drawn)
     csv = _csv(tmp_path)
-    target = csv if kind == "the_input" else _file_path(kind, tmp_path, COMMANDS[command])
+    special = {  # the CSV drawn; folders still to create under /proc; a rig's recording
+        "the_input": csv,
+        "proc_nested": Path("/proc/1/a/b/x.png"),
+        "a_recording": tmp_path / "rig.csv",
+    }
+    target = special.get(kind) or _file_path(kind, tmp_path, COMMANDS[command])
+    if kind == "a_recording":
+        target.write_text("t,theta0,theta1,u\n0,0,0.1,0\n")
     before = _snapshot(tmp_path)
-    argv = [command, str(csv), "-o", str(target), "--force"]
+    # --force replaces another kind of file, never the CSV drawn; a recording needs it
+    argv = [command, str(csv), "-o", str(target), *([] if kind == "a_recording" else ["--force"])]
     if command == "animate":
         argv += ["--type", "classical", "--lengths", "0,0.5"]
     status, err = _call(argv)
     _assert_refused(status, err, before, tmp_path)
     assert "drew before" not in err
+    if kind == "a_recording":
+        assert "is a trajectory CSV, not a" in err
 
 
 NAME_CHARS = string.ascii_letters + string.digits + "_-. +"

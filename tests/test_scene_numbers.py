@@ -327,3 +327,16 @@ def test_the_reported_overflow_warnings_stay_inside() -> None:
         matches = [k for k in KEYS if k[0] == scene and k[2] == name]
         assert matches, (scene, name)
         _through_the_command(matches[0], number)
+
+
+def test_a_too_long_integer_is_named_by_its_line_in_linear_time() -> None:
+    """The 4300-digit refusal names the line; finding it stays linear on many long digit runs
+    (a search that restarts inside a run is quadratic: seconds on this 250 KiB scene)."""
+    lines = SCENES[0].splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("t_end = "))
+    filler = [f"# {'7' * 4300}" for _ in range(58)]
+    text = "\n".join([*filler, *lines[:at], "t_end = " + "9" * 4301, *lines[at + 1 :]]) + "\n"
+    clock = time.perf_counter()
+    outcome = _outcome(text)
+    assert time.perf_counter() - clock < 1.0
+    assert f"line {len(filler) + at + 1}: an integer of more than 4300 digits" in outcome, outcome[:200]

@@ -623,7 +623,8 @@ def run(argv: list[str] | None = None) -> int:
     the command's one line, not a stack of warnings before it."""
     try:
         with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_FLOATING)
+            if not sys.warnoptions:  # the user's own -W settings stay in force
+                warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_FLOATING)
             status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
         click.echo(f"ipgen: error: {_one_line(e.format_message())} (see ipgen --help)", err=True)

@@ -49,8 +49,6 @@ def _written_by_ipgen(data: bytes) -> bool:
     """Whether the file `data` has ipgen's marker: a text file in its first 10 lines, a picture in
     its first HEAD_BYTES bytes, a zip archive (an FMU) in those of its first member."""
     kind = kind_of(data)
-    if kind == CSV:
-        return True
     if kind == "FMU archive":
         data = _first_member(data)
     elif kind != TEXT:
@@ -141,6 +139,9 @@ def _existing(path: Path, keep: Sequence[Path]) -> bytes | None:
 def _check(path: Path, kind: str, existing: bytes | None, force: bool) -> None:
     if existing is None or force:
         return
+    if kind_of(existing) == CSV:  # a simulator's trajectory or a rig's recording: never replaced
+        replace = "pass another -o, or --force to replace it"
+        raise OutputError(f"{_shown(path)} is a {CSV}, not a {kind}: {replace}")
     if not _written_by_ipgen(existing):
         raise OutputError(f"{_shown(path)} exists and was not written by ipgen: move it away or pass --force")
     if kind_of(existing) != kind:
@@ -227,10 +228,22 @@ def check_replaceable(path: Path, force: bool = False, kind: str = TEXT, keep: S
     (`write_files`'s rules), if any; checked before long work, so that it fails early."""
     path = Path(path)
     _check(path, kind, _existing(path, keep), force)
-    if path.parent.is_dir():  # /proc, /sys, a read-only folder: refused now, not after the work
-        try:
-            fd, probe = tempfile.mkstemp(dir=path.parent, prefix=".ipgen.", suffix=".tmp")
-        except OSError as e:
-            raise OutputError(f"cannot write to {_shown(path.parent)}: {_reason(e)}; pass another -o") from e
+    _probe(path.parent)
+
+
+def _probe(folder: Path) -> None:
+    """OutputError now, not after the work, if nothing can be written in `folder` or, while it
+    does not exist yet, in its nearest existing ancestor (/proc, /sys, a read-only folder)."""
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir():
+        return  # a file on the path: `_existing` reported it
+    try:
+        fd, probe = tempfile.mkstemp(dir=folder, prefix=".ipgen.", suffix=".tmp")
+    except OSError as e:
+        raise OutputError(f"cannot write to {_shown(folder)}: {_reason(e)}; pass another -o") from e
+    try:
         os.close(fd)
-        os.unlink(probe)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(probe)

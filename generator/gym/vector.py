@@ -101,7 +101,7 @@ class PendulumVectorEnv(VectorEnv):
             self._nominal_info = self.ipgen_spec.params_info(self.params)
             for array in self._nominal_info.values():
                 array.flags.writeable = False
-        return {"params": self._nominal_info, "_params": mask.copy()}
+        return {"params": dict(self._nominal_info), "_params": mask.copy()}  # its arrays shared
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None

@@ -210,8 +210,8 @@ def _identify(
     exact_input = input_fn if data.u is None else None  # the scene's [input]: exact between samples
     oe = _OutputError(model, data, u, known, _largest_step(model, setup, data, values), exact_input)
     x0 = _initial_state(data, grid, theta, rates)
-    what = "output-error fit" if output_error else "the estimate simulated for its statistics"
-    report(f"{what} on {oe.points} samples ({oe.steps} RK4 steps of the model, exact sensitivities)")
+    what = "output-error fit on" if output_error else "simulating the estimate for its statistics:"
+    report(f"{what} {oe.points} samples ({oe.steps} RK4 steps of the model, exact sensitivities)")
     # Start from the equation-error estimate, or from the prior if that simulates closer to the
     # data (errors in the differentiated signals bias the equation error, most where an equation
     # has no known term: a pendulum's own equation when its mass moment and inertia are free).

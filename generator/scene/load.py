@@ -109,7 +109,7 @@ def _parse_toml(reader: Reader, text: str) -> dict[str, Any]:
     except RecursionError:  # not expected after shape_problem: one line all the same
         reader.fail(f"nested too deeply to parse (at most {limits.MAX_SCENE_NESTING} levels)")
     except ValueError:  # Python reads at most 4300 decimal digits into an integer
-        found = re.search(r"\d{4301,}", text)
+        found = re.search(r"(?<![\d.])\d{4301,}", text)  # a run of digits from its start
         where = f"line {text.count(chr(10), 0, found.start()) + 1}: " if found else ""
         limit = "a scene's numbers fit a double (at most 1.8e308)"
         reader.fail(f"{where}an integer of more than 4300 digits: {limit}")
