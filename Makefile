@@ -15,7 +15,7 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 
-.PHONY: all deps venv test test-slow test-python test-cpp lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
+.PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
 all: test
 
@@ -77,10 +77,19 @@ test-cpp: build
 
 ## pytest and the C++ build side by side: pytest alone keeps 2 cores about 60 % busy (its workers
 ## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
-## (docs/testing.md). -Oline: whole lines of each side, never a line of both.
+## (docs/testing.md). pytest's progress goes to the terminal; the C++ side's output to
+## build/test-cpp.log, of which its summary is printed (all of its end, if it failed).
 test: lint
-	$(MAKE) --no-print-directory -Oline -j 2 test-python test-cpp
+	$(MAKE) --no-print-directory -j 2 test-python test-cpp-logged
 	@echo "make test: all tests passed"
+
+test-cpp-logged: venv
+	@mkdir -p $(BUILD)
+	@if $(MAKE) --no-print-directory test-cpp > $(BUILD)/test-cpp.log 2>&1; then \
+	  grep -E "tests passed|tests failed" $(BUILD)/test-cpp.log || true; \
+	else \
+	  tail -n 80 $(BUILD)/test-cpp.log; echo "make test-cpp failed: the whole log is $(BUILD)/test-cpp.log"; exit 1; \
+	fi
 
 demo: configure
 	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr scene_cdip_lqr_tilt
