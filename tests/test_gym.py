@@ -114,9 +114,10 @@ def test_the_vector_env_equals_n_single_envs_bitwise_with_spread_and_autoreset()
 
 
 def test_without_a_spread_the_rows_stay_nominal_and_overrides_last_one_episode() -> None:
-    """The fast path of the autoreset (no spread: the parameter rows are not rewritten, one
-    read-only info["params"] serves every step) equals single envs bitwise, and parameters set
-    by reset(options=...) hold for that episode only, as in a single env."""
+    """The fast path of the autoreset (no spread: the parameter rows are not rewritten,
+    info["params"] copied from one cached set) equals single envs bitwise, parameters set by
+    reset(options=...) hold for that episode only, as in a single env, and each info is the
+    caller's own (writing into one changes no other)."""
     from ipgen.gym.env import PendulumEnv
 
     system, row = paper_system("classical", 1)
@@ -134,7 +135,8 @@ def test_without_a_spread_the_rows_stay_nominal_and_overrides_last_one_episode()
             seen.append(info)
     assert seen and all(np.array_equal(i["params"]["m"][i["_params"]], [row[:2]] * int(i["_params"].sum()))
                         for i in seen)  # fmt: skip
-    assert not seen[-1]["params"]["m"].flags.writeable
+    seen[0]["params"]["m"][:] = -1.0
+    assert np.all(seen[-1]["params"]["m"][seen[-1]["_params"]] > 0)
     np.testing.assert_array_equal(vector.params, np.tile(spec.nominal, (n, 1)))  # back to nominal
     for i in range(n):
         env = PendulumEnv(spec)

@@ -66,7 +66,8 @@ class PendulumVectorEnv(VectorEnv):
         self.loop = MeasuredLoop(spec.sensing, dof, num_envs, spec.dt) if spec.sensing is not None else None
         # Without a spread, a row holds the nominal parameters unless reset(options=...) set others
         # for its current episode (`_overridden`): an autoreset need not rewrite a nominal row,
-        # and while every row is nominal one read-only info["params"] serves every step.
+        # and while every row is nominal info["params"] is copied from one contiguous set of
+        # arrays (a copy of each strided column group of `params` costs several times more).
         self._overridden = np.zeros(num_envs, dtype=bool)
         self._nominal_info: dict[str, Any] | None = None
         # The kernel's arguments as ctypes objects, once: the buffers are only ever written in
@@ -93,15 +94,14 @@ class PendulumVectorEnv(VectorEnv):
         self.elapsed[i] = 0
 
     def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
-        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid).
-        While every row is nominal, one read-only copy serves every step."""
+        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid),
+        the caller's own copies."""
         if self.ipgen_spec.spread or self._overridden.any():
             return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
         if self._nominal_info is None:
-            self._nominal_info = self.ipgen_spec.params_info(self.params)
-            for array in self._nominal_info.values():
-                array.flags.writeable = False
-        return {"params": dict(self._nominal_info), "_params": mask.copy()}  # its arrays shared
+            groups = self.ipgen_spec.params_info(self.params)
+            self._nominal_info = {name: np.ascontiguousarray(values) for name, values in groups.items()}
+        return {"params": {k: v.copy() for k, v in self._nominal_info.items()}, "_params": mask.copy()}
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
