@@ -154,6 +154,8 @@ class EnvSpec:
             state[1:dof] += math.pi
         return state
 
-    def params_info(self, row: np.ndarray) -> dict[str, np.ndarray]:
-        """The row (or stack of rows) as a dict for `info["params"]` (copies)."""
-        return {name: self.group(row, name).copy() for name in (*GROUPS, "g", "gain")}
+    def params_info(self, row: np.ndarray, copy: bool = True) -> dict[str, np.ndarray]:
+        """The row (or stack of rows) as a dict for `info["params"]`: copies, or with
+        `copy=False` views of `row` (for a row that is itself a fresh copy)."""
+        views = {name: self.group(row, name) for name in (*GROUPS, "g", "gain")}
+        return {name: view.copy() for name, view in views.items()} if copy else views

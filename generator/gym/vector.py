@@ -65,11 +65,8 @@ class PendulumVectorEnv(VectorEnv):
         self.generators = [seeding.np_random(None)[0] for _ in range(num_envs)]
         self.loop = MeasuredLoop(spec.sensing, dof, num_envs, spec.dt) if spec.sensing is not None else None
         # Without a spread, a row holds the nominal parameters unless reset(options=...) set others
-        # for its current episode (`_overridden`): an autoreset need not rewrite a nominal row,
-        # and while every row is nominal info["params"] is copied from one contiguous set of
-        # arrays (a copy of each strided column group of `params` costs several times more).
+        # for its current episode (`_overridden`): an autoreset need not rewrite a nominal row.
         self._overridden = np.zeros(num_envs, dtype=bool)
-        self._nominal_info: dict[str, Any] | None = None
         # The kernel's arguments as ctypes objects, once: the buffers are only ever written in
         # place (numpy's per-call argument checks cost more than an environment's step).
         function = self.kernel.step_function
@@ -95,13 +92,9 @@ class PendulumVectorEnv(VectorEnv):
 
     def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
         """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid),
-        the caller's own copies."""
-        if self.ipgen_spec.spread or self._overridden.any():
-            return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
-        if self._nominal_info is None:
-            groups = self.ipgen_spec.params_info(self.params)
-            self._nominal_info = {name: np.ascontiguousarray(values) for name, values in groups.items()}
-        return {"params": {k: v.copy() for k, v in self._nominal_info.items()}, "_params": mask.copy()}
+        the caller's own: views of one fresh copy of the parameter rows (nine strided copies,
+        one per group, cost several times more)."""
+        return {"params": self.ipgen_spec.params_info(self.params.copy(), copy=False), "_params": mask.copy()}
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
