@@ -114,8 +114,8 @@ def test_the_vector_env_equals_n_single_envs_bitwise_with_spread_and_autoreset()
 
 
 def test_without_a_spread_the_rows_stay_nominal_and_overrides_last_one_episode() -> None:
-    """The fast path of the autoreset (no spread: the parameter rows are not rewritten,
-    info["params"] copied from one cached set) equals single envs bitwise, parameters set by
+    """The fast path of the autoreset (no spread: the parameter rows are not rewritten) equals
+    single envs bitwise, parameters set by
     reset(options=...) hold for that episode only, as in a single env, and each info is the
     caller's own (writing into one changes no other)."""
     from ipgen.gym.env import PendulumEnv

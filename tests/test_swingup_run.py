@@ -297,12 +297,28 @@ def test_simulator_refuses_bad_swingup_settings_in_one_line(
         assert len(err) == 1 and err[0].startswith("simulate: error: ") and "swingup" in err[0], err
 
 
-def test_a_lost_plan_gets_the_measured_hint() -> None:
+def test_a_lost_plan_gets_the_measured_hint(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
     """`ipgen run` follows exit status 5 with what docs/swingup.md measured to help (the plan's
-    duration), and names the section; no other status has a hint."""
+    duration), and names the section; no other status has a hint. (The simulator's run is
+    stood in for: test_a_lost_plan_stops_the_run_at_once gives a real status 5.)"""
+    from types import SimpleNamespace
+
+    import ipgen.command.run
     from ipgen.command.cli import EXIT_HINTS
+    from ipgen.command.cli import run as cli
 
     assert set(EXIT_HINTS) == {5}
     assert "duration" in EXIT_HINTS[5] and "When the plan is lost" in EXIT_HINTS[5]
     docs = (Path(__file__).resolve().parent.parent / "docs" / "swingup.md").read_text()
     assert "### When the plan is lost" in docs
+    scene = tmp_path / "s.toml"
+    scene.write_text("")
+    for status in (5, 3):
+        outcome = SimpleNamespace(simulator=SimpleNamespace(built=False), files=[], summary="", messages="",
+                                  status=status)  # fmt: skip
+        monkeypatch.setattr(ipgen.command.run, "run_scene", lambda *_, **__: outcome)  # noqa: B023
+        assert cli(["run", str(scene), "-o", str(tmp_path / "out")]) == status
+        err = capsys.readouterr().err
+        assert ("ipgen: hint: " + EXIT_HINTS[5] in err) == (status == 5), err

@@ -139,16 +139,15 @@ def _existing(path: Path, keep: Sequence[Path]) -> bytes | None:
 def _check(path: Path, kind: str, existing: bytes | None, force: bool) -> None:
     if existing is None or force:
         return
-    if kind_of(existing) == CSV:  # a simulator's trajectory or a rig's recording: never replaced
+    found = kind_of(existing)
+    # A trajectory (a simulator's or a rig's recording: no marker) is never replaced, nor a file
+    # ipgen wrote by one of another kind.
+    if found == CSV or (found != kind and _written_by_ipgen(existing)):
+        by = "" if found == CSV else " ipgen wrote"
         replace = "pass another -o, or --force to replace it"
-        raise OutputError(f"{_shown(path)} is a {CSV}, not a {kind}: {replace}")
+        raise OutputError(f"{_shown(path)} is a {found}{by}, not a {kind}: {replace}")
     if not _written_by_ipgen(existing):
         raise OutputError(f"{_shown(path)} exists and was not written by ipgen: move it away or pass --force")
-    if kind_of(existing) != kind:
-        raise OutputError(
-            f"{_shown(path)} is a {kind_of(existing)} ipgen wrote, not a {kind}: pass another -o, "
-            "or --force to replace it"
-        )
 
 
 def _plan(path: Path, data: bytes, force: bool, keep: Sequence[Path] = ()) -> _Planned:
@@ -160,13 +159,17 @@ def _plan(path: Path, data: bytes, force: bool, keep: Sequence[Path] = ()) -> _P
     return _Planned(path, data, "replaced" if existing is not None else "created")
 
 
+def _temporary_file(folder: Path) -> tuple[int, str]:
+    """mkstemp's (descriptor, name) of a new hidden file in `folder`, or the OutputError why not."""
+    try:
+        return tempfile.mkstemp(dir=folder, prefix=".ipgen.", suffix=".tmp")
+    except OSError as e:
+        raise OutputError(f"cannot write to {_shown(folder)}: {_reason(e)}; pass another -o") from e
+
+
 def _temporary_copy(planned: _Planned) -> str:
     """`planned.data` in a temporary file next to its destination, with the umask's mode."""
-    path = planned.path
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".ipgen.", suffix=".tmp")
-    except OSError as e:
-        raise OutputError(f"cannot write to {_shown(path.parent)}: {_reason(e)}; pass another -o") from e
+    fd, tmp = _temporary_file(planned.path.parent)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(planned.data)
@@ -238,10 +241,7 @@ def _probe(folder: Path) -> None:
         folder = folder.parent
     if not folder.is_dir():
         return  # a file on the path: `_existing` reported it
-    try:
-        fd, probe = tempfile.mkstemp(dir=folder, prefix=".ipgen.", suffix=".tmp")
-    except OSError as e:
-        raise OutputError(f"cannot write to {_shown(folder)}: {_reason(e)}; pass another -o") from e
+    fd, probe = _temporary_file(folder)
     try:
         os.close(fd)
     finally:

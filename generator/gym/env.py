@@ -72,20 +72,9 @@ class PendulumEnv(gymnasium.Env):
         self._action = ctypes.c_double(0.0)
         self._reward = ctypes.c_double(0.0)
         self._ended = ctypes.c_ubyte(0)
-        function = self.kernel.step_function
-        function.restype = ctypes.c_long
-        function.argtypes = None  # the arguments below are ctypes objects already
-        arguments = (
-            ctypes.c_long(1),
-            *(ctypes.c_void_p(a.ctypes.data) for a in (self.params, self.state)),
-            ctypes.byref(self._action),
-            ctypes.c_void_p(self.cfg.ctypes.data),
-            ctypes.c_void_p(self.obs.ctypes.data),
-            ctypes.c_long(self.obs.shape[1]),
-            ctypes.byref(self._reward),
-            ctypes.byref(self._ended),
+        self._call = self.kernel.bound_step(
+            self.params, self.state, self._action, self.cfg, self.obs, self._reward, self._ended
         )
-        self._call = lambda: function(*arguments)
         self._discrete = spec.task == "cartpole"
         self.loop = MeasuredLoop(spec.sensing, dof, 1, spec.dt) if spec.sensing is not None else None
         self._row = np.array([0])

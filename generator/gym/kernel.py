@@ -132,15 +132,35 @@ class Kernel:
     system: System
     library: ctypes.CDLL
 
-    @property
-    def step_function(self) -> Any:
-        """A fresh handle on the C step function (its argtypes are the caller's to set: a single
-        environment passes prepared ctypes objects, `step` numpy arrays)."""
+    def _step_function(self) -> Any:
+        """A fresh handle on the C step function (its argtypes are the caller's to set)."""
         return self.library[f"ipgen_gym_{model_name(self.system)}_step"]
+
+    def bound_step(
+        self, params: np.ndarray, state: np.ndarray, action: Any, cfg: np.ndarray, obs: np.ndarray,
+        reward: Any, terminated: Any,
+    ) -> Any:  # fmt: skip
+        """`step` over fixed buffers as a call without arguments: numpy arrays (written in place
+        only, never replaced) or ctypes scalars, converted once. numpy's per-call argument checks
+        cost more than a small environment's whole step."""
+        function = self._step_function()
+        function.restype = ctypes.c_long
+        function.argtypes = None  # the arguments below are ctypes objects already
+
+        def pointer(buffer: Any) -> Any:  # an array's data, or a ctypes scalar by reference
+            if isinstance(buffer, np.ndarray):
+                return ctypes.c_void_p(buffer.ctypes.data)
+            return ctypes.byref(buffer)
+
+        arguments = (
+            ctypes.c_long(len(state)), *map(pointer, (params, state, action, cfg, obs)),
+            ctypes.c_long(obs.shape[1]), *map(pointer, (reward, terminated)),
+        )  # fmt: skip
+        return lambda: function(*arguments)
 
     @cached_property
     def _step(self) -> Any:
-        function = self.step_function
+        function = self._step_function()
         function.restype = ctypes.c_long
         function.argtypes = [ctypes.c_long, _DOUBLES, _DOUBLES, _DOUBLES, _DOUBLES, _FLOATS, ctypes.c_long,
                              _DOUBLES, _BYTES]  # fmt: skip

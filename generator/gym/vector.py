@@ -7,7 +7,6 @@ the vector environment equals N single environments bitwise (tests/test_gym.py c
 
 from __future__ import annotations
 
-import ctypes
 from typing import Any, ClassVar
 
 import numpy as np
@@ -67,19 +66,9 @@ class PendulumVectorEnv(VectorEnv):
         # Without a spread, a row holds the nominal parameters unless reset(options=...) set others
         # for its current episode (`_overridden`): an autoreset need not rewrite a nominal row.
         self._overridden = np.zeros(num_envs, dtype=bool)
-        # The kernel's arguments as ctypes objects, once: the buffers are only ever written in
-        # place (numpy's per-call argument checks cost more than an environment's step).
-        function = self.kernel.step_function
-        function.restype = ctypes.c_long
-        function.argtypes = None
-        arguments = (
-            ctypes.c_long(num_envs),
-            *(ctypes.c_void_p(a.ctypes.data) for a in (self.params, self.state, self.actions, self.cfg)),
-            ctypes.c_void_p(self.obs.ctypes.data),
-            ctypes.c_long(self.obs.shape[1]),
-            *(ctypes.c_void_p(a.ctypes.data) for a in (self.rewards, self.ended)),
+        self._kernel_step = self.kernel.bound_step(
+            self.params, self.state, self.actions, self.cfg, self.obs, self.rewards, self.ended
         )
-        self._kernel_step = lambda: function(*arguments)
 
     def _reset_one(self, i: int, overrides: Any = None, params: bool = True) -> None:
         """Sub-environment i's new episode; `params=False` keeps its (nominal) parameter row,
@@ -91,10 +80,8 @@ class PendulumVectorEnv(VectorEnv):
         self.elapsed[i] = 0
 
     def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
-        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid),
-        the caller's own: views of one fresh copy of the parameter rows (nine strided copies,
-        one per group, cost several times more)."""
-        return {"params": self.ipgen_spec.params_info(self.params.copy(), copy=False), "_params": mask.copy()}
+        """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid)."""
+        return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
