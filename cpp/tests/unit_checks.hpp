@@ -1,5 +1,7 @@
 // Model-independent parts of ipsim, exercised on the stand-in: RAII wrappers, inputs, the stop
 // schedule, the scene reader and the numerical guards.
+#pragma once
+
 #include <cmath>
 #include <sstream>
 #include <type_traits>
@@ -9,6 +11,7 @@
 #include "ipsim/ipsim.hpp"
 #include "ipsim/scene.hpp"
 
+namespace ipsim_test::unit {
 namespace {
 
 using Model = ipgen::cart1::Model;
@@ -81,6 +84,11 @@ void check_inputs() {
   CHECK(!ipsim::Input::multisine(1.0, {1.0}, {}, 1.0).problems().empty());  // a phase missing
 }
 
+// GCC 12 at -O1 warns below that the std::optional's payload "may be used uninitialized", a known
+// false positive (GCC bug 80635): it is read only when engaged. Silenced for this function (its
+// reads are outside CHECK, whose own line is in check.hpp).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 /// TravelMonitor: passes samples on while |θ0| <= travel, stops at the first beyond.
 void check_travel_monitor() {
   struct Count : ipsim::SampleSink {
@@ -99,8 +107,11 @@ void check_travel_monitor() {
   state[0] = -0.51;
   sample.t = 1.5;
   CHECK(!monitor.record(sample) && inner.seen == 4);
-  CHECK(monitor.exceeded() && monitor.exceeded()->t == 1.5 && monitor.exceeded()->position == -0.51);
+  const std::optional<ipsim::TravelExceeded>& exceeded = monitor.exceeded();
+  const bool stopped_there = exceeded && exceeded->t == 1.5 && exceeded->position == -0.51;
+  CHECK(stopped_there);
 }
+#pragma GCC diagnostic pop
 
 void check_schedule() {
   using ipsim::detail::make_schedule;
@@ -373,7 +384,8 @@ void check_guards() {
 
 }  // namespace
 
-int main() {
+/// Every check above; the exit status: 0 when all passed, 1 otherwise.
+inline int run() {
   check_guards();
   check_scene_model_keys();
   check_energy_helpers();
@@ -388,3 +400,5 @@ int main() {
   std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
   return ipsim_test::failures();
 }
+
+}  // namespace ipsim_test::unit

@@ -7,6 +7,8 @@
 //   below), for every input kind and the energy and u columns;
 // - a sink can stop a run; DivergenceMonitor stops a closed loop that leaves its region, and
 //   only one that was inside it.
+#pragma once
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -18,6 +20,7 @@
 #include "check.hpp"
 #include "ipsim/ipsim.hpp"
 
+namespace ipsim_test::streaming {
 namespace {
 
 using Model = ipgen::cart1::Model;
@@ -308,10 +311,13 @@ void check_stopping() {
 
 }  // namespace
 
-int main() {
+/// Every check above; the exit status: 0 when all passed, 1 otherwise.
+inline int run() {
   check_schedule_stream();
   check_csv_bytes();
   check_stopping();
   std::printf("ipsim streaming checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
   return ipsim_test::failures();
 }
+
+}  // namespace ipsim_test::streaming
