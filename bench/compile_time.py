@@ -23,8 +23,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bench.report import BUILD, ROOT, compiler_version, machine, sundials_version
-from ipgen.command.generate import generate_header
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 
 # The commit before the compile-cost changes (guards.hpp instantiated Eigen's eigen-solvers).
 BASELINE = "4df5fe6"

@@ -255,7 +255,7 @@ def swingup_rows(work: Path) -> tuple[list[list[str]], dict[str, set[str]]]:
 def scene_c_header(path: Path, work: Path) -> tuple[str, str, str]:
     """(model name, C header text, estimator kind) of a scene, as `ipgen --scene … --emit c`
     writes it."""
-    from ipgen.command import job
+    from ipgen.pipeline import job
 
     planned = job.plan(work / path.stem, scene=path, emit=("c",), force=True)
     job.run(planned)

@@ -23,9 +23,9 @@ import numpy as np
 
 import ipgen
 from bench.report import BUILD, ROOT, machine, table, version
-from ipgen.command.identify import setup_from_scene
 from ipgen.identification.model import Setup
 from ipgen.identification.synthetic import measure, multisine, write_csv
+from ipgen.pipeline.identify import setup_from_scene
 from ipgen.scene.reader import load_scene
 
 SCENE = ROOT / "scenes" / "rigs" / "qube_servo2.toml"

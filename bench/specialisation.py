@@ -25,8 +25,8 @@ from pathlib import Path
 
 from bench.report import BUILD, ROOT, machine, sundials_version
 from bench.workprecision.build import LIBRARIES
-from ipgen.command.generate import generate_header
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 from ipgen.scene.reader import Scene, load_scene, resolved_config
 from ipgen.scene.specialisation import from_scene
 

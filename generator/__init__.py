@@ -177,7 +177,7 @@ def write_header(
     [system]. All files are written or none; bad input raises an `Error` with the message the
     command prints.
     """
-    from ipgen.command.job import plan, run
+    from ipgen.pipeline.job import plan, run
 
     job = plan(
         output,
@@ -258,7 +258,7 @@ def identify(
             output_error=output_error,
             progress=progress,
         )
-    from ipgen.command.identify import identify as identify_scene
+    from ipgen.pipeline.identify import identify as identify_scene
 
     return identify_scene(
         scene, data, free if isinstance(free, str) else list(free), output,
@@ -364,7 +364,7 @@ def sweep(
 
 def __getattr__(attribute: str) -> object:
     """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
-    imports numpy and scipy) and `excitation` (command/excite.py), so that `import ipgen` and the
+    imports numpy and scipy) and `excitation` (pipeline/excite.py), so that `import ipgen` and the
     ipgen command start fast."""
     if attribute == "Equations":
         from ipgen.model.derivation import Equations
@@ -379,7 +379,7 @@ def __getattr__(attribute: str) -> object:
 
         return Actuator
     if attribute == "excitation":
-        from ipgen.command.excite import excitation
+        from ipgen.pipeline.excite import excitation
 
         return excitation
     if attribute == "kalman":

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from conftest import model_name
 
-from ipgen.command.generate import generate
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate
 
 CC = os.environ.get("CC", "gcc")
 C_DIR = Path(__file__).resolve().parent / "c"

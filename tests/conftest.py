@@ -35,8 +35,8 @@ from pathlib import Path
 import pytest
 from cxx import CXX, cxx_command, require_toolchain
 
-from ipgen.command.generate import generate_header
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 
 CPP_DIR = Path(__file__).resolve().parent / "cpp"
 ROOT = CPP_DIR.parents[1]

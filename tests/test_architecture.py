@@ -15,7 +15,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "generator"
 # plots (pictures of runs: matplotlib) comes after control, before the stages that use it;
 # identification (fitting parameters to measurements) between control, whose models it uses, and plots.
 # estimation (what a sampled loop knows of the state: sensors, Kalman filters) uses control's models;
-# the C header (codegen) prints its numbers.
+# the C header (codegen) prints its numbers. pipeline puts the stages together (each command's work
+# as a library function); command only parses arguments and prints.
 STAGES = (
     "errors",
     "common",
@@ -26,13 +27,14 @@ STAGES = (
     "plots",
     "codegen",
     "scene",
+    "pipeline",
     "command",
     "sweeps",
     "gym",
     "ipgen",
 )
 # The command line's front of the sweeps (parsing and printing only): like the public API, it
-# fronts a stage after its own (sweeps run scenes with command's generation and simulator cache).
+# fronts a stage after its own (sweeps run scenes with the pipeline's generation and simulator cache).
 FRONTS = ("ipgen", "ipgen.__main__", "ipgen.command.sweep")
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from c_models import c_command, compile_c, require_cc
 
-from ipgen.command.generate import generate
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -13,9 +13,9 @@ from cxx import cxx_command, require_toolchain
 from numeric import assert_close
 
 import ipgen
-from ipgen.command.generate import generate_header
 from ipgen.control import linear as control
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 
 ROOT = Path(__file__).resolve().parents[1]
 SUNDIALS = tuple(

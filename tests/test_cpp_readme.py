@@ -10,8 +10,8 @@ from pathlib import Path
 
 from cxx import require_toolchain
 
-from ipgen.command.generate import generate_header
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,9 +14,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ipgen.codegen.emit import FMU_TARGETS, TARGETS
-from ipgen.command import job
 from ipgen.command.cli import run
 from ipgen.errors import Error
+from ipgen.pipeline import job
 
 ACTUATORS = {
     "direct": "",

@@ -21,11 +21,11 @@ from c_models import c_command, compile_c, require_cc
 from cxx import require_toolchain
 
 import ipgen
-from ipgen.command import job
 from ipgen.command.cli import run
-from ipgen.command.simulator import build
 from ipgen.common.build_cache import cache_root
 from ipgen.estimation import Sensors, design, replay
+from ipgen.pipeline import job
+from ipgen.pipeline.simulator import build
 
 ROOT = Path(__file__).resolve().parent.parent
 PRESET = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"

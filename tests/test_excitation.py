@@ -27,11 +27,11 @@ from hypothesis import strategies as st
 from independent_model import reference
 from scipy.integrate import solve_ivp
 
-from ipgen.command.excite import ExcitationError, excitation
-from ipgen.command.identify import identify
 from ipgen.control import signals
 from ipgen.control.excitation import frequency_response
 from ipgen.errors import SceneError
+from ipgen.pipeline.excite import ExcitationError, excitation
+from ipgen.pipeline.identify import identify
 from ipgen.scene.reader import InputSpec, load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -584,7 +584,7 @@ def test_the_experiment_starts_hanging_in_the_rigs_own_coordinates(
 ) -> None:
     """[initial] is read in the rig's convention: the written angles must mean hanging in it (a
     rig measured from hanging starts at 0, not at π, which would be upright)."""
-    from ipgen.command.excite import Design, scene_text
+    from ipgen.pipeline.excite import Design, scene_text
 
     text = (RIGS / "srv02_dbip.toml").read_text()
     lines = [line for line in text.splitlines() if not line.startswith(("angles =", "zero =", "positive ="))]

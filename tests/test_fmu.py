@@ -21,10 +21,10 @@ from c_models import c_command, compile_c, require_cc, run_c
 from fmu_models import Loaded
 
 from ipgen.codegen.fmu import FmuError, build_command
-from ipgen.command.generate import generate
-from ipgen.command.job import plan, run
 from ipgen.model.derivation import derive
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate
+from ipgen.pipeline.job import plan, run
 
 fmpy = pytest.importorskip("fmpy")
 

@@ -24,9 +24,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ipgen
-from ipgen.command.job import OptionsError, plan
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.control.linear import EquilibriumWarning
+from ipgen.pipeline.job import OptionsError, plan
 
 CASES = [
     ("rotary", 2, Coordinates("relative", "hanging", "counterclockwise")),

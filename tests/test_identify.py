@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 pytest.importorskip("casadi")
 
 from ipgen.command.cli import run
-from ipgen.command.identify import identify, setup_from_scene
 from ipgen.control.linear import dynamics
 from ipgen.identification import data as data_module
 from ipgen.identification.data import DataError, parse_measurements, read_measurements
@@ -28,6 +27,7 @@ from ipgen.identification.model import IdentifyError, Setup, structural_model
 from ipgen.identification.structure import structural_statements
 from ipgen.identification.synthetic import folded_parameters, measure, simulate, write_csv
 from ipgen.model.system import System
+from ipgen.pipeline.identify import identify, setup_from_scene
 from ipgen.scene.reader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -438,9 +438,9 @@ def test_data_in_the_rigs_convention_are_converted_in_one_place() -> None:
     converted by Coordinates.to_canonical before the fit."""
     from types import SimpleNamespace
 
-    from ipgen.command.identify import canonical
     from ipgen.control.coordinates import Coordinates
     from ipgen.identification.data import Measurements
+    from ipgen.pipeline.identify import canonical
 
     convention = Coordinates(zero="hanging", positive="counterclockwise")
     t = np.linspace(0, 1, 60)

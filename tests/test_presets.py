@@ -11,12 +11,12 @@ from pathlib import Path
 
 import pytest
 
-from ipgen.command import simulator
 from ipgen.command.cli import run as cli
 from ipgen.common import build_cache
 from ipgen.common.locations import presets_dir
 from ipgen.common.presets import preset_path, presets
 from ipgen.errors import Error
+from ipgen.pipeline import simulator
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -12,8 +12,8 @@ import numpy as np
 from cxx import cxx_command, require_toolchain
 
 import ipgen
-from ipgen.command.generate import generate_header
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 
 ROOT = Path(__file__).resolve().parents[1]
 

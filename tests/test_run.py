@@ -313,7 +313,7 @@ def test_a_bad_optimisation_level_is_one_line_naming_the_variable(level: str) ->
     variable and the levels it takes (the value escaped, at most 40 characters of it)."""
     from unittest import mock
 
-    from ipgen.command.simulator import BuildError, optimisation
+    from ipgen.pipeline.simulator import BuildError, optimisation
 
     if "\0" in level:
         return  # an environment variable cannot hold NUL

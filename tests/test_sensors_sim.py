@@ -23,8 +23,8 @@ from cxx import require_toolchain
 
 import ipgen
 from ipgen.command.cli import run
-from ipgen.command.simulator import build
 from ipgen.estimation import ExtendedKalman, Sensors, SteadyStateKalman, default_covariances, replay
+from ipgen.pipeline.simulator import build
 from ipgen.scene.reader import load_scene, resolved_config
 
 PERIOD = 0.001

@@ -3,7 +3,7 @@ traceback. Corruptions: a truncated or altered binary, an entry that is a file, 
 is a folder, a checksum that is missing (an entry from before checksums: the binary must run)
 or garbage, a lock that is a folder. The compiler is replaced by a copy of a small executable
 script that answers --help like a simulator, so no simulator is compiled here; what is tested is
-the cache's handling (command/simulator.py), not the compiler."""
+the cache's handling (pipeline/simulator.py), not the compiler."""
 
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ipgen.command import simulator
-from ipgen.command.simulator import build, cache_key, compiler
 from ipgen.common import build_cache
+from ipgen.pipeline import simulator
+from ipgen.pipeline.simulator import build, cache_key, compiler
 
 FAKE = (
     "#!/bin/sh\necho 'usage: simulate SCENE.cfg (a stand-in for the compiled simulator)'\n" + "# pad\n" * 200

@@ -19,9 +19,9 @@ import pytest
 from cxx import cxx_command, require_toolchain
 
 from ipgen.command.cli import run
-from ipgen.command.generate import generate_header
 from ipgen.model.specialise import ENERGY_FUNCTIONS, Specialisation
 from ipgen.model.system import System
+from ipgen.pipeline.generate import generate_header
 from ipgen.scene.reader import load_scene
 from ipgen.scene.specialisation import from_scene
 

@@ -305,7 +305,7 @@ def test_a_lost_plan_gets_the_measured_hint(
     stood in for: test_a_lost_plan_stops_the_run_at_once gives a real status 5.)"""
     from types import SimpleNamespace
 
-    import ipgen.command.run
+    import ipgen.pipeline.run
     from ipgen.command.cli import EXIT_HINTS
     from ipgen.command.cli import run as cli
 
@@ -318,7 +318,7 @@ def test_a_lost_plan_gets_the_measured_hint(
     for status in (5, 3):
         outcome = SimpleNamespace(simulator=SimpleNamespace(built=False), files=[], summary="", messages="",
                                   status=status)  # fmt: skip
-        monkeypatch.setattr(ipgen.command.run, "run_scene", lambda *_, **__: outcome)  # noqa: B023
+        monkeypatch.setattr(ipgen.pipeline.run, "run_scene", lambda *_, **__: outcome)  # noqa: B023
         assert cli(["run", str(scene), "-o", str(tmp_path / "out")]) == status
         err = capsys.readouterr().err
         assert ("ipgen: hint: " + EXIT_HINTS[5] in err) == (status == 5), err

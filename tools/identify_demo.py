@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 
 import ipgen
-from ipgen.command.identify import setup_from_scene
 from ipgen.identification.data import read_measurements
 from ipgen.identification.synthetic import write_csv
+from ipgen.pipeline.identify import setup_from_scene
 from ipgen.scene.reader import load_scene
 from ipgen.scene.update import updated_scene_text
 

@@ -10,19 +10,19 @@ from typing import TYPE_CHECKING
 import click
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
-from ipgen.command import job
-from ipgen.command.job import LINKS_WITHOUT_FORCE, cost_estimate
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
+from ipgen.pipeline import job
+from ipgen.pipeline.job import LINKS_WITHOUT_FORCE, cost_estimate
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ipgen.command.generate import Written
     from ipgen.control.coordinates import Coordinates
+    from ipgen.pipeline.generate import Written
 
 __all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
 
@@ -300,7 +300,7 @@ def _generate(planned: job.Job) -> list[Written]:
     system = planned.system
     if system.links < PROGRESS_FROM_LINKS[system.type]:
         return job.run(planned)
-    from ipgen.command.generate import STEPS
+    from ipgen.pipeline.generate import STEPS
 
     with click.progressbar(
         length=STEPS + len(planned.emit),
@@ -350,7 +350,7 @@ liblapack-dev).
 def run_command(
     scene: Path | None, preset: str | None, directory: Path | None, force: bool, cache_dir: Path | None
 ) -> int:
-    from ipgen.command.run import run_scene
+    from ipgen.pipeline.run import run_scene
 
     scene = chosen_scene(scene, preset, "ipgen run --preset qube_servo2 -o out/")
     if directory is None:
@@ -497,7 +497,7 @@ def identify_command(
     scene: Path | None, preset: str | None, data: Path, free: str, directory: Path | None,
     equation_error_only: bool, force: bool,
 ) -> None:  # fmt: skip
-    from ipgen.command.identify import identify
+    from ipgen.pipeline.identify import identify
 
     example = "ipgen identify --preset qube_servo2 --data rig.csv --free J1 -o out/"
     scene = chosen_scene(scene, preset, example)

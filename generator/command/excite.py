@@ -1,122 +1,26 @@
 """`ipgen excite SCENE.toml -o EXPERIMENT.toml`: the identification experiment a user should run.
 
-The design is the library's (`ipgen.control.excitation.design`: the excitation about hanging
-that keeps the rig within its limits, predicted by the linear model), the experiment scene's
-text the scene layer's (`ipgen.scene.experiment.scene_text`); this module reads the options,
-writes the file (validated first; an existing one replaced only with `force`, the input scene
-never) and prints the report. docs/excitation.md is the user's guide.
+This module reads the options and prints the report; the work is `ipgen.pipeline.excite`
+(`ipgen.excitation`). docs/excitation.md is the user's guide.
 """
 
 from __future__ import annotations
 
-import tempfile
-from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
 from ipgen.command.scene_choice import chosen_scene, preset_option
-from ipgen.common.safetext import shown_path
 from ipgen.control.excitation import (
     DEFAULT_CHIRP_DURATION,
     DEFAULT_MARGIN,
     DEFAULT_PERIODS,
     DEFAULT_SWING,
     SIGNALS,
-    Design,
-    ExcitationError,
 )
-from ipgen.control.excitation import design as excitation_design
+from ipgen.pipeline.excite import excitation
 
-if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
-
-__all__ = ["Design", "ExcitationError", "command", "excitation", "scene_text"]
-
-
-def scene_text(rig: Scene, design: Design) -> str:
-    """The experiment scene (`ipgen.scene.experiment.scene_text`; pydantic only when used)."""
-    from ipgen.scene.experiment import scene_text as text
-
-    return text(rig, design)
-
-
-def excitation(
-    scene: str | Path,
-    output: str | Path | None = None,
-    *,
-    u_max: float | None = None,
-    travel: float | None = None,
-    signal: str = "multisine",
-    f_min: float | None = None,
-    f_max: float | None = None,
-    period: float | None = None,
-    periods: int = DEFAULT_PERIODS,
-    duration: float | None = None,
-    sweep: str = "logarithmic",
-    margin: float = DEFAULT_MARGIN,
-    swing: float = DEFAULT_SWING,
-    sample: float | None = None,
-    force: bool = False,
-) -> Design:
-    """Design an excitation for the rig of `scene` and, given `output`, write the experiment scene.
-
-    `u_max` is the largest |u| allowed (N, N m, or V with a dc_motor), `travel` the base's limit
-    |θ0| (m or rad; default: the scene's [limits] travel). `signal` is "multisine" (every
-    harmonic of 1/`period` in [f_min, f_max], run for `periods` periods), "chirp" (f_min to
-    f_max over `duration` s, `sweep` "linear" or "logarithmic") or "free-decay" (no input, link
-    1 released from rest at (1 − `margin`) · `swing` off hanging or less, for `duration` s; no
-    `u_max`). The band defaults to a fifth of
-    the hanging pendulum's lowest natural frequency up to five times its highest. The amplitude
-    is the largest (3 significant digits) whose predicted excursions stay within (1 − `margin`)
-    of `travel` and `swing` [rad], at most u_max. Raises `ExcitationError` (or `SceneError` for
-    the scene) with a one-line message.
-    """
-    from ipgen.scene.reader import load_scene
-
-    rig = load_scene(scene)
-    if output is not None:
-        _check_output(rig, Path(output), force)  # before any work
-    design = excitation_design(
-        rig, u_max=u_max, travel=travel, signal=signal, f_min=f_min, f_max=f_max, period=period,
-        periods=periods, duration=duration, sweep=sweep, margin=margin, swing=swing, sample=sample,
-    )  # fmt: skip
-    if output is not None:
-        design = replace(design, written=_write(rig, Path(output), design, force))
-    return design
-
-
-def _check_output(rig: Scene, output: Path, force: bool) -> None:
-    """An ExcitationError unless `output` is a .toml path that may be written: a new file, or an
-    existing one with `force` — never the rig's own scene."""
-    from ipgen.common.files import OutputError, check_replaceable
-
-    if output.suffix != ".toml":
-        raise ExcitationError(f"-o {shown_path(output)}: name a .toml scene file")
-    try:  # the output-path policy's checks of the path itself (a directory, too long, ...)
-        check_replaceable(output, True, keep=[rig.path])
-    except OutputError as exc:
-        raise ExcitationError(str(exc)) from None
-    if output.exists() and not force:  # stricter than the policy: an experiment is a new file
-        raise ExcitationError(f"{shown_path(output)} exists: choose another -o or pass --force")
-
-
-def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
-    from ipgen.common.files import OutputError, write_file
-    from ipgen.scene.reader import load_scene
-
-    _check_output(rig, output, force)
-    text = scene_text(rig, design)
-    with tempfile.TemporaryDirectory(prefix="ipgen-excite.") as folder:
-        trial = Path(folder) / output.name
-        trial.write_text(text, encoding="utf-8")
-        load_scene(trial)  # the experiment must be a valid scene before it is written
-    try:
-        write_file(output, text, force=True)  # checked above
-    except OutputError as exc:
-        raise ExcitationError(str(exc)) from None
-    return output
+__all__ = ["command"]
 
 
 # ---------------------------------------------------------------------------- the command

@@ -8,7 +8,7 @@ from typing import TypeVar
 
 import click
 
-from ipgen.command.job import OptionsError
+from ipgen.pipeline.job import OptionsError
 
 F = TypeVar("F", bound=Callable[..., object])
 

@@ -99,7 +99,7 @@ def _scratch_root() -> str | None:
 
 def header_text(path: Path, folder: Path) -> tuple[str, str]:
     """(model name, generated C++ header) of the scene at `path`, generated into `folder`."""
-    from ipgen.command import job
+    from ipgen.pipeline import job
 
     planned = job.for_the_simulator(job.plan(folder, scene=path, emit=("cpp",), force=True))
     job.run(planned)
@@ -112,7 +112,7 @@ def prepare(source: SceneSource) -> Prepared:
         found = _PREPARED.get(source.digest)
         if found is not None:
             return found
-        from ipgen.command.simulator import build
+        from ipgen.pipeline.simulator import build
         from ipgen.scene.reader import load_scene, read_document
 
         scratch = Path(tempfile.mkdtemp(prefix="ipgen-sweep.", dir=_scratch_root()))
