@@ -166,16 +166,67 @@ def write_header(
     zero: str | None = None,
     positive: str | None = None,
 ) -> list[Path]:
-    """Write the files of `ipgen --type TYPE --links N -o OUTPUT [...]` (or `--scene SCENE`) and
-    return their paths: `OUTPUT/<name>.hpp` by default, every file of `emit`, and `<stem>.cfg`
-    last for a scene. The keyword arguments are the command's options: `fix` as text
-    ("m0=0.3,delta2=0") or a mapping ({"m0": "0.3"}; a float is taken by its shortest repr),
-    `outputs` and `emit` as text or a list of names. `angles` ("absolute" | "relative"), `zero`
-    ("upright" | "hanging") and `positive` ("clockwise" | "counterclockwise") make every function
-    of the headers take and return the rig's coordinates (the canonical ones stay: namespace
-    `canonical` in C++, the `_canonical` suffix in C; docs/model.md); a scene says them in its
-    [system]. All files are written or none; bad input raises an `Error` with the message the
-    command prints.
+    """Write the files of `ipgen --type TYPE --links N -o OUTPUT [...]` (or `--scene SCENE`).
+
+    The keyword arguments are the command's options. All files are written or none.
+
+    Parameters
+    ----------
+    output : str or Path
+        The folder to write into (created if missing).
+    type : {"classical", "rotary"}, optional
+        A cart (classical) or a Furuta arm (rotary); with `links`, unless `scene` names the system.
+    links : int, optional
+        The number of pendulum links, >= 1.
+    name : str, optional
+        The model's name: namespace ``ipgen::NAME`` and file ``NAME.hpp`` (default
+        ``<type><links>``).
+    inertia : {"pivot", "full"}, optional
+        Rotary only: the published model (pivot, default) or the complete thin-rod inertia.
+    scene : str or Path, optional
+        A scene file (TOML): its [system] names the model, its [parameters] can be folded in, and
+        its resolved ``<stem>.cfg`` for the simulator is written last.
+    fix : str or mapping, optional
+        Parameters folded into the header as exact constants: text ("m0=0.3,delta2=0") or a
+        mapping ({"m0": "0.3"}; a float is taken by its shortest repr).
+    outputs : str or iterable of str, optional
+        With `fix`: only these functions (text "mass_matrix,bias" or a list of names).
+    emit : str or iterable of str, optional
+        The targets: "cpp" (default), "c", "equations", "fmu" ... as text or a list of names.
+    force : bool, optional
+        Replace files ipgen did not write (and allow more than the links the command asks about).
+    angles : {"absolute", "relative"}, optional
+        The rig's link angles: each from the vertical, or link i from link i - 1.
+    zero : {"upright", "hanging"}, optional
+        Where a link angle is 0.
+    positive : {"clockwise", "counterclockwise"}, optional
+        The link angles' positive sense. With `angles` and `zero`, every function of the headers
+        takes and returns the rig's coordinates (the canonical ones stay: namespace
+        ``canonical`` in C++, the ``_canonical`` suffix in C; docs/model.md); a scene says them
+        in its [system].
+
+    Returns
+    -------
+    list of Path
+        The files written: ``OUTPUT/<name>.hpp`` by default, every file of `emit`, and
+        ``<stem>.cfg`` last for a scene.
+
+    Raises
+    ------
+    Error
+        Bad input, with the one-line message the command prints; nothing is written then.
+
+    Examples
+    --------
+    >>> import tempfile, ipgen
+    >>> folder = tempfile.mkdtemp()
+    >>> [path.name for path in ipgen.write_header(folder, "rotary", 1)]
+    ['rotary1.hpp']
+    >>> try:
+    ...     ipgen.write_header(folder, "rotory", 1)
+    ... except ipgen.Error as error:
+    ...     print(error)
+    --type must be one of classical, rotary (got 'rotory')
     """
     from ipgen.pipeline.job import plan, run
 
@@ -340,6 +391,16 @@ def sweep(
     Error
         A one-line message for a bad specification (unknown key, empty range, ...), a scene ipgen
         refuses, an unreachable scheduler; nothing is written then.
+
+    Examples
+    --------
+    The mass criterion of the scorecard on a preset (compiles the simulator once, then runs):
+
+    >>> import ipgen
+    >>> from ipgen.common.presets import preset_path
+    >>> outcome = ipgen.sweep(preset_path("qube_servo2"), "qube_sweep", scorecard=["mass"])  # doctest: +SKIP
+    >>> 0 <= outcome.score <= 1  # doctest: +SKIP
+    True
     """
     from ipgen.sweeps.runner import sweep as run_sweep
     from ipgen.sweeps.success import Success

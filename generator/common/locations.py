@@ -10,7 +10,24 @@ from ipgen.errors import Error
 
 
 def cmake_dir() -> Path:
-    """The folder holding ipgenConfig.cmake (installed with the package; a checkout's cmake/)."""
+    """The folder holding ipgenConfig.cmake, for CMake's ``-Dipgen_DIR=`` (`ipgen --cmake-dir`).
+
+    Returns
+    -------
+    Path
+        The CMake package installed with ipgen, or a checkout's cmake/ folder.
+
+    Raises
+    ------
+    Error
+        The package is missing from this installation (reinstall ipgen-pendulum).
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> (ipgen.cmake_dir() / "ipgenConfig.cmake").is_file()
+    True
+    """
     spec = importlib.util.find_spec("ipgen.cmake")
     locations = list(spec.submodule_search_locations or []) if spec is not None else []
     for location in locations:

@@ -99,8 +99,8 @@ def kalman(
     Parameters
     ----------
     pendulum
-        ipgen's keyword description (a mapping of `ipgen.linearize`'s keywords: type, links, m,
-        l, delta, ... actuator, angles, zero, positive) or an `ipgen.control.linear.VectorField`.
+        An `ipgen.Pendulum`, ipgen's keyword description (a mapping of `ipgen.linearize`'s keywords: type,
+        links, m, l, delta, ... actuator, angles, zero, positive) or an `ipgen.control.linear.VectorField`.
     period
         The sampling period T [s]; the input is held over it (ZOH).
     Qn
@@ -124,6 +124,14 @@ def kalman(
     EstimationError
         Bad arguments, or no stabilising solution (e.g. an unmeasured coordinate that is not
         detectable, such as the arm angle of a rotary pendulum).
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> p = ipgen.Pendulum("rotary", 1, m=[0.1, 0.024], l=[0.085, 0.129], delta=[0.0015, 0.0005])
+    >>> estimator = ipgen.kalman(p, 0.002, 1e-3, 1e-6, measured=[0, 1])
+    >>> estimator.A.shape, estimator.M.shape  # 4 states, the 2 encoder angles measured
+    ((4, 4), (4, 2))
     """
     import numpy as np
     from scipy.linalg import solve_discrete_are

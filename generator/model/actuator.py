@@ -54,11 +54,39 @@ class ActuatorError(Error, ValueError):
 
 @dataclass(frozen=True)
 class Actuator:
-    """The base's drive. kind "direct": u is the force [N] on the cart or torque [N m] on the
-    arm (the paper's model; every other field unused). kind "dc_motor": u is the motor voltage
-    [V]; Rm, kt, km are required, Kg, eta_g, eta_m default to 1, Jm to 0; r (pinion radius)
-    is required on a cart and refused on an arm. kind "acceleration": u is the base's
-    acceleration θ̈0 [m/s² on a cart, rad/s² on an arm], imposed by a servo; no constants."""
+    """The base's drive, for the `actuator=` argument of `ipgen.derive`, `linearize` and `lqr`.
+
+    Parameters
+    ----------
+    kind : {"direct", "dc_motor", "acceleration"}
+        direct: u is the force [N] on the cart or the torque [N m] on the arm (the paper's
+        model; every other field unused). dc_motor: u is the motor voltage [V]. acceleration:
+        u is the base's acceleration θ̈0 [m/s² on a cart, rad/s² on an arm], imposed by a servo
+        (no constants).
+    Rm, kt, km : float
+        dc_motor, required: armature resistance [Ω], torque constant [N m/A], back-EMF
+        constant [V s/rad].
+    Kg, eta_g, eta_m : float
+        dc_motor: gear ratio (motor turns per output turn), gearbox and motor efficiencies in
+        (0, 1]; default 1.
+    Jm : float
+        dc_motor: rotor inertia [kg m²], default 0.
+    r : float
+        dc_motor on a cart, required there: the pinion radius [m]; refused on an arm.
+
+    Raises
+    ------
+    ActuatorError
+        (an `ipgen.Error`, one line) when used on a system it cannot drive (`check`): a missing
+        or non-physical constant, r on an arm, an unknown kind.
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> motor = ipgen.Actuator("dc_motor", Rm=8.4, kt=0.042, km=0.042)
+    >>> ipgen.derive("rotary", 1, actuator=motor).system.links
+    1
+    """
 
     kind: str = "direct"
     Rm: float | None = None

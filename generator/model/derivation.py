@@ -40,10 +40,18 @@ PolyMatrix = list[list[Poly]]
 
 @dataclass(frozen=True)
 class Equations:
-    """M(θ) θ̈ + C(θ, θ̇) θ̇ + D θ̇ + P(θ) = B u.
+    """M(θ) θ̈ + C(θ, θ̇) θ̇ + D θ̇ + P(θ) = B u, as `ipgen.derive` returns them.
 
     Each piece is kept as ring elements (`poly`, what code generation reads; `algebra.ring`)
-    and offered as sympy expressions in θ, θ̇ and the parameters (computed on first use).
+    and offered as sympy expressions in θ, θ̇ and the parameters (computed on first use):
+    `mass_matrix`, `coriolis`, `damping`, `gravity`, `bias`, `n_matrix`, `input_matrix`,
+    `kinetic_energy`, `potential_energy`, `dissipation`.
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> print(ipgen.derive("classical", 1).mass_matrix)
+    Matrix([[m0 + m1, l1*m1*cos(theta1)/2], [l1*m1*cos(theta1)/2, l1**2*m1/3]])
     """
 
     system: System

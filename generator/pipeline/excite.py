@@ -58,16 +58,66 @@ def excitation(
 ) -> Design:
     """Design an excitation for the rig of `scene` and, given `output`, write the experiment scene.
 
-    `u_max` is the largest |u| allowed (N, N m, or V with a dc_motor), `travel` the base's limit
-    |θ0| (m or rad; default: the scene's [limits] travel). `signal` is "multisine" (every
-    harmonic of 1/`period` in [f_min, f_max], run for `periods` periods), "chirp" (f_min to
-    f_max over `duration` s, `sweep` "linear" or "logarithmic") or "free-decay" (no input, link
-    1 released from rest at (1 − `margin`) · `swing` off hanging or less, for `duration` s; no
-    `u_max`). The band defaults to a fifth of
-    the hanging pendulum's lowest natural frequency up to five times its highest. The amplitude
-    is the largest (3 significant digits) whose predicted excursions stay within (1 − `margin`)
-    of `travel` and `swing` [rad], at most u_max. Raises `ExcitationError` (or `SceneError` for
-    the scene) with a one-line message.
+    The amplitude is the largest (3 significant digits) whose excursions, predicted by the
+    linear model about hanging, stay within (1 − `margin`) of `travel` and `swing`, and at most
+    `u_max`. docs/excitation.md is the guide.
+
+    Parameters
+    ----------
+    scene : str or Path
+        The rig's scene file (TOML).
+    output : str or Path, optional
+        The experiment scene to write (a new .toml file; an existing one only with `force`, the
+        rig's own scene never). Without it the design is only returned.
+    u_max : float, optional
+        The largest |u| allowed [N, N m, or V with a dc_motor]; required but for a free decay.
+    travel : float, optional
+        The base's limit |θ0| [m or rad] (default: the scene's [limits] travel).
+    signal : {"multisine", "chirp", "free-decay"}, optional
+        multisine: every harmonic of 1/`period` in [f_min, f_max], run for `periods` periods;
+        chirp: f_min to f_max over `duration` s; free-decay: no input, link 1 released from
+        rest at (1 − `margin`) · `swing` off hanging or less, for `duration` s.
+    f_min, f_max : float, optional
+        The band [Hz] (default: a fifth of the hanging pendulum's lowest natural frequency up
+        to five times its highest).
+    period : float, optional
+        The multisine's period [s] (default max(10, 2/f_min)).
+    periods : int, optional
+        Multisine periods run.
+    duration : float, optional
+        The chirp's or free decay's length [s].
+    sweep : {"logarithmic", "linear"}, optional
+        The chirp's sweep.
+    margin : float, optional
+        The fraction of each limit kept free, in [0, 1).
+    swing : float, optional
+        The links' largest swing [rad].
+    sample : float, optional
+        The output interval [s] (default 1/(20 f_max), rounded).
+    force : bool, optional
+        Replace an existing experiment scene.
+
+    Returns
+    -------
+    Design
+        The excitation (`.amplitude`, `.limited_by`, the predicted `.base` and `.swing`,
+        `.written`: the scene written or None) and `.report()`, the paragraph `ipgen excite`
+        prints.
+
+    Raises
+    ------
+    ExcitationError
+        Bad limits or options, or an output that may not be written (one line).
+    SceneError
+        The rig's scene is not a valid scene (one line).
+
+    Examples
+    --------
+    >>> import ipgen
+    >>> from ipgen.common.presets import preset_path
+    >>> design = ipgen.excitation(preset_path("qube_servo2"), u_max=10, travel=1.0)
+    >>> design.limited_by in ("u_max", "travel", "swing")
+    True
     """
     from ipgen.scene.reader import load_scene
 
