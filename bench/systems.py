@@ -6,8 +6,8 @@ purpose (no sympy, tqdm or matplotlib): the tool imports it too.
 
 from __future__ import annotations
 
-from ipgen.command.cli import LINKS_WITHOUT_FORCE
 from ipgen.model.system import SYSTEM_TYPES
+from ipgen.pipeline.job import LINKS_WITHOUT_FORCE
 
 TYPES: tuple[str, ...] = SYSTEM_TYPES
 LINKS: tuple[int, ...] = (1, 2, 3, 5, 10, 20)

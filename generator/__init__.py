@@ -194,7 +194,7 @@ def write_header(
     emit : str or iterable of str, optional
         The targets: "cpp" (default), "c", "equations", "fmu" ... as text or a list of names.
     force : bool, optional
-        Replace files ipgen did not write (and allow more than the links the command asks about).
+        Replace files ipgen did not write, and allow more than 30 links (a header of several MB).
     angles : {"absolute", "relative"}, optional
         The rig's link angles: each from the vertical, or link i from link i - 1.
     zero : {"upright", "hanging"}, optional
@@ -219,11 +219,11 @@ def write_header(
     Examples
     --------
     >>> import tempfile, ipgen
-    >>> folder = tempfile.mkdtemp()
-    >>> [path.name for path in ipgen.write_header(folder, "rotary", 1)]
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     print([path.name for path in ipgen.write_header(folder, "rotary", 1)])
     ['rotary1.hpp']
     >>> try:
-    ...     ipgen.write_header(folder, "rotory", 1)
+    ...     ipgen.write_header("out", "rotory", 1)
     ... except ipgen.Error as error:
     ...     print(error)
     --type must be one of classical, rotary (got 'rotory')
@@ -293,7 +293,8 @@ def identify(
     Examples
     --------
     >>> import ipgen  # doctest: +SKIP
-    >>> ipgen.identify("scenes/rigs/qube_servo2.toml", "rig.csv", "J1,delta0", "out").report  # doctest: +SKIP
+    >>> from ipgen.common.presets import preset_path  # doctest: +SKIP
+    >>> ipgen.identify(preset_path("qube_servo2"), "rig.csv", "J1,delta0", "out").report  # doctest: +SKIP
     """
     from ipgen.model.pendulum import Pendulum
 

@@ -2,9 +2,9 @@
 # tools/compile_log.sh LOG COMMAND...: runs COMMAND with every call of g++, c++, gcc and cc timed,
 # one line per call appended to LOG ("user sys wall compiler | arguments"), then prints the total
 # compiler CPU time, the calls that took more than 3 s, and how many took less.
-# docs/testing.md's inventory of what `make test` compiles comes from it, e.g.
-#   IPGEN_CACHE_DIR=$(mktemp -d) tools/compile_log.sh /tmp/compiles.log \
-#     .venv/bin/python -m pytest -q -n 2 -m "not fresh_venv"
+# docs/testing.md's inventory of what `make test` compiles comes from it, run in a fresh clone:
+#   git clone . /tmp/x && cd /tmp/x && tools/compile_log.sh /tmp/compiles.log make test
+# (The CMake build there keeps the logging wrapper as its compiler: remove /tmp/x afterwards.)
 set -euo pipefail
 if [ $# -lt 2 ]; then
   echo "usage: tools/compile_log.sh LOG COMMAND..." >&2
@@ -13,8 +13,10 @@ fi
 [ -x /usr/bin/time ] || { echo "tools/compile_log.sh needs /usr/bin/time: apt-get install time" >&2; exit 2; }
 log=$(realpath -m "$1")
 shift
-wrappers=$(mktemp -d)
-trap 'rm -rf "$wrappers"' EXIT
+# The wrappers stay beside the log: a CMake build configured during the run records the c++ it
+# found on PATH (the wrapper) as its compiler, so remove that build folder after measuring.
+wrappers="$log.wrappers"
+mkdir -p "$wrappers"
 for compiler in g++ c++ gcc cc; do
   real=$(command -v "$compiler" || true)
   [ -n "$real" ] || continue

@@ -1,6 +1,6 @@
 // The stability scenarios of docs/stability.md, generic over a generated model: each measures
 // one extreme (many links, mass and length ratios, no or enormous damping, fast motion, rotary
-// geometry, float, long horizons) and asserts its outcome. stability.cpp runs them for one model
+// geometry, float, long horizons) and asserts its outcome. driver.hpp runs them for one model
 // and prints one JSON object per row; tools/stability.py tabulates them.
 #pragma once
 

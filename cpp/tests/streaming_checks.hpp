@@ -7,6 +7,8 @@
 //   below), for every input kind and the energy and u columns;
 // - a sink can stop a run; DivergenceMonitor stops a closed loop that leaves its region, and
 //   only one that was inside it.
+// Included by test_model.cpp alone (one translation unit: `test_model_cart1 streaming`), hence the
+// unnamed namespace.
 #pragma once
 
 #include <algorithm>

@@ -8,8 +8,8 @@
 //   test_model_<name> unit                the library's unit checks (unit_checks.hpp), and
 //   test_model_<name> streaming           its streaming checks (streaming_checks.hpp): built for
 //                                         the stand-in only (IPGEN_LIBRARY_CHECKS)
-//   test_model_<name> stability [--quick] the stability scenarios (cpp/stability/driver.hpp), for
-//                                         models built with IPGEN_STABILITY
+//   test_model_<name> stability ARGS...   the stability driver (cpp/stability/driver.hpp; ctest:
+//                                         --quick), for models built with IPGEN_STABILITY
 #include <cstdio>
 #include <string>
 
@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   if (suite == "stability") return stability::driver::run<IPGEN_MODEL>(argc - 1, argv + 1);
 #endif
   if (argc > 1) {
-    std::fprintf(stderr, "test_model: unknown suite `%s` for this model\n", suite.c_str());
+    std::fprintf(stderr, "test_model: unknown arguments for this model's program (its suites: see test_model.cpp)\n");
     return 2;
   }
 #ifdef IPGEN_IDENTITIES_ONLY

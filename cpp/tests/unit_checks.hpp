@@ -1,5 +1,6 @@
 // Model-independent parts of ipsim, exercised on the stand-in: RAII wrappers, inputs, the stop
-// schedule, the scene reader and the numerical guards.
+// schedule, the scene reader and the numerical guards. Included by test_model.cpp alone (one
+// translation unit: `test_model_cart1 unit`), hence the unnamed namespace.
 #pragma once
 
 #include <cmath>
@@ -86,9 +87,11 @@ void check_inputs() {
 
 // GCC 12 at -O1 warns below that the std::optional's payload "may be used uninitialized", a known
 // false positive (GCC bug 80635): it is read only when engaged. Silenced for this function (its
-// reads are outside CHECK, whose own line is in check.hpp).
+// reads are outside CHECK, whose own line is in check.hpp); clang has no such warning.
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 /// TravelMonitor: passes samples on while |θ0| <= travel, stops at the first beyond.
 void check_travel_monitor() {
   struct Count : ipsim::SampleSink {
@@ -111,7 +114,9 @@ void check_travel_monitor() {
   const bool stopped_there = exceeded && exceeded->t == 1.5 && exceeded->position == -0.51;
   CHECK(stopped_there);
 }
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic pop
+#endif
 
 void check_schedule() {
   using ipsim::detail::make_schedule;

@@ -16,7 +16,7 @@ from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.system import INERTIA_VARIANTS, SYSTEM_TYPES, System
 from ipgen.pipeline import job
-from ipgen.pipeline.job import LINKS_WITHOUT_FORCE, cost_estimate
+from ipgen.pipeline.job import LINKS_WITHOUT_FORCE
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     from ipgen.control.coordinates import Coordinates
     from ipgen.pipeline.generate import Written
 
-__all__ = ["LINKS_WITHOUT_FORCE", "cost_estimate", "main", "run"]
+__all__ = ["main", "run"]
 
 EXIT_USAGE = 2
 # Generations above these sizes take more than a second or two: show a progress bar.

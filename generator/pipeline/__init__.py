@@ -1,6 +1,7 @@
-"""Each command's work as a library function, the stages put together: the command stage
-(generator/command/) only parses arguments and prints, and the Python API (`ipgen.write_header`,
-`ipgen.identify`, `ipgen.excitation`, sweeps) calls the same functions.
+"""The stages put together, as library functions: the work of `ipgen` (generation), `ipgen run`,
+`ipgen identify` and `ipgen excite`. The command stage (generator/command/) parses their arguments
+and prints, and the Python API (`ipgen.write_header`, `ipgen.identify`, `ipgen.excitation`, sweeps)
+calls the same functions. (`ipgen plot` and `ipgen animate` only call plots/.)
 
     job.py        a generation job: options or a scene, validated in one place
     generate.py   derive once, render every requested target, write them all or none
