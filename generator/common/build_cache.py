@@ -56,6 +56,13 @@ class Recipe:
     legacy_whole: Callable[[Path], bool] | None = None  # a target without a checksum: usable?
 
 
+def chosen_compiler(variable: str, candidates: tuple[str, ...]) -> str | None:
+    """The compiler a build uses: $`variable` if set, else the first of `candidates` on PATH;
+    None when that is not on PATH (the caller says what to install)."""
+    wanted = os.environ.get(variable) or next((c for c in candidates if shutil.which(c)), None)
+    return wanted if wanted is not None and shutil.which(wanted) is not None else None
+
+
 def cache_root(override: Path | None = None) -> Path:
     """The cache folder: `override`, $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen."""
     if override is not None:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
-import os
 import shutil
 import subprocess
 from dataclasses import dataclass
@@ -27,7 +26,7 @@ import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest, environment
-from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
+from ipgen.common.build_cache import Recipe, cache_root, cached_build, chosen_compiler, last_error_line
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import derive
@@ -86,12 +85,12 @@ def sources(system: System) -> tuple[str, str]:
 
 def c_compiler() -> str:
     """$CC, else cc, else gcc."""
-    wanted = os.environ.get("CC") or next((c for c in ("cc", "gcc") if shutil.which(c)), None)
-    if wanted is None or shutil.which(wanted) is None:
+    found = chosen_compiler("CC", ("cc", "gcc"))
+    if found is None:
         raise KernelError(
             "no C compiler found (tried $CC, cc, gcc): install one (Debian: apt-get install gcc)"
         )
-    return wanted
+    return found
 
 
 def cache_folder() -> Path:

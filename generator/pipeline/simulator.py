@@ -32,7 +32,7 @@ import subprocess
 from collections.abc import Callable
 from pathlib import Path
 
-from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, last_error_line
+from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, chosen_compiler, last_error_line
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.errors import Error
@@ -81,12 +81,12 @@ def simulator_sources() -> tuple[Path, Path]:
 
 def compiler() -> str:
     """The C++ compiler: $CXX, else g++, else c++."""
-    wanted = os.environ.get("CXX") or next((c for c in ("g++", "c++") if shutil.which(c)), None)
-    if wanted is None or shutil.which(wanted) is None:
+    found = chosen_compiler("CXX", ("g++", "c++"))
+    if found is None:
         raise BuildError(
             "no C++ compiler found (tried $CXX, g++, c++): install one (Debian: apt-get install g++)"
         )
-    return wanted
+    return found
 
 
 def _eigen_flags() -> list[str]:
