@@ -590,7 +590,8 @@ def test_the_experiment_starts_hanging_in_the_rigs_own_coordinates(
 ) -> None:
     """[initial] is read in the rig's convention: the written angles must mean hanging in it (a
     rig measured from hanging starts at 0, not at π, which would be upright)."""
-    from ipgen.pipeline.excite import Design, scene_text
+    from ipgen.pipeline.excite import Design
+    from ipgen.scene.experiment import scene_text
 
     text = (RIGS / "srv02_dbip.toml").read_text()
     lines = [line for line in text.splitlines() if not line.startswith(("angles =", "zero =", "positive ="))]

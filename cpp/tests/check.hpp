@@ -20,6 +20,13 @@ inline int& failure_count() {
 /// Process exit code: 0 when every check passed.
 inline int failures() { return failure_count() == 0 ? 0 : 1; }
 
+/// Prints the suite's one-line verdict, "<suite>: <passed>" or "<suite>: FAILED", and returns
+/// the process exit code.
+inline int finish(const std::string& suite, const char* passed = "all passed") {
+  std::printf("%s: %s\n", suite.c_str(), failure_count() == 0 ? passed : "FAILED");
+  return failures();
+}
+
 /// Full-precision text of a number (std::to_string would print 1e-12 as 0.000000).
 inline std::string number(double value) {
   char text[32];

@@ -369,6 +369,12 @@ void check_methods_agree() {
   CHECK(bdf.wall_time > 0.0);
 }
 
+/// "cdip (classical, 2 links)": the model's checks as their verdict names them.
+template <class Model>
+std::string suite_name() {
+  return std::string(Model::kName) + " (" + Model::kType + ", " + std::to_string(Model::kLinks) + " links)";
+}
+
 /// The physics identities alone (for large models, where every generic check would take minutes):
 /// the functions agree with each other, T + V is conserved without damping and balances input
 /// work and dissipation with it.
@@ -377,9 +383,7 @@ int run_identity_checks() {
   check_model_consistency<Model>();
   check_energy_conservation<Model>(ipsim::Method::bdf);
   check_work_energy_balance<Model>();
-  std::printf("%s (%s, %d links): %s\n", Model::kName, Model::kType, Model::kLinks,
-              failure_count() == 0 ? "identities hold" : "FAILED");
-  return failures();
+  return finish(suite_name<Model>(), "identities hold");
 }
 
 /// Runs every generic check on `Model`.
@@ -395,9 +399,7 @@ int run_model_checks() {
   check_upright_equilibrium<Model>();
   check_pulse_discontinuity<Model>();
   check_methods_agree<Model>();
-  std::printf("%s (%s, %d links): %s\n", Model::kName, Model::kType, Model::kLinks,
-              failure_count() == 0 ? "all checks passed" : "FAILED");
-  return failures();
+  return finish(suite_name<Model>(), "all checks passed");
 }
 
 }  // namespace ipsim_test

@@ -318,8 +318,7 @@ inline int run() {
   check_schedule_stream();
   check_csv_bytes();
   check_stopping();
-  std::printf("ipsim streaming checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
-  return ipsim_test::failures();
+  return ipsim_test::finish("ipsim streaming checks");
 }
 
 }  // namespace ipsim_test::streaming

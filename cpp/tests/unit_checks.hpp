@@ -402,8 +402,7 @@ inline int run() {
   check_scene_method_keys();
   check_coordinates();
   check_model_without_derivatives();
-  std::printf("ipsim unit checks: %s\n", ipsim_test::failure_count() == 0 ? "all passed" : "FAILED");
-  return ipsim_test::failures();
+  return ipsim_test::finish("ipsim unit checks");
 }
 
 }  // namespace ipsim_test::unit

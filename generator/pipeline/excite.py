@@ -28,14 +28,7 @@ from ipgen.control.excitation import design as excitation_design
 if TYPE_CHECKING:
     from ipgen.scene.reader import Scene
 
-__all__ = ["Design", "ExcitationError", "excitation", "scene_text"]
-
-
-def scene_text(rig: Scene, design: Design) -> str:
-    """The experiment scene (`ipgen.scene.experiment.scene_text`; pydantic only when used)."""
-    from ipgen.scene.experiment import scene_text as text
-
-    return text(rig, design)
+__all__ = ["Design", "ExcitationError", "excitation"]
 
 
 def excitation(
@@ -150,9 +143,10 @@ def _check_output(rig: Scene, output: Path, force: bool) -> None:
 
 def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
     from ipgen.common.files import OutputError, write_file
+    from ipgen.scene.experiment import scene_text
     from ipgen.scene.reader import load_scene
 
-    _check_output(rig, output, force)
+    _check_output(rig, output, force)  # again: a file may have appeared while the design ran
     text = scene_text(rig, design)
     with tempfile.TemporaryDirectory(prefix="ipgen-excite.") as folder:
         trial = Path(folder) / output.name
