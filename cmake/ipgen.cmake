@@ -40,7 +40,8 @@
 # nothing is written at install time. It is only looked for when a generating function is called.
 #
 # Layout (the same in the checkout and in the installed package ipgen/): cmake/ (this file),
-# cpp/include/ipsim/ (the simulator), cpp/src/simulate.cpp (the simulator's command line).
+# cpp/include/ipsim/ (the simulator), cpp/src/simulate.cpp (the simulator's command line),
+# cpp/src/ipsim_core.cpp (ipsim's model-independent functions, compiled once: ipgen_ipsim_core).
 
 include_guard(GLOBAL)
 
@@ -244,6 +245,19 @@ function(ipgen_add_model target)
     IPGEN_MODEL_SYSTEM "type=${arg_TYPE} links=${arg_LINKS} inertia=${inertia}")
 endfunction()
 
+# The static library ipgen_ipsim_core (once per build): ipsim's model-independent functions
+# compiled once, with ipgen::ipsim and -DIPSIM_SEPARATE_COMPILATION for whatever links it
+# (cpp/include/ipsim/linkage.hpp). Every simulator links it instead of compiling them again.
+function(ipgen_ipsim_core)
+  if(NOT TARGET ipgen_ipsim_core)
+    ipgen_find_ipsim()
+    add_library(ipgen_ipsim_core STATIC "${_IPGEN_ROOT}/cpp/src/ipsim_core.cpp")
+    target_link_libraries(ipgen_ipsim_core PUBLIC ipgen::ipsim)
+    target_compile_definitions(ipgen_ipsim_core PUBLIC IPSIM_SEPARATE_COMPILATION)
+    ipgen_target_warnings(ipgen_ipsim_core)
+  endif()
+endfunction()
+
 function(ipgen_add_simulator model_target)
   cmake_parse_arguments(PARSE_ARGV 1 arg "" "TARGET" "")
   get_target_property(name ${model_target} IPGEN_MODEL_NAME)
@@ -255,7 +269,8 @@ function(ipgen_add_simulator model_target)
     set(simulator ${arg_TARGET})
   endif()
   add_executable(${simulator} "${_IPGEN_ROOT}/cpp/src/simulate.cpp")
-  target_link_libraries(${simulator} PRIVATE ipgen::ipsim ${model_target})
+  ipgen_ipsim_core()
+  target_link_libraries(${simulator} PRIVATE ipgen_ipsim_core ${model_target})
   target_compile_definitions(${simulator} PRIVATE
     IPGEN_MODEL_HEADER="${name}.hpp"
     IPGEN_MODEL=ipgen::${name}::Model)

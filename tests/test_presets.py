@@ -115,13 +115,19 @@ def test_the_build_announcement_states_the_last_build(
     """No '~10 s' guess: the first build in a cache says nothing about time, the next states how
     long the previous one took (before: 'first run for this model, ~10 s' whatever the machine)."""
 
-    def fake_compile(cxx: str, header: Path, name: str, binary: Path) -> list[str]:
+    def fake_compile(cxx: str, header: Path, name: str, binary: Path, core: Path) -> list[str]:
         return ["sh", "-c", 'sleep 0.2 && cp /bin/true "$0"', str(binary)]
 
+    def fake_core(cxx: str, output: Path) -> list[str]:
+        return ["cp", "/bin/true", str(output)]
+
     monkeypatch.setattr(simulator, "compile_command", fake_compile)
+    monkeypatch.setattr(simulator, "core_command", fake_core)
     said: list[str] = []
     first = simulator.build("// model a\n", "a", tmp_path, said.append)
-    assert first.built and said == ["building the simulator for model a…"]
+    core = "building ipsim's model-independent code (once for all models)…"
+    assert first.built and said == [core, "building the simulator for model a…"]  # the core: once
+    said.remove(core)
     assert build_cache.last_build(tmp_path / "simulators") == pytest.approx(first.seconds, abs=1e-3)
     second = simulator.build("// model b\n", "b", tmp_path, said.append)
     assert second.built

@@ -41,11 +41,15 @@ def fake_compiler(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.Temp
     script.chmod(script.stat().st_mode | stat.S_IXUSR)
     builds: list[int] = []
 
-    def command(cxx: str, header: Path, name: str, binary: Path) -> list[str]:
+    def command(cxx: str, header: Path, name: str, binary: Path, core: Path) -> list[str]:
         builds.append(1)
         return ["cp", str(script), str(binary)]
 
+    def core_command(cxx: str, output: Path) -> list[str]:  # ipsim's compiled core: not counted
+        return ["cp", str(script), str(output)]
+
     monkeypatch.setattr(simulator, "compile_command", command)
+    monkeypatch.setattr(simulator, "core_command", core_command)
     return builds
 
 

@@ -51,6 +51,11 @@ LIBRARIES = (
     "-lsundials_sunnonlinsolfixedpoint",
     "-llapack",
 )
+# ipsim's model-independent functions, compiled once per compiler and flags into the cache's
+# ipsim-core/ and linked into every simulator (cpp/include/ipsim/linkage.hpp).
+CORE_SOURCE = "ipsim_core.cpp"
+SEPARATE = "-DIPSIM_SEPARATE_COMPILATION"
+CORE_OBJECT = "ipsim_core.o"
 EIGEN_INCLUDE = Path("/usr/include/eigen3")  # Debian's libeigen3-dev (else pkg-config eigen3)
 # What a failed compile most likely lacks: (pattern in the compiler's output, Debian package).
 MISSING_PACKAGES = (
@@ -74,7 +79,8 @@ def simulator_sources() -> tuple[Path, Path]:
     """(cpp/src/simulate.cpp, cpp/include) of this installation (package or checkout)."""
     root = cmake_dir().parent  # the installed package's folder ipgen/, or the checkout
     source, include = root / "cpp" / "src" / "simulate.cpp", root / "cpp" / "include"
-    if not source.is_file() or not (include / "ipsim" / "ipsim.hpp").is_file():
+    present = (source, source.with_name(CORE_SOURCE), include / "ipsim" / "ipsim.hpp")
+    if not all(path.is_file() for path in present):
         raise BuildError(f"the simulator's sources are missing from {shown_path(root)}: reinstall ipgen")
     return source, include
 
@@ -112,32 +118,44 @@ def optimisation() -> tuple[str, ...]:
     return tuple(level if flag == "-O2" else flag for flag in OPTIMISATION)
 
 
-def compile_command(cxx: str, header: Path, name: str, binary: Path) -> list[str]:
-    """The compiler call that builds simulate.cpp for the model `name` in `header`."""
+def compile_command(cxx: str, header: Path, name: str, binary: Path, core: Path) -> list[str]:
+    """The compiler call that builds simulate.cpp for the model `name` in `header`, linking
+    ipsim's compiled `core` (`core_command`)."""
     source, include = simulator_sources()
     return [
         cxx,
         *optimisation(),
+        SEPARATE,
         f"-I{include}",
         f"-I{header.parent}",
         *_eigen_flags(),
         f'-DIPGEN_MODEL_HEADER="{header.name}"',
         f"-DIPGEN_MODEL=ipgen::{name}::Model",
         str(source),
+        str(core),
         "-o",
         str(binary),
         *LIBRARIES,
     ]
 
 
+def core_command(cxx: str, output: Path) -> list[str]:
+    """The compiler call that builds ipsim's model-independent functions into the object `output`."""
+    source, include = simulator_sources()
+    core = source.with_name(CORE_SOURCE)
+    flags = [*optimisation(), SEPARATE, f"-I{include}", *_eigen_flags()]
+    return [cxx, *flags, "-c", str(core), "-o", str(output)]
+
+
 def cache_key(cxx: str, header_text: str) -> str:
-    """SHA-256 (hex, 24 digits) of everything the binary depends on."""
+    """SHA-256 (hex, 24 digits) of everything the binary depends on (with `header_text` empty:
+    everything ipsim's compiled core depends on)."""
     source, include = simulator_sources()
     digest = hashlib.sha256()
     version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
     for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
         digest.update(part.encode() + b"\0")
-    for path in [source, *sorted((include / "ipsim").glob("*.hpp"))]:
+    for path in [source, source.with_name(CORE_SOURCE), *sorted((include / "ipsim").glob("*.hpp"))]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:24]
 
@@ -176,9 +194,10 @@ def build(
     """The simulator for the model `name` whose generated header is `header_text`: from the
     cache, or compiled into it (calling `announce` with a progress line first)."""
     cxx = compiler()
+    core = _core(cxx, cache, announce).path
     recipe = Recipe(
         sources={f"{name}.hpp": header_text},
-        command=lambda entry, binary: compile_command(cxx, entry / f"{name}.hpp", name, binary),
+        command=lambda entry, binary: compile_command(cxx, entry / f"{name}.hpp", name, binary, core),
         error=BuildError,
         failed=_failed,
         what=f"the simulator for model {name}",
@@ -187,3 +206,17 @@ def build(
     )
     folder = cache_root(cache) / "simulators"
     return cached_build(folder, cache_key(cxx, header_text), f"simulate_{name}", recipe, announce)
+
+
+def _core(cxx: str, cache: Path | None, announce: Callable[[str], None]) -> Built:
+    """ipsim's compiled core for this compiler and these flags: from the cache, or compiled into it."""
+    recipe = Recipe(
+        sources={},
+        command=lambda entry, output: core_command(cxx, output),
+        error=BuildError,
+        failed=_failed,
+        what="ipsim's model-independent code (once for all models)",
+        noun="compiled core",
+    )
+    folder = cache_root(cache) / "ipsim-core"
+    return cached_build(folder, cache_key(cxx, ""), CORE_OBJECT, recipe, announce)

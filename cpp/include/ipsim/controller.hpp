@@ -21,6 +21,7 @@
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 
@@ -49,26 +50,7 @@ struct LinearFeedback {
 
   /// Problems, one line each (empty when valid): sizes against 2·kDof, finiteness, saturation > 0,
   /// period ≥ 0.
-  std::vector<std::string> problems(int state_size) const {
-    std::vector<std::string> found;
-    for (const auto& [name, vector] : {std::pair<const char*, const Eigen::VectorXd*>{"gain", &gain},
-                                       std::pair<const char*, const Eigen::VectorXd*>{"equilibrium", &equilibrium}}) {
-      if (vector->size() != state_size) {
-        found.push_back(std::string("invalid setting controller.") + name + ": has " + std::to_string(vector->size()) +
-                        " entries, the model's state has 2·kDof = " + std::to_string(state_size));
-      } else if (!vector->allFinite()) {
-        found.push_back(std::string("invalid setting controller.") + name + ": must be finite");
-      }
-    }
-    if (!(saturation > 0.0)) {
-      found.push_back("invalid setting controller.saturation = " + detail::format_number(saturation) + ": must be > 0");
-    }
-    if (!(std::isfinite(period) && period >= 0.0)) {
-      found.push_back("invalid setting controller.period = " + detail::format_number(period) +
-                      ": must be finite and > 0 (or 0: continuous)");
-    }
-    return found;
-  }
+  std::vector<std::string> problems(int state_size) const;
 };
 
 namespace detail {
@@ -123,3 +105,30 @@ Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFe
 }
 
 }  // namespace ipsim
+
+#if IPSIM_DEFINITIONS
+namespace ipsim {
+
+IPSIM_DECL std::vector<std::string> LinearFeedback::problems(int state_size) const {
+  std::vector<std::string> found;
+  for (const auto& [name, vector] : {std::pair<const char*, const Eigen::VectorXd*>{"gain", &gain},
+                                     std::pair<const char*, const Eigen::VectorXd*>{"equilibrium", &equilibrium}}) {
+    if (vector->size() != state_size) {
+      found.push_back(std::string("invalid setting controller.") + name + ": has " + std::to_string(vector->size()) +
+                      " entries, the model's state has 2·kDof = " + std::to_string(state_size));
+    } else if (!vector->allFinite()) {
+      found.push_back(std::string("invalid setting controller.") + name + ": must be finite");
+    }
+  }
+  if (!(saturation > 0.0)) {
+    found.push_back("invalid setting controller.saturation = " + detail::format_number(saturation) + ": must be > 0");
+  }
+  if (!(std::isfinite(period) && period >= 0.0)) {
+    found.push_back("invalid setting controller.period = " + detail::format_number(period) +
+                    ": must be finite and > 0 (or 0: continuous)");
+  }
+  return found;
+}
+
+}  // namespace ipsim
+#endif  // IPSIM_DEFINITIONS

@@ -9,6 +9,7 @@
 
 #include "ipsim/errors.hpp"
 #include "ipsim/settings.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim::detail {
 
@@ -19,17 +20,7 @@ struct Diagnostics {
 };
 
 /// CVErrHandlerFn / ARKErrHandlerFn: stores the message in the Diagnostics passed as `data`.
-inline void collect_message(int code, const char* /*module*/, const char* function, char* message, void* data) {
-  try {
-    auto& diagnostics = *static_cast<Diagnostics*>(data);
-    std::string text = std::string(function ? function : "SUNDIALS") + ": " + (message ? message : "");
-    std::replace(text.begin(), text.end(), '\n', ' ');  // exception messages stay on one line
-    if (code < 0) diagnostics.last_error = std::move(text);
-    else diagnostics.warnings->push_back(std::move(text));
-  } catch (...) {
-    // Running out of memory while recording a message must not unwind through C code.
-  }
-}
+void collect_message(int code, const char* /*module*/, const char* function, char* message, void* data);
 
 /// Throws ipsim::Error naming a failed set-up call and its flag, unless flag == 0 (success).
 template <class FlagName>
@@ -48,3 +39,21 @@ IntegrationError integration_error(const char* integrator, int flag, std::string
 }
 
 }  // namespace ipsim::detail
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::detail {
+
+IPSIM_DECL void collect_message(int code, const char* /*module*/, const char* function, char* message, void* data) {
+  try {
+    auto& diagnostics = *static_cast<Diagnostics*>(data);
+    std::string text = std::string(function ? function : "SUNDIALS") + ": " + (message ? message : "");
+    std::replace(text.begin(), text.end(), '\n', ' ');  // exception messages stay on one line
+    if (code < 0) diagnostics.last_error = std::move(text);
+    else diagnostics.warnings->push_back(std::move(text));
+  } catch (...) {
+    // Running out of memory while recording a message must not unwind through C code.
+  }
+}
+
+}  // namespace ipsim::detail
+#endif  // IPSIM_DEFINITIONS

@@ -8,6 +8,8 @@
 // plain inline functions over dynamic-size matrices, independent of the model.
 #pragma once
 
+#include "ipsim/linkage.hpp"
+
 #include <complex>
 #include <cstddef>
 #include <limits>
@@ -30,7 +32,22 @@ namespace ipsim::detail {
 
 /// The eigenvalues of the symmetric matrix `a` (its lower triangle is read), ascending; all NaN
 /// when LAPACK's dsyev fails to converge or `a` is not finite.
-inline Eigen::VectorXd symmetric_eigenvalues(Eigen::MatrixXd a) {
+Eigen::VectorXd symmetric_eigenvalues(Eigen::MatrixXd a);
+
+/// The eigenvalues of the general square matrix `a` (in LAPACK's order); all NaN when LAPACK's
+/// dgeev fails or `a` is not finite.
+Eigen::VectorXcd general_eigenvalues(Eigen::MatrixXd a);
+
+/// The real parts of the eigenvalues of the general square matrix `a` (in LAPACK's order); all
+/// NaN when LAPACK's dgeev fails or `a` is not finite.
+inline Eigen::VectorXd eigenvalue_real_parts(Eigen::MatrixXd a) { return general_eigenvalues(std::move(a)).real(); }
+
+}  // namespace ipsim::detail
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::detail {
+
+IPSIM_DECL Eigen::VectorXd symmetric_eigenvalues(Eigen::MatrixXd a) {
   const int n = static_cast<int>(a.rows());
   Eigen::VectorXd w = Eigen::VectorXd::Constant(n, std::numeric_limits<double>::quiet_NaN());
   if (n == 0 || !a.allFinite()) return w;
@@ -42,9 +59,7 @@ inline Eigen::VectorXd symmetric_eigenvalues(Eigen::MatrixXd a) {
   return w;
 }
 
-/// The eigenvalues of the general square matrix `a` (in LAPACK's order); all NaN when LAPACK's
-/// dgeev fails or `a` is not finite.
-inline Eigen::VectorXcd general_eigenvalues(Eigen::MatrixXd a) {
+IPSIM_DECL Eigen::VectorXcd general_eigenvalues(Eigen::MatrixXd a) {
   const int n = static_cast<int>(a.rows());
   constexpr double nan = std::numeric_limits<double>::quiet_NaN();
   Eigen::VectorXcd values = Eigen::VectorXcd::Constant(n, std::complex<double>(nan, nan));
@@ -61,8 +76,5 @@ inline Eigen::VectorXcd general_eigenvalues(Eigen::MatrixXd a) {
   return values;
 }
 
-/// The real parts of the eigenvalues of the general square matrix `a` (in LAPACK's order); all
-/// NaN when LAPACK's dgeev fails or `a` is not finite.
-inline Eigen::VectorXd eigenvalue_real_parts(Eigen::MatrixXd a) { return general_eigenvalues(std::move(a)).real(); }
-
 }  // namespace ipsim::detail
+#endif  // IPSIM_DEFINITIONS

@@ -37,6 +37,7 @@
 #include "ipsim/model.hpp"
 #include "ipsim/rhs.hpp"
 #include "ipsim/settings.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 
@@ -70,26 +71,7 @@ namespace detail {
 
 /// The condition numbers of a symmetric matrix (only meaningful for a mass matrix); not a
 /// template, so it is compiled once per program whatever the models (eigenvalues.hpp).
-inline Conditioning conditioning_of_matrix(const Eigen::MatrixXd& matrix) {
-  constexpr double inf = std::numeric_limits<double>::infinity();
-  Conditioning c;
-  if (!matrix.allFinite()) return {inf, inf, std::numeric_limits<double>::quiet_NaN()};
-  auto ratio = [](const Eigen::VectorXd& eigenvalues) {  // ascending
-    const double low = eigenvalues(0), high = eigenvalues(eigenvalues.size() - 1);
-    return low > 0.0 ? high / low : inf;
-  };
-  const Eigen::VectorXd raw = symmetric_eigenvalues(matrix);
-  c.smallest_eigenvalue = raw(0);
-  c.cond = ratio(raw);
-  if ((matrix.diagonal().array() <= 0.0).any()) {
-    c.scaled_cond = inf;
-    return c;
-  }
-  const Eigen::VectorXd s = matrix.diagonal().cwiseSqrt().cwiseInverse();
-  const Eigen::MatrixXd scaled = s.asDiagonal() * matrix * s.asDiagonal();
-  c.scaled_cond = ratio(symmetric_eigenvalues(scaled));
-  return c;
-}
+Conditioning conditioning_of_matrix(const Eigen::MatrixXd& matrix);
 
 }  // namespace detail
 
@@ -138,15 +120,7 @@ ConditioningReport<Model> assess_conditioning(const ParamsOf<Model>& params, con
 namespace detail {
 
 /// "[0.1, -2, 3e+05]" (6 significant digits).
-inline std::string format_values(const double* values, Eigen::Index count) {
-  std::string text = "[";
-  for (Eigen::Index i = 0; i < count; ++i) {
-    char number[32];
-    std::snprintf(number, sizeof number, "%.6g", values[i]);
-    text += (i > 0 ? ", " : "") + std::string(number);
-  }
-  return text + "]";
-}
+std::string format_values(const double* values, Eigen::Index count);
 
 /// "m[2]/m[1] = 1e+06" for the largest over the smallest of values[first..kDof).
 template <class Array>
@@ -393,3 +367,40 @@ inline constexpr double kRk4StabilityLimit = 2.785;
 
 }  // namespace detail
 }  // namespace ipsim
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::detail {
+
+IPSIM_DECL Conditioning conditioning_of_matrix(const Eigen::MatrixXd& matrix) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  Conditioning c;
+  if (!matrix.allFinite()) return {inf, inf, std::numeric_limits<double>::quiet_NaN()};
+  auto ratio = [](const Eigen::VectorXd& eigenvalues) {  // ascending
+    const double low = eigenvalues(0), high = eigenvalues(eigenvalues.size() - 1);
+    return low > 0.0 ? high / low : inf;
+  };
+  const Eigen::VectorXd raw = symmetric_eigenvalues(matrix);
+  c.smallest_eigenvalue = raw(0);
+  c.cond = ratio(raw);
+  if ((matrix.diagonal().array() <= 0.0).any()) {
+    c.scaled_cond = inf;
+    return c;
+  }
+  const Eigen::VectorXd s = matrix.diagonal().cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd scaled = s.asDiagonal() * matrix * s.asDiagonal();
+  c.scaled_cond = ratio(symmetric_eigenvalues(scaled));
+  return c;
+}
+
+IPSIM_DECL std::string format_values(const double* values, Eigen::Index count) {
+  std::string text = "[";
+  for (Eigen::Index i = 0; i < count; ++i) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%.6g", values[i]);
+    text += (i > 0 ? ", " : "") + std::string(number);
+  }
+  return text + "]";
+}
+
+}  // namespace ipsim::detail
+#endif  // IPSIM_DEFINITIONS

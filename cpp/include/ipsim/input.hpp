@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "ipsim/errors.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 
@@ -179,86 +180,10 @@ struct Input {
 
   /// Times [s] at which u jumps (pulse edges, step time, sampling instants k · period below
   /// t_end), ascending. The integrator stops and restarts exactly there instead of stepping across.
-  std::vector<double> switching_times(double t_end = 0.0) const {
-    if (kind == Kind::pulse || kind == Kind::chirp) return {start, start + duration};
-    if (kind == Kind::step) return {time};
-    std::vector<double> instants;
-    if (kind == Kind::sampled && period > 0.0 && std::isfinite(period)) {
-      // k · period, not a running sum, so the instants carry no accumulated round-off.
-      for (long k = 1; static_cast<double>(k) * period < t_end; ++k) instants.push_back(static_cast<double>(k) * period);
-    }
-    return instants;
-  }
+  std::vector<double> switching_times(double t_end = 0.0) const;
 
   /// Inconsistent fields, one message each (empty when valid).
-  std::vector<std::string> problems() const {
-    std::vector<std::string> found;
-    auto need_finite = [&](const char* field, double v) {
-      if (!std::isfinite(v)) {
-        found.push_back(std::string("invalid setting input.") + field + " = " + detail::format_number(v) +
-                        ": must be finite");
-        return false;
-      }
-      return true;
-    };
-    switch (kind) {
-      case Kind::zero: break;
-      case Kind::constant: need_finite("amplitude", amplitude); break;
-      case Kind::pulse:
-        need_finite("amplitude", amplitude);
-        need_finite("start", start);
-        if (need_finite("duration", duration) && duration < 0.0) {
-          found.push_back("invalid setting input.duration = " + detail::format_number(duration) +
-                          ": must be >= 0");
-        }
-        break;
-      case Kind::step:
-        need_finite("amplitude", amplitude);
-        need_finite("time", time);
-        break;
-      case Kind::sine:
-        need_finite("amplitude", amplitude);
-        need_finite("frequency", frequency);
-        need_finite("phase", phase);
-        break;
-      case Kind::chirp:
-        need_finite("amplitude", amplitude);
-        need_finite("start", start);
-        if (need_finite("duration", duration) && !(duration > 0.0)) {
-          found.push_back("invalid setting input.duration = " + detail::format_number(duration) + ": must be > 0");
-        }
-        if (need_finite("f0", f0) && need_finite("f1", f1) && !(f1 > f0 && f0 >= 0.0 && (!logarithmic || f0 > 0.0))) {
-          found.push_back("invalid setting input.f0 = " + detail::format_number(f0) + ", input.f1 = " +
-                          detail::format_number(f1) + ": need 0 <= f0 < f1 (f0 > 0 for a logarithmic sweep)");
-        }
-        break;
-      case Kind::multisine:
-        need_finite("amplitude", amplitude);
-        need_finite("scale", scale);
-        if (frequencies.empty() || frequencies.size() != phases.size()) {
-          found.push_back("invalid setting input.frequencies: need one or more lines and as many input.phases (" +
-                          std::to_string(frequencies.size()) + " frequencies, " + std::to_string(phases.size()) +
-                          " phases)");
-        }
-        for (std::size_t j = 0; j < frequencies.size(); ++j) {
-          if (!std::isfinite(frequencies[j]) || (j < phases.size() && !std::isfinite(phases[j]))) {
-            found.emplace_back("invalid setting input.frequencies/phases: must be finite");
-            break;
-          }
-        }
-        break;
-      case Kind::feedback:
-        if (!feedback) found.emplace_back("invalid setting input: feedback input without a callback");
-        break;
-      case Kind::sampled:
-        if (!feedback) found.emplace_back("invalid setting input: sampled feedback input without a callback");
-        if (!(std::isfinite(period) && period > 0.0)) {
-          found.push_back("invalid setting input.period = " + detail::format_number(period) + ": must be finite and > 0");
-        }
-        break;
-    }
-    return found;
-  }
+  std::vector<std::string> problems() const;
 };
 
 /// Lower-case name of an input kind, as used in scene files ("pulse", …).
@@ -278,3 +203,89 @@ inline const char* to_string(Input::Kind kind) {
 }
 
 }  // namespace ipsim
+
+#if IPSIM_DEFINITIONS
+namespace ipsim {
+
+IPSIM_DECL std::vector<double> Input::switching_times(double t_end) const {
+  if (kind == Kind::pulse || kind == Kind::chirp) return {start, start + duration};
+  if (kind == Kind::step) return {time};
+  std::vector<double> instants;
+  if (kind == Kind::sampled && period > 0.0 && std::isfinite(period)) {
+    // k · period, not a running sum, so the instants carry no accumulated round-off.
+    for (long k = 1; static_cast<double>(k) * period < t_end; ++k) instants.push_back(static_cast<double>(k) * period);
+  }
+  return instants;
+}
+
+IPSIM_DECL std::vector<std::string> Input::problems() const {
+  std::vector<std::string> found;
+  auto need_finite = [&](const char* field, double v) {
+    if (!std::isfinite(v)) {
+      found.push_back(std::string("invalid setting input.") + field + " = " + detail::format_number(v) +
+                      ": must be finite");
+      return false;
+    }
+    return true;
+  };
+  switch (kind) {
+    case Kind::zero: break;
+    case Kind::constant: need_finite("amplitude", amplitude); break;
+    case Kind::pulse:
+      need_finite("amplitude", amplitude);
+      need_finite("start", start);
+      if (need_finite("duration", duration) && duration < 0.0) {
+        found.push_back("invalid setting input.duration = " + detail::format_number(duration) +
+                        ": must be >= 0");
+      }
+      break;
+    case Kind::step:
+      need_finite("amplitude", amplitude);
+      need_finite("time", time);
+      break;
+    case Kind::sine:
+      need_finite("amplitude", amplitude);
+      need_finite("frequency", frequency);
+      need_finite("phase", phase);
+      break;
+    case Kind::chirp:
+      need_finite("amplitude", amplitude);
+      need_finite("start", start);
+      if (need_finite("duration", duration) && !(duration > 0.0)) {
+        found.push_back("invalid setting input.duration = " + detail::format_number(duration) + ": must be > 0");
+      }
+      if (need_finite("f0", f0) && need_finite("f1", f1) && !(f1 > f0 && f0 >= 0.0 && (!logarithmic || f0 > 0.0))) {
+        found.push_back("invalid setting input.f0 = " + detail::format_number(f0) + ", input.f1 = " +
+                        detail::format_number(f1) + ": need 0 <= f0 < f1 (f0 > 0 for a logarithmic sweep)");
+      }
+      break;
+    case Kind::multisine:
+      need_finite("amplitude", amplitude);
+      need_finite("scale", scale);
+      if (frequencies.empty() || frequencies.size() != phases.size()) {
+        found.push_back("invalid setting input.frequencies: need one or more lines and as many input.phases (" +
+                        std::to_string(frequencies.size()) + " frequencies, " + std::to_string(phases.size()) +
+                        " phases)");
+      }
+      for (std::size_t j = 0; j < frequencies.size(); ++j) {
+        if (!std::isfinite(frequencies[j]) || (j < phases.size() && !std::isfinite(phases[j]))) {
+          found.emplace_back("invalid setting input.frequencies/phases: must be finite");
+          break;
+        }
+      }
+      break;
+    case Kind::feedback:
+      if (!feedback) found.emplace_back("invalid setting input: feedback input without a callback");
+      break;
+    case Kind::sampled:
+      if (!feedback) found.emplace_back("invalid setting input: sampled feedback input without a callback");
+      if (!(std::isfinite(period) && period > 0.0)) {
+        found.push_back("invalid setting input.period = " + detail::format_number(period) + ": must be finite and > 0");
+      }
+      break;
+  }
+  return found;
+}
+
+}  // namespace ipsim
+#endif  // IPSIM_DEFINITIONS

@@ -66,6 +66,7 @@
 #include "ipsim/sensors.hpp"
 #include "ipsim/settings.hpp"
 #include "ipsim/swingup.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim::scene {
 
@@ -79,95 +80,36 @@ class SceneError : public Error {
 class SceneFile {
  public:
   /// Reads and parses `path`. Throws SceneError if it cannot be opened or has a syntax error.
-  static SceneFile read(const std::string& path) {
-    std::ifstream stream(path);
-    if (!stream) throw SceneError(path + ": cannot open scene file");
-    return parse(stream, path);
-  }
+  static SceneFile read(const std::string& path);
 
   /// Parses scene text; `origin` names the source in messages. Throws SceneError on a line that
   /// is not `key = value`, an empty value, or a repeated key.
-  static SceneFile parse(std::istream& stream, std::string origin) {
-    SceneFile file;
-    file.origin_ = std::move(origin);
-    std::string line;
-    for (int number = 1; std::getline(stream, line); ++number) {
-      if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
-      if (trim(line).empty()) continue;
-      const auto equals = line.find('=');
-      if (equals == std::string::npos) file.fail(number, "expected `key = value`, got `" + detail::abbreviate(trim(line)) + "`");
-      const std::string key = trim(line.substr(0, equals));
-      const std::string value = trim(line.substr(equals + 1));
-      if (key.empty()) file.fail(number, "missing key before `=`");
-      if (value.empty()) file.fail(number, "key `" + detail::abbreviate(key) + "` has no value");
-      if (const auto seen = file.entries_.find(key); seen != file.entries_.end()) {
-        file.fail(number, "key `" + detail::abbreviate(key) + "` repeated (first on line " + std::to_string(seen->second.line) + ")");
-      }
-      file.entries_.emplace(key, Entry{value, number});
-    }
-    return file;
-  }
+  static SceneFile parse(std::istream& stream, std::string origin);
 
   /// The file name given to read() or parse().
   const std::string& origin() const noexcept { return origin_; }
   /// True if `key` is present.
   bool has(const std::string& key) const { return entries_.count(key) != 0; }
   /// All keys, sorted.
-  std::vector<std::string> keys() const {
-    std::vector<std::string> all;
-    for (const auto& entry : entries_) all.push_back(entry.first);
-    return all;
-  }
+  std::vector<std::string> keys() const;
   /// Line of `key` (0 if absent).
-  int line(const std::string& key) const {
-    const auto it = entries_.find(key);
-    return it == entries_.end() ? 0 : it->second.line;
-  }
+  int line(const std::string& key) const;
 
   /// The raw value of a required key.
   const std::string& text(const std::string& key) const { return entry(key).value; }
 
   /// A required key holding one number (decimal or exponent notation; nan/inf are accepted here
   /// and rejected by validation with a better message).
-  double number(const std::string& key) const {
-    const auto values = numbers(key);
-    if (values.size() != 1) fail(line(key), "`" + key + "` must be one number, got " + std::to_string(values.size()));
-    return values.front();
-  }
+  double number(const std::string& key) const;
 
   /// A required key holding one integer.
-  long integer(const std::string& key) const {
-    const std::string& value = text(key);
-    errno = 0;
-    char* end = nullptr;
-    const long parsed = std::strtol(value.c_str(), &end, 10);
-    if (end == value.c_str() || *end != '\0' || errno == ERANGE) {
-      fail(line(key), "`" + key + "` must be an integer, got `" + detail::abbreviate(value) + "`");
-    }
-    return parsed;
-  }
+  long integer(const std::string& key) const;
 
   /// A required key holding a space-separated list of numbers.
-  std::vector<double> numbers(const std::string& key) const {
-    std::istringstream words(text(key));
-    std::vector<double> values;
-    for (std::string word; words >> word;) {
-      errno = 0;
-      char* end = nullptr;
-      const double parsed = std::strtod(word.c_str(), &end);
-      // ERANGE on underflow gives a subnormal or zero, the double ipgen wrote: accepted.
-      if (end == word.c_str() || *end != '\0' || (errno == ERANGE && std::abs(parsed) > 1.0)) {
-        fail(line(key), "`" + key + "`: `" + detail::abbreviate(word) + "` is not a number");
-      }
-      values.push_back(parsed);
-    }
-    return values;
-  }
+  std::vector<double> numbers(const std::string& key) const;
 
   /// Throws SceneError("origin:line: message"); line 0 means the whole file.
-  [[noreturn]] void fail(int line_number, const std::string& message) const {
-    throw SceneError(detail::abbreviate(origin_, kMessagePathChars) + (line_number > 0 ? ":" + std::to_string(line_number) : std::string()) + ": " + message);
-  }
+  [[noreturn]] void fail(int line_number, const std::string& message) const;
 
  private:
   struct Entry {
@@ -175,17 +117,9 @@ class SceneFile {
     int line;
   };
 
-  const Entry& entry(const std::string& key) const {
-    const auto it = entries_.find(key);
-    if (it == entries_.end()) fail(0, "missing key `" + key + "`");
-    return it->second;
-  }
+  const Entry& entry(const std::string& key) const;
 
-  static std::string trim(const std::string& s) {
-    const auto first = s.find_first_not_of(" \t\r");
-    if (first == std::string::npos) return {};
-    return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
-  }
+  static std::string trim(const std::string& s);
 
   std::string origin_;
   std::map<std::string, Entry> entries_;
@@ -223,13 +157,7 @@ struct Scene {
 };
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
-inline Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count) {
-  const auto values = file.numbers(key);
-  if (static_cast<Eigen::Index>(values.size()) != count) {
-    file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, expected " + std::to_string(count));
-  }
-  return Eigen::Map<const Eigen::VectorXd>(values.data(), count).eval();
-}
+Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count);
 
 /// The swing-up keys of a scene file into scene.swingup, its input into scene.settings.input.
 template <class Model>
@@ -293,10 +221,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
 }
 
 /// A row-major rows × cols matrix under `key`.
-inline Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols) {
-  const Eigen::VectorXd values = numbers_of(file, key, rows * cols);
-  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(values.data(), rows, cols);
-}
+Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols);
 
 /// The drive keys (actuator.lag, actuator.pulses into the settings; actuator.noise) and the
 /// measured loop (sensors.*, estimator.*) around the sampled controller or swing-up (scene.loop).
@@ -634,3 +559,115 @@ Scene<Model> load(const SceneFile& file) {
 }
 
 }  // namespace ipsim::scene
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::scene {
+
+IPSIM_DECL SceneFile SceneFile::read(const std::string& path) {
+  std::ifstream stream(path);
+  if (!stream) throw SceneError(path + ": cannot open scene file");
+  return parse(stream, path);
+}
+
+IPSIM_DECL SceneFile SceneFile::parse(std::istream& stream, std::string origin) {
+  SceneFile file;
+  file.origin_ = std::move(origin);
+  std::string line;
+  for (int number = 1; std::getline(stream, line); ++number) {
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    if (trim(line).empty()) continue;
+    const auto equals = line.find('=');
+    if (equals == std::string::npos) file.fail(number, "expected `key = value`, got `" + detail::abbreviate(trim(line)) + "`");
+    const std::string key = trim(line.substr(0, equals));
+    const std::string value = trim(line.substr(equals + 1));
+    if (key.empty()) file.fail(number, "missing key before `=`");
+    if (value.empty()) file.fail(number, "key `" + detail::abbreviate(key) + "` has no value");
+    if (const auto seen = file.entries_.find(key); seen != file.entries_.end()) {
+      file.fail(number, "key `" + detail::abbreviate(key) + "` repeated (first on line " + std::to_string(seen->second.line) + ")");
+    }
+    file.entries_.emplace(key, Entry{value, number});
+  }
+  return file;
+}
+
+IPSIM_DECL std::vector<std::string> SceneFile::keys() const {
+  std::vector<std::string> all;
+  for (const auto& entry : entries_) all.push_back(entry.first);
+  return all;
+}
+
+IPSIM_DECL int SceneFile::line(const std::string& key) const {
+  const auto it = entries_.find(key);
+  return it == entries_.end() ? 0 : it->second.line;
+}
+
+IPSIM_DECL double SceneFile::number(const std::string& key) const {
+  const auto values = numbers(key);
+  if (values.size() != 1) fail(line(key), "`" + key + "` must be one number, got " + std::to_string(values.size()));
+  return values.front();
+}
+
+IPSIM_DECL long SceneFile::integer(const std::string& key) const {
+  const std::string& value = text(key);
+  errno = 0;
+  char* end = nullptr;
+  const long parsed = std::strtol(value.c_str(), &end, 10);
+  if (end == value.c_str() || *end != '\0' || errno == ERANGE) {
+    fail(line(key), "`" + key + "` must be an integer, got `" + detail::abbreviate(value) + "`");
+  }
+  return parsed;
+}
+
+IPSIM_DECL std::vector<double> SceneFile::numbers(const std::string& key) const {
+  std::istringstream words(text(key));
+  std::vector<double> values;
+  for (std::string word; words >> word;) {
+    errno = 0;
+    char* end = nullptr;
+    const double parsed = std::strtod(word.c_str(), &end);
+    // ERANGE on underflow gives a subnormal or zero, the double ipgen wrote: accepted.
+    if (end == word.c_str() || *end != '\0' || (errno == ERANGE && std::abs(parsed) > 1.0)) {
+      fail(line(key), "`" + key + "`: `" + detail::abbreviate(word) + "` is not a number");
+    }
+    values.push_back(parsed);
+  }
+  return values;
+}
+
+IPSIM_DECL void SceneFile::fail(int line_number, const std::string& message) const {
+  throw SceneError(detail::abbreviate(origin_, kMessagePathChars) + (line_number > 0 ? ":" + std::to_string(line_number) : std::string()) + ": " + message);
+}
+
+IPSIM_DECL const SceneFile::Entry& SceneFile::entry(const std::string& key) const {
+  const auto it = entries_.find(key);
+  if (it == entries_.end()) fail(0, "missing key `" + key + "`");
+  return it->second;
+}
+
+IPSIM_DECL std::string SceneFile::trim(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t\r");
+  if (first == std::string::npos) return {};
+  return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
+}
+
+}  // namespace ipsim::scene
+#endif  // IPSIM_DEFINITIONS
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::scene {
+
+IPSIM_DECL Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count) {
+  const auto values = file.numbers(key);
+  if (static_cast<Eigen::Index>(values.size()) != count) {
+    file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, expected " + std::to_string(count));
+  }
+  return Eigen::Map<const Eigen::VectorXd>(values.data(), count).eval();
+}
+
+IPSIM_DECL Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols) {
+  const Eigen::VectorXd values = numbers_of(file, key, rows * cols);
+  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(values.data(), rows, cols);
+}
+
+}  // namespace ipsim::scene
+#endif  // IPSIM_DEFINITIONS

@@ -39,8 +39,26 @@
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim {
+
+namespace detail {
+// The estimators' algebra on dynamic-size matrices (the same for every model, so not templates:
+// linkage.hpp). x̂ = x̂⁻ + K (y − C x̂⁻) with a fixed gain K (kalman).
+Eigen::VectorXd kalman_correct(const Eigen::VectorXd& predicted, const Eigen::MatrixXd& gain, const Eigen::VectorXd& y,
+                               const Eigen::MatrixXd& C);
+// x̂⁻ = x_eq + A (x̂ − x_eq) + B Δu (kalman).
+Eigen::VectorXd kalman_predict(const Eigen::VectorXd& equilibrium, const Eigen::MatrixXd& A, const Eigen::VectorXd& estimate,
+                               const Eigen::VectorXd& B, double du);
+// The EKF's update: K = P Cᵀ S⁻¹ with S = C P Cᵀ + R, x̂ = x̂⁻ + K (y − C x̂⁻), P in Joseph form.
+void ekf_correct(const Eigen::MatrixXd& C, const Eigen::MatrixXd& R, const Eigen::VectorXd& y,
+                 const Eigen::VectorXd& predicted, Eigen::VectorXd& estimate, Eigen::MatrixXd& covariance);
+// P A P⁻¹: a Jacobian in the rig's coordinates.
+Eigen::MatrixXd similar(const Eigen::MatrixXd& P, const Eigen::MatrixXd& A);
+// The EKF's covariance prediction P = F P Fᵀ + Q with F = I + T A + (T A)²/2.
+void ekf_predict_covariance(double T, const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, Eigen::MatrixXd& covariance);
+}  // namespace detail
 
 /// Standard normal deviates from a seeded std::mt19937_64 (Box–Muller, two 53-bit uniforms a draw).
 class NormalStream {
@@ -202,7 +220,7 @@ class MeasuredLoop {
       }
       case EstimatorKind::kalman:
         if (first) predicted_ = start_state();
-        estimate_ = predicted_ + s_.gain * (y_ - C_ * predicted_);
+        estimate_ = detail::kalman_correct(predicted_, s_.gain, y_, C_);
         break;
       case EstimatorKind::ekf: {
         if (first) {
@@ -213,11 +231,7 @@ class MeasuredLoop {
             covariance_(i, i) = s_.measurement_noise(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j));
           }
         }
-        const Eigen::MatrixXd innovation = C_ * covariance_ * C_.transpose() + s_.measurement_noise;
-        const Eigen::MatrixXd K = innovation.ldlt().solve(C_ * covariance_).transpose();  // P Cᵀ S⁻¹ (S, P symmetric)
-        estimate_ = predicted_ + K * (y_ - C_ * predicted_);
-        const Eigen::MatrixXd joseph = Eigen::MatrixXd::Identity(2 * n, 2 * n) - K * C_;
-        covariance_ = joseph * covariance_ * joseph.transpose() + K * s_.measurement_noise * K.transpose();
+        detail::ekf_correct(C_, s_.measurement_noise, y_, predicted_, estimate_, covariance_);
         break;
       }
     }
@@ -235,7 +249,7 @@ class MeasuredLoop {
   /// x̂_{k+1|k} from x̂_{k|k} and ū_k (the command applied on [t_k, t_k+1), scene units).
   void predict(double u) {
     if (s_.kind == EstimatorKind::kalman) {
-      predicted_ = s_.equilibrium + s_.A * (estimate_ - s_.equilibrium) + s_.B * (u - s_.input_equilibrium);
+      predicted_ = detail::kalman_predict(s_.equilibrium, s_.A, estimate_, s_.B, u - s_.input_equilibrium);
     } else if (s_.kind == EstimatorKind::ekf) {
       predict_ekf(u * gain_);
     }
@@ -267,11 +281,9 @@ class MeasuredLoop {
       Eigen::MatrixXd A = Model::template linearize<double>(q, qd, u, params_).A;  // ∂f/∂x, exact
       if (!coordinates_.canonical()) {  // A_user = P A P⁻¹
         const Eigen::MatrixXd P = coordinates_.matrix(n);
-        A = P * A * P.inverse();
+        A = detail::similar(P, A);
       }
-      const Eigen::MatrixXd TA = T * A;
-      const Eigen::MatrixXd F = Eigen::MatrixXd::Identity(2 * n, 2 * n) + TA + 0.5 * TA * TA;
-      covariance_ = F * covariance_ * F.transpose() + s_.process_noise;
+      detail::ekf_predict_covariance(T, A, s_.process_noise, covariance_);
     } else {
       (void)u;
       throw InvalidInput({"estimator = ekf needs the model's linearize (regenerate its header)"});
@@ -291,3 +303,37 @@ class MeasuredLoop {
 };
 
 }  // namespace ipsim
+
+#if IPSIM_DEFINITIONS
+namespace ipsim::detail {
+
+IPSIM_DECL Eigen::VectorXd kalman_correct(const Eigen::VectorXd& predicted, const Eigen::MatrixXd& gain,
+                                          const Eigen::VectorXd& y, const Eigen::MatrixXd& C) {
+  return predicted + gain * (y - C * predicted);
+}
+
+IPSIM_DECL Eigen::VectorXd kalman_predict(const Eigen::VectorXd& equilibrium, const Eigen::MatrixXd& A,
+                                          const Eigen::VectorXd& estimate, const Eigen::VectorXd& B, double du) {
+  return equilibrium + A * (estimate - equilibrium) + B * du;
+}
+
+IPSIM_DECL void ekf_correct(const Eigen::MatrixXd& C, const Eigen::MatrixXd& R, const Eigen::VectorXd& y,
+                            const Eigen::VectorXd& predicted, Eigen::VectorXd& estimate, Eigen::MatrixXd& covariance) {
+  const Eigen::MatrixXd innovation = C * covariance * C.transpose() + R;
+  const Eigen::MatrixXd K = innovation.ldlt().solve(C * covariance).transpose();  // P Cᵀ S⁻¹ (S, P symmetric)
+  estimate = predicted + K * (y - C * predicted);
+  const Eigen::MatrixXd joseph = Eigen::MatrixXd::Identity(covariance.rows(), covariance.cols()) - K * C;
+  covariance = joseph * covariance * joseph.transpose() + K * R * K.transpose();
+}
+
+IPSIM_DECL Eigen::MatrixXd similar(const Eigen::MatrixXd& P, const Eigen::MatrixXd& A) { return P * A * P.inverse(); }
+
+IPSIM_DECL void ekf_predict_covariance(double T, const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
+                                       Eigen::MatrixXd& covariance) {
+  const Eigen::MatrixXd TA = T * A;
+  const Eigen::MatrixXd F = Eigen::MatrixXd::Identity(A.rows(), A.cols()) + TA + 0.5 * TA * TA;
+  covariance = F * covariance * F.transpose() + Q;
+}
+
+}  // namespace ipsim::detail
+#endif  // IPSIM_DEFINITIONS

@@ -32,6 +32,7 @@
 #include "ipsim/input.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sink.hpp"
+#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 
@@ -76,42 +77,7 @@ struct SwingUp {
   };
 
   /// Problems, one line each (empty when valid).
-  std::vector<std::string> problems(int state_size) const {
-    std::vector<std::string> found;
-    auto positive = [&](const char* name, double value) {
-      if (!(std::isfinite(value) && value > 0.0)) {
-        found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and > 0");
-      }
-    };
-    positive("u_max", u_max);
-    positive("period", period);
-    if (!(std::isfinite(hold) && hold >= 0.0)) found.push_back("invalid setting swingup.hold: must be finite and >= 0");
-    if (hold_gain.size() != state_size || target.size() != state_size || !hold_gain.allFinite() || !target.allFinite()) {
-      found.push_back("invalid setting swingup.hold_gain or swingup.target: 2·kDof finite numbers each");
-    }
-    if (method == Method::trajectory) {
-      const auto steps = inputs.size();
-      if (steps < 1 || states.rows() != steps + 1 || gains.rows() != steps || states.cols() != state_size ||
-          gains.cols() != state_size || !inputs.allFinite() || !states.allFinite() || !gains.allFinite()) {
-        found.emplace_back("invalid setting swingup.inputs, states or gains: steps, (steps + 1)·2·kDof and steps·2·kDof finite numbers");
-      }
-    } else {
-      positive("energy_inertia", energy_inertia);
-      positive("catch_angle", catch_angle);
-      positive("catch_rate", catch_rate);
-      for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
-                                        {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
-                                        {"accel_max", accel_max}}) {
-        if (!(std::isfinite(value) && value >= 0.0)) {
-          found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
-        }
-      }
-      if (!std::isfinite(energy_target) || !std::isfinite(energy_weight)) {
-        found.emplace_back("invalid setting swingup.energy_target or energy_weight: must be finite");
-      }
-    }
-    return found;
-  }
+  std::vector<std::string> problems(int state_size) const;
 
   /// The sampled input that runs this swing-up on `Model` with `params`; `state` receives the
   /// phase (shared with the SwingUpMonitor).
@@ -254,3 +220,46 @@ class SwingUpMonitor : public SampleSink {
 };
 
 }  // namespace ipsim
+
+#if IPSIM_DEFINITIONS
+namespace ipsim {
+
+IPSIM_DECL std::vector<std::string> SwingUp::problems(int state_size) const {
+  std::vector<std::string> found;
+  auto positive = [&](const char* name, double value) {
+    if (!(std::isfinite(value) && value > 0.0)) {
+      found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and > 0");
+    }
+  };
+  positive("u_max", u_max);
+  positive("period", period);
+  if (!(std::isfinite(hold) && hold >= 0.0)) found.push_back("invalid setting swingup.hold: must be finite and >= 0");
+  if (hold_gain.size() != state_size || target.size() != state_size || !hold_gain.allFinite() || !target.allFinite()) {
+    found.push_back("invalid setting swingup.hold_gain or swingup.target: 2·kDof finite numbers each");
+  }
+  if (method == Method::trajectory) {
+    const auto steps = inputs.size();
+    if (steps < 1 || states.rows() != steps + 1 || gains.rows() != steps || states.cols() != state_size ||
+        gains.cols() != state_size || !inputs.allFinite() || !states.allFinite() || !gains.allFinite()) {
+      found.emplace_back("invalid setting swingup.inputs, states or gains: steps, (steps + 1)·2·kDof and steps·2·kDof finite numbers");
+    }
+  } else {
+    positive("energy_inertia", energy_inertia);
+    positive("catch_angle", catch_angle);
+    positive("catch_rate", catch_rate);
+    for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
+                                      {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
+                                      {"accel_max", accel_max}}) {
+      if (!(std::isfinite(value) && value >= 0.0)) {
+        found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
+      }
+    }
+    if (!std::isfinite(energy_target) || !std::isfinite(energy_weight)) {
+      found.emplace_back("invalid setting swingup.energy_target or energy_weight: must be finite");
+    }
+  }
+  return found;
+}
+
+}  // namespace ipsim
+#endif  // IPSIM_DEFINITIONS
