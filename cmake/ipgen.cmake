@@ -13,6 +13,12 @@
 #   ipgen_add_simulator(<model target> [TARGET <executable>])
 #       Builds an executable (default name simulate_<name>) from cpp/src/simulate.cpp for that
 #       model. Any INTERFACE target with the property IPGEN_MODEL_NAME works as <model target>.
+#       It links ipgen_ipsim_core.
+#
+#   ipgen_ipsim_core()
+#       Creates (once per build) the static library ipgen_ipsim_core: ipsim's model-independent
+#       functions compiled once (cpp/src/ipsim_core.cpp), with ipgen::ipsim and
+#       -DIPSIM_SEPARATE_COMPILATION for whatever links it (cpp/include/ipsim/linkage.hpp).
 #
 #   ipgen_add_scene(<file.toml> [CFG_VAR <var>])
 #       Reads the scene's [system] at configure time (`<python> -m ipgen --scene <file>

@@ -1,15 +1,18 @@
 """A scene's simulator, compiled once per model content and cached (`ipgen run`).
 
 The simulator is cpp/src/simulate.cpp built against the model's generated header and the
-header-only ipsim library (cpp/include, installed with the package), linked with SUNDIALS and
-LAPACK: the same sources and libraries CMake's `ipgen_add_simulator` uses, compiled here by one
-direct compiler call (no CMake project to configure, which takes longer than the compile's
-link step). The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1,
+ipsim library (cpp/include, installed with the package), linked with SUNDIALS and LAPACK: the
+same sources and libraries CMake's `ipgen_add_simulator` uses, compiled here by direct compiler
+calls (no CMake project to configure, which takes longer than the compile's link step). ipsim's
+model-independent functions are compiled once per compiler and flags (cpp/src/ipsim_core.cpp,
+cached in `<cache>/ipsim-core/<key>/ipsim_core.o`, keyed like a simulator without a header) and
+linked into every simulator (`-DIPSIM_SEPARATE_COMPILATION`, cpp/include/ipsim/linkage.hpp).
+The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1,
 -O2, -O3, -Os, -Og) replaces -O2, e.g. -O1 in the test suite, where compile time matters and the
 run time of a simulation does not (docs/testing.md has the compile times measured).
 
 Cache: `<cache>/simulators/<key>/simulate_<name>`, where the key is a SHA-256 over the generated
-header, simulate.cpp and every ipsim header, the compiler (its path and `--version`) and the
+header, simulate.cpp, ipsim_core.cpp and every ipsim header, the compiler (its path and `--version`) and the
 flags, so a run with other initial conditions, inputs, settings or (unless the scene is
 specialised) parameters reuses the binary, and any change of the model or the simulator's
 sources builds a new one. `<cache>` is `--cache-dir`, else $IPGEN_CACHE_DIR, else
