@@ -20,8 +20,8 @@
 #include "ipsim/eigenvalues.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
-#include "ipsim/model.hpp"
 #include "ipsim/linkage.hpp"
+#include "ipsim/model.hpp"
 
 namespace ipsim {
 

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "ipsim/errors.hpp"
-#include "ipsim/settings.hpp"
 #include "ipsim/linkage.hpp"
+#include "ipsim/settings.hpp"
 
 namespace ipsim::detail {
 

@@ -34,10 +34,10 @@
 #include "ipsim/eigenvalues.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/rhs.hpp"
 #include "ipsim/settings.hpp"
-#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 

@@ -62,11 +62,11 @@
 #include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sensors.hpp"
 #include "ipsim/settings.hpp"
 #include "ipsim/swingup.hpp"
-#include "ipsim/linkage.hpp"
 
 namespace ipsim::scene {
 

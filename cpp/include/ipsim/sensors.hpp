@@ -38,8 +38,8 @@
 #include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
-#include "ipsim/model.hpp"
 #include "ipsim/linkage.hpp"
+#include "ipsim/model.hpp"
 
 namespace ipsim {
 

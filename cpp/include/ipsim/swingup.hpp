@@ -30,9 +30,9 @@
 #include "ipsim/divergence.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sink.hpp"
-#include "ipsim/linkage.hpp"
 
 namespace ipsim {
 
