@@ -33,7 +33,8 @@ from tqdm import tqdm
 
 from bench.report import BUILD, PYTHON, ROOT, compiler_version, machine, sundials_version, table
 from bench.workprecision.build import COMPILER, compile_for_model
-from ipgen.scene.reader import Scene, load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import Scene, load_scene
 
 OUT = BUILD / "control"
 DOCS = ROOT / "docs" / "bench"

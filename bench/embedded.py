@@ -133,7 +133,7 @@ def scene_specialisation(system: System) -> Specialisation:
         for name in parameter_names(system.links)
         if check_parameter(system, name, values[name]) is None
     )
-    # the links as built at the rods' values, as a scene folds them (scene/specialisation.py)
+    # the links as built at the rods' values, as a scene folds them (experiment/specialisation.py)
     for name in link_parameter_names(system.links):
         group, index = split_parameter(name)
         assert index is not None
@@ -210,8 +210,8 @@ def library_sizes(names: set[str]) -> str:
 
 def swingup_header(scene_name: str) -> tuple[str, str]:
     """(model name, C header text) of a swing-up scene, as `ipgen --scene … --emit c` writes it."""
-    from ipgen.scene.reader import load_scene
-    from ipgen.scene.specialisation import from_scene
+    from ipgen.experiment.scene import load_scene
+    from ipgen.experiment.specialisation import from_scene
 
     scene = load_scene(ROOT / "scenes" / f"{scene_name}.toml")
     spec = from_scene(scene) if scene.specialise else Specialisation()
@@ -301,7 +301,7 @@ def cycle_rows(work: Path) -> list[list[str]]:
 
     from bench.m4_cycles import count
     from ipgen.command.cli import run as ipgen_run
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     rows: list[list[str]] = []
     for relative, label in ESTIMATOR_SCENES:

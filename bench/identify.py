@@ -23,10 +23,10 @@ import numpy as np
 
 import ipgen
 from bench.report import BUILD, ROOT, machine, table, version
+from ipgen.experiment.scene import load_scene
 from ipgen.identification.model import Setup
 from ipgen.identification.synthetic import measure, multisine, write_csv
 from ipgen.pipeline.identify import setup_from_scene
-from ipgen.scene.reader import load_scene
 
 SCENE = ROOT / "scenes" / "rigs" / "qube_servo2.toml"
 FACTORS = {"J0": 1.15, "J1": 1.08, "delta0": 1.3, "delta1": 0.7, "kt": 0.93}

@@ -153,7 +153,7 @@ def candidates(runs: int) -> list[str]:
 
 
 def ipgen_numbers(runs: int) -> list[str]:
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     scenes = sorted((ROOT / "scenes").glob("*.toml"))
     load_scene(scenes[0])  # pydantic imported and the validators built once per process
@@ -169,7 +169,7 @@ def ipgen_numbers(runs: int) -> list[str]:
     describe = _median_seconds(
         [ipgen, "--scene", scenes[0], "--describe"], runs, env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"}
     )
-    import_cost = _median_seconds([sys.executable, "-c", "import ipgen.scene.reader"], runs)
+    import_cost = _median_seconds([sys.executable, "-c", "import ipgen.experiment.scene"], runs)
     bare = _median_seconds([sys.executable, "-c", "import ipgen"], runs)
     rows = ["| ipgen | median |", "| --- | --- |"]
     rows += [
@@ -178,7 +178,7 @@ def ipgen_numbers(runs: int) -> list[str]:
     ]
     return [
         *rows,
-        f"| `import ipgen.scene.reader` (pydantic, the declaration), new process "
+        f"| `import ipgen.experiment.scene` (pydantic, the declaration), new process "
         f"| {import_cost * 1e3:.0f} ms |",
         f"| `import ipgen`, new process | {bare * 1e3:.0f} ms |",
         f"| `ipgen --scene {scenes[0].relative_to(ROOT)} --describe`, new process "

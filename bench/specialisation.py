@@ -25,10 +25,11 @@ from pathlib import Path
 
 from bench.report import BUILD, ROOT, machine, sundials_version
 from bench.workprecision.build import LIBRARIES
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import Scene, load_scene
+from ipgen.experiment.specialisation import from_scene
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate_header
-from ipgen.scene.reader import Scene, load_scene, resolved_config
-from ipgen.scene.specialisation import from_scene
 
 PAPER_SCENES = (ROOT / "scenes" / "cdip_pulse.toml", ROOT / "scenes" / "rsip_pulse.toml")
 LARGER_SCENES = (

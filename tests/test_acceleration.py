@@ -321,8 +321,8 @@ RIG = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "acin_double_acc
 def test_scene_reads_the_acceleration_actuator() -> None:
     """[actuator] kind = "acceleration": the LQR gain is in m/s² per unit of state (the Python
     API's), the resolved config says so and carries the parameters unchanged."""
-    from ipgen.scene.reader import load_scene, resolved_config
-
+    from ipgen.experiment.config import resolved_config
+    from ipgen.experiment.scene import load_scene
     scene = load_scene(RIG)
     assert scene.actuator.is_acceleration
     assert scene.controller is not None and scene.controller.unit == "base acceleration [m/s^2]"
@@ -344,7 +344,7 @@ def test_scene_reads_the_acceleration_actuator() -> None:
     ],
 )
 def test_scene_refuses_bad_acceleration_tables(tmp_path: Path, table: str, message: str) -> None:
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     text = RIG.read_text().replace(
         'kind = "acceleration"             # u is the cart\'s acceleration [m/s²]', table
@@ -364,7 +364,7 @@ def test_scene_refuses_bad_acceleration_tables(tmp_path: Path, table: str, messa
     ],
 )
 def test_scene_refuses_what_an_acceleration_base_cannot_do(tmp_path: Path, extra: str, message: str) -> None:
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     text = RIG.read_text().replace('name = "acin_double_accel"', f'name = "acin_double_accel"\n{extra}')
     scene = tmp_path / "bad.toml"
@@ -569,7 +569,7 @@ def test_any_actuator_table_is_a_scene_or_one_line_error(tmp_path_factory, kind,
     declared) or one `ipgen.Error` line; nothing else escapes."""
     import json
 
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     table = "[actuator]\n" + f"kind = {json.dumps(kind)}\n"
     table += "".join(f"{key} = {json.dumps(value)}\n" for key, value in extra.items())

@@ -15,8 +15,9 @@ PACKAGE = Path(__file__).resolve().parent.parent / "generator"
 # plots (pictures of runs: matplotlib) comes after control, before the stages that use it;
 # identification (fitting parameters to measurements) between control, whose models it uses, and plots.
 # estimation (what a sampled loop knows of the state: sensors, Kalman filters) uses control's models;
-# the C header (codegen) prints its numbers. pipeline puts the stages together (each command's work
-# as a library function); command only parses arguments and prints.
+# the C header (codegen) prints its numbers. scene reads and checks a scene file; experiment resolves
+# it (the defaults, the designed gains, plans and estimators, the .cfg). pipeline puts the stages
+# together (each command's work as a library function); command only parses arguments and prints.
 STAGES = (
     "errors",
     "common",
@@ -27,6 +28,7 @@ STAGES = (
     "plots",
     "codegen",
     "scene",
+    "experiment",
     "pipeline",
     "command",
     "sweeps",
@@ -40,9 +42,9 @@ FRONTS = ("ipgen", "ipgen.__main__", "ipgen.command.sweep")
 
 # Imports that go to a later stage on purpose, each inside the one function that needs it (checked
 # below) and left out of the stage and circle checks: `Pendulum.from_scene(path)` reads a scene file
-# (the scene stage builds on the model's Pendulum; this one call goes the other way, on request).
+# (the experiment stage builds on the model's Pendulum; this one call goes the other way, on request).
 LATE_IMPORTS: dict[tuple[str, str], str] = {
-    ("ipgen.model.pendulum", "ipgen.scene.reader"): "Pendulum.from_scene reads a scene file",
+    ("ipgen.model.pendulum", "ipgen.experiment.scene"): "Pendulum.from_scene reads a scene file",
 }
 
 

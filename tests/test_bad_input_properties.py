@@ -28,9 +28,10 @@ from ipgen.common import limits
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, quote_path
 from ipgen.errors import SceneError
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 from ipgen.model.specialise import SpecialisationError, parse_fix
 from ipgen.model.system import System
-from ipgen.scene.reader import load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parent.parent
 _CHECKS = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.data_too_large]

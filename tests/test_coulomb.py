@@ -22,7 +22,8 @@ from independent_model import reference
 from scipy.integrate import solve_ivp
 
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 SCENE = """\
 [system]

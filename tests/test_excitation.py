@@ -31,9 +31,10 @@ from ipgen.command.cli import run as cli
 from ipgen.control import signals
 from ipgen.control.excitation import frequency_response
 from ipgen.errors import SceneError
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import InputSpec, load_scene
 from ipgen.pipeline.excite import ExcitationError, excitation
 from ipgen.pipeline.identify import identify
-from ipgen.scene.reader import InputSpec, load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parents[1]
 RIGS = ROOT / "scenes" / "rigs"
@@ -590,8 +591,8 @@ def test_the_experiment_starts_hanging_in_the_rigs_own_coordinates(
 ) -> None:
     """[initial] is read in the rig's convention: the written angles must mean hanging in it (a
     rig measured from hanging starts at 0, not at π, which would be upright)."""
+    from ipgen.pipeline.excitation_scene import scene_text
     from ipgen.pipeline.excite import Design
-    from ipgen.scene.experiment import scene_text
 
     text = (RIGS / "srv02_dbip.toml").read_text()
     lines = [line for line in text.splitlines() if not line.startswith(("angles =", "zero =", "positive ="))]

@@ -20,6 +20,7 @@ pytest.importorskip("casadi")
 
 from ipgen.command.cli import run
 from ipgen.control.linear import dynamics
+from ipgen.experiment.scene import load_scene
 from ipgen.identification import data as data_module
 from ipgen.identification.data import DataError, parse_measurements, read_measurements
 from ipgen.identification.fit import identify_measurements
@@ -28,7 +29,6 @@ from ipgen.identification.structure import structural_statements
 from ipgen.identification.synthetic import folded_parameters, measure, simulate, write_csv
 from ipgen.model.system import System
 from ipgen.pipeline.identify import identify, setup_from_scene
-from ipgen.scene.reader import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 QUBE = ROOT / "scenes" / "rigs" / "qube_servo2.toml"
@@ -455,8 +455,8 @@ def test_data_in_the_rigs_convention_are_converted_in_one_place() -> None:
 
 
 def test_updated_scene_text_keeps_the_file_and_changes_only_the_values() -> None:
+    from ipgen.common.toml_edit import updated_scene_text
     from ipgen.errors import SceneError
-    from ipgen.scene.update import updated_scene_text
 
     text = (
         '# my rig\n[system]\ntype = "classical"\nlinks = 1\n\n[parameters]  # SI\n'

@@ -23,6 +23,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ipgen.experiment.scene import load_scene
 from ipgen.identification.data import (
     LARGEST_VALUE,
     MAX_GRID_FACTOR,
@@ -35,7 +36,6 @@ from ipgen.identification.fit import identify_measurements
 from ipgen.identification.model import IdentifyError
 from ipgen.identification.synthetic import measure
 from ipgen.pipeline.identify import setup_from_scene
-from ipgen.scene.reader import load_scene
 
 QUBE = Path(__file__).resolve().parent.parent / "scenes" / "rigs" / "qube_servo2.toml"
 FREE = ("J1", "delta0", "delta1", "kt")

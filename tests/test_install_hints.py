@@ -111,7 +111,7 @@ def test_the_energy_swingup_scene_loads_without_casadi() -> None:
 import sys
 sys.modules["casadi"] = None
 from ipgen.common.presets import preset_path
-from ipgen.scene.reader import load_scene
+from ipgen.experiment.scene import load_scene
 scene = load_scene(preset_path("rsip_swingup"))
 print(type(scene.swingup).__name__, scene.swingup is not None)
 """

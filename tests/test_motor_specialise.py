@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 from cxx import require_toolchain
 
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 RIGS = Path(__file__).resolve().parents[1] / "scenes" / "rigs"
 

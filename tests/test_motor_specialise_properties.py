@@ -1,5 +1,5 @@
 """Property: for any dc_motor scene with `specialise = true`, every parameter the specialised
-header folds (`scene.specialisation.from_scene`, printed there as the double nearest the exact
+header folds (`experiment.specialisation.from_scene`, printed there as the double nearest the exact
 value) is written to the resolved config as that same double, so the simulator's check_folded
 passes whatever the masses, lengths and links as built (issue 31: J1 was computed in floats)."""
 
@@ -10,9 +10,10 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
+from ipgen.experiment.specialisation import from_scene
 from ipgen.model.system import split_parameter
-from ipgen.scene.reader import load_scene, resolved_config
-from ipgen.scene.specialisation import from_scene
 
 DECIMALS = st.decimals(min_value="0.001", max_value="50", places=6, allow_nan=False, allow_infinity=False)
 

@@ -17,7 +17,7 @@ from c_models import c_command, require_cc
 from cxx import require_toolchain
 
 import ipgen
-from ipgen.scene.reader import load_scene
+from ipgen.experiment.scene import load_scene
 
 SCENE = """
 [system]

@@ -19,11 +19,11 @@ from hypothesis import strategies as st
 import ipgen
 from ipgen.control.casadi_model import plant
 from ipgen.control.linear import ControlError, EquilibriumWarning
+from ipgen.experiment.scene import load_scene
 from ipgen.model.actuator import Actuator, motor_terms
 from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, PendulumError, presets
 from ipgen.model.system import SystemChoiceError, check_system
-from ipgen.scene.reader import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 RIGS = sorted((ROOT / "scenes" / "rigs").glob("*.toml"))

@@ -103,7 +103,7 @@ def test_readme_python_control_example() -> None:
     # the Pendulum calls are the keyword calls (same numbers), and the preset is the scene's rig
     m, l, delta = [0.5, 0.275, 0.275], [0.6, 0.5, 0.5], [0.3, 0.011458, 0.011458]  # noqa: E741
     assert np.array_equal(namespace["K"], ipgen.lqr("rotary", 2, m, l, delta, Q=np.ones(6), R=1.0))
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     scene = load_scene(ROOT / "scenes" / "rigs" / "qube_servo2.toml")  # the same weights
     assert scene.controller is not None

@@ -27,7 +27,8 @@ from test_actuator import by_hand
 
 import ipgen
 from ipgen.control.linear import dynamics
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 RIGS = ROOT / "scenes" / "rigs"

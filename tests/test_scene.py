@@ -17,8 +17,9 @@ from hypothesis import strategies as st
 
 from ipgen import __version__
 from ipgen.errors import SceneError
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import InputSpec, load_scene
 from ipgen.scene.fields import format_number
-from ipgen.scene.reader import InputSpec, load_scene, resolved_config
 
 REPO = Path(__file__).resolve().parent.parent
 SCENES = sorted((REPO / "scenes").glob("*.toml"))
@@ -640,7 +641,8 @@ def test_resolved_config_is_deterministic(tmp_path: Path) -> None:
     path = make(tmp_path, {"system.specialise": "true", "parameters.free": '["g", "m0"]'})
     first = resolved_config(load_scene(path))
     program = (
-        "import sys\nfrom pathlib import Path\nfrom ipgen.scene.reader import load_scene, resolved_config\n"
+        "import sys\nfrom pathlib import Path\nfrom ipgen.experiment.config import resolved_config\n"
+        "from ipgen.experiment.scene import load_scene\n"
         "sys.stdout.write(resolved_config(load_scene(Path(sys.argv[1]))))\n"
     )
     for seed in ("0", "12345"):

@@ -1,4 +1,4 @@
-"""The resolved config's keys are written once (generator/scene/config.py, `CFG_KEYS`): the C++
+"""The resolved config's keys are written once (generator/experiment/config.py, `CFG_KEYS`): the C++
 parser (cpp/include/ipsim/scene.hpp) knows exactly these, the simulator's help
 (cpp/src/simulate.cpp) names no other, and the writer writes no other."""
 
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from ipgen.scene.config import CFG_KEYS, resolved_config
-from ipgen.scene.reader import load_scene
+from ipgen.experiment.config import CFG_KEYS, resolved_config
+from ipgen.experiment.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/rigs/*.toml")])

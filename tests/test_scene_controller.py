@@ -14,7 +14,8 @@ from test_scene import ROTARY, config_dict, expect_error, make
 import ipgen
 from ipgen.command.cli import run
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -184,7 +185,7 @@ def test_a_given_gain_runs_as_the_same_lqr_gain_does(tmp_path: Path) -> None:
 
 
 def test_specialised_scene_keeps_the_input_path(tmp_path: Path) -> None:
-    from ipgen.scene.specialisation import from_scene
+    from ipgen.experiment.specialisation import from_scene
 
     scene = load_scene(controlled(tmp_path, {"system.specialise": "true"}))
     assert not from_scene(scene).zero_input

@@ -27,10 +27,11 @@ from test_scene import ROTARY, config_dict, make
 import ipgen
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import SceneError
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 from ipgen.plots.animation import canonical_angles, geometry
 from ipgen.plots.animation import read_run as read_run_data
 from ipgen.plots.run import coordinates_beside
-from ipgen.scene.reader import load_scene, resolved_config
 
 CONVENTIONS = [Coordinates(a, z, p) for a in ANGLES for z in ZEROS for p in POSITIVE]
 RIG = Coordinates("relative", "hanging", "counterclockwise")

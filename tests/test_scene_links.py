@@ -11,8 +11,9 @@ import pytest
 
 import ipgen
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
-from ipgen.scene.specialisation import from_scene
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
+from ipgen.experiment.specialisation import from_scene
 
 SCENE = """\
 [system]

@@ -21,10 +21,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ipgen.errors import SceneError
-from ipgen.scene import schema
-from ipgen.scene.reader import load_scene, resolved_config
 
 # Scenes that together use every table; each numeric key is replaced in the scenes that have it.
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
+from ipgen.scene import schema
+
 PULSE_LQR = """\
 [system]
 type = "classical"

@@ -1,6 +1,6 @@
 """The scene format declared once (generator/scene/schema.py): its JSON Schema checked by an
 independent validator (jsonschema) against ipgen's own verdicts, the shipped schema file, the
-cost of pydantic, the linear pre-parse check (nesting.py), and extending the declaration."""
+cost of pydantic, the linear pre-parse check (common/toml_shape.py), and extending the declaration."""
 
 from __future__ import annotations
 
@@ -22,11 +22,12 @@ from test_scene import BASE, scene_text
 
 from ipgen.command.cli import run
 from ipgen.common import limits
+from ipgen.common.toml_shape import shape_problem
 from ipgen.errors import SceneError
+from ipgen.experiment.scene import load_scene
+from ipgen.pipeline.scene_schema import SceneJsonSchema, json_schema
 from ipgen.scene import load, schema
-from ipgen.scene.nesting import shape_problem
-from ipgen.scene.reader import load_scene
-from ipgen.scene.values import PerLink, Real, SceneJsonSchema
+from ipgen.scene.values import PerLink, Real
 
 REPO = Path(__file__).resolve().parent.parent
 SCHEMA_FILE = REPO / "docs" / "scene.schema.json"
@@ -46,7 +47,7 @@ def test_scene_schema_flag_prints_the_shipped_file(capsys: pytest.CaptureFixture
     assert run(["--scene-schema"]) == 0
     printed = capsys.readouterr().out
     assert printed == SCHEMA_FILE.read_text(encoding="utf-8")
-    assert json.loads(printed) == schema.json_schema()
+    assert json.loads(printed) == json_schema()
 
 
 def test_schema_is_a_valid_draft_4_schema() -> None:
@@ -171,11 +172,11 @@ def test_pydantic_is_imported_for_scenes_only(tmp_path: Path) -> None:
     argv = ["--type", "rotary", "--links", "1", "-o", str(tmp_path)]
     generate = f"from ipgen.command.cli import run\nrun({argv!r})"
     assert _modules_after(generate) == []
-    scene = f"from ipgen.scene.reader import load_scene\nload_scene({str(SCENES[0])!r})"
+    scene = f"from ipgen.experiment.scene import load_scene\nload_scene({str(SCENES[0])!r})"
     assert _modules_after(scene) == ["pydantic", "pydantic_core"]  # the check can fail
 
 
-# ---------------------------------------------------------------------------- nesting.py
+# ---------------------------------------------------------------------------- common/toml_shape.py
 
 
 def _load_within_a_second(text: str) -> None:

@@ -15,9 +15,11 @@ from ipgen.command.cli import run
 from ipgen.control.casadi_model import plant
 from ipgen.control.tvlqr import discrete_lqr
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
 
 # The paper's rotary single pendulum swung up by energy control: no [input], no [initial].
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
+
 ENERGY = {
     **ROTARY,
     "input.kind": None,
@@ -171,7 +173,7 @@ def test_any_swingup_table_loads_or_fails_in_one_line(
 def test_specialised_energy_scene_keeps_what_the_law_needs(tmp_path: Path) -> None:
     """`specialise = true`: the header keeps the input path, and for the energy law the mass
     matrix and bias (the simulator and the C header evaluate them at the state)."""
-    from ipgen.scene.specialisation import from_scene
+    from ipgen.experiment.specialisation import from_scene
 
     spec = from_scene(load_scene(swingup(tmp_path, {"system.specialise": "true"})))
     assert not spec.zero_input

@@ -22,7 +22,8 @@ from scipy.linalg import expm, solve_discrete_are
 from ipgen.command.cli import MESSAGE_CHARS, run
 from ipgen.control.linear import linearize
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 LOOP_KEYS = ("sensors.", "estimator", "actuator.noise", "actuator.lag", "actuator.pulses")

@@ -24,8 +24,9 @@ from cxx import require_toolchain
 import ipgen
 from ipgen.command.cli import run
 from ipgen.estimation import ExtendedKalman, Sensors, SteadyStateKalman, default_covariances, replay
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 from ipgen.pipeline.simulator import build
-from ipgen.scene.reader import load_scene, resolved_config
 
 PERIOD = 0.001
 M, L, DELTA = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]

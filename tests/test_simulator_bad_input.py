@@ -23,7 +23,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 SIMULATOR = os.environ.get("IPSIM_SIMULATOR")
 pytestmark = pytest.mark.skipif(

@@ -19,11 +19,11 @@ import pytest
 from cxx import cxx_command, require_toolchain
 
 from ipgen.command.cli import run
+from ipgen.experiment.scene import load_scene
+from ipgen.experiment.specialisation import from_scene
 from ipgen.model.specialise import ENERGY_FUNCTIONS, Specialisation
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate_header
-from ipgen.scene.reader import load_scene
-from ipgen.scene.specialisation import from_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "scenes").glob("*.toml"))

@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 import ipgen
 from ipgen.command.cli import run
-from ipgen.scene.reader import load_scene
+from ipgen.experiment.scene import load_scene
 from ipgen.sweeps import spec
 from ipgen.sweeps.spec import SweepError, parse_key, parse_levels, parse_vary
 from ipgen.sweeps.success import Success, judge
@@ -354,7 +354,7 @@ def test_the_estimator_stays_the_nominal_design() -> None:
     """With issue 32's measured loop: a run on a heavier plant keeps the Kalman filter designed on the
     nominal scene (its A, gain), and gets its own seed; an [estimator] key designs it anew."""
     path = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"
-    from ipgen.scene.reader import read_document, scene_from_document
+    from ipgen.experiment.scene import read_document, scene_from_document
     from ipgen.sweeps import overrides
     from ipgen.sweeps.execute import nominal_estimator
 

@@ -18,8 +18,9 @@ from ipgen.control import energy
 from ipgen.control.casadi_model import plant
 from ipgen.control.energy import energy_swingup
 from ipgen.control.trajectory import PlanError
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 from ipgen.scene import swingup as swing
-from ipgen.scene.reader import load_scene, resolved_config
 
 ROOT = Path(__file__).resolve().parents[1]
 QUBE = ROOT / "scenes" / "rigs" / "qube_servo2_swingup.toml"

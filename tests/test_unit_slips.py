@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from test_scene import ROTARY, make
 
 from ipgen.command.cli import run as cli
-from ipgen.scene.plausibility import HEAVIEST, LONGEST, unit_slips
-from ipgen.scene.reader import load_scene
+from ipgen.experiment.plausibility import HEAVIEST, LONGEST, unit_slips
+from ipgen.experiment.scene import load_scene
 
 
 def test_millimetres_degrees_and_grams_are_warned_about(tmp_path: Path) -> None:

@@ -45,9 +45,9 @@ import matplotlib.pyplot as plt
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+from ipgen.experiment.scene import Scene, load_scene  # noqa: E402
 from ipgen.model.system import System  # noqa: E402
 from ipgen.pipeline.generate import generate  # noqa: E402
-from ipgen.scene.reader import Scene, load_scene  # noqa: E402
 
 # (scene stem, short name of the outputs, what the paper calls it)
 EXPERIMENTS = [

@@ -32,8 +32,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from ipgen.errors import Error  # noqa: E402
+from ipgen.experiment.scene import Scene, load_scene  # noqa: E402
 from ipgen.pipeline.job import plan, run  # noqa: E402
-from ipgen.scene.reader import Scene, load_scene  # noqa: E402
 
 SCENES = ("cdip_pulse", "rsip_pulse")
 RTOL = 1e-10

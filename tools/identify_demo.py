@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 
 import ipgen
+from ipgen.common.toml_edit import updated_scene_text
+from ipgen.experiment.scene import load_scene
 from ipgen.identification.data import read_measurements
 from ipgen.identification.synthetic import write_csv
 from ipgen.pipeline.identify import setup_from_scene
-from ipgen.scene.reader import load_scene
-from ipgen.scene.update import updated_scene_text
 
 ROOT = Path(__file__).resolve().parent.parent
 EXPERIMENT = ROOT / "scenes" / "rigs" / "qube_servo2_identify.toml"

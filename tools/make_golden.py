@@ -34,7 +34,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tools")]
 from compare_csv import read as read_csv  # noqa: E402
 from independent_model import reference  # noqa: E402
 
-from ipgen.scene.reader import Scene, load_scene  # noqa: E402
+from ipgen.experiment.scene import Scene, load_scene  # noqa: E402
 
 SCENES = ("cdip_pulse", "rsip_pulse")
 T_END, SAMPLE = 10.0, 0.01

@@ -11,7 +11,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 

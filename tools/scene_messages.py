@@ -22,7 +22,8 @@ from decimal import Decimal
 from pathlib import Path
 
 from ipgen.errors import SceneError
-from ipgen.scene.reader import load_scene, resolved_config
+from ipgen.experiment.config import resolved_config
+from ipgen.experiment.scene import load_scene
 
 ROOT = Path(sys.argv[1])
 OUT = Path(sys.argv[2])

@@ -8,7 +8,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from bench.report import BUILD, PYTHON, ROOT
-from ipgen.scene.reader import Scene, load_scene
+from ipgen.experiment.scene import Scene, load_scene
 
 HERE = Path(__file__).resolve().parent
 OUT = BUILD / "workprecision"

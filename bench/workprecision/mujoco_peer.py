@@ -22,7 +22,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from ipgen.scene.reader import Scene
+from ipgen.experiment.scene import Scene
 
 # A thin rod's inertia along its own axis is zero, which MuJoCo refuses (every principal moment
 # must exceed mjMINVAL); 1e-9 of the transverse one stands in. It changes the rotary models'

@@ -28,7 +28,7 @@ from bench.report import BUILD, ROOT, STARTED, commit
 from bench.workprecision import build, output
 from bench.workprecision.mujoco_peer import MujocoPendulum
 from bench.workprecision.scipy_peer import ScipyPendulum
-from ipgen.scene.reader import Scene
+from ipgen.experiment.scene import Scene
 
 HERE = Path(__file__).resolve().parent
 RTOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12)

@@ -17,8 +17,8 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import solve_ivp
 
+from ipgen.experiment.scene import Scene
 from ipgen.model.derivation import derive
-from ipgen.scene.reader import Scene
 
 
 @dataclass

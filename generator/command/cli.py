@@ -254,7 +254,7 @@ def cli(
 
 
 def _print_scene_schema(ctx: click.Context) -> None:
-    from ipgen.scene.schema import json_schema_text  # pydantic only for scenes
+    from ipgen.pipeline.scene_schema import json_schema_text  # pydantic only for scenes
 
     click.echo(json_schema_text(), nl=False)
     ctx.exit()

@@ -1,6 +1,6 @@
 """Excitation signals for experiments on a rig: a chirp (swept sine) and a multisine.
 
-Both are defined here once; the scene reader (`scene.reader.InputSpec`) evaluates them for
+Both are defined here once; the scene reader (`experiment.scene.InputSpec`) evaluates them for
 Python, and it writes a multisine's lines (frequencies, phases, scale) into the resolved config
 so that the C++ simulator sums exactly the same cosines (cpp/include/ipsim/input.hpp).
 

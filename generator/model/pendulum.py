@@ -36,7 +36,7 @@ from ipgen.model.links import LinkValues, link_problem, rod_value
 from ipgen.model.system import LINK_GROUPS, System, split_parameter, system_problem
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 __all__ = ["DEFAULT_COULOMB_SPEED", "Number", "Pendulum", "PendulumError"]
 
@@ -483,7 +483,7 @@ class Pendulum:
         """
         if not isinstance(scene, str | Path):
             return from_scene_object(scene, exact=exact)
-        from ipgen.scene.reader import load_scene  # the scene stage: read on request only
+        from ipgen.experiment.scene import load_scene  # the scene stage: read on request only
 
         return from_scene_object(load_scene(Path(scene)), exact=exact)
 
@@ -566,7 +566,7 @@ def from_scene_object(scene: Scene, *, exact: bool = False) -> Pendulum:
 
     Examples
     --------
-    >>> from ipgen.scene.reader import load_scene  # doctest: +SKIP
+    >>> from ipgen.experiment.scene import load_scene  # doctest: +SKIP
     >>> from_scene_object(load_scene("scenes/rigs/ip02_sip.toml")).type  # doctest: +SKIP
     'classical'
     """

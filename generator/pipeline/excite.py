@@ -3,7 +3,7 @@ a user should run.
 
 The design is the library's (`ipgen.control.excitation.design`: the excitation about hanging
 that keeps the rig within its limits, predicted by the linear model), the experiment scene's
-text the scene layer's (`ipgen.scene.experiment.scene_text`); this module writes the file
+text the scene layer's (`pipeline.excitation_scene.scene_text`); this module writes the file
 (validated first; an existing one replaced only with `force`, the input scene never).
 docs/excitation.md is the user's guide; command/excite.py the command.
 """
@@ -26,7 +26,7 @@ from ipgen.control.excitation import (
 from ipgen.control.excitation import design as excitation_design
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 __all__ = ["Design", "ExcitationError", "excitation"]
 
@@ -112,7 +112,7 @@ def excitation(
     >>> design.limited_by, design.amplitude  # the arm's travel binds: 0.839 V, not 10 V
     ('travel', 0.839)
     """
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     rig = load_scene(scene)
     if output is not None:
@@ -143,8 +143,8 @@ def _check_output(rig: Scene, output: Path, force: bool) -> None:
 
 def _write(rig: Scene, output: Path, design: Design, force: bool) -> Path:
     from ipgen.common.files import OutputError, write_file
-    from ipgen.scene.experiment import scene_text
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
+    from ipgen.pipeline.excitation_scene import scene_text
 
     _check_output(rig, output, force)  # again: a file may have appeared while the design ran
     text = scene_text(rig, design)

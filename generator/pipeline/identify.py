@@ -22,12 +22,12 @@ from typing import TYPE_CHECKING, Any
 from ipgen.common.files import check_replaceable, prepare_directory, write_files
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
+from ipgen.experiment.scene import Scene, load_scene
 from ipgen.identification.data import Measurements, read_measurements
 from ipgen.identification.fit import report_text
 from ipgen.identification.model import IdentifyError, Setup
 from ipgen.model.actuator import MOTOR_CONSTANTS
 from ipgen.plots.run import PNG
-from ipgen.scene.reader import Scene, load_scene
 
 if TYPE_CHECKING:
     import numpy as np
@@ -160,8 +160,8 @@ def identify(
     text = report_text(fit, scene_path, data_path)
     if not paths:
         return Identified(fit=fit, scene=loaded, files=(), report=text)
+    from ipgen.common.toml_edit import updated_scene_text
     from ipgen.plots.identify import identify_png
-    from ipgen.scene.update import updated_scene_text
 
     header = "\n".join(
         [

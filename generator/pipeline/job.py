@@ -19,9 +19,9 @@ from ipgen.model.actuator import DIRECT
 from ipgen.model.system import System, system_problem
 
 if TYPE_CHECKING:
+    from ipgen.experiment.scene import Scene
     from ipgen.model.specialise import Specialisation
     from ipgen.pipeline.generate import Written
-    from ipgen.scene.reader import Scene
 
 # Above this many links the header is several MB (and slow to compile): ask for force first.
 LINKS_WITHOUT_FORCE = 30
@@ -135,7 +135,7 @@ def describe(scene_path: Path | str | None, *clashing: object) -> Scene:
     if scene_path is None:
         raise OptionsError("--describe needs --scene FILE: it describes a scene's system")
     _check_no_system_options(*clashing)
-    from ipgen.scene.reader import load_scene  # only scene commands need it
+    from ipgen.experiment.scene import load_scene  # only scene commands need it
 
     return load_scene(Path(scene_path))
 
@@ -157,8 +157,8 @@ def plan(
     positive: object = None,
 ) -> Job:
     """Validate one command's options (in the order the command reports them) into a Job."""
+    from ipgen.experiment.specialisation import from_scene
     from ipgen.model.specialise import FUNCTIONS, Specialisation, parse_fix, parse_outputs
-    from ipgen.scene.specialisation import from_scene
 
     if directory is None:
         raise OptionsError("missing -o DIR: say where to write the header")
@@ -170,7 +170,7 @@ def plan(
     targets = parse_emit(emit) if emit is not None else None
     if scene is not None:
         _check_no_system_options(system_type, links, name, inertia, fix, outputs)
-        from ipgen.scene.reader import load_scene  # only scene commands need it
+        from ipgen.experiment.scene import load_scene  # only scene commands need it
 
         if any(value is not None for value in (angles, zero, positive)):
             raise OptionsError(
@@ -238,7 +238,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
     parameters: tuple[tuple[str, float], ...] = ()
     initial: tuple[float, ...] = ()
     if job.scene is not None:
-        from ipgen.scene.reader import resolved_config
+        from ipgen.experiment.config import resolved_config
 
         extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene, model=job.name)),)
         parameters = tuple((name, job.scene.value(name)) for name in job.scene.parameter_names())

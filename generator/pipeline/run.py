@@ -32,7 +32,7 @@ from ipgen.pipeline.simulator import Simulator, build
 from ipgen.plots.run import PNG, PlotError, plot_run, read_run, sampled_beside
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 # The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
 SIMULATOR_CSV = re.compile(

@@ -1,24 +1,8 @@
-"""The `[controller]` table of a scene: its own value rules, and its gain (`control.lqr`, or given).
-
-    [controller]  kind = "lqr" | "gain" (required in the table): the gain K of u = −K (x − x_eq)
-                      by LQR from q and r, or as given in `gain`;
-                  gain = the 2·(links + 1) entries of K (kind = "gain" only, required there), in
-                      the scene's coordinates and units of u (volts per rad with a dc_motor), e.g.
-                      a policy trained with ipgen.gym (docs/gym.md);
-                  q = 2·(links + 1) diagonal weights, or a symmetric positive semidefinite
-                      2·(links + 1) × 2·(links + 1) matrix (default: identity), in the order of
-                      x = [θ0..θn, θ̇0..θ̇n];
-                  r = weight of u² (> 0, default 1);
-                  equilibrium = "upright" (default) | "hanging" | [θ0, θ1, ..., θn] (links at 0
-                      or π; velocities zero);
-                  saturation = u_max > 0: |u| ≤ u_max (default: unbounded);
-                  period = sampling period in s (> 0; default: continuous feedback). The input
-                      is computed at t = k·period and held in between; period and
-                      [simulation] sample must be whole multiples of one another.
-
-The keys are declared in `schema.ControllerTable`; the checks a type cannot say are here
-(`weights`, `equilibrium`, `relations`). The controller sets u, so it cannot be combined with
-an `[input]` other than zero. Every problem is one line naming the file and the key.
+"""The `[controller]` table's rules that a type cannot say: the weights `q` (a diagonal or a
+symmetric PSD matrix), a `gain` given for kind "gain", the `equilibrium` (named, or angles at 0 or
+π), and `relations` (no driving [input]; a period in (0, t_end], commensurate with the sample).
+Its keys are declared in `schema.ControllerTable`, its gain designed by `experiment.feedback`.
+Every problem is one line naming the file and the key.
 """
 
 from __future__ import annotations
@@ -29,8 +13,6 @@ from typing import Any
 from pydantic import ValidationInfo
 
 from ipgen.common import limits
-from ipgen.control.controller import Controller
-from ipgen.control.coordinates import Coordinates
 from ipgen.scene.fields import format_number, one_of, type_name
 from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
@@ -178,99 +160,27 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
     if table.period is None:
         return
-    period, t_end, sample = float(table.period), context["t_end"], context["sample"]
-    if not 0 < period <= t_end:
-        refuse(f"must be > 0 s and <= t_end ({format_number(t_end)} s)", key="period", value=table.period)
-    periods_within(table.period, t_end)
-    if not _commensurate(period, sample):
+    sampling_period(table.period, context["t_end"], context["sample"], "> 0 s and ")
+
+
+def sampling_period(period: Any, t_end: float, sample: float, positive: str = "") -> None:
+    """A controller's sampling period: in (0, t_end] (`positive` says "> 0 s and " where no type
+    bound said it), at most `limits.MAX_SAMPLES` of them in t_end (each is a stop of the
+    integrator), and a whole multiple or fraction of the output sample (to a relative 1e-9)."""
+    period_ = float(period)
+    if not 0 < period_ <= t_end:
+        refuse(f"must be {positive}<= t_end ({format_number(t_end)} s)", key="period", value=period)
+    if t_end / period_ > limits.MAX_SAMPLES:
+        refuse(
+            f"t_end / period = {t_end / period_:.3g} controller periods, more than the "
+            f"{limits.MAX_SAMPLES:.0e} the simulator accepts: a longer period or a shorter t_end",
+            key="period",
+            value=period,
+        )
+    ratio = max(period_, sample) / min(period_, sample)
+    if abs(ratio - round(ratio)) > COMMENSURATE_TOLERANCE * ratio:
         refuse(
             f"must be a whole multiple or a whole fraction of simulation.sample ({format_number(sample)} s)",
             key="period",
-            value=table.period,
-        )
-
-
-def periods_within(period: Any, t_end: float, key: str = "period") -> None:
-    """At most `limits.MAX_SAMPLES` controller periods in t_end (each is a stop of the integrator)."""
-    if t_end / float(period) > limits.MAX_SAMPLES:
-        refuse(
-            f"t_end / period = {t_end / float(period):.3g} controller periods, more than the "
-            f"{limits.MAX_SAMPLES:.0e} the simulator accepts: a longer period or a shorter t_end",
-            key=key,
             value=period,
         )
-
-
-def _commensurate(period: float, sample: float) -> bool:
-    """True when period / sample or sample / period is a whole number (to a relative 1e-9)."""
-    ratio = max(period, sample) / min(period, sample)
-    return abs(ratio - round(ratio)) <= COMMENSURATE_TOLERANCE * ratio
-
-
-class GainError(Exception):
-    """No LQR gain for this scene (the message says why)."""
-
-
-def controller(
-    table: Any, system: Any, params: Any, actuator: Any = None, coordinates: Coordinates | None = None
-) -> Controller:
-    """The controller of a validated [controller] table, with its LQR gain or the gain it gives
-    (raises `GainError`).
-
-    In the rig's `coordinates` (default: ipgen's) the weights, an equilibrium given as angles,
-    the gain and the equilibrium returned are in them; "upright" and "hanging" name the same
-    physical state in any convention (its angles there follow the map, docs/model.md)."""
-    import numpy as np
-
-    from ipgen.control.linear import equilibrium_state
-
-    frame = coordinates if coordinates is not None else Coordinates()
-    gain = table.gain if table.kind == "gain" else _lqr_gain(table, system, params, actuator, frame)
-    x_eq = equilibrium_state(system.links, table.equilibrium)  # angles as written: the rig's
-    if isinstance(table.equilibrium, str) and not frame.is_canonical:
-        x_eq = frame.to_user(x_eq, system.links)  # a named state, mapped
-    return Controller(
-        kind=table.kind,
-        gain=tuple(float(k) for k in np.ravel(gain)),  # K is 1 x 2(n+1)
-        equilibrium=tuple(float(x) for x in x_eq),
-        saturation=None if table.saturation is None else float(table.saturation),
-        period=None if table.period is None else float(table.period),
-        unit=_unit(system, actuator),
-    )
-
-
-def _lqr_gain(table: Any, system: Any, params: Any, actuator: Any, frame: Coordinates) -> Any:
-    """K by `control.lqr` from the table's weights, in the scene's coordinates and units of u."""
-    from ipgen.control.linear import ControlError, lqr
-
-    weights_ = table.q if table.q is not None else [1.0] * (2 * (system.links + 1))
-    try:
-        gain = lqr(
-            system.type,
-            system.links,
-            params.m,
-            params.l,
-            params.delta,
-            weights_,
-            float(table.r),
-            g=params.g,
-            inertia=system.inertia,
-            equilibrium=table.equilibrium,
-            **dict(params.links),  # the links as built the scene gives (com, J, J_axial, tip)
-            actuator=actuator,  # [actuator]: K in volts (dc_motor) or m/s², rad/s² (acceleration)
-            angles=frame.angles,
-            zero=frame.zero,
-            positive=frame.positive,
-        )
-    except ControlError as exc:
-        raise GainError(f"controller: no LQR gain: {exc}") from None
-    return gain
-
-
-def _unit(system: Any, actuator: Any) -> str:
-    """What u is when it is not the force or torque ("" then)."""
-    if actuator is not None and actuator.is_motor:
-        return "motor voltage [V]"
-    if actuator is not None and actuator.is_acceleration:
-        return "base acceleration [rad/s^2]" if system.type == "rotary" else "base acceleration [m/s^2]"
-    return ""

@@ -1,7 +1,7 @@
 """Reading a scene file into a validated `schema.SceneDocument`, every problem one line.
 
 `load_document` reads the file (at most `limits.MAX_SCENE_BYTES`, its shape checked by
-`nesting.py` before parsing), parses it with numbers kept exact (`Decimal`), and validates the
+`common.toml_shape` before parsing), parses it with numbers kept exact (`Decimal`), and validates the
 whole document in one pydantic call. `_message` is the one place where pydantic's errors
 become ipgen's messages: the file, the dotted key, the value as written and what was expected.
 """
@@ -19,10 +19,10 @@ from typing import Any, NoReturn, get_args
 
 from ipgen.common import limits
 from ipgen.common.safetext import abbreviate
+from ipgen.common.toml_shape import shape_problem
 from ipgen.model.system import PARAMETER_GROUPS
 from ipgen.scene import schema
 from ipgen.scene.fields import Reader, one_of, type_name
-from ipgen.scene.nesting import shape_problem
 from ipgen.scene.values import Says
 
 
@@ -98,7 +98,7 @@ def _decimal(text: str) -> Decimal:
 
 def _parse_toml(reader: Reader, text: str) -> dict[str, Any]:
     """Parse TOML keeping floats as Decimal, i.e. exactly as written; refuse, before parsing,
-    nesting deeper than a scene can need and very long dotted keys (`nesting.py`)."""
+    nesting deeper than a scene can need and very long dotted keys (`common.toml_shape`)."""
     problem = shape_problem(text)
     if problem:
         reader.fail(f"line {problem.line}: {problem.message}")

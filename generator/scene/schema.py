@@ -2,7 +2,7 @@
 
 From this one declaration come both the validation (`load.py` validates the whole document in
 one pydantic call and turns the first problem into one line) and the JSON Schema
-(`json_schema()`, printed by `ipgen --scene-schema`, shipped as docs/scene.schema.json).
+(`pipeline.scene_schema`, printed by `ipgen --scene-schema`, shipped as docs/scene.schema.json).
 
 A table is a pydantic model (`Table`, `extra="forbid"`); a key is a field annotated with
 pydantic's own types and constraints (`Literal`, `Field(strict=True, ge=1)`) or the two of
@@ -48,7 +48,7 @@ from ipgen.scene import controller as control
 from ipgen.scene import sensors as measuring
 from ipgen.scene import swingup as swing
 from ipgen.scene.fields import format_number, one_of
-from ipgen.scene.values import PerLink, Real, Says, SceneJsonSchema, context_of, keyed, refuse, refuse_line
+from ipgen.scene.values import PerLink, Real, Says, context_of, keyed, refuse, refuse_line
 
 SYSTEM_TYPES = model.SYSTEM_TYPES
 ACTUATOR_KINDS: tuple[str, ...] = ("direct", "dc_motor", "acceleration")  # = model.actuator.ACTUATOR_KINDS
@@ -70,10 +70,8 @@ JACOBIANS: tuple[str, ...] = ("exact", "dq")
 DEFAULT_JACOBIAN = "exact"
 
 CONTROLLER_KINDS = control.CONTROLLER_KINDS
-EQUILIBRIA = control.EQUILIBRIA
 DEFAULT_EQUILIBRIUM = control.DEFAULT_EQUILIBRIUM
 DEFAULT_R = control.DEFAULT_R
-COMMENSURATE_TOLERANCE = control.COMMENSURATE_TOLERANCE
 
 # Defaults of optional scalar keys.
 DEFAULT_INERTIA = "pivot"
@@ -480,13 +478,9 @@ Input = Annotated[
     ZeroInput | ConstantInput | PulseInput | StepInput | SineInput | ChirpInput | MultisineInput,
     Field(discriminator="kind"),
 ]
-# The keys each kind uses (in resolved-config order) and which of them are required.
+# The keys each kind uses (in resolved-config order).
 INPUT_KEYS: dict[str, tuple[str, ...]] = {
     kind: tuple(key for key in table.model_fields if key != "kind") for kind, table in INPUTS.items()
-}
-INPUT_REQUIRED: dict[str, tuple[str, ...]] = {
-    kind: tuple(key for key in INPUT_KEYS[kind] if table.model_fields[key].is_required())
-    for kind, table in INPUTS.items()
 }
 
 
@@ -805,80 +799,3 @@ def _keys(name: str, annotation: Any) -> tuple[str, ...]:
 TABLES: dict[str, tuple[str, ...]] = {
     name: _keys(name, field.annotation) for name, field in SceneDocument.model_fields.items()
 }
-
-
-def json_schema() -> dict[str, Any]:
-    """The JSON Schema of scene files, for editors: draft 4, the draft Taplo (and so Even Better
-    TOML) implements; newer validators read it too."""
-    schema = SceneDocument.model_json_schema(
-        ref_template="#/definitions/{model}", schema_generator=SceneJsonSchema
-    )
-    schema["definitions"] = schema.pop("$defs")
-    # An empty [input] table is no input, like none at all.
-    schema["properties"]["input"]["oneOf"].append(
-        {"type": "object", "maxProperties": 0, "description": "an empty table: no input"}
-    )
-    _draft4(schema)
-    return {
-        "$schema": "http://json-schema.org/draft-04/schema#",
-        **schema,
-        "description": (
-            "An ipgen scene: one experiment of an n-link inverted pendulum (TOML, SI units). "
-            "Arrays of the parameters and the initial state have links + 1 entries: index 0 the "
-            "base (cart or arm), 1..n the links. ipgen checks more than this schema can say "
-            "(array lengths, relations between keys); docs/scenes.md is the reference."
-        ),
-    }
-
-
-def _draft4(node: Any) -> None:
-    """Say in draft 4 what pydantic writes in draft 2020-12: exclusive bounds as booleans,
-    `const` as a one-value `enum`; drop OpenAPI's `discriminator` and null defaults."""
-    if isinstance(node, list):
-        for item in node:
-            _draft4(item)
-        return
-    if not isinstance(node, dict):
-        return
-    for bound, inclusive in (("exclusiveMinimum", "minimum"), ("exclusiveMaximum", "maximum")):
-        limit = node.get(bound)
-        if isinstance(limit, (int, float)) and not isinstance(limit, bool):
-            tighter = max if bound == "exclusiveMinimum" else min
-            if inclusive in node and tighter(node[inclusive], limit) == node[inclusive] != limit:
-                del node[bound]  # the inclusive bound is the tighter one (rtol >= 1e-15 > 0)
-            else:
-                node[inclusive], node[bound] = limit, True
-    if "const" in node:
-        value = node.pop("const")
-        node["enum"] = [value]
-        if isinstance(value, str):
-            node.setdefault("type", "string")
-    if len(node.get("allOf", ())) == 1 and list(node["allOf"][0]) == ["$ref"]:
-        node["$ref"] = node.pop("allOf")[0]["$ref"]  # older pydantic: the same as a plain $ref
-    node.pop("discriminator", None)
-    if "default" in node and node["default"] is None:
-        del node["default"]
-    for value in node.values():
-        _draft4(value)
-
-
-def json_schema_text() -> str:
-    """`json_schema()` as the text `ipgen --scene-schema` prints and docs/scene.schema.json holds."""
-    import json
-
-    return json.dumps(_canonical(json_schema()), indent=2, ensure_ascii=False) + "\n"
-
-
-def _canonical(node: Any, names: bool = False) -> Any:
-    """The keywords of each schema in sorted order (the same text from any pydantic version);
-    the members of `properties` and `definitions` in declaration order."""
-    if isinstance(node, list):
-        return [_canonical(item) for item in node]
-    if not isinstance(node, dict):
-        return node
-    if names:
-        return {name: _canonical(value) for name, value in node.items()}
-    return {
-        key: _canonical(node[key], names=key in ("properties", "definitions"))
-        for key in sorted(node, key=lambda key: (key != "$schema", key))
-    }

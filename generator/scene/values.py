@@ -26,8 +26,7 @@ from functools import partial
 from typing import Annotated, Any, NamedTuple, NoReturn, get_args
 
 from pydantic import BeforeValidator, Field, ValidationInfo
-from pydantic.json_schema import GenerateJsonSchema
-from pydantic_core import PydanticCustomError, core_schema
+from pydantic_core import PydanticCustomError
 
 
 class Says(NamedTuple):
@@ -172,27 +171,3 @@ def keyed(key: str, value: Any) -> Decimal:
         refuse(
             f"expected a number, got {type_name(value)}" if wrong_type else str(error), key=key, value=value
         )
-
-
-# ---------------------------------------------------------------------------- JSON Schema
-
-
-class SceneJsonSchema(GenerateJsonSchema):
-    """A scene number is a JSON number (pydantic writes a Decimal as a number or a string), its
-    default written as one; an optional key is its value's schema (TOML has no null)."""
-
-    def decimal_schema(self, schema: core_schema.DecimalSchema) -> dict[str, Any]:
-        bounds = {
-            key: _json_number(schema[key]) for key in ("gt", "ge", "lt", "le") if schema.get(key) is not None
-        }  # type: ignore[literal-required]
-        return self.float_schema(core_schema.float_schema(**bounds))
-
-    def nullable_schema(self, schema: core_schema.NullableSchema) -> dict[str, Any]:
-        return self.generate_inner(schema["schema"])
-
-    def encode_default(self, dft: Any) -> Any:
-        return float(dft) if isinstance(dft, Decimal) else super().encode_default(dft)
-
-
-def _json_number(value: Any) -> int | float:
-    return int(value) if float(value).is_integer() else float(value)

@@ -28,7 +28,7 @@ from ipgen.sweeps.spec import SEEDED_KEYS
 from ipgen.sweeps.success import Success, judge
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 
 @dataclass(frozen=True)
@@ -112,8 +112,8 @@ def prepare(source: SceneSource) -> Prepared:
         found = _PREPARED.get(source.digest)
         if found is not None:
             return found
+        from ipgen.experiment.scene import load_scene, read_document
         from ipgen.pipeline.simulator import build
-        from ipgen.scene.reader import load_scene, read_document
 
         scratch = Path(tempfile.mkdtemp(prefix="ipgen-sweep.", dir=_scratch_root()))
         atexit.register(shutil.rmtree, scratch, ignore_errors=True)
@@ -187,8 +187,8 @@ def _read_csv(path: Path, dof: int) -> tuple:
 
 def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     """Run `task` on the scene: refused, failed or passed, with its end-state errors."""
-    from ipgen.scene.reader import resolved_config, scene_from_document
-
+    from ipgen.experiment.config import resolved_config
+    from ipgen.experiment.scene import scene_from_document
     started = time.perf_counter()
     prepared = prepare(source)
     try:

@@ -17,7 +17,7 @@ from ipgen.model.links import rod_value
 from ipgen.sweeps.spec import Key, SweepError, parse_key
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 
 def as_toml(value: object) -> object:

@@ -97,7 +97,7 @@ def sweep(
     plot: bool = True,
 ) -> Outcome:
     """Run the sweep of `scene` into the folder `out` (see `ipgen.sweep`)."""
-    from ipgen.scene.reader import load_scene
+    from ipgen.experiment.scene import load_scene
 
     test = success or Success()
     if repeat is not None and repeat < 1:
@@ -118,7 +118,7 @@ def sweep(
     criteria: list[Criterion] = []
     if scorecard_criteria:
         chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
-        from ipgen.scene.reader import read_document
+        from ipgen.experiment.scene import read_document
 
         estimator = read_document(path).get("estimator", {}).get("kind", "exact")
         criteria += scorecard.criteria(nominal, chosen, levels, repeat, str(estimator))

@@ -17,7 +17,7 @@ from ipgen.sweeps.overrides import nominal_array
 from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 
 @dataclass(frozen=True)

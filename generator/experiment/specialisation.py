@@ -10,7 +10,7 @@ from ipgen.model.specialise import ENERGY_FUNCTIONS, FUNCTIONS, SIMULATOR_FUNCTI
 from ipgen.model.system import link_parameter_names, split_parameter, unused_parameter
 
 if TYPE_CHECKING:
-    from ipgen.scene.reader import Scene
+    from ipgen.experiment.scene import Scene
 
 
 def from_scene(scene: Scene) -> Specialisation:

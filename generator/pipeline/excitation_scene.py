@@ -10,10 +10,10 @@ from __future__ import annotations
 import math
 
 from ipgen.common.safetext import quote_path
+from ipgen.common.toml_edit import without_tables
 from ipgen.control.excitation import FREE_DECAY, Design
+from ipgen.experiment.scene import Scene
 from ipgen.scene.fields import format_number
-from ipgen.scene.resolve import Scene
-from ipgen.scene.update import without_tables
 
 # The tables an experiment scene writes anew (the others are kept as the rig's scene has them).
 REPLACED_TABLES: tuple[str, ...] = ("initial", "input", "limits", "controller", "swingup", "simulation")

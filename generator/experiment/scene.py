@@ -1,8 +1,8 @@
-"""A validated scene resolved for use: the `Scene` (every default filled in, numbers as floats
-with their decimal text kept for exact folding), its input (`InputSpec`), and what is computed
-while reading: the LQR gain of a [controller] and the plan of a [swingup] (`controller.py`,
-`swingup.py`); rules between tables that need them (a dc_motor with an FMU, the start within
-the travel) are checked here.
+"""A scene file resolved for use: `load_scene(path)` reads and validates it (`scene.load`) and
+returns the `Scene` (every default filled in, numbers as floats with their decimal text kept for
+exact folding) with its input (`InputSpec`) and what is designed from it: the [controller]'s gain
+(`feedback`), the [swingup]'s plan (`swingup`) and the measured loop (`loop`). Rules between
+tables that need them (a dc_motor with an FMU, the start within the travel) are checked here.
 """
 
 from __future__ import annotations
@@ -20,16 +20,16 @@ from ipgen.control import signals
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
+from ipgen.experiment import feedback
+from ipgen.experiment import loop as measuring
+from ipgen.experiment import swingup as swing
+from ipgen.experiment.plausibility import unit_slips
 from ipgen.model.actuator import DIRECT, Actuator
-from ipgen.model.links import rod_value
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
-from ipgen.scene import controller as control
 from ipgen.scene import schema
-from ipgen.scene import sensors as measuring
-from ipgen.scene import swingup as swing
 from ipgen.scene.fields import Reader, format_number
-from ipgen.scene.plausibility import unit_slips
+from ipgen.scene.load import load_document, parse_document, validate_document
 from ipgen.scene.schema import SceneDocument
 
 
@@ -211,8 +211,8 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
         )
         try:
-            controller = control.controller(tables["controller"], system, params, actuator, coordinates)
-        except control.GainError as error:
+            controller = feedback.controller(tables["controller"], system, params, actuator, coordinates)
+        except feedback.GainError as error:
             reader.fail(str(error))
     theta = zeros if initial.theta is None else _floats(initial.theta)
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
@@ -374,39 +374,23 @@ def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:
     return ()
 
 
-def motor_folded_parameters(
-    scene: Scene,
-) -> tuple[tuple[float, ...], tuple[float, ...], dict[str, tuple[float, ...]], float]:
-    """(m, delta, links as built, b) the simulator integrates: the scene's own, or with a
-    dc_motor the equivalent direct model's (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 +
-    the rotor's reflected inertia, rounded once from `Scene.motor_folded`) and its force or
-    torque per volt b."""
-    m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
-    if not scene.actuator.is_motor:
-        return m, delta, built, 1.0
-    folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
-    m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
-    exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
-    delta_[0] = float(exact["delta0"])
-    j_ = None if folded.J is None else list(folded.J)
-    if j_ is not None and "J" not in dict(scene.links_as_built):  # the rods' J1..Jn, as a specialised
-        j_[1:] = [_rod_inertia(scene, i) for i in range(1, len(j_))]  # header folds them
-    if j_ is not None and scene.system.is_rotary:
-        j_[0] = float(exact["J0"])
-    if not scene.system.is_rotary:
-        m_[0] = float(exact["m0"])
-    if j_ is not None:
-        built["J"] = tuple(j_)
-    return tuple(m_), tuple(delta_), built, gain
+def load_scene(path: str | Path) -> Scene:
+    """Read, validate and complete a scene file; raises `SceneError` on any problem."""
+    reader, document = load_document(Path(path))
+    return build_scene(reader, document)
 
 
-def _rod_inertia(scene: Scene, i: int) -> float:
-    """The rod's J[i] from the decimals written, rounded once: what a specialised header folds
-    (`specialisation._rod_links`), so that the simulator's check of it agrees to the last bit
-    (float products differ in the last bit, e.g. J1 of scenes/rsip_pulse.toml)."""
-    exact = [scene.exact(f"{group}{i}") for group in ("m", "l")]
-    m, l = [0.0] * i + [exact[0]], [0.0] * i + [exact[1]]  # noqa: E741
-    try:
-        return float(rod_value(scene.system, "J", i, m, l))
-    except OverflowError:  # beyond the doubles: what the float products give (inf)
-        return rod_value(scene.system, "J", i, scene.m, scene.l)
+def read_document(path: str | Path) -> dict[str, Any]:
+    """The scene file's TOML document (numbers as exact `Decimal`s), not yet validated: what
+    `scene_from_document` reads after a sweep changed some values."""
+    return parse_document(Path(path))[1]
+
+
+def scene_from_document(
+    path: str | Path, document: dict[str, Any], *, designed: Scene | None = None
+) -> Scene:
+    """The scene of a TOML `document` (as `read_document` gives it, possibly changed), its
+    messages naming `path`. With `designed`, the controller and swing-up law are that scene's
+    instead of designed anew on this document's parameters (`ipgen sweep`)."""
+    reader = Reader(Path(path))
+    return build_scene(reader, validate_document(reader, document), designed)

@@ -1,4 +1,5 @@
-"""The pre-parse check of a scene's shape: nesting depth and dotted-key length, in linear time.
+"""The pre-parse check of a TOML text's shape (a scene's): nesting depth and dotted-key length,
+in linear time.
 
 tomllib recurses once per nested array or inline table (a RecursionError past ~1,000 levels)
 and spends memory quadratic in the number of parts of a dotted key (2.4 GB for 20,000 parts),

@@ -9,18 +9,19 @@ exactly (`format_number`), lists space-separated, one key a line, deterministic.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
+from ipgen.model.links import rod_value
 from ipgen.scene.fields import format_number
-from ipgen.scene.sensors import config_lines
 
 if TYPE_CHECKING:
     from ipgen.control.controller import Controller
     from ipgen.control.coordinates import Coordinates
     from ipgen.control.swingup import SwingUpLaw
-    from ipgen.scene.resolve import Scene
+    from ipgen.experiment.loop import Loop
+    from ipgen.experiment.scene import Scene
 
 # Every key of a resolved config, in the order written, and what it holds (lists: per coordinate,
 # base first; a state x = θ0..θn then θ̇0..θ̇n).
@@ -158,7 +159,7 @@ def resolved_config(scene: Scene, model: str | None = None) -> str:
         lines.put("energy", True)
     _controller(lines, scene.controller)
     _swingup(lines, scene.swingup)
-    for line in config_lines(scene.loop):  # the measured loop's keys (scene/sensors.py)
+    for line in _loop_lines(scene.loop):  # the measured loop's keys
         lines.put(*line.split(" = ", 1))
     return "\n".join(lines) + "\n"
 
@@ -180,8 +181,6 @@ def _parameters(lines: _Lines, scene: Scene) -> None:
     """m, l, delta, g and the links as built; with a dc_motor the equivalent direct model's
     (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 + the rotor's reflected inertia) and
     `actuator.gain`, the force or torque per volt the simulator multiplies u by."""
-    from ipgen.scene.resolve import motor_folded_parameters
-
     m, delta, built, gain = motor_folded_parameters(scene)
     lines.put("m", m)
     lines.put("l", scene.l)
@@ -235,3 +234,88 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
         lines.put("controller.saturation", controller.saturation)
     if controller.period is not None:
         lines.put("controller.period", controller.period)
+
+
+def _loop_lines(loop_: Loop | None) -> list[str]:
+    """The simulator's keys for the loop (nothing without one: the config is as before)."""
+    if loop_ is None:
+        return []
+
+    def numbers(values: Any) -> str:
+        return " ".join(format_number(float(v)) for v in values)
+
+    def matrix(rows: Any) -> str:
+        return " ".join(numbers(row) for row in rows)
+
+    lines: list[str] = []
+    if loop_.drive_noise > 0:
+        lines.append(f"actuator.noise = {format_number(loop_.drive_noise)}")
+    if loop_.lag > 0:
+        lines.append(f"actuator.lag = {format_number(loop_.lag)}")
+    if loop_.pulses:
+        lines.append(f"actuator.pulses = {matrix(loop_.pulses)}")
+    if not loop_.sensors:
+        return lines
+    lines += [
+        f"sensors.measured = {' '.join(str(i) for i in loop_.measured)}",
+        f"sensors.resolution = {numbers(loop_.resolution)}",
+        f"sensors.noise = {numbers(loop_.noise)}",
+        f"sensors.delay = {format_number(loop_.delay)}",
+        f"sensors.seed = {loop_.seed}",
+        f"estimator = {loop_.estimator}",
+    ]
+    if loop_.cutoff is not None:
+        lines.append(f"estimator.cutoff = {format_number(loop_.cutoff)}")
+    if loop_.estimator in ("kalman", "ekf"):
+        lines.append(f"estimator.equilibrium = {numbers(loop_.equilibrium)}")
+    if loop_.estimator == "kalman":
+        lines += [
+            f"estimator.A = {matrix(loop_.A)}",
+            f"estimator.B = {numbers(loop_.B)}",
+            f"estimator.gain = {matrix(loop_.gain)}",
+            f"estimator.input = {format_number(loop_.input_equilibrium)}",
+        ]
+    if loop_.estimator == "ekf":
+        lines += [
+            f"estimator.process_noise = {matrix(loop_.process_noise)}",
+            f"estimator.measurement_noise = {matrix(loop_.measurement_noise)}",
+        ]
+    return lines
+
+
+def motor_folded_parameters(
+    scene: Scene,
+) -> tuple[tuple[float, ...], tuple[float, ...], dict[str, tuple[float, ...]], float]:
+    """(m, delta, links as built, b) the simulator integrates: the scene's own, or with a
+    dc_motor the equivalent direct model's (`actuator.fold`: δ0 + back-EMF damping, m0 or J0 +
+    the rotor's reflected inertia, rounded once from `Scene.motor_folded`) and its force or
+    torque per volt b."""
+    m, delta, built = scene.m, scene.delta, dict(scene.links_as_built)
+    if not scene.actuator.is_motor:
+        return m, delta, built, 1.0
+    folded = scene.pendulum.folded()  # the floats; the base's entries rounded once from exact
+    m_, delta_, gain = list(folded.m), list(folded.delta), scene.actuator.gain()
+    exact = scene.motor_folded()  # the same values, rounded once (a specialised header folds them)
+    delta_[0] = float(exact["delta0"])
+    j_ = None if folded.J is None else list(folded.J)
+    if j_ is not None and "J" not in dict(scene.links_as_built):  # the rods' J1..Jn, as a specialised
+        j_[1:] = [_rod_inertia(scene, i) for i in range(1, len(j_))]  # header folds them
+    if j_ is not None and scene.system.is_rotary:
+        j_[0] = float(exact["J0"])
+    if not scene.system.is_rotary:
+        m_[0] = float(exact["m0"])
+    if j_ is not None:
+        built["J"] = tuple(j_)
+    return tuple(m_), tuple(delta_), built, gain
+
+
+def _rod_inertia(scene: Scene, i: int) -> float:
+    """The rod's J[i] from the decimals written, rounded once: what a specialised header folds
+    (`specialisation._rod_links`), so that the simulator's check of it agrees to the last bit
+    (float products differ in the last bit, e.g. J1 of scenes/rsip_pulse.toml)."""
+    exact = [scene.exact(f"{group}{i}") for group in ("m", "l")]
+    m, l = [0.0] * i + [exact[0]], [0.0] * i + [exact[1]]  # noqa: E741
+    try:
+        return float(rod_value(scene.system, "J", i, m, l))
+    except OverflowError:  # beyond the doubles: what the float products give (inf)
+        return rod_value(scene.system, "J", i, scene.m, scene.l)

@@ -1,0 +1,238 @@
+"""The measured loop of a scene ([sensors], [estimator] and the drive keys of [actuator], declared
+in `scene.sensors`): `loop()` checks what spans tables and returns the `Loop` the simulator runs,
+`design()` a kalman or ekf estimator's numbers (`ipgen.estimation`). The formulas are in
+docs/scenes.md ("As a rig measures it") and cpp/include/ipsim/sensors.hpp.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ipgen.scene.fields import format_number
+from ipgen.scene.sensors import EstimatorTable, SensorsTable
+
+DEFAULT_CUTOFF = 50.0  # rad/s: Quanser's 50 s/(s + 50)
+# A delay is a whole number of periods to this relative tolerance.
+DELAY_TOLERANCE = 1e-9
+MAX_DELAY_PERIODS = 10**6  # a longer delay is a unit slip (and would hold a queue of that many outputs)
+
+
+class SensorsError(Exception):
+    """A [sensors], [estimator] or drive key that does not fit the rest of the scene (one line)."""
+
+@dataclass(frozen=True)
+class Loop:
+    """What the simulator's measured loop needs (cpp/include/ipsim/sensors.hpp), in the scene's
+    coordinates and input unit. `sensors` False: only drive keys (no y_*/hat_* columns)."""
+
+    sensors: bool = False
+    measured: tuple[int, ...] = ()
+    resolution: tuple[float, ...] = ()
+    noise: tuple[float, ...] = ()
+    delay: float = 0.0
+    seed: int = 0
+    estimator: str = "exact"
+    cutoff: float | None = None
+    drive_noise: float = 0.0
+    lag: float = 0.0
+    pulses: tuple[tuple[float, float, float], ...] = ()
+    # kalman: A_d, B_d (2·dof × 2·dof, 2·dof), M (2·dof × measured), x_eq, u_eq; ekf: Qn, Rn, x_eq
+    A: tuple[tuple[float, ...], ...] = ()
+    B: tuple[float, ...] = ()
+    gain: tuple[tuple[float, ...], ...] = ()
+    equilibrium: tuple[float, ...] = ()
+    input_equilibrium: float = 0.0
+    process_noise: tuple[tuple[float, ...], ...] = ()
+    measurement_noise: tuple[tuple[float, ...], ...] = ()
+
+
+def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tuple[float, ...]:
+    if isinstance(value, tuple):
+        if len(value) != count:
+            raise SensorsError(
+                f"sensors.{key} has {len(value)} entries, expected one number or {count} "
+                "(one per measured coordinate)"
+            )
+        return value
+    return (float(value),) * count
+
+
+def loop(
+    sensors: SensorsTable | None,
+    estimator: EstimatorTable | None,
+    drive: Any,
+    *,
+    links: int,
+    period: float | None,
+    acceleration: bool,
+    design: Any = None,
+) -> Loop | None:
+    """The measured loop of a scene, or None when it has none (today's exact loop).
+
+    `drive` is the [actuator] table (its `noise`, `lag`, `pulses`); `period` the sampled
+    controller's or swing-up's (None: no sampled loop); `design(loop, table)` fills in a kalman
+    or ekf estimator's matrices (the caller's: it knows the model). Raises `SensorsError` with
+    one line naming the key and the fix.
+    """
+    dof = links + 1
+    drive_noise = 0.0 if drive.noise is None else float(drive.noise)
+    lag = 0.0 if drive.lag is None else float(drive.lag)
+    pulses = tuple(drive.pulses or ())
+    if sensors is None and estimator is None and drive_noise == 0 and lag == 0 and not pulses:
+        return None
+    if acceleration and (lag > 0 or pulses):
+        raise SensorsError(
+            "actuator.lag and actuator.pulses need a force- or torque-driven base: an acceleration-driven "
+            "base has no force to disturb (remove them or use kind direct or dc_motor)"
+        )
+    measured_loop = sensors is not None or estimator is not None
+    if (measured_loop or drive_noise > 0) and period is None:
+        what = "[sensors] and [estimator]" if measured_loop else "actuator.noise"
+        raise SensorsError(
+            f"{what} need a sampled loop: give [controller] a period (or use a [swingup]); the sensors "
+            "are read and the noise is drawn once per sampling period"
+        )
+    if not measured_loop:
+        return Loop(drive_noise=drive_noise, lag=lag, pulses=pulses)
+    table = sensors if sensors is not None else SensorsTable()
+    kind = "exact" if estimator is None else estimator.kind
+    measured = tuple(range(dof)) if table.measured is None else table.measured
+    resolution = _per_measured(table.resolution, len(measured), "resolution")
+    noise = _per_measured(table.noise, len(measured), "noise")
+    delay = 0.0 if table.delay is None else float(table.delay)
+    assert period is not None
+    if delay / period > MAX_DELAY_PERIODS:
+        raise SensorsError(
+            f"sensors.delay = {format_number(delay)} s is more than {MAX_DELAY_PERIODS:,} periods of "
+            f"{format_number(period)} s: is it in seconds?"
+        )
+    periods = round(delay / period)
+    if abs(delay - periods * period) > DELAY_TOLERANCE * max(delay, period):
+        raise SensorsError(
+            f"sensors.delay = {format_number(delay)} s is not a whole multiple of the period "
+            f"{format_number(period)} s: "
+            f"use k · {format_number(period)} s (e.g. {format_number(max(periods, 1) * period)} s)"
+        )
+    if kind in ("difference", "filter") and measured != tuple(range(dof)):
+        raise SensorsError(
+            f'estimator kind "{kind}" needs every coordinate measured '
+            f"(sensors.measured = {list(range(dof))}); "
+            'with fewer, use "kalman" or "ekf"'
+        )
+    if kind == "ekf" and acceleration:
+        raise SensorsError(
+            'estimator kind "ekf" with an acceleration-driven base is not supported yet: use "kalman"'
+        )
+    cutoff = None
+    if kind == "filter":
+        cutoff = DEFAULT_CUTOFF if estimator is None or estimator.cutoff is None else float(estimator.cutoff)
+    result = Loop(
+        sensors=True,
+        measured=measured,
+        resolution=resolution,
+        noise=noise,
+        delay=periods * period,
+        seed=table.seed,
+        estimator=kind,
+        cutoff=cutoff,
+        drive_noise=drive_noise,
+        lag=lag,
+        pulses=pulses,
+    )
+    if kind in ("kalman", "ekf"):
+        if design is None:
+            raise SensorsError(f'estimator kind "{kind}" needs the model (no design given)')
+        result = design(result, estimator)
+    return result
+
+
+def covariance(value: Any, size: int, key: str) -> tuple[tuple[float, ...], ...]:
+    """A full `size` × `size` matrix of a scalar, a diagonal or a matrix (symmetric, PSD not checked here)."""
+    if isinstance(value, tuple) and value and isinstance(value[0], tuple):
+        if len(value) != size or any(len(row) != size for row in value):
+            raise SensorsError(
+                f"estimator.{key} must be {size} × {size} (or a number, or {size} diagonal entries)"
+            )
+        return value
+    diagonal = _per_size(value, size, key)
+    return tuple(tuple(diagonal[i] if i == j else 0.0 for j in range(size)) for i in range(size))
+
+
+def _per_size(value: Any, size: int, key: str) -> tuple[float, ...]:
+    if isinstance(value, tuple):
+        if len(value) != size:
+            raise SensorsError(
+                f"estimator.{key} has {len(value)} entries, expected one number, {size} or a matrix"
+            )
+        return value
+    return (float(value),) * size
+
+
+# ---------------------------------------------------------------------------- kalman and ekf
+
+
+def design(
+    loop_: Loop,
+    table: EstimatorTable | None,
+    *,
+    pendulum: dict[str, Any],
+    equilibrium: tuple[float, ...],
+    period: float,
+    input_scale: float,
+) -> Loop:
+    """`loop_` with a kalman or ekf estimator's numbers, from `ipgen.estimation`: Rn and Qn (the
+    table's, or `estimation.default_covariances`) and, for kalman, `ipgen.kalman`'s ZOH model
+    (A_d, B_d) of the exact linearisation at `equilibrium` and its current-form gain M.
+    `pendulum` is `ipgen.linearize`'s keywords (the scene's coordinates and input unit)."""
+    import dataclasses
+
+    import numpy as np
+
+    from ipgen.estimation import EstimationError, Sensors, default_covariances, kalman
+
+    dof = len(equilibrium) // 2
+    size, count = 2 * dof, len(loop_.measured)
+    try:
+        sensors = Sensors.of(
+            dof, loop_.measured, loop_.resolution, loop_.noise, cart=pendulum["type"] == "classical"
+        )
+        q_default, r_default = default_covariances(
+            pendulum, period, sensors, input_noise=loop_.drive_noise, u_scale=input_scale,
+            equilibrium=list(equilibrium[:dof]),
+        )  # fmt: skip
+    except EstimationError as exc:
+        raise SensorsError(f"estimator: {exc}") from None
+    given_q = None if table is None else table.process_noise
+    given_r = None if table is None else table.measurement_noise
+    qn = np.array(covariance(given_q, size, "process_noise")) if given_q is not None else q_default
+    rn = np.array(covariance(given_r, count, "measurement_noise")) if given_r is not None else r_default
+    for name, matrix in (("process_noise", qn), ("measurement_noise", rn)):
+        scale = max(1.0, float(np.max(np.abs(matrix))))
+        if (
+            not np.allclose(matrix, matrix.T, rtol=1e-12, atol=0)
+            or np.min(np.linalg.eigvalsh(matrix)) < -1e-12 * scale
+        ):
+            raise SensorsError(f"estimator.{name} must be symmetric positive semidefinite")
+    if np.min(np.linalg.eigvalsh(rn)) <= 0:
+        raise SensorsError("estimator.measurement_noise must be positive definite (every variance > 0)")
+    rows = lambda m: tuple(tuple(float(x) for x in row) for row in np.atleast_2d(m))  # noqa: E731
+    if loop_.estimator == "ekf":
+        return dataclasses.replace(
+            loop_,
+            equilibrium=tuple(float(x) for x in equilibrium),
+            process_noise=rows(qn),
+            measurement_noise=rows(rn),
+        )
+    try:
+        gains = kalman(pendulum, period, qn, rn, measured=loop_.measured, equilibrium=list(equilibrium[:dof]))
+    except EstimationError as exc:
+        raise SensorsError(f"estimator: {exc}") from None
+    return dataclasses.replace(
+        loop_,
+        A=rows(gains.A),
+        B=tuple(float(x) for x in np.asarray(gains.B).reshape(-1)),
+        gain=rows(gains.M),
+        equilibrium=tuple(float(x) for x in equilibrium),
+        input_equilibrium=0.0,
+    )
