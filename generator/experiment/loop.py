@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
 from ipgen.scene.sensors import EstimatorTable, SensorsTable
 
@@ -176,7 +177,7 @@ def design(
     loop_: Loop,
     table: EstimatorTable | None,
     *,
-    pendulum: dict[str, Any],
+    pendulum: Pendulum,
     equilibrium: tuple[float, ...],
     period: float,
     input_scale: float,
@@ -184,7 +185,7 @@ def design(
     """`loop_` with a kalman or ekf estimator's numbers, from `ipgen.estimation`: Rn and Qn (the
     table's, or `estimation.default_covariances`) and, for kalman, `ipgen.kalman`'s ZOH model
     (A_d, B_d) of the exact linearisation at `equilibrium` and its current-form gain M.
-    `pendulum` is `ipgen.linearize`'s keywords (the scene's coordinates and input unit)."""
+    `pendulum` is the scene's (its coordinates and input unit)."""
     import dataclasses
 
     import numpy as np
@@ -195,7 +196,7 @@ def design(
     size, count = 2 * dof, len(loop_.measured)
     try:
         sensors = Sensors.of(
-            dof, loop_.measured, loop_.resolution, loop_.noise, cart=pendulum["type"] == "classical"
+            dof, loop_.measured, loop_.resolution, loop_.noise, cart=not pendulum.is_rotary
         )
         q_default, r_default = default_covariances(
             pendulum, period, sensors, input_noise=loop_.drive_noise, u_scale=input_scale,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from decimal import Decimal
 from fractions import Fraction
@@ -204,14 +205,21 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     problem = unsupported(system.emit, actuator, coordinates, system.specialise)
     if problem is not None:
         reader.fail(problem)
+
+    @functools.cache
+    def pendulum() -> Pendulum:
+        """What the controller, the swing-up and the estimator are designed on (the scene's floats)."""
+        return Pendulum(
+            kind, links, _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g),
+            system.inertia, actuator=actuator, angles=coordinates.angles, zero=coordinates.zero,
+            positive=coordinates.positive, **dict(links_as_built),
+        )  # fmt: skip
+
     if tables["controller"] is not None and designed is not None:
         controller = designed.controller
     elif tables["controller"] is not None:
-        params = _Parameters(
-            _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
-        )
         try:
-            controller = feedback.controller(tables["controller"], system, params, actuator, coordinates)
+            controller = feedback.controller(tables["controller"], pendulum())
         except feedback.GainError as error:
             reader.fail(str(error))
     theta = zeros if initial.theta is None else _floats(initial.theta)
@@ -231,19 +239,11 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     if tables["swingup"] is not None and designed is not None:
         law = designed.swingup
     elif tables["swingup"] is not None:
-        params = _Parameters(
-            _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g), links_as_built
-        )
-        gain = 1.0
-        if actuator.is_motor:  # designed on the motor-folded model, in volts (swing.law)
-            params, gain = _motor_folded(params, System(kind, links, system.inertia), actuator)
         try:
-            law = swing.law(
-                tables["swingup"], system, params, start, gain, actuator.is_acceleration, coordinates
-            )
+            law = swing.law(tables["swingup"], pendulum(), start)
         except swing.SwingUpError as error:
             reader.fail(str(error))
-    loop = _loop(reader, tables, system, controller, law, actuator, coordinates, links_as_built, lengths)
+    loop = _loop(reader, tables, controller, law, pendulum)
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
     if travel is not None and abs(theta[0]) > travel:
         reader.fail(
@@ -290,32 +290,6 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     )
 
 
-@dataclass(frozen=True)
-class _Parameters:
-    """The physical parameters as floats, for the LQR gain."""
-
-    m: tuple[float, ...]
-    l: tuple[float, ...]  # noqa: E741
-    delta: tuple[float, ...]
-    g: float
-    links: tuple[tuple[str, tuple[float, ...]], ...] = ()  # com, J, J_axial, tip the scene gives
-
-
-def _motor_folded(params: _Parameters, system: System, actuator: Actuator) -> tuple[_Parameters, float]:
-    """The motor-folded parameters (`Pendulum.folded`: δ0 + back-EMF, m0 or J0 + the rotor) and b."""
-    built = dict(params.links)
-    pendulum = Pendulum(
-        system.type, system.links, params.m, params.l, params.delta, params.g, system.inertia,
-        actuator=actuator, **built,
-    )  # fmt: skip
-    folded = pendulum.folded()
-    if folded.J is not None:
-        built["J"] = tuple(folded.J)
-    order = [group for group in ("com", "J", "J_axial", "tip") if group in built]
-    links = tuple((group, tuple(built[group])) for group in order)
-    return _Parameters(tuple(folded.m), params.l, tuple(folded.delta), params.g, links), pendulum.gain
-
-
 def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
 
@@ -323,16 +297,12 @@ def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
 def _loop(
     reader: Reader,
     tables: dict[str, Any],
-    system: Any,
     controller: Controller | None,
     law: SwingUpLaw | None,
-    actuator: Actuator,
-    coordinates: Coordinates,
-    links_as_built: tuple[tuple[str, tuple[float, ...]], ...],
-    lengths: tuple[float, ...],
+    pendulum: Callable[[], Pendulum],
 ) -> measuring.Loop | None:
-    """The scene's measured loop (`sensors.loop`), its kalman or ekf numbers from the exact
-    linearisation at the controller's (or the swing-up's hold) equilibrium."""
+    """The scene's measured loop (`loop.loop`), its kalman or ekf numbers from the exact
+    linearisation of `pendulum()` at the controller's (or the swing-up's hold) equilibrium."""
     period = controller.period if controller is not None else (law.period if law is not None else None)
     if controller is not None:
         equilibrium, scale = controller.equilibrium, controller.saturation
@@ -342,22 +312,15 @@ def _loop(
         equilibrium, scale = (), None
 
     def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
-        parameters = tables["parameters"]
-        pendulum = {
-            "type": system.type, "links": system.links, "m": _floats(parameters.m), "l": lengths,
-            "delta": _floats(parameters.delta), "g": float(parameters.g), "inertia": system.inertia,
-            **dict(links_as_built), "actuator": actuator,
-            "angles": coordinates.angles, "zero": coordinates.zero, "positive": coordinates.positive,
-        }  # fmt: skip
         return measuring.design(
-            loop, table, pendulum=pendulum, equilibrium=tuple(equilibrium), period=float(period or 0.0),
+            loop, table, pendulum=pendulum(), equilibrium=tuple(equilibrium), period=float(period or 0.0),
             input_scale=1.0 if scale is None else float(scale),
         )  # fmt: skip
 
     try:
         return measuring.loop(
-            tables["sensors"], tables["estimator"], tables["actuator"], links=system.links, period=period,
-            acceleration=actuator.is_acceleration, design=design,
+            tables["sensors"], tables["estimator"], tables["actuator"], links=tables["system"].links,
+            period=period, acceleration=tables["actuator"].kind == "acceleration", design=design,
         )  # fmt: skip
     except measuring.SensorsError as error:
         reader.fail(str(error))

@@ -6,6 +6,8 @@ from __future__ import annotations
 from typing import Any
 
 from ipgen.control.swingup import SwingUpLaw
+from ipgen.model.actuator import DIRECT
+from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
 from ipgen.scene.swingup import ENERGY_KEYS
 
@@ -14,43 +16,32 @@ class SwingUpError(Exception):
     """No swing-up for this scene (the message says what to relax)."""
 
 
-def law(
-    table: Any,
-    system: Any,
-    params: Any,
-    start: tuple[float, ...],
-    gain: float = 1.0,
-    acceleration: bool = False,
-    coordinates: Any = None,
-) -> SwingUpLaw:
-    """The swing-up of a validated [swingup] table from state `start` (raises `SwingUpError`).
-    `gain`: a dc_motor's force or torque per volt b, `params` then the motor-folded ones; the
-    law is designed in force units (u_max b) and returned in volts (`in_volts`); its messages
-    state the limits in volts (`params.delta[0]` then includes the back-EMF, which the energy
-    law's `design_speed` takes off a_max).
-    `acceleration`: u is the base's acceleration (energy method only).
-    `coordinates`: the scene's (`model.coordinates.Coordinates`, default ipgen's): the hold
-    weights q are in them (Q in ipgen's = Pᵀ Q P), r in the input's units (R / b² in force units)."""
+def law(table: Any, p: Pendulum, start: tuple[float, ...]) -> SwingUpLaw:
+    """The swing-up of a validated [swingup] table for the scene's pendulum `p` from state `start`
+    (ipgen's coordinates; raises `SwingUpError`).
+
+    The law is designed on the direct model in ipgen's coordinates: with a dc_motor the folded one
+    (`p.folded()`), in force units (u_max · b, b = `p.gain` the force or torque per volt), and
+    returned in volts (`in_volts`); its messages then state the limits in volts (delta[0] includes
+    the back-EMF, which the energy law's `design_speed` takes off a_max). With an acceleration
+    input u is the base's acceleration (energy method only). The hold weights q are in the scene's
+    coordinates (Q in ipgen's = Pᵀ Q P), r in the input's units (R / b² in force units)."""
     from ipgen.control.swingup import in_volts
 
+    acceleration = p.actuator.is_acceleration
     if acceleration and table.method != "energy":
         raise SwingUpError(
             'swingup: method "trajectory" plans a force or torque, not yet an acceleration input: '
             'use method "energy" or [actuator] kind "direct"'
         )
-    designed = _law(table, system, params, start, float(table.u_max) * gain, acceleration, gain, coordinates)
+    gain = p.gain if p.actuator.is_motor else 1.0
+    direct = (p.folded() if p.actuator.is_motor else p.replace(actuator=DIRECT)).canonical()
+    designed = _law(table, p, direct, start, float(table.u_max) * gain, gain)
     return designed if gain == 1.0 else in_volts(designed, gain)
 
 
 def _law(
-    table: Any,
-    system: Any,
-    params: Any,
-    start: tuple[float, ...],
-    u_max: float,
-    acceleration: bool,
-    gain: float,
-    coordinates: Any,
+    table: Any, p: Pendulum, direct: Pendulum, start: tuple[float, ...], u_max: float, gain: float
 ) -> SwingUpLaw:
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
@@ -59,16 +50,7 @@ def _law(
 
     period, hold = float(table.period), float(table.hold)
     try:
-        model = plant(
-            system.type,
-            system.links,
-            params.m,
-            params.l,
-            params.delta,
-            params.g,
-            system.inertia,
-            **dict(params.links),
-        )
+        model = plant(direct)
         if table.method == "energy":
             keys = {key: getattr(table, key) for key in ENERGY_KEYS if getattr(table, key) is not None}
             constants: dict[str, Any] = {
@@ -79,16 +61,15 @@ def _law(
 
                 weights = np.asarray(constants["q"], dtype=float)
                 weights = np.diag(weights) if weights.ndim == 1 else weights
-                if coordinates is not None:
-                    p, _ = coordinates.matrices(system.links)
-                    weights = p.T @ weights @ p
+                to_canonical, _ = p.coordinates.matrices(p.links)
+                weights = to_canonical.T @ weights @ to_canonical
                 constants["q"] = weights
             if "r" in constants:
                 constants["r"] /= gain**2
-            return energy_law(
-                energy_swingup(model, u_max=u_max, period=period, acceleration=acceleration, **constants),
-                hold,
+            planned = energy_swingup(
+                model, u_max=u_max, period=period, acceleration=p.actuator.is_acceleration, **constants
             )
+            return energy_law(planned, hold)
         plan, schedule = trajectory_swingup(
             model,
             duration=float(table.duration),

@@ -263,7 +263,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
 
 def printed_estimator(scene: Scene) -> PrintedEstimator | None:
     """The scene's estimator as the C header prints it (None: no [sensors]/[estimator], or the
-    exact state): the numbers of its measured loop (scene/sensors.py), the sampled loop's period
+    exact state): the numbers of its measured loop (experiment/loop.py), the sampled loop's period
     and, for the EKF, the drive's input gain."""
     loop = scene.loop
     if loop is None or not loop.sensors or loop.estimator == "exact":
