@@ -22,6 +22,7 @@ MAX_DELAY_PERIODS = 10**6  # a longer delay is a unit slip (and would hold a que
 class SensorsError(Exception):
     """A [sensors], [estimator] or drive key that does not fit the rest of the scene (one line)."""
 
+
 @dataclass(frozen=True)
 class Loop:
     """What the simulator's measured loop needs (cpp/include/ipsim/sensors.hpp), in the scene's
