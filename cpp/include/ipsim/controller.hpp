@@ -14,12 +14,12 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "ipsim/eigenvalues.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/ldlt.hpp"
 #include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 
@@ -85,7 +85,7 @@ Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFe
       const auto mass = Model::template mass_matrix<double>(q, params);
       const auto bias = Model::template bias<double>(q, qd, params);
       const auto links = mass.template bottomRightCorner<Model::kLinks, Model::kLinks>().eval();
-      const auto qdd = links.ldlt().solve(-bias.template tail<Model::kLinks>()).eval();
+      const auto qdd = detail::ldlt_solve<Model::kLinks, 1>(links, -bias.template tail<Model::kLinks>());
       force = bias(0) + mass.template block<1, Model::kLinks>(0, 1).dot(qdd);
     }
   }

@@ -26,6 +26,7 @@
 #include <sundials/sundials_nvector.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
+#include "ipsim/ldlt.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/rhs.hpp"
 
@@ -113,7 +114,7 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
     if (context.coulomb_index >= 0) {
       Eigen::Matrix<double, n, n> slope;
       coulomb_force<Model>(context, qd, &slope);
-      rows.template rightCols<n>() += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(slope);
+      rows.template rightCols<n>() += ldlt_solve<n, n>(Model::template mass_matrix<double>(q, *context.params), slope);
     }
   }
   Eigen::Matrix<double, 2 * n, 1> gradient;

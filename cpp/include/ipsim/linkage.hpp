@@ -6,7 +6,8 @@
 //
 // A header declares such a function, then defines it in a block guarded by IPSIM_DEFINITIONS with
 // IPSIM_DECL in front: `inline` when header-only, nothing in ipsim_core.cpp (the one definition).
-// Templates (everything that depends on the model) stay in the headers.
+// Templates (everything that depends on the model) stay in the headers, but for the small models'
+// LDLT solves, which the core instantiates (ipsim/ldlt.hpp).
 #pragma once
 
 #if defined(IPSIM_SEPARATE_COMPILATION) && !defined(IPSIM_CORE_SOURCE)

@@ -7,11 +7,11 @@
 #include <exception>
 #include <limits>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <sundials/sundials_nvector.h>
 
 #include "ipsim/input.hpp"
+#include "ipsim/ldlt.hpp"
 #include "ipsim/model.hpp"
 
 namespace ipsim::detail {
@@ -100,7 +100,7 @@ VectorOf<Model> acceleration_dynamics(const VectorOf<Model>& q, const VectorOf<M
     qdd(0) = a;
     const Eigen::Matrix<double, links, links> links_mass = mass.template bottomRightCorner<links, links>();
     qdd.template tail<links>() =
-        links_mass.ldlt().solve(-(mass.template block<links, 1>(1, 0) * a + residual.template tail<links>()));
+        ldlt_solve<links, 1>(links_mass, -(mass.template block<links, 1>(1, 0) * a + residual.template tail<links>()));
     force = mass.row(0).dot(qdd) + residual(0);
     return qdd;
   } else {  // simulate() refuses Settings::acceleration for such a model before any run
@@ -142,7 +142,7 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   } else {
     qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
     if constexpr (has_mass_matrix<Model>) {
-      if (friction_on) qdd += Model::template mass_matrix<double>(q, *context.params).ldlt().solve(friction);
+      if (friction_on) qdd += ldlt_solve<Model::kDof, 1>(Model::template mass_matrix<double>(q, *context.params), friction);
     }
   }
   if (friction_on) {

@@ -1,0 +1,46 @@
+// x = A⁻¹ B for the small symmetric positive definite matrices of the right-hand side, its exact
+// Jacobian and the controller (a model's mass matrix, or its links' block), by Eigen's LDLT.
+//
+// Eigen's fixed-size LDLT is about a third of a simulator's compile time (docs/testing.md). A
+// program built with -DIPSIM_SEPARATE_COMPILATION (ipsim/linkage.hpp) calls the instances compiled
+// once in ipsim's core (cpp/src/ipsim_core.cpp) for matrices of up to kCoreLdltSize rows with one
+// right-hand side or a square one, the sizes of models of up to four links; it compiles the other
+// sizes itself, as a header-only program compiles them all. The code is the same either way, so
+// are the numbers.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+#include "ipsim/linkage.hpp"
+
+namespace ipsim::detail {
+
+/// The largest matrix (rows) whose solves ipsim's core compiles: a model with three links.
+inline constexpr int kCoreLdltSize = 4;
+
+/// A⁻¹ B by Eigen's LDLT with pivoting: compiled once in ipsim's core for the sizes of `ldlt_solve`.
+template <int N, int C>
+Eigen::Matrix<double, N, C> core_ldlt_solve(const Eigen::Matrix<double, N, N>& a,
+                                            const Eigen::Matrix<double, N, C>& b);
+
+/// A⁻¹ B for a symmetric positive definite N × N matrix A (Eigen's LDLT with pivoting), B with
+/// one column or N.
+template <int N, int C>
+Eigen::Matrix<double, N, C> ldlt_solve(const Eigen::Matrix<double, N, N>& a, const Eigen::Matrix<double, N, C>& b) {
+  if constexpr (N <= kCoreLdltSize && (C == 1 || C == N)) {
+    return core_ldlt_solve<N, C>(a, b);
+  } else {
+    return a.ldlt().solve(b);
+  }
+}
+
+#if IPSIM_DEFINITIONS
+template <int N, int C>
+Eigen::Matrix<double, N, C> core_ldlt_solve(const Eigen::Matrix<double, N, N>& a,
+                                            const Eigen::Matrix<double, N, C>& b) {
+  return a.ldlt().solve(b);
+}
+#endif  // IPSIM_DEFINITIONS
+
+}  // namespace ipsim::detail
