@@ -169,7 +169,7 @@ def plot_control(columns: dict[str, list[float]], scene: Scene, title: str, path
     timing = "continuous" if controller.period is None else f"sampled every {controller.period:g} s"
     gain = ", ".join(f"{k:.3g}" for k in controller.gain)
     angles.set_title(
-        f"{title}\nlink 1 tilted by {scene.theta[1]:g} rad at t = 0; LQR ({timing}), K = [{gain}]"
+        f"{title}\nlink 1 tilted by {scene.theta[1]:g} rad at t = 0; LQR ({timing})\nK = [{gain}]"
     )
     for ax in (angles, force):
         ax.grid(True, alpha=0.3)
