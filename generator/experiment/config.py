@@ -159,8 +159,7 @@ def resolved_config(scene: Scene, model: str | None = None) -> str:
         lines.put("energy", True)
     _controller(lines, scene.controller)
     _swingup(lines, scene.swingup)
-    for line in _loop_lines(scene.loop):  # the measured loop's keys
-        lines.put(*line.split(" = ", 1))
+    _loop(lines, scene.loop)
     return "\n".join(lines) + "\n"
 
 
@@ -236,10 +235,10 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
         lines.put("controller.period", controller.period)
 
 
-def _loop_lines(loop_: Loop | None) -> list[str]:
-    """The simulator's keys for the loop (nothing without one: the config is as before)."""
+def _loop(lines: _Lines, loop_: Loop | None) -> None:
+    """The measured loop's keys for the simulator (none without one: the config is as before)."""
     if loop_ is None:
-        return []
+        return
 
     def numbers(values: Any) -> str:
         return " ".join(format_number(float(v)) for v in values)
@@ -247,40 +246,33 @@ def _loop_lines(loop_: Loop | None) -> list[str]:
     def matrix(rows: Any) -> str:
         return " ".join(numbers(row) for row in rows)
 
-    lines: list[str] = []
     if loop_.drive_noise > 0:
-        lines.append(f"actuator.noise = {format_number(loop_.drive_noise)}")
+        lines.put("actuator.noise", loop_.drive_noise)
     if loop_.lag > 0:
-        lines.append(f"actuator.lag = {format_number(loop_.lag)}")
+        lines.put("actuator.lag", loop_.lag)
     if loop_.pulses:
-        lines.append(f"actuator.pulses = {matrix(loop_.pulses)}")
+        lines.put("actuator.pulses", matrix(loop_.pulses))
     if not loop_.sensors:
-        return lines
-    lines += [
-        f"sensors.measured = {' '.join(str(i) for i in loop_.measured)}",
-        f"sensors.resolution = {numbers(loop_.resolution)}",
-        f"sensors.noise = {numbers(loop_.noise)}",
-        f"sensors.delay = {format_number(loop_.delay)}",
-        f"sensors.seed = {loop_.seed}",
-        f"estimator = {loop_.estimator}",
-    ]
+        return
+    lines.put("sensors.measured", " ".join(str(i) for i in loop_.measured))
+    lines.put("sensors.resolution", numbers(loop_.resolution))
+    lines.put("sensors.noise", numbers(loop_.noise))
+    lines.put("sensors.delay", loop_.delay)
+    lines.put("sensors.seed", loop_.seed)
+    lines.put("estimator", loop_.estimator)
     if loop_.cutoff is not None:
-        lines.append(f"estimator.cutoff = {format_number(loop_.cutoff)}")
+        lines.put("estimator.cutoff", loop_.cutoff)
     if loop_.estimator in ("kalman", "ekf"):
-        lines.append(f"estimator.equilibrium = {numbers(loop_.equilibrium)}")
+        lines.put("estimator.equilibrium", numbers(loop_.equilibrium))
     if loop_.estimator == "kalman":
-        lines += [
-            f"estimator.A = {matrix(loop_.A)}",
-            f"estimator.B = {numbers(loop_.B)}",
-            f"estimator.gain = {matrix(loop_.gain)}",
-            f"estimator.input = {format_number(loop_.input_equilibrium)}",
-        ]
+        lines.put("estimator.A", matrix(loop_.A))
+        lines.put("estimator.B", numbers(loop_.B))
+        lines.put("estimator.gain", matrix(loop_.gain))
+        lines.put("estimator.input", loop_.input_equilibrium)
     if loop_.estimator == "ekf":
-        lines += [
-            f"estimator.process_noise = {matrix(loop_.process_noise)}",
-            f"estimator.measurement_noise = {matrix(loop_.measurement_noise)}",
-        ]
-    return lines
+        lines.put("estimator.process_noise", matrix(loop_.process_noise))
+        lines.put("estimator.measurement_noise", matrix(loop_.measurement_noise))
+
 
 
 def motor_folded_parameters(

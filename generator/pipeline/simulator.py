@@ -150,17 +150,24 @@ def core_command(cxx: str, output: Path) -> list[str]:
     return [cxx, *flags, "-c", str(core), "-o", str(output)]
 
 
-def cache_key(cxx: str, header_text: str) -> str:
+def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
     """SHA-256 (hex, 24 digits) of everything the binary depends on (with `header_text` empty:
-    everything ipsim's compiled core depends on)."""
+    everything ipsim's compiled core depends on); `version`: `cxx --version`'s output, asked
+    here unless given."""
     source, include = simulator_sources()
     digest = hashlib.sha256()
-    version = subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
+    if version is None:
+        version = compiler_version(cxx)
     for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
         digest.update(part.encode() + b"\0")
     for path in [source, source.with_name(CORE_SOURCE), *sorted((include / "ipsim").glob("*.hpp"))]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:24]
+
+
+def compiler_version(cxx: str) -> str:
+    """`cxx --version`'s output: part of every cache key (another compiler, another binary)."""
+    return subprocess.run([cxx, "--version"], capture_output=True, text=True).stdout
 
 
 def _missing_package(output: str) -> str | None:
@@ -197,7 +204,8 @@ def build(
     """The simulator for the model `name` whose generated header is `header_text`: from the
     cache, or compiled into it (calling `announce` with a progress line first)."""
     cxx = compiler()
-    core = _core(cxx, cache, announce).path
+    version = compiler_version(cxx)  # asked once for both keys
+    core = _core(cxx, version, cache, announce).path
     recipe = Recipe(
         sources={f"{name}.hpp": header_text},
         command=lambda entry, binary: compile_command(cxx, entry / f"{name}.hpp", name, binary, core),
@@ -208,10 +216,10 @@ def build(
         legacy_whole=_answers_help,
     )
     folder = cache_root(cache) / "simulators"
-    return cached_build(folder, cache_key(cxx, header_text), f"simulate_{name}", recipe, announce)
+    return cached_build(folder, cache_key(cxx, header_text, version), f"simulate_{name}", recipe, announce)
 
 
-def _core(cxx: str, cache: Path | None, announce: Callable[[str], None]) -> Built:
+def _core(cxx: str, version: str, cache: Path | None, announce: Callable[[str], None]) -> Built:
     """ipsim's compiled core for this compiler and these flags: from the cache, or compiled into it."""
     recipe = Recipe(
         sources={},
@@ -222,4 +230,4 @@ def _core(cxx: str, cache: Path | None, announce: Callable[[str], None]) -> Buil
         noun="compiled core",
     )
     folder = cache_root(cache) / "ipsim-core"
-    return cached_build(folder, cache_key(cxx, ""), CORE_OBJECT, recipe, announce)
+    return cached_build(folder, cache_key(cxx, "", version), CORE_OBJECT, recipe, announce)
