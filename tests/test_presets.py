@@ -39,9 +39,10 @@ def test_every_preset_says_where_its_values_come_from() -> None:
 
 def test_the_wheel_ships_the_presets() -> None:
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
-    assert "ipgen.presets" in project["packages"]
+    assert {"ipgen.presets", "ipgen.presets.rigs"} <= set(project["packages"])
     assert project["package-dir"]["ipgen.presets"] == "scenes"
-    assert set(project["package-data"]["ipgen.presets"]) == {"*.toml", "rigs/*.toml"}
+    assert project["package-data"]["ipgen.presets"] == ["*.toml"]
+    assert project["package-data"]["ipgen.presets.rigs"] == ["*.toml"]
     assert not list((ROOT / "scenes").rglob("*/*/*.toml"))  # nothing deeper than rigs/
 
 
