@@ -38,6 +38,10 @@ COMPARE = r"""
 #include "special.hpp"
 namespace G = ipgen::general;
 namespace S = ipgen::special;
+#ifdef ENERGY  // a second specialisation of the same scene, with the energy functions
+#include "special_energy.hpp"
+namespace E = ipgen::special_energy;
+#endif
 
 template <class A, class B>
 double difference(const A& a, const B& b) {  // max |a - b| / max |b|; NaN if any entry is NaN
@@ -55,6 +59,10 @@ int main() {
   std::cin >> gp.g;
   S::Params<double> sp{gp.m, gp.l, gp.delta, gp.g};
   if (S::check_folded(sp) != nullptr) { std::printf("folded mismatch %s\n", S::check_folded(sp)); return 1; }
+#ifdef ENERGY
+  E::Params<double> ep{gp.m, gp.l, gp.delta, gp.g};
+  if (E::check_folded(ep) != nullptr) { std::printf("folded mismatch %s\n", E::check_folded(ep)); return 1; }
+#endif
   double worst = 0;
   G::Vector<double> q, qd;
   double u;
@@ -68,7 +76,12 @@ int main() {
     raise_to(worst, difference(ds.dqdd_dqd, dg.dqdd_dqd));
     raise_to(worst, difference(ds.dqdd_du, dg.dqdd_du));
 #ifdef ENERGY
-    Eigen::Vector3d es(S::kinetic_energy(q, qd, sp), S::potential_energy(q, sp), S::dissipation(qd, sp));
+    raise_to(worst, difference(E::forward_dynamics(q, qd, u, ep), G::forward_dynamics(q, qd, u, gp)));
+    const auto de = E::forward_dynamics_derivatives(q, qd, u, ep);
+    raise_to(worst, difference(de.dqdd_dq, dg.dqdd_dq));
+    raise_to(worst, difference(de.dqdd_dqd, dg.dqdd_dqd));
+    raise_to(worst, difference(de.dqdd_du, dg.dqdd_du));
+    Eigen::Vector3d es(E::kinetic_energy(q, qd, ep), E::potential_energy(q, ep), E::dissipation(qd, ep));
     Eigen::Vector3d eg(G::kinetic_energy(q, qd, gp), G::potential_energy(q, gp), G::dissipation(qd, gp));
     raise_to(worst, difference(es, eg));
 #endif
@@ -91,18 +104,20 @@ def compile_program(
 
 
 @pytest.mark.parametrize("scene_path", SCENES, ids=[p.stem for p in SCENES])
-@pytest.mark.parametrize("energy", [False, True], ids=["simulator", "energy-ledger"])
-def test_specialised_header_agrees_with_general(tmp_path: Path, scene_path: Path, energy: bool) -> None:
-    scene = dataclasses.replace(load_scene(scene_path), energy=energy)
+def test_specialised_header_agrees_with_general(tmp_path: Path, scene_path: Path) -> None:
+    """Two specialisations of each scene, the simulator's (no energy functions) and the energy
+    ledger's (scene.energy = true), in one program with the general header."""
+    scene = load_scene(scene_path)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
-    spec = from_scene(scene)
-    assert {name for name, _ in spec.fixed} >= {"m0", "m1", "delta1", "g"}
     generate_header(system, "general", tmp_path)
-    generate_header(system, "special", tmp_path, spec=spec)
-    special = (tmp_path / "special.hpp").read_text()
-    assert "SPECIALISED for scene" in special and "folded" in special
-    assert ("kinetic_energy(" in special) == energy
-    build = compile_program(tmp_path, COMPARE, ["-DENERGY"] if energy else [])
+    for name, energy in (("special", False), ("special_energy", True)):
+        spec = from_scene(dataclasses.replace(scene, energy=energy))
+        assert {key for key, _ in spec.fixed} >= {"m0", "m1", "delta1", "g"}
+        generate_header(system, name, tmp_path, spec=spec)
+        special = (tmp_path / f"{name}.hpp").read_text()
+        assert "SPECIALISED for scene" in special and "folded" in special
+        assert ("kinetic_energy(" in special) == energy
+    build = compile_program(tmp_path, COMPARE, ["-DENERGY"])
     assert build.returncode == 0, build.stderr[:4000]
 
     rng = np.random.default_rng(len(scene.stem))
