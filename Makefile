@@ -14,6 +14,10 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
                 texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
+# pytest's workers: one more than the cores, since a worker waits whole compiles (its own
+# simulator's, or one another worker is building) without using its core; --dist worksteal hands
+# a finished worker tests queued for another, so the run does not end on one long queue.
+PYTEST_JOBS ?= $(shell expr $(JOBS) + 1)
 
 .PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
@@ -43,7 +47,9 @@ $(VENV)/.installed: pyproject.toml | deps
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
 	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
-	$(PY) -m pip install -q -e '.[test]'
+	@# --no-compile: no .pyc for the ~60 packages now (half the install's time); Python writes
+	@# them for the modules a run imports, once.
+	$(PY) -m pip install -q --no-compile -e '.[test]'
 	@touch $@
 
 lint: venv
@@ -53,7 +59,7 @@ lint: venv
 ## go to one cache for the whole run, build/test-cache/, at -O1 (tests/conftest.py): a second
 ## make test compiles none of them.
 test-python: venv
-	$(PY) -m pytest -q -n $(JOBS) -m "not fresh_venv"
+	$(PY) -m pytest -q -n $(PYTEST_JOBS) --dist worksteal -m "not fresh_venv"
 
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py). CI runs it after make test.

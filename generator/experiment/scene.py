@@ -193,6 +193,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     system, parameters = tables["system"], tables["parameters"]
     kind, links = system.type, system.links
     name = system.name or System(kind, links, system.inertia).default_name
+    masses, damping = _floats(parameters.m), _floats(parameters.delta)
     lengths = _floats(parameters.lengths(kind))
     initial = tables["initial"]
     zeros = (0.0,) * (links + 1)
@@ -210,7 +211,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     def pendulum() -> Pendulum:
         """What the controller, the swing-up and the estimator are designed on (the scene's floats)."""
         return Pendulum(
-            kind, links, _floats(parameters.m), lengths, _floats(parameters.delta), float(parameters.g),
+            kind, links, masses, lengths, damping, float(parameters.g),
             system.inertia, actuator=actuator, angles=coordinates.angles, zero=coordinates.zero,
             positive=coordinates.positive, **dict(links_as_built),
         )  # fmt: skip
@@ -257,9 +258,9 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         links=links,
         inertia=system.inertia,
         name=name,
-        m=_floats(parameters.m),
+        m=masses,
         l=lengths,
-        delta=_floats(parameters.delta),
+        delta=damping,
         g=float(parameters.g),
         theta=theta,
         dtheta=dtheta,
@@ -278,7 +279,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         decimals=parameters.decimals(kind),
         links_as_built=links_as_built,
         warnings=_warnings(reader, simulation["rtol"])
-        + tuple(map(reader.warning, unit_slips(kind, _floats(parameters.m), lengths, theta))),
+        + tuple(map(reader.warning, unit_slips(kind, masses, lengths, theta))),
         controller=controller,
         actuator=actuator,
         coulomb=None if parameters.coulomb is None else _floats(parameters.coulomb),
