@@ -14,10 +14,6 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
                 texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
-# pytest's workers: one more than the cores, since a worker waits whole compiles (its own
-# simulator's, or one another worker is building) without using its core; --dist worksteal hands
-# a finished worker tests queued for another, so the run does not end on one long queue.
-PYTEST_JOBS ?= $(shell expr $(JOBS) + 1)
 
 .PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
@@ -57,9 +53,10 @@ lint: venv
 
 ## pytest, all but the tests marked fresh_venv (make test-slow). The simulators `ipgen run` compiles
 ## go to one cache for the whole run, build/test-cache/, at -O1 (tests/conftest.py): a second
-## make test compiles none of them.
+## make test compiles none of them. --dist worksteal: a worker that runs out of tests takes some
+## queued for the other, so the run does not end on one worker's long queue.
 test-python: venv
-	$(PY) -m pytest -q -n $(PYTEST_JOBS) --dist worksteal -m "not fresh_venv"
+	$(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv"
 
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py). CI runs it after make test.
