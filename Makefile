@@ -43,9 +43,9 @@ $(VENV)/.installed: pyproject.toml | deps
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
 	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
-	@# --no-compile: no .pyc for the ~60 packages now (half the install's time); Python writes
-	@# them for the modules a run imports, once.
-	$(PY) -m pip install -q --no-compile -e '.[test]'
+	@# pip writes the .pyc files here, on purpose: where PYTHONDONTWRITEBYTECODE is set (this
+	@# machine), Python never writes them, and every process would compile sympy & co. again.
+	$(PY) -m pip install -q -e '.[test]'
 	@touch $@
 
 lint: venv
