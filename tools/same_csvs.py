@@ -22,6 +22,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from ipgen.common.presets import presets
+
 ROOT = Path(__file__).resolve().parent.parent
 # (scene, Coulomb friction per coordinate): variants of shipped scenes with friction.
 FRICTION = (
@@ -35,7 +37,7 @@ def scenes(folder: Path) -> list[Path]:
     """The shipped scenes and the friction variants, copied into `folder`."""
     folder.mkdir(parents=True)
     copied = []
-    for path in sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/rigs/*.toml")]):
+    for path in (preset.path for preset in presets()):  # scenes/ and scenes/rigs/
         target = folder / (("rig_" if path.parent.name == "rigs" else "") + path.name)
         shutil.copy(path, target)
         copied.append(target)

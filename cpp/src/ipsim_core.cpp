@@ -1,7 +1,7 @@
 // ipsim's non-template functions (the scene reader, messages, coordinates, the estimators'
-// algebra, eigenvalues) and the small models' LDLT solves (ipsim/ldlt.hpp), compiled once: a program built with -DIPSIM_SEPARATE_COMPILATION
-// declares them only and links this object (ipsim/linkage.hpp). Everything that depends on the
-// model stays a template in the headers.
+// algebra, eigenvalues) and the small models' LDLT solves (ipsim/ldlt.hpp), compiled once: a
+// program built with -DIPSIM_SEPARATE_COMPILATION declares them only and links this object
+// (ipsim/linkage.hpp). Everything else that depends on the model stays a template in the headers.
 #ifndef IPSIM_SEPARATE_COMPILATION
 #define IPSIM_SEPARATE_COMPILATION
 #endif

@@ -274,7 +274,6 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
         lines.put("estimator.measurement_noise", matrix(loop_.measurement_noise))
 
 
-
 def motor_folded_parameters(
     scene: Scene,
 ) -> tuple[tuple[float, ...], tuple[float, ...], dict[str, tuple[float, ...]], float]:

@@ -4,8 +4,9 @@
 // Eigen's fixed-size LDLT is about a third of a simulator's compile time (docs/testing.md). A
 // program built with -DIPSIM_SEPARATE_COMPILATION (ipsim/linkage.hpp) calls the instances compiled
 // once in ipsim's core (cpp/src/ipsim_core.cpp) for matrices of up to kCoreLdltSize rows with one
-// right-hand side or a square one, the sizes of models of up to four links; it compiles the other
-// sizes itself, as a header-only program compiles them all. The code is the same either way, so
+// right-hand side or a square one (the mass matrix of a model of up to three links, the links'
+// block of one of up to four); it compiles the other sizes itself, as a header-only program
+// compiles them all. The code is the same either way, so
 // are the numbers.
 #pragma once
 
@@ -16,7 +17,7 @@
 
 namespace ipsim::detail {
 
-/// The largest matrix (rows) whose solves ipsim's core compiles: a model with three links.
+/// The largest matrix (rows) whose solves ipsim's core compiles: a three-link model's mass matrix.
 inline constexpr int kCoreLdltSize = 4;
 
 /// A⁻¹ B by Eigen's LDLT with pivoting: compiled once in ipsim's core for the sizes of `ldlt_solve`.
