@@ -14,8 +14,13 @@ APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapa
                 texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
+# Recipes write .pyc files (into the git-ignored __pycache__/ folders) even where the environment
+# sets PYTHONDONTWRITEBYTECODE (this machine does): otherwise every process of a test run compiles
+# ipgen's and the tests' sources again (pytest's collection: 13.5 s of CPU time per worker
+# instead of 6.2 s, docs/testing.md).
+unexport PYTHONDONTWRITEBYTECODE
 
-.PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
+.PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
 all: test
 
@@ -43,8 +48,8 @@ $(VENV)/.installed: pyproject.toml | deps
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
 	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
-	@# pip writes the .pyc files here, on purpose: where PYTHONDONTWRITEBYTECODE is set (this
-	@# machine), Python never writes them, and every process would compile sympy & co. again.
+	@# pip writes the .pyc files of the installed packages here, on purpose: a user's later runs
+	@# of .venv/bin/ipgen, where PYTHONDONTWRITEBYTECODE is set, would compile sympy & co. again.
 	$(PY) -m pip install -q -e '.[test]'
 	@touch $@
 
@@ -68,9 +73,20 @@ test-slow: venv
 ## ctest measures speed, and Eigen-heavy targets compile in less time (docs/testing.md); make
 ## stability, whose report states run times, builds at -O3.
 CMAKE_OPT ?= -O1
+CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG"
 configure: venv
-	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG" \
-	  -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
+	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
+
+## What the C++ build can do before the virtualenv exists, on the core pip leaves idle while it
+## installs (about a minute from a fresh clone): configure without the generator and compile
+## ipsim's core (ipgen_ipsim_core, which the generated models link too) and the stand-in's
+## simulator. Only in a build folder not configured yet; `configure` then switches the generator
+## on, and neither is rebuilt (same command lines).
+cpp-early: deps
+	@if [ ! -f $(BUILD)/CMakeCache.txt ]; then \
+	  $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=OFF >/dev/null && \
+	  cmake --build $(BUILD) -j 1 --target ipgen_ipsim_core simulate_stand_in_cart1 >/dev/null; \
+	fi
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -82,7 +98,9 @@ test-cpp: build
 ## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
 ## (docs/testing.md). pytest's progress goes to the terminal; the C++ side's output to
 ## build/test-cpp.log, of which its summary is printed (all of its end, if it failed).
-test: lint
+test: deps
+	$(MAKE) --no-print-directory -j 2 venv cpp-early
+	$(MAKE) --no-print-directory lint
 	$(MAKE) --no-print-directory -j 2 test-python test-cpp-logged
 	@echo "make test: all tests passed"
 

@@ -16,6 +16,7 @@ import ipgen
 from ipgen.control import linear as control
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate_header
+from ipgen.pipeline.simulator import SEPARATE, compiled_core, optimisation
 
 ROOT = Path(__file__).resolve().parents[1]
 SUNDIALS = tuple(
@@ -108,14 +109,22 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
         source = source.replace(name, value)
     (folder / "driver.cpp").write_text(source)
     binary = folder / "driver"
+    # ipsim's model-independent code from the test run's simulator cache, as `ipgen run` links it
+    # (same flags: the cache's optimisation, -DNDEBUG), so that it is not compiled once more here;
+    # the README's examples compile ipsim header-only.
+    _std, level, *defines = optimisation()  # ("-std=c++17", level, "-DNDEBUG")
     build = subprocess.run(
         cxx_command(
+            *defines,
+            SEPARATE,
             f"-I{folder}",
             f"-I{ROOT / 'cpp/include'}",
             str(folder / "driver.cpp"),
+            str(compiled_core()),
             "-o",
             str(binary),
             *SUNDIALS,
+            optimisation=level,
         ),
         capture_output=True,
         text=True,

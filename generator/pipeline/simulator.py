@@ -219,6 +219,15 @@ def build(
     return cached_build(folder, cache_key(cxx, header_text, version), f"simulate_{name}", recipe, announce)
 
 
+def compiled_core(cache: Path | None = None, announce: Callable[[str], None] = lambda message: None) -> Path:
+    """The object file of ipsim's model-independent code for this compiler and
+    `optimisation()`'s flags, from the cache or compiled into it: a program of one's own that
+    includes ipsim with `-DIPSIM_SEPARATE_COMPILATION` and these flags links it instead of
+    compiling that code again."""
+    cxx = compiler()
+    return _core(cxx, compiler_version(cxx), cache, announce).path
+
+
 def _core(cxx: str, version: str, cache: Path | None, announce: Callable[[str], None]) -> Built:
     """ipsim's compiled core for this compiler and these flags: from the cache, or compiled into it."""
     recipe = Recipe(
