@@ -11,6 +11,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from ipgen.common.presets import presets
 from ipgen.experiment.config import resolved_config
 from ipgen.experiment.scene import load_scene
 
@@ -19,8 +20,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def main(out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    for scene_path in sorted([*ROOT.glob("scenes/*.toml"), *ROOT.glob("scenes/rigs/*.toml")]):
-        relative = scene_path.relative_to(ROOT)
+    # the shipped scenes as ipgen lists them (scenes/ and scenes/rigs/), read by their path
+    # relative to the checkout, as before
+    for relative in sorted(preset.path.relative_to(ROOT) for preset in presets()):
         scene = load_scene(relative)
         name = relative.as_posix().replace("/", "__").removesuffix(".toml") + ".cfg"
         (out / name).write_text(resolved_config(scene), encoding="utf-8")
