@@ -19,10 +19,11 @@ JOBS ?= $(shell nproc)
 # ipgen's and the tests' sources again (pytest's collection: 13.5 s of CPU time per worker
 # instead of 6.2 s, docs/testing.md).
 unexport PYTHONDONTWRITEBYTECODE
-# glibc's malloc on transparent huge pages (where the kernel offers them, `madvise`): the
-# compilers spend about a tenth less time on the same object files (docs/testing.md). Other C
-# libraries ignore it; a value already set is kept.
-export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
+# The tests' processes use glibc's malloc on transparent huge pages (where the kernel offers
+# them, `madvise`): the compilers spend about a tenth less time on the same object files
+# (docs/testing.md). Other C libraries ignore it; a value already set is kept. Not for make bench
+# and make stability, whose timings stay comparable with those recorded before.
+test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
 .PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
