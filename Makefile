@@ -62,7 +62,7 @@ lint: venv
 	$(VENV)/bin/ruff check generator tests tools bench
 
 ## pytest, all but the tests marked fresh_venv (make test-slow). The simulators `ipgen run` compiles
-## go to one cache for the whole run, build/test-cache/, at -O1 (tests/conftest.py): a second
+## go to one cache for the whole run, build/test-cache/, at -Og (tests/conftest.py): a second
 ## make test compiles none of them. --dist worksteal: a worker that runs out of tests takes some
 ## queued for the other, so the run does not end on one worker's long queue.
 test-python: venv
@@ -74,10 +74,10 @@ test-slow: venv
 	$(PY) -m pytest -q -n $(JOBS) -m fresh_venv
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
-## CMAKE_OPT: the optimisation level of the Release build (CMake's own is -O3). -O1 by default: no
-## ctest measures speed, and Eigen-heavy targets compile in less time (docs/testing.md); make
-## stability, whose report states run times, builds at -O3.
-CMAKE_OPT ?= -O1
+## CMAKE_OPT: the optimisation level of the Release build (CMake's own is -O3). -Og by default: no
+## ctest measures speed, and Eigen-heavy targets compile in a fifth to a third less time than at
+## -O1 (docs/testing.md); make stability, whose report states run times, builds at -O3.
+CMAKE_OPT ?= -Og
 CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG"
 configure: venv
 	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null

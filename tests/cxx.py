@@ -19,7 +19,7 @@ WARNINGS = ("-Wall", "-Wextra", "-Wpedantic", "-Werror")
 ALLOW_NO_CXX = "IPGEN_ALLOW_NO_CXX"
 
 
-def cxx_command(*arguments: str, optimisation: str = "-O1") -> tuple[str, ...]:
+def cxx_command(*arguments: str, optimisation: str = "-Og") -> tuple[str, ...]:
     """The compiler, C++17, all warnings as errors, Eigen on the include path, then `arguments`."""
     return (CXX, "-std=c++17", optimisation, *WARNINGS, f"-I{EIGEN_INCLUDE}", *arguments)
 

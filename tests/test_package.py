@@ -67,7 +67,7 @@ def install(folder: Path) -> Path:
         "XDG_CACHE_HOME": str(folder / "cache"),  # ipgen run's compiled simulators
     }
     env.pop("IPGEN_CACHE_DIR", None)
-    env.pop("IPGEN_SIM_OPT", None)  # the user's -O2, not the test suite's -O1 (tests/conftest.py)
+    env.pop("IPGEN_SIM_OPT", None)  # the user's -O2, not the test suite's -Og (tests/conftest.py)
     done = subprocess.run(
         ["bash", "-eu", "-o", "pipefail", "-c", script], cwd=source, capture_output=True, text=True, env=env
     )
