@@ -87,8 +87,8 @@ CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-D
 configure: venv
 	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
 
-## What the C++ build can do before the virtualenv exists, on the core pip leaves idle while it
-## installs (about a minute from a fresh clone): configure without the generator and compile
+## What the C++ build can do before the virtualenv exists, beside its install (about 35 s from a
+## fresh clone, which make test's Python side waits for): configure without the generator and compile
 ## ipsim's core (ipgen_ipsim_core, which the generated models link too) and the stand-in's
 ## simulator. Only in a build folder not configured yet; `configure` then switches the generator
 ## on, and neither is rebuilt (same command lines).
@@ -108,8 +108,8 @@ test-cpp: build
 ## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
 ## (docs/testing.md). pytest's progress goes to the terminal; the C++ side's output to
 ## build/test-cpp.log, of which its summary is printed (all of its end, if it failed).
-## The two sides start as soon as they can: the C++ one with cpp-early while pip installs, the
-## Python one (ruff, then pytest) once pip is done.
+## The two sides start as soon as they can: the C++ one with cpp-early while the virtualenv
+## installs, the Python one (ruff, then pytest) once it is installed.
 test: deps
 	$(MAKE) --no-print-directory -j 2 test-python test-cpp-logged
 	@echo "make test: all tests passed"
