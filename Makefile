@@ -53,8 +53,8 @@ $(VENV)/.installed: pyproject.toml | deps
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
 	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
-	@# uv installs what pip would, in parallel: a fresh .venv in about 35 s instead of pip's 70-90
-	@# s, which make test waits for (docs/testing.md). It writes the .pyc files here, on purpose:
+	@# uv installs what pip would, in parallel: a fresh .venv in about 35 s instead of pip's
+	@# 70-90 s, which make test waits for (docs/testing.md). It writes the .pyc files here, on purpose:
 	@# a user's later runs of .venv/bin/ipgen, where PYTHONDONTWRITEBYTECODE is set, would compile
 	@# sympy & co. again. pip does it where uv cannot be installed or cannot reach the index (uv
 	@# reads no pip configuration).

@@ -9,7 +9,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from cxx import WARNINGS, cxx_command, require_toolchain
+from cxx import EIGEN_INCLUDE, WARNINGS, cxx_command, require_toolchain
 
 import ipgen
 from ipgen.model.system import System
@@ -121,7 +121,7 @@ def test_readme_cxx_compile_line_builds_the_lqr_example(tmp_path: Path) -> None:
     # Warnings as errors for the example's own code: Eigen, on the line's -I path, is named a system
     # directory too (GCC then ignores the -I), since at the line's -O2 GCC 12 warns inside Eigen
     # (-Wmaybe-uninitialized in TriangularMatrixVector.h).
-    checked = [*command, *WARNINGS, "-isystem", "/usr/include/eigen3"]
+    checked = [*command, *WARNINGS, "-isystem", str(EIGEN_INCLUDE)]
     build = subprocess.run(checked, cwd=tmp_path, capture_output=True, text=True)
     assert build.returncode == 0, build.stderr
     run = subprocess.run([str(tmp_path / command[command.index("-o") + 1])], capture_output=True, text=True)
