@@ -8,10 +8,11 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 BUILD := build
-# liblapack-dev: ipsim's eigenvalue guards; texlive-*, poppler-utils: pdflatex and pdftoppm for the
-# equations documents (--emit equations)
-APT_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapack-dev python3 python3-venv \
-                texlive-latex-base texlive-latex-recommended poppler-utils
+# BUILD_PACKAGES compile and run everything (liblapack-dev: ipsim's eigenvalue guards);
+# DOC_PACKAGES typeset the equations documents (--emit equations: pdflatex, pdftoppm), which only
+# pytest's document tests and make demo need.
+BUILD_PACKAGES := g++ make cmake ninja-build libeigen3-dev libsundials-dev liblapack-dev python3 python3-venv
+DOC_PACKAGES := texlive-latex-base texlive-latex-recommended poppler-utils
 SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
 JOBS ?= $(shell nproc)
 # Recipes write .pyc files (into the git-ignored __pycache__/ folders) even where the environment
@@ -25,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
 
 all: test
 
@@ -41,13 +42,19 @@ missing=""; for p in $(1); do \
 	fi
 endef
 
-## System packages (Debian) of make test and make demo.
-deps:
-	@$(call apt_install,$(APT_PACKAGES))
+## System packages (Debian) of make test and make demo. On a fresh machine the documents' TeX
+## packages take about 45 s of one core (most of it building TeX's formats): make test installs
+## them beside the virtualenv and the first compiles (deps-docs is test-python's prerequisite), not
+## before them. Never two apt-get at once: deps-docs waits for deps-build.
+deps: deps-build deps-docs
+deps-build:
+	@$(call apt_install,$(BUILD_PACKAGES))
+deps-docs: deps-build
+	@$(call apt_install,$(DOC_PACKAGES))
 
 ## Python virtualenv with ipgen (editable) and the test tools; rebuilt when pyproject changes.
 venv: $(VENV)/.installed
-$(VENV)/.installed: pyproject.toml | deps
+$(VENV)/.installed: pyproject.toml | deps-build
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
@@ -70,12 +77,12 @@ lint: venv
 ## (tests/conftest.py): a second make test compiles none of them. --dist worksteal: a worker that
 ## runs out of tests takes some queued for the other, so the run does not end on one worker's long
 ## queue.
-test-python: lint
+test-python: lint deps-docs
 	$(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv"
 
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py). CI runs it after make test.
-test-slow: venv
+test-slow: venv deps-docs
 	$(PY) -m pytest -q -n $(JOBS) -m fresh_venv
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
@@ -92,7 +99,7 @@ configure: venv
 ## ipsim's core (ipgen_ipsim_core, which the generated models link too) and the stand-in's
 ## simulator. Only in a build folder not configured yet; `configure` then switches the generator
 ## on, and neither is rebuilt (same command lines).
-cpp-early: deps
+cpp-early: deps-build
 	@if [ ! -f $(BUILD)/CMakeCache.txt ]; then \
 	  $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=OFF >/dev/null && \
 	  cmake --build $(BUILD) -j 1 --target ipgen_ipsim_core simulate_stand_in_cart1 >/dev/null; \
@@ -108,10 +115,11 @@ test-cpp: build
 ## wait on each other's simulator compiles and on subprocesses), and the CMake build fills the rest
 ## (docs/testing.md). pytest's progress goes to the terminal; the C++ side's output to
 ## build/test-cpp.log, of which its summary is printed (all of its end, if it failed).
-## The two sides start as soon as they can: the C++ one with cpp-early while the virtualenv
-## installs, the Python one (ruff, then pytest) once it is installed.
-test: deps
-	$(MAKE) --no-print-directory -j 2 test-python test-cpp-logged
+## The two sides start as soon as they can: the C++ one with cpp-early while the virtualenv and
+## the TeX packages install (-j 3: the three at once), the Python one (ruff, then pytest) once both
+## are installed.
+test: deps-build
+	$(MAKE) --no-print-directory -j 3 test-python test-cpp-logged
 	@echo "make test: all tests passed"
 
 test-cpp-logged: venv cpp-early
@@ -122,7 +130,7 @@ test-cpp-logged: venv cpp-early
 	  tail -n 80 $(BUILD)/test-cpp.log; echo "make test-cpp failed: the whole log is $(BUILD)/test-cpp.log"; exit 1; \
 	fi
 
-demo: configure
+demo: configure deps-docs
 	cmake --build $(BUILD) -j $(JOBS) --target scene_cdip_pulse scene_rsip_pulse scene_rdip_lqr scene_cdip_lqr_tilt
 	$(PY) tools/demo.py --build $(BUILD)
 	$(PY) tools/fmu_demo.py --build $(BUILD) --out out/demo
