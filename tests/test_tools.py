@@ -1,8 +1,10 @@
-"""tools/compare_csv.py and tools/check_settled.py, which ctest's paper.* tests rely on."""
+"""tools/compare_csv.py and tools/check_settled.py, which ctest's paper.* tests rely on, and the
+test-time plugin tools/cpu_per_test.py."""
 
 from __future__ import annotations
 
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -48,3 +50,24 @@ def test_check_settled_reports_what_is_not_settled(tmp_path: Path) -> None:
     result = tool("check_settled.py", str(run), "--angle-tol", "1e-3", "--rate-tol", "1e-3")
     assert result.returncode == 1
     assert "theta1 is 4.159e-02 rad from ±π" in result.stdout and "|dtheta0| = 2.000e-03" in result.stdout
+
+
+def test_cpu_per_test_counts_a_tests_subprocesses_apart_from_its_own_time(tmp_path: Path) -> None:
+    (tmp_path / "test_busy.py").write_text(
+        "import subprocess, sys\n"
+        "def test_spawns():\n"
+        "    subprocess.run([sys.executable, '-c', 'sum(i * i for i in range(3_000_000))'], check=True)\n"
+        "def test_idle():\n"
+        "    pass\n"
+    )
+    log = tmp_path / "cpu.log"
+    env = {key: value for key, value in os.environ.items() if key != "PYTEST_ADDOPTS"}
+    env.update(PYTHONPATH=str(ROOT / "tools"), CPU_LOG=str(log))
+    command = [sys.executable, "-m", "pytest", "-q", "-p", "cpu_per_test", "-p", "no:cacheprovider"]
+    command.append("test_busy.py")
+    done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    rows = {line.split()[4]: [float(x) for x in line.split()[:4]] for line in log.read_text().splitlines()}
+    assert set(rows) == {"test_busy.py::test_spawns", "test_busy.py::test_idle"}
+    assert rows["test_busy.py::test_spawns"][1] > 0.05  # the child's CPU time, counted as children
+    assert rows["test_busy.py::test_idle"][1] == 0.0
