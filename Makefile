@@ -43,7 +43,7 @@ missing=""; for p in $(1); do \
 endef
 
 ## System packages (Debian) of make test and make demo. On a fresh machine the documents' TeX
-## packages take about 45 s of one core (most of it building TeX's formats): make test installs
+## packages take about 40 s of one core (most of it building TeX's formats): make test installs
 ## them beside the virtualenv and the first compiles (deps-docs is test-python's prerequisite), not
 ## before them. Never two apt-get at once: deps-docs waits for deps-build.
 deps: deps-build deps-docs

@@ -5,7 +5,7 @@ and that of the processes it started and waited for (compilers, `ipgen run`), pe
 to the file CPU_LOG (default cpu_per_test.log) as "self children wall start nodeid". A compile
 another worker did, which this test waited for, counts there, not here. For make test:
 
-    PYTHONPATH=tools CPU_LOG=/tmp/cpu.log PYTEST_ADDOPTS="-p cpu_per_test" make test
+    PYTHONPATH=$PWD/tools CPU_LOG=/tmp/cpu.log PYTEST_ADDOPTS="-p cpu_per_test" make test
     sort -k2 -rn /tmp/cpu.log | head    # the tests whose subprocesses took the most
 """
 
