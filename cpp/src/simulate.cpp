@@ -27,10 +27,13 @@
 // parameters, settings or CSV path (all reported before integrating), 3 closed loop diverged,
 // 4 the base left the scene's travel (limits.travel: |theta0| beyond it at a sample; ipsim/travel.hpp),
 // 5 a swing-up lost its plan (ipsim/swingup.hpp).
-#ifndef IPGEN_MODEL_HEADER
-#error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model"
-#endif
+#if defined(IPSIM_RUNTIME_MODEL)
+#include "ipsim/runtime_model.hpp"
+#elif defined(IPGEN_MODEL_HEADER)
 #include IPGEN_MODEL_HEADER
+#else
+#error "compile with -DIPGEN_MODEL_HEADER=\"name.hpp\" -DIPGEN_MODEL=ipgen::name::Model, or -DIPSIM_RUNTIME_MODEL"
+#endif
 
 #include <array>
 #include <cerrno>
@@ -55,8 +58,16 @@
 
 namespace {
 
+#if defined(IPSIM_RUNTIME_MODEL)
+// Compiled once for every model: the model library named by --model is loaded at run time.
+using Model = ipsim::RuntimeModel;
+constexpr bool kRuntimeModel = true;
+#else
 using Model = IPGEN_MODEL;
-constexpr int kDof = Model::kDof;
+constexpr bool kRuntimeModel = false;
+#endif
+/// The model's degrees of freedom (base + links).
+int dof() { return ipsim::dof_of<Model>(); }
 
 /// Bad command line, scene or parameters: reported on one line, exit code 2.
 struct UsageError : std::runtime_error {
@@ -66,6 +77,7 @@ struct UsageError : std::runtime_error {
 struct Options {
   std::string scene_path;
   std::string csv_path;  ///< empty: the scene path with its extension replaced by .csv
+  std::string model_path;  ///< the model library (a simulator compiled once: required)
   bool energy = false;   ///< add T, V, W_in, E_diss columns and an energy balance to the summary
   bool force = false;    ///< replace an existing CSV even if this simulator did not write it
   bool check = false;    ///< validate the scene and options only: no integration, no CSV
@@ -191,12 +203,21 @@ Options parse_command_line(int argc, char** argv) {
     if (arg == "-h" || arg == "--help") {
       std::fputs(kUsage, stdout);
       std::fputs(kHelp, stdout);
-      std::printf("\nThis simulator: model %s (%s, %d link%s); its CSV header is t", Model::kName, Model::kType,
-                  Model::kLinks, Model::kLinks == 1 ? "" : "s");
-      for (int i = 0; i < kDof; ++i) std::printf(",theta%d", i);
-      for (int i = 0; i < kDof; ++i) std::printf(",dtheta%d", i);
-      std::puts(" (then the optional columns).");
+      if constexpr (kRuntimeModel) {
+        std::puts("\nThis simulator is compiled once for every model: --model LIB names the model library "
+                  "(`ipgen run` builds and passes it); its CSV header is t,theta0..N,dtheta0..N (then the "
+                  "optional columns).");
+      } else {
+        std::printf("\nThis simulator: model %s (%s, %d link%s); its CSV header is t", ipsim::name_of<Model>(),
+                    ipsim::type_of<Model>(), ipsim::links_of<Model>(), ipsim::links_of<Model>() == 1 ? "" : "s");
+        for (int i = 0; i < dof(); ++i) std::printf(",theta%d", i);
+        for (int i = 0; i < dof(); ++i) std::printf(",dtheta%d", i);
+        std::puts(" (then the optional columns).");
+      }
       std::exit(0);
+    } else if (arg == "--model" && kRuntimeModel) {
+      options.model_path = value();
+      if (options.model_path.empty()) throw UsageError("--model \"\" is empty: name the model library");
     } else if (arg == "--csv") {
       options.csv_path = value();
       csv_given = true;
@@ -249,6 +270,9 @@ Options parse_command_line(int argc, char** argv) {
     }
   }
   if (options.scene_path.empty()) throw UsageError(std::string("no scene file given (") + kUsage + ")");
+  if (kRuntimeModel && options.model_path.empty()) {
+    throw UsageError("no model library given: pass --model LIB (`ipgen run` builds it)");
+  }
   if (options.csv_path.empty() && csv_given) throw UsageError("--csv \"\" is empty: name the CSV file");
   if (options.csv_path.empty()) {
     const auto slash = options.scene_path.find_last_of('/');
@@ -508,8 +532,8 @@ class BaseForceMonitor : public ipsim::SampleSink {
 
   bool record(const ipsim::Sample& sample) override {
     if (enabled_) {
-      const ipsim::VectorOf<Model> q = sample.x().head<kDof>();
-      const ipsim::VectorOf<Model> qd = sample.x().segment<kDof>(kDof);
+      const ipsim::VectorOf<Model> q = sample.x().head(dof());
+      const ipsim::VectorOf<Model> qd = sample.x().segment(dof(), dof());
       double force = 0.0;
       ipsim::detail::acceleration_dynamics<Model>(q, qd, sample.input, ipsim::detail::coulomb_force<Model>(context_, qd),
                                                   params_, force);
@@ -556,8 +580,8 @@ void print_loop(const ipsim::scene::Scene<Model>& scene) {
   if (loop.kind == ipsim::EstimatorKind::filter) std::printf(" (cutoff %g rad/s)", loop.cutoff);
   const Eigen::VectorXd rms = scene.loop->rms_error();
   std::printf("; RMS estimation error over %ld samples:", scene.loop->samples());
-  for (int i = 0; i < 2 * kDof; ++i) {
-    std::printf("%s %s%d %.3g", i == 0 ? "" : ",", i < kDof ? "theta" : "dtheta", i % kDof, rms(i));
+  for (int i = 0; i < 2 * dof(); ++i) {
+    std::printf("%s %s%d %.3g", i == 0 ? "" : ",", i < dof() ? "theta" : "dtheta", i % dof(), rms(i));
   }
   std::putchar('.');
 }
@@ -570,10 +594,10 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   std::printf(
       "scene %s: model %s (%s, %d link%s), input %s, method %s, t = 0 to %g s, %zu samples written to %s. "
       "Final state theta = %s, dtheta = %s. %s, %ld restart%s at input discontinuities. Wall time %.3g s.",
-      abbreviate(scene.name).c_str(), Model::kName, Model::kType, Model::kLinks, Model::kLinks == 1 ? "" : "s",
+      abbreviate(scene.name).c_str(), ipsim::name_of<Model>(), ipsim::type_of<Model>(), ipsim::links_of<Model>(), ipsim::links_of<Model>() == 1 ? "" : "s",
       ipsim::to_string(s.input.kind), ipsim::to_string(s.method), csv.last_time(), csv.rows(),
-      shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), kDof).c_str(),
-      ipsim::detail::format_values(final_state.data() + kDof, kDof).c_str(), describe_run(s, st).c_str(), st.restarts,
+      shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), dof()).c_str(),
+      ipsim::detail::format_values(final_state.data() + dof(), dof()).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
   if (!scene.coordinates.canonical()) {
     std::printf(" Coordinates: the rig's (%s): the CSV's angles and rates, the states and the controller here are in them.",
@@ -586,7 +610,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   }
   if (scene.motor) {
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
-                scene.input_gain, Model::kType == std::string_view("rotary") ? "N m" : "N");
+                scene.input_gain, ipsim::type_of<Model>() == std::string_view("rotary") ? "N m" : "N");
   }
   if (s.acceleration) {
     std::printf(" Actuator: acceleration, u is the base's acceleration [%s]; the base's %s peaked at %.6g %s "
@@ -632,6 +656,14 @@ std::string divergence_message(const ipsim::Divergence& d, double angle, const i
 
 int run(int argc, char** argv) {
   Options options = parse_command_line(argc, argv);
+#if defined(IPSIM_RUNTIME_MODEL)
+  std::optional<ipsim::ModelLibrary> library;  // the active model while it lives
+  try {
+    library.emplace(options.model_path);
+  } catch (const ipsim::Error& e) {
+    throw UsageError(e.what());
+  }
+#endif
   ipsim::scene::Scene<Model> scene = ipsim::scene::load<Model>(ipsim::scene::SceneFile::read(options.scene_path));
   ipsim::Settings<Model>& s = scene.settings;
   if (options.method) s.method = *options.method;
@@ -672,14 +704,14 @@ int run(int argc, char** argv) {
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;
     rows.phase_column([state] { return ipsim::to_string(state->phase); });
-    swing_monitor.emplace(rows, state, kDof, scene.swingup->hold, options.divergence_angle);
+    swing_monitor.emplace(rows, state, dof(), scene.swingup->hold, options.divergence_angle);
   }
   std::optional<ipsim::DivergenceMonitor> monitor;
   if (scene.controller && std::isfinite(options.divergence_angle)) {
-    monitor.emplace(rows, scene.controller->equilibrium, kDof, options.divergence_angle);
-    Eigen::VectorXd start(2 * kDof);
+    monitor.emplace(rows, scene.controller->equilibrium, dof(), options.divergence_angle);
+    Eigen::VectorXd start(2 * dof());
     start << s.theta, s.dtheta;
-    if (const auto [link, deviation] = ipsim::farthest_link(start, scene.controller->equilibrium, kDof);
+    if (const auto [link, deviation] = ipsim::farthest_link(start, scene.controller->equilibrium, dof());
         deviation > options.divergence_angle) {
       std::fprintf(stderr,
                    "simulate: warning: the initial state is outside the controller's region: link %d is %.4g rad "
@@ -700,7 +732,7 @@ int run(int argc, char** argv) {
   print_summary(options, scene, result, rows, base_force);
   if (travel && travel->exceeded()) {
     const ipsim::TravelExceeded& e = *travel->exceeded();
-    const bool cart = Model::kType == std::string_view("classical");
+    const bool cart = ipsim::is_classical<Model>();
     std::fflush(stdout);
     std::fprintf(stderr,
                  "simulate: error: the base left its travel at t = %.6g s: theta0 = %.6g %s, beyond limits.travel = "

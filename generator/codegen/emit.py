@@ -49,6 +49,12 @@ def _c(eqs: Equations, request: HeaderRequest) -> Rendered:
     return {".h": render_c_header(eqs, request)}
 
 
+def _library(eqs: Equations, request: HeaderRequest) -> Rendered:
+    from ipgen.codegen.model_library import render_model_library
+
+    return dict(render_model_library(eqs, request))
+
+
 def _equations(eqs: Equations, request: HeaderRequest) -> Rendered:
     """The equations of the links as built when the command gives any of their parameters
     (com, J, J_axial, tip, J0 in --fix or a scene), else the familiar ones of the paper's rods."""
@@ -75,6 +81,13 @@ def _fmu3(eqs: Equations, request: HeaderRequest) -> Rendered:
 TARGETS: dict[str, Target] = {
     "cpp": Target("cpp", (".hpp",), "the C++17 header (Eigen) NAME.hpp", _cpp),
     "c": Target("c", (".h",), "the C99 header NAME.h (no Eigen; float or double) for embedded targets", _c),
+    "library": Target(
+        "library",
+        (".h", "_model.c"),
+        "the model behind ipgen's C model interface (ipgen_model.h): NAME.h and NAME_model.c, "
+        "a shared library for ipsim's simulator or ctypes",
+        _library,
+    ),
     "equations": Target(
         "equations",
         (".md", ".tex"),

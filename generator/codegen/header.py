@@ -222,10 +222,15 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     return environment().get_template(TEMPLATE).render(context)
 
 
-def rod_fills(system: System, spec: Specialisation) -> list[tuple[str, str]]:
+def _cast(syntax: Syntax, value: int) -> str:
+    """An integer constant of the scalar type: Scalar(12) in C++, (IPGEN_SCALAR)12 in C."""
+    return f"({syntax.scalar}){value}" if syntax.c_arrays else f"{syntax.scalar}({value})"
+
+
+def rod_fills(system: System, spec: Specialisation, syntax: Syntax = CPP_SYNTAX) -> list[tuple[str, str]]:
     """(Params field, its rod value from m and l) of every com and J entry a header reads and
     falls back on when unset (a cart's J0 is unused; folded entries are not read), for
-    `with_rod_links`."""
+    `with_rod_links` (in C, `syntax` C_SYNTAX: for the model library's adapter)."""
     fixed = {name for name, _ in spec.fixed}
     names = [f"{group}{i}" for i in range(1, system.dof) for group in ("com", "J")]
     if system.is_rotary:
@@ -235,14 +240,14 @@ def rod_fills(system: System, spec: Specialisation) -> list[tuple[str, str]]:
         if name in fixed:
             continue
         group, index = split_parameter(name)
-        m, length = params_field(f"m{index}"), params_field(f"l{index}")
+        m, length = params_field(f"m{index}", syntax), params_field(f"l{index}", syntax)
         # The same expression, operation for operation, as the per-call fallback in the functions
         # (so a run with the fills gives the same bits as one without).
         if group == "com":
-            rod = f"Scalar(1)/Scalar(2)*{length}"
+            rod = f"{_cast(syntax, 1)}/{_cast(syntax, 2)}*{length}"
         else:
-            rod = f"Scalar(1)/Scalar({3 if index == 0 else 12})*{m}*{length}*{length}"
-        fills.append((params_field(name), rod))
+            rod = f"{_cast(syntax, 1)}/{_cast(syntax, 3 if index == 0 else 12)}*{m}*{length}*{length}"
+        fills.append((params_field(name, syntax), rod))
     return fills
 
 

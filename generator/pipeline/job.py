@@ -219,15 +219,16 @@ def plan(
 
 
 def for_the_simulator(job: Job) -> Job:
-    """The job whose C++ header a scene's simulator compiles: in ipgen's own coordinates (the
+    """The job whose model library a scene's simulator loads (`--emit library`: the C header and
+    its adapter to the C model interface): in ipgen's own coordinates (the
     simulator maps the rig's at run time, from the .cfg) and named after the model alone
     (rotary1, rotary2_full), so that every scene of one model shares one cached binary whatever
     its name or conventions. A specialised scene keeps its name: its header holds its numbers."""
     if job.scene is not None and job.scene.specialise:
-        return replace(job, emit=("cpp",), coordinates=Coordinates())
+        return replace(job, emit=("library",), coordinates=Coordinates())
     system = job.system
     name = system.default_name + ("_full" if system.is_rotary and system.inertia == "full" else "")
-    return replace(job, name=name, emit=("cpp",), coordinates=Coordinates())
+    return replace(job, name=name, emit=("library",), coordinates=Coordinates())
 
 
 def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written]:

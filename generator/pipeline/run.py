@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from ipgen.common.files import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.common.safetext import shown_path
 from ipgen.pipeline import job
-from ipgen.pipeline.simulator import Simulator, build
+from ipgen.pipeline.simulator import Simulator, build, model_sources
 from ipgen.plots.run import PNG, PlotError, plot_run, read_run, sampled_beside
 
 if TYPE_CHECKING:
@@ -93,7 +93,7 @@ def run_scene(
 ) -> Outcome:
     """Generate, build, simulate and plot `scene_path` into the folder `out`."""
     with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
-        planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("cpp",), force=force))
+        planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
         assert planned.scene is not None
         scene = planned.scene
         for warning in scene.warnings:  # e.g. a unit slip: the run goes on
@@ -103,9 +103,9 @@ def run_scene(
         prepare_directory(out)
         _check_outputs(paths, Path(scene_path), force)
         job.run(planned)
-        header_text = (Path(staging) / f"{planned.name}.hpp").read_text()
+        sources = model_sources(Path(staging), planned.name)
         cfg_text = (Path(staging) / f"{stem}.cfg").read_text()
-    simulator = build(header_text, planned.name, cache, announce)
+    simulator = build(sources, planned.name, cache, announce)
     write_file(paths["cfg"], cfg_text, force=True)  # checked above
     before = _stamp(paths["csv"])
     command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]

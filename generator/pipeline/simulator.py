@@ -1,28 +1,23 @@
-"""A scene's simulator, compiled once per model content and cached (`ipgen run`).
+"""A scene's simulator: ipsim compiled once, and the model as a small library (`ipgen run`).
 
-The simulator is cpp/src/simulate.cpp built against the model's generated header and the
-ipsim library (cpp/include, installed with the package), linked with SUNDIALS and LAPACK: the
-same sources and libraries CMake's `ipgen_add_simulator` uses, compiled here by direct compiler
-calls (no CMake project to configure, which takes longer than the compile's link step). ipsim's
-model-independent functions are compiled once per compiler and flags (cpp/src/ipsim_core.cpp,
-cached in `<cache>/ipsim-core/<key>/ipsim_core.o`, keyed like a simulator without a header) and
-linked into every simulator (`-DIPSIM_SEPARATE_COMPILATION`, cpp/include/ipsim/linkage.hpp).
-The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1,
--O2, -O3, -Os, -Og) replaces -O2, e.g. -O1 in the test suite, where compile time matters and the
-run time of a simulation does not (docs/testing.md has the compile times measured).
+ipsim's simulator (cpp/src/simulate.cpp with -DIPSIM_RUNTIME_MODEL, linked with SUNDIALS and
+LAPACK) is compiled once per installation, compiler and flags: `<cache>/ipsim/<key>/ipsim-simulate`,
+keyed by the compiler (its path and `--version`), the flags and every ipsim source; its
+model-independent functions (cpp/src/ipsim_core.cpp) are compiled into `<cache>/ipsim-core/<key>/`
+and linked into it, as into a program of one's own (`compiled_core`). A model is its C header and
+the adapter to the C model interface (`--emit library`, cpp/include/ipgen_model.h), compiled by the
+C compiler into `<cache>/models/<key>/libipgen_<name>.so` in about a second; the simulator loads it
+at run time (`--model`). `<cache>/simulators/<key>/simulate_<name>` is a two-line launcher that
+runs the one with the other: the executable a caller runs as the model's simulator.
 
-Cache: `<cache>/simulators/<key>/simulate_<name>`, where the key is a SHA-256 over the generated
-header, simulate.cpp, ipsim_core.cpp and every ipsim header, the compiler (its path and `--version`) and the
-flags, so a run with other initial conditions, inputs, settings or (unless the scene is
-specialised) parameters reuses the binary, and any change of the model or the simulator's
-sources builds a new one. `<cache>` is `--cache-dir`, else $IPGEN_CACHE_DIR, else
-$XDG_CACHE_HOME/ipgen, else ~/.cache/ipgen. An exclusive lock file per key serialises concurrent
-builds of one model; the binary is compiled to a temporary name and renamed, so a run never sees
-half a binary, and its SHA-256 is recorded beside it (`.simulate_<name>.sha256`): an entry that is
-checked corrupt before use (a truncated binary, an entry that is a file, a binary that is a
-folder) is reported, removed and rebuilt. Anchors for the design: cmdstanpy's compiled-model
-cache and PyTorch's `torch.utils.cpp_extension.load` (a content hash naming a build folder,
-guarded by a lock).
+The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1, -O2, -O3, -Os,
+-Og) replaces -O2, e.g. -Og in the test suite, where compile time matters and the run time of a
+simulation does not. `<cache>` is `--cache-dir`, else $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen,
+else ~/.cache/ipgen. Every entry is built under an exclusive lock per key, to a temporary name
+renamed into place, with its SHA-256 recorded beside it; an entry found corrupt before use is
+reported, removed and rebuilt (common/build_cache.py). Anchors for the design: acados and
+CppADCodeGen (generated functions compiled into a small library, plugged into a core compiled
+once), cmdstanpy's compiled-model cache.
 """
 
 from __future__ import annotations
@@ -30,15 +25,19 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import shlex
 import shutil
 import subprocess
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, chosen_compiler, last_error_line
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.errors import Error
+
+# The files of a model library job (`--emit library`), after the model's name.
+LIBRARY_SUFFIXES = (".h", "_model.c")
 
 OPTIMISATION = ("-std=c++17", "-O2", "-DNDEBUG")
 # $IPGEN_SIM_OPT: another optimisation level in place of OPTIMISATION's -O2 (part of the cache key).
@@ -55,10 +54,16 @@ LIBRARIES = (
     "-llapack",
 )
 # ipsim's model-independent functions, compiled once per compiler and flags into the cache's
-# ipsim-core/ and linked into every simulator (cpp/include/ipsim/linkage.hpp).
+# ipsim-core/ and linked into the simulator (cpp/include/ipsim/linkage.hpp).
 CORE_SOURCE = "ipsim_core.cpp"
 SEPARATE = "-DIPSIM_SEPARATE_COMPILATION"
 CORE_OBJECT = "ipsim_core.o"
+# The simulator compiled once: simulate.cpp over the model interface, loading a model at run time.
+RUNTIME = "-DIPSIM_RUNTIME_MODEL"
+PROGRAM = "ipsim-simulate"
+# The model library: C99, position-independent, only the model's symbol exported.
+C_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden")
+INTERFACE = "ipgen_model.h"
 EIGEN_INCLUDE = Path("/usr/include/eigen3")  # Debian's libeigen3-dev (else pkg-config eigen3)
 # What a failed compile most likely lacks: (pattern in the compiler's output, Debian package).
 MISSING_PACKAGES = (
@@ -82,9 +87,12 @@ def simulator_sources() -> tuple[Path, Path]:
     """(cpp/src/simulate.cpp, cpp/include) of this installation (package or checkout)."""
     root = cmake_dir().parent  # the installed package's folder ipgen/, or the checkout
     source, include = root / "cpp" / "src" / "simulate.cpp", root / "cpp" / "include"
-    present = (source, source.with_name(CORE_SOURCE), include / "ipsim" / "ipsim.hpp")
+    present = (source, source.with_name(CORE_SOURCE), include / "ipsim" / "ipsim.hpp", include / INTERFACE)
     if not all(path.is_file() for path in present):
-        raise BuildError(f"the simulator's sources are missing from {shown_path(root)}: reinstall ipgen")
+        raise BuildError(
+            f"the simulator's sources are missing from {shown_path(root)}: install ipgen again "
+            "(pip install --force-reinstall ./ in the checkout)"
+        )
     return source, include
 
 
@@ -121,25 +129,50 @@ def optimisation() -> tuple[str, ...]:
     return tuple(level if flag == "-O2" else flag for flag in OPTIMISATION)
 
 
-def compile_command(cxx: str, header: Path, name: str, binary: Path, core: Path) -> list[str]:
-    """The compiler call that builds simulate.cpp for the model `name` in `header`, linking
+def c_compiler() -> str:
+    """The C compiler of the model libraries: $CC, else gcc, else cc."""
+    found = chosen_compiler("CC", ("gcc", "cc"))
+    if found is None:
+        raise BuildError(
+            "no C compiler found (tried $CC, gcc, cc): install one (Debian: apt-get install gcc)"
+        )
+    return found
+
+
+def c_optimisation() -> tuple[str, ...]:
+    """C_FLAGS with $IPGEN_SIM_OPT's level in place of -O2 (as `optimisation` for C++)."""
+    level = optimisation()[1]
+    return tuple(level if flag == "-O2" else flag for flag in C_FLAGS)
+
+
+def compile_command(cc: str, entry: Path, name: str, library: Path) -> list[str]:
+    """The C compiler call that builds the model library of `name` from the sources in `entry`
+    (NAME.h and NAME_model.c, `--emit library`)."""
+    _, include = simulator_sources()
+    return [
+        cc,
+        *c_optimisation(),
+        f"-I{include}",
+        f"-I{entry}",
+        str(entry / f"{name}_model.c"),
+        "-o",
+        str(library),
+        "-lm",
+    ]
+
+
+def program_command(cxx: str, output: Path, core: Path) -> list[str]:
+    """The compiler call that builds ipsim's simulator, compiled once for every model, linking
     ipsim's compiled `core` (`core_command`)."""
     source, include = simulator_sources()
-    return [
-        cxx,
-        *optimisation(),
-        SEPARATE,
-        f"-I{include}",
-        f"-I{header.parent}",
-        *_eigen_flags(),
-        f'-DIPGEN_MODEL_HEADER="{header.name}"',
-        f"-DIPGEN_MODEL=ipgen::{name}::Model",
-        str(source),
-        str(core),
-        "-o",
-        str(binary),
-        *LIBRARIES,
-    ]
+    flags = [*optimisation(), SEPARATE, RUNTIME, f"-I{include}", *_eigen_flags()]
+    return [cxx, *flags, str(source), str(core), "-o", str(output), *LIBRARIES, "-ldl"]
+
+
+def launcher_command(program: Path, library: Path, output: Path) -> list[str]:
+    """A shell call that writes the launcher `output`: `exec PROGRAM --model LIBRARY "$@"`."""
+    text = f'#!/bin/sh\nexec {shlex.quote(str(program))} --model {shlex.quote(str(library))} "$@"\n'
+    return ["/bin/sh", "-c", 'printf "%s" "$1" > "$2" && chmod 755 "$2"', "sh", text, str(output)]
 
 
 def core_command(cxx: str, output: Path) -> list[str]:
@@ -151,17 +184,38 @@ def core_command(cxx: str, output: Path) -> list[str]:
 
 
 def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
-    """SHA-256 (hex, 24 digits) of everything the binary depends on (with `header_text` empty:
-    everything ipsim's compiled core depends on); `version`: `cxx --version`'s output, asked
-    here unless given."""
+    """SHA-256 (hex, 24 digits) of everything ipsim's compiled core and simulator depend on, for
+    the compiler `cxx` (`version`: its `--version` output, asked here unless given) and these
+    flags; with `header_text`, of that too (what a program built on the core also compiles)."""
     source, include = simulator_sources()
     digest = hashlib.sha256()
     if version is None:
         version = compiler_version(cxx)
     for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
         digest.update(part.encode() + b"\0")
-    for path in [source, source.with_name(CORE_SOURCE), *sorted((include / "ipsim").glob("*.hpp"))]:
+    for path in [
+        source,
+        source.with_name(CORE_SOURCE),
+        include / INTERFACE,
+        *sorted((include / "ipsim").glob("*.hpp")),
+    ]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:24]
+
+
+def library_key(cc: str, sources: Mapping[str, str], version: str) -> str:
+    """SHA-256 (hex, 24 digits) of a model library's sources, the interface, the C compiler and flags."""
+    _, include = simulator_sources()
+    digest = hashlib.sha256()
+    for part in (
+        shutil.which(cc) or cc,
+        version,
+        " ".join(c_optimisation()),
+        (include / INTERFACE).read_text(),
+    ):
+        digest.update(part.encode() + b"\0")
+    for name in sorted(sources):
+        digest.update(name.encode() + b"\0" + sources[name].encode() + b"\0")
     return digest.hexdigest()[:24]
 
 
@@ -195,28 +249,52 @@ def _answers_help(binary: Path) -> bool:
     return done.returncode == 0 and "usage: simulate" in done.stdout
 
 
+def model_sources(folder: Path, name: str) -> dict[str, str]:
+    """The model library's sources that a `library` job wrote into `folder`: NAME.h, NAME_model.c."""
+    return {f"{name}{suffix}": (folder / f"{name}{suffix}").read_text() for suffix in LIBRARY_SUFFIXES}
+
+
 def build(
-    header_text: str,
+    sources: Mapping[str, str],
     name: str,
     cache: Path | None = None,
     announce: Callable[[str], None] = lambda message: None,
 ) -> Simulator:
-    """The simulator for the model `name` whose generated header is `header_text`: from the
-    cache, or compiled into it (calling `announce` with a progress line first)."""
+    """The simulator of the model `name` whose library sources are `sources` (`model_sources`):
+    ipsim's simulator (compiled once), the model's library and their launcher, from the cache or
+    built into it (calling `announce` with a progress line first). `built` and `seconds` tell
+    whether and how long this call compiled the model's library (or the simulator, once)."""
     cxx = compiler()
     version = compiler_version(cxx)  # asked once for both keys
-    core = _core(cxx, version, cache, announce).path
+    program = compiled_program(cache, announce, cxx, version)
+    cc = c_compiler()
     recipe = Recipe(
-        sources={f"{name}.hpp": header_text},
-        command=lambda entry, binary: compile_command(cxx, entry / f"{name}.hpp", name, binary, core),
+        sources=dict(sources),
+        command=lambda entry, output: compile_command(cc, entry, name, output),
         error=BuildError,
         failed=_failed,
-        what=f"the simulator for model {name}",
-        noun="simulator",
-        legacy_whole=_answers_help,
+        what=f"the model library of {name}",
+        noun="model library",
     )
-    folder = cache_root(cache) / "simulators"
-    return cached_build(folder, cache_key(cxx, header_text, version), f"simulate_{name}", recipe, announce)
+    library = cached_build(
+        cache_root(cache) / "models",
+        library_key(cc, sources, compiler_version(cc)),
+        f"libipgen_{name}.so",
+        recipe,
+        announce,
+    )
+    launcher = Recipe(
+        sources={},
+        command=lambda entry, output: launcher_command(program.path, library.path, output),
+        error=BuildError,
+        failed=_failed,
+        what=f"the simulator of {name}",
+        noun="simulator",
+    )
+    digest = hashlib.sha256(f"{program.path}\0{library.path}".encode()).hexdigest()[:24]
+    ran = cached_build(cache_root(cache) / "simulators", digest, f"simulate_{name}", launcher)
+    seconds = program.seconds + library.seconds
+    return Built(ran.path, built=program.built or library.built, seconds=seconds)
 
 
 def compiled_core(cache: Path | None = None, announce: Callable[[str], None] = lambda message: None) -> Path:
@@ -226,6 +304,34 @@ def compiled_core(cache: Path | None = None, announce: Callable[[str], None] = l
     compiling that code again."""
     cxx = compiler()
     return _core(cxx, compiler_version(cxx), cache, announce).path
+
+
+def compiled_program(
+    cache: Path | None = None,
+    announce: Callable[[str], None] = lambda message: None,
+    cxx: str | None = None,
+    version: str | None = None,
+) -> Built:
+    """ipsim's simulator compiled once for every model (it loads a model library with --model),
+    for this compiler and `optimisation()`'s flags: from the cache, or compiled into it."""
+    cxx = cxx or compiler()
+    version = version if version is not None else compiler_version(cxx)
+    core = _core(cxx, version, cache, announce)
+    recipe = Recipe(
+        sources={},
+        command=lambda entry, output: program_command(cxx, output, core.path),
+        error=BuildError,
+        failed=_failed,
+        what="ipsim's simulator (once for every model)",
+        noun="simulator",
+        legacy_whole=_answers_help,
+    )
+    built = cached_build(
+        cache_root(cache) / "ipsim", cache_key(cxx, RUNTIME, version), PROGRAM, recipe, announce
+    )
+    if core.built:
+        return Built(built.path, built=True, seconds=built.seconds + core.seconds)
+    return built
 
 
 def _core(cxx: str, version: str, cache: Path | None, announce: Callable[[str], None]) -> Built:

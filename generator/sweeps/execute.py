@@ -1,7 +1,7 @@
 """One run of a sweep, and a batch of them in one worker process.
 
 `run_one` is a pure function of (scene text, overrides, seed, success test): the worker prepares
-the scene once per process (`prepare`: the nominal scene, its TOML document, the generated header
+the scene once per process (`prepare`: the nominal scene, its TOML document, the model library's sources
 and the compiled simulator from ipgen's cache, so no run compiles or starts an interpreter), then
 per run applies the overrides in memory, validates the changed scene (a level the scene format
 refuses is `refused` with that one-line reason), writes the resolved config to a scratch folder,
@@ -38,8 +38,10 @@ class SceneSource:
     stem: str
     text: str
     cache: str | None = None  # the simulators' cache folder (None: ipgen's default)
-    model: str = ""  # the model's name and generated header, when the caller has them (else the
-    header: str = ""  # worker generates them: the same text, as generation is deterministic)
+    # The model's name and its library's sources ((file name, text) pairs), when the caller has
+    # them (else the worker generates them: the same text, as generation is deterministic).
+    model: str = ""
+    header: tuple[tuple[str, str], ...] = ()
 
     @property
     def digest(self) -> str:
@@ -85,7 +87,7 @@ class Prepared:
     simulator: Path
     scratch: Path
     model: str
-    header: str
+    header: tuple[tuple[str, str], ...]  # the model library's sources
 
 
 _PREPARED: dict[str, Prepared] = {}
@@ -97,13 +99,15 @@ def _scratch_root() -> str | None:
     return shm if os.path.isdir(shm) and os.access(shm, os.W_OK) else None
 
 
-def header_text(path: Path, folder: Path) -> tuple[str, str]:
-    """(model name, generated C++ header) of the scene at `path`, generated into `folder`."""
+def header_text(path: Path, folder: Path) -> tuple[str, tuple[tuple[str, str], ...]]:
+    """(model name, its library's sources as (file name, text) pairs) of the scene at `path`,
+    generated into `folder`."""
     from ipgen.pipeline import job
+    from ipgen.pipeline.simulator import model_sources
 
-    planned = job.for_the_simulator(job.plan(folder, scene=path, emit=("cpp",), force=True))
+    planned = job.for_the_simulator(job.plan(folder, scene=path, emit=("library",), force=True))
     job.run(planned)
-    return planned.name, (folder / f"{planned.name}.hpp").read_text()
+    return planned.name, tuple(model_sources(folder, planned.name).items())
 
 
 def prepare(source: SceneSource) -> Prepared:
@@ -122,7 +126,7 @@ def prepare(source: SceneSource) -> Prepared:
         name, header = (
             (source.model, source.header) if source.header else header_text(path, scratch / "model")
         )
-        simulator = build(header, name, None if source.cache is None else Path(source.cache))
+        simulator = build(dict(header), name, None if source.cache is None else Path(source.cache))
         prepared = Prepared(
             path, load_scene(path), read_document(path), simulator.path, scratch, name, header
         )

@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include "ipsim/eigenvalues.hpp"
+#include "ipsim/ldlt.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
 #include "ipsim/ldlt.hpp"
@@ -76,23 +77,27 @@ template <class Model>
 Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFeedback& controller,
                                    bool acceleration = false) {
   static_assert(has_linearize<Model>, "closed_loop_poles needs the model's linearize (forward_dynamics_derivatives)");
-  constexpr int n = Model::kDof;
-  const VectorOf<Model> q = controller.equilibrium.head<n>();
-  const VectorOf<Model> qd = controller.equilibrium.segment<n>(n);
+  const int n = dof_of<Model>();
+  const VectorOf<Model> q = controller.equilibrium.head(n);
+  const VectorOf<Model> qd = controller.equilibrium.segment(n, n);
   double force = 0.0;
   if (acceleration) {
     if constexpr (has_mass_and_bias<Model>) {  // τ = b_0 + M_0L θ̈_L at θ̈0 = 0 (0 at rest upright)
-      const auto mass = Model::template mass_matrix<double>(q, params);
-      const auto bias = Model::template bias<double>(q, qd, params);
-      const auto links = mass.template bottomRightCorner<Model::kLinks, Model::kLinks>().eval();
-      const auto qdd = detail::ldlt_solve<Model::kLinks, 1>(links, -bias.template tail<Model::kLinks>());
-      force = bias(0) + mass.template block<1, Model::kLinks>(0, 1).dot(qdd);
+      if (provides<Model>(Feature::mass_and_bias)) {
+        const int links = n - 1;
+        const auto mass = Model::template mass_matrix<double>(q, params);
+        const auto bias = Model::template bias<double>(q, qd, params);
+        const LinksMatrixOf<Model> block = mass.bottomRightCorner(links, links);
+        const LinksVectorOf<Model> rhs = -bias.tail(links);
+        const LinksVectorOf<Model> qdd = detail::solve_spd(block, rhs);
+        force = bias(0) + mass.row(0).segment(1, links).dot(qdd);
+      }
     }
   }
   auto lin = Model::template linearize<double>(q, qd, force, params);
   if (acceleration) {
     const double b0 = lin.B(n);
-    const Eigen::Matrix<double, 1, 2 * n> row = lin.A.row(n);
+    const StateRowOf<Model> row = lin.A.row(n);
     lin.A -= lin.B * row / b0;
     lin.B /= b0;
   }

@@ -42,8 +42,8 @@ class CsvSink : public SampleSink {
 
   void begin(std::size_t /*samples*/, int state_size, bool /*energy_ledger*/) override {
     std::fputs("t", out_);
-    for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",theta%d", i);
-    for (int i = 0; i < Model::kDof; ++i) std::fprintf(out_, ",dtheta%d", i);
+    for (int i = 0; i < dof_of<Model>(); ++i) std::fprintf(out_, ",theta%d", i);
+    for (int i = 0; i < dof_of<Model>(); ++i) std::fprintf(out_, ",dtheta%d", i);
     if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
     if (input_) std::fputs(",u", out_);
     for (const auto& name : extra_names_) std::fprintf(out_, ",%s", name.c_str());
@@ -130,9 +130,9 @@ class CsvSink : public SampleSink {
   /// (simulate() refuses an energy ledger for it before any sample).
   std::array<double, 4> energy_columns(const Sample& sample) const {
     if constexpr (has_energy<Model>) {
-      constexpr int n = Model::kDof;
-      const VectorOf<Model> q = sample.x().template head<n>();
-      const VectorOf<Model> qd = sample.x().template segment<n>(n);
+      const int n = dof_of<Model>();
+      const VectorOf<Model> q = sample.x().head(n);
+      const VectorOf<Model> qd = sample.x().segment(n, n);
       return {Model::template kinetic_energy<double>(q, qd, params_),
               Model::template potential_energy<double>(q, params_), sample.input_work, sample.dissipated_energy};
     } else {

@@ -51,7 +51,7 @@ class CvodeStepper {
       check(CVodeSetLinearSolver(mem, linear_solver_->get(), matrix_->get()), "CVodeSetLinearSolver");
       if (settings.jacobian == Jacobian::exact) {
         if constexpr (has_derivatives<Model>) {
-          check(CVodeSetJacFn(mem, &jacobian_callback<Model>), "CVodeSetJacFn");
+          if (provides<Model>(Feature::derivatives)) check(CVodeSetJacFn(mem, &jacobian_callback<Model>), "CVodeSetJacFn");
         }
       }
     }

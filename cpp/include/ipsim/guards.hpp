@@ -95,7 +95,7 @@ struct ConditioningReport {
 template <class Model>
 ConditioningReport<Model> assess_conditioning(const ParamsOf<Model>& params, const VectorOf<Model>& theta0) {
   static_assert(has_mass_matrix<Model>, "assess_conditioning needs the model's mass_matrix");
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   std::vector<std::pair<const char*, VectorOf<Model>>> configurations{{"the initial state", theta0}};
   const double half_pi = 0.5 * kPi;
   for (const auto& [name, angle, alternate] : {std::tuple{"upright", 0.0, false}, std::tuple{"hanging", kPi, false},
@@ -122,11 +122,11 @@ namespace detail {
 /// "[0.1, -2, 3e+05]" (6 significant digits).
 std::string format_values(const double* values, Eigen::Index count);
 
-/// "m[2]/m[1] = 1e+06" for the largest over the smallest of values[first..kDof).
+/// "m[2]/m[1] = 1e+06" for the largest over the smallest of values[first..count).
 template <class Array>
-std::string extreme_ratio(const char* name, const Array& values, int first) {
+std::string extreme_ratio(const char* name, const Array& values, int first, int count) {
   int low = first, high = first;
-  for (int i = first; i < static_cast<int>(values.size()); ++i) {
+  for (int i = first; i < count; ++i) {
     if (values[static_cast<std::size_t>(i)] < values[static_cast<std::size_t>(low)]) low = i;
     if (values[static_cast<std::size_t>(i)] > values[static_cast<std::size_t>(high)]) high = i;
   }
@@ -148,7 +148,7 @@ std::string conditioning_warning(const ParamsOf<Model>& params, const VectorOf<M
   if (!(kappa > threshold)) return {};
   auto equalised = [&](bool masses) {
     ParamsOf<Model> p = params;
-    for (int i = 0; i < Model::kDof; ++i) {
+    for (int i = 0; i < dof_of<Model>(); ++i) {
       auto& value = masses ? p.m[static_cast<std::size_t>(i)] : p.l[static_cast<std::size_t>(i)];
       if (masses || i > 0 || !is_classical<Model>()) value = 1.0;
     }
@@ -159,10 +159,10 @@ std::string conditioning_warning(const ParamsOf<Model>& params, const VectorOf<M
   const int digits = std::max(0, static_cast<int>(std::floor(-std::log10(lost))));
   std::string cause =
       masses_cause
-          ? "the mass ratio " + detail::extreme_ratio("m", params.m, 0) +
+          ? "the mass ratio " + detail::extreme_ratio("m", params.m, 0, dof_of<Model>()) +
                 " (largest/smallest mass: a heavy link carried by light links or a light base nearly cancels a "
                 "degree of freedom)"
-          : "the length ratio " + detail::extreme_ratio("l", params.l, is_classical<Model>() ? 1 : 0) +
+          : "the length ratio " + detail::extreme_ratio("l", params.l, is_classical<Model>() ? 1 : 0, dof_of<Model>()) +
                 " (largest/smallest length)";
   return "ill-conditioned mass matrix: cond(M) = " + detail::format_number(kappa) + " after diagonal scaling (" +
          detail::format_number(report.worst.cond) + " unscaled) at " + report.where +
@@ -175,7 +175,7 @@ namespace detail {
 /// The likely cause of the non-finite derivative recorded in `e`, with its time and state.
 template <class Model>
 std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEvaluation& e) {
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   std::string text = "non-finite derivative at t = " + format_number(e.t) + " s, state theta = " +
                      format_values(e.x.data(), n) + ", dtheta = " + format_values(e.x.data() + n, n) +
                      ", u = " + format_number(e.u) + "; likely cause: ";
@@ -187,14 +187,16 @@ std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEval
   const VectorOf<Model> qd = e.x.segment(n, n);
   const double rate = qd.cwiseAbs().maxCoeff();
   if constexpr (has_mass_matrix<Model>) {
+    if (!provides<Model>(Feature::mass_matrix)) return text + "the accelerations overflow";
     const auto M = Model::template mass_matrix<double>(q, params);
     if (!M.allFinite()) return text + "M(theta) is not finite (masses or lengths overflow)";
     const Conditioning c = conditioning_of(M);
     if (!(c.scaled_cond < 1e15)) {
       return text + "accelerations overflow: M is near singular (cond(M) = " + format_number(c.cond) + ", " +
-             format_number(c.scaled_cond) + " after diagonal scaling; " + extreme_ratio("m", params.m, 0) + ")";
+             format_number(c.scaled_cond) + " after diagonal scaling; " + extreme_ratio("m", params.m, 0, n) + ")";
     }
     if constexpr (has_bias<Model>) {
+      if (!provides<Model>(Feature::mass_and_bias)) return text + "the accelerations overflow";
       const auto b = Model::template bias<double>(q, qd, params);
       if (!b.allFinite()) {
         return text + "the state grew without bound: rates of " + format_number(rate) +
@@ -214,7 +216,7 @@ std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEval
 /// forward differences of the RHS), 0 if none has a negative real part, NaN if the RHS fails.
 template <class Model>
 double stiffness(RhsContext<Model>& context, double t, const Eigen::VectorXd& x) {
-  constexpr int m = 2 * Model::kDof;
+  const int m = 2 * dof_of<Model>();
   const NonFiniteEvaluation kept = context.nonfinite;  // diagnosing must not overwrite the record
   const long size = static_cast<long>(x.size());
   Eigen::VectorXd f0(x.size()), f1(x.size()), shifted = x;
@@ -269,17 +271,17 @@ std::string explain_slow_progress(RhsContext<Model>& context, const Settings<Mod
            to_string(settings.method) + "'s step near its stability limit";
   }
   if constexpr (has_mass_matrix<Model>) {
-    const VectorOf<Model> q = x.head(Model::kDof);
-    const Conditioning c = conditioning_of(Model::template mass_matrix<double>(q, *context.params));
+    const VectorOf<Model> q = x.head(dof_of<Model>());
+    const Conditioning c = !provides<Model>(Feature::mass_matrix) ? Conditioning{} : conditioning_of(Model::template mass_matrix<double>(q, *context.params));
     if (!(c.scaled_cond <= kConditionWarning)) {
       return text + "; M is near singular at this state (cond(M) = " + format_number(c.scaled_cond) +
-             " after diagonal scaling; " + extreme_ratio("m", context.params->m, 0) +
+             " after diagonal scaling; " + extreme_ratio("m", context.params->m, 0, dof_of<Model>()) +
              "): the accelerations are not accurate enough for the error test";
     }
   }
   if (collapsed) return text + "; the solution may be singular or not finite nearby";
   if (!out_of_steps) {
-    const double rate = x.segment(Model::kDof, Model::kDof).cwiseAbs().maxCoeff();
+    const double rate = x.segment(dof_of<Model>(), dof_of<Model>()).cwiseAbs().maxCoeff();
     return text + "; not stiff at this state: the error test failed repeatedly, the motion (rates up to " +
            format_number(rate) + ") is too fast for " + to_string(settings.method) +
            " at this tolerance (loosen rtol and atol, or try another method)";

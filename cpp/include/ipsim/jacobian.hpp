@@ -55,7 +55,7 @@ void input_gradient(RhsContext<Model>& context, double t, const double* x, doubl
                     Eigen::Ref<Eigen::VectorXd> gradient) {
   gradient.setZero();
   if (context.input->kind != Input::Kind::feedback) return;
-  constexpr int size = 2 * Model::kDof;
+  const int size = 2 * dof_of<Model>();
   const double root_epsilon = std::sqrt(std::numeric_limits<double>::epsilon());
   Eigen::VectorXd& shifted = context.x;  // preallocated (2·kDof): no allocation per Jacobian
   shifted = Eigen::Map<const Eigen::VectorXd>(x, size);
@@ -71,7 +71,7 @@ void input_gradient(RhsContext<Model>& context, double t, const double* x, doubl
 template <class Model, class Gradient, class Jacobian>
 void ledger_jacobian(const RhsContext<Model>& context, double u, const VectorOf<Model>& qd, const Gradient& gradient,
                      Jacobian& jacobian) {
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   // W_in' = u θ̇0.
   jacobian.block(2 * n, 0, 1, 2 * n) = qd(0) * gradient.transpose();
   jacobian(2 * n, n) += u;
@@ -91,33 +91,33 @@ void ledger_jacobian(const RhsContext<Model>& context, double u, const VectorOf<
 template <class Model>
 void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen::Ref<Eigen::MatrixXd> jacobian) {
   static_assert(has_derivatives<Model>, "the model has no forward_dynamics_derivatives");
-  constexpr int n = Model::kDof;
-  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x);
-  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n);
+  const int n = dof_of<Model>();
+  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x, n);
+  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n, n);
   const double command = input_at(context, t, x);
   const double u = drive_input(context, command, x) + context.segment_pulse;
   double force = u;  // the base's force or torque: u, or what an acceleration-driven base needs
   if (context.acceleration) {
     const VectorOf<Model> friction =
-        context.coulomb_index >= 0 ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
+        context.coulomb_index >= 0 ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero(n).eval();
     acceleration_dynamics<Model>(q, qd, u, friction, *context.params, force);
   }
   const auto d = Model::template forward_dynamics_derivatives<double>(q, qd, force, *context.params);
 
   jacobian.setZero();
   jacobian.block(0, n, n, n).setIdentity();
-  Eigen::Matrix<double, n, 2 * n> rows;  // ∂θ̈/∂x of the force-driven model at `force`
+  DofStateMatrixOf<Model> rows(n, 2 * n);  // ∂θ̈/∂x of the force-driven model at `force`
   rows << d.dqdd_dq, d.dqdd_dqd;
   if constexpr (has_mass_matrix<Model>) {
     // Coulomb friction: M⁻¹ ∂Q/∂θ̇ (the smaller ∂M⁻¹/∂θ Q term and the ledger rows are left to
     // the Newton iteration: an approximate Jacobian costs iterations, not accuracy).
-    if (context.coulomb_index >= 0) {
-      Eigen::Matrix<double, n, n> slope;
+    if (context.coulomb_index >= 0 && context.has_mass) {
+      DofMatrixOf<Model> slope(n, n);
       coulomb_force<Model>(context, qd, &slope);
-      rows.template rightCols<n>() += ldlt_solve<n, n>(Model::template mass_matrix<double>(q, *context.params), slope);
+      rows.rightCols(n) += solve_spd(Model::template mass_matrix<double>(q, *context.params), slope);
     }
   }
-  Eigen::Matrix<double, 2 * n, 1> gradient;
+  StateVectorOf<Model> gradient(2 * n);
   input_gradient(context, t, x, command, gradient);
   if (context.lag_index >= 0) {
     // A lagged drive (Settings::lag): θ̈ depends on the state u_a, u_a' = (u − u_a) / lag on u(x).
@@ -128,7 +128,7 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
     jacobian(a, a) = -1.0 / context.lag;
     if constexpr (has_energy<Model>) {
       if (context.energy_ledger) {
-        ledger_jacobian<Model>(context, u, qd, Eigen::Matrix<double, 2 * n, 1>::Zero().eval(), jacobian);
+        ledger_jacobian<Model>(context, u, qd, StateVectorOf<Model>::Zero(2 * n).eval(), jacobian);
         jacobian(2 * n, a) = qd(0);
       }
     }
@@ -137,7 +137,7 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
   if (context.acceleration) {
     // θ̈ = f(x, τ(x)) with τ chosen so that θ̈0 = u(x): τ_x = (∂u/∂x − ∂f0/∂x) / (∂f0/∂τ), and
     // ∂θ̈/∂x = ∂f/∂x + ∂f/∂τ τ_xᵀ (row 0 becomes ∂u/∂x). The ledger's W_in' = τ θ̇0.
-    const Eigen::Matrix<double, 2 * n, 1> force_gradient = (gradient - rows.row(0).transpose()) / d.dqdd_du(0);
+    const StateVectorOf<Model> force_gradient = (gradient - rows.row(0).transpose()) / d.dqdd_du(0);
     jacobian.block(n, 0, n, 2 * n) = rows + d.dqdd_du * force_gradient.transpose();
     if constexpr (has_energy<Model>) {
       if (context.energy_ledger) ledger_jacobian<Model>(context, force, qd, force_gradient, jacobian);

@@ -36,6 +36,20 @@ Eigen::Matrix<double, N, C> ldlt_solve(const Eigen::Matrix<double, N, N>& a, con
   }
 }
 
+/// A⁻¹ B for matrices of any sizes (expressions too): ldlt_solve for sizes fixed at compile
+/// time, Eigen's LDLT over the capacity-bounded sizes of a model loaded at run time (no
+/// allocation). The result has B's columns.
+template <class MatrixA, class MatrixB>
+auto solve_spd(const MatrixA& a, const MatrixB& b) {
+  constexpr int N = MatrixA::RowsAtCompileTime;
+  constexpr int C = MatrixB::ColsAtCompileTime;
+  if constexpr (N != Eigen::Dynamic && C != Eigen::Dynamic) {
+    return ldlt_solve<N, C>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, C>(b));
+  } else {
+    return a.eval().ldlt().solve(b).eval();
+  }
+}
+
 #if IPSIM_DEFINITIONS
 template <int N, int C>
 Eigen::Matrix<double, N, C> core_ldlt_solve(const Eigen::Matrix<double, N, N>& a,

@@ -39,7 +39,7 @@ struct RhsContext {
   NonFiniteEvaluation nonfinite;  ///< set by evaluate_rhs when a derivative is not finite
   /// Coulomb friction (Settings::coulomb, coulomb_speed); `coulomb_index` ≥ 0: the state that
   /// integrates its dissipated power.
-  VectorOf<Model> coulomb = VectorOf<Model>::Zero();
+  VectorOf<Model> coulomb = zero_vector<Model>();
   double coulomb_speed = 1.0;
   int coulomb_index = -1;
   /// Settings::acceleration: u is the base's acceleration θ̈0, not its force.
@@ -49,6 +49,8 @@ struct RhsContext {
   /// Settings::lag > 0: `lag_index` is the state u_a the model sees, u_a' = (u − u_a) / lag.
   double lag = 0.0;
   int lag_index = -1;
+  /// Whether the model has a mass matrix (Coulomb friction acts through it).
+  bool has_mass = provides<Model>(Feature::mass_matrix);
 };
 
 /// The input the model sees: u itself, or the lagged drive's state u_a (Settings::lag).
@@ -61,9 +63,9 @@ double drive_input(const RhsContext<Model>& context, double u, const double* sta
 /// ∂Q/∂θ̇ (kDof × kDof, symmetric negative semidefinite).
 template <class Model>
 VectorOf<Model> coulomb_force(const RhsContext<Model>& context, const VectorOf<Model>& qd,
-                              Eigen::Matrix<double, Model::kDof, Model::kDof>* slope = nullptr) {
-  constexpr int n = Model::kDof;
-  VectorOf<Model> force = VectorOf<Model>::Zero();
+                              DofMatrixOf<Model>* slope = nullptr) {
+  const int n = dof_of<Model>();
+  VectorOf<Model> force = VectorOf<Model>::Zero(n);
   if (slope) slope->setZero();
   for (int i = 0; i < n; ++i) {
     const double c = context.coulomb(i);
@@ -93,20 +95,20 @@ template <class Model>
 VectorOf<Model> acceleration_dynamics(const VectorOf<Model>& q, const VectorOf<Model>& qd, double a,
                                       const VectorOf<Model>& applied, const ParamsOf<Model>& params, double& force) {
   if constexpr (has_mass_and_bias<Model>) {
-    constexpr int links = Model::kLinks;
+    const int links = links_of<Model>();
     const auto mass = Model::template mass_matrix<double>(q, params);
     const VectorOf<Model> residual = Model::template bias<double>(q, qd, params) - applied;
-    VectorOf<Model> qdd;
+    VectorOf<Model> qdd(links + 1);
     qdd(0) = a;
-    const Eigen::Matrix<double, links, links> links_mass = mass.template bottomRightCorner<links, links>();
-    qdd.template tail<links>() =
-        ldlt_solve<links, 1>(links_mass, -(mass.template block<links, 1>(1, 0) * a + residual.template tail<links>()));
+    const LinksMatrixOf<Model> links_mass = mass.bottomRightCorner(links, links);
+    const LinksVectorOf<Model> rhs = -(mass.block(1, 0, links, 1) * a + residual.tail(links));
+    qdd.tail(links) = solve_spd(links_mass, rhs);
     force = mass.row(0).dot(qdd) + residual(0);
     return qdd;
   } else {  // simulate() refuses Settings::acceleration for such a model before any run
     (void)q, (void)qd, (void)a, (void)applied, (void)params;
     force = 0.0;
-    return VectorOf<Model>::Constant(std::numeric_limits<double>::quiet_NaN());
+    return VectorOf<Model>::Constant(dof_of<Model>(), std::numeric_limits<double>::quiet_NaN());
   }
 }
 
@@ -116,7 +118,7 @@ template <class Model>
 double input_at(RhsContext<Model>& context, double t, const double* state) {
   if (context.input->piecewise_constant()) return context.segment_input;
   if (context.input->kind == Input::Kind::feedback) {
-    context.x = Eigen::Map<const Eigen::VectorXd>(state, 2 * Model::kDof);  // no allocation: same size
+    context.x = Eigen::Map<const Eigen::VectorXd>(state, 2 * dof_of<Model>());  // no allocation: same size
   }
   return context.input->value(t, context.x);
 }
@@ -125,9 +127,9 @@ double input_at(RhsContext<Model>& context, double t, const double* state) {
 /// success and 1 when a derivative is not finite. Throws what a feedback callback throws.
 template <class Model>
 int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double* out, long size) {
-  constexpr int n = Model::kDof;
-  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in);
-  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n);
+  const int n = dof_of<Model>();
+  const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in, n);
+  const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
   const double command = input_at(context, t, in);
   const double u = drive_input(context, command, in) + context.segment_pulse;
   if (context.lag_index >= 0) out[context.lag_index] = (command - in[context.lag_index]) / context.lag;
@@ -135,21 +137,21 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   double force = u;  // the base's force or torque (u itself unless the base is acceleration-driven)
   VectorOf<Model> qdd;
   // Coulomb friction: a generalised force, applied through M (as before, not with a model without M).
-  const bool friction_on = has_mass_matrix<Model> && context.coulomb_index >= 0;
-  const VectorOf<Model> friction = friction_on ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero().eval();
+  const bool friction_on = context.has_mass && context.coulomb_index >= 0;
+  const VectorOf<Model> friction = friction_on ? coulomb_force<Model>(context, qd) : VectorOf<Model>::Zero(n).eval();
   if (context.acceleration) {
     qdd = acceleration_dynamics<Model>(q, qd, u, friction, *context.params, force);
   } else {
     qdd = Model::template forward_dynamics<double>(q, qd, u, *context.params);
     if constexpr (has_mass_matrix<Model>) {
-      if (friction_on) qdd += ldlt_solve<Model::kDof, 1>(Model::template mass_matrix<double>(q, *context.params), friction);
+      if (friction_on) qdd += solve_spd(Model::template mass_matrix<double>(q, *context.params), friction);
     }
   }
   if (friction_on) {
     coulomb_power = -friction.dot(qd);
     out[context.coulomb_index] = coulomb_power;
   }
-  Eigen::Map<VectorOf<Model>> velocity_out(out), acceleration_out(out + n);
+  Eigen::Map<VectorOf<Model>> velocity_out(out, n), acceleration_out(out + n, n);
   velocity_out = qd;
   acceleration_out = qdd;
   if constexpr (has_energy<Model>) {

@@ -168,7 +168,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   if (kind != "zero") file.fail(file.line("swingup"), "a swing-up sets u: input must be `zero`, got `" + kind + "`");
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
-  constexpr Eigen::Index size = 2 * Model::kDof;
+  const Eigen::Index size = 2 * dof_of<Model>();
   SwingUp sw;
   sw.acceleration = scene.settings.acceleration;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
@@ -178,8 +178,8 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   sw.hold_gain = numbers_of(file, "swingup.hold_gain", size);
   sw.target = numbers_of(file, "swingup.target", size);
   if (sw.method == SwingUp::Method::energy) {
-    if (Model::kLinks != 1) file.fail(file.line("swingup"), "energy swing-up needs a single link");
-    if (!has_mass_and_bias<Model>) {
+    if (links_of<Model>() != 1) file.fail(file.line("swingup"), "energy swing-up needs a single link");
+    if (!provides<Model>(Feature::mass_and_bias)) {
       file.fail(file.line("swingup"), "energy swing-up needs the model's mass_matrix and bias: regenerate its header");
     }
     sw.gain_energy = file.number("swingup.gain_energy");
@@ -227,7 +227,7 @@ Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::
 /// measured loop (sensors.*, estimator.*) around the sampled controller or swing-up (scene.loop).
 template <class Model>
 void load_drive(const SceneFile& file, Scene<Model>& scene) {
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   Settings<Model>& s = scene.settings;
   if (file.has("actuator.lag")) s.lag = file.number("actuator.lag");
   if (file.has("actuator.pulses")) {
@@ -308,7 +308,7 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       }
     }
     if (loop.kind == EstimatorKind::ekf) {
-      if (!has_linearize<Model>) file.fail(file.line("estimator"), "estimator ekf needs the model's linearize: regenerate its header");
+      if (!(has_linearize<Model> && provides<Model>(Feature::derivatives))) file.fail(file.line("estimator"), "estimator ekf needs the model's linearize: regenerate its header");
       if (s.acceleration) file.fail(file.line("estimator"), "estimator ekf with actuator = acceleration is not supported yet");
       loop.process_noise = matrix_of(file, "estimator.process_noise", 2 * n, 2 * n);
       loop.measurement_noise = matrix_of(file, "estimator.measurement_noise", m, m);
@@ -349,16 +349,16 @@ Scene<Model> load(const SceneFile& file) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
 
-  if (file.text("model") != Model::kName) {
+  if (file.text("model") != name_of<Model>()) {
     file.fail(file.line("model"), "scene is for model `" + detail::abbreviate(file.text("model")) + "`, this simulator is built for `" +
-                                      Model::kName + "`");
+                                      name_of<Model>() + "`");
   }
-  if (file.text("type") != Model::kType) {
-    file.fail(file.line("type"), "type is `" + detail::abbreviate(file.text("type")) + "`, model " + Model::kName + " is " + Model::kType);
+  if (file.text("type") != type_of<Model>()) {
+    file.fail(file.line("type"), "type is `" + detail::abbreviate(file.text("type")) + "`, model " + name_of<Model>() + " is " + type_of<Model>());
   }
-  if (file.integer("links") != Model::kLinks) {
-    file.fail(file.line("links"), "links = " + detail::abbreviate(file.text("links")) + ", model " + Model::kName + " has " +
-                                      std::to_string(Model::kLinks));
+  if (file.integer("links") != links_of<Model>()) {
+    file.fail(file.line("links"), "links = " + detail::abbreviate(file.text("links")) + ", model " + name_of<Model>() + " has " +
+                                      std::to_string(links_of<Model>()));
   }
 
   if (file.has("inertia")) {
@@ -368,7 +368,7 @@ Scene<Model> load(const SceneFile& file) {
     }
     // Classical models have no inertia variant; the Python side writes the default anyway.
     if (!inertia_of<Model>().empty() && inertia != inertia_of<Model>()) {
-      file.fail(file.line("inertia"), "inertia is `" + inertia + "`, model " + Model::kName + " was generated with `" +
+      file.fail(file.line("inertia"), "inertia is `" + inertia + "`, model " + name_of<Model>() + " was generated with `" +
                                           std::string(inertia_of<Model>()) + "`");
     }
   }
@@ -376,10 +376,10 @@ Scene<Model> load(const SceneFile& file) {
   // Every per-coordinate list has one entry for the base and one per link.
   auto list = [&](const std::string& key) {
     const auto values = file.numbers(key);
-    if (values.size() != static_cast<std::size_t>(Model::kDof)) {
+    if (values.size() != static_cast<std::size_t>(dof_of<Model>())) {
       file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, model " +
-                                    Model::kName + " needs " + std::to_string(Model::kDof) + " (base + " +
-                                    std::to_string(Model::kLinks) + " links)");
+                                    name_of<Model>() + " needs " + std::to_string(dof_of<Model>()) + " (base + " +
+                                    std::to_string(links_of<Model>()) + " links)");
     }
     return values;
   };
@@ -412,7 +412,7 @@ Scene<Model> load(const SceneFile& file) {
   const auto delta = list("delta");
   const auto theta = list("theta");
   const auto dtheta = list("dtheta");
-  for (int i = 0; i < Model::kDof; ++i) {
+  for (int i = 0; i < dof_of<Model>(); ++i) {
     const auto k = static_cast<std::size_t>(i);
     scene.params.m[k] = m[k];
     scene.params.l[k] = l[k];
@@ -421,11 +421,11 @@ Scene<Model> load(const SceneFile& file) {
     scene.settings.dtheta(i) = dtheta[k];
   }
   if (!scene.coordinates.canonical()) {  // the rig's initial state -> ipgen's
-    Eigen::VectorXd start(2 * Model::kDof);
+    Eigen::VectorXd start(2 * dof_of<Model>());
     start << scene.settings.theta, scene.settings.dtheta;
     const Eigen::VectorXd x = scene.coordinates.to_canonical(start);
-    scene.settings.theta = x.head(Model::kDof);
-    scene.settings.dtheta = x.tail(Model::kDof);
+    scene.settings.theta = x.head(dof_of<Model>());
+    scene.settings.dtheta = x.tail(dof_of<Model>());
   }
   scene.params.g = file.number("g");
   // The links as built (optional; absent: the homogeneous rods, the Params defaults).
@@ -437,7 +437,7 @@ Scene<Model> load(const SceneFile& file) {
                     : std::string_view(key) == "J"       ? scene.params.J
                     : std::string_view(key) == "J_axial" ? scene.params.J_axial
                                                          : scene.params.tip;
-      for (int i = 0; i < Model::kDof; ++i) field[static_cast<std::size_t>(i)] = values[static_cast<std::size_t>(i)];
+      for (int i = 0; i < dof_of<Model>(); ++i) field[static_cast<std::size_t>(i)] = values[static_cast<std::size_t>(i)];
     } else {
       file.fail(file.line(key), std::string("`") + key + "` needs a model generated with the links as built (regenerate it)");
     }
@@ -451,7 +451,7 @@ Scene<Model> load(const SceneFile& file) {
     }
     scene.motor = actuator == "dc_motor";
     scene.settings.acceleration = actuator == "acceleration";
-    if (scene.settings.acceleration && !has_mass_and_bias<Model>) {
+    if (scene.settings.acceleration && !provides<Model>(Feature::mass_and_bias)) {
       file.fail(file.line("actuator"), "actuator = acceleration needs the model's mass_matrix and bias: regenerate its header");
     }
     if (scene.settings.acceleration && file.has("actuator.gain")) {
@@ -467,7 +467,7 @@ Scene<Model> load(const SceneFile& file) {
   const double b = scene.input_gain;
   if (file.has("coulomb")) {
     const auto coulomb = list("coulomb");
-    for (int i = 0; i < Model::kDof; ++i) scene.settings.coulomb(i) = coulomb[static_cast<std::size_t>(i)];
+    for (int i = 0; i < dof_of<Model>(); ++i) scene.settings.coulomb(i) = coulomb[static_cast<std::size_t>(i)];
   }
   if (file.has("coulomb_speed")) scene.settings.coulomb_speed = file.number("coulomb_speed");
 
@@ -533,9 +533,9 @@ Scene<Model> load(const SceneFile& file) {
     }
     auto state_list = [&](const std::string& key) {
       const auto values = file.numbers(key);
-      if (values.size() != static_cast<std::size_t>(2 * Model::kDof)) {
+      if (values.size() != static_cast<std::size_t>(2 * dof_of<Model>())) {
         file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, model " +
-                                      Model::kName + " needs 2·kDof = " + std::to_string(2 * Model::kDof));
+                                      name_of<Model>() + " needs 2·kDof = " + std::to_string(2 * dof_of<Model>()));
       }
       return Eigen::Map<const Eigen::VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())).eval();
     };
@@ -546,7 +546,7 @@ Scene<Model> load(const SceneFile& file) {
     if (file.has("controller.saturation")) controller.saturation = file.number("controller.saturation");
     if (file.has("controller.period")) controller.period = file.number("controller.period");
     controller.given = file.text("controller") == "gain";
-    const auto problems = controller.problems(2 * Model::kDof);
+    const auto problems = controller.problems(2 * dof_of<Model>());
     if (!problems.empty()) file.fail(0, problems.front());
     controller.gain *= b;  // volts per unit of state -> N or N m (b = 1 for a direct drive)
     controller.saturation *= b;

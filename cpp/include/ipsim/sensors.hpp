@@ -119,7 +119,7 @@ struct LoopSettings {
 template <class Model>
 class MeasuredLoop {
  public:
-  static constexpr int n = Model::kDof;
+  int n = dof_of<Model>();  // degrees of freedom (before the members that use it)
 
   MeasuredLoop(LoopSettings settings, Input::Feedback law, double period, double input_gain,
                const ParamsOf<Model>& params, Coordinates coordinates)
@@ -259,8 +259,8 @@ class MeasuredLoop {
   /// u in N or N m: the header's forward dynamics, no Coulomb friction.
   Eigen::VectorXd derivative(const Eigen::VectorXd& x_user, double u) const {
     const Eigen::VectorXd x = coordinates_.to_canonical(x_user);
-    const VectorOf<Model> q = x.head<n>();
-    const VectorOf<Model> qd = x.segment<n>(n);
+    const VectorOf<Model> q = x.head(n);
+    const VectorOf<Model> qd = x.segment(n, n);
     Eigen::VectorXd f(2 * n);
     f << qd, Model::template forward_dynamics<double>(q, qd, u, params_);
     return coordinates_.canonical() ? f : Eigen::VectorXd(coordinates_.matrix(n) * f);
@@ -276,8 +276,8 @@ class MeasuredLoop {
       const Eigen::VectorXd k4 = derivative(x + T * k3, u);
       predicted_ = x + T / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
       const Eigen::VectorXd canonical = coordinates_.to_canonical(x);
-      const VectorOf<Model> q = canonical.head<n>();
-      const VectorOf<Model> qd = canonical.segment<n>(n);
+      const VectorOf<Model> q = canonical.head(n);
+      const VectorOf<Model> qd = canonical.segment(n, n);
       Eigen::MatrixXd A = Model::template linearize<double>(q, qd, u, params_).A;  // ∂f/∂x, exact
       if (!coordinates_.canonical()) {  // A_user = P A P⁻¹
         const Eigen::MatrixXd P = coordinates_.matrix(n);

@@ -120,8 +120,8 @@ struct Settings {
   long max_steps = 100000;   ///< integrator steps allowed between two stops, > 0
   double sample = 0.01;      ///< output interval [s]: samples at t = k·sample, plus t_end
   double t_end = 10.0;       ///< final time [s], > 0; the run starts at t = 0
-  VectorOf<Model> theta = VectorOf<Model>::Zero();   ///< initial θ: base [m or rad], link angles [rad]
-  VectorOf<Model> dtheta = VectorOf<Model>::Zero();  ///< initial θ̇ [m/s or rad/s]
+  VectorOf<Model> theta = zero_vector<Model>();   ///< initial θ: base [m or rad], link angles [rad]
+  VectorOf<Model> dtheta = zero_vector<Model>();  ///< initial θ̇ [m/s or rad/s]
   Input input;               ///< u(t) on θ0 [N or N m]
   /// Also integrate the input work W_in = ∫ u θ̇0 dt (∫ τ θ̇0 dt with `acceleration`) and the dissipated energy E_diss = ∫ 2D dt
   /// [J] as two extra CVODE states (they take part in error control), reported in Result.
@@ -131,7 +131,7 @@ struct Settings {
   /// θ̇1, then θ̇i − θ̇(i−1)): the generalised force Q = −∂Φ/∂θ̇ of Φ = Σ coulomb[i] coulomb_speed
   /// ln cosh(w_i / coulomb_speed), added to M θ̈ = … (not part of the model header, nor of
   /// its linearisation). Its dissipated energy is integrated and reported (Result::coulomb_dissipated).
-  VectorOf<Model> coulomb = VectorOf<Model>::Zero();
+  VectorOf<Model> coulomb = zero_vector<Model>();
   double coulomb_speed = 0.01;  ///< [m/s or rad/s], > 0: below it the friction is ~viscous
   /// An acceleration-driven base ([actuator] kind = "acceleration"): u is θ̈0 [m/s² or rad/s²],
   /// imposed by a servo; the links follow θ̈_L = −M_LL⁻¹ (M_L0 u + b_L − Q_L) (rhs.hpp), and the
@@ -172,17 +172,17 @@ std::vector<std::string> validate(const ParamsOf<Model>& params) {
     if (i >= 0) name += "[" + std::to_string(i) + "]";
     found.push_back("invalid parameter " + name + " = " + detail::format_number(v) + ": " + rule);
   };
-  for (int i = 0; i < Model::kDof; ++i) {
+  for (int i = 0; i < dof_of<Model>(); ++i) {
     const double m = params.m[i];
     if (!std::isfinite(m)) report("m", i, m, "must be finite");
     else if (m <= 0.0) report("m", i, m, "masses must be > 0");
   }
-  for (int i = is_classical<Model>() ? 1 : 0; i < Model::kDof; ++i) {
+  for (int i = is_classical<Model>() ? 1 : 0; i < dof_of<Model>(); ++i) {
     const double l = params.l[i];
     if (!std::isfinite(l)) report("l", i, l, "must be finite");
     else if (l <= 0.0) report("l", i, l, "lengths must be > 0");
   }
-  for (int i = 0; i < Model::kDof; ++i) {
+  for (int i = 0; i < dof_of<Model>(); ++i) {
     const double d = params.delta[i];
     if (!std::isfinite(d)) report("delta", i, d, "must be finite");
     else if (d < 0.0) report("delta", i, d, "damping must be >= 0");
@@ -190,7 +190,7 @@ std::vector<std::string> validate(const ParamsOf<Model>& params) {
   if (!std::isfinite(params.g)) report("g", -1, params.g, "must be finite");
   if constexpr (has_links_as_built<Model>) {
     // NaN com or J: the homogeneous rod's value (docs/model.md, "Links as built").
-    for (int i = 0; i < Model::kDof; ++i) {
+    for (int i = 0; i < dof_of<Model>(); ++i) {
       const auto k = static_cast<std::size_t>(i);
       if (i > 0 && std::isinf(params.com[k])) report("com", i, params.com[k], "must be finite (or NaN: l/2)");
       const double across = params.J[k];
@@ -218,7 +218,7 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   auto report = [&](const std::string& field, double v, const char* rule) {
     found.push_back("invalid setting " + field + " = " + detail::format_number(v) + ": " + rule);
   };
-  for (int i = 0; i < Model::kDof; ++i) {
+  for (int i = 0; i < dof_of<Model>(); ++i) {
     const double c = settings.coulomb(i);
     if (!(std::isfinite(c) && c >= 0.0)) report("coulomb[" + std::to_string(i) + "]", c, "must be finite and >= 0");
   }
@@ -244,7 +244,7 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   if (settings.max_steps <= 0) {
     found.push_back("invalid setting max_steps = " + std::to_string(settings.max_steps) + ": must be > 0");
   }
-  for (int i = 0; i < Model::kDof; ++i) {
+  for (int i = 0; i < dof_of<Model>(); ++i) {
     if (!std::isfinite(settings.theta(i))) {
       report("theta[" + std::to_string(i) + "]", settings.theta(i), "initial state must be finite");
     }

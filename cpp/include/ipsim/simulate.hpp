@@ -53,12 +53,12 @@ double mechanical_energy(const ParamsOf<Model>& params, const VectorOf<Model>& t
 /// as ledger states, are ignored). Throws std::invalid_argument if x is shorter.
 template <class Model>
 double mechanical_energy(const ParamsOf<Model>& params, const Eigen::VectorXd& x) {
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   if (x.size() < 2 * n) {
     throw std::invalid_argument("mechanical_energy: state has " + std::to_string(x.size()) + " entries, model " +
-                                Model::kName + " needs 2·kDof = " + std::to_string(2 * n));
+                                name_of<Model>() + " needs 2·kDof = " + std::to_string(2 * n));
   }
-  return mechanical_energy<Model>(params, VectorOf<Model>(x.head<n>()), VectorOf<Model>(x.segment<n>(n)));
+  return mechanical_energy<Model>(params, VectorOf<Model>(x.head(n)), VectorOf<Model>(x.segment(n, n)));
 }
 
 namespace detail {
@@ -67,7 +67,7 @@ namespace detail {
 template <class Model, class Stepper>
 void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const sundials::Context& context,
                   RhsContext<Model>& rhs_context, Diagnostics& diagnostics, SampleSink& sink, Result& result) {
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   Eigen::Map<Eigen::VectorXd> y_values(y.data(), y.length());
   Stepper stepper(settings, y, context, rhs_context, diagnostics);
 
@@ -176,16 +176,17 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
 template <class Model>
 std::vector<std::string> model_setting_problems(const Settings<Model>& settings) {
   std::vector<std::string> problems;
-  if (uses_jacobian(settings.method) && settings.jacobian == Jacobian::exact && !has_derivatives<Model>) {
-    problems.push_back(std::string("invalid setting jacobian = exact: model ") + Model::kName +
+  if (uses_jacobian(settings.method) && settings.jacobian == Jacobian::exact &&
+      !(has_derivatives<Model> && provides<Model>(Feature::derivatives))) {
+    problems.push_back(std::string("invalid setting jacobian = exact: model ") + name_of<Model>() +
                        " has no forward_dynamics_derivatives (regenerate its header, or use jacobian = dq)");
   }
-  if (settings.acceleration && !has_mass_and_bias<Model>) {
-    problems.push_back(std::string("invalid setting acceleration-driven base: model ") + Model::kName +
+  if (settings.acceleration && !provides<Model>(Feature::mass_and_bias)) {
+    problems.push_back(std::string("invalid setting acceleration-driven base: model ") + name_of<Model>() +
                        " has no mass_matrix and bias (regenerate its header without specialising it)");
   }
-  if (settings.energy_ledger && !has_energy<Model>) {
-    problems.push_back(std::string("invalid setting energy ledger: model ") + Model::kName +
+  if (settings.energy_ledger && !provides<Model>(Feature::energy)) {
+    problems.push_back(std::string("invalid setting energy ledger: model ") + name_of<Model>() +
                        " has no energy functions (specialised without [outputs] energy = true; regenerate it)");
   }
   return problems;
@@ -200,7 +201,7 @@ void require_valid_run(const ParamsOf<Model>& params, const Settings<Model>& set
   auto problems = validate<Model>(params);
   if (const char* name = folded_mismatch<Model>(params)) {
     problems.push_back(std::string("invalid parameter ") + name + ": differs from the value folded into the " +
-                       "specialised header of model " + Model::kName + " (regenerate the header)");
+                       "specialised header of model " + name_of<Model>() + " (regenerate the header)");
   }
   for (const auto& list : {validate<Model>(settings), detail::model_setting_problems<Model>(settings)}) {
     problems.insert(problems.end(), list.begin(), list.end());
@@ -228,7 +229,7 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
   // The rods' com and J once, not in every right-hand-side call (same values: l/2, m l²/12).
   const ParamsOf<Model> params = with_rod_links<Model>(given);
 
-  constexpr int n = Model::kDof;
+  const int n = dof_of<Model>();
   const bool coulomb = (settings.coulomb.array() != 0.0).any();
   const bool lag = settings.lag > 0.0;
   const int size = 2 * n + (settings.energy_ledger ? 2 : 0) + (coulomb ? 1 : 0) + (lag ? 1 : 0);
@@ -237,12 +238,13 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
   sundials::NVector y(size, context);
   Eigen::Map<Eigen::VectorXd> y_values(y.data(), size);
   y_values.setZero();
-  y_values.head<n>() = settings.theta;
-  y_values.segment<n>(n) = settings.dtheta;
+  y_values.head(n) = settings.theta;
+  y_values.segment(n, n) = settings.dtheta;
 
   Result result;
   if constexpr (has_mass_matrix<Model>) {  // guards.hpp: warn when M makes θ̈ untrustworthy
-    if (std::string warning = conditioning_warning<Model>(params, settings.theta); !warning.empty()) {
+    if (!provides<Model>(Feature::mass_matrix)) {
+    } else if (std::string warning = conditioning_warning<Model>(params, settings.theta); !warning.empty()) {
       result.warnings.push_back(std::move(warning));
     }
   }

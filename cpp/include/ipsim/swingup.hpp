@@ -95,7 +95,7 @@ struct SwingUp {
   /// u at sampling instant t (k = round(t / period)) in state x; updates `state`.
   template <class Model>
   double control(double t, const Eigen::VectorXd& x, const ParamsOf<Model>& params, State& state) const {
-    constexpr int n = Model::kDof;
+    const int n = dof_of<Model>();
     const long k = std::lround(t / period);
     double u = 0.0;
     if (state.phase != SwingPhase::hold) {
@@ -138,9 +138,9 @@ struct SwingUp {
   template <class Model>
   double energy_input(const Eigen::VectorXd& x, const ParamsOf<Model>& params) const {
     if constexpr (has_mass_and_bias<Model>) {
-      constexpr int n = Model::kDof;
-      const VectorOf<Model> q = x.head<n>();
-      const VectorOf<Model> qd = x.segment<n>(n);
+      const int n = dof_of<Model>();
+      const VectorOf<Model> q = x.head(n);
+      const VectorOf<Model> qd = x.segment(n, n);
       const auto mass = Model::template mass_matrix<double>(q, params);
       const auto bias = Model::template bias<double>(q, qd, params);
       const double energy = 0.5 * energy_inertia * qd(1) * qd(1) + energy_weight * (std::cos(q(1)) - 1.0);

@@ -1,0 +1,92 @@
+/* ipgen_model.h: the C interface of one compiled ipgen model.
+ *
+ * A model library (`ipgen run` compiles one per model from its C header and
+ * templates/model_library.c.jinja, cached by content) exports one function,
+ *
+ *   const ipgen_model *ipgen_model_get(void);
+ *
+ * returning a static, immutable description of the model: its sizes, the parameter layout and
+ * function pointers to the generated equations. ipsim's simulator is compiled once and loads
+ * any model library at run time (ipsim/runtime_model.hpp); ctypes can load one as well.
+ *
+ * Coordinates are ipgen's own (docs/model.md): q[0] the cart position [m] or the arm angle
+ * [rad], q[1..n] the absolute link angles [rad] from upright, clockwise positive; qd their rates.
+ * Vectors are plain arrays of `dof` doubles, matrices row-major. The inputs u[0..inputs) enter
+ * as M(q) qdd + bias(q, qd) = B u; today B = e0 (one input, the force or torque on the base).
+ *
+ * C99; no allocation, no globals but the model's constant description; every function is
+ * reentrant.
+ */
+#ifndef IPGEN_MODEL_H_INCLUDED
+#define IPGEN_MODEL_H_INCLUDED
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Bumped whenever this struct or the parameter layout changes: a library built for another
+ * ABI is refused when it is loaded. */
+#define IPGEN_MODEL_ABI 1
+
+/* The largest number of degrees of freedom (base + links) a parameter struct holds. */
+#define IPGEN_MAX_DOF 21
+
+/* Physical parameters in SI units, index 0 the base, 1..n the links; entries at and beyond
+ * `dof` are not read. As the C header's params and links structs together: masses m [kg],
+ * lengths l [m], viscous damping delta (base [kg/s] or [N m s], joints [N m s]), gravity g
+ * [m/s^2]; the links as built: com [m] from the pivot to the CoG, J [kg m^2] about the CoG
+ * (J[0]: the arm's about the vertical), J_axial [kg m^2] about the link's own axis, tip [kg]
+ * a point mass at the far end. NaN in com or J means the homogeneous rod's value
+ * (ipgen_model.rod_links replaces them). */
+typedef struct {
+  double m[IPGEN_MAX_DOF], l[IPGEN_MAX_DOF], delta[IPGEN_MAX_DOF];
+  double g;
+  double com[IPGEN_MAX_DOF], J[IPGEN_MAX_DOF], J_axial[IPGEN_MAX_DOF], tip[IPGEN_MAX_DOF];
+} ipgen_parameters;
+
+/* One model. A function pointer is null when the model does not provide that function (a
+ * header specialised to a scene may omit some). Functions returning int return 0 on success
+ * and non-zero when M(q) is not positive definite (then their outputs are not written). */
+typedef struct {
+  int abi;             /* IPGEN_MODEL_ABI of the library */
+  const char *name;    /* the model's name, e.g. "rotary2" */
+  const char *type;    /* "classical" (cart) or "rotary" (Furuta arm) */
+  const char *inertia; /* rotary: "pivot" or "full"; classical: "" */
+  int links;           /* n >= 1 */
+  int dof;             /* n + 1 <= IPGEN_MAX_DOF */
+  int inputs;          /* m >= 1: the length of u and the columns of B */
+  int links_as_built;  /* 1: com, J, J_axial and tip are read; 0: the rods only */
+
+  /* qdd (dof) = M^-1 (B u - bias). */
+  int (*forward_dynamics)(const double q[], const double qd[], const double u[], const ipgen_parameters *p,
+                          double qdd[]);
+  /* qdd and its exact derivatives: dqdd_dq and dqdd_dqd (dof x dof), dqdd_du (dof x inputs). */
+  int (*forward_dynamics_derivatives)(const double q[], const double qd[], const double u[],
+                                      const ipgen_parameters *p, double qdd[], double dqdd_dq[],
+                                      double dqdd_dqd[], double dqdd_du[]);
+  /* x' = f(x, u), x = [q; qd]: A = df/dx (2 dof x 2 dof), B = df/du (2 dof x inputs). */
+  int (*linearize)(const double q[], const double qd[], const double u[], const ipgen_parameters *p, double A[],
+                   double B[]);
+  /* M(q) (dof x dof, symmetric positive definite) and bias(q, qd) = N(q, qd) qd + P(q) (dof). */
+  void (*mass_matrix)(const double q[], const ipgen_parameters *p, double M[]);
+  void (*bias)(const double q[], const double qd[], const ipgen_parameters *p, double b[]);
+  /* Kinetic and potential energy [J] and Rayleigh's dissipation function D [W/2]. */
+  double (*kinetic_energy)(const double q[], const double qd[], const ipgen_parameters *p);
+  double (*potential_energy)(const double q[], const ipgen_parameters *p);
+  double (*dissipation)(const double qd[], const ipgen_parameters *p);
+  /* Replaces every NaN com and J entry by the homogeneous rod's value. */
+  void (*rod_links)(ipgen_parameters *p);
+  /* The first parameter ("m1", ...) that differs from a value folded into a specialised
+   * model, or null (always null for a general model). */
+  const char *(*check_folded)(const ipgen_parameters *p);
+} ipgen_model;
+
+/* The symbol every model library exports. */
+typedef const ipgen_model *(*ipgen_model_get_fn)(void);
+#define IPGEN_MODEL_SYMBOL "ipgen_model_get"
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IPGEN_MODEL_H_INCLUDED */

@@ -1,0 +1,225 @@
+// ipsim::RuntimeModel: a model tag whose equations come from a model library loaded at run time
+// (the C interface of cpp/include/ipgen_model.h), so that ipsim is compiled once for every model.
+//
+// Its sizes are Eigen::Dynamic with the capacity IPGEN_MAX_DOF (vectors and matrices live on the
+// stack: no allocation per right-hand side); its functions call the loaded model's. One model is
+// active per process: ModelLibrary loads it (dlopen) and makes it the active one.
+#pragma once
+
+#include <dlfcn.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "ipgen_model.h"
+#include "ipsim/errors.hpp"
+#include "ipsim/model.hpp"
+
+namespace ipsim {
+
+/// The tag of a model loaded at run time (see ModelLibrary).
+struct RuntimeModel {
+  static constexpr int kDof = Eigen::Dynamic;
+  static constexpr int kLinks = Eigen::Dynamic;
+  static constexpr int kMaxDof = IPGEN_MAX_DOF;
+  static constexpr bool kSpecialised = false;  // a specialised model is told by check_folded
+
+  /// The parameters in the interface's layout (ipgen_parameters), with the header's defaults:
+  /// g = 9.81, com and J unset (NaN: the homogeneous rods), no axial inertia, no tip masses.
+  template <typename Scalar = double>
+  struct Params : ipgen_parameters {
+    static_assert(std::is_same_v<Scalar, double>, "a model loaded at run time computes in double");
+    Params() : ipgen_parameters{} {
+      g = 9.81;
+      for (int i = 0; i < IPGEN_MAX_DOF; ++i) com[i] = J[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  };
+  template <typename Scalar>
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxDof, 1>;
+  template <typename Scalar>
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxDof, kMaxDof>;
+  using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, kMaxDof, kMaxDof>;
+  using StateMatrix =
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 2 * kMaxDof, 2 * kMaxDof>;
+
+  template <typename Scalar>
+  struct Derivatives {
+    Vector<Scalar> qdd;       ///< accelerations
+    Matrix<Scalar> dqdd_dq;   ///< ∂θ̈/∂θ (column i: with respect to θ(i))
+    Matrix<Scalar> dqdd_dqd;  ///< ∂θ̈/∂θ̇
+    Vector<Scalar> dqdd_du;   ///< ∂θ̈/∂u
+  };
+  template <typename Scalar>
+  struct Linearization {
+    Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 2 * kMaxDof, 2 * kMaxDof> A;
+    Eigen::Matrix<Scalar, Eigen::Dynamic, 1, Eigen::ColMajor, 2 * kMaxDof, 1> B;
+  };
+
+  /// The active model (ModelLibrary sets it); throws when none is loaded.
+  static const ipgen_model& active() {
+    if (loaded() == nullptr) throw Error("no model library is loaded");
+    return *loaded();
+  }
+  /// Makes `model` the active one (nullptr: none).
+  static void activate(const ipgen_model* model) { loaded() = model; }
+
+  static int dof() { return active().dof; }
+  static const char* name() { return active().name; }
+  static const char* type() { return active().type; }
+  static const char* inertia() { return active().inertia; }
+  static bool provides(Feature feature) {
+    const ipgen_model& m = active();
+    switch (feature) {
+      case Feature::mass_matrix: return m.mass_matrix != nullptr;
+      case Feature::mass_and_bias: return m.mass_matrix != nullptr && m.bias != nullptr;
+      case Feature::derivatives: return m.forward_dynamics_derivatives != nullptr;
+      case Feature::energy: return m.kinetic_energy && m.potential_energy && m.dissipation;
+    }
+    return false;
+  }
+
+  template <typename Scalar>
+  static const char* check_folded(const Params<Scalar>& p) {
+    return active().check_folded ? active().check_folded(&p) : nullptr;
+  }
+  template <typename Scalar>
+  static Params<Scalar> with_rod_links(const Params<Scalar>& p) {
+    Params<Scalar> filled = p;
+    if (active().rod_links) active().rod_links(&filled);
+    return filled;
+  }
+  template <typename Scalar>
+  static Matrix<Scalar> mass_matrix(const Vector<Scalar>& q, const Params<Scalar>& p) {
+    Matrix<Scalar> M(q.size(), q.size());  // symmetric: the row-major result reads the same
+    function(active().mass_matrix, "mass_matrix")(q.data(), &p, M.data());
+    return M;
+  }
+  template <typename Scalar>
+  static Vector<Scalar> bias(const Vector<Scalar>& q, const Vector<Scalar>& qd, const Params<Scalar>& p) {
+    Vector<Scalar> b(q.size());
+    function(active().bias, "bias")(q.data(), qd.data(), &p, b.data());
+    return b;
+  }
+  /// θ̈; NaN when M(θ) is not positive definite (as the headers' LDLT gives no finite answer).
+  template <typename Scalar>
+  static Vector<Scalar> forward_dynamics(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
+                                         const Params<Scalar>& p) {
+    Vector<Scalar> qdd(q.size());
+    if (function(active().forward_dynamics, "forward_dynamics")(q.data(), qd.data(), &u, &p, qdd.data()) != 0) {
+      qdd.setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
+    return qdd;
+  }
+  template <typename Scalar>
+  static Derivatives<Scalar> forward_dynamics_derivatives(const Vector<Scalar>& q, const Vector<Scalar>& qd,
+                                                          Scalar u, const Params<Scalar>& p) {
+    const Eigen::Index n = q.size();
+    Derivatives<Scalar> d;
+    d.qdd.resize(n);
+    d.dqdd_du.resize(n);
+    RowMajorMatrix dq(n, n), dqd(n, n);
+    if (function(active().forward_dynamics_derivatives, "forward_dynamics_derivatives")(
+            q.data(), qd.data(), &u, &p, d.qdd.data(), dq.data(), dqd.data(), d.dqdd_du.data()) != 0) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      d.qdd.setConstant(nan);
+      d.dqdd_du.setConstant(nan);
+      dq.setConstant(nan);
+      dqd.setConstant(nan);
+    }
+    d.dqdd_dq = dq;
+    d.dqdd_dqd = dqd;
+    return d;
+  }
+  template <typename Scalar>
+  static Linearization<Scalar> linearize(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
+                                         const Params<Scalar>& p) {
+    const Eigen::Index size = 2 * q.size();
+    StateMatrix A(size, size);
+    Linearization<Scalar> lin;
+    lin.B.resize(size);
+    if (function(active().linearize, "linearize")(q.data(), qd.data(), &u, &p, A.data(), lin.B.data()) != 0) {
+      A.setConstant(std::numeric_limits<double>::quiet_NaN());
+      lin.B.setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
+    lin.A = A;
+    return lin;
+  }
+  template <typename Scalar>
+  static Scalar kinetic_energy(const Vector<Scalar>& q, const Vector<Scalar>& qd, const Params<Scalar>& p) {
+    return function(active().kinetic_energy, "kinetic_energy")(q.data(), qd.data(), &p);
+  }
+  template <typename Scalar>
+  static Scalar potential_energy(const Vector<Scalar>& q, const Params<Scalar>& p) {
+    return function(active().potential_energy, "potential_energy")(q.data(), &p);
+  }
+  template <typename Scalar>
+  static Scalar dissipation(const Vector<Scalar>& qd, const Params<Scalar>& p) {
+    return function(active().dissipation, "dissipation")(qd.data(), &p);
+  }
+
+ private:
+  static const ipgen_model*& loaded() {
+    static const ipgen_model* model = nullptr;
+    return model;
+  }
+  /// `f`, or an Error naming the function the model lacks (ipsim checks before it calls).
+  template <class F>
+  static F function(F f, const char* what) {
+    if (f == nullptr) throw Error(std::string("model ") + active().name + " has no " + what);
+    return f;
+  }
+};
+
+/// A model library (a shared object exporting ipgen_model_get), loaded and made the active
+/// RuntimeModel for the object's lifetime; unloaded after.
+class ModelLibrary {
+ public:
+  /// Loads `path`; throws Error naming the problem (no such file, not a model library, another
+  /// ABI, sizes out of range).
+  explicit ModelLibrary(const std::string& path) {
+    handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    if (handle_ == nullptr) {
+      const char* why = dlerror();
+      throw Error("cannot load the model library " + path + ": " + (why ? why : "dlopen failed"));
+    }
+    auto get = reinterpret_cast<ipgen_model_get_fn>(dlsym(handle_, IPGEN_MODEL_SYMBOL));
+    const ipgen_model* model = get ? get() : nullptr;
+    std::string problem;
+    if (model == nullptr) {
+      problem = "it exports no " IPGEN_MODEL_SYMBOL " (not an ipgen model library)";
+    } else if (model->abi != IPGEN_MODEL_ABI) {
+      problem = "it was built for model ABI " + std::to_string(model->abi) + ", this simulator reads " +
+                std::to_string(IPGEN_MODEL_ABI) + " (rebuild it with this ipgen)";
+    } else if (model->links < 1 || model->dof != model->links + 1 || model->dof > IPGEN_MAX_DOF) {
+      problem = "its sizes are out of range (links " + std::to_string(model->links) + ", dof " +
+                std::to_string(model->dof) + "; at most " + std::to_string(IPGEN_MAX_DOF) + " dof)";
+    } else if (model->inputs != 1) {
+      problem = "it has " + std::to_string(model->inputs) + " inputs; this simulator drives the base alone";
+    } else if (model->forward_dynamics == nullptr) {
+      problem = "it has no forward_dynamics";
+    }
+    if (!problem.empty()) {
+      dlclose(handle_);
+      throw Error("cannot use the model library " + path + ": " + problem);
+    }
+    RuntimeModel::activate(model);
+    model_ = model;
+  }
+  ~ModelLibrary() {
+    RuntimeModel::activate(nullptr);
+    dlclose(handle_);
+  }
+  ModelLibrary(const ModelLibrary&) = delete;
+  ModelLibrary& operator=(const ModelLibrary&) = delete;
+
+  const ipgen_model& model() const { return *model_; }
+
+ private:
+  void* handle_ = nullptr;
+  const ipgen_model* model_ = nullptr;
+};
+
+}  // namespace ipsim
