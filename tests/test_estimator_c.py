@@ -25,7 +25,7 @@ from ipgen.command.cli import run
 from ipgen.common.build_cache import cache_root
 from ipgen.estimation import Sensors, design, replay
 from ipgen.pipeline import job
-from ipgen.pipeline.simulator import build
+from ipgen.pipeline.simulator import build, model_sources
 
 ROOT = Path(__file__).resolve().parent.parent
 PRESET = ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"
@@ -105,13 +105,13 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         (folder / "scene.toml").write_text(scene_text(sensors, estimator))
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(["--scene", str(folder / "scene.toml"), "-o", str(folder)]) == 0, err.getvalue()
-        # what `ipgen run` compiles and reads: the model's header and a .cfg naming it (in sim/)
+        # what `ipgen run` compiles and reads: the model's library and a .cfg naming it (in sim/)
         simulated = job.for_the_simulator(job.plan(folder / "sim", scene=folder / "scene.toml"))
         job.run(simulated)
         folders[name] = folder
     # the shared content-keyed cache (locked per key): the xdist workers and later runs build it once
-    header = (folders["kalman"] / "sim" / f"{simulated.name}.hpp").read_text()
-    folders["simulator"] = build(header, simulated.name, cache_root()).path
+    sources = model_sources(folders["kalman"] / "sim", simulated.name)
+    folders["simulator"] = build(sources, simulated.name, cache_root()).path
     return folders
 
 

@@ -116,25 +116,31 @@ def test_the_build_announcement_states_the_last_build(
     """No '~10 s' guess: the first build in a cache says nothing about time, the next states how
     long the previous one took (before: 'first run for this model, ~10 s' whatever the machine)."""
 
-    def fake_compile(cxx: str, header: Path, name: str, binary: Path, core: Path) -> list[str]:
-        return ["sh", "-c", 'sleep 0.2 && cp /bin/true "$0"', str(binary)]
+    def fake_compile(cc: str, entry: Path, name: str, library: Path) -> list[str]:
+        return ["sh", "-c", 'sleep 0.2 && cp /bin/true "$0"', str(library)]
 
     def fake_core(cxx: str, output: Path) -> list[str]:
         return ["cp", "/bin/true", str(output)]
 
+    def fake_program(cxx: str, output: Path, core: Path) -> list[str]:
+        return ["cp", "/bin/true", str(output)]
+
     monkeypatch.setattr(simulator, "compile_command", fake_compile)
     monkeypatch.setattr(simulator, "core_command", fake_core)
+    monkeypatch.setattr(simulator, "program_command", fake_program)
     said: list[str] = []
-    first = simulator.build("// model a\n", "a", tmp_path, said.append)
-    core = "building ipsim's model-independent code (once for all models)…"
-    assert first.built and said == [core, "building the simulator for model a…"]  # the core: once
-    said.remove(core)
-    assert build_cache.last_build(tmp_path / "simulators") == pytest.approx(first.seconds, abs=1e-3)
-    second = simulator.build("// model b\n", "b", tmp_path, said.append)
+    sources = {"a.h": "/* model a */\n", "a_model.c": "/* adapter a */\n"}
+    first = simulator.build(sources, "a", tmp_path, said.append)
+    once = [
+        "building ipsim's model-independent code (once for all models)…",
+        "building ipsim's simulator (once for every model)…",
+    ]
+    assert first.built and said == [*once, "building the model library of a…"]  # the simulator: once
+    del said[:2]
+    library = build_cache.last_build(tmp_path / "models")
+    assert library is not None and 0.2 <= library <= first.seconds
+    second = simulator.build({"b.h": "/* model b */\n", "b_model.c": "/* b */\n"}, "b", tmp_path, said.append)
     assert second.built
-    assert (
-        said[1]
-        == f"building the simulator for model b (the last build in this cache took {first.seconds:.0f} s)…"
-    )
-    (tmp_path / "simulators" / build_cache.LAST_BUILD).write_text("garbage\n")
-    assert build_cache.last_build(tmp_path / "simulators") is None
+    assert said[1] == f"building the model library of b (the last build in this cache took {library:.0f} s)…"
+    (tmp_path / "models" / build_cache.LAST_BUILD).write_text("garbage\n")
+    assert build_cache.last_build(tmp_path / "models") is None

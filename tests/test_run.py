@@ -13,6 +13,7 @@ import io
 import math
 import os
 import re
+import shlex
 import stat
 import subprocess
 import sys
@@ -135,7 +136,7 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     binary = simulator_of(summary)
     # Built now (said on stderr and in the summary) exactly when the binary was not in the cache
     # before; another worker may have built it meanwhile, then this run waited and took it.
-    assert was_built(summary) == ("building the simulator for model rotary3" in first.stderr)
+    assert was_built(summary) == ("building the model library of rotary3" in first.stderr)
     assert not (was_built(summary) and binary in cached_before)
     assert "type = rotary" in (out / "triple.cfg").read_text()
     assert binary.parent.parent == simulators  # in the cache, one binary for the model
@@ -221,8 +222,10 @@ import sys, time, pathlib, os
 args = sys.argv[1:]
 if args == ["--version"]:
     print("fake c++ 1.0"); sys.exit(0)
+# ipsim's core (an object), its simulator (compiled once), or a model library (the C compiler)
+kind = "core" if "-c" in args else "library" if "-shared" in args else "program"
 with open(os.environ["COUNT"], "a") as f:
-    f.write("core\\n" if "-c" in args else "compile\\n")  # ipsim's core (an object), or a simulator
+    f.write(kind + "\\n")
 time.sleep(1)
 out = pathlib.Path(args[args.index("-o") + 1])
 out.write_text('''#!PYTHON
@@ -240,7 +243,8 @@ def fake_compiler(tmp_path: Path) -> dict[str, str]:
     cxx = tmp_path / "fake-c++"
     cxx.write_text(FAKE_CXX.replace("PYTHON", sys.executable))
     cxx.chmod(cxx.stat().st_mode | stat.S_IXUSR)
-    return {"CXX": str(cxx), "COUNT": str(tmp_path / "count"), "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    environment = {"CXX": str(cxx), "CC": str(cxx), "COUNT": str(tmp_path / "count")}
+    return {**environment, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
 
 
 def single_scene(tmp_path: Path, theta: str = "0.1") -> Path:
@@ -268,7 +272,7 @@ def test_concurrent_runs_of_one_model_compile_once(tmp_path: Path) -> None:
     for process in processes:
         _, err = process.communicate(timeout=120)
         assert process.returncode == 0, err
-    assert (tmp_path / "count").read_text() == "core\ncompile\n"  # the core first, once
+    assert (tmp_path / "count").read_text() == "core\nprogram\nlibrary\n"  # each once
     for scene in scenes:
         assert (tmp_path / "out" / f"{scene.stem}.png").read_bytes()[:8] == PNG_SIGNATURE
     # another model (other header): a second compile
@@ -279,7 +283,7 @@ def test_concurrent_runs_of_one_model_compile_once(tmp_path: Path) -> None:
         .replace("[0, 0]", "[0, 0, 0]").replace("[0, 0.1]", "[0, 0.1, 0]")
     )  # fmt: skip
     assert ipgen_command("run", str(other), "-o", str(tmp_path / "out"), env=env).returncode == 0
-    assert (tmp_path / "count").read_text() == "core\ncompile\ncompile\n"  # the same core
+    assert (tmp_path / "count").read_text() == "core\nprogram\nlibrary\nlibrary\n"  # the same simulator
 
 
 def test_the_optimisation_level_is_a_build_flag_and_part_of_the_key(tmp_path: Path) -> None:
@@ -294,11 +298,13 @@ def test_the_optimisation_level_is_a_build_flag_and_part_of_the_key(tmp_path: Pa
                                env={**env, "IPGEN_SIM_OPT": level})  # fmt: skip
         assert result.returncode == 0, result.stderr
         expected += compiles
-        assert (tmp_path / "count").read_text().split() == ["core", "compile"] * expected  # per level
+        assert (tmp_path / "count").read_text().split() == ["core", "program", "library"] * expected
         summary = (tmp_path / "out" / f"{scene.stem}.txt").read_text()
-        binary = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
-        flags = (binary.parent / "command.txt").read_text().split()
+        launcher = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
+        program, library = shlex.split(launcher.read_text().splitlines()[1])[1:4:2]  # exec P --model L
+        flags = (Path(program).parent / "command.txt").read_text().split()
         assert flags[1:4] == ["-std=c++17", level or "-O2", "-DNDEBUG"]
+        assert (Path(library).parent / "command.txt").read_text().split()[1:3] == ["-std=c99", level or "-O2"]
     assert len(list(simulators.glob("*/simulate_*"))) == 3  # -O1, -O3, -O2
 
 

@@ -26,7 +26,7 @@ from ipgen.command.cli import run
 from ipgen.estimation import ExtendedKalman, Sensors, SteadyStateKalman, default_covariances, replay
 from ipgen.experiment.config import resolved_config
 from ipgen.experiment.scene import load_scene
-from ipgen.pipeline.simulator import build
+from ipgen.pipeline.simulator import build, model_sources
 
 PERIOD = 0.001
 M, L, DELTA = [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458]
@@ -63,10 +63,10 @@ def simulator(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = tmp_path_factory.mktemp("model")
     (folder / "base.toml").write_text(scene_text())
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
-        assert run(["--scene", str(folder / "base.toml"), "-o", str(folder / "out")]) == 0
-    header = (folder / "out" / "rotary1.hpp").read_text()
+        out = folder / "out"
+        assert run(["--scene", str(folder / "base.toml"), "--emit", "library", "-o", str(out)]) == 0
     cache = Path(os.environ.get("IPGEN_CACHE_DIR") or folder / "cache")
-    return build(header, "rotary1", cache).path
+    return build(model_sources(folder / "out", "rotary1"), "rotary1", cache).path
 
 
 class Run:

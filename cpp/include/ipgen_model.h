@@ -29,7 +29,7 @@ extern "C" {
 #define IPGEN_MODEL_ABI 1
 
 /* The largest number of degrees of freedom (base + links) a parameter struct holds. */
-#define IPGEN_MAX_DOF 21
+#define IPGEN_MAX_DOF 41
 
 /* Physical parameters in SI units, index 0 the base, 1..n the links; entries at and beyond
  * `dof` are not read. As the C header's params and links structs together: masses m [kg],

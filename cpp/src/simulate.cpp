@@ -1,7 +1,12 @@
 // simulate_<model>: runs a resolved scene file (.cfg) with ipsim and writes the trajectory as CSV.
 //
-// Built once per model: CMake passes the generated header and the model tag, e.g.
-//   -DIPGEN_MODEL_HEADER="cdip.hpp" -DIPGEN_MODEL=ipgen::cdip::Model
+// Built two ways from this one file:
+//  - compiled once for every model, -DIPSIM_RUNTIME_MODEL (ipsim/runtime_model.hpp): the model
+//    comes through the C model interface (ipgen_model.h), either a model library loaded with
+//    --model LIB (`ipgen run`: ipsim-simulate) or the model's adapter linked in (CMake's
+//    ipgen_add_runtime_simulator: simulate_<name> links NAME_model.c to the compiled program);
+//  - per model, against its C++ header (CMake's ipgen_add_simulator, for a program of one's own):
+//    -DIPGEN_MODEL_HEADER="cdip.hpp" -DIPGEN_MODEL=ipgen::cdip::Model.
 //
 // Usage: simulate_<model> SCENE.cfg [--csv OUT.csv] [--method M] [--jacobian exact|dq] [--rtol X]
 //                          [--atol X] [--step X] [--t-end X] [--sample X] [--max-steps N] [--energy]
@@ -77,7 +82,7 @@ struct UsageError : std::runtime_error {
 struct Options {
   std::string scene_path;
   std::string csv_path;  ///< empty: the scene path with its extension replaced by .csv
-  std::string model_path;  ///< the model library (a simulator compiled once: required)
+  std::string model_path;  ///< the model library to load (compiled once: empty for the one linked in)
   bool energy = false;   ///< add T, V, W_in, E_diss columns and an energy balance to the summary
   bool force = false;    ///< replace an existing CSV even if this simulator did not write it
   bool check = false;    ///< validate the scene and options only: no integration, no CSV
@@ -204,9 +209,9 @@ Options parse_command_line(int argc, char** argv) {
       std::fputs(kUsage, stdout);
       std::fputs(kHelp, stdout);
       if constexpr (kRuntimeModel) {
-        std::puts("\nThis simulator is compiled once for every model: --model LIB names the model library "
-                  "(`ipgen run` builds and passes it); its CSV header is t,theta0..N,dtheta0..N (then the "
-                  "optional columns).");
+        std::puts("\nThis simulator is compiled once for every model: --model LIB loads a model library "
+                  "(`ipgen run` builds and passes it; without it, the model linked in); its CSV header is "
+                  "t,theta0..N,dtheta0..N (then the optional columns).");
       } else {
         std::printf("\nThis simulator: model %s (%s, %d link%s); its CSV header is t", ipsim::name_of<Model>(),
                     ipsim::type_of<Model>(), ipsim::links_of<Model>(), ipsim::links_of<Model>() == 1 ? "" : "s");
@@ -270,9 +275,6 @@ Options parse_command_line(int argc, char** argv) {
     }
   }
   if (options.scene_path.empty()) throw UsageError(std::string("no scene file given (") + kUsage + ")");
-  if (kRuntimeModel && options.model_path.empty()) {
-    throw UsageError("no model library given: pass --model LIB (`ipgen run` builds it)");
-  }
   if (options.csv_path.empty() && csv_given) throw UsageError("--csv \"\" is empty: name the CSV file");
   if (options.csv_path.empty()) {
     const auto slash = options.scene_path.find_last_of('/');
@@ -659,7 +661,11 @@ int run(int argc, char** argv) {
 #if defined(IPSIM_RUNTIME_MODEL)
   std::optional<ipsim::ModelLibrary> library;  // the active model while it lives
   try {
-    library.emplace(options.model_path);
+    if (options.model_path.empty()) {
+      library.emplace();  // the model linked in
+    } else {
+      library.emplace(options.model_path);
+    }
   } catch (const ipsim::Error& e) {
     throw UsageError(e.what());
   }

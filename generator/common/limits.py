@@ -24,6 +24,10 @@ Why these values:
   must lie in [FOLD_MIN_EXPONENT, FOLD_MAX_EXPONENT] and it may have at most FOLD_MAX_DIGITS
   significant digits (a double needs 17), so that the rational arithmetic stays small
   (1e-99999999 would carry a hundred-million-digit denominator through the derivation).
+- `MAX_SIMULATED_LINKS`: the simulator compiled once holds a model of up to this many links in
+  stack arrays of a fixed capacity (`IPGEN_MAX_DOF` - 1 in cpp/include/ipgen_model.h: no
+  allocation per right-hand side); a larger chain's header still compiles into a simulator of its
+  own (CMake's `ipgen_add_simulator`).
 - `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
   this many characters, in the middle.
 """
@@ -31,6 +35,7 @@ Why these values:
 from __future__ import annotations
 
 MAX_SAMPLES = 10_000_000
+MAX_SIMULATED_LINKS = 40
 RTOL_MIN = 1e-15
 MAX_SCENE_BYTES = 1 << 18
 MAX_SCENE_NESTING = 16

@@ -26,9 +26,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.common.files import OutputError, check_replaceable, prepare_directory, write_file
+from ipgen.common.limits import MAX_SIMULATED_LINKS
 from ipgen.common.safetext import shown_path
 from ipgen.pipeline import job
-from ipgen.pipeline.simulator import Simulator, build, model_sources
+from ipgen.pipeline.simulator import BuildError, Simulator, build, model_sources
 from ipgen.plots.run import PNG, PlotError, plot_run, read_run, sampled_beside
 
 if TYPE_CHECKING:
@@ -96,6 +97,12 @@ def run_scene(
         planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
         assert planned.scene is not None
         scene = planned.scene
+        if scene.links > MAX_SIMULATED_LINKS:
+            raise BuildError(
+                f"ipgen run simulates chains of up to {MAX_SIMULATED_LINKS} links, this scene has "
+                f"{scene.links}: generate its header (ipgen --scene ... -o DIR) and build a simulator of "
+                "its own with CMake's ipgen_add_simulator (docs/simulator.md)"
+            )
         for warning in scene.warnings:  # e.g. a unit slip: the run goes on
             announce(warning)
         stem = scene.stem

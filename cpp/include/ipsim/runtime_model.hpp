@@ -18,6 +18,10 @@
 #include "ipsim/errors.hpp"
 #include "ipsim/model.hpp"
 
+/// A model linked into the program (its adapter, NAME_model.c, compiled in: CMake's
+/// ipgen_add_runtime_simulator); null when none is, and the model comes from a library instead.
+extern "C" const ipgen_model* ipgen_model_get(void) __attribute__((weak));
+
 namespace ipsim {
 
 /// The tag of a model loaded at run time (see ModelLibrary).
@@ -174,9 +178,20 @@ struct RuntimeModel {
 };
 
 /// A model library (a shared object exporting ipgen_model_get), loaded and made the active
-/// RuntimeModel for the object's lifetime; unloaded after.
+/// RuntimeModel for the object's lifetime; unloaded after. Or, constructed with no path, the
+/// model linked into the program.
 class ModelLibrary {
  public:
+  /// The model linked into the program; throws Error when none is.
+  ModelLibrary() {
+    const ipgen_model* model = ::ipgen_model_get ? ::ipgen_model_get() : nullptr;
+    if (model == nullptr) throw Error("no model is linked into this simulator: pass --model LIB");
+    const std::string problem = problem_with(*model);
+    if (!problem.empty()) throw Error("cannot use the linked model: " + problem);
+    RuntimeModel::activate(model);
+    model_ = model;
+  }
+
   /// Loads `path`; throws Error naming the problem (no such file, not a model library, another
   /// ABI, sizes out of range).
   explicit ModelLibrary(const std::string& path) {
@@ -187,20 +202,8 @@ class ModelLibrary {
     }
     auto get = reinterpret_cast<ipgen_model_get_fn>(dlsym(handle_, IPGEN_MODEL_SYMBOL));
     const ipgen_model* model = get ? get() : nullptr;
-    std::string problem;
-    if (model == nullptr) {
-      problem = "it exports no " IPGEN_MODEL_SYMBOL " (not an ipgen model library)";
-    } else if (model->abi != IPGEN_MODEL_ABI) {
-      problem = "it was built for model ABI " + std::to_string(model->abi) + ", this simulator reads " +
-                std::to_string(IPGEN_MODEL_ABI) + " (rebuild it with this ipgen)";
-    } else if (model->links < 1 || model->dof != model->links + 1 || model->dof > IPGEN_MAX_DOF) {
-      problem = "its sizes are out of range (links " + std::to_string(model->links) + ", dof " +
-                std::to_string(model->dof) + "; at most " + std::to_string(IPGEN_MAX_DOF) + " dof)";
-    } else if (model->inputs != 1) {
-      problem = "it has " + std::to_string(model->inputs) + " inputs; this simulator drives the base alone";
-    } else if (model->forward_dynamics == nullptr) {
-      problem = "it has no forward_dynamics";
-    }
+    const std::string problem =
+        model == nullptr ? "it exports no " IPGEN_MODEL_SYMBOL " (not an ipgen model library)" : problem_with(*model);
     if (!problem.empty()) {
       dlclose(handle_);
       throw Error("cannot use the model library " + path + ": " + problem);
@@ -210,7 +213,7 @@ class ModelLibrary {
   }
   ~ModelLibrary() {
     RuntimeModel::activate(nullptr);
-    dlclose(handle_);
+    if (handle_ != nullptr) dlclose(handle_);
   }
   ModelLibrary(const ModelLibrary&) = delete;
   ModelLibrary& operator=(const ModelLibrary&) = delete;
@@ -218,6 +221,23 @@ class ModelLibrary {
   const ipgen_model& model() const { return *model_; }
 
  private:
+  /// What makes `model` unusable here, or "".
+  static std::string problem_with(const ipgen_model& model) {
+    if (model.abi != IPGEN_MODEL_ABI) {
+      return "it was built for model ABI " + std::to_string(model.abi) + ", this simulator reads " +
+             std::to_string(IPGEN_MODEL_ABI) + " (rebuild it with this ipgen)";
+    }
+    if (model.links < 1 || model.dof != model.links + 1 || model.dof > IPGEN_MAX_DOF) {
+      return "its sizes are out of range (links " + std::to_string(model.links) + ", dof " +
+             std::to_string(model.dof) + "; at most " + std::to_string(IPGEN_MAX_DOF) + " dof)";
+    }
+    if (model.inputs != 1) {
+      return "it has " + std::to_string(model.inputs) + " inputs; this simulator drives the base alone";
+    }
+    if (model.forward_dynamics == nullptr) return "it has no forward_dynamics";
+    return "";
+  }
+
   void* handle_ = nullptr;
   const ipgen_model* model_ = nullptr;
 };

@@ -1,0 +1,270 @@
+"""The simulator compiled once (issue 45): one compiled program runs every model, each model a
+small library behind the C model interface (cpp/include/ipgen_model.h, `--emit library`).
+
+Checked here: the library's functions against Kane's equations built independently
+(tests/independent_model.py), through ctypes and the interface's own parameter layout; two models
+of different types and sizes run by the same compiled program; bad model libraries refused in
+one line before anything runs.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import io
+import math
+import re
+import shlex
+import subprocess
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cxx import require_toolchain
+from independent_model import reference
+
+from ipgen.command.cli import run
+from ipgen.common.build_cache import cache_root
+from ipgen.common.limits import MAX_SIMULATED_LINKS
+from ipgen.pipeline.simulator import c_compiler, c_optimisation, simulator_sources
+
+MAX_DOF = 41
+# A shared object that is not a model library.
+LIBM = tuple(Path(p) for p in ("/lib/x86_64-linux-gnu/libm.so.6", "/usr/lib/x86_64-linux-gnu/libm.so.6"))
+ARRAY = ctypes.c_double * MAX_DOF
+
+
+class Parameters(ctypes.Structure):
+    """ipgen_parameters."""
+
+    _fields_ = [
+        ("m", ARRAY), ("l", ARRAY), ("delta", ARRAY), ("g", ctypes.c_double),
+        ("com", ARRAY), ("J", ARRAY), ("J_axial", ARRAY), ("tip", ARRAY),
+    ]  # fmt: skip
+
+
+VEC = ctypes.POINTER(ctypes.c_double)
+PARAMS = ctypes.POINTER(Parameters)
+
+
+class Model(ctypes.Structure):
+    """ipgen_model (the fields this test calls, in the header's order)."""
+
+    _fields_ = [
+        ("abi", ctypes.c_int), ("name", ctypes.c_char_p), ("type", ctypes.c_char_p),
+        ("inertia", ctypes.c_char_p), ("links", ctypes.c_int), ("dof", ctypes.c_int),
+        ("inputs", ctypes.c_int), ("links_as_built", ctypes.c_int),
+        ("forward_dynamics", ctypes.CFUNCTYPE(ctypes.c_int, VEC, VEC, VEC, PARAMS, VEC)),
+        ("forward_dynamics_derivatives", ctypes.c_void_p),
+        ("linearize", ctypes.CFUNCTYPE(ctypes.c_int, VEC, VEC, VEC, PARAMS, VEC, VEC)),
+        ("mass_matrix", ctypes.CFUNCTYPE(None, VEC, PARAMS, VEC)),
+        ("bias", ctypes.CFUNCTYPE(None, VEC, VEC, PARAMS, VEC)),
+        ("kinetic_energy", ctypes.CFUNCTYPE(ctypes.c_double, VEC, VEC, PARAMS)),
+        ("potential_energy", ctypes.CFUNCTYPE(ctypes.c_double, VEC, PARAMS)),
+        ("dissipation", ctypes.CFUNCTYPE(ctypes.c_double, VEC, PARAMS)),
+        ("rod_links", ctypes.CFUNCTYPE(None, PARAMS)),
+        ("check_folded", ctypes.CFUNCTYPE(ctypes.c_char_p, PARAMS)),
+    ]  # fmt: skip
+
+
+def compile_library(folder: Path, name: str) -> Path:
+    """NAME.h and NAME_model.c in `folder` compiled into a shared library, as `ipgen run` does."""
+    _, include = simulator_sources()
+    library = folder / f"lib{name}.so"
+    command = [c_compiler(), *c_optimisation(), "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+    command += [f"-I{include}", f"-I{folder}", str(folder / f"{name}_model.c"), "-o", str(library), "-lm"]
+    subprocess.run(command, check=True, capture_output=True, text=True)
+    return library
+
+
+def generate(folder: Path, *options: str) -> None:
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run([*options, "--emit", "library", "-o", str(folder)]) == 0, err.getvalue()
+
+
+def vector(values: np.ndarray) -> ctypes.Array:
+    return (ctypes.c_double * len(values))(*values)
+
+
+@pytest.mark.parametrize(
+    ("kind", "links", "inertia"),
+    [("classical", 2, "pivot"), ("rotary", 1, "pivot"), ("rotary", 3, "full")],
+)
+def test_the_model_library_equals_kanes_equations(
+    tmp_path: Path, kind: str, links: int, inertia: str
+) -> None:
+    """forward_dynamics, linearize's B, the mass matrix and the energies, called through the
+    interface with its parameter layout, against Kane's equations of the same rig as built; and
+    NaN com and J read as the homogeneous rods."""
+    require_toolchain()
+    options = ["--type", kind, "--links", str(links), "--name", "m"]
+    if kind == "rotary":
+        options += ["--inertia", inertia]
+    generate(tmp_path, *options)
+    lib = ctypes.CDLL(str(compile_library(tmp_path, "m")))
+    lib.ipgen_model_get.restype = ctypes.POINTER(Model)
+    model = lib.ipgen_model_get().contents
+    dof = links + 1
+    assert (model.abi, model.links, model.dof, model.inputs) == (1, links, dof, 1)
+    assert model.type.decode() == kind and model.name.decode() == "m"
+    ref = reference(kind, links, inertia, True)
+    rng = np.random.default_rng(45)
+    for _ in range(5):
+        m, length = rng.uniform(0.1, 1.0, dof), rng.uniform(0.2, 0.8, dof)
+        delta = rng.uniform(0.0, 0.1, dof)
+        com, tip = length * rng.uniform(0.2, 0.8, dof), rng.uniform(0.0, 0.1, dof)
+        J = m * length**2 * rng.uniform(0.02, 0.1, dof)
+        axial = J * rng.uniform(0.0, 1.0, dof) if inertia == "full" else np.zeros(dof)
+        if kind == "classical":
+            length[0], J[0] = 0.0, 0.0
+        p = Parameters()
+        for field, values in (("m", m), ("l", length), ("delta", delta), ("com", com), ("J", J),
+                              ("J_axial", axial), ("tip", tip)):  # fmt: skip
+            getattr(p, field)[:dof] = values
+        p.g = 9.81
+        q, qd, u = rng.uniform(-math.pi, math.pi, dof), rng.uniform(-2, 2, dof), rng.uniform(-1, 1)
+        args = (q, qd, u, (m, length, delta, 9.81, com, J, axial, tip))
+        M_ref = np.asarray(ref.mass_matrix(*args), dtype=float)
+        qdd_ref = np.linalg.solve(M_ref, np.asarray(ref.forcing(*args), dtype=float).ravel())
+        qdd = vector(np.zeros(dof))
+        assert model.forward_dynamics(vector(q), vector(qd), vector([u]), ctypes.byref(p), qdd) == 0
+        assert np.allclose(np.asarray(qdd), qdd_ref, rtol=1e-10, atol=1e-10)
+        M = vector(np.zeros(dof * dof))
+        model.mass_matrix(vector(q), ctypes.byref(p), M)
+        assert np.allclose(np.asarray(M).reshape(dof, dof), M_ref, rtol=1e-12, atol=1e-12)
+        A, B = vector(np.zeros(4 * dof * dof)), vector(np.zeros(2 * dof))
+        assert model.linearize(vector(q), vector(qd), vector([u]), ctypes.byref(p), A, B) == 0
+        assert np.allclose(
+            np.asarray(B)[dof:], np.linalg.solve(M_ref, np.eye(dof)[:, 0]), rtol=1e-10, atol=1e-12
+        )
+        kinetic = model.kinetic_energy(vector(q), vector(qd), ctypes.byref(p))
+        assert math.isclose(kinetic, float(ref.kinetic(*args)), rel_tol=1e-11, abs_tol=1e-12)
+        potential = model.potential_energy(vector(q), ctypes.byref(p))
+        assert math.isclose(potential, float(ref.potential(*args)), rel_tol=1e-11, abs_tol=1e-12)
+        # Unset (NaN) com and J are the rods' l/2 and m l^2/12 (the arm's m l^2/3).
+        p.com[:dof] = [math.nan] * dof
+        p.J[:dof] = [math.nan] * dof
+        model.rod_links(ctypes.byref(p))
+        rods = np.array(p.J[:dof])
+        assert np.allclose(np.array(p.com[1:dof]), length[1:] / 2, rtol=1e-15)
+        assert np.allclose(rods[1:], m[1:] * length[1:] ** 2 / 12, rtol=1e-15)
+        if kind == "rotary":
+            assert math.isclose(rods[0], m[0] * length[0] ** 2 / 3, rel_tol=1e-15)
+    assert model.check_folded(ctypes.byref(p)) is None  # a general model folds nothing
+
+
+SCENE = """\
+[system]
+type = "{kind}"
+links = {links}
+[parameters]
+m = {m}
+l = {l}
+delta = {delta}
+[initial]
+theta = {theta}
+[outputs]
+energy = true
+[simulation]
+t_end = 2
+"""
+
+
+def launcher_parts(summary: str) -> tuple[Path, Path]:
+    """(the compiled simulator, the model library) the summary's launcher runs."""
+    launcher = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
+    words = shlex.split(launcher.read_text().splitlines()[1])
+    assert words[0] == "exec" and words[2] == "--model"
+    return Path(words[1]), Path(words[3])
+
+
+def test_two_models_run_on_one_compiled_simulator(tmp_path: Path) -> None:
+    """A cart double pendulum and a rotary single pendulum: one compiled program, two model
+    libraries; run directly with --model, each conserves energy without damping (the summary's
+    work-energy balance) and writes its own number of columns."""
+    require_toolchain()
+    cart = {"m": [1, 0.3, 0.2], "l": [0, 0.5, 0.4], "delta": [0, 0, 0], "theta": [0, 0.3, -0.2]}
+    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
+    scenes = {
+        "cart2": SCENE.format(kind="classical", links=2, **cart),
+        "arm1": SCENE.format(kind="rotary", links=1, **arm),
+    }
+    parts = {}
+    for stem, text in scenes.items():
+        path = tmp_path / f"{stem}.toml"
+        path.write_text(text)
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(["run", str(path), "-o", str(tmp_path / "out")]) == 0, err.getvalue()
+        parts[stem] = launcher_parts((tmp_path / "out" / f"{stem}.txt").read_text())
+    (program, cart), (same, arm) = parts["cart2"], parts["arm1"]
+    assert program == same and cart != arm and program.is_relative_to(cache_root())
+    for stem, library, columns in (("cart2", cart, 7), ("arm1", arm, 5)):
+        csv = tmp_path / f"{stem}_direct.csv"
+        cfg = tmp_path / "out" / f"{stem}.cfg"
+        done = subprocess.run([str(program), str(cfg), "--model", str(library), "--csv", str(csv)],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        balance = float(re.search(r"balance error (\S+) J", done.stdout).group(1))
+        assert abs(balance) < 1e-6, done.stdout
+        header = csv.read_text().splitlines()[0].split(",")
+        assert header[:columns] == ["t", *[f"theta{i}" for i in range((columns - 1) // 2)],
+                                    *[f"dtheta{i}" for i in range((columns - 1) // 2)]]  # fmt: skip
+
+
+def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
+    """No such file, a shared object that is no model library, a library of another ABI, and
+    none at all: exit status 2, one line naming the problem, no CSV."""
+    require_toolchain()
+    scene = tmp_path / "s.toml"
+    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.1]}
+    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
+        assert run(["run", str(scene), "-o", str(tmp_path / "out")]) == 0
+    program, _ = launcher_parts((tmp_path / "out" / "s.txt").read_text())
+    other_abi = tmp_path / "abi.c"
+    _, include = simulator_sources()
+    other_abi.write_text(
+        '#include "ipgen_model.h"\n'
+        'static const ipgen_model model = {99, "x", "rotary", "pivot", 1, 2, 1, 1};\n'
+        "const ipgen_model *ipgen_model_get(void) { return &model; }\n"
+    )
+    abi_library = tmp_path / "libabi.so"
+    subprocess.run([c_compiler(), "-shared", "-fPIC", f"-I{include}", str(other_abi), "-o", str(abi_library)],
+                   check=True)  # fmt: skip
+    not_a_model = next(path for path in LIBM if path.exists())
+    cases = {
+        str(tmp_path / "missing.so"): "cannot load the model library",
+        str(not_a_model): "exports no ipgen_model_get (not an ipgen model library)",
+        str(abi_library): "built for model ABI 99, this simulator reads 1",
+    }
+    cfg = tmp_path / "out" / "s.cfg"
+    for library, message in cases.items():
+        csv = tmp_path / "no.csv"
+        done = subprocess.run([str(program), str(cfg), "--model", library, "--csv", str(csv)],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+        assert done.stderr.startswith("simulate: error: ") and message in done.stderr
+        assert not csv.exists()
+    done = subprocess.run([str(program), str(cfg)], capture_output=True, text=True)
+    assert done.returncode == 2 and "no model is linked into this simulator: pass --model LIB" in done.stderr
+
+
+def test_the_capacity_is_stated_once_and_a_longer_chain_is_refused_in_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """limits.MAX_SIMULATED_LINKS is the interface's IPGEN_MAX_DOF - 1, and `ipgen run` refuses a
+    longer chain before building anything, naming the way to simulate it."""
+    _, include = simulator_sources()
+    found = re.search(r"#define IPGEN_MAX_DOF (\d+)", (include / "ipgen_model.h").read_text())
+    assert found and int(found.group(1)) - 1 == MAX_SIMULATED_LINKS == MAX_DOF - 1
+    links = MAX_SIMULATED_LINKS + 1
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        f'[system]\ntype = "classical"\nlinks = {links}\n[parameters]\nm = {[1.0] * (links + 1)}\n'
+        f"l = {[0.0] + [0.1] * links}\ndelta = {[0.0] * (links + 1)}\n[simulation]\nt_end = 1\n"
+    )
+    capsys.readouterr()
+    assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--cache-dir", str(tmp_path / "cache")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"up to {MAX_SIMULATED_LINKS} links, this scene has {links}" in err
+    assert "ipgen_add_simulator" in err and not (tmp_path / "cache").exists()
