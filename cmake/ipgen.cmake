@@ -426,7 +426,14 @@ function(ipgen_add_scene scene_file)
     endif()
   endif()
   if(NOT TARGET simulate_${name})
-    ipgen_add_runtime_simulator(${model_target})
+    # ipsim compiled once and the model's C adapter when the project has C, else ipsim compiled
+    # for the model's C++ header (a project of only CXX, as before): the same trajectories.
+    get_property(languages GLOBAL PROPERTY ENABLED_LANGUAGES)
+    if("C" IN_LIST languages)
+      ipgen_add_runtime_simulator(${model_target})
+    else()
+      ipgen_add_simulator(${model_target})
+    endif()
   endif()
 
   # The generator writes the scene's model header next to its .cfg. Headers come from the model
