@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym bench-runtime stability configure build clean
 
 all: test
 
@@ -148,7 +148,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym bench-runtime
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -171,6 +171,13 @@ bench-identify: $(VENV)/.bench-installed
 SWEEP_ARGS ?= $(BENCH_QUICK)
 bench-sweep: $(VENV)/.bench-installed
 	$(PY) -m bench.sweep $(SWEEP_ARGS)
+
+## The simulator compiled once against one compiled per model: what a new model and a cached run
+## cost, and the simulation's speed on the same .cfg (bench/runtime.py, docs/bench/runtime.md).
+## RUNTIME_ARGS: e.g. --quick, --repeat 9
+RUNTIME_ARGS ?= $(BENCH_QUICK)
+bench-runtime: venv
+	$(PY) -m bench.runtime $(RUNTIME_ARGS)
 
 ## ipgen.gym's throughput on one core against gymnasium's CartPole-v1 and MuJoCo's
 ## InvertedDoublePendulum-v5 in the same run (bench/gym.py, docs/bench/gym.md). GYM_ARGS: e.g. --quick

@@ -36,8 +36,25 @@ Eigen::Matrix<double, N, C> ldlt_solve(const Eigen::Matrix<double, N, N>& a, con
   }
 }
 
-/// A⁻¹ B for matrices of any sizes (expressions too): ldlt_solve for sizes fixed at compile
-/// time, Eigen's LDLT over the capacity-bounded sizes of a model loaded at run time (no
+namespace solve {
+/// A⁻¹ B with the sizes fixed at N (a run-time size that equals N), into `Result`: the same
+/// instance, and so the same bits, as a model compiled for that size.
+template <int N, class Result, class MatrixA, class MatrixB>
+Result fixed(const MatrixA& a, const MatrixB& b) {
+  if constexpr (MatrixB::ColsAtCompileTime == 1) {
+    return Result(ldlt_solve<N, 1>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, 1>(b)));
+  } else if (b.cols() == 1) {
+    return Result(ldlt_solve<N, 1>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, 1>(b)));
+  } else {
+    return Result(ldlt_solve<N, N>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, N>(b)));
+  }
+}
+}  // namespace solve
+
+/// A⁻¹ B for matrices of any sizes (expressions too), B with one column or as many as A: for
+/// sizes fixed at compile time ldlt_solve; for the capacity-bounded sizes of a model loaded at
+/// run time, the fixed-size instance of the same size up to kCoreLdltSize rows (bit for bit what a
+/// simulator compiled for the model computes), else Eigen's LDLT over the run-time sizes (no
 /// allocation). The result has B's columns.
 template <class MatrixA, class MatrixB>
 auto solve_spd(const MatrixA& a, const MatrixB& b) {
@@ -46,7 +63,18 @@ auto solve_spd(const MatrixA& a, const MatrixB& b) {
   if constexpr (N != Eigen::Dynamic && C != Eigen::Dynamic) {
     return ldlt_solve<N, C>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, C>(b));
   } else {
-    return a.eval().ldlt().solve(b).eval();
+    using Result = decltype(a.eval().ldlt().solve(b).eval());
+    static_assert(kCoreLdltSize == 4, "dispatch every size up to kCoreLdltSize below");
+    if (b.cols() == 1 || b.cols() == a.rows()) {
+      switch (a.rows()) {
+        case 1: return solve::fixed<1, Result>(a, b);
+        case 2: return solve::fixed<2, Result>(a, b);
+        case 3: return solve::fixed<3, Result>(a, b);
+        case 4: return solve::fixed<4, Result>(a, b);
+        default: break;
+      }
+    }
+    return Result(a.eval().ldlt().solve(b));
   }
 }
 

@@ -87,24 +87,51 @@ VectorOf<Model> coulomb_force(const RhsContext<Model>& context, const VectorOf<M
   return force;
 }
 
-/// θ̈ of a base that follows the acceleration θ̈0 = a, with the generalised force `applied`
-/// (Coulomb friction) on the coordinates: the link rows of M θ̈ + b = e0 τ + applied give
-/// θ̈_L = M_LL⁻¹ (applied_L − b_L − M_L0 a); `force` receives τ = M_0· θ̈ + b_0 − applied_0,
-/// the force [N] or torque [N m] the base's drive applies.
+/// θ̈ of a base that follows the acceleration θ̈0 = a, from M and residual = b − applied (the
+/// generalised force `applied`, Coulomb friction, on the coordinates): the link rows of
+/// M θ̈ + b = e0 τ + applied give θ̈_L = M_LL⁻¹ (applied_L − b_L − M_L0 a); `force` receives
+/// τ = M_0· θ̈ + b_0 − applied_0, the force [N] or torque [N m] the base's drive applies.
+/// Matrices of any sizes, fixed or run-time.
+template <class Mass, class Vector>
+Vector links_following(const Mass& mass, const Vector& residual, double a, double& force) {
+  const Eigen::Index links = mass.rows() - 1;
+  constexpr int L = Mass::RowsAtCompileTime == Eigen::Dynamic ? Eigen::Dynamic : Mass::RowsAtCompileTime - 1;
+  constexpr int max = Mass::MaxRowsAtCompileTime - 1;
+  Vector qdd(mass.rows());
+  qdd(0) = a;
+  const Eigen::Matrix<double, L, L, Eigen::ColMajor, max, max> links_mass = mass.bottomRightCorner(links, links);
+  const Eigen::Matrix<double, L, 1, Eigen::ColMajor, max, 1> rhs =
+      -(mass.block(1, 0, links, 1) * a + residual.tail(links));
+  qdd.tail(links) = solve_spd(links_mass, rhs);
+  force = mass.row(0).dot(qdd) + residual(0);
+  return qdd;
+}
+
+/// links_following with the sizes fixed at N when the run-time size is N, for N up to
+/// kCoreLdltSize + 1: the same Eigen expressions, and so the same bits, as a simulator compiled
+/// for the model (a sum's order depends on whether its size is known at compile time).
+template <int N = 2, class Mass, class Vector>
+Vector links_following_as_compiled(const Mass& mass, const Vector& residual, double a, double& force) {
+  if constexpr (N > kCoreLdltSize + 1) {
+    return links_following(mass, residual, a, force);
+  } else {
+    if (mass.rows() != N) return links_following_as_compiled<N + 1>(mass, residual, a, force);
+    return Vector(links_following(Eigen::Matrix<double, N, N>(mass), Eigen::Matrix<double, N, 1>(residual), a, force));
+  }
+}
+
+/// links_following on the model's M and b − applied at (q, qd): θ̈ of an acceleration-driven base.
 template <class Model>
 VectorOf<Model> acceleration_dynamics(const VectorOf<Model>& q, const VectorOf<Model>& qd, double a,
                                       const VectorOf<Model>& applied, const ParamsOf<Model>& params, double& force) {
   if constexpr (has_mass_and_bias<Model>) {
-    const int links = links_of<Model>();
     const auto mass = Model::template mass_matrix<double>(q, params);
     const VectorOf<Model> residual = Model::template bias<double>(q, qd, params) - applied;
-    VectorOf<Model> qdd(links + 1);
-    qdd(0) = a;
-    const LinksMatrixOf<Model> links_mass = mass.bottomRightCorner(links, links);
-    const LinksVectorOf<Model> rhs = -(mass.block(1, 0, links, 1) * a + residual.tail(links));
-    qdd.tail(links) = solve_spd(links_mass, rhs);
-    force = mass.row(0).dot(qdd) + residual(0);
-    return qdd;
+    if constexpr (is_runtime<Model>) {
+      return links_following_as_compiled(mass, residual, a, force);
+    } else {
+      return links_following(mass, residual, a, force);
+    }
   } else {  // simulate() refuses Settings::acceleration for such a model before any run
     (void)q, (void)qd, (void)a, (void)applied, (void)params;
     force = 0.0;

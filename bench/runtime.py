@@ -1,0 +1,210 @@
+"""The simulator compiled once against a simulator compiled per model (issue 45).
+
+    .venv/bin/python -m bench.runtime [--repeat N] [--quick] [--out FILE]
+
+Measures, on this machine, in a fresh cache:
+
+1. the one-time build of ipsim's simulator (its CPU time: the compiler's, user + system, of
+   every process `ipgen run` started), with the first model;
+2. per scene, the first `ipgen run` of a model never built before (the simulator already in the
+   cache: what a new model costs) and a cached run, as CPU time of `ipgen run` and every process it
+   starts (user + system), with and without the plot (`IPGEN_NO_PLOT` is not a thing: the PNG's
+   share is the difference to the simulator's own run, reported);
+3. per scene, the simulation's own wall time, the runtime simulator against the per-model
+   simulator compiled from the model's C++ header exactly as before issue 45 (same flags), on the
+   same .cfg, alternating, median of N runs each; and whether the two CSVs are byte-identical
+   (then both took the same steps: equal error, and the ratio is the cost per step).
+
+Writes docs/bench/runtime.md (with --quick: build/bench/quick/runtime.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import filecmp
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from bench.report import BUILD, ROOT, machine, table
+from ipgen.pipeline.simulator import (
+    LIBRARIES,
+    SEPARATE,
+    compiled_core,
+    compiler,
+    simulator_sources,
+)
+
+# (label, scene file or generated text): both types, a DC motor, sensors with a Kalman filter, n = 10.
+SCENES = (
+    ("rsip_pulse (rotary, 1 link)", ROOT / "scenes" / "rsip_pulse.toml"),
+    ("cdip_pulse (classical, 2 links)", ROOT / "scenes" / "cdip_pulse.toml"),
+    ("ctip_pulse (classical, 3 links)", ROOT / "scenes" / "ctip_pulse.toml"),
+    ("qube_servo2 (rotary 1, DC motor)", ROOT / "scenes" / "rigs" / "qube_servo2.toml"),
+    ("qube_servo2_sensors (encoders, Kalman)", ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml"),
+    ("classical10 (10 links)", None),
+)
+TEN_LINKS = """\
+[system]
+type = "classical"
+links = 10
+[parameters]
+m = [1.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]
+l = [0.0, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]
+delta = [0.1, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001]
+[initial]
+theta = [0, 0.05, 0, 0, 0, 0, 0, 0, 0, 0, 0]
+[simulation]
+t_end = 2
+"""
+
+
+@dataclass(frozen=True)
+class Cpu:
+    seconds: float  # user + system of the child processes
+    wall: float
+
+
+def cpu_of(command: list[str], env: dict[str, str]) -> tuple[Cpu, subprocess.CompletedProcess[str]]:
+    """CPU time (user + system) of `command` and every process it waited for."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = os.times().elapsed
+    done = subprocess.run(command, capture_output=True, text=True, env=env)
+    wall = os.times().elapsed - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    used = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return Cpu(used, wall), done
+
+
+def ipgen_run(scene: Path, out: Path, cache: Path) -> tuple[Cpu, str]:
+    env = {**os.environ, "IPGEN_CACHE_DIR": str(cache)}
+    env.pop("IPGEN_SIM_OPT", None)  # the default, -O2
+    cpu, done = cpu_of([sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--force"], env)
+    if done.returncode != 0:
+        raise RuntimeError(f"ipgen run {scene.name} failed: {done.stderr[-2000:]}")
+    return cpu, (out / f"{scene.stem}.txt").read_text()
+
+
+def launcher_of(summary: str) -> list[str]:
+    """The launcher's command: [simulator, --model, library]."""
+    launcher = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
+    words = launcher.read_text().splitlines()[1].split()
+    return [words[1].strip("'"), "--model", words[3].strip("'")]
+
+
+def per_model_simulator(scene: Path, folder: Path, cache: Path) -> Path:
+    """The simulator of the scene's model compiled from its C++ header as `ipgen run` did before
+    issue 45 (simulate.cpp + the header + ipsim's compiled core, -O2)."""
+    from ipgen.pipeline import job
+
+    planned = replace(job.for_the_simulator(job.plan(folder, scene=scene, force=True)), emit=("cpp",))
+    job.run(planned)
+    source, include = simulator_sources()
+    binary = folder / f"simulate_{planned.name}"
+    command = [compiler(), "-std=c++17", "-O2", "-DNDEBUG", SEPARATE, f"-I{include}", f"-I{folder}",
+               "-isystem", "/usr/include/eigen3", f'-DIPGEN_MODEL_HEADER="{planned.name}.hpp"',
+               f"-DIPGEN_MODEL=ipgen::{planned.name}::Model", str(source), str(compiled_core(cache)),
+               "-o", str(binary), *LIBRARIES]  # fmt: skip
+    subprocess.run(command, check=True, capture_output=True, text=True)
+    return binary
+
+
+def simulation_seconds(command: list[str], cfg: Path, csv: Path) -> float:
+    done = subprocess.run([*command, str(cfg), "--csv", str(csv), "--force"], capture_output=True, text=True)
+    if done.returncode not in (0, 3, 4, 5):
+        raise RuntimeError(done.stderr)
+    return float(re.search(r"Wall time ([0-9.e+-]+) s", done.stdout).group(1))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=7)
+    parser.add_argument("--quick", action="store_true", help="two scenes, three repeats")
+    parser.add_argument("--out", type=Path)
+    args = parser.parse_args()
+    scenes = SCENES[:2] if args.quick else SCENES
+    repeat = 3 if args.quick else args.repeat
+    out = args.out or (
+        BUILD / "quick" / "runtime.md" if args.quick else ROOT / "docs" / "bench" / "runtime.md"
+    )
+    rows, speed = [], []
+    with tempfile.TemporaryDirectory(prefix="ipgen-bench-runtime.") as scratch:
+        work, cache = Path(scratch), Path(scratch) / "cache"
+        (work / "classical10.toml").write_text(TEN_LINKS)
+        # The one-time build: a fresh cache, ipsim's core and simulator, with a first model (rdip,
+        # not measured below) and its run.
+        print("the one-time build…", flush=True)
+        once, _ = ipgen_run(ROOT / "scenes" / "rdip_pulse.toml", work / "once", cache)
+        for label, path in scenes:
+            scene = path or work / "classical10.toml"
+            print(f"{label}: first run, cached runs…", flush=True)
+            first, summary = ipgen_run(scene, work / "out", cache)
+            cached = [ipgen_run(scene, work / "out", cache)[0] for _ in range(3)]
+            cfg = work / "out" / f"{scene.stem}.cfg"
+            runtime = launcher_of(summary)
+            plain = [*runtime, str(cfg), "--csv", str(work / "plain.csv"), "--force"]
+            alone = [cpu_of(plain, dict(os.environ))[0] for _ in range(3)]
+            rows.append([label, f"{first.seconds:.2f}", f"{min(c.seconds for c in cached):.2f}",
+                         f"{min(a.seconds for a in alone):.3f}"])  # fmt: skip
+            print(f"  speed: per-model simulator against the runtime one ({repeat} runs each)…", flush=True)
+            folder = work / f"static_{scene.stem}"
+            folder.mkdir()
+            static = [str(per_model_simulator(scene, folder, cache))]
+            times: dict[str, list[float]] = {"static": [], "runtime": []}
+            for _ in range(repeat):
+                times["static"].append(simulation_seconds(static, cfg, work / "static.csv"))
+                times["runtime"].append(simulation_seconds(runtime, cfg, work / "runtime.csv"))
+            same = filecmp.cmp(work / "static.csv", work / "runtime.csv", shallow=False)
+            s, r = statistics.median(times["static"]), statistics.median(times["runtime"])
+            speed.append([label, f"{s * 1e3:.2f}", f"{r * 1e3:.2f}", f"{r / s:.3f}", "yes" if same else "no"])
+    lines = [
+        "# The simulator compiled once (issue 45)",
+        "",
+        "`python -m bench.runtime` (make bench-runtime). ipsim's simulator is compiled once per",
+        "installation; each model is a C library behind the C model interface, compiled in about",
+        "a second and loaded at run time (docs/simulator.md).",
+        "",
+        *machine(),
+        "",
+        "## What a run costs (CPU time of `ipgen run` and every process it starts, user + system)",
+        "",
+        f"The one-time build (a fresh cache: ipsim's core and simulator, then a first model, rdip_pulse, "
+        f"with its run): {once.seconds:.1f} s of CPU ({once.wall:.1f} s wall).",
+        "",
+        *table(
+            [
+                "scene",
+                "first run of a new model [s CPU]",
+                "cached run [s CPU]",
+                "the simulator alone [s CPU]",
+            ],
+            rows,
+        ),
+        "",
+        "A first run: the derivation, the model library's compile (C, -O2), the simulation, the plot.",
+        "What remains of a cached run besides the simulation: Python's start-up and imports, the",
+        "derivation (cached), the scene's checks and the PNG (matplotlib).",
+        "",
+        "## Simulation speed: the runtime simulator against one compiled for the model",
+        "",
+        f"The scene's own simulation (the summary's wall time), median of {repeat} alternating runs",
+        "each; the per-model simulator is simulate.cpp compiled against the model's C++ header with",
+        "the same flags (-O2), as `ipgen run` built it before. Byte-identical CSVs: both took the",
+        "same steps, so the ratio is the cost of a step at equal error.",
+        "",
+        *table(["scene", "per model [ms]", "runtime [ms]", "ratio", "same CSV"], speed),
+        "",
+    ]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text("\n".join(lines))
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
