@@ -103,6 +103,11 @@ TARGETS: dict[str, Target] = {
     "fmu3": Target("fmu3", (".fmu",), "NAME.fmu as an FMI 3.0 Model Exchange FMU instead", _fmu3),
 }
 DEFAULT_EMIT: tuple[str, ...] = ("cpp",)
+# Targets that write the same file, and what tells them apart (in TARGETS' order).
+_OVERLAPS = {
+    ("c", "library"): " (library writes the C header NAME.h and its adapter NAME_model.c)",
+    ("fmu", "fmu3"): " (fmu is FMI 2.0, fmu3 is FMI 3.0)",
+}
 
 
 def parse_emit(values: str | Iterable[str], where: str = "--emit") -> tuple[str, ...]:
@@ -122,10 +127,9 @@ def parse_emit(values: str | Iterable[str], where: str = "--emit") -> tuple[str,
         for second in chosen[i + 1 :]:
             shared = set(TARGETS[first].suffixes) & set(TARGETS[second].suffixes)
             if shared:
-                raise EmitError(
-                    f"{where}: {first} and {second} both write NAME{min(shared)}: choose one "
-                    "(fmu is FMI 2.0, fmu3 is FMI 3.0)"
-                )
+                hint = _OVERLAPS.get((first, second), "")
+                both = f"{first} and {second} both write NAME{min(shared)}"
+                raise EmitError(f"{where}: {both}: choose one{hint}")
     return chosen
 
 

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ipgen.codegen.c_header import render_c_header
+from ipgen.codegen.c_header import c_number, render_c_header
 from ipgen.codegen.functions import C_SYNTAX
-from ipgen.codegen.header import HeaderRequest, environment, header_context, rod_fills
+from ipgen.codegen.header import HeaderRequest, environment, folded_entries, header_context, rod_fills
 from ipgen.control.coordinates import Coordinates
 from ipgen.model.derivation import Equations
 
@@ -36,4 +36,6 @@ def render_model_library(eqs: Equations, request: HeaderRequest) -> dict[str, st
     context["nameu"] = request.name.upper()
     context["fn"] = set(spec.outputs)  # the header's functions: the adapter fills those it has
     context["rod_fills"] = rod_fills(eqs.system, spec, C_SYNTAX)
+    context["folded"] = folded = folded_entries(eqs.system, spec, C_SYNTAX, lambda v: c_number(float(v)))
+    context["folded_rod"] = any(rod for *_, rod in folded)
     return {".h": header, SUFFIX: environment().get_template(TEMPLATE).render(context)}
