@@ -7,6 +7,10 @@ The public API (stable; everything else is internal):
   coulomb, coulomb_speed, actuator, angles, zero, positive)`: one immutable, validated
   description of a system (`Pendulum.preset("qube_servo2")`, `Pendulum.from_scene(path)`,
   `.replace(...)`, `.folded()`, `.params()`), what the functions below take;
+- `FixedPendulum(links, m, l, delta, g=9.81, *, com, J, coulomb, coulomb_law, joints, Ir, gr,
+  angles, zero, positive)`: a chain on a fixed pivot driven by torques at chosen joints (the
+  pendubot, the acrobot, the DFKI double pendulum); `derive`, `linearize` (B 2n × m) and `lqr`
+  (K m × 2n) take it too (docs/model.md, "A fixed pivot");
 - `derive(p)` or `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
   M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ as sympy matrices and expressions;
 - `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;
@@ -56,6 +60,7 @@ from ipgen.errors import Error
 if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
+    from ipgen.model.fixed import FixedPendulum
     from ipgen.model.pendulum import Pendulum
     from ipgen.sweeps.runner import Outcome
 
@@ -64,6 +69,7 @@ __all__ = [
     "Actuator",
     "Equations",
     "Error",
+    "FixedPendulum",
     "Pendulum",
     "__version__",
     "cmake_dir",
@@ -79,7 +85,7 @@ __all__ = [
 
 
 def derive(
-    type: str | Pendulum,
+    type: str | Pendulum | FixedPendulum,
     links: int | None = None,
     inertia: str = "pivot",
     *,
@@ -94,8 +100,9 @@ def derive(
 
     Parameters
     ----------
-    type : str or Pendulum
-        "classical" (a cart) or "rotary" (a Furuta arm), or a Pendulum.
+    type : str, Pendulum or FixedPendulum
+        "classical" (a cart) or "rotary" (a Furuta arm), or a Pendulum; a FixedPendulum gives
+        its `FixedEquations` (M q̈ + bias + friction = B u in its coordinates, B n × m).
     links : int
         Number of links >= 1 (not with a Pendulum).
     inertia : str, default "pivot"
@@ -131,6 +138,14 @@ def derive(
     >>> ipgen.derive("classical", 1).mass_matrix.shape
     (2, 2)
     """
+    from ipgen.model.fixed import FixedPendulum
+
+    if isinstance(type, FixedPendulum):
+        if links is not None or actuator is not None:
+            raise Error("derive(p) takes the links and the joints from the FixedPendulum: pass neither")
+        from ipgen.model.fixed_equations import equations_of
+
+        return equations_of(type)  # type: ignore[return-value]
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
     from ipgen.model.pendulum import Pendulum
@@ -436,6 +451,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.pendulum import Pendulum
 
         return Pendulum
+    if attribute == "FixedPendulum":
+        from ipgen.model.fixed import FixedPendulum
+
+        return FixedPendulum
     if attribute == "Actuator":
         from ipgen.model.actuator import Actuator
 
@@ -449,9 +468,9 @@ def __getattr__(attribute: str) -> object:
 
         return kalman
     if attribute in ("linearize", "lqr"):
-        from ipgen.control import linear as control
+        from ipgen.control import api
 
-        return getattr(control, attribute)
+        return getattr(api, attribute)
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
 
 
