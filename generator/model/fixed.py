@@ -19,6 +19,7 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import KW_ONLY, dataclass
+from pathlib import Path
 from typing import Any
 
 from ipgen.common.safetext import abbreviate
@@ -288,6 +289,32 @@ class FixedPendulum:
     def canonical(self) -> FixedPendulum:
         """This chain in ipgen's coordinates (absolute angles from upright, clockwise)."""
         return dataclasses.replace(self, angles="absolute", zero="upright", positive="clockwise")
+
+    @classmethod
+    def from_scene(cls, path: str | Path) -> FixedPendulum:
+        """The chain a fixed scene file describes (`[system] type = "fixed"`; docs/scenes.md).
+
+        Raises
+        ------
+        SceneError
+            One line naming the file and the problem.
+        """
+        from ipgen.scene.fixed import load_fixed_scene
+
+        return load_fixed_scene(path)
+
+    @classmethod
+    def preset(cls, name: str) -> FixedPendulum:
+        """A fixed-pivot preset shipped with ipgen by name ("dfki_c0", "dfki_c1"; `ipgen presets`).
+
+        Examples
+        --------
+        >>> FixedPendulum.preset("dfki_c0").coulomb_law
+        'atan'
+        """
+        from ipgen.common.presets import preset_path
+
+        return cls.from_scene(preset_path(name))
 
     def numbers(self) -> dict[str, float]:
         """{symbol name: value} for the symbolic model (`fixed_equations.FixedEquations`)."""
