@@ -381,7 +381,7 @@ def run_command(
 EXIT_HINTS = {
     5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
     "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
-    "docs/swingup.md, \"When the plan is lost\")",
+    'docs/swingup.md, "When the plan is lost")',
 }
 
 
@@ -471,6 +471,10 @@ estimates; the input scene is never overwritten), STEM_identify.txt (estimates, 
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
 STEM_identify.png (measured against simulated angles). Record open loop about the hanging
 position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+A fixed-pivot scene ([system] type = "fixed") is fitted to measured joint torques instead:
+--data (repeatable) recordings with time, pos_meas1.., tau_meas1.. (DFKI's CSV as it is, or t,
+q1.., tau1..), --validate (repeatable) held-out ones; no --free (every base parameter);
+STEM_identify.txt, .csv and .png (docs/identify.md, "Fixed-pivot rigs").
 
 \b
 Example (the recording simulated: the experiment designed by ipgen excite, run by ipgen run):
@@ -485,17 +489,21 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
 @click.option("--scene", "scene", type=click.Path(path_type=Path), default=None, metavar="S.toml",
               help="The scene: the rig's model and the prior values.")  # fmt: skip
 @preset_option
-@click.option("--data", "data", type=click.Path(path_type=Path), required=True, metavar="D.csv",
-              help="The measurements (CSV).")  # fmt: skip
-@click.option("--free", "free", required=True, metavar="P1,P2,...", help="The parameters to fit.")
+@click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True, metavar="D.csv",
+              help="The measurements (CSV); repeatable for a fixed-pivot scene.")  # fmt: skip
+@click.option("--validate", "validate", type=click.Path(path_type=Path), multiple=True, metavar="V.csv",
+              help="Fixed-pivot scenes: recordings held out of the fit, to score it on (repeatable).")  # fmt: skip
+@click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None, metavar="HZ",
+              help="Fixed-pivot scenes: the low-pass cutoff of angles and torques [default: 6 Hz].")  # fmt: skip
+@click.option("--free", "free", default=None, metavar="P1,P2,...", help="The parameters to fit.")
 @click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
               help="Folder for the results.")  # fmt: skip
 @click.option("--equation-error-only", is_flag=True,
               help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
 def identify_command(
-    scene: Path | None, preset: str | None, data: Path, free: str, directory: Path | None,
-    equation_error_only: bool, force: bool,
+    scene: Path | None, preset: str | None, data: tuple[Path, ...], validate: tuple[Path, ...],
+    cutoff: float | None, free: str | None, directory: Path | None, equation_error_only: bool, force: bool,
 ) -> None:  # fmt: skip
     from ipgen.pipeline.identify import identify
 
@@ -503,6 +511,17 @@ def identify_command(
     scene = chosen_scene(scene, preset, example)
     if directory is None:
         raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
+    if _is_fixed_scene(scene):
+        _identify_fixed(scene, data, validate, cutoff, free, directory, force)
+        return
+    if validate or cutoff is not None or len(data) > 1:
+        raise job.OptionsError(
+            "--validate, --cutoff and several --data are for fixed-pivot scenes (joint torques); "
+            "this scene takes one --data"
+        )
+    if free is None:
+        raise job.OptionsError(f"missing --free P1,P2,...: name the parameters to fit, e.g. {example}")
+    data = data[0]  # type: ignore[assignment]
     try:
         import casadi  # noqa: F401
     except ImportError:
@@ -518,6 +537,36 @@ def identify_command(
         output_error=not equation_error_only,
         progress=lambda line: click.echo(f"ipgen: {line}", err=True),
     )
+    click.echo(result.report, nl=False)
+    click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
+
+
+def _is_fixed_scene(scene: Path) -> bool:
+    """Whether the scene file declares a fixed-pivot chain (read before the scene checks,
+    which refuse it for the other commands)."""
+    from ipgen.scene.fixed import is_fixed_document
+    from ipgen.scene.load import parse_document
+
+    return is_fixed_document(parse_document(scene)[1])
+
+
+def _identify_fixed(
+    scene: Path, data: tuple[Path, ...], validate: tuple[Path, ...], cutoff: float | None, free: str | None,
+    directory: Path, force: bool,
+) -> None:  # fmt: skip
+    """`ipgen identify` of a fixed-pivot scene: the torque regression (pipeline/identify_torques.py)."""
+    from ipgen.identification.recording import DEFAULT_CUTOFF
+    from ipgen.pipeline.identify_torques import identify_torques
+    from ipgen.scene.fixed import load_fixed_scene
+
+    if free is not None:
+        raise job.OptionsError(
+            "--free: a fixed-pivot scene fits every base parameter its data can identify; leave --free out"
+        )
+    result = identify_torques(
+        load_fixed_scene(scene), scene.stem, data, validate, directory,
+        cutoff=DEFAULT_CUTOFF if cutoff is None else cutoff, force=force, keep=[scene],
+    )  # fmt: skip
     click.echo(result.report, nl=False)
     click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
 
