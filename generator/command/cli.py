@@ -381,7 +381,7 @@ def run_command(
 EXIT_HINTS = {
     5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
     "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
-    'docs/swingup.md, "When the plan is lost")',
+    "docs/swingup.md, \"When the plan is lost\")",
 }
 
 
@@ -489,12 +489,12 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
 @click.option("--scene", "scene", type=click.Path(path_type=Path), default=None, metavar="S.toml",
               help="The scene: the rig's model and the prior values.")  # fmt: skip
 @preset_option
-@click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True, metavar="D.csv",
-              help="The measurements (CSV); repeatable for a fixed-pivot scene.")  # fmt: skip
+@click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True,
+              metavar="D.csv", help="The measurements (CSV); repeatable for a fixed-pivot scene.")  # fmt: skip
 @click.option("--validate", "validate", type=click.Path(path_type=Path), multiple=True, metavar="V.csv",
-              help="Fixed-pivot scenes: recordings held out of the fit, to score it on (repeatable).")  # fmt: skip
-@click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None, metavar="HZ",
-              help="Fixed-pivot scenes: the low-pass cutoff of angles and torques [default: 6 Hz].")  # fmt: skip
+              help="Fixed-pivot scenes: recordings held out of the fit, to score it on.")  # fmt: skip
+@click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="HZ", help="Fixed-pivot scenes: the low-pass cutoff [default: 6 Hz].")  # fmt: skip
 @click.option("--free", "free", default=None, metavar="P1,P2,...", help="The parameters to fit.")
 @click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
               help="Folder for the results.")  # fmt: skip

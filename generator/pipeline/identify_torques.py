@@ -89,8 +89,8 @@ def _report(
         "",
         "Filtering: angles and torques on a uniform grid, zero-phase Butterworth low-pass of order "
         f"{FILTER_ORDER} at {cutoff:g} Hz (scipy filtfilt); rates and accelerations central differences",
-        "of the filtered angles. Model: ipgen's fixed-pivot equations in the scene's coordinates; lengths, g, gear",
-        "ratios and the Coulomb law's rate known.",
+        "of the filtered angles. Model: ipgen's fixed-pivot equations in the scene's coordinates;",
+        "lengths, g, gear ratios and the Coulomb law's rate known.",
         f"Fit: {fit.samples} samples, {len(base.kept)} base parameters; {seconds:.2f} s.",
         "Not identifiable alone (absorbed in the combinations): "
         + (", ".join(base.unidentifiable()) or "none"),
