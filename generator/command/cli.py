@@ -490,7 +490,7 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
               help="The scene: the rig's model and the prior values.")  # fmt: skip
 @preset_option
 @click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True,
-              metavar="D.csv", help="The measurements (CSV); repeatable for a fixed-pivot scene.")  # fmt: skip
+              metavar="D.csv", help="The measurements (CSV); several for a fixed-pivot scene.")  # fmt: skip
 @click.option("--validate", "validate", type=click.Path(path_type=Path), multiple=True, metavar="V.csv",
               help="Fixed-pivot scenes: recordings held out of the fit, to score it on.")  # fmt: skip
 @click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None,
