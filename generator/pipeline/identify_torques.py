@@ -173,7 +173,7 @@ def _png(fit: TorqueFit, scene: FixedPendulum, recordings: Sequence[Filtered], t
     )
     fig.tight_layout()
     buffer = io.BytesIO()
-    fig.savefig(buffer, dpi=80, format="png", metadata={"Software": f"{MARKER} (ipgen identify)"})
+    fig.savefig(buffer, dpi=64, format="png", metadata={"Software": f"{MARKER} (ipgen identify)"})
     plt.close(fig)
     return buffer.getvalue()
 
