@@ -127,3 +127,19 @@ def test_free_is_refused_for_a_fixed_scene(tmp_path: Path, capsys: pytest.Captur
     )
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--free" in err
+
+
+def test_rigs_table_is_the_bench_output() -> None:
+    """docs/rigs.md's DFKI table quotes docs/bench/dfki_identify.md (make bench-dfki) number for
+    number, so that no number there is typed by hand."""
+    root = Path(__file__).resolve().parent.parent
+    rigs = (root / "docs" / "rigs.md").read_text(encoding="utf-8")
+    bench = (root / "docs" / "bench" / "dfki_identify.md").read_text(encoding="utf-8")
+    section = rigs.split("## The DFKI double pendulum (design C.0)", 1)[1].split("\n## ", 1)[0]
+    quoted = [
+        line.split("|")[2:-1] for line in section.splitlines() if line.startswith("| ") and "0." in line
+    ]
+    produced = {tuple(line.split("|")[2:-1]) for line in bench.splitlines() if line.startswith("| ")}
+    assert len(quoted) == 5
+    for numbers in quoted:
+        assert tuple(numbers) in produced, numbers
