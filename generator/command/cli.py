@@ -80,8 +80,8 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 @click.option(
     "--type",
     "system_type",
-    type=click.Choice(SYSTEM_TYPES),
-    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).",
+    type=click.Choice((*SYSTEM_TYPES, "fixed")),
+    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary); fixed: not yet for headers.",
 )
 @click.option("--links", type=int, metavar="N", help="Number of rods in the chain, an integer >= 1.")
 @click.option(
@@ -219,6 +219,11 @@ def cli(
         raise job.OptionsError(
             "say what to do: a system (--type classical|rotary --links N -o DIR, or --scene FILE -o DIR), "
             "or a command (ipgen run SCENE.toml -o OUT/); ipgen --help has the rest"
+        )
+    if system_type == "fixed":
+        raise job.OptionsError(
+            "--type fixed: headers and equations documents are not yet supported for fixed-pivot models "
+            "(ipgen.FixedPendulum and ipgen identify take them)"
         )
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
