@@ -35,7 +35,9 @@ The public API (stable; everything else is internal):
   that the linear model's predicted base travel stays within the limits), written as a new scene
   (what `ipgen excite` does; docs/excitation.md).
 - `identify(scene, data, free=[...], output=None) -> Identified` (or `identify(p, data, free)
-  -> Fit` for a Pendulum): the `free` parameters fitted to measurements (a CSV), with standard
+  -> Fit` for a Pendulum; for a FixedPendulum or a fixed scene, `identify(p, [data, ...],
+  validate=[...])`: its base parameters from joint torques): the `free` parameters fitted to
+  measurements (a CSV), with standard
   errors, 95 % intervals, correlations and what the data cannot determine (`.fit`, `.report`);
   with `output`, the updated scene, the report and a PNG written there (`ipgen identify`,
   docs/identify.md; needs CasADi).
@@ -264,16 +266,22 @@ def write_header(
 
 
 def identify(
-    scene: str | Path | Pendulum,
-    data: str | Path,
-    free: str | Iterable[str],
+    scene: str | Path | Pendulum | FixedPendulum,
+    data: str | Path | Iterable[str | Path],
+    free: str | Iterable[str] | None = None,
     output: str | Path | None = None,
     *,
     force: bool = False,
     output_error: bool = True,
     progress: Callable[[str], None] | None = None,
+    validate: Iterable[str | Path] = (),
 ) -> Any:
     """Fit the `free` parameters of a rig to measurements (docs/identify.md; needs CasADi).
+
+    A fixed-pivot chain (a `FixedPendulum` or a scene with `[system] type = "fixed"`) is fitted
+    to measured joint torques instead (docs/identify.md, "Fixed-pivot rigs: joint torques"):
+    `data` one or several recordings, `validate` held-out ones, no `free`; the result is a
+    `TorqueIdentified` (`.fit`, `.scores`, `.report`, `.files`; no CasADi needed).
 
     Parameters
     ----------
@@ -313,6 +321,13 @@ def identify(
     """
     from ipgen.model.pendulum import Pendulum
 
+    fixed = _fixed_identification(scene, data, free, output, force, validate)
+    if fixed is not None:
+        return fixed
+    if free is None:
+        raise Error("identify: name the parameters to fit (free), e.g. 'J1,delta0'")
+    if not isinstance(data, str | Path):
+        raise Error("identify: one data file for this system (several are for fixed-pivot chains)")
     if isinstance(scene, Pendulum):
         if output is not None:
             raise Error("identify(p, ...) writes no files: pass a scene file to write the updated scene")
@@ -331,6 +346,31 @@ def identify(
         scene, data, free if isinstance(free, str) else list(free), output,
         force=force, output_error=output_error, progress=progress,
     )  # fmt: skip
+
+
+def _fixed_identification(
+    scene: object, data: object, free: object, output: str | Path | None, force: bool, validate: Iterable
+) -> Any:
+    """`identify` of a fixed-pivot chain (a FixedPendulum or a fixed scene file), or None."""
+    from ipgen.model.fixed import FixedPendulum
+
+    if isinstance(scene, FixedPendulum):
+        chain, stem, keep = scene, "fixed", []
+    elif isinstance(scene, str | Path):
+        from ipgen.scene.fixed import is_fixed_document, load_fixed_scene
+        from ipgen.scene.load import parse_document
+
+        if not is_fixed_document(parse_document(Path(scene))[1]):
+            return None
+        chain, stem, keep = load_fixed_scene(scene), Path(scene).stem, [Path(scene)]
+    else:
+        return None
+    if free is not None:
+        raise Error("identify: a fixed-pivot chain fits every base parameter the data identify: no free")
+    from ipgen.pipeline.identify_torques import identify_torques
+
+    recordings = [data] if isinstance(data, str | Path) else list(data)  # type: ignore[call-overload]
+    return identify_torques(chain, stem, recordings, list(validate), output, force=force, keep=keep)
 
 
 def sweep(

@@ -143,3 +143,11 @@ def test_rigs_table_is_the_bench_output() -> None:
     assert len(quoted) == 5
     for numbers in quoted:
         assert tuple(numbers) in produced, numbers
+
+
+def test_public_identify_takes_a_fixed_pendulum() -> None:
+    result = ipgen.identify(DFKI, [FIT], validate=[VALIDATE])
+    assert result.files == () and len(result.fit.estimate) == 9
+    assert result.pooled("validate", "identified") is not None
+    with pytest.raises(ipgen.Error):
+        ipgen.identify(DFKI, [FIT], "m1")
