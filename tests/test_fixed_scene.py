@@ -87,7 +87,7 @@ def _refused(path: Path) -> str:
     with pytest.raises(SceneError) as caught:
         load_fixed_scene(path)
     message = str(caught.value)
-    assert ("\n" not in message and message.startswith(str(path.name))) or "chain.toml" in message
+    assert "\n" not in message and "chain.toml" in message
     return message
 
 
