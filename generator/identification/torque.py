@@ -106,9 +106,7 @@ def regressor(pendulum: FixedPendulum) -> Regressor:
         m, h, inertia = sp.Symbol(f"m{k}"), sp.Symbol(f"h{k}"), sp.Symbol(f"I{k}")
         inertial[symbols.get(f"com{k}", sp.Symbol(f"com{k}"))] = h / m
         inertial[symbols.get(f"J{k}", sp.Symbol(f"J{k}"))] = inertia - h**2 / m
-    renamed = {
-        s: sp.Symbol(name) for name, s in symbols.items() if name[0] in "mdcI" and not name.startswith("com")
-    }
+    renamed = {symbols[s.name]: s for s in unknown if s.name in symbols}  # the model's, with assumptions
     fixed = {
         symbols[name]: sp.Float(known[name], 17)
         for name in symbols
