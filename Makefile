@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym bench-runtime stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime stability configure build clean
 
 all: test
 
@@ -163,6 +163,12 @@ bench-general-links: $(VENV)/.bench-installed
 IDENTIFY_ARGS ?= $(BENCH_QUICK)
 bench-identify: $(VENV)/.bench-installed
 	$(PY) -m bench.identify $(IDENTIFY_ARGS)
+
+## The DFKI double pendulum (design C.0) identified from its real recordings against DFKI's
+## model_3.0 (bench/dfki_identify.py, docs/bench/dfki_identify.md); DFKI_RECORDINGS: their folder
+DFKI_RECORDINGS ?= ../shared/dfki
+bench-dfki:
+	$(PY) -m bench.dfki_identify --recordings $(DFKI_RECORDINGS)
 
 ## ipgen sweep: the rotary single pendulum's scorecard and a ~700-run sweep (LQR at 1 kHz, 10 s runs;
 ## target <= 2 min on 2 cores), 1 vs 2 local workers and a Dask LocalCluster (docs/bench/sweep.md);

@@ -7,6 +7,10 @@ The public API (stable; everything else is internal):
   coulomb, coulomb_speed, actuator, angles, zero, positive)`: one immutable, validated
   description of a system (`Pendulum.preset("qube_servo2")`, `Pendulum.from_scene(path)`,
   `.replace(...)`, `.folded()`, `.params()`), what the functions below take;
+- `FixedPendulum(links, m, l, delta, g=9.81, *, com, J, coulomb, coulomb_law, joints, Ir, gr,
+  angles, zero, positive)`: a chain on a fixed pivot driven by torques at chosen joints (the
+  pendubot, the acrobot, the DFKI double pendulum); `derive`, `linearize` (B 2n × m) and `lqr`
+  (K m × 2n) take it too (docs/model.md, "A fixed pivot");
 - `derive(p)` or `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
   M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ as sympy matrices and expressions;
 - `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;
@@ -31,7 +35,9 @@ The public API (stable; everything else is internal):
   that the linear model's predicted base travel stays within the limits), written as a new scene
   (what `ipgen excite` does; docs/excitation.md).
 - `identify(scene, data, free=[...], output=None) -> Identified` (or `identify(p, data, free)
-  -> Fit` for a Pendulum): the `free` parameters fitted to measurements (a CSV), with standard
+  -> Fit` for a Pendulum; for a FixedPendulum or a fixed scene, `identify(p, [data, ...],
+  validate=[...])`: its base parameters from joint torques): the `free` parameters fitted to
+  measurements (a CSV), with standard
   errors, 95 % intervals, correlations and what the data cannot determine (`.fit`, `.report`);
   with `output`, the updated scene, the report and a PNG written there (`ipgen identify`,
   docs/identify.md; needs CasADi).
@@ -56,6 +62,7 @@ from ipgen.errors import Error
 if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
+    from ipgen.model.fixed import FixedPendulum
     from ipgen.model.pendulum import Pendulum
     from ipgen.sweeps.runner import Outcome
 
@@ -64,6 +71,7 @@ __all__ = [
     "Actuator",
     "Equations",
     "Error",
+    "FixedPendulum",
     "Pendulum",
     "__version__",
     "cmake_dir",
@@ -79,7 +87,7 @@ __all__ = [
 
 
 def derive(
-    type: str | Pendulum,
+    type: str | Pendulum | FixedPendulum,
     links: int | None = None,
     inertia: str = "pivot",
     *,
@@ -94,8 +102,9 @@ def derive(
 
     Parameters
     ----------
-    type : str or Pendulum
-        "classical" (a cart) or "rotary" (a Furuta arm), or a Pendulum.
+    type : str, Pendulum or FixedPendulum
+        "classical" (a cart) or "rotary" (a Furuta arm), or a Pendulum; a FixedPendulum gives
+        its `FixedEquations` (M q̈ + bias + friction = B u in its coordinates, B n × m).
     links : int
         Number of links >= 1 (not with a Pendulum).
     inertia : str, default "pivot"
@@ -131,6 +140,14 @@ def derive(
     >>> ipgen.derive("classical", 1).mass_matrix.shape
     (2, 2)
     """
+    from ipgen.model.fixed import FixedPendulum
+
+    if isinstance(type, FixedPendulum):
+        if links is not None or actuator is not None:
+            raise Error("derive(p) takes the links and the joints from the FixedPendulum: pass neither")
+        from ipgen.model.fixed_equations import equations_of
+
+        return equations_of(type)  # type: ignore[return-value]
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
     from ipgen.model.pendulum import Pendulum
@@ -249,16 +266,22 @@ def write_header(
 
 
 def identify(
-    scene: str | Path | Pendulum,
-    data: str | Path,
-    free: str | Iterable[str],
+    scene: str | Path | Pendulum | FixedPendulum,
+    data: str | Path | Iterable[str | Path],
+    free: str | Iterable[str] | None = None,
     output: str | Path | None = None,
     *,
     force: bool = False,
     output_error: bool = True,
     progress: Callable[[str], None] | None = None,
+    validate: Iterable[str | Path] = (),
 ) -> Any:
     """Fit the `free` parameters of a rig to measurements (docs/identify.md; needs CasADi).
+
+    A fixed-pivot chain (a `FixedPendulum` or a scene with `[system] type = "fixed"`) is fitted
+    to measured joint torques instead (docs/identify.md, "Fixed-pivot rigs: joint torques"):
+    `data` one or several recordings, `validate` held-out ones, no `free`; the result is a
+    `TorqueIdentified` (`.fit`, `.scores`, `.report`, `.files`; no CasADi needed).
 
     Parameters
     ----------
@@ -298,6 +321,13 @@ def identify(
     """
     from ipgen.model.pendulum import Pendulum
 
+    fixed = _fixed_identification(scene, data, free, output, force, validate)
+    if fixed is not None:
+        return fixed
+    if free is None:
+        raise Error("identify: name the parameters to fit (free), e.g. 'J1,delta0'")
+    if not isinstance(data, str | Path):
+        raise Error("identify: one data file for this system (several are for fixed-pivot chains)")
     if isinstance(scene, Pendulum):
         if output is not None:
             raise Error("identify(p, ...) writes no files: pass a scene file to write the updated scene")
@@ -316,6 +346,31 @@ def identify(
         scene, data, free if isinstance(free, str) else list(free), output,
         force=force, output_error=output_error, progress=progress,
     )  # fmt: skip
+
+
+def _fixed_identification(
+    scene: object, data: object, free: object, output: str | Path | None, force: bool, validate: Iterable
+) -> Any:
+    """`identify` of a fixed-pivot chain (a FixedPendulum or a fixed scene file), or None."""
+    from ipgen.model.fixed import FixedPendulum
+
+    if isinstance(scene, FixedPendulum):
+        chain, stem, keep = scene, "fixed", []
+    elif isinstance(scene, str | Path):
+        from ipgen.scene.fixed import is_fixed_document, load_fixed_scene
+        from ipgen.scene.load import parse_document
+
+        if not is_fixed_document(parse_document(Path(scene))[1]):
+            return None
+        chain, stem, keep = load_fixed_scene(scene), Path(scene).stem, [Path(scene)]
+    else:
+        return None
+    if free is not None:
+        raise Error("identify: a fixed-pivot chain fits every base parameter the data identify: no free")
+    from ipgen.pipeline.identify_torques import identify_torques
+
+    recordings = [data] if isinstance(data, str | Path) else list(data)  # type: ignore[call-overload]
+    return identify_torques(chain, stem, recordings, list(validate), output, force=force, keep=keep)
 
 
 def sweep(
@@ -436,6 +491,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.model.pendulum import Pendulum
 
         return Pendulum
+    if attribute == "FixedPendulum":
+        from ipgen.model.fixed import FixedPendulum
+
+        return FixedPendulum
     if attribute == "Actuator":
         from ipgen.model.actuator import Actuator
 
@@ -449,9 +508,9 @@ def __getattr__(attribute: str) -> object:
 
         return kalman
     if attribute in ("linearize", "lqr"):
-        from ipgen.control import linear as control
+        from ipgen.control import api
 
-        return getattr(control, attribute)
+        return getattr(api, attribute)
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
 
 

@@ -45,6 +45,7 @@ FRONTS = ("ipgen", "ipgen.__main__", "ipgen.command.sweep")
 # (the experiment stage builds on the model's Pendulum; this one call goes the other way, on request).
 LATE_IMPORTS: dict[tuple[str, str], str] = {
     ("ipgen.model.pendulum", "ipgen.experiment.scene"): "Pendulum.from_scene reads a scene file",
+    ("ipgen.model.fixed", "ipgen.scene.fixed"): "FixedPendulum.from_scene reads a fixed scene file",
 }
 
 

@@ -26,7 +26,11 @@ from ipgen.model.pendulum import Pendulum, PendulumError, presets
 from ipgen.model.system import SystemChoiceError, check_system
 
 ROOT = Path(__file__).resolve().parents[1]
-RIGS = sorted((ROOT / "scenes" / "rigs").glob("*.toml"))
+RIGS = sorted(
+    path  # the fixed-pivot presets are FixedPendulums (tests/test_fixed_scene.py)
+    for path in (ROOT / "scenes" / "rigs").glob("*.toml")
+    if 'type = "fixed"' not in path.read_text(encoding="utf-8")
+)
 MOTOR = {"kind": "dc_motor", "Rm": 2.6, "kt": 0.00767, "km": 0.00767, "Kg": 70.0, "eta_g": 0.9, "eta_m": 0.69}
 CART_MOTOR = {**MOTOR, "Kg": 3.71, "Jm": 3.9e-7, "r": 6.35e-3}
 

@@ -37,7 +37,8 @@ def scenes(folder: Path) -> list[Path]:
     """The shipped scenes and the friction variants, copied into `folder`."""
     folder.mkdir(parents=True)
     copied = []
-    for path in (preset.path for preset in presets()):  # scenes/ and scenes/rigs/
+    # scenes/ and scenes/rigs/, not the fixed-pivot presets (the simulator does not take them yet)
+    for path in (preset.path for preset in presets() if not preset.system.startswith("fixed")):
         target = folder / (("rig_" if path.parent.name == "rigs" else "") + path.name)
         shutil.copy(path, target)
         copied.append(target)

@@ -80,8 +80,8 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 @click.option(
     "--type",
     "system_type",
-    type=click.Choice(SYSTEM_TYPES),
-    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary).",
+    type=click.Choice((*SYSTEM_TYPES, "fixed")),
+    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary); fixed: not yet for headers.",
 )
 @click.option("--links", type=int, metavar="N", help="Number of rods in the chain, an integer >= 1.")
 @click.option(
@@ -219,6 +219,11 @@ def cli(
         raise job.OptionsError(
             "say what to do: a system (--type classical|rotary --links N -o DIR, or --scene FILE -o DIR), "
             "or a command (ipgen run SCENE.toml -o OUT/); ipgen --help has the rest"
+        )
+    if system_type == "fixed":
+        raise job.OptionsError(
+            "--type fixed: headers and equations documents are not yet supported for fixed-pivot models "
+            "(ipgen.FixedPendulum and ipgen identify take them)"
         )
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
@@ -471,6 +476,10 @@ estimates; the input scene is never overwritten), STEM_identify.txt (estimates, 
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
 STEM_identify.png (measured against simulated angles). Record open loop about the hanging
 position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+A fixed-pivot scene ([system] type = "fixed") is fitted to measured joint torques instead:
+--data (repeatable) recordings with time, pos_meas1.., tau_meas1.. (DFKI's CSV as it is, or t,
+q1.., tau1..), --validate (repeatable) held-out ones; no --free (every base parameter);
+STEM_identify.txt, .csv and .png (docs/identify.md, "Fixed-pivot rigs").
 
 \b
 Example (the recording simulated: the experiment designed by ipgen excite, run by ipgen run):
@@ -485,17 +494,21 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
 @click.option("--scene", "scene", type=click.Path(path_type=Path), default=None, metavar="S.toml",
               help="The scene: the rig's model and the prior values.")  # fmt: skip
 @preset_option
-@click.option("--data", "data", type=click.Path(path_type=Path), required=True, metavar="D.csv",
-              help="The measurements (CSV).")  # fmt: skip
-@click.option("--free", "free", required=True, metavar="P1,P2,...", help="The parameters to fit.")
+@click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True,
+              metavar="D.csv", help="The measurements (CSV); several for a fixed-pivot scene.")  # fmt: skip
+@click.option("--validate", "validate", type=click.Path(path_type=Path), multiple=True, metavar="V.csv",
+              help="Fixed-pivot scenes: recordings held out of the fit, to score it on.")  # fmt: skip
+@click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="HZ", help="Fixed-pivot scenes: the low-pass cutoff [default: 6 Hz].")  # fmt: skip
+@click.option("--free", "free", default=None, metavar="P1,P2,...", help="The parameters to fit.")
 @click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
               help="Folder for the results.")  # fmt: skip
 @click.option("--equation-error-only", is_flag=True,
               help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
 @click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
 def identify_command(
-    scene: Path | None, preset: str | None, data: Path, free: str, directory: Path | None,
-    equation_error_only: bool, force: bool,
+    scene: Path | None, preset: str | None, data: tuple[Path, ...], validate: tuple[Path, ...],
+    cutoff: float | None, free: str | None, directory: Path | None, equation_error_only: bool, force: bool,
 ) -> None:  # fmt: skip
     from ipgen.pipeline.identify import identify
 
@@ -503,6 +516,17 @@ def identify_command(
     scene = chosen_scene(scene, preset, example)
     if directory is None:
         raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
+    if _is_fixed_scene(scene):
+        _identify_fixed(scene, data, validate, cutoff, free, directory, force)
+        return
+    if validate or cutoff is not None or len(data) > 1:
+        raise job.OptionsError(
+            "--validate, --cutoff and several --data are for fixed-pivot scenes (joint torques); "
+            "this scene takes one --data"
+        )
+    if free is None:
+        raise job.OptionsError(f"missing --free P1,P2,...: name the parameters to fit, e.g. {example}")
+    data = data[0]  # type: ignore[assignment]
     try:
         import casadi  # noqa: F401
     except ImportError:
@@ -518,6 +542,36 @@ def identify_command(
         output_error=not equation_error_only,
         progress=lambda line: click.echo(f"ipgen: {line}", err=True),
     )
+    click.echo(result.report, nl=False)
+    click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
+
+
+def _is_fixed_scene(scene: Path) -> bool:
+    """Whether the scene file declares a fixed-pivot chain (read before the scene checks,
+    which refuse it for the other commands)."""
+    from ipgen.scene.fixed import is_fixed_document
+    from ipgen.scene.load import parse_document
+
+    return is_fixed_document(parse_document(scene)[1])
+
+
+def _identify_fixed(
+    scene: Path, data: tuple[Path, ...], validate: tuple[Path, ...], cutoff: float | None, free: str | None,
+    directory: Path, force: bool,
+) -> None:  # fmt: skip
+    """`ipgen identify` of a fixed-pivot scene: the torque regression (pipeline/identify_torques.py)."""
+    from ipgen.identification.recording import DEFAULT_CUTOFF
+    from ipgen.pipeline.identify_torques import identify_torques
+    from ipgen.scene.fixed import load_fixed_scene
+
+    if free is not None:
+        raise job.OptionsError(
+            "--free: a fixed-pivot scene fits every base parameter its data can identify; leave --free out"
+        )
+    result = identify_torques(
+        load_fixed_scene(scene), scene.stem, data, validate, directory,
+        cutoff=DEFAULT_CUTOFF if cutoff is None else cutoff, force=force, keep=[scene],
+    )  # fmt: skip
     click.echo(result.report, nl=False)
     click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
 

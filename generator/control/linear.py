@@ -292,6 +292,10 @@ def _is_pendulum_call(args: tuple, kwargs: dict) -> bool:
 def linearize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
 
+    With a `FixedPendulum` (a chain on a fixed pivot, m torques at joints) it is
+    ``linearize(p, q=None, qd=None, u=None)`` with n angles and rates and m torques, A 2n × 2n and
+    B 2n × m in the chain's coordinates (`ipgen.linearize`, `control.fixed_linear`).
+
     Called as ``linearize(p, q=None, qd=None, u=0.0)`` with a `Pendulum` `p`, or (the keyword
     API, unchanged) as ``linearize(type, links, m, l, delta, g=9.81, inertia="pivot", q=None,
     qd=None, u=0.0, *, com=None, J=None, J_axial=None, tip=None, actuator=None,
@@ -706,6 +710,9 @@ def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
 
 def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
     """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
+
+    With a `FixedPendulum` it is ``lqr(p, Q, R, equilibrium=None)`` with Q 2n weights, R one
+    number, m weights or m × m, and K m × 2n (`ipgen.lqr`, `control.fixed_linear`).
 
     Called as ``lqr(p, Q, R, equilibrium=None)`` with a `Pendulum` `p`, or (the keyword API,
     unchanged) as ``lqr(type, links, m, l, delta, Q, R, g=9.81, inertia="pivot",

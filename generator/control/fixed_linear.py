@@ -1,0 +1,128 @@
+"""`linearize` and `lqr` of a fixed-pivot chain (`FixedPendulum`): m inputs, B 2n × m, K m × 2n.
+
+Everything is in the chain's own coordinates (its `angles`, `zero`, `positive`): the equations
+are derived in them (`model.fixed_equations`), so A, B, K, Q and an equilibrium given as angles
+are too. Coulomb friction is not linearised (as for the other systems).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ipgen.control.linear import ControlError, check_stabilisable, weights
+from ipgen.model.fixed import FixedPendulum
+from ipgen.model.fixed_equations import angle_map
+from ipgen.model.fixed_numeric import FixedModel
+
+
+def _vector(name: str, value: Sequence[float] | np.ndarray | None, size: int, what: str) -> np.ndarray:
+    """`value` as `size` finite floats (None: zeros), or a one-line ControlError."""
+    if value is None:
+        return np.zeros(size)
+    try:
+        array = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ControlError(f"{name} must be {size} numbers ({what})") from None
+    if array.size != size:
+        raise ControlError(f"{name} has {array.size} entries, expected {size} ({what})")
+    if not np.all(np.isfinite(array)):
+        raise ControlError(f"{name} must be finite")
+    return array
+
+
+def linearize_fixed(
+    p: FixedPendulum,
+    q: Sequence[float] | None = None,
+    qd: Sequence[float] | None = None,
+    u: Sequence[float] | float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of ẋ = f(x, u), x = [q; q̇] in p's coordinates: A 2n × 2n, B 2n × m.
+
+    Examples
+    --------
+    >>> p = FixedPendulum(2, m=[1, 1], l=[1, 1], delta=[0, 0], joints=[2])
+    >>> [m.shape for m in linearize_fixed(p)]
+    [(4, 4), (4, 1)]
+    """
+    n, inputs = p.links, p.inputs
+    angles = _vector("q", q, n, "one angle per link")
+    rates = _vector("qd", qd, n, "one rate per link")
+    torques = _vector("u", None if u is None else np.atleast_1d(u), inputs, "one torque per actuated joint")
+    a, b = FixedModel(p).linearize(angles, rates, torques)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ControlError("the linear model overflows: check the parameters' units")
+    return a, b
+
+
+def fixed_equilibrium(p: FixedPendulum, equilibrium: Sequence[float] | str | None) -> np.ndarray:
+    """The equilibrium's angles in p's coordinates: "upright" (default), "hanging" or n angles
+    (each link's absolute angle a multiple of π)."""
+    n = p.links
+    matrix, zero = angle_map(p.coordinates, n)
+    if equilibrium is None or isinstance(equilibrium, str):
+        if equilibrium not in (None, "upright", "hanging"):
+            raise ControlError(f"equilibrium {equilibrium!r}: expected 'upright', 'hanging' or {n} angles")
+        theta = np.full(n, math.pi if equilibrium == "hanging" else 0.0)
+        return np.linalg.solve(matrix, theta - zero)
+    angles = _vector("equilibrium", equilibrium, n, "one angle per link, in the chain's coordinates")
+    theta = matrix @ angles + zero
+    for i, angle in enumerate(theta):
+        if abs(math.remainder(angle, math.pi)) > 1e-9:
+            raise ControlError(
+                f"equilibrium: link {i + 1} at {angle:g} rad from upright is not an equilibrium without "
+                "torque: each link upright or hanging"
+            )
+    return angles
+
+
+def lqr_fixed(
+    p: FixedPendulum,
+    Q: np.ndarray | Sequence,
+    R: float | Sequence[float] | np.ndarray,
+    equilibrium: Sequence[float] | str | None = None,
+) -> np.ndarray:
+    """K (m × 2n) of u = −K (x − x_eq), python-control's convention, about an equilibrium.
+
+    R is one number (R·I), m diagonal weights or an m × m positive definite matrix.
+
+    Examples
+    --------
+    >>> p = FixedPendulum(2, m=[1, 1], l=[1, 1], delta=[0, 0], joints=[1, 2])
+    >>> lqr_fixed(p, Q=[1, 1, 1, 1], R=1.0).shape
+    (2, 4)
+    """
+    from scipy.linalg import solve_continuous_are
+
+    n, inputs = p.links, p.inputs
+    angles = fixed_equilibrium(p, equilibrium)
+    a, b = linearize_fixed(p, angles, None, None)
+    q, _ = weights(Q, 1.0, 2 * n)
+    r = _input_weights(R, inputs)
+    check_stabilisable(a, b, q)
+    try:
+        riccati = solve_continuous_are(a, b, q, r)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise ControlError(f"the Riccati equation has no stabilising solution ({exc})") from None
+    k = np.linalg.solve(r, b.T @ riccati)
+    poles = np.linalg.eigvals(a - b @ k)
+    if not np.all(np.isfinite(k)) or np.max(poles.real) >= 0:
+        raise ControlError(f"the LQR gain does not stabilise the linear model (poles {np.round(poles, 4)})")
+    return k
+
+
+def _input_weights(R: float | Sequence[float] | np.ndarray, inputs: int) -> np.ndarray:
+    r = np.asarray(R, dtype=float)
+    if r.ndim == 0 or r.size == 1:
+        r = np.eye(inputs) * float(r.reshape(-1)[0])
+    elif r.ndim == 1:
+        if r.size != inputs:
+            raise ControlError(f"R has {r.size} entries, expected {inputs} (one per input) or one number")
+        r = np.diag(r)
+    if r.shape != (inputs, inputs) or not np.all(np.isfinite(r)):
+        raise ControlError(f"R must be one number, {inputs} weights or a {inputs} × {inputs} matrix")
+    if not np.allclose(r, r.T) or float(np.min(np.linalg.eigvalsh(0.5 * (r + r.T)))) <= 0:
+        raise ControlError("R must be symmetric positive definite (every input weighted > 0)")
+    return 0.5 * (r + r.T)

@@ -1,0 +1,134 @@
+"""Fixed-pivot scenes (`[system] type = "fixed"`): the DFKI presets equal DFKI's parameter files
+mapped, `ipgen presets` lists them, the commands that cannot take them yet refuse them in one
+line, and bad input for the new keys is refused in one line (hypothesis)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ipgen
+from ipgen.command.cli import run as cli
+from ipgen.common.presets import preset_path
+from ipgen.errors import SceneError
+from ipgen.model.dfki import dfki_pendulum, read_model_parameters
+from ipgen.scene.fixed import load_fixed_scene
+
+DATA = Path(__file__).parent / "data" / "dfki"
+
+
+@pytest.mark.parametrize(
+    ("preset", "source"), [("dfki_c0", "design_C.0_model_3.0"), ("dfki_c1", "design_C.1_model_1.0")]
+)
+def test_dfki_presets_are_dfki_parameter_files(preset: str, source: str) -> None:
+    assert ipgen.FixedPendulum.preset(preset) == dfki_pendulum(read_model_parameters(DATA / f"{source}.yml"))
+
+
+def test_presets_list_the_fixed_chains(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli(["presets"]) == 0
+    listing = capsys.readouterr().out
+    assert "dfki_c0  (fixed, 2 links)" in listing and "BSD-3-Clause" in listing
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [
+        ["run", "--preset", "dfki_c0", "-o", "{out}"],
+        ["--type", "fixed", "--links", "2", "-o", "{out}"],
+        ["--type", "fixed", "--links", "2", "--emit", "equations", "-o", "{out}"],
+        ["--scene", str(preset_path("dfki_c0")), "-o", "{out}"],
+        ["sweep", "--preset", "dfki_c0", "--scorecard", "-o", "{out}"],
+        ["excite", "--preset", "dfki_c0", "--u-max", "1", "-o", "{out}"],
+    ],
+)
+def test_commands_without_fixed_support_refuse_in_one_line(
+    arguments: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert cli([a.replace("{out}", str(tmp_path / "out")) for a in arguments]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not yet supported for fixed-pivot models" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_pendulum_preset_of_a_fixed_chain_is_one_line() -> None:
+    with pytest.raises(ipgen.Error) as refused:
+        ipgen.Pendulum.preset("dfki_c0")
+    assert "\n" not in str(refused.value) and "fixed" in str(refused.value)
+
+
+SCENE = """\
+[system]
+type = "fixed"
+links = {links}
+
+[parameters]
+m = {m}
+l = {l}
+delta = {delta}
+
+[actuator]
+{actuator}
+"""
+
+
+def _scene(
+    tmp_path: Path, links: int = 2, *, extra: str = "", actuator: str = "joints = [1]", **arrays
+) -> Path:
+    values = {"m": [1.0] * links, "l": [0.5] * links, "delta": [0.0] * links} | arrays
+    path = tmp_path / "chain.toml"
+    path.write_text(SCENE.format(links=links, actuator=actuator, **values) + extra, encoding="utf-8")
+    return path
+
+
+def _refused(path: Path) -> str:
+    with pytest.raises(SceneError) as caught:
+        load_fixed_scene(path)
+    message = str(caught.value)
+    assert "\n" not in message and "chain.toml" in message
+    return message
+
+
+def test_a_good_fixed_scene(tmp_path: Path) -> None:
+    p = load_fixed_scene(_scene(tmp_path, 3, actuator="joints = [2, 3]\nIr = [1e-4, 2e-4]\ngr = [6, -6]"))
+    assert p.joints == (2, 3) and p.gr == (6.0, -6.0)
+
+
+def test_other_tables_wait_for_the_runtime(tmp_path: Path) -> None:
+    message = _refused(_scene(tmp_path, extra="[simulation]\nt_end = 1.0\n"))
+    assert "[simulation] is not yet supported for fixed-pivot models" in message
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 4), st.lists(st.integers(-3, 8), min_size=1, max_size=3))
+def test_joint_out_of_range_refused(links: int, joints: list[int]) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = _scene(Path(folder), links, actuator=f"joints = {joints}")
+        if all(1 <= j <= links for j in joints) and len(set(joints)) == len(joints):
+            assert load_fixed_scene(path).joints == tuple(joints)
+        else:
+            assert "joint" in _refused(path)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(1, 4), st.sampled_from(["m", "l", "delta"]))
+def test_base_entry_refused(links: int, group: str) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = _scene(Path(folder), links, **{group: [0.3] * (links + 1)})
+        assert "no base entry" in _refused(path)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(0, 1e-2))
+def test_rotor_without_gear_refused(rotor: float) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = _scene(Path(folder), actuator=f"joints = [1]\nIr = [{rotor!r}]")
+        assert "Ir without gr" in _refused(path)
