@@ -148,7 +148,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-sweep bench-gym bench-runtime
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -167,7 +167,7 @@ bench-identify: $(VENV)/.bench-installed
 ## The DFKI double pendulum (design C.0) identified from its real recordings against DFKI's
 ## model_3.0 (bench/dfki_identify.py, docs/bench/dfki_identify.md); DFKI_RECORDINGS: their folder
 DFKI_RECORDINGS ?= ../shared/dfki
-bench-dfki:
+bench-dfki: $(VENV)/.bench-installed
 	$(PY) -m bench.dfki_identify --recordings $(DFKI_RECORDINGS)
 
 ## ipgen sweep: the rotary single pendulum's scorecard and a ~700-run sweep (LQR at 1 kHz, 10 s runs;
