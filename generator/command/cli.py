@@ -347,12 +347,27 @@ liblapack-dev).
     help="Where compiled simulators are kept [default: $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen, "
     "else ~/.cache/ipgen].",
 )
+@click.option(
+    "--divergence-angle",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    metavar="RAD",
+    help="Stop a closed loop when a link is farther than RAD from the controller's equilibrium "
+    "(a swing-up: from its plan or, holding, from upright) [default: pi/2; inf: never stop].",
+)
 def run_command(
-    scene: Path | None, preset: str | None, directory: Path | None, force: bool, cache_dir: Path | None
+    scene: Path | None,
+    preset: str | None,
+    directory: Path | None,
+    force: bool,
+    cache_dir: Path | None,
+    divergence_angle: float | None,
 ) -> int:
     from ipgen.pipeline.run import run_scene
 
     scene = chosen_scene(scene, preset, "ipgen run --preset qube_servo2 -o out/")
+    if divergence_angle is not None and divergence_angle != divergence_angle:  # NaN
+        raise job.OptionsError("--divergence-angle nan: give an angle > 0 [rad], or inf to never stop")
     if directory is None:
         raise job.OptionsError(
             "missing -o OUT: say where to write the results, e.g. ipgen run SCENE.toml -o out/"
@@ -363,6 +378,7 @@ def run_command(
         force=force,
         cache=cache_dir,
         announce=lambda line: click.echo(f"ipgen: {line}", err=True),
+        divergence_angle=divergence_angle,
     )
     if outcome.simulator.built:
         click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)
@@ -381,7 +397,7 @@ def run_command(
 EXIT_HINTS = {
     5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
     "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
-    "docs/swingup.md, \"When the plan is lost\")",
+    'docs/swingup.md, "When the plan is lost")',
 }
 
 

@@ -101,6 +101,13 @@ def _criterion(spec: str) -> tuple[str, str]:
 @click.option(
     "--travel", type=float, default=None, help="Success: |θ0| limit [default: the scene's limits.travel]."
 )
+@click.option(
+    "--converge",
+    type=float,
+    default=0.25,
+    show_default=True,
+    help="Success, balance: every link within CONVERGE × its initial angle error over the hold.",
+)
 @click.option("--dask", default=None, metavar="ADDRESS", help="A Dask scheduler, e.g. tcp://10.0.0.5:8786.")
 @click.option("--jobs", type=int, default=None, help="Local worker processes [default: all cores].")
 @click.option(
@@ -128,6 +135,7 @@ def command(
     hold: float,
     base_tolerance: float | None,
     travel: float | None,
+    converge: float,
     dask: str | None,
     jobs: int | None,
     force: bool,
@@ -146,7 +154,7 @@ def command(
         if not scorecard:
             raise Error("--only chooses scorecard criteria: add --scorecard")
         chosen = tuple(name.strip() for name in only.split(",") if name.strip())
-    test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel)
+    test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel, converge)
     progress = _Progress()
     try:
         outcome = sweep(
