@@ -376,7 +376,7 @@ def sweep(
         largest initial angle error over the last `hold` s (default 0.25), so that a controller
         that does nothing cannot pass from a start inside the tolerance.
     dask : str, optional
-        A Dask scheduler's address: run there (needs ``pip install 'ipgen-pendulum[dask]'``).
+        A Dask scheduler's address: run there (needs ``pip install 'dask[distributed]'``).
     jobs : int, optional
         Local worker processes (default: all cores).
     force : bool, optional

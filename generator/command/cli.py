@@ -11,6 +11,7 @@ import click
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.command.scene_choice import chosen_scene, preset_option
+from ipgen.common.install import install_hint
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
@@ -486,7 +487,7 @@ others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene
 estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
 STEM_identify.png (measured against simulated angles). Record open loop about the hanging
-position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+position with a rich input (a multisine). Needs CasADi (pip install casadi).
 
 \b
 Example (the recording simulated: the experiment designed by ipgen excite, run by ipgen run):
@@ -523,7 +524,7 @@ def identify_command(
         import casadi  # noqa: F401
     except ImportError:
         raise job.OptionsError(
-            "ipgen identify needs CasADi: pip install 'ipgen-pendulum[identify]' (or pip install casadi)"
+            f"ipgen identify needs CasADi: {install_hint('casadi')}"
         ) from None
     result = identify(
         scene,
@@ -588,7 +589,7 @@ def animate_command(
         from ipgen.plots.animation import animate_run
     except ImportError:
         raise job.OptionsError(
-            "ipgen animate needs pillow: pip install 'ipgen-pendulum[swingup]' (or pip install pillow)"
+            f"ipgen animate needs pillow: {install_hint('pillow')}"
         ) from None
     target = _not_the_input(gif if gif is not None else csv.with_suffix(".gif"), csv)
     frame = _csv_coordinates(csv, angles, zero, positive)
