@@ -267,6 +267,34 @@ def test_bad_specifications_from_the_command_write_nothing(scene: Path, tmp_path
         assert not out.exists()
 
 
+def test_progress_off_a_terminal_is_plain_lines_with_count_rate_and_time_left() -> None:
+    """Issue 49: not on a terminal (a log, CI) click's bar printed only "runs" until the end; now
+    a line at most every 10 s and at the end, from a clock stepped by hand (1.8 runs/s)."""
+    import io
+
+    from ipgen.command.sweep import _Progress
+
+    now = [0.0]
+    out = io.StringIO()
+    progress = _Progress(out, every=10.0, clock=lambda: now[0])
+    for done in range(634):
+        now[0] = done / 1.8
+        progress(done, 633)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "ipgen: runs 0/633 (0 %)"
+    assert lines[1] == "ipgen: runs 18/633 (2 %), 1.8 runs/s, about 5 min 42 s left"  # (633 - 18) / 1.8 s
+    assert lines[-1] == "ipgen: runs 633/633 (100 %), 1.8 runs/s, 5 min 52 s"
+    assert 30 <= len(lines) <= 37  # one per 10 s of 352 s, and the last
+
+
+def test_the_command_off_a_terminal_reports_its_runs(scene: Path, tmp_path: Path, capsys) -> None:
+    vary = ["--vary", "initial.theta[1]=0.05,0.1", "--jobs", "1"]
+    status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), *vary])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    assert "ipgen: runs 0/2 (0 %)" in err and "ipgen: runs 2/2 (100 %), " in err and " runs/s, " in err, err
+
+
 # ---------------------------------------------------------------------------- runs
 
 
