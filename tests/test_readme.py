@@ -157,3 +157,14 @@ def test_readme_is_a_short_guide_and_its_links_resolve() -> None:
                 headings = re.findall(r"^#+ (.*)$", resolved.read_text(), flags=re.M)
                 anchors = {github_anchor(h) for h in headings}
                 assert anchor in anchors, f"{document.relative_to(ROOT)}: no heading for #{anchor} in {path}"
+
+
+def test_the_rigs_page_does_not_deny_a_shipped_preset() -> None:
+    """Issue 49: docs/rigs.md said "no QUBE swing-up preset is shipped" above a table listing
+    scenes/rigs/qube_servo2_swingup.toml."""
+    text = " ".join((ROOT / "docs" / "rigs.md").read_text().split())
+    rigs = {"qube_servo2": "QUBE", "ip02_sip": "IP02", "srv02_dbip": "SRV02"}
+    for path in sorted((ROOT / "scenes" / "rigs").glob("*_swingup.toml")):
+        rig = next(name for stem, name in rigs.items() if path.stem.startswith(stem))
+        assert not re.search(rf"no {rig}\S* swing-up preset", text, flags=re.I), path.name
+        assert path.name in text  # and the page names it

@@ -151,6 +151,11 @@ def test_readme_blocks_are_all_accounted_for() -> None:
     assert "ipgen-pendulum[" not in README.read_text()
     # the swing-up fragment is the table of the preset the README names after it
     fragment = next(b for b, k in zip(blocks, kinds, strict=True) if k == "fragment")
+    # ...and what its comments call optional is (issue 49: trajectory's duration was listed as
+    # optional; a trajectory swing-up without it is refused)
+    optional = re.search(r"optional: ([^;\n]*)", fragment.body)
+    assert optional is not None, fragment.body
+    assert "duration" not in optional.group(1) and "duration (required)" in fragment.body
     table = tomllib.loads(fragment.body)["swingup"]
     preset = tomllib.loads((ROOT / "scenes" / "rsip_swingup.toml").read_text(encoding="utf-8"))["swingup"]
     assert all(preset[key] == value for key, value in table.items()), (table, preset)
