@@ -1,4 +1,4 @@
-"""Every message names an option that exists where the user reads it (issue 49).
+"""Every message names an option (or scene key) that exists where the user reads it (issue 49).
 
 Static, over all message templates: each `--option` in a string of the Python package is an
 option of some `ipgen` command; each `--option` in a message the simulator prints about a run
@@ -96,6 +96,30 @@ def test_every_option_a_run_message_of_the_simulator_names_is_an_option_of_ipgen
     named = {option for text in literals for option in OPTION.findall(text)}
     assert "--divergence-angle" in named  # the messages were found
     assert named <= run_options, sorted(named - run_options)
+
+
+def scene_keys() -> dict[str, set[str]]:
+    """The scene format's tables and their keys (its JSON Schema, `ipgen --scene-schema`)."""
+    import json
+
+    schema = json.loads((ROOT / "docs" / "scene.schema.json").read_text())
+
+    def resolve(node: dict) -> dict:
+        return resolve(schema["definitions"][node["$ref"].split("/")[-1]]) if "$ref" in node else node
+
+    return {table: set(resolve(node).get("properties", {})) for table, node in schema["properties"].items()}
+
+
+def test_every_scene_key_a_run_message_of_the_simulator_names_exists() -> None:
+    """`[controller] period`, `[initial] theta`, `[swingup] u_max`: keys a user can set."""
+    keys = scene_keys()
+    named = []
+    for text in simulator_run_messages():
+        for table, key in re.findall(r"\[(\w+)\] (\w+)", text):
+            named.append((table, key))
+            assert table in keys, f"[{table}] is no table of a scene: {text!r}"
+            assert key in keys[table], f"[{table}] {key} is no key of a scene: {text!r}"
+    assert ("controller", "period") in named and ("initial", "theta") in named  # the messages were read
 
 
 def test_ipgen_run_passes_the_divergence_angle_to_the_simulator(tmp_path: Path, capsys) -> None:
