@@ -500,7 +500,7 @@ def test_coulomb_friction_identified() -> None:
 
 def _two_link_cart_csv(folder: Path, with_cfg: bool) -> Path:
     """A two-link cart's run as `ipgen run` leaves it: CSV (t, θ0..θ2, θ̇0..θ̇2, u) and its .cfg."""
-    t = np.arange(0.0, 2.0, 0.004)
+    t = np.arange(0.0, 6.0, 0.004)
     angles = np.column_stack([0.1 * np.sin(t), math.pi + 0.2 * np.sin(2 * t), math.pi + 0.1 * np.cos(3 * t)])
     rates = np.gradient(angles, t, axis=0)
     csv = folder / "cart2.csv"
@@ -534,7 +534,7 @@ def test_data_of_another_system_refused_in_one_line(tmp_path: Path, capsys, with
 def test_a_recording_in_another_convention_refused(tmp_path: Path, capsys) -> None:
     """The .cfg beside the CSV says the angles are ipgen's (clockwise); the QUBE's scene reads them
     counter-clockwise: fitting would flip the pendulum's angle. Refused, naming both conventions."""
-    t = np.arange(0.0, 2.0, 0.004)
+    t = np.arange(0.0, 6.0, 0.004)
     csv = tmp_path / "qube.csv"
     write_csv(csv, t, np.column_stack([np.sin(t), math.pi + 0.1 * np.cos(t)]), np.sin(3 * t))
     (tmp_path / "qube.cfg").write_text("type = rotary\nlinks = 1\nl = 0.085 0.129\n")  # ipgen's convention
