@@ -33,7 +33,6 @@ class Loop:
     measured: tuple[int, ...] = ()
     resolution: tuple[float, ...] = ()
     noise: tuple[float, ...] = ()
-    zero: tuple[float, ...] = ()  # where the encoders read 0, per measured coordinate (scene's coordinates)
     delay: float = 0.0
     seed: int = 0
     estimator: str = "exact"
@@ -49,6 +48,7 @@ class Loop:
     input_equilibrium: float = 0.0
     process_noise: tuple[tuple[float, ...], ...] = ()
     measurement_noise: tuple[tuple[float, ...], ...] = ()
+    zero: tuple[float, ...] = ()  # where the encoders read 0, per measured coordinate (scene's coordinates)
 
 
 def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tuple[float, ...]:
