@@ -392,6 +392,7 @@ def sweep(
     force: bool = False,
     cache_dir: str | Path | None = None,
     plots: bool = True,
+    converge: float = 0.25,
 ) -> Outcome:
     """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
 
@@ -425,8 +426,12 @@ def sweep(
         The base's tolerance about the goal [m or rad] (default: not checked).
     travel : float, optional
         The base's travel limit |θ0| (default: the scene's limits.travel).
+    converge : float, optional
+        A balance run (no [swingup]) must also converge: every link within `converge` times its
+        largest initial angle error over the last `hold` s (default 0.25), so that a controller
+        that does nothing cannot pass from a start inside the tolerance.
     dask : str, optional
-        A Dask scheduler's address: run there (needs ``pip install 'ipgen-pendulum[dask]'``).
+        A Dask scheduler's address: run there (needs ``pip install 'dask[distributed]'``).
     jobs : int, optional
         Local worker processes (default: all cores).
     force : bool, optional
@@ -470,7 +475,7 @@ def sweep(
         levels=dict(levels or {}),
         repeat=repeat,
         seed=seed,
-        success=Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel),
+        success=Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel, converge),
         dask=dask,
         jobs=jobs,
         force=force,

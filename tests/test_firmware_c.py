@@ -142,7 +142,7 @@ def _compile(command: list[str]) -> None:
 def test_step_replays_the_simulators_voltages(folder: Path) -> None:
     run_ = _csv(folder / "run" / "scene.csv")
     step = 2 * math.pi / 2048
-    zero = np.array([0.0, -math.pi])  # the preset's initial angles (the rig's coordinates)
+    zero = np.array([0.0, -math.pi])  # the rig at rest: arm centred, pendulum hanging (Quanser's α)
     y = np.column_stack([run_["y_theta0"], run_["y_theta1"]])
     counts = np.rint((y - zero) / step).astype(int)
     assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
@@ -209,7 +209,7 @@ CART_DRIVER = """\
 #include "cart_fw.h"
 int main(void) {
   ipgen_cart_fw_loop_state s;
-  long counts[2] = {4000, 0}; /* 0.1 m more than the start, the pendulum where it started */
+  long counts[2] = {COUNTS}; /* from the encoders' zero pose */
   float u;
   ipgen_cart_fw_loop_init(&s);
   u = ipgen_cart_fw_step(&s, counts);
@@ -219,21 +219,53 @@ int main(void) {
 """
 
 
-def test_a_carts_counts_are_per_metre_and_its_step_compiles_in_float(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("zero", "counts", "pose"),
+    [
+        # default: the rig at rest (issue 49) — the cart centred, the pendulum hanging (π); 4000
+        # counts = 0.1 m, −2048 counts = half a turn back to upright
+        ("", "4000, -2048", (0.1, 0.0)),
+        # [sensors] zero: the encoders reset elsewhere (here the scene's initial pose)
+        ("zero = [0.1, 0.02]\n", "4000, 0", (0.2, 0.02)),
+    ],
+)
+def test_a_carts_counts_are_per_metre_and_its_step_compiles_in_float(
+    tmp_path: Path, zero: str, counts: str, pose: tuple[float, float]
+) -> None:
     """A cart's coordinate 0 counts per metre (Δ = 1/resolution m), a link's per revolution
-    (Δ = 2π/resolution rad), both from the scene's initial pose; the balance loop's `step`
-    compiles in float with -Werror and estimates the pose its counts say (Kalman first sample:
-    the measured coordinates as measured)."""
+    (Δ = 2π/resolution rad), both from the encoders' zero pose ([sensors] zero; default the rig at
+    rest, as on main 1302ddc it was the scene's initial pose); the balance loop's `step` compiles in
+    float with -Werror and estimates the pose its counts say (Kalman first sample: the measured
+    coordinates as measured)."""
     require_cc()
     scene = tmp_path / "cart.toml"
-    scene.write_text(CART)
+    scene.write_text(CART.replace("[sensors]\n", f"[sensors]\n{zero}"))
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
         assert run(["--scene", str(scene), "-o", str(tmp_path)]) == 0, err.getvalue()
-    (tmp_path / "driver.c").write_text(CART_DRIVER)
+    (tmp_path / "driver.c").write_text(CART_DRIVER.replace("{COUNTS}", "{" + counts + "}"))
     program = tmp_path / "driver"
     flags = [CC, "-std=c99", "-O1", *WARNINGS, *FLOAT_WARNINGS[1:], f"-I{tmp_path}"]
     _compile([*flags, str(tmp_path / "driver.c"), "-o", str(program), "-lm"])
     out = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
     u, x, theta = (float(v) for v in out.split())
-    assert x == pytest.approx(0.1 + 4000 / 40000, abs=1e-6) and theta == pytest.approx(0.02, abs=1e-6)
+    assert x == pytest.approx(pose[0], abs=1e-6) and theta == pytest.approx(pose[1], abs=1e-5)
     assert math.isfinite(u) and abs(u) <= 20.0
+
+
+def test_the_firmwares_encoder_zero_is_the_rig_at_rest(tmp_path: Path) -> None:
+    """Issue 49: on main 1302ddc the QUBE firmware's count_zero was the scene's initial pose,
+    {0, 0.1}: encoders zeroed at a 0.1 rad tilt. A rig's encoders are reset where it rests when
+    powered: the arm centred, the pendulum hanging (−π in Quanser's α); [sensors] zero moves it."""
+    preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_sensors.toml"
+    scene = preset.read_text().replace('emit = ["cpp"]', 'emit = ["c"]')
+    cases = (("rest", "", (0.0, -math.pi)), ("moved", "zero = [0.5, 0.25]\n", (0.5, 0.25)))
+    for name, extra, expected in cases:
+        path = tmp_path / f"{name}.toml"
+        path.write_text(scene.replace("[sensors]\n", f"[sensors]\n{extra}"))
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(["--scene", str(path), "-o", str(tmp_path / name)]) == 0, err.getvalue()
+        header = (tmp_path / name / "qube_servo2.h").read_text()
+        line = next(text for text in header.splitlines() if "_count_zero[" in text and "=" in text)
+        entries = line.split("{")[1].split("}")[0].split(",")
+        values = [float(v.replace("(IPGEN_SCALAR)", "").strip().rstrip("f")) for v in entries]
+        assert values == pytest.approx(expected, abs=1e-12), line

@@ -493,3 +493,78 @@ def test_coulomb_friction_identified() -> None:
     fit = identify_measurements(prior, data, ("coulomb0", "delta0", "delta1"))
     for name in ("coulomb0", "delta0"):
         assert abs(fit.estimate[name] - values[name]) < 4 * fit.stderr[name] + 1e-3 * values[name], name
+
+
+# ------------------------------------------------------------------ data of another system (issue 49)
+
+
+def _two_link_cart_csv(folder: Path, with_cfg: bool) -> Path:
+    """A two-link cart's run as `ipgen run` leaves it: CSV (t, θ0..θ2, θ̇0..θ̇2, u) and its .cfg."""
+    t = np.arange(0.0, 6.0, 0.004)
+    angles = np.column_stack([0.1 * np.sin(t), math.pi + 0.2 * np.sin(2 * t), math.pi + 0.1 * np.cos(3 * t)])
+    rates = np.gradient(angles, t, axis=0)
+    csv = folder / "cart2.csv"
+    header = "t,theta0,theta1,theta2,dtheta0,dtheta1,dtheta2,u"
+    np.savetxt(
+        csv, np.column_stack([t, angles, rates, np.sin(5 * t)]), delimiter=",", header=header, comments=""
+    )
+    if with_cfg:
+        (folder / "cart2.cfg").write_text(
+            "name = cart2\nmodel = classical2\ntype = classical\nlinks = 2\nl = 0 0.5 0.5\n"
+        )
+    return csv
+
+
+@pytest.mark.parametrize("with_cfg", [False, True])
+def test_data_of_another_system_refused_in_one_line(tmp_path: Path, capsys, with_cfg: bool) -> None:
+    """On main 1302ddc a two-link cart's CSV given with --preset qube_servo2 (rotary, one link) was
+    fitted, exit status 0: its columns do not fit the model, refused before any fit."""
+    csv = _two_link_cart_csv(tmp_path, with_cfg)
+    out = tmp_path / "out"
+    status = run(
+        ["identify", "--preset", "qube_servo2", "--data", str(csv), "--free", "J1,kt", "-o", str(out)]
+    )
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "--scene or --preset" in err
+    assert ("classical pendulum with 2 links" in err) if with_cfg else ("column theta2 does not fit" in err)
+    assert not out.exists()
+
+
+def test_a_recording_in_another_convention_refused(tmp_path: Path, capsys) -> None:
+    """The .cfg beside the CSV says the angles are ipgen's (clockwise); the QUBE's scene reads them
+    counter-clockwise: fitting would flip the pendulum's angle. Refused, naming both conventions."""
+    t = np.arange(0.0, 6.0, 0.004)
+    csv = tmp_path / "qube.csv"
+    write_csv(csv, t, np.column_stack([np.sin(t), math.pi + 0.1 * np.cos(t)]), np.sin(3 * t))
+    (tmp_path / "qube.cfg").write_text("type = rotary\nlinks = 1\nl = 0.085 0.129\n")  # ipgen's convention
+    status = run(
+        ["identify", "--scene", str(QUBE), "--data", str(csv), "--free", "kt", "-o", str(tmp_path / "o")]
+    )
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1, err
+    assert "positive = clockwise" in err and "positive = counterclockwise" in err
+
+
+def test_each_identifiability_finding_is_said_once() -> None:
+    """On main 1302ddc each null direction of (initial state, parameters) was reported by its
+    parameter part: several of them projecting onto J1 alone gave the same line four times."""
+    from ipgen.identification.fit import _statistics
+
+    rng = np.random.default_rng(1)
+    jacobian = rng.normal(size=(200, 8))  # 4 initial-state columns, then J1, delta0, delta1, kt
+    for column in (0, 1, 2, 4):  # three states and J1 unseen by the data
+        jacobian[:, column] = 1e-13 * rng.normal(size=200)
+    free = ["J1", "delta0", "delta1", "kt"]
+    values = dict.fromkeys(free, 1.0)
+    stats = _statistics(free, values, values, 0.01 * rng.normal(size=200), jacobian, 4)
+    assert not stats["determined"]["J1"] and all(stats["determined"][n] for n in free[1:])
+    assert len(stats["statements"]) == 1 and "ΔJ1/J1" in stats["statements"][0], stats["statements"]
+    jacobian = rng.normal(size=(200, 8))
+    jacobian[:, 5] = jacobian[:, 6]  # delta0 and delta1 seen only as their sum
+    stats = _statistics(free, values, values, 0.01 * rng.normal(size=200), jacobian, 4)
+    assert (
+        len(stats["statements"]) == 1
+        and "delta0" in stats["statements"][0]
+        and "delta1" in stats["statements"][0]
+    )

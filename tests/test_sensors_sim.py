@@ -113,6 +113,35 @@ def test_encoders_quantise_the_true_angles(simulator: Path, tmp_path: Path) -> N
     assert "RMS estimation error" in r.summary
 
 
+@pytest.mark.parametrize(
+    ("sensors", "zero"),
+    [
+        # 2047 counts: the default zero pose, the link hanging (π), is not a whole number of counts
+        # from 0, so counting from it is another grid
+        ("resolution = [1000, 2047]\n", (0.0, math.pi)),
+        ("resolution = [1000, 2048]\nzero = [0.0, 0.001]\n", (0.0, 0.001)),  # reset elsewhere
+    ],
+)
+def test_encoders_count_from_their_zero_pose(
+    simulator: Path, tmp_path: Path, sensors: str, zero: tuple[float, float]
+) -> None:
+    """Issue 49: the simulated encoders count from the pose where they read 0 ([sensors] zero,
+    default the rig at rest), as the firmware's q = q_zero + Δ·counts does: every y is a whole
+    number of counts from it, the nearest to the true angle."""
+    r = Run(simulator, tmp_path, scene_text(f"[sensors]\n{sensors}"))
+    counts = [float(v) for v in r.keys["sensors.resolution"].split()]
+    assert [float(v) for v in r.keys["sensors.zero"].split()] == pytest.approx([0.0, zero[1]], abs=1e-15)
+    for i in (0, 1):
+        delta = 2 * math.pi / counts[i]
+        whole = (r[f"y_theta{i}"] - zero[i]) / delta
+        np.testing.assert_allclose(whole, np.round(whole), atol=1e-6)
+        assert np.max(np.abs(r[f"y_theta{i}"] - r[f"theta{i}"])) <= delta / 2 * (1 + 1e-9)
+    assert not np.allclose(r["y_theta1"], quantise(r["theta1"], counts[1]))  # not the grid from 0
+    python = Sensors.of(2, None, counts, zero=zero)  # the Python loop's sensors count alike
+    y = np.array([python.quantise(np.array([a, b])) for a, b in zip(r["theta0"], r["theta1"], strict=True)])
+    np.testing.assert_allclose(y[:, 1], r["y_theta1"], rtol=0, atol=1e-12)
+
+
 def test_the_exact_loop_with_sensors_is_todays_loop_byte_for_byte(simulator: Path, tmp_path: Path) -> None:
     """[sensors] with exact encoders and the exact estimator: the state and u columns are the
     same bytes as without [sensors] (the wrapper does not touch the loop)."""

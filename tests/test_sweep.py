@@ -113,6 +113,88 @@ def test_the_success_test_on_trajectories_written_by_hand() -> None:
     assert judge(test, t, near_pi, hanging_goal, rotary=True, status=0, travel=None).passed
 
 
+def test_a_balance_run_must_converge_a_swingup_only_reach_the_tolerance() -> None:
+    """Issue 49: a link that stays where it started (0.1 rad, inside the leaderboard's 0.35 rad)
+    passes the tolerance alone but not as a balance run; a link that settles to a quarter of its
+    initial error does; a run that starts on the goal is judged by the tolerance alone."""
+    t = np.linspace(0.0, 3.0, 301)
+    frozen = np.zeros((t.size, 4))
+    frozen[:, 1] = 0.1  # held by friction where it started
+    goal = (0.0, 0.0, 0.0, 0.0)
+    test = Success()
+    assert judge(test, t, frozen, goal, rotary=True, status=0, travel=None).passed  # the tolerance alone
+    verdict = judge(test, t, frozen, goal, rotary=True, status=0, travel=None, balance=True)
+    assert not verdict.passed and verdict.reason.startswith("did not converge"), verdict
+    settling = frozen.copy()
+    settling[:, 1] = 0.1 * np.exp(-2 * t)  # 0.1 · e^-4 = 0.0018 rad from t = 2 s on: converged
+    assert judge(test, t, settling, goal, rotary=True, status=0, travel=None, balance=True).passed
+    halfway = frozen.copy()
+    halfway[:, 1] = 0.1 * (0.3 + 0.7 * np.exp(-5 * t))  # settles at 0.03 rad: 0.3 of the start
+    assert not judge(test, t, halfway, goal, rotary=True, status=0, travel=None, balance=True).passed
+    looser = Success(converge=0.5)
+    assert judge(looser, t, halfway, goal, rotary=True, status=0, travel=None, balance=True).passed
+    assert "converge" in test.text()
+    at_goal = np.zeros((t.size, 4))
+    at_goal[t > 1, 1] = 0.01  # starts on the goal: only the tolerance applies
+    assert judge(test, t, at_goal, goal, rotary=True, status=0, travel=None, balance=True).passed
+
+
+def test_scores_md_shows_levels_that_are_not_a_range_as_they_are() -> None:
+    """Issue 49: the resolution's levels exact, 8192, …, 64 were shown as "0 … 64"."""
+    from ipgen.sweeps import scorecard, scores
+
+    nominal = load_scene(ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml")
+    found = scorecard.criteria(nominal, ("resolution", "mass"), estimator="kalman")
+    rows = [
+        {"criterion": c.name, "level": str(i), "reason": "diverged" if i == 0 else "",
+         "outcome": "fail" if c.name == "resolution" and i == 0 else "pass"}
+        for c in found for i in range(len(c.levels))
+    ]  # fmt: skip
+    text = scores.as_markdown("qube", Success(), scores.score(found, rows), len(rows))
+    resolution = next(line for line in text.splitlines() if line.startswith("| resolution"))
+    assert "exact, 8192, 4096, 2048, 1024, 512, 256, 128, 64 (9 levels)" in resolution, resolution
+    assert "0 … 64" not in resolution and "| exact: diverged |" in resolution
+    mass = next(line for line in text.splitlines() if line.startswith("| mass"))
+    assert "0.75 … 1.25 (21 levels)" in mass
+
+
+# A do-nothing controller (K = 0) on the QUBE-Servo 2 as its encoders measure it, with Coulomb
+# friction on both joints (5 mN m, more than gravity's 1.5 mN m on the link at 0.1 rad).
+ZERO_CONTROLLER = (ROOT / "scenes" / "rigs" / "qube_servo2_sensors.toml").read_text()
+ZERO_CONTROLLER = ZERO_CONTROLLER.replace('kind = "lqr"', 'kind = "gain"\ngain = [0, 0, 0, 0]')
+ZERO_CONTROLLER = ZERO_CONTROLLER.replace("q = [5, 1, 1, 1]", "").replace("r = 1 ", "# r = 1 ")
+ZERO_CONTROLLER = ZERO_CONTROLLER.replace(
+    "delta = [0.0015, 0.0005]", "coulomb = [0.005, 0.005]\ndelta = [0.0015, 0.0005]"
+)
+ZERO_CONTROLLER = ZERO_CONTROLLER.replace("t_end = 5.0", "t_end = 3.0")
+# Every criterion at its two ends and one level between (the defaults' 633 runs take minutes).
+ENDS = {
+    "mass": "0.75,1,1.25", "com": "0.75,1,1.25", "inertia": "0.75,1,1.25", "damping": "0,1,2",
+    "coulomb": "0,0.05,0.1", "period": "0.0005,0.001,0.05", "resolution": "0,2048,64",
+    "sensor_noise": "0,0.01,0.02", "delay": "0,0.01,0.04", "drive_noise": "0,0.1,0.2",
+    "lag": "0,0.025,0.05", "pulses": "0,0.25,0.5",
+}  # fmt: skip
+
+
+def test_a_zero_controller_fails_every_level_of_every_criterion(tmp_path: Path) -> None:
+    """Issue 49: on main 1302ddc the Coulomb criterion passed from 0.015 N m on, the link frozen at
+    its initial 0.1 rad inside the 0.35 rad tolerance; a balance run must now converge."""
+    require_toolchain()
+    path = tmp_path / "zero_controller.toml"
+    path.write_text(ZERO_CONTROLLER)
+    assert "gain = [0, 0, 0, 0]" in ZERO_CONTROLLER and "coulomb = [0.005, 0.005]" in ZERO_CONTROLLER
+    out = tmp_path / "card"
+    outcome = ipgen.sweep(path, out, scorecard=True, levels=ENDS, repeat=1, jobs=2, plots=False)
+    rows = _rows(out)
+    assert {row["criterion"] for row in rows} == set(ENDS)  # every criterion ran (an estimator: all)
+    passed = [(row["criterion"], row["values"], row["reason"]) for row in rows if row["outcome"] != "fail"]
+    assert not passed, passed
+    assert outcome.score == 0.0
+    frozen = [row for row in rows if row["criterion"] == "coulomb" and row["values"] == "[0.1]"]
+    assert float(frozen[0]["angle_error"]) < 0.35  # inside the leaderboard's tolerance, yet failed
+    assert frozen[0]["reason"].startswith("did not converge")
+
+
 # ---------------------------------------------------------------------------- specifications
 
 
@@ -183,6 +265,34 @@ def test_bad_specifications_from_the_command_write_nothing(scene: Path, tmp_path
         assert status == 2, err
         assert needle in err and err.count("\n") == 1 and "Traceback" not in err
         assert not out.exists()
+
+
+def test_progress_off_a_terminal_is_plain_lines_with_count_rate_and_time_left() -> None:
+    """Issue 49: not on a terminal (a log, CI) click's bar printed only "runs" until the end; now
+    a line at most every 10 s and at the end, from a clock stepped by hand (1.8 runs/s)."""
+    import io
+
+    from ipgen.command.sweep import _Progress
+
+    now = [0.0]
+    out = io.StringIO()
+    progress = _Progress(out, every=10.0, clock=lambda: now[0])
+    for done in range(634):
+        now[0] = done / 1.8
+        progress(done, 633)
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "ipgen: runs 0/633 (0 %)"
+    assert lines[1] == "ipgen: runs 18/633 (2 %), 1.8 runs/s, about 5 min 42 s left"  # (633 - 18) / 1.8 s
+    assert lines[-1] == "ipgen: runs 633/633 (100 %), 1.8 runs/s, 5 min 52 s"
+    assert 30 <= len(lines) <= 37  # one per 10 s of 352 s, and the last
+
+
+def test_the_command_off_a_terminal_reports_its_runs(scene: Path, tmp_path: Path, capsys) -> None:
+    vary = ["--vary", "initial.theta[1]=0.05,0.1", "--jobs", "1"]
+    status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), *vary])
+    err = capsys.readouterr().err
+    assert status == 0, err
+    assert "ipgen: runs 0/2 (0 %)" in err and "ipgen: runs 2/2 (100 %), " in err and " runs/s, " in err, err
 
 
 # ---------------------------------------------------------------------------- runs

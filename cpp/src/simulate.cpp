@@ -165,9 +165,10 @@ u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase, and a
 tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5).
-sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, estimator =
-exact|difference|filter|kalman|ekf with estimator.* (with a sampled controller or swing-up): the
-controller sees the estimate from quantised, noisy, delayed measurements; actuator.noise, actuator.lag,
+sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
+the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
+(with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
+counts from sensors.zero), noisy, delayed measurements; actuator.noise, actuator.lag,
 actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
 (written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 

@@ -19,6 +19,7 @@ from ipgen.codegen.functions import (
     build_body,
     params_field,
 )
+from ipgen.common.install import REINSTALL
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
@@ -97,7 +98,7 @@ def templates_dir() -> Path:
     source = Path(__file__).resolve().parents[2] / "templates"
     if source.is_dir():
         return source
-    raise FileNotFoundError("ipgen's templates folder is missing: reinstall ipgen")
+    raise FileNotFoundError(f"ipgen's templates folder is missing: {REINSTALL}")
 
 
 class _TemplateCache(jinja2.FileSystemBytecodeCache):

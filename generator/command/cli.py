@@ -11,6 +11,7 @@ import click
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.command.scene_choice import chosen_scene, preset_option
+from ipgen.common.install import install_hint
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
@@ -352,12 +353,27 @@ liblapack-dev).
     help="Where compiled simulators are kept [default: $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen, "
     "else ~/.cache/ipgen].",
 )
+@click.option(
+    "--divergence-angle",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=None,
+    metavar="RAD",
+    help="Stop a closed loop when a link is farther than RAD from the controller's equilibrium "
+    "(a swing-up: from its plan or, holding, from upright) [default: pi/2; inf: never stop].",
+)
 def run_command(
-    scene: Path | None, preset: str | None, directory: Path | None, force: bool, cache_dir: Path | None
+    scene: Path | None,
+    preset: str | None,
+    directory: Path | None,
+    force: bool,
+    cache_dir: Path | None,
+    divergence_angle: float | None,
 ) -> int:
     from ipgen.pipeline.run import run_scene
 
     scene = chosen_scene(scene, preset, "ipgen run --preset qube_servo2 -o out/")
+    if divergence_angle is not None and divergence_angle != divergence_angle:  # NaN
+        raise job.OptionsError("--divergence-angle nan: give an angle > 0 [rad], or inf to never stop")
     if directory is None:
         raise job.OptionsError(
             "missing -o OUT: say where to write the results, e.g. ipgen run SCENE.toml -o out/"
@@ -368,6 +384,7 @@ def run_command(
         force=force,
         cache=cache_dir,
         announce=lambda line: click.echo(f"ipgen: {line}", err=True),
+        divergence_angle=divergence_angle,
     )
     if outcome.simulator.built:
         click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)
@@ -386,7 +403,7 @@ def run_command(
 EXIT_HINTS = {
     5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
     "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
-    "docs/swingup.md, \"When the plan is lost\")",
+    'docs/swingup.md, "When the plan is lost")',
 }
 
 
@@ -475,7 +492,7 @@ others keep the scene's values. Writes into OUT: STEM_identified.toml (the scene
 estimates; the input scene is never overwritten), STEM_identify.txt (estimates, standard
 errors, 95 % intervals, correlations, what the data cannot determine, the fit residual) and
 STEM_identify.png (measured against simulated angles). Record open loop about the hanging
-position with a rich input (a multisine). Needs CasADi (pip install 'ipgen-pendulum[identify]').
+position with a rich input (a multisine). Needs CasADi (pip install casadi).
 A fixed-pivot scene ([system] type = "fixed") is fitted to measured joint torques instead:
 --data (repeatable) recordings with time, pos_meas1.., tau_meas1.. (DFKI's CSV as it is, or t,
 q1.., tau1..), --validate (repeatable) held-out ones; no --free (every base parameter);
@@ -531,7 +548,7 @@ def identify_command(
         import casadi  # noqa: F401
     except ImportError:
         raise job.OptionsError(
-            "ipgen identify needs CasADi: pip install 'ipgen-pendulum[identify]' (or pip install casadi)"
+            f"ipgen identify needs CasADi: {install_hint('casadi')}"
         ) from None
     result = identify(
         scene,
@@ -626,7 +643,7 @@ def animate_command(
         from ipgen.plots.animation import animate_run
     except ImportError:
         raise job.OptionsError(
-            "ipgen animate needs pillow: pip install 'ipgen-pendulum[swingup]' (or pip install pillow)"
+            f"ipgen animate needs pillow: {install_hint('pillow')}"
         ) from None
     target = _not_the_input(gif if gif is not None else csv.with_suffix(".gif"), csv)
     frame = _csv_coordinates(csv, angles, zero, positive)

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TextIO
 
 import click
 
@@ -20,7 +24,7 @@ any scene key, e.g. parameters.m[1], initial.theta[1], controller.period. The pl
 the controller stays the one designed on the scene (unless a [controller]/[swingup] key is
 varied). Writes OUT/runs.csv (every run; an interrupted sweep resumes from it), scores.json,
 scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask ADDRESS
-(pip install 'ipgen-pendulum[dask]'); results are the same either way. docs/sweep.md.
+(pip install 'dask[distributed]'); results are the same either way. docs/sweep.md.
 
 \b
 Examples:
@@ -31,23 +35,68 @@ Examples:
 
 
 class _Progress:
-    """A click progress bar on stderr, opened at the first report."""
+    """Progress on stderr, opened at the first report: click's bar on a terminal; elsewhere (a log,
+    CI, a pipe) a plain line at most every `every` seconds and at the end — runs done of all, the
+    rate and the time left at that rate — instead of a bar that is drawn only when it ends."""
 
-    def __init__(self) -> None:
+    def __init__(
+        self, file: TextIO | None = None, every: float = 10.0, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        self.file = file
+        self.every = every
+        self.clock = clock
         self.bar = None
         self.shown = 0
+        self.started: tuple[float, int] | None = None  # (time, runs done) at the first report
+        self.printed = -math.inf
 
     def __call__(self, done: int, total: int) -> None:
-        if self.bar is None:
-            self.bar = click.progressbar(length=total, label="runs", file=sys.stderr, show_pos=True)
-            self.bar.__enter__()
-        self.bar.update(done - self.shown)
-        self.shown = done
+        file = self.file or sys.stderr
+        if file.isatty():
+            if self.bar is None:
+                self.bar = click.progressbar(length=total, label="runs", file=file, show_pos=True)
+                self.bar.__enter__()
+            self.bar.update(done - self.shown)
+            self.shown = done
+            return
+        now = self.clock()
+        if self.started is None:
+            self.started = (now, done)  # runs resumed from an earlier table do not count in the rate
+        if done < total and now - self.printed < self.every:
+            return
+        self.printed = now
+        click.echo(f"ipgen: {self._line(done, total, now)}", file=file)
+
+    def _line(self, done: int, total: int, now: float) -> str:
+        assert self.started is not None
+        percent = 100 * done // total if total else 100
+        line = f"runs {done}/{total} ({percent} %)"
+        elapsed, ran = now - self.started[0], done - self.started[1]
+        if ran > 0 and elapsed > 0:
+            rate = ran / elapsed
+            line += f", {rate:.3g} runs/s"
+            if done < total:
+                line += f", about {_duration((total - done) / rate)} left"
+            else:
+                line += f", {_duration(elapsed)}"
+        return line
 
     def close(self) -> None:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
             self.bar = None
+
+
+def _duration(seconds: float) -> str:
+    """3 s, 1 min 5 s, 2 h 3 min."""
+    seconds = max(0, round(seconds))
+    if seconds < 60:
+        return f"{seconds} s"
+    minutes, seconds = divmod(seconds, 60)
+    if minutes < 60:
+        return f"{minutes} min {seconds} s"
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours} h {minutes} min"
 
 
 def _criterion(spec: str) -> tuple[str, str]:
@@ -101,6 +150,13 @@ def _criterion(spec: str) -> tuple[str, str]:
 @click.option(
     "--travel", type=float, default=None, help="Success: |θ0| limit [default: the scene's limits.travel]."
 )
+@click.option(
+    "--converge",
+    type=float,
+    default=0.25,
+    show_default=True,
+    help="Success, balance: every link within CONVERGE × its initial angle error over the hold.",
+)
 @click.option("--dask", default=None, metavar="ADDRESS", help="A Dask scheduler, e.g. tcp://10.0.0.5:8786.")
 @click.option("--jobs", type=int, default=None, help="Local worker processes [default: all cores].")
 @click.option(
@@ -128,6 +184,7 @@ def command(
     hold: float,
     base_tolerance: float | None,
     travel: float | None,
+    converge: float,
     dask: str | None,
     jobs: int | None,
     force: bool,
@@ -146,7 +203,7 @@ def command(
         if not scorecard:
             raise Error("--only chooses scorecard criteria: add --scorecard")
         chosen = tuple(name.strip() for name in only.split(",") if name.strip())
-    test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel)
+    test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel, converge)
     progress = _Progress()
     try:
         outcome = sweep(

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 from pathlib import Path
 
+from ipgen.common.install import REINSTALL
 from ipgen.errors import Error
 
 
@@ -20,7 +21,7 @@ def cmake_dir() -> Path:
     Raises
     ------
     Error
-        The package is missing from this installation (reinstall ipgen-pendulum).
+        The package is missing from this installation (reinstall it from the checkout: pip install ./).
 
     Examples
     --------
@@ -36,10 +37,7 @@ def cmake_dir() -> Path:
     checkout = Path(__file__).resolve().parents[2] / "cmake"  # an uninstalled checkout
     if (checkout / "ipgenConfig.cmake").is_file():
         return checkout
-    raise Error(
-        "ipgen's CMake package is missing from this installation: reinstall it with "
-        "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
-    )
+    raise Error(f"ipgen's CMake package is missing from this installation: {REINSTALL}")
 
 
 def presets_dir() -> Path:
@@ -66,7 +64,4 @@ def presets_dir() -> Path:
     checkout = Path(__file__).resolve().parents[2] / "scenes"  # an uninstalled checkout
     if any(checkout.glob("*.toml")):
         return checkout
-    raise Error(
-        "ipgen's preset scenes are missing from this installation: reinstall it with "
-        "pip install ipgen-pendulum (PyPI's `ipgen` is another project)"
-    )
+    raise Error(f"ipgen's preset scenes are missing from this installation: {REINSTALL}")

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.install import install_hint
 from ipgen.control.linear import ControlError, as_pendulum
 from ipgen.model.pendulum import Pendulum, PendulumError
 from ipgen.model.system import System
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 __all__ = ["CasadiModel", "Plant", "as_plant", "casadi_model", "plant"]
 
 _INSTALL_HINT = (
-    "swing-up planning needs CasADi: pip install 'ipgen-pendulum[swingup]' (or pip install casadi); "
+    f"swing-up planning needs CasADi: {install_hint('casadi')}; "
     'method "energy" (one link) runs without it'
 )
 

@@ -1,7 +1,7 @@
 """What a rig's sensors give at a sample: quantised, noisy angles (the shared spec of issue 32).
 
     Δ = 2π / resolution (an angle) or 1 / resolution (a cart's position, m),
-    y_k = Δ · floor(θ(t_k) / Δ + 1/2) + n_k,   n_k ~ N(0, σ²)
+    y_k = z + Δ · floor((θ(t_k) − z) / Δ + 1/2) + n_k,   n_k ~ N(0, σ²)   (z: where the encoder reads 0)
 
 (quantised first, then the noise; exact when resolution = 0, noiseless when σ = 0). `Sensors`
 holds the [sensors] settings with their values per measured coordinate.
@@ -59,6 +59,16 @@ def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tup
     return tuple(result)
 
 
+def grid_zero(zero: float, step: float) -> float:
+    """The encoder's zero pose as the quantiser uses it: 0 when `zero` is a whole number of counts
+    `step` from 0 (the same grid as counting from 0, so the same numbers as before the [sensors]
+    zero key), else `zero` (exact encoders, `step` 0: 0)."""
+    if step <= 0:
+        return 0.0
+    counts = zero / step
+    return 0.0 if abs(counts - round(counts)) <= 1e-9 * max(1.0, abs(counts)) else zero
+
+
 @dataclass(frozen=True)
 class Sensors:
     """The measured coordinates (indices of θ, 0 = base) and, per measured coordinate, the
@@ -68,6 +78,7 @@ class Sensors:
     resolution: tuple[float, ...]
     noise: tuple[float, ...]
     cart: bool = False  # coordinate 0 is a cart's position [m] (its Δ = 1 / resolution)
+    zero: tuple[float, ...] = ()  # where each encoder reads 0 ([sensors] zero; empty: 0)
 
     @classmethod
     def of(
@@ -78,8 +89,10 @@ class Sensors:
         noise: float | Sequence[float] = 0.0,
         *,
         cart: bool = False,
+        zero: Sequence[float] = (),
     ) -> Sensors:
-        """Checked settings for a system of `dof` coordinates (default: all measured)."""
+        """Checked settings for a system of `dof` coordinates (default: all measured); `zero`: the
+        pose where each measured coordinate's encoder reads 0 (default 0)."""
         indices = tuple(range(dof)) if measured is None else tuple(measured)
         if not indices:
             raise EstimationError("measured: at least one coordinate must be measured")
@@ -89,11 +102,15 @@ class Sensors:
         if len(set(indices)) != len(indices) or list(indices) != sorted(indices):
             raise EstimationError(f"measured: {list(indices)} must be increasing without repeats")
         count = len(indices)
+        poses = tuple(float(v) for v in zero)
+        if poses and (len(poses) != count or not all(math.isfinite(v) for v in poses)):
+            raise EstimationError(f"zero: expected {count} finite numbers, one per measured coordinate")
         return cls(
             measured=indices,
             resolution=per_coordinate("resolution", resolution, count),
             noise=per_coordinate("noise", noise, count),
             cart=cart,
+            zero=poses,
         )
 
     def steps(self) -> tuple[float, ...]:
@@ -109,14 +126,16 @@ class Sensors:
         return tuple(result)
 
     def quantise(self, theta: np.ndarray) -> np.ndarray:
-        """Δ · floor(θ / Δ + 1/2) of the measured coordinates of θ (dof angles)."""
+        """z + Δ · floor((θ − z) / Δ + 1/2) of the measured coordinates of θ (dof angles), z the
+        pose where the encoder reads 0 (`zero`, default 0): whole counts from it."""
         import numpy as np
 
         values = np.asarray(theta, dtype=float)[list(self.measured)]
         out = values.copy()
         for j, step in enumerate(self.steps()):
             if step > 0:
-                out[j] = step * math.floor(values[j] / step + 0.5)
+                z = grid_zero(self.zero[j], step) if self.zero else 0.0
+                out[j] = z + step * math.floor((values[j] - z) / step + 0.5)
         return out
 
     def sample(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -85,6 +85,7 @@ CFG_KEYS: dict[str, str] = {
     "sensors.measured": "the measured coordinates (indices of θ)",
     "sensors.resolution": "encoder counts per revolution or metre, per measured coordinate (0: exact)",
     "sensors.noise": "σ of the measurement noise per measured coordinate",
+    "sensors.zero": "where the encoders read 0, per measured coordinate (default: the rig at rest)",
     "sensors.delay": "s from sampling to applying the output (k periods)",
     "sensors.seed": "the seed of the run's random streams",
     "estimator": "exact | difference | filter | kalman | ekf",
@@ -159,7 +160,7 @@ def resolved_config(scene: Scene, model: str | None = None) -> str:
         lines.put("energy", True)
     _controller(lines, scene.controller)
     _swingup(lines, scene.swingup)
-    _loop(lines, scene.loop)
+    _loop(lines, scene.loop, cart=scene.type == "classical")
     return "\n".join(lines) + "\n"
 
 
@@ -235,8 +236,10 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
         lines.put("controller.period", controller.period)
 
 
-def _loop(lines: _Lines, loop_: Loop | None) -> None:
+def _loop(lines: _Lines, loop_: Loop | None, *, cart: bool) -> None:
     """The measured loop's keys for the simulator (none without one: the config is as before)."""
+    from ipgen.estimation.measurement import Sensors, grid_zero
+
     if loop_ is None:
         return
 
@@ -257,6 +260,10 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
     lines.put("sensors.measured", " ".join(str(i) for i in loop_.measured))
     lines.put("sensors.resolution", numbers(loop_.resolution))
     lines.put("sensors.noise", numbers(loop_.noise))
+    steps = Sensors(loop_.measured, loop_.resolution, loop_.noise, cart=cart).steps()
+    offsets = [grid_zero(z, step) for z, step in zip(loop_.zero, steps, strict=True)]
+    if any(offsets):  # a zero pose off the grid counted from 0 (else the same numbers without it)
+        lines.put("sensors.zero", numbers(offsets))
     lines.put("sensors.delay", loop_.delay)
     lines.put("sensors.seed", loop_.seed)
     lines.put("estimator", loop_.estimator)

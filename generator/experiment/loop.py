@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
 from ipgen.scene.sensors import EstimatorTable, SensorsTable
@@ -47,6 +48,7 @@ class Loop:
     input_equilibrium: float = 0.0
     process_noise: tuple[tuple[float, ...], ...] = ()
     measurement_noise: tuple[tuple[float, ...], ...] = ()
+    zero: tuple[float, ...] = ()  # where the encoders read 0, per measured coordinate (scene's coordinates)
 
 
 def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tuple[float, ...]:
@@ -60,6 +62,20 @@ def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tup
     return (float(value),) * count
 
 
+def rest_pose(links: int, measured: tuple[int, ...], coordinates: Coordinates) -> tuple[float, ...]:
+    """The rig at rest, where its encoders are zeroed when it is powered: the base centred (0) and
+    every link hanging, as the measured coordinates in `coordinates` (e.g. −π for a link measured
+    counter-clockwise from upright, 0 with zero = "hanging", 0 for a relative angle above link 1)."""
+    import math
+
+    import numpy as np
+
+    state = np.zeros(2 * (links + 1))
+    state[1 : links + 1] = math.pi
+    user = coordinates.to_user(state, links)
+    return tuple(float(user[i]) + 0.0 for i in measured)
+
+
 def loop(
     sensors: SensorsTable | None,
     estimator: EstimatorTable | None,
@@ -69,13 +85,15 @@ def loop(
     period: float | None,
     acceleration: bool,
     design: Any = None,
+    coordinates: Coordinates | None = None,
 ) -> Loop | None:
     """The measured loop of a scene, or None when it has none (today's exact loop).
 
     `drive` is the [actuator] table (its `noise`, `lag`, `pulses`); `period` the sampled
     controller's or swing-up's (None: no sampled loop); `design(loop, table)` fills in a kalman
-    or ekf estimator's matrices (the caller's: it knows the model). Raises `SensorsError` with
-    one line naming the key and the fix.
+    or ekf estimator's matrices (the caller's: it knows the model); `coordinates` the scene's
+    (default ipgen's), in which the encoders' default zero pose, the rig at rest (base centred,
+    links hanging), is given. Raises `SensorsError` with one line naming the key and the fix.
     """
     dof = links + 1
     drive_noise = 0.0 if drive.noise is None else float(drive.noise)
@@ -102,6 +120,12 @@ def loop(
     measured = tuple(range(dof)) if table.measured is None else table.measured
     resolution = _per_measured(table.resolution, len(measured), "resolution")
     noise = _per_measured(table.noise, len(measured), "noise")
+    zero = rest_pose(links, measured, coordinates or Coordinates()) if table.zero is None else table.zero
+    if len(zero) != len(measured):
+        raise SensorsError(
+            f"sensors.zero has {len(zero)} values for {len(measured)} measured coordinates "
+            f"(sensors.measured = {list(measured)}): give one per measured coordinate"
+        )
     delay = 0.0 if table.delay is None else float(table.delay)
     assert period is not None
     if delay / period > MAX_DELAY_PERIODS:
@@ -134,6 +158,7 @@ def loop(
         measured=measured,
         resolution=resolution,
         noise=noise,
+        zero=tuple(float(v) for v in zero),
         delay=periods * period,
         seed=table.seed,
         estimator=kind,
@@ -196,9 +221,7 @@ def design(
     dof = len(equilibrium) // 2
     size, count = 2 * dof, len(loop_.measured)
     try:
-        sensors = Sensors.of(
-            dof, loop_.measured, loop_.resolution, loop_.noise, cart=not pendulum.is_rotary
-        )
+        sensors = Sensors.of(dof, loop_.measured, loop_.resolution, loop_.noise, cart=not pendulum.is_rotary)
         q_default, r_default = default_covariances(
             pendulum, period, sensors, input_noise=loop_.drive_noise, u_scale=input_scale,
             equilibrium=list(equilibrium[:dof]),

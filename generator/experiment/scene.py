@@ -322,6 +322,7 @@ def _loop(
         return measuring.loop(
             tables["sensors"], tables["estimator"], tables["actuator"], links=tables["system"].links,
             period=period, acceleration=tables["actuator"].kind == "acceleration", design=design,
+            coordinates=tables["system"].coordinates(),
         )  # fmt: skip
     except measuring.SensorsError as error:
         reader.fail(str(error))

@@ -13,6 +13,16 @@ terminations and what one step is accurate to.
 
 from __future__ import annotations
 
+from ipgen.common.install import install_hint
+
+try:
+    import gymnasium  # noqa: F401
+except ModuleNotFoundError as missing:  # one line that says what to install, not a bare import error
+    if missing.name != "gymnasium":
+        raise
+    message = f"ipgen.gym needs gymnasium >= 1.0: {install_hint('gymnasium')}"
+    raise ModuleNotFoundError(message, name="gymnasium") from None
+
 from ipgen.gym.registry import make, make_vec, register_all
 
 __all__ = ["make", "make_vec", "register_all"]

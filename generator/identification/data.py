@@ -9,6 +9,7 @@ energy columns) are ignored. Every problem is one `DataError` line naming the fi
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -159,6 +160,16 @@ def parse_measurements(text: str, dof: int, where: str = "data") -> Measurements
         raise DataError(
             f"{where}: missing column {missing[0]} (the header needs t,{','.join(angles)}"
             f"[,dtheta0..][,u]; it is {abbreviate(lines[0])!r})"
+        )
+    coordinate = re.compile(r"d?theta(\d+)")
+    extra = [name for name in header if (m := coordinate.fullmatch(name)) and int(m.group(1)) >= dof]
+    if extra:
+        links = f"{dof - 1} link{'s' if dof > 2 else ''}"
+        raise DataError(
+            f"{where}: column {abbreviate(extra[0])} does not fit the scene's {links} "
+            f"(theta0..theta{dof - 1}): a recording of another system; identify it with the scene of the rig "
+            "that recorded it "
+            "(--scene or --preset)"
         )
     rates = [f"dtheta{i}" for i in range(dof)]
     has_rates = all(name in index for name in rates)

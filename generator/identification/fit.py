@@ -248,8 +248,7 @@ def _identify(
     noise = tuple(float(v) for v in np.sqrt(np.mean((simulated - oe.measured) ** 2, axis=0)))
     estimate = {n: float(v) for n, v in zip(free, p_hat, strict=True)}
     stats = _statistics(free, estimate, prior, residual, jac, oe.state_size)
-    statements = structural_statements(model)
-    statements += stats.pop("statements")
+    statements = list(dict.fromkeys([*structural_statements(model), *stats.pop("statements")]))
     return Fit(
         free=free,
         prior={n: prior[n] for n in setup.parameter_names()},
@@ -673,10 +672,18 @@ def _statistics(
             if determined[na] and determined[nb] and stderr[na] > 0 and stderr[nb] > 0:
                 corr[a][b] = float(cov_p[a, b] / (stderr[na] * stderr[nb]))
     statements = []
-    for direction in null:
+    # The undetermined directions of the parameters alone: an orthonormal basis of the null space's
+    # projection onto them (the null space's own vectors mix in the initial state, and several of
+    # them can project onto the same parameter direction: one finding, said once).
+    directions = []
+    if null.size:
+        _, weights, basis = np.linalg.svd(null, full_matrices=False)
+        directions = [row for row, weight in zip(basis, weights, strict=True) if weight > 1e-6]
+    for direction in directions:
         norm = float(np.max(np.abs(direction)))
         if norm < 1e-6:
             continue
+        direction = direction if direction[np.argmax(np.abs(direction))] > 0 else -direction
         terms = [
             f"{'−' if c < 0 else '+'} {abs(c) / norm:.2g}·Δ{name}/{name}"
             for c, name in zip(direction, free, strict=True)
@@ -684,6 +691,7 @@ def _statistics(
         ]
         text = " ".join(terms).lstrip("+ ")
         statements.append(f"the data cannot determine the relative change {text} (kept near the prior)")
+    statements = list(dict.fromkeys(statements))
     # the parameters' own singular values (the initial state projected out)
     _, s_p, _ = np.linalg.svd(scaled[:, states:], full_matrices=False)
     return {

@@ -20,13 +20,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ipgen.common.files import check_replaceable, prepare_directory, write_files
-from ipgen.common.safetext import quote_path
+from ipgen.common.safetext import quote_path, shown_path
 from ipgen.common.version import __version__
 from ipgen.experiment.scene import Scene, load_scene
-from ipgen.identification.data import Measurements, read_measurements
+from ipgen.identification.data import DataError, Measurements, read_measurements
 from ipgen.identification.fit import report_text
 from ipgen.identification.model import IdentifyError, Setup
 from ipgen.model.actuator import MOTOR_CONSTANTS
+from ipgen.model.coordinates import Coordinates
 from ipgen.plots.run import PNG
 
 if TYPE_CHECKING:
@@ -34,7 +35,7 @@ if TYPE_CHECKING:
 
     from ipgen.identification.fit import Fit
 
-__all__ = ["Identified", "canonical", "identify", "report_text", "setup_from_scene"]
+__all__ = ["Identified", "canonical", "check_recording", "identify", "report_text", "setup_from_scene"]
 
 
 @dataclass(frozen=True)
@@ -69,6 +70,43 @@ def input_function(scene: Scene) -> Callable[[np.ndarray], np.ndarray] | None:
         return np.array([spec.value(float(x)) for x in np.asarray(t)])
 
     return u
+
+
+def _convention(coordinates: Coordinates, keys: Sequence[str]) -> str:
+    return ", ".join(f"{key} = {getattr(coordinates, key)}" for key in keys)
+
+
+def check_recording(scene: Scene, data: Path) -> None:
+    """A `DataError` when the resolved scene beside the CSV (`<stem>.cfg`, which `ipgen run`
+    writes) says the recording is of another system than `scene`: another type, number of links
+    or convention of the angles. Nothing to check without one (a rig's own recording)."""
+    from ipgen.plots.run import coordinates_beside, scene_beside
+
+    beside = scene_beside(data)
+    if beside is None:
+        return
+    kind, lengths = beside
+    cfg = shown_path(data.with_suffix(".cfg"))
+    fix = "identify it with the scene of the rig that recorded it (--scene or --preset)"
+    if kind != scene.type or len(lengths) != scene.links + 1:
+        links = len(lengths) - 1
+        plural = "s" if links > 1 else ""
+        raise DataError(
+            f"{shown_path(data)} is a recording of a {kind} pendulum with {links} link{plural} ({cfg} beside "
+            f"it says so), the scene a {scene.type} one with {scene.links}: {fix}"
+        )
+    recorded = coordinates_beside(data)
+    differ = [
+        key
+        for key in ("angles", "zero", "positive")
+        if getattr(recorded, key) != getattr(scene.coordinates, key)
+    ]
+    if differ:
+        raise DataError(
+            f"{shown_path(data)} has its angles in {_convention(recorded, differ)} ({cfg} beside it says "
+            f"so), the scene in {_convention(scene.coordinates, differ)}: give the scene's [system] the "
+            f"recording's, or {fix}"
+        )
 
 
 def _updates(fit: Fit, setup: Setup, scene: Scene) -> dict[tuple[str, str], Any]:
@@ -146,6 +184,7 @@ def identify(
         check_replaceable(paths["txt"], force, keep=[scene_path])
         check_replaceable(paths["png"], force, PNG, keep=[scene_path])
     setup = setup_from_scene(loaded, names)
+    check_recording(loaded, data_path)
     measurements = canonical(loaded, read_measurements(data_path, loaded.links + 1))
     clock = time.perf_counter()
     fit = identify_measurements(

@@ -290,7 +290,7 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
         measurement_noise=loop.measurement_noise,
         input_gain=float(scene.actuator.gain()),
         resolution=tuple(loop.resolution) if all(r > 0 for r in loop.resolution) else (),
-        counts_zero=tuple(float(scene.theta[i]) for i in loop.measured),
+        counts_zero=tuple(loop.zero),  # [sensors] zero: default the rig at rest, as the simulator's
         cart=scene.system.type == "classical",
         params=scene.pendulum.folded().params(),
     )

@@ -91,8 +91,10 @@ def run_scene(
     force: bool = False,
     cache: Path | None = None,
     announce: Callable[[str], None] = lambda message: None,
+    divergence_angle: float | None = None,
 ) -> Outcome:
-    """Generate, build, simulate and plot `scene_path` into the folder `out`."""
+    """Generate, build, simulate and plot `scene_path` into the folder `out`; `divergence_angle`
+    [rad]: the simulator's --divergence-angle (None: its default, π/2)."""
     with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
         planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
         assert planned.scene is not None
@@ -116,6 +118,8 @@ def run_scene(
     write_file(paths["cfg"], cfg_text, force=True)  # checked above
     before = _stamp(paths["csv"])
     command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]
+    if divergence_angle is not None:
+        command += ["--divergence-angle", repr(float(divergence_angle))]
     start = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True)
     seconds = time.perf_counter() - start

@@ -32,6 +32,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, chosen_compiler, last_error_line
+from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.errors import Error
@@ -89,10 +90,7 @@ def simulator_sources() -> tuple[Path, Path]:
     source, include = root / "cpp" / "src" / "simulate.cpp", root / "cpp" / "include"
     present = (source, source.with_name(CORE_SOURCE), include / "ipsim" / "ipsim.hpp", include / INTERFACE)
     if not all(path.is_file() for path in present):
-        raise BuildError(
-            f"the simulator's sources are missing from {shown_path(root)}: install ipgen again "
-            "(pip install --force-reinstall ./ in the checkout)"
-        )
+        raise BuildError(f"the simulator's sources are missing from {shown_path(root)}: {REINSTALL}")
     return source, include
 
 

@@ -69,6 +69,21 @@ def _resolutions(value: Any, context: dict[str, Any]) -> float | tuple[float, ..
     return _scalar_or_list(value, context, _counts)
 
 
+def _pose_entry(item: Any, context: dict[str, Any]) -> float:
+    number = _finite(item, context)
+    if abs(number) > 1e6:
+        refuse("must be within ±1e6 (rad or m)")
+    return number
+
+
+def _pose(value: Any, context: dict[str, Any]) -> tuple[float, ...]:
+    """The encoders' zero pose: an array of numbers, one per measured coordinate (length checked
+    against `measured` later)."""
+    if not isinstance(value, list) or not value:
+        refuse("expected an array of numbers, one per measured coordinate [rad or m]")
+    return tuple(at(i, _pose_entry, entry, context) for i, entry in enumerate(value))
+
+
 def _measured(value: Any, context: dict[str, Any]) -> tuple[int, ...]:
     """Ascending, distinct coordinates 0..links."""
     count = context.get("count")
@@ -169,6 +184,12 @@ class SensorsTable(BaseModel):
     delay: Real(ge=0, says="must be >= 0 s") | None = Field(
         None, description="s from sampling to applying the output, a whole multiple of the period"
     )
+    zero: _custom(
+        _pose,
+        {"type": "array", "items": {"type": "number", "minimum": -1e6, "maximum": 1e6}},
+        "the pose where the encoders read 0 (reset there), per measured coordinate, in the scene's "
+        "coordinates [rad or m]; default: the rig at rest, the base centred and the links hanging",
+    ) = None
     seed: Seed = Field(0, description="the seed of every random stream of the run (sensor and drive noise)")
 
     def context(self) -> dict[str, Any]:

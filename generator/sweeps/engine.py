@@ -11,12 +11,13 @@ import os
 from collections.abc import Callable, Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 
+from ipgen.common.install import install_hint
 from ipgen.common.safetext import abbreviate
 from ipgen.sweeps.execute import Result, SceneSource, Task, run_batch
 from ipgen.sweeps.spec import SweepError
 from ipgen.sweeps.success import Success
 
-DASK_INSTALL = "pip install 'ipgen-pendulum[dask]'"
+DASK_INSTALL = install_hint("dask")
 CONNECT_TIMEOUT = "5s"
 
 

@@ -193,6 +193,7 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     """Run `task` on the scene: refused, failed or passed, with its end-state errors."""
     from ipgen.experiment.config import resolved_config
     from ipgen.experiment.scene import scene_from_document
+
     started = time.perf_counter()
     prepared = prepare(source)
     try:
@@ -231,7 +232,14 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
             elapsed = time.perf_counter() - started
             return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan, elapsed)
         verdict = judge(
-            test, t, states, goal, rotary=scene.type == "rotary", status=done.returncode, travel=scene.travel
+            test,
+            t,
+            states,
+            goal,
+            rotary=scene.type == "rotary",
+            status=done.returncode,
+            travel=scene.travel,
+            balance=scene.swingup is None,
         )
     finally:
         cfg.unlink(missing_ok=True)

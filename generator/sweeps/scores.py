@@ -5,6 +5,7 @@ sweep's score is the mean of its criteria's scores (criteria refused entirely no
 
 from __future__ import annotations
 
+import itertools
 import json
 from dataclasses import dataclass
 
@@ -115,12 +116,24 @@ def _percent(value: float | None) -> str:
     return "—" if value is None else f"{100 * value:.0f} %"
 
 
+def _value(name: str, value: float) -> str:
+    """A level's value as scores.md shows it: encoder resolution 0 is the exact angle."""
+    return "exact" if name == "resolution" and value == 0 else f"{value:g}"
+
+
 def _range(s: CriterionScore) -> str:
+    """The levels: "first … last" when they run one way, else every level in order (the
+    resolution's exact, 8192, …, 64 is not a range from 0 to 64)."""
     values = [level.values for level in s.criterion.levels]
     if not values:
         return "—"
     if len(values[0]) == 1:
-        return f"{values[0][0]:g} … {values[-1][0]:g} ({len(values)} levels)"
+        single = [v[0] for v in values]
+        pairs = list(itertools.pairwise(single))
+        if all(a <= b for a, b in pairs) or all(a >= b for a, b in pairs):
+            first, last = _value(s.criterion.name, single[0]), _value(s.criterion.name, single[-1])
+            return f"{first} … {last} ({len(values)} levels)"
+        return f"{', '.join(_value(s.criterion.name, v) for v in single)} ({len(values)} levels)"
     return f"{len(values)} grid points"
 
 
@@ -128,7 +141,7 @@ def _first_failure(s: CriterionScore) -> str:
     """The first level (in order) that does not pass, and why."""
     for level in s.levels:
         if level.counted and not level.passes:
-            shown = ", ".join(f"{v:g}" for v in level.values)
+            shown = ", ".join(_value(s.criterion.name, v) for v in level.values)
             return f"{shown}: {level.reasons[0] if level.reasons else 'failed'}"
     refused = [level for level in s.levels if not level.counted]
     if refused and refused[0].reasons:

@@ -7,6 +7,13 @@ again) and every link's rate within `rate` rad/s, the base's |θ0| stayed within
 (`travel`, default the scene's limits.travel) and, if `base` is set, the base within `base` of the
 goal (m or rad). The goal is the controller's equilibrium or the swing-up's target. Defaults as in
 the DFKI double-pendulum leaderboard: 0.35 rad and 1 rad/s; held for the last 1 s.
+
+A balance run (a [controller], no [swingup]) must also converge: over the last `hold` seconds
+every link within `converge` (default 0.25) times the largest link angle error at the start. A
+balance scene starts inside the leaderboard's tolerance (0.1 rad of tilt, say), so without it a
+controller that does nothing — a link held by Coulomb friction where it started — passes. A run
+that starts on the goal (no initial error) has nothing to converge from: the tolerance alone
+judges it. A swing-up starts hanging, outside the tolerance: the leaderboard's test as it is.
 """
 
 from __future__ import annotations
@@ -33,9 +40,10 @@ class Success:
     hold: float = 1.0  # s: the last seconds of the run that must all be within
     base: float | None = None  # m or rad: the base's tolerance (None: not checked)
     travel: float | None = None  # |θ0| limit (None: the scene's limits.travel, if any)
+    converge: float = 0.25  # balance: the final link error at most this fraction of the initial one
 
     def __post_init__(self) -> None:
-        for name in ("angle", "rate", "hold", "base", "travel"):
+        for name in ("angle", "rate", "hold", "base", "travel", "converge"):
             value = getattr(self, name)
             if value is None and name in ("base", "travel"):
                 continue
@@ -56,8 +64,10 @@ class Success:
         travel = "the scene's travel limit" if self.travel is None else f"|θ0| ≤ {self.travel:g}"
         return (
             f"a run passes when the simulator finishes it and {', '.join(parts)} over its last "
-            f"{self.hold:g} s, with {travel} honoured throughout; a level passes when more than half its "
-            "runs pass"
+            f"{self.hold:g} s, with {travel} honoured throughout; a balance run (no [swingup]) must also "
+            f"converge: every link within {self.converge:g} × its largest initial link angle error over "
+            f"those {self.hold:g} s (a do-nothing controller, a link frozen by friction where it started, "
+            "fails); a level passes when more than half its runs pass"
         )
 
 
@@ -90,8 +100,10 @@ def judge(
     rotary: bool,
     status: int,
     travel: float | None,
+    balance: bool = False,
 ) -> Judgement:
-    """Judge the run with times `t` and rows `states` = [θ0..θn, θ̇0..θ̇n], simulator exit `status`."""
+    """Judge the run with times `t` and rows `states` = [θ0..θn, θ̇0..θ̇n], simulator exit `status`;
+    `balance`: a balance run, which must also converge (`Success.converge`)."""
     import numpy as np
 
     dof = states.shape[1] // 2
@@ -109,6 +121,7 @@ def judge(
         t_final=float(t[last]),
     )
     limit = test.travel if test.travel is not None else travel
+    start = float(links[0].max()) if dof > 1 else 0.0  # the largest initial link error
     reason = STATUS_REASONS.get(status, f"simulator exit status {status}" if status else "")
     if not reason and limit is not None and judgement["max_travel"] > limit:
         reason = "left the travel"
@@ -124,4 +137,7 @@ def judge(
             )
         elif test.base is not None and (base[window] > test.base).any():
             reason = "base not within the tolerance"
+        # a balance run converges (one that starts on the goal: the tolerance alone judges it)
+        elif balance and start > 0.0 and (links[window] > test.converge * start).any():
+            reason = f"did not converge (not within {test.converge:g} × the initial error)"
     return Judgement(passed=not reason, reason=reason, **judgement)

@@ -33,6 +33,7 @@
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
 //   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
 //   sensors.seed = 0         (optional, with a sampled controller or swing-up: the measured loop, sensors.hpp)
+//   sensors.zero = 0 -3.14…  (optional: the pose where the encoders read 0; absent: 0)
 //   estimator = exact | difference | filter | kalman | ekf   estimator.cutoff (filter)
 //   estimator.equilibrium, estimator.A, estimator.B, estimator.gain, estimator.input   (kalman, row-major)
 //   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
@@ -264,6 +265,11 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     const Eigen::VectorXd noise = numbers_of(file, "sensors.noise", m);
     loop.resolution.assign(resolution.data(), resolution.data() + m);
     loop.noise.assign(noise.data(), noise.data() + m);
+    if (file.has("sensors.zero")) {  // where the encoders read 0 (absent: 0, as before)
+      const Eigen::VectorXd zero = numbers_of(file, "sensors.zero", m);
+      if (!zero.allFinite()) file.fail(file.line("sensors.zero"), "sensors.zero must be finite");
+      loop.zero.assign(zero.data(), zero.data() + m);
+    }
     for (Eigen::Index j = 0; j < m; ++j) {
       if (!(std::isfinite(resolution(j)) && resolution(j) >= 0.0)) file.fail(file.line("sensors.resolution"), "sensors.resolution must be finite and >= 0");
       if (!(std::isfinite(noise(j)) && noise(j) >= 0.0)) file.fail(file.line("sensors.noise"), "sensors.noise must be finite and >= 0");
@@ -341,7 +347,8 @@ Scene<Model> load(const SceneFile& file) {
       "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
       "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
       "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive",
-      "sensors.measured", "sensors.resolution", "sensors.noise", "sensors.delay", "sensors.seed", "estimator",
+      "sensors.measured", "sensors.resolution", "sensors.noise", "sensors.delay", "sensors.seed", "sensors.zero",
+      "estimator",
       "estimator.cutoff", "estimator.A", "estimator.B", "estimator.gain", "estimator.equilibrium",
       "estimator.input", "estimator.process_noise", "estimator.measurement_noise", "actuator.noise",
       "actuator.lag", "actuator.pulses"};

@@ -3,9 +3,10 @@
 // an estimator turns the measurements into a state estimate, the control law sees only that
 // estimate, and its command reaches the drive `delay` later, with noise.
 //
-//   measure   y_k = Δ·floor(θ(t_k)/Δ + 1/2) + n_k,  n_k ~ N(0, σ²)   per measured coordinate, in the
-//             scene's coordinates (the CSV's); Δ = 2π/resolution [rad] (an angle) or 1/resolution [m]
-//             (a cart's position); resolution 0: no quantisation
+//   measure   y_k = z + Δ·floor((θ(t_k) − z)/Δ + 1/2) + n_k,  n_k ~ N(0, σ²)   per measured coordinate,
+//             in the scene's coordinates (the CSV's); Δ = 2π/resolution [rad] (an angle) or
+//             1/resolution [m] (a cart's position); z the pose where the encoder reads 0
+//             (sensors.zero, default 0); resolution 0: no quantisation
 //   estimate  x̂_k from y_0..y_k (and the inputs applied so far): exact, difference, filter, kalman, ekf
 //   control   u_k = law(t_k, x̂_k) (the LQR, the swing-up law or TVLQR, saturated)
 //   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0
@@ -102,6 +103,7 @@ struct LoopSettings {
   std::vector<int> measured;     ///< indices of θ measured (ascending)
   std::vector<double> resolution;  ///< counts per revolution or per metre, per measured; 0 exact
   std::vector<double> noise;       ///< σ per measured [rad or m]
+  std::vector<double> zero;        ///< where the encoders read 0, per measured (empty: 0)
   long delay_periods = 0;          ///< delay = delay_periods · period
   std::uint64_t seed = 0;
   double drive_noise = 0.0;        ///< σ_u of the applied input [input unit]
@@ -196,7 +198,8 @@ class MeasuredLoop {
       double value = user(i);
       if (s_.resolution[j] > 0.0) {
         const double delta = (is_position(i) ? 1.0 : 2.0 * kPi) / s_.resolution[j];
-        value = delta * std::floor(value / delta + 0.5);
+        const double z = s_.zero.empty() ? 0.0 : s_.zero[j];  // counts from the encoder's zero pose
+        value = z + delta * std::floor((value - z) / delta + 0.5);
       }
       const double noise = sensor_noise_();  // drawn even when σ = 0: the stream stays aligned
       y_(static_cast<Eigen::Index>(j)) = value + s_.noise[j] * noise;
