@@ -145,9 +145,10 @@ class Scene:
         """The system the scene simulates."""
         return System(self.type, self.links, self.inertia)  # type: ignore[arg-type]
 
-    @property
+    @functools.cached_property
     def pendulum(self) -> Pendulum:
-        """The scene's system, parameters, drive and coordinates as one `ipgen.Pendulum`."""
+        """The scene's system, parameters, drive and coordinates as one `ipgen.Pendulum`: built
+        and validated once per scene (immutable, so every use shares it)."""
         return from_scene_object(self)
 
     def parameter_names(self) -> tuple[str, ...]:
