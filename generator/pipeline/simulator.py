@@ -7,8 +7,8 @@ model-independent functions (cpp/src/ipsim_core.cpp) are compiled into `<cache>/
 and linked into it, as into a program of one's own (`compiled_core`). A model is its C header and
 the adapter to the C model interface (`--emit library`, cpp/include/ipgen_model.h), compiled by the
 C compiler into `<cache>/models/<key>/libipgen_<name>.so` in about a second; the simulator loads it
-at run time (`--model`). `<cache>/simulators/<key>/simulate_<name>` is a two-line launcher that
-runs the one with the other: the executable a caller runs as the model's simulator.
+at run time (named on its command line). `<cache>/simulators/<key>/simulate_<name>` is a two-line
+launcher that runs the one with the other: the executable a caller runs as the model's simulator.
 
 The flags are the Release build's (-O2 -DNDEBUG); $IPGEN_SIM_OPT (one of -O0, -O1, -O2, -O3, -Os,
 -Og) replaces -O2, e.g. -Og in the test suite, where compile time matters and the run time of a
@@ -62,6 +62,7 @@ CORE_OBJECT = "ipsim_core.o"
 # The simulator compiled once: simulate.cpp over the model interface, loading a model at run time.
 RUNTIME = "-DIPSIM_RUNTIME_MODEL"
 PROGRAM = "ipsim-simulate"
+MODEL_OPTION = "--model"  # the simulator's option naming the model library to load
 # The model library: C99, position-independent, only the model's symbol exported.
 C_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden")
 INTERFACE = "ipgen_model.h"
@@ -168,8 +169,10 @@ def program_command(cxx: str, output: Path, core: Path) -> list[str]:
 
 
 def launcher_command(program: Path, library: Path, output: Path) -> list[str]:
-    """A shell call that writes the launcher `output`: `exec PROGRAM --model LIBRARY "$@"`."""
-    text = f'#!/bin/sh\nexec {shlex.quote(str(program))} --model {shlex.quote(str(library))} "$@"\n'
+    """A shell call that writes the launcher `output`, a script that runs `program` on the model
+    `library` with the launcher's own arguments."""
+    run = shlex.join([str(program), MODEL_OPTION, str(library)])
+    text = f'#!/bin/sh\nexec {run} "$@"\n'
     return ["/bin/sh", "-c", 'printf "%s" "$1" > "$2" && chmod 755 "$2"', "sh", text, str(output)]
 
 
@@ -310,7 +313,8 @@ def compiled_program(
     cxx: str | None = None,
     version: str | None = None,
 ) -> Built:
-    """ipsim's simulator compiled once for every model (it loads a model library with --model),
+    """ipsim's simulator compiled once for every model (it loads the model library its command
+    line names),
     for this compiler and `optimisation()`'s flags: from the cache, or compiled into it."""
     cxx = cxx or compiler()
     version = version if version is not None else compiler_version(cxx)
