@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import signal
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import click
@@ -48,6 +51,30 @@ class _Progress:
         if self.bar is not None:
             self.bar.__exit__(None, None, None)
             self.bar = None
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the sweep is: it ends as an interruption does (workers ended,
+    scratch removed, the finished runs kept in runs.csv)."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM as `Terminated` while the sweep runs (Python's default would end the process
+    without any cleanup: the scratch folders and worker processes would stay)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread: nothing to install
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _criterion(spec: str) -> tuple[str, str]:
@@ -149,28 +176,29 @@ def command(
     test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel)
     progress = _Progress()
     try:
-        outcome = sweep(
-            scene,
-            out,
-            scorecard_criteria=chosen,
-            vary=vary,
-            levels=dict(map(_criterion, criteria)),
-            repeat=repeat,
-            seed=seed,
-            success=test,
-            dask=dask,
-            jobs=jobs,
-            force=force,
-            cache=cache_dir,
-            progress=progress,
-        )
-    except KeyboardInterrupt:
+        with _sigterm_interrupts():
+            outcome = sweep(
+                scene,
+                out,
+                scorecard_criteria=chosen,
+                vary=vary,
+                levels=dict(map(_criterion, criteria)),
+                repeat=repeat,
+                seed=seed,
+                success=test,
+                dask=dask,
+                jobs=jobs,
+                force=force,
+                cache=cache_dir,
+                progress=progress,
+            )
+    except KeyboardInterrupt as interrupt:
         progress.close()
         click.echo(
             f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
             err=True,
         )
-        return 130
+        return 128 + int(signal.SIGTERM) if isinstance(interrupt, Terminated) else 130
     finally:
         progress.close()
     resumed = outcome.runs - outcome.ran

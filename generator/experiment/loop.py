@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ipgen.estimation.measurement import cutoff_problem
 from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
 from ipgen.scene.sensors import EstimatorTable, SensorsTable
@@ -129,6 +130,13 @@ def loop(
     cutoff = None
     if kind == "filter":
         cutoff = DEFAULT_CUTOFF if estimator is None or estimator.cutoff is None else float(estimator.cutoff)
+        problem = cutoff_problem(cutoff, period)
+        if problem:
+            default = estimator is None or estimator.cutoff is None
+            raise SensorsError(
+                f"estimator.cutoff = {format_number(cutoff)} rad/s{' (the default)' if default else ''} "
+                f"{problem}: give a lower estimator.cutoff, or a shorter period"
+            )
     result = Loop(
         sensors=True,
         measured=measured,
