@@ -24,6 +24,10 @@ Why these values:
   must lie in [FOLD_MIN_EXPONENT, FOLD_MAX_EXPONENT] and it may have at most FOLD_MAX_DIGITS
   significant digits (a double needs 17), so that the rational arithmetic stays small
   (1e-99999999 would carry a hundred-million-digit denominator through the derivation).
+- `MAX_DELAY_PERIODS`, `DELAY_TOLERANCE`: sensors.delay is a whole number k of sampling periods,
+  k <= 1e6 (a longer delay is a unit slip and would hold a queue of that many outputs), with
+  k = round(delay / period) and |delay − k · period| <= DELAY_TOLERANCE · max(delay, period).
+  The scene layer (`experiment.loop`) and the simulator (`ipsim/scene.hpp`) apply this one rule.
 - `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
   this many characters, in the middle.
 """
@@ -40,6 +44,8 @@ MAX_STEM_LENGTH = 100
 FOLD_MIN_EXPONENT = -30
 FOLD_MAX_EXPONENT = 30
 FOLD_MAX_DIGITS = 30
+MAX_DELAY_PERIODS = 1_000_000
+DELAY_TOLERANCE = 1e-9
 MESSAGE_VALUE_CHARS = 60
 MESSAGE_PATH_CHARS = 240
 
