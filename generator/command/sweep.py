@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from ipgen.command.paths import NonEmptyPath
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.errors import Error
 
@@ -87,10 +88,10 @@ def _criterion(spec: str) -> tuple[str, str]:
 
 
 @click.command("sweep", help=HELP, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@click.argument("scene", type=NonEmptyPath(), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
-    "-o", "--output", "out", type=click.Path(path_type=Path), metavar="OUT", help="Folder for the results."
+    "-o", "--output", "out", type=NonEmptyPath(), metavar="OUT", help="Folder for the results."
 )
 @click.option("--scorecard", is_flag=True, help="Run the robustness scorecard's criteria.")
 @click.option(
@@ -135,7 +136,7 @@ def _criterion(spec: str) -> tuple[str, str]:
 )
 @click.option(
     "--cache-dir",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     default=None,
     metavar="DIR",
     help="Where compiled simulators are kept [default: ipgen's cache].",
