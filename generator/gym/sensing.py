@@ -132,9 +132,10 @@ class MeasuredLoop:
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray
     ) -> None:
         """Start `rows` (indices) over from `state` (their rows): first measurement, zero rates."""
-        y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-        self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
-        obs[rows] = self.layout(y, self.rates[rows])
+        with np.errstate(over="ignore", invalid="ignore"):  # checked for finiteness by the caller
+            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
+            obs[rows] = self.layout(y, self.rates[rows])
 
     def apply(self, rows: np.ndarray, actions: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         """The actions the model sees now in `rows`: `delay_steps` old, plus drive noise (before
@@ -153,10 +154,11 @@ class MeasuredLoop:
     ) -> np.ndarray:
         """Measure `rows` after a step and write (y0, sin/cos of each y_i, rates) into obs; the
         rows (of `rows`) whose observation is not finite, which the caller ends as failed."""
-        y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-        self.rates[rows] = self.sensing.rate(y, self.previous[rows], self.rates[rows], self.dt)
-        self.previous[rows] = y
-        observed = self.layout(y, self.rates[rows])
+        with np.errstate(over="ignore", invalid="ignore"):  # a non-finite row is returned, not warned
+            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.rates[rows] = self.sensing.rate(y, self.previous[rows], self.rates[rows], self.dt)
+            self.previous[rows] = y
+            observed = self.layout(y, self.rates[rows])
         obs[rows] = observed
         return rows[~np.isfinite(observed).all(axis=1)]
 
