@@ -119,7 +119,6 @@ def test_a_filter_cutoff_is_accepted_exactly_up_to_the_nyquist_frequency(
     assert np.isfinite(rates.step([2 * math.pi, 2 * math.pi])).all()
 
 
-BLANK = st.sampled_from(["", " ", "\t", "  "])
 EMPTY_PATH_COMMANDS = st.sampled_from(
     [
         ["run", "--preset", "rsip_lqr", "-o", "out", "--cache-dir", "{}"],
@@ -133,8 +132,8 @@ EMPTY_PATH_COMMANDS = st.sampled_from(
 )
 
 
-@settings(max_examples=12, deadline=None, suppress_health_check=FIXTURE)
-@given(command=EMPTY_PATH_COMMANDS, blank=BLANK)
+@settings(max_examples=10, deadline=None, suppress_health_check=FIXTURE)
+@given(command=EMPTY_PATH_COMMANDS, blank=st.sampled_from(["", " ", "\t"]))
 @example(command=["run", "--preset", "rsip_lqr", "-o", "out", "--cache-dir", "{}"], blank="")
 def test_an_empty_path_is_a_usage_error_and_writes_nothing(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, command: list[str],
@@ -145,7 +144,7 @@ def test_an_empty_path_is_a_usage_error_and_writes_nothing(
     monkeypatch.chdir(here)
     status = run([blank if part == "{}" else part for part in command])
     err = capsys.readouterr().err
-    assert status == 2 and err.count("\n") == 1 and "empty path" in err, err
+    assert status == 2 and err.count("\n") == 1 and "is empty: name a file or folder" in err, err
     assert not any(here.iterdir())
 
 

@@ -13,14 +13,20 @@ import click
 
 
 class NonEmptyPath(click.Path):
-    """click.Path (as `Path` unless `path_type` says otherwise) refusing "" with a one-line usage
-    error that names the option."""
+    """click.Path (as `Path` unless `path_type` says otherwise) refusing "" (or blanks) with a
+    one-line usage error that names the option: `-o '' is empty: ...`."""
 
     def __init__(self, **kwargs: Any) -> None:
         kwargs.setdefault("path_type", Path)
         super().__init__(**kwargs)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        if isinstance(value, str) and not value.strip():
-            self.fail("an empty path: give a file or folder name (e.g. out/)", param, ctx)
+        if isinstance(value, str) and not value.strip():  # job.plan's rule for the generator's -o
+            if isinstance(param, click.Option) and param.opts:
+                name = param.opts[0]
+            else:
+                name = param.human_readable_name if param is not None else "a path"
+            raise click.UsageError(
+                f"{name} {value!r} is empty: name a file or folder, e.g. out/ (or . for this one)", ctx
+            )
         return super().convert(value, param, ctx)
