@@ -18,6 +18,7 @@ The runs use test_sweep.py's scene (its simulator is shared through the test cac
 
 from __future__ import annotations
 
+import contextlib
 import os
 import resource
 import shutil
@@ -43,22 +44,44 @@ VARY = "initial.theta[1]=0,0.05"
 FIXTURE = [HealthCheck.function_scoped_fixture]
 
 
-def _cli(*arguments: str, env: dict[str, str] | None = None, timeout: float = 60, limit: int | None = None):
+def _cli(
+    *arguments: str, env: dict[str, str] | None = None, timeout: float = 60, limit: int | None = None
+) -> subprocess.CompletedProcess[str]:
     """`python -m ipgen ARGUMENTS` in a subprocess (its own interpreter: what a user sees,
-    tracebacks printed at exit included), under an address-space limit of `limit` bytes."""
+    tracebacks printed at exit included) in a session of its own, under an address-space limit
+    of `limit` bytes; past `timeout` the whole session is killed (a sweep that does not stop has
+    worker processes too) and the result is a failure with the stderr so far."""
 
     def limited() -> None:
         if limit is not None:
             resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
-    return subprocess.run(
+    process = subprocess.Popen(
         [sys.executable, "-m", "ipgen", *arguments],
-        capture_output=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
         text=True,
-        timeout=timeout,
         env={**os.environ, **(env or {})},
         preexec_fn=limited,
+        start_new_session=True,
     )
+    try:
+        out, err = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _end_session(process)
+        out, err = "", f"still running after {timeout} s"
+    finally:
+        _end_session(process)
+    return subprocess.CompletedProcess(process.args, process.returncode, out, err)
+
+
+def _end_session(process: subprocess.Popen) -> None:
+    """Kill what is left of the session `process` leads (its workers too): a test that fails
+    never leaves processes behind."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(process.pid, signal.SIGKILL)
+    with contextlib.suppress(subprocess.TimeoutExpired, ValueError):
+        process.communicate(timeout=5)
 
 
 def _one_line(stderr: str) -> bool:
@@ -312,7 +335,7 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
         [sys.executable, "-m", "ipgen", "sweep", str(scene), "-o", str(out), "--jobs", "2",
          "--vary", "initial.theta[1]=-0.3:0.3:400"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        env={**os.environ, "TMPDIR": str(scratch)},
+        env={**os.environ, "TMPDIR": str(scratch)}, start_new_session=True,
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 120  # the first call may compile the simulator
@@ -321,19 +344,17 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
             if table.exists() and table.read_text().count("\n") > 2:
                 break
             time.sleep(0.05)
-        assert process.poll() is None, process.communicate()[1][-2000:]
+        assert process.poll() is None, "the sweep ended before it could be interrupted"
         assert list(scratch.glob("ipgen-sweep.*")), "the scratch folder is not under $TMPDIR"
         children = _children(process.pid)
-        process.send_signal(number)
+        process.send_signal(number)  # to the command alone, as `timeout` does
         _, err = process.communicate(timeout=30)
+        leftover = [pid for pid in children if _alive(pid)]
     finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+        _end_session(process)  # whatever the outcome, nothing of the sweep is left running
     assert process.returncode == 128 + number and "Traceback" not in err, err[-2000:]
     assert "interrupted" in err and not list(scratch.glob("ipgen-sweep.*"))
-    time.sleep(0.2)
-    assert not [pid for pid in children if _alive(pid)], "worker processes outlived the sweep"
+    assert not leftover, "worker processes outlived the sweep"
 
 
 def _children(pid: int) -> list[int]:
