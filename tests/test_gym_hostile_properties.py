@@ -21,7 +21,7 @@ from decimal import Decimal
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 pytest.importorskip("gymnasium")
@@ -69,6 +69,13 @@ def _scene_accepts_resolution(value: float) -> bool:
     state=st.one_of(st.none(), STATES),
     actions=st.lists(st.floats(-1, 1), min_size=1, max_size=5),
 )
+# issue 48's cases, and one hypothesis found (numpy's uniform overflows past 9e307)
+@example(sensors={"resolution": 5e-324}, initial_noise=0.05, state=None, actions=[0.0])
+@example(sensors={"cutoff": 1e300}, initial_noise=0.05, state=None, actions=[0.5])
+@example(sensors={"noise": 1e300}, initial_noise=0.05, state=None, actions=[0.0])
+@example(sensors={}, initial_noise=1e300, state=None, actions=[0.0])
+@example(sensors={}, initial_noise=8.98846567431158e307, state=None, actions=[0.0])
+@example(sensors={}, initial_noise=0.05, state=[math.nan] * 4, actions=[0.0])
 def test_accepted_options_never_give_a_non_finite_observation(
     sensors: dict, initial_noise: float, state: list[float] | None, actions: list[float]
 ) -> None:
@@ -119,6 +126,8 @@ ACTIONS = st.one_of(
 
 @settings(max_examples=80, deadline=None)
 @given(action=ACTIONS, vector=st.booleans())
+@example(action=[], vector=False)
+@example(action={}, vector=False)
 def test_any_action_steps_or_is_a_gym_error(action: object, vector: bool) -> None:
     system, row = paper_system("rotary", 1)
     spec = spec_for(system, row, "balance")
