@@ -135,6 +135,29 @@ def writing(path: Path) -> Iterator[None]:
         ) from e
 
 
+@contextlib.contextmanager
+def replacing(path: Path) -> Iterator[Path]:
+    """A temporary path beside `path` to write to; renamed onto `path` when the block ends, removed
+    if it fails or is interrupted (nothing half-written), OSErrors as `writing` reports them. For
+    outputs a command rewrites as it goes, outside `write_files`' marker rules (a sweep's table,
+    scores and plots)."""
+    path = Path(path)
+    with writing(path):
+        fd, name = _temporary_file(path.parent)
+        os.close(fd)
+        temporary = Path(name)
+        try:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)  # the mode an ordinary new file gets, not mkstemp's 0600
+            yield temporary
+            os.replace(temporary, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+            raise
+
+
 @dataclass(frozen=True)
 class _Planned:
     path: Path

@@ -6,7 +6,6 @@ OUT/ receives runs.csv (`table.py`), scores.json and scores.md (`scores.py`) and
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
@@ -232,9 +231,8 @@ def _write_outputs(
         ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed)),
         ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows))),
     ):
-        partial = out / f".{name}.partial"
-        partial.write_text(text)
-        os.replace(partial, out / name)
+        with files.replacing(out / name) as partial:
+            partial.write_text(text, encoding="utf-8")
         written.append(out / name)
     if plot:
         for s in found:

@@ -14,10 +14,10 @@ import csv
 import hashlib
 import json
 import math
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ipgen.common import files
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.sweeps.execute import Result, Task
 from ipgen.sweeps.spec import SweepError
@@ -244,9 +244,7 @@ class Appender:
 
 def write_all(path: Path, rows: list[dict[str, str]]) -> None:
     """Write runs.csv with `rows` (a temporary file renamed into place)."""
-    partial = path.with_name(f".{path.name}.partial")
-    with partial.open("w", newline="") as f:
+    with files.replacing(path) as partial, partial.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=COLUMNS, lineterminator="\n")
         writer.writeheader()
         writer.writerows(rows)
-    os.replace(partial, path)
