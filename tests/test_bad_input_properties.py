@@ -334,6 +334,8 @@ def test_class6_limits_are_the_same_in_python_and_cpp() -> None:
         "kRtolMin": limits.RTOL_MIN,
         "kMessageValueChars": limits.MESSAGE_VALUE_CHARS,
         "kMessagePathChars": limits.MESSAGE_PATH_CHARS,
+        "kMaxDelayPeriods": limits.MAX_DELAY_PERIODS,
+        "kDelayTolerance": limits.DELAY_TOLERANCE,
     }
 
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+import errno
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -10,6 +13,7 @@ from typing import TYPE_CHECKING
 import click
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
+from ipgen.command.paths import NonEmptyPath
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.common.install import install_hint
 from ipgen.common.safetext import abbreviate, shown_path
@@ -89,7 +93,7 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
     "-o",
     "--output",
     "directory",
-    type=click.Path(),
+    type=NonEmptyPath(path_type=str),
     default=None,
     metavar="DIR",
     help="Folder for the header; created if needed. Required unless --describe.",
@@ -109,7 +113,7 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 )
 @click.option(
     "--scene",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     default=None,
     metavar="FILE",
     help="Take the system from a scene file (scenes/*.toml) instead of --type/--links, and also "
@@ -334,20 +338,20 @@ liblapack-dev).
 
 
 @cli.command("run", help=RUN_HELP, context_settings=CONTEXT)
-@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@click.argument("scene", type=NonEmptyPath(), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
     "-o",
     "--output",
     "directory",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     metavar="OUT",
     help="Folder for the results.",
 )
 @click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
 @click.option(
     "--cache-dir",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     default=None,
     metavar="DIR",
     help="Where compiled simulators are kept [default: $IPGEN_CACHE_DIR, else $XDG_CACHE_HOME/ipgen, "
@@ -446,12 +450,12 @@ def _not_the_input(target: Path, csv: Path) -> Path:
 
 
 @cli.command("plot", context_settings=CONTEXT)
-@click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
+@click.argument("csv", type=NonEmptyPath(), metavar="CSV")
 @click.option(
     "-o",
     "--output",
     "png",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     default=None,
     metavar="PNG",
     help="The picture [default: the CSV's path with .png].",
@@ -508,17 +512,17 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
 
 
 @cli.command("identify", help=IDENTIFY_HELP, context_settings=CONTEXT)
-@click.option("--scene", "scene", type=click.Path(path_type=Path), default=None, metavar="S.toml",
+@click.option("--scene", "scene", type=NonEmptyPath(), default=None, metavar="S.toml",
               help="The scene: the rig's model and the prior values.")  # fmt: skip
 @preset_option
-@click.option("--data", "data", type=click.Path(path_type=Path), required=True, multiple=True,
+@click.option("--data", "data", type=NonEmptyPath(), required=True, multiple=True,
               metavar="D.csv", help="The measurements (CSV); several for a fixed-pivot scene.")  # fmt: skip
-@click.option("--validate", "validate", type=click.Path(path_type=Path), multiple=True, metavar="V.csv",
+@click.option("--validate", "validate", type=NonEmptyPath(), multiple=True, metavar="V.csv",
               help="Fixed-pivot scenes: recordings held out of the fit, to score it on.")  # fmt: skip
 @click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="HZ", help="Fixed-pivot scenes: the low-pass cutoff [default: 6 Hz].")  # fmt: skip
 @click.option("--free", "free", default=None, metavar="P1,P2,...", help="The parameters to fit.")
-@click.option("-o", "--output", "directory", type=click.Path(path_type=Path), metavar="OUT",
+@click.option("-o", "--output", "directory", type=NonEmptyPath(), metavar="OUT",
               help="Folder for the results.")  # fmt: skip
 @click.option("--equation-error-only", is_flag=True,
               help="Skip the output-error refinement (faster, biased by noise).")  # fmt: skip
@@ -594,9 +598,9 @@ def _identify_fixed(
 
 
 @cli.command("animate", context_settings=CONTEXT)
-@click.argument("csv", type=click.Path(path_type=Path), metavar="CSV")
+@click.argument("csv", type=NonEmptyPath(), metavar="CSV")
 @click.option(
-    "-o", "--output", "gif", type=click.Path(path_type=Path), default=None, metavar="GIF",
+    "-o", "--output", "gif", type=NonEmptyPath(), default=None, metavar="GIF",
     help="The animation [default: the CSV's path with .gif].",
 )  # fmt: skip
 @click.option(
@@ -706,7 +710,31 @@ def run(argv: list[str] | None = None) -> int:
     except (KeyboardInterrupt, click.Abort):
         click.echo("ipgen: interrupted; no file was written", err=True)
         return 130
+    except OSError as e:
+        if e.errno not in STDOUT_ERRNOS:
+            raise
+        return _stdout_failed(e)
     return status if isinstance(status, int) else 0
+
+
+# What writing to standard output meets when it cannot take the text: a full device (> /dev/full),
+# a closed pipe (| head), an I/O error, a quota.
+STDOUT_ERRNOS = frozenset({errno.ENOSPC, errno.EPIPE, errno.EIO, errno.EDQUOT, errno.EBADF})
+
+
+def _stdout_failed(error: OSError) -> int:
+    """Report that standard output could not be written, in one line on stderr, and point stdout
+    at /dev/null so that the interpreter's final flush does not print a second traceback."""
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    with contextlib.suppress(OSError):
+        click.echo(
+            f"ipgen: error: cannot write to standard output: {(error.strerror or str(error)).lower()}",
+            err=True,
+        )
+    return EXIT_USAGE
 
 
 # Longest error message printed: the values in a message are abbreviated where it is made;
@@ -719,4 +747,9 @@ def _one_line(message: str) -> str:
 
 
 def main() -> None:
-    sys.exit(run())
+    status = run()
+    try:
+        sys.stdout.flush()  # here, not at the interpreter's exit: a failure is one line, not a traceback
+    except OSError as e:
+        status = _stdout_failed(e) if e.errno in STDOUT_ERRNOS else 1
+    sys.exit(status)

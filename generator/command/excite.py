@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from ipgen.command.paths import NonEmptyPath
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.control.excitation import (
     DEFAULT_CHIRP_DURATION,
@@ -48,10 +49,10 @@ Examples:
     help=EXCITE_HELP,
     context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
 )
-@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@click.argument("scene", type=NonEmptyPath(), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
-    "-o", "--output", type=click.Path(path_type=Path), default=None, metavar="EXPERIMENT.toml",
+    "-o", "--output", type=NonEmptyPath(), default=None, metavar="EXPERIMENT.toml",
     help="The experiment scene to write (a new file; an existing one only with --force).",
 )  # fmt: skip
 @click.option(

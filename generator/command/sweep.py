@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TextIO
 
 import click
 
+from ipgen.command.paths import NonEmptyPath
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.errors import Error
 
@@ -99,6 +102,30 @@ def _duration(seconds: float) -> str:
     return f"{hours} h {minutes} min"
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the sweep is: it ends as an interruption does (workers ended,
+    scratch removed, the finished runs kept in runs.csv)."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM as `Terminated` while the sweep runs (Python's default would end the process
+    without any cleanup: the scratch folders and worker processes would stay)."""
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:  # not the main thread: nothing to install
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _criterion(spec: str) -> tuple[str, str]:
     name, equals, levels = spec.partition("=")
     if not equals:
@@ -109,10 +136,10 @@ def _criterion(spec: str) -> tuple[str, str]:
 
 
 @click.command("sweep", help=HELP, context_settings={"help_option_names": ["-h", "--help"]})
-@click.argument("scene", type=click.Path(path_type=Path), metavar="[SCENE.toml]", required=False)
+@click.argument("scene", type=NonEmptyPath(), metavar="[SCENE.toml]", required=False)
 @preset_option
 @click.option(
-    "-o", "--output", "out", type=click.Path(path_type=Path), metavar="OUT", help="Folder for the results."
+    "-o", "--output", "out", type=NonEmptyPath(), metavar="OUT", help="Folder for the results."
 )
 @click.option("--scorecard", is_flag=True, help="Run the robustness scorecard's criteria.")
 @click.option(
@@ -164,7 +191,7 @@ def _criterion(spec: str) -> tuple[str, str]:
 )
 @click.option(
     "--cache-dir",
-    type=click.Path(path_type=Path),
+    type=NonEmptyPath(),
     default=None,
     metavar="DIR",
     help="Where compiled simulators are kept [default: ipgen's cache].",
@@ -206,28 +233,29 @@ def command(
     test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel, converge)
     progress = _Progress()
     try:
-        outcome = sweep(
-            scene,
-            out,
-            scorecard_criteria=chosen,
-            vary=vary,
-            levels=dict(map(_criterion, criteria)),
-            repeat=repeat,
-            seed=seed,
-            success=test,
-            dask=dask,
-            jobs=jobs,
-            force=force,
-            cache=cache_dir,
-            progress=progress,
-        )
-    except KeyboardInterrupt:
+        with _sigterm_interrupts():
+            outcome = sweep(
+                scene,
+                out,
+                scorecard_criteria=chosen,
+                vary=vary,
+                levels=dict(map(_criterion, criteria)),
+                repeat=repeat,
+                seed=seed,
+                success=test,
+                dask=dask,
+                jobs=jobs,
+                force=force,
+                cache=cache_dir,
+                progress=progress,
+            )
+    except KeyboardInterrupt as interrupt:
         progress.close()
         click.echo(
             f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
             err=True,
         )
-        return 130
+        return 128 + int(signal.SIGTERM) if isinstance(interrupt, Terminated) else 130
     finally:
         progress.close()
     resumed = outcome.runs - outcome.ran

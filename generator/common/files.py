@@ -14,7 +14,7 @@ import io
 import os
 import tempfile
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -99,6 +99,63 @@ def prepare_directory(directory: Path) -> bool:
             f"cannot create output directory {_shown(directory)}: {_reason(e)}; pass another -o"
         ) from e
     return True
+
+
+def check_directory(directory: Path) -> None:
+    """The OutputError `prepare_directory` would meet for `directory`, if any, creating nothing:
+    checked before long work (a sweep), so that a bad -o fails first."""
+    directory = Path(directory)
+    try:
+        if directory.exists() and not directory.is_dir():
+            raise OutputError(f"output path {_shown(directory)} is a file, not a directory: pass another -o")
+        ancestor = directory
+        while not ancestor.exists() and ancestor != ancestor.parent:
+            ancestor = ancestor.parent
+        if not ancestor.is_dir():
+            raise OutputError(
+                f"cannot create output directory {_shown(directory)}: {_shown(ancestor)} is a file; "
+                "pass another -o"
+            )
+    except OSError as e:  # a name too long, ...
+        raise OutputError(
+            f"cannot create output directory {_shown(directory)}: {_reason(e)}; pass another -o"
+        ) from e
+    _probe(directory)
+
+
+@contextlib.contextmanager
+def writing(path: Path) -> Iterator[None]:
+    """Any OSError inside (a full disk, a folder removed meanwhile) as the OutputError naming the
+    file and what to do, for a command that writes as it goes (a sweep's table)."""
+    try:
+        yield
+    except OSError as e:
+        raise OutputError(
+            f"cannot write {_shown(Path(e.filename) if e.filename else path)}: {_reason(e)}; pass another -o"
+        ) from e
+
+
+@contextlib.contextmanager
+def replacing(path: Path) -> Iterator[Path]:
+    """A temporary path beside `path` to write to; renamed onto `path` when the block ends, removed
+    if it fails or is interrupted (nothing half-written), OSErrors as `writing` reports them. For
+    outputs a command rewrites as it goes, outside `write_files`' marker rules (a sweep's table,
+    scores and plots)."""
+    path = Path(path)
+    with writing(path):
+        fd, name = _temporary_file(path.parent)
+        os.close(fd)
+        temporary = Path(name)
+        try:
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)  # the mode an ordinary new file gets, not mkstemp's 0600
+            yield temporary
+            os.replace(temporary, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                temporary.unlink()
+            raise
 
 
 @dataclass(frozen=True)

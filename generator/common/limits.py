@@ -28,6 +28,10 @@ Why these values:
   stack arrays of a fixed capacity (`IPGEN_MAX_DOF` - 1 in cpp/include/ipgen_model.h: no
   allocation per right-hand side); a larger chain's header still compiles into a simulator of its
   own (CMake's `ipgen_add_simulator`).
+- `MAX_DELAY_PERIODS`, `DELAY_TOLERANCE`: sensors.delay is a whole number k of sampling periods,
+  k <= 1e6 (a longer delay is a unit slip and would hold a queue of that many outputs), with
+  k = round(delay / period) and |delay − k · period| <= DELAY_TOLERANCE · max(delay, period).
+  The scene layer (`experiment.loop`) and the simulator (`ipsim/scene.hpp`) apply this one rule.
 - `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
   this many characters, in the middle.
 """
@@ -45,6 +49,8 @@ MAX_STEM_LENGTH = 100
 FOLD_MIN_EXPONENT = -30
 FOLD_MAX_EXPONENT = 30
 FOLD_MAX_DIGITS = 30
+MAX_DELAY_PERIODS = 1_000_000
+DELAY_TOLERANCE = 1e-9
 MESSAGE_VALUE_CHARS = 60
 MESSAGE_PATH_CHARS = 240
 

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from ipgen.estimation.checks import covariance_matrix, measured_indices, sampling_period
 from ipgen.estimation.kalman import Kalman
+from ipgen.estimation.measurement import cutoff_problem
 from ipgen.estimation.pendulum import EstimationError, as_model, equilibrium_of
 
 if TYPE_CHECKING:
@@ -97,6 +98,9 @@ class DerivativeFilter(Estimator):
         cutoff_ = float(cutoff)
         if not (math.isfinite(cutoff_) and cutoff_ > 0):
             raise EstimationError(f"cutoff = {cutoff!r}: expected a frequency > 0 rad/s (e.g. 50)")
+        problem = cutoff_problem(cutoff_, self.period)
+        if problem:
+            raise EstimationError(f"cutoff = {cutoff!r}: {problem}")
         self.cutoff = cutoff_
         self.pole = math.exp(-cutoff_ * self.period)  # a = e^{−ωc T}
         self.reset()

@@ -37,6 +37,16 @@ def noise_problem(sigma: float) -> str | None:
     return None
 
 
+def cutoff_problem(cutoff: float, period: float) -> str | None:
+    """Why a derivative filter's cutoff ωc [rad/s] > 0 cannot be used at sampling period
+    `period` [s], or None: at most the Nyquist frequency π / period (a filter with ωc above the
+    frequencies the samples carry is no filter, and ωc = 1e300 overflows its rates)."""
+    nyquist = math.pi / period
+    if not cutoff <= nyquist:
+        return f"must be <= π / period = {nyquist:.6g} rad/s (the Nyquist frequency of the sampling)"
+    return None
+
+
 def per_coordinate(name: str, value: float | Sequence[float], count: int) -> tuple[float, ...]:
     """`value` as one finite number >= 0 per measured coordinate (a scalar is repeated)."""
     values = [value] * count if isinstance(value, int | float) else list(value)

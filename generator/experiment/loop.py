@@ -9,15 +9,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from ipgen.common import limits
+from ipgen.estimation.measurement import cutoff_problem
 from ipgen.model.coordinates import Coordinates
 from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
 from ipgen.scene.sensors import EstimatorTable, SensorsTable
 
 DEFAULT_CUTOFF = 50.0  # rad/s: Quanser's 50 s/(s + 50)
-# A delay is a whole number of periods to this relative tolerance.
-DELAY_TOLERANCE = 1e-9
-MAX_DELAY_PERIODS = 10**6  # a longer delay is a unit slip (and would hold a queue of that many outputs)
+# A delay is a whole number of periods, at most MAX_DELAY_PERIODS (the simulator's rule too).
+DELAY_TOLERANCE = limits.DELAY_TOLERANCE
+MAX_DELAY_PERIODS = limits.MAX_DELAY_PERIODS
 
 
 class SensorsError(Exception):
@@ -128,7 +130,7 @@ def loop(
         )
     delay = 0.0 if table.delay is None else float(table.delay)
     assert period is not None
-    if delay / period > MAX_DELAY_PERIODS:
+    if not delay / period < MAX_DELAY_PERIODS + 0.5:  # so round() below is at most MAX_DELAY_PERIODS
         raise SensorsError(
             f"sensors.delay = {format_number(delay)} s is more than {MAX_DELAY_PERIODS:,} periods of "
             f"{format_number(period)} s: is it in seconds?"
@@ -153,6 +155,13 @@ def loop(
     cutoff = None
     if kind == "filter":
         cutoff = DEFAULT_CUTOFF if estimator is None or estimator.cutoff is None else float(estimator.cutoff)
+        problem = cutoff_problem(cutoff, period)
+        if problem:
+            default = estimator is None or estimator.cutoff is None
+            raise SensorsError(
+                f"estimator.cutoff = {format_number(cutoff)} rad/s{' (the default)' if default else ''} "
+                f"{problem}: give a lower estimator.cutoff, or a shorter period"
+            )
     result = Loop(
         sensors=True,
         measured=measured,

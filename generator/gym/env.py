@@ -13,6 +13,8 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from ipgen.common.safetext import abbreviate
+from ipgen.gym.checks import GymError
 from ipgen.gym.kernel import load
 from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
@@ -34,6 +36,45 @@ def action_space(spec: EnvSpec) -> spaces.Space:
     if spec.task == "cartpole":
         return spaces.Discrete(2)
     return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+
+
+def actions_of(actions: Any, count: int) -> np.ndarray:
+    """`actions` as `count` float64 numbers, not NaN (the kernel clips them to ±1); otherwise the
+    GymError (a ValueError) saying what to pass."""
+    try:
+        given = np.asarray(actions, dtype=np.float64).reshape(count)
+    except (TypeError, ValueError):
+        given = None
+    if given is None or np.isnan(given).any():
+        raise GymError(
+            f"action {abbreviate(repr(actions))}: expected {count} number{'s' if count > 1 else ''} "
+            "(not NaN), e.g. an element of env.action_space"
+        )
+    return given
+
+
+def check_observation(obs: np.ndarray) -> None:
+    """A GymError unless every entry of the observation(s) at reset is finite: a state or option
+    so large that its observation overflows is never handed out as valid."""
+    if not np.isfinite(obs).all():
+        raise GymError(
+            "reset gave a non-finite observation: the initial state (options['state'], initial_noise) "
+            "or the sensors' noise is too large for float32; give smaller values"
+        )
+
+
+def initial_state_of(value: Any, size: int) -> np.ndarray:
+    """options['state'] as `size` finite float64 numbers, or the GymError saying what to pass."""
+    try:
+        state = np.asarray(value, dtype=np.float64).reshape(size)
+    except (TypeError, ValueError):
+        state = None
+    if state is None or not np.isfinite(state).all():
+        raise GymError(
+            f"options['state'] = {abbreviate(repr(value))}: expected {size} finite numbers "
+            "(θ0..θn, then θ̇0..θ̇n)"
+        )
+    return state
 
 
 class PendulumEnv(gymnasium.Env):
@@ -87,24 +128,33 @@ class PendulumEnv(gymnasium.Env):
         self.params[0] = self.ipgen_spec.draw(self.np_random, options.get("params"))
         start = self.ipgen_spec.initial_state(self.np_random)
         if "state" in options:
-            start = np.asarray(options["state"], dtype=np.float64).reshape(self.state.shape[1])
+            start = initial_state_of(options["state"], self.state.shape[1])
         self.state[0] = start
         if self.loop is None:
             self.kernel.observe(self.state, self.cfg, self.obs)
         else:
             self.loop.reset(self._row, self.state, [self.np_random], self.obs)
+        check_observation(self.obs)
         return self._obs_row.copy(), {"params": self.ipgen_spec.params_info(self.params[0])}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._discrete:
             self._action.value = 1.0 if action == 1 else -1.0
         else:
-            self._action.value = action[0] if hasattr(action, "__len__") else action
+            try:  # the fast path: a number, or a sequence of one number
+                value = action[0] if hasattr(action, "__len__") else action
+                self._action.value = value
+            except (IndexError, KeyError, TypeError, ValueError):
+                value = actions_of(action, 1)[0]  # raises the GymError saying what to pass
+                self._action.value = value
+            if value != value:  # NaN
+                actions_of(action, 1)
         if self.loop is not None:  # the rig's sensors: the delayed, noisy action, then the measurement
             rngs = [self.np_random]
             self._action.value = float(self.loop.apply(self._row, np.array([self._action.value]), rngs)[0])
             self._call()
-            self.loop.observe(self._row, self.state, rngs, self.obs)
+            if len(self.loop.observe(self._row, self.state, rngs, self.obs)):
+                self._ended.value = 2  # a non-finite observation: the episode failed
         else:
             self._call()
         ended = self._ended.value

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipgen.estimation.measurement import cutoff_problem, noise_problem, resolution_problem
 from ipgen.gym.checks import GymError, is_number
 
 KEYS = ("resolution", "noise", "delay", "rates", "cutoff", "drive_noise")
@@ -54,14 +55,22 @@ class Sensing:
     def from_options(cls, options: Mapping[str, object], type: str, dof: int, dt: float) -> Sensing:
         """From `sensors={...}`: resolution (counts per revolution, per metre for a cart;
         0 = exact; default 2048), noise, delay [s] (a whole multiple of dt), rates ("filter" or
-        "difference"), cutoff [rad/s], drive_noise (fraction of u_max)."""
+        "difference"), cutoff [rad/s], drive_noise (fraction of u_max). The values obey a
+        scene's rules ([sensors], [estimator], `ipgen.estimation.measurement`): a resolution is 0
+        or >= 1 count, a noise at most 1e100, the cutoff at most the Nyquist frequency π / dt."""
         unknown = sorted(set(options) - set(KEYS))
         if unknown:
             raise GymError(f"sensors has no key {unknown[0]!r:.40}: choose from {', '.join(KEYS)}")
         resolution = options.get("resolution", 2048)
         entries = resolution if isinstance(resolution, list | tuple) else [resolution]
-        if not (len(entries) in (1, dof) and all(is_number(c) and 0 <= c < math.inf for c in entries)):
-            raise GymError(f"sensors.resolution must be counts >= 0 (0: exact), one number or {dof} numbers")
+        if not (
+            len(entries) in (1, dof)
+            and all(is_number(c) and 0 <= c < math.inf and not resolution_problem(c) for c in entries)
+        ):
+            raise GymError(
+                f"sensors.resolution must be 0 (exact) or >= 1 count per revolution or metre, "
+                f"one number or {dof} numbers"
+            )
         counts = np.broadcast_to(np.asarray(entries, dtype=np.float64), (dof,)).copy()
         per_unit = np.array([1.0 if (i == 0 and type == "classical") else 2 * math.pi for i in range(dof)])
         quantum = np.where(counts > 0, per_unit / np.where(counts > 0, counts, 1.0), 0.0)
@@ -78,6 +87,13 @@ class Sensing:
         if not all(is_number(v) and 0 <= v < math.inf for v in numbers.values()) or not numbers["cutoff"]:
             raise GymError("sensors.noise and drive_noise must be numbers >= 0 and cutoff > 0, all finite")
         noise, cutoff, drive_noise = (float(numbers[k]) for k in ("noise", "cutoff", "drive_noise"))  # type: ignore[arg-type]
+        for key, value in (("noise", noise), ("drive_noise", drive_noise)):
+            problem = noise_problem(value)
+            if problem:
+                raise GymError(f"sensors.{key} = {value!r:.40} {problem}")
+        problem = cutoff_problem(cutoff, dt)
+        if problem:
+            raise GymError(f"sensors.cutoff = {cutoff!r:.40} {problem}: give a lower cutoff or a shorter dt")
         return cls(quantum, noise, steps, str(rates), cutoff, drive_noise)
 
     def measure(self, angles: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
@@ -116,9 +132,10 @@ class MeasuredLoop:
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray
     ) -> None:
         """Start `rows` (indices) over from `state` (their rows): first measurement, zero rates."""
-        y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-        self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
-        obs[rows] = self.layout(y, self.rates[rows])
+        with np.errstate(over="ignore", invalid="ignore"):  # checked for finiteness by the caller
+            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
+            obs[rows] = self.layout(y, self.rates[rows])
 
     def apply(self, rows: np.ndarray, actions: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         """The actions the model sees now in `rows`: `delay_steps` old, plus drive noise (before
@@ -134,12 +151,16 @@ class MeasuredLoop:
 
     def observe(
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray
-    ) -> None:
-        """Measure `rows` after a step and write (y0, sin/cos of each y_i, rates) into obs."""
-        y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-        self.rates[rows] = self.sensing.rate(y, self.previous[rows], self.rates[rows], self.dt)
-        self.previous[rows] = y
-        obs[rows] = self.layout(y, self.rates[rows])
+    ) -> np.ndarray:
+        """Measure `rows` after a step and write (y0, sin/cos of each y_i, rates) into obs; the
+        rows (of `rows`) whose observation is not finite, which the caller ends as failed."""
+        with np.errstate(over="ignore", invalid="ignore"):  # a non-finite row is returned, not warned
+            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.rates[rows] = self.sensing.rate(y, self.previous[rows], self.rates[rows], self.dt)
+            self.previous[rows] = y
+            observed = self.layout(y, self.rates[rows])
+        obs[rows] = observed
+        return rows[~np.isfinite(observed).all(axis=1)]
 
     def layout(self, y: np.ndarray, rates: np.ndarray) -> np.ndarray:
         """The observation's layout of the measured values (as the exact one's)."""

@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 # The parameter groups of one row, in the kernel's order (each has dof entries), then g and gain.
 GROUPS = ("m", "l", "delta", "com", "J", "J_axial", "tip")
 TASKS = ("balance", "swingup", "cartpole")
+FLOAT32_MAX = float(np.finfo(np.float32).max)  # the observation's largest entry
 
 
 @dataclass(frozen=True)
@@ -82,8 +83,11 @@ class EnvSpec:
             raise GymError(f"substeps = {self.substeps!r:.40} must be an integer in 1..10000")
         if not (is_integer(self.max_episode_steps) and self.max_episode_steps >= 1):
             raise GymError(f"max_episode_steps = {self.max_episode_steps!r:.40} must be an integer >= 1")
-        if not (is_number(self.initial_noise) and 0 <= self.initial_noise < math.inf):
-            raise GymError(f"initial_noise = {self.initial_noise!r:.40} must be a finite number >= 0")
+        if not (is_number(self.initial_noise) and 0 <= self.initial_noise <= FLOAT32_MAX):
+            raise GymError(
+                f"initial_noise = {self.initial_noise!r:.40} must be a number >= 0 and at most "
+                f"{FLOAT32_MAX:.3g} (the observation is float32)"
+            )
         for key, width in self.spread.items():
             if key not in (*GROUPS, "g"):
                 raise GymError(f"spread names {key!r:.40}: choose from {', '.join((*GROUPS, 'g'))}")

@@ -14,7 +14,8 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from ipgen.gym.env import action_space, observation_space
+from ipgen.gym.budget import check_num_envs
+from ipgen.gym.env import action_space, actions_of, check_observation, observation_space
 from ipgen.gym.kernel import load
 from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
@@ -40,13 +41,11 @@ class PendulumVectorEnv(VectorEnv):
     metadata: ClassVar[dict[str, Any]] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(self, spec: EnvSpec, num_envs: int = 1) -> None:
-        if not (isinstance(num_envs, int) and num_envs >= 1):
-            from ipgen.gym.checks import GymError
-
-            raise GymError(f"num_envs = {num_envs!r:.40} must be an integer >= 1")
+        single = observation_space(spec)
+        check_num_envs(num_envs, spec.system.dof, single.shape[0])  # before anything is allocated
         self.ipgen_spec = spec
         self.num_envs = num_envs
-        self.single_observation_space = observation_space(spec)
+        self.single_observation_space = single
         self.single_action_space = action_space(spec)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
@@ -101,20 +100,22 @@ class PendulumVectorEnv(VectorEnv):
             self.kernel.observe(self.state, self.cfg, self.obs)
         else:
             self.loop.reset(np.arange(self.num_envs), self.state, self.generators, self.obs)
+        check_observation(self.obs)
         return self.obs.copy(), self._params_info(np.ones(self.num_envs, dtype=bool))
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        given = np.asarray(actions)
+        given = actions_of(actions, self.num_envs)
         if self.ipgen_spec.task == "cartpole":
-            self.actions[:] = np.where(given.reshape(self.num_envs) == 1, 1.0, -1.0)
+            self.actions[:] = np.where(given == 1, 1.0, -1.0)
         else:
-            self.actions[:] = given.reshape(self.num_envs)
+            self.actions[:] = given
         if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
             active = np.flatnonzero(~self.needs_reset)
             self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)
         self._kernel_step()
         if self.loop is not None:
-            self.loop.observe(active, self.state, self.generators, self.obs)
+            not_finite = self.loop.observe(active, self.state, self.generators, self.obs)
+            self.ended[not_finite] = 2  # a non-finite observation: that episode failed
         self.elapsed += 1
         terminations = self.ended.astype(bool)
         truncations = self.elapsed >= self.ipgen_spec.max_episode_steps

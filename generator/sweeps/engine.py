@@ -19,6 +19,9 @@ from ipgen.sweeps.success import Success
 
 DASK_INSTALL = install_hint("dask")
 CONNECT_TIMEOUT = "5s"
+CONNECT_SECONDS = 5.0  # the whole of reaching the scheduler: connection, handshake, first answer
+# Schemes of a scheduler another process can reach (inproc:// is within one process only).
+SCHEMES: tuple[str, ...] = ("tcp", "tls", "ws", "wss", "ucx")
 
 
 def default_jobs() -> int:
@@ -29,6 +32,78 @@ def default_jobs() -> int:
         return os.cpu_count() or 1
 
 
+def check_address(address: str) -> str:
+    """`address` as a Dask scheduler address SCHEME://HOST:PORT (tcp:// when no scheme is
+    written), or the one-line SweepError saying what to write; checked before anything runs."""
+    text = address.strip()
+    if text and "://" not in text:
+        text = f"tcp://{text}"
+    scheme, _, location = text.partition("://")
+    host, colon, port = location.rpartition(":")
+    number = int(port) if port.isascii() and port.isdigit() else 0
+    if scheme not in SCHEMES or not colon or not host.strip("[]") or not 0 < number < 65536:
+        raise SweepError(
+            f"--dask {abbreviate(address)!r} is not a scheduler address: write SCHEME://HOST:PORT with "
+            f"SCHEME one of {', '.join(SCHEMES)}, e.g. tcp://10.0.0.5:8786 (docs/sweep.md)"
+        )
+    return text
+
+
+def _unreachable(address: str, why: str) -> SweepError:
+    return SweepError(
+        f"--dask {abbreviate(address)}: cannot reach a Dask scheduler there "
+        f"({abbreviate(' '.join(why.split()), 120)}); start one with `dask scheduler` (docs/sweep.md)"
+    )
+
+
+def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
+    """A SweepError unless a Dask scheduler answers at `address` within `seconds` in all
+    (connection, handshake and its identity): a listener that accepts and never answers, or no
+    listener, is found here, before a `Client` (and its background loop) exists."""
+    import asyncio
+
+    from distributed.core import rpc
+    from distributed.security import Security
+
+    async def identity() -> None:
+        args = Security().get_connection_args("client")
+        async with rpc(address, connection_args=args, timeout=seconds) as scheduler:
+            await scheduler.identity()
+
+    def answered() -> None:  # in a thread of its own: the caller may be inside an event loop (Jupyter)
+        asyncio.run(asyncio.wait_for(identity(), seconds))
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    try:
+        with ThreadPoolExecutor(max_workers=1) as thread:
+            thread.submit(answered).result()
+    except TimeoutError:
+        raise _unreachable(address, f"no answer within {seconds:g} s") from None
+    except (OSError, ValueError, RuntimeError, TypeError) as error:  # refused, unknown host, bad TLS
+        raise _unreachable(address, str(error) or type(error).__name__) from None
+
+
+@contextlib.contextmanager
+def _local(workers: int) -> Iterator[Executor]:
+    """A process pool of `workers`; interrupted (or failed), its queued batches are cancelled and
+    its workers ended at once (a batch in progress is not waited for: its runs are in no table)."""
+    pool = ProcessPoolExecutor(max_workers=workers)
+    try:
+        yield pool
+    except BaseException:
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                process.terminate()
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AttributeError, AssertionError):
+                process.join(timeout=5)
+        raise
+    pool.shutdown(wait=True)
+
+
 @contextlib.contextmanager
 def executor(dask: str | None = None, jobs: int | None = None) -> Iterator[tuple[Executor, int]]:
     """(executor, its number of workers): Dask's for a scheduler address, else a process pool."""
@@ -36,21 +111,19 @@ def executor(dask: str | None = None, jobs: int | None = None) -> Iterator[tuple
         raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
     if dask is None:
         workers = jobs or default_jobs()
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with _local(workers) as pool:
             yield pool, workers
         return
+    address = check_address(dask)
     try:
         from distributed import Client
     except ImportError:
         raise SweepError(f"--dask needs Dask's distributed scheduler: {DASK_INSTALL}") from None
+    probe(address)
     try:
-        client = Client(dask, timeout=CONNECT_TIMEOUT, set_as_default=False)
+        client = Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as error:
-        raise SweepError(
-            f"--dask {abbreviate(dask)}: cannot reach a Dask scheduler there "
-            f"({abbreviate(' '.join(str(error).split()), 120)}); "
-            "start one with `dask scheduler` (docs/sweep.md)"
-        ) from None
+        raise _unreachable(dask, str(error)) from None
     try:
         workers = sum(client.nthreads().values())
         if workers == 0:

@@ -94,9 +94,23 @@ _PREPARED: dict[str, Prepared] = {}
 _LOCK = threading.Lock()
 
 
-def _scratch_root() -> str | None:
-    shm = "/dev/shm"  # a RAM disk where there is one: the cfg and CSV of a run never reach a disk
+def scratch_root() -> str | None:
+    """Where a worker's scratch folder goes: $TMPDIR when set (the user's choice, as `tempfile`
+    honours it), else the RAM disk /dev/shm where there is one (the cfg and CSV of a run never
+    reach a disk), else `tempfile`'s default (None)."""
+    if os.environ.get("TMPDIR"):
+        return None
+    shm = "/dev/shm"
     return shm if os.path.isdir(shm) and os.access(shm, os.W_OK) else None
+
+
+def release() -> None:
+    """Remove this process's scratch folders now and forget its preparations (an interrupted
+    sweep: not left to the exit, which SIGTERM would skip)."""
+    with _LOCK:
+        for prepared in _PREPARED.values():
+            shutil.rmtree(prepared.scratch, ignore_errors=True)
+        _PREPARED.clear()
 
 
 def header_text(path: Path, folder: Path) -> tuple[str, tuple[tuple[str, str], ...]]:
@@ -119,7 +133,7 @@ def prepare(source: SceneSource) -> Prepared:
         from ipgen.experiment.scene import load_scene, read_document
         from ipgen.pipeline.simulator import build
 
-        scratch = Path(tempfile.mkdtemp(prefix="ipgen-sweep.", dir=_scratch_root()))
+        scratch = Path(tempfile.mkdtemp(prefix="ipgen-sweep.", dir=scratch_root()))
         atexit.register(shutil.rmtree, scratch, ignore_errors=True)
         path = scratch / f"{source.stem}.toml"
         path.write_text(source.text)

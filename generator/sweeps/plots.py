@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from ipgen.common import files
 from ipgen.sweeps.scores import CriterionScore
 from ipgen.sweeps.success import Success
 
@@ -25,9 +26,8 @@ def _pyplot():
 
 
 def _save(figure, path: Path) -> Path:
-    partial = path.with_name(f".{path.stem}.partial.png")
-    figure.savefig(partial, dpi=110)
-    partial.replace(path)
+    with files.replacing(path) as partial:
+        figure.savefig(partial, dpi=110, format="png")
     return path
 
 

@@ -6,17 +6,18 @@ OUT/ receives runs.csv (`table.py`), scores.json and scores.md (`scores.py`) and
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from ipgen.common import files
 from ipgen.common.safetext import shown_path
-from ipgen.sweeps import engine, plots, scorecard, table
+from ipgen.sweeps import engine, execute, plots, scorecard, table
+from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scores as scoring
 from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
-from ipgen.sweeps.spec import Criterion, SweepError, grid, parse_vary
+from ipgen.sweeps.spec import Criterion, SweepError, check_total, grid, parse_vary
 from ipgen.sweeps.success import Success
 
 MAX_SCENE_CHARS = 1_000_000
@@ -54,8 +55,9 @@ def plan(criteria: list[Criterion], seed: int, scene_for_pulses: object = None) 
 
 
 def _check_out(out: Path, force: bool) -> None:
-    if out.exists() and not out.is_dir():
-        raise SweepError(f"-o {shown_path(out)} is a file: name a folder")
+    """The output policy's checks of OUT (`files.check_directory`), then: a folder with files
+    but no runs.csv is another's, written into only with `force`."""
+    files.check_directory(out)
     if out.is_dir() and any(out.iterdir()) and not (out / "runs.csv").exists() and not force:
         raise SweepError(
             f"{shown_path(out)} holds files and no runs.csv of a sweep: pass another -o, "
@@ -72,6 +74,7 @@ class Planned:
     tasks: list[Task]
     test: Success
     seed: int
+    digest: str = ""  # table.sweep_digest: every row carries it
 
     def values(self, task: Task) -> tuple[float, ...]:
         """The values of the run's level."""
@@ -126,21 +129,46 @@ def sweep(
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:
         criteria.append(grid([parse_vary(spec) for spec in vary], repeat or 1))
+    check_total(criteria)  # before the runs are planned: a bound on the work, in one line
+    _check_keys(path, nominal, criteria)
     text = path.read_text()
     if len(text) > MAX_SCENE_CHARS:
         raise SweepError(f"{shown_path(path)} is too large for a sweep")
+    if dask is not None:
+        engine.check_address(dask)
     tasks = plan(criteria, seed, nominal)
     _check_out(out, force)
-    finished = table.resumable(out / "runs.csv", tasks, force)
+    digest = table.sweep_digest(text, test)
+    finished = table.resumable(out / "runs.csv", tasks, force, digest)
     source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
-    # Generated and built once here: the workers get the header and find the simulator in the cache
-    # (forked local workers inherit this preparation).
-    prepared = prepare(source)
-    source = replace(source, model=prepared.model, header=prepared.header)
-    planned = Planned(source, criteria, tasks, test, seed)
-    with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
-        out.mkdir(parents=True, exist_ok=True)
-        return _run(planned, finished, pool, workers, out, progress, plot)
+    try:
+        # Generated and built once here: the workers get the header and find the simulator in the
+        # cache (forked local workers inherit this preparation).
+        prepared = prepare(source)
+        source = replace(source, model=prepared.model, header=prepared.header)
+        planned = Planned(source, criteria, tasks, test, seed, digest)
+        with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+            files.prepare_directory(out)
+            return _run(planned, finished, pool, workers, out, progress, plot)
+    except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
+        execute.release()  # the scratch folders now, not at exit
+        raise
+
+
+def _check_keys(path: Path, nominal: object, criteria: list[Criterion]) -> None:
+    """Every criterion's overrides applied once to the nominal scene's document: a key or an
+    index the scene cannot have (parameters.com[9] of a single pendulum) is a SweepError now,
+    not a refusal of every run. The values are judged per run, by the scene's own checks."""
+    from ipgen.experiment.scene import read_document
+
+    document = read_document(path)
+    for criterion in criteria:
+        if criterion.refused or not criterion.levels:
+            continue
+        try:
+            override.apply(document, nominal, criterion.levels[0].overrides)  # type: ignore[arg-type]
+        except SweepError as error:
+            raise SweepError(f"--vary {error}") from None
 
 
 def _run(
@@ -158,14 +186,16 @@ def _run(
     runs_csv = out / "runs.csv"
     todo = [task for task in planned.tasks if task.index not in finished]
     rows = dict(finished)
-    appender = table.Appender(runs_csv, [rows[i] for i in sorted(rows)])
+    with files.writing(runs_csv):
+        appender = table.Appender(runs_csv, [rows[i] for i in sorted(rows)])
     total = len(planned.tasks)
     if progress is not None:
         progress(len(rows), total)
 
     def done(results: list[Result]) -> None:
-        new = [table.row(result, planned.values(result.task)) for result in results]
-        appender.add(new)
+        new = [table.row(result, planned.values(result.task), planned.digest) for result in results]
+        with files.writing(runs_csv):
+            appender.add(new)
         for result, written in zip(results, new, strict=True):
             rows[result.task.index] = written
         if progress is not None:
@@ -179,10 +209,11 @@ def _run(
         appender.close()
     seconds = time.perf_counter() - started
     ordered = [rows[i] for i in sorted(rows)]
-    table.write_all(runs_csv, ordered)
     found = scoring.score(planned.criteria, ordered)
-    files = _write_outputs(out, planned.source.stem, planned, found, ordered, plot)
-    return Outcome(files, found, scoring.total(found), len(ordered), len(todo), workers, seconds, ordered)
+    with files.writing(out):
+        table.write_all(runs_csv, ordered)
+        written = _write_outputs(out, planned.source.stem, planned, found, ordered, plot)
+    return Outcome(written, found, scoring.total(found), len(ordered), len(todo), workers, seconds, ordered)
 
 
 def _write_outputs(
@@ -195,24 +226,23 @@ def _write_outputs(
 ) -> list[Path]:
     """scores.json, scores.md and the PNGs; the files written (runs.csv first)."""
     total = scoring.total(found)
-    files = [out / "runs.csv"]
+    written = [out / "runs.csv"]
     for name, text in (
         ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed)),
         ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows))),
     ):
-        partial = out / f".{name}.partial"
-        partial.write_text(text)
-        os.replace(partial, out / name)
-        files.append(out / name)
+        with files.replacing(out / name) as partial:
+            partial.write_text(text, encoding="utf-8")
+        written.append(out / name)
     if plot:
         for s in found:
             if s.criterion.refused or not s.criterion.levels:
                 continue
             if len(s.criterion.axes) == 1:
-                files.append(
+                written.append(
                     plots.criterion_plot(s, rows, planned.test, out / f"criterion_{s.criterion.name}.png")
                 )
             elif len(s.criterion.axes) == 2:
-                files.append(plots.heatmap(s, out / f"{s.criterion.name}.png"))
-        files.append(plots.scores_plot(found, total, stem, out / "scores.png"))
-    return files
+                written.append(plots.heatmap(s, out / f"{s.criterion.name}.png"))
+        written.append(plots.scores_plot(found, total, stem, out / "scores.png"))
+    return written

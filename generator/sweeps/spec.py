@@ -24,6 +24,9 @@ FIXED_TABLES: tuple[str, ...] = ("system", "input", "outputs")
 # own sensors.seed.
 SEEDED_KEYS: tuple[str, ...] = ("sensors.noise", "actuator.noise", "actuator.pulses")
 MAX_LEVELS = 10_000
+# Runs of one sweep at most (levels × repetitions over every criterion): each is planned before the
+# first one starts (its task, later its row), so the total is bounded before anything is built.
+MAX_RUNS = 100_000
 _KEY = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
 
 
@@ -171,3 +174,16 @@ def grid(keys_levels: list[tuple[Key, tuple[float, ...]]], repeat: int) -> Crite
     name = "grid"
     label = " × ".join(seen)
     return Criterion(name, label, tuple(seen), levels, repeat=repeat, seeded=repeat > 1)
+
+
+def check_total(criteria: list[Criterion]) -> int:
+    """The number of runs of `criteria` (levels × repetitions of each one not refused); a
+    `SweepError` naming it and the fix when it exceeds `MAX_RUNS`, before any run is planned."""
+    total = sum(len(c.levels) * c.repeat for c in criteria if not c.refused)
+    if total > MAX_RUNS:
+        counts = ", ".join(f"{c.name} {len(c.levels)} × {c.repeat}" for c in criteria if not c.refused)
+        raise SweepError(
+            f"the sweep would make {total:,} runs ({abbreviate(counts, 120)} levels × repetitions); "
+            f"at most {MAX_RUNS:,}: give fewer levels or a smaller --repeat"
+        )
+    return total

@@ -13,6 +13,10 @@ namespace ipsim {
 inline constexpr double kMaxSamples = 1e7;
 /// Smallest relative tolerance: below it double precision cannot meet the request (rtol < 1 too).
 inline constexpr double kRtolMin = 1e-15;
+/// sensors.delay is k whole sampling periods, k = round(delay / period) <= kMaxDelayPeriods, to
+/// a relative kDelayTolerance: |delay − k · period| <= kDelayTolerance · max(delay, period).
+inline constexpr double kMaxDelayPeriods = 1e6;
+inline constexpr double kDelayTolerance = 1e-9;
 /// Longest user-supplied value quoted in a message (longer ones are cut in the middle).
 inline constexpr std::size_t kMessageValueChars = 60;
 /// Longest path quoted in a message.

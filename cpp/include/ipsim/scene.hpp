@@ -63,6 +63,7 @@
 #include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
+#include "ipsim/limits.hpp"
 #include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sensors.hpp"
@@ -276,8 +277,8 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
     const double delay = file.number("sensors.delay");
     const double periods = std::round(delay / period);
-    if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= 1e-9 * std::max(delay, period) &&
-          periods < 1e6)) {
+    if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= kDelayTolerance * std::max(delay, period) &&
+          periods <= kMaxDelayPeriods)) {
       file.fail(file.line("sensors.delay"), "sensors.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
     }
     loop.delay_periods = static_cast<long>(periods);
