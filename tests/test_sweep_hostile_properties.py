@@ -347,7 +347,7 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
     shutil.rmtree(out, ignore_errors=True)
     process = subprocess.Popen(
         [sys.executable, "-m", "ipgen", "sweep", str(scene), "-o", str(out), "--jobs", "2",
-         "--vary", "initial.theta[1]=-0.3:0.3:400"],
+         "--vary", "initial.theta[1]=-0.3:0.3:4000"],  # far from its end when signalled
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "TMPDIR": str(scratch)}, start_new_session=True,
     )  # fmt: skip
