@@ -12,25 +12,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ipgen.control.linear import ControlError, check_stabilisable, weights
+from ipgen.control.linear import ControlError, check_stabilisable, checked_vector, weights
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.fixed_equations import angle_map
 from ipgen.model.fixed_numeric import FixedModel
-
-
-def _vector(name: str, value: Sequence[float] | np.ndarray | None, size: int, what: str) -> np.ndarray:
-    """`value` as `size` finite floats (None: zeros), or a one-line ControlError."""
-    if value is None:
-        return np.zeros(size)
-    try:
-        array = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ControlError(f"{name} must be {size} numbers ({what})") from None
-    if array.size != size:
-        raise ControlError(f"{name} has {array.size} entries, expected {size} ({what})")
-    if not np.all(np.isfinite(array)):
-        raise ControlError(f"{name} must be finite")
-    return array
 
 
 def linearize_fixed(
@@ -48,9 +33,10 @@ def linearize_fixed(
     [(4, 4), (4, 1)]
     """
     n, inputs = p.links, p.inputs
-    angles = _vector("q", q, n, "one angle per link")
-    rates = _vector("qd", qd, n, "one rate per link")
-    torques = _vector("u", None if u is None else np.atleast_1d(u), inputs, "one torque per actuated joint")
+    angles = checked_vector("q", q, n, "one angle per link")
+    rates = checked_vector("qd", qd, n, "one rate per link")
+    given = None if u is None else np.atleast_1d(u)
+    torques = checked_vector("u", given, inputs, "one torque per actuated joint")
     a, b = FixedModel(p).linearize(angles, rates, torques)
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
         raise ControlError("the linear model overflows: check the parameters' units")
@@ -67,7 +53,7 @@ def fixed_equilibrium(p: FixedPendulum, equilibrium: Sequence[float] | str | Non
             raise ControlError(f"equilibrium {equilibrium!r}: expected 'upright', 'hanging' or {n} angles")
         theta = np.full(n, math.pi if equilibrium == "hanging" else 0.0)
         return np.linalg.solve(matrix, theta - zero)
-    angles = _vector("equilibrium", equilibrium, n, "one angle per link, in the chain's coordinates")
+    angles = checked_vector("equilibrium", equilibrium, n, "one angle per link, in the chain's coordinates")
     theta = matrix @ angles + zero
     for i, angle in enumerate(theta):
         if abs(math.remainder(angle, math.pi)) > 1e-9:

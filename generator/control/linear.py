@@ -207,7 +207,9 @@ def dynamics(system: System) -> Dynamics:
     )
 
 
-def _vector(name: str, value: Sequence[float] | None, size: int, what: str) -> np.ndarray:
+def checked_vector(name: str, value: Sequence[float] | None, size: int, what: str) -> np.ndarray:
+    """`value` as `size` finite floats (None: zeros), or a one-line ControlError naming `name`
+    and `what` it holds."""
     import numpy as np
 
     if value is None:
@@ -401,8 +403,8 @@ def _linearize(
     if not convention.is_canonical:
         x_user = np.concatenate(
             [
-                _vector("q", q, dof, "one angle per coordinate"),
-                _vector("qd", qd, dof, "one rate per coordinate"),
+                checked_vector("q", q, dof, "one angle per coordinate"),
+                checked_vector("qd", qd, dof, "one rate per coordinate"),
             ]
         )
         matrix, _ = convention.matrices(p.links)
@@ -411,8 +413,8 @@ def _linearize(
         return matrix @ a @ np.linalg.inv(matrix), matrix @ b
     return _linearize_canonical(
         p,
-        _vector("q", q, dof, "one angle or position per degree of freedom"),
-        _vector("qd", qd, dof, "one rate per degree of freedom"),
+        checked_vector("q", q, dof, "one angle or position per degree of freedom"),
+        checked_vector("qd", qd, dof, "one rate per degree of freedom"),
         u,
         stacklevel + 1,
     )
@@ -572,7 +574,7 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
             )
         x[1:dof] = math.pi
         return x
-    angles = _vector(
+    angles = checked_vector(
         "equilibrium", equilibrium, dof, "θ0 and one absolute angle per link; velocities are zero"
     )
     for i, angle in enumerate(angles[1:], start=1):
@@ -807,7 +809,7 @@ def _lqr(
     links, dof = p.links, p.dof
     if not convention.is_canonical and equilibrium is not None and not isinstance(equilibrium, str):
         user = np.concatenate(
-            [_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
+            [checked_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
         )
         equilibrium = list(convention.to_canonical(user, links)[:dof])
     x_eq = equilibrium_state(links, equilibrium)
