@@ -350,6 +350,7 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
          "--vary", "initial.theta[1]=-0.3:0.3:4000"],  # far from its end when signalled
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "TMPDIR": str(scratch)}, start_new_session=True,
+        preexec_fn=_interruptible,
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 120  # the first call may compile the simulator
@@ -369,6 +370,13 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
     assert process.returncode == 128 + number and "Traceback" not in err, err[-2000:]
     assert "interrupted" in err and not list(scratch.glob("ipgen-sweep.*"))
     assert not leftover, "worker processes outlived the sweep"
+
+
+def _interruptible() -> None:
+    """SIGINT at its default in the sweep's process: a shell that runs the tests in the background
+    (a CI job, `make test &`) starts them with SIGINT ignored, which the sweep would inherit and
+    keep, as a program should."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _children(pid: int) -> list[int]:
