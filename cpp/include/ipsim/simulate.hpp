@@ -243,9 +243,10 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
 
   Result result;
   if constexpr (has_mass_matrix<Model>) {  // guards.hpp: warn when M makes θ̈ untrustworthy
-    if (!provides<Model>(Feature::mass_matrix)) {
-    } else if (std::string warning = conditioning_warning<Model>(params, settings.theta); !warning.empty()) {
-      result.warnings.push_back(std::move(warning));
+    if (provides<Model>(Feature::mass_matrix)) {
+      if (std::string warning = conditioning_warning<Model>(params, settings.theta); !warning.empty()) {
+        result.warnings.push_back(std::move(warning));
+      }
     }
   }
   detail::RhsContext<Model> rhs_context;
