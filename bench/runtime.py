@@ -7,9 +7,8 @@ Measures, on this machine, in a fresh cache:
 1. the one-time build of ipsim's simulator (its CPU time: the compiler's, user + system, of
    every process `ipgen run` started), with the first model;
 2. per scene, the first `ipgen run` of a model never built before (the simulator already in the
-   cache: what a new model costs) and a cached run, as CPU time of `ipgen run` and every process it
-   starts (user + system), with and without the plot (`IPGEN_NO_PLOT` is not a thing: the PNG's
-   share is the difference to the simulator's own run, reported);
+   cache: what a new model costs) and cached runs, as CPU time of `ipgen run` and every process
+   it starts (user + system, the PNG included), and the simulator's own run alone;
 3. per scene, the simulation's own wall time, the runtime simulator against the per-model
    simulator compiled from the model's C++ header exactly as before issue 45 (same flags), on the
    same .cfg, alternating, median of N runs each; and whether the two CSVs are byte-identical
@@ -25,6 +24,7 @@ import filecmp
 import os
 import re
 import resource
+import shlex
 import statistics
 import subprocess
 import sys
@@ -94,8 +94,8 @@ def ipgen_run(scene: Path, out: Path, cache: Path) -> tuple[Cpu, str]:
 def launcher_of(summary: str) -> list[str]:
     """The launcher's command: [simulator, --model, library]."""
     launcher = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
-    words = launcher.read_text().splitlines()[1].split()
-    return [words[1].strip("'"), "--model", words[3].strip("'")]
+    words = shlex.split(launcher.read_text().splitlines()[1])  # exec PROGRAM --model LIBRARY "$@"
+    return words[1:4]
 
 
 def per_model_simulator(scene: Path, folder: Path, cache: Path) -> Path:

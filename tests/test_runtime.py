@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from cxx import require_toolchain
 from independent_model import reference
+from run_summary import simulator_of
 
 from ipgen.command.cli import run
 from ipgen.common.build_cache import cache_root
@@ -172,8 +173,7 @@ t_end = 2
 
 def launcher_parts(summary: str) -> tuple[Path, Path]:
     """(the compiled simulator, the model library) the summary's launcher runs."""
-    launcher = Path(re.search(r"Simulator (.+?) \((built in|taken from the cache)", summary).group(1))
-    words = shlex.split(launcher.read_text().splitlines()[1])
+    words = shlex.split(simulator_of(summary).read_text().splitlines()[1])
     assert words[0] == "exec" and words[2] == "--model"
     return Path(words[1]), Path(words[3])
 

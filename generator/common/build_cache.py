@@ -63,6 +63,25 @@ def chosen_compiler(variable: str, candidates: tuple[str, ...]) -> str | None:
     return wanted if wanted is not None and shutil.which(wanted) is not None else None
 
 
+def required_compiler(
+    variable: str, candidates: tuple[str, ...], language: str, package: str, error: type[Exception]
+) -> str:
+    """`chosen_compiler`, or `error` with one line naming what was tried and the Debian package."""
+    found = chosen_compiler(variable, candidates)
+    if found is None:
+        tried = ", ".join((f"${variable}", *candidates))
+        raise error(
+            f"no {language} compiler found (tried {tried}): install one (Debian: apt-get install {package})"
+        )
+    return found
+
+
+def c_compiler(error: type[Exception]) -> str:
+    """The C compiler of what ipgen compiles in C (model libraries, ipgen.gym's kernels): $CC,
+    else cc, else gcc; `error` when there is none."""
+    return required_compiler("CC", ("cc", "gcc"), "C", "gcc", error)
+
+
 def cache_root(override: Path | None = None) -> Path:
     """The cache folder: `override`, $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen."""
     if override is not None:

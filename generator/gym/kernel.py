@@ -26,7 +26,7 @@ import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest, environment
-from ipgen.common.build_cache import Recipe, cache_root, cached_build, chosen_compiler, last_error_line
+from ipgen.common.build_cache import Recipe, c_compiler, cache_root, cached_build, last_error_line
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import derive
@@ -83,16 +83,6 @@ def sources(system: System) -> tuple[str, str]:
     return header, kernel
 
 
-def c_compiler() -> str:
-    """$CC, else cc, else gcc."""
-    found = chosen_compiler("CC", ("cc", "gcc"))
-    if found is None:
-        raise KernelError(
-            "no C compiler found (tried $CC, cc, gcc): install one (Debian: apt-get install gcc)"
-        )
-    return found
-
-
 def cache_folder() -> Path:
     """`<cache>/gym`, next to the simulators (the same rules as `ipgen run`'s cache)."""
     return cache_root() / "gym"
@@ -102,7 +92,7 @@ def build(system: System) -> Path:
     """The compiled kernel of `system`: from the cache, or compiled into it."""
     header, kernel = sources(system)
     name = model_name(system)
-    cc = c_compiler()
+    cc = c_compiler(KernelError)
     version = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout
     digest = hashlib.sha256()
     for part in (shutil.which(cc) or cc, version, " ".join(FLAGS), header, kernel):

@@ -31,7 +31,15 @@ import subprocess
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from ipgen.common.build_cache import Built, Recipe, cache_root, cached_build, chosen_compiler, last_error_line
+from ipgen.common.build_cache import (
+    Built,
+    Recipe,
+    cache_root,
+    cached_build,
+    last_error_line,
+    required_compiler,
+)
+from ipgen.common.build_cache import c_compiler as build_cache_c_compiler
 from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
@@ -97,12 +105,7 @@ def simulator_sources() -> tuple[Path, Path]:
 
 def compiler() -> str:
     """The C++ compiler: $CXX, else g++, else c++."""
-    found = chosen_compiler("CXX", ("g++", "c++"))
-    if found is None:
-        raise BuildError(
-            "no C++ compiler found (tried $CXX, g++, c++): install one (Debian: apt-get install g++)"
-        )
-    return found
+    return required_compiler("CXX", ("g++", "c++"), "C++", "g++", BuildError)
 
 
 def _eigen_flags() -> list[str]:
@@ -129,13 +132,8 @@ def optimisation() -> tuple[str, ...]:
 
 
 def c_compiler() -> str:
-    """The C compiler of the model libraries: $CC, else gcc, else cc."""
-    found = chosen_compiler("CC", ("gcc", "cc"))
-    if found is None:
-        raise BuildError(
-            "no C compiler found (tried $CC, gcc, cc): install one (Debian: apt-get install gcc)"
-        )
-    return found
+    """The C compiler of the model libraries (build_cache.c_compiler: $CC, else cc, else gcc)."""
+    return build_cache_c_compiler(BuildError)
 
 
 def c_optimisation() -> tuple[str, ...]:
