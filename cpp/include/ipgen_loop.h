@@ -1,0 +1,427 @@
+/* ipgen_loop.h: the sampled loop around a pendulum, written once (C99, also valid C++).
+ *
+ * Every place that runs a rig's loop uses these functions: ipsim's simulator (ipsim/sensors.hpp,
+ * ipsim/swingup.hpp, ipsim/rhs.hpp), the firmware in a generated C header (`--emit c` prints
+ * this file into it whole), and Python through ctypes (ipgen/loop_runtime.py compiles it with
+ * IPGEN_LOOP_EXPORT into a shared library): the measurement's quantiser, the delay of the
+ * commands, saturation, the drive's first-order lag, the state estimators (backward difference,
+ * derivative filter, steady-state Kalman, extended Kalman) and the swing-up (Åström–Furuta
+ * energy law, a tracked plan, the catch and the hold). Their formulas are docs/estimation.md's
+ * and docs/control.md's.
+ *
+ * Sizes and parameters are given at run time; the functions keep no state of their own (the
+ * caller owns every array), allocate nothing and call only <math.h>. The scalar is IPGEN_SCALAR
+ * (double unless defined before the first include, e.g. float on a microcontroller). Vectors are
+ * arrays, matrices row-major. x = [q; qd] in whatever coordinates the caller measures in (the
+ * rig's, or ipgen's: docs/model.md); the swing-up works in ipgen's coordinates.
+ */
+#ifndef IPGEN_LOOP_H_INCLUDED
+#define IPGEN_LOOP_H_INCLUDED
+
+#include <math.h>
+
+#ifndef IPGEN_SCALAR
+#define IPGEN_SCALAR double
+#endif
+
+/* Static inline where a header is included; exported where ipgen compiles the library for ctypes. */
+#ifdef IPGEN_LOOP_EXPORT
+#define IPGEN_LOOP_API
+#else
+#define IPGEN_LOOP_API static inline
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef IPGEN_SCALAR ipgen_real;
+
+/* floor and sqrt in the precision of ipgen_real (floorf, sqrtf for float: no double arithmetic
+ * on a single-precision FPU; the sizeof test is a compile-time constant). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_floor(ipgen_real v) {
+  return sizeof(ipgen_real) == sizeof(float) ? (ipgen_real)floorf((float)v) : (ipgen_real)floor((double)v);
+}
+IPGEN_LOOP_API ipgen_real ipgen_loop_sqrt(ipgen_real v) {
+  return sizeof(ipgen_real) == sizeof(float) ? (ipgen_real)sqrtf((float)v) : (ipgen_real)sqrt((double)v);
+}
+IPGEN_LOOP_API ipgen_real ipgen_loop_cos(ipgen_real v) {
+  return sizeof(ipgen_real) == sizeof(float) ? (ipgen_real)cosf((float)v) : (ipgen_real)cos((double)v);
+}
+
+/* ---- measurement, command and drive ---------------------------------------------------- */
+
+/* An encoder's reading of `value` [rad or m]: the nearest multiple of `step` (2 pi / counts per
+ * revolution, or 1 / counts per metre) counted from `zero`, the pose where the encoder reads 0:
+ * zero + step floor((value - zero) / step + 1/2). step <= 0: value itself (no quantisation). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_quantise(ipgen_real value, ipgen_real zero, ipgen_real step) {
+  if (!(step > 0)) return value;
+  return zero + step * ipgen_loop_floor((value - zero) / step + (ipgen_real)0.5);
+}
+
+/* u limited to [-limit, limit] (NaN passes through, for the caller to see). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_saturate(ipgen_real u, ipgen_real limit) {
+  return u < -limit ? -limit : (limit < u ? limit : u);
+}
+
+/* The transport delay of `delay` >= 0 whole sampling periods: pending[0..delay] holds the commands
+ * sent and not yet applied, oldest first (all 0 at the start: u = 0 until the first command
+ * arrives). Sends `command` and returns the command that acts over the next period (command
+ * itself when delay = 0). pending[0] before the call is the command that acted over the period
+ * that just ended (what a model-based estimator predicts with). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_delay(ipgen_real pending[], int delay, ipgen_real command) {
+  int i;
+  for (i = 0; i < delay; ++i) pending[i] = pending[i + 1];
+  pending[delay] = command;
+  return pending[0];
+}
+
+/* The drive's first-order lag: d(u_a)/dt = (command - u_a) / lag [input unit / s], lag > 0 [s]. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_lag_rate(ipgen_real command, ipgen_real applied, ipgen_real lag) {
+  return (command - applied) / lag;
+}
+
+/* ---- state estimators ----------------------------------------------------------------------
+ * Each is called once per sample k = 0, 1, ... with the measured coordinates y and leaves the
+ * estimate x_{k|k} = [q; qd] in x. */
+
+/* Backward difference, every coordinate measured (dof of them, in order): q = y_k,
+ * qd = (y_k - y_{k-1}) / period, qd = 0 at k = 0. `previous` keeps y_{k-1}. */
+IPGEN_LOOP_API void ipgen_loop_difference(int dof, ipgen_real period, long k, const ipgen_real y[],
+                                          ipgen_real previous[], ipgen_real x[]) {
+  int i;
+  for (i = 0; i < dof; ++i) {
+    x[dof + i] = k == 0 ? (ipgen_real)0 : (y[i] - previous[i]) / period;
+    x[i] = y[i];
+    previous[i] = y[i];
+  }
+}
+
+/* Derivative filter wc s / (s + wc) as Quanser's rigs discretise it, every coordinate measured:
+ * q = y_k, qd_k = pole qd_{k-1} + wc (y_k - y_{k-1}), pole = exp(-wc period), qd_0 = 0.
+ * x keeps qd_{k-1} between calls (x[dof..2 dof)); `previous` keeps y_{k-1}. */
+IPGEN_LOOP_API void ipgen_loop_filter(int dof, ipgen_real pole, ipgen_real cutoff, long k, const ipgen_real y[],
+                                      ipgen_real previous[], ipgen_real x[]) {
+  int i;
+  for (i = 0; i < dof; ++i) {
+    x[dof + i] = k == 0 ? (ipgen_real)0 : pole * x[dof + i] + cutoff * (y[i] - previous[i]);
+    x[i] = y[i];
+    previous[i] = y[i];
+  }
+}
+
+/* What the Kalman filters share: sizes, the measured coordinates and the equilibrium. */
+typedef struct {
+  int dof;               /* q has dof entries, x = [q; qd] 2 dof */
+  int count;             /* measured coordinates */
+  const int *measured;   /* their indices in q, ascending (count) */
+  const ipgen_real *x_eq; /* the equilibrium (2 dof): the start for the unmeasured angles */
+} ipgen_loop_measurement;
+
+/* x_{0|-1}: the measured coordinates at y_0, the others at x_eq, rates 0. */
+IPGEN_LOOP_API void ipgen_loop_start_state(const ipgen_loop_measurement *m, const ipgen_real y[], ipgen_real x[]) {
+  int i;
+  for (i = 0; i < m->dof; ++i) x[i] = m->x_eq[i];
+  for (i = m->dof; i < 2 * m->dof; ++i) x[i] = (ipgen_real)0;
+  for (i = 0; i < m->count; ++i) x[m->measured[i]] = y[i];
+}
+
+/* Steady-state Kalman filter (current form) on the linearisation at (x_eq, u_eq), discretised with
+ * the input held: predict xp = x_eq + A (x - x_eq) + B (u_previous - u_eq), update
+ * x = xp + M (y - C xp), C selecting the measured coordinates; at k = 0 xp = x_{0|-1}.
+ * A (2 dof x 2 dof), B (2 dof), M (2 dof x count). `work`: 2 dof + count entries. */
+typedef struct {
+  ipgen_loop_measurement measurement;
+  const ipgen_real *A, *B, *M;
+  ipgen_real u_eq;
+} ipgen_loop_kalman;
+
+IPGEN_LOOP_API void ipgen_loop_kalman_update(const ipgen_loop_kalman *f, long k, const ipgen_real y[],
+                                             ipgen_real u_previous, ipgen_real x[], ipgen_real work[]) {
+  const int n = 2 * f->measurement.dof, c = f->measurement.count;
+  const int *measured = f->measurement.measured;
+  const ipgen_real *x_eq = f->measurement.x_eq;
+  ipgen_real *xp = work, *innovation = work + n;
+  int i, j;
+  if (k == 0) {
+    ipgen_loop_start_state(&f->measurement, y, xp);
+  } else {
+    const ipgen_real du = u_previous - f->u_eq;
+    for (i = 0; i < n; ++i) {
+      ipgen_real v = (ipgen_real)0;
+      for (j = 0; j < n; ++j) v += f->A[i * n + j] * (x[j] - x_eq[j]);
+      xp[i] = x_eq[i] + v + f->B[i] * du;
+    }
+  }
+  for (j = 0; j < c; ++j) innovation[j] = y[j] - xp[measured[j]];
+  for (i = 0; i < n; ++i) {
+    ipgen_real v = (ipgen_real)0;
+    for (j = 0; j < c; ++j) v += f->M[i * c + j] * innovation[j];
+    x[i] = xp[i] + v;
+  }
+}
+
+/* The model an extended Kalman filter predicts with: f = x' = f(x, u) (2 dof entries) at the
+ * input u the model sees (the force or torque), and, when A is not null, A = df/dx
+ * (2 dof x 2 dof), both in the coordinates of x. Returns 0, non-zero if the model fails there
+ * (M(q) not positive definite). */
+typedef int (*ipgen_loop_field)(void *context, const ipgen_real x[], ipgen_real u, ipgen_real f[], ipgen_real A[]);
+
+/* Extended Kalman filter on the nonlinear model: predict with one RK4 step of length `period`
+ * of x' = f(x, gain u_previous) and P- = F P F^T + Qn, F = I + T A + (T A)^2 / 2 with A = df/dx
+ * at the last estimate; update with K = P- C^T (C P- C^T + Rn)^-1 (Cholesky), x = xp + K (y - C xp),
+ * P = (I - K C) P- (I - K C)^T + K Rn K^T (Joseph form), made symmetric. At k = 0: xp = x_{0|-1},
+ * P- = identity with Rn's diagonal at the measured coordinates. */
+typedef struct {
+  ipgen_loop_measurement measurement;
+  ipgen_real period;    /* T [s] */
+  ipgen_real gain;      /* force or torque per unit of u (a motor's volts), 1 without */
+  const ipgen_real *Qn; /* process noise (2 dof x 2 dof) */
+  const ipgen_real *Rn; /* measurement noise (count x count) */
+  ipgen_loop_field field;
+  void *context;        /* passed to field */
+} ipgen_loop_ekf;
+
+/* Scratch entries ipgen_loop_ekf_update needs for 2 dof = n states and count = c measured. */
+#define IPGEN_LOOP_EKF_WORK(n, c) (6 * (n) + 4 * (n) * (n) + (n) * (c) + (c) * (c) + 2 * (c))
+
+/* One EKF sample (above): x, P (2 dof x 2 dof) updated in place; `work` holds
+ * IPGEN_LOOP_EKF_WORK(2 dof, count) entries. Returns 0, 1 if the model failed, 2 if the
+ * innovation covariance is not positive definite; x and P are unchanged then. */
+IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const ipgen_real y[], ipgen_real u_previous,
+                                         ipgen_real x[], ipgen_real P[], ipgen_real work[]) {
+  const int n = 2 * e->measurement.dof, c = e->measurement.count;
+  const int *measured = e->measurement.measured;
+  const ipgen_real T = e->period;
+  ipgen_real *xs = work, *k1 = xs + n, *k2 = k1 + n, *k3 = k2 + n, *k4 = k3 + n, *xp = k4 + n;
+  ipgen_real *A = xp + n, *F = A + n * n, *W = F + n * n, *Pp = W + n * n;
+  ipgen_real *K = Pp + n * n, *S = K + n * c, *v = S + c * c, *innovation = v + c;
+  int i, j, r, col;
+  if (k == 0) {
+    ipgen_loop_start_state(&e->measurement, y, xp);
+    for (i = 0; i < n * n; ++i) Pp[i] = (ipgen_real)0;
+    for (i = 0; i < n; ++i) Pp[i * n + i] = (ipgen_real)1;
+    for (r = 0; r < c; ++r) Pp[measured[r] * n + measured[r]] = e->Rn[r * c + r];
+  } else {
+    const ipgen_real u = u_previous * e->gain;
+    if (e->field(e->context, x, u, k1, A) != 0) return 1;
+    for (i = 0; i < n; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k1[i];
+    if (e->field(e->context, xs, u, k2, 0) != 0) return 1;
+    for (i = 0; i < n; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k2[i];
+    if (e->field(e->context, xs, u, k3, 0) != 0) return 1;
+    for (i = 0; i < n; ++i) xs[i] = x[i] + T * k3[i];
+    if (e->field(e->context, xs, u, k4, 0) != 0) return 1;
+    for (i = 0; i < n; ++i) xp[i] = x[i] + T / (ipgen_real)6 * (k1[i] + (ipgen_real)2 * k2[i] + (ipgen_real)2 * k3[i] + k4[i]);
+    for (i = 0; i < n * n; ++i) A[i] *= T; /* T A */
+    for (r = 0; r < n; ++r) {              /* F = I + T A + (T A)^2 / 2 */
+      for (col = 0; col < n; ++col) {
+        ipgen_real sq = (ipgen_real)0;
+        for (j = 0; j < n; ++j) sq += A[r * n + j] * A[j * n + col];
+        F[r * n + col] = (ipgen_real)(r == col) + A[r * n + col] + (ipgen_real)0.5 * sq;
+      }
+    }
+    for (r = 0; r < n; ++r) {              /* W = F P */
+      for (col = 0; col < n; ++col) {
+        ipgen_real s = (ipgen_real)0;
+        for (j = 0; j < n; ++j) s += F[r * n + j] * P[j * n + col];
+        W[r * n + col] = s;
+      }
+    }
+    for (r = 0; r < n; ++r) {              /* P- = W F^T + Qn */
+      for (col = 0; col < n; ++col) {
+        ipgen_real s = (ipgen_real)0;
+        for (j = 0; j < n; ++j) s += W[r * n + j] * F[col * n + j];
+        Pp[r * n + col] = s + e->Qn[r * n + col];
+      }
+    }
+  }
+  /* S = C P- C^T + Rn, factorised S = L L^T in place (lower triangle) */
+  for (r = 0; r < c; ++r)
+    for (col = 0; col < c; ++col) S[r * c + col] = Pp[measured[r] * n + measured[col]] + e->Rn[r * c + col];
+  for (j = 0; j < c; ++j) {
+    ipgen_real d = S[j * c + j];
+    for (col = 0; col < j; ++col) d -= S[j * c + col] * S[j * c + col];
+    if (!(d > (ipgen_real)0)) return 2;
+    d = ipgen_loop_sqrt(d);
+    S[j * c + j] = d;
+    for (r = j + 1; r < c; ++r) {
+      ipgen_real s = S[r * c + j];
+      for (col = 0; col < j; ++col) s -= S[r * c + col] * S[j * c + col];
+      S[r * c + j] = s / d;
+    }
+  }
+  /* K = P- C^T S^-1, row by row: L L^T K_i^T = (P- C^T)_i^T */
+  for (i = 0; i < n; ++i) {
+    for (r = 0; r < c; ++r) v[r] = Pp[i * n + measured[r]];
+    for (r = 0; r < c; ++r) { /* L z = v */
+      for (col = 0; col < r; ++col) v[r] -= S[r * c + col] * v[col];
+      v[r] /= S[r * c + r];
+    }
+    for (r = c - 1; r >= 0; --r) { /* L^T k = z */
+      for (col = r + 1; col < c; ++col) v[r] -= S[col * c + r] * v[col];
+      v[r] /= S[r * c + r];
+    }
+    for (r = 0; r < c; ++r) K[i * c + r] = v[r];
+  }
+  for (r = 0; r < c; ++r) innovation[r] = y[r] - xp[measured[r]];
+  for (i = 0; i < n; ++i) {
+    ipgen_real s = (ipgen_real)0;
+    for (r = 0; r < c; ++r) s += K[i * c + r] * innovation[r];
+    x[i] = xp[i] + s;
+  }
+  /* Joseph form, F reused for I - K C */
+  for (r = 0; r < n; ++r)
+    for (col = 0; col < n; ++col) F[r * n + col] = (ipgen_real)(r == col);
+  for (r = 0; r < n; ++r)
+    for (j = 0; j < c; ++j) F[r * n + measured[j]] -= K[r * c + j];
+  for (r = 0; r < n; ++r) {
+    for (col = 0; col < n; ++col) {
+      ipgen_real s = (ipgen_real)0;
+      for (j = 0; j < n; ++j) s += F[r * n + j] * Pp[j * n + col];
+      W[r * n + col] = s;
+    }
+  }
+  for (r = 0; r < n; ++r) {
+    for (col = 0; col < n; ++col) {
+      ipgen_real s = (ipgen_real)0;
+      int a, b;
+      for (j = 0; j < n; ++j) s += W[r * n + j] * F[col * n + j];
+      for (a = 0; a < c; ++a)
+        for (b = 0; b < c; ++b) s += K[r * c + a] * e->Rn[a * c + b] * K[col * c + b];
+      P[r * n + col] = s;
+    }
+  }
+  for (r = 0; r < n; ++r) /* symmetric to rounding */
+    for (col = 0; col < r; ++col) P[r * n + col] = P[col * n + r] = (ipgen_real)0.5 * (P[r * n + col] + P[col * n + r]);
+  return 0;
+}
+
+/* ---- swing-up --------------------------------------------------------------------------
+ * In ipgen's coordinates: q[0] the base, q[1] link 1's absolute angle from upright. */
+
+/* The Åström–Furuta energy law on link 1 (docs/control.md):
+ *   E = 1/2 energy_inertia qd1^2 + energy_weight (cos q1 - 1),
+ *   a = sat_accel_max(gain_energy (E - energy_target) sign(qd1 M10)) - gain_position q0 - gain_velocity qd0,
+ * the base's acceleration; the input is a itself (acceleration), or the force or torque that
+ * gives it, M00 a + M01 qdd1 + b0 with qdd1 = -(M10 a + b1) / M11 (M, b the mass matrix and bias
+ * at q, qd), divided by input_gain. Caught when |q1 - 2 pi k| <= catch_angle and |qd1| <= catch_rate. */
+typedef struct {
+  ipgen_real gain_energy, gain_position, gain_velocity, accel_max;
+  ipgen_real catch_angle, catch_rate, energy_target, energy_inertia, energy_weight;
+  int acceleration;      /* 1: the input is the base's acceleration */
+  ipgen_real input_gain; /* force or torque per unit of u (a motor's volts): the law's force is divided by it */
+} ipgen_loop_energy_law;
+
+/* The multiple of 2 pi nearest q1 (half-way rounds up). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_upright(ipgen_real q1) {
+  const ipgen_real two_pi = (ipgen_real)6.283185307179586;
+  return two_pi * ipgen_loop_floor(q1 / two_pi + (ipgen_real)0.5);
+}
+
+/* 1 if link 1 is caught at (q1, qd1): near the upright 2 pi k and slow enough. */
+IPGEN_LOOP_API int ipgen_loop_energy_caught(const ipgen_loop_energy_law *law, ipgen_real q1, ipgen_real qd1) {
+  const ipgen_real dev = q1 - ipgen_loop_upright(q1);
+  return (dev < 0 ? -dev : dev) <= law->catch_angle && (qd1 < 0 ? -qd1 : qd1) <= law->catch_rate;
+}
+
+/* The energy law's input at q, qd (above); M (dof x dof) and b (dof) at q, qd; not saturated. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_energy_input(const ipgen_loop_energy_law *law, int dof, const ipgen_real q[],
+                                                  const ipgen_real qd[], const ipgen_real M[], const ipgen_real b[]) {
+  const ipgen_real energy = (ipgen_real)0.5 * law->energy_inertia * qd[1] * qd[1] +
+                            law->energy_weight * (ipgen_loop_cos(q[1]) - (ipgen_real)1);
+  const ipgen_real direction = qd[1] * M[dof] < 0 ? (ipgen_real)-1 : (ipgen_real)1;
+  ipgen_real a = ipgen_loop_saturate(law->gain_energy * (energy - law->energy_target) * direction, law->accel_max);
+  ipgen_real qdd1;
+  a -= law->gain_position * q[0] + law->gain_velocity * qd[0];
+  if (law->acceleration) return a;
+  qdd1 = -(M[dof] * a + b[1]) / M[dof + 1];
+  return (M[0] * a + M[1] * qdd1 + b[0]) / law->input_gain;
+}
+
+/* u = u_ref - K (x - x_ref) over x's 2 dof entries (a tracked plan's step, or the hold's LQR). */
+IPGEN_LOOP_API ipgen_real ipgen_loop_feedback(int states, ipgen_real u_ref, const ipgen_real K[], const ipgen_real x[],
+                                              const ipgen_real x_ref[]) {
+  ipgen_real s = (ipgen_real)0;
+  int i;
+  for (i = 0; i < states; ++i) s += K[i] * (x[i] - x_ref[i]);
+  return u_ref - s;
+}
+
+/* The phases of a swing-up: the energy law swings, a plan is tracked, the upright is held. */
+enum { IPGEN_LOOP_SWING = 0, IPGEN_LOOP_TRACK = 1, IPGEN_LOOP_HOLD = 2 };
+
+/* The mass matrix M (dof x dof) and bias b (dof) at q, qd, for the energy law. Returns 0. */
+typedef int (*ipgen_loop_mass_bias)(void *context, const ipgen_real q[], const ipgen_real qd[], ipgen_real M[],
+                                    ipgen_real b[]);
+
+/* A swing-up: the energy law (plan 0) or a plan of `steps` inputs u_k, states x_k ((steps + 1)
+ * x 2 dof) and gains K_k (steps x 2 dof) tracked as u = u_k - K_k (x - x_k); then the hold
+ * u = -hold_gain (x - x_hold), x_hold = target with q1 at the caught upright; |u| <= u_max. */
+typedef struct {
+  int dof;
+  ipgen_real u_max;
+  const ipgen_real *hold_gain, *target; /* 2 dof each */
+  ipgen_loop_energy_law energy;
+  long steps; /* 0: the energy law */
+  const ipgen_real *inputs, *states, *gains;
+  ipgen_loop_mass_bias mass_bias; /* the energy law's M and b */
+  void *context;                  /* passed to mass_bias */
+} ipgen_loop_swingup;
+
+/* What a swing-up remembers: its phase, the samples seen and the upright held (q1). */
+typedef struct {
+  int phase;
+  long k;
+  ipgen_real hold_q1;
+} ipgen_loop_swingup_state;
+
+IPGEN_LOOP_API void ipgen_loop_swingup_start(const ipgen_loop_swingup *law, ipgen_loop_swingup_state *s) {
+  s->phase = law->steps > 0 ? IPGEN_LOOP_TRACK : IPGEN_LOOP_SWING;
+  s->k = 0;
+  s->hold_q1 = law->target[1];
+}
+
+/* Scratch entries ipgen_loop_swingup_step needs. */
+#define IPGEN_LOOP_SWINGUP_WORK(dof) ((dof) * (dof) + 3 * (dof))
+
+/* The input at sample s->k for x = [q; qd] (ipgen's coordinates), saturated; advances s.
+ * `work`: IPGEN_LOOP_SWINGUP_WORK(dof) entries. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law, ipgen_loop_swingup_state *s,
+                                                  const ipgen_real x[], ipgen_real work[]) {
+  const int dof = law->dof;
+  ipgen_real u = (ipgen_real)0;
+  if (s->phase == IPGEN_LOOP_TRACK) {
+    if (s->k < law->steps) {
+      u = ipgen_loop_feedback(2 * dof, law->inputs[s->k], law->gains + s->k * 2 * dof, x, law->states + s->k * 2 * dof);
+    } else {
+      s->phase = IPGEN_LOOP_HOLD;
+    }
+  } else if (s->phase == IPGEN_LOOP_SWING) {
+    if (ipgen_loop_energy_caught(&law->energy, x[1], x[dof + 1])) {
+      s->phase = IPGEN_LOOP_HOLD;
+      s->hold_q1 = ipgen_loop_upright(x[1]);
+    } else {
+      ipgen_real *M = work, *b = work + dof * dof;
+      if (law->mass_bias(law->context, x, x + dof, M, b) != 0) {
+        u = (ipgen_real)0;
+      } else {
+        u = ipgen_loop_energy_input(&law->energy, dof, x, x + dof, M, b);
+      }
+    }
+  }
+  if (s->phase == IPGEN_LOOP_HOLD) {
+    ipgen_real *reference = work + dof * dof + dof;
+    int i;
+    for (i = 0; i < 2 * dof; ++i) reference[i] = law->target[i];
+    reference[1] = s->hold_q1;
+    u = ipgen_loop_feedback(2 * dof, (ipgen_real)0, law->hold_gain, x, reference);
+  }
+  s->k += 1;
+  return ipgen_loop_saturate(u, law->u_max);
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IPGEN_LOOP_H_INCLUDED */
