@@ -34,10 +34,13 @@ HELP_OMITS = {
 
 
 def test_the_cpp_parser_knows_exactly_the_written_keys() -> None:
-    text = (ROOT / "cpp" / "include" / "ipsim" / "scene.hpp").read_text(encoding="utf-8")
-    known = re.search(r"static const std::set<std::string> known = \{(.*?)\};", text, re.DOTALL)
-    assert known is not None
-    assert set(re.findall(r'"([^"]+)"', known.group(1))) == set(CFG_KEYS)
+    """scene.hpp takes its key table from cfg_rules.hpp, generated from CFG_KEYS."""
+    parser = (ROOT / "cpp" / "include" / "ipsim" / "scene.hpp").read_text(encoding="utf-8")
+    assert "known(std::begin(cfg::kKeys), std::end(cfg::kKeys))" in parser
+    table = (ROOT / "cpp" / "include" / "ipsim" / "cfg_rules.hpp").read_text(encoding="utf-8")
+    keys = re.search(r"kKeys\[\] = \{(.*?)\};", table, re.DOTALL)
+    assert keys is not None
+    assert re.findall(r'"([^"]+)"', keys.group(1)) == list(CFG_KEYS)
 
 
 def test_the_simulators_help_names_the_written_keys() -> None:

@@ -2,8 +2,9 @@
 parsed by cpp/include/ipsim/scene.hpp), written from a `Scene`.
 
 `CFG_KEYS` is the one list of its keys: the writer writes no other (`_Lines.put` refuses one
-not in it), and tests/test_scene_config.py checks that scene.hpp's parser knows exactly these
-and that simulate.cpp's help names no other. Numbers are written so that they read back
+not in it), the simulator's key table and value rules are generated from it and the scene schema
+(`ipgen.pipeline.cfg_rules` -> cpp/include/ipsim/cfg_rules.hpp), and tests/test_scene_config.py
+checks that simulate.cpp's help names no other. Numbers are written so that they read back
 exactly (`format_number`), lists space-separated, one key a line, deterministic.
 """
 

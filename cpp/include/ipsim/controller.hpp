@@ -23,6 +23,7 @@
 #include "ipsim/ldlt.hpp"
 #include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
+#include "ipgen_loop.h"
 
 namespace ipsim {
 
@@ -38,7 +39,7 @@ struct LinearFeedback {
   /// The (saturated) input in state x (2·kDof entries).
   double operator()(const Eigen::VectorXd& x) const {
     const double u = -gain.dot(x - equilibrium);
-    return std::clamp(u, -saturation, saturation);
+    return ipgen_loop_saturate(u, saturation);
   }
 
   /// The ipsim input that applies this feedback: Input::from_feedback, or Input::sampled when

@@ -13,6 +13,7 @@
 #include "ipsim/input.hpp"
 #include "ipsim/ldlt.hpp"
 #include "ipsim/model.hpp"
+#include "ipgen_loop.h"
 
 namespace ipsim::detail {
 
@@ -159,7 +160,7 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
   const double command = input_at(context, t, in);
   const double u = drive_input(context, command, in) + context.segment_pulse;
-  if (context.lag_index >= 0) out[context.lag_index] = (command - in[context.lag_index]) / context.lag;
+  if (context.lag_index >= 0) out[context.lag_index] = ipgen_loop_lag_rate(command, in[context.lag_index], context.lag);
   double coulomb_power = 0.0;
   double force = u;  // the base's force or torque (u itself unless the base is acceleration-driven)
   VectorOf<Model> qdd;

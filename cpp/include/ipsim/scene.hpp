@@ -59,6 +59,7 @@
 #include <utility>
 #include <vector>
 
+#include "ipsim/cfg_rules.hpp"
 #include "ipsim/controller.hpp"
 #include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
@@ -157,6 +158,9 @@ struct Scene {
   /// or swing-up (sensors.hpp); null for today's exact loop.
   std::shared_ptr<MeasuredLoop<Model>> loop;
 };
+
+/// Fails at the first number outside its key's rule (cfg_rules.hpp: the scene schema's bounds).
+void check_rules(const SceneFile& file);
 
 /// A list of `count` numbers under `key` (fails with the key's line otherwise).
 Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count);
@@ -268,13 +272,9 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     loop.noise.assign(noise.data(), noise.data() + m);
     if (file.has("sensors.zero")) {  // where the encoders read 0 (absent: 0, as before)
       const Eigen::VectorXd zero = numbers_of(file, "sensors.zero", m);
-      if (!zero.allFinite()) file.fail(file.line("sensors.zero"), "sensors.zero must be finite");
       loop.zero.assign(zero.data(), zero.data() + m);
     }
-    for (Eigen::Index j = 0; j < m; ++j) {
-      if (!(std::isfinite(resolution(j)) && resolution(j) >= 0.0)) file.fail(file.line("sensors.resolution"), "sensors.resolution must be finite and >= 0");
-      if (!(std::isfinite(noise(j)) && noise(j) >= 0.0)) file.fail(file.line("sensors.noise"), "sensors.noise must be finite and >= 0");
-    }
+    // resolution, noise, zero, seed and cutoff: their ranges are cfg_rules.hpp's (checked in load)
     const double delay = file.number("sensors.delay");
     const double periods = std::round(delay / period);
     if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= kDelayTolerance * std::max(delay, period) &&
@@ -283,7 +283,6 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
     loop.delay_periods = static_cast<long>(periods);
     const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
-    if (seed < 0) file.fail(file.line("sensors.seed"), "sensors.seed must be an integer >= 0");
     loop.seed = static_cast<std::uint64_t>(seed);
     const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";
     const std::pair<const char*, EstimatorKind> kinds[] = {{"exact", EstimatorKind::exact}, {"difference", EstimatorKind::difference},
@@ -299,7 +298,6 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
     if (loop.kind == EstimatorKind::filter) {
       loop.cutoff = file.number("estimator.cutoff");
-      if (!(std::isfinite(loop.cutoff) && loop.cutoff > 0.0)) file.fail(file.line("estimator.cutoff"), "estimator.cutoff must be finite and > 0 rad/s");
     }
     if (loop.kind == EstimatorKind::kalman || loop.kind == EstimatorKind::ekf) {
       loop.equilibrium = numbers_of(file, "estimator.equilibrium", 2 * n);
@@ -336,26 +334,11 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
 /// ipsim::validate so that their messages are the same as for the C++ API.
 template <class Model>
 Scene<Model> load(const SceneFile& file) {
-  static const std::set<std::string> known = {
-      "name", "model", "type", "links", "inertia", "energy", "m", "l", "delta", "g", "theta", "dtheta", "input",
-      "input.amplitude", "input.start", "input.duration", "input.time", "input.frequency", "input.phase",
-      "input.f0", "input.f1", "input.sweep", "input.f_min", "input.f_max", "input.period", "input.frequencies",
-      "input.phases", "input.scale", "limits.travel",
-      "t_end", "sample", "method", "jacobian", "rtol", "atol", "step", "max_steps", "controller",
-      "controller.gain", "controller.equilibrium", "controller.saturation", "controller.period",
-      "com", "J", "J_axial", "tip", "actuator", "actuator.gain", "coulomb", "coulomb_speed", "swingup", "swingup.u_max", "swingup.period", "swingup.hold",
-      "swingup.hold_gain", "swingup.target", "swingup.gain_energy", "swingup.gain_position",
-      "swingup.gain_velocity", "swingup.accel_max", "swingup.catch_angle", "swingup.catch_rate",
-      "swingup.energy_target", "swingup.energy_inertia", "swingup.energy_weight", "swingup.steps",
-      "swingup.inputs", "swingup.states", "swingup.gains", "angles", "zero", "positive",
-      "sensors.measured", "sensors.resolution", "sensors.noise", "sensors.delay", "sensors.seed", "sensors.zero",
-      "estimator",
-      "estimator.cutoff", "estimator.A", "estimator.B", "estimator.gain", "estimator.equilibrium",
-      "estimator.input", "estimator.process_noise", "estimator.measurement_noise", "actuator.noise",
-      "actuator.lag", "actuator.pulses"};
+  static const std::set<std::string> known(std::begin(cfg::kKeys), std::end(cfg::kKeys));
   for (const auto& key : file.keys()) {
     if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
   }
+  check_rules(file);
 
   if (file.text("model") != name_of<Model>()) {
     file.fail(file.line("model"), "scene is for model `" + detail::abbreviate(file.text("model")) + "`, this simulator is built for `" +
@@ -526,10 +509,7 @@ Scene<Model> load(const SceneFile& file) {
                                       detail::abbreviate(kind) + "`");
   }
   if (file.has("limits.travel")) {
-    scene.travel = file.number("limits.travel");
-    if (!(std::isfinite(scene.travel) && scene.travel > 0.0)) {
-      file.fail(file.line("limits.travel"), "limits.travel must be a finite number > 0 (m on a cart, rad on an arm)");
-    }
+    scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
   }
   if (file.has("controller")) {
     if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
@@ -663,6 +643,18 @@ IPSIM_DECL std::string SceneFile::trim(const std::string& s) {
 
 #if IPSIM_DEFINITIONS
 namespace ipsim::scene {
+
+IPSIM_DECL void check_rules(const SceneFile& file) {
+  for (const cfg::Rule& rule : cfg::kRules) {
+    if (!file.has(rule.key)) continue;
+    for (const double value : file.numbers(rule.key)) {
+      if (!cfg::admits(rule, value)) {
+        file.fail(file.line(rule.key), std::string(rule.key) + " = " + detail::format_number(value) + " must be " + rule.says +
+                                           " (the rule of " + rule.source + ")");
+      }
+    }
+  }
+}
 
 IPSIM_DECL Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& key, Eigen::Index count) {
   const auto values = file.numbers(key);

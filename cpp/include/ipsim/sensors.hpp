@@ -12,6 +12,9 @@
 //   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
 //
+// The quantiser, the delay and the estimators are ipgen_loop.h's (C99, shared with the firmware
+// header and Python); this class holds their memory and the simulated world around them.
+//
 // Every estimator works in the scene's coordinates (the CSV's; ipsim/coordinates.hpp): the kalman
 // filter's A, B, M and x_eq are given in them, the ekf maps the model's f and A into them.
 //
@@ -24,7 +27,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <random>
 #include <string>
@@ -41,24 +43,13 @@
 #include "ipsim/input.hpp"
 #include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
+#include "ipgen_loop.h"
 
 namespace ipsim {
 
 namespace detail {
-// The estimators' algebra on dynamic-size matrices (the same for every model, so not templates:
-// linkage.hpp). x̂ = x̂⁻ + K (y − C x̂⁻) with a fixed gain K (kalman).
-Eigen::VectorXd kalman_correct(const Eigen::VectorXd& predicted, const Eigen::MatrixXd& gain, const Eigen::VectorXd& y,
-                               const Eigen::MatrixXd& C);
-// x̂⁻ = x_eq + A (x̂ − x_eq) + B Δu (kalman).
-Eigen::VectorXd kalman_predict(const Eigen::VectorXd& equilibrium, const Eigen::MatrixXd& A, const Eigen::VectorXd& estimate,
-                               const Eigen::VectorXd& B, double du);
-// The EKF's update: K = P Cᵀ S⁻¹ with S = C P Cᵀ + R, x̂ = x̂⁻ + K (y − C x̂⁻), P in Joseph form.
-void ekf_correct(const Eigen::MatrixXd& C, const Eigen::MatrixXd& R, const Eigen::VectorXd& y,
-                 const Eigen::VectorXd& predicted, Eigen::VectorXd& estimate, Eigen::MatrixXd& covariance);
-// P A P⁻¹: a Jacobian in the rig's coordinates.
+// P A P⁻¹: a Jacobian in the rig's coordinates (dynamic size, the same for every model: linkage.hpp).
 Eigen::MatrixXd similar(const Eigen::MatrixXd& P, const Eigen::MatrixXd& A);
-// The EKF's covariance prediction P = F P Fᵀ + Q with F = I + T A + (T A)²/2.
-void ekf_predict_covariance(double T, const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q, Eigen::MatrixXd& covariance);
 }  // namespace detail
 
 /// Standard normal deviates from a seeded std::mt19937_64 (Box–Muller, two 53-bit uniforms a draw).
@@ -137,10 +128,16 @@ class MeasuredLoop {
     y_ = Eigen::VectorXd::Zero(m);
     previous_y_ = y_;
     estimate_ = Eigen::VectorXd::Zero(2 * n);
-    rate_ = Eigen::VectorXd::Zero(n);
     squared_error_ = Eigen::VectorXd::Zero(2 * n);
-    C_ = Eigen::MatrixXd::Zero(m, 2 * n);
-    for (Eigen::Index i = 0; i < m; ++i) C_(i, s_.measured[static_cast<std::size_t>(i)]) = 1.0;
+    pending_.assign(static_cast<std::size_t>(s_.delay_periods) + 1, 0.0);
+    pole_ = std::exp(-s_.cutoff * period_);
+    measured_.assign(s_.measured.begin(), s_.measured.end());
+    A_ = s_.A;
+    gain_rows_ = s_.gain;
+    process_noise_ = s_.process_noise;
+    measurement_noise_ = s_.measurement_noise;
+    covariance_ = RowMajor::Zero(2 * n, 2 * n);
+    work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(2 * n, static_cast<int>(m)));
   }
 
   /// The command applied on [t, t + period) for the true state x (ipgen's coordinates).
@@ -150,13 +147,9 @@ class MeasuredLoop {
     estimate(user);
     const Eigen::VectorXd seen = s_.kind == EstimatorKind::exact ? x : coordinates_.to_canonical(estimate_);
     const double command = law_(t, seen);  // N or N m (saturated)
-    commands_.push_back(command);
-    double applied = 0.0;  // the command that reaches the drive now (u = 0 before the first arrives)
-    if (static_cast<long>(commands_.size()) > s_.delay_periods) {
-      applied = commands_.front();
-      commands_.pop_front();
-    }
-    predict(applied / gain_);
+    // the command that reaches the drive now (u = 0 before the first arrives)
+    const double applied = ipgen_loop_delay(pending_.data(), static_cast<int>(s_.delay_periods), command);
+    last_input_ = applied / gain_;
     const double noise = drive_noise_();
     ++samples_;
     return applied + gain_ * s_.drive_noise * noise;
@@ -192,106 +185,77 @@ class MeasuredLoop {
   static bool is_position(int i) { return i == 0 && is_classical<Model>(); }
 
   void measure(const Eigen::VectorXd& user) {
-    previous_y_ = y_;
     for (std::size_t j = 0; j < s_.measured.size(); ++j) {
       const int i = s_.measured[j];
       double value = user(i);
       if (s_.resolution[j] > 0.0) {
         const double delta = (is_position(i) ? 1.0 : 2.0 * kPi) / s_.resolution[j];
         const double z = s_.zero.empty() ? 0.0 : s_.zero[j];  // counts from the encoder's zero pose
-        value = z + delta * std::floor((value - z) / delta + 0.5);
+        value = ipgen_loop_quantise(value, z, delta);
       }
       const double noise = sensor_noise_();  // drawn even when σ = 0: the stream stays aligned
       y_(static_cast<Eigen::Index>(j)) = value + s_.noise[j] * noise;
     }
   }
 
+  /// x̂_k from y_k and the input the model saw over the last period (ipgen_loop.h's estimators).
   void estimate(const Eigen::VectorXd& user) {
-    const bool first = samples_ == 0;
+    const long k = samples_;
     switch (s_.kind) {
       case EstimatorKind::exact: estimate_ = user; break;
-      case EstimatorKind::difference:
-      case EstimatorKind::filter: {  // every angle measured, in order
-        const Eigen::VectorXd step = first ? Eigen::VectorXd::Zero(n) : Eigen::VectorXd(y_ - previous_y_);
-        if (s_.kind == EstimatorKind::difference) {
-          rate_ = step / period_;
-        } else {
-          rate_ = std::exp(-s_.cutoff * period_) * rate_ + s_.cutoff * step;
-        }
-        estimate_ << y_, rate_;
+      case EstimatorKind::difference:  // every angle measured, in order
+        ipgen_loop_difference(n, period_, k, y_.data(), previous_y_.data(), estimate_.data());
+        break;
+      case EstimatorKind::filter:
+        ipgen_loop_filter(n, pole_, s_.cutoff, k, y_.data(), previous_y_.data(), estimate_.data());
+        break;
+      case EstimatorKind::kalman: {
+        const ipgen_loop_kalman filter{measurement(), A_.data(), s_.B.data(), gain_rows_.data(), s_.input_equilibrium};
+        ipgen_loop_kalman_update(&filter, k, y_.data(), last_input_, estimate_.data(), work_.data());
         break;
       }
-      case EstimatorKind::kalman:
-        if (first) predicted_ = start_state();
-        estimate_ = detail::kalman_correct(predicted_, s_.gain, y_, C_);
-        break;
       case EstimatorKind::ekf: {
-        if (first) {
-          predicted_ = start_state();
-          covariance_ = Eigen::MatrixXd::Identity(2 * n, 2 * n);
-          for (std::size_t j = 0; j < s_.measured.size(); ++j) {
-            const auto i = s_.measured[j];
-            covariance_(i, i) = s_.measurement_noise(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j));
-          }
-        }
-        detail::ekf_correct(C_, s_.measurement_noise, y_, predicted_, estimate_, covariance_);
+        const ipgen_loop_ekf filter{measurement(), period_, gain_, process_noise_.data(), measurement_noise_.data(),
+                                    &MeasuredLoop::field, this};
+        // A failed step (M(q) or the innovation covariance not positive definite) keeps the
+        // last estimate, as the firmware does.
+        (void)ipgen_loop_ekf_update(&filter, k, y_.data(), last_input_, estimate_.data(), covariance_.data(), work_.data());
         break;
       }
     }
     squared_error_ += (estimate_ - user).cwiseAbs2();
   }
 
-  /// x̂_{0|−1}: measured angles y_0, unmeasured ones at the equilibrium, rates 0.
-  Eigen::VectorXd start_state() const {
-    Eigen::VectorXd x = Eigen::VectorXd::Zero(2 * n);
-    x.head(n) = s_.equilibrium.head(n);
-    for (std::size_t j = 0; j < s_.measured.size(); ++j) x(s_.measured[j]) = y_(static_cast<Eigen::Index>(j));
-    return x;
-  }
-
-  /// x̂_{k+1|k} from x̂_{k|k} and ū_k (the command applied on [t_k, t_k+1), scene units).
-  void predict(double u) {
-    if (s_.kind == EstimatorKind::kalman) {
-      predicted_ = detail::kalman_predict(s_.equilibrium, s_.A, estimate_, s_.B, u - s_.input_equilibrium);
-    } else if (s_.kind == EstimatorKind::ekf) {
-      predict_ekf(u * gain_);
-    }
+  /// The Kalman filters' sizes, measured coordinates and equilibrium.
+  ipgen_loop_measurement measurement() const {
+    return ipgen_loop_measurement{n, static_cast<int>(measured_.size()), measured_.data(), s_.equilibrium.data()};
   }
 
   /// ẋ = f(x, u) of the model in the scene's coordinates (x_user = P x + c, so ẋ_user = P f(x)),
-  /// u in N or N m: the header's forward dynamics, no Coulomb friction.
-  Eigen::VectorXd derivative(const Eigen::VectorXd& x_user, double u) const {
-    const Eigen::VectorXd x = coordinates_.to_canonical(x_user);
+  /// u in N or N m: the header's forward dynamics, no Coulomb friction; with A, also ∂f/∂x in the
+  /// scene's coordinates (P A P⁻¹), exact. The EKF's model (ipgen_loop_field).
+  static int field(void* context, const double x_user[], double u, double f[], double A[]) {
+    const auto& self = *static_cast<const MeasuredLoop*>(context);
+    const int n = self.n;
+    const Eigen::VectorXd x = self.coordinates_.to_canonical(Eigen::Map<const Eigen::VectorXd>(x_user, 2 * n));
     const VectorOf<Model> q = x.head(n);
     const VectorOf<Model> qd = x.segment(n, n);
-    Eigen::VectorXd f(2 * n);
-    f << qd, Model::template forward_dynamics<double>(q, qd, u, params_);
-    return coordinates_.canonical() ? f : Eigen::VectorXd(coordinates_.matrix(n) * f);
-  }
-
-  void predict_ekf(double u) {
+    Eigen::VectorXd derivative(2 * n);
+    derivative << qd, Model::template forward_dynamics<double>(q, qd, u, self.params_);
+    Eigen::Map<Eigen::VectorXd>(f, 2 * n) =
+        self.coordinates_.canonical() ? derivative : Eigen::VectorXd(self.coordinates_.matrix(n) * derivative);
+    if (A == nullptr) return 0;
     if constexpr (has_linearize<Model>) {
-      const double T = period_;
-      const Eigen::VectorXd& x = estimate_;
-      const Eigen::VectorXd k1 = derivative(x, u);
-      const Eigen::VectorXd k2 = derivative(x + 0.5 * T * k1, u);
-      const Eigen::VectorXd k3 = derivative(x + 0.5 * T * k2, u);
-      const Eigen::VectorXd k4 = derivative(x + T * k3, u);
-      predicted_ = x + T / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-      const Eigen::VectorXd canonical = coordinates_.to_canonical(x);
-      const VectorOf<Model> q = canonical.head(n);
-      const VectorOf<Model> qd = canonical.segment(n, n);
-      Eigen::MatrixXd A = Model::template linearize<double>(q, qd, u, params_).A;  // ∂f/∂x, exact
-      if (!coordinates_.canonical()) {  // A_user = P A P⁻¹
-        const Eigen::MatrixXd P = coordinates_.matrix(n);
-        A = detail::similar(P, A);
-      }
-      detail::ekf_predict_covariance(T, A, s_.process_noise, covariance_);
+      Eigen::MatrixXd jacobian = Model::template linearize<double>(q, qd, u, self.params_).A;  // ∂f/∂x, exact
+      if (!self.coordinates_.canonical()) jacobian = detail::similar(self.coordinates_.matrix(n), jacobian);
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(A, 2 * n, 2 * n) = jacobian;
+      return 0;
     } else {
-      (void)u;
       throw InvalidInput({"estimator = ekf needs the model's linearize (regenerate its header)"});
     }
   }
+
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
   LoopSettings s_;
   Input::Feedback law_;
@@ -299,9 +263,12 @@ class MeasuredLoop {
   ParamsOf<Model> params_;
   Coordinates coordinates_;
   NormalStream sensor_noise_, drive_noise_;
-  std::deque<double> commands_;
-  Eigen::VectorXd y_, previous_y_, estimate_, rate_, predicted_, squared_error_;
-  Eigen::MatrixXd C_, covariance_;
+  std::vector<double> pending_;          ///< the commands sent, not yet applied (ipgen_loop_delay)
+  double last_input_ = 0.0;              ///< the input applied over the last period [scene units]
+  double pole_ = 0.0;                    ///< filter: exp(−ω_c T)
+  std::vector<int> measured_;            ///< s_.measured as ipgen_loop.h takes it
+  RowMajor A_, gain_rows_, process_noise_, measurement_noise_, covariance_;  ///< row-major copies, P
+  Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_;
   long samples_ = 0;
 };
 
@@ -310,33 +277,7 @@ class MeasuredLoop {
 #if IPSIM_DEFINITIONS
 namespace ipsim::detail {
 
-IPSIM_DECL Eigen::VectorXd kalman_correct(const Eigen::VectorXd& predicted, const Eigen::MatrixXd& gain,
-                                          const Eigen::VectorXd& y, const Eigen::MatrixXd& C) {
-  return predicted + gain * (y - C * predicted);
-}
-
-IPSIM_DECL Eigen::VectorXd kalman_predict(const Eigen::VectorXd& equilibrium, const Eigen::MatrixXd& A,
-                                          const Eigen::VectorXd& estimate, const Eigen::VectorXd& B, double du) {
-  return equilibrium + A * (estimate - equilibrium) + B * du;
-}
-
-IPSIM_DECL void ekf_correct(const Eigen::MatrixXd& C, const Eigen::MatrixXd& R, const Eigen::VectorXd& y,
-                            const Eigen::VectorXd& predicted, Eigen::VectorXd& estimate, Eigen::MatrixXd& covariance) {
-  const Eigen::MatrixXd innovation = C * covariance * C.transpose() + R;
-  const Eigen::MatrixXd K = innovation.ldlt().solve(C * covariance).transpose();  // P Cᵀ S⁻¹ (S, P symmetric)
-  estimate = predicted + K * (y - C * predicted);
-  const Eigen::MatrixXd joseph = Eigen::MatrixXd::Identity(covariance.rows(), covariance.cols()) - K * C;
-  covariance = joseph * covariance * joseph.transpose() + K * R * K.transpose();
-}
-
 IPSIM_DECL Eigen::MatrixXd similar(const Eigen::MatrixXd& P, const Eigen::MatrixXd& A) { return P * A * P.inverse(); }
-
-IPSIM_DECL void ekf_predict_covariance(double T, const Eigen::MatrixXd& A, const Eigen::MatrixXd& Q,
-                                       Eigen::MatrixXd& covariance) {
-  const Eigen::MatrixXd TA = T * A;
-  const Eigen::MatrixXd F = Eigen::MatrixXd::Identity(A.rows(), A.cols()) + TA + 0.5 * TA * TA;
-  covariance = F * covariance * F.transpose() + Q;
-}
 
 }  // namespace ipsim::detail
 #endif  // IPSIM_DEFINITIONS

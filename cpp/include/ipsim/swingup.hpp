@@ -33,6 +33,7 @@
 #include "ipsim/linkage.hpp"
 #include "ipsim/model.hpp"
 #include "ipsim/sink.hpp"
+#include "ipgen_loop.h"
 
 namespace ipsim {
 
@@ -63,7 +64,7 @@ struct SwingUp {
   bool acceleration = false;
   // trajectory: ū_k (steps), x̄_k (steps + 1 rows), K_k (steps rows)
   Eigen::VectorXd inputs;
-  Eigen::MatrixXd states, gains;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> states, gains;  ///< row-major: ipgen_loop.h's layout
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
   /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
@@ -92,68 +93,73 @@ struct SwingUp {
     return Input::sampled(period, std::move(law));
   }
 
-  /// u at sampling instant t (k = round(t / period)) in state x; updates `state`.
+  /// u at sampling instant t (k = round(t / period)) in state x; updates `state`. The law is
+  /// ipgen_loop.h's (ipgen_loop_swingup_step, shared with the firmware header and Python).
   template <class Model>
   double control(double t, const Eigen::VectorXd& x, const ParamsOf<Model>& params, State& state) const {
     const int n = dof_of<Model>();
     const long k = std::lround(t / period);
-    double u = 0.0;
-    if (state.phase != SwingPhase::hold) {
-      if (method == Method::trajectory) {
-        if (k < inputs.size()) {
-          u = inputs(k) - gains.row(k).dot(x - states.row(k).transpose());
-          state.off_plan = 0.0;
-          for (int i = 1; i < n; ++i) {
-            const double off = std::abs(x(i) - states(k, i));
-            if (!(off <= state.off_plan)) {  // NaN counts as off
-              state.off_plan = off;
-              state.off_plan_link = i;
-            }
-          }
-        } else {
-          enter_hold(state, t, target);
-        }
-      } else {
-        const double turns = std::round(x(1) / (2.0 * kPi));
-        if (std::abs(x(1) - 2.0 * kPi * turns) <= catch_angle && std::abs(x(n + 1)) <= catch_rate) {
-          Eigen::VectorXd caught = target;
-          caught(1) = 2.0 * kPi * turns;
-          enter_hold(state, t, caught);
-        } else {
-          u = energy_input<Model>(x, params);
+    if (state.phase == SwingPhase::track && k < inputs.size()) {  // how far the links are from the plan
+      state.off_plan = 0.0;
+      for (int i = 1; i < n; ++i) {
+        const double off = std::abs(x(i) - states(k, i));
+        if (!(off <= state.off_plan)) {  // NaN counts as off
+          state.off_plan = off;
+          state.off_plan_link = i;
         }
       }
     }
-    if (state.phase == SwingPhase::hold) u = -hold_gain.dot(x - state.equilibrium);
-    return std::clamp(u, -u_max, u_max);
+    const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
+                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, 1.0};
+    const std::pair<const ParamsOf<Model>*, int> context{&params, n};
+    const ipgen_loop_swingup law{n,
+                                 u_max,
+                                 hold_gain.data(),
+                                 target.data(),
+                                 energy,
+                                 method == Method::trajectory ? static_cast<long>(inputs.size()) : 0L,
+                                 inputs.data(),
+                                 states.data(),
+                                 gains.data(),
+                                 &SwingUp::mass_bias<Model>,
+                                 const_cast<void*>(static_cast<const void*>(&context))};
+    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1)};
+    std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
+    const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
+    if (loop.phase == IPGEN_LOOP_HOLD && state.phase != SwingPhase::hold) {
+      state.phase = SwingPhase::hold;
+      state.hold_since = t;
+      state.equilibrium = target;
+      state.equilibrium(1) = loop.hold_q1;
+    }
+    return u;
   }
 
  private:
-  static void enter_hold(State& state, double t, const Eigen::VectorXd& equilibrium) {
-    state.phase = SwingPhase::hold;
-    state.hold_since = t;
-    state.equilibrium = equilibrium;
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+  static int phase_code(SwingPhase phase) {
+    switch (phase) {
+      case SwingPhase::swing: return IPGEN_LOOP_SWING;
+      case SwingPhase::track: return IPGEN_LOOP_TRACK;
+      case SwingPhase::hold: return IPGEN_LOOP_HOLD;
+    }
+    return IPGEN_LOOP_HOLD;
   }
 
+  /// M(q) and bias(q, qd) row-major, for the energy law (ipgen_loop_mass_bias); context: the
+  /// parameters and the degrees of freedom.
   template <class Model>
-  double energy_input(const Eigen::VectorXd& x, const ParamsOf<Model>& params) const {
+  static int mass_bias(void* context, const double q_in[], const double qd_in[], double M[], double b[]) {
     if constexpr (has_mass_and_bias<Model>) {
-      const int n = dof_of<Model>();
-      const VectorOf<Model> q = x.head(n);
-      const VectorOf<Model> qd = x.segment(n, n);
-      const auto mass = Model::template mass_matrix<double>(q, params);
-      const auto bias = Model::template bias<double>(q, qd, params);
-      const double energy = 0.5 * energy_inertia * qd(1) * qd(1) + energy_weight * (std::cos(q(1)) - 1.0);
-      const double product = qd(1) * mass(1, 0);
-      const double direction = product != 0.0 ? std::copysign(1.0, product) : 1.0;
-      double a = std::clamp(gain_energy * (energy - energy_target) * direction, -accel_max, accel_max);
-      a -= gain_position * q(0) + gain_velocity * qd(0);
-      if (acceleration) return a;
-      const double qdd1 = -(mass(1, 0) * a + bias(1)) / mass(1, 1);
-      return mass(0, 0) * a + mass(0, 1) * qdd1 + bias(0);
+      const auto& [params, n] = *static_cast<const std::pair<const ParamsOf<Model>*, int>*>(context);
+      const VectorOf<Model> q = Eigen::Map<const Eigen::VectorXd>(q_in, n);
+      const VectorOf<Model> qd = Eigen::Map<const Eigen::VectorXd>(qd_in, n);
+      Eigen::Map<RowMajor>(M, n, n) = Model::template mass_matrix<double>(q, *params);
+      Eigen::Map<Eigen::VectorXd>(b, n) = Model::template bias<double>(q, qd, *params);
+      return 0;
     } else {  // scene::load refuses this case before any run
-      (void)x;
-      (void)params;
+      (void)context, (void)q_in, (void)qd_in, (void)M, (void)b;
       throw InvalidInput({"swingup = energy needs the model's mass_matrix and bias (regenerate its header)"});
     }
   }
