@@ -287,9 +287,9 @@ def print_formula(
             return f"{operand(node.args[0], True, 2)}^2"
         left, right = node.args
         binds = _BINDS[node.operator]
-        spelled = node.operator
-        if readable:
-            spelled = " " if node.operator == "*" else f" {node.operator} "
+        spelled = f" {node.operator} " if readable or node.operator == "+" else node.operator  # as CppPrinter
+        if readable and node.operator == "*":
+            spelled = " "
         return f"{operand(left, False, binds)}{spelled}{operand(right, True, binds)}"
 
     return show(formula)
