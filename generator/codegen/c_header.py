@@ -24,6 +24,7 @@ from ipgen.codegen.header import (
     header_context,
     poly_keys,
 )
+from ipgen.codegen.motor import motor_functions
 from ipgen.common.safetext import comment_safe
 from ipgen.control.controller import Controller
 from ipgen.errors import Error
@@ -151,6 +152,8 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     context["nameu"] = request.name.upper()
     context["fn"] = c_bodies(eqs, spec.outputs)
     context["folded"] = folded_entries(eqs.system, spec, C_SYNTAX, lambda v: c_number(float(v)))
+    # the dc_motor functions (actuator.motor_terms), prefixed as the template's P
+    context["motor"] = motor_functions(eqs.system, "c", f"ipgen_{request.name}")
     dof = eqs.system.dof
     context["controller"] = control_context(request.controller, dof) if request.controller else None
     context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None

@@ -19,6 +19,7 @@ from ipgen.codegen.functions import (
     build_body,
     params_field,
 )
+from ipgen.codegen.motor import motor_functions
 from ipgen.common.install import REINSTALL
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
@@ -220,6 +221,7 @@ def render_header(eqs: Equations, request: HeaderRequest) -> str:
     context["fn"] = function_bodies(eqs, spec.outputs)
     context["folded"] = folded_entries(eqs.system, spec, CPP_SYNTAX, lambda v: repr(float(v)))
     context["rod_fills"] = rod_fills(eqs.system, spec)
+    context["motor"] = motor_functions(eqs.system, "cpp")  # DcMotor, with_motor (actuator.motor_terms)
     return environment().get_template(TEMPLATE).render(context)
 
 

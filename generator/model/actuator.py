@@ -142,7 +142,7 @@ class Actuator:
             if name not in ("eta_g", "eta_m", "Jm") and value <= 0:
                 raise ActuatorError(f"actuator {name} = {value:g}: must be > 0 [{MOTOR_CONSTANTS[name][0]}]")
         for what, value in (
-            ("gain", _or_inf(self.gain)),  # motor_terms' Kg**2 raises OverflowError past 1.8e308
+            ("gain", _or_inf(self.gain)),  # inf past 1.8e308 (or OverflowError from a huge int)
             ("back-EMF damping", _or_inf(self.damping)),
             ("rotor inertia", _or_inf(self.inertia)),
         ):
@@ -217,16 +217,19 @@ def motor_terms(constants: Mapping[str, Any]) -> tuple[Any, Any, Any]:
     """
     kg, eta_g, eta_m = constants.get("Kg", 1), constants.get("eta_g", 1), constants.get("eta_m", 1)
     radius = constants.get("r")
-    # The operations in the order the float results have always had (byte-identical outputs).
+    # The operations in the order the float results have always had (byte-identical outputs). The
+    # headers print these operations as they are (codegen/motor.py): squares are products, which
+    # round correctly everywhere (libm's pow(x, 2), Python's float x**2, is off by one bit for
+    # about 1 in 1500 doubles with glibc 2.36) and are what C compilers make of pow(x, 2) anyway.
     gain = eta_g * kg * eta_m * constants["kt"] / constants["Rm"]
     if radius is not None:
         gain = gain / radius
     damping = gain * kg * constants["km"]
     if radius is not None:
         damping = damping / radius
-    inertia = eta_g * kg**2 * constants.get("Jm", 0)
+    inertia = eta_g * (kg * kg) * constants.get("Jm", 0)
     if radius is not None:
-        inertia = inertia / radius**2
+        inertia = inertia / (radius * radius)
     return gain, damping, inertia
 
 
@@ -271,7 +274,7 @@ DIRECT = Actuator()
 
 
 def _or_inf(value: Callable[[], float]) -> float:
-    """value(), or inf where a power overflows a double."""
+    """value(), or inf where it overflows a double (OverflowError: an int too large for a float)."""
     try:
         return value()
     except OverflowError:
