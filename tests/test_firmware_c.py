@@ -8,6 +8,8 @@ derivative filter, energy swing-up, catch and LQR hold, volts at 1 kHz).
   -Wconversion -Werror) drives a plant integrated in double in another translation unit (RK4,
   ten substeps per millisecond, the same header's forward dynamics) through quantised counts;
   it swings up, catches and holds within 10 V, as the simulator's run does.
+- The loop runtime: the header carries cpp/include/ipgen_loop.h whole and wraps it; it compiles
+  as C++17 too, and two loop headers share one translation unit (C99 and C++17).
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
-from cxx import require_toolchain
+from cxx import CXX, require_toolchain
 
 from ipgen.command.cli import run
 
@@ -269,3 +271,58 @@ def test_the_firmwares_encoder_zero_is_the_rig_at_rest(tmp_path: Path) -> None:
         entries = line.split("{")[1].split("}")[0].split(",")
         values = [float(v.replace("(IPGEN_SCALAR)", "").strip().rstrip("f")) for v in entries]
         assert values == pytest.approx(expected, abs=1e-12), line
+
+
+TWO_HEADERS = """\
+#include <stdio.h>
+#include "cart_fw.h"
+#include "NAME.h"
+/* Two ipgen headers with a loop in one translation unit: one copy of ipgen_loop.h is compiled. */
+int main(void) {
+  ipgen_cart_fw_loop_state cart;
+  P_loop_state qube;
+  const long counts[2] = {0, 0};
+  IPGEN_SCALAR u, v;
+  ipgen_cart_fw_loop_init(&cart);
+  P_loop_init(&qube);
+  u = ipgen_cart_fw_step(&cart, counts);
+  v = P_step(&qube, counts);
+  printf("%.9g %.9g\\n", (double)u, (double)v);
+  return 0;
+}
+"""
+
+
+def test_the_header_carries_the_loop_runtime_and_compiles_as_cpp(folder: Path, tmp_path: Path) -> None:
+    """Issue 45: the estimator, the swing-up and the loop steps are cpp/include/ipgen_loop.h's
+    functions, printed whole into the header (one file to drop into firmware) and called with the
+    header's constants. The header compiles as C++17 as well (-Wall -Wextra -Wpedantic -Werror),
+    and with another loop header in one translation unit (the runtime's include guard), in C99
+    (double; float with -Wdouble-promotion -Wconversion) and C++17."""
+    header = (folder / f"{NAME}.h").read_text()
+    runtime = (ROOT / "cpp" / "include" / "ipgen_loop.h").read_text()
+    assert runtime.rstrip("\n") in header, "ipgen_loop.h is printed whole"
+    assert header.count("#define IPGEN_LOOP_H_INCLUDED") == 1
+    for call in ("ipgen_loop_filter(", "ipgen_loop_swingup_step(&law, s, x, work)", "ipgen_loop_delay("):
+        assert call in header, call
+    scene = tmp_path / "cart.toml"
+    scene.write_text(CART)
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(scene), "-o", str(tmp_path)]) == 0, err.getvalue()
+    (tmp_path / f"{NAME}.h").write_text(header)
+    source = tmp_path / "two.c"
+    source.write_text(_source(TWO_HEADERS))
+    cpp = [CXX, "-x", "c++", "-std=c++17", "-O1", *WARNINGS]
+    c = [CC, "-std=c99", "-O1", *WARNINGS]
+    builds = {
+        "c-double": c,
+        "c-float": [*c, *FLOAT_WARNINGS],
+        "cpp-double": cpp,
+        "cpp-float": [*cpp, "-DIPGEN_SCALAR=float", "-Wconversion"],
+    }
+    for label, flags in builds.items():
+        program = tmp_path / label
+        _compile([*flags, f"-I{tmp_path}", str(source), "-o", str(program), "-lm"])
+        out = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
+        u, v = (float(value) for value in out.split())
+        assert math.isfinite(u) and abs(u) <= 20.0 and math.isfinite(v) and abs(v) <= U_MAX, (label, u, v)

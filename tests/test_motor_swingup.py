@@ -83,7 +83,7 @@ def test_motor_swingup_is_the_folded_direct_swingup(tmp_path: Path) -> None:
 
 def test_motor_swingup_law_is_in_volts(tmp_path: Path) -> None:
     """The law in volts is the direct law divided by b; the C header divides the energy law's
-    torque by b and compiles warning-free."""
+    torque by b (the loop runtime's input_gain) and compiles warning-free."""
     motor = load_scene(_scene(tmp_path, "m", True)).swingup
     direct = load_scene(_scene(tmp_path, "d", False)).swingup
     assert motor is not None and direct is not None
@@ -93,7 +93,8 @@ def test_motor_swingup_law_is_in_volts(tmp_path: Path) -> None:
     require_cc()
     ipgen.write_header(tmp_path / "gen", scene=_scene(tmp_path, "mc", True))
     header = (tmp_path / "gen" / "mc.h").read_text()
-    assert "b[0]) / (IPGEN_SCALAR)0.5; /* the motor's torque or force in volts */" in header
+    # ipgen_loop_energy_input divides the law's torque by the energy law's input_gain, b
+    assert "(IPGEN_SCALAR)0.5 /* input_gain: the law's torque or force in volts" in header
     (tmp_path / "main.c").write_text('#include "mc.h"\nint main(void) { return 0; }\n')
     subprocess.run(
         c_command(f"-I{tmp_path / 'gen'}", str(tmp_path / "main.c"), "-o", str(tmp_path / "a")), check=True

@@ -108,6 +108,7 @@ def check_installed_package(installed: Path, tmp_path: Path) -> None:
         "cmake/ipgenConfigVersion.cmake",
         "cmake/ipgen.cmake",
         "cpp/include/ipsim/ipsim.hpp",
+        "cpp/include/ipgen_loop.h",  # printed into C headers with a loop (ipgen.common.locations)
         "cpp/src/simulate.cpp",
         "templates/model.hpp.jinja",
         "templates/fmu2.c.jinja",

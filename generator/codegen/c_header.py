@@ -6,7 +6,10 @@ The same equations, specialisation and common-subexpression elimination as the C
 before the include), constants cast to it and sin/cos chosen by its size (sinf/cosf for float;
 <math.h> only, as newlib's <tgmath.h> does not work in C99), so that float mode computes in
 float only. Optionally the controller u = −K (x − x_eq) of a scene, or its swing-up (energy law,
-or the plan and gain schedule as const tables).
+or the plan and gain schedule as const tables), and its estimator and measured loop; the
+algorithms of the swing-up, the estimators and the loop are cpp/include/ipgen_loop.h's (the loop
+runtime, shared with the simulator and Python), printed whole into the header, which wraps them
+with its constants.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from ipgen.codegen.header import (
     poly_keys,
 )
 from ipgen.codegen.motor import motor_functions
+from ipgen.common.locations import loop_runtime
 from ipgen.common.safetext import comment_safe
 from ipgen.control.controller import Controller
 from ipgen.errors import Error
@@ -110,6 +114,20 @@ def _c_list(values: tuple[float, ...] | list[float], what: str) -> str:
     return ", ".join(c_number(v) for v in values)
 
 
+# The numbers of ipgen_loop_energy_law (cpp/include/ipgen_loop.h) in its order, SwingUpLaw.energy's names.
+ENERGY_FIELDS = (
+    "gain_energy",
+    "gain_position",
+    "gain_velocity",
+    "accel_max",
+    "catch_angle",
+    "catch_rate",
+    "energy_target",
+    "energy_inertia",
+    "energy_weight",
+)
+
+
 def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
     """The swing-up for the template: limits, hold LQR, the energy law's constants or the plan's
     tables (ū_k, x̄_k, K_k as const arrays: `table_bytes` of flash in double)."""
@@ -128,6 +146,9 @@ def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
         # a dc_motor: u in volts, the energy law's force divided by b (None: u is the force)
         "input_gain": c_number(law.input_gain) if law.input_gain != 1.0 else None,
         "base_acceleration": law.base_acceleration,  # u is the base's acceleration: the law's a
+        "input_gain_c": c_number(law.input_gain),  # ipgen_loop_energy_law's input_gain (1: none)
+        # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
+        "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
     }
     if law.method == "trajectory":
         rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]
@@ -160,6 +181,9 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     context["estimator"] = (
         estimator_context(request.estimator, dof, spec.outputs) if request.estimator is not None else None
     )
+    # ipgen_loop.h printed whole when the header runs a loop (an estimator, a swing-up)
+    needs_loop = request.estimator is not None or request.swingup is not None
+    context["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n") if needs_loop else ""
     return environment().get_template(TEMPLATE).render(context)
 
 

@@ -1,5 +1,5 @@
-"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`) and the preset
-scenes (`ipgen presets`)."""
+"""Where ipgen's non-Python parts are: the CMake package (`ipgen --cmake-dir`), the preset
+scenes (`ipgen presets`) and the loop runtime printed into C headers (cpp/include/ipgen_loop.h)."""
 
 from __future__ import annotations
 
@@ -65,3 +65,29 @@ def presets_dir() -> Path:
     if any(checkout.glob("*.toml")):
         return checkout
     raise Error(f"ipgen's preset scenes are missing from this installation: {REINSTALL}")
+
+
+LOOP_RUNTIME = "ipgen_loop.h"  # the sampled loop's algorithms in C99, in cpp/include/
+
+
+def loop_runtime() -> Path:
+    """cpp/include/ipgen_loop.h of this installation (package data `ipgen.cpp.include`, or an
+    uninstalled checkout's): the sampled loop's algorithms that a C header with an estimator or a
+    swing-up carries whole (`--emit c`).
+
+    Returns
+    -------
+    Path
+        The file ipgen_loop.h.
+
+    Raises
+    ------
+    Error
+        The file is missing from this installation.
+    """
+    path = cmake_dir().parent / "cpp" / "include" / LOOP_RUNTIME  # the package's ipgen/, or the checkout
+    if path.is_file():
+        return path
+    raise Error(
+        f"ipgen's loop runtime cpp/include/{LOOP_RUNTIME} is missing from this installation: {REINSTALL}"
+    )
