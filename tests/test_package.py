@@ -109,6 +109,8 @@ def check_installed_package(installed: Path, tmp_path: Path) -> None:
         "cmake/ipgen.cmake",
         "cpp/include/ipsim/ipsim.hpp",
         "cpp/src/simulate.cpp",
+        "cpp/include/ipgen_loop.h",
+        "cpp/src/ipgen_loop_batch.c",
         "templates/model.hpp.jinja",
         "templates/fmu2.c.jinja",
         "templates/fmi/fmi2/fmi2Functions.h",
