@@ -123,13 +123,24 @@ class MeasuredLoop:
         self.pending = np.zeros((n, sensing.delay_steps + 1))
         self.quantum = np.ascontiguousarray(sensing.quantum, dtype=np.float64)
         self.pole = math.exp(-sensing.cutoff * dt)  # a = e^{−ωc dt}
+        # Scratch of one call (the noise, the commands and actions, which rows are finite) and
+        # the addresses of everything C reads or writes: numpy's address lookup costs more than
+        # a small batch's whole measurement, so each is looked up once.
+        self.noise = np.zeros((n, dof))
+        self.commands, self.applied = np.zeros(n), np.zeros(n)
         self.finite = np.zeros(n, dtype=np.uint8)
+        self._at = {
+            name: address(getattr(self, name))
+            for name in ("previous", "rates", "pending", "quantum", "noise", "commands", "applied", "finite")
+        }
+        self._known: dict[str, tuple[np.ndarray, int]] = {}  # the caller's arrays last passed
 
-    def _noise(self, rows: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray | None:
-        """The measurement noise of `rows` (one row of dof draws each), or None without noise."""
-        if not self.sensing.noise:
-            return None
-        return np.stack([rngs[i].normal(0.0, self.sensing.noise, size=self.dof) for i in rows])
+    def _address(self, name: str, array: np.ndarray) -> int:
+        """The address of the caller's `array` passed as `name` (looked up when it changes)."""
+        known = self._known.get(name)
+        if known is None or known[0] is not array:
+            known = self._known[name] = (array, address(array))
+        return known[1]
 
     def _observe(
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray, k: int
@@ -138,15 +149,16 @@ class MeasuredLoop:
         if state.dtype != np.float64 or obs.dtype != np.float32 or state.shape[1] != 2 * self.dof:
             raise TypeError("MeasuredLoop: state must be N × 2·dof float64, obs float32")
         rows = np.ascontiguousarray(rows, dtype=np.int64)
-        noise = self._noise(rows, rngs)
-        sensing = self.sensing
+        count, sensing, at = len(rows), self.sensing, self._at
+        if sensing.noise and count:
+            draws = [rngs[i].normal(0.0, sensing.noise, size=self.dof) for i in rows]
+            np.stack(draws, out=self.noise[:count])
         failed = library().ipgen_loop_batch_observe(
-            len(rows), address(rows), self.dof, address(state), address(self.quantum),
-            None if noise is None else address(noise), int(sensing.rates == "filter"), self.pole,
-            sensing.cutoff, self.dt, k, address(self.previous), address(self.rates), address(obs),
-            obs.shape[1], address(self.finite),
+            count, self._address("rows", rows), self.dof, self._address("state", state), at["quantum"],
+            at["noise"] if sensing.noise else None, int(sensing.rates == "filter"), self.pole, sensing.cutoff,
+            self.dt, k, at["previous"], at["rates"], self._address("obs", obs), obs.shape[1], at["finite"],
         )  # fmt: skip
-        return rows[self.finite[: len(rows)] == 0] if failed else rows[:0]
+        return rows[self.finite[:count] == 0] if failed else rows[:0]
 
     def reset(
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray
@@ -160,12 +172,13 @@ class MeasuredLoop:
         """The actions the model sees now in `rows`: `delay_steps` old, plus drive noise (before
         the ±1 clip). `actions` has one entry per row."""
         rows = np.ascontiguousarray(rows, dtype=np.int64)
-        commands = np.ascontiguousarray(actions, dtype=np.float64).reshape(len(rows))
-        applied = np.empty(len(rows))
+        count = len(rows)
+        self.commands[:count] = actions
         library().ipgen_loop_batch_delay(
-            len(rows), address(rows), self.sensing.delay_steps, address(self.pending), address(commands),
-            address(applied),
+            count, self._address("rows", rows), self.sensing.delay_steps, self._at["pending"],
+            self._at["commands"], self._at["applied"],
         )  # fmt: skip
+        applied = self.applied[:count].copy()
         if self.sensing.drive_noise:
             applied += np.array([rngs[i].normal(0.0, self.sensing.drive_noise) for i in rows])
         return applied
