@@ -143,7 +143,8 @@ class MeasuredLoop:
 
     def measure(self, angles: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         quantum = self.sensing.quantum
-        y = np.where(quantum > 0, quantum * np.floor(angles / np.where(quantum > 0, quantum, 1) + 0.5), angles)
+        steps = np.where(quantum > 0, quantum, 1)
+        y = np.where(quantum > 0, quantum * np.floor(angles / steps + 0.5), angles)
         if self.sensing.noise:
             y = y + np.stack([rng.normal(0.0, self.sensing.noise, size=angles.shape[1]) for rng in rngs])
         return y
@@ -153,7 +154,7 @@ class MeasuredLoop:
             return (y - previous) / self.dt
         return math.exp(-self.sensing.cutoff * self.dt) * rate + self.sensing.cutoff * (y - previous)
 
-    def reset(self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray) -> None:
+    def reset(self, rows: np.ndarray, state: np.ndarray, rngs: list[Any], obs: np.ndarray) -> None:
         with np.errstate(over="ignore", invalid="ignore"):
             y = self.measure(state[rows, : self.dof], [rngs[i] for i in rows])
             self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
@@ -169,7 +170,7 @@ class MeasuredLoop:
             applied += np.array([rngs[i].normal(0.0, self.sensing.drive_noise) for i in rows])
         return applied
 
-    def observe(self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray) -> np.ndarray:
+    def observe(self, rows: np.ndarray, state: np.ndarray, rngs: list[Any], obs: np.ndarray) -> np.ndarray:
         with np.errstate(over="ignore", invalid="ignore"):
             y = self.measure(state[rows, : self.dof], [rngs[i] for i in rows])
             self.rates[rows] = self.rate(y, self.previous[rows], self.rates[rows])
