@@ -22,6 +22,10 @@ a zero-order hold (matrix exponential): the energy method runs without CasADi.
 Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
 the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
 and stays there ("swing" → "hold").
+
+Each sample runs the law as written once in C (cpp/include/ipgen_loop.h's ipgen_loop_swingup_step,
+the code of the firmware header and the simulator) through ctypes (`ipgen.common.loop_runtime`,
+compiled on first use with the C compiler); Python holds the constants and the model.
 """
 
 from __future__ import annotations
