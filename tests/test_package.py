@@ -110,6 +110,8 @@ def check_installed_package(installed: Path, tmp_path: Path) -> None:
         "cpp/include/ipsim/ipsim.hpp",
         "cpp/include/ipgen_loop.h",  # printed into C headers with a loop (ipgen.common.locations)
         "cpp/src/simulate.cpp",
+        "cpp/include/ipgen_loop.h",
+        "cpp/src/ipgen_loop_batch.c",
         "templates/model.hpp.jinja",
         "templates/fmu2.c.jinja",
         "templates/fmi/fmi2/fmi2Functions.h",

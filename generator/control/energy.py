@@ -22,14 +22,29 @@ a zero-order hold (matrix exponential): the energy method runs without CasADi.
 Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
 the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
 and stays there ("swing" → "hold").
+
+Each sample runs the law as written once in C (cpp/include/ipgen_loop.h's ipgen_loop_swingup_step,
+the code of the firmware header and the simulator) through ctypes (`ipgen.common.loop_runtime`,
+compiled on first use with the C compiler); Python holds the constants and the model.
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+from ipgen.common.loop_runtime import (
+    MASS_BIAS,
+    PHASES,
+    EnergyLaw,
+    SwingUp,
+    SwingUpState,
+    address,
+    library,
+    swingup_work,
+)
 from ipgen.control.casadi_model import Plant, as_plant, casadi_model
 from ipgen.control.linear import ControlError, dynamics, solve_dare, weights
 from ipgen.control.trajectory import PlanError, finite_number
@@ -63,7 +78,13 @@ def link_energy(plant: Plant, x: np.ndarray) -> float:
 
 @dataclass
 class EnergySwingUp:
-    """The sampled energy controller with its LQR catch; `control(k, x)` → (u, phase)."""
+    """The sampled energy controller with its LQR catch; `control(k, x)` → (u, phase).
+
+    Python holds the design (the constants below, the plant, the hold gain); each `control`
+    runs cpp/include/ipgen_loop.h's swing-up (ipgen_loop_swingup_step: the catch test, the
+    energy law, the hold) through ctypes (`ipgen.common.loop_runtime`), with M and bias from
+    `mass_and_bias` called back from C.
+    """
 
     plant: Plant
     u_max: float
@@ -77,40 +98,75 @@ class EnergySwingUp:
     catch_rate: float  # rad/s
     energy_target: float = 0.0  # E0 [J]
     acceleration: bool = False  # u is the base's acceleration ([actuator] kind "acceleration"): u = a
-    _caught: int | None = field(default=None, repr=False)  # 2π·k of the upright caught
+    # ipgen_loop_swingup_state (the phase, the upright held); None until the first `control`
+    _state: SwingUpState | None = field(default=None, init=False, repr=False, compare=False)
+    _callback: Any = field(default=None, init=False, repr=False, compare=False)  # MASS_BIAS on the plant
+    _failure: list[BaseException] = field(default_factory=list, init=False, repr=False, compare=False)
 
     def reset(self) -> None:
-        self._caught = None
+        """Start over: the next `control` swings (the catch forgotten)."""
+        self._state = None
 
-    def control(self, k: int, x: np.ndarray) -> tuple[float, str]:
+    def _mass_bias(self, context: Any, q: Any, qd: Any, mass: Any, bias: Any) -> int:
+        """ipgen_loop_mass_bias on `mass_and_bias` (M row-major, bias), 1 if it raises."""
         import numpy as np
 
-        x = np.asarray(x, dtype=float)
         dof = self.plant.dof
-        turns = round(float(x[1]) / (2 * math.pi))
-        if (
-            self._caught is None
-            and abs(float(x[1]) - 2 * math.pi * turns) <= self.catch_angle
-            and abs(float(x[dof + 1])) <= self.catch_rate
-        ):
-            self._caught = turns
-        if self._caught is not None:
-            target = np.zeros(2 * dof)
-            target[1] = 2 * math.pi * self._caught
-            u = -float(self.hold_gain @ (x - target))
-            return float(np.clip(u, -self.u_max, self.u_max)), "hold"
-        q, qd = x[:dof], x[dof:]
-        mass, bias = mass_and_bias(self.plant, q, qd)
-        energy = link_energy(self.plant, x)
-        direction = math.copysign(1.0, float(qd[1]) * mass[1, 0]) if qd[1] * mass[1, 0] != 0 else 1.0
-        pump = self.gain_energy * (energy - self.energy_target) * direction
-        a = float(np.clip(pump, -self.accel_max, self.accel_max))
-        a -= self.gain_position * float(q[0]) + self.gain_velocity * float(qd[0])
-        if self.acceleration:
-            return float(np.clip(a, -self.u_max, self.u_max)), "swing"
-        qdd1 = -(mass[1, 0] * a + bias[1]) / mass[1, 1]
-        u = mass[0, 0] * a + mass[0, 1] * qdd1 + bias[0]
-        return float(np.clip(u, -self.u_max, self.u_max)), "swing"
+        try:
+            angles = np.ctypeslib.as_array(q, shape=(dof,)).copy()
+            m, b = mass_and_bias(self.plant, angles, np.ctypeslib.as_array(qd, shape=(dof,)).copy())
+            np.ctypeslib.as_array(mass, shape=(dof * dof,))[:] = np.asarray(m, dtype=float).reshape(-1)
+            np.ctypeslib.as_array(bias, shape=(dof,))[:] = np.asarray(b, dtype=float).reshape(-1)
+        except Exception as exc:  # raised by control, after C returns
+            self._failure.append(exc)
+            return 1
+        return 0
+
+    def control(self, k: int, x: np.ndarray) -> tuple[float, str]:
+        """The input at sample k for the state x (module docstring), and the phase.
+
+        Parameters
+        ----------
+        k : int
+            The sample (the energy law does not use it).
+        x : array_like
+            The state [θ; θ̇] (2·dof, ipgen's coordinates).
+
+        Returns
+        -------
+        tuple of (float, str)
+            u, clipped to ±u_max, and "swing" or "hold" (caught: the LQR hold from then on).
+        """
+        import numpy as np
+
+        dof = self.plant.dof
+        state = np.array(x, dtype=float).reshape(2 * dof)
+        hold = np.array(self.hold_gain, dtype=float).reshape(2 * dof)
+        target = np.zeros(2 * dof)  # upright at rest; the caught turn replaces θ1
+        work = np.zeros(swingup_work(dof))
+        m1, l1, g = self.plant.m[1], self.plant.l[1], self.plant.g
+        # link_energy's J = m1 l1²/3 and ½ m1 g l1; input gain 1: u is the force or torque itself
+        energy = EnergyLaw(
+            self.gain_energy, self.gain_position, self.gain_velocity, self.accel_max, self.catch_angle,
+            self.catch_rate, self.energy_target, m1 * l1**2 / 3, 0.5 * m1 * g * l1, int(self.acceleration),
+            1.0,
+        )  # fmt: skip
+        if self._callback is None:
+            self._callback = MASS_BIAS(self._mass_bias)
+        law = SwingUp(
+            dof, self.u_max, address(hold), address(target), energy, 0, None, None, None, self._callback, None
+        )
+        run = library()
+        if self._state is None:
+            self._state = SwingUpState()
+            run.ipgen_loop_swingup_start(ctypes.byref(law), ctypes.byref(self._state))
+        self._failure.clear()
+        u = run.ipgen_loop_swingup_step(
+            ctypes.byref(law), ctypes.byref(self._state), address(state), address(work)
+        )
+        if self._failure:
+            raise self._failure[0]
+        return float(u), PHASES[self._state.phase]
 
 
 def energy_swingup(

@@ -20,15 +20,22 @@ controller uses at t_k. `reset()` starts again.
 The Kalman filters start at x̂_{0|−1}: measured coordinates y_0, the others at x_eq, rates 0;
 the EKF with P_{0|−1} = diag(Rn's diagonal for the measured coordinates, 1 rad² (m²) for the
 others, 1 (unit/s)² for the rates).
+
+Each `step` runs cpp/include/ipgen_loop.h (ipgen_loop_difference, _filter, _kalman_update,
+_ekf_update) through ctypes (`ipgen.common.loop_runtime`): the code the firmware header and the
+simulator run. Python holds the design (the gains, the covariances, the model) and the state
+between samples; the EKF's model is the Python `VectorField`, called back from C.
 """
 
 from __future__ import annotations
 
+import ctypes
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.loop_runtime import FIELD, EkfFilter, KalmanFilter, Measurement, address, ekf_work, library
 from ipgen.estimation.checks import covariance_matrix, measured_indices, sampling_period
 from ipgen.estimation.kalman import Kalman
 from ipgen.estimation.measurement import cutoff_problem
@@ -67,8 +74,51 @@ class Estimator(ABC):
         return values
 
 
-class Difference(Estimator):
-    """The backward difference of the measured angles (every coordinate measured)."""
+def _doubles(values: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """`values` as a new C-contiguous float64 array of `shape` (owned by the estimator: C reads it)."""
+    import numpy as np
+
+    return np.ascontiguousarray(np.array(values, dtype=np.float64).reshape(shape))
+
+
+def _measurement_of(dof: int, measured: tuple[int, ...], x_eq: np.ndarray) -> tuple[Measurement, list[Any]]:
+    """The ipgen_loop_measurement of the Kalman filters, and the arrays it points into (to keep)."""
+    import numpy as np
+
+    indices = np.array(measured, dtype=np.int32)
+    equilibrium = _doubles(x_eq, (2 * dof,))
+    return Measurement(dof, len(measured), address(indices), address(equilibrium)), [indices, equilibrium]
+
+
+class _Runtime(Estimator):
+    """What the estimators running ipgen_loop.h share: the sample count k, the estimate x (2·dof)
+    C updates in place and the measured values' buffer y, each with its address."""
+
+    def _start(self) -> None:
+        import numpy as np
+
+        self._k = 0
+        self._x = np.zeros(2 * self.dof)
+        self._y = np.zeros(len(self.measured))
+        self._x_at, self._y_at = address(self._x), address(self._y)
+
+    def _take(self, y: Any) -> int:
+        """Copy y_k into the buffer (checked), return k and count the sample."""
+        self._y[:] = self._measurement(y)
+        k, self._k = self._k, self._k + 1
+        return k
+
+
+class Difference(_Runtime):
+    """The backward difference of the measured angles (every coordinate measured).
+
+    Parameters
+    ----------
+    period : float
+        The sampling period T [s].
+    dof : int
+        The coordinates, all measured.
+    """
 
     def __init__(self, period: float, dof: int) -> None:
         self.period = sampling_period(period)
@@ -77,19 +127,44 @@ class Difference(Estimator):
         self.reset()
 
     def reset(self) -> None:
-        self._last: np.ndarray | None = None
-
-    def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
         import numpy as np
 
-        values = self._measurement(y)
-        rates = np.zeros(self.dof) if self._last is None else (values - self._last) / self.period
-        self._last = values.copy()
-        return np.concatenate([values, rates])
+        self._start()
+        self._previous = np.zeros(self.dof)
+        self._previous_at = address(self._previous)
+
+    def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
+        """x̂_k = [y_k; (y_k − y_{k−1}) / T] (rates 0 at k = 0); `u` is ignored.
+
+        Parameters
+        ----------
+        y : array_like
+            y_k, dof entries.
+        u : float, optional
+            Ignored (no model).
+
+        Returns
+        -------
+        numpy.ndarray
+            x̂_k (2·dof), a new array.
+        """
+        k = self._take(y)
+        library().ipgen_loop_difference(self.dof, self.period, k, self._y_at, self._previous_at, self._x_at)
+        return self._x.copy()
 
 
-class DerivativeFilter(Estimator):
-    """The first-order derivative filter ωc s / (s + ωc), discretised as Quanser's rigs do."""
+class DerivativeFilter(_Runtime):
+    """The first-order derivative filter ωc s / (s + ωc), discretised as Quanser's rigs do.
+
+    Parameters
+    ----------
+    period : float
+        The sampling period T [s].
+    dof : int
+        The coordinates, all measured.
+    cutoff : float, optional
+        ωc [rad/s], at most the Nyquist frequency π / T (default 50).
+    """
 
     def __init__(self, period: float, dof: int, cutoff: float = 50.0) -> None:
         self.period = sampling_period(period)
@@ -113,30 +188,40 @@ class DerivativeFilter(Estimator):
     def reset(self) -> None:
         import numpy as np
 
-        self._last: np.ndarray | None = None
-        self._rates = np.zeros(self.dof)
+        self._start()
+        self._previous = np.zeros(self.dof)
+        self._previous_at = address(self._previous)
 
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
-        import numpy as np
+        """x̂_k = [y_k; v_k], v_k = a v_{k−1} + ωc (y_k − y_{k−1}), v_0 = 0; `u` is ignored.
 
-        values = self._measurement(y)
-        if self._last is not None:
-            self._rates = self.pole * self._rates + self.cutoff * (values - self._last)
-        self._last = values.copy()
-        return np.concatenate([values, self._rates])
+        Parameters
+        ----------
+        y : array_like
+            y_k, dof entries.
+        u : float, optional
+            Ignored (no model).
+
+        Returns
+        -------
+        numpy.ndarray
+            x̂_k (2·dof), a new array.
+        """
+        k = self._take(y)
+        library().ipgen_loop_filter(
+            self.dof, self.pole, self.cutoff, k, self._y_at, self._previous_at, self._x_at
+        )
+        return self._x.copy()
 
 
-def _initial_state(dof: int, measured: tuple[int, ...], y: np.ndarray, x_eq: np.ndarray) -> np.ndarray:
-    """x̂_{0|−1}: the measured coordinates y_0, the others x_eq, rates 0."""
-    import numpy as np
+class SteadyStateKalman(_Runtime):
+    """The steady-state Kalman filter `design` (from `ipgen.kalman`) in its current form.
 
-    x = np.concatenate([x_eq[:dof], np.zeros(dof)])
-    x[list(measured)] = y
-    return x
-
-
-class SteadyStateKalman(Estimator):
-    """The steady-state Kalman filter `design` (from `ipgen.kalman`) in its current form."""
+    Parameters
+    ----------
+    design : Kalman
+        The filter's discrete model, gains and equilibrium (`ipgen.kalman`).
+    """
 
     def __init__(self, design: Kalman) -> None:
         import numpy as np
@@ -146,28 +231,63 @@ class SteadyStateKalman(Estimator):
         self.dof = design.A.shape[0] // 2
         self.measured = design.measured
         self._x_eq = np.asarray(design.equilibrium, dtype=float)
+        size, count = 2 * self.dof, len(self.measured)
+        measurement, kept = _measurement_of(self.dof, self.measured, self._x_eq)
+        a, b = _doubles(design.A, (size, size)), _doubles(design.B[:, 0], (size,))
+        m = _doubles(design.M, (size, count))
+        self._kept = [*kept, a, b, m]  # the arrays the struct points into
+        self._filter = KalmanFilter(measurement, address(a), address(b), address(m), float(design.u_eq))
+        self._work = np.zeros(size + count)
         self.reset()
 
     def reset(self) -> None:
-        self._x: np.ndarray | None = None  # x̂_{k−1|k−1}
+        self._start()
 
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
-        values = self._measurement(y)
-        d = self.design
-        if self._x is None:
-            prior = _initial_state(self.dof, self.measured, values, self._x_eq)
-        else:
-            deviation = self._x - self._x_eq
-            prior = self._x_eq + d.A @ deviation + d.B[:, 0] * (float(u) - d.u_eq)
-        self._x = prior + d.M @ (values - d.C @ prior)
+        """x̂_{k|k} from y_k and ū_{k−1} (module docstring; ū ignored at k = 0).
+
+        Parameters
+        ----------
+        y : array_like
+            y_k, one entry per measured coordinate.
+        u : float, optional
+            ū_{k−1}, the input held over the last period.
+
+        Returns
+        -------
+        numpy.ndarray
+            x̂_{k|k} (2·dof), a new array.
+        """
+        k = self._take(y)
+        library().ipgen_loop_kalman_update(
+            ctypes.byref(self._filter), k, self._y_at, float(u), self._x_at, address(self._work)
+        )
         return self._x.copy()
 
 
-class ExtendedKalman(Estimator):
+class ExtendedKalman(_Runtime):
     """The extended Kalman filter on ipgen's exact nonlinear model (module docstring).
 
-    `pendulum`: as for `ipgen.kalman`; `Qn`, `Rn`: covariances as there; `equilibrium`: where
-    the unmeasured coordinates start (default upright)."""
+    Parameters
+    ----------
+    pendulum : Pendulum, mapping or VectorField
+        The model, as for `ipgen.kalman`.
+    period : float
+        The sampling period T [s].
+    Qn, Rn : array_like
+        The process (2·dof) and measurement (one per measured coordinate) noise covariances,
+        as for `ipgen.kalman`.
+    measured : sequence of int, optional
+        The measured coordinates (default all).
+    equilibrium : sequence of float or str, optional
+        Where the unmeasured coordinates start (default upright).
+
+    Notes
+    -----
+    A sample whose model fails (the `VectorField` raises) or whose innovation covariance
+    C P⁻ Cᵀ + Rn is not positive definite (a diverged or non-finite estimate or measurement)
+    raises `EstimationError`; the filter's state is then that of the sample before.
+    """
 
     def __init__(
         self,
@@ -194,59 +314,95 @@ class ExtendedKalman(Estimator):
         for row, index in enumerate(self.measured):
             self.C[row, index] = 1.0
         self._x_eq = equilibrium_of(self.model, equilibrium)
+        count = len(self.measured)
+        measurement, kept = _measurement_of(self.dof, self.measured, self._x_eq)
+        qn, rn = _doubles(self.Qn, (size, size)), _doubles(self.Rn, (count, count))
+        self._failure: BaseException | None = None
+        self._field = FIELD(self._model_field)  # kept: C calls it back
+        self._kept = [*kept, qn, rn]
+        self._filter = EkfFilter(
+            measurement, self.period, 1.0, address(qn), address(rn), self._field, None
+        )  # gain 1: the VectorField's u is the input itself (a motor's b folded in)
+        self._work = np.zeros(ekf_work(size, count))
         self.reset()
 
     def reset(self) -> None:
-        self._x: np.ndarray | None = None  # x̂_{k−1|k−1}
-        self._p: np.ndarray | None = None  # P_{k−1|k−1}
+        import numpy as np
+
+        self._start()
+        self._p = np.zeros((2 * self.dof, 2 * self.dof))  # P_{k−1|k−1}
+
+    def _model_field(self, context: Any, x: Any, u: float, f: Any, a: Any) -> int:
+        """ipgen_loop_field on the `VectorField`: f(x, u) and, when `a` is not NULL, ∂f/∂x."""
+        import numpy as np
+
+        try:
+            size = 2 * self.dof
+            state = np.ctypeslib.as_array(x, shape=(size,)).copy()
+            if a:
+                rate, jacobian, _ = self.model.jacobians(state, u)
+                np.ctypeslib.as_array(a, shape=(size * size,))[:] = np.asarray(jacobian).reshape(-1)
+            else:
+                rate = self.model.f(state, u)
+            np.ctypeslib.as_array(f, shape=(size,))[:] = rate
+        except Exception as exc:  # reported by step, after C returns
+            self._failure = exc
+            return 1
+        return 0
 
     def initial_covariance(self) -> np.ndarray:
-        """P_{0|−1}: Rn's diagonal for the measured coordinates, 1 for the rest."""
+        """P_{0|−1}: Rn's diagonal for the measured coordinates, 1 for the rest.
+
+        Returns
+        -------
+        numpy.ndarray
+            2·dof × 2·dof, diagonal.
+        """
         import numpy as np
 
         diagonal = np.ones(2 * self.dof)
         diagonal[list(self.measured)] = np.diag(self.Rn)
         return np.diag(diagonal)
 
-    def predict(self, x: np.ndarray, p: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x̂_{k+1|k}, P_{k+1|k}) from (x̂_{k|k}, P_{k|k}) with ū_k = u held over the period."""
-        import numpy as np
-
-        t = self.period
-        f = self.model.f
-        _, a_c, _ = self.model.jacobians(x, u)
-        k1 = f(x, u)
-        k2 = f(x + 0.5 * t * k1, u)
-        k3 = f(x + 0.5 * t * k2, u)
-        k4 = f(x + t * k3, u)
-        x_next = x + t / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        ta = t * a_c
-        transition = np.eye(x.size) + ta + 0.5 * ta @ ta
-        p_next = transition @ p @ transition.T + self.Qn
-        return x_next, 0.5 * (p_next + p_next.T)
-
-    def update(self, x: np.ndarray, p: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(x̂_{k|k}, P_{k|k}) from the prediction and y_k (Joseph form)."""
-        import numpy as np
-
-        c = self.C
-        s = c @ p @ c.T + self.Rn
-        k = np.linalg.solve(s, c @ p).T
-        x_new = x + k @ (y - c @ x)
-        i_kc = np.eye(x.size) - k @ c
-        p_new = i_kc @ p @ i_kc.T + k @ self.Rn @ k.T
-        return x_new, 0.5 * (p_new + p_new.T)
-
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
-        values = self._measurement(y)
-        if self._x is None or self._p is None:
-            x, p = _initial_state(self.dof, self.measured, values, self._x_eq), self.initial_covariance()
-        else:
-            x, p = self.predict(self._x, self._p, float(u))
-        self._x, self._p = self.update(x, p, values)
+        """x̂_{k|k} from y_k and ū_{k−1} (module docstring; ū ignored at k = 0).
+
+        Parameters
+        ----------
+        y : array_like
+            y_k, one entry per measured coordinate.
+        u : float, optional
+            ū_{k−1}, the input held over the last period.
+
+        Returns
+        -------
+        numpy.ndarray
+            x̂_{k|k} (2·dof), a new array.
+
+        Raises
+        ------
+        EstimationError
+            The model failed, or C P⁻ Cᵀ + Rn is not positive definite (the class's Notes).
+        """
+        k = self._take(y)
+        self._failure = None
+        code = library().ipgen_loop_ekf_update(
+            ctypes.byref(self._filter), k, self._y_at, float(u), self._x_at, address(self._p),
+            address(self._work),
+        )  # fmt: skip
+        if code != 0:
+            self._k = k  # the sample did not happen
+            if code == 1:
+                raise EstimationError(
+                    f"extended Kalman filter, sample {k}: the model fails at the estimate: {self._failure}"
+                ) from self._failure
+            raise EstimationError(
+                f"extended Kalman filter, sample {k}: the innovation covariance C P⁻ Cᵀ + Rn is not "
+                "positive definite (a diverged or non-finite estimate, input or measurement)"
+            )
         return self._x.copy()
 
     @property
     def covariance(self) -> np.ndarray | None:
         """P_{k|k} after the last step (None before the first)."""
-        return None if self._p is None else self._p.copy()
+        return None if self._k == 0 else self._p.copy()

@@ -5,7 +5,9 @@ true state, estimator None); u_k = sat(−K (x̂_k − x_eq)); u_k is applied fr
 of j periods; 0 before the first arrives) and held. Between samples the model ẋ = f(x, ū) is
 integrated by CasADi's RK4 flow map (`control.casadi_model`) in `substeps` steps per period
 (default steps of at most 0.1 ms), in ipgen's own coordinates; the estimator and controller
-see the pendulum's coordinates. Needs CasADi (the [test], [swingup] or [bench] extras).
+see the pendulum's coordinates. The saturation and the delay are cpp/include/ipgen_loop.h's
+(ipgen_loop_saturate, ipgen_loop_delay, through ctypes: `ipgen.common.loop_runtime`), as is the
+estimator's step. Needs CasADi (the [test], [swingup] or [bench] extras).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.loop_runtime import address, library
 from ipgen.estimation.pendulum import EstimationError
 
 if TYPE_CHECKING:
@@ -104,7 +107,8 @@ def closed_loop(
     p_inv = np.linalg.inv(p)
     x = p_inv @ (np.asarray(initial, dtype=float) - c)  # ipgen's coordinates
     steps = round(t_end / period)
-    pending = [0.0] * delay  # commands on their way: pending[0] is applied next
+    run = library()  # ipgen_loop.h: the saturation and the delay
+    pending = np.zeros(delay + 1)  # ipgen_loop_delay's: the commands on their way, oldest first
     if estimator is not None:
         estimator.reset()
     ts, xs, ys, hats, us, applied_ = [], [], [], [], [], []
@@ -119,9 +123,8 @@ def closed_loop(
         hat = x_user.copy() if estimator is None else estimator.step(y, last_applied)
         u = -float(k_row @ (hat - x_eq))
         if saturation is not None:
-            u = min(max(u, -saturation), saturation)
-        pending.append(u)
-        applied = pending.pop(0)
+            u = run.ipgen_loop_saturate(u, saturation)
+        applied = run.ipgen_loop_delay(address(pending), delay, u)
         ts.append(k * period)
         xs.append(x_user)
         ys.append(y)

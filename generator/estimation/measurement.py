@@ -4,7 +4,8 @@
     y_k = z + Δ · floor((θ(t_k) − z) / Δ + 1/2) + n_k,   n_k ~ N(0, σ²)   (z: where the encoder reads 0)
 
 (quantised first, then the noise; exact when resolution = 0, noiseless when σ = 0). `Sensors`
-holds the [sensors] settings with their values per measured coordinate.
+holds the [sensors] settings with their values per measured coordinate; its quantiser is
+cpp/include/ipgen_loop.h's ipgen_loop_quantise, called through ctypes (`ipgen.common.loop_runtime`).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ipgen.common.loop_runtime import library
 from ipgen.estimation.pendulum import EstimationError
 
 if TYPE_CHECKING:
@@ -140,13 +142,13 @@ class Sensors:
         pose where the encoder reads 0 (`zero`, default 0): whole counts from it."""
         import numpy as np
 
+        quantise = library().ipgen_loop_quantise  # ipgen_loop.h's quantiser (Δ = 0: θ itself)
         values = np.asarray(theta, dtype=float)[list(self.measured)]
-        out = values.copy()
-        for j, step in enumerate(self.steps()):
-            if step > 0:
-                z = grid_zero(self.zero[j], step) if self.zero else 0.0
-                out[j] = z + step * math.floor((values[j] - z) / step + 0.5)
-        return out
+        steps = self.steps()
+        zeros = [grid_zero(z, step) for z, step in zip(self.zero, steps, strict=True)] if self.zero else None
+        return np.array(
+            [quantise(float(values[j]), zeros[j] if zeros else 0.0, step) for j, step in enumerate(steps)]
+        )
 
     def sample(self, theta: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """y_k: quantised, then one Gaussian draw per measured coordinate (drawn even when σ = 0,

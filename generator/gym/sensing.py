@@ -8,6 +8,9 @@ control interval dt to a batch of environments at once:
   a = exp(−ωc dt) (Quanser's (ωc z − ωc)/(z − e^{−ωc dt})), or the backward difference;
 - the action takes effect `delay` later (a whole number of intervals), and drive noise is added
   to the applied input.
+
+The quantiser, the rates and the delay are cpp/include/ipgen_loop.h's, called through ctypes once
+per batch (`ipgen.common.loop_runtime`); the noise is drawn in Python from each env's generator.
 """
 
 from __future__ import annotations
@@ -18,10 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ipgen.common.loop_runtime import address, library
 from ipgen.estimation.measurement import cutoff_problem, noise_problem, resolution_problem
 from ipgen.gym.checks import GymError, is_number
 
 KEYS = ("resolution", "noise", "delay", "rates", "cutoff", "drive_noise")
+MAX_DOF = 64  # the coordinates ipgen_loop_batch_observe measures per environment
 
 
 @dataclass(frozen=True)
@@ -96,55 +101,84 @@ class Sensing:
             raise GymError(f"sensors.cutoff = {cutoff!r:.40} {problem}: give a lower cutoff or a shorter dt")
         return cls(quantum, noise, steps, str(rates), cutoff, drive_noise)
 
-    def measure(self, angles: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
-        """y for a batch of coordinates (N × dof): quantised, then noise drawn per env."""
-        y = np.where(
-            self.quantum > 0,
-            self.quantum * np.floor(angles / np.where(self.quantum > 0, self.quantum, 1) + 0.5),
-            angles,
-        )
-        if self.noise:
-            y = y + np.stack([rng.normal(0.0, self.noise, size=angles.shape[1]) for rng in rngs])
-        return y
-
-    def rate(self, y: np.ndarray, previous: np.ndarray, rate: np.ndarray, dt: float) -> np.ndarray:
-        """The estimated rates from this and the previous measurement."""
-        if self.rates == "difference":
-            return (y - previous) / dt
-        return math.exp(-self.cutoff * dt) * rate + self.cutoff * (y - previous)
-
 
 class MeasuredLoop:
     """The measured observation and the delayed, noisy action of a batch of N environments.
 
-    Held per environment: the previous measurement, the rate estimate and the queue of actions
-    not yet applied. `reset` starts the given rows over; `apply` turns the agent's actions into
-    those the model sees this interval; `observe` writes the measured observation.
+    Held per environment: the previous measurement, the rate estimate and the commands not yet
+    applied (`pending`, ipgen_loop_delay's: `delay_steps` + 1 entries, the first the action
+    applied last). `reset` starts the given rows over; `apply` turns the agent's actions into
+    those the model sees this interval; `observe` writes the measured observation. Each is one
+    call into ipgen_loop.h (cpp/src/ipgen_loop_batch.c: every row through ipgen_loop_quantise,
+    _filter or _difference, and _delay); the noise is drawn here, from each environment's
+    generator, in the order the environments are given.
     """
 
     def __init__(self, sensing: Sensing, dof: int, n: int, dt: float) -> None:
+        if not 1 <= dof <= MAX_DOF:
+            raise GymError(f"sensors: at most {MAX_DOF} coordinates, this system has {dof}")
         self.sensing, self.dof, self.dt = sensing, dof, dt
         self.previous = np.zeros((n, dof))
         self.rates = np.zeros((n, dof))
-        self.queue = np.zeros((n, sensing.delay_steps))
+        self.pending = np.zeros((n, sensing.delay_steps + 1))
+        self.quantum = np.ascontiguousarray(sensing.quantum, dtype=np.float64)
+        self.pole = math.exp(-sensing.cutoff * dt)  # a = e^{−ωc dt}
+        # Scratch of one call (the noise, the commands and actions, which rows are finite) and
+        # the addresses of everything C reads or writes: numpy's address lookup costs more than
+        # a small batch's whole measurement, so each is looked up once.
+        self.noise = np.zeros((n, dof))
+        self.commands, self.applied = np.zeros(n), np.zeros(n)
+        self.finite = np.zeros(n, dtype=np.uint8)
+        self._at = {
+            name: address(getattr(self, name))
+            for name in ("previous", "rates", "pending", "quantum", "noise", "commands", "applied", "finite")
+        }
+        self._known: dict[str, tuple[np.ndarray, int]] = {}  # the caller's arrays last passed
+
+    def _address(self, name: str, array: np.ndarray) -> int:
+        """The address of the caller's `array` passed as `name` (looked up when it changes)."""
+        known = self._known.get(name)
+        if known is None or known[0] is not array:
+            known = self._known[name] = (array, address(array))
+        return known[1]
+
+    def _observe(
+        self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray, k: int
+    ) -> np.ndarray:
+        """Measure `rows` (sample k: 0 at a reset) into obs; the rows whose observation is not finite."""
+        if state.dtype != np.float64 or obs.dtype != np.float32 or state.shape[1] != 2 * self.dof:
+            raise TypeError("MeasuredLoop: state must be N × 2·dof float64, obs float32")
+        rows = np.ascontiguousarray(rows, dtype=np.int64)
+        count, sensing, at = len(rows), self.sensing, self._at
+        if sensing.noise and count:
+            draws = [rngs[i].normal(0.0, sensing.noise, size=self.dof) for i in rows]
+            np.stack(draws, out=self.noise[:count])
+        failed = library().ipgen_loop_batch_observe(
+            count, self._address("rows", rows), self.dof, self._address("state", state), at["quantum"],
+            at["noise"] if sensing.noise else None, int(sensing.rates == "filter"), self.pole, sensing.cutoff,
+            self.dt, k, at["previous"], at["rates"], self._address("obs", obs), obs.shape[1], at["finite"],
+        )  # fmt: skip
+        return rows[self.finite[:count] == 0] if failed else rows[:0]
 
     def reset(
         self, rows: np.ndarray, state: np.ndarray, rngs: list[np.random.Generator], obs: np.ndarray
     ) -> None:
-        """Start `rows` (indices) over from `state` (their rows): first measurement, zero rates."""
-        with np.errstate(over="ignore", invalid="ignore"):  # checked for finiteness by the caller
-            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-            self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
-            obs[rows] = self.layout(y, self.rates[rows])
+        """Start `rows` (indices) over from `state` (their rows): first measurement, zero rates,
+        nothing pending. `state` is N × 2·dof float64, `obs` N rows of float32, both C-contiguous."""
+        self.pending[rows] = 0.0
+        self._observe(rows, state, rngs, obs, 0)
 
     def apply(self, rows: np.ndarray, actions: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         """The actions the model sees now in `rows`: `delay_steps` old, plus drive noise (before
         the ±1 clip). `actions` has one entry per row."""
-        if self.sensing.delay_steps:
-            applied = self.queue[rows, 0].copy()
-            self.queue[rows] = np.column_stack([self.queue[rows, 1:], actions])
-        else:
-            applied = np.asarray(actions, dtype=np.float64).copy()
+        rows = np.ascontiguousarray(rows, dtype=np.int64)
+        count = len(rows)
+        self.commands[:count] = actions
+        library().ipgen_loop_batch_delay(
+            count, self._address("rows", rows), self.sensing.delay_steps, self._at["pending"],
+            self._at["commands"], self._at["applied"],
+        )  # fmt: skip
+        applied = self.applied[:count].copy()
         if self.sensing.drive_noise:
             applied += np.array([rngs[i].normal(0.0, self.sensing.drive_noise) for i in rows])
         return applied
@@ -154,17 +188,4 @@ class MeasuredLoop:
     ) -> np.ndarray:
         """Measure `rows` after a step and write (y0, sin/cos of each y_i, rates) into obs; the
         rows (of `rows`) whose observation is not finite, which the caller ends as failed."""
-        with np.errstate(over="ignore", invalid="ignore"):  # a non-finite row is returned, not warned
-            y = self.sensing.measure(state[rows, : self.dof], [rngs[i] for i in rows])
-            self.rates[rows] = self.sensing.rate(y, self.previous[rows], self.rates[rows], self.dt)
-            self.previous[rows] = y
-            observed = self.layout(y, self.rates[rows])
-        obs[rows] = observed
-        return rows[~np.isfinite(observed).all(axis=1)]
-
-    def layout(self, y: np.ndarray, rates: np.ndarray) -> np.ndarray:
-        """The observation's layout of the measured values (as the exact one's)."""
-        columns = [y[:, :1]]
-        for i in range(1, self.dof):
-            columns += [np.sin(y[:, i : i + 1]), np.cos(y[:, i : i + 1])]
-        return np.column_stack([*columns, rates]).astype(np.float32)
+        return self._observe(rows, state, rngs, obs, 1)

@@ -1,0 +1,225 @@
+"""Independent numpy references of the sampled loop's algorithms, which the package runs from
+cpp/include/ipgen_loop.h through ctypes (ipgen.common.loop_runtime): the estimators' step
+(difference, derivative filter, steady-state Kalman, EKF), the encoder quantiser, ipgen.gym's
+measured observation and delayed action, and the energy swing-up's control.
+
+This is the package's numpy code before it ran the C header (commit 96ff51f), kept here as the
+reference the ctypes runtime is checked against (tests/test_loop_runtime.py): written with numpy's
+linear algebra (np.linalg.solve, not a Cholesky factor), Python's round(), numpy's clip.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def initial_state(dof: int, measured: tuple[int, ...], y: np.ndarray, x_eq: np.ndarray) -> np.ndarray:
+    """x̂_{0|−1}: the measured coordinates y_0, the others x_eq, rates 0."""
+    x = np.concatenate([x_eq[:dof], np.zeros(dof)])
+    x[list(measured)] = y
+    return x
+
+
+class Difference:
+    """θ̂ = y_k, θ̇̂_k = (y_k − y_{k−1}) / T, θ̇̂_0 = 0."""
+
+    def __init__(self, period: float, dof: int) -> None:
+        self.period, self.dof, self._last = period, dof, None
+
+    def step(self, y: Any, u: float = 0.0) -> np.ndarray:
+        values = np.asarray(y, dtype=float).reshape(-1)
+        rates = np.zeros(self.dof) if self._last is None else (values - self._last) / self.period
+        self._last = values.copy()
+        return np.concatenate([values, rates])
+
+
+class DerivativeFilter:
+    """v_k = e^{−ωc T} v_{k−1} + ωc (y_k − y_{k−1}), v_0 = 0."""
+
+    def __init__(self, period: float, dof: int, cutoff: float) -> None:
+        self.dof, self.cutoff = dof, cutoff
+        self.pole = math.exp(-cutoff * period)
+        self._last: np.ndarray | None = None
+        self._rates = np.zeros(dof)
+
+    def step(self, y: Any, u: float = 0.0) -> np.ndarray:
+        values = np.asarray(y, dtype=float).reshape(-1)
+        if self._last is not None:
+            self._rates = self.pole * self._rates + self.cutoff * (values - self._last)
+        self._last = values.copy()
+        return np.concatenate([values, self._rates])
+
+
+class SteadyStateKalman:
+    """The current form of `design` (an `ipgen.kalman` Kalman)."""
+
+    def __init__(self, design: Any) -> None:
+        self.design = design
+        self.dof = design.A.shape[0] // 2
+        self._x_eq = np.asarray(design.equilibrium, dtype=float)
+        self._x: np.ndarray | None = None
+
+    def step(self, y: Any, u: float = 0.0) -> np.ndarray:
+        values = np.asarray(y, dtype=float).reshape(-1)
+        d = self.design
+        if self._x is None:
+            prior = initial_state(self.dof, d.measured, values, self._x_eq)
+        else:
+            prior = self._x_eq + d.A @ (self._x - self._x_eq) + d.B[:, 0] * (float(u) - d.u_eq)
+        self._x = prior + d.M @ (values - d.C @ prior)
+        return self._x.copy()
+
+
+class ExtendedKalman:
+    """The EKF of an `ipgen.estimation.ExtendedKalman` `ekf` (its model, Qn, Rn, C, x_eq)."""
+
+    def __init__(self, ekf: Any) -> None:
+        self.ekf = ekf
+        self._x: np.ndarray | None = None
+        self._p: np.ndarray | None = None
+
+    def predict(self, x: np.ndarray, p: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+        t, f = self.ekf.period, self.ekf.model.f
+        _, a_c, _ = self.ekf.model.jacobians(x, u)
+        k1 = f(x, u)
+        k2 = f(x + 0.5 * t * k1, u)
+        k3 = f(x + 0.5 * t * k2, u)
+        k4 = f(x + t * k3, u)
+        x_next = x + t / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        ta = t * a_c
+        transition = np.eye(x.size) + ta + 0.5 * ta @ ta
+        p_next = transition @ p @ transition.T + self.ekf.Qn
+        return x_next, 0.5 * (p_next + p_next.T)
+
+    def update(self, x: np.ndarray, p: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        c, rn = self.ekf.C, self.ekf.Rn
+        s = c @ p @ c.T + rn
+        k = np.linalg.solve(s, c @ p).T
+        x_new = x + k @ (y - c @ x)
+        i_kc = np.eye(x.size) - k @ c
+        p_new = i_kc @ p @ i_kc.T + k @ rn @ k.T
+        return x_new, 0.5 * (p_new + p_new.T)
+
+    def step(self, y: Any, u: float = 0.0) -> np.ndarray:
+        values = np.asarray(y, dtype=float).reshape(-1)
+        e = self.ekf
+        if self._x is None or self._p is None:
+            x = initial_state(e.dof, e.measured, values, e._x_eq)
+            p = e.initial_covariance()
+        else:
+            x, p = self.predict(self._x, self._p, float(u))
+        self._x, self._p = self.update(x, p, values)
+        return self._x.copy()
+
+    @property
+    def covariance(self) -> np.ndarray | None:
+        return None if self._p is None else self._p.copy()
+
+
+def quantise(sensors: Any, theta: np.ndarray) -> np.ndarray:
+    """`Sensors.quantise`: z + Δ floor((θ − z) / Δ + 1/2) of the measured coordinates."""
+    from ipgen.estimation.measurement import grid_zero
+
+    values = np.asarray(theta, dtype=float)[list(sensors.measured)]
+    out = values.copy()
+    for j, step in enumerate(sensors.steps()):
+        if step > 0:
+            z = grid_zero(sensors.zero[j], step) if sensors.zero else 0.0
+            out[j] = z + step * math.floor((values[j] - z) / step + 0.5)
+    return out
+
+
+class MeasuredLoop:
+    """ipgen.gym's measured observation and delayed action of N environments (`Sensing`)."""
+
+    def __init__(self, sensing: Any, dof: int, n: int, dt: float) -> None:
+        self.sensing, self.dof, self.dt = sensing, dof, dt
+        self.previous = np.zeros((n, dof))
+        self.rates = np.zeros((n, dof))
+        self.queue = np.zeros((n, sensing.delay_steps))
+
+    def measure(self, angles: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
+        quantum = self.sensing.quantum
+        steps = np.where(quantum > 0, quantum, 1)
+        y = np.where(quantum > 0, quantum * np.floor(angles / steps + 0.5), angles)
+        if self.sensing.noise:
+            y = y + np.stack([rng.normal(0.0, self.sensing.noise, size=angles.shape[1]) for rng in rngs])
+        return y
+
+    def rate(self, y: np.ndarray, previous: np.ndarray, rate: np.ndarray) -> np.ndarray:
+        if self.sensing.rates == "difference":
+            return (y - previous) / self.dt
+        return math.exp(-self.sensing.cutoff * self.dt) * rate + self.sensing.cutoff * (y - previous)
+
+    def reset(self, rows: np.ndarray, state: np.ndarray, rngs: list[Any], obs: np.ndarray) -> None:
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = self.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.previous[rows], self.rates[rows], self.queue[rows] = y, 0.0, 0.0
+            obs[rows] = self.layout(y, self.rates[rows])
+
+    def apply(self, rows: np.ndarray, actions: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
+        if self.sensing.delay_steps:
+            applied = self.queue[rows, 0].copy()
+            self.queue[rows] = np.column_stack([self.queue[rows, 1:], actions])
+        else:
+            applied = np.asarray(actions, dtype=np.float64).copy()
+        if self.sensing.drive_noise:
+            applied += np.array([rngs[i].normal(0.0, self.sensing.drive_noise) for i in rows])
+        return applied
+
+    def observe(self, rows: np.ndarray, state: np.ndarray, rngs: list[Any], obs: np.ndarray) -> np.ndarray:
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = self.measure(state[rows, : self.dof], [rngs[i] for i in rows])
+            self.rates[rows] = self.rate(y, self.previous[rows], self.rates[rows])
+            self.previous[rows] = y
+            observed = self.layout(y, self.rates[rows])
+        obs[rows] = observed
+        return rows[~np.isfinite(observed).all(axis=1)]
+
+    def layout(self, y: np.ndarray, rates: np.ndarray) -> np.ndarray:
+        columns = [y[:, :1]]
+        for i in range(1, self.dof):
+            columns += [np.sin(y[:, i : i + 1]), np.cos(y[:, i : i + 1])]
+        return np.column_stack([*columns, rates]).astype(np.float32)
+
+
+class EnergyControl:
+    """`EnergySwingUp.control` of the law `law` (its constants, plant and hold gain)."""
+
+    def __init__(self, law: Any) -> None:
+        self.law = law
+        self._caught: int | None = None
+
+    def control(self, k: int, x: np.ndarray) -> tuple[float, str]:
+        from ipgen.control.energy import link_energy, mass_and_bias
+
+        law = self.law
+        x = np.asarray(x, dtype=float)
+        dof = law.plant.dof
+        turns = round(float(x[1]) / (2 * math.pi))
+        if (
+            self._caught is None
+            and abs(float(x[1]) - 2 * math.pi * turns) <= law.catch_angle
+            and abs(float(x[dof + 1])) <= law.catch_rate
+        ):
+            self._caught = turns
+        if self._caught is not None:
+            target = np.zeros(2 * dof)
+            target[1] = 2 * math.pi * self._caught
+            u = -float(law.hold_gain @ (x - target))
+            return float(np.clip(u, -law.u_max, law.u_max)), "hold"
+        q, qd = x[:dof], x[dof:]
+        mass, bias = mass_and_bias(law.plant, q, qd)
+        energy = link_energy(law.plant, x)
+        direction = math.copysign(1.0, float(qd[1]) * mass[1, 0]) if qd[1] * mass[1, 0] != 0 else 1.0
+        pump = law.gain_energy * (energy - law.energy_target) * direction
+        a = float(np.clip(pump, -law.accel_max, law.accel_max))
+        a -= law.gain_position * float(q[0]) + law.gain_velocity * float(qd[0])
+        if law.acceleration:
+            return float(np.clip(a, -law.u_max, law.u_max)), "swing"
+        qdd1 = -(mass[1, 0] * a + bias[1]) / mass[1, 1]
+        u = mass[0, 0] * a + mass[0, 1] * qdd1 + bias[0]
+        return float(np.clip(u, -law.u_max, law.u_max)), "swing"
