@@ -2,7 +2,7 @@
  *
  * Every place that runs a rig's loop uses these functions: ipsim's simulator (ipsim/sensors.hpp,
  * ipsim/swingup.hpp, ipsim/rhs.hpp), the firmware in a generated C header (`--emit c` prints
- * this file into it whole), and Python through ctypes (ipgen/loop_runtime.py compiles it with
+ * this file into it whole), and Python through ctypes (ipgen/common/loop_runtime.py compiles it with
  * IPGEN_LOOP_EXPORT into a shared library): the measurement's quantiser, the delay of the
  * commands, saturation, the drive's first-order lag, the state estimators (backward difference,
  * derivative filter, steady-state Kalman, extended Kalman) and the swing-up (Åström–Furuta
@@ -365,7 +365,11 @@ typedef struct {
   long steps; /* 0: the energy law */
   const ipgen_real *inputs, *states, *gains;
   ipgen_loop_mass_bias mass_bias; /* the energy law's M and b */
-  void *context;                  /* passed to mass_bias */
+  void *context;                  /* passed to mass_bias and feedback */
+  /* The plan's and the hold's u_ref - K (x - x_ref) over 2 dof states; null: ipgen_loop_feedback.
+   * (ipsim passes the sum its LQR controllers form, so that its runs keep their bits.) */
+  ipgen_real (*feedback)(void *context, int states, ipgen_real u_ref, const ipgen_real K[], const ipgen_real x[],
+                         const ipgen_real x_ref[]);
 } ipgen_loop_swingup;
 
 /* What a swing-up remembers: its phase, the samples seen and the upright held (q1). */
@@ -392,7 +396,9 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
   ipgen_real u = (ipgen_real)0;
   if (s->phase == IPGEN_LOOP_TRACK) {
     if (s->k < law->steps) {
-      u = ipgen_loop_feedback(2 * dof, law->inputs[s->k], law->gains + s->k * 2 * dof, x, law->states + s->k * 2 * dof);
+      const ipgen_real *K = law->gains + s->k * 2 * dof, *x_ref = law->states + s->k * 2 * dof;
+      u = law->feedback ? law->feedback(law->context, 2 * dof, law->inputs[s->k], K, x, x_ref)
+                        : ipgen_loop_feedback(2 * dof, law->inputs[s->k], K, x, x_ref);
     } else {
       s->phase = IPGEN_LOOP_HOLD;
     }
@@ -414,7 +420,8 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
     int i;
     for (i = 0; i < 2 * dof; ++i) reference[i] = law->target[i];
     reference[1] = s->hold_q1;
-    u = ipgen_loop_feedback(2 * dof, (ipgen_real)0, law->hold_gain, x, reference);
+    u = law->feedback ? law->feedback(law->context, 2 * dof, (ipgen_real)0, law->hold_gain, x, reference)
+                      : ipgen_loop_feedback(2 * dof, (ipgen_real)0, law->hold_gain, x, reference);
   }
   s->k += 1;
   return ipgen_loop_saturate(u, law->u_max);

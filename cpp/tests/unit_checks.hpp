@@ -214,7 +214,7 @@ void check_scene_reader() {
   CHECK(multi.settings.input.kind == ipsim::Input::Kind::multisine && multi.settings.input.frequencies.size() == 2);
   CHECK(multi.settings.input.phases.at(1) == -1.5 && multi.settings.input.scale == 0.6 && multi.travel == 0.25);
   CHECK(std::isinf(scene.travel));
-  CHECK_THROWS(load_text(std::string(kScene) + "limits.travel = -1\n"), SceneError, "limits.travel must be");
+  CHECK_THROWS(load_text(std::string(kScene) + "limits.travel = -1\n"), SceneError, "limits.travel = -1 must be > 0");
   CHECK_THROWS(load_text(std::string(kScene) + "colour = red\n"), SceneError, "unknown key `colour`");
   CHECK_THROWS(load_text(std::string(kScene) + "g = 1\n"), SceneError, "key `g` repeated (first on line 9)");
   CHECK_THROWS(load_text(std::string(kScene) + "just words\n"), SceneError, "expected `key = value`");

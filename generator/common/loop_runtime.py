@@ -127,6 +127,7 @@ class SwingUp(ctypes.Structure):
         ("dof", ctypes.c_int), ("u_max", _real), ("hold_gain", _address), ("target", _address),
         ("energy", EnergyLaw), ("steps", ctypes.c_long), ("inputs", _address), ("states", _address),
         ("gains", _address), ("mass_bias", MASS_BIAS), ("context", ctypes.c_void_p),
+        ("feedback", ctypes.c_void_p),  # null: ipgen_loop_feedback
     ]  # fmt: skip
 
 

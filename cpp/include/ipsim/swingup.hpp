@@ -122,7 +122,8 @@ struct SwingUp {
                                  states.data(),
                                  gains.data(),
                                  &SwingUp::mass_bias<Model>,
-                                 const_cast<void*>(static_cast<const void*>(&context))};
+                                 const_cast<void*>(static_cast<const void*>(&context)),
+                                 &SwingUp::feedback};
     ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1)};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
@@ -145,6 +146,14 @@ struct SwingUp {
       case SwingPhase::hold: return IPGEN_LOOP_HOLD;
     }
     return IPGEN_LOOP_HOLD;
+  }
+
+  /// u_ref − K (x − x_ref) as LinearFeedback forms it (Eigen's dot): the plan's and the hold's
+  /// inputs keep the bits they had before ipgen_loop.h (ipgen_loop_swingup.feedback).
+  static double feedback(void* /*context*/, int states, double u_ref, const double K[], const double x[],
+                         const double x_ref[]) {
+    const Eigen::Map<const Eigen::VectorXd> gain(K, states), state(x, states), reference(x_ref, states);
+    return u_ref - gain.dot(state - reference);
   }
 
   /// M(q) and bias(q, qd) row-major, for the energy law (ipgen_loop_mass_bias); context: the
