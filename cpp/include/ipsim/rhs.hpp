@@ -6,6 +6,8 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <type_traits>
+#include <utility>
 
 #include <Eigen/Core>
 #include <sundials/sundials_nvector.h>
@@ -151,11 +153,52 @@ double input_at(RhsContext<Model>& context, double t, const double* state) {
   return context.input->value(t, context.x);
 }
 
+template <class Model, class = void>
+struct HasDynamicsInto : std::false_type {};
+template <class Model>
+struct HasDynamicsInto<Model, std::void_t<decltype(Model::forward_dynamics_into(
+                                  nullptr, nullptr, 0.0, std::declval<const ParamsOf<Model>&>(), nullptr, 0))>>
+    : std::true_type {};
+
+/// 0, or 1 (and the context told) when a derivative in out[0..size) is not finite.
+template <class Model>
+int check_finite(RhsContext<Model>& context, double t, double u, const double* in, const double* out, long size) {
+  for (long i = 0; i < size; ++i) {
+    if (!std::isfinite(out[i])) {
+      context.nonfinite.seen = true;
+      context.nonfinite.t = t;
+      context.nonfinite.u = u;
+      context.nonfinite.x = Eigen::Map<const Eigen::VectorXd>(in, 2 * dof_of<Model>());
+      return 1;
+    }
+  }
+  return 0;
+}
+
 /// Writes f(t, x) to `out` (same length as x: 2·kDof, or 2·kDof + 2 with the ledger). Returns 0 on
 /// success and 1 when a derivative is not finite. Throws what a feedback callback throws.
 template <class Model>
 int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double* out, long size) {
   const int n = dof_of<Model>();
+  if constexpr (HasDynamicsInto<Model>::value) {
+    // A model loaded at run time, without friction or an acceleration-driven base: the same
+    // numbers, computed on the state's own arrays (a small model's RHS is mostly copies otherwise).
+    if (!context.acceleration && !(context.has_mass && context.coulomb_index >= 0)) {
+      const double command = input_at(context, t, in);
+      const double u = drive_input(context, command, in) + context.segment_pulse;
+      if (context.lag_index >= 0) out[context.lag_index] = ipgen_loop_lag_rate(command, in[context.lag_index], context.lag);
+      for (int i = 0; i < n; ++i) out[i] = in[n + i];
+      Model::forward_dynamics_into(in, in + n, u, *context.params, out + n, n);
+      if constexpr (has_energy<Model>) {
+        if (context.energy_ledger) {
+          out[2 * n] = u * in[n];
+          const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
+          out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + 0.0;
+        }
+      }
+      return check_finite(context, t, u, in, out, size);
+    }
+  }
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in, n);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
   const double command = input_at(context, t, in);
@@ -188,16 +231,7 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
       out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + coulomb_power;
     }
   }
-  for (long i = 0; i < size; ++i) {
-    if (!std::isfinite(out[i])) {
-      context.nonfinite.seen = true;
-      context.nonfinite.t = t;
-      context.nonfinite.u = u;
-      context.nonfinite.x = Eigen::Map<const Eigen::VectorXd>(in, 2 * n);
-      return 1;
-    }
-  }
-  return 0;
+  return check_finite(context, t, u, in, out, size);
 }
 
 /// SUNDIALS right-hand side (CVRhsFn and ARKRhsFn have this signature): 0 on success, 1
