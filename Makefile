@@ -179,10 +179,11 @@ bench-sweep: $(VENV)/.bench-installed
 	$(PY) -m bench.sweep $(SWEEP_ARGS)
 
 ## The simulator compiled once against one compiled per model: what a new model and a cached run
-## cost, and the simulation's speed on the same .cfg (bench/runtime.py, docs/bench/runtime.md).
-## RUNTIME_ARGS: e.g. --quick, --repeat 9
+## cost (with and without the PNG), the simulation's speed on the same .cfg, and at equal error
+## against MuJoCo RK4 before issue 45 and now (bench/runtime.py, bench/runtime_speed.py: MuJoCo
+## from the workprecision extra; docs/bench/runtime.md). RUNTIME_ARGS: e.g. --quick, --repeat 9
 RUNTIME_ARGS ?= $(BENCH_QUICK)
-bench-runtime: venv
+bench-runtime: $(VENV)/.workprecision-installed
 	$(PY) -m bench.runtime $(RUNTIME_ARGS)
 
 ## ipgen.gym's throughput on one core against gymnasium's CartPole-v1 and MuJoCo's
