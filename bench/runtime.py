@@ -144,20 +144,56 @@ def simulation_seconds(command: list[str], cfg: Path, csv: Path) -> float:
     return float(re.search(r"Wall time ([0-9.e+-]+) s", done.stdout).group(1))
 
 
+SPEED_HEADING = "## Speed at equal error against MuJoCo RK4"
+
+
+def mujoco_part(work: Path, cache: Path, rounds: int) -> list[str]:
+    """The MuJoCo part (bench/runtime_speed.py) in `work`, the model libraries built by `ipgen run`
+    in `cache`: the report's section, with the load average before and after."""
+    from bench import runtime_speed
+
+    before = " ".join(f"{value:.2f}" for value in os.getloadavg())
+    print("speed against MuJoCo RK4: the work-precision drivers, before and now…", flush=True)
+    libraries: dict[Path, tuple[Path, Path]] = {}
+    for _, scene in runtime_speed.SCENES:  # their model libraries, as ipgen run builds them
+        _, summary = ipgen_run(scene, work / "wp", cache, "--no-plot")
+        libraries[scene] = (Path(launcher_of(summary)[2]), work / "wp" / f"{scene.stem}.cfg")
+    built = runtime_speed.build_all(work, libraries)
+    rows = runtime_speed.measure(built, rounds)
+    after = " ".join(f"{value:.2f}" for value in os.getloadavg())
+    return runtime_speed.section(rows, rounds, (before, after))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
     parser.add_argument("--rounds", type=int, default=5, help="rounds of the MuJoCo part")
     parser.add_argument("--quick", action="store_true", help="two scenes, three repeats, no MuJoCo part")
+    parser.add_argument(
+        "--part",
+        choices=("all", "mujoco"),
+        default="all",
+        help="mujoco: only the MuJoCo part, its section of the report replaced (a cache and the drivers "
+        "kept in build/bench/runtime_speed/)",
+    )
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
+    if args.part == "mujoco":
+        out = args.out or ROOT / "docs" / "bench" / "runtime.md"
+        work = BUILD / "runtime_speed"
+        lines = mujoco_part(work, work / "cache", args.rounds)
+        previous = out.read_text() if out.is_file() else ""
+        kept = previous.split(SPEED_HEADING)[0].rstrip("\n")
+        out.write_text((kept + "\n\n" if kept else "") + "\n".join(lines))
+        print(f"wrote {out}")
+        return
     scenes = SCENES[:2] if args.quick else SCENES
     repeat = 3 if args.quick else args.repeat
     out = args.out or (
         BUILD / "quick" / "runtime.md" if args.quick else ROOT / "docs" / "bench" / "runtime.md"
     )
-    rows, speed, mujoco = [], [], []
-    libraries: dict[Path, tuple[Path, Path]] = {}
+    rows, speed = [], []
+    mujoco: list[str] = []
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-runtime.") as scratch:
         work, cache = Path(scratch), Path(scratch) / "cache"
         (work / "classical10.toml").write_text(TEN_LINKS)
@@ -188,14 +224,7 @@ def main() -> None:
             s, r = statistics.median(times["static"]), statistics.median(times["runtime"])
             speed.append([label, f"{s * 1e3:.2f}", f"{r * 1e3:.2f}", f"{r / s:.3f}", "yes" if same else "no"])
         if not args.quick:
-            from bench import runtime_speed
-
-            print("speed against MuJoCo RK4: the work-precision drivers, before and now…", flush=True)
-            for _, scene in runtime_speed.SCENES:  # their model libraries, as ipgen run builds them
-                _, summary = ipgen_run(scene, work / "wp", cache, "--no-plot")
-                libraries[scene] = (Path(launcher_of(summary)[2]), work / "wp" / f"{scene.stem}.cfg")
-            built = runtime_speed.build_all(work / "workprecision", libraries)
-            mujoco = runtime_speed.measure(built, args.rounds)
+            mujoco = mujoco_part(work / "workprecision", cache, args.rounds)
     lines = [
         "# The simulator compiled once (issue 45)",
         "",
@@ -245,10 +274,7 @@ def main() -> None:
         *table(["scene", "per model [ms]", "runtime [ms]", "ratio", "same CSV"], speed),
         "",
     ]
-    if mujoco:
-        from bench import runtime_speed
-
-        lines += runtime_speed.section(mujoco, args.rounds)
+    lines += mujoco
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines))
     print(f"wrote {out}")

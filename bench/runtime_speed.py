@@ -55,6 +55,11 @@ class Built:
 
 
 def _compile(source: Path, include: Path, folder: Path, name: str | None, binary: Path) -> None:
+    """Compile the driver `source` into `binary` (unless `binary` is newer than every source): on
+    the model header `folder`/`name`.hpp, or with name None on the runtime model."""
+    sources = [source, *sorted(include.rglob("*.h*")), *([folder / f"{name}.hpp"] if name else [])]
+    if binary.exists() and binary.stat().st_mtime >= max(path.stat().st_mtime for path in sources):
+        return
     model = (
         [f"-I{folder}", f'-DIPGEN_MODEL_HEADER="{name}.hpp"', f"-DIPGEN_MODEL=ipgen::{name}::Model"]
         if name is not None
@@ -73,14 +78,16 @@ def _compile(source: Path, include: Path, folder: Path, name: str | None, binary
 def _checkout(commit: str, folder: Path) -> Path:
     """The tree of `commit` (git archive) in `folder`/tree, with an import folder whose `ipgen` is
     its generator/."""
+    tree = folder / "tree"
+    if (tree / "generator").is_dir() and (folder / "import" / "ipgen").exists():
+        return tree  # extracted before (the commit's tree does not change)
     folder.mkdir(parents=True, exist_ok=True)
     archive = folder / "tree.tar"
     with archive.open("wb") as handle:
         subprocess.run(["git", "-C", str(ROOT), "archive", commit], stdout=handle, check=True)
-    tree = folder / "tree"
     with tarfile.open(archive) as tar:
         tar.extractall(tree, filter="data")
-    (folder / "import").mkdir()
+    (folder / "import").mkdir(exist_ok=True)
     (folder / "import" / "ipgen").symlink_to(tree / "generator")
     return tree
 
@@ -189,8 +196,8 @@ def measure(built: dict[Path, Built], rounds: int) -> list[list[str]]:
     return rows
 
 
-def section(rows: list[list[str]], rounds: int) -> list[str]:
-    """The report's section on these rows."""
+def section(rows: list[list[str]], rounds: int, load: tuple[str, str]) -> list[str]:
+    """The report's section on these rows; `load`: the load averages before and after."""
     header = ["scene", "setting", "error at 10 s", "before [ms/s]", "per model [ms/s]", "runtime [ms/s]",
               "runtime / before", "same error", "MuJoCo RK4 [ms/s]", "ratio to MuJoCo, before",
               "ratio to MuJoCo, runtime"]  # fmt: skip
@@ -208,6 +215,7 @@ def section(rows: list[list[str]], rounds: int) -> list[str]:
         f"The drivers and MuJoCo alternate; each number is the median of {rounds} rounds. Same error:",
         "whether before and runtime end at the same error to the last printed digit (the same steps).",
         "The ratio to MuJoCo RK4 is MuJoCo's time over ipgen's (larger: ipgen faster).",
+        f"Load average (1, 5, 15 min) before this part: {load[0]}; after: {load[1]} (2 cores, shared).",
         "",
         *table(header, rows),
         "",
