@@ -233,3 +233,23 @@ def test_a_cached_plan_still_checks_the_outputs(tmp_path: Path) -> None:
     (out / "single.csv").write_text("the user's data\n")
     assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 2
     assert (out / "single.csv").read_text() == "the user's data\n"
+
+
+def test_a_cached_run_without_the_plot_imports_none_of_the_heavy_libraries(tmp_path: Path) -> None:
+    """The cheap path: a run whose simulator and plan are cached imports neither the scene's
+    checks (pydantic) nor the derivation and design (sympy, flint, scipy) nor matplotlib."""
+    require_toolchain()
+    scene = scene_file(tmp_path, CONTROLLED)
+    out = tmp_path / "out"
+    heavy = ("pydantic", "sympy", "flint", "scipy", "numpy", "matplotlib", "ipgen.experiment.scene")
+    program = (
+        "import sys; from ipgen.command.cli import run; "
+        f"status = run(['run', {str(scene)!r}, '-o', {str(out)!r}, '--no-plot']); "
+        f"print(status, *[name for name in {heavy!r} if name in sys.modules])"
+    )
+    first = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
+    assert first.returncode == 0, first.stderr
+    assert "scipy" in first.stdout.split()  # the first run designs the LQR gain
+    again = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
+    assert again.returncode == 0, again.stderr
+    assert again.stdout.split()[-1:] == ["0"], again.stdout
