@@ -179,10 +179,11 @@ bench-sweep: $(VENV)/.bench-installed
 	$(PY) -m bench.sweep $(SWEEP_ARGS)
 
 ## The simulator compiled once against one compiled per model: what a new model and a cached run
-## cost, and the simulation's speed on the same .cfg (bench/runtime.py, docs/bench/runtime.md).
-## RUNTIME_ARGS: e.g. --quick, --repeat 9
+## cost (with and without the PNG), the simulation's speed on the same .cfg, and at equal error
+## against MuJoCo RK4 before issue 45 and now (bench/runtime.py, bench/runtime_speed.py: MuJoCo
+## from the workprecision extra; docs/bench/runtime.md). RUNTIME_ARGS: e.g. --quick, --repeat 9
 RUNTIME_ARGS ?= $(BENCH_QUICK)
-bench-runtime: venv
+bench-runtime: $(VENV)/.workprecision-installed
 	$(PY) -m bench.runtime $(RUNTIME_ARGS)
 
 ## ipgen.gym's throughput on one core against gymnasium's CartPole-v1 and MuJoCo's
@@ -233,12 +234,12 @@ ESTIMATION_ARGS ?= $(BENCH_QUICK)
 bench-estimation: $(VENV)/.bench-installed
 	$(PY) -m bench.estimation $(ESTIMATION_ARGS)
 
-## Peak resident memory of simulate_cdip for 10^4 and 10^7 output samples: the CSV is streamed,
-## so both must be within 20 MB (bench/simulator_memory.py, docs/bench/simulator_memory.md).
-bench-memory: configure $(VENV)/.bench-installed
+## Peak resident memory of the simulator `ipgen run` builds (cdip_pulse) for 10^4 and 10^7 output
+## samples: the CSV is streamed, so both must be within 20 MB (bench/simulator_memory.py,
+## docs/bench/simulator_memory.md).
+bench-memory: $(VENV)/.bench-installed
 	@$(call apt_install,time)
-	cmake --build $(BUILD) -j $(JOBS) --target simulate_cdip scene_cdip_pulse
-	$(PY) -m bench.simulator_memory --build $(BUILD)
+	$(PY) -m bench.simulator_memory
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

@@ -1,6 +1,6 @@
 """The simulator compiled once against a simulator compiled per model (issue 45).
 
-    .venv/bin/python -m bench.runtime [--repeat N] [--quick] [--out FILE]
+    .venv/bin/python -m bench.runtime [--repeat N] [--rounds N] [--quick] [--out FILE]
 
 Measures, on this machine, in a fresh cache:
 
@@ -8,13 +8,20 @@ Measures, on this machine, in a fresh cache:
    every process `ipgen run` started), with the first model;
 2. per scene, the first `ipgen run` of a model never built before (the simulator already in the
    cache: what a new model costs) and cached runs, as CPU time of `ipgen run` and every process
-   it starts (user + system, the PNG included), and the simulator's own run alone;
+   it starts (user + system): with the PNG, without it (--no-plot), and without it with the run's
+   plan made again (the cache's runs/ emptied before each: the scene's checks, the derivation and
+   the design as every cached run did before the plan was kept, pipeline/run_plan.py); the three
+   alternate, median of N each; and the simulator's own run alone;
 3. per scene, the simulation's own wall time, the runtime simulator against the per-model
    simulator compiled from the model's C++ header exactly as before issue 45 (same flags), on the
    same .cfg, alternating, median of N runs each; and whether the two CSVs are byte-identical
-   (then both took the same steps: equal error, and the ratio is the cost per step).
+   (then both took the same steps: equal error, and the ratio is the cost per step);
+4. speed at equal error against MuJoCo RK4 with `make bench`'s work-precision driver, before
+   issue 45 and now, per model and on ipgen run's model library (bench/runtime_speed.py; needs
+   mujoco, the extra `workprecision`), medians of --rounds alternating rounds.
 
-Writes docs/bench/runtime.md (with --quick: build/bench/quick/runtime.md).
+Writes docs/bench/runtime.md (with --quick: build/bench/quick/runtime.md: two scenes, three
+repeats, no MuJoCo part).
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import os
 import re
 import resource
 import shlex
+import shutil
 import statistics
 import subprocess
 import sys
@@ -82,13 +90,27 @@ def cpu_of(command: list[str], env: dict[str, str]) -> tuple[Cpu, subprocess.Com
     return Cpu(used, wall), done
 
 
-def ipgen_run(scene: Path, out: Path, cache: Path) -> tuple[Cpu, str]:
+def ipgen_run(scene: Path, out: Path, cache: Path, *options: str) -> tuple[Cpu, str]:
     env = {**os.environ, "IPGEN_CACHE_DIR": str(cache)}
     env.pop("IPGEN_SIM_OPT", None)  # the default, -O2
-    cpu, done = cpu_of([sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--force"], env)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # ipgen's .pyc files written once, as an installed one has them
+    command = [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--force", *options]
+    cpu, done = cpu_of(command, env)
     if done.returncode != 0:
         raise RuntimeError(f"ipgen run {scene.name} failed: {done.stderr[-2000:]}")
     return cpu, (out / f"{scene.stem}.txt").read_text()
+
+
+def cached_runs(scene: Path, out: Path, cache: Path, repeat: int) -> dict[str, float]:
+    """Median CPU seconds of cached runs: with the PNG, without (--no-plot), and without with the
+    plan made again; the three alternate."""
+    runs: dict[str, list[float]] = {"png": [], "no png": [], "planned again": []}
+    for _ in range(repeat):
+        runs["png"].append(ipgen_run(scene, out, cache)[0].seconds)
+        runs["no png"].append(ipgen_run(scene, out, cache, "--no-plot")[0].seconds)
+        shutil.rmtree(cache / "runs", ignore_errors=True)
+        runs["planned again"].append(ipgen_run(scene, out, cache, "--no-plot")[0].seconds)
+    return {kind: statistics.median(seconds) for kind, seconds in runs.items()}
 
 
 def launcher_of(summary: str) -> list[str]:
@@ -122,18 +144,56 @@ def simulation_seconds(command: list[str], cfg: Path, csv: Path) -> float:
     return float(re.search(r"Wall time ([0-9.e+-]+) s", done.stdout).group(1))
 
 
+SPEED_HEADING = "## Speed at equal error against MuJoCo RK4"
+
+
+def mujoco_part(work: Path, cache: Path, rounds: int) -> list[str]:
+    """The MuJoCo part (bench/runtime_speed.py) in `work`, the model libraries built by `ipgen run`
+    in `cache`: the report's section, with the load average before and after."""
+    from bench import runtime_speed
+
+    before = " ".join(f"{value:.2f}" for value in os.getloadavg())
+    print("speed against MuJoCo RK4: the work-precision drivers, before and now…", flush=True)
+    libraries: dict[Path, tuple[Path, Path]] = {}
+    for _, scene in runtime_speed.SCENES:  # their model libraries, as ipgen run builds them
+        _, summary = ipgen_run(scene, work / "wp", cache, "--no-plot")
+        libraries[scene] = (Path(launcher_of(summary)[2]), work / "wp" / f"{scene.stem}.cfg")
+    built = runtime_speed.build_all(work, libraries)
+    rows = runtime_speed.measure(built, rounds)
+    after = " ".join(f"{value:.2f}" for value in os.getloadavg())
+    return runtime_speed.section(rows, rounds, (before, after))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=7)
-    parser.add_argument("--quick", action="store_true", help="two scenes, three repeats")
+    parser.add_argument("--rounds", type=int, default=5, help="rounds of the MuJoCo part")
+    parser.add_argument("--quick", action="store_true", help="two scenes, three repeats, no MuJoCo part")
+    parser.add_argument(
+        "--part",
+        choices=("all", "mujoco"),
+        default="all",
+        help="mujoco: only the MuJoCo part, its section of the report replaced (a cache and the drivers "
+        "kept in build/bench/runtime_speed/)",
+    )
     parser.add_argument("--out", type=Path)
     args = parser.parse_args()
+    if args.part == "mujoco":
+        out = args.out or ROOT / "docs" / "bench" / "runtime.md"
+        work = BUILD / "runtime_speed"
+        lines = mujoco_part(work, work / "cache", args.rounds)
+        previous = out.read_text() if out.is_file() else ""
+        kept = previous.split(SPEED_HEADING)[0].rstrip("\n")
+        out.write_text((kept + "\n\n" if kept else "") + "\n".join(lines))
+        print(f"wrote {out}")
+        return
     scenes = SCENES[:2] if args.quick else SCENES
     repeat = 3 if args.quick else args.repeat
     out = args.out or (
         BUILD / "quick" / "runtime.md" if args.quick else ROOT / "docs" / "bench" / "runtime.md"
     )
     rows, speed = [], []
+    mujoco: list[str] = []
     with tempfile.TemporaryDirectory(prefix="ipgen-bench-runtime.") as scratch:
         work, cache = Path(scratch), Path(scratch) / "cache"
         (work / "classical10.toml").write_text(TEN_LINKS)
@@ -145,13 +205,13 @@ def main() -> None:
             scene = path or work / "classical10.toml"
             print(f"{label}: first run, cached runs…", flush=True)
             first, summary = ipgen_run(scene, work / "out", cache)
-            cached = [ipgen_run(scene, work / "out", cache)[0] for _ in range(3)]
+            cached = cached_runs(scene, work / "out", cache, repeat)
             cfg = work / "out" / f"{scene.stem}.cfg"
             runtime = launcher_of(summary)
             plain = [*runtime, str(cfg), "--csv", str(work / "plain.csv"), "--force"]
-            alone = [cpu_of(plain, dict(os.environ))[0] for _ in range(3)]
-            rows.append([label, f"{first.seconds:.2f}", f"{min(c.seconds for c in cached):.2f}",
-                         f"{min(a.seconds for a in alone):.3f}"])  # fmt: skip
+            alone = [cpu_of(plain, dict(os.environ))[0].seconds for _ in range(repeat)]
+            rows.append([label, f"{first.seconds:.2f}", f"{cached['png']:.2f}", f"{cached['no png']:.2f}",
+                         f"{cached['planned again']:.2f}", f"{statistics.median(alone):.3f}"])  # fmt: skip
             print(f"  speed: per-model simulator against the runtime one ({repeat} runs each)…", flush=True)
             folder = work / f"static_{scene.stem}"
             folder.mkdir()
@@ -163,6 +223,8 @@ def main() -> None:
             same = filecmp.cmp(work / "static.csv", work / "runtime.csv", shallow=False)
             s, r = statistics.median(times["static"]), statistics.median(times["runtime"])
             speed.append([label, f"{s * 1e3:.2f}", f"{r * 1e3:.2f}", f"{r / s:.3f}", "yes" if same else "no"])
+        if not args.quick:
+            mujoco = mujoco_part(work / "workprecision", cache, args.rounds)
     lines = [
         "# The simulator compiled once (issue 45)",
         "",
@@ -177,19 +239,30 @@ def main() -> None:
         f"The one-time build (a fresh cache: ipsim's core and simulator, then a first model, rdip_pulse, "
         f"with its run): {once.seconds:.1f} s of CPU ({once.wall:.1f} s wall).",
         "",
+        f"Cached runs: the median of {repeat} runs each, the three kinds alternating; the simulator alone:",
+        f"the median of {repeat} runs of the launcher on the .cfg.",
+        "",
         *table(
             [
                 "scene",
                 "first run of a new model [s CPU]",
                 "cached run [s CPU]",
+                "cached run without the PNG [s CPU]",
+                "the same, its plan made again [s CPU]",
                 "the simulator alone [s CPU]",
             ],
             rows,
         ),
         "",
-        "A first run: the derivation, the model library's compile (C, -O2), the simulation, the plot.",
-        "What remains of a cached run besides the simulation: Python's start-up and imports, the",
-        "derivation (cached), the scene's checks and the PNG (matplotlib).",
+        "A first run: the scene's checks, the derivation, a controller's and an estimator's design,",
+        "the model library's compile (C, -O2), the simulation, the plot. A cached run takes the",
+        "model library and the run's plan (the resolved scene and the library's sources:",
+        "pipeline/run_plan.py) from the cache: what remains besides the simulation is Python's",
+        "start-up and imports, the cache's look-ups (the key hashes the scene and ipgen's sources)",
+        "and, unless --no-plot, the PNG (matplotlib). With the plan made again (the last column but",
+        "one: the cache's runs/ emptied first) a run checks the scene, derives the model and designs",
+        "its controller and estimator (sympy, scipy) again, as every cached run did before the plan",
+        "was kept.",
         "",
         "## Simulation speed: the runtime simulator against one compiled for the model",
         "",
@@ -201,6 +274,7 @@ def main() -> None:
         *table(["scene", "per model [ms]", "runtime [ms]", "ratio", "same CSV"], speed),
         "",
     ]
+    lines += mujoco
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text("\n".join(lines))
     print(f"wrote {out}")

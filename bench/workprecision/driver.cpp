@@ -5,16 +5,23 @@
 //          [--rk4-steps a,b,...] [--rtols a,b,...] [--check-step H] [--reference-method M]
 //
 // Built by bench/workprecision/build.py with -DIPGEN_MODEL_HEADER="name.hpp"
-// -DIPGEN_MODEL=ipgen::name::Model. Lines printed:
+// -DIPGEN_MODEL=ipgen::name::Model; or, as ipgen run's simulator is, for every model with
+// -DIPSIM_RUNTIME_MODEL (link -ldl), then run with `--model LIB` first (a model library of
+// `--emit library`, loaded at run time: bench/runtime.py measures it against the former). Lines printed:
 //   {"kind": "reference", ...}   the reference (--reference-method, default erk-fehlberg8, at rtol
 //                                 1e-13) and its agreement with rk4 at a tiny step (--check-step)
 //                                 and with bdf at rtol 1e-13; written to OUT.csv
 //   {"kind": "run", ...}         one setting: errors against the reference, median wall time per
 //                                 simulated second over repeats, integrator statistics
+#if defined(IPSIM_RUNTIME_MODEL)
+#include "ipsim/runtime_model.hpp"
+#else
 #include IPGEN_MODEL_HEADER
+#endif
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -26,7 +33,11 @@
 
 namespace {
 
+#if defined(IPSIM_RUNTIME_MODEL)
+using Model = ipsim::RuntimeModel;
+#else
 using Model = IPGEN_MODEL;
+#endif
 
 std::vector<double> parse_list(const std::string& text) {
   std::vector<double> values;
@@ -82,6 +93,22 @@ std::string number(double value) {
 }  // namespace
 
 int main(int argc, char** argv) {
+#if defined(IPSIM_RUNTIME_MODEL)
+  // driver --model LIB SCENE.cfg ...: the model library stays loaded while the driver runs.
+  std::optional<ipsim::ModelLibrary> library;
+  if (argc < 4 || std::string(argv[1]) != "--model") {
+    std::fprintf(stderr, "usage: driver --model LIB SCENE.cfg --reference OUT.csv [options]\n");
+    return 2;
+  }
+  try {
+    library.emplace(argv[2]);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "driver: %s\n", e.what());
+    return 2;
+  }
+  argv += 2;
+  argc -= 2;
+#endif
   if (argc < 2) {
     std::fprintf(stderr, "usage: driver SCENE.cfg --reference OUT.csv [options]\n");
     return 2;
@@ -148,7 +175,7 @@ int main(int argc, char** argv) {
       "{\"kind\": \"reference\", \"model\": \"%s\", \"method\": \"%s\", \"rtol\": 1e-13, \"t_end\": %s, "
       "\"sample\": %s, \"samples\": %zu, \"check_method\": \"rk4\", \"check_step\": %s, \"agreement_final\": %s, "
       "\"agreement_trajectory\": %s, \"bdf_agreement_final\": %s, \"bdf_agreement_trajectory\": %s}\n",
-      Model::kName, ipsim::to_string(reference_method), number(base.t_end).c_str(), number(base.sample).c_str(), reference.times.size(),
+      ipsim::name_of<Model>(), ipsim::to_string(reference_method), number(base.t_end).c_str(), number(base.sample).c_str(), reference.times.size(),
       number(check.step).c_str(), number(agreement.final_time).c_str(), number(agreement.trajectory).c_str(),
       number(agreement_bdf.final_time).c_str(), number(agreement_bdf.trajectory).c_str());
   std::fflush(stdout);

@@ -325,8 +325,8 @@ def _generate(planned: job.Job) -> list[Written]:
 RUN_HELP = """Run a scene (a file, or --preset NAME: one shipped with ipgen, ipgen presets
 lists them): generate its model, build its simulator (optimised, cached by the
 model's content: later runs of the same model do not compile), simulate, and write into OUT:
-SCENE.cfg (the resolved scene), SCENE.csv (the trajectory), SCENE.png (a plot) and SCENE.txt
-(the simulator's summary of the run).
+SCENE.cfg (the resolved scene), SCENE.csv (the trajectory), SCENE.png (a plot; not with
+--no-plot) and SCENE.txt (the simulator's summary of the run).
 
 \b
 The exit status is the simulator's: 0, or its own non-zero status and message when the run
@@ -365,6 +365,12 @@ liblapack-dev).
     help="Stop a closed loop when a link is farther than RAD from the controller's equilibrium "
     "(a swing-up: from its plan or, holding, from upright) [default: pi/2; inf: never stop].",
 )
+@click.option(
+    "--no-plot",
+    is_flag=True,
+    help="Do not draw SCENE.png (a run without matplotlib: faster; an older SCENE.png in OUT is left "
+    "as it is). ipgen plot OUT/SCENE.csv draws it later.",
+)
 def run_command(
     scene: Path | None,
     preset: str | None,
@@ -372,6 +378,7 @@ def run_command(
     force: bool,
     cache_dir: Path | None,
     divergence_angle: float | None,
+    no_plot: bool,
 ) -> int:
     from ipgen.pipeline.run import run_scene
 
@@ -389,6 +396,7 @@ def run_command(
         cache=cache_dir,
         announce=lambda line: click.echo(f"ipgen: {line}", err=True),
         divergence_angle=divergence_angle,
+        plot=not no_plot,
     )
     if outcome.simulator.built:
         click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)

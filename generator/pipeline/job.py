@@ -14,11 +14,11 @@ from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
-from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.actuator import DIRECT
 from ipgen.model.system import System, system_problem
 
 if TYPE_CHECKING:
+    from ipgen.estimation.printed import PrintedEstimator
     from ipgen.experiment.scene import Scene
     from ipgen.model.specialise import Specialisation
     from ipgen.pipeline.generate import Written
@@ -266,6 +266,8 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
     """The scene's estimator as the C header prints it (None: no [sensors]/[estimator], or the
     exact state): the numbers of its measured loop (experiment/loop.py), the sampled loop's period
     and, for the EKF, the drive's input gain."""
+    from ipgen.estimation.printed import PrintedEstimator  # ipgen.estimation: only a scene's run needs it
+
     loop = scene.loop
     if loop is None or not loop.sensors or loop.estimator == "exact":
         return None

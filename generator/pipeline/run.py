@@ -1,11 +1,12 @@
 """`ipgen run SCENE.toml -o OUT/`: from a scene to results in one command.
 
-Generates the scene's model header and resolved scene, builds (or takes from the cache) the
+Generates the scene's model library and resolved scene (or takes them from the cache, where the
+last run of the same scene left them: pipeline/run_plan.py), builds (or takes from the cache) the
 scene's simulator (pipeline/simulator.py), runs it, and writes into OUT:
 
     <stem>.cfg  the resolved scene (rerun it with the simulator named in the summary)
     <stem>.csv  the trajectory, written by the simulator
-    <stem>.png  a plot of the run (plots/run.py)
+    <stem>.png  a plot of the run (plots/run.py; not with `plot=False`, `ipgen run --no-plot`)
     <stem>.txt  the summary paragraph: the simulator's own report of the run
 
 Every file is checked before any work: a file there that ipgen (or the simulator) did not write
@@ -29,8 +30,8 @@ from ipgen.common.files import OutputError, check_replaceable, prepare_directory
 from ipgen.common.limits import MAX_SIMULATED_LINKS
 from ipgen.common.safetext import shown_path
 from ipgen.pipeline import job
+from ipgen.pipeline.run_plan import RunPlan, load_plan, plan_key, store_plan
 from ipgen.pipeline.simulator import BuildError, Simulator, build, model_sources
-from ipgen.plots.run import PNG, PlotError, plot_run, read_run, sampled_beside
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
@@ -64,10 +65,14 @@ def _csv_from_simulator(path: Path) -> bool:
 
 def _check_outputs(paths: dict[str, Path], scene: Path, force: bool) -> None:
     """The output-path policy (common.files) for each file of the run; never the scene itself,
-    not even with --force. The CSV is the simulator's: replaced if it wrote it, else with force."""
+    not even with --force. The CSV is the simulator's: replaced if it wrote it, else with force.
+    Without "png" in `paths` (no plot) the PNG is not checked."""
     check_replaceable(paths["cfg"], force, keep=[scene])
     check_replaceable(paths["txt"], force, keep=[scene])
-    check_replaceable(paths["png"], force, PNG, keep=[scene])
+    if "png" in paths:
+        from ipgen.plots.run import PNG
+
+        check_replaceable(paths["png"], force, PNG, keep=[scene])
     csv = paths["csv"]
     check_replaceable(csv, True, keep=[scene])  # the path itself: a directory, too long, ...
     if csv.exists() and not force and not _csv_from_simulator(csv):
@@ -92,29 +97,48 @@ def run_scene(
     cache: Path | None = None,
     announce: Callable[[str], None] = lambda message: None,
     divergence_angle: float | None = None,
+    plot: bool = True,
 ) -> Outcome:
-    """Generate, build, simulate and plot `scene_path` into the folder `out`; `divergence_angle`
-    [rad]: the simulator's --divergence-angle (None: its default, π/2)."""
-    with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
-        planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
-        assert planned.scene is not None
-        scene = planned.scene
-        if scene.links > MAX_SIMULATED_LINKS:
-            raise BuildError(
-                f"ipgen run simulates chains of up to {MAX_SIMULATED_LINKS} links, this scene has "
-                f"{scene.links}: generate its header (ipgen --scene ... -o DIR) and build a simulator of "
-                "its own with CMake's ipgen_add_simulator (docs/simulator.md)"
-            )
-        for warning in scene.warnings:  # e.g. a unit slip: the run goes on
+    """Generate, build, simulate and plot `scene_path` into the folder `out`.
+
+    Parameters
+    ----------
+    scene_path : Path
+        The scene file.
+    out : Path
+        The folder of the results (created if needed).
+    force : bool
+        Replace files in `out` that ipgen did not write.
+    cache : Path or None
+        The cache of compiled simulators (None: `build_cache.cache_root`'s default).
+    announce : callable
+        Called with each progress or warning line.
+    divergence_angle : float or None
+        The simulator's --divergence-angle [rad] (None: its default, π/2).
+    plot : bool
+        Draw `<stem>.png` (matplotlib, imported only then); False: no PNG is drawn or checked, and
+        one already in `out` is left as it is.
+
+    Returns
+    -------
+    Outcome
+        The run's files, simulator, exit status and summary.
+    """
+    key = plan_key(Path(scene_path), force)
+    plan = load_plan(cache, key) if key is not None else None
+    if plan is None:
+        plan = _make_plan(scene_path, out, force, plot, announce)
+        if key is not None and plan_key(Path(scene_path), force) == key:  # not edited meanwhile
+            store_plan(cache, key, plan)
+    else:  # the scene's checks passed when the plan was made: the same warnings, the same files
+        for warning in plan.warnings:
             announce(warning)
-        stem = scene.stem
-        paths = {suffix: out / f"{stem}.{suffix}" for suffix in ("cfg", "csv", "png", "txt")}
-        prepare_directory(out)
-        _check_outputs(paths, Path(scene_path), force)
-        job.run(planned)
-        sources = model_sources(Path(staging), planned.name)
-        cfg_text = (Path(staging) / f"{stem}.cfg").read_text()
-    simulator = build(sources, planned.name, cache, announce)
+        _prepare_outputs(plan.stem, out, scene_path, force, plot)
+    stem = plan.stem
+    paths = _paths(stem, out, plot)
+    sources, name = plan.sources, plan.name
+    cfg_text = plan.cfg
+    simulator = build(sources, name, cache, announce)
     write_file(paths["cfg"], cfg_text, force=True)  # checked above
     before = _stamp(paths["csv"])
     command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]
@@ -128,20 +152,22 @@ def run_scene(
     unplotted = ""
     if _stamp(paths["csv"]) != before and paths["csv"].is_file():  # the simulator wrote it now
         files.append(paths["csv"])
-        links = f"{scene.links} link{'s' if scene.links > 1 else ''}"
-        title = f"{stem}: {scene.type} pendulum, {links} (model {planned.name})"
+    if plot and paths["csv"] in files:
+        from ipgen.plots.run import PlotError, plot_run, read_run, sampled_beside
+
+        links = f"{plan.links} link{'s' if plan.links > 1 else ''}"
+        title = f"{stem}: {plan.type} pendulum, {links} (model {name})"
         if done.returncode != 0:
             title += f"; the run ended with status {done.returncode}"
         try:
-            unit = _unit(scene)  # V with a dc_motor, m/s² or rad/s² with an acceleration input
             plot_run(
                 read_run(paths["csv"]),
                 paths["png"],
                 title,
-                scene.type,
+                plan.type,
                 force=True,
-                coordinates=scene.coordinates,
-                input_unit=unit,
+                coordinates=plan.coordinates,
+                input_unit=plan.unit,  # V with a dc_motor, m/s² or rad/s² with an acceleration input
                 sampled=sampled_beside(paths["cfg"]),
             )
             files.append(paths["png"])
@@ -158,7 +184,7 @@ def run_scene(
         parts.append(unplotted)
     parts.append(f"Simulator {simulator.path} ({origin}).")
     summary = " ".join(parts)
-    frame = scene.coordinates
+    frame = plan.coordinates
     angles = (
         ""
         if frame.is_canonical
@@ -173,6 +199,53 @@ def run_scene(
     )
     files.append(paths["txt"])
     return Outcome(done.returncode, files, simulator, summary, done.stderr, seconds)
+
+
+def _paths(stem: str, out: Path, plot: bool) -> dict[str, Path]:
+    """The run's files in `out` by suffix (no "png" without a plot)."""
+    suffixes = ("cfg", "csv", "png", "txt") if plot else ("cfg", "csv", "txt")
+    return {suffix: out / f"{stem}.{suffix}" for suffix in suffixes}
+
+
+def _prepare_outputs(stem: str, out: Path, scene_path: Path, force: bool, plot: bool) -> None:
+    """Create `out` if needed and check every file the run will write there (`_check_outputs`)."""
+    prepare_directory(out)
+    _check_outputs(_paths(stem, out, plot), Path(scene_path), force)
+
+
+def _make_plan(
+    scene_path: Path, out: Path, force: bool, plot: bool, announce: Callable[[str], None]
+) -> RunPlan:
+    """Check the scene, announce its warnings, check the outputs, then generate the model's
+    library sources and the resolved scene (run_plan.RunPlan), in that order."""
+    with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
+        planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
+        assert planned.scene is not None
+        scene = planned.scene
+        if scene.links > MAX_SIMULATED_LINKS:
+            raise BuildError(
+                f"ipgen run simulates chains of up to {MAX_SIMULATED_LINKS} links, this scene has "
+                f"{scene.links}: generate its header (ipgen --scene ... -o DIR) and build a simulator of "
+                "its own with CMake's ipgen_add_simulator (docs/simulator.md)"
+            )
+        for warning in scene.warnings:  # e.g. a unit slip: the run goes on
+            announce(warning)
+        _prepare_outputs(scene.stem, out, scene_path, force, plot)
+        job.run(planned)
+        frame = scene.coordinates
+        return RunPlan(
+            name=planned.name,
+            stem=scene.stem,
+            type=scene.type,
+            links=scene.links,
+            angles=frame.angles,
+            zero=frame.zero,
+            positive=frame.positive,
+            unit=_unit(scene),
+            warnings=tuple(scene.warnings),
+            cfg=(Path(staging) / f"{scene.stem}.cfg").read_text(),
+            sources=model_sources(Path(staging), planned.name),
+        )
 
 
 def _unit(scene: Scene) -> str | None:

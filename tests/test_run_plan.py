@@ -1,0 +1,255 @@
+"""`ipgen run --no-plot` and the plan a run keeps in the cache (pipeline/run_plan.py): a cached run
+checks, derives and designs nothing again, and draws no PNG when asked not to.
+
+The runs use the rotary single pendulum (rotary1), whose simulator the test cache usually holds
+(tests/conftest.py); a fresh cache compiles it once.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from cxx import require_toolchain
+
+from ipgen.command.cli import run
+from ipgen.pipeline import job
+from ipgen.pipeline.run_plan import FOLDER, RunPlan, load_plan, plan_key, store_plan
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = """\
+[system]
+type = "rotary"
+links = 1
+
+[parameters]
+m = [0.2, 0.1]
+l = [0.2, 0.3]
+delta = [0.01, 0.001]
+
+[initial]
+theta = [0, THETA1]
+
+[simulation]
+t_end = 0.2
+"""
+# A scene with an LQR controller: a cached run designs no gain again (no sympy, no scipy).
+CONTROLLED = SCENE + '\n[controller]\nkind = "lqr"\n'
+
+
+def cache_dir() -> Path:
+    return Path(os.environ["IPGEN_CACHE_DIR"])  # set for the whole run by tests/conftest.py
+
+
+def scene_file(folder: Path, text: str = SCENE, theta: str = "0.05", name: str = "single") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}.toml"
+    path.write_text(text.replace("THETA1", theta))
+    return path
+
+
+def test_no_plot_writes_no_png_and_imports_no_matplotlib(tmp_path: Path) -> None:
+    """--no-plot: the CSV, .cfg and summary, no PNG, and matplotlib never imported; without it the
+    same run draws the PNG."""
+    require_toolchain()
+    scene = scene_file(tmp_path)
+    out = tmp_path / "out"
+    program = (
+        "import sys; from ipgen.command.cli import run; "
+        f"status = run(['run', {str(scene)!r}, '-o', {str(out)!r}, '--no-plot']); "
+        "print(status, 'matplotlib' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split()[-2:] == ["0", "False"], done.stdout
+    assert sorted(path.name for path in out.iterdir()) == ["single.cfg", "single.csv", "single.txt"]
+    assert "single.png" not in done.stdout
+    assert run(["run", str(scene), "-o", str(out)]) == 0
+    assert (out / "single.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_plot_leaves_a_png_there_as_it_is(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A file named like the PNG is neither checked nor replaced by a run without the plot."""
+    require_toolchain()
+    scene = scene_file(tmp_path)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "single.png").write_text("the user's notes, not a PNG")
+    assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 0
+    assert (out / "single.png").read_text() == "the user's notes, not a PNG"
+    assert "single.png" not in capsys.readouterr().out
+    assert run(["run", str(scene), "-o", str(out)]) == 2  # with the plot: the user's file is refused
+    assert "single.png" in capsys.readouterr().err
+
+
+def test_run_help_names_no_plot() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "ipgen", "run", "--help"], capture_output=True, text=True, env=os.environ
+    )
+    assert done.returncode == 0
+    assert "--no-plot" in done.stdout and "SCENE.png" in " ".join(done.stdout.split())
+
+
+def test_a_second_run_takes_the_plan_from_the_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The second run of an unchanged scene neither checks the scene nor derives the model nor
+    designs the gain (job.plan and job.run are not called) and writes the same files; an edited
+    scene is planned again."""
+    require_toolchain()
+    scene = scene_file(tmp_path, CONTROLLED)
+    first, second = tmp_path / "first", tmp_path / "second"
+    assert run(["run", str(scene), "-o", str(first), "--no-plot"]) == 0
+    key = plan_key(scene, False)
+    assert key is not None and (cache_dir() / FOLDER / f"{key}.json").is_file()
+
+    def refused(*args: object, **kwargs: object) -> None:
+        raise AssertionError("planned again")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(job, "plan", refused)
+        patch.setattr(job, "run", refused)
+        assert run(["run", str(scene), "-o", str(second), "--no-plot"]) == 0
+    for suffix in ("cfg", "csv"):
+        assert (second / f"single.{suffix}").read_bytes() == (first / f"single.{suffix}").read_bytes()
+    assert "controller.gain" in (second / "single.cfg").read_text()  # designed by the first run
+
+    calls: list[object] = []
+    original = job.plan
+    monkeypatch.setattr(job, "plan", lambda *a, **k: calls.append(a) or original(*a, **k))
+    scene_file(tmp_path, CONTROLLED, theta="-0.05")  # edited: another key
+    assert plan_key(scene, False) != key
+    assert run(["run", str(scene), "-o", str(second), "--no-plot"]) == 0
+    assert len(calls) == 1
+    assert (second / "single.cfg").read_text() != (first / "single.cfg").read_text()
+
+
+def test_the_key_follows_the_scene_its_path_and_force(tmp_path: Path) -> None:
+    scene = scene_file(tmp_path)
+    key = plan_key(scene, False)
+    assert key is not None and key == plan_key(scene, False)
+    assert plan_key(scene, True) != key
+    copy = scene_file(tmp_path / "elsewhere")
+    assert plan_key(copy, False) != key  # the path is part of it (messages name the file)
+    scene.write_text(scene.read_text() + "\n")
+    assert plan_key(scene, False) != key
+    assert plan_key(tmp_path / "missing.toml", False) is None
+    assert plan_key(tmp_path, False) is None  # a folder
+
+
+PLAN = RunPlan(
+    name="rotary1",
+    stem="single",
+    type="rotary",
+    links=1,
+    angles="absolute",
+    zero="upright",
+    positive="clockwise",
+    unit=None,
+    warnings=("a warning \udcff",),
+    cfg="type = rotary\n",
+    sources={"rotary1.h": "/* h */", "rotary1_model.c": "/* c */"},
+)
+
+
+def test_a_plan_is_kept_and_read_back(tmp_path: Path) -> None:
+    store_plan(tmp_path, "k", PLAN)
+    assert load_plan(tmp_path, "k") == PLAN
+    assert load_plan(tmp_path, "other") is None
+
+
+@pytest.mark.parametrize(
+    "damage",
+    [
+        lambda text: text[: len(text) // 2],  # truncated
+        lambda text: text.replace("rotary1_model.c", "rotary2_model.c"),  # altered: checksum differs
+        lambda text: "\xff not json",
+        lambda text: "[]",
+    ],
+)
+def test_a_damaged_entry_is_ignored(tmp_path: Path, damage: object) -> None:
+    store_plan(tmp_path, "k", PLAN)
+    entry = tmp_path / FOLDER / "k.json"
+    entry.write_text(damage(entry.read_text()))  # type: ignore[operator]
+    assert load_plan(tmp_path, "k") is None
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("links", 0),
+        ("links", True),
+        ("links", "1"),
+        ("angles", "sideways"),  # no such convention
+        ("sources", {"../escape.c": "x"}),
+        ("sources", {"a.c": 1}),
+        ("warnings", "one"),
+        ("unit", 3),
+        ("cfg", None),
+    ],
+)
+def test_an_entry_of_the_wrong_kind_is_ignored(tmp_path: Path, field: str, value: object) -> None:
+    """Values of the wrong kind, even under a matching checksum, are not a plan."""
+    import hashlib
+
+    store_plan(tmp_path, "k", PLAN)
+    entry = tmp_path / FOLDER / "k.json"
+    record = json.loads(entry.read_text())
+    record["plan"][field] = value
+    record["sha256"] = hashlib.sha256(json.dumps(record["plan"], sort_keys=True).encode()).hexdigest()
+    entry.write_text(json.dumps(record))
+    assert load_plan(tmp_path, "k") is None
+
+
+def test_a_damaged_entry_is_planned_again_and_replaced(tmp_path: Path) -> None:
+    require_toolchain()
+    scene = scene_file(tmp_path)
+    out = tmp_path / "out"
+    assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 0
+    key = plan_key(scene, False)
+    assert key is not None
+    entry = cache_dir() / FOLDER / f"{key}.json"
+    entry.write_text("{}")
+    assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 0
+    assert load_plan(None, key) is not None
+
+
+def test_a_refused_scene_is_not_kept(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    scene = scene_file(tmp_path, SCENE.replace("links = 1", "links = 0"))
+    assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 2
+    assert "links" in capsys.readouterr().err
+    key = plan_key(scene, False)
+    assert key is not None and not (cache_dir() / FOLDER / f"{key}.json").exists()
+
+
+def test_a_cached_plan_still_checks_the_outputs(tmp_path: Path) -> None:
+    """A run from a cached plan refuses a CSV the simulator did not write, as any run does."""
+    require_toolchain()
+    scene = scene_file(tmp_path)
+    out = tmp_path / "out"
+    assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 0
+    (out / "single.csv").write_text("the user's data\n")
+    assert run(["run", str(scene), "-o", str(out), "--no-plot"]) == 2
+    assert (out / "single.csv").read_text() == "the user's data\n"
+
+
+def test_a_cached_run_without_the_plot_imports_none_of_the_heavy_libraries(tmp_path: Path) -> None:
+    """The cheap path: a run whose simulator and plan are cached imports neither the scene's
+    checks (pydantic) nor the derivation and design (sympy, flint, scipy) nor matplotlib."""
+    require_toolchain()
+    scene = scene_file(tmp_path, CONTROLLED)
+    out = tmp_path / "out"
+    heavy = ("pydantic", "sympy", "flint", "scipy", "numpy", "matplotlib", "ipgen.experiment.scene")
+    program = (
+        "import sys; from ipgen.command.cli import run; "
+        f"status = run(['run', {str(scene)!r}, '-o', {str(out)!r}, '--no-plot']); "
+        f"print(status, *[name for name in {heavy!r} if name in sys.modules])"
+    )
+    first = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
+    assert first.returncode == 0, first.stderr
+    assert "scipy" in first.stdout.split()  # the first run designs the LQR gain
+    again = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
+    assert again.returncode == 0, again.stderr
+    assert again.stdout.split()[-1:] == ["0"], again.stdout
