@@ -65,6 +65,8 @@ class Model(ctypes.Structure):
         ("dissipation", ctypes.CFUNCTYPE(ctypes.c_double, VEC, PARAMS)),
         ("rod_links", ctypes.CFUNCTYPE(None, PARAMS)),
         ("check_folded", ctypes.CFUNCTYPE(ctypes.c_char_p, PARAMS)),
+        ("gravity", ctypes.CFUNCTYPE(None, VEC, PARAMS, VEC)),
+        ("n_matrix", ctypes.CFUNCTYPE(None, VEC, VEC, PARAMS, VEC)),
     ]  # fmt: skip
 
 
@@ -94,9 +96,9 @@ def vector(values: np.ndarray) -> ctypes.Array:
 def test_the_model_library_equals_kanes_equations(
     tmp_path: Path, kind: str, links: int, inertia: str
 ) -> None:
-    """forward_dynamics, linearize's B, the mass matrix and the energies, called through the
-    interface with its parameter layout, against Kane's equations of the same rig as built; and
-    NaN com and J read as the homogeneous rods."""
+    """forward_dynamics, linearize's B, the mass matrix, gravity, N and the energies, called
+    through the interface with its parameter layout, against Kane's equations of the same rig as
+    built; and NaN com and J read as the homogeneous rods."""
     require_toolchain()
     options = ["--type", kind, "--links", str(links), "--name", "m"]
     if kind == "rotary":
@@ -106,7 +108,7 @@ def test_the_model_library_equals_kanes_equations(
     lib.ipgen_model_get.restype = ctypes.POINTER(Model)
     model = lib.ipgen_model_get().contents
     dof = links + 1
-    assert (model.abi, model.links, model.dof, model.inputs) == (1, links, dof, 1)
+    assert (model.abi, model.links, model.dof, model.inputs) == (2, links, dof, 1)
     assert model.type.decode() == kind and model.name.decode() == "m"
     ref = reference(kind, links, inertia, True)
     rng = np.random.default_rng(45)
@@ -138,6 +140,16 @@ def test_the_model_library_equals_kanes_equations(
         assert np.allclose(
             np.asarray(B)[dof:], np.linalg.solve(M_ref, np.eye(dof)[:, 0]), rtol=1e-10, atol=1e-12
         )
+        # bias = B u - forcing = N qd + P, and P = bias at rest (no Coriolis, no damping).
+        params = args[3]
+        bias_ref = np.eye(dof)[:, 0] * u - np.asarray(ref.forcing(*args), dtype=float).ravel()
+        gravity_ref = -np.asarray(ref.forcing(q, np.zeros(dof), 0.0, params), dtype=float).ravel()
+        P, N = vector(np.zeros(dof)), vector(np.zeros(dof * dof))
+        model.gravity(vector(q), ctypes.byref(p), P)
+        model.n_matrix(vector(q), vector(qd), ctypes.byref(p), N)
+        assert np.allclose(np.asarray(P), gravity_ref, rtol=1e-10, atol=1e-10)
+        with_n = np.asarray(N).reshape(dof, dof) @ qd + np.asarray(P)
+        assert np.allclose(with_n, bias_ref, rtol=1e-10, atol=1e-10)
         kinetic = model.kinetic_energy(vector(q), vector(qd), ctypes.byref(p))
         assert math.isclose(kinetic, float(ref.kinetic(*args)), rel_tol=1e-11, abs_tol=1e-12)
         potential = model.potential_energy(vector(q), ctypes.byref(p))
@@ -235,7 +247,7 @@ def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     cases = {
         str(tmp_path / "missing.so"): "cannot load the model library",
         str(not_a_model): "exports no ipgen_model_get (not an ipgen model library)",
-        str(abi_library): "built for model ABI 99, this simulator reads 1",
+        str(abi_library): "built for model ABI 99, this simulator reads 2",
     }
     cfg = tmp_path / "out" / "s.cfg"
     for library, message in cases.items():

@@ -25,8 +25,8 @@ extern "C" {
 #endif
 
 /* Bumped whenever this struct or the parameter layout changes: a library built for another
- * ABI is refused when it is loaded. */
-#define IPGEN_MODEL_ABI 1
+ * ABI is refused when it is loaded. 2: gravity and n_matrix appended. */
+#define IPGEN_MODEL_ABI 2
 
 /* The largest number of degrees of freedom (base + links) a parameter struct holds. */
 #define IPGEN_MAX_DOF 41
@@ -79,6 +79,11 @@ typedef struct {
   /* The first parameter ("m1", ...) that differs from a value folded into a specialised
    * model, or null (always null for a general model). */
   const char *(*check_folded)(const ipgen_parameters *p);
+  /* Optional (null when absent; the simulator never calls them): P(q) = dV/dq (dof) and N(q, qd)
+   * (dof x dof), the parts of bias = N qd + P, for checks of a model's functions against each
+   * other. */
+  void (*gravity)(const double q[], const ipgen_parameters *p, double P[]);
+  void (*n_matrix)(const double q[], const double qd[], const ipgen_parameters *p, double N[]);
 } ipgen_model;
 
 /* The symbol every model library exports. */

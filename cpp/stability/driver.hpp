@@ -107,7 +107,7 @@ int run(int argc, char** argv) {
   emit(undamped<Model>(10.0, 0.01));
   // Zero damping over 1000 s (100 s in the quick set); the long runs only for small n, where
   // they take seconds (n = 20 needs about 30 s per simulated 100 s).
-  if (Model::kLinks <= 3) emit(undamped<Model>(options.quick ? 100.0 : 1000.0, 0.1));
+  if (ipsim::links_of<Model>() <= 3) emit(undamped<Model>(options.quick ? 100.0 : 1000.0, 0.1));
 #if IPGEN_STABILITY_PRECISION
   for (const Row& row : ratios_and_float<Model>(options)) emit(row);
 #endif

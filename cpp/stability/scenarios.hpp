@@ -61,8 +61,9 @@ using ipsim_test::paper_params;
 
 template <class Model>
 std::string model_label() {
-  return std::string(Model::kName) + " (" + Model::kType + ", " + std::to_string(Model::kLinks) + " link" +
-         (Model::kLinks == 1 ? "" : "s") + ")";
+  const int links = ipsim::links_of<Model>();
+  return std::string(ipsim::name_of<Model>()) + " (" + ipsim::type_of<Model>() + ", " + std::to_string(links) +
+         " link" + (links == 1 ? "" : "s") + ")";
 }
 
 /// Tight settings (the scenes' defaults): BDF, rtol 1e-10, atol 1e-12.
@@ -106,11 +107,11 @@ Run run(const ipsim::ParamsOf<Model>& p, const ipsim::Settings<Model>& s) {
 /// (|E_0| alone can be near zero, e.g. links horizontal and at rest).
 template <class Model>
 double energy_drift(const ipsim::ParamsOf<Model>& p, const ipsim::Result& r) {
-  constexpr int n = Model::kDof;
+  const int n = ipsim::dof_of<Model>();
   double e0 = 0.0, drift = 0.0, scale = 0.0;
   for (Eigen::Index k = 0; k < r.states.rows(); ++k) {
-    const ipsim::VectorOf<Model> q = r.states.row(k).head<n>().transpose();
-    const ipsim::VectorOf<Model> qd = r.states.row(k).segment<n>(n).transpose();
+    const ipsim::VectorOf<Model> q = r.states.row(k).head(n).transpose();
+    const ipsim::VectorOf<Model> qd = r.states.row(k).segment(n, n).transpose();
     const double t = Model::template kinetic_energy<double>(q, qd, p);
     const double v = Model::template potential_energy<double>(q, p);
     if (k == 0) e0 = t + v;
@@ -153,7 +154,7 @@ Row undamped(double t_end, double sample) {
   const auto p = paper_params<Model>(false);
   auto s = tight_settings<Model>(t_end, sample);
   s.max_steps = 1000000;
-  for (int i = 1; i < Model::kDof; ++i) s.theta(i) = 0.3;
+  for (int i = 1; i < ipsim::dof_of<Model>(); ++i) s.theta(i) = 0.3;
   Row row{"undamped " + g3(t_end) + " s", model_label<Model>(), "links tilted 0.3 rad, no input, bdf rtol 1e-10",
           "rel. energy drift"};
   row.bound = s.rtol * (1e4 + 100.0 * t_end);
@@ -184,11 +185,12 @@ std::vector<Row> stiff_damping(const Options& options) {
   }
   for (const double delta : dampings) {
     auto p = paper_params<Model>(true);
-    p.m[Model::kLinks] = 1e-3;
-    p.delta[Model::kLinks] = delta;
+    const auto last = static_cast<std::size_t>(ipsim::links_of<Model>());
+    p.m[last] = 1e-3;
+    p.delta[last] = delta;
     auto reference_settings = tight_settings<Model>(t_end, 0.01);
-    for (int i = 1; i < Model::kDof; ++i) reference_settings.theta(i) = ipsim::kPi;  // hanging
-    reference_settings.theta(Model::kLinks) += 0.2;
+    for (int i = 1; i < ipsim::dof_of<Model>(); ++i) reference_settings.theta(i) = ipsim::kPi;  // hanging
+    reference_settings.theta(ipsim::links_of<Model>()) += 0.2;
     reference_settings.input = ipsim::Input::pulse(0.4, 0.0, 0.5);
     reference_settings.rtol = 1e-12;
     reference_settings.atol = 1e-14;
@@ -260,7 +262,7 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
   std::vector<std::pair<std::string, ipsim::Settings<Model>>> cases;
   auto s = tight_settings<Model>(0.05, 0.001);
   s.max_steps = 1000000;
-  for (int i = 1; i < Model::kDof; ++i) {
+  for (int i = 1; i < ipsim::dof_of<Model>(); ++i) {
     s.theta(i) = 0.1;
     s.dtheta(i) = 1e3;
   }
@@ -272,7 +274,7 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
     s.dtheta(0) = 1e3;
     cases.emplace_back("arm spinning at 1e3 rad/s, links 0.3 rad from hanging", s);
   }
-  bool regular = Model::kLinks <= 2;  // only the first case
+  bool regular = ipsim::links_of<Model>() <= 2;  // only the first case
   for (const auto& [name, settings] : cases) {
     auto reference_settings = settings;
     reference_settings.method = ipsim::Method::erk_fehlberg8;
@@ -295,7 +297,7 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
       if (r.ok) {
         row.value = energy_drift<Model>(p, r.result);
         apply_bound(row);
-        const double max_rate = r.result.states.rightCols(Model::kDof).cwiseAbs().maxCoeff();
+        const double max_rate = r.result.states.rightCols(ipsim::dof_of<Model>()).cwiseAbs().maxCoeff();
         row.note = "max rate " + g3(max_rate);
         if (reference.ok) {
           const double difference = ipsim_test::max_abs(r.result.states - reference.result.states) /
@@ -327,7 +329,7 @@ std::vector<Row> fast_motion(const Options& /*options*/) {
   if (r.ok) {
     const auto& res = r.result;
     row.value = ipsim_test::work_energy_error<Model>(pd, res) / std::abs(res.input_work.back());
-    row.note = "max rate " + g3(res.states.rightCols(Model::kDof).cwiseAbs().maxCoeff()) + " rad/s";
+    row.note = "max rate " + g3(res.states.rightCols(ipsim::dof_of<Model>()).cwiseAbs().maxCoeff()) + " rad/s";
   }
   row.bound = 1e4 * big.rtol;
   apply_bound(row);
@@ -346,7 +348,7 @@ Row through_horizontal(const Options& options) {
   const auto p = paper_params<Model>(false);
   auto s = tight_settings<Model>(t_end, 0.001);
   s.max_steps = 1000000;
-  for (int i = 1; i < Model::kDof; ++i) {
+  for (int i = 1; i < ipsim::dof_of<Model>(); ++i) {
     s.theta(i) = 0.5 * ipsim::kPi;
     s.dtheta(i) = 10.0;
   }
@@ -359,7 +361,7 @@ Row through_horizontal(const Options& options) {
     row.value = energy_drift<Model>(p, r.result);
     long crossings = 0;  // passages of any link through ±π/2 (mod 2π)
     for (Eigen::Index k = 1; k < r.result.states.rows(); ++k) {
-      for (int i = 1; i < Model::kDof; ++i) {
+      for (int i = 1; i < ipsim::dof_of<Model>(); ++i) {
         const double a = std::cos(r.result.states(k - 1, i)), b = std::cos(r.result.states(k, i));
         if ((a > 0) != (b > 0)) ++crossings;
       }
@@ -384,7 +386,7 @@ std::vector<Row> many_turns(const Options& options) {
   const auto p = paper_params<Model>(true);
   auto s = tight_settings<Model>(options.quick ? 2.0 : 10.0, 0.01);
   s.input = ipsim::Input::pulse(0.4, 0.0, 1.0);
-  for (int i = 1; i < Model::kDof; ++i) s.theta(i) = ipsim::kPi + 0.1 * i;  // hanging, tilted: regular
+  for (int i = 1; i < ipsim::dof_of<Model>(); ++i) s.theta(i) = ipsim::kPi + 0.1 * i;  // hanging, tilted: regular
   const Run reference = run<Model>(p, s);
   const double base_unit = ipsim::is_classical<Model>() ? 1.0 : 2.0 * ipsim::kPi;
   std::vector<double> turns{1e6};
@@ -394,7 +396,7 @@ std::vector<Row> many_turns(const Options& options) {
       auto shifted = s;
       const double shift = k * (links ? 2.0 * ipsim::kPi : base_unit);
       if (links) {
-        for (int i = 1; i < Model::kDof; ++i) shifted.theta(i) += shift;
+        for (int i = 1; i < ipsim::dof_of<Model>(); ++i) shifted.theta(i) += shift;
       } else {
         shifted.theta(0) += shift;
       }
@@ -410,7 +412,7 @@ std::vector<Row> many_turns(const Options& options) {
       if (r.ok && reference.ok) {
         Eigen::MatrixXd difference = r.result.states - reference.result.states;
         if (links) {
-          difference.middleCols(1, Model::kLinks).array() -= shift;
+          difference.middleCols(1, ipsim::links_of<Model>()).array() -= shift;
         } else {
           difference.col(0).array() -= shift;
         }
@@ -443,7 +445,7 @@ Row long_horizon(double t_end, double sample) {
   const Run r = run<Model>(p, s);
   record_run(row, r);
   if (r.ok) {
-    row.value = r.result.states.bottomRows(1).rightCols(Model::kDof).cwiseAbs().maxCoeff();
+    row.value = r.result.states.bottomRows(1).rightCols(ipsim::dof_of<Model>()).cwiseAbs().maxCoeff();
     row.bound = 1e-6;  // at rest long before t_end
     row.note = std::to_string(r.result.times.size()) + " samples kept";
   }

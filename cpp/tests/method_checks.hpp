@@ -1,5 +1,5 @@
 // Checks of the exact Jacobian and of every integration method, generic over the model (run on
-// the stand-in and on each generated model, see test_model.cpp).
+// the stand-in and on each generated model loaded at run time, see test_model.cpp).
 #pragma once
 
 #include <algorithm>
@@ -38,7 +38,7 @@ std::vector<ipsim::Settings<Model>> accurate_settings_of_every_method(const ipsi
 template <class Model>
 void check_derivatives_against_differences() {
   using Vector = ipsim::VectorOf<Model>;
-  constexpr int n = Model::kDof;
+  const int n = ipsim::dof_of<Model>();
   std::mt19937 random(20240605u + static_cast<unsigned>(n));
   std::uniform_real_distribution<double> angle(-ipsim::kPi, ipsim::kPi), rate(-3.0, 3.0), force(-2.0, 2.0),
       scale(0.5, 2.0);
@@ -50,7 +50,7 @@ void check_derivatives_against_differences() {
       p.l[i] *= scale(random);
       p.delta[i] *= scale(random);
     }
-    Vector q, qd;
+    Vector q(n), qd(n);
     for (int i = 0; i < n; ++i) {
       q(i) = angle(random);
       qd(i) = rate(random);
@@ -60,7 +60,7 @@ void check_derivatives_against_differences() {
     const Vector qdd = Model::template forward_dynamics<double>(q, qd, u, p);
     CHECK(max_difference(d.qdd, qdd) <= 1e-12 * std::max(1.0, max_abs(qdd)));
 
-    Eigen::Matrix<double, n, 2 * n + 1> exact, differences;
+    Eigen::MatrixXd exact(n, 2 * n + 1), differences(n, 2 * n + 1);
     exact << d.dqdd_dq, d.dqdd_dqd, d.dqdd_du;
     for (int j = 0; j < 2 * n + 1; ++j) {
       Vector q_up = q, q_down = q, qd_up = qd, qd_down = qd;
@@ -93,13 +93,13 @@ void check_derivatives_against_differences() {
 /// (u = θ̈0: the chain rule through the base force, and the ledger's τ θ̇0).
 template <class Model>
 void check_system_jacobian() {
-  constexpr int n = Model::kDof;
+  const int n = ipsim::dof_of<Model>();
   const int size = 2 * n + 2;
   const auto p = paper_params<Model>(true);
   const ipsim::Input feedback = ipsim::Input::from_feedback(
-      [](double t, const Eigen::VectorXd& x) { return -3.0 * x(0) - 2.0 * x(n) + 0.5 * std::sin(x(1)) + t; });
+      [n](double t, const Eigen::VectorXd& x) { return -3.0 * x(0) - 2.0 * x(n) + 0.5 * std::sin(x(1)) + t; });
   for (const bool acceleration : {false, true}) {
-    if (acceleration && !ipsim::has_mass_and_bias<Model>) continue;
+    if (acceleration && !ipsim::provides<Model>(ipsim::Feature::mass_and_bias)) continue;
     ipsim::detail::RhsContext<Model> context;
     context.params = &p;
     context.input = &feedback;
@@ -137,7 +137,7 @@ void check_exact_jacobian_pays_off() {
     // Swinging about the hanging position (regular motion: differences in the step sequence are
     // not amplified as they are near the upright equilibrium).
     auto s = tilted_settings<Model>();
-    for (int i = 1; i < Model::kDof; ++i) s.theta(i) = ipsim::kPi - s.theta(i);
+    for (int i = 1; i < ipsim::dof_of<Model>(); ++i) s.theta(i) = ipsim::kPi - s.theta(i);
     s.rtol = 1e-12;
     s.atol = 1e-14;
     s.t_end = 3.0;
@@ -150,7 +150,7 @@ void check_exact_jacobian_pays_off() {
     const double difference = max_difference(exact, dq);
     std::printf("%s %s: RHS evaluations with the exact Jacobian %ld, with difference quotients %ld + %ld; "
                 "trajectories differ by %.2g\n",
-                Model::kName, ipsim::to_string(method), exact.stats.rhs_evals, dq.stats.rhs_evals,
+                ipsim::name_of<Model>(), ipsim::to_string(method), exact.stats.rhs_evals, dq.stats.rhs_evals,
                 dq.stats.linear_solver_rhs_evals, difference);
     if (!(difference <= 1e-8)) {
       fail(__FILE__, __LINE__, std::string(ipsim::to_string(method)) + ": exact and dq Jacobians differ by " + number(difference));
@@ -279,7 +279,8 @@ void check_feedback_jacobian() {
   const auto p = paper_params<Model>(true);
   auto s = tilted_settings<Model>();
   s.t_end = 2.0;
-  s.input = ipsim::Input::from_feedback([](double, const Eigen::VectorXd& x) { return -50.0 * x(Model::kDof); });
+  s.input = ipsim::Input::from_feedback(
+      [n = ipsim::dof_of<Model>()](double, const Eigen::VectorXd& x) { return -50.0 * x(n); });
   const ipsim::Result exact = ipsim::simulate<Model>(p, s);
   s.jacobian = ipsim::Jacobian::dq;
   const ipsim::Result dq = ipsim::simulate<Model>(p, s);

@@ -1,5 +1,6 @@
 // Checks of ipsim that hold for every model, written against the model tag type so they run on
-// the stand-in now and on each generated model later (see test_model.cpp).
+// the stand-in (its sizes fixed at compile time) and on each generated model loaded at run time
+// (ipsim::RuntimeModel: sizes from dof_of, links_of; see test_model.cpp).
 #pragma once
 
 #include <algorithm>
@@ -23,7 +24,7 @@ ipsim::Settings<Model> tilted_settings() {
   s.atol = 1e-12;
   s.t_end = 5.0;
   s.sample = 0.01;
-  for (int i = 1; i < Model::kDof; ++i) s.theta(i) = 0.2 + 0.1 * i;
+  for (int i = 1; i < ipsim::dof_of<Model>(); ++i) s.theta(i) = 0.2 + 0.1 * i;
   s.dtheta(1) = 0.5;
   return s;
 }
@@ -55,8 +56,9 @@ PulseInPieces run_pulse_in_pieces(const ipsim::ParamsOf<Model>& p, const ipsim::
   off.t_end = s.t_end - edge;
   off.input = ipsim::Input::zero();
   const Eigen::VectorXd at_switch = runs.on.states.bottomRows(1).transpose();
-  off.theta = at_switch.head<Model::kDof>();
-  off.dtheta = at_switch.tail<Model::kDof>();
+  const int n = ipsim::dof_of<Model>();
+  off.theta = at_switch.head(n);
+  off.dtheta = at_switch.tail(n);
   runs.off = ipsim::simulate<Model>(p, off);
   const auto& times = runs.pulsed.times;
   const auto sample = std::find(times.begin(), times.end(), edge);
@@ -72,11 +74,11 @@ PulseInPieces run_pulse_in_pieces(const ipsim::ParamsOf<Model>& p, const ipsim::
 template <class Model>
 void check_model_consistency() {
   using Vector = ipsim::VectorOf<Model>;
-  constexpr int n = Model::kDof;
+  const int n = ipsim::dof_of<Model>();
   const auto p = paper_params<Model>(true);
   for (int trial = 0; trial < 5; ++trial) {
-    const Vector q = Vector::LinSpaced(-0.7 + 0.3 * trial, 1.1 - 0.2 * trial);
-    const Vector qd = Vector::LinSpaced(0.4 * trial - 0.9, 0.5);
+    const Vector q = Vector::LinSpaced(n, -0.7 + 0.3 * trial, 1.1 - 0.2 * trial);
+    const Vector qd = Vector::LinSpaced(n, 0.4 * trial - 0.9, 0.5);
     const double u = 0.3 * trial - 0.5;
     const auto M = Model::template mass_matrix<double>(q, p);
     const Vector b = Model::template bias<double>(q, qd, p);
@@ -92,7 +94,7 @@ void check_model_consistency() {
     // (worst measured 3.6e-15·max|M|, classical10); 1e-12·max|M| leaves room and still catches a
     // wrong term.
     const double h = 0.5;
-    Eigen::Matrix<double, n, n> hessian;
+    Eigen::MatrixXd hessian(n, n);
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < n; ++j) {
         auto kinetic = [&](double step_i, double step_j) {
@@ -109,11 +111,11 @@ void check_model_consistency() {
     CHECK_NEAR(Model::template kinetic_energy<double>(q, qd, p), 0.5 * qd.dot(M * qd), 1e-12);
 
     const Vector qdd = Model::template forward_dynamics<double>(q, qd, u, p);
-    Vector generalized_force = Vector::Zero();
+    Vector generalized_force = Vector::Zero(n);
     generalized_force(0) = u;
     CHECK(max_difference(M * qdd + b, generalized_force) <= 1e-10);
 
-    for (int i = 0; i < Model::kDof; ++i) {
+    for (int i = 0; i < n; ++i) {
       const double h = 1e-6;
       Vector up = q, down = q;
       up(i) += h;
@@ -124,7 +126,7 @@ void check_model_consistency() {
     }
 
     double rayleigh = 0.5 * p.delta[0] * qd(0) * qd(0) + 0.5 * p.delta[1] * qd(1) * qd(1);
-    for (int i = 2; i < Model::kDof; ++i) {
+    for (int i = 2; i < n; ++i) {
       const double relative = qd(i) - qd(i - 1);
       rayleigh += 0.5 * p.delta[static_cast<std::size_t>(i)] * relative * relative;
     }
@@ -136,7 +138,7 @@ void check_model_consistency() {
 template <class Model>
 void check_parameter_validation() {
   using ipsim::validate;
-  const int last = Model::kLinks;
+  const int last = ipsim::links_of<Model>();
   const auto good = paper_params<Model>(true);
   CHECK(validate<Model>(good).empty());
 
@@ -240,8 +242,8 @@ void check_integration_errors() {
   s.input = ipsim::Input::from_feedback([](double t, const Eigen::VectorXd&) { return t > 0.5 ? std::nan("") : 0.0; });
   CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::IntegrationError, "at t = 0.5");
 
-  s.input = ipsim::Input::from_feedback([](double t, const Eigen::VectorXd& x) -> double {
-    if (x.size() != 2 * Model::kDof) throw std::logic_error("feedback got a state of the wrong size");
+  s.input = ipsim::Input::from_feedback([n = ipsim::dof_of<Model>()](double t, const Eigen::VectorXd& x) -> double {
+    if (x.size() != 2 * n) throw std::logic_error("feedback got a state of the wrong size");
     if (t > 0.1) throw std::domain_error("controller exploded");
     return 0.0;
   });
@@ -261,7 +263,7 @@ void check_energy_conservation(ipsim::Method method) {
     s.method = method;
     s.t_end = 20.0;
     if (hanging) {
-      for (int i = 1; i < Model::kDof; ++i) s.theta(i) = ipsim::kPi - s.theta(i);
+      for (int i = 1; i < ipsim::dof_of<Model>(); ++i) s.theta(i) = ipsim::kPi - s.theta(i);
     }
     const ipsim::Result r = ipsim::simulate<Model>(p, s);
     CHECK(r.times.size() == 2001);
@@ -372,7 +374,8 @@ void check_methods_agree() {
 /// "cdip (classical, 2 links)": the model's checks as their verdict names them.
 template <class Model>
 std::string suite_name() {
-  return std::string(Model::kName) + " (" + Model::kType + ", " + std::to_string(Model::kLinks) + " links)";
+  return std::string(ipsim::name_of<Model>()) + " (" + ipsim::type_of<Model>() + ", " +
+         std::to_string(ipsim::links_of<Model>()) + " links)";
 }
 
 /// The physics identities alone (for large models, where every generic check would take minutes):

@@ -16,7 +16,7 @@ namespace ipsim_test {
 template <class Model>
 ipsim::ParamsOf<Model> paper_params(bool damped) {
   ipsim::ParamsOf<Model> p{};
-  for (std::size_t i = 0; i < static_cast<std::size_t>(Model::kDof); ++i) {
+  for (std::size_t i = 0; i < static_cast<std::size_t>(ipsim::dof_of<Model>()); ++i) {
     p.m[i] = i == 0 ? 0.5 : 0.275;
     p.l[i] = i == 0 ? 0.6 : 0.5;
     p.delta[i] = damped ? (i == 0 ? 0.3 : 0.1) : 0.0;

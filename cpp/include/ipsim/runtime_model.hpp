@@ -107,6 +107,20 @@ struct RuntimeModel {
     function(active().bias, "bias")(q.data(), qd.data(), &p, b.data());
     return b;
   }
+  /// P(θ) = ∂V/∂θ and N(θ, θ̇) (bias = N θ̇ + P): optional in a model library (ipsim calls
+  /// neither; the tests check the model's functions against each other with them).
+  template <typename Scalar>
+  static Vector<Scalar> gravity(const Vector<Scalar>& q, const Params<Scalar>& p) {
+    Vector<Scalar> P(q.size());
+    function(active().gravity, "gravity")(q.data(), &p, P.data());
+    return P;
+  }
+  template <typename Scalar>
+  static Matrix<Scalar> n_matrix(const Vector<Scalar>& q, const Vector<Scalar>& qd, const Params<Scalar>& p) {
+    RowMajorMatrix N(q.size(), q.size());  // the interface's matrices are row-major
+    function(active().n_matrix, "n_matrix")(q.data(), qd.data(), &p, N.data());
+    return Matrix<Scalar>(N);
+  }
   /// θ̈; NaN when M(θ) is not positive definite (as the headers' LDLT gives no finite answer).
   template <typename Scalar>
   static Vector<Scalar> forward_dynamics(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
