@@ -351,8 +351,8 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
     [
         ({"sensors.delay": "0.0015"}, "whole multiple of the period"),
         ({"sensors.resolution": "-1 2048"}, "-1 must be 0 or >= 1 (the rule of [sensors] resolution)"),
-        ({"sensors.resolution": "0.5 2048"}, "sensors.resolution = 0.5 must be 0 or >= 1"),
-        ({"sensors.noise": "nan 0"}, "sensors.noise = nan must be >= 0 and <= 1e+100"),
+        ({"sensors.resolution": "0.5 2048"}, "sensors.resolution[0] = 0.5 must be 0 or >= 1"),
+        ({"sensors.noise": "nan 0"}, "sensors.noise[0] = nan must be >= 0 and <= 1e+100"),
         ({"sensors.measured": "1 0"}, "ascending"),
         ({"sensors.resolution": "2048"}, "has 1 values, expected 2"),
         ({"estimator": "luenberger"}, "estimator must be"),

@@ -195,7 +195,7 @@ void check_scene_reader() {
   CHECK_THROWS(load_text(edited("type", "type = rotary")), SceneError, "model cart1 is classical");
   CHECK_THROWS(load_text(edited("rtol", "")), SceneError, "test.cfg: missing key `rtol`");
   CHECK_THROWS(load_text(edited("rtol", "rtol = fast")), SceneError, "`rtol`: `fast` is not a number");
-  CHECK_THROWS(load_text(edited("max_steps", "max_steps = 1.5")), SceneError, "`max_steps` must be an integer");
+  CHECK_THROWS(load_text(edited("max_steps", "max_steps = 1.5")), SceneError, "max_steps = 1.5 must be a whole number >= 1");
   CHECK_THROWS(load_text(edited("method", "method = rk5")), SceneError,
                "test.cfg:21: method must be bdf, adams, adams-fixed-point, erk-dp5, erk-fehlberg8 or rk4, "
                "got `rk5`");

@@ -647,9 +647,11 @@ namespace ipsim::scene {
 IPSIM_DECL void check_rules(const SceneFile& file) {
   for (const cfg::Rule& rule : cfg::kRules) {
     if (!file.has(rule.key)) continue;
-    for (const double value : file.numbers(rule.key)) {
-      if (!cfg::admits(rule, value)) {
-        file.fail(file.line(rule.key), std::string(rule.key) + " = " + detail::format_number(value) + " must be " + rule.says +
+    const std::vector<double> values = file.numbers(rule.key);
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      if (!cfg::admits(rule, values[i])) {
+        const std::string entry = values.size() > 1 ? std::string(rule.key) + "[" + std::to_string(i) + "]" : rule.key;
+        file.fail(file.line(rule.key), entry + " = " + detail::format_number(values[i]) + " must be " + rule.says +
                                            " (the rule of " + rule.source + ")");
       }
     }
