@@ -111,7 +111,7 @@ struct SwingUp {
     }
     const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
                                        energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, 1.0};
-    const std::pair<const ParamsOf<Model>*, int> context{&params, n};
+    const LawContext<Model> context{&params, n, hold_gain.data()};
     const ipgen_loop_swingup law{n,
                                  u_max,
                                  hold_gain.data(),
@@ -123,7 +123,7 @@ struct SwingUp {
                                  gains.data(),
                                  &SwingUp::mass_bias<Model>,
                                  const_cast<void*>(static_cast<const void*>(&context)),
-                                 &SwingUp::feedback};
+                                 &SwingUp::feedback<Model>};
     ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1)};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
@@ -148,10 +148,24 @@ struct SwingUp {
     return IPGEN_LOOP_HOLD;
   }
 
-  /// u_ref − K (x − x_ref) as LinearFeedback forms it (Eigen's dot): the plan's and the hold's
-  /// inputs keep the bits they had before ipgen_loop.h (ipgen_loop_swingup.feedback).
-  static double feedback(void* /*context*/, int states, double u_ref, const double K[], const double x[],
+  /// What the callbacks of ipgen_loop_swingup see: the parameters, the degrees of freedom and
+  /// the hold's gain (to tell the hold's feedback from the plan's).
+  template <class Model>
+  struct LawContext {
+    const ParamsOf<Model>* params;
+    int n;
+    const double* hold_gain;
+  };
+
+  /// u_ref − K (x − x_ref) summed as the simulator summed it before ipgen_loop.h, so that its runs
+  /// keep their bits (ipgen_loop_swingup.feedback): the hold as LinearFeedback does (Eigen's dot),
+  /// a plan's step in the order of x (ipgen_loop_feedback, as Eigen summed the plan's gain row).
+  template <class Model>
+  static double feedback(void* context, int states, double u_ref, const double K[], const double x[],
                          const double x_ref[]) {
+    if (K != static_cast<const LawContext<Model>*>(context)->hold_gain) {
+      return ipgen_loop_feedback(states, u_ref, K, x, x_ref);
+    }
     const Eigen::Map<const Eigen::VectorXd> gain(K, states), state(x, states), reference(x_ref, states);
     return u_ref - gain.dot(state - reference);
   }
@@ -161,7 +175,8 @@ struct SwingUp {
   template <class Model>
   static int mass_bias(void* context, const double q_in[], const double qd_in[], double M[], double b[]) {
     if constexpr (has_mass_and_bias<Model>) {
-      const auto& [params, n] = *static_cast<const std::pair<const ParamsOf<Model>*, int>*>(context);
+      const auto& [params, n, hold] = *static_cast<const LawContext<Model>*>(context);
+      (void)hold;
       const VectorOf<Model> q = Eigen::Map<const Eigen::VectorXd>(q_in, n);
       const VectorOf<Model> qd = Eigen::Map<const Eigen::VectorXd>(qd_in, n);
       Eigen::Map<RowMajor>(M, n, n) = Model::template mass_matrix<double>(q, *params);
