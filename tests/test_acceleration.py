@@ -323,6 +323,7 @@ def test_scene_reads_the_acceleration_actuator() -> None:
     API's), the resolved config says so and carries the parameters unchanged."""
     from ipgen.experiment.config import resolved_config
     from ipgen.experiment.scene import load_scene
+
     scene = load_scene(RIG)
     assert scene.actuator.is_acceleration
     assert scene.controller is not None and scene.controller.unit == "base acceleration [m/s^2]"
@@ -389,7 +390,7 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
     require_toolchain()
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     done = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(RIG), "-o", str(tmp_path / "out")],
+        [sys.executable, "-m", "ipgen", "run", str(RIG), "-o", str(tmp_path / "out"), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,
@@ -505,7 +506,7 @@ def test_energy_swingup_with_an_acceleration_input(tmp_path: Path) -> None:
     scene.write_text(SWING)
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     done = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,

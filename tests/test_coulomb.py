@@ -81,7 +81,7 @@ def test_coulomb_run_against_kane_and_its_energy(tmp_path: Path) -> None:
     scene.write_text(SCENE)
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,

@@ -332,7 +332,7 @@ def test_the_simulator_applies_the_same_input_as_python(
     moves the arm by far more). One compile for the three."""
     require_toolchain()
     path = write_scene(tmp_path, table, t_end=2.0)
-    done = ipgen("run", str(path), "-o", str(tmp_path / "out"), env=cache)
+    done = ipgen("run", str(path), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
     header, data = read_csv(tmp_path / "out" / "s.csv")
     assert header[-1] == "u"  # an excitation's recording carries its input
@@ -350,7 +350,7 @@ def test_a_run_that_leaves_its_travel_stops_with_status_4(tmp_path: Path, cache:
     status 4 passed on by ipgen run, one line on stderr naming limits.travel; the CSV ends there."""
     require_toolchain()
     path = write_scene(tmp_path, 'kind = "constant"\namplitude = 0.2', "[limits]\ntravel = 0.3\n", t_end=2.0)
-    done = ipgen("run", str(path), "-o", str(tmp_path / "out"), env=cache)
+    done = ipgen("run", str(path), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert done.returncode == 4, done.stderr
     errors = [line for line in done.stderr.splitlines() if line.startswith("simulate: error:")]
     assert len(errors) == 1 and "limits.travel = 0.3" in errors[0], done.stderr
@@ -358,7 +358,7 @@ def test_a_run_that_leaves_its_travel_stops_with_status_4(tmp_path: Path, cache:
     assert abs(data[-1, 1]) > 0.3 and np.all(np.abs(data[:-1, 1]) <= 0.3) and data[-1, 0] < 2.0
     # Within the travel nothing stops: the same push with a wide limit runs to the end.
     path.write_text(path.read_text().replace("travel = 0.3", "travel = 1000"))
-    done = ipgen("run", str(path), "-o", str(tmp_path / "out2"), env=cache)
+    done = ipgen("run", str(path), "-o", str(tmp_path / "out2"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
 
 
@@ -402,7 +402,7 @@ def test_the_rig_experiments_are_what_excite_allows_and_stay_within_their_limits
     )
     assert design.amplitude * 0.99 <= scene.input.amplitude <= design.amplitude <= u_max
     assert scene.t_end == design.duration
-    done = ipgen("run", str(RIGS / f"{experiment}.toml"), "-o", str(tmp_path), env=cache)
+    done = ipgen("run", str(RIGS / f"{experiment}.toml"), "-o", str(tmp_path), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
     header, data = read_csv(tmp_path / f"{experiment}.csv")
     assert data[-1, 0] == pytest.approx(scene.t_end) and header[-1] == "u"
@@ -564,7 +564,7 @@ def test_the_ip02_experiment_identifies_the_rigs_damping(tmp_path: Path, cache: 
     pytest.importorskip("casadi")
     require_toolchain()
     experiment = RIGS / "ip02_sip_identify.toml"
-    done = ipgen("run", str(experiment), "-o", str(tmp_path / "run"), env=cache)
+    done = ipgen("run", str(experiment), "-o", str(tmp_path / "run"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
     text = experiment.read_text()
     wrong = tmp_path / "wrong.toml"
@@ -637,7 +637,7 @@ def test_a_free_decay_is_designed_within_the_limits_and_needs_no_u_max(
     assert abs(abs(scene.theta[1]) - (math.pi - design.amplitude)) < 1e-12 and scene.dtheta == (0.0, 0.0)
     narrow = excitation(RIGS / "qube_servo2.toml", travel=0.1, signal="free-decay")
     assert narrow.limited_by == "travel" and narrow.base <= 0.7 * 0.1 + 1e-12
-    done = ipgen("run", str(out), "-o", str(tmp_path / "run"), env=cache)
+    done = ipgen("run", str(out), "-o", str(tmp_path / "run"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
     _, data = read_csv(tmp_path / "run" / "decay.csv")
     assert np.max(np.abs(data[:, 1])) == pytest.approx(design.base, rel=0.05)
@@ -656,7 +656,7 @@ def test_a_free_decay_recorded_by_2048_count_encoders_identifies_the_damping(
     text = experiment.read_text()
     assert "delta = [0.0015, 0.0005]" in text
     rig.write_text(text.replace("delta = [0.0015, 0.0005]", f"delta = [{RIG_DAMPING[0]}, {RIG_DAMPING[1]}]"))
-    done = ipgen("run", str(rig), "-o", str(tmp_path / "run"), env=cache)
+    done = ipgen("run", str(rig), "-o", str(tmp_path / "run"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
     _, data = read_csv(tmp_path / "run" / "rig.csv")
     step = 2 * math.pi / 2048

@@ -119,7 +119,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("firmware")
     scene = root / "scene.toml"
     scene.write_text(PRESET.read_text().replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
-    for argv in (["--scene", str(scene), "-o", str(root)], ["run", str(scene), "-o", str(root / "run")]):
+    generate = ["--scene", str(scene), "-o", str(root)]
+    for argv in (generate, ["run", str(scene), "-o", str(root / "run"), "--no-plot"]):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
     return root

@@ -254,7 +254,7 @@ def test_env_steps_agree_with_ipgens_cvode_simulator(
         )
     )
     done = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out")],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"],
         capture_output=True,
         text=True,
         env=os.environ.copy(),

@@ -131,7 +131,7 @@ def test_ipgen_run_passes_the_divergence_angle_to_the_simulator(tmp_path: Path, 
     scene = re.sub(r"\n(q|r) = .*", "", scene)
     path = tmp_path / "falling.toml"
     path.write_text(scene)
-    status = ipgen(["run", str(path), "-o", str(tmp_path / "out"), "--divergence-angle", "0.2"])
+    status = ipgen(["run", str(path), "-o", str(tmp_path / "out"), "--divergence-angle", "0.2", "--no-plot"])
     err = capsys.readouterr().err
     assert status == 3, err
     assert "beyond --divergence-angle 0.2 rad" in err, err

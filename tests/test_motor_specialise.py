@@ -61,7 +61,7 @@ def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> No
         partial.write_text(text)
         partial.replace(scene)
         done = subprocess.run(
-            [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem)],
+            [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem), "--no-plot"],
             capture_output=True,
             text=True,
             env=env,
@@ -105,7 +105,7 @@ def test_specialised_rsip_with_a_motor_runs_like_the_general_one(tmp_path: Path)
         partial.write_text(text)
         partial.replace(scene)
         done = subprocess.run(
-            [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem)],
+            [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(tmp_path / stem), "--no-plot"],
             capture_output=True,
             text=True,
         )

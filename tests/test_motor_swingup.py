@@ -55,7 +55,7 @@ def _scene(tmp_path: Path, name: str, motor: bool, model: str | None = None) -> 
 
 def _run(scene: Path, out: Path, env: dict[str, str]) -> np.ndarray:
     done = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out)],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,

@@ -126,7 +126,16 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     require_toolchain()
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(tmp_path / "out")],
+        [
+            sys.executable,
+            "-m",
+            "ipgen",
+            "run",
+            str(RIGS / "qube_servo2.toml"),
+            "-o",
+            str(tmp_path / "out"),
+            "--no-plot",
+        ],
         capture_output=True,
         text=True,
         env=env,
@@ -197,7 +206,7 @@ def test_the_simulator_refuses_a_bad_actuator_line(tmp_path: Path) -> None:
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     out = tmp_path / "out"
     first = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(out)],
+        [sys.executable, "-m", "ipgen", "run", str(RIGS / "qube_servo2.toml"), "-o", str(out), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,
@@ -225,7 +234,16 @@ def test_the_ip02_swings_up_within_its_rail_and_10_volts(tmp_path: Path) -> None
     at the rail, exit status 4), every |u| ≤ 10 V, the last row at rest upright and centred."""
     require_toolchain()
     result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(RIGS / "ip02_sip_swingup.toml"), "-o", str(tmp_path)],
+        [
+            sys.executable,
+            "-m",
+            "ipgen",
+            "run",
+            str(RIGS / "ip02_sip_swingup.toml"),
+            "-o",
+            str(tmp_path),
+            "--no-plot",
+        ],
         capture_output=True,
         text=True,
         env=dict(os.environ),  # the run's shared simulator cache (tests/conftest.py)

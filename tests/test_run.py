@@ -146,7 +146,7 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
 
     scene.write_text(TRIPLE.replace("THETA1", "-0.2"))
     start = time.perf_counter()
-    second = ipgen_command("run", str(scene), "-o", str(out), env=env)
+    second = ipgen_command("run", str(scene), "-o", str(out), "--no-plot", env=env)
     seconds = time.perf_counter() - start
     assert second.returncode == 0, second.stderr
     assert "building" not in second.stderr and "taken from the cache" in (out / "triple.txt").read_text()
@@ -170,7 +170,9 @@ def test_every_scene_of_one_model_shares_its_simulator(tmp_path: Path, cache: di
     (tmp_path / "rig.toml").write_text(rig)
     summaries, data = [], []
     for stem in ("triple", "rig"):
-        done = ipgen_command("run", str(tmp_path / f"{stem}.toml"), "-o", str(tmp_path / stem), env=cache)
+        done = ipgen_command(
+            "run", str(tmp_path / f"{stem}.toml"), "-o", str(tmp_path / stem), "--no-plot", env=cache
+        )
         assert done.returncode == 0, done.stderr
         summaries.append((tmp_path / stem / f"{stem}.txt").read_text())
         data.append(read_csv(tmp_path / stem / f"{stem}.csv")[1])
@@ -187,7 +189,7 @@ def test_run_passes_the_simulators_failure_through(tmp_path: Path, cache: dict[s
     require_toolchain()
     scene = tmp_path / "short.toml"
     scene.write_text(TRIPLE.replace("THETA1", "0.1") + "max_steps = 1\n")
-    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=cache)
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert result.returncode == 1, result.stderr
     assert "simulate: error:" in result.stderr and "TOO_MUCH_WORK" in result.stderr
     assert "ipgen: the simulation ended with exit status 1" in result.stderr
@@ -204,7 +206,7 @@ def test_run_reports_a_diverging_closed_loop(tmp_path: Path, cache: dict[str, st
         "[parameters]\nm = [0.3, 0.275, 0.275]\nl = [0, 0.5, 0.5]\ndelta = [0.3, 0.1, 0.1]\n\n"
         '[initial]\ntheta = [0, 0.1, 0]\n\n[controller]\nkind = "lqr"\n\n[simulation]\nt_end = 10.0\n'
     )
-    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=cache)
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert result.returncode == 3, result.stderr  # the simulator's status for a diverged closed loop
     assert "the closed loop diverged at t = " in result.stderr
     assert "ipgen: the simulation ended with exit status 3" in result.stderr
@@ -282,7 +284,7 @@ def test_concurrent_runs_of_one_model_compile_once(tmp_path: Path) -> None:
         .replace("[1, 0.5]", "[1, 0.5, 0.5]").replace("[0, 0.5]", "[0, 0.5, 0.5]")
         .replace("[0, 0]", "[0, 0, 0]").replace("[0, 0.1]", "[0, 0.1, 0]")
     )  # fmt: skip
-    assert ipgen_command("run", str(other), "-o", str(tmp_path / "out"), env=env).returncode == 0
+    assert ipgen_command("run", str(other), "-o", str(tmp_path / "out"), "--no-plot", env=env).returncode == 0
     assert (tmp_path / "count").read_text() == "core\nprogram\nlibrary\nlibrary\n"  # the same simulator
 
 
@@ -294,7 +296,7 @@ def test_the_optimisation_level_is_a_build_flag_and_part_of_the_key(tmp_path: Pa
     simulators = tmp_path / "cache" / "simulators"
     expected = 0
     for level, compiles in (("-O1", True), ("-O3", True), ("", True), ("-O2", False), ("-O1", False)):
-        result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--force",
+        result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--force", "--no-plot",
                                env={**env, "IPGEN_SIM_OPT": level})  # fmt: skip
         assert result.returncode == 0, result.stderr
         expected += compiles
@@ -374,7 +376,7 @@ def test_run_replaces_no_user_file(tmp_path: Path) -> None:
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert "was not written by the simulator" in result.stderr and "--force" in result.stderr
     assert mine.read_text() == "my,own,data\n" and not (tmp_path / "count").exists()  # nothing built
-    assert ipgen_command("run", str(scene), "-o", str(out), "--force", env=env).returncode == 0
+    assert ipgen_command("run", str(scene), "-o", str(out), "--force", "--no-plot", env=env).returncode == 0
     assert mine.read_text().startswith("t,theta0")
 
 
@@ -557,7 +559,7 @@ def test_animate_a_run_from_its_csv_and_cfg(tmp_path: Path, capsys: pytest.Captu
     """`ipgen animate` takes the system and lengths from the .cfg `ipgen run` wrote beside the CSV."""
     env = fake_compiler(tmp_path)
     scene = single_scene(tmp_path)
-    assert ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=env).returncode == 0
+    assert ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--no-plot", env=env).returncode == 0
     csv = tmp_path / "out" / f"{scene.stem}.csv"
     assert run(["animate", str(csv)]) == 0
     assert csv.with_suffix(".gif").read_bytes()[:6] == b"GIF89a"
@@ -614,7 +616,7 @@ def test_run_simulates_links_as_built_like_an_independent_model(
     require_toolchain()
     scene = tmp_path / "as_built.toml"
     scene.write_text(AS_BUILT)
-    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=cache)
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert result.returncode == 0, result.stderr
     config = (tmp_path / "out" / "as_built.cfg").read_text()
     assert "tip" in config and "com" in config

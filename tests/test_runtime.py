@@ -206,7 +206,7 @@ def test_two_models_run_on_one_compiled_simulator(tmp_path: Path) -> None:
         path = tmp_path / f"{stem}.toml"
         path.write_text(text)
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
-            assert run(["run", str(path), "-o", str(tmp_path / "out")]) == 0, err.getvalue()
+            assert run(["run", str(path), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
         parts[stem] = launcher_parts((tmp_path / "out" / f"{stem}.txt").read_text())
     (program, cart), (same, arm) = parts["cart2"], parts["arm1"]
     assert program == same and cart != arm and program.is_relative_to(cache_root())
@@ -231,7 +231,7 @@ def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.1]}
     scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
-        assert run(["run", str(scene), "-o", str(tmp_path / "out")]) == 0
+        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0
     program, _ = launcher_parts((tmp_path / "out" / "s.txt").read_text())
     other_abi = tmp_path / "abi.c"
     _, include = simulator_sources()

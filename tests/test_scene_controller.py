@@ -179,7 +179,7 @@ def test_a_given_gain_runs_as_the_same_lqr_gain_does(tmp_path: Path) -> None:
     assert given.controller.equilibrium == lqr.controller.equilibrium
     csvs = []
     for name, path in (("a", controlled(tmp_path, sampled)), ("b", given_path)):
-        assert run(["run", str(path), "-o", str(tmp_path / name)]) == 0
+        assert run(["run", str(path), "-o", str(tmp_path / name), "--no-plot"]) == 0
         csvs.append(next((tmp_path / name).glob("*.csv")).read_text().splitlines())
     assert len(csvs[0]) > 10 and csvs[0][1:] == csvs[1][1:]
 

@@ -165,7 +165,7 @@ def test_any_convention_loads_or_fails_in_one_line(tmp_path: Path, table: dict[s
 def _run(scene: Path, out: Path) -> subprocess.CompletedProcess[str]:
     env = dict(os.environ)  # the run's shared simulator cache (tests/conftest.py)
     return subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out)],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--no-plot"],
         capture_output=True,
         text=True,
         env=env,

@@ -399,17 +399,19 @@ def test_an_interrupted_sweep_resumes_from_its_table(scene: Path, tmp_path: Path
     assert {row["outcome"] for row in complete} == {"pass", "fail"}  # ±0.9 rad is outside the basin
     lines = (out / "runs.csv").read_text().splitlines(keepends=True)
     (out / "runs.csv").write_text("".join(lines[:4]) + lines[4][:20])  # 3 runs, then a cut line
-    resumed = ipgen.sweep(scene, out, vary=grid, jobs=2)
+    resumed = ipgen.sweep(scene, out, vary=grid, jobs=2, plots=False)
     assert resumed.ran == 5 and resumed.runs == 8
     assert _results(_rows(out)) == _results(complete)
     with pytest.raises(SweepError, match="from another sweep"):
         ipgen.sweep(scene, out, vary=["initial.theta[1]=0,0.1"], jobs=1)
-    assert ipgen.sweep(scene, out, vary=["initial.theta[1]=0,0.1"], jobs=1, force=True).ran == 2
+    assert ipgen.sweep(scene, out, vary=["initial.theta[1]=0,0.1"], jobs=1, force=True, plots=False).ran == 2
 
 
 def test_sensor_keys_by_name(scene: Path, tmp_path: Path) -> None:
     """The sensor and drive keys sweep by name; a noisy run gets its own seed."""
-    outcome = ipgen.sweep(scene, tmp_path / "noise", vary=["sensors.noise=0,0.001"], repeat=2, jobs=2)
+    outcome = ipgen.sweep(
+        scene, tmp_path / "noise", vary=["sensors.noise=0,0.001"], repeat=2, jobs=2, plots=False
+    )
     rows = _rows(tmp_path / "noise")
     assert outcome.runs == 4 and rows[0]["outcome"] == "pass"
     assert len({row["seed"] for row in rows}) == 4

@@ -82,7 +82,7 @@ def run_scene(tmp_path: Path, text: str, env: dict[str, str]) -> tuple[list[str]
     scene.write_text(text)
     out = tmp_path / "out"
     result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out)],
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--no-plot"],
         capture_output=True,
         text=True,
         env={**os.environ, **env},
