@@ -240,7 +240,7 @@ REGRESSIONS = [
     (0, "t_end", "0x" + "f" * 1200, "...8566515865407717375: is too large for a double"),
     (0, "t_end", "0x" + "f" * 4000, "simulation.t_end = 0xffff"),
     (0, "t_end", "1e9999999999999999999", "t_end = 1e9999999999999999999: is too large for a double"),
-    (1, "Kg", "1e200", "the motor's gain is 5e+197, outside [1e-100, 1e+100]"),  # Kg² is inf: the gain is told
+    (1, "Kg", "1e200", "the motor's gain is 5e+197, outside [1e-100, 1e+100]"),  # Kg² is inf
     (1, "period", "1e-300", "swingup.period = 1e-300: t_end / period"),
     (1, "period", "5e-324", "swingup.period = 5e-324: t_end / period"),
     (1, "g", "0", "energy swing-up needs gravity"),
