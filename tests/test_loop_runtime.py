@@ -61,6 +61,17 @@ def test_the_library_is_cached_and_its_layout_checked() -> None:
         loaded.ipgen_loop_saturate("1", 2.0)
 
 
+def test_the_runtime_sources_compile_without_warnings(tmp_path: Path) -> None:
+    """The library's own build has no -Werror (a user's compiler may warn more); here it has."""
+    cpp = Path(loop_runtime.__file__).resolve().parents[2] / "cpp"
+    command = [
+        os.environ.get("CC", "cc"), *loop_runtime.FLAGS, "-Werror", f"-I{cpp / 'include'}",
+        str(cpp / "src" / "ipgen_loop_batch.c"), "-o", str(tmp_path / "libloop.so"), "-lm",
+    ]  # fmt: skip
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
 def test_a_struct_mirror_out_of_step_is_reported(monkeypatch: pytest.MonkeyPatch) -> None:
     """The layout check is not vacuous: a mirror whose offsets differ from C's is refused."""
     real = loop_runtime._layout()
