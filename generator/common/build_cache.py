@@ -82,6 +82,16 @@ def c_compiler(error: type[Exception]) -> str:
     return required_compiler("CC", ("cc", "gcc"), "C", "gcc", error)
 
 
+def compiler_key(compiler: str, *parts: str) -> str:
+    """SHA-256 (hex, 24 digits) of a C compiler (its path and `--version`) and `parts` (the flags,
+    the sources): the cache key of what it compiles (the loop library, ipgen.gym's kernels)."""
+    version = subprocess.run([compiler, "--version"], capture_output=True, text=True).stdout
+    digest = hashlib.sha256()
+    for part in (shutil.which(compiler) or compiler, version, *parts):
+        digest.update(part.encode() + b"\0")
+    return digest.hexdigest()[:24]
+
+
 def cache_root(override: Path | None = None) -> Path:
     """The cache folder: `override`, $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen."""
     if override is not None:

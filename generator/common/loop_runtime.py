@@ -24,14 +24,18 @@ index lists), C-contiguous, kept alive by the caller for as long as C may read t
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import shutil
-import subprocess
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ipgen.common.build_cache import Recipe, c_compiler, cache_root, cached_build, last_error_line
+from ipgen.common.build_cache import (
+    Recipe,
+    c_compiler,
+    cache_root,
+    cached_build,
+    compiler_key,
+    last_error_line,
+)
 from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
@@ -221,10 +225,6 @@ def build() -> Path:
     """The compiled loop library: from the cache, or compiled into it (module docstring)."""
     header, glue = sources()
     cc = c_compiler(LoopRuntimeError)
-    version = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout
-    digest = hashlib.sha256()
-    for part in (shutil.which(cc) or cc, version, " ".join(FLAGS), header, glue):
-        digest.update(part.encode() + b"\0")
     recipe = Recipe(
         sources={HEADER: header, GLUE: glue},
         command=lambda entry, out: [cc, *FLAGS, f"-I{entry}", str(entry / GLUE), "-o", str(out), "-lm"],
@@ -233,7 +233,8 @@ def build() -> Path:
         what="the loop library (ipgen_loop.h)",
         noun="loop library",
     )
-    return cached_build(cache_root() / "loop", digest.hexdigest()[:24], TARGET, recipe).path
+    key = compiler_key(cc, " ".join(FLAGS), header, glue)
+    return cached_build(cache_root() / "loop", key, TARGET, recipe).path
 
 
 def declare(loaded: ctypes.CDLL) -> ctypes.CDLL:

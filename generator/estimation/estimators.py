@@ -109,7 +109,18 @@ class _Runtime(Estimator):
         return k
 
 
-class Difference(_Runtime):
+class _Rates(_Runtime):
+    """An estimator of the rates from successive measurements: it keeps y_{k−1}."""
+
+    def reset(self) -> None:
+        import numpy as np
+
+        self._start()
+        self._previous = np.zeros(self.dof)
+        self._previous_at = address(self._previous)
+
+
+class Difference(_Rates):
     """The backward difference of the measured angles (every coordinate measured).
 
     Parameters
@@ -125,13 +136,6 @@ class Difference(_Runtime):
         self.dof = int(dof)
         self.measured = tuple(range(self.dof))
         self.reset()
-
-    def reset(self) -> None:
-        import numpy as np
-
-        self._start()
-        self._previous = np.zeros(self.dof)
-        self._previous_at = address(self._previous)
 
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
         """x̂_k = [y_k; (y_k − y_{k−1}) / T] (rates 0 at k = 0); `u` is ignored.
@@ -153,7 +157,7 @@ class Difference(_Runtime):
         return self._x.copy()
 
 
-class DerivativeFilter(_Runtime):
+class DerivativeFilter(_Rates):
     """The first-order derivative filter ωc s / (s + ωc), discretised as Quanser's rigs do.
 
     Parameters
@@ -184,13 +188,6 @@ class DerivativeFilter(_Runtime):
     def dc_gain(self) -> float:
         """The discrete filter's gain at low frequency relative to s: ωc T / (1 − e^{−ωc T})."""
         return self.cutoff * self.period / (1.0 - self.pole)
-
-    def reset(self) -> None:
-        import numpy as np
-
-        self._start()
-        self._previous = np.zeros(self.dof)
-        self._previous_at = address(self._previous)
 
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
         """x̂_k = [y_k; v_k], v_k = a v_{k−1} + ωc (y_k − y_{k−1}), v_0 = 0; `u` is ignored.

@@ -14,9 +14,6 @@ renamed, checksummed, a corrupt entry rebuilt).
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import shutil
-import subprocess
 from dataclasses import dataclass
 from functools import cache, cached_property
 from pathlib import Path
@@ -26,7 +23,14 @@ import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.header import HeaderRequest, environment
-from ipgen.common.build_cache import Recipe, c_compiler, cache_root, cached_build, last_error_line
+from ipgen.common.build_cache import (
+    Recipe,
+    c_compiler,
+    cache_root,
+    cached_build,
+    compiler_key,
+    last_error_line,
+)
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import derive
@@ -93,10 +97,6 @@ def build(system: System) -> Path:
     header, kernel = sources(system)
     name = model_name(system)
     cc = c_compiler(KernelError)
-    version = subprocess.run([cc, "--version"], capture_output=True, text=True).stdout
-    digest = hashlib.sha256()
-    for part in (shutil.which(cc) or cc, version, " ".join(FLAGS), header, kernel):
-        digest.update(part.encode() + b"\0")
     recipe = Recipe(
         sources={f"{name}.h": header, f"gym_{name}.c": kernel},
         command=lambda entry, library: [cc, *FLAGS, f"-I{entry}", str(entry / f"gym_{name}.c"), "-o",
@@ -106,7 +106,8 @@ def build(system: System) -> Path:
         what=f"the gym kernel of {name}",
         noun="gym kernel",
     )  # fmt: skip
-    return cached_build(cache_folder(), digest.hexdigest()[:24], f"libipgen_gym_{name}.so", recipe).path
+    key = compiler_key(cc, " ".join(FLAGS), header, kernel)
+    return cached_build(cache_folder(), key, f"libipgen_gym_{name}.so", recipe).path
 
 
 _DOUBLES = np.ctypeslib.ndpointer(dtype=np.float64, flags="C_CONTIGUOUS")

@@ -74,6 +74,7 @@ MODEL_OPTION = "--model"  # the simulator's option naming the model library to l
 # The model library: C99, position-independent, only the model's symbol exported.
 C_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden")
 INTERFACE = "ipgen_model.h"
+LOOP = "ipgen_loop.h"  # the loop runtime ipsim includes (sensors, swing-up)
 EIGEN_INCLUDE = Path("/usr/include/eigen3")  # Debian's libeigen3-dev (else pkg-config eigen3)
 # What a failed compile most likely lacks: (pattern in the compiler's output, Debian package).
 MISSING_PACKAGES = (
@@ -196,6 +197,7 @@ def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
         source,
         source.with_name(CORE_SOURCE),
         include / INTERFACE,
+        include / LOOP,
         *sorted((include / "ipsim").glob("*.hpp")),
     ]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
