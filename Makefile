@@ -72,25 +72,29 @@ $(VENV)/.installed: pyproject.toml | deps-build
 lint: venv
 	$(VENV)/bin/ruff check generator tests tools bench
 
-## pytest (after ruff: make lint), all but the tests marked fresh_venv (make test-slow). The
+## pytest (after ruff: make lint), all but the tests marked fresh_venv or user_program (make
+## test-slow). The
 ## simulators `ipgen run` compiles go to one cache for the whole run, build/test-cache/, at -Og
 ## (tests/conftest.py): a second make test compiles none of them. --dist worksteal: a worker that
 ## runs out of tests takes some queued for the other, so the run does not end on one worker's long
 ## queue.
 test-python: lint deps-docs
-	$(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv"
+	$(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv and not user_program"
 
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
-## a fresh virtualenv, then its CMake project (tests/test_package.py). CI runs it after make test.
+## a fresh virtualenv, then its CMake project (tests/test_package.py); and the docs' own whole C++
+## programs, compiled as a reader would (marker user_program). CI runs it after make test.
 test-slow: venv deps-docs
-	$(PY) -m pytest -q -n $(JOBS) -m fresh_venv
+	$(PY) -m pytest -q -n $(JOBS) -m "fresh_venv or user_program"
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
-## CMAKE_OPT: the optimisation level of the Release build (CMake's own is -O3). -Og by default: no
+## CMAKE_OPT: the optimisation level of the Release build, C++ and C (the model libraries; CMake's own
+## is -O3). -Og by default: no
 ## ctest measures speed, and Eigen-heavy targets compile in a fifth to a third less time than at
 ## -O1 (docs/testing.md); make stability, whose report states run times, builds at -O3.
 CMAKE_OPT ?= -Og
-CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG"
+CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG" \
+  "-DCMAKE_C_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG"
 configure: venv
 	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
 

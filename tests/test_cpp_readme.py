@@ -8,6 +8,7 @@ import shlex
 import subprocess
 from pathlib import Path
 
+import pytest
 from cxx import require_toolchain
 
 from ipgen.model.system import System
@@ -49,6 +50,7 @@ def cpp_readme() -> str:
     return (ROOT / "cpp" / "README.md").read_text()
 
 
+@pytest.mark.user_program  # a whole ipsim program: 17-20 s of compiling (make test-slow)
 def test_plain_gxx_command_builds_the_feedback_example(tmp_path: Path) -> None:
     require_toolchain()
     text = cpp_readme()

@@ -9,6 +9,7 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
+import pytest
 from cxx import EIGEN_INCLUDE, WARNINGS, cxx_command, require_toolchain
 
 import ipgen
@@ -102,6 +103,7 @@ def readme_command(program: str) -> list[str]:
     return shlex.split(lines[0])
 
 
+@pytest.mark.user_program  # a whole program at -O2: 11-14 s of compiling (make test-slow)
 def test_readme_cxx_compile_line_builds_the_lqr_example(tmp_path: Path) -> None:
     """The README's g++ line, verbatim, is complete: it builds a program with docs/control.md's LQR
     example, which compiles without warnings (the warning flags appended to the line) and whose
