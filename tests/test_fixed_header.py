@@ -254,3 +254,77 @@ def test_command_refuses_in_one_line(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and says in err, err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("links", "joints"), [(2, (1,)), (2, (2,)), (3, (3, 1))], ids=["pendubot", "acrobot", "n3-j31"]
+)
+def test_model_library_behind_the_interface(links: int, joints: tuple[int, ...], tmp_path: Path) -> None:
+    """The model library (`--emit library`) through ipgen_model.h with ctypes: ABI 3, type
+    "fixed", dof = n, m inputs, B and joints; forward_dynamics, linearize, M, the energies and
+    rod_links against the Python model, parameters in the interface's layout (index i: link
+    i + 1; Ir, gr per input)."""
+    import ctypes
+
+    from test_runtime import Model, Parameters, compile_library
+
+    require_cc()
+    name = "chain"
+    request = FixedHeaderRequest(name, links, joints, "ipgen --type fixed (test)")
+    for suffix, text in render_fixed(request, "library").items():
+        (tmp_path / f"{name}{suffix}").write_text(text, encoding="utf-8")
+    lib = ctypes.CDLL(str(compile_library(tmp_path, name)))
+    lib.ipgen_model_get.restype = ctypes.POINTER(Model)
+    model = lib.ipgen_model_get().contents
+    n, m = links, len(joints)
+    assert (model.abi, model.type, model.links, model.dof, model.inputs) == (3, b"fixed", n, n, m)
+    assert [model.joints[k] for k in range(m)] == list(joints)
+    rng = np.random.default_rng(46)
+    pendulum = _pendulum(links, joints, rng)
+    python = FixedModel(pendulum)
+    np.testing.assert_array_equal(
+        np.array([model.input_matrix[i] for i in range(n * m)]), python.B.reshape(-1)
+    )
+    p = Parameters()
+    for field in ("m", "l", "delta"):
+        getattr(p, field)[:n] = getattr(pendulum, field)
+    p.g = pendulum.g
+    p.com[:n], p.J[:n] = pendulum.resolved("com"), pendulum.resolved("J")
+    p.Ir[:m], p.gr[:m] = pendulum.motor("Ir"), pendulum.motor("gr")
+
+    def array(values: np.ndarray | list[float]) -> ctypes.Array:
+        return (ctypes.c_double * max(1, len(values)))(*values)
+
+    for state in _states(pendulum, rng):
+        q, qd, u = state[:n], state[n : 2 * n], state[2 * n :]
+        qdd, a, b, mass = (
+            array([0.0] * n),
+            array([0.0] * 4 * n * n),
+            array([0.0] * 2 * n * m),
+            array([0.0] * n * n),
+        )
+        assert model.forward_dynamics(array(q), array(qd), array(u), ctypes.byref(p), qdd) == 0
+        assert model.linearize(array(q), array(qd), array(u), ctypes.byref(p), a, b) == 0
+        model.mass_matrix(array(q), ctypes.byref(p), mass)
+        expected = _expected(pendulum, python, state)
+        for label, ours, theirs in (
+            ("M", mass, expected[0]),
+            ("qdd", qdd, expected[2]),
+            ("A", a, expected[3]),
+            ("B", b, expected[4]),
+        ):
+            scale = max(1.0, float(np.max(np.abs(theirs))))
+            np.testing.assert_allclose(
+                np.array(ours[:]), theirs, rtol=0, atol=RELATIVE * scale, err_msg=label
+            )
+        energies = (
+            model.kinetic_energy(array(q), array(qd), ctypes.byref(p)),
+            model.potential_energy(array(q), ctypes.byref(p)),
+        )
+        np.testing.assert_allclose(energies, [expected[5][0], expected[6][0]], rtol=RELATIVE, atol=RELATIVE)
+    rods = Parameters()
+    rods.m[:n], rods.l[:n] = pendulum.m, pendulum.l
+    rods.com[:n] = rods.J[:n] = [float("nan")] * n
+    model.rod_links(ctypes.byref(rods))
+    np.testing.assert_allclose(rods.com[:n], np.array(pendulum.l) / 2, rtol=1e-15)
+    np.testing.assert_allclose(rods.J[:n], np.array(pendulum.m) * np.array(pendulum.l) ** 2 / 12, rtol=1e-15)

@@ -48,13 +48,12 @@ def _context(
     request: FixedHeaderRequest, template: str, syntax: Syntax, late: dict[str, str]
 ) -> dict[str, object]:
     eqs = fixed_poly_equations(request.links)
-    rod_fills = []
+    rod_fills = []  # (field, its rod value): as the functions' per-call fallback prints it, bit for bit
     for i in range(1, request.links + 1):
         m, length = params_field(f"m{i}", syntax), params_field(f"l{i}", syntax)
-        if syntax.c_arrays:
-            continue
-        rod_fills.append((params_field(f"com{i}", syntax), f"Scalar(1)/Scalar(2)*{length}"))
-        rod_fills.append((params_field(f"J{i}", syntax), f"Scalar(1)/Scalar(12)*{m}*{length}*{length}"))
+        one, two, twelve = (syntax.literal.format(value=v) for v in (1, 2, 12))
+        rod_fills.append((params_field(f"com{i}", syntax), f"{one}/{two}*{length}"))
+        rod_fills.append((params_field(f"J{i}", syntax), f"{one}/{twelve}*{m}*{length}*{length}"))
     return {
         "name": request.name,
         "nameu": request.name.upper(),
@@ -68,6 +67,11 @@ def _context(
         "joints": list(request.joints),
         # (input k, coordinate of link j, coordinate of link j − 1 or None): B's columns and the rotors
         "slots": [(k, j - 1, j - 2 if j >= 2 else None) for k, j in enumerate(request.joints)],
+        # B's rows as C initialisers (the model library's constant input_matrix)
+        "input_rows": [
+            ", ".join("1" if r == j - 1 else "-1" if r == j - 2 else "0" for j in request.joints)
+            for r in range(request.links)
+        ],
         "fn": function_bodies(eqs, FUNCTIONS, syntax=syntax, late=late),
         "rod_fills": rod_fills,
     }
