@@ -40,7 +40,7 @@ class Parameters(ctypes.Structure):
 
     _fields_ = [
         ("m", ARRAY), ("l", ARRAY), ("delta", ARRAY), ("g", ctypes.c_double),
-        ("com", ARRAY), ("J", ARRAY), ("J_axial", ARRAY), ("tip", ARRAY),
+        ("com", ARRAY), ("J", ARRAY), ("J_axial", ARRAY), ("tip", ARRAY), ("Ir", ARRAY), ("gr", ARRAY),
     ]  # fmt: skip
 
 
@@ -67,6 +67,7 @@ class Model(ctypes.Structure):
         ("check_folded", ctypes.CFUNCTYPE(ctypes.c_char_p, PARAMS)),
         ("gravity", ctypes.CFUNCTYPE(None, VEC, PARAMS, VEC)),
         ("n_matrix", ctypes.CFUNCTYPE(None, VEC, VEC, PARAMS, VEC)),
+        ("input_matrix", VEC), ("joints", ctypes.POINTER(ctypes.c_int)),
     ]  # fmt: skip
 
 
@@ -108,7 +109,8 @@ def test_the_model_library_equals_kanes_equations(
     lib.ipgen_model_get.restype = ctypes.POINTER(Model)
     model = lib.ipgen_model_get().contents
     dof = links + 1
-    assert (model.abi, model.links, model.dof, model.inputs) == (2, links, dof, 1)
+    assert (model.abi, model.links, model.dof, model.inputs) == (3, links, dof, 1)
+    assert [model.input_matrix[i] for i in range(dof)] == [1.0] + [0.0] * links and not model.joints
     assert model.type.decode() == kind and model.name.decode() == "m"
     ref = reference(kind, links, inertia, True)
     rng = np.random.default_rng(45)
@@ -247,7 +249,7 @@ def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     cases = {
         str(tmp_path / "missing.so"): "cannot load the model library",
         str(not_a_model): "exports no ipgen_model_get (not an ipgen model library)",
-        str(abi_library): "built for model ABI 99, this simulator reads 2",
+        str(abi_library): "built for model ABI 99, this simulator reads 3",
     }
     cfg = tmp_path / "out" / "s.cfg"
     for library, message in cases.items():

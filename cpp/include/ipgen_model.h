@@ -9,10 +9,21 @@
  * function pointers to the generated equations. ipsim's simulator is compiled once and loads
  * any model library at run time (ipsim/runtime_model.hpp); ctypes can load one as well.
  *
- * Coordinates are ipgen's own (docs/model.md): q[0] the cart position [m] or the arm angle
- * [rad], q[1..n] the absolute link angles [rad] from upright, clockwise positive; qd their rates.
- * Vectors are plain arrays of `dof` doubles, matrices row-major. The inputs u[0..inputs) enter
- * as M(q) qdd + bias(q, qd) = B u; today B = e0 (one input, the force or torque on the base).
+ * Coordinates are ipgen's own (docs/model.md), every link angle absolute, from the upright
+ * vertical, clockwise positive:
+ *   - a cart or an arm ("classical", "rotary"): dof = n + 1, q[0] the cart position [m] or the
+ *     arm angle [rad], q[1..n] the link angles [rad];
+ *   - a chain on a fixed pivot ("fixed"): dof = n, q[0..n-1] the angles of links 1..n [rad]
+ *     (no base; link 1 hangs from the pivot).
+ * qd are their rates. Vectors are plain arrays of `dof` doubles, matrices row-major. The inputs
+ * u[0..inputs) enter as M(q) qdd + bias(q, qd) = B u with the constant B of `input_matrix`
+ * (dof x inputs):
+ *   - a cart or an arm: one input, the force [N] or torque [N m] on the base: B = e0;
+ *   - a fixed chain: u[k] is the torque [N m] of the motor at joint joints[k] (1 = the shoulder,
+ *     between the ground and link 1; j between links j - 1 and j), clockwise positive, acting on
+ *     link j and, reacting, on link j - 1: B's column k is e_(j-1) - e_(j-2) (e_0 alone for
+ *     j = 1; 0-based entries). The power input k delivers is u[k] times its joint's relative
+ *     rate, (B^T qd)[k].
  *
  * C99; no allocation, no globals but the model's constant description; every function is
  * reentrant.
@@ -25,23 +36,32 @@ extern "C" {
 #endif
 
 /* Bumped whenever this struct or the parameter layout changes: a library built for another
- * ABI is refused when it is loaded. 2: gravity and n_matrix appended. */
-#define IPGEN_MODEL_ABI 2
+ * ABI is refused when it is loaded. 2: gravity and n_matrix appended. 3: fixed-pivot chains
+ * with m inputs: input_matrix and joints appended to ipgen_model, the rotors Ir and gr to
+ * ipgen_parameters. */
+#define IPGEN_MODEL_ABI 3
 
 /* The largest number of degrees of freedom (base + links) a parameter struct holds. */
 #define IPGEN_MAX_DOF 41
 
-/* Physical parameters in SI units, index 0 the base, 1..n the links; entries at and beyond
- * `dof` are not read. As the C header's params and links structs together: masses m [kg],
- * lengths l [m], viscous damping delta (base [kg/s] or [N m s], joints [N m s]), gravity g
- * [m/s^2]; the links as built: com [m] from the pivot to the CoG, J [kg m^2] about the CoG
- * (J[0]: the arm's about the vertical), J_axial [kg m^2] about the link's own axis, tip [kg]
- * a point mass at the far end. NaN in com or J means the homogeneous rod's value
- * (ipgen_model.rod_links replaces them). */
+/* The largest number of inputs a model has (a fixed chain: one per driven joint). */
+#define IPGEN_MAX_INPUTS IPGEN_MAX_DOF
+
+/* Physical parameters in SI units, index k the body of coordinate k: for a cart or an arm 0 the
+ * base and 1..n the links, for a fixed chain 0..n-1 the links 1..n; entries at and beyond `dof`
+ * are not read. As the C header's params and links structs together: masses m [kg], lengths
+ * l [m], viscous damping delta (base [kg/s] or [N m s], joints [N m s]; a fixed chain's
+ * delta[0] is joint 1's, against the ground), gravity g [m/s^2]; the links as built: com [m]
+ * from the pivot to the CoG, J [kg m^2] about the CoG (J[0] of an arm: its inertia about the
+ * vertical), J_axial [kg m^2] about the link's own axis, tip [kg] a point mass at the far end
+ * (a fixed chain reads neither). NaN in com or J means the homogeneous rod's value
+ * (ipgen_model.rod_links replaces them). Per input k (a fixed chain's motors; a cart or an arm
+ * reads neither): the rotor's inertia Ir[k] [kg m^2] (0: none) and gear ratio gr[k]. */
 typedef struct {
   double m[IPGEN_MAX_DOF], l[IPGEN_MAX_DOF], delta[IPGEN_MAX_DOF];
   double g;
   double com[IPGEN_MAX_DOF], J[IPGEN_MAX_DOF], J_axial[IPGEN_MAX_DOF], tip[IPGEN_MAX_DOF];
+  double Ir[IPGEN_MAX_INPUTS], gr[IPGEN_MAX_INPUTS];
 } ipgen_parameters;
 
 /* One model. A function pointer is null when the model does not provide that function (a
@@ -50,11 +70,11 @@ typedef struct {
 typedef struct {
   int abi;             /* IPGEN_MODEL_ABI of the library */
   const char *name;    /* the model's name, e.g. "rotary2" */
-  const char *type;    /* "classical" (cart) or "rotary" (Furuta arm) */
-  const char *inertia; /* rotary: "pivot" or "full"; classical: "" */
+  const char *type;    /* "classical" (cart), "rotary" (Furuta arm) or "fixed" (fixed pivot) */
+  const char *inertia; /* rotary: "pivot" or "full"; classical, fixed: "" */
   int links;           /* n >= 1 */
-  int dof;             /* n + 1 <= IPGEN_MAX_DOF */
-  int inputs;          /* m >= 1: the length of u and the columns of B */
+  int dof;             /* n + 1 (cart, arm) or n (fixed), <= IPGEN_MAX_DOF */
+  int inputs;          /* m >= 1, <= IPGEN_MAX_INPUTS: the length of u and the columns of B */
   int links_as_built;  /* 1: com, J, J_axial and tip are read; 0: the rods only */
 
   /* qdd (dof) = M^-1 (B u - bias). */
@@ -84,6 +104,11 @@ typedef struct {
    * other. */
   void (*gravity)(const double q[], const ipgen_parameters *p, double P[]);
   void (*n_matrix)(const double q[], const double qd[], const ipgen_parameters *p, double N[]);
+  /* B of M qdd + bias = B u (dof x inputs, row-major, constant; see above). */
+  const double *input_matrix;
+  /* A fixed chain: the driven joint of each input (inputs entries, 1 = the shoulder); a cart or
+   * an arm: null (its input drives the base). */
+  const int *joints;
 } ipgen_model;
 
 /* The symbol every model library exports. */

@@ -44,6 +44,10 @@ class Syntax:
     extra_arguments: tuple[str, ...] = ()  # arguments besides q, qd, p (C: links)
     comment: str = "// {text}"
     literal: str = "Scalar({value})"  # an integer constant of the scalar type
+    # What a generator's index is less than its entry's in the printed arrays (q, qd, Params): 0,
+    # or 1 for a fixed-pivot chain printed from the cart's links block (link i, generators m_i,
+    # s_i, dq_i, is entry i − 1: there is no base).
+    offset: int = 0
 
     def element(self, name: str, r: int, c: int, rows: int, cols: int) -> str:
         """Entry (r, c) of the output matrix `name` (a vector when cols == 1)."""
@@ -108,13 +112,17 @@ def _trig_definition(letter: Generator, syntax: Syntax) -> tuple[str, tuple[str,
     if len(letter.angles) == 1:
         (k,) = letter.angles
         function = syntax.sin if letter.group == "s" else syntax.cos
-        return f"const {syntax.scalar} {letter.name} = {function}({syntax.index.format(name='q', i=k)});", ()
+        angle = syntax.index.format(name="q", i=k - syntax.offset)
+        return f"const {syntax.scalar} {letter.name} = {function}({angle});", ()
     j, k = letter.angles
     if letter.group == "C":
         value, what = f"c{j}*c{k} + s{j}*s{k}", "cos"
     else:
         value, what = f"s{j}*c{k} - c{j}*s{k}", "sin"
-    comment = f"// {what}(θ{j} − θ{k})" if syntax is CPP_SYNTAX else f"/* {what}(q{j} - q{k}) */"
+    if not syntax.c_arrays:
+        comment = f"// {what}(θ{j} − θ{k})"
+    else:
+        comment = f"/* {what}(q{j - syntax.offset} - q{k - syntax.offset}) */"
     return f"const {syntax.scalar} {letter.name} = {value};  {comment}", (
         f"s{j}",
         f"c{j}",
@@ -132,7 +140,7 @@ def _targets(outputs: Sequence[Output], syntax: Syntax) -> list[tuple[str, Poly,
         for r in range(rows):
             for c in range(cols):
                 p = out.value[r][c]
-                damped = r if out.damped and cols == 1 and not out.scalar else None
+                damped = r + syntax.offset if out.damped and cols == 1 and not out.scalar else None
                 if out.scalar:
                     targets.append((out.name, p, RAYLEIGH if out.rayleigh else None))
                 elif p and not ((out.symmetric and r > c) or (out.lower_only and r < c)):
@@ -280,7 +288,7 @@ def params_field(name: str, syntax: Syntax = CPP_SYNTAX) -> str:
     links->com[1])."""
     group, index = split_parameter(name)
     where = syntax.links if group in LINK_GROUPS else syntax.params
-    return f"{where}{group}" if index is None else f"{where}{group}[{index}]"
+    return f"{where}{group}" if index is None else f"{where}{group}[{index - syntax.offset}]"
 
 
 def _schedule(
@@ -377,9 +385,10 @@ def build_body(
                 field = f"{syntax.given.format(field=field)} ? {field} : {rod}"
             body.prelude.append(f"{const} {info.name} = {field};")
         elif info.kind == VELOCITY:
-            body.prelude.append(f"{const} {info.name} = {syntax.index.format(name='qd', i=info.index)};")
+            rate = syntax.index.format(name="qd", i=info.index - syntax.offset)
+            body.prelude.append(f"{const} {info.name} = {rate};")
         elif info.kind == ACCELERATION:
-            solved = syntax.index.format(name=late_source, i=info.index)
+            solved = syntax.index.format(name=late_source, i=info.index - syntax.offset)
             body.late_prelude.append(f"{const} {info.name} = {solved};")
     body.prelude += [definition for _, (definition, _) in trig]
     body.prelude += [

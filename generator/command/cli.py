@@ -86,9 +86,17 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
     "--type",
     "system_type",
     type=click.Choice((*SYSTEM_TYPES, "fixed")),
-    help="Base of the pendulum: a cart (classical) or a rotating arm (rotary); fixed: not yet for headers.",
+    help="Base of the pendulum: a cart (classical), a rotating arm (rotary), or none: a chain on a fixed "
+    "pivot (fixed, driven by torques at --joints).",
 )
 @click.option("--links", type=int, metavar="N", help="Number of rods in the chain, an integer >= 1.")
+@click.option(
+    "--joints",
+    default=None,
+    metavar="J,...",
+    help="--type fixed: the driven joints, one input each in this order (1 = shoulder, 2 = elbow, ...)  "
+    "[default: 1]",
+)
 @click.option(
     "-o",
     "--output",
@@ -191,6 +199,7 @@ CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
 def cli(
     system_type: str | None,
     links: int | None,
+    joints: str | None,
     directory: str | None,
     name: str | None,
     inertia: str | None,
@@ -225,11 +234,9 @@ def cli(
             "say what to do: a system (--type classical|rotary --links N -o DIR, or --scene FILE -o DIR), "
             "or a command (ipgen run SCENE.toml -o OUT/); ipgen --help has the rest"
         )
-    if system_type == "fixed":
-        raise job.OptionsError(
-            "--type fixed: headers and equations documents are not yet supported for fixed-pivot models "
-            "(ipgen.FixedPendulum and ipgen identify take them)"
-        )
+    if system_type == "fixed" or joints is not None:
+        _generate_fixed(system_type, links, joints, directory, name, emit, force, context.params)
+        return
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
 
@@ -261,6 +268,34 @@ def cli(
     _report(planned.system, planned.name, written[:-1])
     click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene_.stem})")
     _warn(scene_.warnings)
+
+
+def _generate_fixed(
+    system_type: str | None,
+    links: int | None,
+    joints: str | None,
+    directory: str | None,
+    name: str | None,
+    emit: str | None,
+    force: bool,
+    params: dict[str, object],
+) -> None:
+    """`ipgen --type fixed --links N [--joints 1,2] -o DIR`: a fixed-pivot chain's headers."""
+    from ipgen.pipeline.fixed_generate import generate_fixed
+
+    if system_type != "fixed":
+        raise job.OptionsError("--joints is for --type fixed (a chain on a fixed pivot driven at its joints)")
+    allowed = {"system_type", "links", "joints", "directory", "name", "emit", "force"}
+    extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
+    if extra:
+        option = "--" + extra[0].replace("_", "-")
+        raise job.OptionsError(
+            f"{option} with --type fixed: not yet supported for fixed-pivot models (their headers take "
+            "--links, --joints, --name, --emit cpp, c or library, and -o)"
+        )
+    written = generate_fixed(links, joints, directory, name, emit, force)
+    for file in written:
+        click.echo(f"{_VERBS[file.status]} {file.path} (fixed, {file.size // 1024} KiB)")
 
 
 def _print_scene_schema(ctx: click.Context) -> None:
@@ -559,9 +594,7 @@ def identify_command(
     try:
         import casadi  # noqa: F401
     except ImportError:
-        raise job.OptionsError(
-            f"ipgen identify needs CasADi: {install_hint('casadi')}"
-        ) from None
+        raise job.OptionsError(f"ipgen identify needs CasADi: {install_hint('casadi')}") from None
     result = identify(
         scene,
         data,
@@ -654,9 +687,7 @@ def animate_command(
 
         from ipgen.plots.animation import animate_run
     except ImportError:
-        raise job.OptionsError(
-            f"ipgen animate needs pillow: {install_hint('pillow')}"
-        ) from None
+        raise job.OptionsError(f"ipgen animate needs pillow: {install_hint('pillow')}") from None
     target = _not_the_input(gif if gif is not None else csv.with_suffix(".gif"), csv)
     frame = _csv_coordinates(csv, angles, zero, positive)
     written = animate_run(

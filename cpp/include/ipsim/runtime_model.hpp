@@ -250,7 +250,8 @@ class ModelLibrary {
       return "it was built for model ABI " + std::to_string(model.abi) + ", this simulator reads " +
              std::to_string(IPGEN_MODEL_ABI) + " (rebuild it with this ipgen)";
     }
-    if (model.links < 1 || model.dof != model.links + 1 || model.dof > IPGEN_MAX_DOF) {
+    const bool fixed = std::string(model.type ? model.type : "") == "fixed";
+    if (model.links < 1 || model.dof != model.links + (fixed ? 0 : 1) || model.dof > IPGEN_MAX_DOF) {
       return "its sizes are out of range (links " + std::to_string(model.links) + ", dof " +
              std::to_string(model.dof) + "; at most " + std::to_string(IPGEN_MAX_DOF) + " dof)";
     }

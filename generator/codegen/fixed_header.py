@@ -1,0 +1,93 @@
+"""The headers of a fixed-pivot chain (`ipgen --type fixed`): C++, C99 and the model library.
+
+The same printer, common-subexpression elimination and damping-as-joint-torques as the cart's
+and the arm's headers (`functions.build_body`), over the chain's polynomials
+(`model/fixed_poly.py`: the cart's links block), printed with `Syntax.offset` = 1 so that link i
+is entry i − 1 of q, qd and the parameter arrays. Their own templates (templates/fixed.hpp.jinja,
+fixed.h.jinja, fixed_model_library.c.jinja) hold what a fixed chain has and a cart has not: m
+inputs (B n × m), the rotors' constant inertia, no base. Headers in ipgen's coordinates only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
+from ipgen.codegen.header import environment, function_bodies
+from ipgen.common.safetext import comment_safe
+from ipgen.common.version import __version__
+from ipgen.model.fixed_poly import fixed_poly_equations
+from ipgen.model.specialise import FUNCTIONS
+
+__all__ = ["FIXED_CPP_SYNTAX", "FIXED_C_SYNTAX", "FixedHeaderRequest", "render_fixed"]
+
+FIXED_CPP_SYNTAX: Syntax = replace(CPP_SYNTAX, offset=1)
+FIXED_C_SYNTAX: Syntax = replace(C_SYNTAX, offset=1, resolved=("com", "J"))
+_C_LATE = {"forward_dynamics_derivatives": "qdd"}
+_CPP_LATE = {"forward_dynamics_derivatives": "d.qdd"}
+
+
+@dataclass(frozen=True)
+class FixedHeaderRequest:
+    """What determines a fixed chain's headers: its name, links, driven joints and command."""
+
+    name: str
+    links: int
+    joints: tuple[int, ...]
+    command: str
+
+
+def fixed_command(name: str, links: int, joints: tuple[int, ...], emit: tuple[str, ...]) -> str:
+    """The ipgen command that regenerates these files (in any output folder)."""
+    emitting = "" if emit == ("cpp",) else " --emit " + ",".join(emit)
+    chosen = ",".join(map(str, joints))
+    return f"ipgen --type fixed --links {links} --joints {chosen} --name {name}{emitting} -o <dir>"
+
+
+def _context(
+    request: FixedHeaderRequest, template: str, syntax: Syntax, late: dict[str, str]
+) -> dict[str, object]:
+    eqs = fixed_poly_equations(request.links)
+    rod_fills = []  # (field, its rod value): as the functions' per-call fallback prints it, bit for bit
+    for i in range(1, request.links + 1):
+        m, length = params_field(f"m{i}", syntax), params_field(f"l{i}", syntax)
+        one, two, twelve = (syntax.literal.format(value=v) for v in (1, 2, 12))
+        rod_fills.append((params_field(f"com{i}", syntax), f"{one}/{two}*{length}"))
+        rod_fills.append((params_field(f"J{i}", syntax), f"{one}/{twelve}*{m}*{length}*{length}"))
+    return {
+        "name": request.name,
+        "nameu": request.name.upper(),
+        "command": comment_safe(request.command),
+        "version": __version__,
+        "template": template,
+        "type": "fixed",
+        "links": request.links,
+        "dof": request.links,
+        "inputs": len(request.joints),
+        "joints": list(request.joints),
+        # (input k, coordinate of link j, coordinate of link j − 1 or None): B's columns and the rotors
+        "slots": [(k, j - 1, j - 2 if j >= 2 else None) for k, j in enumerate(request.joints)],
+        # B's rows as C initialisers (the model library's constant input_matrix)
+        "input_rows": [
+            ", ".join("1" if r == j - 1 else "-1" if r == j - 2 else "0" for j in request.joints)
+            for r in range(request.links)
+        ],
+        "fn": function_bodies(eqs, FUNCTIONS, syntax=syntax, late=late),
+        "rod_fills": rod_fills,
+    }
+
+
+def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
+    """{suffix: text} of one target ("cpp", "c" or "library") for the chain; deterministic."""
+    if target == "cpp":
+        context = _context(request, "fixed.hpp.jinja", FIXED_CPP_SYNTAX, _CPP_LATE)
+        return {".hpp": environment().get_template("fixed.hpp.jinja").render(context)}
+    context = _context(request, "fixed.h.jinja", FIXED_C_SYNTAX, _C_LATE)
+    header = environment().get_template("fixed.h.jinja").render(context)
+    if target == "c":
+        return {".h": header}
+    if target == "library":
+        context["template"] = "fixed_model_library.c.jinja"
+        adapter = environment().get_template("fixed_model_library.c.jinja").render(context)
+        return {".h": header, "_model.c": adapter}
+    raise ValueError(f"--emit {target} is not supported for fixed-pivot models: choose cpp, c or library")
