@@ -113,7 +113,7 @@ def test_a_filter_cutoff_is_accepted_exactly_up_to_the_nyquist_frequency(
         assert "estimator.cutoff" in str(error) and "Nyquist" in str(error) and "\n" not in str(error)
         assert cutoff > math.pi / period
         return
-    assert cutoff <= math.pi / period and scene.loop.cutoff == cutoff
+    assert cutoff <= math.pi / period and scene.loop.estimator.cutoff == cutoff
     rates = DerivativeFilter(period, 2, cutoff)
     rates.step([0.0, 0.0])
     assert np.isfinite(rates.step([2 * math.pi, 2 * math.pi])).all()

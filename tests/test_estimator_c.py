@@ -194,18 +194,21 @@ def test_an_ekf_header_without_the_dynamics_is_refused() -> None:
     """The EKF needs the header's forward dynamics and their derivatives (a scene always emits
     them; a header request without them is refused in one line naming the fix)."""
     from ipgen.codegen.c_header import ControllerError, estimator_context
-    from ipgen.estimation.printed import PrintedEstimator
+    from ipgen.estimation.measurement import Sensors
+    from ipgen.estimation.printed import EstimatorNumbers, PrintedEstimator
 
-    ekf = PrintedEstimator(kind="ekf", period=1e-3, measured=(0, 1), equilibrium=(0.0,) * 4)
+    def printed(measured: tuple[int, ...], **numbers: object) -> PrintedEstimator:
+        sensors = Sensors(measured, (0.0,) * len(measured), (0.0,) * len(measured))
+        return PrintedEstimator(EstimatorNumbers(**numbers), sensors, period=1e-3)  # type: ignore[arg-type]
+
+    ekf = printed((0, 1), kind="ekf", equilibrium=(0.0,) * 4)
     with pytest.raises(ControllerError) as info:
         estimator_context(ekf, 2, ("mass_matrix", "bias"))
     message = str(info.value)
     assert "\n" not in message and "forward_dynamics" in message and "outputs" in message, message
     with pytest.raises(ControllerError, match="every coordinate measured"):
-        estimator_context(PrintedEstimator(kind="filter", period=1e-3, measured=(1,), cutoff=50.0), 2, ())
-    nan = PrintedEstimator(
-        kind="ekf", period=1e-3, measured=(0, 1), equilibrium=(0.0, float("nan"), 0.0, 0.0)
-    )
+        estimator_context(printed((1,), kind="filter", cutoff=50.0), 2, ())
+    nan = printed((0, 1), kind="ekf", equilibrium=(0.0, float("nan"), 0.0, 0.0))
     with pytest.raises(ControllerError, match="not a finite number"):
         estimator_context(nan, 2, ("forward_dynamics", "forward_dynamics_derivatives"))
 

@@ -6,9 +6,10 @@ links as built (negative com too), damping and geared rotors (signed gear ratios
   -std=c99 (double, and for two chains float with -Wdouble-promotion -Wconversion) under the same
   flags;
 - at random states and inputs, M, the bias, q̈, the linearisation's A and B (exact derivatives),
-  T, V and D of the C header (every chain) and of the C++ header (four chains: CPP_CASES) equal the sympy model `ipgen.model.fixed_numeric.FixedModel` (its
-  own check: sympy.physics.mechanics, tests/test_fixed_model.py) to 1e-12 relative; B is the
-  model's input matrix;
+  T, V and D of the C header (every chain) and of the C++ header (four chains: CPP_CASES) equal
+  the sympy model `ipgen.model.fixed_numeric.FixedModel` (its own check:
+  sympy.physics.mechanics, tests/test_fixed_model.py) to 1e-12 relative; B is the model's input
+  matrix;
 - the command line refuses what the fixed headers do not take, in one line.
 """
 

@@ -473,10 +473,11 @@ def test_the_estimator_stays_the_nominal_design() -> None:
     nominal, document = load_scene(path), read_document(path)
     heavier = (("parameters.m", [1.2 * m for m in nominal.m]), ("sensors.seed", 7))
     changed = scene_from_document(path, overrides.apply(document, nominal, heavier), designed=nominal)
-    assert changed.loop.A != nominal.loop.A  # the scene format designs on the changed parameters...
+    # the scene format designs on the changed parameters...
+    assert changed.loop.estimator.A != nominal.loop.estimator.A
     kept = nominal_estimator(changed, nominal, heavier)
-    assert kept.loop.A == nominal.loop.A and kept.loop.gain == nominal.loop.gain  # ...the sweep keeps it
+    assert kept.loop.estimator == nominal.loop.estimator  # ...the sweep keeps it
     assert kept.loop.seed == 7 and kept.m == changed.m
     retuned = (*heavier, ("estimator.kind", "kalman"))
     anew = scene_from_document(path, overrides.apply(document, nominal, retuned), designed=nominal)
-    assert nominal_estimator(anew, nominal, retuned).loop.A == changed.loop.A
+    assert nominal_estimator(anew, nominal, retuned).loop.estimator.A == changed.loop.estimator.A

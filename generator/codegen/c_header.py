@@ -199,12 +199,13 @@ def _c_rows(rows: tuple[tuple[float, ...], ...] | tuple[float, ...], what: str) 
 def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[str, ...]) -> dict[str, object]:
     """The estimator of a scene's sampled loop for the template (estimation/printed.py)."""
     size = 2 * dof
-    count = len(estimator.measured)
-    if estimator.kind not in ("difference", "filter", "kalman", "ekf"):
-        raise ControllerError(f"estimator kind {estimator.kind!r} has no C implementation")
-    if estimator.kind in ("difference", "filter") and estimator.measured != tuple(range(dof)):
-        raise ControllerError(f'estimator "{estimator.kind}" needs every coordinate measured')
-    if estimator.kind == "ekf":
+    numbers, measured = estimator.numbers, estimator.sensors.measured
+    count = len(measured)
+    if numbers.kind not in ("difference", "filter", "kalman", "ekf"):
+        raise ControllerError(f"estimator kind {numbers.kind!r} has no C implementation")
+    if numbers.kind in ("difference", "filter") and measured != tuple(range(dof)):
+        raise ControllerError(f'estimator "{numbers.kind}" needs every coordinate measured')
+    if numbers.kind == "ekf":
         missing = [f for f in ("forward_dynamics", "forward_dynamics_derivatives") if f not in functions]
         if missing:
             raise ControllerError(
@@ -212,62 +213,60 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
                 "add them to the scene's outputs"
             )
     context: dict[str, object] = {
-        "kind": estimator.kind,
+        "kind": numbers.kind,
         "period": c_number(estimator.period),
         "period_value": repr(float(estimator.period)),
-        "measured": ", ".join(str(i) for i in estimator.measured),
-        "measured_list": list(estimator.measured),
+        "measured": ", ".join(str(i) for i in measured),
+        "measured_list": list(measured),
         "count": count,
         "size": size,
         "delay": estimator.delay,
     }
-    if estimator.kind == "filter":
-        cutoff = float(estimator.cutoff or 0.0)
+    if numbers.kind == "filter":
+        cutoff = float(numbers.cutoff or 0.0)
         context["cutoff"] = c_number(cutoff)
         context["cutoff_value"] = repr(cutoff)
         context["pole"] = c_number(math.exp(-cutoff * estimator.period))
-    if estimator.kind in ("kalman", "ekf"):
-        if len(estimator.equilibrium) != size:
+    if numbers.kind in ("kalman", "ekf"):
+        if len(numbers.equilibrium) != size:
             raise ControllerError(
-                f"estimator equilibrium has {len(estimator.equilibrium)} entries, expected {size}"
+                f"estimator equilibrium has {len(numbers.equilibrium)} entries, expected {size}"
             )
-        context["equilibrium"] = _c_rows(estimator.equilibrium, "equilibrium")
-    if estimator.kind == "kalman":
+        context["equilibrium"] = _c_rows(numbers.equilibrium, "equilibrium")
+    if numbers.kind == "kalman":
         shapes = (
-            (estimator.A, size * size, "A"),
-            (estimator.B, size, "B"),
-            (estimator.gain, size * count, "M"),
+            (numbers.A, size * size, "A"),
+            (numbers.B, size, "B"),
+            (numbers.gain, size * count, "M"),
         )
         for rows, expected, what in shapes:
             if sum(len(r) if isinstance(r, tuple) else 1 for r in rows) != expected:
                 raise ControllerError(f"estimator {what} has the wrong size (expected {expected} numbers)")
-        context["A"] = _c_rows(estimator.A, "A")
-        context["B"] = _c_rows(estimator.B, "B")
-        context["M"] = _c_rows(estimator.gain, "M")
-        context["u_eq"] = c_number(estimator.input_equilibrium)
-    context["firmware"] = _firmware_context(estimator, dof) if estimator.resolution else None
-    if estimator.kind == "ekf":
-        context["Qn"] = _c_rows(estimator.process_noise, "process_noise")
-        context["Rn"] = _c_rows(estimator.measurement_noise, "measurement_noise")
+        context["A"] = _c_rows(numbers.A, "A")
+        context["B"] = _c_rows(numbers.B, "B")
+        context["M"] = _c_rows(numbers.gain, "M")
+        context["u_eq"] = c_number(numbers.input_equilibrium)
+    context["firmware"] = _firmware_context(estimator) if estimator.firmware else None
+    if numbers.kind == "ekf":
+        context["Qn"] = _c_rows(numbers.process_noise, "process_noise")
+        context["Rn"] = _c_rows(numbers.measurement_noise, "measurement_noise")
         context["input_gain"] = c_number(estimator.input_gain)
         context["input_gain_value"] = repr(float(estimator.input_gain))
     return context
 
 
-def _firmware_context(estimator: PrintedEstimator, dof: int) -> dict[str, object]:
+def _firmware_context(estimator: PrintedEstimator) -> dict[str, object]:
     """The firmware entry's constants: Δ per measured coordinate (2π / counts per revolution, or
     1 / counts per metre for a cart's position), the values where the counts are zero, and the
     parameters the loop was designed with (`params`, the motor folded in)."""
-    steps = [
-        (1.0 if estimator.cart and index == 0 else 2 * math.pi) / counts
-        for index, counts in zip(estimator.measured, estimator.resolution, strict=True)
-    ]
-    if len(estimator.counts_zero) != len(estimator.measured):
+    sensors = estimator.sensors
+    steps = sensors.steps()
+    if len(sensors.zero) != len(sensors.measured):
         raise ControllerError("estimator counts_zero needs one value per measured coordinate")
     context: dict[str, object] = {
         "steps": _c_rows(tuple(steps), "count steps"),
-        "resolution": ", ".join(f"{counts:g}" for counts in estimator.resolution),
-        "zero": _c_rows(estimator.counts_zero, "counts zero"),
+        "resolution": ", ".join(f"{counts:g}" for counts in sensors.resolution),
+        "zero": _c_rows(sensors.zero, "counts zero"),
         "params": None,
         "motor": estimator.input_gain != 1.0,
     }

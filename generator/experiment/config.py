@@ -161,7 +161,7 @@ def resolved_config(scene: Scene, model: str | None = None) -> str:
         lines.put("energy", True)
     _controller(lines, scene.controller)
     _swingup(lines, scene.swingup)
-    _loop(lines, scene.loop, cart=scene.type == "classical")
+    _loop(lines, scene.loop)
     return "\n".join(lines) + "\n"
 
 
@@ -237,9 +237,9 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
         lines.put("controller.period", controller.period)
 
 
-def _loop(lines: _Lines, loop_: Loop | None, *, cart: bool) -> None:
+def _loop(lines: _Lines, loop_: Loop | None) -> None:
     """The measured loop's keys for the simulator (none without one: the config is as before)."""
-    from ipgen.estimation.measurement import Sensors, grid_zero
+    from ipgen.estimation.measurement import grid_zero
 
     if loop_ is None:
         return
@@ -256,30 +256,30 @@ def _loop(lines: _Lines, loop_: Loop | None, *, cart: bool) -> None:
         lines.put("actuator.lag", loop_.lag)
     if loop_.pulses:
         lines.put("actuator.pulses", matrix(loop_.pulses))
-    if not loop_.sensors:
+    sensors, estimator = loop_.sensors, loop_.estimator
+    if sensors is None:
         return
-    lines.put("sensors.measured", " ".join(str(i) for i in loop_.measured))
-    lines.put("sensors.resolution", numbers(loop_.resolution))
-    lines.put("sensors.noise", numbers(loop_.noise))
-    steps = Sensors(loop_.measured, loop_.resolution, loop_.noise, cart=cart).steps()
-    offsets = [grid_zero(z, step) for z, step in zip(loop_.zero, steps, strict=True)]
+    lines.put("sensors.measured", " ".join(str(i) for i in sensors.measured))
+    lines.put("sensors.resolution", numbers(sensors.resolution))
+    lines.put("sensors.noise", numbers(sensors.noise))
+    offsets = [grid_zero(z, step) for z, step in zip(sensors.zero, sensors.steps(), strict=True)]
     if any(offsets):  # a zero pose off the grid counted from 0 (else the same numbers without it)
         lines.put("sensors.zero", numbers(offsets))
     lines.put("sensors.delay", loop_.delay)
     lines.put("sensors.seed", loop_.seed)
-    lines.put("estimator", loop_.estimator)
-    if loop_.cutoff is not None:
-        lines.put("estimator.cutoff", loop_.cutoff)
-    if loop_.estimator in ("kalman", "ekf"):
-        lines.put("estimator.equilibrium", numbers(loop_.equilibrium))
-    if loop_.estimator == "kalman":
-        lines.put("estimator.A", matrix(loop_.A))
-        lines.put("estimator.B", numbers(loop_.B))
-        lines.put("estimator.gain", matrix(loop_.gain))
-        lines.put("estimator.input", loop_.input_equilibrium)
-    if loop_.estimator == "ekf":
-        lines.put("estimator.process_noise", matrix(loop_.process_noise))
-        lines.put("estimator.measurement_noise", matrix(loop_.measurement_noise))
+    lines.put("estimator", estimator.kind)
+    if estimator.cutoff is not None:
+        lines.put("estimator.cutoff", estimator.cutoff)
+    if estimator.kind in ("kalman", "ekf"):
+        lines.put("estimator.equilibrium", numbers(estimator.equilibrium))
+    if estimator.kind == "kalman":
+        lines.put("estimator.A", matrix(estimator.A))
+        lines.put("estimator.B", numbers(estimator.B))
+        lines.put("estimator.gain", matrix(estimator.gain))
+        lines.put("estimator.input", estimator.input_equilibrium)
+    if estimator.kind == "ekf":
+        lines.put("estimator.process_noise", matrix(estimator.process_noise))
+        lines.put("estimator.measurement_noise", matrix(estimator.measurement_noise))
 
 
 def motor_folded_parameters(

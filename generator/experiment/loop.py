@@ -6,11 +6,12 @@ docs/scenes.md ("As a rig measures it") and cpp/include/ipsim/sensors.hpp.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ipgen.common import limits
-from ipgen.estimation.measurement import cutoff_problem
+from ipgen.estimation.measurement import Sensors, cutoff_problem
+from ipgen.estimation.printed import EstimatorNumbers
 from ipgen.model.coordinates import Coordinates
 from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
@@ -29,28 +30,16 @@ class SensorsError(Exception):
 @dataclass(frozen=True)
 class Loop:
     """What the simulator's measured loop needs (cpp/include/ipsim/sensors.hpp), in the scene's
-    coordinates and input unit. `sensors` False: only drive keys (no y_*/hat_* columns)."""
+    coordinates and input unit: the sensors and the estimator they feed (None and exact: only drive
+    keys, no y_*/hat_* columns), the command delay and the drive's noise, lag and pulses."""
 
-    sensors: bool = False
-    measured: tuple[int, ...] = ()
-    resolution: tuple[float, ...] = ()
-    noise: tuple[float, ...] = ()
-    delay: float = 0.0
+    sensors: Sensors | None = None  # measured coordinates, resolutions, noise σ, zero pose
+    estimator: EstimatorNumbers = field(default_factory=EstimatorNumbers)
+    delay: float = 0.0  # [s], a whole number of periods
     seed: int = 0
-    estimator: str = "exact"
-    cutoff: float | None = None
     drive_noise: float = 0.0
     lag: float = 0.0
     pulses: tuple[tuple[float, float, float], ...] = ()
-    # kalman: A_d, B_d (2·dof × 2·dof, 2·dof), M (2·dof × measured), x_eq, u_eq; ekf: Qn, Rn, x_eq
-    A: tuple[tuple[float, ...], ...] = ()
-    B: tuple[float, ...] = ()
-    gain: tuple[tuple[float, ...], ...] = ()
-    equilibrium: tuple[float, ...] = ()
-    input_equilibrium: float = 0.0
-    process_noise: tuple[tuple[float, ...], ...] = ()
-    measurement_noise: tuple[tuple[float, ...], ...] = ()
-    zero: tuple[float, ...] = ()  # where the encoders read 0, per measured coordinate (scene's coordinates)
 
 
 def _per_measured(value: float | tuple[float, ...], count: int, key: str) -> tuple[float, ...]:
@@ -88,6 +77,7 @@ def loop(
     acceleration: bool,
     design: Any = None,
     coordinates: Coordinates | None = None,
+    cart: bool = False,
 ) -> Loop | None:
     """The measured loop of a scene, or None when it has none (today's exact loop).
 
@@ -95,7 +85,8 @@ def loop(
     controller's or swing-up's (None: no sampled loop); `design(loop, table)` fills in a kalman
     or ekf estimator's matrices (the caller's: it knows the model); `coordinates` the scene's
     (default ipgen's), in which the encoders' default zero pose, the rig at rest (base centred,
-    links hanging), is given. Raises `SensorsError` with one line naming the key and the fix.
+    links hanging), is given; `cart` whether coordinate 0 is a cart's position [m]. Raises
+    `SensorsError` with one line naming the key and the fix.
     """
     dof = links + 1
     drive_noise = 0.0 if drive.noise is None else float(drive.noise)
@@ -163,15 +154,10 @@ def loop(
                 f"{problem}: give a lower estimator.cutoff, or a shorter period"
             )
     result = Loop(
-        sensors=True,
-        measured=measured,
-        resolution=resolution,
-        noise=noise,
-        zero=tuple(float(v) for v in zero),
+        sensors=Sensors(measured, resolution, noise, cart=cart, zero=tuple(float(v) for v in zero)),
+        estimator=EstimatorNumbers(kind=kind, cutoff=cutoff),
         delay=periods * period,
         seed=table.seed,
-        estimator=kind,
-        cutoff=cutoff,
         drive_noise=drive_noise,
         lag=lag,
         pulses=pulses,
@@ -225,12 +211,14 @@ def design(
 
     import numpy as np
 
-    from ipgen.estimation import EstimationError, Sensors, default_covariances, kalman
+    from ipgen.estimation import EstimationError, default_covariances, kalman
 
     dof = len(equilibrium) // 2
-    size, count = 2 * dof, len(loop_.measured)
+    given = loop_.sensors
+    assert given is not None  # loop() designs only a measured loop
+    size, count = 2 * dof, len(given.measured)
     try:
-        sensors = Sensors.of(dof, loop_.measured, loop_.resolution, loop_.noise, cart=not pendulum.is_rotary)
+        sensors = Sensors.of(dof, given.measured, given.resolution, given.noise, cart=not pendulum.is_rotary)
         q_default, r_default = default_covariances(
             pendulum, period, sensors, input_noise=loop_.drive_noise, u_scale=input_scale,
             equilibrium=list(equilibrium[:dof]),
@@ -251,22 +239,24 @@ def design(
     if np.min(np.linalg.eigvalsh(rn)) <= 0:
         raise SensorsError("estimator.measurement_noise must be positive definite (every variance > 0)")
     rows = lambda m: tuple(tuple(float(x) for x in row) for row in np.atleast_2d(m))  # noqa: E731
-    if loop_.estimator == "ekf":
-        return dataclasses.replace(
-            loop_,
+    if loop_.estimator.kind == "ekf":
+        numbers = dataclasses.replace(
+            loop_.estimator,
             equilibrium=tuple(float(x) for x in equilibrium),
             process_noise=rows(qn),
             measurement_noise=rows(rn),
         )
+        return dataclasses.replace(loop_, estimator=numbers)
     try:
-        gains = kalman(pendulum, period, qn, rn, measured=loop_.measured, equilibrium=list(equilibrium[:dof]))
+        gains = kalman(pendulum, period, qn, rn, measured=given.measured, equilibrium=list(equilibrium[:dof]))
     except EstimationError as exc:
         raise SensorsError(f"estimator: {exc}") from None
-    return dataclasses.replace(
-        loop_,
+    numbers = dataclasses.replace(
+        loop_.estimator,
         A=rows(gains.A),
         B=tuple(float(x) for x in np.asarray(gains.B).reshape(-1)),
         gain=rows(gains.M),
         equilibrium=tuple(float(x) for x in equilibrium),
         input_equilibrium=0.0,
     )
+    return dataclasses.replace(loop_, estimator=numbers)

@@ -323,7 +323,7 @@ def _loop(
         return measuring.loop(
             tables["sensors"], tables["estimator"], tables["actuator"], links=tables["system"].links,
             period=period, acceleration=tables["actuator"].kind == "acceleration", design=design,
-            coordinates=tables["system"].coordinates(),
+            coordinates=tables["system"].coordinates(), cart=tables["system"].type == "classical",
         )  # fmt: skip
     except measuring.SensorsError as error:
         reader.fail(str(error))

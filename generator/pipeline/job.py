@@ -269,7 +269,7 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
     from ipgen.estimation.printed import PrintedEstimator  # ipgen.estimation: only a scene's run needs it
 
     loop = scene.loop
-    if loop is None or not loop.sensors or loop.estimator == "exact":
+    if loop is None or loop.sensors is None or loop.estimator.kind == "exact":
         return None
     if scene.controller is not None and scene.controller.period is not None:
         period = scene.controller.period
@@ -278,21 +278,10 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
     else:  # the scene's checks refuse a measured loop without a sampled controller
         return None
     return PrintedEstimator(
-        kind=loop.estimator,
+        numbers=loop.estimator,
+        sensors=loop.sensors,  # its zero: [sensors] zero, default the rig at rest, as the simulator's
         period=float(period),
-        measured=tuple(loop.measured),
         delay=round(loop.delay / period),
-        cutoff=loop.cutoff,
-        A=loop.A,
-        B=loop.B,
-        gain=loop.gain,
-        equilibrium=loop.equilibrium,
-        input_equilibrium=loop.input_equilibrium,
-        process_noise=loop.process_noise,
-        measurement_noise=loop.measurement_noise,
         input_gain=float(scene.actuator.gain()),
-        resolution=tuple(loop.resolution) if all(r > 0 for r in loop.resolution) else (),
-        counts_zero=tuple(loop.zero),  # [sensors] zero: default the rig at rest, as the simulator's
-        cart=scene.system.type == "classical",
         params=scene.pendulum.folded().params(),
     )

@@ -168,23 +168,17 @@ def _seeded(prepared: Prepared, task: Task) -> tuple[tuple[str, object], ...]:
     return (*task.overrides, ("sensors.seed", task.seed))
 
 
-# The estimator's model in a scene's measured loop (issue 32's `Loop`): designed on the nominal scene
-# like the controller, kept when a run changes the plant or the sensors (not an [estimator] key).
-ESTIMATOR_MODEL: tuple[str, ...] = (
-    "A", "B", "gain", "equilibrium", "input_equilibrium", "process_noise", "measurement_noise",
-)  # fmt: skip
-
-
 def nominal_estimator(scene: Scene, nominal: Scene, changes: tuple[tuple[str, object], ...]) -> Scene:
-    """`scene` with the nominal scene's estimator model (gains, linearisation, covariances), unless
-    the run designs anew (a [controller], [swingup] or [estimator] key) or has no measured loop."""
+    """`scene` with the nominal scene's estimator model (gains, linearisation, covariances: its
+    `EstimatorNumbers`, designed on the nominal scene like the controller), unless the run designs
+    anew (a [controller], [swingup] or [estimator] key) or has no measured loop. The run's sensors
+    and drive keys stay its own."""
     loop, designed = getattr(scene, "loop", None), getattr(nominal, "loop", None)
-    if loop is None or designed is None or loop.estimator != designed.estimator:
+    if loop is None or designed is None or loop.estimator.kind != designed.estimator.kind:
         return scene
     if override.designs(changes) or any(key.startswith("estimator.") for key, _ in changes):
         return scene
-    kept = {name: getattr(designed, name) for name in ESTIMATOR_MODEL if hasattr(designed, name)}
-    return replace(scene, loop=replace(loop, **kept))  # type: ignore[call-arg]
+    return replace(scene, loop=replace(loop, estimator=designed.estimator))
 
 
 def _refused(task: Task, reason: str, started: float) -> Result:
