@@ -23,7 +23,7 @@ import hashlib
 import json
 import os
 import sys
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -130,39 +130,32 @@ def _entry(cache: Path | None, key: str) -> Path:
     return cache_root(cache) / FOLDER / f"{key}.json"
 
 
+def _is_name_text(value: Any) -> bool:
+    return isinstance(value, dict) and all(
+        isinstance(k, str) and isinstance(v, str) and "/" not in k and k not in ("", ".", "..")
+        for k, v in value.items()
+    )
+
+
+# What each of RunPlan's fields may hold in an entry, by its annotation (a new field without a
+# rule here is an error at import, not an unchecked value).
+_KINDS: dict[str, Any] = {
+    "str": lambda v: isinstance(v, str),
+    "str | None": lambda v: v is None or isinstance(v, str),
+    "int": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1,
+    "tuple[str, ...]": lambda v: isinstance(v, list) and all(isinstance(w, str) for w in v),
+    "dict[str, str]": _is_name_text,  # file names: no folders
+}
+_RULES = {f.name: _KINDS[str(f.type)] for f in fields(RunPlan)}
+
+
 def _checked(data: Any) -> RunPlan | None:
     """The plan an entry's JSON holds, or None when any value is not of its kind."""
-    if not isinstance(data, dict):
+    if not isinstance(data, dict) or set(data) != set(_RULES):
         return None
-    strings = ("name", "stem", "type", "angles", "zero", "positive", "cfg")
-    if any(not isinstance(data.get(key), str) for key in strings):
+    if not all(rule(data[name]) for name, rule in _RULES.items()):
         return None
-    links, unit = data.get("links"), data.get("unit")
-    warnings, sources = data.get("warnings"), data.get("sources")
-    if not isinstance(links, int) or isinstance(links, bool) or links < 1:
-        return None
-    if unit is not None and not isinstance(unit, str):
-        return None
-    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
-        return None
-    if not isinstance(sources, dict) or not all(
-        isinstance(k, str) and isinstance(v, str) and "/" not in k and k not in ("", ".", "..")
-        for k, v in sources.items()
-    ):
-        return None
-    plan = RunPlan(
-        name=data["name"],
-        stem=data["stem"],
-        type=data["type"],
-        links=links,
-        angles=data["angles"],
-        zero=data["zero"],
-        positive=data["positive"],
-        unit=unit,
-        warnings=tuple(warnings),
-        cfg=data["cfg"],
-        sources=dict(sources),
-    )
+    plan = RunPlan(**{**data, "warnings": tuple(data["warnings"])})
     try:
         plan.coordinates  # noqa: B018 -- the convention's own check
     except Exception:  # any refusal: not a usable entry
