@@ -138,6 +138,8 @@ CSV (one row per sample at t = k*sample and t_end, values %.17g, SI units):
   u                    scenes with a controller, a swing-up, or input = chirp or multisine: the
                        input [N or N m; V with actuator = dc_motor; m/s^2 or rad/s^2 with
                        actuator = acceleration] applied from t on
+  u1..um               a fixed chain (type fixed) with m > 1 driven joints, always: each joint's
+                       torque [N m] (in the order of joints) in place of u
   y_thetaI             scenes with sensors.*: the measured value of each measured coordinate I
   hat_theta0..N, hat_dtheta0..N  and the estimate the controller sees (both at the latest
                        sampling instant; in the CSV's coordinates; docs/scenes.md)
@@ -153,6 +155,9 @@ with input.amplitude [N or N m], input.start, input.duration, input.time [s], in
 input.phase [rad]; input = chirp with input.f0, input.f1 [Hz], input.sweep = linear|logarithmic
 (and amplitude, start, duration); input = multisine with input.frequencies [Hz], input.phases [rad]
 and input.scale (u = amplitude scale sum cos(2 pi f t + phase), lines computed by ipgen);
+type fixed (a chain on a fixed pivot, one coordinate per link): joints (the driven joints, the
+model's), Ir, gr (rotor inertia and gear ratio per input), input2 .. inputM with the keys of input
+(input2.amplitude, ...): the torques at the other driven joints, in the order of joints;
 limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, sample [s], method, jacobian, rtol, atol, step, max_steps, energy
 (true|false); controller = lqr or gain (either: state feedback) with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
@@ -374,7 +379,16 @@ bool written_by_simulator(const std::string& path) {
   // Optional columns: the energies, then u (scenes with a controller).
   std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
   if (!rest.empty() && rest.back() == "phase") rest.pop_back();
-  if (!rest.empty() && rest.back() == "u") rest.pop_back();
+  if (!rest.empty() && rest.back() == "u") {
+    rest.pop_back();
+  } else if (!rest.empty() && rest.back().size() > 1 && rest.back()[0] == 'u') {  // u1..um (a fixed chain's inputs)
+    const std::size_t m = rest.size() >= 2 ? std::strtoul(rest.back().c_str() + 1, nullptr, 10) : 0;
+    if (m < 2 || m > rest.size()) return false;
+    for (std::size_t k = 1; k <= m; ++k) {
+      if (rest[rest.size() - m + k - 1] != "u" + std::to_string(k)) return false;
+    }
+    rest.resize(rest.size() - m);
+  }
   const std::vector<std::string> energy = {"kinetic", "potential", "input_work", "dissipated"};
   return rest.empty() || rest == energy;
 }
@@ -602,6 +616,11 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
       shown_path(options.csv_path).c_str(), ipsim::detail::format_values(final_state.data(), dof()).c_str(),
       ipsim::detail::format_values(final_state.data() + dof(), dof()).c_str(), describe_run(s, st).c_str(), st.restarts,
       st.restarts == 1 ? "" : "s", result.wall_time);
+  for (std::size_t k = 0; k < s.more_inputs.size(); ++k) {
+    std::printf("%s input%zu %s", k == 0 ? " Further inputs (fixed chain, torques at its other driven joints):" : ",",
+                k + 2, ipsim::to_string(s.more_inputs[k].kind));
+    if (k + 1 == s.more_inputs.size()) std::putchar('.');
+  }
   if (!scene.coordinates.canonical()) {
     std::printf(" Coordinates: the rig's (%s): the CSV's angles and rates, the states and the controller here are in them.",
                 scene.coordinates.describe().c_str());
@@ -702,6 +721,7 @@ int run(int argc, char** argv) {
                              scene.controller.has_value() || scene.swingup.has_value() || excitation,
                              shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
+  rows.set_inputs(static_cast<int>(s.more_inputs.size()) + 1);  // a fixed chain's m > 1 inputs: u1..um
   rows.set_coordinates(scene.coordinates);  // the state columns in the scene's coordinates
   if (scene.loop && scene.loop->settings().sensors) {  // y_* and hat_*, in the scene's coordinates
     const std::shared_ptr<const ipsim::MeasuredLoop<Model>> loop = scene.loop;

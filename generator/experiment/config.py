@@ -29,9 +29,12 @@ if TYPE_CHECKING:
 CFG_KEYS: dict[str, str] = {
     "name": "the scene file's stem",
     "model": "the model (header) name the simulator must be built for",
-    "type": "classical | rotary",
+    "type": "classical | rotary | fixed",
     "links": "the number of links",
     "inertia": "pivot | full",
+    "joints": "fixed: the driven joints, one input each (1 = the shoulder)",
+    "Ir": "fixed: each input's rotor inertia [kg m^2]",
+    "gr": "fixed: each input's gear ratio",
     "angles": "absolute | relative: the rig's link angles (absent: ipgen's)",
     "zero": "upright | hanging: where a link angle is 0",
     "positive": "clockwise | counterclockwise",

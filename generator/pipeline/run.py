@@ -38,7 +38,7 @@ if TYPE_CHECKING:
 
 # The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
 SIMULATOR_CSV = re.compile(
-    r"t((?:,theta\d+)+)((?:,dtheta\d+)+)(,kinetic,potential,input_work,dissipated)?(,u)?"
+    r"t((?:,theta\d+)+)((?:,dtheta\d+)+)(,kinetic,potential,input_work,dissipated)?(,u|(?:,u\d+)+)?"
 )
 
 
@@ -161,7 +161,7 @@ def run_scene(
             title += f"; the run ended with status {done.returncode}"
         try:
             plot_run(
-                read_run(paths["csv"]),
+                read_run(paths["csv"], fixed=plan.type == "fixed"),
                 paths["png"],
                 title,
                 plan.type,
@@ -218,6 +218,16 @@ def _make_plan(
 ) -> RunPlan:
     """Check the scene, announce its warnings, check the outputs, then generate the model's
     library sources and the resolved scene (run_plan.RunPlan), in that order."""
+    from ipgen.scene.fixed import is_fixed_document
+    from ipgen.scene.load import parse_document
+
+    reader, document = parse_document(Path(scene_path))
+    if is_fixed_document(document):  # a chain on a fixed pivot (pipeline/fixed_run.py)
+        from ipgen.pipeline.fixed_run import fixed_plan
+
+        plan = fixed_plan(Path(scene_path), document, reader)
+        _prepare_outputs(plan.stem, out, scene_path, force, plot)
+        return plan
     with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:
         planned = job.for_the_simulator(job.plan(staging, scene=scene_path, emit=("library",), force=force))
         assert planned.scene is not None

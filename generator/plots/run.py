@@ -45,9 +45,10 @@ class Run:
         return self.columns["t"]
 
 
-def read_run(path: Path) -> Run:
+def read_run(path: Path, fixed: bool = False) -> Run:
     """The CSV a simulator wrote, or a PlotError naming what is wrong with it. A run of more than
-    POINTS rows is thinned evenly (every k-th row, and the last) for the picture."""
+    POINTS rows is thinned evenly (every k-th row, and the last) for the picture. `fixed`: a chain
+    on a fixed pivot (no base: theta0..theta(n-1) are links 1..n; `Run.links` is n)."""
     try:
         with path.open(newline="") as f:
             count = sum(1 for _ in f)
@@ -64,7 +65,8 @@ def read_run(path: Path) -> Run:
         raise PlotError(f"{shown_path(path)} is not a CSV the simulator wrote ({e})") from e
     header = rows[0] if rows else []
     angles = [name for name in header if re.fullmatch(r"theta\d+", name)]
-    if header[:1] != ["t"] or len(angles) < 2 or angles != [f"theta{i}" for i in range(len(angles))]:
+    least = 1 if fixed else 2
+    if header[:1] != ["t"] or len(angles) < least or angles != [f"theta{i}" for i in range(len(angles))]:
         raise PlotError(
             f"{shown_path(path)} is not a CSV the simulator wrote: its first line should be "
             "t,theta0,...,dtheta0,..."
@@ -88,7 +90,7 @@ def read_run(path: Path) -> Run:
             f"(values must be finite, |x| <= {LARGEST:g})"
         )
     columns = {name: [row[i] for row in data] for i, name in enumerate(header)}
-    return Run(columns, links=len(angles) - 1, phases=phases)
+    return Run(columns, links=len(angles) - (0 if fixed else 1), phases=phases)
 
 
 def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
@@ -188,6 +190,8 @@ def draw_run(
     turns so that it ends within π of its upright, the legend says by how much; dotted lines at
     ±π where the links come near them) and, for a closed loop, the input u (as steps when
     `sampled`: u held between the controller's samples)."""
+    if system_type == "fixed":
+        return _draw_fixed(run, title)
     frame = coordinates if coordinates is not None else Coordinates()
     # The object-oriented API without pyplot: no GUI backend, no global state, a faster import.
     from matplotlib.figure import Figure
@@ -259,6 +263,36 @@ def draw_run(
                 )
     axes[-1].set_xlabel("time t [s]")
     base.set_title(f"{title}\ndotted lines: {meaning}" if levels else title)
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best", fontsize="small")
+    return fig
+
+
+def _draw_fixed(run: Run, title: str) -> Figure:
+    """A fixed-pivot chain's figure (ipgen's coordinates): the link angles (theta0..theta(n-1) of
+    the CSV are links 1..n) and the joints' torques (u, or u1..um)."""
+    from matplotlib.figure import Figure
+
+    t = run.time
+    inputs = [name for name in run.columns if re.fullmatch(r"u\d*", name)]
+    height = 8.5 if inputs else 6.5
+    fig = Figure(figsize=(8, height))
+    axes = fig.subplots(2 if inputs else 1, 1, sharex=True, squeeze=False)[:, 0]
+    fig.subplots_adjust(left=0.11, right=0.98, bottom=0.6 / height, top=1 - 0.75 / height, hspace=0.08)
+    links = axes[0]
+    for i in range(run.links):
+        values = run.columns[f"theta{i}"]
+        k = display_turns(values, 0.0)
+        values = [v - 2 * math.pi * k for v in values] if k else values
+        links.plot(t, values, label=f"link {i + 1} angle{_turns_label(k)}")
+    links.set_ylabel("link angle from upright [rad]")
+    for name in inputs:
+        axes[1].plot(t, run.columns[name], label=f"torque {name} [N m]")
+    if inputs:
+        axes[1].set_ylabel("joint torque [N m]")
+    axes[-1].set_xlabel("time t [s]")
+    links.set_title(title)
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize="small")

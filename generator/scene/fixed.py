@@ -2,10 +2,11 @@
 
 A fixed scene has three tables: [system] (type, links, name, angles, zero, positive),
 [parameters] (m, l, delta, g, com, J, coulomb, coulomb_law, coulomb_speed, coulomb_gain; one
-entry per link, no base) and [actuator] (joints, Ir, gr). The simulator, the headers and the other
-tables are not yet there for fixed-pivot models (they wait for the runtime with m inputs): a
-fixed scene given to a command that needs them is refused in one line (`NOT_YET`), and so is
-any other table in a fixed scene.
+entry per link, no base) and [actuator] (joints, Ir, gr); and, for `ipgen run`, the tables of an
+open-loop run, [initial], [input] or [[input]], [simulation], [outputs] (RUN_TABLES: checked by
+pipeline/fixed_run.py, ignored here). The other commands and tables are not yet there for
+fixed-pivot models: a fixed scene given to a command that needs them is refused in one line
+(`NOT_YET`), and so is any other table in a fixed scene.
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ KEYS: dict[str, tuple[str, ...]] = {
     ),
     "actuator": ("joints", "Ir", "gr"),
 }
+# The tables of an open-loop run (`ipgen run`, pipeline/fixed_run.py), which the chain ignores.
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs")
 REQUIRED: dict[str, tuple[str, ...]] = {"system": ("type", "links"), "parameters": ("m", "l", "delta")}
 
 
@@ -57,6 +60,8 @@ def _plain(value: Any) -> Any:
 def fixed_pendulum_of(reader: Reader, document: dict[str, Any]) -> FixedPendulum:
     """The `FixedPendulum` of a parsed fixed scene document; `SceneError` (one line) otherwise."""
     for table, value in document.items():
+        if table in RUN_TABLES:  # the tables of `ipgen run` (pipeline/fixed_run.py checks them)
+            continue
         if table not in KEYS:
             reader.fail(f"[{table}] is {NOT_YET}: a fixed scene has [system], [parameters] and [actuator]")
         if not isinstance(value, dict):

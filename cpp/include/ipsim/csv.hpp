@@ -1,6 +1,7 @@
 // CsvSink: writes each sample as a CSV row the moment simulate() reaches it (simulate_<model>'s
 // output), so a run of any length needs the memory of one row. Columns:
-//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u][,y_…,hat_…][,phase]
+//   t,theta0,…,thetaN,dtheta0,…,dthetaN[,kinetic,potential,input_work,dissipated][,u | ,u1,…,um][,y_…,hat_…][,phase]
+// (u1..um: a fixed chain with m > 1 inputs, set_inputs)
 // every value printed with %.17g (round-trips to the same double). The state columns are in the
 // rig's coordinates when set_coordinates() says so (ipsim/coordinates.hpp), else in ipgen's.
 #pragma once
@@ -45,7 +46,11 @@ class CsvSink : public SampleSink {
     for (int i = 0; i < dof_of<Model>(); ++i) std::fprintf(out_, ",theta%d", i);
     for (int i = 0; i < dof_of<Model>(); ++i) std::fprintf(out_, ",dtheta%d", i);
     if (energy_) std::fputs(",kinetic,potential,input_work,dissipated", out_);
-    if (input_) std::fputs(",u", out_);
+    if (inputs_ > 1) {
+      for (int k = 1; k <= inputs_; ++k) std::fprintf(out_, ",u%d", k);
+    } else if (input_) {
+      std::fputs(",u", out_);
+    }
     for (const auto& name : extra_names_) std::fprintf(out_, ",%s", name.c_str());
     if (phase_) std::fputs(",phase", out_);
     std::fputc('\n', out_);
@@ -73,7 +78,18 @@ class CsvSink : public SampleSink {
     if (energy_) {
       for (const double value : energies) std::fprintf(out_, ",%.17g", value);
     }
-    if (input_) std::fprintf(out_, ",%.17g", sample.input / input_gain_);
+    if (inputs_ > 1) {
+      std::fprintf(out_, ",%.17g", sample.input);
+      for (int k = 0; k < sample.more_count; ++k) {
+        if (!std::isfinite(sample.more_inputs[k])) {
+          throw std::runtime_error("refusing to write `" + name_ + "`: the row at t = " + std::to_string(sample.t) +
+                                   " s has a non-finite input (NaN or inf)");
+        }
+        std::fprintf(out_, ",%.17g", sample.more_inputs[k]);
+      }
+    } else if (input_) {
+      std::fprintf(out_, ",%.17g", sample.input / input_gain_);
+    }
     if (extra_) {
       const Eigen::VectorXd values = extra_();
       if (!values.allFinite()) {
@@ -97,6 +113,10 @@ class CsvSink : public SampleSink {
   /// The u column is the applied force or torque divided by `gain` (> 0; default 1): with a DC
   /// motor, gain = b [N or N m per volt] writes u in volts.
   void set_input_gain(double gain) noexcept { input_gain_ = gain; }
+
+  /// A fixed chain's m > 1 inputs: the columns u1..um (in place of u, always written) from the
+  /// samples' input and more_inputs. Call before the run.
+  void set_inputs(int inputs) noexcept { inputs_ = inputs; }
 
   /// Writes the state columns in the rig's `coordinates` (default: ipgen's). first_state() and
   /// last_state() stay in ipgen's. Call before the run.
@@ -156,6 +176,7 @@ class CsvSink : public SampleSink {
   Eigen::VectorXd first_, last_;
   double last_t_ = 0.0, last_input_work_ = 0.0, last_dissipated_ = 0.0;
   double input_gain_ = 1.0;
+  int inputs_ = 1;
   Coordinates coordinates_;
 };
 

@@ -94,6 +94,32 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
   const int n = dof_of<Model>();
   const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(x, n);
   const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(x + n, n);
+  if constexpr (is_runtime<Model>) {
+    if (context.input_matrix != nullptr) {  // a fixed chain: m open-loop inputs through B
+      context.all_inputs[0] = input_at(context, t, x);
+      more_inputs_at(context, t);
+      const auto d = Model::template forward_dynamics_derivatives_inputs<double>(q, qd, context.all_inputs.data(),
+                                                                                 *context.params);
+      jacobian.setZero();
+      jacobian.block(0, n, n, n).setIdentity();
+      jacobian.block(n, 0, n, n) = d.dqdd_dq;
+      jacobian.block(n, n, n, n) = d.dqdd_dqd;
+      if constexpr (has_energy<Model>) {
+        if (context.energy_ledger) {
+          // W_in' = uᵀ Bᵀ θ̇: ∂/∂θ̇ = (B u)ᵀ; E_diss' = 2 D(θ̇) as ledger_jacobian has it.
+          ledger_jacobian<Model>(context, 0.0, qd, StateVectorOf<Model>::Zero(2 * n).eval(), jacobian);
+          for (int i = 0; i < n; ++i) {
+            double force = 0.0;
+            for (int k = 0; k < context.inputs; ++k) {
+              force += context.input_matrix[i * context.inputs + k] * context.all_inputs[static_cast<std::size_t>(k)];
+            }
+            jacobian(2 * n, n + i) = force;
+          }
+        }
+      }
+      return;
+    }
+  }
   const double command = input_at(context, t, x);
   const double u = drive_input(context, command, x) + context.segment_pulse;
   double force = u;  // the base's force or torque: u, or what an acceleration-driven base needs

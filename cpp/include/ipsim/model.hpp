@@ -97,7 +97,11 @@ int dof_of() {
 /// Number of links of `Model`.
 template <class Model>
 int links_of() {
-  return dof_of<Model>() - 1;
+  if constexpr (is_runtime<Model>) {
+    return Model::links();  // a fixed chain: dof = links
+  } else {
+    return dof_of<Model>() - 1;
+  }
 }
 
 /// The model's name ("cdip") and type ("classical" | "rotary").

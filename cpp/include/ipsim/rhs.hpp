@@ -8,6 +8,7 @@
 #include <limits>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 #include <sundials/sundials_nvector.h>
@@ -54,7 +55,39 @@ struct RhsContext {
   int lag_index = -1;
   /// Whether the model has a mass matrix (Coulomb friction acts through it).
   bool has_mass = provides<Model>(Feature::mass_matrix);
+  /// A fixed chain loaded at run time (RuntimeModel::fixed_pivot): its m inputs u = [u, more…]
+  /// through the model's B (input_matrix, dof × m row-major); the ledger's power is uᵀ Bᵀ θ̇.
+  /// Null for every other model (its one input drives the base: power u θ̇0).
+  const double* input_matrix = nullptr;
+  int inputs = 1;
+  const std::vector<Input>* more_inputs = nullptr;  ///< Settings::more_inputs (m − 1)
+  std::vector<double> segment_more;  ///< their values on the current segment (piecewise-constant ones)
+  std::vector<double> all_inputs;    ///< preallocated u (m) for the model's call
 };
+
+/// u_2..u_m of a fixed chain at time t into context.all_inputs[1..m) (all_inputs[0] is the caller's).
+template <class Model>
+void more_inputs_at(RhsContext<Model>& context, double t) {
+  for (int k = 1; k < context.inputs; ++k) {
+    const Input& more = (*context.more_inputs)[static_cast<std::size_t>(k - 1)];
+    context.all_inputs[static_cast<std::size_t>(k)] =
+        more.piecewise_constant() ? context.segment_more[static_cast<std::size_t>(k - 1)] : more.value(t, context.x);
+  }
+}
+
+/// The inputs' power uᵀ Bᵀ θ̇ of a fixed chain (context.all_inputs, B = context.input_matrix).
+template <class Model>
+double inputs_power(const RhsContext<Model>& context, const double* qd, int n) {
+  double power = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double force = 0.0;  // (B u)_i: the generalised force on coordinate i
+    for (int k = 0; k < context.inputs; ++k) {
+      force += context.input_matrix[i * context.inputs + k] * context.all_inputs[static_cast<std::size_t>(k)];
+    }
+    power += force * qd[i];
+  }
+  return power;
+}
 
 /// The input the model sees: u itself, or the lagged drive's state u_a (Settings::lag).
 template <class Model>
@@ -183,6 +216,21 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
   if constexpr (HasDynamicsInto<Model>::value) {
     // A model loaded at run time, without friction or an acceleration-driven base: the same
     // numbers, computed on the state's own arrays (a small model's RHS is mostly copies otherwise).
+    if constexpr (is_runtime<Model>) {
+      if (context.input_matrix != nullptr) {  // a fixed chain: m inputs through B (no friction, lag or pulses)
+        const double u = input_at(context, t, in);
+        context.all_inputs[0] = u;
+        more_inputs_at(context, t);
+        for (int i = 0; i < n; ++i) out[i] = in[n + i];
+        Model::forward_dynamics_inputs_into(in, in + n, context.all_inputs.data(), *context.params, out + n, n);
+        if (context.energy_ledger) {
+          out[2 * n] = inputs_power(context, in + n, n);
+          const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
+          out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + 0.0;
+        }
+        return check_finite(context, t, u, in, out, size);
+      }
+    }
     if (!context.acceleration && !(context.has_mass && context.coulomb_index >= 0)) {
       const double command = input_at(context, t, in);
       const double u = drive_input(context, command, in) + context.segment_pulse;

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 
@@ -71,6 +72,15 @@ struct RuntimeModel {
   static void activate(const ipgen_model* model) { loaded() = model; }
 
   static int dof() { return active().dof; }
+  static int links() { return active().links; }
+  /// m: the inputs u[0..m) (a cart or an arm: 1; a fixed chain: one per driven joint).
+  static int inputs() { return active().inputs; }
+  /// B of M θ̈ + bias = B u (dof × inputs, row-major), or null.
+  static const double* input_matrix() { return active().input_matrix; }
+  /// A fixed chain's driven joints (inputs entries, 1 = the shoulder); null for a cart or an arm.
+  static const int* joints() { return active().joints; }
+  /// Whether the model is a chain on a fixed pivot (dof = links, inputs at joints).
+  static bool fixed_pivot() { return std::string_view(type()) == "fixed"; }
   static const char* name() { return active().name; }
   static const char* type() { return active().type; }
   static const char* inertia() { return active().inertia; }
@@ -126,7 +136,8 @@ struct RuntimeModel {
   static Vector<Scalar> forward_dynamics(const Vector<Scalar>& q, const Vector<Scalar>& qd, Scalar u,
                                          const Params<Scalar>& p) {
     Vector<Scalar> qdd(q.size());
-    if (function(active().forward_dynamics, "forward_dynamics")(q.data(), qd.data(), &u, &p, qdd.data()) != 0) {
+    const Inputs all(u);
+    if (function(active().forward_dynamics, "forward_dynamics")(q.data(), qd.data(), all.u, &p, qdd.data()) != 0) {
       qdd.setConstant(std::numeric_limits<double>::quiet_NaN());
     }
     return qdd;
@@ -136,20 +147,37 @@ struct RuntimeModel {
   /// when M(θ) is not positive definite.
   static void forward_dynamics_into(const double q[], const double qd[], double u, const Params<double>& p,
                                     double qdd[], int n) {
-    if (function(active().forward_dynamics, "forward_dynamics")(q, qd, &u, &p, qdd) != 0) {
+    const Inputs all(u);
+    forward_dynamics_inputs_into(q, qd, all.u, p, qdd, n);
+  }
+  /// forward_dynamics_into with every input: u[0..inputs()).
+  static void forward_dynamics_inputs_into(const double q[], const double qd[], const double u[],
+                                           const Params<double>& p, double qdd[], int n) {
+    if (function(active().forward_dynamics, "forward_dynamics")(q, qd, u, &p, qdd) != 0) {
       for (int i = 0; i < n; ++i) qdd[i] = std::numeric_limits<double>::quiet_NaN();
     }
   }
   template <typename Scalar>
   static Derivatives<Scalar> forward_dynamics_derivatives(const Vector<Scalar>& q, const Vector<Scalar>& qd,
                                                           Scalar u, const Params<Scalar>& p) {
+    const Inputs all(u);
+    return forward_dynamics_derivatives_inputs<Scalar>(q, qd, all.u, p);
+  }
+  /// forward_dynamics_derivatives with every input u[0..inputs()); dqdd_du is ∂θ̈/∂u of the first.
+  template <typename Scalar>
+  static Derivatives<Scalar> forward_dynamics_derivatives_inputs(const Vector<Scalar>& q, const Vector<Scalar>& qd,
+                                                                 const double u[], const Params<Scalar>& p) {
     const Eigen::Index n = q.size();
+    const int m = inputs();
     Derivatives<Scalar> d;
     d.qdd.resize(n);
     d.dqdd_du.resize(n);
     RowMajorMatrix dq(n, n), dqd(n, n);
+    double du[IPGEN_MAX_DOF * IPGEN_MAX_INPUTS];  // dof × inputs, row-major
     if (function(active().forward_dynamics_derivatives, "forward_dynamics_derivatives")(
-            q.data(), qd.data(), &u, &p, d.qdd.data(), dq.data(), dqd.data(), d.dqdd_du.data()) != 0) {
+            q.data(), qd.data(), u, &p, d.qdd.data(), dq.data(), dqd.data(), du) == 0) {
+      for (Eigen::Index i = 0; i < n; ++i) d.dqdd_du(i) = du[i * m];
+    } else {
       const double nan = std::numeric_limits<double>::quiet_NaN();
       d.qdd.setConstant(nan);
       d.dqdd_du.setConstant(nan);
@@ -167,7 +195,12 @@ struct RuntimeModel {
     StateMatrix A(size, size);
     Linearization<Scalar> lin;
     lin.B.resize(size);
-    if (function(active().linearize, "linearize")(q.data(), qd.data(), &u, &p, A.data(), lin.B.data()) != 0) {
+    const Inputs all(u);
+    const int m = inputs();
+    double B[2 * IPGEN_MAX_DOF * IPGEN_MAX_INPUTS];  // 2 dof × inputs, row-major: the first column is lin.B
+    if (function(active().linearize, "linearize")(q.data(), qd.data(), all.u, &p, A.data(), B) == 0) {
+      for (Eigen::Index i = 0; i < size; ++i) lin.B(i) = B[i * m];
+    } else {
       A.setConstant(std::numeric_limits<double>::quiet_NaN());
       lin.B.setConstant(std::numeric_limits<double>::quiet_NaN());
     }
@@ -188,6 +221,14 @@ struct RuntimeModel {
   }
 
  private:
+  /// u[0..inputs()) of a call with one input u: the others 0 (a fixed chain's other motors idle).
+  struct Inputs {
+    double u[IPGEN_MAX_INPUTS];
+    explicit Inputs(double first) {
+      u[0] = first;
+      for (int k = 1; k < active().inputs; ++k) u[k] = 0.0;
+    }
+  };
   static const ipgen_model*& loaded() {
     static const ipgen_model* model = nullptr;
     return model;
@@ -255,8 +296,10 @@ class ModelLibrary {
       return "its sizes are out of range (links " + std::to_string(model.links) + ", dof " +
              std::to_string(model.dof) + "; at most " + std::to_string(IPGEN_MAX_DOF) + " dof)";
     }
-    if (model.inputs != 1) {
-      return "it has " + std::to_string(model.inputs) + " inputs; this simulator drives the base alone";
+    if (model.inputs < 1 || model.inputs > IPGEN_MAX_INPUTS || (!fixed && model.inputs != 1) ||
+        (fixed && (model.joints == nullptr || model.inputs > model.links)) || model.input_matrix == nullptr) {
+      return "its inputs are out of range (" + std::to_string(model.inputs) +
+             " inputs; a cart or an arm has one, a fixed chain one per driven joint with its joints and B)";
     }
     if (model.forward_dynamics == nullptr) return "it has no forward_dynamics";
     return "";

@@ -328,6 +328,59 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
   scene.loop = std::move(measured);
 }
 
+/// `input.amplitude` for `input2.amplitude` (`input` for `input2`: a fixed chain's further inputs,
+/// k >= 2, take the keys of `input`); "" for any other key.
+inline std::string numbered_input_key(const std::string& key) {
+  if (key.rfind("input", 0) != 0) return "";
+  std::size_t end = 5;
+  while (end < key.size() && key[end] >= '0' && key[end] <= '9') ++end;
+  if (end == 5 || key[5] == '0' || (end == 6 && key[5] == '1') || end > 8) return "";
+  if (end < key.size() && key[end] != '.') return "";
+  return "input" + key.substr(end);
+}
+
+/// The input of the keys `prefix` and `prefix.*` (`input`, or `input2`, … for a fixed chain's
+/// further inputs), its amplitudes times b. Only the fields the kind uses are required.
+Input input_of(const SceneFile& file, const std::string& prefix, double b);
+
+/// A fixed chain's keys (a model loaded at run time with type fixed): `joints` must be the
+/// model's, `Ir` and `gr` (optional, one per input: default no rotor, gr 1) into the parameters,
+/// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs. The rig's
+/// coordinates, Coulomb friction and the closed-loop keys are not supported here yet.
+template <class Model>
+void load_fixed(const SceneFile& file, Scene<Model>& scene) {
+  const int m = Model::inputs();
+  const std::vector<double> joints = file.numbers("joints");
+  bool same = joints.size() == static_cast<std::size_t>(m);
+  for (int k = 0; same && k < m; ++k) same = joints[static_cast<std::size_t>(k)] == Model::joints()[k];
+  if (!same) {
+    std::string model_joints;
+    for (int k = 0; k < m; ++k) model_joints += (k ? " " : "") + std::to_string(Model::joints()[k]);
+    file.fail(file.line("joints"), "joints = " + detail::abbreviate(file.text("joints")) + ", model " + name_of<Model>() +
+                                       " is driven at joints " + model_joints);
+  }
+  for (int k = 0; k < m; ++k) scene.params.gr[k] = 1.0;
+  for (const char* key : {"Ir", "gr"}) {
+    if (!file.has(key)) continue;
+    const Eigen::VectorXd values = numbers_of(file, key, m);
+    for (int k = 0; k < m; ++k) {
+      if (!std::isfinite(values(k)) || (key[0] == 'I' ? values(k) < 0.0 : values(k) == 0.0)) {
+        file.fail(file.line(key), std::string(key) + "[" + std::to_string(k) + "] = " + detail::format_number(values(k)) +
+                                      (key[0] == 'I' ? ": an inertia is finite and >= 0" : ": a gear ratio is finite and != 0"));
+      }
+      (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
+    }
+  }
+  for (const char* key : {"angles", "zero", "positive", "coulomb", "controller", "swingup", "actuator", "sensors.measured"}) {
+    if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
+  }
+  for (int k = 2; k <= m; ++k) scene.settings.more_inputs.push_back(input_of(file, "input" + std::to_string(k), 1.0));
+  if (file.has("input" + std::to_string(m + 1))) {
+    file.fail(file.line("input" + std::to_string(m + 1)), "input" + std::to_string(m + 1) + ": model " + name_of<Model>() +
+                                                                " has " + std::to_string(m) + " input(s)");
+  }
+}
+
 /// Builds a Scene for `Model` from a parsed file. Throws SceneError when a key is unknown or
 /// missing, a value does not parse, a list has the wrong length, or the file was written for a
 /// different model (name, type or link count). Parameter and setting ranges are left to
@@ -336,7 +389,9 @@ template <class Model>
 Scene<Model> load(const SceneFile& file) {
   static const std::set<std::string> known(std::begin(cfg::kKeys), std::end(cfg::kKeys));
   for (const auto& key : file.keys()) {
-    if (known.count(key) == 0) file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
+    if (known.count(key) == 0 && known.count(numbered_input_key(key)) == 0) {
+      file.fail(file.line(key), "unknown key `" + detail::abbreviate(key) + "`");
+    }
   }
   check_rules(file);
 
@@ -480,33 +535,10 @@ Scene<Model> load(const SceneFile& file) {
   s.t_end = file.number("t_end");
   s.sample = file.number("sample");
 
-  // Only the fields the chosen input uses are required; the others may be present and are ignored.
   const std::string& kind = file.text("input");
-  if (kind == "zero") {
-    s.input = Input::zero();
-  } else if (kind == "constant") {
-    s.input = Input::constant(b * file.number("input.amplitude"));
-  } else if (kind == "pulse") {
-    s.input = Input::pulse(b * file.number("input.amplitude"), file.number("input.start"), file.number("input.duration"));
-  } else if (kind == "step") {
-    s.input = Input::step(b * file.number("input.amplitude"), file.number("input.time"));
-  } else if (kind == "sine") {
-    s.input = Input::sine(b * file.number("input.amplitude"), file.number("input.frequency"),
-                          file.has("input.phase") ? file.number("input.phase") : 0.0);
-  } else if (kind == "chirp") {
-    const std::string sweep = file.has("input.sweep") ? file.text("input.sweep") : "linear";
-    if (sweep != "linear" && sweep != "logarithmic") {
-      file.fail(file.line("input.sweep"), "input.sweep must be `linear` or `logarithmic`, got `" + detail::abbreviate(sweep) + "`");
-    }
-    s.input = Input::chirp(b * file.number("input.amplitude"), file.number("input.f0"), file.number("input.f1"),
-                           file.number("input.duration"), file.has("input.start") ? file.number("input.start") : 0.0,
-                           sweep == "logarithmic");
-  } else if (kind == "multisine") {
-    s.input = Input::multisine(b * file.number("input.amplitude"), file.numbers("input.frequencies"),
-                               file.numbers("input.phases"), file.number("input.scale"));
-  } else {
-    file.fail(file.line("input"), "input must be zero, constant, pulse, step, sine, chirp or multisine, got `" +
-                                      detail::abbreviate(kind) + "`");
+  s.input = input_of(file, "input", b);
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) load_fixed<Model>(file, scene);
   }
   if (file.has("limits.travel")) {
     scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
@@ -664,6 +696,34 @@ IPSIM_DECL Eigen::VectorXd numbers_of(const SceneFile& file, const std::string& 
     file.fail(file.line(key), "`" + key + "` has " + std::to_string(values.size()) + " values, expected " + std::to_string(count));
   }
   return Eigen::Map<const Eigen::VectorXd>(values.data(), count).eval();
+}
+
+IPSIM_DECL Input input_of(const SceneFile& file, const std::string& prefix, double b) {
+  const std::string& kind = file.text(prefix);
+  auto key = [&](const char* field) { return prefix + "." + field; };
+  if (kind == "zero") return Input::zero();
+  if (kind == "constant") return Input::constant(b * file.number(key("amplitude")));
+  if (kind == "pulse") return Input::pulse(b * file.number(key("amplitude")), file.number(key("start")), file.number(key("duration")));
+  if (kind == "step") return Input::step(b * file.number(key("amplitude")), file.number(key("time")));
+  if (kind == "sine") {
+    return Input::sine(b * file.number(key("amplitude")), file.number(key("frequency")),
+                       file.has(key("phase")) ? file.number(key("phase")) : 0.0);
+  }
+  if (kind == "chirp") {
+    const std::string sweep = file.has(key("sweep")) ? file.text(key("sweep")) : "linear";
+    if (sweep != "linear" && sweep != "logarithmic") {
+      file.fail(file.line(key("sweep")), key("sweep") + " must be `linear` or `logarithmic`, got `" + detail::abbreviate(sweep) + "`");
+    }
+    return Input::chirp(b * file.number(key("amplitude")), file.number(key("f0")), file.number(key("f1")),
+                        file.number(key("duration")), file.has(key("start")) ? file.number(key("start")) : 0.0,
+                        sweep == "logarithmic");
+  }
+  if (kind == "multisine") {
+    return Input::multisine(b * file.number(key("amplitude")), file.numbers(key("frequencies")), file.numbers(key("phases")),
+                            file.number(key("scale")));
+  }
+  file.fail(file.line(prefix), prefix + " must be zero, constant, pulse, step, sine, chirp or multisine, got `" +
+                                   detail::abbreviate(kind) + "`");
 }
 
 IPSIM_DECL Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols) {

@@ -122,7 +122,11 @@ struct Settings {
   double t_end = 10.0;       ///< final time [s], > 0; the run starts at t = 0
   VectorOf<Model> theta = zero_vector<Model>();   ///< initial θ: base [m or rad], link angles [rad]
   VectorOf<Model> dtheta = zero_vector<Model>();  ///< initial θ̇ [m/s or rad/s]
-  Input input;               ///< u(t) on θ0 [N or N m]
+  Input input;               ///< u(t) on θ0 [N or N m] (a fixed chain: the torque of its first driven joint)
+  /// A fixed chain with m > 1 inputs (a model loaded at run time): u_2..u_m, the torques of its
+  /// other driven joints [N m], in the order of the model's joints; open-loop signals only (no
+  /// feedback or sampled input). Empty otherwise.
+  std::vector<Input> more_inputs;
   /// Also integrate the input work W_in = ∫ u θ̇0 dt (∫ τ θ̇0 dt with `acceleration`) and the dissipated energy E_diss = ∫ 2D dt
   /// [J] as two extra CVODE states (they take part in error control), reported in Result.
   bool energy_ledger = false;
@@ -272,6 +276,21 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   }
   const auto input_problems = settings.input.problems();
   found.insert(found.end(), input_problems.begin(), input_problems.end());
+  for (std::size_t k = 0; k < settings.more_inputs.size(); ++k) {
+    const Input& more = settings.more_inputs[k];
+    const std::string name = "input" + std::to_string(k + 2);
+    if (more.kind == Input::Kind::feedback || more.kind == Input::Kind::sampled) {
+      found.push_back("invalid setting " + name + ": a fixed chain's further inputs are open-loop signals");
+      continue;
+    }
+    for (std::string problem : more.problems()) {  // "... input.amplitude ..." -> "... input2.amplitude ..."
+      if (const auto at = problem.find("input"); at != std::string::npos) problem.replace(at, 5, name);
+      found.push_back(std::move(problem));
+    }
+  }
+  if (!settings.more_inputs.empty() && (settings.acceleration || settings.lag > 0.0 || !settings.pulses.empty())) {
+    found.emplace_back("invalid setting input2: more than one input with an acceleration-driven base, a lag or pulses");
+  }
   return found;
 }
 

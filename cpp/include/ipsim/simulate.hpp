@@ -79,6 +79,11 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
     switching.push_back(pulse.start);
     switching.push_back(pulse.start + pulse.duration);
   }
+  for (const Input& more : settings.more_inputs) {  // a fixed chain's other inputs switch too
+    const std::vector<double> times = more.switching_times(settings.t_end);
+    switching.insert(switching.end(), times.begin(), times.end());
+  }
+  std::vector<double> more_values(settings.more_inputs.size(), 0.0);  // u_2..u_m of a sample
   StopSchedule schedule(settings.t_end, settings.sample, std::move(switching), sampled ? settings.input.period : 0.0);
   sink.begin(static_cast<std::size_t>(schedule.sample_count()), 2 * n, settings.energy_ledger);
 
@@ -127,6 +132,19 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
       rhs_context.segment_input = 0.0;
     }
     result.max_abs_input = std::max(result.max_abs_input, std::abs(rhs_context.segment_input));
+    if (!settings.more_inputs.empty()) {  // a fixed chain's other inputs on this segment, from its middle
+      StopSchedule ahead = schedule;
+      double end = start;
+      while (const auto stop = ahead.next()) {
+        end = stop->t;
+        if (stop->restart) break;
+      }
+      for (std::size_t k = 0; k < settings.more_inputs.size(); ++k) {
+        const Input& more = settings.more_inputs[k];
+        rhs_context.segment_more[k] = more.piecewise_constant() ? more.value(0.5 * (start + end), rhs_context.x) : 0.0;
+        result.max_abs_input = std::max(result.max_abs_input, std::abs(rhs_context.segment_more[k]));
+      }
+    }
   };
   // The sample at t: the state, the ledger, and u (the segment's value, or the input evaluated
   // at the recorded state). False when the sink stops the run.
@@ -146,6 +164,13 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
       sample.dissipated_energy = y_values(2 * n + 1);
     }
     sample.input = u;
+    for (std::size_t k = 0; k < settings.more_inputs.size(); ++k) {
+      const Input& more = settings.more_inputs[k];
+      more_values[k] = more.piecewise_constant() ? rhs_context.segment_more[k] : more.value(t, rhs_context.x);
+      result.max_abs_input = std::max(result.max_abs_input, std::abs(more_values[k]));
+    }
+    sample.more_inputs = more_values.data();
+    sample.more_count = static_cast<int>(more_values.size());
     if (rhs_context.coulomb_index >= 0) result.coulomb_dissipated = y_values(rhs_context.coulomb_index);
     ++result.samples;
     return sink.record(sample);
@@ -184,6 +209,21 @@ std::vector<std::string> model_setting_problems(const Settings<Model>& settings)
   if (settings.acceleration && !provides<Model>(Feature::mass_and_bias)) {
     problems.push_back(std::string("invalid setting acceleration-driven base: model ") + name_of<Model>() +
                        " has no mass_matrix and bias (regenerate its header without specialising it)");
+  }
+  if constexpr (is_runtime<Model>) {
+    const bool fixed = Model::fixed_pivot();
+    if (static_cast<int>(settings.more_inputs.size()) != Model::inputs() - 1) {
+      problems.push_back("invalid setting inputs: model " + std::string(name_of<Model>()) + " has " +
+                         std::to_string(Model::inputs()) + " input(s), the settings give " +
+                         std::to_string(settings.more_inputs.size() + 1));
+    }
+    if (fixed && (settings.acceleration || settings.lag > 0.0 || !settings.pulses.empty() ||
+                  (settings.coulomb.array() != 0.0).any())) {
+      problems.emplace_back("invalid setting actuator/coulomb: a fixed chain takes no acceleration drive, lag, pulses "
+                            "or Coulomb friction in the simulator yet");
+    }
+  } else if (!settings.more_inputs.empty()) {
+    problems.emplace_back("invalid setting input2: only a fixed chain loaded at run time has more than one input");
   }
   if (settings.energy_ledger && !provides<Model>(Feature::energy)) {
     problems.push_back(std::string("invalid setting energy ledger: model ") + name_of<Model>() +
@@ -264,6 +304,15 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
     rhs_context.lag_index = size - 1;
   }
   rhs_context.x = Eigen::VectorXd::Zero(2 * n);
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) {  // m inputs through B (rhs.hpp)
+      rhs_context.input_matrix = Model::input_matrix();
+      rhs_context.inputs = Model::inputs();
+      rhs_context.more_inputs = &settings.more_inputs;
+      rhs_context.segment_more.assign(settings.more_inputs.size(), 0.0);
+      rhs_context.all_inputs.assign(static_cast<std::size_t>(rhs_context.inputs), 0.0);
+    }
+  }
   detail::Diagnostics diagnostics{{}, &result.warnings};
 
   switch (family_of(settings.method)) {

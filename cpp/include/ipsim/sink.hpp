@@ -21,6 +21,9 @@ struct Sample {
   double input_work = 0.0, dissipated_energy = 0.0;
   /// u [N or N m] at t: applied from t on (at t_end: the value applied just before).
   double input = 0.0;
+  /// A fixed chain with m > 1 inputs: u_2..u_m at t (more_count = m − 1 entries), else none.
+  const double* more_inputs = nullptr;
+  int more_count = 0;
 
   /// The state as an Eigen vector (a view of `state`).
   Eigen::Map<const Eigen::VectorXd> x() const { return {state, state_size}; }

@@ -1,0 +1,290 @@
+"""`ipgen run` of a fixed-pivot scene (`[system] type = "fixed"`): its run plan.
+
+A fixed scene for `ipgen run` has, besides the chain's [system], [parameters] and [actuator]
+(scene/fixed.py), the tables of an open-loop run:
+
+    [initial]     theta, dtheta: one entry per link (link 1 first), default 0 (upright, at rest)
+    [input]       m = 1 (one driven joint): the torque of that joint, as any scene's [input]
+    [[input]]     m > 1: one table per driven joint, in the order of [actuator] joints
+                  (one [input] table is refused then, and so is a count other than m)
+    [simulation]  as any scene's;  [outputs] energy = true adds the energy ledger
+
+Each input is the torque [N m] of the motor at its joint, in ipgen's sense (clockwise positive).
+What the simulator does not take for a fixed chain yet is refused in one line: [controller],
+[swingup] and the measured loop's tables (open-loop runs only), Coulomb friction, and the rig's
+coordinates (`angles`, `zero`, `positive` other than ipgen's).
+
+The resolved config holds `type = fixed`, `joints`, `Ir`, `gr` (one per input), the per-link
+parameters and state (no base entry), `input` and `input.*` for the first input, and `input2`,
+`input2.*`, ... for the others (the keys of `input` under a numbered prefix).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, render_fixed
+from ipgen.common.safetext import quote_path
+from ipgen.common.version import __version__
+from ipgen.errors import Error
+from ipgen.experiment.config import CFG_KEYS
+from ipgen.experiment.scene import InputSpec
+from ipgen.model.fixed import FixedPendulum
+from ipgen.pipeline.run_plan import RunPlan
+from ipgen.scene import schema
+from ipgen.scene.fields import Reader, format_number
+from ipgen.scene.fixed import KEYS as CHAIN_KEYS
+from ipgen.scene.fixed import NOT_YET, fixed_pendulum_of
+
+# The tables of a fixed scene that `ipgen run` reads beyond the chain's.
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs")
+SUPPORTED = "[system], [parameters], [actuator], [initial], [input] (or [[input]]), [simulation], [outputs]"
+
+
+class _Tables(schema.BaseModel):
+    """The run's tables of a fixed scene (validated as any scene's, in this order)."""
+
+    model_config = schema.ConfigDict(extra="forbid")
+
+    simulation: schema.SimulationTable
+    outputs: schema.OutputsTable
+    input: schema.Input
+
+
+class _InputReader(Reader):
+    """A Reader whose messages name the [[input]] table they are about."""
+
+    def __init__(self, path: Path, which: str) -> None:
+        super().__init__(path)
+        self.which = which
+
+    def fail(self, message: str) -> Any:
+        super().fail(f"{self.which}: {message}")
+
+
+def _validated(reader: Reader, tables: dict[str, Any]) -> _Tables:
+    from pydantic import TypeAdapter, ValidationError
+
+    from ipgen.scene.load import _refuse
+
+    context: dict[str, Any] = {}
+    try:
+        return TypeAdapter(_Tables).validate_python(tables, context=context)
+    except ValidationError as error:
+        _refuse(reader, tables, error.errors(include_url=False), context)
+
+
+def _spec(table: Any) -> InputSpec:
+    return InputSpec(
+        kind=table.kind,
+        **{
+            key: value if isinstance(value := getattr(table, key), str) else float(value)
+            for key in schema.INPUT_KEYS[table.kind]
+        },
+    )
+
+
+def _state(reader: Reader, initial: Any, key: str, links: int) -> tuple[float, ...]:
+    import math
+    from decimal import Decimal
+
+    value = initial.get(key)
+    if value is None:
+        return (0.0,) * links
+    if not isinstance(value, list) or len(value) != links:
+        reader.bad(
+            f"initial.{key}", value, f"expected {links} numbers (one per link, link 1 first; no base entry)"
+        )
+    numbers = []
+    for i, item in enumerate(value):
+        if isinstance(item, bool) or not isinstance(item, int | float | Decimal):
+            reader.bad(f"initial.{key}[{i}]", item, "expected a number")
+        number = float(item)
+        if not math.isfinite(number):
+            reader.bad(f"initial.{key}[{i}]", item, "must be a finite number")
+        numbers.append(number)
+    return tuple(numbers)
+
+
+def fixed_inputs(
+    reader: Reader, document: dict[str, Any], joints: tuple[int, ...]
+) -> tuple[Any, tuple[InputSpec, ...]]:
+    """(the [simulation]/[outputs] tables, one InputSpec per driven joint) of a fixed scene;
+    `SceneError` (one line) for a bad table."""
+    given = document.get("input")
+    simulation, outputs = document.get("simulation", {}), document.get("outputs", {})
+    m = len(joints)
+    if m == 1:
+        if isinstance(given, list):
+            if len(given) != 1:
+                reader.fail(
+                    f"[[input]] has {len(given)} tables, this chain has 1 driven joint ({joints[0]}): "
+                    "give one [input] table"
+                )
+            given = given[0]
+        tables = _validated(
+            reader, {"simulation": simulation, "outputs": outputs, "input": given or {"kind": "zero"}}
+        )
+        return tables, (_spec(tables.input),)
+    if isinstance(given, dict) and given:
+        reader.fail(
+            f"[input] is one table, this chain has {m} driven joints ({', '.join(map(str, joints))}): "
+            f"give one [[input]] table per joint, in the order of [actuator] joints"
+        )
+    items = given if isinstance(given, list) else [{"kind": "zero"}] * m
+    if len(items) != m:
+        reader.fail(
+            f"[[input]] has {len(items)} tables, this chain has {m} driven joints "
+            f"({', '.join(map(str, joints))}): one [[input]] table per joint, in their order"
+        )
+    specs = []
+    tables = None
+    for k, (item, joint) in enumerate(zip(items, joints, strict=True), start=1):
+        which = _InputReader(reader.path, f"[[input]] {k} (joint {joint})")
+        if not isinstance(item, dict):
+            which.bad("input", item, "expected a table")
+        tables = _validated(
+            which, {"simulation": simulation, "outputs": outputs, "input": item or {"kind": "zero"}}
+        )
+        specs.append(_spec(tables.input))
+    assert tables is not None
+    return tables, tuple(specs)
+
+
+def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum) -> None:
+    for table in document:
+        if table in CHAIN_KEYS or table in RUN_TABLES:
+            continue
+        if table in ("controller", "swingup", "sensors", "estimator"):
+            reader.fail(
+                f"[{table}] on a fixed-pivot chain: ipgen run simulates fixed chains open-loop for now "
+                f"(supported: {SUPPORTED})"
+            )
+        reader.fail(f"unknown table [{table}] in a fixed scene (ipgen run reads {SUPPORTED})")
+    initial = document.get("initial", {})
+    if not isinstance(initial, dict):
+        reader.bad("initial", initial, "expected a table: [initial] on a line of its own")
+    for key in initial:
+        if key not in ("theta", "dtheta"):
+            reader.fail(f"unknown key 'initial.{key}' (expected: theta, dtheta)")
+    if any(chain.coulomb or ()):
+        reader.fail(
+            f"parameters.coulomb: Coulomb friction in ipgen run is {NOT_YET} (remove it or set it to 0; "
+            "ipgen.FixedPendulum and ipgen identify read it)"
+        )
+    if not chain.coordinates.is_canonical:
+        reader.fail(
+            f"[system] angles/zero/positive: the rig's coordinates in ipgen run are {NOT_YET} (ipgen's only: "
+            'angles = "absolute", zero = "upright", positive = "clockwise")'
+        )
+    for i, inertia in enumerate(chain.resolved("J")):
+        if inertia < 0:
+            reader.bad(f"parameters.J[{i}]", inertia, f"a negative inertia in ipgen run is {NOT_YET}")
+
+
+def model_name(chain: FixedPendulum) -> str:
+    """The model (library) name of a chain: fixed<n>_j<joints>, e.g. fixed2_j1_2."""
+    return f"fixed{chain.links}_j{'_'.join(map(str, chain.joints))}"
+
+
+def _put(lines: list[str], key: str, value: object) -> None:
+    base = key
+    if key.startswith("input") and key[5:6].isdigit():  # input2, input2.amplitude: input's keys
+        base = "input" + key[5:].lstrip("0123456789")
+    if base not in CFG_KEYS:
+        raise KeyError(f"{key!r} is not a key of the resolved config (CFG_KEYS)")
+    if isinstance(value, bool):
+        text = "true" if value else "false"
+    elif isinstance(value, float):
+        text = format_number(value)
+    elif isinstance(value, tuple | list):
+        text = " ".join(format_number(float(item)) for item in value)
+    else:
+        text = str(value)
+    lines.append(f"{key} = {text}")
+
+
+def fixed_config(
+    path: Path,
+    chain: FixedPendulum,
+    name: str,
+    theta: tuple[float, ...],
+    dtheta: tuple[float, ...],
+    inputs: tuple[InputSpec, ...],
+    settings: dict[str, Any],
+    energy: bool,
+) -> str:
+    """The resolved config of a fixed scene's run (module docstring)."""
+    lines = [f"# Generated by ipgen {__version__} from {quote_path(path.as_posix())}; do not edit"]
+    _put(lines, "name", path.stem)
+    _put(lines, "model", name)
+    _put(lines, "type", "fixed")
+    _put(lines, "links", chain.links)
+    _put(lines, "joints", [float(j) for j in chain.joints])
+    _put(lines, "m", chain.m)
+    _put(lines, "l", chain.l)
+    _put(lines, "delta", chain.delta)
+    _put(lines, "g", chain.g)
+    _put(lines, "com", chain.resolved("com"))
+    _put(lines, "J", chain.resolved("J"))
+    _put(lines, "Ir", chain.motor("Ir"))
+    _put(lines, "gr", chain.motor("gr"))
+    _put(lines, "theta", theta)
+    _put(lines, "dtheta", dtheta)
+    for k, spec in enumerate(inputs, start=1):
+        prefix = "input" if k == 1 else f"input{k}"
+        _put(lines, prefix, spec.kind)
+        for key, value in spec.fields():
+            _put(lines, f"{prefix}.{key}", value)
+        if spec.kind == "multisine":
+            _put(lines, f"{prefix}.frequencies", spec.lines.frequencies)
+            _put(lines, f"{prefix}.phases", spec.lines.phases)
+            _put(lines, f"{prefix}.scale", spec.lines.scale)
+    for key in ("t_end", "sample", "method", "jacobian", "step", "rtol", "atol", "max_steps"):
+        if settings.get(key) is not None:
+            _put(lines, key, settings[key])
+    if energy:
+        _put(lines, "energy", True)
+    return "\n".join(lines) + "\n"
+
+
+def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
+    """The run plan of a fixed scene (its checks first, each problem one line)."""
+    chain_tables = {table: value for table, value in document.items() if table in CHAIN_KEYS}
+    chain = fixed_pendulum_of(reader, chain_tables)
+    _check_tables(reader, document, chain)
+    initial = document.get("initial", {})
+    theta = _state(reader, initial, "theta", chain.links)
+    dtheta = _state(reader, initial, "dtheta", chain.links)
+    tables, inputs = fixed_inputs(reader, document, tuple(chain.joints))
+    name = model_name(chain)
+    request = FixedHeaderRequest(
+        name,
+        chain.links,
+        tuple(chain.joints),
+        fixed_command(name, chain.links, tuple(chain.joints), ("library",)),
+    )
+    try:
+        sources = {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}
+    except Error as exc:  # pragma: no cover - the chain was checked
+        reader.fail(str(exc))
+    cfg = fixed_config(
+        path, chain, name, theta, dtheta, inputs, tables.simulation.settings(), bool(tables.outputs.energy)
+    )
+    return RunPlan(
+        name=name,
+        stem=path.stem,
+        type="fixed",
+        links=chain.links,
+        angles="absolute",
+        zero="upright",
+        positive="clockwise",
+        unit=None,
+        warnings=(),
+        cfg=cfg,
+        sources=sources,
+    )
+
+
+__all__ = ["fixed_config", "fixed_inputs", "fixed_plan", "model_name"]
