@@ -60,12 +60,14 @@ $(VENV)/.installed: pyproject.toml | deps-build
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
 	@if $(PY) -m pip show -q ipgen >/dev/null 2>&1; then $(PY) -m pip uninstall -q -y ipgen; fi
-	@# uv installs what pip would, in parallel: a fresh .venv in about 35 s instead of pip's
-	@# 70-90 s, which make test waits for (docs/testing.md). It writes the .pyc files here, on purpose:
-	@# a user's later runs of .venv/bin/ipgen, where PYTHONDONTWRITEBYTECODE is set, would compile
-	@# sympy & co. again. pip does it where uv cannot be installed or cannot reach the index (uv
-	@# reads no pip configuration).
-	$(PY) -m pip install -q uv && $(VENV)/bin/uv pip install -q --python $(PY) --compile-bytecode -e '.[test]' \
+	@# uv installs what pip would, in parallel: a fresh .venv in about 10 s instead of pip's
+	@# 70-90 s, which make test waits for (docs/testing.md). It compiles no .pyc files (that took
+	@# 20-25 s more, for every module of sympy, scipy, matplotlib & co., most never imported): each
+	@# module's .pyc is written the first time a recipe's Python imports it (PYTHONDONTWRITEBYTECODE
+	@# is unexported above), so after make test or make demo the modules ipgen uses have theirs.
+	@# pip does it where uv cannot be installed or cannot reach the index (uv reads no pip
+	@# configuration).
+	$(PY) -m pip install -q uv && $(VENV)/bin/uv pip install -q --python $(PY) -e '.[test]' \
 	  || $(PY) -m pip install -q -e '.[test]'
 	@touch $@
 
