@@ -79,6 +79,8 @@ typedef struct {
   int qp_iterations;            /* interior-point iterations per QP at most */
   ipgen_mpc_real qp_tolerance;  /* stop when the QP's residuals and gap are <= it */
   int shift;                    /* 1: a warm start is shifted by one sample first (a loop); 0: not */
+  int line_search;              /* 1: backtrack on the l1 merit function (converged mode); 0: full steps */
+  int cold_iterations;          /* SQP iterations at most on a cold start (the first step), if more */
 } ipgen_mpc_settings;
 
 /* What a step did. */
@@ -376,9 +378,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
 /* The QP's largest residual: stationarity (the reduced gradient in the inputs and slacks, through
  * the adjoint of the dynamics) relative to `scale` (the cost gradient's largest entry, at least
  * 1), primal (|a z - s + t - b|) and the mean complementarity. Needs ipgen_mpc_gradient's gl, gs
- * and the primal residuals rp. */
+ * and the primal residuals rp. `costate`: the dynamics' largest multiplier (the adjoint's entry). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_real mu,
-                                                     ipgen_mpc_real scale) {
+                                                     ipgen_mpc_real scale, ipgen_mpc_real *costate) {
   const int nx = s->nx, nu = s->nu, N = s->N;
   const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
   ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
@@ -387,7 +389,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s
   for (i = 0; i < M; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->rp[i]));
   for (i = 0; i < nS; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->gs[i]) / scale);
   for (a = 0; a < nx; ++a) v[a] = l->gl[N * nx + a];
+  *costate = (ipgen_mpc_real)0;
   for (k = N - 1; k >= 0; --k) {
+    for (a = 0; a < nx; ++a) *costate = ipgen_mpc_max(*costate, ipgen_mpc_abs(v[a]));
     const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
     const long o = (long)(N + 1) * nx + (long)k * nu;
     for (a = 0; a < nu; ++a) {
@@ -609,8 +613,10 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, lon
 
 /* Solves the QP about the guess (z's x_0 part and the defects d set by the caller) by the
  * primal-dual interior-point method with Mehrotra's predictor-corrector; at most qp_iterations
- * iterations. Returns 0 (converged to qp_tolerance), 2 (budget reached), 4 (a breakdown). */
-IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info) {
+ * iterations. Returns 0 (converged to qp_tolerance), 2 (budget reached), 4 (a breakdown);
+ * `costate`: the dynamics' largest multiplier at the last iterate. */
+IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info,
+                                  ipgen_mpc_real *costate) {
   const int nx = s->nx, nu = s->nu, N = s->N;
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
   const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
@@ -647,7 +653,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
       mu += l->lam[i] * l->t[i];
     }
     mu = M > 0 ? mu / (ipgen_mpc_real)M : zero;
-    residual = ipgen_mpc_qp_residual(s, l, mu, ipgen_mpc_gradient(s, l));
+    residual = ipgen_mpc_qp_residual(s, l, mu, ipgen_mpc_gradient(s, l), costate);
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
     if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
@@ -701,28 +707,71 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
  * input at u_ref clipped to its bounds). */
 IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc_real)0; }
 
-/* The problem's cost (the header's comment) of the trajectory held in `work` (states and inputs
- * as they are, soft violations from the states). */
-IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
+/* The problem's cost (the header's comment) of the trajectory traj (states x_0..x_N, then the
+ * inputs; soft violations from the states) and, when dz is not null, its derivative along dz
+ * (the soft penalty's where a bound is violated). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[],
+                                                         const ipgen_mpc_real dz[], ipgen_mpc_real *slope) {
   const int nx = s->nx, nu = s->nu, N = s->N;
-  const ipgen_mpc_real *x = work + 1, *u = work + 1 + (long)(N + 1) * nx;
-  ipgen_mpc_real cost = (ipgen_mpc_real)0;
+  const ipgen_mpc_real *x = traj, *u = traj + (long)(N + 1) * nx;
+  const ipgen_mpc_real *dx = dz, *du = dz ? dz + (long)(N + 1) * nx : 0;
+  ipgen_mpc_real cost = (ipgen_mpc_real)0, d = (ipgen_mpc_real)0;
   int k, a, b, j;
   for (k = 0; k <= N; ++k) {
     const ipgen_mpc_real *W = k == N ? s->P : s->Q;
     for (a = 0; a < nx; ++a)
-      for (b = 0; b < nx; ++b) cost += (x[k * nx + a] - s->x_ref[a]) * W[a * nx + b] * (x[k * nx + b] - s->x_ref[b]);
+      for (b = 0; b < nx; ++b) {
+        const ipgen_mpc_real w = (x[k * nx + a] - s->x_ref[a]) * W[a * nx + b];
+        cost += w * (x[k * nx + b] - s->x_ref[b]);
+        if (dz && k > 0) d += (ipgen_mpc_real)2 * w * dx[k * nx + b];
+      }
     if (k > 0)
       for (j = 0; j < s->soft_count; ++j) {
-        const ipgen_mpc_real v = x[k * nx + s->soft_index[j]];
-        const ipgen_mpc_real over = ipgen_mpc_max(v - s->soft_max[j], s->soft_min[j] - v);
-        if (over > 0) cost += s->soft_linear[j] * over + s->soft_quadratic[j] * over * over;
+        const int i = k * nx + s->soft_index[j];
+        const ipgen_mpc_real above = x[i] - s->soft_max[j], below = s->soft_min[j] - x[i];
+        const ipgen_mpc_real over = ipgen_mpc_max(above, below);
+        if (over > 0) {
+          cost += s->soft_linear[j] * over + s->soft_quadratic[j] * over * over;
+          if (dz) d += (s->soft_linear[j] + (ipgen_mpc_real)2 * s->soft_quadratic[j] * over) * (above > below ? dx[i] : -dx[i]);
+        }
       }
     if (k == N) break;
     for (a = 0; a < nu; ++a)
-      for (b = 0; b < nu; ++b) cost += (u[k * nu + a] - s->u_ref[a]) * s->R[a * nu + b] * (u[k * nu + b] - s->u_ref[b]);
+      for (b = 0; b < nu; ++b) {
+        const ipgen_mpc_real w = (u[k * nu + a] - s->u_ref[a]) * s->R[a * nu + b];
+        cost += w * (u[k * nu + b] - s->u_ref[b]);
+        if (dz) d += (ipgen_mpc_real)2 * w * du[k * nu + b];
+      }
   }
+  if (slope) *slope = d;
   return cost;
+}
+
+/* The l1 merit function cost + weight (sum_k |F(x_k, u_k) - x_{k+1}|_1 + |x - x_0|_1) of the
+ * trajectory traj for the estimate x; `defects` the sum when already known (negative: computed
+ * here, by one RK4 sample per stage without sensitivities). Returns 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real traj[],
+                                    const ipgen_mpc_real x[], ipgen_mpc_real weight, ipgen_mpc_real defects,
+                                    ipgen_mpc_real *merit) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  int k, i;
+  if (defects < 0) {
+    defects = (ipgen_mpc_real)0;
+    for (k = 0; k < N; ++k) {
+      if (ipgen_mpc_rk4_layout(s, l, traj + (long)k * nx, traj + (long)(N + 1) * nx + (long)k * nu, l->p, 0, 0) != 0)
+        return 1;
+      for (i = 0; i < nx; ++i) defects += ipgen_mpc_abs(l->p[i] - traj[(long)(k + 1) * nx + i]);
+    }
+    for (i = 0; i < nx; ++i) defects += ipgen_mpc_abs(x[i] - traj[i]);
+  }
+  *merit = ipgen_mpc_trajectory_cost(s, traj, 0, 0) + weight * defects;
+  return 0;
+}
+
+/* The problem's cost (the header's comment) of the trajectory held in `work` (states and inputs
+ * as they are, soft violations from the states). */
+IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
+  return ipgen_mpc_trajectory_cost(s, work + 1, 0, 0);
 }
 
 /* 0 if the settings describe a problem (sizes >= 1, finite period, bounds ordered, indices in
@@ -744,8 +793,9 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
 
 /* One controller step: u (nu) for the state estimate x (nx), from the problem of the header's
  * comment solved about the warm start held in `work` (IPGEN_MPC_WORK entries; shifted by one
- * sample first when s->shift), or cold after ipgen_mpc_reset. Up to sqp_iterations Gauss-Newton
- * SQP iterations, each: the RK4 map and its sensitivities at every stage, then one QP. u is
+ * sample first when s->shift), or cold after ipgen_mpc_reset (every x_k at the estimate, u_k at
+ * u_ref clipped). Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
+ * start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
  * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
 IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
@@ -754,8 +804,8 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
   ipgen_mpc_info own;
   ipgen_mpc_layout l;
-  ipgen_mpc_real *us;
-  int k, i, iteration, status = IPGEN_MPC_OK;
+  ipgen_mpc_real *us, weight = (ipgen_mpc_real)0, previous = (ipgen_mpc_real)0;
+  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK;
   if (info == 0) info = &own;
   info->status = IPGEN_MPC_OK;
   info->sqp_iterations = info->qp_iterations = 0;
@@ -766,7 +816,9 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
   }
   ipgen_mpc_carve(s, work, &l);
   us = l.traj + (long)(N + 1) * nx;
+  budget = s->sqp_iterations;
   if (!(*l.warm > 0)) {
+    if (s->cold_iterations > budget) budget = s->cold_iterations;
     for (k = 0; k <= N; ++k)
       for (i = 0; i < nx; ++i) l.traj[k * nx + i] = x[i];
     for (k = 0; k < N; ++k)
@@ -781,8 +833,9 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
       for (i = 0; i < nu; ++i) us[k * nu + i] = us[(k + 1) * nu + i];
   }
   *l.warm = (ipgen_mpc_real)1;
-  for (iteration = 0; iteration < s->sqp_iterations; ++iteration) {
-    ipgen_mpc_real defect = (ipgen_mpc_real)0, step = (ipgen_mpc_real)0;
+  for (iteration = 0; iteration < budget; ++iteration) {
+    ipgen_mpc_real defect = (ipgen_mpc_real)0, defects = (ipgen_mpc_real)0, step = (ipgen_mpc_real)0;
+    ipgen_mpc_real costate = (ipgen_mpc_real)0, alpha = (ipgen_mpc_real)1;
     int qp;
     for (k = 0; k < N; ++k) { /* linearise: F, dF/dx, dF/du and the defects */
       ipgen_mpc_real *dk = l.d + (long)k * nx;
@@ -794,29 +847,55 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
       for (i = 0; i < nx; ++i) {
         dk[i] -= l.traj[(long)(k + 1) * nx + i];
         defect = ipgen_mpc_max(defect, ipgen_mpc_abs(dk[i]));
+        defects += ipgen_mpc_abs(dk[i]);
       }
     }
     if (status != IPGEN_MPC_OK) break;
     info->defect = defect;
-    if (iteration > 0 && s->sqp_tolerance > 0 && info->step <= s->sqp_tolerance && defect <= s->sqp_tolerance) break;
-    for (i = 0; i < nx; ++i) l.z[i] = x[i] - l.traj[i];
-    qp = ipgen_mpc_qp(s, &l, info);
+    /* converged: the step and the defects below the tolerance; or the step below its square root
+     * and no longer halving for 3 iterations (the interior point's accuracy at a degenerate
+     * constraint, O(sqrt(gap)) in the primal, is the floor: the input is then exact far below it) */
+    if (iteration > 0 && s->sqp_tolerance > 0 && defect <= s->sqp_tolerance &&
+        (info->step <= s->sqp_tolerance || stalled >= 3))
+      break;
+    for (i = 0; i < nx; ++i) {
+      l.z[i] = x[i] - l.traj[i];
+      defects += ipgen_mpc_abs(l.z[i]);
+    }
+    qp = ipgen_mpc_qp(s, &l, info, &costate);
     info->sqp_iterations += 1;
     if (qp == IPGEN_MPC_NOT_FINITE) {
       status = qp;
       break;
     }
     if (qp == IPGEN_MPC_QP_BUDGET) info->status = IPGEN_MPC_QP_BUDGET;
-    for (i = 0; i < Z; ++i) {
-      l.traj[i] += l.z[i];
-      step = ipgen_mpc_max(step, ipgen_mpc_abs(l.z[i]));
+    for (i = 0; i < Z; ++i) step = ipgen_mpc_max(step, ipgen_mpc_abs(l.z[i]));
+    /* backtracking (Armijo) on the l1 merit function, its weight above the costates; full steps
+     * once the step is small (1e-3: the local phase, where the merit function would cut steps
+     * that are good: the Maratos effect) */
+    if (s->line_search && step > (ipgen_mpc_real)1e-3) {
+      ipgen_mpc_real merit0 = (ipgen_mpc_real)0, merit = (ipgen_mpc_real)0, slope = (ipgen_mpc_real)0;
+      int tries;
+      weight = ipgen_mpc_max(weight, (ipgen_mpc_real)1.1 * costate + (ipgen_mpc_real)1e-3);
+      ipgen_mpc_merit(s, &l, l.traj, x, weight, defects, &merit0);
+      ipgen_mpc_trajectory_cost(s, l.traj, l.z, &slope);
+      slope -= weight * defects;
+      for (tries = 0; tries < 20; ++tries, alpha *= (ipgen_mpc_real)0.5) {
+        for (i = 0; i < Z; ++i) l.dir[i] = l.traj[i] + alpha * l.z[i];
+        if (ipgen_mpc_merit(s, &l, l.dir, x, weight, (ipgen_mpc_real)-1, &merit) != 0) continue;
+        if (merit <= merit0 + (ipgen_mpc_real)1e-4 * alpha * slope) break;
+      }
+      if (tries == 20) alpha = (ipgen_mpc_real)1; /* no decrease found (rounding at the optimum): take the step */
     }
+    for (i = 0; i < Z; ++i) l.traj[i] += alpha * l.z[i];
     if (!ipgen_mpc_finite(step)) {
       status = IPGEN_MPC_NOT_FINITE;
       break;
     }
+    stalled = iteration > 0 && step <= ipgen_mpc_sqrt(s->sqp_tolerance) && step > (ipgen_mpc_real)0.5 * previous ? stalled + 1 : 0;
+    previous = step;
     info->step = step;
-    if (iteration + 1 == s->sqp_iterations && s->sqp_tolerance > 0 && !(step <= s->sqp_tolerance))
+    if (iteration + 1 == budget && s->sqp_tolerance > 0 && !(step <= s->sqp_tolerance))
       info->status = IPGEN_MPC_SQP_BUDGET;
   }
   if (status != IPGEN_MPC_OK) {

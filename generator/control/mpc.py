@@ -53,7 +53,7 @@ PRECISIONS = {
 }
 MODES = ("rti", "converged")
 MAX_DOF = 41  # IPGEN_MAX_DOF
-LAYOUT_ENTRIES = 37  # IPGEN_MPC_MODEL_LAYOUT
+LAYOUT_ENTRIES = 39  # IPGEN_MPC_MODEL_LAYOUT
 STATUS = {
     0: "ok",
     1: "model failed",
@@ -82,6 +82,7 @@ def _settings_type(real: type) -> type[ctypes.Structure]:
         ("soft_linear", p), ("soft_quadratic", p),
         ("sqp_iterations", ctypes.c_int), ("sqp_tolerance", real),
         ("qp_iterations", ctypes.c_int), ("qp_tolerance", real), ("shift", ctypes.c_int),
+        ("line_search", ctypes.c_int), ("cold_iterations", ctypes.c_int),
     ]  # fmt: skip
     return type(f"Settings_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
 
@@ -128,7 +129,8 @@ def _layout(real: type) -> list[int]:
 
     names = ("period", "substeps", "dynamics", "context", "Q", "u_ref", "u_max", "hard_count", "hard_index",
              "hard_max", "soft_count", "soft_index", "soft_quadratic", "sqp_iterations", "sqp_tolerance",
-             "qp_iterations", "qp_tolerance", "shift")  # fmt: skip
+             "qp_iterations", "qp_tolerance", "shift", "line_search",
+             "cold_iterations")  # fmt: skip
     return [
         ctypes.sizeof(real), ctypes.sizeof(settings), *(at(settings, n) for n in names),
         ctypes.sizeof(info),
@@ -334,6 +336,7 @@ class Mpc:
         substeps: int,
         mode: str,
         sqp_iterations: int | None,
+        cold_iterations: int,
         qp_iterations: int | None,
         sqp_tolerance: float | None,
         qp_tolerance: float | None,
@@ -395,10 +398,11 @@ class Mpc:
         self.period, self.substeps = float(period), substeps
         converged = mode == "converged"
         eps = 1e-10 if precision == "double" else 1e-4
-        self.sqp_iterations = sqp_iterations or (100 if converged else 1)
+        self.sqp_iterations = sqp_iterations or (500 if converged else 1)
         self.qp_iterations = qp_iterations or (50 if converged else 20)
         self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else (eps if converged else 0.0)
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else (eps if converged else 10 * eps)
+        self.cold_iterations = cold_iterations
         self._setup()
         self.P = self.lqr_terminal() if P is None else weights(P, 1.0, nx)[0]
         self._arrays["P"][:] = self.P.reshape(-1)
@@ -458,6 +462,8 @@ class Mpc:
         settings.sqp_iterations, settings.sqp_tolerance = self.sqp_iterations, self.sqp_tolerance
         settings.qp_iterations, settings.qp_tolerance = self.qp_iterations, self.qp_tolerance
         settings.shift = 1
+        settings.line_search = int(self.mode == "converged")
+        settings.cold_iterations = self.cold_iterations
         self._settings = settings
         self._dtype = dtype
         self._info = _info_type(real)()
@@ -531,18 +537,18 @@ class Mpc:
             u_0 of the solution.
         """
         s = self._settings
-        saved = (s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift)
+        saved = (s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search)
         eps = 1e-10 if self.precision == "double" else 1e-4
-        s.sqp_iterations = max(saved[0], 100)
+        s.sqp_iterations = max(saved[0], 500)
         s.sqp_tolerance = eps if saved[1] <= 0 else min(saved[1], eps)
         s.qp_iterations = max(saved[2], 50)
         s.qp_tolerance = min(saved[3], eps)
-        s.shift = 0
+        s.shift, s.line_search = 0, 1
         try:
             self.reset()
             return self.step(x)
         finally:
-            s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift = saved
+            s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search = saved
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """(states (N+1) × nx, inputs N × nu) held in the workspace: the last step's solution
@@ -605,6 +611,7 @@ def mpc(
     substeps: int = 1,
     mode: str = "rti",
     sqp_iterations: int | None = None,
+    cold_iterations: int = 10,
     qp_iterations: int | None = None,
     sqp_tolerance: float | None = None,
     qp_tolerance: float | None = None,
@@ -649,8 +656,11 @@ def mpc(
         "rti": one SQP iteration per step on the shifted warm start (real-time iteration);
         "converged": iterate to `sqp_tolerance` (validation).
     sqp_iterations, qp_iterations : int, optional
-        Budgets: SQP iterations per step (rti 1, converged 100) and interior-point iterations per
+        Budgets: SQP iterations per step (rti 1, converged 500) and interior-point iterations per
         QP (rti 20, converged 50).
+    cold_iterations : int, default 10
+        SQP iterations at most on a cold start (the first step, or after `reset`), if more than
+        `sqp_iterations`: the real-time iteration starts from a solved problem.
     sqp_tolerance, qp_tolerance : float, optional
         Stop when the SQP step and defects (rti: 0, run the budget; converged 1e-10) and the QP's
         residuals (rti 1e-9, converged 1e-10; float 1e-3 and 1e-4) are below.
@@ -681,6 +691,7 @@ def mpc(
         pendulum, horizon=horizon, period=period, Q=Q, R=R, P=P, u_max=u_max, u_min=u_min, travel=travel,
         bounds=bounds, soft_bounds=soft_bounds, soft_penalty=soft_penalty, reference=reference,
         substeps=substeps,
-        mode=mode, sqp_iterations=sqp_iterations, qp_iterations=qp_iterations, sqp_tolerance=sqp_tolerance,
+        mode=mode, sqp_iterations=sqp_iterations, cold_iterations=cold_iterations,
+        qp_iterations=qp_iterations, sqp_tolerance=sqp_tolerance,
         qp_tolerance=qp_tolerance, precision=precision,
     )  # fmt: skip
