@@ -113,7 +113,7 @@ enum {
  * predicted states x_0..x_N, followed by the N nu inputs u_0..u_{N-1}. */
 #define IPGEN_MPC_WORK(nx, nu, N, hard, soft)                                                                   \
   (1 + 6 * IPGEN_MPC_VARIABLES(nx, nu, N) + (N) * ((nx) * (nx) + (nx) * (nu) + (nx)) +                       \
-   4 * IPGEN_MPC_SLACKS(N, soft) + 6 * IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) +                            \
+   4 * IPGEN_MPC_SLACKS(N, soft) + 8 * IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) +                            \
    (N) * ((nu) * (nx) + (nu) * (nu) + (nu)) + 3 * (nx) * (nx) + 2 * (nx) + 2 * (nu) * (nx) + (nu) * (nu) +    \
    (nu) + (nx) * (nx) + (nx) * (nu) + 4 * (nx) + 4 * (nx) * ((nx) + (nu)))
 
@@ -126,6 +126,7 @@ typedef struct {
   ipgen_mpc_real *nu_tmp;                     /* adjoint, (N + 1) nx + N nu (only nx used at a time) */
   ipgen_mpc_real *sig, *dsig, *hs, *gs;       /* soft slacks, their step, reduced curvature and gradient */
   ipgen_mpc_real *t, *lam, *dt, *dlam, *rp, *rc; /* inequality slacks, multipliers, steps, residuals */
+  ipgen_mpc_real *code, *bound;               /* per inequality: a (var + 1) (0: a slack's), its bound */
   ipgen_mpc_real *K, *L, *kff;                /* Riccati gains, Cholesky factors, feedforward */
   ipgen_mpc_real *Pm, *Pn, *AtP, *p, *pn, *BtP, *Se, *Re, *g; /* Riccati temporaries */
   ipgen_mpc_real *Ac, *Bc, *xt, *k, *ksum, *xn, *S, *Ss, *dk, *dksum; /* RK4 temporaries */
@@ -158,6 +159,8 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   IPGEN_MPC_TAKE(dlam, M);
   IPGEN_MPC_TAKE(rp, M);
   IPGEN_MPC_TAKE(rc, M);
+  IPGEN_MPC_TAKE(code, M);
+  IPGEN_MPC_TAKE(bound, M);
   IPGEN_MPC_TAKE(K, (long)N * nu * nx);
   IPGEN_MPC_TAKE(L, (long)N * nu * nu);
   IPGEN_MPC_TAKE(kff, (long)N * nu);
@@ -281,15 +284,15 @@ IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_rea
  * soft slacks s, numbered: inputs (2 N nu), hard state bounds (2 N hard), soft ones (2 N soft),
  * then the slacks' s >= 0 (2 N soft). */
 
-/* Inequality i: the variable's index in z (-1: a slack's s >= 0), its sign a, the slack's index
- * (-1: none) and the bound b at the current guess. */
-IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[], long i, long *var,
-                                          ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
+/* Inequality i decoded from the settings: the variable's index in z (-1: a slack's s >= 0), its
+ * sign a and the bound's value (max for a = +1, min for a = -1; 0 for a slack's). Divisions: run
+ * once per step by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
+IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long *var, ipgen_mpc_real *sign,
+                                      ipgen_mpc_real *value) {
   const long N = s->N, nx = s->nx, nu = s->nu, nh = s->hard_count, ns = s->soft_count;
   const long nU = 2 * N * nu, nH = 2 * N * nh, nS = 2 * N * ns;
   ipgen_mpc_real lo, hi;
   long r;
-  *soft = -1;
   if (i < nU) {
     const long k = i / (2 * nu), j = (i % (2 * nu)) / 2;
     r = i;
@@ -306,23 +309,47 @@ IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipg
     const long ii = i - nU - nH, k = 1 + ii / (2 * ns), j = (ii % (2 * ns)) / 2;
     r = ii;
     *var = k * nx + s->soft_index[j];
-    *soft = ii;
     lo = s->soft_min[j];
     hi = s->soft_max[j];
   } else {
     *var = -1;
-    *soft = i - nU - nH - nS;
     *sign = (ipgen_mpc_real)0;
+    *value = (ipgen_mpc_real)0;
+    return;
+  }
+  *sign = r % 2 == 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+  *value = r % 2 == 0 ? hi : lo;
+}
+
+/* The table of the inequalities: code = a (var + 1) (0 for a slack's s >= 0) and the bound's value
+ * (max for a = +1, min for a = -1), from the settings alone. */
+IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const long M = IPGEN_MPC_INEQUALITIES(s->nu, s->N, s->hard_count, s->soft_count);
+  long i, var;
+  ipgen_mpc_real sign;
+  for (i = 0; i < M; ++i) {
+    ipgen_mpc_decode(s, i, &var, &sign, &l->bound[i]);
+    l->code[i] = sign * (ipgen_mpc_real)(var + 1);
+  }
+}
+
+/* Inequality i from the table: the variable's index in z (-1: a slack's s >= 0), its sign a, the
+ * slack's index (-1: none) and the bound b = a (bound - traj[var]) at the current guess. */
+IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, long i, long *var,
+                                          ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
+  const long first_soft = 2 * (long)s->N * (s->nu + s->hard_count), nS = IPGEN_MPC_SLACKS(s->N, s->soft_count);
+  const ipgen_mpc_real e = l->code[i];
+  if (e == 0) {
+    *var = -1;
+    *sign = (ipgen_mpc_real)0;
+    *soft = i - first_soft - nS;
     *b = (ipgen_mpc_real)0;
     return;
   }
-  if (r % 2 == 0) {
-    *sign = (ipgen_mpc_real)1;
-    *b = hi - traj[*var];
-  } else {
-    *sign = (ipgen_mpc_real)-1;
-    *b = traj[*var] - lo;
-  }
+  *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+  *var = (long)(e > 0 ? e : -e) - 1;
+  *soft = i >= first_soft ? i - first_soft : -1;
+  *b = *sign * (l->bound[i] - l->traj[*var]);
 }
 
 /* The value a z[var] - s[soft] of inequality i at (z, sig), or a's and the slack's part of a step. */
@@ -368,7 +395,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
   for (i = 0; i < Z; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gl[i]));
   for (i = 0; i < nS; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gs[i]));
   for (i = 0; i < M; ++i) {
-    ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     if (var >= 0) l->gl[var] += sign * l->lam[i];
     if (soft >= 0) l->gs[soft] -= l->lam[i];
   }
@@ -565,7 +592,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipg
   ipgen_mpc_real sign, bound;
   for (i = 0; i < Z; ++i) l->rhs[i] = l->gl[i];
   for (i = 0; i < first_soft; ++i) { /* inputs and hard bounds: a (effective - lam) */
-    ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     l->rhs[var] += sign * (ipgen_mpc_effective(l, i) - l->lam[i]);
   }
   for (i = 0; i < nS; ++i) { /* a soft bound's relaxed inequality r and its slack's s >= 0, n */
@@ -573,7 +600,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipg
     const ipgen_mpc_real er = ipgen_mpc_effective(l, r), en = ipgen_mpc_effective(l, n);
     const ipgen_mpc_real sr = l->lam[r] / l->t[r];
     const ipgen_mpc_real gsig = l->gs[i] - (er - l->lam[r]) - (en - l->lam[n]);
-    ipgen_mpc_inequality(s, l->traj, r, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
     l->dsig[i] = gsig;
     l->rhs[var] += sign * (er - l->lam[r]) + sign * sr * gsig / l->hs[i];
   }
@@ -588,12 +615,12 @@ IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_
   ipgen_mpc_real sign, bound;
   for (i = 0; i < nS; ++i) {
     const long r = first_soft + i;
-    ipgen_mpc_inequality(s, l->traj, r, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
     l->dsig[i] = (sign * l->lam[r] / l->t[r] * l->dir[var] - l->dsig[i]) / l->hs[i];
   }
   for (i = 0; i < M; ++i) {
     ipgen_mpc_real cd;
-    ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     cd = ipgen_mpc_constraint(var, sign, soft, l->dir, l->dsig);
     l->dt[i] = -l->rp[i] - cd;
     l->dlam[i] = (l->lam[i] * (l->rp[i] + cd) - l->rc[i]) / l->t[i];
@@ -637,18 +664,18 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
   for (i = 0; i < nS; ++i) l->sig[i] = zero;
   for (i = 0; i < first_soft + nS; ++i) {
-    ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     if (soft >= 0) l->sig[soft] = ipgen_mpc_max(l->sig[soft], sign * l->z[var] - bound);
   }
   for (i = 0; i < M; ++i) {
-    ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     l->t[i] = ipgen_mpc_max(bound - ipgen_mpc_constraint(var, sign, soft, l->z, l->sig), one);
     l->lam[i] = one;
   }
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, mu_aff = zero, alpha, centring, residual;
     for (i = 0; i < M; ++i) {
-      ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
       l->rp[i] = ipgen_mpc_constraint(var, sign, soft, l->z, l->sig) + l->t[i] - bound;
       mu += l->lam[i] * l->t[i];
     }
@@ -662,14 +689,14 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     /* the Hessian's diagonal: Sigma = lam / t on each bounded variable, the slacks eliminated */
     for (i = 0; i < Z; ++i) l->hd[i] = zero;
     for (i = 0; i < first_soft; ++i) {
-      ipgen_mpc_inequality(s, l->traj, i, &var, &sign, &soft, &bound);
+      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
       l->hd[var] += l->lam[i] / l->t[i];
     }
     for (i = 0; i < nS; ++i) {
       const long r = first_soft + i, n = first_soft + nS + i;
       const ipgen_mpc_real sr = l->lam[r] / l->t[r];
       l->hs[i] = (ipgen_mpc_real)2 * s->soft_quadratic[ipgen_mpc_soft_bound(s, i)] + sr + l->lam[n] / l->t[n];
-      ipgen_mpc_inequality(s, l->traj, r, &var, &sign, &soft, &bound);
+      ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
       l->hd[var] += sr - sr * sr / l->hs[i];
     }
     /* A Riccati breakdown (Re not positive definite: Sigma's spread beyond the precision, at the
@@ -816,6 +843,7 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
   }
   ipgen_mpc_carve(s, work, &l);
   us = l.traj + (long)(N + 1) * nx;
+  ipgen_mpc_encode(s, &l);
   budget = s->sqp_iterations;
   if (!(*l.warm > 0)) {
     if (s->cold_iterations > budget) budget = s->cold_iterations;
