@@ -247,8 +247,10 @@ def main() -> None:
         ["  one interior-point iteration (the difference)", f"{1e6 * per_iteration:.1f}", "–"],
         ["DAQP on the condensed QP (solve only; warm active set)", us(rows["daqp"]), daqp_error],
         ["  DAQP's Python call on a 1-variable QP (its binding's share)", us(rows["daqp_empty"]), "–"],
-        ["OSQP on the sparse QP, eps 1e-6 (solve only; warm)", us(rows["osqp6"]), f"{max(errors['osqp6']):.1e}"],
-        ["OSQP on the sparse QP, eps 1e-3 (solve only; warm)", us(rows["osqp3"]), f"{max(errors['osqp3']):.1e}"],
+        *(
+            [f"OSQP, sparse QP, eps {eps} (solve only; warm)", us(rows[name]), f"{max(errors[name]):.1e}"]
+            for name, eps in (("osqp6", "1e-6"), ("osqp3", "1e-3"))
+        ),
         ["converged mode (`solve`, cold, to 1e-10)", us(rows["converged"]), "–"],
         ["IPOPT, whole NLP, cold (tol 1e-12)", us(rows["ipopt"]), f"vs converged {max(errors['ipopt']):.1e}"],
         ["IPOPT, whole NLP, warm-started from the last solution", us(rows["ipopt_warm"]), "–"],
