@@ -18,7 +18,6 @@ arm angle [rad], θ1..θn the absolute link angles from upright, clockwise posit
 from __future__ import annotations
 
 import ctypes
-import tempfile
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -39,6 +38,7 @@ from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
+from ipgen.errors import Error
 from ipgen.model.pendulum import Pendulum
 
 __all__ = ["MODES", "Mpc", "MpcError", "StepInfo", "mpc"]
@@ -221,51 +221,19 @@ def library(precision: str = "double") -> ctypes.CDLL:
 
 
 def model_library(pendulum: Pendulum) -> ctypes.CDLL:
-    """The compiled model library (ipgen_model.h) of `pendulum`'s system, general in its
-    parameters: generated (`--emit library`) and compiled into `<cache>/models/` as `ipgen run`
-    does, loaded once per process and system."""
-    from ipgen.pipeline.generate import generate
-    from ipgen.pipeline.simulator import (
-        BuildError,
-        c_compiler,
-        compile_command,
-        compiler_version,
-        library_key,
-    )
+    """The compiled model library (ipgen_model.h) of `pendulum`'s system, loaded once per process
+    and system (`ipgen.pipeline.model_library`: generated and compiled into the cache as `ipgen
+    run` does; imported here, on request, from the later stage that builds it)."""
+    from ipgen.pipeline.model_library import compiled_model_library
 
-    system = pendulum.system
     with _lock:
-        if system in _models:
-            return _models[system]
-        name = f"mpc_{system.type}{system.links}_{system.inertia}"
-        with tempfile.TemporaryDirectory() as scratch:
-            generate(system, name, Path(scratch), force=True, emit=("library",))
-            texts = {
-                f"{name}{suffix}": (Path(scratch) / f"{name}{suffix}").read_text()
-                for suffix in (".h", "_model.c")
-            }
-        try:
-            cc = c_compiler()
-            recipe = Recipe(
-                sources=texts,
-                command=lambda entry, output: compile_command(cc, entry, name, output),
-                error=BuildError,
-                failed=lambda output: f"compiling the model library failed: {last_error_line(output)}",
-                what=f"the model library of {name}",
-                noun="model library",
-            )
-            built = cached_build(
-                cache_root() / "models",
-                library_key(cc, texts, compiler_version(cc)),
-                f"libipgen_{name}.so",
-                recipe,
-            )
-            lib = ctypes.CDLL(str(built.path))
-        except (BuildError, OSError) as e:
-            raise MpcError(f"the model library of {name}: {e}") from None
-        lib.ipgen_model_get.restype = ctypes.c_void_p
-        _models[system] = lib
-        return lib
+        system = pendulum.system
+        if system not in _models:
+            try:
+                _models[system] = compiled_model_library(system)
+            except Error as e:
+                raise MpcError(str(e)) from None
+        return _models[system]
 
 
 # ---- the design --------------------------------------------------------------------------------
@@ -397,11 +365,13 @@ class Mpc:
         self.soft_penalty = (linear, quadratic)
         self.period, self.substeps = float(period), substeps
         converged = mode == "converged"
-        eps = 1e-10 if precision == "double" else 1e-4
+        double = precision == "double"
         self.sqp_iterations = sqp_iterations or (500 if converged else 1)
         self.qp_iterations = qp_iterations or (50 if converged else 20)
-        self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else (eps if converged else 0.0)
-        self.qp_tolerance = qp_tolerance if qp_tolerance is not None else (eps if converged else 10 * eps)
+        sqp_eps = (1e-10 if double else 1e-4) if converged else 0.0
+        self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else sqp_eps
+        qp_eps = (1e-10 if converged else 1e-9) if double else 1e-5
+        self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
         self._setup()
         self.P = self.lqr_terminal() if P is None else weights(P, 1.0, nx)[0]
@@ -538,11 +508,11 @@ class Mpc:
         """
         s = self._settings
         saved = (s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search)
-        eps = 1e-10 if self.precision == "double" else 1e-4
+        sqp_eps, qp_eps = (1e-10, 1e-10) if self.precision == "double" else (1e-4, 1e-5)
         s.sqp_iterations = max(saved[0], 500)
-        s.sqp_tolerance = eps if saved[1] <= 0 else min(saved[1], eps)
+        s.sqp_tolerance = sqp_eps if saved[1] <= 0 else min(saved[1], sqp_eps)
         s.qp_iterations = max(saved[2], 50)
-        s.qp_tolerance = min(saved[3], eps)
+        s.qp_tolerance = min(saved[3], qp_eps)
         s.shift, s.line_search = 0, 1
         try:
             self.reset()
@@ -662,8 +632,8 @@ def mpc(
         SQP iterations at most on a cold start (the first step, or after `reset`), if more than
         `sqp_iterations`: the real-time iteration starts from a solved problem.
     sqp_tolerance, qp_tolerance : float, optional
-        Stop when the SQP step and defects (rti: 0, run the budget; converged 1e-10) and the QP's
-        residuals (rti 1e-9, converged 1e-10; float 1e-3 and 1e-4) are below.
+        Stop when the SQP step and defects (rti: 0, run the budget; converged 1e-10, float 1e-4)
+        and the QP's largest residual (rti 1e-9, converged 1e-10; float 1e-5) are below.
     precision : str, default "double"
         "double" or "float" (the C step compiled with IPGEN_MPC_REAL=float; the model in double).
 
@@ -683,7 +653,10 @@ def mpc(
 
     >>> import ipgen
     >>> controller = ipgen.mpc(ipgen.Pendulum.preset("qube_servo2"), u_max=10.0, travel=1.0)
-    >>> u = controller.step([0.0, 0.05, 0.0, 0.0])
+    >>> u = controller.step([0.0, 0.05, 0.0, 0.0])  # cold: cold_iterations SQP iterations
+    >>> controller.info.sqp_iterations
+    10
+    >>> u = controller.step([0.0, 0.04, 0.0, 0.0])  # then one a sample
     >>> bool(-10.0 <= u <= 10.0), controller.info.status, controller.info.sqp_iterations
     (True, 'ok', 1)
     """
