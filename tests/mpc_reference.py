@@ -14,6 +14,30 @@ from ipgen.control.casadi_model import Plant, casadi_model, import_casadi
 from ipgen.control.mpc import Mpc
 
 
+def flow(controller: Mpc) -> Any:
+    """F(x, u): `controller`'s sample of RK4 (`substeps` steps over `period`, u held) on the exact
+    model's CasADi expressions (the motor folded in: force or torque gain · u), an SX function."""
+    ca = import_casadi()
+    c = controller
+    model = casadi_model(Plant(c.pendulum.folded()))
+    dof, nx = c.pendulum.dof, c.nx
+    gain = float(c.pendulum.gain)
+    x, u = ca.SX.sym("x", nx), ca.SX.sym("u")
+
+    def f(state: Any) -> Any:
+        return ca.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], gain * u))
+
+    h = c.period / c.substeps
+    state = x
+    for _ in range(c.substeps):
+        k1 = f(state)
+        k2 = f(state + h / 2 * k1)
+        k3 = f(state + h / 2 * k2)
+        k4 = f(state + h * k3)
+        state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("F", [x, u], [state])
+
+
 class IpoptReference:
     """The NLP of `controller`'s problem with x_0 a parameter. `solve(x0)` returns (u_0, the
     inputs); `states` then holds the states (nx × (N + 1)). `F` is the RK4 map (CasADi)."""
@@ -21,23 +45,8 @@ class IpoptReference:
     def __init__(self, controller: Mpc) -> None:
         ca = import_casadi()
         c = controller
-        model = casadi_model(Plant(c.pendulum.folded()))
-        dof, nx, N = c.pendulum.dof, c.nx, c.N
-        gain = float(c.pendulum.gain)
-        x, u = ca.SX.sym("x", nx), ca.SX.sym("u")
-
-        def f(state: Any) -> Any:
-            return ca.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], gain * u))
-
-        h = c.period / c.substeps
-        state = x
-        for _ in range(c.substeps):
-            k1 = f(state)
-            k2 = f(state + h / 2 * k1)
-            k3 = f(state + h / 2 * k2)
-            k4 = f(state + h * k3)
-            state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        self.F = ca.Function("F", [x, u], [state])
+        nx, N = c.nx, c.N
+        self.F = flow(c)
         X, U, x0 = ca.SX.sym("X", nx, N + 1), ca.SX.sym("U", 1, N), ca.SX.sym("x0", nx)
         ns = len(c.soft)
         above, below = ca.SX.sym("above", ns, N), ca.SX.sym("below", ns, N)

@@ -3,8 +3,9 @@
 - Converged mode against CasADi + IPOPT on the same optimal-control problem (tests/mpc_reference.py:
   the same RK4 discretisation built independently from the exact model's CasADi expressions,
   the same weights, terminal weight and bounds), first input within 1e-6 at 20 seeded random
-  states, for the QUBE-Servo 2 preset (rotary1, DC motor, ±10 V, arm travel ±1 rad) and the cart
-  double pendulum (classical2, rail ±1 m, ±10 N); the bounds must be active in some of them.
+  states, for the QUBE-Servo 2 preset (rotary1, DC motor, ±10 V, arm travel ±1 rad), the same
+  with soft state bounds, and the cart double pendulum (classical2, rail ±1 m, ±10 N); the bounds
+  must be active (the soft ones violated) in some of them.
 - The RK4 sensitivities of the C code against CasADi's Jacobians of the same RK4 and central
   differences of the C map.
 - The real-time iteration in closed loop with the exact model integrated by scipy (solve_ivp):
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mpc_reference import IpoptReference
+from mpc_reference import IpoptReference, flow
 
 import ipgen
 from ipgen.control.linear import vector_field
@@ -65,8 +66,15 @@ def cdip_fast(**options: object) -> Mpc:
 
 
 # (controller, lower and upper corner of the random states)
+def qube_soft(**options: object) -> Mpc:
+    """The QUBE with soft bounds besides the hard ones: the arm beyond ±0.7 rad and the link's rate
+    beyond ±8 rad/s cost s + 100 s²."""
+    return qube(soft_bounds={0: (-0.7, 0.7), 3: (-8.0, 8.0)}, soft_penalty=(1.0, 100.0), **options)
+
+
 CASES = {
     "qube": (qube, [-0.9, -0.3, -1, -1], [0.9, 0.3, 1, 1]),
+    "qube-soft": (qube_soft, [-0.9, -0.3, -1, -1], [0.9, 0.3, 1, 1]),
     "cdip": (cdip, [-0.6, -0.02, -0.02, -0.3, -0.1, -0.1], [0.6, 0.02, 0.02, 0.3, 0.1, 0.1]),
 }
 
@@ -77,7 +85,7 @@ def test_the_converged_mode_equals_ipopt(case: str) -> None:
     controller = make(mode="converged")
     reference = IpoptReference(controller)
     rng = np.random.default_rng(47)
-    u_active = travel_active = 0
+    u_active = travel_active = soft_violated = 0
     for _ in range(20):
         x = rng.uniform(lo, hi)
         u = controller.solve(x)
@@ -88,7 +96,9 @@ def test_the_converged_mode_equals_ipopt(case: str) -> None:
         states = reference.states
         u_active += bool(np.any(np.abs(inputs) > controller.u_max - 1e-6))
         travel_active += bool(np.max(np.abs(states[0])) > 1.0 - 1e-6)
+        soft_violated += any(np.any(np.abs(states[i, 1:]) > hi + 1e-6) for i, _, hi in controller.soft)
     assert u_active >= 3 and travel_active >= 1, (u_active, travel_active)  # the bounds were exercised
+    assert soft_violated >= 3 if controller.soft else soft_violated == 0, soft_violated
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -96,9 +106,9 @@ def test_the_rk4_sensitivities_equal_casadi_and_differences(case: str) -> None:
     import casadi as ca
 
     controller = CASES[case][0]()
-    flow = IpoptReference(controller).F
+    F = flow(controller)
     x_sym, u_sym = ca.SX.sym("x", controller.nx), ca.SX.sym("u")
-    image = flow(x_sym, u_sym)
+    image = F(x_sym, u_sym)
     jacobians = ca.Function(
         "J", [x_sym, u_sym], [image, ca.jacobian(image, x_sym), ca.jacobian(image, u_sym)]
     )

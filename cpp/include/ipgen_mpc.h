@@ -96,7 +96,7 @@ typedef struct {
 enum {
   IPGEN_MPC_OK = 0,
   IPGEN_MPC_MODEL_FAILED = 1, /* the model failed: u is the warm start's, the next step starts cold */
-  IPGEN_MPC_QP_BUDGET = 2,    /* a QP stopped above qp_tolerance: its budget, or a late breakdown (u applied) */
+  IPGEN_MPC_QP_BUDGET = 2,    /* the last QP stopped above qp_tolerance: its budget, or a late breakdown (u applied) */
   IPGEN_MPC_SQP_BUDGET = 3,   /* sqp_tolerance > 0 not reached within sqp_iterations (u applied) */
   IPGEN_MPC_NOT_FINITE = 4,   /* a QP's Riccati recursion broke down or produced NaN: as MODEL_FAILED */
   IPGEN_MPC_BAD_SETTINGS = 5  /* a size or a bound that no problem has: nothing done, u = u_ref */
@@ -896,7 +896,7 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
       status = qp;
       break;
     }
-    if (qp == IPGEN_MPC_QP_BUDGET) info->status = IPGEN_MPC_QP_BUDGET;
+    info->status = qp == IPGEN_MPC_QP_BUDGET ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_OK; /* the last QP's */
     for (i = 0; i < Z; ++i) step = ipgen_mpc_max(step, ipgen_mpc_abs(l.z[i]));
     /* backtracking (Armijo) on the l1 merit function, its weight above the costates; full steps
      * once the step is small (1e-3: the local phase, where the merit function would cut steps
