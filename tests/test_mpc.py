@@ -4,8 +4,9 @@
   the same RK4 discretisation built independently from the exact model's CasADi expressions,
   the same weights, terminal weight and bounds), first input within 1e-6 at 20 seeded random
   states, for the QUBE-Servo 2 preset (rotary1, DC motor, ±10 V, arm travel ±1 rad), the same
-  with soft state bounds, and the cart double pendulum (classical2, rail ±1 m, ±10 N); the bounds
-  must be active (the soft ones violated) in some of them.
+  with soft state bounds, and the cart double pendulum (classical2, rail ±1 m, ±10 N), with the
+  exact Hessian and with Gauss-Newton's; the bounds must be active (the soft ones violated) in
+  some of them.
 - The RK4 sensitivities of the C code against CasADi's Jacobians of the same RK4 and central
   differences of the C map.
 - The real-time iteration in closed loop with the exact model integrated by scipy (solve_ivp):
@@ -82,7 +83,8 @@ CASES = {
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_the_converged_mode_equals_ipopt(case: str) -> None:
     make, lo, hi = CASES[case]
-    controller = make(mode="converged")
+    controller = make(mode="converged")  # the exact Hessian by default
+    gauss_newton = make(mode="converged", hessian="gauss-newton")
     reference = IpoptReference(controller)
     rng = np.random.default_rng(47)
     u_active = travel_active = soft_violated = 0
@@ -93,6 +95,7 @@ def test_the_converged_mode_equals_ipopt(case: str) -> None:
         assert controller.info is not None and controller.info.status in ("ok", "SQP budget reached"), x
         u_ref, inputs = reference.solve(x)
         assert abs(u - u_ref) <= AGREEMENT, (x, u, u_ref)
+        assert abs(gauss_newton.solve(x) - u_ref) <= AGREEMENT, (x, gauss_newton.info)
         states = reference.states
         u_active += bool(np.any(np.abs(inputs) > controller.u_max - 1e-6))
         travel_active += bool(np.max(np.abs(states[0])) > 1.0 - 1e-6)
@@ -198,7 +201,7 @@ static int model(void *context, const ipgen_mpc_real x[], const ipgen_mpc_real u
 }
 #define HORIZON 20
 int main(void) {
-  static ipgen_mpc_real work[IPGEN_MPC_WORK(2, 1, HORIZON, 1, 1)];
+  static ipgen_mpc_real work[IPGEN_MPC_WORK(2, 1, HORIZON, 1, 1) + IPGEN_MPC_WORK_HESSIAN(2, 1, HORIZON)];
   const ipgen_mpc_real Q[4] = {1, 0, 0, 1}, R[1] = {1}, x_ref[2] = {0, 0}, u_ref[1] = {0};
   const ipgen_mpc_real u_min[1] = {-1}, u_max[1] = {1}, lo[1] = {-2}, hi[1] = {2};
   const ipgen_mpc_real v_lo[1] = {-1}, v_hi[1] = {1};
@@ -215,6 +218,7 @@ int main(void) {
   s.soft_count = 1; s.soft_index = speed; s.soft_min = v_lo; s.soft_max = v_hi; s.soft_linear = linear;
   s.soft_quadratic = quadratic; s.sqp_iterations = 1; s.sqp_tolerance = 0; s.qp_iterations = 20;
   s.qp_tolerance = (ipgen_mpc_real)1e-6; s.shift = 1; s.line_search = 0; s.cold_iterations = 5;
+  s.exact_hessian = 1; /* used by the cold start's iterations 2..5 */
   if (ipgen_mpc_work_size(&s) != (long)(sizeof work / sizeof work[0])) return 2;
   ipgen_mpc_reset(work);
   for (k = 0; k < 150; ++k) {

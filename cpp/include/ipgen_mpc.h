@@ -81,6 +81,10 @@ typedef struct {
   int shift;                    /* 1: a warm start is shifted by one sample first (a loop); 0: not */
   int line_search;              /* 1: backtrack on the l1 merit function (converged mode); 0: full steps */
   int cold_iterations;          /* SQP iterations at most on a cold start (the first step), if more */
+  int exact_hessian;            /* 1: the Lagrangian's Hessian (central differences of the exact
+                                 * sensitivities) from the second SQP iteration on, Gauss-Newton where
+                                 * its Riccati recursion breaks down; 0: Gauss-Newton. Needs
+                                 * IPGEN_MPC_WORK_HESSIAN more workspace; for double */
 } ipgen_mpc_settings;
 
 /* What a step did. */
@@ -117,6 +121,11 @@ enum {
    (N) * ((nu) * (nx) + (nu) * (nu) + (nu)) + 3 * (nx) * (nx) + 2 * (nx) + 2 * (nu) * (nx) + (nu) * (nu) +    \
    (nu) + (nx) * (nx) + (nx) * (nu) + 4 * (nx) + 4 * (nx) * ((nx) + (nu)))
 
+/* Workspace entries added when exact_hessian is set: the stage Hessians (N (nx + nu)^2), the
+ * dynamics' multipliers (N nx) and the differences' temporaries. */
+#define IPGEN_MPC_WORK_HESSIAN(nx, nu, N) \
+  ((N) * ((nx) + (nu)) * ((nx) + (nu)) + (N) * (nx) + 2 * ((nx) + (nu)) + (nx) * (nx) + (nx) * (nu))
+
 /* The workspace's parts (pointers into it), carved by ipgen_mpc_layout. */
 typedef struct {
   ipgen_mpc_real *warm;                       /* 1: whether traj holds a warm start */
@@ -130,6 +139,8 @@ typedef struct {
   ipgen_mpc_real *K, *L, *kff;                /* Riccati gains, Cholesky factors, feedforward */
   ipgen_mpc_real *Pm, *Pn, *AtP, *p, *pn, *BtP, *Se, *Re, *g; /* Riccati temporaries */
   ipgen_mpc_real *Ac, *Bc, *xt, *k, *ksum, *xn, *S, *Ss, *dk, *dksum; /* RK4 temporaries */
+  ipgen_mpc_real *H, *costate, *fd_w, *fd_g, *fd_A, *fd_B; /* exact Hessian (null without) */
+  int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
 } ipgen_mpc_layout;
 
 /* Carves `work` into its parts; returns the entries used (equal to IPGEN_MPC_WORK). */
@@ -183,14 +194,27 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   IPGEN_MPC_TAKE(Ss, nx * nz);
   IPGEN_MPC_TAKE(dk, nx * nz);
   IPGEN_MPC_TAKE(dksum, nx * nz);
+  l->H = l->costate = l->fd_w = l->fd_g = l->fd_A = l->fd_B = 0;
+  if (s->exact_hessian) {
+    IPGEN_MPC_TAKE(H, (long)N * nz * nz);
+    IPGEN_MPC_TAKE(costate, (long)N * nx);
+    IPGEN_MPC_TAKE(fd_w, nz);
+    IPGEN_MPC_TAKE(fd_g, nz);
+    IPGEN_MPC_TAKE(fd_A, nx * nx);
+    IPGEN_MPC_TAKE(fd_B, nx * nu);
+  }
 #undef IPGEN_MPC_TAKE
+  l->exact = 0;
   l->nu_tmp = l->rhs; /* the adjoint pass runs before rhs is formed */
   return (long)(w - work);
 }
 
-/* Workspace entries for these settings: IPGEN_MPC_WORK of its sizes. */
+/* Workspace entries for these settings: IPGEN_MPC_WORK of its sizes (+ IPGEN_MPC_WORK_HESSIAN with
+ * exact_hessian). */
 IPGEN_MPC_API long ipgen_mpc_work_size(const ipgen_mpc_settings *s) {
-  return (long)IPGEN_MPC_WORK((long)s->nx, (long)s->nu, (long)s->N, (long)s->hard_count, (long)s->soft_count);
+  const long nx = s->nx, nu = s->nu, N = s->N;
+  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)s->hard_count, (long)s->soft_count) +
+         (s->exact_hessian ? (long)IPGEN_MPC_WORK_HESSIAN(nx, nu, N) : 0L);
 }
 
 /* sqrt in the precision of ipgen_mpc_real (sqrtf for float: no double arithmetic on an FPU of
@@ -372,7 +396,29 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
   int k, a, b;
   ipgen_mpc_real sign, bound, scale = (ipgen_mpc_real)1;
   for (i = 0; i < nx; ++i) l->gl[i] = (ipgen_mpc_real)0;
-  for (k = 1; k <= N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
+  if (l->exact) { /* the cost's gradient at the guess plus H_k (dx_k, du_k), stage by stage */
+    const int nz = nx + nu;
+    for (k = 0; k < N; ++k) {
+      const ipgen_mpc_real *Hk = l->H + (long)k * nz * nz, *zx = l->z + (long)k * nx;
+      const ipgen_mpc_real *zu = l->z + (long)(N + 1) * nx + (long)k * nu;
+      const long o = (long)(N + 1) * nx + (long)k * nu;
+      for (a = 0; a < nz; ++a) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        if (a < nx && k == 0) continue;
+        for (b = 0; b < nx; ++b) v += Hk[a * nz + b] * zx[b];
+        for (b = 0; b < nu; ++b) v += Hk[a * nz + nx + b] * zu[b];
+        if (a < nx) {
+          for (b = 0; b < nx; ++b) v += (ipgen_mpc_real)2 * s->Q[a * nx + b] * (l->traj[k * nx + b] - s->x_ref[b]);
+          l->gl[k * nx + a] = v;
+        } else {
+          for (b = 0; b < nu; ++b)
+            v += (ipgen_mpc_real)2 * s->R[(a - nx) * nu + b] * (l->traj[o + b] - s->u_ref[b]);
+          l->gl[o + a - nx] = v;
+        }
+      }
+    }
+  }
+  for (k = l->exact ? N : 1; k <= N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
     const ipgen_mpc_real *W = k == N ? s->P : s->Q;
     for (a = 0; a < nx; ++a) {
       ipgen_mpc_real v = (ipgen_mpc_real)0;
@@ -380,7 +426,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
       l->gl[k * nx + a] = (ipgen_mpc_real)2 * v;
     }
   }
-  for (k = 0; k < N; ++k) {
+  for (k = 0; k < (l->exact ? 0 : N); ++k) {
     const long o = (long)(N + 1) * nx + (long)k * nu;
     for (a = 0; a < nu; ++a) {
       ipgen_mpc_real v = (ipgen_mpc_real)0;
@@ -419,6 +465,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s
   *costate = (ipgen_mpc_real)0;
   for (k = N - 1; k >= 0; --k) {
     for (a = 0; a < nx; ++a) *costate = ipgen_mpc_max(*costate, ipgen_mpc_abs(v[a]));
+    if (l->costate)
+      for (a = 0; a < nx; ++a) l->costate[(long)k * nx + a] = v[a]; /* the multiplier of x_{k+1} = F(x_k, u_k) */
     const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
     const long o = (long)(N + 1) * nx + (long)k * nu;
     for (a = 0; a < nu; ++a) {
@@ -474,7 +522,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], i
  * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B. Returns 1 if an
  * Re is not positive definite. Flops per stage about 2 nx^3 + 4 nx^2 nu + 2 nx nu^2 + nu^3 / 3. */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
   ipgen_mpc_real *P = l->Pm;
   int k, i, j, m;
   for (i = 0; i < nx; ++i)
@@ -489,15 +537,16 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
         for (m = 0; m < nx; ++m) v += B[m * nu + i] * P[m * nx + j];
         l->BtP[i * nx + j] = v;
       }
-    for (i = 0; i < nu; ++i) /* Re = 2R + diag + BtP B, Se = BtP A */
+    for (i = 0; i < nu; ++i) /* Re = 2R (H_uu) + diag + BtP B, Se = (H_ux +) BtP A */
       for (j = 0; j < nu; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->R[i * nu + j] + (i == j ? l->hd[o + i] : (ipgen_mpc_real)0);
+        ipgen_mpc_real v = (l->exact ? l->H[(long)k * nz * nz + (nx + i) * nz + nx + j] : (ipgen_mpc_real)2 * s->R[i * nu + j]) +
+                           (i == j ? l->hd[o + i] : (ipgen_mpc_real)0);
         for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * B[m * nu + j];
         Lk[i * nu + j] = v;
       }
     for (i = 0; i < nu; ++i)
       for (j = 0; j < nx; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        ipgen_mpc_real v = l->exact ? l->H[(long)k * nz * nz + (nx + i) * nz + j] : (ipgen_mpc_real)0;
         for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * A[m * nx + j];
         l->Se[i * nx + j] = v;
       }
@@ -514,9 +563,10 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
         for (m = 0; m < nx; ++m) v += A[m * nx + i] * P[m * nx + j];
         l->AtP[i * nx + j] = v;
       }
-    for (i = 0; i < nx; ++i) /* P_k = 2Q + diag + AtP A + Se' K, symmetrised */
+    for (i = 0; i < nx; ++i) /* P_k = 2Q (H_xx) + diag + AtP A + Se' K, symmetrised */
       for (j = 0; j <= i; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->Q[i * nx + j] + (i == j ? l->hd[k * nx + i] : (ipgen_mpc_real)0);
+        ipgen_mpc_real v = (l->exact ? l->H[(long)k * nz * nz + i * nz + j] : (ipgen_mpc_real)2 * s->Q[i * nx + j]) +
+                           (i == j ? l->hd[k * nx + i] : (ipgen_mpc_real)0);
         for (m = 0; m < nx; ++m) v += l->AtP[i * nx + m] * A[m * nx + j];
         for (m = 0; m < nu; ++m) v += l->Se[m * nx + i] * K[m * nx + j];
         l->Pn[i * nx + j] = v;
@@ -728,6 +778,50 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
 }
 
+/* The Lagrangian's Hessian per stage, H_k = blockdiag(2Q, 2R) + sum_i nu_i d2F_i/dw2 at w = (x_k,
+ * u_k), nu the multipliers of x_{k+1} = F(x_k, u_k) (l->costate, from the last QP): column j by
+ * central differences of the exact sensitivities' transposed products [A' nu; B' nu] at w +- h e_j,
+ * h = 1e-5 max(1, |w_j|) (1e-2 in float), symmetrised. 2 (nx + nu) RK4 samples with
+ * sensitivities per stage. Returns 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const ipgen_mpc_real relative = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-2 : (ipgen_mpc_real)1e-5;
+  int k, i, j, side;
+  for (k = 0; k < N; ++k) {
+    ipgen_mpc_real *Hk = l->H + (long)k * nz * nz;
+    const ipgen_mpc_real *v = l->costate + (long)k * nx;
+    for (j = 0; j < nz; ++j) {
+      const ipgen_mpc_real w0 = j < nx ? l->traj[(long)k * nx + j] : l->traj[(long)(N + 1) * nx + (long)k * nu + j - nx];
+      const ipgen_mpc_real h = relative * ipgen_mpc_max((ipgen_mpc_real)1, ipgen_mpc_abs(w0));
+      for (side = 0; side < 2; ++side) {
+        for (i = 0; i < nx; ++i) l->fd_w[i] = l->traj[(long)k * nx + i];
+        for (i = 0; i < nu; ++i) l->fd_w[nx + i] = l->traj[(long)(N + 1) * nx + (long)k * nu + i];
+        l->fd_w[j] = side == 0 ? w0 + h : w0 - h;
+        if (ipgen_mpc_rk4_layout(s, l, l->fd_w, l->fd_w + nx, l->p, l->fd_A, l->fd_B) != 0) return 1;
+        for (i = 0; i < nz; ++i) { /* [A' nu; B' nu] */
+          ipgen_mpc_real g = (ipgen_mpc_real)0;
+          int r;
+          for (r = 0; r < nx; ++r) g += (i < nx ? l->fd_A[r * nx + i] : l->fd_B[r * nu + i - nx]) * v[r];
+          if (side == 0)
+            Hk[i * nz + j] = g;
+          else
+            Hk[i * nz + j] = (Hk[i * nz + j] - g) / ((ipgen_mpc_real)2 * h);
+        }
+      }
+    }
+    for (i = 0; i < nz; ++i)
+      for (j = 0; j < i; ++j) {
+        const ipgen_mpc_real mean = (ipgen_mpc_real)0.5 * (Hk[i * nz + j] + Hk[j * nz + i]);
+        Hk[i * nz + j] = Hk[j * nz + i] = mean;
+      }
+    for (i = 0; i < nx; ++i)
+      for (j = 0; j < nx; ++j) Hk[i * nz + j] += (ipgen_mpc_real)2 * s->Q[i * nx + j];
+    for (i = 0; i < nu; ++i)
+      for (j = 0; j < nu; ++j) Hk[(nx + i) * nz + nx + j] += (ipgen_mpc_real)2 * s->R[i * nu + j];
+  }
+  return 0;
+}
+
 /* ---- the controller ----------------------------------------------------------------------- */
 
 /* Forgets the warm start: the next step starts cold (every state x_k at the estimate, every
@@ -890,7 +984,15 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
       l.z[i] = x[i] - l.traj[i];
       defects += ipgen_mpc_abs(l.z[i]);
     }
+    /* the exact Hessian once a QP has given the multipliers; Gauss-Newton where the QP is not
+     * convex (its Riccati recursion breaks down: measured better than adding delta I, whose large
+     * delta crawls) or the model fails */
+    l.exact = s->exact_hessian && info->sqp_iterations > 0 && ipgen_mpc_exact_hessian(s, &l) == 0;
     qp = ipgen_mpc_qp(s, &l, info, &costate);
+    if (qp == IPGEN_MPC_NOT_FINITE && l.exact) {
+      l.exact = 0;
+      qp = ipgen_mpc_qp(s, &l, info, &costate);
+    }
     info->sqp_iterations += 1;
     if (qp == IPGEN_MPC_NOT_FINITE) {
       status = qp;

@@ -52,8 +52,9 @@ PRECISIONS = {
     "float": (ctypes.c_float, np.float32, ("-DIPGEN_MPC_REAL=float",)),
 }
 MODES = ("rti", "converged")
+HESSIANS = ("gauss-newton", "exact")
 MAX_DOF = 41  # IPGEN_MAX_DOF
-LAYOUT_ENTRIES = 39  # IPGEN_MPC_MODEL_LAYOUT
+LAYOUT_ENTRIES = 40  # IPGEN_MPC_MODEL_LAYOUT
 STATUS = {
     0: "ok",
     1: "model failed",
@@ -82,7 +83,7 @@ def _settings_type(real: type) -> type[ctypes.Structure]:
         ("soft_linear", p), ("soft_quadratic", p),
         ("sqp_iterations", ctypes.c_int), ("sqp_tolerance", real),
         ("qp_iterations", ctypes.c_int), ("qp_tolerance", real), ("shift", ctypes.c_int),
-        ("line_search", ctypes.c_int), ("cold_iterations", ctypes.c_int),
+        ("line_search", ctypes.c_int), ("cold_iterations", ctypes.c_int), ("exact_hessian", ctypes.c_int),
     ]  # fmt: skip
     return type(f"Settings_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
 
@@ -130,7 +131,7 @@ def _layout(real: type) -> list[int]:
     names = ("period", "substeps", "dynamics", "context", "Q", "u_ref", "u_max", "hard_count", "hard_index",
              "hard_max", "soft_count", "soft_index", "soft_quadratic", "sqp_iterations", "sqp_tolerance",
              "qp_iterations", "qp_tolerance", "shift", "line_search",
-             "cold_iterations")  # fmt: skip
+             "cold_iterations", "exact_hessian")  # fmt: skip
     return [
         ctypes.sizeof(real), ctypes.sizeof(settings), *(at(settings, n) for n in names),
         ctypes.sizeof(info),
@@ -305,6 +306,7 @@ class Mpc:
         mode: str,
         sqp_iterations: int | None,
         cold_iterations: int,
+        hessian: str | None,
         qp_iterations: int | None,
         sqp_tolerance: float | None,
         qp_tolerance: float | None,
@@ -373,6 +375,11 @@ class Mpc:
         qp_eps = (1e-10 if converged else 1e-9) if double else 1e-5
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
+        if hessian is None:
+            hessian = "exact" if converged and double else "gauss-newton"
+        if hessian not in HESSIANS:
+            raise MpcError(f"hessian {hessian!r}: expected one of {', '.join(HESSIANS)}")
+        self.hessian = hessian
         self._setup()
         self.P = self.lqr_terminal() if P is None else weights(P, 1.0, nx)[0]
         self._arrays["P"][:] = self.P.reshape(-1)
@@ -434,6 +441,7 @@ class Mpc:
         settings.shift = 1
         settings.line_search = int(self.mode == "converged")
         settings.cold_iterations = self.cold_iterations
+        settings.exact_hessian = int(self.hessian == "exact")
         self._settings = settings
         self._dtype = dtype
         self._info = _info_type(real)()
@@ -582,6 +590,7 @@ def mpc(
     mode: str = "rti",
     sqp_iterations: int | None = None,
     cold_iterations: int = 10,
+    hessian: str | None = None,
     qp_iterations: int | None = None,
     sqp_tolerance: float | None = None,
     qp_tolerance: float | None = None,
@@ -631,6 +640,11 @@ def mpc(
     cold_iterations : int, default 10
         SQP iterations at most on a cold start (the first step, or after `reset`), if more than
         `sqp_iterations`: the real-time iteration starts from a solved problem.
+    hessian : str, optional
+        The QPs' Hessian: "gauss-newton" (the cost's: no second derivatives of the model) or
+        "exact" (the Lagrangian's, by central differences of the exact sensitivities, from the
+        second SQP iteration on; more workspace). Default: "exact" in the converged mode in
+        double, else "gauss-newton".
     sqp_tolerance, qp_tolerance : float, optional
         Stop when the SQP step and defects (rti: 0, run the budget; converged 1e-10, float 1e-4)
         and the QP's largest residual (rti 1e-9, converged 1e-10; float 1e-5) are below.
@@ -664,7 +678,7 @@ def mpc(
         pendulum, horizon=horizon, period=period, Q=Q, R=R, P=P, u_max=u_max, u_min=u_min, travel=travel,
         bounds=bounds, soft_bounds=soft_bounds, soft_penalty=soft_penalty, reference=reference,
         substeps=substeps,
-        mode=mode, sqp_iterations=sqp_iterations, cold_iterations=cold_iterations,
+        mode=mode, sqp_iterations=sqp_iterations, cold_iterations=cold_iterations, hessian=hessian,
         qp_iterations=qp_iterations, sqp_tolerance=sqp_tolerance,
         qp_tolerance=qp_tolerance, precision=precision,
     )  # fmt: skip
