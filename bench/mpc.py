@@ -272,8 +272,10 @@ def main() -> None:
         "",
         "DAQP's and OSQP's rows time the solver's call only (through their Python bindings, which add a",
         "few µs); the MPC's rows include the linearisation and the ctypes call. Condensing is not timed",
-        "(numpy here): N² nx² nu / 2 + N³ nx nu² / 3 flops for the prediction matrices and the Hessian,",
-        "about 5·10⁴ here, as much as three interior-point iterations (docs/mpc.md).",
+        "(numpy here): N² nx² nu / 2 + N³ nx nu² / 3 multiply-adds for the prediction matrices and the",
+        "Hessian, about 4.5·10⁴ here, about five interior-point iterations' worth (docs/mpc.md). The",
+        "converged mode uses the exact Hessian (docs/mpc.md). A loaded machine (see the load averages)",
+        "spreads the maxima.",
     ]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines) + "\n")
