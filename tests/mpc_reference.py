@@ -40,7 +40,8 @@ def flow(controller: Mpc) -> Any:
 
 class IpoptReference:
     """The NLP of `controller`'s problem with x_0 a parameter. `solve(x0)` returns (u_0, the
-    inputs); `states` then holds the states (nx × (N + 1)). `F` is the RK4 map (CasADi)."""
+    inputs); `states` then holds the states (nx × (N + 1)) and `objective` the cost. `F` is the
+    RK4 map (CasADi)."""
 
     def __init__(self, controller: Mpc) -> None:
         ca = import_casadi()
@@ -92,6 +93,7 @@ class IpoptReference:
         )
         if not self.solver.stats()["success"]:
             raise RuntimeError(f"IPOPT failed from {x0}: {self.solver.stats()['return_status']}")
+        self.objective = float(result["f"])
         w = np.asarray(result["x"], float).reshape(-1)
         self.states = w[: nx * (N + 1)].reshape(N + 1, nx).T
         inputs = w[nx * (N + 1) : nx * (N + 1) + N]

@@ -95,6 +95,7 @@ def test_the_converged_mode_equals_ipopt(case: str) -> None:
         assert controller.info is not None and controller.info.status in ("ok", "SQP budget reached"), x
         u_ref, inputs = reference.solve(x)
         assert abs(u - u_ref) <= AGREEMENT, (x, u, u_ref)
+        assert abs(controller.cost() - reference.objective) <= 1e-8 * max(1.0, reference.objective)
         assert abs(gauss_newton.solve(x) - u_ref) <= AGREEMENT, (x, gauss_newton.info)
         states = reference.states
         u_active += bool(np.any(np.abs(inputs) > controller.u_max - 1e-6))
