@@ -264,6 +264,80 @@ def test_the_header_compiles_without_warnings_and_runs(tmp_path: Path, variant: 
     assert abs(position) < 1e-2 and abs(speed) < 1e-2
 
 
+LOOP = ROOT / "tests" / "c" / "mpc_qube_loop.c"
+
+
+def c_loop(controller: Mpc, x0: list[float], scalar: str, folder: Path) -> tuple[np.ndarray, float]:
+    """tests/c/mpc_qube_loop.c on the QUBE's generated C header (`--emit c`) in `scalar`: the
+    closed loop's rows (x_k, u_k, status) and the mean time of a C step [s]."""
+    from ipgen.pipeline.generate import generate
+
+    p = controller.pendulum
+    if not (folder / "qube.h").exists():
+        generate(p.system, "qube", folder, force=True, emit=("c",))
+    flags = ["-DIPGEN_SCALAR=float", "-DIPGEN_MPC_REAL=float", "-Wdouble-promotion", "-Wconversion"]
+    program = folder / f"loop_{scalar}"
+    command = [
+        "gcc",
+        "-std=c99",
+        "-O2",
+        "-Wall",
+        "-Wextra",
+        "-Wpedantic",
+        "-Werror",
+        *(flags if scalar == "float" else []),
+    ]
+    done = subprocess.run(
+        [*command, f"-I{folder}", f"-I{INCLUDE}", str(LOOP), "-o", str(program), "-lm"],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    v = p.folded().params()
+    design = [
+        *controller.Q.ravel(),
+        controller.R[0, 0],
+        *controller.P.ravel(),
+        controller.u_max,
+        1.0,
+        controller.period,
+    ]
+    numbers = [
+        *v["m"],
+        *v["l"],
+        *v["delta"],
+        v["g"],
+        *v["com"],
+        *v["J"],
+        *v["J_axial"],
+        *v["tip"],
+        p.gain,
+        *design,
+        *x0,
+    ]
+    text = " ".join(repr(float(n)) for n in numbers)  # type: ignore[arg-type]
+    ran = subprocess.run([str(program)], input=text, capture_output=True, text=True, timeout=120)
+    assert ran.returncode == 0, ran.returncode
+    lines = ran.stdout.split("\n")
+    rows = np.array([[float(t) for t in line.split()] for line in lines[:-2]])
+    return rows, float(lines[-2]) * 1e-9
+
+
+@pytest.mark.parametrize("scalar", ["double", "float"])
+def test_the_c_header_loop_equals_the_python_step(tmp_path: Path, scalar: str) -> None:
+    """The step as a firmware runs it (the generated C header's model, static memory, IPGEN_SCALAR =
+    IPGEN_MPC_REAL) in a closed loop, against ipgen.mpc's step fed the same states: equal to 1e-9
+    of u_max in double, within FLOAT_INPUT in float (the model in float too)."""
+    rows, _ = c_loop(qube(), [0.5, 0.15, 1.0, 0.0], scalar, tmp_path)
+    python = qube()
+    inputs = np.array([python.step(x) for x in rows[:, :4]])
+    assert np.all(rows[:, 5] == 0)  # IPGEN_MPC_OK at every sample
+    bound = 1e-9 if scalar == "double" else FLOAT_INPUT
+    assert np.max(np.abs(inputs - rows[:, 4])) <= bound * python.u_max
+    assert np.max(np.abs(rows[:, 4])) >= python.u_max - 1e-3  # the bound was reached
+    assert np.max(np.abs(rows[-1, :4])) <= 0.2  # on its way to upright and rest (1.5 s)
+
+
 def test_the_workspace_is_what_the_macro_says_and_the_layout_matches() -> None:
     controller = cdip()
     lib = library("double")
