@@ -18,8 +18,10 @@ which drives u to its bound and the arm to its travel. At every sample:
    with their first input's distance to the interior point's;
 3. every 10th sample, IPOPT on the whole NLP (tests/mpc_reference.py), cold and warm-started.
 
-Also the step with one interior-point iteration (the linearisation's share) and the converged
-mode (`solve`). Writes docs/bench/mpc.md (needs osqp and daqp: the extra `mpc-bench`).
+Also the step with one interior-point iteration (the linearisation's share), the converged
+mode (`solve`), and the same closed loop in C alone (tests/c/mpc_qube_loop.c on the generated C
+header, double and float, 150 samples: the firmware path without Python).
+Writes docs/bench/mpc.md (needs osqp and daqp: the extra `bench`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import argparse
 import ctypes
 import statistics
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -227,6 +230,13 @@ def main() -> None:
         single.step(x)
         rows["single"].append(time.perf_counter() - start)
         x = solve_ivp(lambda _, s, v=u: field.f(s, v), (0.0, c.period), x, rtol=1e-10, atol=1e-12).y[:, -1]
+    from test_mpc import c_loop
+
+    with tempfile.TemporaryDirectory() as scratch:  # the firmware path, without Python
+        c_seconds = {
+            scalar: min(c_loop(c, [0.5, 0.15, 1.0, 0.0], scalar, Path(scratch))[1] for _ in range(3))
+            for scalar in ("double", "float")
+        }
     warm_steps = rows["step"][1:]
     iterations = rows["qp_iterations"][1:]
     per_iteration = (statistics.median(warm_steps) - statistics.median(rows["single"])) / max(
@@ -242,6 +252,10 @@ def main() -> None:
     daqp_error = f"{max(errors['daqp']):.1e}" if errors["daqp"] else "–"
     results = [
         ["RTI step, C (linearisation + interior-point QP, Riccati)", us(warm_steps), "–"],
+        *(
+            [f"  the loop in C alone (generated header, {scalar}; mean, best of 3)", f"{1e6 * t:.0f}", "–"]
+            for scalar, t in c_seconds.items()
+        ),
         ["  its interior-point iterations per sample", iters, "–"],
         ["  the step with 1 interior-point iteration", us(rows["single"]), "–"],
         ["  one interior-point iteration (the difference)", f"{1e6 * per_iteration:.1f}", "–"],
