@@ -500,9 +500,10 @@ class Mpc:
         return float(u[0])
 
     def solve(self, x: Sequence[float] | np.ndarray) -> float:
-        """The first input of the problem solved from a cold start to convergence (whatever the
-        mode: up to max(sqp_iterations, 100) SQP iterations, tolerances at least as tight as
-        the converged mode's); the warm start then holds that solution, unshifted.
+        """The first input of the problem solved from a cold start to convergence, whatever the
+        mode: up to `sqp_iterations` SQP iterations in the converged mode (500 from a real-time
+        design), tolerances at least as tight as the converged mode's, the line search on and
+        the design's Hessian; the warm start then holds that solution, unshifted.
 
         Parameters
         ----------
@@ -517,7 +518,7 @@ class Mpc:
         s = self._settings
         saved = (s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search)
         sqp_eps, qp_eps = (1e-10, 1e-10) if self.precision == "double" else (1e-4, 1e-5)
-        s.sqp_iterations = max(saved[0], 500)
+        s.sqp_iterations = saved[0] if self.mode == "converged" else max(saved[0], 500)
         s.sqp_tolerance = sqp_eps if saved[1] <= 0 else min(saved[1], sqp_eps)
         s.qp_iterations = max(saved[2], 50)
         s.qp_tolerance = min(saved[3], qp_eps)
