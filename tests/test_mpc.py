@@ -364,3 +364,21 @@ def test_bad_designs_are_refused_in_one_line() -> None:
     ):
         with pytest.raises(MpcError, match=words):
             mpc(p, **options)  # type: ignore[arg-type]
+
+
+def test_an_infeasible_hard_bound_is_reported_and_a_soft_one_is_not() -> None:
+    """The arm already past its hard travel: no prediction meets the bound, the QP diverges and the
+    step says so (keeping its guess, u within its bound); the same travel as a soft bound with a
+    large linear penalty (exact while feasible) solves, and brings the arm back."""
+    x = [1.05, 0.0, 0.0, 0.0]
+    hard = qube()
+    u = hard.step(x)
+    assert hard.info is not None and hard.info.status == "QP infeasible"
+    assert abs(u) <= hard.u_max
+    p = ipgen.Pendulum.preset("qube_servo2")
+    soft = mpc(
+        p, u_max=10.0, soft_bounds={0: (-1.0, 1.0)}, soft_penalty=(1e3, 1.0), Q=[1, 10, 0.1, 0.1], R=0.1
+    )
+    u = soft.step(x)
+    assert soft.info is not None and soft.info.status == "ok"
+    assert u < 0  # toward the bound's inside

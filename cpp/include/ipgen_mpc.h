@@ -103,7 +103,9 @@ enum {
   IPGEN_MPC_QP_BUDGET = 2,    /* the last QP stopped above qp_tolerance: its budget, or a late breakdown (u applied) */
   IPGEN_MPC_SQP_BUDGET = 3,   /* sqp_tolerance > 0 not reached within sqp_iterations (u applied) */
   IPGEN_MPC_NOT_FINITE = 4,   /* a QP's Riccati recursion broke down or produced NaN: as MODEL_FAILED */
-  IPGEN_MPC_BAD_SETTINGS = 5  /* a size or a bound that no problem has: nothing done, u = u_ref */
+  IPGEN_MPC_BAD_SETTINGS = 5, /* a size or a bound that no problem has: nothing done, u = u_ref */
+  IPGEN_MPC_INFEASIBLE = 6    /* a QP diverged (no solution: a hard state bound the prediction cannot
+                               * meet): the guess is kept, its first input applied; soft bounds avoid it */
 };
 
 /* Inequalities and soft slacks of the QP: N (2 nu + 2 hard + 4 soft), 2 N soft. */
@@ -996,6 +998,10 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
     info->sqp_iterations += 1;
     if (qp == IPGEN_MPC_NOT_FINITE) {
       status = qp;
+      break;
+    }
+    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6)) {
+      info->status = IPGEN_MPC_INFEASIBLE; /* its iterates diverge: keep the guess */
       break;
     }
     info->status = qp == IPGEN_MPC_QP_BUDGET ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_OK; /* the last QP's */

@@ -62,6 +62,7 @@ STATUS = {
     3: "SQP budget reached",
     4: "breakdown",
     5: "bad settings",
+    6: "QP infeasible",
 }
 
 
