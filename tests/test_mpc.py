@@ -382,3 +382,15 @@ def test_an_infeasible_hard_bound_is_reported_and_a_soft_one_is_not() -> None:
     u = soft.step(x)
     assert soft.info is not None and soft.info.status == "ok"
     assert u < 0  # toward the bound's inside
+
+
+def test_the_example_of_docs_mpc_runs() -> None:
+    """docs/mpc.md's Python example, as written."""
+    import re
+
+    text = (ROOT / "docs" / "mpc.md").read_text()
+    example = re.search(r"```python\n(.*?)```", text, re.S)
+    assert example is not None
+    namespace: dict[str, object] = {}
+    exec(compile(example.group(1), "docs/mpc.md", "exec"), namespace)  # the docs' own code
+    assert abs(float(namespace["u"])) <= 10.0  # type: ignore[arg-type]
