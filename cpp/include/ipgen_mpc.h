@@ -10,18 +10,20 @@
  *              u_min <= u_k <= u_max,  hard_min <= x_k[hard] <= hard_max (k = 1..N),
  *              soft_min - s <= x_k[soft] <= soft_max + s, s >= 0 (one s per side, stage, bound),
  *
- * by Gauss-Newton sequential quadratic programming in multiple shooting: F and its exact
- * sensitivities dF/dx, dF/du (the chain rule through the RK4 stages, with the model's exact
- * Jacobians) linearise the dynamics about the guess; each quadratic program is solved by a
- * primal-dual interior-point method (Mehrotra predictor-corrector) whose Newton systems are
- * solved by a Riccati recursion (O(N) in the horizon). Real-time iteration: one SQP iteration
- * per sample (sqp_iterations = 1) on the previous solution shifted by one sample, a fixed budget
- * of interior-point iterations: a bounded, deterministic time per step. Converged mode: up to
- * sqp_iterations iterations until the step and the dynamics' defects are below sqp_tolerance.
+ * by sequential quadratic programming in multiple shooting: F and its exact sensitivities dF/dx,
+ * dF/du (the chain rule through the RK4 stages, with the model's exact Jacobians) linearise the
+ * dynamics about the guess; the QPs' Hessian is the cost's (Gauss-Newton) or, optionally, the
+ * Lagrangian's (exact_hessian); each QP is solved by a primal-dual interior-point method
+ * (Mehrotra predictor-corrector) whose Newton systems are solved by a Riccati recursion (O(N) in
+ * the horizon). Real-time iteration: one SQP iteration per sample (sqp_iterations = 1) on the
+ * previous solution shifted by one sample, a fixed budget of interior-point iterations: a
+ * bounded, deterministic time per step. Converged mode: up to sqp_iterations iterations, with a
+ * line search, until the step and the dynamics' defects are below sqp_tolerance.
  *
  * Sizes are given at run time (nx states, nu inputs, horizon N). Nothing is allocated: the
- * caller owns every array, among them one workspace of IPGEN_MPC_WORK(...) reals that keeps the
- * warm start between calls. Only <math.h> is called. The scalar is IPGEN_MPC_REAL (double unless
+ * caller owns every array, among them one workspace of IPGEN_MPC_WORK(...) reals (plus
+ * IPGEN_MPC_WORK_HESSIAN(...) with exact_hessian; ipgen_mpc_work_size) that keeps the warm start
+ * between calls. Only <math.h> is called. The scalar is IPGEN_MPC_REAL (double unless
  * defined before the first include, e.g. float on a Cortex-M4F). Vectors are arrays, matrices
  * row-major. The model enters as a callback (ipgen_mpc_dynamics): x' = f(x, u) and its exact
  * Jacobians, in whatever units and coordinates the caller uses (ipgen's: docs/model.md).
@@ -145,7 +147,7 @@ typedef struct {
   int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
 } ipgen_mpc_layout;
 
-/* Carves `work` into its parts; returns the entries used (equal to IPGEN_MPC_WORK). */
+/* Carves `work` into its parts; returns the entries used (ipgen_mpc_work_size). */
 IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real work[], ipgen_mpc_layout *l) {
   const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
@@ -295,7 +297,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
   return 0;
 }
 
-/* ipgen_mpc_rk4_layout on a workspace of IPGEN_MPC_WORK entries (its warm start untouched). */
+/* ipgen_mpc_rk4_layout on a workspace of ipgen_mpc_work_size entries (its warm start untouched). */
 IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
                                 ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
   ipgen_mpc_layout l;
@@ -522,7 +524,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], i
 /* The Riccati factorisation of the Newton system's Hessian: stage weights 2Q + diag(hd_x),
  * 2R + diag(hd_u), terminal 2P + diag(hd_x_N), dynamics A_k, B_k. Stores the gains
  * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B. Returns 1 if an
- * Re is not positive definite. Flops per stage about 2 nx^3 + 4 nx^2 nu + 2 nx nu^2 + nu^3 / 3. */
+ * Re is not positive definite. Multiply-adds per stage about 1.5 nx^3 + 2.5 nx^2 nu + 2 nx nu^2
+ * + nu^3 / 3. With l->exact the stage weights are H_k's blocks (H_xx, H_ux, H_uu) instead. */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
   const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
   ipgen_mpc_real *P = l->Pm;
@@ -915,7 +918,7 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
 }
 
 /* One controller step: u (nu) for the state estimate x (nx), from the problem of the header's
- * comment solved about the warm start held in `work` (IPGEN_MPC_WORK entries; shifted by one
+ * comment solved about the warm start held in `work` (ipgen_mpc_work_size entries; shifted by one
  * sample first when s->shift), or cold after ipgen_mpc_reset (every x_k at the estimate, u_k at
  * u_ref clipped). Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
  * start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
