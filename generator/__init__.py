@@ -23,6 +23,9 @@ The public API (stable; everything else is internal):
 - `lqr(p, Q, R, equilibrium=None) -> K` (or `lqr(type, links, m, l, delta, Q, R, ...)`): an
   LQR gain, a 1 × 2(n+1) array with
   u = −K (x − x_eq) (python-control's convention: A − B @ K is the closed loop);
+- `mpc(p, *, horizon=30, period=0.01, Q, R, P, u_max, travel, bounds, soft_bounds, mode="rti", ...)
+  -> Mpc`: a constrained nonlinear MPC on the exact model (`.step(x)` → u, the C step of
+  cpp/include/ipgen_mpc.h through ctypes; real-time iteration or converged; docs/mpc.md);
 - `kalman(pendulum, period, Qn, Rn, *, measured=None, equilibrium=None) -> Kalman`: the
   steady-state discrete Kalman filter on the ZOH-discretised exact linearisation (`.L`, `.P` in
   python-control's `dlqe` convention, `.M` the current-form gain, `.A`, `.B`, `.C`;
@@ -81,6 +84,7 @@ __all__ = [
     "kalman",
     "linearize",
     "lqr",
+    "mpc",
     "sweep",
     "write_header",
 ]
@@ -516,6 +520,10 @@ def __getattr__(attribute: str) -> object:
         from ipgen.control import api
 
         return getattr(api, attribute)
+    if attribute == "mpc":
+        from ipgen.control.mpc import mpc
+
+        return mpc
     raise AttributeError(f"module 'ipgen' has no attribute {attribute!r}")
 
 

@@ -46,6 +46,7 @@ FRONTS = ("ipgen", "ipgen.__main__", "ipgen.command.sweep")
 LATE_IMPORTS: dict[tuple[str, str], str] = {
     ("ipgen.model.pendulum", "ipgen.experiment.scene"): "Pendulum.from_scene reads a scene file",
     ("ipgen.model.fixed", "ipgen.scene.fixed"): "FixedPendulum.from_scene reads a fixed scene file",
+    ("ipgen.control.mpc", "ipgen.pipeline.model_library"): "ipgen.mpc compiles the model library it runs on",
 }
 
 

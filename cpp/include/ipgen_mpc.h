@@ -1,0 +1,1055 @@
+/* ipgen_mpc.h: constrained nonlinear model predictive control, written once (C99, also valid C++).
+ *
+ * One function, ipgen_mpc_step, takes the current state estimate and returns the input u. It
+ * solves (once per sample, or to convergence) the optimal-control problem over N samples of
+ * length T (docs/mpc.md):
+ *
+ *   minimise   sum_{k=0}^{N-1} [ (x_k - x_ref)' Q (x_k - x_ref) + (u_k - u_ref)' R (u_k - u_ref) ]
+ *              + (x_N - x_ref)' P (x_N - x_ref) + sum_{k=1}^{N} sum_soft (rho1 s + rho2 s^2)
+ *   subject to x_0 = the estimate,  x_{k+1} = F(x_k, u_k)  (RK4 of x' = f(x, u), u held over T),
+ *              u_min <= u_k <= u_max,  hard_min <= x_k[hard] <= hard_max (k = 1..N),
+ *              soft_min - s <= x_k[soft] <= soft_max + s, s >= 0 (one s per side, stage, bound),
+ *
+ * by sequential quadratic programming in multiple shooting: F and its exact sensitivities dF/dx,
+ * dF/du (the chain rule through the RK4 stages, with the model's exact Jacobians) linearise the
+ * dynamics about the guess; the QPs' Hessian is the cost's (Gauss-Newton) or, optionally, the
+ * Lagrangian's (exact_hessian); each QP is solved by a primal-dual interior-point method
+ * (Mehrotra predictor-corrector) whose Newton systems are solved by a Riccati recursion (O(N) in
+ * the horizon). Real-time iteration: one SQP iteration per sample (sqp_iterations = 1) on the
+ * previous solution shifted by one sample, a fixed budget of interior-point iterations: a
+ * bounded, deterministic time per step. Converged mode: up to sqp_iterations iterations, with a
+ * line search, until the step and the dynamics' defects are below sqp_tolerance.
+ *
+ * Sizes are given at run time (nx states, nu inputs, horizon N). Nothing is allocated: the
+ * caller owns every array, among them one workspace of IPGEN_MPC_WORK(...) reals (plus
+ * IPGEN_MPC_WORK_HESSIAN(...) with exact_hessian; ipgen_mpc_work_size) that keeps the warm start
+ * between calls. Only <math.h> is called. The scalar is IPGEN_MPC_REAL (double unless
+ * defined before the first include, e.g. float on a Cortex-M4F). Vectors are arrays, matrices
+ * row-major. The model enters as a callback (ipgen_mpc_dynamics): x' = f(x, u) and its exact
+ * Jacobians, in whatever units and coordinates the caller uses (ipgen's: docs/model.md).
+ */
+#ifndef IPGEN_MPC_H_INCLUDED
+#define IPGEN_MPC_H_INCLUDED
+
+#include <math.h>
+
+#ifndef IPGEN_MPC_REAL
+#define IPGEN_MPC_REAL double
+#endif
+
+/* Static inline where a header is included; exported where ipgen compiles the library for ctypes. */
+#ifdef IPGEN_MPC_EXPORT
+#define IPGEN_MPC_API
+#else
+#define IPGEN_MPC_API static inline
+#endif
+#define IPGEN_MPC_LOCAL static inline
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef IPGEN_MPC_REAL ipgen_mpc_real;
+
+/* The model: f = x' = f(x, u) (nx entries) and, when A and B are not null, A = df/dx (nx x nx)
+ * and B = df/du (nx x nu), at the state x (nx) and input u (nu), in the caller's units (time in
+ * seconds). Returns 0, non-zero if the model fails there (M(q) not positive definite). */
+typedef int (*ipgen_mpc_dynamics)(void *context, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
+                                  ipgen_mpc_real f[], ipgen_mpc_real A[], ipgen_mpc_real B[]);
+
+/* The problem and the solver's budget (the header's comment). Every array is the caller's and is
+ * read, never written. Q, P: nx x nx symmetric positive semidefinite; R: nu x nu positive
+ * definite; the bounds: u_min < u_max (nu each, finite), hard and soft bounds on the state
+ * entries hard_index[0..hard_count) and soft_index[0..soft_count) (min < max; soft_linear >= 0,
+ * soft_quadratic > 0 per soft bound: the penalty rho1 s + rho2 s^2 of a violation s). */
+typedef struct {
+  int nx, nu, N;                /* states, inputs, horizon (samples) */
+  ipgen_mpc_real period;        /* T [s]: the sample period, u held over it */
+  int substeps;                 /* RK4 steps per sample (>= 1) */
+  ipgen_mpc_dynamics dynamics;  /* the model */
+  void *context;                /* passed to dynamics */
+  const ipgen_mpc_real *Q, *R, *P, *x_ref, *u_ref;
+  const ipgen_mpc_real *u_min, *u_max;
+  int hard_count;
+  const int *hard_index;
+  const ipgen_mpc_real *hard_min, *hard_max;
+  int soft_count;
+  const int *soft_index;
+  const ipgen_mpc_real *soft_min, *soft_max, *soft_linear, *soft_quadratic;
+  int sqp_iterations;           /* SQP iterations per step at most: 1 is the real-time iteration */
+  ipgen_mpc_real sqp_tolerance; /* stop when max |step| and max |defect| <= it (0: run the budget) */
+  int qp_iterations;            /* interior-point iterations per QP at most */
+  ipgen_mpc_real qp_tolerance;  /* stop when the QP's residuals and gap are <= it */
+  int shift;                    /* 1: a warm start is shifted by one sample first (a loop); 0: not */
+  int line_search;              /* 1: backtrack on the l1 merit function (converged mode); 0: full steps */
+  int cold_iterations;          /* SQP iterations at most on a cold start (the first step), if more */
+  int exact_hessian;            /* 1: the Lagrangian's Hessian (central differences of the exact
+                                 * sensitivities) from the second SQP iteration on, Gauss-Newton where
+                                 * its Riccati recursion breaks down; 0: Gauss-Newton. Needs
+                                 * IPGEN_MPC_WORK_HESSIAN more workspace; for double */
+} ipgen_mpc_settings;
+
+/* What a step did. */
+typedef struct {
+  int status;                 /* IPGEN_MPC_OK or one of the codes below */
+  int sqp_iterations;         /* SQP iterations done */
+  int qp_iterations;          /* interior-point iterations, summed over them */
+  ipgen_mpc_real step;        /* max |(dx, du)| of the last SQP iteration */
+  ipgen_mpc_real defect;      /* max |F(x_k, u_k) - x_{k+1}| at the last linearisation */
+  ipgen_mpc_real qp_residual; /* the last QP's largest residual (relative stationarity, primal, gap) */
+} ipgen_mpc_info;
+
+enum {
+  IPGEN_MPC_OK = 0,
+  IPGEN_MPC_MODEL_FAILED = 1, /* the model failed: u is the warm start's, the next step starts cold */
+  IPGEN_MPC_QP_BUDGET = 2,    /* the last QP stopped above qp_tolerance: its budget, or a late breakdown (u applied) */
+  IPGEN_MPC_SQP_BUDGET = 3,   /* sqp_tolerance > 0 not reached within sqp_iterations (u applied) */
+  IPGEN_MPC_NOT_FINITE = 4,   /* a QP's Riccati recursion broke down or produced NaN: as MODEL_FAILED */
+  IPGEN_MPC_BAD_SETTINGS = 5, /* a size or a bound that no problem has: nothing done, u = u_ref */
+  IPGEN_MPC_INFEASIBLE = 6    /* a QP diverged (no solution: a hard state bound the prediction cannot
+                               * meet): the guess is kept, its first input applied; soft bounds avoid it */
+};
+
+/* Inequalities and soft slacks of the QP: N (2 nu + 2 hard + 4 soft), 2 N soft. */
+#define IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) ((N) * (2 * (nu) + 2 * (hard) + 4 * (soft)))
+#define IPGEN_MPC_SLACKS(N, soft) (2 * (N) * (soft))
+/* QP variables: the state deviations x_0..x_N and the input deviations u_0..u_{N-1}. */
+#define IPGEN_MPC_VARIABLES(nx, nu, N) (((N) + 1) * (nx) + (N) * (nu))
+
+/* Workspace entries (reals) for nx states, nu inputs, horizon N, `hard` hard and `soft` soft
+ * state bounds. Entry 0 says whether a warm start is held; entries 1 .. 1 + (N + 1) nx are the
+ * predicted states x_0..x_N, followed by the N nu inputs u_0..u_{N-1}. */
+#define IPGEN_MPC_WORK(nx, nu, N, hard, soft)                                                                   \
+  (1 + 6 * IPGEN_MPC_VARIABLES(nx, nu, N) + (N) * ((nx) * (nx) + (nx) * (nu) + (nx)) +                       \
+   4 * IPGEN_MPC_SLACKS(N, soft) + 8 * IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) +                            \
+   (N) * ((nu) * (nx) + (nu) * (nu) + (nu)) + 3 * (nx) * (nx) + 2 * (nx) + 2 * (nu) * (nx) + (nu) * (nu) +    \
+   (nu) + (nx) * (nx) + (nx) * (nu) + 4 * (nx) + 4 * (nx) * ((nx) + (nu)))
+
+/* Workspace entries added when exact_hessian is set: the stage Hessians (N (nx + nu)^2), the
+ * dynamics' multipliers (N nx) and the differences' temporaries. */
+#define IPGEN_MPC_WORK_HESSIAN(nx, nu, N) \
+  ((N) * ((nx) + (nu)) * ((nx) + (nu)) + (N) * (nx) + 2 * ((nx) + (nu)) + (nx) * (nx) + (nx) * (nu))
+
+/* The workspace's parts (pointers into it), carved by ipgen_mpc_layout. */
+typedef struct {
+  ipgen_mpc_real *warm;                       /* 1: whether traj holds a warm start */
+  ipgen_mpc_real *traj;                       /* x_0..x_N then u_0..u_{N-1}: the guess, then the solution */
+  ipgen_mpc_real *A, *B, *d;                  /* dF/dx, dF/du, F(x_k, u_k) - x_{k+1} per stage */
+  ipgen_mpc_real *z, *dir, *hd, *gl, *rhs;    /* QP variables, Newton direction, Hessian diagonal, gradients */
+  ipgen_mpc_real *nu_tmp;                     /* adjoint, (N + 1) nx + N nu (only nx used at a time) */
+  ipgen_mpc_real *sig, *dsig, *hs, *gs;       /* soft slacks, their step, reduced curvature and gradient */
+  ipgen_mpc_real *t, *lam, *dt, *dlam, *rp, *rc; /* inequality slacks, multipliers, steps, residuals */
+  ipgen_mpc_real *code, *bound;               /* per inequality: a (var + 1) (0: a slack's), its bound */
+  ipgen_mpc_real *K, *L, *kff;                /* Riccati gains, Cholesky factors, feedforward */
+  ipgen_mpc_real *Pm, *Pn, *AtP, *p, *pn, *BtP, *Se, *Re, *g; /* Riccati temporaries */
+  ipgen_mpc_real *Ac, *Bc, *xt, *k, *ksum, *xn, *S, *Ss, *dk, *dksum; /* RK4 temporaries */
+  ipgen_mpc_real *H, *costate, *fd_w, *fd_g, *fd_A, *fd_B; /* exact Hessian (null without) */
+  int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
+} ipgen_mpc_layout;
+
+/* Carves `work` into its parts; returns the entries used (ipgen_mpc_work_size). */
+IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real work[], ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
+  const long S = IPGEN_MPC_SLACKS(N, s->soft_count);
+  ipgen_mpc_real *w = work;
+#define IPGEN_MPC_TAKE(field, count) (l->field = w, w += (count))
+  IPGEN_MPC_TAKE(warm, 1);
+  IPGEN_MPC_TAKE(traj, Z);
+  IPGEN_MPC_TAKE(A, (long)N * nx * nx);
+  IPGEN_MPC_TAKE(B, (long)N * nx * nu);
+  IPGEN_MPC_TAKE(d, (long)N * nx);
+  IPGEN_MPC_TAKE(z, Z);
+  IPGEN_MPC_TAKE(dir, Z);
+  IPGEN_MPC_TAKE(hd, Z);
+  IPGEN_MPC_TAKE(gl, Z);
+  IPGEN_MPC_TAKE(rhs, Z);
+  IPGEN_MPC_TAKE(sig, S);
+  IPGEN_MPC_TAKE(dsig, S);
+  IPGEN_MPC_TAKE(hs, S);
+  IPGEN_MPC_TAKE(gs, S);
+  IPGEN_MPC_TAKE(t, M);
+  IPGEN_MPC_TAKE(lam, M);
+  IPGEN_MPC_TAKE(dt, M);
+  IPGEN_MPC_TAKE(dlam, M);
+  IPGEN_MPC_TAKE(rp, M);
+  IPGEN_MPC_TAKE(rc, M);
+  IPGEN_MPC_TAKE(code, M);
+  IPGEN_MPC_TAKE(bound, M);
+  IPGEN_MPC_TAKE(K, (long)N * nu * nx);
+  IPGEN_MPC_TAKE(L, (long)N * nu * nu);
+  IPGEN_MPC_TAKE(kff, (long)N * nu);
+  IPGEN_MPC_TAKE(Pm, nx * nx);
+  IPGEN_MPC_TAKE(Pn, nx * nx);
+  IPGEN_MPC_TAKE(AtP, nx * nx);
+  IPGEN_MPC_TAKE(p, nx);
+  IPGEN_MPC_TAKE(pn, nx);
+  IPGEN_MPC_TAKE(BtP, nu * nx);
+  IPGEN_MPC_TAKE(Se, nu * nx);
+  IPGEN_MPC_TAKE(Re, nu * nu);
+  IPGEN_MPC_TAKE(g, nu);
+  IPGEN_MPC_TAKE(Ac, nx * nx);
+  IPGEN_MPC_TAKE(Bc, nx * nu);
+  IPGEN_MPC_TAKE(xt, nx);
+  IPGEN_MPC_TAKE(k, nx);
+  IPGEN_MPC_TAKE(ksum, nx);
+  IPGEN_MPC_TAKE(xn, nx);
+  IPGEN_MPC_TAKE(S, nx * nz);
+  IPGEN_MPC_TAKE(Ss, nx * nz);
+  IPGEN_MPC_TAKE(dk, nx * nz);
+  IPGEN_MPC_TAKE(dksum, nx * nz);
+  l->H = l->costate = l->fd_w = l->fd_g = l->fd_A = l->fd_B = 0;
+  if (s->exact_hessian) {
+    IPGEN_MPC_TAKE(H, (long)N * nz * nz);
+    IPGEN_MPC_TAKE(costate, (long)N * nx);
+    IPGEN_MPC_TAKE(fd_w, nz);
+    IPGEN_MPC_TAKE(fd_g, nz);
+    IPGEN_MPC_TAKE(fd_A, nx * nx);
+    IPGEN_MPC_TAKE(fd_B, nx * nu);
+  }
+#undef IPGEN_MPC_TAKE
+  l->exact = 0;
+  l->nu_tmp = l->rhs; /* the adjoint pass runs before rhs is formed */
+  return (long)(w - work);
+}
+
+/* Workspace entries for these settings: IPGEN_MPC_WORK of its sizes (+ IPGEN_MPC_WORK_HESSIAN with
+ * exact_hessian). */
+IPGEN_MPC_API long ipgen_mpc_work_size(const ipgen_mpc_settings *s) {
+  const long nx = s->nx, nu = s->nu, N = s->N;
+  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)s->hard_count, (long)s->soft_count) +
+         (s->exact_hessian ? (long)IPGEN_MPC_WORK_HESSIAN(nx, nu, N) : 0L);
+}
+
+/* sqrt in the precision of ipgen_mpc_real (sqrtf for float: no double arithmetic on an FPU of
+ * single precision; the sizeof test is a compile-time constant). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_sqrt(ipgen_mpc_real v) {
+  return sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)sqrtf((float)v) : (ipgen_mpc_real)sqrt((double)v);
+}
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_abs(ipgen_mpc_real v) { return v < 0 ? -v : v; }
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max(ipgen_mpc_real a, ipgen_mpc_real b) { return a < b ? b : a; }
+IPGEN_MPC_LOCAL int ipgen_mpc_finite(ipgen_mpc_real v) { return v == v && v - v == v - v; }
+
+/* ---- discretisation: RK4 and its exact sensitivities ------------------------------------- */
+
+/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. */
+IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc_real Ac[], const ipgen_mpc_real Bc[],
+                                                 const ipgen_mpc_real Sv[], ipgen_mpc_real dk[]) {
+  const int nz = nx + nu;
+  int i, j, m;
+  for (i = 0; i < nx; ++i) {
+    for (j = 0; j < nz; ++j) {
+      ipgen_mpc_real v = j < nx ? (ipgen_mpc_real)0 : Bc[i * nu + (j - nx)];
+      for (m = 0; m < nx; ++m) v += Ac[i * nx + m] * Sv[m * nz + j];
+      dk[i * nz + j] = v;
+    }
+  }
+}
+
+/* One sample of the discretised model: xn = F(x, u), `substeps` classical RK4 steps of length
+ * T / substeps with u held, and, when A and B are not null, its exact sensitivities A = dF/dx
+ * (nx x nx) and B = dF/du (nx x nu): the RK4 recursion differentiated stage by stage with the
+ * model's Jacobians (what automatic differentiation of the same steps gives). `l`: the carved
+ * workspace (its RK4 temporaries). Returns 0, 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real x[],
+                                         const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
+                                         ipgen_mpc_real B[]) {
+  const int nx = s->nx, nu = s->nu, nz = nx + nu, sens = A != 0 && B != 0;
+  const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
+  static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
+  static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
+  ipgen_mpc_real *xs = l->xn, *S = l->S;
+  int step, stage, i, j;
+  for (i = 0; i < nx; ++i) xs[i] = x[i];
+  if (sens)
+    for (i = 0; i < nx; ++i)
+      for (j = 0; j < nz; ++j) S[i * nz + j] = (ipgen_mpc_real)(i == j);
+  for (step = 0; step < s->substeps; ++step) {
+    for (i = 0; i < nx; ++i) l->xt[i] = xs[i];
+    if (sens)
+      for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i];
+    for (stage = 0; stage < 4; ++stage) {
+      if (s->dynamics(s->context, l->xt, u, l->k, sens ? l->Ac : 0, sens ? l->Bc : 0) != 0) return 1;
+      for (i = 0; i < nx; ++i) l->ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : l->ksum[i]) + weight[stage] * l->k[i];
+      if (sens) {
+        ipgen_mpc_stage_sensitivity(nx, nu, l->Ac, l->Bc, l->Ss, l->dk);
+        for (i = 0; i < nx * nz; ++i)
+          l->dksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : l->dksum[i]) + weight[stage] * l->dk[i];
+      }
+      if (stage < 3) { /* the next stage's point: x + c h k, its sensitivity S + c h dk */
+        const ipgen_mpc_real c = advance[stage] * h;
+        for (i = 0; i < nx; ++i) l->xt[i] = xs[i] + c * l->k[i];
+        if (sens)
+          for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i] + c * l->dk[i];
+      }
+    }
+    for (i = 0; i < nx; ++i) xs[i] += h / (ipgen_mpc_real)6 * l->ksum[i];
+    if (sens)
+      for (i = 0; i < nx * nz; ++i) S[i] += h / (ipgen_mpc_real)6 * l->dksum[i];
+  }
+  for (i = 0; i < nx; ++i) xn[i] = xs[i];
+  if (sens) {
+    for (i = 0; i < nx; ++i) {
+      for (j = 0; j < nx; ++j) A[i * nx + j] = S[i * nz + j];
+      for (j = 0; j < nu; ++j) B[i * nu + j] = S[i * nz + nx + j];
+    }
+  }
+  return 0;
+}
+
+/* ipgen_mpc_rk4_layout on a workspace of ipgen_mpc_work_size entries (its warm start untouched). */
+IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
+                                ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
+  ipgen_mpc_layout l;
+  ipgen_mpc_carve(s, work, &l);
+  return ipgen_mpc_rk4_layout(s, &l, x, u, xn, A, B);
+}
+
+/* ---- the quadratic program ------------------------------------------------------------------
+ * Variables z = (dx_0..dx_N, du_0..du_{N-1}) about the guess traj, dx_0 = estimate - x_0 fixed,
+ * dx_{k+1} = A_k dx_k + B_k du_k + d_k; cost the problem's (exact in x and u: Gauss-Newton);
+ * inequalities a z[var] - s[soft] <= b (a = +1 an upper bound, -1 a lower one) and -s <= 0 for the
+ * soft slacks s, numbered: inputs (2 N nu), hard state bounds (2 N hard), soft ones (2 N soft),
+ * then the slacks' s >= 0 (2 N soft). */
+
+/* Inequality i decoded from the settings: the variable's index in z (-1: a slack's s >= 0), its
+ * sign a and the bound's value (max for a = +1, min for a = -1; 0 for a slack's). Divisions: run
+ * once per step by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
+IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long *var, ipgen_mpc_real *sign,
+                                      ipgen_mpc_real *value) {
+  const long N = s->N, nx = s->nx, nu = s->nu, nh = s->hard_count, ns = s->soft_count;
+  const long nU = 2 * N * nu, nH = 2 * N * nh, nS = 2 * N * ns;
+  ipgen_mpc_real lo, hi;
+  long r;
+  if (i < nU) {
+    const long k = i / (2 * nu), j = (i % (2 * nu)) / 2;
+    r = i;
+    *var = (N + 1) * nx + k * nu + j;
+    lo = s->u_min[j];
+    hi = s->u_max[j];
+  } else if (i < nU + nH) {
+    const long ii = i - nU, k = 1 + ii / (2 * nh), j = (ii % (2 * nh)) / 2;
+    r = ii;
+    *var = k * nx + s->hard_index[j];
+    lo = s->hard_min[j];
+    hi = s->hard_max[j];
+  } else if (i < nU + nH + nS) {
+    const long ii = i - nU - nH, k = 1 + ii / (2 * ns), j = (ii % (2 * ns)) / 2;
+    r = ii;
+    *var = k * nx + s->soft_index[j];
+    lo = s->soft_min[j];
+    hi = s->soft_max[j];
+  } else {
+    *var = -1;
+    *sign = (ipgen_mpc_real)0;
+    *value = (ipgen_mpc_real)0;
+    return;
+  }
+  *sign = r % 2 == 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+  *value = r % 2 == 0 ? hi : lo;
+}
+
+/* The table of the inequalities: code = a (var + 1) (0 for a slack's s >= 0) and the bound's value
+ * (max for a = +1, min for a = -1), from the settings alone. */
+IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const long M = IPGEN_MPC_INEQUALITIES(s->nu, s->N, s->hard_count, s->soft_count);
+  long i, var;
+  ipgen_mpc_real sign;
+  for (i = 0; i < M; ++i) {
+    ipgen_mpc_decode(s, i, &var, &sign, &l->bound[i]);
+    l->code[i] = sign * (ipgen_mpc_real)(var + 1);
+  }
+}
+
+/* Inequality i from the table: the variable's index in z (-1: a slack's s >= 0), its sign a, the
+ * slack's index (-1: none) and the bound b = a (bound - traj[var]) at the current guess. */
+IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, long i, long *var,
+                                          ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
+  const long first_soft = 2 * (long)s->N * (s->nu + s->hard_count), nS = IPGEN_MPC_SLACKS(s->N, s->soft_count);
+  const ipgen_mpc_real e = l->code[i];
+  if (e == 0) {
+    *var = -1;
+    *sign = (ipgen_mpc_real)0;
+    *soft = i - first_soft - nS;
+    *b = (ipgen_mpc_real)0;
+    return;
+  }
+  *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+  *var = (long)(e > 0 ? e : -e) - 1;
+  *soft = i >= first_soft ? i - first_soft : -1;
+  *b = *sign * (l->bound[i] - l->traj[*var]);
+}
+
+/* The value a z[var] - s[soft] of inequality i at (z, sig), or a's and the slack's part of a step. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_constraint(long var, ipgen_mpc_real sign, long soft, const ipgen_mpc_real z[],
+                                                    const ipgen_mpc_real sig[]) {
+  return (var >= 0 ? sign * z[var] : (ipgen_mpc_real)0) - (soft >= 0 ? sig[soft] : (ipgen_mpc_real)0);
+}
+
+/* The soft bound (0..soft_count) of slack j. */
+IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) { return (j % (2 * s->soft_count)) / 2; }
+
+/* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0) plus C' lam over
+ * the variables; gs = the slacks' rho1 + 2 rho2 s - lam (both of a slack's inequalities).
+ * Returns the cost gradient's largest entry (the scale of the stationarity residual). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
+  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  long i, var, soft;
+  int k, a, b;
+  ipgen_mpc_real sign, bound, scale = (ipgen_mpc_real)1;
+  for (i = 0; i < nx; ++i) l->gl[i] = (ipgen_mpc_real)0;
+  if (l->exact) { /* the cost's gradient at the guess plus H_k (dx_k, du_k), stage by stage */
+    const int nz = nx + nu;
+    for (k = 0; k < N; ++k) {
+      const ipgen_mpc_real *Hk = l->H + (long)k * nz * nz, *zx = l->z + (long)k * nx;
+      const ipgen_mpc_real *zu = l->z + (long)(N + 1) * nx + (long)k * nu;
+      const long o = (long)(N + 1) * nx + (long)k * nu;
+      for (a = 0; a < nz; ++a) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        if (a < nx && k == 0) continue;
+        for (b = 0; b < nx; ++b) v += Hk[a * nz + b] * zx[b];
+        for (b = 0; b < nu; ++b) v += Hk[a * nz + nx + b] * zu[b];
+        if (a < nx) {
+          for (b = 0; b < nx; ++b) v += (ipgen_mpc_real)2 * s->Q[a * nx + b] * (l->traj[k * nx + b] - s->x_ref[b]);
+          l->gl[k * nx + a] = v;
+        } else {
+          for (b = 0; b < nu; ++b)
+            v += (ipgen_mpc_real)2 * s->R[(a - nx) * nu + b] * (l->traj[o + b] - s->u_ref[b]);
+          l->gl[o + a - nx] = v;
+        }
+      }
+    }
+  }
+  for (k = l->exact ? N : 1; k <= N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
+    const ipgen_mpc_real *W = k == N ? s->P : s->Q;
+    for (a = 0; a < nx; ++a) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (b = 0; b < nx; ++b) v += W[a * nx + b] * (l->traj[k * nx + b] + l->z[k * nx + b] - s->x_ref[b]);
+      l->gl[k * nx + a] = (ipgen_mpc_real)2 * v;
+    }
+  }
+  for (k = 0; k < (l->exact ? 0 : N); ++k) {
+    const long o = (long)(N + 1) * nx + (long)k * nu;
+    for (a = 0; a < nu; ++a) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (b = 0; b < nu; ++b) v += s->R[a * nu + b] * (l->traj[o + b] + l->z[o + b] - s->u_ref[b]);
+      l->gl[o + a] = (ipgen_mpc_real)2 * v;
+    }
+  }
+  for (i = 0; i < nS; ++i) {
+    const long j = ipgen_mpc_soft_bound(s, i);
+    l->gs[i] = s->soft_linear[j] + (ipgen_mpc_real)2 * s->soft_quadratic[j] * l->sig[i];
+  }
+  for (i = 0; i < Z; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gl[i]));
+  for (i = 0; i < nS; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gs[i]));
+  for (i = 0; i < M; ++i) {
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+    if (var >= 0) l->gl[var] += sign * l->lam[i];
+    if (soft >= 0) l->gs[soft] -= l->lam[i];
+  }
+  return scale;
+}
+
+/* The QP's largest residual: stationarity (the reduced gradient in the inputs and slacks, through
+ * the adjoint of the dynamics) relative to `scale` (the cost gradient's largest entry, at least
+ * 1), primal (|a z - s + t - b|) and the mean complementarity. Needs ipgen_mpc_gradient's gl, gs
+ * and the primal residuals rp. `costate`: the dynamics' largest multiplier (the adjoint's entry). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_real mu,
+                                                     ipgen_mpc_real scale, ipgen_mpc_real *costate) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
+  long i;
+  int k, a, b;
+  for (i = 0; i < M; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->rp[i]));
+  for (i = 0; i < nS; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->gs[i]) / scale);
+  for (a = 0; a < nx; ++a) v[a] = l->gl[N * nx + a];
+  *costate = (ipgen_mpc_real)0;
+  for (k = N - 1; k >= 0; --k) {
+    for (a = 0; a < nx; ++a) *costate = ipgen_mpc_max(*costate, ipgen_mpc_abs(v[a]));
+    if (l->costate)
+      for (a = 0; a < nx; ++a) l->costate[(long)k * nx + a] = v[a]; /* the multiplier of x_{k+1} = F(x_k, u_k) */
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
+    const long o = (long)(N + 1) * nx + (long)k * nu;
+    for (a = 0; a < nu; ++a) {
+      ipgen_mpc_real r = l->gl[o + a];
+      for (b = 0; b < nx; ++b) r += B[b * nu + a] * v[b];
+      worst = ipgen_mpc_max(worst, ipgen_mpc_abs(r) / scale);
+    }
+    if (k == 0) break;
+    for (a = 0; a < nx; ++a) {
+      ipgen_mpc_real r = l->gl[k * nx + a];
+      for (b = 0; b < nx; ++b) r += A[b * nx + a] * v[b];
+      vn[a] = r;
+    }
+    for (a = 0; a < nx; ++a) v[a] = vn[a];
+  }
+  return worst;
+}
+
+/* Cholesky factor (lower, in place) of the n x n matrix M; 1 if it is not positive definite. */
+IPGEN_MPC_LOCAL int ipgen_mpc_cholesky(int n, ipgen_mpc_real M[]) {
+  int i, j, c;
+  for (j = 0; j < n; ++j) {
+    ipgen_mpc_real dj = M[j * n + j];
+    for (c = 0; c < j; ++c) dj -= M[j * n + c] * M[j * n + c];
+    if (!(dj > (ipgen_mpc_real)0)) return 1;
+    dj = ipgen_mpc_sqrt(dj);
+    M[j * n + j] = dj;
+    for (i = j + 1; i < n; ++i) {
+      ipgen_mpc_real v = M[i * n + j];
+      for (c = 0; c < j; ++c) v -= M[i * n + c] * M[j * n + c];
+      M[i * n + j] = v / dj;
+    }
+    for (i = 0; i < j; ++i) M[i * n + j] = (ipgen_mpc_real)0;
+  }
+  return 0;
+}
+
+/* v = (L L')^-1 v in place for the n x n lower factor L. */
+IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], ipgen_mpc_real v[]) {
+  int i, c;
+  for (i = 0; i < n; ++i) {
+    for (c = 0; c < i; ++c) v[i] -= L[i * n + c] * v[c];
+    v[i] /= L[i * n + i];
+  }
+  for (i = n - 1; i >= 0; --i) {
+    for (c = i + 1; c < n; ++c) v[i] -= L[c * n + i] * v[c];
+    v[i] /= L[i * n + i];
+  }
+}
+
+/* The Riccati factorisation of the Newton system's Hessian: stage weights 2Q + diag(hd_x),
+ * 2R + diag(hd_u), terminal 2P + diag(hd_x_N), dynamics A_k, B_k. Stores the gains
+ * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B. Returns 1 if an
+ * Re is not positive definite. Multiply-adds per stage about 1.5 nx^3 + 2.5 nx^2 nu + 2 nx nu^2
+ * + nu^3 / 3. With l->exact the stage weights are H_k's blocks (H_xx, H_ux, H_uu) instead. */
+IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  ipgen_mpc_real *P = l->Pm;
+  int k, i, j, m;
+  for (i = 0; i < nx; ++i)
+    for (j = 0; j < nx; ++j) P[i * nx + j] = (ipgen_mpc_real)2 * s->P[i * nx + j] + (i == j ? l->hd[N * nx + i] : (ipgen_mpc_real)0);
+  for (k = N - 1; k >= 0; --k) {
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
+    ipgen_mpc_real *K = l->K + (long)k * nu * nx, *Lk = l->L + (long)k * nu * nu;
+    const long o = (long)(N + 1) * nx + (long)k * nu;
+    for (i = 0; i < nu; ++i) /* BtP = B' P */
+      for (j = 0; j < nx; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        for (m = 0; m < nx; ++m) v += B[m * nu + i] * P[m * nx + j];
+        l->BtP[i * nx + j] = v;
+      }
+    for (i = 0; i < nu; ++i) /* Re = 2R (H_uu) + diag + BtP B, Se = (H_ux +) BtP A */
+      for (j = 0; j < nu; ++j) {
+        ipgen_mpc_real v = (l->exact ? l->H[(long)k * nz * nz + (nx + i) * nz + nx + j] : (ipgen_mpc_real)2 * s->R[i * nu + j]) +
+                           (i == j ? l->hd[o + i] : (ipgen_mpc_real)0);
+        for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * B[m * nu + j];
+        Lk[i * nu + j] = v;
+      }
+    for (i = 0; i < nu; ++i)
+      for (j = 0; j < nx; ++j) {
+        ipgen_mpc_real v = l->exact ? l->H[(long)k * nz * nz + (nx + i) * nz + j] : (ipgen_mpc_real)0;
+        for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * A[m * nx + j];
+        l->Se[i * nx + j] = v;
+      }
+    if (ipgen_mpc_cholesky(nu, Lk) != 0) return 1;
+    for (j = 0; j < nx; ++j) { /* K = -Re^-1 Se, column by column */
+      for (i = 0; i < nu; ++i) l->g[i] = l->Se[i * nx + j];
+      ipgen_mpc_cholesky_solve(nu, Lk, l->g);
+      for (i = 0; i < nu; ++i) K[i * nx + j] = -l->g[i];
+    }
+    if (k == 0) break;
+    for (i = 0; i < nx; ++i) /* AtP = A' P */
+      for (j = 0; j < nx; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        for (m = 0; m < nx; ++m) v += A[m * nx + i] * P[m * nx + j];
+        l->AtP[i * nx + j] = v;
+      }
+    for (i = 0; i < nx; ++i) /* P_k = 2Q (H_xx) + diag + AtP A + Se' K, symmetrised */
+      for (j = 0; j <= i; ++j) {
+        ipgen_mpc_real v = (l->exact ? l->H[(long)k * nz * nz + i * nz + j] : (ipgen_mpc_real)2 * s->Q[i * nx + j]) +
+                           (i == j ? l->hd[k * nx + i] : (ipgen_mpc_real)0);
+        for (m = 0; m < nx; ++m) v += l->AtP[i * nx + m] * A[m * nx + j];
+        for (m = 0; m < nu; ++m) v += l->Se[m * nx + i] * K[m * nx + j];
+        l->Pn[i * nx + j] = v;
+        l->Pn[j * nx + i] = v;
+      }
+    for (i = 0; i < nx * nx; ++i) P[i] = l->Pn[i];
+  }
+  return 0;
+}
+
+/* The Newton direction `dir` (dx_0 = 0) of the factorised system for the linear terms `q`
+ * (indexed as z): the backward pass p_k = q_k + A' p + K' (q_u + B' p), the feedforward
+ * -Re^-1 (q_u + B' p), then the forward pass du = K dx + kff, dx' = A dx + B du. */
+IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real q[],
+                                             ipgen_mpc_real dir[]) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  int k, i, m;
+  for (i = 0; i < nx; ++i) l->p[i] = q[N * nx + i];
+  for (k = N - 1; k >= 0; --k) {
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
+    const ipgen_mpc_real *K = l->K + (long)k * nu * nx;
+    const long o = (long)(N + 1) * nx + (long)k * nu;
+    ipgen_mpc_real *kff = l->kff + (long)k * nu;
+    for (i = 0; i < nu; ++i) {
+      ipgen_mpc_real v = q[o + i];
+      for (m = 0; m < nx; ++m) v += B[m * nu + i] * l->p[m];
+      l->g[i] = v;
+      kff[i] = v;
+    }
+    ipgen_mpc_cholesky_solve(nu, l->L + (long)k * nu * nu, kff);
+    for (i = 0; i < nu; ++i) kff[i] = -kff[i];
+    if (k == 0) break;
+    for (i = 0; i < nx; ++i) {
+      ipgen_mpc_real v = q[k * nx + i];
+      for (m = 0; m < nx; ++m) v += A[m * nx + i] * l->p[m];
+      for (m = 0; m < nu; ++m) v += K[m * nx + i] * l->g[m];
+      l->pn[i] = v;
+    }
+    for (i = 0; i < nx; ++i) l->p[i] = l->pn[i];
+  }
+  for (i = 0; i < nx; ++i) dir[i] = (ipgen_mpc_real)0;
+  for (k = 0; k < N; ++k) {
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx, *B = l->B + (long)k * nx * nu;
+    const ipgen_mpc_real *K = l->K + (long)k * nu * nx, *kff = l->kff + (long)k * nu;
+    const ipgen_mpc_real *dx = dir + (long)k * nx;
+    ipgen_mpc_real *du = dir + (long)(N + 1) * nx + (long)k * nu, *dxn = dir + (long)(k + 1) * nx;
+    for (i = 0; i < nu; ++i) {
+      ipgen_mpc_real v = kff[i];
+      for (m = 0; m < nx; ++m) v += K[i * nx + m] * dx[m];
+      du[i] = v;
+    }
+    for (i = 0; i < nx; ++i) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (m = 0; m < nx; ++m) v += A[i * nx + m] * dx[m];
+      for (m = 0; m < nu; ++m) v += B[i * nu + m] * du[m];
+      dxn[i] = v;
+    }
+  }
+}
+
+/* The effective multiplier lam + (lam rp - rc) / t of inequality i (the Newton system's). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_effective(const ipgen_mpc_layout *l, long i) {
+  return l->lam[i] + (l->lam[i] * l->rp[i] - l->rc[i]) / l->t[i];
+}
+
+/* The Newton system's linear terms rhs (for complementarity targets rc) from gl, gs and the
+ * inequalities; the slacks eliminated (their reduced gradient kept in gs' copy in dsig). */
+IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  long i, var, soft;
+  ipgen_mpc_real sign, bound;
+  for (i = 0; i < Z; ++i) l->rhs[i] = l->gl[i];
+  for (i = 0; i < first_soft; ++i) { /* inputs and hard bounds: a (effective - lam) */
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+    l->rhs[var] += sign * (ipgen_mpc_effective(l, i) - l->lam[i]);
+  }
+  for (i = 0; i < nS; ++i) { /* a soft bound's relaxed inequality r and its slack's s >= 0, n */
+    const long r = first_soft + i, n = first_soft + nS + i;
+    const ipgen_mpc_real er = ipgen_mpc_effective(l, r), en = ipgen_mpc_effective(l, n);
+    const ipgen_mpc_real sr = l->lam[r] / l->t[r];
+    const ipgen_mpc_real gsig = l->gs[i] - (er - l->lam[r]) - (en - l->lam[n]);
+    ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
+    l->dsig[i] = gsig;
+    l->rhs[var] += sign * (er - l->lam[r]) + sign * sr * gsig / l->hs[i];
+  }
+}
+
+/* The step of the slacks, inequality slacks and multipliers from the direction `dir`. */
+IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nu = s->nu, N = s->N;
+  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
+  const long first_soft = M - 2 * nS;
+  long i, var, soft;
+  ipgen_mpc_real sign, bound;
+  for (i = 0; i < nS; ++i) {
+    const long r = first_soft + i;
+    ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
+    l->dsig[i] = (sign * l->lam[r] / l->t[r] * l->dir[var] - l->dsig[i]) / l->hs[i];
+  }
+  for (i = 0; i < M; ++i) {
+    ipgen_mpc_real cd;
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+    cd = ipgen_mpc_constraint(var, sign, soft, l->dir, l->dsig);
+    l->dt[i] = -l->rp[i] - cd;
+    l->dlam[i] = (l->lam[i] * (l->rp[i] + cd) - l->rc[i]) / l->t[i];
+  }
+}
+
+/* The largest step in (0, 1] along (dt, dlam) keeping t and lam nonnegative. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, long M) {
+  ipgen_mpc_real alpha = (ipgen_mpc_real)1;
+  long i;
+  for (i = 0; i < M; ++i) {
+    if (l->dt[i] < 0 && -l->t[i] / l->dt[i] < alpha) alpha = -l->t[i] / l->dt[i];
+    if (l->dlam[i] < 0 && -l->lam[i] / l->dlam[i] < alpha) alpha = -l->lam[i] / l->dlam[i];
+  }
+  return alpha;
+}
+
+/* Solves the QP about the guess (z's x_0 part and the defects d set by the caller) by the
+ * primal-dual interior-point method with Mehrotra's predictor-corrector; at most qp_iterations
+ * iterations. Returns 0 (converged to qp_tolerance), 2 (budget reached), 4 (a breakdown);
+ * `costate`: the dynamics' largest multiplier at the last iterate. */
+IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info,
+                                  ipgen_mpc_real *costate) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  const ipgen_mpc_real one = (ipgen_mpc_real)1, zero = (ipgen_mpc_real)0;
+  long i, var, soft;
+  int k, a, m, iteration;
+  ipgen_mpc_real sign, bound;
+  /* start: the dynamics rolled out with du = 0 (every later step keeps them), slacks at the
+   * violation, t at the distance to the bound (at least 1), lam = 1 */
+  for (i = (long)(N + 1) * nx; i < Z; ++i) l->z[i] = zero;
+  for (k = 0; k < N; ++k) {
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx;
+    for (a = 0; a < nx; ++a) {
+      ipgen_mpc_real v = l->d[(long)k * nx + a];
+      for (m = 0; m < nx; ++m) v += A[a * nx + m] * l->z[(long)k * nx + m];
+      l->z[(long)(k + 1) * nx + a] = v;
+    }
+  }
+  for (i = 0; i < nS; ++i) l->sig[i] = zero;
+  for (i = 0; i < first_soft + nS; ++i) {
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+    if (soft >= 0) l->sig[soft] = ipgen_mpc_max(l->sig[soft], sign * l->z[var] - bound);
+  }
+  for (i = 0; i < M; ++i) {
+    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+    l->t[i] = ipgen_mpc_max(bound - ipgen_mpc_constraint(var, sign, soft, l->z, l->sig), one);
+    l->lam[i] = one;
+  }
+  for (iteration = 0;; ++iteration) {
+    ipgen_mpc_real mu = zero, mu_aff = zero, alpha, centring, residual;
+    for (i = 0; i < M; ++i) {
+      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+      l->rp[i] = ipgen_mpc_constraint(var, sign, soft, l->z, l->sig) + l->t[i] - bound;
+      mu += l->lam[i] * l->t[i];
+    }
+    mu = M > 0 ? mu / (ipgen_mpc_real)M : zero;
+    residual = ipgen_mpc_qp_residual(s, l, mu, ipgen_mpc_gradient(s, l), costate);
+    info->qp_residual = residual;
+    if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
+    if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
+    if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
+    info->qp_iterations += 1;
+    /* the Hessian's diagonal: Sigma = lam / t on each bounded variable, the slacks eliminated */
+    for (i = 0; i < Z; ++i) l->hd[i] = zero;
+    for (i = 0; i < first_soft; ++i) {
+      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
+      l->hd[var] += l->lam[i] / l->t[i];
+    }
+    for (i = 0; i < nS; ++i) {
+      const long r = first_soft + i, n = first_soft + nS + i;
+      const ipgen_mpc_real sr = l->lam[r] / l->t[r];
+      l->hs[i] = (ipgen_mpc_real)2 * s->soft_quadratic[ipgen_mpc_soft_bound(s, i)] + sr + l->lam[n] / l->t[n];
+      ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
+      l->hd[var] += sr - sr * sr / l->hs[i];
+    }
+    /* A Riccati breakdown (Re not positive definite: Sigma's spread beyond the precision, at the
+     * end of a solve) keeps the iterate reached, which satisfies the dynamics. */
+    if (ipgen_mpc_riccati_factor(s, l) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
+    /* predictor: complementarity targets 0 */
+    for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
+    ipgen_mpc_newton_rhs(s, l);
+    ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
+    ipgen_mpc_recover(s, l);
+    alpha = ipgen_mpc_max_step(l, M);
+    for (i = 0; i < M; ++i) mu_aff += (l->lam[i] + alpha * l->dlam[i]) * (l->t[i] + alpha * l->dt[i]);
+    mu_aff = M > 0 ? mu_aff / (ipgen_mpc_real)M : zero;
+    centring = mu > zero ? mu_aff / mu : zero;
+    centring = centring * centring * centring;
+    /* corrector: targets centring mu, with the predictor's second-order term */
+    for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] + l->dt[i] * l->dlam[i] - centring * mu;
+    ipgen_mpc_newton_rhs(s, l);
+    ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
+    ipgen_mpc_recover(s, l);
+    alpha = ipgen_mpc_max_step(l, M);
+    alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
+    for (i = 0; i < Z; ++i) l->z[i] += alpha * l->dir[i];
+    for (i = 0; i < nS; ++i) l->sig[i] += alpha * l->dsig[i];
+    for (i = 0; i < M; ++i) {
+      l->t[i] += alpha * l->dt[i];
+      l->lam[i] += alpha * l->dlam[i];
+    }
+  }
+}
+
+/* The Lagrangian's Hessian per stage, H_k = blockdiag(2Q, 2R) + sum_i nu_i d2F_i/dw2 at w = (x_k,
+ * u_k), nu the multipliers of x_{k+1} = F(x_k, u_k) (l->costate, from the last QP): column j by
+ * central differences of the exact sensitivities' transposed products [A' nu; B' nu] at w +- h e_j,
+ * h = 1e-5 max(1, |w_j|) (1e-2 in float), symmetrised. 2 (nx + nu) RK4 samples with
+ * sensitivities per stage. Returns 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const ipgen_mpc_real relative = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-2 : (ipgen_mpc_real)1e-5;
+  int k, i, j, side;
+  for (k = 0; k < N; ++k) {
+    ipgen_mpc_real *Hk = l->H + (long)k * nz * nz;
+    const ipgen_mpc_real *v = l->costate + (long)k * nx;
+    for (j = 0; j < nz; ++j) {
+      const ipgen_mpc_real w0 = j < nx ? l->traj[(long)k * nx + j] : l->traj[(long)(N + 1) * nx + (long)k * nu + j - nx];
+      const ipgen_mpc_real h = relative * ipgen_mpc_max((ipgen_mpc_real)1, ipgen_mpc_abs(w0));
+      for (side = 0; side < 2; ++side) {
+        for (i = 0; i < nx; ++i) l->fd_w[i] = l->traj[(long)k * nx + i];
+        for (i = 0; i < nu; ++i) l->fd_w[nx + i] = l->traj[(long)(N + 1) * nx + (long)k * nu + i];
+        l->fd_w[j] = side == 0 ? w0 + h : w0 - h;
+        if (ipgen_mpc_rk4_layout(s, l, l->fd_w, l->fd_w + nx, l->p, l->fd_A, l->fd_B) != 0) return 1;
+        for (i = 0; i < nz; ++i) { /* [A' nu; B' nu] */
+          ipgen_mpc_real g = (ipgen_mpc_real)0;
+          int r;
+          for (r = 0; r < nx; ++r) g += (i < nx ? l->fd_A[r * nx + i] : l->fd_B[r * nu + i - nx]) * v[r];
+          if (side == 0)
+            Hk[i * nz + j] = g;
+          else
+            Hk[i * nz + j] = (Hk[i * nz + j] - g) / ((ipgen_mpc_real)2 * h);
+        }
+      }
+    }
+    for (i = 0; i < nz; ++i)
+      for (j = 0; j < i; ++j) {
+        const ipgen_mpc_real mean = (ipgen_mpc_real)0.5 * (Hk[i * nz + j] + Hk[j * nz + i]);
+        Hk[i * nz + j] = Hk[j * nz + i] = mean;
+      }
+    for (i = 0; i < nx; ++i)
+      for (j = 0; j < nx; ++j) Hk[i * nz + j] += (ipgen_mpc_real)2 * s->Q[i * nx + j];
+    for (i = 0; i < nu; ++i)
+      for (j = 0; j < nu; ++j) Hk[(nx + i) * nz + nx + j] += (ipgen_mpc_real)2 * s->R[i * nu + j];
+  }
+  return 0;
+}
+
+/* ---- the controller ----------------------------------------------------------------------- */
+
+/* Forgets the warm start: the next step starts cold (every state x_k at the estimate, every
+ * input at u_ref clipped to its bounds). */
+IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc_real)0; }
+
+/* The problem's cost (the header's comment) of the trajectory traj (states x_0..x_N, then the
+ * inputs; soft violations from the states) and, when dz is not null, its derivative along dz
+ * (the soft penalty's where a bound is violated). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[],
+                                                         const ipgen_mpc_real dz[], ipgen_mpc_real *slope) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const ipgen_mpc_real *x = traj, *u = traj + (long)(N + 1) * nx;
+  const ipgen_mpc_real *dx = dz, *du = dz ? dz + (long)(N + 1) * nx : 0;
+  ipgen_mpc_real cost = (ipgen_mpc_real)0, d = (ipgen_mpc_real)0;
+  int k, a, b, j;
+  for (k = 0; k <= N; ++k) {
+    const ipgen_mpc_real *W = k == N ? s->P : s->Q;
+    for (a = 0; a < nx; ++a)
+      for (b = 0; b < nx; ++b) {
+        const ipgen_mpc_real w = (x[k * nx + a] - s->x_ref[a]) * W[a * nx + b];
+        cost += w * (x[k * nx + b] - s->x_ref[b]);
+        if (dz && k > 0) d += (ipgen_mpc_real)2 * w * dx[k * nx + b];
+      }
+    if (k > 0)
+      for (j = 0; j < s->soft_count; ++j) {
+        const int i = k * nx + s->soft_index[j];
+        const ipgen_mpc_real above = x[i] - s->soft_max[j], below = s->soft_min[j] - x[i];
+        const ipgen_mpc_real over = ipgen_mpc_max(above, below);
+        if (over > 0) {
+          cost += s->soft_linear[j] * over + s->soft_quadratic[j] * over * over;
+          if (dz) d += (s->soft_linear[j] + (ipgen_mpc_real)2 * s->soft_quadratic[j] * over) * (above > below ? dx[i] : -dx[i]);
+        }
+      }
+    if (k == N) break;
+    for (a = 0; a < nu; ++a)
+      for (b = 0; b < nu; ++b) {
+        const ipgen_mpc_real w = (u[k * nu + a] - s->u_ref[a]) * s->R[a * nu + b];
+        cost += w * (u[k * nu + b] - s->u_ref[b]);
+        if (dz) d += (ipgen_mpc_real)2 * w * du[k * nu + b];
+      }
+  }
+  if (slope) *slope = d;
+  return cost;
+}
+
+/* The l1 merit function cost + weight (sum_k |F(x_k, u_k) - x_{k+1}|_1 + |x - x_0|_1) of the
+ * trajectory traj for the estimate x; `defects` the sum when already known (negative: computed
+ * here, by one RK4 sample per stage without sensitivities). Returns 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real traj[],
+                                    const ipgen_mpc_real x[], ipgen_mpc_real weight, ipgen_mpc_real defects,
+                                    ipgen_mpc_real *merit) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  int k, i;
+  if (defects < 0) {
+    defects = (ipgen_mpc_real)0;
+    for (k = 0; k < N; ++k) {
+      if (ipgen_mpc_rk4_layout(s, l, traj + (long)k * nx, traj + (long)(N + 1) * nx + (long)k * nu, l->p, 0, 0) != 0)
+        return 1;
+      for (i = 0; i < nx; ++i) defects += ipgen_mpc_abs(l->p[i] - traj[(long)(k + 1) * nx + i]);
+    }
+    for (i = 0; i < nx; ++i) defects += ipgen_mpc_abs(x[i] - traj[i]);
+  }
+  *merit = ipgen_mpc_trajectory_cost(s, traj, 0, 0) + weight * defects;
+  return 0;
+}
+
+/* The problem's cost (the header's comment) of the trajectory held in `work` (states and inputs
+ * as they are, soft violations from the states). */
+IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
+  return ipgen_mpc_trajectory_cost(s, work + 1, 0, 0);
+}
+
+/* 0 if the settings describe a problem (sizes >= 1, finite period, bounds ordered, indices in
+ * range, weights of the soft bounds valid), else IPGEN_MPC_BAD_SETTINGS. */
+IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
+  int j;
+  if (s->nx < 1 || s->nu < 1 || s->N < 1 || s->substeps < 1 || !(s->period > 0) || s->dynamics == 0) return IPGEN_MPC_BAD_SETTINGS;
+  if (s->sqp_iterations < 1 || s->qp_iterations < 1 || s->hard_count < 0 || s->soft_count < 0) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < s->nu; ++j)
+    if (!(s->u_min[j] < s->u_max[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < s->hard_count; ++j)
+    if (s->hard_index[j] < 0 || s->hard_index[j] >= s->nx || !(s->hard_min[j] < s->hard_max[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < s->soft_count; ++j)
+    if (s->soft_index[j] < 0 || s->soft_index[j] >= s->nx || !(s->soft_min[j] < s->soft_max[j]) ||
+        !(s->soft_linear[j] >= 0) || !(s->soft_quadratic[j] > 0))
+      return IPGEN_MPC_BAD_SETTINGS;
+  return IPGEN_MPC_OK;
+}
+
+/* One controller step: u (nu) for the state estimate x (nx), from the problem of the header's
+ * comment solved about the warm start held in `work` (ipgen_mpc_work_size entries; shifted by one
+ * sample first when s->shift), or cold after ipgen_mpc_reset (every x_k at the estimate, u_k at
+ * u_ref clipped). Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
+ * start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
+ * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
+ * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
+IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
+                                 ipgen_mpc_real work[], ipgen_mpc_info *info) {
+  const int nx = s->nx, nu = s->nu, N = s->N;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
+  ipgen_mpc_info own;
+  ipgen_mpc_layout l;
+  ipgen_mpc_real *us, weight = (ipgen_mpc_real)0, previous = (ipgen_mpc_real)0;
+  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK;
+  if (info == 0) info = &own;
+  info->status = IPGEN_MPC_OK;
+  info->sqp_iterations = info->qp_iterations = 0;
+  info->step = info->defect = info->qp_residual = (ipgen_mpc_real)0;
+  if (ipgen_mpc_check(s) != IPGEN_MPC_OK) {
+    for (i = 0; i < nu && i < s->nu; ++i) u[i] = s->u_ref[i];
+    return info->status = IPGEN_MPC_BAD_SETTINGS;
+  }
+  ipgen_mpc_carve(s, work, &l);
+  us = l.traj + (long)(N + 1) * nx;
+  ipgen_mpc_encode(s, &l);
+  budget = s->sqp_iterations;
+  if (!(*l.warm > 0)) {
+    if (s->cold_iterations > budget) budget = s->cold_iterations;
+    for (k = 0; k <= N; ++k)
+      for (i = 0; i < nx; ++i) l.traj[k * nx + i] = x[i];
+    for (k = 0; k < N; ++k)
+      for (i = 0; i < nu; ++i) {
+        const ipgen_mpc_real v = s->u_ref[i];
+        us[k * nu + i] = v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v);
+      }
+  } else if (s->shift) {
+    for (k = 0; k < N; ++k)
+      for (i = 0; i < nx; ++i) l.traj[k * nx + i] = l.traj[(k + 1) * nx + i];
+    for (k = 0; k + 1 < N; ++k)
+      for (i = 0; i < nu; ++i) us[k * nu + i] = us[(k + 1) * nu + i];
+  }
+  *l.warm = (ipgen_mpc_real)1;
+  for (iteration = 0; iteration < budget; ++iteration) {
+    ipgen_mpc_real defect = (ipgen_mpc_real)0, defects = (ipgen_mpc_real)0, step = (ipgen_mpc_real)0;
+    ipgen_mpc_real costate = (ipgen_mpc_real)0, alpha = (ipgen_mpc_real)1;
+    int qp;
+    for (k = 0; k < N; ++k) { /* linearise: F, dF/dx, dF/du and the defects */
+      ipgen_mpc_real *dk = l.d + (long)k * nx;
+      if (ipgen_mpc_rk4_layout(s, &l, l.traj + (long)k * nx, us + (long)k * nu, dk, l.A + (long)k * nx * nx,
+                               l.B + (long)k * nx * nu) != 0) {
+        status = IPGEN_MPC_MODEL_FAILED;
+        break;
+      }
+      for (i = 0; i < nx; ++i) {
+        dk[i] -= l.traj[(long)(k + 1) * nx + i];
+        defect = ipgen_mpc_max(defect, ipgen_mpc_abs(dk[i]));
+        defects += ipgen_mpc_abs(dk[i]);
+      }
+    }
+    if (status != IPGEN_MPC_OK) break;
+    info->defect = defect;
+    /* converged: the step and the defects below the tolerance; or the step below its square root
+     * and no longer halving for 3 iterations (the interior point's accuracy at a degenerate
+     * constraint, O(sqrt(gap)) in the primal, is the floor: the input is then exact far below it) */
+    if (iteration > 0 && s->sqp_tolerance > 0 && defect <= s->sqp_tolerance &&
+        (info->step <= s->sqp_tolerance || stalled >= 3))
+      break;
+    for (i = 0; i < nx; ++i) {
+      l.z[i] = x[i] - l.traj[i];
+      defects += ipgen_mpc_abs(l.z[i]);
+    }
+    /* the exact Hessian once a QP has given the multipliers; Gauss-Newton where the QP is not
+     * convex (its Riccati recursion breaks down: measured better than adding delta I, whose large
+     * delta crawls) or the model fails */
+    l.exact = s->exact_hessian && info->sqp_iterations > 0 && ipgen_mpc_exact_hessian(s, &l) == 0;
+    qp = ipgen_mpc_qp(s, &l, info, &costate);
+    if (qp == IPGEN_MPC_NOT_FINITE && l.exact) {
+      l.exact = 0;
+      qp = ipgen_mpc_qp(s, &l, info, &costate);
+    }
+    info->sqp_iterations += 1;
+    if (qp == IPGEN_MPC_NOT_FINITE) {
+      status = qp;
+      break;
+    }
+    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6)) {
+      info->status = IPGEN_MPC_INFEASIBLE; /* its iterates diverge: keep the guess */
+      break;
+    }
+    info->status = qp == IPGEN_MPC_QP_BUDGET ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_OK; /* the last QP's */
+    for (i = 0; i < Z; ++i) step = ipgen_mpc_max(step, ipgen_mpc_abs(l.z[i]));
+    /* backtracking (Armijo) on the l1 merit function, its weight above the costates; full steps
+     * once the step is small (1e-3: the local phase, where the merit function would cut steps
+     * that are good: the Maratos effect) */
+    if (s->line_search && step > (ipgen_mpc_real)1e-3) {
+      ipgen_mpc_real merit0 = (ipgen_mpc_real)0, merit = (ipgen_mpc_real)0, slope = (ipgen_mpc_real)0;
+      int tries;
+      weight = ipgen_mpc_max(weight, (ipgen_mpc_real)1.1 * costate + (ipgen_mpc_real)1e-3);
+      ipgen_mpc_merit(s, &l, l.traj, x, weight, defects, &merit0);
+      ipgen_mpc_trajectory_cost(s, l.traj, l.z, &slope);
+      slope -= weight * defects;
+      for (tries = 0; tries < 20; ++tries, alpha *= (ipgen_mpc_real)0.5) {
+        for (i = 0; i < Z; ++i) l.dir[i] = l.traj[i] + alpha * l.z[i];
+        if (ipgen_mpc_merit(s, &l, l.dir, x, weight, (ipgen_mpc_real)-1, &merit) != 0) continue;
+        if (merit <= merit0 + (ipgen_mpc_real)1e-4 * alpha * slope) break;
+      }
+      if (tries == 20) alpha = (ipgen_mpc_real)1; /* no decrease found (rounding at the optimum): take the step */
+    }
+    for (i = 0; i < Z; ++i) l.traj[i] += alpha * l.z[i];
+    if (!ipgen_mpc_finite(step)) {
+      status = IPGEN_MPC_NOT_FINITE;
+      break;
+    }
+    stalled = iteration > 0 && step <= ipgen_mpc_sqrt(s->sqp_tolerance) && step > (ipgen_mpc_real)0.5 * previous ? stalled + 1 : 0;
+    previous = step;
+    info->step = step;
+    if (iteration + 1 == budget && s->sqp_tolerance > 0 && !(step <= s->sqp_tolerance))
+      info->status = IPGEN_MPC_SQP_BUDGET;
+  }
+  if (status != IPGEN_MPC_OK) {
+    info->status = status;
+    *l.warm = (ipgen_mpc_real)0;
+  }
+  for (i = 0; i < nu; ++i) {
+    const ipgen_mpc_real v = us[i];
+    u[i] = ipgen_mpc_finite(v) ? (v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v)) : s->u_ref[i];
+  }
+  return info->status;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IPGEN_MPC_H_INCLUDED */

@@ -1,0 +1,686 @@
+"""Constrained nonlinear MPC on the exact model: the design (`Mpc`, `mpc`) and its C step via ctypes.
+
+cpp/include/ipgen_mpc.h holds the controller once, in C99 (docs/mpc.md): the RK4 discretisation
+with its exact sensitivities, Gauss–Newton SQP in multiple shooting, each QP solved by a primal-dual
+interior-point method on a Riccati recursion; real-time iteration (one SQP iteration per sample
+on the shifted solution) or converged mode. Python keeps the design (weights, the terminal cost,
+bounds, budgets) and calls the C step through ctypes, as `ipgen.common.loop_runtime` does for the
+loop: the header and cpp/src/ipgen_mpc_model.c (the model callback on a compiled model library,
+ipgen_model.h) compiled once into `<cache>/mpc/<key>/libipgen_mpc[_float].so` (double, or
+float with -DIPGEN_MPC_REAL=float). The model is the pendulum's model library (`--emit library`),
+compiled into `<cache>/models/<key>/` like `ipgen run`'s; a DC motor is folded in
+(`Pendulum.folded`: u is then the voltage, the back-EMF in the base's damping).
+
+States are in ipgen's coordinates (docs/model.md): x = [θ; θ̇], θ0 the cart position [m] or the
+arm angle [rad], θ1..θn the absolute link angles from upright, clockwise positive.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ipgen.common.build_cache import (
+    Recipe,
+    c_compiler,
+    cache_root,
+    cached_build,
+    compiler_key,
+    last_error_line,
+)
+from ipgen.common.install import REINSTALL
+from ipgen.common.locations import cmake_dir
+from ipgen.common.safetext import shown_path
+from ipgen.control.linear import ControlError, equilibrium_state, weights
+from ipgen.errors import Error
+from ipgen.model.pendulum import Pendulum
+
+__all__ = ["MODES", "Mpc", "MpcError", "StepInfo", "mpc"]
+
+HEADER = "ipgen_mpc.h"
+MODEL_HEADER = "ipgen_model.h"
+GLUE = "ipgen_mpc_model.c"
+FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_MPC_EXPORT", "-Wall", "-Wextra", "-Wpedantic")
+PRECISIONS = {
+    "double": (ctypes.c_double, np.float64, ()),
+    "float": (ctypes.c_float, np.float32, ("-DIPGEN_MPC_REAL=float",)),
+}
+MODES = ("rti", "converged")
+HESSIANS = ("gauss-newton", "exact")
+MAX_DOF = 41  # IPGEN_MAX_DOF
+LAYOUT_ENTRIES = 40  # IPGEN_MPC_MODEL_LAYOUT
+STATUS = {
+    0: "ok",
+    1: "model failed",
+    2: "QP budget reached",
+    3: "SQP budget reached",
+    4: "breakdown",
+    5: "bad settings",
+    6: "QP infeasible",
+}
+
+
+class MpcError(ControlError):
+    """An MPC that cannot be built or run (bad weights or bounds, no compiler, a failed build)."""
+
+
+# ---- the header's types, mirrored (checked against the compiled layout when loaded) ----------
+
+
+def _settings_type(real: type) -> type[ctypes.Structure]:
+    p = ctypes.c_void_p
+    fields = [
+        ("nx", ctypes.c_int), ("nu", ctypes.c_int), ("N", ctypes.c_int), ("period", real),
+        ("substeps", ctypes.c_int), ("dynamics", p), ("context", p),
+        ("Q", p), ("R", p), ("P", p), ("x_ref", p), ("u_ref", p), ("u_min", p), ("u_max", p),
+        ("hard_count", ctypes.c_int), ("hard_index", p), ("hard_min", p), ("hard_max", p),
+        ("soft_count", ctypes.c_int), ("soft_index", p), ("soft_min", p), ("soft_max", p),
+        ("soft_linear", p), ("soft_quadratic", p),
+        ("sqp_iterations", ctypes.c_int), ("sqp_tolerance", real),
+        ("qp_iterations", ctypes.c_int), ("qp_tolerance", real), ("shift", ctypes.c_int),
+        ("line_search", ctypes.c_int), ("cold_iterations", ctypes.c_int), ("exact_hessian", ctypes.c_int),
+    ]  # fmt: skip
+    return type(f"Settings_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
+
+
+def _info_type(real: type) -> type[ctypes.Structure]:
+    fields = [
+        ("status", ctypes.c_int), ("sqp_iterations", ctypes.c_int), ("qp_iterations", ctypes.c_int),
+        ("step", real), ("defect", real), ("qp_residual", real),
+    ]  # fmt: skip
+    return type(f"Info_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
+
+
+class Parameters(ctypes.Structure):
+    """ipgen_parameters (ipgen_model.h): IPGEN_MAX_DOF doubles a field, g."""
+
+    _fields_ = [
+        *((name, ctypes.c_double * MAX_DOF) for name in ("m", "l", "delta")), ("g", ctypes.c_double),
+        *((name, ctypes.c_double * MAX_DOF) for name in ("com", "J", "J_axial", "tip")),
+    ]  # fmt: skip
+
+
+class ModelHead(ctypes.Structure):
+    """The first fields of ipgen_model, up to the function pointers the MPC's callback calls."""
+
+    _fields_ = [
+        ("abi", ctypes.c_int), *((name, ctypes.c_char_p) for name in ("name", "type", "inertia")),
+        *((name, ctypes.c_int) for name in ("links", "dof", "inputs", "links_as_built")),
+        ("forward_dynamics", ctypes.c_void_p),
+    ]  # fmt: skip
+
+
+class ModelContext(ctypes.Structure):
+    """ipgen_mpc_model_context: the model library's description, the parameters, the input gain."""
+
+    _fields_ = [("model", ctypes.c_void_p), ("parameters", ctypes.c_void_p), ("gain", ctypes.c_double)]
+
+
+def _layout(real: type) -> list[int]:
+    """What ipgen_mpc_model_layout writes, from the ctypes mirrors (the order of the C file)."""
+    settings, info = _settings_type(real), _info_type(real)
+
+    def at(struct: type[ctypes.Structure], name: str) -> int:
+        return int(getattr(struct, name).offset)
+
+    names = ("period", "substeps", "dynamics", "context", "Q", "u_ref", "u_max", "hard_count", "hard_index",
+             "hard_max", "soft_count", "soft_index", "soft_quadratic", "sqp_iterations", "sqp_tolerance",
+             "qp_iterations", "qp_tolerance", "shift", "line_search",
+             "cold_iterations", "exact_hessian")  # fmt: skip
+    return [
+        ctypes.sizeof(real), ctypes.sizeof(settings), *(at(settings, n) for n in names),
+        ctypes.sizeof(info),
+        *(at(info, n) for n in ("sqp_iterations", "qp_iterations", "step", "defect", "qp_residual")),
+        ctypes.sizeof(ModelContext), at(ModelContext, "parameters"), at(ModelContext, "gain"),
+        ctypes.sizeof(Parameters), at(Parameters, "g"), at(Parameters, "tip"),
+        at(ModelHead, "dof"), at(ModelHead, "inputs"), at(ModelHead, "forward_dynamics"),
+        -1, LAYOUT_ENTRIES,  # sizeof(ipgen_mpc_layout): not mirrored
+    ]  # fmt: skip
+
+
+# ---- building and loading ----------------------------------------------------------------------
+
+
+def sources() -> dict[str, str]:
+    """ipgen_mpc.h, ipgen_model.h and ipgen_mpc_model.c of this installation (package or checkout)."""
+    root = cmake_dir().parent
+    paths = {HEADER: root / "cpp" / "include" / HEADER, MODEL_HEADER: root / "cpp" / "include" / MODEL_HEADER,
+             GLUE: root / "cpp" / "src" / GLUE}  # fmt: skip
+    if not all(path.is_file() for path in paths.values()):
+        raise MpcError(f"the MPC library's sources are missing from {shown_path(root)}: {REINSTALL}")
+    return {name: path.read_text() for name, path in paths.items()}
+
+
+def build(precision: str = "double") -> Path:
+    """The compiled MPC library in `precision` ("double" or "float"): from the cache, or compiled
+    into it (module docstring)."""
+    texts = sources()
+    cc = c_compiler(MpcError)
+    flags = (*FLAGS, *PRECISIONS[precision][2])
+    target = "libipgen_mpc.so" if precision == "double" else "libipgen_mpc_float.so"
+    recipe = Recipe(
+        sources=texts,
+        command=lambda entry, out: [cc, *flags, f"-I{entry}", str(entry / GLUE), "-o", str(out), "-lm"],
+        error=MpcError,
+        failed=lambda output: f"compiling the MPC library (ipgen_mpc.h) failed: {last_error_line(output)}",
+        what="the MPC library (ipgen_mpc.h)",
+        noun="MPC library",
+    )
+    key = compiler_key(cc, " ".join(flags), *(texts[name] for name in sorted(texts)))
+    return cached_build(cache_root() / "mpc", key, target, recipe).path
+
+
+_lock = threading.Lock()
+_loaded: dict[str, ctypes.CDLL] = {}
+_models: dict[Any, ctypes.CDLL] = {}
+
+
+def library(precision: str = "double") -> ctypes.CDLL:
+    """The MPC library in `precision`, its functions declared and its structs' layout checked:
+    built if needed, loaded once per process."""
+    if precision not in PRECISIONS:
+        raise MpcError(f"precision {precision!r}: expected 'double' or 'float'")
+    with _lock:
+        if precision in _loaded:
+            return _loaded[precision]
+        path = build(precision)
+        try:
+            lib = ctypes.CDLL(str(path))
+        except OSError as e:
+            raise MpcError(f"cannot load the MPC library {shown_path(path)}: {e}") from None
+        real = PRECISIONS[precision][0]
+        P, I, L = ctypes.c_void_p, ctypes.c_int, ctypes.c_long  # noqa: E741
+        for name, restype, argtypes in (
+            ("ipgen_mpc_work_size", L, (P,)),
+            ("ipgen_mpc_carve", L, (P, P, P)),
+            ("ipgen_mpc_rk4", I, (P, P, P, P, P, P, P)),
+            ("ipgen_mpc_reset", None, (P,)),
+            ("ipgen_mpc_cost", real, (P, P)),
+            ("ipgen_mpc_check", I, (P,)),
+            ("ipgen_mpc_step", I, (P, P, P, P, P)),
+            ("ipgen_mpc_model_dynamics", I, (P, P, P, P, P, P)),
+            ("ipgen_mpc_model_layout", L, (P,)),
+        ):
+            function = getattr(lib, name)
+            function.restype, function.argtypes = restype, list(argtypes)
+        written = (ctypes.c_long * LAYOUT_ENTRIES)()
+        count = lib.ipgen_mpc_model_layout(ctypes.addressof(written))
+        got, expected = list(written), _layout(real)
+        got[-2] = -1
+        if count != LAYOUT_ENTRIES or got != expected:
+            raise MpcError(
+                f"the MPC library's structs do not match ipgen.control.mpc's mirrors (C {got}, Python "
+                f"{expected}): update the mirrors with ipgen_mpc.h"
+            )
+        _loaded[precision] = lib
+        return lib
+
+
+def model_library(pendulum: Pendulum) -> ctypes.CDLL:
+    """The compiled model library (ipgen_model.h) of `pendulum`'s system, loaded once per process
+    and system (`ipgen.pipeline.model_library`: generated and compiled into the cache as `ipgen
+    run` does; imported here, on request, from the later stage that builds it)."""
+    from ipgen.pipeline.model_library import compiled_model_library
+
+    with _lock:
+        system = pendulum.system
+        if system not in _models:
+            try:
+                _models[system] = compiled_model_library(system)
+            except Error as e:
+                raise MpcError(str(e)) from None
+        return _models[system]
+
+
+# ---- the design --------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StepInfo:
+    """What one `Mpc.step` did (ipgen_mpc_info): the status ("ok", "QP budget reached", ...), the
+    SQP and interior-point iterations, the last SQP step's and the dynamics' largest entries and
+    the last QP's largest residual."""
+
+    status: str
+    sqp_iterations: int
+    qp_iterations: int
+    step: float
+    defect: float
+    qp_residual: float
+
+
+def _bounds(
+    name: str, given: Mapping[int, Sequence[float]] | None, states: int
+) -> list[tuple[int, float, float]]:
+    """{state index: (min, max)} as a sorted list, checked."""
+    out: list[tuple[int, float, float]] = []
+    for index, pair in sorted((given or {}).items()):
+        if not (isinstance(index, int) and 0 <= index < states):
+            raise MpcError(f"{name}: state index {index!r} is not one of 0..{states - 1}")
+        lo, hi = (float(v) for v in pair)
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise MpcError(f"{name}[{index}] = ({lo:g}, {hi:g}): expected finite min < max")
+        out.append((index, lo, hi))
+    return out
+
+
+class Mpc:
+    """A constrained nonlinear MPC of one pendulum (docs/mpc.md), run by the C step of ipgen_mpc.h.
+
+    Built by `ipgen.mpc`; see its parameters. `step(x)` returns u for the state estimate x (the
+    real-time iteration, or the converged solution in mode "converged") and keeps the warm start;
+    `solve(x)` solves from a cold start to convergence; `reset()` forgets the warm start.
+
+    Attributes
+    ----------
+    Q, R, P : numpy.ndarray
+        The stage weights and the terminal weight (the discrete LQR's Riccati matrix by default).
+    x_ref, u_ref : numpy.ndarray
+        The reference state and input.
+    info : StepInfo or None
+        What the last step did.
+    """
+
+    def __init__(
+        self,
+        pendulum: Pendulum,
+        *,
+        horizon: int,
+        period: float,
+        Q: Any,
+        R: Any,
+        P: Any,
+        u_max: float,
+        u_min: float | None,
+        travel: float | None,
+        bounds: Mapping[int, Sequence[float]] | None,
+        soft_bounds: Mapping[int, Sequence[float]] | None,
+        soft_penalty: tuple[float, float],
+        reference: Sequence[float] | str,
+        substeps: int,
+        mode: str,
+        sqp_iterations: int | None,
+        cold_iterations: int,
+        hessian: str | None,
+        qp_iterations: int | None,
+        sqp_tolerance: float | None,
+        qp_tolerance: float | None,
+        precision: str,
+    ) -> None:
+        if not isinstance(pendulum, Pendulum):
+            raise MpcError(f"ipgen.mpc needs an ipgen.Pendulum, got {type(pendulum).__name__}")
+        if pendulum.actuator.is_acceleration:
+            raise MpcError(
+                "ipgen.mpc: an acceleration-driven base is not supported (u must be a force, torque or volts)"
+            )
+        if mode not in MODES:
+            raise MpcError(f"mode {mode!r}: expected one of {', '.join(MODES)}")
+        if precision not in PRECISIONS:
+            raise MpcError(f"precision {precision!r}: expected 'double' or 'float'")
+        if not (isinstance(horizon, int) and horizon >= 1):
+            raise MpcError(f"horizon {horizon!r}: expected an integer >= 1 (samples)")
+        if not (isinstance(substeps, int) and substeps >= 1):
+            raise MpcError(f"substeps {substeps!r}: expected an integer >= 1")
+        if not (np.isfinite(period) and period > 0):
+            raise MpcError(f"period {period!r}: expected a positive number of seconds")
+        self.pendulum = pendulum
+        self.precision = precision
+        self.mode = mode
+        dof = pendulum.dof
+        nx = 2 * dof
+        self.nx, self.nu, self.N = nx, 1, horizon
+        q, r = weights(np.eye(nx) if Q is None else Q, 1.0 if R is None else R, nx)
+        self.Q, self.R = q, r
+        if isinstance(reference, str):
+            self.x_ref = equilibrium_state(pendulum.links, reference)
+        else:
+            self.x_ref = np.asarray(reference, dtype=float).reshape(-1)
+            if self.x_ref.size == dof:
+                self.x_ref = np.concatenate([self.x_ref, np.zeros(dof)])
+            if self.x_ref.size != nx or not np.all(np.isfinite(self.x_ref)):
+                raise MpcError(
+                    f"reference: expected 'upright', 'hanging', {dof} angles or a state of {nx} entries"
+                )
+        self.u_ref = np.zeros(1)
+        hi = float(u_max)
+        lo = -hi if u_min is None else float(u_min)
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise MpcError(f"u bounds ({lo:g}, {hi:g}): expected finite u_min < u_max")
+        self.u_min, self.u_max = lo, hi
+        hard = dict(bounds or {})
+        if travel is not None:
+            if not (np.isfinite(travel) and travel > 0):
+                raise MpcError(f"travel {travel!r}: expected a positive bound on the base (m or rad)")
+            hard[0] = (-float(travel), float(travel))
+        self.hard = _bounds("bounds", hard, nx)
+        self.soft = _bounds("soft_bounds", soft_bounds, nx)
+        linear, quadratic = (float(v) for v in soft_penalty)
+        if self.soft and not (linear >= 0 and quadratic > 0):
+            raise MpcError(
+                f"soft_penalty ({linear:g}, {quadratic:g}): expected linear >= 0 and quadratic > 0"
+            )
+        self.soft_penalty = (linear, quadratic)
+        self.period, self.substeps = float(period), substeps
+        converged = mode == "converged"
+        double = precision == "double"
+        self.sqp_iterations = sqp_iterations or (500 if converged else 1)
+        self.qp_iterations = qp_iterations or (50 if converged else 20)
+        sqp_eps = (1e-10 if double else 1e-4) if converged else 0.0
+        self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else sqp_eps
+        qp_eps = (1e-10 if converged else 1e-9) if double else 1e-5
+        self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
+        self.cold_iterations = cold_iterations
+        if hessian is None:
+            hessian = "exact" if converged and double else "gauss-newton"
+        if hessian not in HESSIANS:
+            raise MpcError(f"hessian {hessian!r}: expected one of {', '.join(HESSIANS)}")
+        self.hessian = hessian
+        self._setup()
+        self.P = self.lqr_terminal() if P is None else weights(P, 1.0, nx)[0]
+        self._arrays["P"][:] = self.P.reshape(-1)
+        self.info: StepInfo | None = None
+
+    # -- the C structures ---------------------------------------------------------------------
+
+    def _setup(self) -> None:
+        real, dtype, _ = PRECISIONS[self.precision]
+        self._lib = library(self.precision)
+        self._model_lib = model_library(self.pendulum)
+        folded = self.pendulum.folded()
+        values = folded.flat()
+        dof = self.pendulum.dof
+        params = Parameters()
+        for k, field in enumerate(("m", "l", "delta")):
+            getattr(params, field)[:dof] = values[k * dof : (k + 1) * dof]
+        params.g = values[3 * dof]
+        for k, field in enumerate(("com", "J", "J_axial", "tip")):
+            start = 3 * dof + 1 + k * dof
+            getattr(params, field)[:dof] = values[start : start + dof]
+        self._params = params
+        self._context = ModelContext(
+            self._model_lib.ipgen_model_get(), ctypes.addressof(params), float(self.pendulum.gain)
+        )
+        head = ModelHead.from_address(self._context.model)
+        if head.dof != dof or head.inputs != 1:
+            raise MpcError(
+                f"the model library has dof {head.dof} and {head.inputs} inputs, expected {dof} and 1"
+            )
+
+        def arr(values: Any, kind: Any = dtype) -> np.ndarray:
+            return np.ascontiguousarray(np.asarray(values, dtype=kind).reshape(-1))
+
+        linear, quadratic = self.soft_penalty
+        ns = len(self.soft)
+        self._arrays = {
+            "Q": arr(self.Q), "R": arr(self.R), "P": arr(np.zeros((self.nx, self.nx))),
+            "x_ref": arr(self.x_ref), "u_ref": arr(self.u_ref),
+            "u_min": arr([self.u_min]), "u_max": arr([self.u_max]),
+            "hard_index": arr([b[0] for b in self.hard] or [0], np.int32),
+            "hard_min": arr([b[1] for b in self.hard] or [0]),
+            "hard_max": arr([b[2] for b in self.hard] or [0]),
+            "soft_index": arr([b[0] for b in self.soft] or [0], np.int32),
+            "soft_min": arr([b[1] for b in self.soft] or [0]),
+            "soft_max": arr([b[2] for b in self.soft] or [0]),
+            "soft_linear": arr([linear] * ns or [0]), "soft_quadratic": arr([quadratic] * ns or [1]),
+        }  # fmt: skip
+        settings = _settings_type(real)()
+        settings.nx, settings.nu, settings.N = self.nx, self.nu, self.N
+        settings.period, settings.substeps = self.period, self.substeps
+        settings.dynamics = ctypes.cast(self._lib.ipgen_mpc_model_dynamics, ctypes.c_void_p).value
+        settings.context = ctypes.addressof(self._context)
+        for name, array in self._arrays.items():
+            setattr(settings, name, array.ctypes.data)
+        settings.hard_count, settings.soft_count = len(self.hard), ns
+        settings.sqp_iterations, settings.sqp_tolerance = self.sqp_iterations, self.sqp_tolerance
+        settings.qp_iterations, settings.qp_tolerance = self.qp_iterations, self.qp_tolerance
+        settings.shift = 1
+        settings.line_search = int(self.mode == "converged")
+        settings.cold_iterations = self.cold_iterations
+        settings.exact_hessian = int(self.hessian == "exact")
+        self._settings = settings
+        self._dtype = dtype
+        self._info = _info_type(real)()
+        self.work = np.zeros(int(self._lib.ipgen_mpc_work_size(ctypes.byref(settings))), dtype=dtype)
+        if self._lib.ipgen_mpc_check(ctypes.byref(settings)) != 0:
+            raise MpcError(
+                "the MPC's settings describe no problem (sizes, bounds or soft weights): check them"
+            )
+
+    def _vector(self, values: Any, size: int, name: str) -> np.ndarray:
+        array = np.ascontiguousarray(np.asarray(values, dtype=float).reshape(-1), dtype=self._dtype)
+        if array.size != size:
+            raise MpcError(f"{name} has {array.size} entries, expected {size}")
+        return array
+
+    # -- the controller -----------------------------------------------------------------------
+
+    @property
+    def work_bytes(self) -> int:
+        """The workspace's size in bytes (IPGEN_MPC_WORK reals)."""
+        return int(self.work.nbytes)
+
+    def reset(self) -> None:
+        """Forget the warm start: the next step starts cold."""
+        self._lib.ipgen_mpc_reset(self.work.ctypes.data)
+
+    def step(self, x: Sequence[float] | np.ndarray) -> float:
+        """The input u for the state estimate x (2·dof entries, ipgen's coordinates): one real-time
+        iteration on the shifted warm start (mode "rti") or the problem solved to convergence
+        (mode "converged"); `info` says what was done.
+
+        Parameters
+        ----------
+        x : array_like
+            The current state [θ; θ̇].
+
+        Returns
+        -------
+        float
+            u within [u_min, u_max] (volts for a DC motor, else N or N m).
+        """
+        state = self._vector(x, self.nx, "x")
+        u = np.zeros(1, dtype=self._dtype)
+        self._lib.ipgen_mpc_step(
+            ctypes.byref(self._settings),
+            state.ctypes.data,
+            u.ctypes.data,
+            self.work.ctypes.data,
+            ctypes.byref(self._info),
+        )
+        i = self._info
+        self.info = StepInfo(
+            STATUS.get(i.status, str(i.status)), i.sqp_iterations, i.qp_iterations, float(i.step),
+            float(i.defect), float(i.qp_residual),
+        )  # fmt: skip
+        return float(u[0])
+
+    def solve(self, x: Sequence[float] | np.ndarray) -> float:
+        """The first input of the problem solved from a cold start to convergence, whatever the
+        mode: up to `sqp_iterations` SQP iterations in the converged mode (500 from a real-time
+        design), tolerances at least as tight as the converged mode's, the line search on and
+        the design's Hessian; the warm start then holds that solution, unshifted.
+
+        Parameters
+        ----------
+        x : array_like
+            The current state [θ; θ̇].
+
+        Returns
+        -------
+        float
+            u_0 of the solution.
+        """
+        s = self._settings
+        saved = (s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search)
+        sqp_eps, qp_eps = (1e-10, 1e-10) if self.precision == "double" else (1e-4, 1e-5)
+        s.sqp_iterations = saved[0] if self.mode == "converged" else max(saved[0], 500)
+        s.sqp_tolerance = sqp_eps if saved[1] <= 0 else min(saved[1], sqp_eps)
+        s.qp_iterations = max(saved[2], 50)
+        s.qp_tolerance = min(saved[3], qp_eps)
+        s.shift, s.line_search = 0, 1
+        try:
+            self.reset()
+            return self.step(x)
+        finally:
+            s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search = saved
+
+    def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
+        """(states (N+1) × nx, inputs N × nu) held in the workspace: the last step's solution
+        (shifted by one sample at the start of the next step)."""
+        z = self.work[1 : 1 + (self.N + 1) * self.nx + self.N * self.nu].astype(float)
+        states = z[: (self.N + 1) * self.nx].reshape(self.N + 1, self.nx)
+        return states, z[(self.N + 1) * self.nx :].reshape(self.N, self.nu)
+
+    def cost(self) -> float:
+        """The problem's cost of the trajectory held (`trajectory`)."""
+        return float(self._lib.ipgen_mpc_cost(ctypes.byref(self._settings), self.work.ctypes.data))
+
+    def rk4(self, x: Sequence[float] | np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(F(x, u), ∂F/∂x, ∂F/∂u): one sample of the discretised model the MPC predicts with
+        (`substeps` RK4 steps over `period`) and its exact sensitivities, from the C code."""
+        state = self._vector(x, self.nx, "x")
+        inputs = self._vector([u], 1, "u")
+        xn = np.zeros(self.nx, dtype=self._dtype)
+        a = np.zeros((self.nx, self.nx), dtype=self._dtype)
+        b = np.zeros((self.nx, 1), dtype=self._dtype)
+        scratch = np.zeros_like(self.work)
+        failed = self._lib.ipgen_mpc_rk4(
+            ctypes.byref(self._settings), state.ctypes.data, inputs.ctypes.data, xn.ctypes.data,
+            a.ctypes.data, b.ctypes.data, scratch.ctypes.data,
+        )  # fmt: skip
+        if failed:
+            raise MpcError("the model failed at this state (its mass matrix is not positive definite)")
+        return xn.astype(float), a.astype(float), b.astype(float)
+
+    def lqr_terminal(self) -> np.ndarray:
+        """The discrete LQR's Riccati matrix of (∂F/∂x, ∂F/∂u) at (x_ref, u_ref) with Q, R: the
+        default terminal weight P (the infinite-horizon cost-to-go of the linear model)."""
+        import scipy.linalg
+
+        _, a, b = self.rk4(self.x_ref, float(self.u_ref[0]))
+        try:
+            p = scipy.linalg.solve_discrete_are(a, b, self.Q, self.R)
+        except (np.linalg.LinAlgError, ValueError) as e:
+            raise MpcError(
+                f"no terminal weight: the discrete Riccati equation at the reference has no solution ({e})"
+            ) from None
+        return (p + p.T) / 2
+
+
+def mpc(
+    pendulum: Pendulum,
+    *,
+    horizon: int = 30,
+    period: float = 0.01,
+    Q: Any = None,
+    R: Any = None,
+    P: Any = None,
+    u_max: float,
+    u_min: float | None = None,
+    travel: float | None = None,
+    bounds: Mapping[int, Sequence[float]] | None = None,
+    soft_bounds: Mapping[int, Sequence[float]] | None = None,
+    soft_penalty: tuple[float, float] = (0.0, 1e3),
+    reference: Sequence[float] | str = "upright",
+    substeps: int = 1,
+    mode: str = "rti",
+    sqp_iterations: int | None = None,
+    cold_iterations: int = 10,
+    hessian: str | None = None,
+    qp_iterations: int | None = None,
+    sqp_tolerance: float | None = None,
+    qp_tolerance: float | None = None,
+    precision: str = "double",
+) -> Mpc:
+    """A constrained nonlinear MPC of `pendulum` on its exact model (docs/mpc.md).
+
+    The problem over `horizon` samples of `period` seconds: minimise
+    Σ (x_k − x_ref)ᵀ Q (x_k − x_ref) + (u_k − u_ref)ᵀ R (u_k − u_ref) + (x_N − x_ref)ᵀ P (x_N − x_ref)
+    (+ the soft bounds' penalty) subject to x_{k+1} = F(x_k, u_k) (RK4, u held), the bounds on u
+    and on the states. Solved by Gauss–Newton SQP with an interior-point QP on a Riccati
+    recursion, in C (cpp/include/ipgen_mpc.h).
+
+    Parameters
+    ----------
+    pendulum : Pendulum
+        The system; a DC motor is folded in (u in volts).
+    horizon : int, default 30
+        N, samples predicted.
+    period : float, default 0.01
+        T [s], the sample period (u held over it).
+    Q, R : array_like, optional
+        Stage weights: 2·dof diagonal entries or a symmetric PSD matrix (default identity), and
+        the weight of u² (> 0, default 1).
+    P : array_like, optional
+        Terminal weight; default the discrete LQR's Riccati matrix at the reference (`Mpc.lqr_terminal`).
+    u_max, u_min : float
+        Hard bounds on u (u_min default −u_max); volts for a DC motor, else N or N m.
+    travel : float, optional
+        Hard bound |θ0| <= travel on the base (rail [m] or arm angle [rad]), predicted states x_1..x_N.
+    bounds : dict, optional
+        More hard state bounds {state index: (min, max)}.
+    soft_bounds : dict, optional
+        Soft state bounds {state index: (min, max)}, a violation s costing ρ1 s + ρ2 s².
+    soft_penalty : (float, float), default (0, 1000)
+        (ρ1, ρ2) of the soft bounds.
+    reference : str or array_like, default "upright"
+        x_ref: "upright", "hanging", dof angles or a full state (ipgen's coordinates); u_ref = 0.
+    substeps : int, default 1
+        RK4 steps per sample.
+    mode : str, default "rti"
+        "rti": one SQP iteration per step on the shifted warm start (real-time iteration);
+        "converged": iterate to `sqp_tolerance` (validation).
+    sqp_iterations, qp_iterations : int, optional
+        Budgets: SQP iterations per step (rti 1, converged 500) and interior-point iterations per
+        QP (rti 20, converged 50).
+    cold_iterations : int, default 10
+        SQP iterations at most on a cold start (the first step, or after `reset`), if more than
+        `sqp_iterations`: the real-time iteration starts from a solved problem.
+    hessian : str, optional
+        The QPs' Hessian: "gauss-newton" (the cost's: no second derivatives of the model) or
+        "exact" (the Lagrangian's, by central differences of the exact sensitivities, from the
+        second SQP iteration on; more workspace). Default: "exact" in the converged mode in
+        double, else "gauss-newton".
+    sqp_tolerance, qp_tolerance : float, optional
+        Stop when the SQP step and defects (rti: 0, run the budget; converged 1e-10, float 1e-4)
+        and the QP's largest residual (rti 1e-9, converged 1e-10; float 1e-5) are below.
+    precision : str, default "double"
+        "double" or "float" (the C step compiled with IPGEN_MPC_REAL=float; the model in double).
+
+    Returns
+    -------
+    Mpc
+        `step(x)` → u, `solve(x)`, `reset()`, `trajectory()`, `info`, `P`.
+
+    Raises
+    ------
+    MpcError
+        Bad weights, bounds or sizes; no C compiler; a failed build.
+
+    Examples
+    --------
+    The QUBE-Servo 2 (u in volts, |u| <= 10 V, the arm within ±1 rad), link tilted by 0.05 rad:
+
+    >>> import ipgen
+    >>> controller = ipgen.mpc(ipgen.Pendulum.preset("qube_servo2"), u_max=10.0, travel=1.0)
+    >>> u = controller.step([0.0, 0.05, 0.0, 0.0])  # cold: cold_iterations SQP iterations
+    >>> controller.info.sqp_iterations
+    10
+    >>> u = controller.step([0.0, 0.04, 0.0, 0.0])  # then one a sample
+    >>> bool(-10.0 <= u <= 10.0), controller.info.status, controller.info.sqp_iterations
+    (True, 'ok', 1)
+    """
+    return Mpc(
+        pendulum, horizon=horizon, period=period, Q=Q, R=R, P=P, u_max=u_max, u_min=u_min, travel=travel,
+        bounds=bounds, soft_bounds=soft_bounds, soft_penalty=soft_penalty, reference=reference,
+        substeps=substeps,
+        mode=mode, sqp_iterations=sqp_iterations, cold_iterations=cold_iterations, hessian=hessian,
+        qp_iterations=qp_iterations, sqp_tolerance=sqp_tolerance,
+        qp_tolerance=qp_tolerance, precision=precision,
+    )  # fmt: skip

@@ -1,0 +1,100 @@
+"""The MPC's optimal-control problem written independently in CasADi and solved by IPOPT, the
+reference of tests/test_mpc.py: the same RK4 discretisation (built here from the exact model's
+CasADi expressions, `ipgen.control.casadi_model`), weights, bounds and soft penalty as an
+`ipgen.control.mpc.Mpc`, as a multiple-shooting NLP (states and inputs the variables, soft
+violations as slack variables; SX graphs, `nlpsol`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ipgen.control.casadi_model import Plant, casadi_model, import_casadi
+from ipgen.control.mpc import Mpc
+
+
+def flow(controller: Mpc) -> Any:
+    """F(x, u): `controller`'s sample of RK4 (`substeps` steps over `period`, u held) on the exact
+    model's CasADi expressions (the motor folded in: force or torque gain · u), an SX function."""
+    ca = import_casadi()
+    c = controller
+    model = casadi_model(Plant(c.pendulum.folded()))
+    dof, nx = c.pendulum.dof, c.nx
+    gain = float(c.pendulum.gain)
+    x, u = ca.SX.sym("x", nx), ca.SX.sym("u")
+
+    def f(state: Any) -> Any:
+        return ca.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], gain * u))
+
+    h = c.period / c.substeps
+    state = x
+    for _ in range(c.substeps):
+        k1 = f(state)
+        k2 = f(state + h / 2 * k1)
+        k3 = f(state + h / 2 * k2)
+        k4 = f(state + h * k3)
+        state = state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("F", [x, u], [state])
+
+
+class IpoptReference:
+    """The NLP of `controller`'s problem with x_0 a parameter. `solve(x0)` returns (u_0, the
+    inputs); `states` then holds the states (nx × (N + 1)) and `objective` the cost. `F` is the
+    RK4 map (CasADi)."""
+
+    def __init__(self, controller: Mpc) -> None:
+        ca = import_casadi()
+        c = controller
+        nx, N = c.nx, c.N
+        self.F = flow(c)
+        X, U, x0 = ca.SX.sym("X", nx, N + 1), ca.SX.sym("U", 1, N), ca.SX.sym("x0", nx)
+        ns = len(c.soft)
+        above, below = ca.SX.sym("above", ns, N), ca.SX.sym("below", ns, N)
+        Q, R, P, xr = (ca.DM(np.asarray(v, float)) for v in (c.Q, c.R, c.P, c.x_ref))
+        cost = 0
+        constraints, lower, upper = [X[:, 0] - x0], [np.zeros(nx)], [np.zeros(nx)]
+        for k in range(N):
+            e = X[:, k] - xr
+            cost += ca.mtimes([e.T, Q, e]) + R[0, 0] * U[0, k] ** 2
+            constraints.append(self.F(X[:, k], U[0, k]) - X[:, k + 1])
+            lower.append(np.zeros(nx))
+            upper.append(np.zeros(nx))
+        e = X[:, N] - xr
+        cost += ca.mtimes([e.T, P, e])
+        rho1, rho2 = c.soft_penalty
+        for j, (index, lo, hi) in enumerate(c.soft):
+            constraints += [(X[index, 1:] - above[j, :]).T, (X[index, 1:] + below[j, :]).T]
+            lower += [np.full(N, -np.inf), np.full(N, lo)]
+            upper += [np.full(N, hi), np.full(N, np.inf)]
+            cost += rho1 * (ca.sum2(above[j, :]) + ca.sum2(below[j, :]))
+            cost += rho2 * (ca.sumsqr(above[j, :]) + ca.sumsqr(below[j, :]))
+        # variable bounds: u, the hard state bounds (x_1..x_N), the slacks >= 0
+        x_lo, x_hi = np.full((nx, N + 1), -np.inf), np.full((nx, N + 1), np.inf)
+        for index, lo, hi in c.hard:
+            x_lo[index, 1:], x_hi[index, 1:] = lo, hi
+        variables = ca.vertcat(ca.vec(X), ca.vec(U), ca.vec(above), ca.vec(below))
+        self.lbx = np.concatenate([x_lo.T.reshape(-1), np.full(N, c.u_min), np.zeros(2 * ns * N)])
+        self.ubx = np.concatenate([x_hi.T.reshape(-1), np.full(N, c.u_max), np.full(2 * ns * N, np.inf)])
+        self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
+        problem = {"x": variables, "p": x0, "f": cost, "g": ca.vertcat(*[ca.vec(g) for g in constraints])}
+        options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
+                   "ipopt.constr_viol_tol": 1e-12, "ipopt.max_iter": 500}  # fmt: skip
+        self.solver = ca.nlpsol("reference", "ipopt", problem, options)
+        self.nx, self.N, self.ns = nx, N, ns
+        self.states = np.zeros((nx, N + 1))
+
+    def solve(self, x0: np.ndarray) -> tuple[float, np.ndarray]:
+        """(u_0, every u_k) of the problem from x0, IPOPT started from x_k = x0, u_k = 0."""
+        nx, N = self.nx, self.N
+        start = np.concatenate([np.tile(np.asarray(x0, float), N + 1), np.zeros(N + 2 * self.ns * N)])
+        result = self.solver(
+            x0=start, p=np.asarray(x0, float), lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg
+        )
+        if not self.solver.stats()["success"]:
+            raise RuntimeError(f"IPOPT failed from {x0}: {self.solver.stats()['return_status']}")
+        self.objective = float(result["f"])
+        w = np.asarray(result["x"], float).reshape(-1)
+        self.states = w[: nx * (N + 1)].reshape(N + 1, nx).T
+        inputs = w[nx * (N + 1) : nx * (N + 1) + N]
+        return float(inputs[0]), inputs
