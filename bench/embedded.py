@@ -260,7 +260,8 @@ def scene_c_header(path: Path, work: Path) -> tuple[str, str, str]:
     planned = job.plan(work / path.stem, scene=path, emit=("c",), force=True)
     job.run(planned)
     assert planned.scene is not None and planned.scene.loop is not None
-    return planned.name, (work / path.stem / f"{planned.name}.h").read_text(), planned.scene.loop.estimator
+    header = (work / path.stem / f"{planned.name}.h").read_text()
+    return planned.name, header, planned.scene.loop.estimator.kind
 
 
 def estimator_rows(work: Path) -> list[list[str]]:
@@ -295,8 +296,6 @@ def cycle_rows(work: Path) -> list[list[str]]:
     """Per measured-loop scene with `ipgen_NAME_step`: instructions and estimated cycles per call
     on QEMU's Cortex-M4F (bench/m4_cycles.py), replaying the encoder counts of the scene's own
     simulated run (its first CYCLE_CALLS samples), per phase of a swing-up."""
-    import math
-
     import numpy as np
 
     from bench.m4_cycles import count
@@ -318,8 +317,9 @@ def cycle_rows(work: Path) -> list[list[str]]:
         columns = names.split(",")
         values = [line.split(",") for line in lines[:CYCLE_CALLS]]
         counts = []
-        for index, resolution in zip(scene.loop.measured, scene.loop.resolution, strict=True):
-            step = (1.0 if scene.type == "classical" and index == 0 else 2 * math.pi) / resolution
+        sensors = scene.loop.sensors
+        assert sensors is not None
+        for index, step in zip(sensors.measured, sensors.steps(), strict=True):
             y = np.array([float(row[columns.index(f"y_theta{index}")]) for row in values])
             counts.append(np.rint((y - scene.theta[index]) / step).astype(int))
         table_rows = ", ".join(
@@ -343,7 +343,7 @@ def cycle_rows(work: Path) -> list[list[str]]:
             instructions = [measured.instructions[i] for i in picked]
             cycles = [measured.cycles[i] for i in picked]
             rows.append([
-                f"`{relative}`", label, scene.loop.estimator,
+                f"`{relative}`", label, scene.loop.estimator.kind,
                 phase, str(len(picked)), f"{sum(instructions) / len(picked):.0f}", str(max(instructions)),
                 f"{sum(cycles) / len(picked):.0f}", str(max(cycles)),
                 f"{max(cycles) / 168:.1f}",
