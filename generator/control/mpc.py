@@ -98,11 +98,12 @@ def _info_type(real: type) -> type[ctypes.Structure]:
 
 
 class Parameters(ctypes.Structure):
-    """ipgen_parameters (ipgen_model.h): IPGEN_MAX_DOF doubles a field, g."""
+    """ipgen_parameters (ipgen_model.h): IPGEN_MAX_DOF doubles a field, g; the rotors Ir and gr,
+    IPGEN_MAX_INPUTS (= IPGEN_MAX_DOF) each (zero: none, as a cart's or an arm's model has)."""
 
     _fields_ = [
         *((name, ctypes.c_double * MAX_DOF) for name in ("m", "l", "delta")), ("g", ctypes.c_double),
-        *((name, ctypes.c_double * MAX_DOF) for name in ("com", "J", "J_axial", "tip")),
+        *((name, ctypes.c_double * MAX_DOF) for name in ("com", "J", "J_axial", "tip", "Ir", "gr")),
     ]  # fmt: skip
 
 

@@ -66,13 +66,13 @@ class _InputReader(Reader):
 def _validated(reader: Reader, tables: dict[str, Any]) -> _Tables:
     from pydantic import TypeAdapter, ValidationError
 
-    from ipgen.scene.load import _refuse
+    from ipgen.scene.load import refuse
 
     context: dict[str, Any] = {}
     try:
         return TypeAdapter(_Tables).validate_python(tables, context=context)
     except ValidationError as error:
-        _refuse(reader, tables, error.errors(include_url=False), context)
+        refuse(reader, tables, error.errors(include_url=False), context)
 
 
 def _spec(table: Any) -> InputSpec:

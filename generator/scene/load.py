@@ -138,7 +138,7 @@ def _validate(reader: Reader, document: dict[str, Any]) -> schema.SceneDocument:
     try:
         return _adapter().validate_python(document, context=context)
     except ValidationError as error:
-        _refuse(reader, document, error.errors(include_url=False), context)
+        refuse(reader, document, error.errors(include_url=False), context)
 
 
 @functools.cache
@@ -149,7 +149,7 @@ def _adapter() -> Any:
     return TypeAdapter(schema.SceneDocument)
 
 
-def _refuse(reader: Reader, document: dict[str, Any], errors: list[Any], context: dict[str, Any]) -> NoReturn:
+def refuse(reader: Reader, document: dict[str, Any], errors: list[Any], context: dict[str, Any]) -> NoReturn:
     """The first problem: an unknown table or key, or a table that is not one, first (in the
     file's order: a typo explains a missing key), else the first of pydantic's `errors`."""
     given = document.get("input")
