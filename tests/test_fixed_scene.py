@@ -36,7 +36,6 @@ def test_presets_list_the_fixed_chains(capsys: pytest.CaptureFixture[str]) -> No
 @pytest.mark.parametrize(
     "arguments",
     [
-        ["run", "--preset", "dfki_c0", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--emit", "equations", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--fix", "m1=1", "-o", "{out}"],
         ["--scene", str(preset_path("dfki_c0")), "-o", "{out}"],

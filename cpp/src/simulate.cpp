@@ -163,7 +163,9 @@ limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, 
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
-c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
+c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary); a fixed
+chain: coulomb_law = atan with coulomb_gain k [s/rad] for DFKI's c atan(k w), and its inputs are
+torques in the rig's sense (counterclockwise when it counts so);
 actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
 and multiplied by b (the parameters are the motor-folded ones ipgen writes); actuator = acceleration:
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
@@ -627,8 +629,13 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   }
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
   if ((s.coulomb.array() != 0.0).any()) {
-    std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
-                result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    if (s.coulomb_atan) {
+      std::printf(" Coulomb friction (atan law, coulomb_gain %g): dissipated %.9g J%s.", s.coulomb_gain,
+                  result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    } else {
+      std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
+                  result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    }
   }
   if (scene.motor) {
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",

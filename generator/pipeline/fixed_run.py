@@ -3,16 +3,18 @@
 A fixed scene for `ipgen run` has, besides the chain's [system], [parameters] and [actuator]
 (scene/fixed.py), the tables of an open-loop run:
 
-    [initial]     theta, dtheta: one entry per link (link 1 first), default 0 (upright, at rest)
+    [initial]     theta, dtheta: one entry per link (link 1 first, the rig's coordinates), default 0
     [input]       m = 1 (one driven joint): the torque of that joint, as any scene's [input]
     [[input]]     m > 1: one table per driven joint, in the order of [actuator] joints
                   (one [input] table is refused then, and so is a count other than m)
     [simulation]  as any scene's;  [outputs] energy = true adds the energy ledger
 
-Each input is the torque [N m] of the motor at its joint, in ipgen's sense (clockwise positive).
+Each input is the torque [N m] of the motor at its joint, in the rig's positive sense (ipgen's:
+clockwise; DFKI's: counterclockwise); [initial] and the CSV's columns are in the rig's coordinates
+(`angles`, `zero`, `positive`), as for carts and arms. Coulomb friction acts on the joints'
+relative rates in either law (tanh, or DFKI's atan); J may be negative where J + m com² > 0.
 What the simulator does not take for a fixed chain yet is refused in one line: [controller],
-[swingup] and the measured loop's tables (open-loop runs only), Coulomb friction, and the rig's
-coordinates (`angles`, `zero`, `positive` other than ipgen's).
+[swingup] and the measured loop's tables (open-loop runs only).
 
 The resolved config holds `type = fixed`, `joints`, `Ir`, `gr` (one per input), the per-link
 parameters and state (no base entry), `input` and `input.*` for the first input, and `input2`,
@@ -35,7 +37,7 @@ from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.fixed import KEYS as CHAIN_KEYS
-from ipgen.scene.fixed import NOT_YET, fixed_pendulum_of
+from ipgen.scene.fixed import fixed_pendulum_of
 
 # The tables of a fixed scene that `ipgen run` reads beyond the chain's.
 RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs")
@@ -138,6 +140,7 @@ def fixed_inputs(
             f"[[input]] has {len(items)} tables, this chain has {m} driven joints "
             f"({', '.join(map(str, joints))}): one [[input]] table per joint, in their order"
         )
+    _validated(reader, {"simulation": simulation, "outputs": outputs, "input": {"kind": "zero"}})
     specs = []
     tables = None
     for k, (item, joint) in enumerate(zip(items, joints, strict=True), start=1):
@@ -168,19 +171,6 @@ def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum
     for key in initial:
         if key not in ("theta", "dtheta"):
             reader.fail(f"unknown key 'initial.{key}' (expected: theta, dtheta)")
-    if any(chain.coulomb or ()):
-        reader.fail(
-            f"parameters.coulomb: Coulomb friction in ipgen run is {NOT_YET} (remove it or set it to 0; "
-            "ipgen.FixedPendulum and ipgen identify read it)"
-        )
-    if not chain.coordinates.is_canonical:
-        reader.fail(
-            f"[system] angles/zero/positive: the rig's coordinates in ipgen run are {NOT_YET} (ipgen's only: "
-            'angles = "absolute", zero = "upright", positive = "clockwise")'
-        )
-    for i, inertia in enumerate(chain.resolved("J")):
-        if inertia < 0:
-            reader.bad(f"parameters.J[{i}]", inertia, f"a negative inertia in ipgen run is {NOT_YET}")
 
 
 def model_name(chain: FixedPendulum) -> str:
@@ -228,8 +218,23 @@ def fixed_config(
     _put(lines, "g", chain.g)
     _put(lines, "com", chain.resolved("com"))
     _put(lines, "J", chain.resolved("J"))
+    if any(chain.coulomb or ()):
+        _put(lines, "coulomb", chain.coulomb)
+        if chain.coulomb_law == "atan":
+            _put(lines, "coulomb_law", "atan")
+            _put(lines, "coulomb_gain", chain.coulomb_gain)
+        else:
+            _put(lines, "coulomb_speed", chain.coulomb_speed)
     _put(lines, "Ir", chain.motor("Ir"))
     _put(lines, "gr", chain.motor("gr"))
+    if not chain.coordinates.is_canonical:
+        lines.append(
+            "# the rig's coordinates (docs/model.md): theta, dtheta, the inputs' sign and the CSV's "
+            "columns are in them"
+        )
+        _put(lines, "angles", chain.angles)
+        _put(lines, "zero", chain.zero)
+        _put(lines, "positive", chain.positive)
     _put(lines, "theta", theta)
     _put(lines, "dtheta", dtheta)
     for k, spec in enumerate(inputs, start=1):
@@ -277,9 +282,9 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         stem=path.stem,
         type="fixed",
         links=chain.links,
-        angles="absolute",
-        zero="upright",
-        positive="clockwise",
+        angles=chain.angles,
+        zero=chain.zero,
+        positive=chain.positive,
         unit=None,
         warnings=(),
         cfg=cfg,

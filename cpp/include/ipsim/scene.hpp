@@ -345,8 +345,9 @@ Input input_of(const SceneFile& file, const std::string& prefix, double b);
 
 /// A fixed chain's keys (a model loaded at run time with type fixed): `joints` must be the
 /// model's, `Ir` and `gr` (optional, one per input: default no rotor, gr 1) into the parameters,
-/// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs. The rig's
-/// coordinates, Coulomb friction and the closed-loop keys are not supported here yet.
+/// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs, `coulomb_law`
+/// and `coulomb_gain` (DFKI's atan law), the inputs' sign of the rig's positive sense. The
+/// closed-loop keys are not supported here yet.
 template <class Model>
 void load_fixed(const SceneFile& file, Scene<Model>& scene) {
   const int m = Model::inputs();
@@ -371,9 +372,19 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
       (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
     }
   }
-  for (const char* key : {"angles", "zero", "positive", "coulomb", "controller", "swingup", "actuator", "sensors.measured"}) {
+  for (const char* key : {"controller", "swingup", "actuator", "sensors.measured"}) {
     if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
   }
+  if (file.has("coulomb_law")) {
+    const std::string& law = file.text("coulomb_law");
+    if (law != "tanh" && law != "atan") {
+      file.fail(file.line("coulomb_law"), "coulomb_law must be `tanh` or `atan`, got `" + detail::abbreviate(law) + "`");
+    }
+    scene.settings.coulomb_atan = law == "atan";
+  }
+  if (file.has("coulomb_gain")) scene.settings.coulomb_gain = file.number("coulomb_gain");
+  // The inputs are torques in the rig's positive sense (the CSV's u1..um too); the model's B is in ipgen's.
+  scene.settings.input_sign = scene.coordinates.counterclockwise ? -1.0 : 1.0;
   for (int k = 2; k <= m; ++k) scene.settings.more_inputs.push_back(input_of(file, "input" + std::to_string(k), 1.0));
   if (file.has("input" + std::to_string(m + 1))) {
     file.fail(file.line("input" + std::to_string(m + 1)), "input" + std::to_string(m + 1) + ": model " + name_of<Model>() +
@@ -453,6 +464,9 @@ Scene<Model> load(const SceneFile& file) {
   scene.coordinates.relative = convention("angles", "absolute", "relative");
   scene.coordinates.hanging = convention("zero", "upright", "hanging");
   scene.coordinates.counterclockwise = convention("positive", "clockwise", "counterclockwise");
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) scene.coordinates.base = 0;  // no base: link 1 is coordinate 0
+  }
   const auto m = list("m");
   const auto l = list("l");
   const auto delta = list("delta");
@@ -677,8 +691,10 @@ IPSIM_DECL std::string SceneFile::trim(const std::string& s) {
 namespace ipsim::scene {
 
 IPSIM_DECL void check_rules(const SceneFile& file) {
+  // A fixed chain's J may be negative (identified values): validate() asks J + m com² > 0 of it.
+  const bool fixed = file.has("type") && file.text("type") == "fixed";
   for (const cfg::Rule& rule : cfg::kRules) {
-    if (!file.has(rule.key)) continue;
+    if (!file.has(rule.key) || (fixed && std::string_view(rule.key) == "J")) continue;
     const std::vector<double> values = file.numbers(rule.key);
     for (std::size_t i = 0; i < values.size(); ++i) {
       if (!cfg::admits(rule, values[i])) {
