@@ -651,6 +651,21 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
                             scene.coordinates, s.acceleration);
   }
+  if (!scene.fixed_controllers.empty()) {  // a fixed chain's controller: one row of K per input
+    const ipsim::LinearFeedback& first = scene.fixed_controllers.front();
+    const Eigen::VectorXd equilibrium = scene.coordinates.to_user(first.equilibrium);
+    std::printf(" Controller: %s, %s, u = -K (x - x_eq), x_eq = %s", first.given ? "given gain" : "LQR",
+                first.period > 0.0 ? ("sampled every " + ipsim::detail::format_number(first.period) + " s").c_str()
+                                   : "continuous",
+                ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
+    for (std::size_t k = 0; k < scene.fixed_controllers.size(); ++k) {
+      const ipsim::LinearFeedback& row = scene.fixed_controllers[k];
+      const Eigen::VectorXd gain = scene.coordinates.gain_to_user(row.gain);
+      std::printf(", K row %zu (u%zu) = %s", k + 1, k + 1, ipsim::detail::format_values(gain.data(), gain.size()).c_str());
+      if (std::isfinite(row.saturation)) std::printf(" with |u%zu| <= %g", k + 1, row.saturation);
+    }
+    std::printf("; largest |u| %.6g N m.", result.max_abs_input);
+  }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
     const double per = scene.input_gain;  // volts for a dc motor (b), else 1
@@ -725,7 +740,8 @@ int run(int argc, char** argv) {
   // experiment carries its input).
   const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
-                             scene.controller.has_value() || scene.swingup.has_value() || excitation,
+                             scene.controller.has_value() || !scene.fixed_controllers.empty() ||
+                                 scene.swingup.has_value() || excitation,
                              shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   rows.set_inputs(static_cast<int>(s.more_inputs.size()) + 1);  // a fixed chain's m > 1 inputs: u1..um

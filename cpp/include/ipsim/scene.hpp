@@ -152,6 +152,9 @@ struct Scene {
   /// are in them and mapped here: settings and controller are in ipgen's coordinates (what
   /// simulate() integrates); the CSV and the summary map back (CsvSink::set_coordinates).
   Coordinates coordinates;
+  /// A fixed chain's `controller` (m inputs): one LinearFeedback per input, row k of K with its
+  /// saturation (settings.input and more_inputs apply them); empty otherwise (`controller` then).
+  std::vector<LinearFeedback> fixed_controllers;
   /// `limits.travel`: the base's limit |θ0| [m or rad]; infinity when the scene has none.
   double travel = std::numeric_limits<double>::infinity();
   /// `sensors.*`, `estimator.*`, `actuator.noise`: the measured loop around the sampled controller
@@ -372,7 +375,7 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
       (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
     }
   }
-  for (const char* key : {"controller", "swingup", "actuator", "sensors.measured"}) {
+  for (const char* key : {"swingup", "actuator", "sensors.measured"}) {
     if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
   }
   if (file.has("coulomb_law")) {
@@ -389,6 +392,41 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
   if (file.has("input" + std::to_string(m + 1))) {
     file.fail(file.line("input" + std::to_string(m + 1)), "input" + std::to_string(m + 1) + ": model " + name_of<Model>() +
                                                                 " has " + std::to_string(m) + " input(s)");
+  }
+  if (!file.has("controller")) return;
+  // u = −K (x − x_eq): K m × 2n row-major, every input its row, in the rig's coordinates and sense.
+  if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
+    file.fail(file.line("controller"), "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
+  }
+  for (int k = 1; k <= m; ++k) {
+    const std::string key = k == 1 ? "input" : "input" + std::to_string(k);
+    if (file.text(key) != "zero") file.fail(file.line(key), "a controller sets u: " + key + " must be `zero`");
+  }
+  const Eigen::Index size = 2 * dof_of<Model>();
+  const Eigen::VectorXd gain = numbers_of(file, "controller.gain", m * size);
+  const Eigen::VectorXd equilibrium = scene.coordinates.to_canonical(numbers_of(file, "controller.equilibrium", size));
+  Eigen::VectorXd saturation = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::infinity());
+  if (file.has("controller.saturation")) {
+    const auto values = file.numbers("controller.saturation");
+    if (values.size() != 1 && values.size() != static_cast<std::size_t>(m)) {
+      file.fail(file.line("controller.saturation"), "`controller.saturation` has " + std::to_string(values.size()) +
+                                                        " values, expected 1 or " + std::to_string(m) + " (one per input)");
+    }
+    for (int k = 0; k < m; ++k) saturation(k) = values[values.size() == 1 ? 0 : static_cast<std::size_t>(k)];
+  }
+  scene.settings.more_inputs.clear();
+  for (int k = 0; k < m; ++k) {
+    LinearFeedback row;
+    row.gain = scene.coordinates.gain_to_canonical(gain.segment(k * size, size));
+    row.equilibrium = equilibrium;
+    row.saturation = saturation(k);
+    if (file.has("controller.period")) row.period = file.number("controller.period");
+    row.given = file.text("controller") == "gain";
+    const auto problems = row.problems(static_cast<int>(size));
+    if (!problems.empty()) file.fail(0, problems.front());
+    if (k == 0) scene.settings.input = row.input();
+    else scene.settings.more_inputs.push_back(row.input());
+    scene.fixed_controllers.push_back(std::move(row));
   }
 }
 
@@ -557,7 +595,7 @@ Scene<Model> load(const SceneFile& file) {
   if (file.has("limits.travel")) {
     scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
   }
-  if (file.has("controller")) {
+  if (file.has("controller") && scene.fixed_controllers.empty()) {
     if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
       file.fail(file.line("controller"),
                 "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");

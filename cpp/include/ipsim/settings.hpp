@@ -298,7 +298,11 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
     const Input& more = settings.more_inputs[k];
     const std::string name = "input" + std::to_string(k + 2);
     if (more.kind == Input::Kind::feedback || more.kind == Input::Kind::sampled) {
-      found.push_back("invalid setting " + name + ": a fixed chain's further inputs are open-loop signals");
+      // A fixed chain's controller: every input its row of u = −K (x − x_eq), all alike (sampled together).
+      if (more.kind != settings.input.kind || more.period != settings.input.period) {
+        found.push_back("invalid setting " + name + ": a fixed chain's further inputs are open-loop signals, or "
+                        "feedback of the same kind and period as input");
+      }
       continue;
     }
     for (std::string problem : more.problems()) {  // "... input.amplitude ..." -> "... input2.amplitude ..."

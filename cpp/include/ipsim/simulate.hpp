@@ -80,6 +80,7 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
     switching.push_back(pulse.start + pulse.duration);
   }
   for (const Input& more : settings.more_inputs) {  // a fixed chain's other inputs switch too
+    if (more.kind == Input::Kind::sampled) continue;  // sampled with input, at its instants
     const std::vector<double> times = more.switching_times(settings.t_end);
     switching.insert(switching.end(), times.begin(), times.end());
   }
