@@ -90,9 +90,14 @@ def _value(table: dict[str, object], t: float) -> float:
     return 0.0
 
 
-def _reference(chain: FixedPendulum, inputs: list[dict[str, object]], times: np.ndarray) -> np.ndarray:
-    """[q, q̇] at `times` by DOP853 on FixedModel, restarted at every jump of an input (the
-    right-hand side of tests/test_fixed_energy.py's `integrate`)."""
+def _reference(
+    chain: FixedPendulum,
+    inputs: list[dict[str, object]],
+    times: np.ndarray,
+    start: tuple[float, ...] = (0.3, -0.2, 0.0, 0.5),
+) -> np.ndarray:
+    """[q, q̇] at `times` by DOP853 on FixedModel (in the chain's coordinates), restarted at every
+    jump of an input (the right-hand side of tests/test_fixed_energy.py's `integrate`)."""
     model = FixedModel(chain)
     n = chain.links
     jumps = sorted(
@@ -100,7 +105,7 @@ def _reference(chain: FixedPendulum, inputs: list[dict[str, object]], times: np.
         | {float(table["start"]) + float(table["duration"]) for table in inputs if table["kind"] == "pulse"}  # type: ignore[arg-type]
     )
     edges = [0.0, *[t for t in jumps if 0.0 < t < times[-1]], float(times[-1])]
-    x = np.array([0.3, -0.2, 0.0, 0.5])
+    x = np.array(start)
     rows = np.empty((len(times), 2 * n))
     for a, b in itertools.pairwise(edges):
         u = np.array([_value(table, 0.5 * (a + b)) for table in inputs])
@@ -188,19 +193,39 @@ BOTH = CHAIN.format(delta="[0.0, 0.0]", joints=[1, 2], rotors="", t_end=1.0)
          "[[input]] 2 (joint 2): input.f0 is not used by a 'step' input"),
         (_toml_input(STEP, True) + _toml_input({"kind": "wobble"}, True),
          "[[input]] 2 (joint 2): input.kind = \"wobble\": expected"),
-        ("\n[controller]\nq = [1, 1, 1, 1]\n", "[controller] on a fixed-pivot chain: ipgen run simulates"),
+        ("\n[swingup]\nmethod = \"trajectory\"\n", "[swingup] on a fixed-pivot chain: ipgen run simulates"),
     ],
-    ids=["one-table", "too-few", "missing-key", "other-kind", "bad-kind", "controller"],
+    ids=["one-table", "too-few", "missing-key", "other-kind", "bad-kind", "swingup"],
 )  # fmt: skip
 def test_bad_input_tables_are_refused_in_one_line(tmp_path: Path, extra: str, says: str) -> None:
     assert says in _refusal(tmp_path, BOTH + extra)
 
 
-def test_coulomb_friction_and_rig_coordinates_are_refused_for_now(tmp_path: Path) -> None:
-    friction = BOTH.replace("delta = [0.0, 0.0]", "delta = [0.0, 0.0]\ncoulomb = [0.1, 0.0]")
-    assert "Coulomb friction in ipgen run is not yet supported" in _refusal(tmp_path, friction)
-    rig = BOTH.replace("links = 2", 'links = 2\nangles = "relative"')
-    assert "ipgen's only" in _refusal(tmp_path, rig)
+def test_a_dfki_preset_runs_in_its_coordinates(tmp_path: Path) -> None:
+    """DFKI's design C.0 (model_3.0: a negative J, atan Coulomb friction, rotors geared −6, both
+    joints driven) in DFKI's coordinates (q1 from hanging, q2 relative, counterclockwise; the
+    inputs counterclockwise torques): the CSV equals DOP853 on FixedModel in those coordinates."""
+    from ipgen.common.presets import preset_path
+
+    start = (0.4, -0.3, 0.0, 1.0)
+    inputs = [PULSE, STEP]
+    text = preset_path("dfki_c0").read_text()
+    text = text[: text.index("[initial]")]  # the chain; its run's tables here
+    text += f"\n[initial]\ntheta = {list(start[:2])}\ndtheta = {list(start[2:])}\n"
+    text += "\n[simulation]\nt_end = 0.6\nsample = 0.01\n\n[outputs]\nenergy = true\n"
+    text += "".join(_toml_input(table, True) for table in inputs)
+    scene = tmp_path / "dfki.toml"
+    scene.write_text(text)
+    outcome = run_scene(scene, tmp_path / "out", plot=False)
+    assert outcome.status == 0, outcome.messages
+    data = np.genfromtxt(tmp_path / "out" / "dfki.csv", delimiter=",", names=True)
+    names = ("theta0", "theta1", "dtheta0", "dtheta1")
+    simulated = np.column_stack([data[name] for name in names])
+    chain = FixedPendulum.preset("dfki_c0")
+    assert chain.resolved("J")[1] < 0 and chain.coulomb_law == "atan"
+    assert np.max(np.abs(simulated - _reference(chain, inputs, data["t"], start))) < TOLERANCE
+    assert abs(_balance(outcome.summary)) < BALANCE  # the friction's dissipated energy included
+    assert np.array_equal(data["u1"], [_value(PULSE, t) for t in data["t"]])  # the rig's sense, as given
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

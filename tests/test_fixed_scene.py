@@ -36,7 +36,6 @@ def test_presets_list_the_fixed_chains(capsys: pytest.CaptureFixture[str]) -> No
 @pytest.mark.parametrize(
     "arguments",
     [
-        ["run", "--preset", "dfki_c0", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--emit", "equations", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--fix", "m1=1", "-o", "{out}"],
         ["--scene", str(preset_path("dfki_c0")), "-o", "{out}"],
@@ -97,8 +96,8 @@ def test_a_good_fixed_scene(tmp_path: Path) -> None:
 
 
 def test_other_tables_wait_for_the_runtime(tmp_path: Path) -> None:
-    message = _refused(_scene(tmp_path, extra="[controller]\nq = [1.0]\n"))
-    assert "[controller] is not yet supported for fixed-pivot models" in message
+    message = _refused(_scene(tmp_path, extra='[swingup]\nmethod = "trajectory"\n'))
+    assert "[swingup] is not yet supported for fixed-pivot models" in message
 
 
 @settings(max_examples=25, deadline=None)

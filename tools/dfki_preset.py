@@ -60,6 +60,24 @@ g = {p.g!r}
 joints = [{", ".join(str(j) for j in p.joints)}]
 Ir = {_array(p.motor("Ir"))}
 gr = {_array(p.motor("gr"))}
+
+# ipgen run: a free swing from 0.5 rad (DFKI's coordinates: q1 from hanging), both motors idle.
+[initial]
+theta = [0.5, 0.0]
+dtheta = [0.0, 0.0]
+
+[[input]]                 # joint 1: torque [N m], counterclockwise positive
+kind = "zero"
+
+[[input]]                 # joint 2
+kind = "zero"
+
+[simulation]
+t_end = 5.0
+sample = 0.01
+
+[outputs]
+energy = true
 """
 
 

@@ -163,7 +163,9 @@ limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, 
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
-c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary);
+c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary); a fixed
+chain: coulomb_law = atan with coulomb_gain k [s/rad] for DFKI's c atan(k w), and its inputs are
+torques in the rig's sense (counterclockwise when it counts so);
 actuator = dc_motor with actuator.gain b [N/V or N m/V]: amplitudes, K and saturation are in volts
 and multiplied by b (the parameters are the motor-folded ones ipgen writes); actuator = acceleration:
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
@@ -627,8 +629,13 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   }
   if (options.energy) print_energy_balance<Model>(csv, scene.params);
   if ((s.coulomb.array() != 0.0).any()) {
-    std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
-                result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    if (s.coulomb_atan) {
+      std::printf(" Coulomb friction (atan law, coulomb_gain %g): dissipated %.9g J%s.", s.coulomb_gain,
+                  result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    } else {
+      std::printf(" Coulomb friction (tanh law, coulomb_speed %g): dissipated %.9g J%s.", s.coulomb_speed,
+                  result.coulomb_dissipated, options.energy ? " (included in the dissipated energy above)" : "");
+    }
   }
   if (scene.motor) {
     std::printf(" Actuator: dc motor, u in volts, %.6g %s per volt (back-EMF and rotor folded into the parameters).",
@@ -643,6 +650,21 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
   if (scene.controller) {
     print_controller<Model>(*scene.controller, scene.params, result, scene.motor ? scene.input_gain : 0.0,
                             scene.coordinates, s.acceleration);
+  }
+  if (!scene.fixed_controllers.empty()) {  // a fixed chain's controller: one row of K per input
+    const ipsim::LinearFeedback& first = scene.fixed_controllers.front();
+    const Eigen::VectorXd equilibrium = scene.coordinates.to_user(first.equilibrium);
+    std::printf(" Controller: %s, %s, u = -K (x - x_eq), x_eq = %s", first.given ? "given gain" : "LQR",
+                first.period > 0.0 ? ("sampled every " + ipsim::detail::format_number(first.period) + " s").c_str()
+                                   : "continuous",
+                ipsim::detail::format_values(equilibrium.data(), equilibrium.size()).c_str());
+    for (std::size_t k = 0; k < scene.fixed_controllers.size(); ++k) {
+      const ipsim::LinearFeedback& row = scene.fixed_controllers[k];
+      const Eigen::VectorXd gain = scene.coordinates.gain_to_user(row.gain);
+      std::printf(", K row %zu (u%zu) = %s", k + 1, k + 1, ipsim::detail::format_values(gain.data(), gain.size()).c_str());
+      if (std::isfinite(row.saturation)) std::printf(" with |u%zu| <= %g", k + 1, row.saturation);
+    }
+    std::printf("; largest |u| %.6g N m.", result.max_abs_input);
   }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
@@ -718,7 +740,8 @@ int run(int argc, char** argv) {
   // experiment carries its input).
   const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
-                             scene.controller.has_value() || scene.swingup.has_value() || excitation,
+                             scene.controller.has_value() || !scene.fixed_controllers.empty() ||
+                                 scene.swingup.has_value() || excitation,
                              shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   rows.set_inputs(static_cast<int>(s.more_inputs.size()) + 1);  // a fixed chain's m > 1 inputs: u1..um

@@ -50,6 +50,8 @@ CFG_KEYS: dict[str, str] = {
     "actuator.gain": "dc_motor: force or torque per volt [N/V or N m/V]",
     "coulomb": "Coulomb friction [N or N m]",
     "coulomb_speed": "the tanh law's rate [m/s or rad/s]",
+    "coulomb_law": "fixed: tanh | atan (DFKI's c atan(k w); absent: tanh)",
+    "coulomb_gain": "fixed: the atan law's k [s/rad]",
     "theta": "initial angles [rad] (the base: [m] or [rad])",
     "dtheta": "initial rates",
     "input": "zero | constant | pulse | step | sine | chirp | multisine",

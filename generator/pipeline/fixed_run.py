@@ -3,16 +3,19 @@
 A fixed scene for `ipgen run` has, besides the chain's [system], [parameters] and [actuator]
 (scene/fixed.py), the tables of an open-loop run:
 
-    [initial]     theta, dtheta: one entry per link (link 1 first), default 0 (upright, at rest)
+    [initial]     theta, dtheta: one entry per link (link 1 first, the rig's coordinates), default 0
     [input]       m = 1 (one driven joint): the torque of that joint, as any scene's [input]
     [[input]]     m > 1: one table per driven joint, in the order of [actuator] joints
                   (one [input] table is refused then, and so is a count other than m)
     [simulation]  as any scene's;  [outputs] energy = true adds the energy ledger
 
-Each input is the torque [N m] of the motor at its joint, in ipgen's sense (clockwise positive).
-What the simulator does not take for a fixed chain yet is refused in one line: [controller],
-[swingup] and the measured loop's tables (open-loop runs only), Coulomb friction, and the rig's
-coordinates (`angles`, `zero`, `positive` other than ipgen's).
+Each input is the torque [N m] of the motor at its joint, in the rig's positive sense (ipgen's:
+clockwise; DFKI's: counterclockwise); [initial] and the CSV's columns are in the rig's coordinates
+(`angles`, `zero`, `positive`), as for carts and arms. Coulomb friction acts on the joints'
+relative rates in either law (tanh, or DFKI's atan); J may be negative where J + m com² > 0.
+[controller] (kind = "lqr": q, r, equilibrium, saturation per input, period; or kind = "gain")
+closes the loop with u = −K (x − x_eq), K m × 2n (`fixed_controller`). What the simulator does
+not take for a fixed chain yet is refused in one line: [swingup] and the measured loop's tables.
 
 The resolved config holds `type = fixed`, `joints`, `Ir`, `gr` (one per input), the per-link
 parameters and state (no base entry), `input` and `input.*` for the first input, and `input2`,
@@ -21,8 +24,11 @@ parameters and state (no base entry), `input` and `input.*` for the first input,
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, render_fixed
 from ipgen.common.safetext import quote_path
@@ -35,11 +41,14 @@ from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.fixed import KEYS as CHAIN_KEYS
-from ipgen.scene.fixed import NOT_YET, fixed_pendulum_of
+from ipgen.scene.fixed import fixed_pendulum_of
 
 # The tables of a fixed scene that `ipgen run` reads beyond the chain's.
-RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs")
-SUPPORTED = "[system], [parameters], [actuator], [initial], [input] (or [[input]]), [simulation], [outputs]"
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller")
+SUPPORTED = (
+    "[system], [parameters], [actuator], [initial], [input] (or [[input]]), [controller], "
+    "[simulation], [outputs]"
+)
 
 
 class _Tables(schema.BaseModel):
@@ -138,6 +147,7 @@ def fixed_inputs(
             f"[[input]] has {len(items)} tables, this chain has {m} driven joints "
             f"({', '.join(map(str, joints))}): one [[input]] table per joint, in their order"
         )
+    _validated(reader, {"simulation": simulation, "outputs": outputs, "input": {"kind": "zero"}})
     specs = []
     tables = None
     for k, (item, joint) in enumerate(zip(items, joints, strict=True), start=1):
@@ -156,10 +166,10 @@ def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum
     for table in document:
         if table in CHAIN_KEYS or table in RUN_TABLES:
             continue
-        if table in ("controller", "swingup", "sensors", "estimator"):
+        if table in ("swingup", "sensors", "estimator"):
             reader.fail(
-                f"[{table}] on a fixed-pivot chain: ipgen run simulates fixed chains open-loop for now "
-                f"(supported: {SUPPORTED})"
+                f"[{table}] on a fixed-pivot chain: ipgen run simulates fixed chains open-loop or under "
+                f"LQR for now (supported: {SUPPORTED})"
             )
         reader.fail(f"unknown table [{table}] in a fixed scene (ipgen run reads {SUPPORTED})")
     initial = document.get("initial", {})
@@ -168,19 +178,110 @@ def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum
     for key in initial:
         if key not in ("theta", "dtheta"):
             reader.fail(f"unknown key 'initial.{key}' (expected: theta, dtheta)")
-    if any(chain.coulomb or ()):
-        reader.fail(
-            f"parameters.coulomb: Coulomb friction in ipgen run is {NOT_YET} (remove it or set it to 0; "
-            "ipgen.FixedPendulum and ipgen identify read it)"
+
+
+CONTROLLER_KEYS: tuple[str, ...] = ("kind", "q", "r", "equilibrium", "saturation", "period", "gain")
+
+
+@dataclass(frozen=True)
+class FixedController:
+    """A fixed chain's state feedback u = −K (x − x_eq): K m × 2n, x_eq, saturations (m), period,
+    all in the chain's coordinates and its inputs' positive sense."""
+
+    kind: str
+    gain: np.ndarray
+    equilibrium: np.ndarray
+    saturation: tuple[float, ...] | None
+    period: float | None
+
+
+def _numbers(reader: Reader, key: str, value: Any, sizes: tuple[int, ...], what: str) -> np.ndarray:
+    import math
+    from decimal import Decimal
+
+    items = value if isinstance(value, list) else [value]
+    flat: list[Any] = []
+    for item in items:
+        flat.extend(item if isinstance(item, list) else [item])
+    if any(isinstance(x, bool) or not isinstance(x, int | float | Decimal) for x in flat):
+        reader.bad(key, value, f"expected {what}")
+    numbers = np.array([float(x) for x in flat])
+    if numbers.size not in sizes or not all(math.isfinite(x) for x in numbers):
+        reader.bad(key, value, f"expected {what}")
+    return numbers
+
+
+def fixed_controller(
+    reader: Reader, table: Any, chain: FixedPendulum, settings: dict[str, Any]
+) -> FixedController:
+    """The [controller] of a fixed scene: kind = "lqr" (q: 2n weights or a 2n × 2n matrix, r: one
+    number or m weights, equilibrium "upright" | "hanging" | n angles, saturation: one number or
+    m, period) designed by control/fixed_linear.lqr_fixed, or kind = "gain" (gain: K, m × 2n)."""
+    from ipgen.control.fixed_linear import fixed_equilibrium, lqr_fixed
+    from ipgen.control.linear import ControlError
+
+    if not isinstance(table, dict):
+        reader.bad("controller", table, "expected a table: [controller] on a line of its own")
+    for key in table:
+        if key not in CONTROLLER_KEYS:
+            reader.fail(
+                f"unknown key 'controller.{key}' in a fixed scene (expected: {', '.join(CONTROLLER_KEYS)})"
+            )
+    n, m = chain.links, chain.inputs
+    kind = table.get("kind")
+    if kind not in ("lqr", "gain"):
+        reader.bad("controller.kind", kind, 'expected "lqr" or "gain"')
+    saturation = None
+    if "saturation" in table:
+        values = _numbers(
+            reader, "controller.saturation", table["saturation"], (1, m), f"1 or {m} numbers > 0 [N m]"
         )
-    if not chain.coordinates.is_canonical:
-        reader.fail(
-            f"[system] angles/zero/positive: the rig's coordinates in ipgen run are {NOT_YET} (ipgen's only: "
-            'angles = "absolute", zero = "upright", positive = "clockwise")'
-        )
-    for i, inertia in enumerate(chain.resolved("J")):
-        if inertia < 0:
-            reader.bad(f"parameters.J[{i}]", inertia, f"a negative inertia in ipgen run is {NOT_YET}")
+        if np.any(values <= 0):
+            reader.bad("controller.saturation", table["saturation"], "the largest |u| must be > 0 N m")
+        saturation = tuple(float(v) for v in np.broadcast_to(values, (m,)))
+    period = None
+    if "period" in table:
+        period = float(_numbers(reader, "controller.period", table["period"], (1,), "a number > 0 [s]")[0])
+        t_end, sample = float(settings.get("t_end") or 0.0), float(settings.get("sample") or 0.0)
+        ratio = max(period, sample) / min(period, sample) if period > 0 and sample > 0 else 0.0
+        if period <= 0 or (t_end and period > t_end) or abs(ratio - round(ratio)) > 1e-9 * ratio:
+            reader.bad(
+                "controller.period",
+                table["period"],
+                "expected > 0 s, <= t_end, a whole multiple or fraction of sample",
+            )
+    try:
+        equilibrium = fixed_equilibrium(chain, table.get("equilibrium"))
+        if kind == "gain":
+            for key in ("q", "r"):
+                if key in table:
+                    reader.fail(f'controller.{key}: kind = "gain" takes its gain as given (remove {key})')
+            if "gain" not in table:
+                reader.fail(
+                    "missing required key 'controller.gain' (kind = \"gain\": K, m rows of 2n numbers)"
+                )
+            gain = _numbers(
+                reader, "controller.gain", table["gain"], (m * 2 * n,), f"{m} × {2 * n} numbers (K)"
+            )
+            gain = gain.reshape(m, 2 * n)
+        else:
+            if "gain" in table:
+                reader.fail('controller.gain: kind = "lqr" computes K (remove gain, or kind = "gain")')
+            q = table.get("q", [1.0] * (2 * n))
+            q = _numbers(
+                reader,
+                "controller.q",
+                q,
+                (2 * n, 4 * n * n),
+                f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
+            )
+            q = np.diag(q) if q.size == 2 * n else q.reshape(2 * n, 2 * n)
+            r = _numbers(reader, "controller.r", table.get("r", 1.0), (1, m), f"1 or {m} weights > 0")
+            gain = lqr_fixed(chain, q, r, equilibrium)
+    except ControlError as exc:
+        reader.fail(f"[controller]: {exc}")
+    state = np.concatenate([equilibrium, np.zeros(n)])
+    return FixedController(str(kind), gain, state, saturation, period)
 
 
 def model_name(chain: FixedPendulum) -> str:
@@ -214,6 +315,7 @@ def fixed_config(
     inputs: tuple[InputSpec, ...],
     settings: dict[str, Any],
     energy: bool,
+    controller: FixedController | None = None,
 ) -> str:
     """The resolved config of a fixed scene's run (module docstring)."""
     lines = [f"# Generated by ipgen {__version__} from {quote_path(path.as_posix())}; do not edit"]
@@ -228,8 +330,23 @@ def fixed_config(
     _put(lines, "g", chain.g)
     _put(lines, "com", chain.resolved("com"))
     _put(lines, "J", chain.resolved("J"))
+    if any(chain.coulomb or ()):
+        _put(lines, "coulomb", chain.coulomb)
+        if chain.coulomb_law == "atan":
+            _put(lines, "coulomb_law", "atan")
+            _put(lines, "coulomb_gain", chain.coulomb_gain)
+        else:
+            _put(lines, "coulomb_speed", chain.coulomb_speed)
     _put(lines, "Ir", chain.motor("Ir"))
     _put(lines, "gr", chain.motor("gr"))
+    if not chain.coordinates.is_canonical:
+        lines.append(
+            "# the rig's coordinates (docs/model.md): theta, dtheta, the inputs' sign and the CSV's "
+            "columns are in them"
+        )
+        _put(lines, "angles", chain.angles)
+        _put(lines, "zero", chain.zero)
+        _put(lines, "positive", chain.positive)
     _put(lines, "theta", theta)
     _put(lines, "dtheta", dtheta)
     for k, spec in enumerate(inputs, start=1):
@@ -246,6 +363,14 @@ def fixed_config(
             _put(lines, key, settings[key])
     if energy:
         _put(lines, "energy", True)
+    if controller is not None:
+        _put(lines, "controller", controller.kind)
+        _put(lines, "controller.gain", tuple(controller.gain.reshape(-1)))
+        _put(lines, "controller.equilibrium", tuple(controller.equilibrium))
+        if controller.saturation is not None:
+            _put(lines, "controller.saturation", controller.saturation)
+        if controller.period is not None:
+            _put(lines, "controller.period", controller.period)
     return "\n".join(lines) + "\n"
 
 
@@ -269,17 +394,25 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         sources = {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}
     except Error as exc:  # pragma: no cover - the chain was checked
         reader.fail(str(exc))
+    settings = tables.simulation.settings()
+    controller = None
+    if "controller" in document:
+        if any(spec.kind != "zero" for spec in inputs):
+            reader.fail(
+                '[controller] sets the torques: remove [input] / [[input]] (or make them kind = "zero")'
+            )
+        controller = fixed_controller(reader, document["controller"], chain, settings)
     cfg = fixed_config(
-        path, chain, name, theta, dtheta, inputs, tables.simulation.settings(), bool(tables.outputs.energy)
+        path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller
     )
     return RunPlan(
         name=name,
         stem=path.stem,
         type="fixed",
         links=chain.links,
-        angles="absolute",
-        zero="upright",
-        positive="clockwise",
+        angles=chain.angles,
+        zero=chain.zero,
+        positive=chain.positive,
         unit=None,
         warnings=(),
         cfg=cfg,
@@ -287,4 +420,4 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     )
 
 
-__all__ = ["fixed_config", "fixed_inputs", "fixed_plan", "model_name"]
+__all__ = ["FixedController", "fixed_config", "fixed_controller", "fixed_inputs", "fixed_plan", "model_name"]

@@ -270,7 +270,7 @@ def draw_run(
 
 
 def _draw_fixed(run: Run, title: str) -> Figure:
-    """A fixed-pivot chain's figure (ipgen's coordinates): the link angles (theta0..theta(n-1) of
+    """A fixed-pivot chain's figure (the scene's coordinates): the link angles (theta0..theta(n-1) of
     the CSV are links 1..n) and the joints' torques (u, or u1..um)."""
     from matplotlib.figure import Figure
 
@@ -286,7 +286,7 @@ def _draw_fixed(run: Run, title: str) -> Figure:
         k = display_turns(values, 0.0)
         values = [v - 2 * math.pi * k for v in values] if k else values
         links.plot(t, values, label=f"link {i + 1} angle{_turns_label(k)}")
-    links.set_ylabel("link angle from upright [rad]")
+    links.set_ylabel("link angle [rad]")
     for name in inputs:
         axes[1].plot(t, run.columns[name], label=f"torque {name} [N m]")
     if inputs:

@@ -37,8 +37,8 @@ KEYS: dict[str, tuple[str, ...]] = {
     ),
     "actuator": ("joints", "Ir", "gr"),
 }
-# The tables of an open-loop run (`ipgen run`, pipeline/fixed_run.py), which the chain ignores.
-RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs")
+# The tables of a run (`ipgen run`, pipeline/fixed_run.py), which the chain ignores.
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller")
 REQUIRED: dict[str, tuple[str, ...]] = {"system": ("type", "links"), "parameters": ("m", "l", "delta")}
 
 

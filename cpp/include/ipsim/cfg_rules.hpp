@@ -53,6 +53,8 @@ inline constexpr const char* kKeys[] = {
     "actuator.gain",
     "coulomb",
     "coulomb_speed",
+    "coulomb_law",
+    "coulomb_gain",
     "theta",
     "dtheta",
     "input",

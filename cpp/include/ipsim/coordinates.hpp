@@ -7,7 +7,8 @@
 //   angles = absolute:  αi = s (θi − z)                                (i = 1..n)
 //   angles = relative:  α1 = s (θ1 − z),  αi = s (θi − θ(i−1))        (i = 2..n)
 //
-// and the rates likewise (without z); θ0 and θ̇0 are unchanged. The map is affine, x_user = P x + c,
+// and the rates likewise (without z); θ0 and θ̇0 are unchanged (a fixed chain has none: base = 0).
+// The map is affine, x_user = P x + c,
 // the same as the Python side's ipgen.control.coordinates. ipsim integrates in ipgen's coordinates;
 // a scene in the rig's is mapped at the edges: its initial state and controller in (Scene), the
 // CSV's rows and the summary out (CsvSink::set_coordinates).
@@ -27,6 +28,9 @@ struct Coordinates {
   bool relative = false;          ///< angles = relative: link i from link i − 1 (i ≥ 2)
   bool hanging = false;           ///< zero = hanging: link 1 (absolute: every link) at 0 when hanging
   bool counterclockwise = false;  ///< positive = counterclockwise
+  /// The coordinates before link 1: 1 (a cart's or an arm's base θ0, unchanged by the map) or 0
+  /// (a fixed chain: x = [θ1..θn, θ̇1..θ̇n], link 1 at entry 0).
+  int base = 1;
 
   bool canonical() const noexcept { return !relative && !hanging && !counterclockwise; }
 
@@ -70,9 +74,9 @@ IPSIM_DECL std::string Coordinates::describe() const {
 IPSIM_DECL Eigen::MatrixXd Coordinates::matrix(int dof) const {
   const double s = counterclockwise ? -1.0 : 1.0;
   Eigen::MatrixXd angle = Eigen::MatrixXd::Identity(dof, dof);
-  for (int i = 1; i < dof; ++i) {
+  for (int i = base; i < dof; ++i) {
     angle(i, i) = s;
-    if (relative && i >= 2) angle(i, i - 1) = -s;
+    if (relative && i >= base + 1) angle(i, i - 1) = -s;
   }
   Eigen::MatrixXd p = Eigen::MatrixXd::Zero(2 * dof, 2 * dof);
   p.topLeftCorner(dof, dof) = angle;
@@ -84,8 +88,8 @@ IPSIM_DECL Eigen::VectorXd Coordinates::offset(int dof) const {
   Eigen::VectorXd c = Eigen::VectorXd::Zero(2 * dof);
   if (!hanging) return c;
   const double s = counterclockwise ? -1.0 : 1.0;
-  const int last = relative ? (dof < 2 ? dof : 2) : dof;
-  for (int i = 1; i < last; ++i) c(i) = -s * kPi;
+  const int last = relative ? (dof < base + 1 ? dof : base + 1) : dof;
+  for (int i = base; i < last; ++i) c(i) = -s * kPi;
   return c;
 }
 
@@ -104,8 +108,8 @@ IPSIM_DECL Eigen::VectorXd Coordinates::to_canonical(const Eigen::VectorXd& x_us
   for (Eigen::Index block = 0; block < 2; ++block) {
     const Eigen::Index at = block * dof;
     const double zero = block == 0 ? z : 0.0;
-    for (Eigen::Index i = 1; i < dof; ++i) {
-      const double from = relative && i >= 2 ? x(at + i - 1) : zero;
+    for (Eigen::Index i = base; i < dof; ++i) {
+      const double from = relative && i >= base + 1 ? x(at + i - 1) : zero;
       x(at + i) = from + s * x_user(at + i);
     }
   }

@@ -98,12 +98,20 @@ void exact_jacobian(RhsContext<Model>& context, double t, const double* x, Eigen
     if (context.input_matrix != nullptr) {  // a fixed chain: m open-loop inputs through B
       context.all_inputs[0] = input_at(context, t, x);
       more_inputs_at(context, t);
+      if (context.input_sign != 1.0) {
+        for (double& value : context.all_inputs) value *= context.input_sign;
+      }
       const auto d = Model::template forward_dynamics_derivatives_inputs<double>(q, qd, context.all_inputs.data(),
                                                                                  *context.params);
       jacobian.setZero();
       jacobian.block(0, n, n, n).setIdentity();
       jacobian.block(n, 0, n, n) = d.dqdd_dq;
       jacobian.block(n, n, n, n) = d.dqdd_dqd;
+      if (context.coulomb_index >= 0) {  // M⁻¹ ∂Q/∂θ̇ (as for a cart; the ∂M⁻¹/∂θ Q term left to Newton)
+        DofMatrixOf<Model> slope(n, n);
+        coulomb_force<Model>(context, qd, &slope);
+        jacobian.block(n, n, n, n) += solve_spd(Model::template mass_matrix<double>(q, *context.params), slope);
+      }
       if constexpr (has_energy<Model>) {
         if (context.energy_ledger) {
           // W_in' = uᵀ Bᵀ θ̇: ∂/∂θ̇ = (B u)ᵀ; E_diss' = 2 D(θ̇) as ledger_jacobian has it.

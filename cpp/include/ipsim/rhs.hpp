@@ -63,6 +63,13 @@ struct RhsContext {
   const std::vector<Input>* more_inputs = nullptr;  ///< Settings::more_inputs (m − 1)
   std::vector<double> segment_more;  ///< their values on the current segment (piecewise-constant ones)
   std::vector<double> all_inputs;    ///< preallocated u (m) for the model's call
+  /// A fixed chain: −1 when its inputs are counterclockwise torques (Settings::input_sign).
+  double input_sign = 1.0;
+  /// The first coordinate whose Coulomb friction acts on a relative rate θ̇i − θ̇(i−1): 2 (a cart
+  /// or an arm: θ̇0, θ̇1 absolute) or 1 (a fixed chain: θ̇1 absolute).
+  int coulomb_relative_from = 2;
+  bool coulomb_atan = false;   ///< Settings::coulomb_atan: c atan(k w), k = coulomb_gain
+  double coulomb_gain = 100.0;
 };
 
 /// u_2..u_m of a fixed chain at time t into context.all_inputs[1..m) (all_inputs[0] is the caller's).
@@ -106,14 +113,17 @@ VectorOf<Model> coulomb_force(const RhsContext<Model>& context, const VectorOf<M
   for (int i = 0; i < n; ++i) {
     const double c = context.coulomb(i);
     if (c == 0.0) continue;
-    const double w = i >= 2 ? qd(i) - qd(i - 1) : qd(i);  // the joint's rate, as for delta[i]
-    const double t = std::tanh(w / context.coulomb_speed);
+    const bool relative = i >= context.coulomb_relative_from;
+    const double w = relative ? qd(i) - qd(i - 1) : qd(i);  // the joint's rate, as for delta[i]
+    const double t = context.coulomb_atan ? std::atan(context.coulomb_gain * w) : std::tanh(w / context.coulomb_speed);
     force(i) -= c * t;
-    if (i >= 2) force(i - 1) += c * t;
+    if (relative) force(i - 1) += c * t;
     if (slope) {
-      const double s = c * (1.0 - t * t) / context.coulomb_speed;
+      const double kw = context.coulomb_gain * w;
+      const double s = context.coulomb_atan ? c * context.coulomb_gain / (1.0 + kw * kw)
+                                            : c * (1.0 - t * t) / context.coulomb_speed;
       (*slope)(i, i) -= s;
-      if (i >= 2) {
+      if (relative) {
         (*slope)(i - 1, i - 1) -= s;
         (*slope)(i, i - 1) += s;
         (*slope)(i - 1, i) += s;
@@ -217,16 +227,29 @@ int evaluate_rhs(RhsContext<Model>& context, double t, const double* in, double*
     // A model loaded at run time, without friction or an acceleration-driven base: the same
     // numbers, computed on the state's own arrays (a small model's RHS is mostly copies otherwise).
     if constexpr (is_runtime<Model>) {
-      if (context.input_matrix != nullptr) {  // a fixed chain: m inputs through B (no friction, lag or pulses)
+      if (context.input_matrix != nullptr) {  // a fixed chain: m inputs through B (no lag or pulses)
         const double u = input_at(context, t, in);
         context.all_inputs[0] = u;
         more_inputs_at(context, t);
+        if (context.input_sign != 1.0) {  // the rig's counterclockwise torques -> ipgen's clockwise ones
+          for (double& value : context.all_inputs) value *= context.input_sign;
+        }
         for (int i = 0; i < n; ++i) out[i] = in[n + i];
         Model::forward_dynamics_inputs_into(in, in + n, context.all_inputs.data(), *context.params, out + n, n);
+        double coulomb_power = 0.0;
+        if (context.coulomb_index >= 0) {  // Coulomb friction on the joints' rates, through M
+          const VectorOf<Model> q = Eigen::Map<const VectorOf<Model>>(in, n);
+          const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
+          const VectorOf<Model> friction = coulomb_force<Model>(context, qd);
+          Eigen::Map<VectorOf<Model>> acceleration_out(out + n, n);
+          acceleration_out += solve_spd(Model::template mass_matrix<double>(q, *context.params), friction);
+          coulomb_power = -friction.dot(qd);
+          out[context.coulomb_index] = coulomb_power;
+        }
         if (context.energy_ledger) {
           out[2 * n] = inputs_power(context, in + n, n);
           const VectorOf<Model> qd = Eigen::Map<const VectorOf<Model>>(in + n, n);
-          out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + 0.0;
+          out[2 * n + 1] = 2.0 * Model::template dissipation<double>(qd, *context.params) + coulomb_power;
         }
         return check_finite(context, t, u, in, out, size);
       }

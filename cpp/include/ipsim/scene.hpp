@@ -152,6 +152,9 @@ struct Scene {
   /// are in them and mapped here: settings and controller are in ipgen's coordinates (what
   /// simulate() integrates); the CSV and the summary map back (CsvSink::set_coordinates).
   Coordinates coordinates;
+  /// A fixed chain's `controller` (m inputs): one LinearFeedback per input, row k of K with its
+  /// saturation (settings.input and more_inputs apply them); empty otherwise (`controller` then).
+  std::vector<LinearFeedback> fixed_controllers;
   /// `limits.travel`: the base's limit |θ0| [m or rad]; infinity when the scene has none.
   double travel = std::numeric_limits<double>::infinity();
   /// `sensors.*`, `estimator.*`, `actuator.noise`: the measured loop around the sampled controller
@@ -345,8 +348,9 @@ Input input_of(const SceneFile& file, const std::string& prefix, double b);
 
 /// A fixed chain's keys (a model loaded at run time with type fixed): `joints` must be the
 /// model's, `Ir` and `gr` (optional, one per input: default no rotor, gr 1) into the parameters,
-/// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs. The rig's
-/// coordinates, Coulomb friction and the closed-loop keys are not supported here yet.
+/// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs, `coulomb_law`
+/// and `coulomb_gain` (DFKI's atan law), the inputs' sign of the rig's positive sense. The
+/// closed-loop keys are not supported here yet.
 template <class Model>
 void load_fixed(const SceneFile& file, Scene<Model>& scene) {
   const int m = Model::inputs();
@@ -371,13 +375,58 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
       (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
     }
   }
-  for (const char* key : {"angles", "zero", "positive", "coulomb", "controller", "swingup", "actuator", "sensors.measured"}) {
+  for (const char* key : {"swingup", "actuator", "sensors.measured"}) {
     if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
   }
+  if (file.has("coulomb_law")) {
+    const std::string& law = file.text("coulomb_law");
+    if (law != "tanh" && law != "atan") {
+      file.fail(file.line("coulomb_law"), "coulomb_law must be `tanh` or `atan`, got `" + detail::abbreviate(law) + "`");
+    }
+    scene.settings.coulomb_atan = law == "atan";
+  }
+  if (file.has("coulomb_gain")) scene.settings.coulomb_gain = file.number("coulomb_gain");
+  // The inputs are torques in the rig's positive sense (the CSV's u1..um too); the model's B is in ipgen's.
+  scene.settings.input_sign = scene.coordinates.counterclockwise ? -1.0 : 1.0;
   for (int k = 2; k <= m; ++k) scene.settings.more_inputs.push_back(input_of(file, "input" + std::to_string(k), 1.0));
   if (file.has("input" + std::to_string(m + 1))) {
     file.fail(file.line("input" + std::to_string(m + 1)), "input" + std::to_string(m + 1) + ": model " + name_of<Model>() +
                                                                 " has " + std::to_string(m) + " input(s)");
+  }
+  if (!file.has("controller")) return;
+  // u = −K (x − x_eq): K m × 2n row-major, every input its row, in the rig's coordinates and sense.
+  if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
+    file.fail(file.line("controller"), "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
+  }
+  for (int k = 1; k <= m; ++k) {
+    const std::string key = k == 1 ? "input" : "input" + std::to_string(k);
+    if (file.text(key) != "zero") file.fail(file.line(key), "a controller sets u: " + key + " must be `zero`");
+  }
+  const Eigen::Index size = 2 * dof_of<Model>();
+  const Eigen::VectorXd gain = numbers_of(file, "controller.gain", m * size);
+  const Eigen::VectorXd equilibrium = scene.coordinates.to_canonical(numbers_of(file, "controller.equilibrium", size));
+  Eigen::VectorXd saturation = Eigen::VectorXd::Constant(m, std::numeric_limits<double>::infinity());
+  if (file.has("controller.saturation")) {
+    const auto values = file.numbers("controller.saturation");
+    if (values.size() != 1 && values.size() != static_cast<std::size_t>(m)) {
+      file.fail(file.line("controller.saturation"), "`controller.saturation` has " + std::to_string(values.size()) +
+                                                        " values, expected 1 or " + std::to_string(m) + " (one per input)");
+    }
+    for (int k = 0; k < m; ++k) saturation(k) = values[values.size() == 1 ? 0 : static_cast<std::size_t>(k)];
+  }
+  scene.settings.more_inputs.clear();
+  for (int k = 0; k < m; ++k) {
+    LinearFeedback row;
+    row.gain = scene.coordinates.gain_to_canonical(gain.segment(k * size, size));
+    row.equilibrium = equilibrium;
+    row.saturation = saturation(k);
+    if (file.has("controller.period")) row.period = file.number("controller.period");
+    row.given = file.text("controller") == "gain";
+    const auto problems = row.problems(static_cast<int>(size));
+    if (!problems.empty()) file.fail(0, problems.front());
+    if (k == 0) scene.settings.input = row.input();
+    else scene.settings.more_inputs.push_back(row.input());
+    scene.fixed_controllers.push_back(std::move(row));
   }
 }
 
@@ -453,6 +502,9 @@ Scene<Model> load(const SceneFile& file) {
   scene.coordinates.relative = convention("angles", "absolute", "relative");
   scene.coordinates.hanging = convention("zero", "upright", "hanging");
   scene.coordinates.counterclockwise = convention("positive", "clockwise", "counterclockwise");
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) scene.coordinates.base = 0;  // no base: link 1 is coordinate 0
+  }
   const auto m = list("m");
   const auto l = list("l");
   const auto delta = list("delta");
@@ -543,7 +595,7 @@ Scene<Model> load(const SceneFile& file) {
   if (file.has("limits.travel")) {
     scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
   }
-  if (file.has("controller")) {
+  if (file.has("controller") && scene.fixed_controllers.empty()) {
     if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
       file.fail(file.line("controller"),
                 "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
@@ -677,8 +729,10 @@ IPSIM_DECL std::string SceneFile::trim(const std::string& s) {
 namespace ipsim::scene {
 
 IPSIM_DECL void check_rules(const SceneFile& file) {
+  // A fixed chain's J may be negative (identified values): validate() asks J + m com² > 0 of it.
+  const bool fixed = file.has("type") && file.text("type") == "fixed";
   for (const cfg::Rule& rule : cfg::kRules) {
-    if (!file.has(rule.key)) continue;
+    if (!file.has(rule.key) || (fixed && std::string_view(rule.key) == "J")) continue;
     const std::vector<double> values = file.numbers(rule.key);
     for (std::size_t i = 0; i < values.size(); ++i) {
       if (!cfg::admits(rule, values[i])) {

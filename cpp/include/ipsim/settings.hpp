@@ -137,6 +137,13 @@ struct Settings {
   /// its linearisation). Its dissipated energy is integrated and reported (Result::coulomb_dissipated).
   VectorOf<Model> coulomb = zero_vector<Model>();
   double coulomb_speed = 0.01;  ///< [m/s or rad/s], > 0: below it the friction is ~viscous
+  /// A fixed chain only: DFKI's law f_i = coulomb[i] atan(coulomb_gain w_i) in place of the tanh
+  /// law (w_i: θ̇1, then θ̇i − θ̇(i−1), the joints' relative rates).
+  bool coulomb_atan = false;
+  double coulomb_gain = 100.0;  ///< [s/rad], > 0: the atan law's k
+  /// A fixed chain only: +1, or −1 when its inputs are torques in the counterclockwise sense (a rig's
+  /// positive = counterclockwise: the model's B is in ipgen's clockwise sense, so it gets −u).
+  double input_sign = 1.0;
   /// An acceleration-driven base ([actuator] kind = "acceleration"): u is θ̈0 [m/s² or rad/s²],
   /// imposed by a servo; the links follow θ̈_L = −M_LL⁻¹ (M_L0 u + b_L − Q_L) (rhs.hpp), and the
   /// energy ledger's input work is that of the base force τ = M_0· θ̈ + b_0 − Q_0 the servo
@@ -198,13 +205,18 @@ std::vector<std::string> validate(const ParamsOf<Model>& params) {
       const auto k = static_cast<std::size_t>(i);
       if (i > 0 && std::isinf(params.com[k])) report("com", i, params.com[k], "must be finite (or NaN: l/2)");
       const double across = params.J[k];
+      bool fixed = false;  // a fixed chain's J may be negative while J + m com² > 0 (identified values)
+      if constexpr (is_runtime<Model>) fixed = Model::fixed_pivot();
+      const double com = std::isnan(params.com[k]) ? params.l[k] / 2.0 : params.com[k];
       if (std::isinf(across)) report("J", i, across, "must be finite (or NaN: the rod's value)");
-      else if (across < 0.0) report("J", i, across, "an inertia cannot be negative");
+      else if (fixed && !std::isnan(across) && !(across + params.m[k] * com * com > 0.0))
+        report("J", i, across, "a link needs an inertia about its pivot, J + m com² > 0");
+      else if (!fixed && across < 0.0) report("J", i, across, "an inertia cannot be negative");
       if (i == 0) continue;
       const double axial = params.J_axial[k];
       if (!std::isfinite(axial)) report("J_axial", i, axial, "must be finite");
       else if (axial < 0.0) report("J_axial", i, axial, "an inertia cannot be negative");
-      else if (std::isfinite(across) && axial > 2.0 * across * (1.0 + 1e-12))
+      else if (std::isfinite(across) && axial > 2.0 * across * (1.0 + 1e-12) && !(fixed && axial == 0.0))
         report("J_axial", i, axial, "must be <= 2 J (no axisymmetric body has more)");
       const double tip = params.tip[k];
       if (!std::isfinite(tip)) report("tip", i, tip, "must be finite");
@@ -228,6 +240,12 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   }
   if (!(std::isfinite(settings.coulomb_speed) && settings.coulomb_speed > 0.0)) {
     report("coulomb_speed", settings.coulomb_speed, "must be finite and > 0");
+  }
+  if (!(std::isfinite(settings.coulomb_gain) && settings.coulomb_gain > 0.0)) {
+    report("coulomb_gain", settings.coulomb_gain, "must be finite and > 0");
+  }
+  if (settings.input_sign != 1.0 && settings.input_sign != -1.0) {
+    report("input_sign", settings.input_sign, "must be 1 or -1");
   }
   if (!(std::isfinite(settings.rtol) && settings.rtol > 0.0)) {
     report("rtol", settings.rtol, "must be finite and > 0");
@@ -280,7 +298,11 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
     const Input& more = settings.more_inputs[k];
     const std::string name = "input" + std::to_string(k + 2);
     if (more.kind == Input::Kind::feedback || more.kind == Input::Kind::sampled) {
-      found.push_back("invalid setting " + name + ": a fixed chain's further inputs are open-loop signals");
+      // A fixed chain's controller: every input its row of u = −K (x − x_eq), all alike (sampled together).
+      if (more.kind != settings.input.kind || more.period != settings.input.period) {
+        found.push_back("invalid setting " + name + ": a fixed chain's further inputs are open-loop signals, or "
+                        "feedback of the same kind and period as input");
+      }
       continue;
     }
     for (std::string problem : more.problems()) {  // "... input.amplitude ..." -> "... input2.amplitude ..."

@@ -80,6 +80,7 @@ void run_schedule(const Settings<Model>& settings, sundials::NVector& y, const s
     switching.push_back(pulse.start + pulse.duration);
   }
   for (const Input& more : settings.more_inputs) {  // a fixed chain's other inputs switch too
+    if (more.kind == Input::Kind::sampled) continue;  // sampled with input, at its instants
     const std::vector<double> times = more.switching_times(settings.t_end);
     switching.insert(switching.end(), times.begin(), times.end());
   }
@@ -217,13 +218,17 @@ std::vector<std::string> model_setting_problems(const Settings<Model>& settings)
                          std::to_string(Model::inputs()) + " input(s), the settings give " +
                          std::to_string(settings.more_inputs.size() + 1));
     }
-    if (fixed && (settings.acceleration || settings.lag > 0.0 || !settings.pulses.empty() ||
-                  (settings.coulomb.array() != 0.0).any())) {
-      problems.emplace_back("invalid setting actuator/coulomb: a fixed chain takes no acceleration drive, lag, pulses "
-                            "or Coulomb friction in the simulator yet");
+    if (fixed && (settings.acceleration || settings.lag > 0.0 || !settings.pulses.empty())) {
+      problems.emplace_back("invalid setting actuator: a fixed chain takes no acceleration drive, lag or pulses "
+                            "in the simulator yet");
+    }
+    if (!fixed && (settings.coulomb_atan || settings.input_sign != 1.0)) {
+      problems.emplace_back("invalid setting coulomb_law/input_sign: a fixed chain's only");
     }
   } else if (!settings.more_inputs.empty()) {
     problems.emplace_back("invalid setting input2: only a fixed chain loaded at run time has more than one input");
+  } else if (settings.coulomb_atan || settings.input_sign != 1.0) {
+    problems.emplace_back("invalid setting coulomb_law/input_sign: a fixed chain's only");
   }
   if (settings.energy_ledger && !provides<Model>(Feature::energy)) {
     problems.push_back(std::string("invalid setting energy ledger: model ") + name_of<Model>() +
@@ -311,6 +316,10 @@ Result simulate(const ParamsOf<Model>& given, const Settings<Model>& settings, S
       rhs_context.more_inputs = &settings.more_inputs;
       rhs_context.segment_more.assign(settings.more_inputs.size(), 0.0);
       rhs_context.all_inputs.assign(static_cast<std::size_t>(rhs_context.inputs), 0.0);
+      rhs_context.input_sign = settings.input_sign;
+      rhs_context.coulomb_relative_from = 1;  // joint 1 against the ground, joint i against link i − 1
+      rhs_context.coulomb_atan = settings.coulomb_atan;
+      rhs_context.coulomb_gain = settings.coulomb_gain;
     }
   }
   detail::Diagnostics diagnostics{{}, &result.warnings};
