@@ -33,6 +33,11 @@ class MpcDesign:
     qp_iterations: int
     sqp_tolerance: float
     qp_tolerance: float
+    # The model the step predicts with (the C header prints them): the parameters the design used,
+    # a motor folded in (`Pendulum.folded().params()`: m, l, delta, g, com, J, J_axial, tip), and
+    # the force or torque on the base per unit of u (a dc_motor's gain; 1 otherwise).
+    params: tuple[tuple[str, tuple[float, ...] | float], ...] = ()
+    input_gain: float = 1.0
 
 
 @dataclass(frozen=True)

@@ -103,6 +103,11 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
         sqp_iterations=design.sqp_iterations, cold_iterations=design.cold_iterations,
         qp_iterations=design.qp_iterations, sqp_tolerance=float(design.sqp_tolerance),
         qp_tolerance=float(design.qp_tolerance),
+        params=tuple(
+            (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))
+            for name, value in p.folded().params().items()
+        ),
+        input_gain=float(p.gain),
     )  # fmt: skip
     return Controller(
         kind="mpc", gain=flat(gain), equilibrium=flat(design.x_ref), saturation=design.u_max,
