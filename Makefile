@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4 stability configure build clean
 
 all: test
 
@@ -154,7 +154,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -222,6 +222,12 @@ ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 bench-embedded: venv
 	@$(call apt_install,$(ARM_PACKAGES))
 	$(PY) -m bench.embedded
+
+## One real-time iteration of the MPC (the QUBE preset, N = 30, float) on a Cortex-M4F under QEMU:
+## instructions, cycles, RAM and flash (bench/mpc_m4.py, docs/bench/mpc.md).
+bench-mpc-m4: venv
+	@$(call apt_install,$(ARM_PACKAGES))
+	$(PY) -m bench.mpc_m4
 
 ## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
 ## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).

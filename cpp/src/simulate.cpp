@@ -162,6 +162,12 @@ limits.travel [m or rad]: stop when |theta0| exceeds it (exit status 4); t_end, 
 (true|false); controller = lqr or gain (either: state feedback) with controller.gain K and controller.equilibrium x_eq (2*(links+1)
 numbers each, order theta0..thetaN, dtheta0..dthetaN), controller.saturation [N or N m],
 controller.period [s] (u = -K (x - x_eq), clipped, sampled every period; 0 or absent: continuous);
+controller = mpc (written by ipgen from a scene's [controller] kind = "mpc": ipgen_mpc.h's step every
+controller.period, docs/mpc.md; ipgen's coordinates, u in the scene's unit) with controller.horizon,
+controller.substeps, controller.q, controller.r, controller.p (row-major), controller.reference,
+controller.u_min, controller.u_max, controller.bounds and controller.soft_bounds (index min max ...),
+controller.soft_penalty, controller.mode (rti|converged), controller.iterations,
+controller.cold_iterations, controller.qp_iterations, controller.sqp_tolerance, controller.qp_tolerance;
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
 c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary); a fixed
 chain: coulomb_law = atan with coulomb_gain k [s/rad] for DFKI's c atan(k w), and its inputs are
@@ -666,6 +672,20 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     }
     std::printf("; largest |u| %.6g N m.", result.max_abs_input);
   }
+  if (scene.mpc) {
+    const ipsim::MpcProblem& p = scene.mpc->problem();
+    const ipsim::MpcTally& t = scene.mpc->tally();
+    const char* unit = scene.motor ? " V" : "";
+    std::printf(" Controller: MPC (ipgen_mpc.h, %s), N = %d samples of %g s, %g%s <= u <= %g%s, %zu hard and %zu soft "
+                "state bounds; %ld steps, %.3g interior-point iterations a step on average (at most %d), ",
+                p.converged ? "converged" : "real-time iteration", p.horizon, p.period, p.u_min, unit, p.u_max, unit,
+                p.hard_index.size(), p.soft_index.size(), t.steps,
+                t.steps > 0 ? static_cast<double>(t.qp_iterations) / static_cast<double>(t.steps) : 0.0,
+                t.max_qp_iterations);
+    if (t.not_ok == 0) std::printf("every status ok");
+    else std::printf("%ld not ok (the last: status %d, ipgen_mpc.h)", t.not_ok, t.last_bad_status);
+    std::printf("; largest |u| %.6g%s.", result.max_abs_input / scene.input_gain, unit);
+  }
   if (scene.swingup) {
     const ipsim::SwingUp::State& state = *scene.swingup_state;
     const double per = scene.input_gain;  // volts for a dc motor (b), else 1
@@ -741,7 +761,7 @@ int run(int argc, char** argv) {
   const bool excitation = s.input.kind == ipsim::Input::Kind::chirp || s.input.kind == ipsim::Input::Kind::multisine;
   ipsim::CsvSink<Model> rows(csv.stream(), scene.params, options.energy,
                              scene.controller.has_value() || !scene.fixed_controllers.empty() ||
-                                 scene.swingup.has_value() || excitation,
+                                 scene.swingup.has_value() || scene.mpc || excitation,
                              shown_path(options.csv_path));
   rows.set_input_gain(scene.input_gain);  // the u column in the scene's unit (volts for a dc motor)
   rows.set_inputs(static_cast<int>(s.more_inputs.size()) + 1);  // a fixed chain's m > 1 inputs: u1..um

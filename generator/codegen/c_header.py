@@ -28,9 +28,9 @@ from ipgen.codegen.header import (
     poly_keys,
 )
 from ipgen.codegen.motor import motor_functions
-from ipgen.common.locations import loop_runtime
+from ipgen.common.locations import loop_runtime, mpc_runtime
 from ipgen.common.safetext import comment_safe
-from ipgen.control.controller import Controller
+from ipgen.control.controller import Controller, MpcDesign
 from ipgen.errors import Error
 from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.derivation import Equations
@@ -107,6 +107,65 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
     }
 
 
+def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str, ...]) -> dict[str, object]:
+    """The MPC of a scene (kind "mpc") for the template: its problem as constants and the model
+    it predicts with (the design's parameters, a motor folded in); the step is
+    cpp/include/ipgen_mpc.h's, printed whole (`mpc_runtime`)."""
+    missing = [f for f in ("forward_dynamics", "forward_dynamics_derivatives") if f not in functions]
+    if missing:
+        raise ControllerError(
+            f"the MPC needs the header's {' and '.join(missing)}: add them to the scene's outputs"
+        )
+    size = 2 * dof
+    params = dict(design.params)
+
+    def group(*names: str) -> str:
+        return ", ".join("{" + _c_list(tuple(params[n]), f"MPC {n}") + "}" for n in names)  # type: ignore[arg-type]
+
+    def indices(bounds: tuple[tuple[int, float, float], ...]) -> str:
+        return ", ".join(str(int(i)) for i, _, _ in bounds)
+
+    hard, soft = design.bounds, design.soft_bounds
+    return {
+        "horizon": design.horizon,
+        "substeps": design.substeps,
+        "size": size,
+        "period": c_number(period),
+        "period_value": repr(float(period)),
+        "Q": _c_list(design.Q, "MPC Q"),
+        "R": _c_list((design.R,), "MPC R"),
+        "P": _c_list(design.P, "MPC P"),
+        "reference": _c_list(design.reference, "MPC reference"),
+        "u_min": c_number(design.u_min),
+        "u_max": c_number(design.u_max),
+        "u_min_value": repr(design.u_min),
+        "u_max_value": repr(design.u_max),
+        "hard": len(hard),
+        "hard_index": indices(hard),
+        "hard_min": _c_list(tuple(b[1] for b in hard), "MPC bounds"),
+        "hard_max": _c_list(tuple(b[2] for b in hard), "MPC bounds"),
+        "soft": len(soft),
+        "soft_index": indices(soft),
+        "soft_min": _c_list(tuple(b[1] for b in soft), "MPC soft bounds"),
+        "soft_max": _c_list(tuple(b[2] for b in soft), "MPC soft bounds"),
+        "soft_linear": _c_list((design.soft_penalty[0],) * len(soft), "MPC soft penalty"),
+        "soft_quadratic": _c_list((design.soft_penalty[1],) * len(soft), "MPC soft penalty"),
+        "converged": design.mode == "converged",
+        "sqp_iterations": design.sqp_iterations,
+        "cold_iterations": design.cold_iterations,
+        "qp_iterations": design.qp_iterations,
+        "sqp_tolerance": c_number(design.sqp_tolerance),
+        "qp_tolerance": c_number(design.qp_tolerance),
+        # float: the tolerances ipgen.mpc takes in float (qp 1e-5; converged sqp 1e-4)
+        "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
+        "qp_tolerance_float": c_number(1e-5),
+        "input_gain": c_number(design.input_gain),
+        "motor": design.input_gain != 1.0,
+        "params": group("m", "l", "delta") + ", " + c_number(float(params["g"])),  # type: ignore[arg-type]
+        "links": group("com", "J", "J_axial", "tip"),
+    }
+
+
 def _c_list(values: tuple[float, ...] | list[float], what: str) -> str:
     for i, v in enumerate(values):
         if not math.isfinite(v):
@@ -176,7 +235,12 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     # the dc_motor functions (actuator.motor_terms), prefixed as the template's P
     context["motor"] = motor_functions(eqs.system, "c", f"ipgen_{request.name}")
     dof = eqs.system.dof
-    context["controller"] = control_context(request.controller, dof) if request.controller else None
+    mpc = request.controller.mpc if request.controller is not None else None
+    context["controller"] = (
+        control_context(request.controller, dof) if request.controller and not mpc else None
+    )
+    context["mpc"] = mpc_context(mpc, request.controller.period, dof, spec.outputs) if mpc else None  # type: ignore[union-attr]
+    context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n") if mpc else ""
     context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None
     context["estimator"] = (
         estimator_context(request.estimator, dof, spec.outputs) if request.estimator is not None else None

@@ -91,3 +91,26 @@ def loop_runtime() -> Path:
     raise Error(
         f"ipgen's loop runtime cpp/include/{LOOP_RUNTIME} is missing from this installation: {REINSTALL}"
     )
+
+
+MPC_RUNTIME = "ipgen_mpc.h"  # the MPC step in C99, in cpp/include/
+
+
+def mpc_runtime() -> Path:
+    """cpp/include/ipgen_mpc.h of this installation (as `loop_runtime`): the MPC step that a C
+    header with a [controller] kind = "mpc" carries whole (`--emit c`).
+
+    Returns
+    -------
+    Path
+        The file ipgen_mpc.h.
+
+    Raises
+    ------
+    Error
+        The file is missing from this installation.
+    """
+    path = cmake_dir().parent / "cpp" / "include" / MPC_RUNTIME
+    if path.is_file():
+        return path
+    raise Error(f"ipgen's MPC step cpp/include/{MPC_RUNTIME} is missing from this installation: {REINSTALL}")

@@ -54,6 +54,7 @@ PRECISIONS = {
 MODES = ("rti", "converged")
 HESSIANS = ("gauss-newton", "exact")
 MAX_DOF = 41  # IPGEN_MAX_DOF
+MAX_INPUTS = MAX_DOF  # IPGEN_MAX_INPUTS
 LAYOUT_ENTRIES = 40  # IPGEN_MPC_MODEL_LAYOUT
 STATUS = {
     0: "ok",
@@ -98,12 +99,13 @@ def _info_type(real: type) -> type[ctypes.Structure]:
 
 
 class Parameters(ctypes.Structure):
-    """ipgen_parameters (ipgen_model.h): IPGEN_MAX_DOF doubles a field, g; the rotors Ir and gr,
-    IPGEN_MAX_INPUTS (= IPGEN_MAX_DOF) each (zero: none, as a cart's or an arm's model has)."""
+    """ipgen_parameters (ipgen_model.h): IPGEN_MAX_DOF doubles a field, g; a fixed chain's Ir and
+    gr (IPGEN_MAX_INPUTS each, unused here: 0)."""
 
     _fields_ = [
         *((name, ctypes.c_double * MAX_DOF) for name in ("m", "l", "delta")), ("g", ctypes.c_double),
-        *((name, ctypes.c_double * MAX_DOF) for name in ("com", "J", "J_axial", "tip", "Ir", "gr")),
+        *((name, ctypes.c_double * MAX_DOF) for name in ("com", "J", "J_axial", "tip")),
+        *((name, ctypes.c_double * MAX_INPUTS) for name in ("Ir", "gr")),
     ]  # fmt: skip
 
 

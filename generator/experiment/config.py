@@ -72,11 +72,33 @@ CFG_KEYS: dict[str, str] = {
     "atol": "absolute tolerance",
     "max_steps": "step limit between two samples",
     "energy": "true: the energy ledger columns",
-    "controller": "lqr",
+    "controller": "lqr | gain | mpc",
     "controller.gain": "K of u = -K (x - x_eq)",
     "controller.equilibrium": "x_eq",
     "controller.saturation": "the largest |u|",
     "controller.period": "sampling period [s] (absent: continuous)",
+    **{
+        f"controller.{key}": f"mpc: {what}"
+        for key, what in (
+            ("horizon", "N, the samples predicted"),
+            ("substeps", "RK4 steps a sample"),
+            ("q", "the stage weight Q, row-major (ipgen's coordinates)"),
+            ("r", "the weight R of u^2"),
+            ("p", "the terminal weight P, row-major"),
+            ("reference", "x_ref"),
+            ("u_min", "the lower bound on u"),
+            ("u_max", "the upper bound on u"),
+            ("bounds", "hard state bounds: index min max, ..."),
+            ("soft_bounds", "soft state bounds: index min max, ..."),
+            ("soft_penalty", "rho1 rho2 of a soft bound's violation s: rho1 s + rho2 s^2"),
+            ("mode", "rti | converged"),
+            ("iterations", "SQP iterations a step at most"),
+            ("cold_iterations", "SQP iterations at most on a cold start"),
+            ("qp_iterations", "interior-point iterations a QP at most"),
+            ("sqp_tolerance", "the SQP's stopping test (0: run the budget)"),
+            ("qp_tolerance", "the QP's stopping test"),
+        )
+    },
     "swingup": "energy | trajectory",
     **{
         f"swingup.{key}": "the swing-up law (control/swingup.py)"
@@ -234,12 +256,38 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
     if controller is None:
         return
     lines.put("controller", controller.kind)
+    if controller.mpc is not None:
+        _mpc(lines, controller)
+        return
     lines.put("controller.gain", controller.gain)
     lines.put("controller.equilibrium", controller.equilibrium)
     if controller.saturation is not None:
         lines.put("controller.saturation", controller.saturation)
     if controller.period is not None:
         lines.put("controller.period", controller.period)
+
+
+def _mpc(lines: _Lines, controller: Controller) -> None:
+    """kind = "mpc": the problem, resolved (`MpcDesign`), in ipgen's coordinates and the unit of u."""
+    design = controller.mpc
+    assert design is not None
+    lines.put("controller.period", controller.period)
+    for key, value in (
+        ("horizon", design.horizon), ("substeps", design.substeps), ("q", design.Q), ("r", design.R),
+        ("p", design.P), ("reference", design.reference), ("u_min", design.u_min), ("u_max", design.u_max),
+    ):  # fmt: skip
+        lines.put(f"controller.{key}", value)
+    for key, bounds in (("bounds", design.bounds), ("soft_bounds", design.soft_bounds)):
+        if bounds:
+            lines.put(f"controller.{key}", [float(v) for bound in bounds for v in bound])
+    if design.soft_bounds:
+        lines.put("controller.soft_penalty", design.soft_penalty)
+    for key, value in (
+        ("mode", design.mode), ("iterations", design.sqp_iterations),
+        ("cold_iterations", design.cold_iterations), ("qp_iterations", design.qp_iterations),
+        ("sqp_tolerance", design.sqp_tolerance), ("qp_tolerance", design.qp_tolerance),
+    ):  # fmt: skip
+        lines.put(f"controller.{key}", value)
 
 
 def _loop(lines: _Lines, loop_: Loop | None) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ipgen.control.controller import Controller
+from ipgen.control.controller import Controller, MpcDesign
 from ipgen.model.pendulum import Pendulum
 
 
@@ -25,6 +25,8 @@ def controller(table: Any, p: Pendulum) -> Controller:
 
     from ipgen.control.linear import equilibrium_state
 
+    if table.kind == "mpc":
+        return _mpc(table, p)
     frame = p.coordinates
     gain = table.gain if table.kind == "gain" else _lqr_gain(table, p)
     x_eq = equilibrium_state(p.links, table.equilibrium)  # angles as written: the rig's
@@ -58,3 +60,56 @@ def _unit(p: Pendulum) -> str:
     if p.actuator.is_acceleration:
         return "base acceleration [rad/s^2]" if p.is_rotary else "base acceleration [m/s^2]"
     return ""
+
+
+def _mpc(table: Any, p: Pendulum) -> Controller:
+    """kind = "mpc": the problem resolved (`MpcDesign`) by `ipgen.mpc` on `p` (its defaults: the
+    terminal weight P the discrete LQR's Riccati matrix, the budgets of the mode)."""
+    import numpy as np
+
+    from ipgen.control import mpc as mpc_module
+    from ipgen.scene import controller as rules
+
+    if not p.coordinates.is_canonical:
+        raise GainError(
+            'controller: kind = "mpc" takes ipgen\'s coordinates only so far: remove [system] angles, zero '
+            "and positive"
+        )
+    nx = 2 * p.dof
+    soft = {i: (lo, hi) for i, lo, hi in table.soft_bounds or ()}
+    penalty = table.soft_penalty if table.soft_penalty is not None else rules.DEFAULT_SOFT_PENALTY
+    try:
+        design = mpc_module.mpc(
+            p, horizon=table.horizon or rules.DEFAULT_HORIZON, period=float(table.period),
+            Q=np.eye(nx) if table.q is None else table.q, R=float(table.r), P=table.p,
+            u_max=float(table.u_max), travel=None if table.travel is None else float(table.travel),
+            soft_bounds=soft or None, soft_penalty=tuple(penalty), reference=table.equilibrium,
+            substeps=table.substeps or 1, mode=table.mode or "rti", sqp_iterations=table.iterations,
+            qp_iterations=table.qp_iterations,
+        )  # fmt: skip
+    except mpc_module.MpcError as exc:
+        raise GainError(f"controller: no MPC: {exc}") from None
+    _, a, b = design.rk4(design.x_ref, 0.0)
+    gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
+
+    def flat(matrix: Any) -> tuple[float, ...]:
+        return tuple(float(v) for v in np.ravel(matrix))
+
+    resolved = MpcDesign(
+        horizon=design.N, substeps=design.substeps, Q=flat(design.Q), R=float(design.R[0, 0]),
+        P=flat(design.P),
+        reference=flat(design.x_ref), u_min=design.u_min, u_max=design.u_max, bounds=tuple(design.hard),
+        soft_bounds=tuple(design.soft), soft_penalty=design.soft_penalty, mode=design.mode,
+        sqp_iterations=design.sqp_iterations, cold_iterations=design.cold_iterations,
+        qp_iterations=design.qp_iterations, sqp_tolerance=float(design.sqp_tolerance),
+        qp_tolerance=float(design.qp_tolerance),
+        params=tuple(
+            (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))
+            for name, value in p.folded().params().items()
+        ),
+        input_gain=float(p.gain),
+    )  # fmt: skip
+    return Controller(
+        kind="mpc", gain=flat(gain), equilibrium=flat(design.x_ref), saturation=design.u_max,
+        period=float(table.period), unit=_unit(p), mpc=resolved,
+    )  # fmt: skip

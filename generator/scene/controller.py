@@ -17,7 +17,24 @@ from ipgen.scene.fields import format_number, one_of, type_name
 from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
 # Feedback controllers ([controller] kind) and the named equilibria they stabilise.
-CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain")
+CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain", "mpc")
+# kind = "mpc" (docs/mpc.md): its defaults and bounds, and the keys only it takes.
+MPC_MODES: tuple[str, ...] = ("rti", "converged")
+DEFAULT_HORIZON = 30
+MAX_HORIZON = 1000
+MAX_ITERATIONS = 1000
+DEFAULT_SOFT_PENALTY = (1000.0, 1000.0)  # ρ1, ρ2: an exact penalty on the QUBE's arm (docs/mpc.md)
+MPC_KEYS: tuple[str, ...] = (
+    "horizon", "p", "u_max", "travel", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations",
+    "substeps",
+)  # fmt: skip
+SOFT_BOUNDS_SCHEMA: dict[str, Any] = {
+    "type": "array",
+    "items": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
+}
+SOFT_PENALTY_SCHEMA: dict[str, Any] = {
+    "type": "array", "items": {"type": "number", "minimum": 0}, "minItems": 2, "maxItems": 2,
+}  # fmt: skip
 EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
 DEFAULT_EQUILIBRIUM = "upright"
 DEFAULT_R = 1.0  # LQR weight of u²; the default Q is the identity
@@ -126,6 +143,47 @@ def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     return angles
 
 
+def soft_bounds(value: Any, info: ValidationInfo) -> list[tuple[int, float, float]] | None:
+    """mpc's soft_bounds: [[index, min, max], ...], index a whole number into x (2·(links + 1)
+    entries), min < max, each index once."""
+    context = context_of(info, "count")
+    if context is None:
+        return None
+    size = 2 * context["count"]
+    if not isinstance(value, list):
+        refuse(
+            f"expected an array of [index, min, max] (index 0 .. {size - 1} into x), got {type_name(value)}"
+        )
+
+    def bound(item: Any, context: dict[str, Any]) -> tuple[int, float, float]:
+        if not isinstance(item, list):
+            refuse(f"expected [index, min, max], got {type_name(item)}")
+        check_count(item, 3, "index, min, max")
+        index, lo, hi = (at(j, number, entry, context) for j, entry in enumerate(item))
+        if index != int(index) or not 0 <= index < size:
+            refuse(f"the index must be a whole number in 0 .. {size - 1} (into x = [θ, θ̇])", value=item[0])
+        if not lo < hi:
+            refuse(f"expected min < max, got {format_number(lo)} >= {format_number(hi)}")
+        return int(index), lo, hi
+
+    bounds = [at(i, bound, item, context) for i, item in enumerate(value)]
+    indices = [b[0] for b in bounds]
+    if len(set(indices)) != len(indices):
+        refuse("each state index may be bounded once")
+    return bounds
+
+
+def soft_penalty(value: Any, info: ValidationInfo) -> tuple[float, float]:
+    """mpc's soft_penalty: [ρ1, ρ2], ρ1 >= 0, ρ2 > 0."""
+    if not isinstance(value, list):
+        refuse(f"expected [ρ1, ρ2] (a violation s costs ρ1 s + ρ2 s²), got {type_name(value)}")
+    check_count(value, 2, "ρ1, ρ2")
+    linear, quadratic = (at(i, number, item, {}) for i, item in enumerate(value))
+    if linear < 0 or not quadratic > 0:
+        refuse("expected ρ1 >= 0 and ρ2 > 0")
+    return linear, quadratic
+
+
 def relations(table: Any, context: dict[str, Any]) -> None:
     """A gain given exactly for kind "gain"; no other input than zero; a period in (0, t_end],
     commensurate with the output sample."""
@@ -146,10 +204,20 @@ def relations(table: Any, context: dict[str, Any]) -> None:
                 )
     elif "gain" in given:
         refuse(
-            'is for kind = "gain"; kind = "lqr" computes K from q and r: remove gain or set kind = "gain"',
+            f'is for kind = "gain"; kind = "{table.kind}" computes '
+            + ("K" if table.kind == "lqr" else "its input")
+            + ' from q and r: remove gain or set kind = "gain"',
             key="gain",
             value=table.gain,
         )
+    if table.kind == "mpc":
+        _mpc_relations(table, given)
+    else:
+        for key in MPC_KEYS:
+            if key in given:
+                refuse(
+                    'is for kind = "mpc": remove it or set kind = "mpc"', key=key, value=getattr(table, key)
+                )
     input_kind = context["input_kind"]
     if input_kind != "zero":
         refuse(
@@ -160,6 +228,8 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
     if table.period is None:
         return
+    if table.kind == "mpc" and table.horizon is not None and table.horizon * float(table.period) > 1e3:
+        refuse("horizon · period is beyond 1000 s", key="horizon", value=table.horizon)
     sampling_period(table.period, context["t_end"], context["sample"], "> 0 s and ")
 
 
@@ -184,3 +254,13 @@ def sampling_period(period: Any, t_end: float, sample: float, positive: str = ""
             key="period",
             value=period,
         )
+
+
+def _mpc_relations(table: Any, given: set[str]) -> None:
+    """kind = "mpc": a period and u_max (the bound on u), no saturation (u_max is its bound)."""
+    if "saturation" in given:
+        refuse('kind = "mpc" bounds u by u_max: remove saturation', key="saturation", value=table.saturation)
+    if table.u_max is None:
+        refuse('kind = "mpc" needs u_max, the bound on |u|: add u_max = ...', key="kind", value=table.kind)
+    if table.period is None:
+        refuse('kind = "mpc" is sampled: add period = ... (s)', key="kind", value=table.kind)

@@ -116,6 +116,13 @@ def _exact(value: float) -> Decimal:
 Flag = Annotated[bool, Field(strict=True)]
 
 
+def _Count(most: int, what: str) -> Any:
+    """An integer in 1 .. most."""
+    return Annotated[
+        int, Field(strict=True, ge=1, le=most), Says(f"expected an integer in 1 .. {most}", what)
+    ]
+
+
 # ---------------------------------------------------------------------------- [system]
 
 
@@ -609,10 +616,12 @@ class OutputsTable(Table):
 
 
 class ControllerTable(Table):
-    """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen or given."""
+    """[controller]: state feedback u = −K (x − x_eq), K an LQR gain computed by ipgen or given; or
+    a constrained nonlinear MPC (kind = "mpc", docs/mpc.md)."""
 
     kind: Literal[CONTROLLER_KINDS] = Field(
-        description="lqr: a linear-quadratic regulator from q and r; gain: the gain K given in `gain`"
+        description="lqr: a linear-quadratic regulator from q and r; gain: the gain K given in `gain`; "
+        "mpc: nonlinear model predictive control on the exact model (q, r, p, u_max, travel, ...)"
     )
     gain: Annotated[Any, PlainValidator(control.gain_values)] = Field(
         None,
@@ -641,6 +650,45 @@ class ControllerTable(Table):
         description="sampling period [s], a whole multiple or fraction of simulation.sample "
         "(default: continuous)",
         json_schema_extra={"exclusiveMinimum": 0},
+    )
+    # kind = "mpc" only (docs/mpc.md): the problem over `horizon` samples of `period` and its budget.
+    horizon: _Count(control.MAX_HORIZON, "mpc: the samples predicted") | None = Field(
+        None, description=f"mpc only: N, the samples predicted (default {control.DEFAULT_HORIZON})"
+    )
+    p: Annotated[Any, PlainValidator(control.weights)] = Field(
+        None,
+        description="mpc only: the terminal weight, 2 (links + 1) weights or a symmetric PSD matrix "
+        "(default: the discrete LQR's Riccati matrix at the equilibrium)",
+        json_schema_extra=control.WEIGHTS_SCHEMA,
+    )
+    u_max: Real(gt=0, says="the input bound must be > 0 {u_unit}") | None = Field(
+        None, description="mpc only (required): the hard bound |u| <= u_max [N, N m, or V with a dc_motor]"
+    )
+    travel: Real(gt=0, says="the base's bound must be > 0 m or rad") | None = Field(
+        None, description="mpc only: the hard bound |θ0| <= travel on the predicted states [m or rad]"
+    )
+    soft_bounds: Annotated[Any, PlainValidator(control.soft_bounds)] = Field(
+        None,
+        description="mpc only: soft state bounds [[index, min, max], ...] (index into x = [θ, θ̇])",
+        json_schema_extra=control.SOFT_BOUNDS_SCHEMA,
+    )
+    soft_penalty: Annotated[Any, PlainValidator(control.soft_penalty)] = Field(
+        None,
+        description="mpc only: [ρ1, ρ2] of a soft bound's violation s, costing ρ1 s + ρ2 s² "
+        f"(default {list(control.DEFAULT_SOFT_PENALTY)})",
+        json_schema_extra=control.SOFT_PENALTY_SCHEMA,
+    )
+    mode: Literal[control.MPC_MODES] | None = Field(
+        None, description='mpc only: "rti" (one SQP iteration a sample, the default) or "converged"'
+    )
+    iterations: _Count(control.MAX_ITERATIONS, "mpc: SQP iterations a step") | None = Field(
+        None, description="mpc only: SQP iterations a step at most (default: rti 1, converged 500)"
+    )
+    qp_iterations: _Count(control.MAX_ITERATIONS, "mpc: interior-point iterations a QP") | None = Field(
+        None, description="mpc only: interior-point iterations a QP at most (default: rti 20, converged 50)"
+    )
+    substeps: _Count(100, "mpc: RK4 steps a sample") | None = Field(
+        None, description="mpc only: RK4 steps per sample in the prediction (default 1)"
     )
 
     @model_validator(mode="after")

@@ -88,6 +88,23 @@ inline constexpr const char* kKeys[] = {
     "controller.equilibrium",
     "controller.saturation",
     "controller.period",
+    "controller.horizon",
+    "controller.substeps",
+    "controller.q",
+    "controller.r",
+    "controller.p",
+    "controller.reference",
+    "controller.u_min",
+    "controller.u_max",
+    "controller.bounds",
+    "controller.soft_bounds",
+    "controller.soft_penalty",
+    "controller.mode",
+    "controller.iterations",
+    "controller.cold_iterations",
+    "controller.qp_iterations",
+    "controller.sqp_tolerance",
+    "controller.qp_tolerance",
     "swingup",
     "swingup.u_max",
     "swingup.period",
@@ -145,6 +162,12 @@ inline constexpr Range kRanges[] = {
     {1.0, false, kInf, false, true},  // max_steps
     {0.0, true, kInf, false, false},  // controller.saturation
     {0.0, true, kInf, false, false},  // controller.period
+    {1.0, false, 1000.0, false, true},  // controller.horizon
+    {1.0, false, 100.0, false, true},  // controller.substeps
+    {0.0, true, kInf, false, false},  // controller.r
+    {0.0, true, kInf, false, false},  // controller.u_max
+    {1.0, false, 1000.0, false, true},  // controller.iterations
+    {1.0, false, 1000.0, false, true},  // controller.qp_iterations
     {0.0, true, kInf, false, false},  // swingup.u_max
     {0.0, true, kInf, false, false},  // swingup.period
     {0.0, false, kInf, false, false},  // swingup.hold
@@ -182,22 +205,28 @@ inline constexpr Rule kRules[] = {
     {"max_steps", "[simulation] max_steps", "a whole number >= 1", 14, 1},
     {"controller.saturation", "[controller] saturation", "> 0", 15, 1},
     {"controller.period", "[controller] period", "> 0", 16, 1},
-    {"swingup.u_max", "[swingup] u_max", "> 0", 17, 1},
-    {"swingup.period", "[swingup] period", "> 0", 18, 1},
-    {"swingup.hold", "[swingup] hold", ">= 0", 19, 1},
-    {"swingup.gain_energy", "[swingup] gain_energy", ">= 0", 20, 1},
-    {"swingup.gain_position", "[swingup] gain_position", ">= 0", 21, 1},
-    {"swingup.gain_velocity", "[swingup] gain_velocity", ">= 0", 22, 1},
-    {"swingup.accel_max", "[swingup] accel_max", "> 0", 23, 1},
-    {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 24, 1},
-    {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 25, 1},
-    {"actuator.lag", "[actuator] lag", ">= 0", 26, 1},
-    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 27, 1},
-    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 28, 2},
-    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 30, 1},
-    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 31, 1},
-    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 32, 1},
-    {"estimator.cutoff", "[estimator] cutoff", "> 0", 33, 1},
+    {"controller.horizon", "[controller] horizon", "a whole number >= 1 and <= 1000", 17, 1},
+    {"controller.substeps", "[controller] substeps", "a whole number >= 1 and <= 100", 18, 1},
+    {"controller.r", "[controller] r", "> 0", 19, 1},
+    {"controller.u_max", "[controller] u_max", "> 0", 20, 1},
+    {"controller.iterations", "[controller] iterations", "a whole number >= 1 and <= 1000", 21, 1},
+    {"controller.qp_iterations", "[controller] qp_iterations", "a whole number >= 1 and <= 1000", 22, 1},
+    {"swingup.u_max", "[swingup] u_max", "> 0", 23, 1},
+    {"swingup.period", "[swingup] period", "> 0", 24, 1},
+    {"swingup.hold", "[swingup] hold", ">= 0", 25, 1},
+    {"swingup.gain_energy", "[swingup] gain_energy", ">= 0", 26, 1},
+    {"swingup.gain_position", "[swingup] gain_position", ">= 0", 27, 1},
+    {"swingup.gain_velocity", "[swingup] gain_velocity", ">= 0", 28, 1},
+    {"swingup.accel_max", "[swingup] accel_max", "> 0", 29, 1},
+    {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 30, 1},
+    {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 31, 1},
+    {"actuator.lag", "[actuator] lag", ">= 0", 32, 1},
+    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 33, 1},
+    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 34, 2},
+    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 36, 1},
+    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 37, 1},
+    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 38, 1},
+    {"estimator.cutoff", "[estimator] cutoff", "> 0", 39, 1},
 };
 
 /// Whether `value` is allowed as one number of `rule`'s key: finite and in one of its ranges.

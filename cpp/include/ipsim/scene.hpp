@@ -22,6 +22,13 @@
 //   controller = lqr | gain    (optional, with input = zero: u = −K (x − x_eq), clipped to ±saturation)
 //   controller.gain = …        controller.equilibrium = …   (2·kDof numbers each)
 //   controller.saturation = 2  controller.period = 0.01     (optional: |u| bound [N or N m]; sampling [s])
+//   controller = mpc           (with input = zero: ipgen_mpc.h's step every controller.period, ipsim/mpc.hpp;
+//                              its keys in ipgen's coordinates and the scene's unit of u, every one resolved:)
+//   controller.horizon  controller.substeps  controller.q (row-major)  controller.r  controller.p (row-major)
+//   controller.reference  controller.u_min  controller.u_max  controller.bounds (index min max …, optional)
+//   controller.soft_bounds (index min max …, optional)  controller.soft_penalty (with soft_bounds: ρ1 ρ2)
+//   controller.mode = rti | converged   controller.iterations  controller.cold_iterations
+//   controller.qp_iterations  controller.sqp_tolerance  controller.qp_tolerance
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
@@ -61,6 +68,7 @@
 
 #include "ipsim/cfg_rules.hpp"
 #include "ipsim/controller.hpp"
+#include "ipsim/mpc.hpp"
 #include "ipsim/coordinates.hpp"
 #include "ipsim/errors.hpp"
 #include "ipsim/input.hpp"
@@ -160,7 +168,13 @@ struct Scene {
   /// `sensors.*`, `estimator.*`, `actuator.noise`: the measured loop around the sampled controller
   /// or swing-up (sensors.hpp); null for today's exact loop.
   std::shared_ptr<MeasuredLoop<Model>> loop;
+  /// `controller = mpc`: the MPC whose step sets settings.input (sampled; ipsim/mpc.hpp).
+  std::shared_ptr<MpcController<Model>> mpc;
 };
+
+/// `controller = mpc`: the controller.* keys into scene.mpc, its sampled input into settings.input.
+template <class Model>
+void load_mpc(const SceneFile& file, Scene<Model>& scene);
 
 /// Fails at the first number outside its key's rule (cfg_rules.hpp: the scene schema's bounds).
 void check_rules(const SceneFile& file);
@@ -329,6 +343,83 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
                                                         scene.params, scene.coordinates);
   s.input.feedback = [measured](double t, const Eigen::VectorXd& x) { return measured->step(t, x); };
   scene.loop = std::move(measured);
+}
+
+template <class Model>
+void load_mpc(const SceneFile& file, Scene<Model>& scene) {
+  const int n = dof_of<Model>(), nx = 2 * n;
+  if (!scene.coordinates.canonical()) {
+    file.fail(file.line("controller"), "controller = mpc takes ipgen's coordinates only (no angles, zero, positive)");
+  }
+  if (scene.settings.acceleration) file.fail(file.line("controller"), "controller = mpc with actuator = acceleration is not supported");
+  if (!(has_derivatives<Model> && provides<Model>(Feature::derivatives))) {
+    file.fail(file.line("controller"), "controller = mpc needs the model's forward_dynamics_derivatives: regenerate its header");
+  }
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) file.fail(file.line("controller"), "controller = mpc on a fixed chain is not supported yet");
+  }
+  MpcProblem p;
+  auto list = [&](const std::string& key, Eigen::Index count) {
+    const Eigen::VectorXd values = numbers_of(file, key, count);
+    return std::vector<double>(values.data(), values.data() + count);
+  };
+  auto whole = [&](const std::string& key) {
+    const long value = file.integer(key);  // the range: cfg_rules.hpp
+    return static_cast<int>(value);
+  };
+  p.period = file.number("controller.period");
+  p.horizon = whole("controller.horizon");
+  p.substeps = whole("controller.substeps");
+  p.Q = list("controller.q", nx * nx);
+  p.R = list("controller.r", 1);
+  p.P = list("controller.p", nx * nx);
+  p.reference = list("controller.reference", nx);
+  p.u_min = file.number("controller.u_min");
+  p.u_max = file.number("controller.u_max");
+  auto bounds = [&](const std::string& key, std::vector<int>& index, std::vector<double>& lo, std::vector<double>& hi) {
+    if (!file.has(key)) return;
+    const std::vector<double> values = file.numbers(key);
+    if (values.empty() || values.size() % 3 != 0) file.fail(file.line(key), "`" + key + "` needs 3 numbers a bound (index min max)");
+    for (std::size_t i = 0; i < values.size(); i += 3) {
+      const double at = values[i];
+      if (!(at == std::floor(at) && at >= 0 && at < nx)) {
+        file.fail(file.line(key), "`" + key + "`: the index " + detail::format_number(at) + " is not one of 0.." + std::to_string(nx - 1));
+      }
+      index.push_back(static_cast<int>(at));
+      lo.push_back(values[i + 1]);
+      hi.push_back(values[i + 2]);
+    }
+  };
+  bounds("controller.bounds", p.hard_index, p.hard_min, p.hard_max);
+  bounds("controller.soft_bounds", p.soft_index, p.soft_min, p.soft_max);
+  if (!p.soft_index.empty()) {
+    const std::vector<double> penalty = list("controller.soft_penalty", 2);
+    p.soft_linear.assign(p.soft_index.size(), penalty[0]);
+    p.soft_quadratic.assign(p.soft_index.size(), penalty[1]);
+  }
+  const std::string& mode = file.text("controller.mode");
+  if (mode != "rti" && mode != "converged") {
+    file.fail(file.line("controller.mode"), "controller.mode must be `rti` or `converged`, got `" + detail::abbreviate(mode) + "`");
+  }
+  p.converged = mode == "converged";
+  p.sqp_iterations = whole("controller.iterations");
+  p.cold_iterations = whole("controller.cold_iterations");
+  p.qp_iterations = whole("controller.qp_iterations");
+  p.sqp_tolerance = file.number("controller.sqp_tolerance");
+  p.qp_tolerance = file.number("controller.qp_tolerance");
+  if (!(std::isfinite(p.period) && p.period > 0.0)) file.fail(file.line("controller.period"), "controller.period must be > 0");
+  for (const auto* vector : {&p.Q, &p.R, &p.P, &p.reference, &p.hard_min, &p.hard_max, &p.soft_min, &p.soft_max}) {
+    for (const double v : *vector) {
+      if (!std::isfinite(v)) file.fail(file.line("controller"), "controller = mpc: its numbers must be finite");
+    }
+  }
+  auto mpc = std::make_shared<MpcController<Model>>(std::move(p), scene.params, scene.input_gain);
+  if (mpc->check() != 0) {
+    file.fail(file.line("controller"), "controller = mpc: its settings describe no problem (sizes, bounds, weights or budgets)");
+  }
+  const double b = scene.input_gain;  // the step's u is in the scene's unit (volts with a dc motor)
+  scene.settings.input = Input::sampled(mpc->problem().period, [mpc, b](double, const Eigen::VectorXd& x) { return b * (*mpc)(x); });
+  scene.mpc = std::move(mpc);
 }
 
 /// `input.amplitude` for `input2.amplitude` (`input` for `input2`: a fixed chain's further inputs,
@@ -595,10 +686,15 @@ Scene<Model> load(const SceneFile& file) {
   if (file.has("limits.travel")) {
     scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
   }
-  if (file.has("controller") && scene.fixed_controllers.empty()) {
+  if (file.has("controller") && scene.fixed_controllers.empty() && file.text("controller") == "mpc") {
+    if (kind != "zero") {
+      file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");
+    }
+    load_mpc<Model>(file, scene);
+  } else if (file.has("controller") && scene.fixed_controllers.empty()) {
     if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
       file.fail(file.line("controller"),
-                "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
+                "controller must be `lqr`, `gain` or `mpc`, got `" + detail::abbreviate(file.text("controller")) + "`");
     }
     if (kind != "zero") {
       file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");

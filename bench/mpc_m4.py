@@ -1,0 +1,163 @@
+"""One real-time iteration of the MPC on a Cortex-M4F, counted under QEMU (issue 47).
+
+    .venv/bin/python -m bench.mpc_m4 [--samples K] [--out docs/bench/mpc.md]
+
+The preset scenes/rigs/qube_servo2_mpc.toml (the QUBE-Servo 2 in volts, ±10 V, the arm within
+±1 rad, N = 30 samples of 10 ms) with emit = ["c"]: its generated C header in float
+(IPGEN_SCALAR = float: ipgen_mpc.h printed whole, the header's own model as the callback) is
+compiled for the Cortex-M4F (bench/m4_cycles.py: arm-none-eabi-gcc -mcpu=cortex-m4
+-mfloat-abi=hard -Os, newlib) and `ipgen_qube_servo2_mpc_mpc_step` is called on the first K state
+estimates of the simulator's own run of the preset (its hat_* columns: the cold first step, then
+the real-time iteration along the closed loop, where u reaches its bound and the arm its
+travel). QEMU counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
+estimate (each instruction weighted by the Cortex-M4 TRM's cycle count, zero-wait-state memory,
+a taken branch 1 + 2), µs at 168 MHz (an STM32F405/407's clock). RAM: the MPC's state (its
+workspace, IPGEN_MPC_WORK reals, and its info) from the ELF's symbol, plus the stack of the call
+(gcc -fstack-usage); flash: the ELF's text (the whole program: the step, the model, newlib's
+sqrtf/sinf/cosf) and bench_call's own size.
+
+Replaces the section between the markers below in --out (docs/bench/mpc.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import re
+import statistics
+import subprocess
+import tempfile
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+
+from bench import m4_cycles
+from bench.report import ROOT
+
+CLOCK_MHZ = 168.0
+BEGIN, END = "<!-- bench.mpc_m4: begin -->", "<!-- bench.mpc_m4: end -->"
+NAME = "qube_servo2_mpc"
+P = f"ipgen_{NAME}"
+
+
+def _scene(folder: Path) -> tuple[Path, np.ndarray]:
+    """The preset with emit = ["c"]: its header's path and the simulator's state estimates."""
+    from ipgen.command.cli import run
+
+    text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
+    scene = folder / f"{NAME}.toml"
+    scene.write_text(text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
+    generate = ["--scene", str(scene), "-o", str(folder)]
+    for argv in (generate, ["run", str(scene), "-o", str(folder / "run"), "--no-plot"]):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            if run(argv) != 0:
+                raise SystemExit(err.getvalue())
+    header, *rows = (folder / "run" / f"{NAME}.csv").read_text().splitlines()
+    names = header.split(",")
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    columns = [names.index(f"hat_{n}") for n in ("theta0", "theta1", "dtheta0", "dtheta1")]
+    return folder / f"{NAME}.h", data[:, columns]
+
+
+def _prelude(states: np.ndarray) -> str:
+    rows = ",\n  ".join("{" + ", ".join(f"{v!r}f" for v in row) + "}" for row in states.tolist())
+    return (
+        "#define IPGEN_SCALAR float\n"
+        f'#include "{NAME}.h"\n'
+        f"{P}_mpc_state bench_mpc;\n"
+        "volatile float bench_sink;\n"
+        f"static const float bench_states[{len(states)}][4] = {{\n  {rows}\n}};\n"
+    )
+
+
+CALL = f"  bench_sink = {P}_mpc_step(&bench_mpc, bench_states[k]);"
+
+
+def _sizes(header: Path, prelude: str) -> dict[str, int]:
+    """RAM and flash of the counting program (the same build as m4_cycles.count)."""
+    with tempfile.TemporaryDirectory(prefix="ipgen-m4-size.") as folder:
+        work = Path(folder)
+        (work / "link.ld").write_text(m4_cycles.LINKER_SCRIPT)
+        (work / "main.c").write_text(m4_cycles.PROGRAM % {"prelude": prelude, "call": CALL, "calls": 1})
+        elf = work / "main.elf"
+        subprocess.run(
+            [m4_cycles.CC, "-std=c99", *m4_cycles.TARGET, "-fstack-usage", "-nostartfiles", "-T",
+             str(work / "link.ld"), f"-I{header.parent}", str(work / "main.c"), "-o", str(elf), "-lm", "-lc",
+             "-lgcc"],
+            check=True, capture_output=True, text=True, cwd=work,
+        )  # fmt: skip
+        usage = {}
+        for su in work.glob("*.su"):
+            for line in su.read_text().splitlines():
+                fields = line.split("\t")
+                usage[fields[0].rsplit(":", 1)[-1]] = int(fields[1])
+        size = subprocess.run(["arm-none-eabi-size", "-A", str(elf)], capture_output=True, text=True).stdout
+        sections = {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\w+)\s+(\d+)", size, re.M)}
+        nm = subprocess.run(["arm-none-eabi-nm", "-S", str(elf)], capture_output=True, text=True).stdout
+        symbols = {f[3]: int(f[1], 16) for f in (line.split() for line in nm.splitlines()) if len(f) == 4}
+        return {
+            "state": symbols.get("bench_mpc", 0),
+            "stack": usage.get("bench_call", 0),
+            "text": sections.get(".text", 0),
+            "call": symbols.get("bench_call", 0),
+            "states_table": symbols.get("bench_states", 0),
+        }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=40, help="calls counted (the first is the cold start)")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
+    parser.add_argument("--opt", default="-Os", help="the optimisation flag (bench/m4_cycles.py's: -Os)")
+    args = parser.parse_args()
+    m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
+    with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
+        header, states = _scene(Path(folder))
+        states = states[: args.samples]
+        prelude = _prelude(states)
+        counts = m4_cycles.count(header, prelude, CALL, len(states))
+        sizes = _sizes(header, prelude)
+    rti_i, rti_c = counts.instructions[1:], counts.cycles[1:]
+    us = [c / CLOCK_MHZ for c in rti_c]
+    lines = [
+        BEGIN,
+        "## One RTI step on a Cortex-M4F (QEMU)",
+        "",
+        "Made by `.venv/bin/python -m bench.mpc_m4` (bench/mpc_m4.py; what it counts and how is its",
+        "docstring and bench/m4_cycles.py's): the preset scenes/rigs/qube_servo2_mpc.toml's C header in",
+        f"float, N = 30, `{P}_mpc_step` on the first {len(states)} state estimates of the simulator's",
+        "closed loop (the first call cold: 10 SQP iterations; then one a sample),",
+        f"arm-none-eabi-gcc {args.opt}, QEMU mps2-an386. Cycles: the TRM's per-instruction counts,",
+        "zero-wait-state memory, a taken branch 3 (an estimate, not a measurement);",
+        f"µs at {CLOCK_MHZ:g} MHz.",
+        "",
+        "| what | instructions | cycles (estimate) | µs at 168 MHz |",
+        "| --- | ---: | ---: | ---: |",
+        f"| RTI step, median of {len(rti_c)} | {int(statistics.median(rti_i)):,} "
+        f"| {int(statistics.median(rti_c)):,} | {statistics.median(us):.0f} |",
+        f"| RTI step, largest | {max(rti_i):,} | {max(rti_c):,} | {max(us):.0f} |",
+        f"| cold first step (10 SQP iterations) | {counts.instructions[0]:,} | {counts.cycles[0]:,} "
+        f"| {counts.cycles[0] / CLOCK_MHZ:.0f} |",
+        "",
+        f"Cycles per instruction (the estimate's): {statistics.median(rti_c) / statistics.median(rti_i):.2f} "
+        f"({args.opt}). "
+        f"RAM: the MPC's state {sizes['state']:,} bytes (its workspace in float and its info) plus "
+        f"{sizes['stack']:,} bytes of stack for the call (gcc -fstack-usage of bench_call, the step "
+        f"inlined); flash: the program's text {sizes['text']:,} bytes (the step, the model, newlib's "
+        f"math; the {sizes['states_table']:,}-byte table of test states included), of which bench_call "
+        f"(the step with the model inlined) {sizes['call']:,}.",
+        END,
+    ]
+    text = args.out.read_text() if args.out.exists() else ""
+    section = "\n".join(lines)
+    if BEGIN in text:
+        text = text.split(BEGIN)[0] + section + text.split(END, 1)[1]
+    else:
+        text = text.rstrip("\n") + "\n\n" + section + "\n"
+    args.out.write_text(text)
+    print(section)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,128 @@
+"""The MPC in the C header (issue 47): a scene with [controller] kind = "mpc" and emit = ["c"]
+gets `ipgen_NAME_mpc_step` (ipgen_mpc.h printed whole, the design as constants, the header's
+own model as the callback, static memory) and, when the scene measures, `ipgen_NAME_step` from
+encoder counts to volts. Along the simulator's closed loop (the QUBE-Servo 2 in volts, 2048-count
+encoders, a Kalman filter, u on its bound and the arm near its travel):
+
+- the firmware entry fed the simulator's counts returns the voltage the simulator applied at
+  every sample, in double to 1e-9;
+- the MPC step fed the estimates the simulator's controller saw returns its u: double 1e-9
+  (2.5e-11 measured), float (IPGEN_SCALAR=float, every operation single precision) within
+  FLOAT_INPUT = 1e-3 u_max (3.3e-5 V measured);
+- compiled with -std=c99 -Wall -Wextra -Wpedantic -Werror (float: -Wdouble-promotion -Wconversion).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import subprocess
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
+from cxx import require_toolchain
+from test_mpc_scene import MEASURED, PUSHED, QUBE, U_MAX
+
+from ipgen.command.cli import run
+
+P = "ipgen_qube_servo2"
+# The float step against the simulator's (double) fed the same estimates: measured 3.3e-5 V
+# (3.3e-6 of u_max) along this loop; the bound is docs/mpc.md's FLOAT_INPUT.
+FLOAT_INPUT = 1e-3 * U_MAX
+
+FIRMWARE = """\
+#include <stdio.h>
+#include "qube_servo2.h"
+/* Reads the counts of a sample per line, prints the voltage the firmware entry returns. */
+static P_loop_state s;
+int main(void) {
+  long counts[2];
+  P_loop_init(&s);
+  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) printf("%.17g\\n", (double)P_step(&s, counts));
+  return 0;
+}
+"""
+
+STEP = """\
+#include <stdio.h>
+#include "qube_servo2.h"
+/* Reads a state estimate per line, prints u of the MPC step and its status. */
+static P_mpc_state s;
+int main(void) {
+  double x[4];
+  IPGEN_SCALAR xs[4];
+  int i;
+  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
+    double u;
+    for (i = 0; i < 4; ++i) xs[i] = (IPGEN_SCALAR)x[i];
+    u = (double)P_mpc_step(&s, xs);
+    printf("%.17g %d\\n", u, s.info.status);
+  }
+  return 0;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The scene's C header (--emit c) and the simulator's run of it (CSV)."""
+    require_toolchain()
+    require_cc()
+    root = tmp_path_factory.mktemp("mpc_c")
+    scene = root / "qube_mpc.toml"
+    text = QUBE.format(controller="", extra=MEASURED, t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', 'name = "qube_servo2"\nemit = ["c"]'))
+    for argv in (
+        ["--scene", str(scene), "-o", str(root)],
+        ["run", str(scene), "-o", str(root / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    return root
+
+
+def _columns(folder: Path) -> dict[str, np.ndarray]:
+    header, *rows = (folder / "run" / "qube_mpc.csv").read_text().splitlines()
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    return {name: data[:-1, i] for i, name in enumerate(header.split(","))}  # the sampling instants
+
+
+def _program(folder: Path, name: str, source: str, scalar: str = "double") -> Path:
+    (folder / f"{name}.c").write_text(source.replace("P_", f"{P}_"))
+    extra = [*FLOAT_WARNINGS] if scalar == "float" else []
+    command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(folder / f"{name}.c")]
+    result = subprocess.run([*command, "-o", str(folder / name), "-lm"], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[:3000]
+    return folder / name
+
+
+def _run(program: Path, rows: np.ndarray, fmt: str) -> list[list[str]]:
+    text = "\n".join(" ".join(fmt.format(v) for v in row) for row in rows.tolist()) + "\n"
+    out = subprocess.run([str(program)], input=text, capture_output=True, text=True, check=True).stdout
+    return [line.split() for line in out.splitlines()]
+
+
+def test_firmware_step_replays_the_simulators_volts(folder: Path) -> None:
+    columns = _columns(folder)
+    step, zero = 2 * math.pi / 2048, np.array([0.0, math.pi])  # the encoders read 0 hanging at rest
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
+    counts = np.rint((y - zero) / step).astype(int)
+    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    volts = np.array([float(v[0]) for v in _run(_program(folder, "firmware", FIRMWARE), counts, "{:d}")])
+    assert np.max(np.abs(volts - columns["u"])) <= 1e-9
+    assert np.max(np.abs(columns["u"])) > 6 and np.max(np.abs(volts)) <= U_MAX
+
+
+@pytest.mark.parametrize("scalar", ["double", "float"])
+def test_mpc_step_replays_the_simulators_controller(folder: Path, scalar: str) -> None:
+    columns = _columns(folder)
+    estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    out = _run(_program(folder, f"step_{scalar}", STEP, scalar), estimate, "{!r}")
+    u = np.array([float(v[0]) for v in out])
+    assert all(v[1] == "0" for v in out), "every status ok"
+    bound = 1e-9 if scalar == "double" else FLOAT_INPUT
+    assert np.max(np.abs(u - columns["u"])) <= bound, np.max(np.abs(u - columns["u"]))
+    assert np.max(np.abs(u)) <= U_MAX
