@@ -36,7 +36,15 @@ from ipgen.control.swingup import SwingUpLaw
 from ipgen.control.trajectory import PlanError
 from ipgen.model.fixed import FixedPendulum
 
-__all__ = ["FixedPlan", "fixed_plan", "fixed_schedule", "fixed_swingup", "read_plan", "sampled_plan", "write_plan"]
+__all__ = [
+    "FixedPlan",
+    "fixed_plan",
+    "fixed_schedule",
+    "fixed_swingup",
+    "read_plan",
+    "sampled_plan",
+    "write_plan",
+]
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,7 @@ def fixed_plan(
     ca = import_casadi()
     n, m = chain.links, chain.inputs
     h = period * substeps
-    intervals = int(round(duration / h))
+    intervals = round(duration / h)
     if intervals < 2 or abs(intervals * h - duration) > 1e-9:
         raise PlanError(f"duration = {duration!r}: expected a whole number (>= 2) of {h:g} s intervals")
     f = _dynamics(chain)
@@ -213,7 +221,7 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     if len(header) != 1 + m + 2 * n or len(body) < 3:
         raise PlanError(f"{path}: expected columns t, u1..u{m}, x1..x{2 * n} and >= 3 rows")
     h = body[1, 0] - body[0, 0]
-    substeps = int(round(h / period))
+    substeps = round(h / period)
     if substeps < 1 or abs(substeps * period - h) > 1e-9 or np.any(np.abs(np.diff(body[:, 0]) - h) > 1e-9):
         raise PlanError(f"{path}: its knots every {h:g} s are not a whole number of periods of {period:g} s")
     return sampled_plan(chain, period, substeps, body[:, 1 + m :], body[:-1, 1 : 1 + m])
@@ -267,7 +275,9 @@ def fixed_swingup(
     """The `SwingUpLaw` (method "trajectory", one input) of a fixed chain's swing-up, and its plan
     (`plan` given: reused, e.g. from a cache)."""
     if chain.inputs != 1:
-        raise ControlError(f"a fixed chain's swing-up in ipsim drives one joint; this one drives {chain.inputs}")
+        raise ControlError(
+            f"a fixed chain's swing-up in ipsim drives one joint; this one drives {chain.inputs}"
+        )
     if plan is None:
         plan = fixed_plan(chain, duration=duration, u_max=u_max, period=period, **options)
     gains, hold_gain = fixed_schedule(chain, plan)

@@ -30,7 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 
 WEIGHTS = {"swingup_time": 1.0, "energy": 1.0, "tau_cost": 1.0, "tau_smoothness": 1.0, "velocity_cost": 1.0}
-NORMALIZE = {"swingup_time": 20.0, "energy": 60.0, "tau_cost": 20.0, "tau_smoothness": 0.1, "velocity_cost": 400.0}
+NORMALIZE = {
+    "swingup_time": 20.0,
+    "energy": 60.0,
+    "tau_cost": 20.0,
+    "tau_smoothness": 0.1,
+    "velocity_cost": 400.0,
+}
 HEIGHT = 0.9
 
 
@@ -68,7 +74,9 @@ def score(t: np.ndarray, x: np.ndarray, u: np.ndarray, l1: float, l2: float) -> 
     dt = np.diff(t)
     values = {
         "swingup_time": swingup_time(t, x, l1, l2),
-        "energy": float(np.sum(np.abs(np.diff(x[:, 0]) * u[:-1, 0])) + np.sum(np.abs(np.diff(x[:, 1]) * u[:-1, 1]))),
+        "energy": float(
+            np.sum(np.abs(np.diff(x[:, 0]) * u[:-1, 0])) + np.sum(np.abs(np.diff(x[:, 1]) * u[:-1, 1]))
+        ),
         "tau_cost": float(np.sum(np.sum(u[:-1] ** 2, axis=1) * dt)),
         "tau_smoothness": float(np.std(np.diff(u[:, 0])) + np.std(np.diff(u[:, 1]))),
         "velocity_cost": float(np.sum(np.sum(x[:-1, 2:] ** 2, axis=1) * dt)),

@@ -340,7 +340,9 @@ def fixed_swingup_law(
                 reader.bad("swingup.plan", table["plan"], "expected a file name (a plan CSV)")
             plan = read_plan(chain, path.parent / table["plan"], period)
             if abs(len(plan.inputs) * period - duration) > 1e-9:
-                reader.fail(f"swingup.plan lasts {len(plan.inputs) * period:g} s, swingup.duration = {duration:g} s")
+                reader.fail(
+                    f"swingup.plan lasts {len(plan.inputs) * period:g} s, swingup.duration = {duration:g} s"
+                )
             if np.max(np.abs(plan.inputs)) > u_max:
                 reader.fail(f"swingup.plan exceeds |u| <= swingup.u_max = {u_max:g} N m")
         law, _ = fixed_swingup(
