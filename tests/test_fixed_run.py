@@ -193,9 +193,10 @@ BOTH = CHAIN.format(delta="[0.0, 0.0]", joints=[1, 2], rotors="", t_end=1.0)
          "[[input]] 2 (joint 2): input.f0 is not used by a 'step' input"),
         (_toml_input(STEP, True) + _toml_input({"kind": "wobble"}, True),
          "[[input]] 2 (joint 2): input.kind = \"wobble\": expected"),
-        ("\n[swingup]\nmethod = \"trajectory\"\n", "[swingup] on a fixed-pivot chain: ipgen run simulates"),
+        ("\n[swingup]\nmethod = \"trajectory\"\n", "[swingup] drives one joint; this chain drives 2"),
+        ("\n[sensors]\nnoise = 0.1\n", "[sensors] on a fixed-pivot chain: ipgen run simulates"),
     ],
-    ids=["one-table", "too-few", "missing-key", "other-kind", "bad-kind", "swingup"],
+    ids=["one-table", "too-few", "missing-key", "other-kind", "bad-kind", "swingup", "sensors"],
 )  # fmt: skip
 def test_bad_input_tables_are_refused_in_one_line(tmp_path: Path, extra: str, says: str) -> None:
     assert says in _refusal(tmp_path, BOTH + extra)

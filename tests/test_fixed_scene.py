@@ -96,8 +96,8 @@ def test_a_good_fixed_scene(tmp_path: Path) -> None:
 
 
 def test_other_tables_wait_for_the_runtime(tmp_path: Path) -> None:
-    message = _refused(_scene(tmp_path, extra='[swingup]\nmethod = "trajectory"\n'))
-    assert "[swingup] is not yet supported for fixed-pivot models" in message
+    message = _refused(_scene(tmp_path, extra="[sensors]\nnoise = 0.1\n"))
+    assert "[sensors] is not yet supported for fixed-pivot models" in message
 
 
 @settings(max_examples=25, deadline=None)

@@ -42,7 +42,7 @@ def test_the_wheel_ships_the_presets() -> None:
     assert {"ipgen.presets", "ipgen.presets.rigs"} <= set(project["packages"])
     assert project["package-dir"]["ipgen.presets"] == "scenes"
     assert project["package-data"]["ipgen.presets"] == ["*.toml"]
-    assert project["package-data"]["ipgen.presets.rigs"] == ["*.toml"]
+    assert project["package-data"]["ipgen.presets.rigs"] == ["*.toml", "*.plan.csv"]  # the swing-up plans
     assert not list((ROOT / "scenes").rglob("*/*/*.toml"))  # nothing deeper than rigs/
 
 

@@ -44,10 +44,10 @@ from ipgen.scene.fixed import KEYS as CHAIN_KEYS
 from ipgen.scene.fixed import fixed_pendulum_of
 
 # The tables of a fixed scene that `ipgen run` reads beyond the chain's.
-RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller")
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller", "swingup")
 SUPPORTED = (
     "[system], [parameters], [actuator], [initial], [input] (or [[input]]), [controller], "
-    "[simulation], [outputs]"
+    "[swingup] (method trajectory, one driven joint), [simulation], [outputs]"
 )
 
 
@@ -166,10 +166,10 @@ def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum
     for table in document:
         if table in CHAIN_KEYS or table in RUN_TABLES:
             continue
-        if table in ("swingup", "sensors", "estimator"):
+        if table in ("sensors", "estimator"):
             reader.fail(
-                f"[{table}] on a fixed-pivot chain: ipgen run simulates fixed chains open-loop or under "
-                f"LQR for now (supported: {SUPPORTED})"
+                f"[{table}] on a fixed-pivot chain: ipgen run simulates fixed chains open-loop, under "
+                f"LQR or a planned swing-up for now (supported: {SUPPORTED})"
             )
         reader.fail(f"unknown table [{table}] in a fixed scene (ipgen run reads {SUPPORTED})")
     initial = document.get("initial", {})
@@ -284,6 +284,75 @@ def fixed_controller(
     return FixedController(str(kind), gain, state, saturation, period)
 
 
+SWINGUP_KEYS: tuple[str, ...] = (
+    "method",
+    "u_max",
+    "duration",
+    "period",
+    "hold",
+    "plan",
+    "margin",
+    "weight_rate",
+    "weight_velocity",
+)
+
+
+def fixed_swingup_law(
+    reader: Reader, table: Any, chain: FixedPendulum, settings: dict[str, Any], path: Path
+) -> Any:
+    """The [swingup] of a fixed scene: method = "trajectory" (the only one), u_max [N m] on the
+    driven joint, duration [s] of the plan, period [s] (default 0.002), hold [s] (default: up to
+    t_end), plan (a CSV of control/fixed_swingup.write_plan, relative to the scene: taken instead
+    of planning), margin, weight_rate, weight_velocity (the planner's). Plans with IPOPT when no
+    plan file is given (seconds to a minute)."""
+    from ipgen.control.fixed_swingup import fixed_swingup, read_plan
+    from ipgen.control.linear import ControlError
+
+    if not isinstance(table, dict):
+        reader.bad("swingup", table, "expected a table: [swingup] on a line of its own")
+    for key in table:
+        if key not in SWINGUP_KEYS:
+            reader.fail(f"unknown key 'swingup.{key}' in a fixed scene (expected: {', '.join(SWINGUP_KEYS)})")
+    if table.get("method") != "trajectory":
+        reader.bad("swingup.method", table.get("method"), 'expected "trajectory" (a fixed chain\'s swing-up)')
+    if chain.inputs != 1:
+        reader.fail(f"[swingup] drives one joint; this chain drives {chain.inputs} ({chain.joints})")
+
+    def number(key: str, default: float | None = None) -> float:
+        if key not in table:
+            if default is None:
+                reader.fail(f"missing required key 'swingup.{key}'")
+            return float(default)  # type: ignore[arg-type]
+        value = float(_numbers(reader, f"swingup.{key}", table[key], (1,), "a number > 0")[0])
+        if value <= 0:
+            reader.bad(f"swingup.{key}", table[key], "expected a number > 0")
+        return value
+
+    u_max, duration = number("u_max"), number("duration")
+    period = number("period", 0.002)
+    t_end = float(settings.get("t_end") or 0.0)
+    hold = float(table["hold"]) if "hold" in table else max(t_end - duration, 0.0)
+    options = {key: number(key) for key in ("margin", "weight_rate", "weight_velocity") if key in table}
+    try:
+        plan = None
+        if "plan" in table:
+            if not isinstance(table["plan"], str):
+                reader.bad("swingup.plan", table["plan"], "expected a file name (a plan CSV)")
+            plan = read_plan(chain, path.parent / table["plan"], period)
+            if abs(len(plan.inputs) * period - duration) > 1e-9:
+                reader.fail(
+                    f"swingup.plan lasts {len(plan.inputs) * period:g} s, swingup.duration = {duration:g} s"
+                )
+            if np.max(np.abs(plan.inputs)) > u_max:
+                reader.fail(f"swingup.plan exceeds |u| <= swingup.u_max = {u_max:g} N m")
+        law, _ = fixed_swingup(
+            chain, duration=duration, u_max=u_max, hold=hold, period=period, plan=plan, **options
+        )
+    except ControlError as exc:
+        reader.fail(f"[swingup]: {exc}")
+    return law
+
+
 def model_name(chain: FixedPendulum) -> str:
     """The model (library) name of a chain: fixed<n>_j<joints>, e.g. fixed2_j1_2."""
     return f"fixed{chain.links}_j{'_'.join(map(str, chain.joints))}"
@@ -316,6 +385,7 @@ def fixed_config(
     settings: dict[str, Any],
     energy: bool,
     controller: FixedController | None = None,
+    swingup: Any = None,
 ) -> str:
     """The resolved config of a fixed scene's run (module docstring)."""
     lines = [f"# Generated by ipgen {__version__} from {quote_path(path.as_posix())}; do not edit"]
@@ -371,6 +441,14 @@ def fixed_config(
             _put(lines, "controller.saturation", controller.saturation)
         if controller.period is not None:
             _put(lines, "controller.period", controller.period)
+    if swingup is not None:
+        lines.append(
+            "# [swingup]: the plan (control/fixed_swingup.py), its TVLQR gains and the hold LQR, in the "
+            "rig's coordinates"
+        )
+        _put(lines, "swingup", swingup.method)
+        for key in ("u_max", "period", "hold", "hold_gain", "target", "steps", "inputs", "states", "gains"):
+            _put(lines, f"swingup.{key}", getattr(swingup, key))
     return "\n".join(lines) + "\n"
 
 
@@ -402,8 +480,15 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
                 '[controller] sets the torques: remove [input] / [[input]] (or make them kind = "zero")'
             )
         controller = fixed_controller(reader, document["controller"], chain, settings)
+    swingup = None
+    if "swingup" in document:
+        if controller is not None:
+            reader.fail("[swingup] has its own controller: remove [controller]")
+        if any(spec.kind != "zero" for spec in inputs):
+            reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
+        swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
     cfg = fixed_config(
-        path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller
+        path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller, swingup
     )
     return RunPlan(
         name=name,

@@ -38,7 +38,7 @@ KEYS: dict[str, tuple[str, ...]] = {
     "actuator": ("joints", "Ir", "gr"),
 }
 # The tables of a run (`ipgen run`, pipeline/fixed_run.py), which the chain ignores.
-RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller")
+RUN_TABLES: tuple[str, ...] = ("initial", "input", "simulation", "outputs", "controller", "swingup")
 REQUIRED: dict[str, tuple[str, ...]] = {"system": ("type", "links"), "parameters": ("m", "l", "delta")}
 
 

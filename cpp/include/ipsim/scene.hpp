@@ -227,6 +227,22 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   }
   const auto problems = sw.problems(static_cast<int>(size));
   if (!problems.empty()) file.fail(0, problems.front());
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) {
+      // A fixed chain's plan, gains and target are in the rig's coordinates (its inputs in the
+      // rig's sense, as the CSV's u): map the states and gains as a fixed chain's controller.
+      if (sw.method != SwingUp::Method::trajectory) file.fail(file.line("swingup"), "a fixed chain's swing-up must be `trajectory`");
+      if (!scene.settings.more_inputs.empty()) file.fail(file.line("swingup"), "a fixed chain's swing-up drives one joint");
+      sw.target = scene.coordinates.to_canonical(sw.target);
+      sw.hold_gain = scene.coordinates.gain_to_canonical(sw.hold_gain);
+      for (Eigen::Index k = 0; k < sw.states.rows(); ++k) {
+        sw.states.row(k) = scene.coordinates.to_canonical(sw.states.row(k).transpose()).transpose();
+      }
+      for (Eigen::Index k = 0; k < sw.gains.rows(); ++k) {
+        sw.gains.row(k) = scene.coordinates.gain_to_canonical(sw.gains.row(k).transpose()).transpose();
+      }
+    }
+  }
   // actuator = dc_motor: the file's u-valued numbers are in volts, the energy law's output is the
   // motor-folded model's torque or force; scale to N m or N like the controller (b = 1 otherwise).
   const double b = scene.input_gain;
@@ -466,7 +482,7 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
       (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
     }
   }
-  for (const char* key : {"swingup", "actuator", "sensors.measured"}) {
+  for (const char* key : {"actuator", "sensors.measured"}) {
     if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
   }
   if (file.has("coulomb_law")) {

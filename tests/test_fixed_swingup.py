@@ -1,0 +1,91 @@
+"""The RealAIGym leaderboard's acrobot and pendubot swung up in ipgen's simulator, and the v2 score.
+
+The presets acrobot_swingup and pendubot_swingup (DFKI design C.1 model 1.0 without rotors,
+damping or friction; 6 N m on the driven joint; 10 s from hanging at rest) run their shipped plan
+(no IPOPT here) tracked by TVLQR and held by LQR in ipsim: every sample within 6 N m, the end
+upright within the leaderboard's goal tolerance (the robustness criterion's 0.35 rad and 1 rad/s
+of [π, 0, 0, 0]; rigs.md) and the end point above 0.9 (l1 + l2) from the swing-up time on.
+The score function is checked against the formula's definition on a hand-computed example.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ipgen.common.presets import preset_path
+from ipgen.experiment.leaderboard import score, swingup_time
+from ipgen.pipeline.run import run_scene
+
+
+def _read(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    with path.open() as stream:
+        rows = list(csv.reader(line for line in stream if not line.startswith("#")))
+    col = {name: i for i, name in enumerate(rows[0])}
+    body = rows[1:]
+    data = np.array(
+        [[float(r[col[c]]) for c in ("t", "theta0", "theta1", "dtheta0", "dtheta1", "u")] for r in body]
+    )
+    return data[:, 0], data[:, 1:5], data[:, 5], [r[col["phase"]] for r in body]
+
+
+@pytest.mark.parametrize(("name", "joint"), [("acrobot_swingup", 2), ("pendubot_swingup", 1)])
+def test_the_preset_swings_up_and_holds_within_6_nm(tmp_path: Path, name: str, joint: int) -> None:
+    outcome = run_scene(preset_path(name), tmp_path, plot=False)
+    assert outcome.status == 0
+    t, x, u, phases = _read(tmp_path / f"{name}.csv")
+    assert t[-1] == pytest.approx(10.0) and np.allclose(np.diff(t), 0.002)
+    assert np.max(np.abs(u)) <= 6.0
+    assert phases[0] == "track" and phases[-1] == "hold"
+    assert abs(x[-1, 0] - math.pi) < 0.35 and abs(x[-1, 1]) < 0.35 and np.all(np.abs(x[-1, 2:]) < 1.0)
+    assert np.max(np.abs(x[-1] - [math.pi, 0, 0, 0])) < 1e-6  # in fact exactly there
+    torques = np.zeros((len(t), 2))
+    torques[:, joint - 1] = u
+    s = score(t, x, torques, 0.2, 0.3)
+    assert s.success and s.swingup_time < 4.0 and s.score > 0.504  # the TVLQR entry's acrobot score
+
+
+def test_the_score_equals_the_v2_formula_on_a_hand_computed_example() -> None:
+    # Four samples 0.5 s apart, 1 m links: the end point's height -cos q1 - cos(q1 + q2) is
+    # -2, 2, 2, 2: above 0.9·2 = 1.8 from t = 0.5 s on (DFKI's scan ignores the last sample).
+    t = np.array([0.0, 0.5, 1.0, 1.5])
+    x = np.array(
+        [[0.0, 0.0, 1.0, 0.0], [math.pi, 0.0, 2.0, 1.0], [math.pi, 0.0, 0.0, 0.0], [math.pi, 0.0, 0.0, 0.0]]
+    )
+    u = np.array([[1.0, 0.0], [2.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+    # By hand: time 0.5 s; energy |π·1| + |0·2| + |0·0| = π; torque cost (1 + 4 + 0)·0.5 = 2.5;
+    # smoothness std(1, −2, 0) + std(0, 0, 0) = sqrt(15/9 − 1/9) = sqrt(14)/3;
+    # velocity cost (1 + 5 + 0)·0.5 = 3.
+    time, energy, cost, smooth, velocity = 0.5, math.pi, 2.5, math.sqrt(14) / 3, 3.0
+    expected = (
+        1
+        - (
+            math.tanh(math.pi * time / 20)
+            + math.tanh(math.pi * energy / 60)
+            + math.tanh(math.pi * cost / 20)
+            + math.tanh(math.pi * smooth / 0.1)
+            + math.tanh(math.pi * velocity / 400)
+        )
+        / 5
+    )
+    s = score(t, x, u, 1.0, 1.0)
+    assert s.success
+    assert (s.swingup_time, s.energy, s.tau_cost, s.velocity_cost) == pytest.approx(
+        (time, energy, cost, velocity)
+    )
+    assert s.tau_smoothness == pytest.approx(smooth)
+    assert s.score == pytest.approx(expected, abs=1e-14)
+    assert expected == pytest.approx(
+        0.67228, abs=1e-5
+    )  # 1 − (0.0784 + 0.1630 + 0.3736 + 1.0000 + 0.0236) / 5
+
+
+def test_a_run_that_does_not_stay_up_scores_zero() -> None:
+    t = np.array([0.0, 1.0, 2.0, 3.0])
+    x = np.array([[0.0, 0, 0, 0], [math.pi, 0, 0, 0], [0.0, 0, 0, 0], [math.pi, 0, 0, 0]])
+    assert swingup_time(t, x, 1.0, 1.0) == 3.0
+    assert score(t, x, np.zeros((4, 2)), 1.0, 1.0).score == 0.0
