@@ -113,6 +113,7 @@ def test_expected_scenes_are_shipped() -> None:
         "rdip": "rdip_pulse",
         "rotary1": "rsip_swingup",
         "classical2": "cdip_swingup",
+        "cdip_mpc": "cdip_mpc",
     }
 
 

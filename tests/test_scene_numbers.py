@@ -117,6 +117,13 @@ INPUTS = {
     "chirp": "kind = 'chirp'\namplitude = 0.4\nf0 = 0.1\nf1 = 5\nduration = 10\nstart = 0",
     "multisine": "kind = 'multisine'\namplitude = 0.4\nf_min = 0.1\nf_max = 5\nperiod = 10",
 }
+# The cart double pendulum under constrained MPC ([controller] kind = "mpc", docs/mpc.md): a short
+# horizon keeps each design (the terminal Riccati matrix) cheap.
+MPC_KEYS = "period = 0.01\nhorizon = 5\nsubsteps = 1\niterations = 1\nqp_iterations = 20\n"
+MPC_KEYS += "soft_penalty = [1000, 1000]\n"
+MPC = PULSE_LQR.replace(
+    'kind = "lqr"\nr = 1\nsaturation = 20\n', 'kind = "mpc"\nr = 1\nu_max = 20\ntravel = 1.5\n'
+).replace("period = 0.01\n", MPC_KEYS)
 RK4 = "[system]\ntype = 'rotary'\nlinks = 1\n[parameters]\nm = [0.2, 0.1]\nl = [0.3, 0.5]\n"
 RK4 += "delta = [0.01, 0.001]\n[simulation]\nt_end = 1\nsample = 0.01\nmethod = 'rk4'\nstep = 0.001\n"
 
@@ -124,7 +131,7 @@ RK4 += "delta = [0.01, 0.001]\n[simulation]\nt_end = 1\nsample = 0.01\nmethod = 
 def _scenes() -> list[str]:
     open_loop = PULSE_LQR.split("[controller]")[0] + "[initial]" + PULSE_LQR.split("[initial]")[1]
     return [
-        PULSE_LQR, MOTOR_SWINGUP, PULSE_LQR + LOOP, PULSE_LQR + FILTER, RK4, GIVEN,
+        PULSE_LQR, MOTOR_SWINGUP, PULSE_LQR + LOOP, PULSE_LQR + FILTER, RK4, GIVEN, MPC,
         *(f"{open_loop}[input]\n{body}\n" for body in INPUTS.values()),
     ]  # fmt: skip
 
@@ -204,7 +211,8 @@ SWINGUP_TUNING = ("gain_energy", "accel_max", "design_speed", "energy_target", "
 def test_every_numeric_key_is_covered() -> None:
     """The scenes above give every numeric key of the format a number to replace (but [swingup]
     x_max and margin: a trajectory plan per example would take minutes; they are `Real`s like the
-    others)."""
+    others; and the MPC's matrices p and soft_bounds, whose entries tests/test_mpc_scene.py's
+    property test replaces)."""
     covered = {key for _, _, key, _ in KEYS}
     numeric = {
         key
@@ -212,6 +220,7 @@ def test_every_numeric_key_is_covered() -> None:
         for key in keys
         if key not in ("kind", "method", "type", "inertia", "name", "specialise", "emit", "free", "jacobian")
         and key not in ("angles", "zero", "positive", "sweep", "energy", "x_max", "margin", "law", "pulses")
+        and key not in ("mode", "p", "soft_bounds")  # a word; two matrices (the docstring)
         and key not in SWINGUP_TUNING
     }
     assert numeric <= covered, numeric - covered

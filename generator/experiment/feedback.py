@@ -68,6 +68,7 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
     import numpy as np
 
     from ipgen.control import mpc as mpc_module
+    from ipgen.control.linear import ControlError
     from ipgen.scene import controller as rules
 
     if not p.coordinates.is_canonical:
@@ -87,7 +88,7 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
             substeps=table.substeps or 1, mode=table.mode or "rti", sqp_iterations=table.iterations,
             qp_iterations=table.qp_iterations,
         )  # fmt: skip
-    except mpc_module.MpcError as exc:
+    except (mpc_module.MpcError, ControlError) as exc:  # ControlError: the weights' checks (lqr's)
         raise GainError(f"controller: no MPC: {exc}") from None
     _, a, b = design.rk4(design.x_ref, 0.0)
     gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
