@@ -84,11 +84,21 @@ def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
         raise _unreachable(address, str(error) or type(error).__name__) from None
 
 
+def _worker_signals() -> None:
+    """A pool worker's signals: the default SIGTERM (the command's handler, inherited through fork,
+    would raise in the worker and print its traceback when the pool ends it) and no SIGINT (a
+    Ctrl-C reaches the whole process group; the command ends the workers itself)."""
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 @contextlib.contextmanager
 def _local(workers: int) -> Iterator[Executor]:
     """A process pool of `workers`; interrupted (or failed), its queued batches are cancelled and
     its workers ended at once (a batch in progress is not waited for: its runs are in no table)."""
-    pool = ProcessPoolExecutor(max_workers=workers)
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_signals)
     try:
         yield pool
     except BaseException:
