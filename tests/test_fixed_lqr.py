@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_fixed_run import refusal
 
 from ipgen.errors import Error
 from ipgen.model.fixed import FixedPendulum
@@ -113,16 +114,6 @@ def test_lqr_holds_the_upright_with_the_riccati_gain(
     assert "K row 1 (u1)" in outcome.summary
 
 
-def _refusal(tmp_path: Path, text: str) -> str:
-    scene = tmp_path / "bad.toml"
-    scene.write_text(text)
-    with pytest.raises(Error) as caught:
-        run_scene(scene, tmp_path / "out", plot=False)
-    message = str(caught.value)
-    assert "\n" not in message
-    return message
-
-
 BASE = CHAIN.format(joints=[1, 2], tilt=3.0)
 
 
@@ -142,7 +133,7 @@ BASE = CHAIN.format(joints=[1, 2], tilt=3.0)
     ids=["kind", "r-size", "r-negative", "saturation", "period", "q-size", "equilibrium", "gain", "unknown"],
 )
 def test_bad_controller_tables_are_refused_in_one_line(tmp_path: Path, table: str, says: str) -> None:
-    assert says in _refusal(tmp_path, BASE + "\n[controller]\n" + table + "\n")
+    assert says in refusal(tmp_path, BASE + "\n[controller]\n" + table + "\n")
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

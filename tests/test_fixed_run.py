@@ -169,7 +169,8 @@ def test_a_free_chain_keeps_its_energy(tmp_path: Path) -> None:
     assert np.all(data["input_work"] == 0.0) and np.all(data["dissipated"] == 0.0)
 
 
-def _refusal(tmp_path: Path, text: str) -> str:
+def refusal(tmp_path: Path, text: str) -> str:
+    """The one-line error `ipgen run` gives for the scene `text` (tests/test_fixed_lqr.py too)."""
     scene = tmp_path / "bad.toml"
     scene.write_text(text)
     with pytest.raises(Error) as caught:
@@ -199,7 +200,7 @@ BOTH = CHAIN.format(delta="[0.0, 0.0]", joints=[1, 2], rotors="", t_end=1.0)
     ids=["one-table", "too-few", "missing-key", "other-kind", "bad-kind", "swingup", "sensors"],
 )  # fmt: skip
 def test_bad_input_tables_are_refused_in_one_line(tmp_path: Path, extra: str, says: str) -> None:
-    assert says in _refusal(tmp_path, BOTH + extra)
+    assert says in refusal(tmp_path, BOTH + extra)
 
 
 def test_a_dfki_preset_runs_in_its_coordinates(tmp_path: Path) -> None:
