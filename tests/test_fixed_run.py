@@ -259,3 +259,40 @@ def test_any_input_tables_are_checked_in_one_line(
         assert "\n" not in str(exc) and str(exc).startswith(str(scene))
     else:
         assert count in (0, 2) and plan.cfg.count("input") >= 1
+
+
+def test_plot_and_animate_draw_a_fixed_chain_from_its_csv(tmp_path: Path) -> None:
+    """`ipgen plot` and `ipgen animate` read a fixed chain's CSV as one (its .cfg says type =
+    fixed: no base column), and the animation's points are the chain's joints: for DFKI's
+    coordinates (q1 from hanging, q2 relative, counter-clockwise) link i's absolute angle from
+    upright, clockwise, is φ1 = π − q1, φ2 = π − q1 − q2, its tip Σ l (sin φ, cos φ)."""
+    from PIL import Image
+
+    from ipgen.command.cli import run as cli
+    from ipgen.control.coordinates import Coordinates
+    from ipgen.plots.animation import _on_a_still_base, canonical_angles, geometry, read_run
+
+    t = np.linspace(0.0, 1.0, 11)
+    q1, q2 = 0.3 * np.sin(3 * t), -0.2 + 0.5 * t
+    rows = np.column_stack([t, q1, q2, 0.9 * np.cos(3 * t), np.full_like(t, 0.5), 0.1 * t])
+    csv = tmp_path / "chain.csv"
+    header = "t,theta0,theta1,dtheta0,dtheta1,u"
+    np.savetxt(csv, rows, delimiter=",", header=header, comments="", fmt="%.17g")
+    cfg = "type = fixed\nlinks = 2\nl = 0.2 0.3\nangles = relative\nzero = hanging\n"
+    cfg += "positive = counterclockwise\n"
+    csv.with_suffix(".cfg").write_text(cfg)
+
+    assert cli(["plot", str(csv)]) == 0 and csv.with_suffix(".png").is_file()
+    assert cli(["animate", str(csv), "--fps", "5"]) == 0
+    with Image.open(csv.with_suffix(".gif")) as gif:
+        assert gif.n_frames == 6  # 1 s at 5 frames per second, both ends
+
+    rig = Coordinates("relative", "hanging", "counterclockwise")
+    angles = canonical_angles(_on_a_still_base(read_run(csv)), rig)
+    side = geometry("classical", [0.0, 0.2, 0.3], angles)["side"]
+    phi1, phi2 = np.pi - q1, np.pi - q1 - q2
+    elbow = np.column_stack([0.2 * np.sin(phi1), 0.2 * np.cos(phi1)])
+    tip = elbow + np.column_stack([0.3 * np.sin(phi2), 0.3 * np.cos(phi2)])
+    np.testing.assert_allclose(side[:, 0], 0.0, atol=1e-15)  # the pivot stays put
+    np.testing.assert_allclose(side[:, 1], elbow, atol=1e-12)
+    np.testing.assert_allclose(side[:, 2], tip, atol=1e-12)

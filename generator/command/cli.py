@@ -506,9 +506,10 @@ def _not_the_input(target: Path, csv: Path) -> Path:
 @click.option(
     "--type",
     "system_type",
-    type=click.Choice(SYSTEM_TYPES),
+    type=click.Choice((*SYSTEM_TYPES, "fixed")),
     default=None,
-    help="Label θ0 as a cart position or an arm angle [default: from the .cfg next to the CSV].",
+    help="Label θ0 as a cart position or an arm angle, or the CSV as a fixed-pivot chain's "
+    "[default: from the .cfg next to the CSV].",
 )
 @_coordinate_options
 @click.option("--force", is_flag=True, help="Replace a file that ipgen did not write (or of another kind).")
@@ -521,9 +522,10 @@ def plot_command(
     from ipgen.plots.run import plot_run, read_run, sampled_beside, system_type_beside
 
     target = _not_the_input(png if png is not None else csv.with_suffix(".png"), csv)
-    run = read_run(csv)
+    kind = system_type or system_type_beside(csv)
+    run = read_run(csv, fixed=kind == "fixed")  # a fixed chain's CSV has no base column
     plot_run(
-        run, target, csv.name, system_type or system_type_beside(csv), force=force,
+        run, target, csv.name, kind, force=force,
         coordinates=_csv_coordinates(csv, angles, zero, positive), sampled=sampled_beside(csv),
     )  # fmt: skip
     click.echo(f"wrote {target}")
@@ -645,12 +647,13 @@ def _identify_fixed(
     help="The animation [default: the CSV's path with .gif].",
 )  # fmt: skip
 @click.option(
-    "--type", "system_type", type=click.Choice(SYSTEM_TYPES), default=None,
+    "--type", "system_type", type=click.Choice((*SYSTEM_TYPES, "fixed")), default=None,
     help="The system [default: from the .cfg next to the CSV, which ipgen run writes].",
 )  # fmt: skip
 @click.option(
     "--lengths", default=None, metavar="L0,L1,...",
-    help="Arm (rotary) and link lengths [m] [default: from the .cfg next to the CSV].",
+    help="Arm (rotary) and link lengths [m], a fixed chain's link lengths only [default: from the .cfg "
+    "next to the CSV].",
 )  # fmt: skip
 @click.option(
     "--fps", type=float, default=15.0, show_default=True,

@@ -89,7 +89,7 @@ def check_recording(scene: Scene, data: Path) -> None:
     cfg = shown_path(data.with_suffix(".cfg"))
     fix = "identify it with the scene of the rig that recorded it (--scene or --preset)"
     if kind != scene.type or len(lengths) != scene.links + 1:
-        links = len(lengths) - 1
+        links = len(lengths) if kind == "fixed" else len(lengths) - 1  # a fixed chain has no base
         plural = "s" if links > 1 else ""
         raise DataError(
             f"{shown_path(data)} is a recording of a {kind} pendulum with {links} link{plural} ({cfg} beside "

@@ -19,6 +19,7 @@ written to a temporary name and renamed, and an existing file is kept unless `fo
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 from collections.abc import Callable, Sequence
@@ -153,6 +154,17 @@ def frame_plan(duration: float, fps: float) -> tuple[int, float]:
     if wanted <= MAX_FRAMES:
         return max(2, int(wanted)), 1.0
     return MAX_FRAMES, (duration * fps) / (MAX_FRAMES - 1)
+
+
+def _on_a_still_base(data: RunData) -> RunData:
+    """A fixed chain's run (theta0..theta(n-1): links 1..n) with a base coordinate 0 in front:
+    the same chain on a cart that never moves, whose coordinates (`Coordinates`: index 0 the base,
+    1 the first link) and geometry are the cart's."""
+    import numpy as np
+
+    zero = np.zeros((data.theta.shape[0], 1))
+    theta, dtheta = np.hstack([zero, data.theta]), np.hstack([zero, data.dtheta])
+    return dataclasses.replace(data, theta=theta, dtheta=dtheta)
 
 
 def _lengths(type: str, links: int, l: Sequence[float]) -> list[float]:  # noqa: E741
@@ -319,6 +331,9 @@ def animate_run(
     check_fps(fps)
     _check_output(Path(output), force, GIF)  # before the drawing
     data = run if isinstance(run, RunData) else read_run(run)
+    fixed = type == "fixed"
+    if fixed:  # a chain on a fixed pivot: drawn as a cart's chain whose cart stays at the pivot
+        data, type, l = _on_a_still_base(data), "classical", [0.0, *l]  # noqa: E741
     lengths = np.asarray(_lengths(type, data.links, l))
     duration = float(data.t[-1] - data.t[0])
     count, speedup = frame_plan(duration, fps)
@@ -337,6 +352,8 @@ def animate_run(
             f"(at most {LARGEST_DRAWN:g} m): check the CSV's θ0 column and the lengths"
         )
     fig, ax_top, ax_side = figure(type, lengths, points)
+    if fixed:
+        ax_top.set_xlabel("x [m] (below: seen from above)", fontsize=8)
     (top_arm,) = ax_top.plot([], [], "-", color="tab:blue", lw=4, solid_capstyle="round")
     (top_links,) = ax_top.plot([], [], "-o", color="tab:red", lw=2, ms=3)
     (top_trace,) = ax_top.plot([], [], "-", color="tab:orange", lw=0.8, alpha=0.7)
@@ -350,7 +367,9 @@ def animate_run(
     def draw(i: int) -> list[Any]:
         k = frames[i]
         top, side = points["top"][k], points["side"][k]
-        if type == "classical":
+        if fixed:
+            top_arm.set_data([], [])  # no base: the pivot is the square of the side view
+        elif type == "classical":
             top_arm.set_data([top[0, 0] - 0.1, top[0, 0] + 0.1], [0.0, 0.0])  # the cart
         else:
             top_arm.set_data(top[:2, 0], top[:2, 1])
@@ -361,7 +380,7 @@ def animate_run(
         top_trace.set_data(points["top"][start : k + 1, -1, 0], points["top"][start : k + 1, -1, 1])
         side_trace.set_data(points["side"][start : k + 1, -1, 0], points["side"][start : k + 1, -1, 1])
         time = f"{data.t[k]:5.2f}" if abs(data.t[k]) < 1e6 else f"{data.t[k]:.6g}"
-        text = f"{type}, n = {data.links}   t = {time} s"
+        text = f"{'fixed' if fixed else type}, n = {data.links}   t = {time} s"
         if speedup > 1:  # a long run, time-lapsed to MAX_FRAMES frames
             text += f" (×{speedup:.3g})"
         if data.phase is not None:

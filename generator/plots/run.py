@@ -94,8 +94,9 @@ def read_run(path: Path, fixed: bool = False) -> Run:
 
 
 def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
-    """(type, lengths l0..ln) from the resolved scene `<stem>.cfg` next to the CSV (what `ipgen run`
-    writes there), or None when there is none or it does not say."""
+    """(type, lengths) from the resolved scene `<stem>.cfg` next to the CSV (what `ipgen run`
+    writes there), or None when there is none or it does not say: l0..ln for a cart or an arm,
+    the links' l1..ln for a chain on a fixed pivot (type "fixed")."""
     cfg = csv_path.with_suffix(".cfg")
     found: dict[str, str] = {}
     with contextlib.suppress(OSError, UnicodeDecodeError):
@@ -103,7 +104,7 @@ def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
             match = re.fullmatch(r"(type|l) = ([^=]{1,400})", line.strip())
             if match:
                 found.setdefault(match.group(1), match.group(2))
-    if found.get("type") not in ("classical", "rotary") or "l" not in found:
+    if found.get("type") not in ("classical", "rotary", "fixed") or "l" not in found:
         return None
     try:
         lengths = [float(value) for value in found["l"].split()]
@@ -127,7 +128,7 @@ def coordinates_beside(csv_path: Path) -> Coordinates:
 
 
 def system_type_beside(csv_path: Path) -> str | None:
-    """`classical` or `rotary` from the resolved scene `<stem>.cfg` next to the CSV, if there."""
+    """`classical`, `rotary` or `fixed` from the resolved scene `<stem>.cfg` next to the CSV, if there."""
     scene = scene_beside(csv_path)
     return scene[0] if scene else None
 
