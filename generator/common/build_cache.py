@@ -232,6 +232,28 @@ def last_error_line(output: str) -> str:
     return next((line for line in reversed(output.splitlines()) if "error" in line), "").strip()[:300]
 
 
+def runtime_library(
+    folder: str, sources: Mapping[str, str], glue: str, flags: tuple[str, ...], target: str,
+    error: type[Exception], what: str, noun: str,
+) -> Path:  # fmt: skip
+    """A shared library of the C runtime (the loop's, the MPC's): `glue`, one of `sources` (name →
+    text, which it includes), compiled with `flags` by the C compiler, from the cache
+    `<cache>/<folder>/<key>/<target>` or compiled into it; the key is the compiler's, the flags'
+    and every source's (`compiler_key`). `what` names it in messages ("the loop library
+    (ipgen_loop.h)"), `noun` in the build announcement."""
+    cc = c_compiler(error)
+    recipe = Recipe(
+        sources=dict(sources),
+        command=lambda entry, out: [cc, *flags, f"-I{entry}", str(entry / glue), "-o", str(out), "-lm"],
+        error=error,
+        failed=lambda output: f"compiling {what} failed: {last_error_line(output)}",
+        what=what,
+        noun=noun,
+    )
+    key = compiler_key(cc, " ".join(flags), *(sources[name] for name in sorted(sources)))
+    return cached_build(cache_root() / folder, key, target, recipe).path
+
+
 def last_build(folder: Path) -> float | None:
     """How long the last build in the cache folder `folder` took [s] (this machine's own history,
     shown before the next build), or None when there is none or it is unreadable."""

@@ -28,14 +28,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ipgen.common.build_cache import (
-    Recipe,
-    c_compiler,
-    cache_root,
-    cached_build,
-    compiler_key,
-    last_error_line,
-)
+from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
@@ -224,17 +217,10 @@ def sources() -> tuple[str, str]:
 def build() -> Path:
     """The compiled loop library: from the cache, or compiled into it (module docstring)."""
     header, glue = sources()
-    cc = c_compiler(LoopRuntimeError)
-    recipe = Recipe(
-        sources={HEADER: header, GLUE: glue},
-        command=lambda entry, out: [cc, *FLAGS, f"-I{entry}", str(entry / GLUE), "-o", str(out), "-lm"],
-        error=LoopRuntimeError,
-        failed=lambda output: f"compiling the loop library (ipgen_loop.h) failed: {last_error_line(output)}",
-        what="the loop library (ipgen_loop.h)",
-        noun="loop library",
-    )
-    key = compiler_key(cc, " ".join(FLAGS), header, glue)
-    return cached_build(cache_root() / "loop", key, TARGET, recipe).path
+    return runtime_library(
+        "loop", {HEADER: header, GLUE: glue}, GLUE, FLAGS, TARGET, LoopRuntimeError,
+        "the loop library (ipgen_loop.h)", "loop library",
+    )  # fmt: skip
 
 
 def declare(loaded: ctypes.CDLL) -> ctypes.CDLL:

@@ -26,14 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ipgen.common.build_cache import (
-    Recipe,
-    c_compiler,
-    cache_root,
-    cached_build,
-    compiler_key,
-    last_error_line,
-)
+from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
@@ -163,20 +156,11 @@ def sources() -> dict[str, str]:
 def build(precision: str = "double") -> Path:
     """The compiled MPC library in `precision` ("double" or "float"): from the cache, or compiled
     into it (module docstring)."""
-    texts = sources()
-    cc = c_compiler(MpcError)
-    flags = (*FLAGS, *PRECISIONS[precision][2])
     target = "libipgen_mpc.so" if precision == "double" else "libipgen_mpc_float.so"
-    recipe = Recipe(
-        sources=texts,
-        command=lambda entry, out: [cc, *flags, f"-I{entry}", str(entry / GLUE), "-o", str(out), "-lm"],
-        error=MpcError,
-        failed=lambda output: f"compiling the MPC library (ipgen_mpc.h) failed: {last_error_line(output)}",
-        what="the MPC library (ipgen_mpc.h)",
-        noun="MPC library",
-    )
-    key = compiler_key(cc, " ".join(flags), *(texts[name] for name in sorted(texts)))
-    return cached_build(cache_root() / "mpc", key, target, recipe).path
+    return runtime_library(
+        "mpc", sources(), GLUE, (*FLAGS, *PRECISIONS[precision][2]), target, MpcError,
+        "the MPC library (ipgen_mpc.h)", "MPC library",
+    )  # fmt: skip
 
 
 _lock = threading.Lock()

@@ -110,7 +110,13 @@ class _Runtime(Estimator):
 
 
 class _Rates(_Runtime):
-    """An estimator of the rates from successive measurements: it keeps y_{k−1}."""
+    """An estimator of the rates from successive measurements (every coordinate measured): it
+    keeps y_{k−1}."""
+
+    def __init__(self, period: float, dof: int) -> None:
+        self.period = sampling_period(period)
+        self.dof = int(dof)
+        self.measured = tuple(range(self.dof))
 
     def reset(self) -> None:
         import numpy as np
@@ -132,9 +138,7 @@ class Difference(_Rates):
     """
 
     def __init__(self, period: float, dof: int) -> None:
-        self.period = sampling_period(period)
-        self.dof = int(dof)
-        self.measured = tuple(range(self.dof))
+        super().__init__(period, dof)
         self.reset()
 
     def step(self, y: Sequence[float] | np.ndarray, u: float = 0.0) -> np.ndarray:
@@ -171,9 +175,7 @@ class DerivativeFilter(_Rates):
     """
 
     def __init__(self, period: float, dof: int, cutoff: float = 50.0) -> None:
-        self.period = sampling_period(period)
-        self.dof = int(dof)
-        self.measured = tuple(range(self.dof))
+        super().__init__(period, dof)
         cutoff_ = float(cutoff)
         if not (math.isfinite(cutoff_) and cutoff_ > 0):
             raise EstimationError(f"cutoff = {cutoff!r}: expected a frequency > 0 rad/s (e.g. 50)")
