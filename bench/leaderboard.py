@@ -24,9 +24,61 @@ RIGS = ROOT / "scenes" / "rigs"
 SYSTEMS = {"acrobot": 2, "pendubot": 1}
 # Plans: duration [s] and the planner's weights (fixed_swingup.fixed_plan).
 PLANS = {"acrobot": {"duration": 4.0}, "pendubot": {"duration": 3.0, "weight_velocity": 0.05}}
-# github.com/dfki-ric-underactuated-lab/real_ai_gym_leaderboard, leaderboards/*.csv, as quoted in
-# issue 46 (acrobot simulation v2); the pendubot's are not quoted there.
-PUBLISHED = {"acrobot": [("History-SAC", 0.655), ("AR-EAPO", 0.633), ("TVLQR", 0.504)], "pendubot": []}
+# The published simulation v2 entries, "RealAI Score" column, highest first: github.com/
+# dfki-ric-underactuated-lab/real_ai_gym_leaderboard at commit 81ea5bc (2025-09-26),
+# leaderboards/{acrobot,pendubot}_simulation_performance_leaderboard_v2.csv (both last changed
+# 2024-09-03: f398b99, f2653be).
+PUBLISHED_SOURCE = (
+    "github.com/dfki-ric-underactuated-lab/real_ai_gym_leaderboard at commit 81ea5bc, "
+    "leaderboards/{system}_simulation_performance_leaderboard_v2.csv, RealAI Score"
+)
+PUBLISHED = {
+    "acrobot": [
+        ("History SAC", 0.655),
+        ("AR-EAPO", 0.633),
+        ("evolsac", 0.524),
+        ("TVLQR", 0.504),
+        ("iLQR Riccati Gains", 0.396),
+        ("iLQR MPC stabilization", 0.345),
+        ("mcpilco", 0.316),
+    ],
+    "pendubot": [
+        ("History SAC", 0.682),
+        ("AR-EAPO", 0.659),
+        ("evolsac", 0.596),
+        ("iLQR Riccati Gains", 0.536),
+        ("TVLQR", 0.526),
+        ("mcpilco", 0.48),
+        ("iLQR MPC stabilization", 0.353),
+    ],
+}
+
+
+def published_lines(scores: dict[str, float]) -> list[str]:
+    """The published entries of each system, highest first, with ipgen's score placed among them.
+
+    Parameters
+    ----------
+    scores : dict of str to float
+        ipgen's v2 score per system ("acrobot", "pendubot").
+
+    Returns
+    -------
+    list of str
+        Markdown lines.
+    """
+    lines = [f"Published simulation_v2 entries ({PUBLISHED_SOURCE}), ipgen's score in bold among them:", ""]
+    for which, entries in PUBLISHED.items():
+        ranked = [(value, name) for name, value in entries]
+        if which in scores:
+            ranked.append((scores[which], "**ipgen (this run)**"))
+        ranked.sort(key=lambda entry: -entry[0])
+        text = ", ".join(
+            f"**{name.strip('*')} {value:.3f}**" if name.startswith("**") else f"{name} {value:.3f}"
+            for value, name in ranked
+        )
+        lines.append(f"- {which}: {text}")
+    return lines
 
 
 def replan(which: str) -> str:
@@ -160,18 +212,7 @@ def main(argv: list[str] | None = None) -> None:
             f"{', '.join(f'{v:.2e}' for v in (end[0] - np.pi, end[1], end[2], end[3]))} (q1 − π) "
             f"| {seconds:.1f} |"
         )
-    lines += [
-        "",
-        "Published simulation_v2 entries (real_ai_gym_leaderboard, leaderboards/*.csv, "
-        "as quoted in issue 46):",
-        "",
-    ]
-    for which, entries in PUBLISHED.items():
-        text = (
-            ", ".join(f"{name} {value:.3f}" for name, value in entries)
-            or "not quoted in issue 46 (not looked up)"
-        )
-        lines.append(f"- {which}: {text}")
+    lines += ["", *published_lines({which: s.score for which, s, *_ in rows})]
     if not args.quick:
         lines += ["", "![acrobot](leaderboard_acrobot.gif) ![pendubot](leaderboard_pendubot.gif)"]
     if notes:

@@ -544,7 +544,8 @@ STEM_identify.png (measured against simulated angles). Record open loop about th
 position with a rich input (a multisine). Needs CasADi (pip install casadi).
 A fixed-pivot scene ([system] type = "fixed") is fitted to measured joint torques instead:
 --data (repeatable) recordings with time, pos_meas1.., tau_meas1.. (DFKI's CSV as it is, or t,
-q1.., tau1..), --validate (repeatable) held-out ones; no --free (every base parameter);
+q1.., tau1..), --validate (repeatable) held-out ones; no --free (every base parameter and
+each torque's offset; --no-offset without); --fit sequential (tip first, the default) or joint;
 STEM_identify.txt, .csv and .png (docs/identify.md, "Fixed-pivot rigs").
 
 \b
@@ -566,6 +567,11 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
               help="Fixed-pivot scenes: recordings held out of the fit, to score it on.")  # fmt: skip
 @click.option("--cutoff", "cutoff", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="HZ", help="Fixed-pivot scenes: the low-pass cutoff [default: 6 Hz].")  # fmt: skip
+@click.option("--fit", "fit_method", type=click.Choice(("sequential", "joint")), default=None,
+              help="Fixed-pivot scenes: tip first, one joint's equation at a time, or all joints "
+              "together weighted [default: sequential].")  # fmt: skip
+@click.option("--no-offset", "no_offset", is_flag=True,
+              help="Fixed-pivot scenes: no constant offset of the measured torques.")  # fmt: skip
 @click.option("--free", "free", default=None, metavar="P1,P2,...", help="The parameters to fit.")
 @click.option("-o", "--output", "directory", type=NonEmptyPath(), metavar="OUT",
               help="Folder for the results.")  # fmt: skip
@@ -574,7 +580,8 @@ Example (the recording simulated: the experiment designed by ipgen excite, run b
 @click.option("--force", is_flag=True, help="Replace files in OUT that ipgen did not write.")
 def identify_command(
     scene: Path | None, preset: str | None, data: tuple[Path, ...], validate: tuple[Path, ...],
-    cutoff: float | None, free: str | None, directory: Path | None, equation_error_only: bool, force: bool,
+    cutoff: float | None, fit_method: str | None, no_offset: bool, free: str | None, directory: Path | None,
+    equation_error_only: bool, force: bool,
 ) -> None:  # fmt: skip
     from ipgen.pipeline.identify import identify
 
@@ -583,11 +590,12 @@ def identify_command(
     if directory is None:
         raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
     if _is_fixed_scene(scene):
-        _identify_fixed(scene, data, validate, cutoff, free, directory, force)
+        _identify_fixed(scene, data, validate, cutoff, free, directory, force, fit_method, no_offset)
         return
-    if validate or cutoff is not None or len(data) > 1:
+    if validate or cutoff is not None or fit_method is not None or no_offset or len(data) > 1:
         raise job.OptionsError(
-            "--validate, --cutoff and several --data are for fixed-pivot scenes (joint torques); "
+            "--validate, --cutoff, --fit, --no-offset and several --data are for fixed-pivot scenes "
+            "(joint torques); "
             "this scene takes one --data"
         )
     if free is None:
@@ -621,10 +629,11 @@ def _is_fixed_scene(scene: Path) -> bool:
 
 def _identify_fixed(
     scene: Path, data: tuple[Path, ...], validate: tuple[Path, ...], cutoff: float | None, free: str | None,
-    directory: Path, force: bool,
+    directory: Path, force: bool, fit_method: str | None = None, no_offset: bool = False,
 ) -> None:  # fmt: skip
     """`ipgen identify` of a fixed-pivot scene: the torque regression (pipeline/identify_torques.py)."""
     from ipgen.identification.recording import DEFAULT_CUTOFF
+    from ipgen.identification.torque import DEFAULT_METHOD
     from ipgen.pipeline.identify_torques import identify_torques
     from ipgen.scene.fixed import load_fixed_scene
 
@@ -634,7 +643,8 @@ def _identify_fixed(
         )
     result = identify_torques(
         load_fixed_scene(scene), scene.stem, data, validate, directory,
-        cutoff=DEFAULT_CUTOFF if cutoff is None else cutoff, force=force, keep=[scene],
+        cutoff=DEFAULT_CUTOFF if cutoff is None else cutoff, method=fit_method or DEFAULT_METHOD,
+        offset=not no_offset, force=force, keep=[scene],
     )  # fmt: skip
     click.echo(result.report, nl=False)
     click.echo(f"wrote {', '.join(str(path) for path in result.files)}")

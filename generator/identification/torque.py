@@ -13,8 +13,20 @@ Not every φ can be found from any data: the **base parameters** are the indepen
 combinations, found structurally (Y at random states; a column is kept, in the order above, when
 it raises the rank; each dropped column is a combination of the kept ones, exactly) — e.g. m_1
 never enters a fixed chain's equations, m_2 only as m_2 l_1 beside h_1 and m_2 l_1² beside I_1.
-The base parameters β are fitted by least squares on the samples of all fit recordings, each
-joint's equation weighted by the inverse of its residual's standard deviation (two passes).
+Each measured torque may carry a constant bias o_k (the drive's torque reading at rest, sensor
+offset): τ_measured = τ + o, so Y φ + B o = B τ_measured, and o (one per input) joins β as a base
+parameter (`offset=True`, the default).
+
+Two fits (`method`):
+
+- "sequential" (the default): tip first, the way a chain's equations are triangular in its
+  links' parameters. The last joint's equation contains only the outermost link's parameters
+  (and its rotor's and its torque's offset); they are fitted by least squares on that equation
+  alone. Each equation inward then fits only the base parameters it adds, with the outer ones
+  fixed at their estimates. An error of the model in an inner joint's equation (the shoulder's
+  larger unmodelled torque) thus cannot move an outer link's estimates.
+- "joint": all equations together, each joint's equation weighted by the inverse of its
+  residual's standard deviation (two passes).
 """
 
 from __future__ import annotations
@@ -34,6 +46,8 @@ STRUCTURE_SAMPLES = 60
 RANK_TOLERANCE = 1e-9
 Z95 = 1.959963984540054
 PASSES = 2
+FIT_METHODS = ("sequential", "joint")
+DEFAULT_METHOD = "sequential"
 
 
 class TorqueFitError(Error, ValueError):
@@ -191,11 +205,23 @@ class TorqueFit:
 
     regressor: Regressor
     base: BaseParameters
-    estimate: np.ndarray  # β̂
+    estimate: np.ndarray  # β̂, then the torque offsets ô (one per input) with `offset`
     stderr: np.ndarray
-    weights: np.ndarray  # per equation (joint): 1/σ
+    weights: np.ndarray  # per equation (joint): 1/σ of its residual
     samples: int
     stride: int  # samples per independent one (the filter's correlation), for the intervals
+    method: str = DEFAULT_METHOD
+    offset: bool = False
+
+    def labels(self) -> list[str]:
+        """The estimates' names: the base parameters', then "offset tau_k" per input."""
+        extra = [f"offset tau{k}" for k in range(1, self.regressor.B.shape[1] + 1)] if self.offset else []
+        return self.base.labels() + extra
+
+    def reference(self, pendulum: FixedPendulum) -> np.ndarray:
+        """`pendulum`'s values of the estimates (its base parameters; no torque offsets: zeros)."""
+        offsets = np.zeros(self.regressor.B.shape[1] if self.offset else 0)
+        return np.concatenate([self.base.of(self.regressor.parameters(pendulum)), offsets])
 
     @cached_property
     def interval(self) -> np.ndarray:
@@ -204,14 +230,24 @@ class TorqueFit:
 
     def predict(self, data: Filtered) -> np.ndarray:
         """τ̂ (N × m) at the filtered states of `data`."""
-        y = self.regressor.matrix(data.q, data.qd, data.qdd)[:, list(self.base.kept)]
+        y = _columns(self.regressor, self.base, data, self.offset)
         return self.regressor.torques(y @ self.estimate)
 
 
-def _stacked(reg: Regressor, recordings: Sequence[Filtered]) -> tuple[np.ndarray, np.ndarray]:
+def _columns(reg: Regressor, base: BaseParameters, data: Filtered, offset: bool) -> np.ndarray:
+    """The base regressor of `data` ((N·n) × len(β)), with `offset` the offsets' columns B."""
+    y = reg.matrix(data.q, data.qd, data.qdd)[:, list(base.kept)]
+    if not offset:
+        return y
+    return np.hstack([y, np.tile(reg.B, (len(data.t), 1))])
+
+
+def _stacked(
+    reg: Regressor, base: BaseParameters, recordings: Sequence[Filtered], offset: bool
+) -> tuple[np.ndarray, np.ndarray]:
     rows, targets = [], []
     for data in recordings:
-        rows.append(reg.matrix(data.q, data.qd, data.qdd))
+        rows.append(_columns(reg, base, data, offset))
         targets.append((data.tau @ reg.B.T).reshape(-1))
     return np.vstack(rows), np.concatenate(targets)
 
@@ -222,16 +258,16 @@ def _solve(y: np.ndarray, target: np.ndarray, weights: np.ndarray) -> np.ndarray
     return estimate
 
 
-def fit_torques(reg: Regressor, recordings: Sequence[Filtered], stride: int = 1) -> TorqueFit:
-    """β̂ by weighted least squares on `recordings` (module docstring); `stride`: how many
-    consecutive samples count as one independent one in the intervals (the low-pass correlates
-    neighbours: about the sampling rate over twice the cutoff)."""
-    if not recordings:
-        raise TorqueFitError("no recordings to fit: give at least one --data file")
-    base = base_parameters(reg)
-    y, target = _stacked(reg, recordings)
-    y = y[:, list(base.kept)]
-    n = reg.pendulum.links
+def _unexcited(rank: int, columns: int) -> TorqueFitError:
+    return TorqueFitError(
+        f"the recordings do not excite every base parameter (rank {rank} of {columns}): "
+        "add recordings that move every joint"
+    )
+
+
+def _joint(y: np.ndarray, target: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """β̂, its covariance (one sample per sample) and the weights of the weighted fit of all
+    equations together (module docstring)."""
     weights = np.ones(n)
     for _ in range(PASSES):  # each joint's equation weighted by 1/σ of its residual
         estimate = _solve(y, target, weights)
@@ -245,12 +281,89 @@ def fit_torques(reg: Regressor, recordings: Sequence[Filtered], stride: int = 1)
     information = weighted.T @ weighted
     rank = np.linalg.matrix_rank(information)
     if rank < y.shape[1]:
-        raise TorqueFitError(
-            f"the recordings do not excite every base parameter (rank {rank} of {y.shape[1]}): "
-            "add recordings that move every joint"
-        )
-    covariance = variance * np.linalg.inv(information) * stride
-    return TorqueFit(reg, base, estimate, np.sqrt(np.diag(covariance)), weights, len(target) // n, stride)
+        raise _unexcited(rank, y.shape[1])
+    return estimate, variance * np.linalg.inv(information), weights
+
+
+def _sequential(y: np.ndarray, target: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """β̂ and its covariance by the tip-first fit (module docstring). Each stage's covariance adds
+    the outer estimates' propagated through it (b_new = A⁺ (t − E b_outer)); the joints' noises
+    are taken as independent."""
+    p = y.shape[1]
+    estimate, covariance = np.zeros(p), np.zeros((p, p))
+    known: list[int] = []
+    for joint in reversed(range(n)):
+        rows, aims = y[joint::n], target[joint::n]
+        new = [c for c in range(p) if c not in known and np.any(rows[:, c] != 0)]
+        if not new:
+            continue
+        a, e = rows[:, new], rows[:, known]
+        rank = np.linalg.matrix_rank(a)
+        if rank < len(new):
+            raise _unexcited(rank, len(new))
+        pseudo = np.linalg.pinv(a)
+        values = pseudo @ (aims - e @ estimate[known])
+        residual = aims - a @ values - e @ estimate[known]
+        variance = float(residual @ residual) / max(1, len(aims) - len(new))
+        gain = pseudo @ e  # how the outer estimates move these
+        own = variance * np.linalg.inv(a.T @ a) + gain @ covariance[np.ix_(known, known)] @ gain.T
+        cross = -gain @ covariance[np.ix_(known, known)]
+        estimate[new] = values
+        covariance[np.ix_(new, new)] = own
+        covariance[np.ix_(new, known)] = cross
+        covariance[np.ix_(known, new)] = cross.T
+        known += new
+    if len(known) < p:
+        raise _unexcited(len(known), p)
+    spread = (target - y @ estimate).reshape(-1, n).std(axis=0)
+    weights = np.where(spread > 0, 1 / np.maximum(spread, 1e-12), 1.0)
+    return estimate, covariance, weights
+
+
+def fit_torques(
+    reg: Regressor,
+    recordings: Sequence[Filtered],
+    stride: int = 1,
+    *,
+    method: str = DEFAULT_METHOD,
+    offset: bool = True,
+) -> TorqueFit:
+    """The base parameters (and with `offset` each torque's constant bias) fitted to
+    `recordings` (module docstring).
+
+    Parameters
+    ----------
+    reg : Regressor
+    recordings : sequence of Filtered
+        The fit recordings, filtered.
+    stride : int
+        How many consecutive samples count as one independent one in the intervals (the
+        low-pass correlates neighbours: about the sampling rate over twice the cutoff).
+    method : {"sequential", "joint"}
+        Tip first, one equation at a time (the default), or all equations together, weighted.
+    offset : bool
+        Fit a constant offset of each measured torque.
+
+    Returns
+    -------
+    TorqueFit
+
+    Raises
+    ------
+    TorqueFitError
+        One line: no recordings, an unknown method, a base parameter the recordings do not excite.
+    """
+    if not recordings:
+        raise TorqueFitError("no recordings to fit: give at least one --data file")
+    if method not in FIT_METHODS:
+        raise TorqueFitError(f"fit method {method!r}: expected one of {', '.join(FIT_METHODS)}")
+    base = base_parameters(reg)
+    y, target = _stacked(reg, base, recordings, offset)
+    n = reg.pendulum.links
+    solver = _sequential if method == "sequential" else _joint
+    estimate, covariance, weights = solver(y, target, n)
+    stderr = np.sqrt(np.maximum(np.diag(covariance), 0) * stride)
+    return TorqueFit(reg, base, estimate, stderr, weights, len(target) // n, stride, method, offset)
 
 
 def rms(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:

@@ -22,12 +22,24 @@ import numpy as np
 from ipgen.common.files import MARKER, check_replaceable, prepare_directory, write_files
 from ipgen.common.version import __version__
 from ipgen.identification.recording import DEFAULT_CUTOFF, FILTER_ORDER, Filtered, filtered, read_recording
-from ipgen.identification.torque import TorqueFit, fit_torques, reference_torques, regressor, rms
+from ipgen.identification.torque import (
+    DEFAULT_METHOD,
+    TorqueFit,
+    fit_torques,
+    reference_torques,
+    regressor,
+    rms,
+)
 from ipgen.model.fixed import FixedPendulum
 
 __all__ = ["TorqueIdentified", "identify_torques"]
 
 PNG_KIND = "PNG image"
+FIT_WORDS = {
+    "sequential": "least squares tip first (the last joint's equation for the outer link's "
+    "parameters, then inwards with those fixed)",
+    "joint": "weighted least squares on all joints' equations together (1/σ of each joint's residual)",
+}
 
 
 @dataclass(frozen=True)
@@ -81,7 +93,7 @@ def _report(
     fit: TorqueFit, scene: FixedPendulum, stem: str, scores: Sequence[Score], cutoff: float, seconds: float
 ) -> str:
     base = fit.base
-    reference = base.of(fit.regressor.parameters(scene))
+    reference = fit.reference(scene)
     m = scene.inputs
     joints = ", ".join(f"joint {j}" for j in scene.joints)
     lines = [
@@ -91,7 +103,9 @@ def _report(
         f"{FILTER_ORDER} at {cutoff:g} Hz (scipy filtfilt); rates and accelerations central differences",
         "of the filtered angles. Model: ipgen's fixed-pivot equations in the scene's coordinates;",
         "lengths, g, gear ratios and the Coulomb law's rate known.",
-        f"Fit: {fit.samples} samples, {len(base.kept)} base parameters; {seconds:.2f} s.",
+        f"Fit: {FIT_WORDS[fit.method]}"
+        + ("; a constant offset of each measured torque fitted too." if fit.offset else "."),
+        f"{fit.samples} samples, {len(base.kept)} base parameters; {seconds:.2f} s.",
         "Not identifiable alone (absorbed in the combinations): "
         + (", ".join(base.unidentifiable()) or "none"),
         "95 % intervals count one sample in every "
@@ -100,7 +114,7 @@ def _report(
         f"{'base parameter':<40} {'estimate':>12} {'95 % interval':>27} {'scene':>12}",
     ]
     for label, value, (low, high), prior in zip(
-        base.labels(), fit.estimate, fit.interval, reference, strict=True
+        fit.labels(), fit.estimate, fit.interval, reference, strict=True
     ):
         lines.append(f"{label:<40} {value:>12.6g} [{low:>12.6g}, {high:>12.6g}] {prior:>12.6g}")
     lines += [
@@ -186,6 +200,8 @@ def identify_torques(
     output: str | Path | None = None,
     *,
     cutoff: float = DEFAULT_CUTOFF,
+    method: str = DEFAULT_METHOD,
+    offset: bool = True,
     force: bool = False,
     keep: Sequence[Path] = (),
 ) -> TorqueIdentified:
@@ -205,6 +221,11 @@ def identify_torques(
         Folder for <stem>_identify.txt, .csv and .png.
     cutoff : float
         The low-pass's cutoff [Hz].
+    method : {"sequential", "joint"}
+        The fit (`identification.torque.fit_torques`): tip first, one equation at a time (the
+        default), or all equations together, weighted.
+    offset : bool
+        Fit a constant offset of each measured torque (the default).
 
     Returns
     -------
@@ -229,7 +250,7 @@ def identify_torques(
     fitting, checking = read(data), read(validate)
     step = float(np.median(np.diff(fitting[0].t))) if fitting else 0.002
     stride = max(1, round(1 / (2 * cutoff * step)))
-    fit = fit_torques(reg, fitting, stride=stride)
+    fit = fit_torques(reg, fitting, stride=stride, method=method, offset=offset)
     seconds = time.perf_counter() - clock
     scores: list[Score] = []
     for role, recordings in (("fit", fitting), ("validate", checking)):
