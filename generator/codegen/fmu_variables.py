@@ -412,7 +412,11 @@ def fixed_layout(
     energy_vr = u_vr + inputs
     energies = (
         ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd, the rotors included [J]", "m->T"),
-        ("potential_energy", "potential energy V [J], zero with the centres of gravity at the pivot's height", "m->V"),
+        (
+            "potential_energy",
+            "potential energy V [J], zero with the centres of gravity at the pivot's height",
+            "m->V",
+        ),
         ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
         ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
     )
@@ -435,7 +439,9 @@ def fixed_layout(
         group, index = _split_fixed(name)
         rule = _FIXED_RULES[group]
         description = (
-            "gravitational acceleration g [m/s2]" if index is None else _FIXED_DESCRIPTIONS[group].format(i=index)
+            _FIXED_DESCRIPTIONS[group].format(i=index)
+            if index is not None
+            else "gravitational acceleration g [m/s2]"
         )
         variables.append(
             Variable(

@@ -43,7 +43,10 @@ _SYMBOL_LATEX = {
     "u": "u_{{{i}}}",
 }
 # Parameters inside a monomial: masses, then g, lengths, damping (the paper's "m1 g l1").
-_PARAMETER_RANK = {"m": 0, "tip": 0, "g": 1, "l": 2, "com": 2, "J": 2, "J_axial": 2, "delta": 3, "Ir": 4, "gr": 5, "u": 6}
+_PARAMETER_RANK = {
+    **{"m": 0, "tip": 0, "g": 1, "l": 2, "com": 2, "J": 2, "J_axial": 2, "delta": 3},
+    **{"Ir": 4, "gr": 5, "u": 6},  # a fixed pivot's rotors, then its inputs
+}
 
 
 def _split_name(symbol: sp.Symbol) -> tuple[str, int]:
