@@ -171,9 +171,23 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
 
 
 def render_fixed_sources(request: FixedHeaderRequest, version: int) -> dict[str, str]:
-    """The text files of a fixed-pivot chain's FMU (`ipgen --type fixed --emit fmu`), keyed by
-    their path in the archive: its C99 header as `--emit c` writes it, the same glue templates
-    with m inputs u1..um (`fmu_variables.fixed_layout`), ipgen's coordinates."""
+    """The text files of a fixed-pivot chain's FMU (`ipgen --type fixed --emit fmu`).
+
+    Its C99 header as `--emit c` writes it and the same glue templates as the cart's and the
+    arm's, with m inputs u1..um (`fmu_variables.fixed_layout`), in ipgen's coordinates.
+
+    Parameters
+    ----------
+    request : FixedHeaderRequest
+        The chain's name, links, driven joints and command.
+    version : int
+        2 (FMI 2.0) or 3 (FMI 3.0).
+
+    Returns
+    -------
+    dict of str to str
+        The archive's text files keyed by their path in it (no binary: `compile_binary`).
+    """
     from ipgen.codegen.fixed_header import FIXED_C_SYNTAX, render_fixed
     from ipgen.codegen.fmu_variables import fixed_layout
     from ipgen.model.fixed_poly import fixed_poly_equations

@@ -334,10 +334,28 @@ def _fixed_c_field(group: str, index: int | None) -> str:
 def fixed_layout(
     joints: tuple[int, ...], links: int, start: dict[str, float], initial: tuple[float, ...] = ()
 ) -> Layout:
-    """The FMU variables of a chain of `links` links on a fixed pivot driven at `joints`: as
-    `layout`'s, with the links numbered from 1 (theta1..thetan, value references 1..n) and one
-    input u_k per driven joint; `start` overrides parameter start values, `initial` the states'
-    (θ then θ̇, ipgen's coordinates)."""
+    """The FMU variables of a chain on a fixed pivot, as `layout`'s for the cart and the arm.
+
+    The links are numbered from 1 (theta1..thetan, value references 1..n), one input u_k per
+    driven joint follows the accelerations, then the four energies and the parameters of the
+    chain's C header (`fixed_parameters`).
+
+    Parameters
+    ----------
+    joints : tuple of int
+        The driven joints (1 = the shoulder), one input each in this order.
+    links : int
+        The number of links n >= 1.
+    start : dict of str to float
+        Parameter start values that replace `fixed_default_start`'s.
+    initial : tuple of float, optional
+        The states' start values, θ then θ̇ (2n, ipgen's coordinates); default all 0.
+
+    Returns
+    -------
+    Layout
+        The variables and the dependencies the model structure declares.
+    """
     from ipgen.model.fixed_poly import fixed_poly_equations
 
     n, inputs = links, len(joints)
