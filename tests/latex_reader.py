@@ -6,8 +6,10 @@ and multi-digit subscripts (`\\theta_{10}`), fails on a product after `\\right)`
 `\\cos\\theta_{1} \\sin\\theta_{2}` (cos(θ1 sin θ2) or cos θ1 · sin θ2). So this is a strict
 recursive-descent reader of exactly the notation the documents use — numbers, `\\frac` and
 `\\tfrac`, `\\left( … \\right)`, powers `^{k}`, θ_k, θ̇_k, m_k, l_k, δ_k, g, u, and sin/cos of
-θk, 2θk or (θj − θk) with an optional power — and anything else is an error, so a change of
-notation fails the tests instead of being misread.
+θk, 2θk or (θj − θk) with an optional power, and the names of the links as built and of a
+fixed pivot's motors (`\\mathrm{com}_{k}`, `J_{k}`, `\\mathrm{Ir}_{k}`, `\\mathrm{gr}_{k}`,
+`u_{k}`) — and anything else is an error, so a change of notation fails the tests instead of
+being misread.
 """
 
 from __future__ import annotations
@@ -144,8 +146,23 @@ class Reader:
             return (sym.m if token == "m" else sym.l)[self.index()]
         if token == "g":
             return sym.g
-        if token == "u":
-            return sym.u
+        if token == "u":  # a fixed pivot's inputs are numbered: u_{k}
+            return sp.Symbol(f"u{self.index()}", real=True) if self.peek() == "_" else sym.u
+        if token == "J":
+            return sym.J[self.index()]
+        if token == r"\mathrm":  # the links as built (com, tip) and a fixed pivot's rotors (Ir, gr)
+            self.take("{")
+            word = ""
+            while self.peek() != "}":
+                word += self.take()
+            self.take("}")
+            k = self.index()
+            if word in ("com", "tip"):
+                return getattr(sym, word)[k]
+            if word in ("Ir", "gr"):
+                return sp.Symbol(f"{word}{k}", real=True)
+            self.at -= 1
+            raise self.fail(f"unknown name {word!r}")
         self.at -= 1
         raise self.fail("unknown token")
 

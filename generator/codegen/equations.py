@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
     from ipgen.codegen.header import HeaderRequest
     from ipgen.model.derivation import Equations
+    from ipgen.model.fixed_equations import FixedEquations
     from ipgen.model.symbols import Symbols
 
 TERM_CAP = 40  # terms per printed entry; larger entries are stated by size only
@@ -94,13 +95,21 @@ def _index(dof: int, *indices: int) -> str:
 
 
 class _Builder:
-    def __init__(self, eqs: Equations) -> None:
+    """The document's lines from `eqs`; `fixed`: the links of a chain on a fixed pivot (the
+    classical chain with the cart held still: θ0 = θ̇0 = 0, no tip masses), printed from link 1."""
+
+    def __init__(self, eqs: Equations, fixed: bool = False) -> None:
         self.eqs = eqs
         self.system = eqs.system
         self.sym: Symbols = eqs.symbols
         self.rates = frozenset(self.sym.qd) | frozenset(self.sym.qdd)
+        self.fixed = fixed
+        self.still = {self.sym.q[0]: sp.Integer(0), self.sym.qd[0]: sp.Integer(0)} if fixed else {}
+        self.first = 1 if fixed else 0  # the first coordinate printed (link 1 on a fixed pivot)
 
     def line(self, lhs: str, expr: sp.Expr) -> Line:
+        if self.still:
+            expr = expr.xreplace(self.still)
         terms = readable_terms(expr, self.rates)
         if len(terms) > TERM_CAP:
             return Line(lhs, [rf"\text{{({len(terms)} terms, not expanded here)}}"], capped=len(terms))
@@ -113,6 +122,8 @@ class _Builder:
         sym = self.sym
         if self.eqs.rod_links:
             return sym.l[i] / 2, sym.m[i] * sym.l[i] ** 2 / 12, sp.Integer(0), sp.Integer(0)
+        if self.fixed:  # a fixed chain's links have no tip masses
+            return sym.com[i], sym.J[i], sp.Integer(0), sp.Integer(0)
         return sym.com[i], sym.J[i], sym.J_axial[i], sym.tip[i]
 
     def base(self) -> Block:
@@ -214,19 +225,24 @@ class _Builder:
             ],
         )
 
-    def mass(self) -> Block:
-        dof, matrix = self.system.dof, self.eqs.mass_matrix
+    def mass(self, matrix: sp.Matrix | None = None) -> Block:
+        """M's entries on and above the diagonal (`matrix`: M with a fixed chain's rotors)."""
+        matrix = self.eqs.mass_matrix if matrix is None else matrix
+        dof, at = matrix.rows, self.first
         lines = [
-            self.line(f"M_{{{_index(dof, j, k)}}}", matrix[j, k]) for j in range(dof) for k in range(j, dof)
+            self.line(f"M_{{{_index(dof, j + at, k + at)}}}", matrix[j, k])
+            for j in range(dof)
+            for k in range(j, dof)
         ]
         return Block("M", lines)
 
     def n_matrix(self) -> tuple[Block, list[str]]:
-        dof, matrix = self.system.dof, self.eqs.n_matrix
+        matrix, at = self.eqs.n_matrix, self.first
+        dof = matrix.rows
         lines, zeros = [], []
         for j in range(dof):
             for k in range(dof):
-                name = f"N_{{{_index(dof, j, k)}}}"
+                name = f"N_{{{_index(dof, j + at, k + at)}}}"
                 if matrix[j, k] == 0:
                     zeros.append(name)
                 else:
@@ -234,8 +250,34 @@ class _Builder:
         return Block("N", lines), zeros
 
     def gravity(self) -> Block:
-        dof, vector = self.system.dof, self.eqs.gravity
-        return Block("P", [self.line(f"P_{{{k}}}", vector[k, 0]) for k in range(dof)])
+        vector, at = self.eqs.gravity, self.first
+        return Block("P", [self.line(f"P_{{{k + at}}}", vector[k, 0]) for k in range(vector.rows)])
+
+    # -- a fixed chain's motors -----------------------------------------------------------
+    def rotors(self, chain: FixedEquations) -> list[Block]:
+        """Per motor k at joint j: its rotor's rate ω = gr θ̇j + (1 − gr) θ̇(j−1) (θ̇0 = 0, the
+        ground) and kinetic energy ½ Ir ω² (docs/model.md, "A fixed pivot")."""
+        qd = self.sym.qd  # the cart's numbering: link i's rate is qd[i]
+        blocks = []
+        for k, joint in enumerate(chain.joints, start=1):
+            rotor, ratio = sp.Symbol(f"Ir{k}", nonnegative=True), sp.Symbol(f"gr{k}", real=True)
+            rate = ratio * qd[joint] + ((1 - ratio) * qd[joint - 1] if joint >= 2 else 0)
+            where = "the shoulder" if joint == 1 else f"joint {joint}"
+            blocks.append(
+                Block(
+                    f"Motor {k}: the rotor at {where}",
+                    [
+                        self.line(rf"\omega_{{\mathrm{{r}},{k}}}", rate),
+                        self.line(rf"T_{{\mathrm{{r}},{k}}}", rotor * rate**2 / 2),
+                    ],
+                )
+            )
+        return blocks
+
+    def torques(self, chain: FixedEquations) -> Block:
+        """τ = B u row by row: the torques the motors put on each link."""
+        forced = chain.input_matrix * sp.Matrix(chain.u)
+        return Block("tau", [self.line(rf"\tau_{{{i + 1}}}", forced[i, 0]) for i in range(forced.rows)])
 
 
 def _context(eqs: Equations, request: HeaderRequest) -> dict:
@@ -268,6 +310,62 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
         "fixed": fixed,
         "rod_links": eqs.rod_links,
         "frame": frame_context(request.coordinates),
+        "fixed_pivot": False,
+    }
+
+
+def _fixed_context(name: str, command: str, joints: tuple[int, ...], links: int) -> dict:
+    """The documents' context for a chain of `links` links on a fixed pivot driven at `joints`:
+    the bodies, N, P, V and D of the held cart's chain (`fixed_poly.fixed_poly_equations`, as the
+    headers print them), M and T with the rotors, and B, from `fixed_equations` (ipgen's
+    coordinates)."""
+    from ipgen.model.coordinates import Coordinates
+    from ipgen.model.fixed_equations import fixed_equations
+    from ipgen.model.fixed_poly import fixed_poly_equations
+
+    eqs = fixed_poly_equations(links)
+    chain = fixed_equations(links, joints, "tanh", Coordinates())
+    builder = _Builder(eqs, fixed=True)
+    n_block, n_zeros = builder.n_matrix()
+    blocks = [*builder.links(), *builder.rotors(chain)]
+    totals = Block(
+        "Totals",
+        [
+            builder.line("T", chain.kinetic_energy),
+            builder.line("V", eqs.potential_energy),
+            builder.line("D", eqs.dissipation),
+        ],
+    )
+    result = [builder.mass(chain.mass_matrix), n_block, builder.gravity(), builder.torques(chain)]
+    capped = [line for block in [*blocks, totals, *result] for line in block.lines if line.capped]
+    matrix = chain.input_matrix
+    return {
+        "name": name,
+        "command": command,
+        "version": __version__,
+        "rotary": False,
+        "links": links,
+        "dof": links,
+        "inertia": "pivot",
+        "last": links,
+        "bodies": blocks,
+        "totals": totals,
+        "mass": result[0],
+        "n_block": n_block,
+        "n_zeros": n_zeros,
+        "gravity": result[2],
+        "capped": len(capped),
+        "cap": TERM_CAP,
+        "fixed": [],
+        "fixed_pivot": True,
+        "rod_links": False,
+        "frame": None,
+        "joints": list(joints),
+        "inputs": len(joints),
+        "torques": result[3],
+        "input_matrix": r"\begin{pmatrix} "
+        + r" \\ ".join(" & ".join(str(matrix[i, k]) for k in range(matrix.cols)) for i in range(matrix.rows))
+        + r" \end{pmatrix}",
     }
 
 
@@ -282,7 +380,33 @@ def _environment(escape: Callable[[str], str]) -> jinja2.Environment:
 
 def render_equations(eqs: Equations, request: HeaderRequest) -> dict[str, str]:
     """{".md": Markdown with $$ math, ".tex": a standalone amsmath document}; deterministic."""
-    context = _context(eqs, request)
+    return _render(_context(eqs, request))
+
+
+def render_fixed_equations(name: str, command: str, joints: tuple[int, ...], links: int) -> dict[str, str]:
+    """The documents of a chain of `links` links on a fixed pivot driven at `joints` (1 = the
+    shoulder), in ipgen's coordinates, as `render_equations` lays out the cart's and the arm's.
+
+    Parameters
+    ----------
+    name : str
+        The model's name (the title; escaped).
+    command : str
+        The command that regenerates the files (escaped).
+    joints : tuple of int
+        The driven joints, one input u_k each in this order.
+    links : int
+        The number of links n >= 1.
+
+    Returns
+    -------
+    dict of str to str
+        {".md": Markdown with $$ math, ".tex": a standalone amsmath document}; deterministic.
+    """
+    return _render(_fixed_context(name, command, joints, links))
+
+
+def _render(context: dict) -> dict[str, str]:
     markdown = _environment(markdown_escape).get_template(MD_TEMPLATE).render(context)
     tex = _environment(tex_escape).get_template(TEX_TEMPLATE).render(context)
     return {".md": markdown, ".tex": tex}

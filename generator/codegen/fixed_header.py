@@ -90,4 +90,6 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
         context["template"] = "fixed_model_library.c.jinja"
         adapter = environment().get_template("fixed_model_library.c.jinja").render(context)
         return {".h": header, "_model.c": adapter}
-    raise ValueError(f"--emit {target} is not supported for fixed-pivot models: choose cpp, c or library")
+    raise ValueError(
+        f"--emit {target}: render_fixed writes cpp, c or library (fixed_generate.render_target the rest)"
+    )

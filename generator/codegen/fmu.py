@@ -25,16 +25,20 @@ import tempfile
 import uuid
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ipgen.codegen.c_header import render_c_header
 from ipgen.codegen.fmu_variables import Layout, layout
-from ipgen.codegen.functions import C_SYNTAX, FunctionBody, Output, build_body
+from ipgen.codegen.functions import C_SYNTAX, FunctionBody, Output, Syntax, build_body
 from ipgen.codegen.header import HeaderRequest, environment, templates_dir
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation
+
+if TYPE_CHECKING:
+    from ipgen.codegen.fixed_header import FixedHeaderRequest
 
 PLATFORM = {2: "linux64", 3: "x86_64-linux"}  # binaries/<platform>/ of each FMI version
 COMPILERS = ("cc", "gcc")
@@ -73,22 +77,25 @@ def build_command(cc: str | list[str], source: str, output: str) -> list[str]:
     return [*([cc] if isinstance(cc, str) else cc), *CFLAGS, "-I.", source, "-o", output, "-lm"]
 
 
-def energy_gradients(eqs: Equations) -> FunctionBody:
-    """The C body computing dT/dq, dT/dqd, dV/dq (the gravity vector) and dD/dqd exactly."""
+def energy_gradients(eqs: Equations, syntax: Syntax = C_SYNTAX) -> FunctionBody:
+    """The C body computing dT/dq, dT/dqd, dV/dq (the gravity vector) and dD/dqd exactly.
+
+    `syntax` is the header's: `C_SYNTAX`, or a fixed chain's (`Syntax.offset` = 1: the
+    coordinates are the cart's links, generators 1..n, printed as entries 0..n − 1)."""
     algebra = eqs.algebra
-    dof = eqs.system.dof
+    coordinates = range(syntax.offset, eqs.system.dof)
     kinetic = eqs.poly["kinetic_energy"][0][0]
     dissipation = eqs.poly["dissipation"][0][0]
     slope = algebra.gradient(kinetic)
     columns = {
-        "dT_dq": [[slope.get(k, algebra.zero)] for k in range(dof)],
-        "dT_dqd": [[kinetic.derivative(algebra.qd(k))] for k in range(dof)],
+        "dT_dq": [[slope.get(k, algebra.zero)] for k in coordinates],
+        "dT_dqd": [[kinetic.derivative(algebra.qd(k))] for k in coordinates],
         "dV_dq": eqs.poly["gravity"],
-        "dD_dqd": [[dissipation.derivative(algebra.qd(k))] for k in range(dof)],
+        "dD_dqd": [[dissipation.derivative(algebra.qd(k))] for k in coordinates],
     }
     outputs = [Output(name, value, damped=name == "dD_dqd") for name, value in columns.items()]
-    extra = tuple(getattr(C_SYNTAX, "extra_arguments", ()))  # the links struct, where there is one
-    return build_body(eqs, outputs, ("q", "qd", "p", *extra), syntax=C_SYNTAX)
+    extra = tuple(getattr(syntax, "extra_arguments", ()))  # the links struct, where there is one
+    return build_body(eqs, outputs, ("q", "qd", "p", *extra), syntax=syntax)
 
 
 _PLACEHOLDER = "{ipgen-token-placeholder}"
@@ -142,7 +149,6 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
     general = HeaderRequest(name, request.command, Specialisation(outputs=FUNCTIONS), None)
     header = render_c_header(eqs, general)
     table: Layout = layout(eqs, _start_values(request), request.initial)
-    env = environment()
     context: dict[str, object] = {
         "name": name,
         "nameu": name.upper(),
@@ -159,10 +165,73 @@ def render_sources(eqs: Equations, request: HeaderRequest, version: int) -> dict
         "variables": table.variables,
         "links_struct": any(v.c_value.startswith("m->links.") for v in table.variables),
         "gradients": energy_gradients(eqs),
-        "fmi": version,
-        "source": f"{name}_fmu.c",
-        "build": shlex.join(build_command("cc", f"{name}_fmu.c", f"{name}.so")),
+        "fixed_pivot": False,
     }
+    return _package(name, header, context, version)
+
+
+def render_fixed_sources(request: FixedHeaderRequest, version: int) -> dict[str, str]:
+    """The text files of a fixed-pivot chain's FMU (`ipgen --type fixed --emit fmu`).
+
+    Its C99 header as `--emit c` writes it and the same glue templates as the cart's and the
+    arm's, with m inputs u1..um (`fmu_variables.fixed_layout`), in ipgen's coordinates.
+
+    Parameters
+    ----------
+    request : FixedHeaderRequest
+        The chain's name, links, driven joints and command.
+    version : int
+        2 (FMI 2.0) or 3 (FMI 3.0).
+
+    Returns
+    -------
+    dict of str to str
+        The archive's text files keyed by their path in it (no binary: `compile_binary`).
+    """
+    from ipgen.codegen.fixed_header import FIXED_C_SYNTAX, render_fixed
+    from ipgen.codegen.fmu_variables import fixed_layout
+    from ipgen.model.fixed_poly import fixed_poly_equations
+
+    name = request.name
+    check_name(name)
+    header = render_fixed(request, "c")[".h"]
+    table = fixed_layout(request.joints, request.links, {})
+    driven = ", ".join(map(str, request.joints))
+    plural = "s" if request.links > 1 else ""
+    context: dict[str, object] = {
+        "name": name,
+        "nameu": name.upper(),
+        "version": __version__,
+        "command": comment_safe(request.command),
+        "description": (
+            f"Chain of {request.links} link{plural} on a fixed pivot, driven by torques at joint"
+            f"{'s' if len(request.joints) > 1 else ''} {driven} (exact equations of motion by ipgen)"
+        ),
+        "stop_time": "10",
+        "scene": False,
+        "type": "fixed-pivot",
+        "links": request.links,
+        "dof": request.links,
+        "inertia": "pivot",
+        "layout": table,
+        "variables": table.variables,
+        "links_struct": True,
+        "gradients": energy_gradients(fixed_poly_equations(request.links), FIXED_C_SYNTAX),
+        "fixed_pivot": True,
+        "inputs": len(request.joints),
+        "joints": list(request.joints),
+        # (input k, coordinate of link j, coordinate of link j − 1 or None): the rotors
+        "slots": [(k, j - 1, j - 2 if j >= 2 else None) for k, j in enumerate(request.joints)],
+    }
+    return _package(name, header, context, version)
+
+
+def _package(name: str, header: str, context: dict[str, object], version: int) -> dict[str, str]:
+    """The FMU's text files from its C header and the templates' `context`."""
+    env = environment()
+    context["fmi"] = version
+    context["source"] = f"{name}_fmu.c"
+    context["build"] = shlex.join(build_command("cc", f"{name}_fmu.c", f"{name}.so"))
     # The GUID / instantiation token is a digest of what the binary and the description are
     # made of: rendered with a placeholder, then filled in.
     context["token"] = _PLACEHOLDER
@@ -219,8 +288,35 @@ def _zip(members: dict[str, bytes]) -> bytes:
 
 def render_fmu(eqs: Equations, request: HeaderRequest, version: int) -> bytes:
     """The complete .fmu archive (FMI `version` 2 or 3) of one model."""
-    files = render_sources(eqs, request, version)
-    binary = compile_binary(files, request.name)
+    return _archive(render_sources(eqs, request, version), request.name, version)
+
+
+def render_fixed_fmu(request: FixedHeaderRequest, version: int) -> bytes:
+    """The complete .fmu archive (FMI `version` 2 or 3) of a fixed-pivot chain.
+
+    Parameters
+    ----------
+    request : FixedHeaderRequest
+        The chain's name, links, driven joints and command.
+    version : int
+        2 (FMI 2.0) or 3 (FMI 3.0).
+
+    Returns
+    -------
+    bytes
+        The zip archive, its binary compiled for this platform (`compile_binary`).
+
+    Raises
+    ------
+    FmuError
+        No C compiler, or the sources do not compile.
+    """
+    return _archive(render_fixed_sources(request, version), request.name, version)
+
+
+def _archive(files: dict[str, str], name: str, version: int) -> bytes:
+    """The archive of the FMU's text `files` and the binary compiled from them."""
+    binary = compile_binary(files, name)
     members = {path: text.encode("utf-8") for path, text in files.items()}
-    members[f"binaries/{PLATFORM[version]}/{request.name}.so"] = binary
+    members[f"binaries/{PLATFORM[version]}/{name}.so"] = binary
     return _zip(members)

@@ -5,7 +5,8 @@ value references, names, causality, start values, how the C code reads and write
 variable, and which states and inputs each output and derivative depends on, read from the
 derived polynomials (an acceleration depends on the angles that occur in M or the bias).
 
-Layout (D = links + 1 coordinates): time (0); theta0..thetaD-1 (states, outputs);
+Layout (D = links + 1 coordinates; a fixed-pivot chain's, `fixed_layout`, has D = links and m
+inputs u1..um): time (0); theta0..thetaD-1 (states, outputs);
 dtheta0..dtheta (states, the derivatives of theta); ddtheta0.. (the derivatives of dtheta);
 the input u; the energy outputs; then every parameter the model's equations read (the
 generators the C header's functions take from their params struct, and from the links
@@ -40,8 +41,9 @@ class Variable:
     start: float | None = None
     derivative_of: int | None = None  # the value reference this variable is the derivative of
     c_value: str = ""  # C expression of the value, in the model struct `m`
-    rule: str = ""  # parameters: "positive" (> 0) or "nonnegative" (>= 0)
+    rule: str = ""  # parameters: "positive" (> 0), "nonnegative" (>= 0), "finite", "nonzero"
     kind: str = ""  # time | q | qd | qdd | u | energy | parameter
+    minimum: str | None = "0"  # a parameter's declared min (None: none); the cart's and the arm's: "0"
 
 
 @dataclass(frozen=True)
@@ -268,3 +270,231 @@ def _parameter_description(system: System, name: str) -> str:
         "delta": f"viscous damping of {part} [{damping_unit}]",
     }
     return described.get(group, f"{group} of {part}")
+
+
+# A fixed chain's parameters without a scene: the paper's cart's links (rods), no rotor.
+_FIXED_RULES = {
+    "m": "positive",
+    "l": "positive",
+    "com": "finite",
+    "J": "finite",
+    "delta": "nonnegative",
+    "g": "nonnegative",
+    "Ir": "nonnegative",
+    "gr": "nonzero",
+}
+_FIXED_DESCRIPTIONS = {
+    "m": "mass of link {i} [kg]",
+    "l": "length of link {i}, pivot to far end [m]",
+    "com": "distance from the pivot of link {i} to its centre of gravity [m]",
+    "J": "inertia of link {i} about its centre of gravity [kg m2] (J + m com^2 > 0)",
+    "delta": "viscous damping of joint {i} [N m s]",
+    "Ir": "rotor inertia of motor {i} [kg m2] (0: none)",
+    "gr": "gear ratio of motor {i} (rotor turns per joint turn relative to its housing; != 0)",
+}
+
+
+def fixed_parameters(links: int, inputs: int) -> list[str]:
+    """The tunable parameters of a fixed chain's FMU, as its C header's structs hold them:
+    m, l, com, J, delta per link, g, then Ir and gr per input."""
+    per_link = [f"{group}{i}" for group in ("m", "l", "com", "J", "delta") for i in range(1, links + 1)]
+    return [*per_link, "g", *(f"{group}{k}" for group in ("Ir", "gr") for k in range(1, inputs + 1))]
+
+
+def _split_fixed(name: str) -> tuple[str, int | None]:
+    """ "J2" -> ("J", 2), "g" -> ("g", None): a fixed chain's parameter (`fixed_parameters`)."""
+    group = name.rstrip("0123456789")
+    return group, (int(name[len(group) :]) if group != name else None)
+
+
+def fixed_default_start(name: str, given: dict[str, float]) -> float:
+    """A fixed chain's parameter without a scene value: the paper's classical links (m = 0.275
+    kg, l = 0.5 m, delta = 0.1 N m s) as rods (com = l/2, J = m l^2/12), g = 9.81, no rotor
+    (Ir = 0, gr = 1); com and J from the masses and lengths in `given`."""
+    group, index = _split_fixed(name)
+    paper = PAPER_RIGS["classical"]
+    if group == "g":
+        return DEFAULT_G
+    if group in ("m", "l", "delta"):
+        return paper[group][1]
+    if group in ("Ir", "gr"):
+        return 0.0 if group == "Ir" else 1.0
+    mass = given.get(f"m{index}", paper["m"][1])
+    length = given.get(f"l{index}", paper["l"][1])
+    return length / 2 if group == "com" else mass * length**2 / 12
+
+
+def _fixed_c_field(group: str, index: int | None) -> str:
+    if index is None:
+        return f"m->p.{group}"
+    where = "m->links." if group in ("com", "J") else "m->p."
+    return f"{where}{group}[{index - 1}]"
+
+
+def fixed_layout(
+    joints: tuple[int, ...], links: int, start: dict[str, float], initial: tuple[float, ...] = ()
+) -> Layout:
+    """The FMU variables of a chain on a fixed pivot, as `layout`'s for the cart and the arm.
+
+    The links are numbered from 1 (theta1..thetan, value references 1..n), one input u_k per
+    driven joint follows the accelerations, then the four energies and the parameters of the
+    chain's C header (`fixed_parameters`).
+
+    Parameters
+    ----------
+    joints : tuple of int
+        The driven joints (1 = the shoulder), one input each in this order.
+    links : int
+        The number of links n >= 1.
+    start : dict of str to float
+        Parameter start values that replace `fixed_default_start`'s.
+    initial : tuple of float, optional
+        The states' start values, θ then θ̇ (2n, ipgen's coordinates); default all 0.
+
+    Returns
+    -------
+    Layout
+        The variables and the dependencies the model structure declares.
+    """
+    from ipgen.model.fixed_poly import fixed_poly_equations
+
+    n, inputs = links, len(joints)
+    x0 = list(initial) if len(initial) == 2 * n else [0.0] * (2 * n)
+    variables: list[Variable] = [
+        Variable(
+            0, "time", "independent", "continuous", "simulation time [s]", kind="time", c_value="m->time"
+        )
+    ]
+    q_vr = {i: i for i in range(1, n + 1)}
+    qd_vr = {i: n + i for i in range(1, n + 1)}
+    for i in range(1, n + 1):
+        variables.append(
+            Variable(
+                q_vr[i],
+                f"theta{i}",
+                "output",
+                "continuous",
+                f"absolute angle of link {i} from the upright, clockwise [rad]",
+                "exact",
+                x0[i - 1],
+                c_value=f"m->q[{i - 1}]",
+                kind="q",
+            )
+        )
+    for i in range(1, n + 1):
+        variables.append(
+            Variable(
+                qd_vr[i],
+                f"dtheta{i}",
+                "local",
+                "continuous",
+                f"rate of theta{i} [rad/s]",
+                "exact",
+                x0[n + i - 1],
+                derivative_of=q_vr[i],
+                c_value=f"m->qd[{i - 1}]",
+                kind="qd",
+            )
+        )
+    for i in range(1, n + 1):
+        variables.append(
+            Variable(
+                2 * n + i,
+                f"ddtheta{i}",
+                "local",
+                "continuous",
+                f"acceleration of theta{i} [rad/s2]",
+                "calculated",
+                derivative_of=qd_vr[i],
+                c_value=f"m->qdd[{i - 1}]",
+                kind="qdd",
+            )
+        )
+    u_vr = 3 * n + 1
+    for k, joint in enumerate(joints):
+        where = "the shoulder (joint 1)" if joint == 1 else f"joint {joint}"
+        variables.append(
+            Variable(
+                u_vr + k,
+                f"u{k + 1}",
+                "input",
+                "continuous",
+                f"torque of the motor at {where}, on link {joint} and, reacting, the body before it, "
+                "clockwise [N m]",
+                "",
+                0.0,
+                c_value=f"m->u[{k}]",
+                kind="u",
+            )
+        )
+    energy_vr = u_vr + inputs
+    energies = (
+        ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd, the rotors included [J]", "m->T"),
+        (
+            "potential_energy",
+            "potential energy V [J], zero with the centres of gravity at the pivot's height",
+            "m->V",
+        ),
+        ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
+        ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
+    )
+    for offset, (name, description, value) in enumerate(energies):
+        variables.append(
+            Variable(
+                energy_vr + offset,
+                name,
+                "output",
+                "continuous",
+                description,
+                "calculated",
+                c_value=value,
+                kind="energy",
+            )
+        )
+    given = {**{f"{g}{i}": fixed_default_start(f"{g}{i}", {}) for g in ("m", "l") for i in range(1, n + 1)}}
+    given |= start
+    for vr, name in enumerate(fixed_parameters(n, inputs), start=energy_vr + 4):
+        group, index = _split_fixed(name)
+        rule = _FIXED_RULES[group]
+        description = (
+            _FIXED_DESCRIPTIONS[group].format(i=index)
+            if index is not None
+            else "gravitational acceleration g [m/s2]"
+        )
+        variables.append(
+            Variable(
+                vr,
+                name,
+                "parameter",
+                "tunable",
+                description,
+                "exact",
+                float(start.get(name, fixed_default_start(name, given))),
+                c_value=_fixed_c_field(group, index),
+                rule=rule,
+                kind="parameter",
+                minimum="0" if rule in ("positive", "nonnegative") else None,
+            )
+        )
+
+    eqs = fixed_poly_equations(n)
+    angles, rates = _angles_and_rates(eqs, ("mass_matrix", "bias"))
+    inputs_vr = [u_vr + k for k in range(inputs)]
+    dynamics = tuple(sorted([q_vr[i] for i in angles] + [qd_vr[i] for i in rates] + inputs_vr))
+    derivatives = [(qd_vr[i], (qd_vr[i],)) for i in range(1, n + 1)]
+    derivatives += [(2 * n + i, dynamics) for i in range(1, n + 1)]
+    t_angles, t_rates = _angles_and_rates(eqs, ("kinetic_energy",))
+    for joint in joints:  # a rotor's energy: the rates of its joint's two bodies
+        t_rates |= {joint} | ({joint - 1} if joint >= 2 else set())
+    v_angles, _ = _angles_and_rates(eqs, ("potential_energy",))
+    _, d_rates = _angles_and_rates(eqs, ("dissipation",))
+    kinetic = sorted([q_vr[i] for i in t_angles] + [qd_vr[i] for i in t_rates])
+    potential = sorted(q_vr[i] for i in v_angles)
+    outputs = [(q_vr[i], (q_vr[i],)) for i in range(1, n + 1)]
+    outputs += [
+        (energy_vr, tuple(kinetic)),
+        (energy_vr + 1, tuple(potential)),
+        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
+        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
+    ]
+    return Layout(tuple(variables), n, tuple(outputs), tuple(derivatives))

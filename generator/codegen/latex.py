@@ -24,7 +24,7 @@ from fractions import Fraction
 import sympy as sp
 from sympy.printing.latex import LatexPrinter as _SympyLatexPrinter
 
-_INDEXED = re.compile(r"(ddtheta|dtheta|theta|delta|m|l|com|J_axial|J|tip)(\d+)\Z")
+_INDEXED = re.compile(r"(ddtheta|dtheta|theta|delta|m|l|com|J_axial|J|tip|Ir|gr|u)(\d+)\Z")
 _SYMBOL_LATEX = {
     "theta": r"\theta_{{{i}}}",
     "dtheta": r"\dot{{\theta}}_{{{i}}}",
@@ -37,9 +37,16 @@ _SYMBOL_LATEX = {
     "J": "J_{{{i}}}",
     "J_axial": r"J_{{\mathrm{{axial}},{i}}}",
     "tip": r"\mathrm{{tip}}_{{{i}}}",
+    # a fixed pivot's motors (docs/model.md, "A fixed pivot"): rotor inertia, gear ratio, torque
+    "Ir": r"\mathrm{{Ir}}_{{{i}}}",
+    "gr": r"\mathrm{{gr}}_{{{i}}}",
+    "u": "u_{{{i}}}",
 }
 # Parameters inside a monomial: masses, then g, lengths, damping (the paper's "m1 g l1").
-_PARAMETER_RANK = {"m": 0, "tip": 0, "g": 1, "l": 2, "com": 2, "J": 2, "J_axial": 2, "delta": 3}
+_PARAMETER_RANK = {
+    **{"m": 0, "tip": 0, "g": 1, "l": 2, "com": 2, "J": 2, "J_axial": 2, "delta": 3},
+    **{"Ir": 4, "gr": 5, "u": 6},  # a fixed pivot's rotors, then its inputs
+}
 
 
 def _split_name(symbol: sp.Symbol) -> tuple[str, int]:

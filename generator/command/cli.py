@@ -280,7 +280,7 @@ def _generate_fixed(
     force: bool,
     params: dict[str, object],
 ) -> None:
-    """`ipgen --type fixed --links N [--joints 1,2] -o DIR`: a fixed-pivot chain's headers."""
+    """`ipgen --type fixed --links N [--joints 1,2] -o DIR`: a fixed-pivot chain's files."""
     from ipgen.pipeline.fixed_generate import generate_fixed
 
     if system_type != "fixed":
@@ -290,8 +290,8 @@ def _generate_fixed(
     if extra:
         option = "--" + extra[0].replace("_", "-")
         raise job.OptionsError(
-            f"{option} with --type fixed: not yet supported for fixed-pivot models (their headers take "
-            "--links, --joints, --name, --emit cpp, c or library, and -o)"
+            f"{option} with --type fixed: not yet supported for fixed-pivot models (they take --links, "
+            "--joints, --name, --emit cpp, c, library, equations, fmu or fmu3, --force and -o)"
         )
     written = generate_fixed(links, joints, directory, name, emit, force)
     for file in written:

@@ -1,8 +1,10 @@
-"""`ipgen --type fixed --links N --joints 1,2 -o DIR`: write a fixed-pivot chain's headers.
+"""`ipgen --type fixed --links N --joints 1,2 -o DIR`: write a fixed-pivot chain's files.
 
-The options are checked in the order the command reports them, each problem one line
+The targets are the cart's and the arm's (`--emit cpp, c, library, equations, fmu, fmu3`),
+rendered by the same printers and templates over the chain's equations (`render_target`). The
+options are checked in the order the command reports them, each problem one line
 (`job.OptionsError`); the files are written all or none (`files.write_files`), as for the
-cart's and the arm's headers.
+cart's and the arm's.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from ipgen.model.fixed import joints_problem
 from ipgen.pipeline.generate import Written
 from ipgen.pipeline.job import LINKS_WITHOUT_FORCE, OptionsError
 
-FIXED_TARGETS: tuple[str, ...] = ("cpp", "c", "library")
+FIXED_TARGETS: tuple[str, ...] = ("cpp", "c", "library", "equations", "fmu", "fmu3")
 
 
 def parse_joints(text: str | None, links: int) -> tuple[int, ...]:
@@ -83,6 +85,32 @@ def plan_fixed(
     return request, Path(directory), targets
 
 
+def render_target(request: FixedHeaderRequest, target: str) -> dict[str, str | bytes]:
+    """{suffix: text or bytes} of one target of the chain (`FIXED_TARGETS`); deterministic.
+
+    Parameters
+    ----------
+    request : FixedHeaderRequest
+        The chain's name, links, driven joints and command.
+    target : str
+        One of `FIXED_TARGETS`.
+
+    Returns
+    -------
+    dict of str to str or bytes
+        File suffix -> contents (bytes for the .fmu archive).
+    """
+    if target == "equations":
+        from ipgen.codegen.equations import render_fixed_equations
+
+        return dict(render_fixed_equations(request.name, request.command, request.joints, request.links))
+    if target in ("fmu", "fmu3"):
+        from ipgen.codegen.fmu import render_fixed_fmu
+
+        return {".fmu": render_fixed_fmu(request, 2 if target == "fmu" else 3)}
+    return dict(render_fixed(request, target))
+
+
 def generate_fixed(
     links: object,
     joints: str | None,
@@ -97,7 +125,7 @@ def generate_fixed(
     for target in targets:
         files += [
             (folder / f"{request.name}{suffix}", text)
-            for suffix, text in render_fixed(request, target).items()
+            for suffix, text in render_target(request, target).items()
         ]
     created = prepare_directory(folder)
     try:
