@@ -407,7 +407,8 @@ def sweep(
     Parameters
     ----------
     scene : str or Path
-        The scene file (TOML) with a [controller] or a [swingup].
+        The scene file (TOML) with a [controller] or a [swingup]; a fixed-pivot chain's too
+        (`[system] type = "fixed"`: its model criteria and keys, docs/sweep.md).
     out : str or Path
         The folder for runs.csv, scores.json, scores.md and the PNGs; its runs.csv, if there, is
         resumed.

@@ -27,7 +27,9 @@ any scene key, e.g. parameters.m[1], initial.theta[1], controller.period. The pl
 the controller stays the one designed on the scene (unless a [controller]/[swingup] key is
 varied). Writes OUT/runs.csv (every run; an interrupted sweep resumes from it), scores.json,
 scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask ADDRESS
-(pip install 'dask[distributed]'); results are the same either way. docs/sweep.md.
+(pip install 'dask[distributed]'); results are the same either way. A fixed-pivot scene
+(acrobot, pendubot) takes the model criteria and keys, and fails a run whose torque exceeds
+its bound. docs/sweep.md.
 
 \b
 Examples:

@@ -15,7 +15,8 @@ from gymnasium import spaces
 
 from ipgen.common.safetext import abbreviate
 from ipgen.gym.checks import GymError
-from ipgen.gym.kernel import load
+from ipgen.gym.fixed import FixedSystem
+from ipgen.gym.kernel import load, observation_size
 from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
 
@@ -23,8 +24,9 @@ OBS_BOUND = np.float32(np.finfo(np.float32).max)
 
 
 def observation_space(spec: EnvSpec) -> spaces.Box:
-    """float32 Box: (q0, sin/cos of each link, rates), or CartPole-v1's four entries."""
-    size = 4 if spec.task == "cartpole" else 1 + 2 * spec.system.links + spec.system.dof
+    """float32 Box: (q0, sin/cos of each link, rates) (a fixed chain: no q0), or CartPole-v1's
+    four entries."""
+    size = 4 if spec.task == "cartpole" else observation_size(spec.system)
     if spec.task == "cartpole":  # gymnasium's own bounds
         high = np.array([spec.x_limit * 2, OBS_BOUND, spec.angle_limit * 2, OBS_BOUND], dtype=np.float32)
         return spaces.Box(-high, high, dtype=np.float32)
@@ -32,23 +34,34 @@ def observation_space(spec: EnvSpec) -> spaces.Box:
 
 
 def action_space(spec: EnvSpec) -> spaces.Space:
-    """Box [−1, 1] (scaled to ±u_max), or CartPole-v1's Discrete(2) (0: −u_max, 1: +u_max)."""
+    """Box [−1, 1] (scaled to ±u_max), or CartPole-v1's Discrete(2) (0: −u_max, 1: +u_max); a
+    fixed chain's m torques [N m]: Box [−u_max, u_max]^m."""
     if spec.task == "cartpole":
         return spaces.Discrete(2)
+    if isinstance(spec.system, FixedSystem):
+        return spaces.Box(-spec.u_max, spec.u_max, shape=(spec.system.inputs,), dtype=np.float32)
     return spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
 
 
-def actions_of(actions: Any, count: int) -> np.ndarray:
-    """`actions` as `count` float64 numbers, not NaN (the kernel clips them to ±1); otherwise the
-    GymError (a ValueError) saying what to pass."""
+def action_count(spec: EnvSpec) -> int:
+    """The numbers one action holds: the fixed chain's m inputs, else 1."""
+    return spec.system.inputs if isinstance(spec.system, FixedSystem) else 1
+
+
+def actions_of(actions: Any, count: int, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    """`actions` as `count` float64 numbers, not NaN (the kernel clips them); otherwise the
+    GymError (a ValueError) saying what to pass. `shape`: the shape the actions must have
+    (a fixed chain's (m,) or (N, m)); None: any with `count` entries."""
     try:
-        given = np.asarray(actions, dtype=np.float64).reshape(count)
+        array = np.asarray(actions, dtype=np.float64)
+        given = array.reshape(count) if shape is None or array.shape == shape else None
     except (TypeError, ValueError):
         given = None
     if given is None or np.isnan(given).any():
+        what = f"shape {shape}" if shape is not None else f"{count} number{'s' if count > 1 else ''}"
         raise GymError(
-            f"action {abbreviate(repr(actions))}: expected {count} number{'s' if count > 1 else ''} "
-            "(not NaN), e.g. an element of env.action_space"
+            f"action {abbreviate(repr(actions))}: expected {what} (not NaN), "
+            "e.g. an element of env.action_space"
         )
     return given
 
@@ -72,13 +85,14 @@ def initial_state_of(value: Any, size: int) -> np.ndarray:
     if state is None or not np.isfinite(state).all():
         raise GymError(
             f"options['state'] = {abbreviate(repr(value))}: expected {size} finite numbers "
-            "(θ0..θn, then θ̇0..θ̇n)"
+            "(the coordinates, then their rates: θ0..θn, θ̇0..θ̇n; a fixed chain's θ1..θn, θ̇1..θ̇n)"
         )
     return state
 
 
 class PendulumEnv(gymnasium.Env):
-    """An exact n-link cart or Furuta pendulum (`EnvSpec`) as a gymnasium environment.
+    """An exact n-link cart or Furuta pendulum, or a chain on a fixed pivot (`EnvSpec`), as a
+    gymnasium environment.
 
     Parameters
     ----------
@@ -91,7 +105,8 @@ class PendulumEnv(gymnasium.Env):
     -----
     `reset(options={"params": {"m": [...], ...}})` sets this episode's parameters (absolute, by
     group) instead of drawing them; `options={"state": x}` sets the initial state
-    (θ0..θn, θ̇0..θ̇n). `info["params"]` records the episode's parameters.
+    (θ0..θn, θ̇0..θ̇n; a fixed chain's θ1..θn, θ̇1..θ̇n). `info["params"]` records the
+    episode's parameters.
     """
 
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 50}
@@ -117,6 +132,12 @@ class PendulumEnv(gymnasium.Env):
             self.params, self.state, self._action, self.cfg, self.obs, self._reward, self._ended
         )
         self._discrete = spec.task == "cartpole"
+        self._inputs = action_count(spec) if isinstance(spec.system, FixedSystem) else 0
+        if self._inputs:  # a fixed chain: m torques, through an array the kernel reads
+            self._torques = np.zeros(self._inputs)
+            self._call = self.kernel.bound_step(
+                self.params, self.state, self._torques, self.cfg, self.obs, self._reward, self._ended
+            )
         self.loop = MeasuredLoop(spec.sensing, dof, 1, spec.dt) if spec.sensing is not None else None
         self._row = np.array([0])
 
@@ -138,6 +159,12 @@ class PendulumEnv(gymnasium.Env):
         return self._obs_row.copy(), {"params": self.ipgen_spec.params_info(self.params[0])}
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._inputs:
+            self._torques[:] = actions_of(action, self._inputs, (self._inputs,))
+            self._call()
+            ended = self._ended.value
+            info = {"failed": True} if ended == 2 else {}
+            return self._obs_row.copy(), self._reward.value, ended != 0, False, info
         if self._discrete:
             self._action.value = 1.0 if action == 1 else -1.0
         else:

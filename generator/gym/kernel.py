@@ -1,4 +1,5 @@
-"""The batched step kernel of one model: the generated C99 header plus templates/gym_kernel.c.jinja,
+"""The batched step kernel of one model: the generated C99 header plus templates/gym_kernel.c.jinja
+(a fixed-pivot chain: its header `codegen.fixed_header` plus templates/gym_fixed_kernel.c.jinja),
 compiled once into a shared library and called through ctypes.
 
 Why C and not numpy: an environment step is a handful of RK4 stages of a small dense system;
@@ -22,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from ipgen.codegen.c_header import render_c_header
+from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, render_fixed
 from ipgen.codegen.header import HeaderRequest, environment
 from ipgen.common.build_cache import (
     Recipe,
@@ -33,11 +35,13 @@ from ipgen.common.build_cache import (
 )
 from ipgen.common.version import __version__
 from ipgen.errors import Error
+from ipgen.gym.fixed import FixedSystem, fixed_layout
 from ipgen.model.derivation import derive
 from ipgen.model.system import System
 
 FLAGS = ("-std=c99", "-O3", "-fPIC", "-shared", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 TEMPLATE = "gym_kernel.c.jinja"
+FIXED_TEMPLATE = "gym_fixed_kernel.c.jinja"
 # The order of the task constants in the kernel's cfg[] (its enum).
 CFG_FIELDS = ("dt", "substeps", "u_max", "x_limit", "angle_limit", "task", "integrator")
 TASK_CODES = {"balance": 0, "swingup": 1, "cartpole": 2}
@@ -48,8 +52,10 @@ class KernelError(Error, RuntimeError):
     """The kernel could not be built; the message names the missing piece."""
 
 
-def model_name(system: System) -> str:
-    """The header's and kernel's model name: classical2, rotary1_pivot, rotary3_full."""
+def model_name(system: System | FixedSystem) -> str:
+    """The header's and kernel's model name: classical2, rotary1_pivot, rotary3_full, fixed2_j2."""
+    if isinstance(system, FixedSystem):
+        return system.name
     name = f"{system.type}{system.links}"
     return f"{name}_{system.inertia}" if system.is_rotary else name
 
@@ -59,13 +65,46 @@ def parameter_count(dof: int) -> int:
     return 7 * dof + 2
 
 
-def observation_size(system: System) -> int:
-    """q[0], (sin, cos) of each link angle, every rate."""
+def row_size(system: System | FixedSystem) -> int:
+    """Entries of one environment's parameter row of `system`."""
+    if isinstance(system, FixedSystem):
+        return sum(size for _, size in fixed_layout(system))
+    return parameter_count(system.dof)
+
+
+def observation_size(system: System | FixedSystem) -> int:
+    """q[0], (sin, cos) of each link angle, every rate (a fixed chain: no q[0])."""
+    if isinstance(system, FixedSystem):
+        return 3 * system.links
     return 1 + 2 * system.links + system.dof
 
 
-def sources(system: System) -> tuple[str, str]:
+def fixed_sources(system: FixedSystem) -> tuple[str, str]:
+    """(the chain's C header, the kernel's source) of a fixed chain; deterministic."""
+    name = system.name
+    command = fixed_command(name, system.links, system.joints, ("c",))
+    header = render_fixed(FixedHeaderRequest(name, system.links, system.joints, command), "c")[".h"]
+    kernel = (
+        environment()
+        .get_template(FIXED_TEMPLATE)
+        .render(
+            name=name,
+            nameu=name.upper(),
+            links=system.links,
+            joints=list(system.joints),
+            inputs=system.inputs,
+            dof=system.dof,
+            observation_size=observation_size(system),
+            version=__version__,
+        )
+    )
+    return header, kernel
+
+
+def sources(system: System | FixedSystem) -> tuple[str, str]:
     """(the C header, the kernel's source) of `system`; deterministic."""
+    if isinstance(system, FixedSystem):
+        return fixed_sources(system)
     name = model_name(system)
     header = render_c_header(
         derive(system),
@@ -92,7 +131,7 @@ def cache_folder() -> Path:
     return cache_root() / "gym"
 
 
-def build(system: System) -> Path:
+def build(system: System | FixedSystem) -> Path:
     """The compiled kernel of `system`: from the cache, or compiled into it."""
     header, kernel = sources(system)
     name = model_name(system)
@@ -119,7 +158,7 @@ _BYTES = np.ctypeslib.ndpointer(dtype=np.uint8, flags="C_CONTIGUOUS")
 class Kernel:
     """The loaded kernel of one model: `step` and `observe` over N environments at once."""
 
-    system: System
+    system: System | FixedSystem
     library: ctypes.CDLL
 
     def _step_function(self) -> Any:
@@ -174,7 +213,8 @@ class Kernel:
         terminated: np.ndarray,
     ) -> int:
         """Advance every row of `state` (N × 2 dof, in place) by cfg's dt; returns the failures.
-        `params` N rows, `action`, `reward`, `terminated` (uint8) N entries, `obs` N rows (float32)."""
+        `params` N rows, `action` N entries (a fixed chain: N × m), `reward`, `terminated` (uint8)
+        N entries, `obs` N rows (float32)."""
         return int(self._step(len(state), params, state, action, cfg, obs, obs.shape[1], reward, terminated))
 
     def observe(self, state: np.ndarray, cfg: np.ndarray, obs: np.ndarray) -> None:
@@ -183,6 +223,6 @@ class Kernel:
 
 
 @cache
-def load(system: System) -> Kernel:
+def load(system: System | FixedSystem) -> Kernel:
     """The kernel of `system`, built if needed and loaded once per process."""
     return Kernel(system, ctypes.CDLL(str(build(system))))

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ipgen.gym.checks import GymError, is_number
+from ipgen.gym.fixed import LEADERBOARD_TORQUE, FixedSystem, fixed_document, fixed_row, scene_torque
 from ipgen.gym.sensing import Sensing
 from ipgen.gym.spec import GROUPS, EnvSpec
 from ipgen.model.paper import paper_pendulum
@@ -28,6 +29,9 @@ TASK_DEFAULTS = {
     ("classical", "swingup"): (50.0, 2.4, 0.01, 4, 1000),
     ("rotary", "balance"): (5.0, math.pi, 0.01, 4, 500),
     ("rotary", "swingup"): (5.0, math.inf, 0.01, 4, 1000),
+    # a chain on a fixed pivot (no base: x_limit unused); u_max [N m] the RealAIGym leaderboard's
+    ("fixed", "balance"): (LEADERBOARD_TORQUE, math.inf, 0.01, 4, 500),
+    ("fixed", "swingup"): (LEADERBOARD_TORQUE, math.inf, 0.01, 4, 1000),
 }
 MOTOR_VOLTS = 10.0  # the action's scale with a DC motor (the QUBE-Servo 2's amplifier limit)
 CARTPOLE_ANGLE = 12 * 2 * math.pi / 360  # gymnasium's theta_threshold_radians
@@ -52,7 +56,7 @@ def paper_system(type: str, links: int, inertia: str = "pivot") -> tuple[System,
 
 
 def spec_for(
-    system: System,
+    system: System | FixedSystem,
     row: np.ndarray,
     task: str = "balance",
     *,
@@ -108,8 +112,17 @@ def cartpole_spec() -> EnvSpec:
                    angle_limit=CARTPOLE_ANGLE, integrator="euler", max_episode_steps=500)  # fmt: skip
 
 
-def spec_from_source(source: Any, task: str, **options: Any) -> EnvSpec:
-    """An EnvSpec from a Pendulum, a scene file, a preset name or "cartpole-v1"."""
+def spec_from_source(source: Any, task: str | None, **options: Any) -> EnvSpec:
+    """An EnvSpec from a Pendulum, a FixedPendulum, a scene file, a preset name, "acrobot",
+    "pendubot" or "cartpole-v1". `task` None: "swingup" for a fixed scene with a [swingup]
+    table, else "balance"."""
+    fixed = None if isinstance(source, Pendulum) else fixed_document(source)
+    if fixed is not None:  # a chain on a fixed pivot: its torques bounded by the scene's limit
+        chain, document = fixed
+        options.setdefault("u_max", scene_torque(document))
+        chosen = task if task is not None else ("swingup" if "swingup" in document else "balance")
+        return spec_for(FixedSystem(chain.links, tuple(chain.joints)), fixed_row(chain), chosen, **options)
+    task = "balance" if task is None else task
     if isinstance(source, str) and source.lower() == "cartpole-v1":
         steps = options.pop("max_episode_steps", None)
         if options or task not in ("balance", "cartpole"):

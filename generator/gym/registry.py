@@ -18,38 +18,42 @@ TASK_NAMES = {"balance": "Balance", "swingup": "SwingUp"}
 
 
 def _spec(
-    source: Any = None, task: str = "balance", paper: tuple[str, int] | None = None, **options: Any
+    source: Any = None, task: str | None = None, paper: tuple[str, int] | None = None, **options: Any
 ) -> EnvSpec:
     if paper is not None:
         system, row = paper_system(*paper)
-        return spec_for(system, row, task, **options)
+        return spec_for(system, row, task or "balance", **options)
     return spec_from_source(source, task, **options)
 
 
 def make(
     source: Any = None,
-    task: str = "balance",
+    task: str | None = None,
     *,
     preset: str | None = None,
     render_mode: str | None = None,
     **options: Any,
 ) -> gymnasium.Env:
-    """An environment of `source` (an ipgen.Pendulum, a scene file, a preset name or
-    "cartpole-v1") for `task` ("balance" or "swingup"), wrapped in gymnasium's TimeLimit.
+    """An environment of `source` (an ipgen.Pendulum or ipgen.FixedPendulum, a scene file, a
+    preset name, "acrobot", "pendubot" or "cartpole-v1") for `task` ("balance" or "swingup"),
+    wrapped in gymnasium's TimeLimit.
 
     Parameters
     ----------
-    source : ipgen.Pendulum, str or pathlib.Path
-        What to simulate.
+    source : ipgen.Pendulum, ipgen.FixedPendulum, str or pathlib.Path
+        What to simulate. "acrobot" and "pendubot" are the presets acrobot_swingup and
+        pendubot_swingup (the RealAIGym leaderboard's rigs).
     preset : str, optional
         The same as a preset's name as `source` (e.g. `preset="cartpole-v1"`).
-    task : str
-        "balance" or "swingup".
+    task : str, optional
+        "balance" or "swingup". None (the default): "swingup" for a fixed-pivot scene with a
+        [swingup] table, else "balance".
     render_mode : str, optional
         "rgb_array" or None.
     **options
         `EnvSpec` fields: dt, substeps, u_max, x_limit, angle_limit, spread, initial_noise,
-        max_episode_steps.
+        max_episode_steps (a fixed chain: u_max [N m] defaults to the scene's swing-up u_max or
+        controller saturation, else 6 N m).
 
     Returns
     -------
@@ -59,6 +63,8 @@ def make(
     --------
     >>> env = make("cartpole-v1")
     >>> obs, info = env.reset(seed=0)
+    >>> make("acrobot", task="swingup").action_space.shape
+    (1,)
     """
     if (source is None) == (preset is None):
         raise GymError("make() takes what to simulate: a Pendulum, a scene file or preset=NAME (one of them)")
@@ -66,7 +72,7 @@ def make(
     return TimeLimit(PendulumEnv(spec, render_mode=render_mode), spec.max_episode_steps)
 
 
-def make_vec(source: Any, num_envs: int, task: str = "balance", **options: Any) -> PendulumVectorEnv:
+def make_vec(source: Any, num_envs: int, task: str | None = None, **options: Any) -> PendulumVectorEnv:
     """`num_envs` environments of `source` in one batched kernel (see `make` for the arguments)."""
     return PendulumVectorEnv(_spec(source, task, **options), num_envs)
 
@@ -90,6 +96,9 @@ def ids() -> dict[str, dict[str, Any]]:
                 table[f"ipgen/{base}{size}-{task_name}-v0"] = {"paper": (type, links), "task": task}
     for task, task_name in TASK_NAMES.items():
         table[f"ipgen/QubeServo2-{task_name}-v0"] = {"source": "qube_servo2", "task": task}
+    for name, preset in (("Acrobot", "acrobot_swingup"), ("Pendubot", "pendubot_swingup")):
+        for task, task_name in TASK_NAMES.items():  # the RealAIGym leaderboard's rigs, ±6 N m
+            table[f"ipgen/{name}-{task_name}-v0"] = {"source": preset, "task": task}
     return table
 
 

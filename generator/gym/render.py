@@ -1,8 +1,8 @@
 """`render_mode="rgb_array"`: a drawing of one environment's state to scale (matplotlib, Agg).
 
-A cart is drawn from the front (the rail horizontal, the links in the picture's plane); a Furuta
-arm in a cabinet projection (the arm turning in the horizontal plane, drawn foreshortened, the
-links swinging across it).
+A cart is drawn from the front (the rail horizontal, the links in the picture's plane), a chain on
+a fixed pivot likewise from its pivot; a Furuta arm in a cabinet projection (the arm turning in
+the horizontal plane, drawn foreshortened, the links swinging across it).
 """
 
 from __future__ import annotations
@@ -23,6 +23,12 @@ def points(spec: EnvSpec, state: np.ndarray, row: np.ndarray) -> np.ndarray:
     dof = spec.system.dof
     lengths = spec.group(row, "l")
     q = state[:dof]
+    if spec.system.type == "fixed":  # from the pivot at the origin, link 1 first
+        xs, ys = [0.0], [0.0]
+        for i in range(dof):
+            xs.append(xs[-1] + lengths[i] * math.sin(q[i]))
+            ys.append(ys[-1] + lengths[i] * math.cos(q[i]))
+        return np.column_stack([xs, ys])
     if spec.system.type == "classical":
         xs, ys = [q[0]], [0.0]
         for i in range(1, dof):
@@ -56,6 +62,9 @@ def draw(spec: EnvSpec, state: np.ndarray, row: np.ndarray) -> np.ndarray:
         axes.add_patch(matplotlib.patches.Rectangle((chain[0, 0] - 0.15 * reach, -0.08 * reach),
                                                     0.3 * reach, 0.16 * reach, color="0.3"))  # fmt: skip
         axes.set_xlim(centre - reach * 4 / 3, centre + reach * 4 / 3)
+    elif spec.system.type == "fixed":
+        axes.plot([-0.2 * reach, 0.2 * reach], [0, 0], color="0.3", lw=4)  # the pivot's mount
+        axes.set_xlim(-reach * 4 / 3, reach * 4 / 3)
     else:
         axes.plot(chain[:2, 0], chain[:2, 1], color="0.3", lw=4)
         axes.set_xlim(-reach * 4 / 3, reach * 4 / 3)

@@ -7,12 +7,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ipgen.gym.checks import GymError, is_integer, is_number
-from ipgen.gym.kernel import CFG_FIELDS, INTEGRATOR_CODES, TASK_CODES, parameter_count
+from ipgen.gym.fixed import FixedSystem, fixed_layout
+from ipgen.gym.kernel import CFG_FIELDS, INTEGRATOR_CODES, TASK_CODES, row_size
 from ipgen.model.system import System
 
 if TYPE_CHECKING:
@@ -24,16 +26,42 @@ TASKS = ("balance", "swingup", "cartpole")
 FLOAT32_MAX = float(np.finfo(np.float32).max)  # the observation's largest entry
 
 
+def layout(system: System | FixedSystem) -> tuple[tuple[str, int], ...]:
+    """The parameter row's groups and their sizes, in the kernel's order: `GROUPS` (dof entries
+    each), g and the input's gain; a fixed chain's `fixed.fixed_layout`."""
+    if isinstance(system, FixedSystem):
+        return fixed_layout(system)
+    return (*((name, system.dof) for name in GROUPS), ("g", 1), ("gain", 1))
+
+
+@cache
+def slices(system: System | FixedSystem) -> dict[str, slice]:
+    """Each group's slice of the parameter row (`layout`), computed once per model."""
+    found, start = {}, 0
+    for name, size in layout(system):
+        found[name] = slice(start, start + size)
+        start += size
+    return found
+
+
+@cache
+def spreadable(system: System | FixedSystem) -> tuple[str, ...]:
+    """The groups a spread or `options["params"]` may set, in the order they are drawn."""
+    return tuple(name for name, _ in layout(system) if name != "gain")
+
+
 @dataclass(frozen=True)
 class EnvSpec:
     """One environment's model, task and randomisation.
 
     Attributes
     ----------
-    system : System
-        The pendulum's type, links and inertia (one compiled kernel each).
+    system : System or FixedSystem
+        The pendulum's type, links and inertia, or a fixed chain's links and driven joints (one
+        compiled kernel each).
     nominal : numpy.ndarray
-        The parameter row (`GROUPS`, then g and the input's gain), the motor already folded in.
+        The parameter row (`layout`: `GROUPS`, then g and the input's gain, the motor already
+        folded in; a fixed chain's m, l, delta, com, J, g, Ir, gr).
     task : str
         "balance" (reward 1 a step until a link leaves `angle_limit` or the base `x_limit`),
         "swingup" (reward the links' mean upright-ness (1 + cos θi)/2, ends only at `x_limit`),
@@ -41,7 +69,8 @@ class EnvSpec:
     dt, substeps : float, int
         The control interval [s] and the RK4 steps inside it.
     u_max : float
-        The input for action +1: N, N m, or V with a DC motor.
+        The input for action +1: N, N m, or V with a DC motor; a fixed chain's actions are
+        torques [N m] in [−u_max, u_max].
     x_limit, angle_limit : float
         Termination bounds [m or rad] (inf: none).
     spread : Mapping[str, float]
@@ -52,7 +81,7 @@ class EnvSpec:
         Truncation (gymnasium's TimeLimit).
     """
 
-    system: System
+    system: System | FixedSystem
     nominal: np.ndarray
     task: str = "balance"
     dt: float = 0.01
@@ -88,14 +117,22 @@ class EnvSpec:
                 f"initial_noise = {self.initial_noise!r:.40} must be a number >= 0 and at most "
                 f"{FLOAT32_MAX:.3g} (the observation is float32)"
             )
+        names = spreadable(self.system)
         for key, width in self.spread.items():
-            if key not in (*GROUPS, "g"):
-                raise GymError(f"spread names {key!r:.40}: choose from {', '.join((*GROUPS, 'g'))}")
+            if key not in names:
+                raise GymError(f"spread names {key!r:.40}: choose from {', '.join(names)}")
             if not (is_number(width) and 0 <= width < 1):
                 raise GymError(f"spread[{key!r}] = {width!r:.40} must be a relative half-width in [0, 1)")
         if self.sensing is not None and self.task == "cartpole":
             raise GymError("the cartpole-v1 preset observes the exact state: sensors are not supported there")
-        if self.nominal.shape != (parameter_count(self.system.dof),):
+        if self.system.type == "fixed":
+            if self.task == "cartpole" or self.integrator != "rk4":
+                raise GymError("a fixed-pivot chain's tasks are balance and swingup (RK4)")
+            if self.sensing is not None:
+                raise GymError(
+                    "sensors are not supported for fixed-pivot chains yet: the observation is the exact state"
+                )
+        if self.nominal.shape != (row_size(self.system),):
             raise GymError("the parameter row has the wrong length for this model")
 
     @property
@@ -113,15 +150,9 @@ class EnvSpec:
         return np.array([values[name] for name in CFG_FIELDS], dtype=np.float64)
 
     def group(self, row: np.ndarray, name: str) -> np.ndarray:
-        """The view of parameter group `name` (or "g", "gain") in a parameter row (or in the
-        last axis of a stack of rows)."""
-        dof = self.system.dof
-        if name == "g":
-            return row[..., 7 * dof : 7 * dof + 1]
-        if name == "gain":
-            return row[..., 7 * dof + 1 :]
-        i = GROUPS.index(name)
-        return row[..., i * dof : (i + 1) * dof]
+        """The view of parameter group `name` (`layout`: "m", ..., "g", "gain"; a fixed chain's
+        "Ir", "gr") in a parameter row (or in the last axis of a stack of rows)."""
+        return row[..., slices(self.system)[name]]
 
     def draw(self, rng: np.random.Generator, overrides: Mapping[str, object] | None = None) -> np.ndarray:
         """One episode's parameter row: the nominal one, each group in `spread` scaled by
@@ -130,16 +161,15 @@ class EnvSpec:
         row = self.nominal.copy()
         if not self.spread and not overrides:  # the common case, without the loop (an autoreset)
             return row
-        for name in (*GROUPS, "g"):
+        names = spreadable(self.system)
+        for name in names:
             width = self.spread.get(name, 0.0)
             if width:
                 view = self.group(row, name)
                 view *= 1.0 + rng.uniform(-width, width, size=view.shape)
         for name, value in (overrides or {}).items():
-            if name not in (*GROUPS, "g"):
-                raise GymError(
-                    f"options['params'] names {name!r:.40}: choose from {', '.join((*GROUPS, 'g'))}"
-                )
+            if name not in names:
+                raise GymError(f"options['params'] names {name!r:.40}: choose from {', '.join(names)}")
             view = self.group(row, name)
             given = np.asarray(value, dtype=np.float64).reshape(-1)
             if given.shape != view.shape or not np.all(np.isfinite(given)):
@@ -150,16 +180,17 @@ class EnvSpec:
     def initial_state(self, rng: np.random.Generator) -> np.ndarray:
         """The state at reset: upright (balance) or hanging (swing-up), plus U(−noise, noise)."""
         dof = self.system.dof
+        first = 0 if self.system.type == "fixed" else 1  # the first link's coordinate
         if self.task == "cartpole":  # gymnasium's draw: (x, x_dot, theta, theta_dot)
             x, x_dot, theta, theta_dot = rng.uniform(low=-0.05, high=0.05, size=(4,))
             return np.array([x, theta, x_dot, theta_dot])
         state = rng.uniform(-self.initial_noise, self.initial_noise, size=2 * dof)
         if self.task == "swingup":
-            state[1:dof] += math.pi
+            state[first:dof] += math.pi
         return state
 
     def params_info(self, row: np.ndarray) -> dict[str, np.ndarray]:
         """The row (or stack of rows) as a dict for `info["params"]`, the caller's own: views of
         one copy of `row` (one copy per group, strided, costs several times more for N rows)."""
         own = row.copy()
-        return {name: self.group(own, name) for name in (*GROUPS, "g", "gain")}
+        return {name: own[..., part] for name, part in slices(self.system).items()}

@@ -15,7 +15,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ipgen.gym.budget import check_num_envs
-from ipgen.gym.env import action_space, actions_of, check_observation, observation_space
+from ipgen.gym.env import action_count, action_space, actions_of, check_observation, observation_space
+from ipgen.gym.fixed import FixedSystem
 from ipgen.gym.kernel import load
 from ipgen.gym.sensing import MeasuredLoop
 from ipgen.gym.spec import EnvSpec
@@ -54,7 +55,10 @@ class PendulumVectorEnv(VectorEnv):
         dof = spec.system.dof
         self.params = np.tile(spec.nominal, (num_envs, 1))
         self.state = np.zeros((num_envs, 2 * dof))
-        self.actions = np.zeros(num_envs)
+        self._fixed = isinstance(spec.system, FixedSystem)
+        self._inputs = action_count(spec)
+        # A fixed chain's actions: N × m torques (row-major, as the kernel reads them).
+        self.actions = np.zeros((num_envs, self._inputs)) if self._fixed else np.zeros(num_envs)
         self.obs = np.zeros((num_envs, self.single_observation_space.shape[0]), dtype=np.float32)
         self.rewards = np.zeros(num_envs)
         self.ended = np.zeros(num_envs, dtype=np.uint8)
@@ -104,11 +108,12 @@ class PendulumVectorEnv(VectorEnv):
         return self.obs.copy(), self._params_info(np.ones(self.num_envs, dtype=bool))
 
     def step(self, actions: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        given = actions_of(actions, self.num_envs)
-        if self.ipgen_spec.task == "cartpole":
-            self.actions[:] = np.where(given == 1, 1.0, -1.0)
+        if self._fixed:  # N × m torques [N m]
+            shape = (self.num_envs, self._inputs)
+            self.actions[:] = actions_of(actions, self.num_envs * self._inputs, shape).reshape(shape)
         else:
-            self.actions[:] = given
+            given = actions_of(actions, self.num_envs)
+            self.actions[:] = np.where(given == 1, 1.0, -1.0) if self.ipgen_spec.task == "cartpole" else given
         if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
             active = np.flatnonzero(~self.needs_reset)
             self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)

@@ -23,12 +23,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.errors import Error
+from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps.spec import SEEDED_KEYS
 from ipgen.sweeps.success import Success, judge
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
+    from ipgen.sweeps.fixed import FixedScene
 
 
 @dataclass(frozen=True)
@@ -42,11 +44,15 @@ class SceneSource:
     # them (else the worker generates them: the same text, as generation is deterministic).
     model: str = ""
     header: tuple[tuple[str, str], ...] = ()
+    # Files the scene names beside it ((file name, text): a fixed swing-up's plan CSV), written
+    # beside the worker's copy of the scene.
+    files: tuple[tuple[str, str], ...] = ()
 
     @property
     def digest(self) -> str:
-        """SHA-256 of the stem and text: what a worker caches its preparation under."""
-        return hashlib.sha256(f"{self.stem}\0{self.text}\0{self.cache}".encode()).hexdigest()
+        """SHA-256 of the stem, text and files: what a worker caches its preparation under."""
+        files = "\0".join(f"{name}\0{text}" for name, text in self.files)
+        return hashlib.sha256(f"{self.stem}\0{self.text}\0{self.cache}\0{files}".encode()).hexdigest()
 
 
 @dataclass(frozen=True)
@@ -79,15 +85,17 @@ class Result:
 
 @dataclass
 class Prepared:
-    """A scene prepared in this process: nominal scene, document, simulator, scratch folder."""
+    """A scene prepared in this process: nominal scene, document, simulator, scratch folder (a
+    fixed-pivot scene: `fixed`, its nominal run planned, and no `scene`)."""
 
     path: Path
-    scene: Scene
+    scene: Scene | None
     document: dict
     simulator: Path
     scratch: Path
     model: str
     header: tuple[tuple[str, str], ...]  # the model library's sources
+    fixed: FixedScene | None = None
 
 
 _PREPARED: dict[str, Prepared] = {}
@@ -137,6 +145,18 @@ def prepare(source: SceneSource) -> Prepared:
         atexit.register(shutil.rmtree, scratch, ignore_errors=True)
         path = scratch / f"{source.stem}.toml"
         path.write_text(source.text)
+        for file_name, text in source.files:  # beside the scene (names checked by fixed.files)
+            (scratch / file_name).write_text(text)
+        if fixed_sweep.is_fixed_scene(path):
+            fixed = fixed_sweep.prepare(fixed_sweep.load_fixed(path))
+            sources = dict(fixed.plan.sources)
+            simulator = build(sources, fixed.plan.name, None if source.cache is None else Path(source.cache))
+            prepared = Prepared(
+                path, None, fixed.document, simulator.path, scratch, fixed.plan.name,
+                tuple(sources.items()), fixed,
+            )  # fmt: skip
+            _PREPARED[source.digest] = prepared
+            return prepared
         name, header = (
             (source.model, source.header) if source.header else header_text(path, scratch / "model")
         )
@@ -204,6 +224,9 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
 
     started = time.perf_counter()
     prepared = prepare(source)
+    if prepared.fixed is not None:
+        return _run_fixed(prepared, prepared.fixed, task, test, started)
+    assert prepared.scene is not None
     try:
         changes = _seeded(prepared, task)
         document = override.apply(prepared.document, prepared.scene, changes)
@@ -264,6 +287,47 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         verdict.t_final,
         time.perf_counter() - started,
     )
+
+
+def _simulate(
+    prepared: Prepared, task: Task, cfg_text: str
+) -> tuple[subprocess.CompletedProcess, Path, Path]:
+    """Write the run's cfg to the scratch folder and run the simulator on it: (its process, the
+    cfg, the CSV); the caller removes both files."""
+    stem = f"run{task.index}_{threading.get_ident()}"
+    cfg, csv = prepared.scratch / f"{stem}.cfg", prepared.scratch / f"{stem}.csv"
+    cfg.write_text(cfg_text)
+    done = subprocess.run(
+        [str(prepared.simulator), str(cfg), "--csv", str(csv), "--force"], capture_output=True, text=True
+    )
+    return done, cfg, csv
+
+
+def _run_fixed(prepared: Prepared, scene: FixedScene, task: Task, test: Success, started: float) -> Result:
+    """A fixed-pivot scene's run (`sweeps.fixed`): refused, failed or passed."""
+    nan = float("nan")
+    try:
+        cfg_text = fixed_sweep.run_config(scene, prepared.path, task.overrides)
+    except Error as error:  # without the scratch folder's name (the same on every worker)
+        reason = _message(error, prepared.path).replace(f"{prepared.scratch.as_posix()}/", "")
+        return _refused(task, reason, started)
+    done, cfg, csv = _simulate(prepared, task, cfg_text)
+    try:
+        if done.returncode == 2:  # the simulator refused the resolved scene
+            return _refused(task, " ".join(done.stderr.split())[:300] or "refused by the simulator", started)
+        try:
+            verdict = fixed_sweep.judge_run(test, csv, cfg_text, scene.chain.links, done.returncode)
+        except (OSError, ValueError):
+            elapsed = time.perf_counter() - started
+            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan, elapsed)
+    finally:
+        cfg.unlink(missing_ok=True)
+        csv.unlink(missing_ok=True)
+    return Result(
+        task, "pass" if verdict.passed else "fail", verdict.reason, done.returncode, verdict.angle_error,
+        verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
+        time.perf_counter() - started,
+    )  # fmt: skip
 
 
 def run_batch(source: SceneSource, tasks: list[Task], test: Success) -> list[Result]:

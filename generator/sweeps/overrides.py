@@ -10,6 +10,7 @@ relations between keys) judges every level with its usual one-line messages.
 from __future__ import annotations
 
 import copy
+from collections.abc import Callable
 from decimal import Decimal
 from typing import TYPE_CHECKING, Any
 
@@ -54,19 +55,26 @@ def nominal_array(scene: Scene, key: Key) -> list[float] | None:
 
 
 def apply(
-    document: dict[str, Any], scene: Scene, overrides: tuple[tuple[str, object], ...]
+    document: dict[str, Any],
+    scene: Scene,
+    overrides: tuple[tuple[str, object], ...],
+    *,
+    parse: Callable[[str], Key] = parse_key,
+    defaults: Callable[[Key], list[float] | None] | None = None,
 ) -> dict[str, Any]:
-    """A copy of `document` with each (key text, value) of `overrides` set."""
+    """A copy of `document` with each (key text, value) of `overrides` set. `parse` checks each
+    key (a fixed chain's sweep: its own keys), `defaults` gives an array the document does not
+    write (default `nominal_array` of `scene`)."""
     changed = copy.deepcopy(document)
     for text, value in overrides:
-        key = parse_key(text)
+        key = parse(text)
         table = changed.setdefault(key.table, {})
         if key.index is None:
             table[key.name] = as_toml(value)
             continue
         current = table.get(key.name)
         if current is None:
-            current = nominal_array(scene, key)
+            current = nominal_array(scene, key) if defaults is None else defaults(key)
             if current is None:
                 raise SweepError(
                     f"{key.text}: the scene has no array {key.table}.{key.name} to index; vary the whole key"

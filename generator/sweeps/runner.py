@@ -10,15 +10,20 @@ from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ipgen.common import files
 from ipgen.common.safetext import shown_path
 from ipgen.sweeps import engine, execute, plots, scorecard, table
+from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scores as scoring
 from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
 from ipgen.sweeps.spec import Criterion, SweepError, check_total, grid, parse_vary
 from ipgen.sweeps.success import Success
+
+if TYPE_CHECKING:
+    from ipgen.experiment.scene import Scene
 
 MAX_SCENE_CHARS = 1_000_000
 
@@ -75,6 +80,7 @@ class Planned:
     test: Success
     seed: int
     digest: str = ""  # table.sweep_digest: every row carries it
+    note: str = ""  # what the success test adds for this scene (a fixed chain's: fixed.NOTE)
 
     def values(self, task: Task) -> tuple[float, ...]:
         """The values of the run's level."""
@@ -112,7 +118,64 @@ def sweep(
     if not scorecard_criteria and not vary:
         raise SweepError("nothing to sweep: pass --scorecard, or --vary KEY=LO:HI:N (repeatable)")
     path, out = Path(scene), Path(out)
-    nominal = load_scene(path)  # a scene with a problem stops here, with its own message
+    fixed = fixed_sweep.load_fixed(path) if fixed_sweep.is_fixed_scene(path) else None
+    criteria: list[Criterion] = []
+    nominal: Scene | None = None
+    if fixed is not None:  # a chain on a fixed pivot (sweeps/fixed.py)
+        if not fixed.controlled:
+            raise SweepError(
+                f"{shown_path(path)} has no [controller] or [swingup]: a sweep judges a closed loop "
+                "(its goal is the controller's equilibrium or the swing-up's target)"
+            )
+        if scorecard_criteria:
+            chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
+            criteria += fixed_sweep.fixed_criteria(fixed, chosen, levels, repeat)
+        elif levels:
+            raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
+        if vary:
+            criteria.append(grid([fixed_sweep.parse_vary_fixed(spec) for spec in vary], repeat or 1))
+        check_total(criteria)
+        fixed_sweep.check_keys(fixed, criteria)
+    else:
+        nominal = load_scene(path)  # a scene with a problem stops here, with its own message
+        criteria = _criteria(path, nominal, scorecard_criteria, vary, levels, repeat)
+    text = path.read_text()
+    if len(text) > MAX_SCENE_CHARS:
+        raise SweepError(f"{shown_path(path)} is too large for a sweep")
+    beside = fixed.files() if fixed is not None else ()
+    if dask is not None:
+        engine.check_address(dask)
+    tasks = plan(criteria, seed, nominal)
+    _check_out(out, force)
+    digest = table.sweep_digest(text + "".join(f"\0{name}\0{body}" for name, body in beside), test)
+    finished = table.resumable(out / "runs.csv", tasks, force, digest)
+    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()), files=beside)
+    try:
+        # Generated and built once here: the workers get the header and find the simulator in the
+        # cache (forked local workers inherit this preparation).
+        prepared = prepare(source)
+        source = replace(source, model=prepared.model, header=prepared.header)
+        note = fixed_sweep.NOTE if fixed is not None else ""
+        planned = Planned(source, criteria, tasks, test, seed, digest, note)
+        with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+            files.prepare_directory(out)
+            return _run(planned, finished, pool, workers, out, progress, plot)
+    except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
+        execute.release()  # the scratch folders now, not at exit
+        raise
+
+
+def _criteria(
+    path: Path,
+    nominal: Scene,
+    scorecard_criteria: bool | tuple[str, ...],
+    vary: tuple[str, ...],
+    levels: dict[str, str] | None,
+    repeat: int | None,
+) -> list[Criterion]:
+    """The criteria of a cart's or arm's scene: the scorecard's and the `--vary` grid, checked."""
+    from ipgen.experiment.scene import read_document
+
     if nominal.specialise and any(spec.strip().startswith("parameters.") for spec in vary):
         raise SweepError(
             f"{shown_path(path)} is specialised (its parameters are compiled in): "
@@ -121,8 +184,6 @@ def sweep(
     criteria: list[Criterion] = []
     if scorecard_criteria:
         chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
-        from ipgen.experiment.scene import read_document
-
         estimator = read_document(path).get("estimator", {}).get("kind", "exact")
         criteria += scorecard.criteria(nominal, chosen, levels, repeat, str(estimator))
     elif levels:
@@ -131,28 +192,7 @@ def sweep(
         criteria.append(grid([parse_vary(spec) for spec in vary], repeat or 1))
     check_total(criteria)  # before the runs are planned: a bound on the work, in one line
     _check_keys(path, nominal, criteria)
-    text = path.read_text()
-    if len(text) > MAX_SCENE_CHARS:
-        raise SweepError(f"{shown_path(path)} is too large for a sweep")
-    if dask is not None:
-        engine.check_address(dask)
-    tasks = plan(criteria, seed, nominal)
-    _check_out(out, force)
-    digest = table.sweep_digest(text, test)
-    finished = table.resumable(out / "runs.csv", tasks, force, digest)
-    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()))
-    try:
-        # Generated and built once here: the workers get the header and find the simulator in the
-        # cache (forked local workers inherit this preparation).
-        prepared = prepare(source)
-        source = replace(source, model=prepared.model, header=prepared.header)
-        planned = Planned(source, criteria, tasks, test, seed, digest)
-        with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
-            files.prepare_directory(out)
-            return _run(planned, finished, pool, workers, out, progress, plot)
-    except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
-        execute.release()  # the scratch folders now, not at exit
-        raise
+    return criteria
 
 
 def _check_keys(path: Path, nominal: object, criteria: list[Criterion]) -> None:
@@ -228,8 +268,8 @@ def _write_outputs(
     total = scoring.total(found)
     written = [out / "runs.csv"]
     for name, text in (
-        ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed)),
-        ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows))),
+        ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed, planned.note)),
+        ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows), planned.note)),
     ):
         with files.replacing(out / name) as partial:
             partial.write_text(text, encoding="utf-8")

@@ -78,12 +78,13 @@ def total(scores: list[CriterionScore]) -> float | None:
     return sum(counted) / len(counted) if counted else None
 
 
-def as_json(scene: str, test: Success, scores: list[CriterionScore], seed: int) -> str:
-    """scores.json: the scene, the success test, each criterion's levels and score, the total."""
+def as_json(scene: str, test: Success, scores: list[CriterionScore], seed: int, note: str = "") -> str:
+    """scores.json: the scene, the success test (`note`: what it adds for this scene, e.g. a
+    fixed chain's torque bound), each criterion's levels and score, the total."""
     document = {
         "scene": scene,
         "success": test.as_dict(),
-        "success_text": test.text(),
+        "success_text": test.text() + note,
         "seed": seed,
         "score": total(scores),
         "criteria": [
@@ -149,13 +150,13 @@ def _first_failure(s: CriterionScore) -> str:
     return "—"
 
 
-def as_markdown(scene: str, test: Success, scores: list[CriterionScore], runs: int) -> str:
-    """scores.md: the scorecard as a table, the test stated."""
+def as_markdown(scene: str, test: Success, scores: list[CriterionScore], runs: int, note: str = "") -> str:
+    """scores.md: the scorecard as a table, the test stated (and `note`, as in `as_json`)."""
     lines = [
         f"# Robustness of {scene}",
         "",
         f"Score {_percent(total(scores))} (the mean of the criteria's scores; {runs} runs). Success test: "
-        f"{test.text()}.",
+        f"{test.text()}{note}.",
         "",
         "| criterion | varies | levels | runs per level | levels passed | score | first level that fails |",
         "|---|---|---|---|---|---|---|",

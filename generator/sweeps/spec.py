@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from ipgen.common.safetext import abbreviate
@@ -27,7 +28,7 @@ MAX_LEVELS = 10_000
 # Runs of one sweep at most (levels × repetitions over every criterion): each is planned before the
 # first one starts (its task, later its row), so the total is bounded before anything is built.
 MAX_RUNS = 100_000
-_KEY = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
+KEY_PATTERN = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
 
 
 class SweepError(Error, ValueError):
@@ -55,7 +56,7 @@ class Key:
 
 def parse_key(text: str) -> Key:
     """A `Key` from `table.name` or `table.name[i]`, checked against the scene format."""
-    match = _KEY.match(text.strip())
+    match = KEY_PATTERN.match(text.strip())
     if match is None:
         raise SweepError(
             f"--vary key {abbreviate(text)!r} is not a scene key: write table.key or table.key[i], "
@@ -123,15 +124,16 @@ def parse_levels(text: str, spec: str) -> tuple[float, ...]:
     return tuple(_number(item, spec) for item in items)
 
 
-def parse_vary(spec: str) -> tuple[Key, tuple[float, ...]]:
-    """`KEY=LO:HI:N` or `KEY=v1,v2,…` as (key, levels)."""
+def parse_vary(spec: str, parse: Callable[[str], Key] | None = None) -> tuple[Key, tuple[float, ...]]:
+    """`KEY=LO:HI:N` or `KEY=v1,v2,…` as (key, levels); `parse` checks the key (default
+    `parse_key`, a cart's or arm's scene; a fixed chain's: `sweeps.fixed.parse_fixed_key`)."""
     if "=" not in spec:
         raise SweepError(
             f"--vary {abbreviate(spec)!r}: expected KEY=LO:HI:N or KEY=v1,v2,..., "
             "e.g. parameters.m[1]=0.2:0.3:5"
         )
     key_text, _, levels = spec.partition("=")
-    return parse_key(key_text), parse_levels(levels, spec)
+    return (parse or parse_key)(key_text), parse_levels(levels, spec)
 
 
 @dataclass(frozen=True)

@@ -101,27 +101,31 @@ def judge(
     status: int,
     travel: float | None,
     balance: bool = False,
+    fixed: bool = False,
 ) -> Judgement:
     """Judge the run with times `t` and rows `states` = [θ0..θn, θ̇0..θ̇n], simulator exit `status`;
-    `balance`: a balance run, which must also converge (`Success.converge`)."""
+    `balance`: a balance run, which must also converge (`Success.converge`); `fixed`: a chain on
+    a fixed pivot, every coordinate a link's (no base: its error and travel are 0)."""
     import numpy as np
 
     dof = states.shape[1] // 2
+    first = 0 if fixed else 1  # the first link's coordinate
     goal_angles = np.asarray(goal[:dof])
     angles = states[:, :dof] - goal_angles
-    links = np.abs(wrapped(angles[:, 1:]))
-    base = np.abs(wrapped(angles[:, 0]) if rotary else angles[:, 0])
-    rates = np.abs(states[:, dof + 1 :])
+    links = np.abs(wrapped(angles[:, first:]))
+    base = np.zeros(len(t)) if fixed else np.abs(wrapped(angles[:, 0]) if rotary else angles[:, 0])
+    rates = np.abs(states[:, dof + first :])
     last = -1
+    has_links = dof > first
     judgement = dict(
-        angle_error=float(links[last].max()) if dof > 1 else 0.0,
-        rate_error=float(rates[last].max()) if dof > 1 else 0.0,
+        angle_error=float(links[last].max()) if has_links else 0.0,
+        rate_error=float(rates[last].max()) if has_links else 0.0,
         base_error=float(base[last]),
-        max_travel=float(np.abs(states[:, 0]).max()),
+        max_travel=0.0 if fixed else float(np.abs(states[:, 0]).max()),
         t_final=float(t[last]),
     )
     limit = test.travel if test.travel is not None else travel
-    start = float(links[0].max()) if dof > 1 else 0.0  # the largest initial link error
+    start = float(links[0].max()) if has_links else 0.0  # the largest initial link error
     reason = STATUS_REASONS.get(status, f"simulator exit status {status}" if status else "")
     if not reason and limit is not None and judgement["max_travel"] > limit:
         reason = "left the travel"
