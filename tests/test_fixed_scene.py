@@ -39,7 +39,6 @@ def test_presets_list_the_fixed_chains(capsys: pytest.CaptureFixture[str]) -> No
         ["--type", "fixed", "--links", "2", "--angles", "relative", "--emit", "fmu", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--fix", "m1=1", "-o", "{out}"],
         ["--scene", str(preset_path("dfki_c0")), "-o", "{out}"],
-        ["sweep", "--preset", "dfki_c0", "--scorecard", "-o", "{out}"],
         ["excite", "--preset", "dfki_c0", "--u-max", "1", "-o", "{out}"],
     ],
 )
