@@ -45,6 +45,37 @@
 #endif
 #define IPGEN_MPC_LOCAL static inline
 
+/* Sizes fixed at compile time: defined before the first include (IPGEN_MPC_NX, IPGEN_MPC_NU,
+ * IPGEN_MPC_N, IPGEN_MPC_HARD, IPGEN_MPC_SOFT: a firmware's build, as the C header of a scene
+ * with an MPC defines them), every loop over the sizes has constant bounds (the compiler unrolls
+ * and strength-reduces them) and ipgen_mpc_check refuses settings of other sizes; undefined (the
+ * simulator, Python), the settings' sizes are read at run time. The same code either way. */
+#ifdef IPGEN_MPC_NX
+#define IPGEN_MPC_NX_OF(s) ((void)(s), IPGEN_MPC_NX)
+#else
+#define IPGEN_MPC_NX_OF(s) ((s)->nx)
+#endif
+#ifdef IPGEN_MPC_NU
+#define IPGEN_MPC_NU_OF(s) ((void)(s), IPGEN_MPC_NU)
+#else
+#define IPGEN_MPC_NU_OF(s) ((s)->nu)
+#endif
+#ifdef IPGEN_MPC_N
+#define IPGEN_MPC_N_OF(s) ((void)(s), IPGEN_MPC_N)
+#else
+#define IPGEN_MPC_N_OF(s) ((s)->N)
+#endif
+#ifdef IPGEN_MPC_HARD
+#define IPGEN_MPC_HARD_OF(s) ((void)(s), IPGEN_MPC_HARD)
+#else
+#define IPGEN_MPC_HARD_OF(s) ((s)->hard_count)
+#endif
+#ifdef IPGEN_MPC_SOFT
+#define IPGEN_MPC_SOFT_OF(s) ((void)(s), IPGEN_MPC_SOFT)
+#else
+#define IPGEN_MPC_SOFT_OF(s) ((s)->soft_count)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -149,9 +180,9 @@ typedef struct {
 
 /* Carves `work` into its parts; returns the entries used (ipgen_mpc_work_size). */
 IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real work[], ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
-  const long S = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
+  const long S = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   ipgen_mpc_real *w = work;
 #define IPGEN_MPC_TAKE(field, count) (l->field = w, w += (count))
   IPGEN_MPC_TAKE(warm, 1);
@@ -216,8 +247,8 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
 /* Workspace entries for these settings: IPGEN_MPC_WORK of its sizes (+ IPGEN_MPC_WORK_HESSIAN with
  * exact_hessian). */
 IPGEN_MPC_API long ipgen_mpc_work_size(const ipgen_mpc_settings *s) {
-  const long nx = s->nx, nu = s->nu, N = s->N;
-  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)s->hard_count, (long)s->soft_count) +
+  const long nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)IPGEN_MPC_HARD_OF(s), (long)IPGEN_MPC_SOFT_OF(s)) +
          (s->exact_hessian ? (long)IPGEN_MPC_WORK_HESSIAN(nx, nu, N) : 0L);
 }
 
@@ -254,7 +285,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real x[],
                                          const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
                                          ipgen_mpc_real B[]) {
-  const int nx = s->nx, nu = s->nu, nz = nx + nu, sens = A != 0 && B != 0;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nz = nx + nu, sens = A != 0 && B != 0;
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
   static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
@@ -317,7 +348,7 @@ IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_rea
  * once per step by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
 IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long *var, ipgen_mpc_real *sign,
                                       ipgen_mpc_real *value) {
-  const long N = s->N, nx = s->nx, nu = s->nu, nh = s->hard_count, ns = s->soft_count;
+  const long N = IPGEN_MPC_N_OF(s), nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nh = IPGEN_MPC_HARD_OF(s), ns = IPGEN_MPC_SOFT_OF(s);
   const long nU = 2 * N * nu, nH = 2 * N * nh, nS = 2 * N * ns;
   ipgen_mpc_real lo, hi;
   long r;
@@ -334,7 +365,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
     lo = s->hard_min[j];
     hi = s->hard_max[j];
   } else if (i < nU + nH + nS) {
-    const long ii = i - nU - nH, k = 1 + ii / (2 * ns), j = (ii % (2 * ns)) / 2;
+    const long ii = i - nU - nH, pair = ns > 0 ? 2 * ns : 1, k = 1 + ii / pair, j = (ii % pair) / 2;
     r = ii;
     *var = k * nx + s->soft_index[j];
     lo = s->soft_min[j];
@@ -352,7 +383,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
 /* The table of the inequalities: code = a (var + 1) (0 for a slack's s >= 0) and the bound's value
  * (max for a = +1, min for a = -1), from the settings alone. */
 IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const long M = IPGEN_MPC_INEQUALITIES(s->nu, s->N, s->hard_count, s->soft_count);
+  const long M = IPGEN_MPC_INEQUALITIES(IPGEN_MPC_NU_OF(s), IPGEN_MPC_N_OF(s), IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   long i, var;
   ipgen_mpc_real sign;
   for (i = 0; i < M; ++i) {
@@ -365,7 +396,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_m
  * slack's index (-1: none) and the bound b = a (bound - traj[var]) at the current guess. */
 IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, long i, long *var,
                                           ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
-  const long first_soft = 2 * (long)s->N * (s->nu + s->hard_count), nS = IPGEN_MPC_SLACKS(s->N, s->soft_count);
+  const long first_soft = 2 * (long)IPGEN_MPC_N_OF(s) * (IPGEN_MPC_NU_OF(s) + IPGEN_MPC_HARD_OF(s)), nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N_OF(s), IPGEN_MPC_SOFT_OF(s));
   const ipgen_mpc_real e = l->code[i];
   if (e == 0) {
     *var = -1;
@@ -387,15 +418,18 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_constraint(long var, ipgen_mpc_real sig
 }
 
 /* The soft bound (0..soft_count) of slack j. */
-IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) { return (j % (2 * s->soft_count)) / 2; }
+IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) {
+  const long ns = IPGEN_MPC_SOFT_OF(s);
+  return (j % (ns > 0 ? 2 * ns : 1)) / 2;
+}
 
 /* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0) plus C' lam over
  * the variables; gs = the slacks' rho1 + 2 rho2 s - lam (both of a slack's inequalities).
  * Returns the cost gradient's largest entry (the scale of the stationarity residual). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
-  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
+  const long nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   long i, var, soft;
   int k, a, b;
   ipgen_mpc_real sign, bound, scale = (ipgen_mpc_real)1;
@@ -458,8 +492,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
  * and the primal residuals rp. `costate`: the dynamics' largest multiplier (the adjoint's entry). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_real mu,
                                                      ipgen_mpc_real scale, ipgen_mpc_real *costate) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
   long i;
   int k, a, b;
@@ -527,7 +561,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], i
  * Re is not positive definite. Multiply-adds per stage about 1.5 nx^3 + 2.5 nx^2 nu + 2 nx nu^2
  * + nu^3 / 3. With l->exact the stage weights are H_k's blocks (H_xx, H_ux, H_uu) instead. */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
   ipgen_mpc_real *P = l->Pm;
   int k, i, j, m;
   for (i = 0; i < nx; ++i)
@@ -587,7 +621,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
  * -Re^-1 (q_u + B' p), then the forward pass du = K dx + kff, dx' = A dx + B du. */
 IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real q[],
                                              ipgen_mpc_real dir[]) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   int k, i, m;
   for (i = 0; i < nx; ++i) l->p[i] = q[N * nx + i];
   for (k = N - 1; k >= 0; --k) {
@@ -640,9 +674,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_effective(const ipgen_mpc_layout *l, lo
 /* The Newton system's linear terms rhs (for complementarity targets rc) from gl, gs and the
  * inequalities; the slacks eliminated (their reduced gradient kept in gs' copy in dsig). */
 IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), first_soft = M - 2 * nS;
   long i, var, soft;
   ipgen_mpc_real sign, bound;
   for (i = 0; i < Z; ++i) l->rhs[i] = l->gl[i];
@@ -663,8 +697,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipg
 
 /* The step of the slacks, inequality slacks and multipliers from the direction `dir`. */
 IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nu = s->nu, N = s->N;
-  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
+  const int nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s)), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   const long first_soft = M - 2 * nS;
   long i, var, soft;
   ipgen_mpc_real sign, bound;
@@ -699,9 +733,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, lon
  * `costate`: the dynamics' largest multiplier at the last iterate. */
 IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info,
                                   ipgen_mpc_real *costate) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), first_soft = M - 2 * nS;
   const ipgen_mpc_real one = (ipgen_mpc_real)1, zero = (ipgen_mpc_real)0;
   long i, var, soft;
   int k, a, m, iteration;
@@ -789,7 +823,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
  * h = 1e-5 max(1, |w_j|) (1e-2 in float), symmetrised. 2 (nx + nu) RK4 samples with
  * sensitivities per stage. Returns 1 if the model failed. */
 IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
   const ipgen_mpc_real relative = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-2 : (ipgen_mpc_real)1e-5;
   int k, i, j, side;
   for (k = 0; k < N; ++k) {
@@ -838,7 +872,7 @@ IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc
  * (the soft penalty's where a bound is violated). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[],
                                                          const ipgen_mpc_real dz[], ipgen_mpc_real *slope) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const ipgen_mpc_real *x = traj, *u = traj + (long)(N + 1) * nx;
   const ipgen_mpc_real *dx = dz, *du = dz ? dz + (long)(N + 1) * nx : 0;
   ipgen_mpc_real cost = (ipgen_mpc_real)0, d = (ipgen_mpc_real)0;
@@ -852,7 +886,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
         if (dz && k > 0) d += (ipgen_mpc_real)2 * w * dx[k * nx + b];
       }
     if (k > 0)
-      for (j = 0; j < s->soft_count; ++j) {
+      for (j = 0; j < IPGEN_MPC_SOFT_OF(s); ++j) {
         const int i = k * nx + s->soft_index[j];
         const ipgen_mpc_real above = x[i] - s->soft_max[j], below = s->soft_min[j] - x[i];
         const ipgen_mpc_real over = ipgen_mpc_max(above, below);
@@ -879,7 +913,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
 IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real traj[],
                                     const ipgen_mpc_real x[], ipgen_mpc_real weight, ipgen_mpc_real defects,
                                     ipgen_mpc_real *merit) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   int k, i;
   if (defects < 0) {
     defects = (ipgen_mpc_real)0;
@@ -906,6 +940,22 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
   int j;
   if (s->nx < 1 || s->nu < 1 || s->N < 1 || s->substeps < 1 || !(s->period > 0) || s->dynamics == 0) return IPGEN_MPC_BAD_SETTINGS;
   if (s->sqp_iterations < 1 || s->qp_iterations < 1 || s->hard_count < 0 || s->soft_count < 0) return IPGEN_MPC_BAD_SETTINGS;
+  /* sizes fixed at compile time that the settings do not have */
+#ifdef IPGEN_MPC_NX
+  if (s->nx != IPGEN_MPC_NX) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_NU
+  if (s->nu != IPGEN_MPC_NU) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_N
+  if (s->N != IPGEN_MPC_N) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_HARD
+  if (s->hard_count != IPGEN_MPC_HARD) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_SOFT
+  if (s->soft_count != IPGEN_MPC_SOFT) return IPGEN_MPC_BAD_SETTINGS;
+#endif
   for (j = 0; j < s->nu; ++j)
     if (!(s->u_min[j] < s->u_max[j])) return IPGEN_MPC_BAD_SETTINGS;
   for (j = 0; j < s->hard_count; ++j)
@@ -926,7 +976,7 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
 IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
                                  ipgen_mpc_real work[], ipgen_mpc_info *info) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
   ipgen_mpc_info own;
   ipgen_mpc_layout l;
