@@ -110,7 +110,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=40, help="calls counted (the first is the cold start)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
-    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: the fixed sizes unrolled; m4_cycles: -Os)")
+    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls the fixed sizes)")
     args = parser.parse_args()
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:

@@ -70,6 +70,13 @@
 #else
 #define IPGEN_MPC_HARD_OF(s) ((s)->hard_count)
 #endif
+/* One input fixed at compile time: the Riccati recursion's Re = 2R + diag + B' P B is a number,
+ * inverted once per stage instead of factorised (the runtime path keeps its Cholesky factor). */
+#if defined(IPGEN_MPC_NU) && IPGEN_MPC_NU == 1
+#define IPGEN_MPC_SCALAR_INPUT 1
+#else
+#define IPGEN_MPC_SCALAR_INPUT 0
+#endif
 #ifdef IPGEN_MPC_SOFT
 #define IPGEN_MPC_SOFT_OF(s) ((void)(s), IPGEN_MPC_SOFT)
 #else
@@ -263,12 +270,21 @@ IPGEN_MPC_LOCAL int ipgen_mpc_finite(ipgen_mpc_real v) { return v == v && v - v 
 
 /* ---- discretisation: RK4 and its exact sensitivities ------------------------------------- */
 
-/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. */
+/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. With
+ * IPGEN_MPC_SECOND_ORDER defined (before the first include: a model x = [q; qd], f = [qd; qdd],
+ * as every ipgen model's callback, so that Ac's first nx / 2 rows are [0 I] and Bc's are 0), those
+ * rows of dk are Sv's last nx / 2 rows, copied instead of multiplied: the same numbers. */
 IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc_real Ac[], const ipgen_mpc_real Bc[],
                                                  const ipgen_mpc_real Sv[], ipgen_mpc_real dk[]) {
   const int nz = nx + nu;
+#ifdef IPGEN_MPC_SECOND_ORDER
+  const int first = nx / 2;
+#else
+  const int first = 0;
+#endif
   int i, j, m;
-  for (i = 0; i < nx; ++i) {
+  for (i = 0; i < first * nz; ++i) dk[i] = Sv[first * nz + i];
+  for (i = first; i < nx; ++i) {
     for (j = 0; j < nz; ++j) {
       ipgen_mpc_real v = j < nx ? (ipgen_mpc_real)0 : Bc[i * nu + (j - nx)];
       for (m = 0; m < nx; ++m) v += Ac[i * nx + m] * Sv[m * nz + j];
@@ -345,7 +361,7 @@ IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_rea
 
 /* Inequality i decoded from the settings: the variable's index in z (-1: a slack's s >= 0), its
  * sign a and the bound's value (max for a = +1, min for a = -1; 0 for a slack's). Divisions: run
- * once per step by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
+ * once per QP by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
 IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long *var, ipgen_mpc_real *sign,
                                       ipgen_mpc_real *value) {
   const long N = IPGEN_MPC_N_OF(s), nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nh = IPGEN_MPC_HARD_OF(s), ns = IPGEN_MPC_SOFT_OF(s);
@@ -380,15 +396,17 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
   *value = r % 2 == 0 ? hi : lo;
 }
 
-/* The table of the inequalities: code = a (var + 1) (0 for a slack's s >= 0) and the bound's value
- * (max for a = +1, min for a = -1), from the settings alone. */
+/* The table of the inequalities of the QP about the guess traj: code = a (var + 1) (0 for a
+ * slack's s >= 0) and the bound b = a (value - traj[var]) (0 for a slack's), run at the start of
+ * each QP (traj is constant during it). */
 IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
   const long M = IPGEN_MPC_INEQUALITIES(IPGEN_MPC_NU_OF(s), IPGEN_MPC_N_OF(s), IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   long i, var;
-  ipgen_mpc_real sign;
+  ipgen_mpc_real sign, value;
   for (i = 0; i < M; ++i) {
-    ipgen_mpc_decode(s, i, &var, &sign, &l->bound[i]);
+    ipgen_mpc_decode(s, i, &var, &sign, &value);
     l->code[i] = sign * (ipgen_mpc_real)(var + 1);
+    l->bound[i] = var >= 0 ? sign * (value - l->traj[var]) : (ipgen_mpc_real)0;
   }
 }
 
@@ -398,17 +416,16 @@ IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipg
                                           ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
   const long first_soft = 2 * (long)IPGEN_MPC_N_OF(s) * (IPGEN_MPC_NU_OF(s) + IPGEN_MPC_HARD_OF(s)), nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N_OF(s), IPGEN_MPC_SOFT_OF(s));
   const ipgen_mpc_real e = l->code[i];
-  if (e == 0) {
-    *var = -1;
-    *sign = (ipgen_mpc_real)0;
-    *soft = i - first_soft - nS;
-    *b = (ipgen_mpc_real)0;
+  *b = l->bound[i];
+  if (i < first_soft || e != 0) { /* a bound on a variable (the first test: the loops' ranges fold it) */
+    *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+    *var = (long)(e > 0 ? e : -e) - 1;
+    *soft = i >= first_soft ? i - first_soft : -1;
     return;
   }
-  *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
-  *var = (long)(e > 0 ? e : -e) - 1;
-  *soft = i >= first_soft ? i - first_soft : -1;
-  *b = *sign * (l->bound[i] - l->traj[*var]);
+  *var = -1;
+  *sign = (ipgen_mpc_real)0;
+  *soft = i - first_soft - nS;
 }
 
 /* The value a z[var] - s[soft] of inequality i at (z, sig), or a's and the slack's part of a step. */
@@ -557,7 +574,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], i
 
 /* The Riccati factorisation of the Newton system's Hessian: stage weights 2Q + diag(hd_x),
  * 2R + diag(hd_u), terminal 2P + diag(hd_x_N), dynamics A_k, B_k. Stores the gains
- * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B. Returns 1 if an
+ * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B (1 / Re with
+ * IPGEN_MPC_SCALAR_INPUT). Returns 1 if an
  * Re is not positive definite. Multiply-adds per stage about 1.5 nx^3 + 2.5 nx^2 nu + 2 nx nu^2
  * + nu^3 / 3. With l->exact the stage weights are H_k's blocks (H_xx, H_ux, H_uu) instead. */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
@@ -589,11 +607,17 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
         for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * A[m * nx + j];
         l->Se[i * nx + j] = v;
       }
-    if (ipgen_mpc_cholesky(nu, Lk) != 0) return 1;
-    for (j = 0; j < nx; ++j) { /* K = -Re^-1 Se, column by column */
-      for (i = 0; i < nu; ++i) l->g[i] = l->Se[i * nx + j];
-      ipgen_mpc_cholesky_solve(nu, Lk, l->g);
-      for (i = 0; i < nu; ++i) K[i * nx + j] = -l->g[i];
+    if (IPGEN_MPC_SCALAR_INPUT) { /* nu = 1 fixed at compile time: Re a number, its reciprocal kept */
+      if (!(Lk[0] > (ipgen_mpc_real)0)) return 1;
+      Lk[0] = (ipgen_mpc_real)1 / Lk[0];
+      for (j = 0; j < nx; ++j) K[j] = -(l->Se[j] * Lk[0]);
+    } else {
+      if (ipgen_mpc_cholesky(nu, Lk) != 0) return 1;
+      for (j = 0; j < nx; ++j) { /* K = -Re^-1 Se, column by column */
+        for (i = 0; i < nu; ++i) l->g[i] = l->Se[i * nx + j];
+        ipgen_mpc_cholesky_solve(nu, Lk, l->g);
+        for (i = 0; i < nu; ++i) K[i * nx + j] = -l->g[i];
+      }
     }
     if (k == 0) break;
     for (i = 0; i < nx; ++i) /* AtP = A' P */
@@ -635,7 +659,10 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const 
       l->g[i] = v;
       kff[i] = v;
     }
-    ipgen_mpc_cholesky_solve(nu, l->L + (long)k * nu * nu, kff);
+    if (IPGEN_MPC_SCALAR_INPUT)
+      kff[0] *= l->L[k]; /* Re^-1 */
+    else
+      ipgen_mpc_cholesky_solve(nu, l->L + (long)k * nu * nu, kff);
     for (i = 0; i < nu; ++i) kff[i] = -kff[i];
     if (k == 0) break;
     for (i = 0; i < nx; ++i) {
@@ -742,6 +769,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   ipgen_mpc_real sign, bound;
   /* start: the dynamics rolled out with du = 0 (every later step keeps them), slacks at the
    * violation, t at the distance to the bound (at least 1), lam = 1 */
+  ipgen_mpc_encode(s, l);
   for (i = (long)(N + 1) * nx; i < Z; ++i) l->z[i] = zero;
   for (k = 0; k < N; ++k) {
     const ipgen_mpc_real *A = l->A + (long)k * nx * nx;
@@ -992,7 +1020,6 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
   }
   ipgen_mpc_carve(s, work, &l);
   us = l.traj + (long)(N + 1) * nx;
-  ipgen_mpc_encode(s, &l);
   budget = s->sqp_iterations;
   if (!(*l.warm > 0)) {
     if (s->cold_iterations > budget) budget = s->cold_iterations;
