@@ -440,16 +440,16 @@ IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) {
   return (j % (ns > 0 ? 2 * ns : 1)) / 2;
 }
 
-/* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0) plus C' lam over
- * the variables; gs = the slacks' rho1 + 2 rho2 s - lam (both of a slack's inequalities).
- * Returns the cost gradient's largest entry (the scale of the stationarity residual). */
+/* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0); gs = the slacks'
+ * rho1 + 2 rho2 s. The QP's loop over the inequalities adds C' lam to both (gl over the variables,
+ * gs minus both of a slack's lam). Returns the cost gradient's largest entry (the scale of the
+ * stationarity residual). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
-  const long nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
-  long i, var, soft;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  long i;
   int k, a, b;
-  ipgen_mpc_real sign, bound, scale = (ipgen_mpc_real)1;
+  ipgen_mpc_real scale = (ipgen_mpc_real)1;
   for (i = 0; i < nx; ++i) l->gl[i] = (ipgen_mpc_real)0;
   if (l->exact) { /* the cost's gradient at the guess plus H_k (dx_k, du_k), stage by stage */
     const int nz = nx + nu;
@@ -495,11 +495,6 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
   }
   for (i = 0; i < Z; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gl[i]));
   for (i = 0; i < nS; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gs[i]));
-  for (i = 0; i < M; ++i) {
-    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
-    if (var >= 0) l->gl[var] += sign * l->lam[i];
-    if (soft >= 0) l->gs[soft] -= l->lam[i];
-  }
   return scale;
 }
 
@@ -722,13 +717,14 @@ IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipg
   }
 }
 
-/* The step of the slacks, inequality slacks and multipliers from the direction `dir`. */
-IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+/* The step of the slacks, inequality slacks and multipliers from the direction `dir`; returns the
+ * largest step in (0, 1] along (dt, dlam) keeping t and lam nonnegative. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
   const int nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const long nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s)), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   const long first_soft = M - 2 * nS;
   long i, var, soft;
-  ipgen_mpc_real sign, bound;
+  ipgen_mpc_real sign, bound, alpha = (ipgen_mpc_real)1;
   for (i = 0; i < nS; ++i) {
     const long r = first_soft + i;
     ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
@@ -740,14 +736,6 @@ IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_
     cd = ipgen_mpc_constraint(var, sign, soft, l->dir, l->dsig);
     l->dt[i] = -l->rp[i] - cd;
     l->dlam[i] = (l->lam[i] * (l->rp[i] + cd) - l->rc[i]) / l->t[i];
-  }
-}
-
-/* The largest step in (0, 1] along (dt, dlam) keeping t and lam nonnegative. */
-IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, long M) {
-  ipgen_mpc_real alpha = (ipgen_mpc_real)1;
-  long i;
-  for (i = 0; i < M; ++i) {
     if (l->dt[i] < 0 && -l->t[i] / l->dt[i] < alpha) alpha = -l->t[i] / l->dt[i];
     if (l->dlam[i] < 0 && -l->lam[i] / l->dlam[i] < alpha) alpha = -l->lam[i] / l->dlam[i];
   }
@@ -791,25 +779,26 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, mu_aff = zero, alpha, centring, residual;
+    const ipgen_mpc_real scale = ipgen_mpc_gradient(s, l);
+    /* one pass over the inequalities: the primal residuals, the gap, C' lam into the gradients and
+     * the Hessian's diagonal Sigma = lam / t on each bounded variable (the slacks' below) */
+    for (i = 0; i < Z; ++i) l->hd[i] = zero;
     for (i = 0; i < M; ++i) {
       ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
       l->rp[i] = ipgen_mpc_constraint(var, sign, soft, l->z, l->sig) + l->t[i] - bound;
       mu += l->lam[i] * l->t[i];
+      if (var >= 0) l->gl[var] += sign * l->lam[i];
+      if (soft >= 0) l->gs[soft] -= l->lam[i];
+      if (i < first_soft) l->hd[var] += l->lam[i] / l->t[i];
     }
     mu = M > 0 ? mu / (ipgen_mpc_real)M : zero;
-    residual = ipgen_mpc_qp_residual(s, l, mu, ipgen_mpc_gradient(s, l), costate);
+    residual = ipgen_mpc_qp_residual(s, l, mu, scale, costate);
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
     if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
     if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
     info->qp_iterations += 1;
-    /* the Hessian's diagonal: Sigma = lam / t on each bounded variable, the slacks eliminated */
-    for (i = 0; i < Z; ++i) l->hd[i] = zero;
-    for (i = 0; i < first_soft; ++i) {
-      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
-      l->hd[var] += l->lam[i] / l->t[i];
-    }
-    for (i = 0; i < nS; ++i) {
+    for (i = 0; i < nS; ++i) { /* the slacks eliminated */
       const long r = first_soft + i, n = first_soft + nS + i;
       const ipgen_mpc_real sr = l->lam[r] / l->t[r];
       l->hs[i] = (ipgen_mpc_real)2 * s->soft_quadratic[ipgen_mpc_soft_bound(s, i)] + sr + l->lam[n] / l->t[n];
@@ -823,8 +812,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
     ipgen_mpc_newton_rhs(s, l);
     ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
-    ipgen_mpc_recover(s, l);
-    alpha = ipgen_mpc_max_step(l, M);
+    alpha = ipgen_mpc_recover(s, l);
     for (i = 0; i < M; ++i) mu_aff += (l->lam[i] + alpha * l->dlam[i]) * (l->t[i] + alpha * l->dt[i]);
     mu_aff = M > 0 ? mu_aff / (ipgen_mpc_real)M : zero;
     centring = mu > zero ? mu_aff / mu : zero;
@@ -833,8 +821,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] + l->dt[i] * l->dlam[i] - centring * mu;
     ipgen_mpc_newton_rhs(s, l);
     ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
-    ipgen_mpc_recover(s, l);
-    alpha = ipgen_mpc_max_step(l, M);
+    alpha = ipgen_mpc_recover(s, l);
     alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
     for (i = 0; i < Z; ++i) l->z[i] += alpha * l->dir[i];
     for (i = 0; i < nS; ++i) l->sig[i] += alpha * l->dsig[i];
