@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4 bench-leaderboard stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4 bench-leaderboard stability configure build clean
 
 all: test
 
@@ -86,8 +86,25 @@ test-python: lint deps-docs
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py); and the docs' own whole C++
 ## programs, compiled as a reader would (marker user_program). CI runs it after make test.
+## And the C++ tests slow by design (ctest label slow: ipsim compiled for one model's C++ header,
+## the n = 10 models' stability; cpp/tests/CMakeLists.txt), beside them: make test's build
+## configures without them (IPGEN_SLOW_TESTS=OFF), this one adds them to the same build folder.
 test-slow: venv deps-docs
+	$(MAKE) --no-print-directory -j 2 test-slow-python test-cpp-slow
+	@echo "make test-slow: all tests passed"
+
+test-slow-python: venv deps-docs
 	$(PY) -m pytest -q -n $(JOBS) -m "fresh_venv or user_program"
+
+test-cpp-slow: venv
+	@mkdir -p $(BUILD)
+	@if { $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) -DIPGEN_SLOW_TESTS=ON && \
+	      cmake --build $(BUILD) -j $(JOBS) && \
+	      ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS) -L slow; } > $(BUILD)/test-cpp-slow.log 2>&1; then \
+	  grep -E "tests passed|tests failed" $(BUILD)/test-cpp-slow.log || true; \
+	else \
+	  tail -n 80 $(BUILD)/test-cpp-slow.log; echo "make test-cpp-slow failed: the whole log is $(BUILD)/test-cpp-slow.log"; exit 1; \
+	fi
 
 ## C++ side: configure, build and run ctest (skipped until CMakeLists.txt exists).
 ## CMAKE_OPT: the optimisation level of the Release build, C++ and C (the model libraries; CMake's own
@@ -98,7 +115,7 @@ CMAKE_OPT ?= -Og
 CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-DCMAKE_CXX_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG" \
   "-DCMAKE_C_FLAGS_RELEASE=$(CMAKE_OPT) -DNDEBUG"
 configure: venv
-	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) >/dev/null
+	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) -DIPGEN_SLOW_TESTS=OFF >/dev/null
 
 ## What the C++ build can do before the virtualenv exists, beside its install (about 35 s from a
 ## fresh clone, which make test's Python side waits for): configure without the generator and compile
@@ -107,7 +124,7 @@ configure: venv
 ## on, and neither is rebuilt (same command lines).
 cpp-early: deps-build
 	@if [ ! -f $(BUILD)/CMakeCache.txt ]; then \
-	  $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=OFF >/dev/null && \
+	  $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=OFF -DIPGEN_SLOW_TESTS=OFF >/dev/null && \
 	  cmake --build $(BUILD) -j 1 --target ipgen_ipsim_core simulate_stand_in_cart1 >/dev/null; \
 	fi
 

@@ -19,6 +19,10 @@ from ipgen.pipeline.generate import generate_header
 from ipgen.pipeline.simulator import SEPARATE, compiled_core, optimisation
 
 ROOT = Path(__file__).resolve().parents[1]
+# A whole ipsim program of the model's C++ header (8-10 s of compiling): make test-slow, beside the
+# docs' own programs.
+pytestmark = pytest.mark.user_program
+
 SUNDIALS = tuple(
     f"-lsundials_{n}" for n in ("cvode", "arkode", "nvecserial", "sunmatrixdense", "sunlinsoldense")
 )
