@@ -6,7 +6,8 @@ The preset scenes/rigs/qube_servo2_mpc.toml (the QUBE-Servo 2 in volts, ±10 V, 
 ±1 rad, N = 30 samples of 10 ms) with emit = ["c"]: its generated C header in float
 (IPGEN_SCALAR = float: ipgen_mpc.h printed whole, the header's own model as the callback) is
 compiled for the Cortex-M4F (bench/m4_cycles.py: arm-none-eabi-gcc -mcpu=cortex-m4
--mfloat-abi=hard -Os, newlib) and `ipgen_qube_servo2_mpc_mpc_step` is called on the first K state
+-mfloat-abi=hard -O3, newlib: the header fixes the sizes at compile time and -O3 unrolls
+the loops over them) and `ipgen_qube_servo2_mpc_mpc_step` is called on the first K state
 estimates of the simulator's own run of the preset (its hat_* columns: the cold first step, then
 the real-time iteration along the closed loop, where u reaches its bound and the arm its
 travel). QEMU counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
@@ -74,6 +75,35 @@ def _prelude(states: np.ndarray) -> str:
 CALL = f"  bench_sink = {P}_mpc_step(&bench_mpc, bench_states[k]);"
 
 
+def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tuple[int, set[str]]:
+    """The stack of `root` and its deepest chain of calls (gcc -fstack-usage per function; a call
+    is a bl/b to a function's symbol in the disassembly, a blx through a register one to the MPC's
+    model callback; newlib's functions, without .su, count 0)
+    and the functions of the program's own source that `root` reaches (itself included)."""
+    disassembly = [m4_cycles.OBJDUMP, "-d", str(elf)]
+    text = subprocess.run(disassembly, capture_output=True, text=True, check=True).stdout
+    calls: dict[str, set[str]] = {}
+    current = ""
+    branch = re.compile(r"\s(?:bl|b\.w|b)\s+[0-9a-f]+ <([^>+]+)>$")
+    for line in text.splitlines():
+        if match := re.match(r"^[0-9a-f]+ <([^>]+)>:$", line):
+            current = match.group(1)
+            calls.setdefault(current, set())
+        elif (match := branch.search(line)) and match.group(1) != current:
+            calls[current].add(match.group(1))
+        elif re.search(r"\sblx\s+(?:r\d+|fp|ip|sl|lr)$", line):  # through a pointer: the model callback
+            calls[current].add(f"{P}_mpc_dynamics")
+    reached: set[str] = set()
+
+    def depth(name: str, seen: frozenset[str]) -> int:
+        if name in usage:
+            reached.add(name)
+        below = [depth(c, seen | {c}) for c in calls.get(name, ()) if c not in seen]
+        return usage.get(name, 0) + max(below, default=0)
+
+    return depth(root, frozenset({root})), reached
+
+
 def _sizes(header: Path, prelude: str) -> dict[str, int]:
     """RAM and flash of the counting program (the same build as m4_cycles.count)."""
     with tempfile.TemporaryDirectory(prefix="ipgen-m4-size.") as folder:
@@ -96,20 +126,21 @@ def _sizes(header: Path, prelude: str) -> dict[str, int]:
         sections = {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\w+)\s+(\d+)", size, re.M)}
         nm = subprocess.run(["arm-none-eabi-nm", "-S", str(elf)], capture_output=True, text=True).stdout
         symbols = {f[3]: int(f[1], 16) for f in (line.split() for line in nm.splitlines()) if len(f) == 4}
+        stack, own = _call_tree(elf, usage)
         return {
             "state": symbols.get("bench_mpc", 0),
-            "stack": usage.get("bench_call", 0),
+            "stack": stack,
+            "step": sum(symbols.get(name, 0) for name in own),
             "text": sections.get(".text", 0),
-            "call": symbols.get("bench_call", 0),
             "states_table": symbols.get("bench_states", 0),
         }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--samples", type=int, default=40, help="calls counted (the first is the cold start)")
+    parser.add_argument("--samples", type=int, default=21, help="calls counted (the first is the cold start)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
-    parser.add_argument("--opt", default="-Os", help="the optimisation flag (bench/m4_cycles.py's: -Os)")
+    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls the fixed sizes)")
     args = parser.parse_args()
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
@@ -143,10 +174,11 @@ def main() -> None:
         f"Cycles per instruction (the estimate's): {statistics.median(rti_c) / statistics.median(rti_i):.2f} "
         f"({args.opt}). "
         f"RAM: the MPC's state {sizes['state']:,} bytes (its workspace in float and its info) plus "
-        f"{sizes['stack']:,} bytes of stack for the call (gcc -fstack-usage of bench_call, the step "
-        f"inlined); flash: the program's text {sizes['text']:,} bytes (the step, the model, newlib's "
-        f"math; the {sizes['states_table']:,}-byte table of test states included), of which bench_call "
-        f"(the step with the model inlined) {sizes['call']:,}.",
+        f"{sizes['stack']:,} bytes of stack for the call (gcc -fstack-usage: bench_call and its deepest "
+        f"chain of calls, newlib's not counted); flash: the program's text {sizes['text']:,} bytes (the "
+        f"step, the model, newlib's math; the {sizes['states_table']:,}-byte table of test states "
+        f"included), of which the step and the model (bench_call and the functions of the header it "
+        f"calls) {sizes['step']:,}.",
         END,
     ]
     text = args.out.read_text() if args.out.exists() else ""

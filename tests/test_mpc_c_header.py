@@ -7,8 +7,8 @@ encoders, a Kalman filter, u on its bound and the arm near its travel):
 - the firmware entry fed the simulator's counts returns the voltage the simulator applied at
   every sample, in double to 1e-9;
 - the MPC step fed the estimates the simulator's controller saw returns its u: double 1e-9
-  (2.5e-11 measured), float (IPGEN_SCALAR=float, every operation single precision) within
-  FLOAT_INPUT = 1e-3 u_max (3.3e-5 V measured);
+  (3.0e-11 measured), float (IPGEN_SCALAR=float, every operation single precision) within
+  FLOAT_INPUT = 1e-3 u_max (3.6e-5 V measured);
 - compiled with -std=c99 -Wall -Wextra -Wpedantic -Werror (float: -Wdouble-promotion -Wconversion).
 """
 
@@ -29,8 +29,8 @@ from test_mpc_scene import MEASURED, PUSHED, QUBE, U_MAX
 from ipgen.command.cli import run
 
 P = "ipgen_qube_servo2"
-# The float step against the simulator's (double) fed the same estimates: measured 3.3e-5 V
-# (3.3e-6 of u_max) along this loop; the bound is docs/mpc.md's FLOAT_INPUT.
+# The float step against the simulator's (double) fed the same estimates: measured 3.6e-5 V
+# (3.6e-6 of u_max) along this loop; the bound is docs/mpc.md's FLOAT_INPUT.
 FLOAT_INPUT = 1e-3 * U_MAX
 
 FIRMWARE = """\

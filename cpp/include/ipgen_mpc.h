@@ -45,6 +45,44 @@
 #endif
 #define IPGEN_MPC_LOCAL static inline
 
+/* Sizes fixed at compile time: defined before the first include (IPGEN_MPC_NX, IPGEN_MPC_NU,
+ * IPGEN_MPC_N, IPGEN_MPC_HARD, IPGEN_MPC_SOFT: a firmware's build, as the C header of a scene
+ * with an MPC defines them), every loop over the sizes has constant bounds (the compiler unrolls
+ * and strength-reduces them) and ipgen_mpc_check refuses settings of other sizes; undefined (the
+ * simulator, Python), the settings' sizes are read at run time. The same code either way. */
+#ifdef IPGEN_MPC_NX
+#define IPGEN_MPC_NX_OF(s) ((void)(s), IPGEN_MPC_NX)
+#else
+#define IPGEN_MPC_NX_OF(s) ((s)->nx)
+#endif
+#ifdef IPGEN_MPC_NU
+#define IPGEN_MPC_NU_OF(s) ((void)(s), IPGEN_MPC_NU)
+#else
+#define IPGEN_MPC_NU_OF(s) ((s)->nu)
+#endif
+#ifdef IPGEN_MPC_N
+#define IPGEN_MPC_N_OF(s) ((void)(s), IPGEN_MPC_N)
+#else
+#define IPGEN_MPC_N_OF(s) ((s)->N)
+#endif
+#ifdef IPGEN_MPC_HARD
+#define IPGEN_MPC_HARD_OF(s) ((void)(s), IPGEN_MPC_HARD)
+#else
+#define IPGEN_MPC_HARD_OF(s) ((s)->hard_count)
+#endif
+/* One input fixed at compile time: the Riccati recursion's Re = 2R + diag + B' P B is a number,
+ * inverted once per stage instead of factorised (the runtime path keeps its Cholesky factor). */
+#if defined(IPGEN_MPC_NU) && IPGEN_MPC_NU == 1
+#define IPGEN_MPC_SCALAR_INPUT 1
+#else
+#define IPGEN_MPC_SCALAR_INPUT 0
+#endif
+#ifdef IPGEN_MPC_SOFT
+#define IPGEN_MPC_SOFT_OF(s) ((void)(s), IPGEN_MPC_SOFT)
+#else
+#define IPGEN_MPC_SOFT_OF(s) ((s)->soft_count)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -149,9 +187,9 @@ typedef struct {
 
 /* Carves `work` into its parts; returns the entries used (ipgen_mpc_work_size). */
 IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real work[], ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
-  const long S = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
+  const long S = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   ipgen_mpc_real *w = work;
 #define IPGEN_MPC_TAKE(field, count) (l->field = w, w += (count))
   IPGEN_MPC_TAKE(warm, 1);
@@ -216,8 +254,8 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
 /* Workspace entries for these settings: IPGEN_MPC_WORK of its sizes (+ IPGEN_MPC_WORK_HESSIAN with
  * exact_hessian). */
 IPGEN_MPC_API long ipgen_mpc_work_size(const ipgen_mpc_settings *s) {
-  const long nx = s->nx, nu = s->nu, N = s->N;
-  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)s->hard_count, (long)s->soft_count) +
+  const long nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  return (long)IPGEN_MPC_WORK(nx, nu, N, (long)IPGEN_MPC_HARD_OF(s), (long)IPGEN_MPC_SOFT_OF(s)) +
          (s->exact_hessian ? (long)IPGEN_MPC_WORK_HESSIAN(nx, nu, N) : 0L);
 }
 
@@ -232,12 +270,21 @@ IPGEN_MPC_LOCAL int ipgen_mpc_finite(ipgen_mpc_real v) { return v == v && v - v 
 
 /* ---- discretisation: RK4 and its exact sensitivities ------------------------------------- */
 
-/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. */
+/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. With
+ * IPGEN_MPC_SECOND_ORDER defined (before the first include: a model x = [q; qd], f = [qd; qdd],
+ * as every ipgen model's callback, so that Ac's first nx / 2 rows are [0 I] and Bc's are 0), those
+ * rows of dk are Sv's last nx / 2 rows, copied instead of multiplied: the same numbers. */
 IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc_real Ac[], const ipgen_mpc_real Bc[],
                                                  const ipgen_mpc_real Sv[], ipgen_mpc_real dk[]) {
   const int nz = nx + nu;
+#ifdef IPGEN_MPC_SECOND_ORDER
+  const int first = nx / 2;
+#else
+  const int first = 0;
+#endif
   int i, j, m;
-  for (i = 0; i < nx; ++i) {
+  for (i = 0; i < first * nz; ++i) dk[i] = Sv[first * nz + i];
+  for (i = first; i < nx; ++i) {
     for (j = 0; j < nz; ++j) {
       ipgen_mpc_real v = j < nx ? (ipgen_mpc_real)0 : Bc[i * nu + (j - nx)];
       for (m = 0; m < nx; ++m) v += Ac[i * nx + m] * Sv[m * nz + j];
@@ -254,7 +301,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real x[],
                                          const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
                                          ipgen_mpc_real B[]) {
-  const int nx = s->nx, nu = s->nu, nz = nx + nu, sens = A != 0 && B != 0;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nz = nx + nu, sens = A != 0 && B != 0;
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
   static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
@@ -314,10 +361,10 @@ IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_rea
 
 /* Inequality i decoded from the settings: the variable's index in z (-1: a slack's s >= 0), its
  * sign a and the bound's value (max for a = +1, min for a = -1; 0 for a slack's). Divisions: run
- * once per step by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
+ * once per QP by ipgen_mpc_encode; the loops read the table (ipgen_mpc_inequality). */
 IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long *var, ipgen_mpc_real *sign,
                                       ipgen_mpc_real *value) {
-  const long N = s->N, nx = s->nx, nu = s->nu, nh = s->hard_count, ns = s->soft_count;
+  const long N = IPGEN_MPC_N_OF(s), nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nh = IPGEN_MPC_HARD_OF(s), ns = IPGEN_MPC_SOFT_OF(s);
   const long nU = 2 * N * nu, nH = 2 * N * nh, nS = 2 * N * ns;
   ipgen_mpc_real lo, hi;
   long r;
@@ -334,7 +381,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
     lo = s->hard_min[j];
     hi = s->hard_max[j];
   } else if (i < nU + nH + nS) {
-    const long ii = i - nU - nH, k = 1 + ii / (2 * ns), j = (ii % (2 * ns)) / 2;
+    const long ii = i - nU - nH, pair = ns > 0 ? 2 * ns : 1, k = 1 + ii / pair, j = (ii % pair) / 2;
     r = ii;
     *var = k * nx + s->soft_index[j];
     lo = s->soft_min[j];
@@ -349,15 +396,17 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
   *value = r % 2 == 0 ? hi : lo;
 }
 
-/* The table of the inequalities: code = a (var + 1) (0 for a slack's s >= 0) and the bound's value
- * (max for a = +1, min for a = -1), from the settings alone. */
+/* The table of the inequalities of the QP about the guess traj: code = a (var + 1) (0 for a
+ * slack's s >= 0) and the bound b = a (value - traj[var]) (0 for a slack's), run at the start of
+ * each QP (traj is constant during it). */
 IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const long M = IPGEN_MPC_INEQUALITIES(s->nu, s->N, s->hard_count, s->soft_count);
+  const long M = IPGEN_MPC_INEQUALITIES(IPGEN_MPC_NU_OF(s), IPGEN_MPC_N_OF(s), IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   long i, var;
-  ipgen_mpc_real sign;
+  ipgen_mpc_real sign, value;
   for (i = 0; i < M; ++i) {
-    ipgen_mpc_decode(s, i, &var, &sign, &l->bound[i]);
+    ipgen_mpc_decode(s, i, &var, &sign, &value);
     l->code[i] = sign * (ipgen_mpc_real)(var + 1);
+    l->bound[i] = var >= 0 ? sign * (value - l->traj[var]) : (ipgen_mpc_real)0;
   }
 }
 
@@ -365,19 +414,18 @@ IPGEN_MPC_LOCAL void ipgen_mpc_encode(const ipgen_mpc_settings *s, const ipgen_m
  * slack's index (-1: none) and the bound b = a (bound - traj[var]) at the current guess. */
 IPGEN_MPC_LOCAL void ipgen_mpc_inequality(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, long i, long *var,
                                           ipgen_mpc_real *sign, long *soft, ipgen_mpc_real *b) {
-  const long first_soft = 2 * (long)s->N * (s->nu + s->hard_count), nS = IPGEN_MPC_SLACKS(s->N, s->soft_count);
+  const long first_soft = 2 * (long)IPGEN_MPC_N_OF(s) * (IPGEN_MPC_NU_OF(s) + IPGEN_MPC_HARD_OF(s)), nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N_OF(s), IPGEN_MPC_SOFT_OF(s));
   const ipgen_mpc_real e = l->code[i];
-  if (e == 0) {
-    *var = -1;
-    *sign = (ipgen_mpc_real)0;
-    *soft = i - first_soft - nS;
-    *b = (ipgen_mpc_real)0;
+  *b = l->bound[i];
+  if (i < first_soft || e != 0) { /* a bound on a variable (the first test: the loops' ranges fold it) */
+    *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
+    *var = (long)(e > 0 ? e : -e) - 1;
+    *soft = i >= first_soft ? i - first_soft : -1;
     return;
   }
-  *sign = e > 0 ? (ipgen_mpc_real)1 : (ipgen_mpc_real)-1;
-  *var = (long)(e > 0 ? e : -e) - 1;
-  *soft = i >= first_soft ? i - first_soft : -1;
-  *b = *sign * (l->bound[i] - l->traj[*var]);
+  *var = -1;
+  *sign = (ipgen_mpc_real)0;
+  *soft = i - first_soft - nS;
 }
 
 /* The value a z[var] - s[soft] of inequality i at (z, sig), or a's and the slack's part of a step. */
@@ -387,18 +435,21 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_constraint(long var, ipgen_mpc_real sig
 }
 
 /* The soft bound (0..soft_count) of slack j. */
-IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) { return (j % (2 * s->soft_count)) / 2; }
+IPGEN_MPC_LOCAL long ipgen_mpc_soft_bound(const ipgen_mpc_settings *s, long j) {
+  const long ns = IPGEN_MPC_SOFT_OF(s);
+  return (j % (ns > 0 ? 2 * ns : 1)) / 2;
+}
 
-/* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0) plus C' lam over
- * the variables; gs = the slacks' rho1 + 2 rho2 s - lam (both of a slack's inequalities).
- * Returns the cost gradient's largest entry (the scale of the stationarity residual). */
+/* gl = the QP cost's gradient at z (inputs and states k >= 1; x_0's entries 0); gs = the slacks'
+ * rho1 + 2 rho2 s. The QP's loop over the inequalities adds C' lam to both (gl over the variables,
+ * gs minus both of a slack's lam). Returns the cost gradient's largest entry (the scale of the
+ * stationarity residual). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
-  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count);
-  long i, var, soft;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  long i;
   int k, a, b;
-  ipgen_mpc_real sign, bound, scale = (ipgen_mpc_real)1;
+  ipgen_mpc_real scale = (ipgen_mpc_real)1;
   for (i = 0; i < nx; ++i) l->gl[i] = (ipgen_mpc_real)0;
   if (l->exact) { /* the cost's gradient at the guess plus H_k (dx_k, du_k), stage by stage */
     const int nz = nx + nu;
@@ -444,11 +495,6 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
   }
   for (i = 0; i < Z; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gl[i]));
   for (i = 0; i < nS; ++i) scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gs[i]));
-  for (i = 0; i < M; ++i) {
-    ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
-    if (var >= 0) l->gl[var] += sign * l->lam[i];
-    if (soft >= 0) l->gs[soft] -= l->lam[i];
-  }
   return scale;
 }
 
@@ -458,8 +504,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
  * and the primal residuals rp. `costate`: the dynamics' largest multiplier (the adjoint's entry). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_real mu,
                                                      ipgen_mpc_real scale, ipgen_mpc_real *costate) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
   long i;
   int k, a, b;
@@ -523,11 +569,12 @@ IPGEN_MPC_LOCAL void ipgen_mpc_cholesky_solve(int n, const ipgen_mpc_real L[], i
 
 /* The Riccati factorisation of the Newton system's Hessian: stage weights 2Q + diag(hd_x),
  * 2R + diag(hd_u), terminal 2P + diag(hd_x_N), dynamics A_k, B_k. Stores the gains
- * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B. Returns 1 if an
+ * K_k = -Re^-1 B' P A and the Cholesky factors of Re = 2R + diag + B' P_{k+1} B (1 / Re with
+ * IPGEN_MPC_SCALAR_INPUT). Returns 1 if an
  * Re is not positive definite. Multiply-adds per stage about 1.5 nx^3 + 2.5 nx^2 nu + 2 nx nu^2
  * + nu^3 / 3. With l->exact the stage weights are H_k's blocks (H_xx, H_ux, H_uu) instead. */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
   ipgen_mpc_real *P = l->Pm;
   int k, i, j, m;
   for (i = 0; i < nx; ++i)
@@ -555,11 +602,17 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
         for (m = 0; m < nx; ++m) v += l->BtP[i * nx + m] * A[m * nx + j];
         l->Se[i * nx + j] = v;
       }
-    if (ipgen_mpc_cholesky(nu, Lk) != 0) return 1;
-    for (j = 0; j < nx; ++j) { /* K = -Re^-1 Se, column by column */
-      for (i = 0; i < nu; ++i) l->g[i] = l->Se[i * nx + j];
-      ipgen_mpc_cholesky_solve(nu, Lk, l->g);
-      for (i = 0; i < nu; ++i) K[i * nx + j] = -l->g[i];
+    if (IPGEN_MPC_SCALAR_INPUT) { /* nu = 1 fixed at compile time: Re a number, its reciprocal kept */
+      if (!(Lk[0] > (ipgen_mpc_real)0)) return 1;
+      Lk[0] = (ipgen_mpc_real)1 / Lk[0];
+      for (j = 0; j < nx; ++j) K[j] = -(l->Se[j] * Lk[0]);
+    } else {
+      if (ipgen_mpc_cholesky(nu, Lk) != 0) return 1;
+      for (j = 0; j < nx; ++j) { /* K = -Re^-1 Se, column by column */
+        for (i = 0; i < nu; ++i) l->g[i] = l->Se[i * nx + j];
+        ipgen_mpc_cholesky_solve(nu, Lk, l->g);
+        for (i = 0; i < nu; ++i) K[i * nx + j] = -l->g[i];
+      }
     }
     if (k == 0) break;
     for (i = 0; i < nx; ++i) /* AtP = A' P */
@@ -587,7 +640,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor(const ipgen_mpc_settings *s, const 
  * -Re^-1 (q_u + B' p), then the forward pass du = K dx + kff, dx' = A dx + B du. */
 IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real q[],
                                              ipgen_mpc_real dir[]) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   int k, i, m;
   for (i = 0; i < nx; ++i) l->p[i] = q[N * nx + i];
   for (k = N - 1; k >= 0; --k) {
@@ -601,7 +654,10 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const 
       l->g[i] = v;
       kff[i] = v;
     }
-    ipgen_mpc_cholesky_solve(nu, l->L + (long)k * nu * nu, kff);
+    if (IPGEN_MPC_SCALAR_INPUT)
+      kff[0] *= l->L[k]; /* Re^-1 */
+    else
+      ipgen_mpc_cholesky_solve(nu, l->L + (long)k * nu * nu, kff);
     for (i = 0; i < nu; ++i) kff[i] = -kff[i];
     if (k == 0) break;
     for (i = 0; i < nx; ++i) {
@@ -640,9 +696,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_effective(const ipgen_mpc_layout *l, lo
 /* The Newton system's linear terms rhs (for complementarity targets rc) from gl, gs and the
  * inequalities; the slacks eliminated (their reduced gradient kept in gs' copy in dsig). */
 IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), first_soft = M - 2 * nS;
   long i, var, soft;
   ipgen_mpc_real sign, bound;
   for (i = 0; i < Z; ++i) l->rhs[i] = l->gl[i];
@@ -661,13 +717,14 @@ IPGEN_MPC_LOCAL void ipgen_mpc_newton_rhs(const ipgen_mpc_settings *s, const ipg
   }
 }
 
-/* The step of the slacks, inequality slacks and multipliers from the direction `dir`. */
-IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nu = s->nu, N = s->N;
-  const long nS = IPGEN_MPC_SLACKS(N, s->soft_count), M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count);
+/* The step of the slacks, inequality slacks and multipliers from the direction `dir`; returns the
+ * largest step in (0, 1] along (dt, dlam) keeping t and lam nonnegative. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const int nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s)), M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s));
   const long first_soft = M - 2 * nS;
   long i, var, soft;
-  ipgen_mpc_real sign, bound;
+  ipgen_mpc_real sign, bound, alpha = (ipgen_mpc_real)1;
   for (i = 0; i < nS; ++i) {
     const long r = first_soft + i;
     ipgen_mpc_inequality(s, l, r, &var, &sign, &soft, &bound);
@@ -679,14 +736,6 @@ IPGEN_MPC_LOCAL void ipgen_mpc_recover(const ipgen_mpc_settings *s, const ipgen_
     cd = ipgen_mpc_constraint(var, sign, soft, l->dir, l->dsig);
     l->dt[i] = -l->rp[i] - cd;
     l->dlam[i] = (l->lam[i] * (l->rp[i] + cd) - l->rc[i]) / l->t[i];
-  }
-}
-
-/* The largest step in (0, 1] along (dt, dlam) keeping t and lam nonnegative. */
-IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, long M) {
-  ipgen_mpc_real alpha = (ipgen_mpc_real)1;
-  long i;
-  for (i = 0; i < M; ++i) {
     if (l->dt[i] < 0 && -l->t[i] / l->dt[i] < alpha) alpha = -l->t[i] / l->dt[i];
     if (l->dlam[i] < 0 && -l->lam[i] / l->dlam[i] < alpha) alpha = -l->lam[i] / l->dlam[i];
   }
@@ -699,15 +748,16 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max_step(const ipgen_mpc_layout *l, lon
  * `costate`: the dynamics' largest multiplier at the last iterate. */
 IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info,
                                   ipgen_mpc_real *costate) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
-  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, s->soft_count);
-  const long M = IPGEN_MPC_INEQUALITIES(nu, N, s->hard_count, s->soft_count), first_soft = M - 2 * nS;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
+  const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
+  const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), first_soft = M - 2 * nS;
   const ipgen_mpc_real one = (ipgen_mpc_real)1, zero = (ipgen_mpc_real)0;
   long i, var, soft;
   int k, a, m, iteration;
   ipgen_mpc_real sign, bound;
   /* start: the dynamics rolled out with du = 0 (every later step keeps them), slacks at the
    * violation, t at the distance to the bound (at least 1), lam = 1 */
+  ipgen_mpc_encode(s, l);
   for (i = (long)(N + 1) * nx; i < Z; ++i) l->z[i] = zero;
   for (k = 0; k < N; ++k) {
     const ipgen_mpc_real *A = l->A + (long)k * nx * nx;
@@ -729,25 +779,26 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, mu_aff = zero, alpha, centring, residual;
+    const ipgen_mpc_real scale = ipgen_mpc_gradient(s, l);
+    /* one pass over the inequalities: the primal residuals, the gap, C' lam into the gradients and
+     * the Hessian's diagonal Sigma = lam / t on each bounded variable (the slacks' below) */
+    for (i = 0; i < Z; ++i) l->hd[i] = zero;
     for (i = 0; i < M; ++i) {
       ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
       l->rp[i] = ipgen_mpc_constraint(var, sign, soft, l->z, l->sig) + l->t[i] - bound;
       mu += l->lam[i] * l->t[i];
+      if (var >= 0) l->gl[var] += sign * l->lam[i];
+      if (soft >= 0) l->gs[soft] -= l->lam[i];
+      if (i < first_soft) l->hd[var] += l->lam[i] / l->t[i];
     }
     mu = M > 0 ? mu / (ipgen_mpc_real)M : zero;
-    residual = ipgen_mpc_qp_residual(s, l, mu, ipgen_mpc_gradient(s, l), costate);
+    residual = ipgen_mpc_qp_residual(s, l, mu, scale, costate);
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
     if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
     if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
     info->qp_iterations += 1;
-    /* the Hessian's diagonal: Sigma = lam / t on each bounded variable, the slacks eliminated */
-    for (i = 0; i < Z; ++i) l->hd[i] = zero;
-    for (i = 0; i < first_soft; ++i) {
-      ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
-      l->hd[var] += l->lam[i] / l->t[i];
-    }
-    for (i = 0; i < nS; ++i) {
+    for (i = 0; i < nS; ++i) { /* the slacks eliminated */
       const long r = first_soft + i, n = first_soft + nS + i;
       const ipgen_mpc_real sr = l->lam[r] / l->t[r];
       l->hs[i] = (ipgen_mpc_real)2 * s->soft_quadratic[ipgen_mpc_soft_bound(s, i)] + sr + l->lam[n] / l->t[n];
@@ -761,8 +812,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
     ipgen_mpc_newton_rhs(s, l);
     ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
-    ipgen_mpc_recover(s, l);
-    alpha = ipgen_mpc_max_step(l, M);
+    alpha = ipgen_mpc_recover(s, l);
     for (i = 0; i < M; ++i) mu_aff += (l->lam[i] + alpha * l->dlam[i]) * (l->t[i] + alpha * l->dt[i]);
     mu_aff = M > 0 ? mu_aff / (ipgen_mpc_real)M : zero;
     centring = mu > zero ? mu_aff / mu : zero;
@@ -771,8 +821,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] + l->dt[i] * l->dlam[i] - centring * mu;
     ipgen_mpc_newton_rhs(s, l);
     ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
-    ipgen_mpc_recover(s, l);
-    alpha = ipgen_mpc_max_step(l, M);
+    alpha = ipgen_mpc_recover(s, l);
     alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
     for (i = 0; i < Z; ++i) l->z[i] += alpha * l->dir[i];
     for (i = 0; i < nS; ++i) l->sig[i] += alpha * l->dsig[i];
@@ -789,7 +838,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
  * h = 1e-5 max(1, |w_j|) (1e-2 in float), symmetrised. 2 (nx + nu) RK4 samples with
  * sensitivities per stage. Returns 1 if the model failed. */
 IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  const int nx = s->nx, nu = s->nu, N = s->N, nz = nx + nu;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s), nz = nx + nu;
   const ipgen_mpc_real relative = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-2 : (ipgen_mpc_real)1e-5;
   int k, i, j, side;
   for (k = 0; k < N; ++k) {
@@ -838,7 +887,7 @@ IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc
  * (the soft penalty's where a bound is violated). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[],
                                                          const ipgen_mpc_real dz[], ipgen_mpc_real *slope) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const ipgen_mpc_real *x = traj, *u = traj + (long)(N + 1) * nx;
   const ipgen_mpc_real *dx = dz, *du = dz ? dz + (long)(N + 1) * nx : 0;
   ipgen_mpc_real cost = (ipgen_mpc_real)0, d = (ipgen_mpc_real)0;
@@ -852,7 +901,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
         if (dz && k > 0) d += (ipgen_mpc_real)2 * w * dx[k * nx + b];
       }
     if (k > 0)
-      for (j = 0; j < s->soft_count; ++j) {
+      for (j = 0; j < IPGEN_MPC_SOFT_OF(s); ++j) {
         const int i = k * nx + s->soft_index[j];
         const ipgen_mpc_real above = x[i] - s->soft_max[j], below = s->soft_min[j] - x[i];
         const ipgen_mpc_real over = ipgen_mpc_max(above, below);
@@ -879,7 +928,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
 IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real traj[],
                                     const ipgen_mpc_real x[], ipgen_mpc_real weight, ipgen_mpc_real defects,
                                     ipgen_mpc_real *merit) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   int k, i;
   if (defects < 0) {
     defects = (ipgen_mpc_real)0;
@@ -906,6 +955,22 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
   int j;
   if (s->nx < 1 || s->nu < 1 || s->N < 1 || s->substeps < 1 || !(s->period > 0) || s->dynamics == 0) return IPGEN_MPC_BAD_SETTINGS;
   if (s->sqp_iterations < 1 || s->qp_iterations < 1 || s->hard_count < 0 || s->soft_count < 0) return IPGEN_MPC_BAD_SETTINGS;
+  /* sizes fixed at compile time that the settings do not have */
+#ifdef IPGEN_MPC_NX
+  if (s->nx != IPGEN_MPC_NX) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_NU
+  if (s->nu != IPGEN_MPC_NU) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_N
+  if (s->N != IPGEN_MPC_N) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_HARD
+  if (s->hard_count != IPGEN_MPC_HARD) return IPGEN_MPC_BAD_SETTINGS;
+#endif
+#ifdef IPGEN_MPC_SOFT
+  if (s->soft_count != IPGEN_MPC_SOFT) return IPGEN_MPC_BAD_SETTINGS;
+#endif
   for (j = 0; j < s->nu; ++j)
     if (!(s->u_min[j] < s->u_max[j])) return IPGEN_MPC_BAD_SETTINGS;
   for (j = 0; j < s->hard_count; ++j)
@@ -926,7 +991,7 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
 IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
                                  ipgen_mpc_real work[], ipgen_mpc_info *info) {
-  const int nx = s->nx, nu = s->nu, N = s->N;
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
   ipgen_mpc_info own;
   ipgen_mpc_layout l;
@@ -942,7 +1007,6 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
   }
   ipgen_mpc_carve(s, work, &l);
   us = l.traj + (long)(N + 1) * nx;
-  ipgen_mpc_encode(s, &l);
   budget = s->sqp_iterations;
   if (!(*l.warm > 0)) {
     if (s->cold_iterations > budget) budget = s->cold_iterations;

@@ -156,9 +156,9 @@ def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str
         "qp_iterations": design.qp_iterations,
         "sqp_tolerance": c_number(design.sqp_tolerance),
         "qp_tolerance": c_number(design.qp_tolerance),
-        # float: the tolerances ipgen.mpc takes in float (qp 1e-5; converged sqp 1e-4)
+        # float: the tolerances ipgen.mpc takes in float (qp 1e-4 in RTI, 1e-5 converged; converged sqp 1e-4)
         "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
-        "qp_tolerance_float": c_number(1e-5),
+        "qp_tolerance_float": c_number(1e-5 if design.mode == "converged" else 1e-4),
         "input_gain": c_number(design.input_gain),
         "motor": design.input_gain != 1.0,
         "params": group("m", "l", "delta") + ", " + c_number(float(params["g"])),  # type: ignore[arg-type]

@@ -360,7 +360,9 @@ class Mpc:
         self.qp_iterations = qp_iterations or (50 if converged else 20)
         sqp_eps = (1e-10 if double else 1e-4) if converged else 0.0
         self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else sqp_eps
-        qp_eps = (1e-10 if converged else 1e-9) if double else 1e-5
+        # float: 1e-4 in the real-time iteration (one interior-point iteration fewer a step on the
+        # QUBE than 1e-5: docs/mpc.md), 1e-5 converged (below its SQP tolerance)
+        qp_eps = (1e-10 if converged else 1e-9) if double else (1e-5 if converged else 1e-4)
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
         if hessian is None:

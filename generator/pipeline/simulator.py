@@ -75,6 +75,7 @@ MODEL_OPTION = "--model"  # the simulator's option naming the model library to l
 C_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden")
 INTERFACE = "ipgen_model.h"
 LOOP = "ipgen_loop.h"  # the loop runtime ipsim includes (sensors, swing-up)
+MPC = "ipgen_mpc.h"  # the MPC step ipsim includes (ipsim/mpc.hpp): part of the simulator's key
 EIGEN_INCLUDE = Path("/usr/include/eigen3")  # Debian's libeigen3-dev (else pkg-config eigen3)
 # What a failed compile most likely lacks: (pattern in the compiler's output, Debian package).
 MISSING_PACKAGES = (
@@ -198,6 +199,7 @@ def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
         source.with_name(CORE_SOURCE),
         include / INTERFACE,
         include / LOOP,
+        include / MPC,
         *sorted((include / "ipsim").glob("*.hpp")),
     ]:
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")

@@ -89,7 +89,7 @@ int main(void) {
   s.hard_count = 1; s.hard_index = arm; s.hard_min = travel_min; s.hard_max = travel_max;
   s.soft_count = 0; s.soft_index = 0; s.soft_min = s.soft_max = s.soft_linear = s.soft_quadratic = 0;
   s.sqp_iterations = 1; s.sqp_tolerance = 0; s.cold_iterations = 10;
-  s.qp_iterations = 20; s.qp_tolerance = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-5 : (ipgen_mpc_real)1e-9;
+  s.qp_iterations = 20; s.qp_tolerance = sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)1e-4 : (ipgen_mpc_real)1e-9;
   s.shift = 1; s.line_search = 0; s.exact_hessian = 0;
   plant = s;
   plant.substeps = 10;
