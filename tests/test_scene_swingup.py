@@ -29,6 +29,8 @@ ENERGY = {
     "swingup.u_max": "5",
 }
 TRAJECTORY = {**ENERGY, "swingup.method": '"trajectory"', "swingup.duration": "2.0"}
+# An MPC that catches and holds the swing-up (its period a whole multiple of the swing-up's).
+MPC = {"controller.kind": '"mpc"', "controller.u_max": "5", "controller.period": "0.01"}
 
 
 def swingup(tmp_path: Path, changes: dict[str, str | None] | None = None, base: dict | None = None) -> Path:
@@ -54,6 +56,17 @@ def test_energy_scene_starts_hanging_and_carries_the_law(tmp_path: Path) -> None
     assert float(config["swingup.energy_inertia"]) == pytest.approx(m1 * l1**2 / 3, rel=1e-15)
     assert float(config["swingup.energy_weight"]) == pytest.approx(0.5 * m1 * 9.81 * l1, rel=1e-15)
     assert "swingup.gains" not in config
+
+
+def test_an_mpc_controller_catches_the_swing_up(tmp_path: Path) -> None:
+    # [controller] kind = "mpc" with [swingup]: both written, the loop at the swing-up's period.
+    changes = {**MPC, "controller.period": "0.02", "swingup.period": "0.005", "sensors.measured": "[0, 1]",
+               "sensors.resolution": "2048", "estimator.kind": '"filter"'}  # fmt: skip
+    scene = load_scene(swingup(tmp_path, changes))
+    config = config_dict(resolved_config(scene))
+    assert config["controller"] == "mpc" and config["controller.period"] == "0.02"
+    assert config["swingup"] == "energy" and config["swingup.period"] == "0.005"
+    assert scene.loop is not None and config["estimator"] == "filter"
 
 
 def test_trajectory_scene_carries_plan_and_schedule(tmp_path: Path) -> None:
@@ -91,6 +104,8 @@ BAD = [
     ({"swingup.x_max": "1"}, "swingup.x_max = 1", 'method = "trajectory" only'),
     ({"swingup.speed": "1"}, "swingup.speed", "unknown key"),
     ({"controller.kind": '"lqr"'}, "swingup.method", "remove the [controller] table"),
+    ({**MPC, "swingup.period": "0.02"}, "swingup.period = 0.02", "a whole number of times"),
+    ({**MPC, "system.emit": '["c"]'}, "no C header yet", 'remove "c"'),
     ({"input.kind": '"constant"', "input.amplitude": "1"}, "swingup.method", "remove [input]"),
     ({"swingup.method": '"trajectory"'}, "swingup.method", "needs duration"),
     ({"swingup.method": '"trajectory"', "swingup.duration": "20"}, "swingup.duration = 20", "t_end"),

@@ -177,7 +177,9 @@ and multiplied by b (the parameters are the motor-folded ones ipgen writes); act
 u (amplitudes, K, saturation) is the base's acceleration [m/s^2 or rad/s^2], the links follow it.
 swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swingup] table): the run
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase, and a
-tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5).
+tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5);
+with controller = mpc too, the MPC catches and holds (every controller.period, a whole multiple of
+the swing-up's period) instead of the hold LQR.
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
 (with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
@@ -692,7 +694,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g%s; ",
                 scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
                 scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
-    if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (LQR) from t = %.6g s", state.hold_since);
+    if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (%s) from t = %.6g s", scene.mpc ? "MPC" : "LQR", state.hold_since);
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
     std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }

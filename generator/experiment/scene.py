@@ -245,6 +245,11 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             law = swing.law(tables["swingup"], pendulum(), start)
         except swing.SwingUpError as error:
             reader.fail(str(error))
+    if controller is not None and controller.mpc is not None and law is not None and "c" in system.emit:
+        reader.fail(
+            'an MPC catching a [swingup] has no C header yet: remove "c" from [system] emit '
+            "(the simulator runs it)"
+        )
     loop = _loop(reader, tables, controller, law, pendulum)
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
     if travel is not None and abs(theta[0]) > travel:
@@ -304,8 +309,9 @@ def _loop(
     pendulum: Callable[[], Pendulum],
 ) -> measuring.Loop | None:
     """The scene's measured loop (`loop.loop`), its kalman or ekf numbers from the exact
-    linearisation of `pendulum()` at the controller's (or the swing-up's hold) equilibrium."""
-    period = controller.period if controller is not None else (law.period if law is not None else None)
+    linearisation of `pendulum()` at the controller's (or the swing-up's hold) equilibrium. With
+    a swing-up the loop runs at its period (an MPC catching it steps every few of them)."""
+    period = law.period if law is not None else (controller.period if controller is not None else None)
     if controller is not None:
         equilibrium, scale = controller.equilibrium, controller.saturation
     elif law is not None:

@@ -271,10 +271,10 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
     loop = scene.loop
     if loop is None or loop.sensors is None or loop.estimator.kind == "exact":
         return None
-    if scene.controller is not None and scene.controller.period is not None:
-        period = scene.controller.period
-    elif scene.swingup is not None:
+    if scene.swingup is not None:  # an MPC catching the swing-up steps every few of its periods
         period = scene.swingup.period
+    elif scene.controller is not None and scene.controller.period is not None:
+        period = scene.controller.period
     else:  # the scene's checks refuse a measured loop without a sampled controller
         return None
     return PrintedEstimator(

@@ -699,14 +699,16 @@ class ControllerTable(Table):
         return self
 
     def context(self) -> dict[str, Any]:
-        return {"controller": True}
+        period = None if self.period is None else float(self.period)
+        return {"controller": True, "controller_kind": self.kind, "controller_period": period}
 
 
 # ---------------------------------------------------------------------------- [swingup]
 
 
 class SwingupTable(Table):
-    """[swingup]: from the initial state (default hanging) to upright, then held by LQR."""
+    """[swingup]: from the initial state (default hanging) to upright, then held by LQR (or by a
+    [controller] kind = "mpc")."""
 
     method: Literal[swing.METHODS] = Field(
         description="energy: Åström–Furuta energy control (one link); "

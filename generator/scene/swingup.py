@@ -34,13 +34,27 @@ DEFAULT_HOLD = 2.0
 
 
 def relations(table: Any, context: dict[str, Any]) -> None:
-    """Keys by method, no [controller] or driving [input], the period against t_end and sample."""
-    if context.get("controller"):
+    """Keys by method, no [controller] but an MPC (which then catches and holds, every controller
+    period: a whole multiple of the swing-up's) or driving [input], the period against t_end and
+    sample."""
+    mpc = context.get("controller_kind") == "mpc"
+    if context.get("controller") and not mpc:
         refuse(
-            "a swing-up scene has its own controller (the hold LQR); remove the [controller] table",
+            "a swing-up scene has its own controller (the hold LQR); remove the [controller] table "
+            '(or make it kind = "mpc": the MPC then catches and holds)',
             key="method",
             value=table.method,
         )
+    if mpc and context.get("controller_period") is not None:
+        controller_period = context["controller_period"]
+        ratio = float(controller_period) / float(table.period)
+        if not (round(ratio) >= 1 and abs(ratio - round(ratio)) <= 1e-9 * ratio):
+            refuse(
+                f"must divide the MPC's [controller] period ({format_number(controller_period)} s) "
+                "a whole number of times: the MPC holds from the catch on, every controller period",
+                key="period",
+                value=table.period,
+            )
     input_kind = context.get("input_kind", "zero")
     if input_kind != "zero":
         refuse(

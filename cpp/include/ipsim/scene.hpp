@@ -33,7 +33,8 @@
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
 //   actuator = acceleration    (optional: u is the base's acceleration [m/s^2 or rad/s^2], the links follow)
-//   swingup = energy | trajectory   (optional, with input = zero and no controller: ipsim/swingup.hpp)
+//   swingup = energy | trajectory   (optional, with input = zero and no controller but mpc, which then
+//                                    catches and holds: ipsim/swingup.hpp)
 //   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
 //          energy_inertia energy_weight                                               (energy)
@@ -253,6 +254,15 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   if (std::isfinite(scene.settings.t_end) && scene.settings.t_end / sw.period > kMaxSamples) {
     file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
                                                ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
+  }
+  if (scene.mpc) {  // controller = mpc with a swing-up: the MPC catches and holds (every catch_every periods)
+    const double every = std::round(scene.mpc->problem().period / sw.period);
+    if (!(every >= 1.0 && std::abs(every * sw.period - scene.mpc->problem().period) <= 1e-9 * scene.mpc->problem().period)) {
+      file.fail(file.line("controller.period"), "controller.period = " + detail::format_number(scene.mpc->problem().period) +
+                                                    " must be a whole multiple of swingup.period = " + detail::format_number(sw.period));
+    }
+    sw.catch_every = static_cast<long>(every);
+    sw.catch_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x) { return b * (*mpc)(x); };
   }
   scene.swingup_state = std::make_shared<SwingUp::State>();
   scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);

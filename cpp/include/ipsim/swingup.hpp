@@ -11,12 +11,16 @@
 //                              mass matrix and bias at x), until |θ1 − 2πk| ≤ catch_angle and
 //                              |θ̇1| ≤ catch_rate: then hold about θ1 = 2πk;
 //   track  (method trajectory) u_k = ū_k − K_k (x − x̄_k) along the plan (k < steps);
-//   hold                       u = −K_hold (x − x_target).
+//   hold                       u = −K_hold (x − x_target), or a catch controller's u (a scene's
+//                              [controller] kind = "mpc" with its [swingup]: the MPC's step every
+//                              catch_every periods from the catch on, fed x with θ1 − 2πk, u held
+//                              in between).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -65,6 +69,11 @@ struct SwingUp {
   // trajectory: ū_k (steps), x̄_k (steps + 1 rows), K_k (steps rows)
   Eigen::VectorXd inputs;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> states, gains;  ///< row-major: ipgen_loop.h's layout
+  /// The hold's controller when not the LQR (a scene's MPC): u [N or N m] from x with θ1 taken
+  /// relative to the caught upright (θ1 − 2πk); called at the catch and every catch_every
+  /// periods after it, its u held in between. Empty: the hold LQR.
+  std::function<double(const Eigen::VectorXd&)> catch_law;
+  long catch_every = 1;
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
   /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
@@ -75,6 +84,9 @@ struct SwingUp {
     /// track phase: at the last sampling instant, the link farthest from the plan and by how much [rad]
     int off_plan_link = 0;
     double off_plan = 0.0;
+    /// catch_law: the sample index of the catch and the last u it gave
+    long hold_sample = 0;
+    double catch_u = 0.0;
   };
 
   /// Problems, one line each (empty when valid).
@@ -132,6 +144,15 @@ struct SwingUp {
       state.hold_since = t;
       state.equilibrium = target;
       state.equilibrium(1) = loop.hold_q1;
+      state.hold_sample = k;
+    }
+    if (catch_law && state.phase == SwingPhase::hold) {
+      if ((k - state.hold_sample) % catch_every == 0) {
+        Eigen::VectorXd relative = x;
+        relative(1) -= state.equilibrium(1);
+        state.catch_u = std::clamp(catch_law(relative), -u_max, u_max);
+      }
+      return state.catch_u;
     }
     return u;
   }
