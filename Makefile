@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4 bench-leaderboard stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow ipsim-simulate test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-m4 bench-leaderboard stability configure build clean
 
 all: test
 
@@ -80,8 +80,8 @@ lint: venv
 ## (tests/conftest.py): a second make test compiles none of them. --dist worksteal: a worker that
 ## runs out of tests takes some queued for the other, so the run does not end on one worker's long
 ## queue.
-test-python: lint deps-docs
-	$(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv and not user_program"
+test-python: lint deps-docs ipsim-simulate
+	$(SIMULATOR_ENV) $(PY) -m pytest -q -n $(JOBS) --dist worksteal -m "not fresh_venv and not user_program"
 
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py); and the docs' own whole C++
@@ -93,8 +93,8 @@ test-slow: venv deps-docs
 	$(MAKE) --no-print-directory -j 2 test-slow-python test-cpp-slow
 	@echo "make test-slow: all tests passed"
 
-test-slow-python: venv deps-docs
-	$(PY) -m pytest -q -n $(JOBS) -m "fresh_venv or user_program"
+test-slow-python: venv deps-docs ipsim-simulate
+	$(SIMULATOR_ENV) $(PY) -m pytest -q -n $(JOBS) -m "fresh_venv or user_program"
 
 test-cpp-slow: venv
 	@mkdir -p $(BUILD)
@@ -117,16 +117,25 @@ CMAKE_CONFIGURE = cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release "-D
 configure: venv
 	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) -DIPGEN_SLOW_TESTS=OFF >/dev/null
 
-## What the C++ build can do before the virtualenv exists, beside its install (about 35 s from a
-## fresh clone, which make test's Python side waits for): configure without the generator and compile
-## ipsim's core (ipgen_ipsim_core, which the generated models link too) and the stand-in's
-## simulator. Only in a build folder not configured yet; `configure` then switches the generator
-## on, and neither is rebuilt (same command lines).
+## What the C++ build can do before the virtualenv exists, beside its install (from a fresh clone,
+## which both sides of make test wait for): configure without the generator and compile ipsim's
+## core (ipgen_ipsim_core, which the generated models link too) and ipsim's simulator (ipsim_simulate,
+## which pytest runs). Only in a build folder not configured yet; `configure` then switches the
+## generator on, and neither is rebuilt (same command lines).
 cpp-early: deps-build
 	@if [ ! -f $(BUILD)/CMakeCache.txt ]; then \
 	  $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=OFF -DIPGEN_SLOW_TESTS=OFF >/dev/null && \
-	  cmake --build $(BUILD) -j 1 --target ipgen_ipsim_core simulate_stand_in_cart1 >/dev/null; \
+	  cmake --build $(BUILD) -j $(JOBS) --target ipsim_simulate >/dev/null; \
 	fi
+
+## ipsim's simulator as `ipgen run` uses it (CMake target ipsim_simulate: cpp/src/simulate.cpp over
+## the model interface, linking the same ipgen_ipsim_core as every CMake program), brought up to
+## date before either side starts (one ninja at a time in the build folder). pytest takes it through
+## $IPGEN_SIMULATOR instead of compiling a copy of its own into build/test-cache (about 40 s of
+## compiler CPU); `ipgen run` checks that it was built from the same ipsim sources.
+SIMULATOR_ENV = IPGEN_SIMULATOR=$(abspath $(BUILD))/bin/ipsim-simulate
+ipsim-simulate: venv cpp-early
+	cmake --build $(BUILD) -j $(JOBS) --target ipsim_simulate >/dev/null
 
 build: configure
 	cmake --build $(BUILD) -j $(JOBS)
@@ -145,7 +154,7 @@ test: deps-build
 	$(MAKE) --no-print-directory -j 3 test-python test-cpp-logged
 	@echo "make test: all tests passed"
 
-test-cpp-logged: venv cpp-early
+test-cpp-logged: venv cpp-early ipsim-simulate
 	@mkdir -p $(BUILD)
 	@if $(MAKE) --no-print-directory test-cpp > $(BUILD)/test-cpp.log 2>&1; then \
 	  grep -E "tests passed|tests failed" $(BUILD)/test-cpp.log || true; \

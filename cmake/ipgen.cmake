@@ -28,6 +28,13 @@
 #       compiled once with -DIPSIM_RUNTIME_MODEL (ipsim/runtime_model.hpp), linking
 #       ipgen_ipsim_core; whatever links it, and an adapter, is a simulator.
 #
+#   ipgen_add_ipsim_simulate([TARGET <executable>])
+#       The simulator `ipgen run` uses, built by this build (default target ipsim_simulate, file
+#       ipsim-simulate): ipgen_ipsim_runtime alone, loading a model library at run time
+#       (--model LIB). `ipgen run` takes it instead of compiling its own when $IPGEN_SIMULATOR
+#       names it; it prints the digest of the ipsim sources it was built from
+#       (--sources-digest), which `ipgen run` checks against its own.
+#
 #   ipgen_ipsim_core()
 #       Creates (once per build) the static library ipgen_ipsim_core: ipsim's model-independent
 #       functions compiled once (cpp/src/ipsim_core.cpp), with ipgen::ipsim and
@@ -283,11 +290,49 @@ endfunction()
 function(ipgen_ipsim_runtime)
   if(NOT TARGET ipgen_ipsim_runtime)
     ipgen_ipsim_core()
+    _ipgen_ipsim_sources_digest(digest)
     add_library(ipgen_ipsim_runtime OBJECT "${_IPGEN_ROOT}/cpp/src/simulate.cpp")
     target_link_libraries(ipgen_ipsim_runtime PUBLIC ipgen_ipsim_core ${CMAKE_DL_LIBS})
-    target_compile_definitions(ipgen_ipsim_runtime PRIVATE IPSIM_RUNTIME_MODEL)
+    target_compile_definitions(ipgen_ipsim_runtime PRIVATE IPSIM_RUNTIME_MODEL IPSIM_SOURCES_DIGEST="${digest}")
     ipgen_target_warnings(ipgen_ipsim_runtime)
   endif()
+endfunction()
+
+# The SHA-256 of ipsim's sources as ipgen computes it (generator/pipeline/simulator.py,
+# sources_digest): of "NAME\nSHA256\n" per file, in this order. Editing one re-runs CMake.
+function(_ipgen_ipsim_sources_digest out_var)
+  set(include "${_IPGEN_ROOT}/cpp/include")
+  if(CMAKE_SCRIPT_MODE_FILE)  # cmake -P (tests/test_external_simulator.py): no configure to re-run
+    file(GLOB headers LIST_DIRECTORIES false "${include}/ipsim/*.hpp")
+  else()
+    file(GLOB headers LIST_DIRECTORIES false CONFIGURE_DEPENDS "${include}/ipsim/*.hpp")
+  endif()
+  list(SORT headers)
+  set(files "${_IPGEN_ROOT}/cpp/src/simulate.cpp" "${_IPGEN_ROOT}/cpp/src/ipsim_core.cpp"
+            "${include}/ipgen_model.h" "${include}/ipgen_loop.h" "${include}/ipgen_mpc.h" ${headers})
+  set(text "")
+  foreach(file IN LISTS files)
+    file(SHA256 "${file}" sum)
+    cmake_path(GET file FILENAME name)
+    string(APPEND text "${name}\n${sum}\n")
+  endforeach()
+  string(SHA256 digest "${text}")
+  if(NOT CMAKE_SCRIPT_MODE_FILE)
+    set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${files})
+  endif()
+  set(${out_var} "${digest}" PARENT_SCOPE)
+endfunction()
+
+function(ipgen_add_ipsim_simulate)
+  cmake_parse_arguments(PARSE_ARGV 0 arg "" "TARGET" "")
+  set(simulator ipsim_simulate)
+  if(arg_TARGET)
+    set(simulator ${arg_TARGET})
+  endif()
+  ipgen_ipsim_runtime()
+  add_executable(${simulator})
+  target_link_libraries(${simulator} PRIVATE ipgen_ipsim_runtime)
+  set_target_properties(${simulator} PROPERTIES OUTPUT_NAME ipsim-simulate)
 endfunction()
 
 function(ipgen_add_runtime_simulator model_target)

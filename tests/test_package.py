@@ -68,6 +68,7 @@ def install(folder: Path) -> Path:
     }
     env.pop("IPGEN_CACHE_DIR", None)
     env.pop("IPGEN_SIM_OPT", None)  # the user's -O2, not the test suite's -Og (tests/conftest.py)
+    env.pop("IPGEN_SIMULATOR", None)  # the checkout's CMake-built simulator (Makefile): not a user's
     done = subprocess.run(
         ["bash", "-eu", "-o", "pipefail", "-c", script], cwd=source, capture_output=True, text=True, env=env
     )

@@ -126,6 +126,7 @@ def test_the_build_announcement_states_the_last_build(
         return ["cp", "/bin/true", str(output)]
 
     monkeypatch.setattr(simulator, "compile_command", fake_compile)
+    monkeypatch.delenv(simulator.SIMULATOR_VARIABLE, raising=False)  # the cache's own simulator
     monkeypatch.setattr(simulator, "core_command", fake_core)
     monkeypatch.setattr(simulator, "program_command", fake_program)
     said: list[str] = []

@@ -54,6 +54,7 @@ def fake_compiler(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.Temp
         return ["cp", str(script), str(output)]
 
     monkeypatch.setattr(simulator, "compile_command", command)
+    monkeypatch.delenv(simulator.SIMULATOR_VARIABLE, raising=False)  # the cache's own simulator
     monkeypatch.setattr(simulator, "core_command", core_command)
     monkeypatch.setattr(simulator, "program_command", program_command)
     return builds

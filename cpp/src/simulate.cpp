@@ -236,6 +236,16 @@ Options parse_command_line(int argc, char** argv) {
         std::puts(" (then the optional columns).");
       }
       std::exit(0);
+    } else if (arg == "--sources-digest" && kRuntimeModel && args.size() == 1) {
+      // The SHA-256 of the ipsim sources this program was compiled from, as cmake/ipgen.cmake
+      // computed it (IPSIM_SOURCES_DIGEST): `ipgen run` with $IPGEN_SIMULATOR compares it with its
+      // own sources' before using this program. Without it (not a CMake build), "unknown".
+#ifdef IPSIM_SOURCES_DIGEST
+      std::puts(IPSIM_SOURCES_DIGEST);
+#else
+      std::puts("unknown");
+#endif
+      std::exit(0);
     } else if (arg == "--model" && kRuntimeModel) {
       options.model_path = value();
       if (options.model_path.empty()) throw UsageError("--model \"\" is empty: name the model library");

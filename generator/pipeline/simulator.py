@@ -71,6 +71,11 @@ CORE_OBJECT = "ipsim_core.o"
 RUNTIME = "-DIPSIM_RUNTIME_MODEL"
 PROGRAM = "ipsim-simulate"
 MODEL_OPTION = "--model"  # the simulator's option naming the model library to load
+# An ipsim-simulate built elsewhere (CMake's target ipsim_simulate, e.g. at -O3 -march=native), used
+# instead of the cache's when set; it must be built from this installation's ipsim sources, which
+# it tells by its DIGEST_OPTION (`sources_digest`, computed by cmake/ipgen.cmake alike).
+SIMULATOR_VARIABLE = "IPGEN_SIMULATOR"
+DIGEST_OPTION = "--sources-digest"
 # The model library: C99, position-independent, only the model's symbol exported.
 C_FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-fvisibility=hidden")
 INTERFACE = "ipgen_model.h"
@@ -184,24 +189,63 @@ def core_command(cxx: str, output: Path) -> list[str]:
     return [cxx, *flags, "-c", str(core), "-o", str(output)]
 
 
-def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
-    """SHA-256 (hex, 24 digits) of everything ipsim's compiled core and simulator depend on, for
-    the compiler `cxx` (`version`: its `--version` output, asked here unless given) and these
-    flags; with `header_text`, of that too (what a program built on the core also compiles)."""
+def ipsim_source_files() -> list[Path]:
+    """Every file ipsim's compiled core and simulator are compiled from (besides Eigen, SUNDIALS,
+    LAPACK): the order of `cache_key` and `sources_digest` (and of cmake/ipgen.cmake's digest)."""
     source, include = simulator_sources()
-    digest = hashlib.sha256()
-    if version is None:
-        version = compiler_version(cxx)
-    for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
-        digest.update(part.encode() + b"\0")
-    for path in [
+    return [
         source,
         source.with_name(CORE_SOURCE),
         include / INTERFACE,
         include / LOOP,
         include / MPC,
         *sorted((include / "ipsim").glob("*.hpp")),
-    ]:
+    ]
+
+
+def sources_digest() -> str:
+    """SHA-256 (hex) of ipsim's sources as `ipsim-simulate --sources-digest` prints it: of the
+    text "NAME\nSHA256\n" per file of `ipsim_source_files` (cmake/ipgen.cmake computes the same
+    at configure time and compiles it in)."""
+    text = "".join(
+        f"{path.name}\n{hashlib.sha256(path.read_bytes()).hexdigest()}\n" for path in ipsim_source_files()
+    )
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def external_program() -> Built | None:
+    """The simulator $IPGEN_SIMULATOR names, checked to be an executable built from this
+    installation's ipsim sources; None when the variable is unset or empty."""
+    value = os.environ.get(SIMULATOR_VARIABLE, "").strip()
+    if not value:
+        return None
+    path = Path(value)
+    shown = f"{SIMULATOR_VARIABLE}={shown_path(path)}"
+    unset = f"or unset {SIMULATOR_VARIABLE} (ipgen then compiles its own)"
+    if not path.is_file() or not os.access(path, os.X_OK):
+        raise BuildError(f"{shown} is not an executable file: build it (CMake target ipsim_simulate) {unset}")
+    try:
+        done = subprocess.run([str(path), DIGEST_OPTION], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired, UnicodeDecodeError) as error:
+        raise BuildError(f"{shown} does not run ({type(error).__name__}): rebuild it {unset}") from None
+    if done.returncode != 0 or done.stdout.strip() != sources_digest():
+        raise BuildError(
+            f"{shown} was not built from this ipgen's ipsim sources: rebuild it (CMake target "
+            f"ipsim_simulate of this checkout or installation) {unset}"
+        )
+    return Built(path.resolve(), built=False, seconds=0.0)
+
+
+def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
+    """SHA-256 (hex, 24 digits) of everything ipsim's compiled core and simulator depend on, for
+    the compiler `cxx` (`version`: its `--version` output, asked here unless given) and these
+    flags; with `header_text`, of that too (what a program built on the core also compiles)."""
+    digest = hashlib.sha256()
+    if version is None:
+        version = compiler_version(cxx)
+    for part in (shutil.which(cxx) or cxx, version, " ".join(optimisation() + LIBRARIES), header_text):
+        digest.update(part.encode() + b"\0")
+    for path in ipsim_source_files():
         digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
     return digest.hexdigest()[:24]
 
@@ -267,9 +311,10 @@ def build(
     ipsim's simulator (compiled once), the model's library and their launcher, from the cache or
     built into it (calling `announce` with a progress line first). `built` and `seconds` tell
     whether and how long this call compiled the model's library (or the simulator, once)."""
-    cxx = compiler()
-    version = compiler_version(cxx)  # asked once for both keys
-    program = compiled_program(cache, announce, cxx, version)
+    program = external_program()
+    if program is None:
+        cxx = compiler()
+        program = compiled_program(cache, announce, cxx, compiler_version(cxx))
     cc = c_compiler()
     recipe = Recipe(
         sources=dict(sources),
