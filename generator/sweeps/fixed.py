@@ -46,13 +46,13 @@ NOT_YET = (
     "not yet supported for fixed-pivot chains: ipgen run simulates them without [sensors] or drive "
     f"effects (their criteria: {', '.join(SUPPORTED)})"
 )
-DESIGN_KEYS = ("controller", "swingup")
+DESIGN_KEYS = ("controller", "swingup")  # the tables (and the cfg's key prefixes) of the design
 # What the success test adds for a fixed chain (scores.md, scores.json).
 NOTE = (
     "; a fixed-pivot chain has no base (no travel limit), its angles are compared in the scene's own "
     "coordinates, and a run also fails when a torque exceeds its bound (the swing-up's u_max or the "
     "controller's saturation)"
-)  # the cfg's keys (and prefixes) of the nominal design
+)
 
 
 def is_fixed_scene(path: Path) -> bool:
@@ -207,19 +207,23 @@ def _values(cfg: str, key: str) -> list[float] | None:
     return None
 
 
-def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], float | None, bool]:
-    """(the goal state, the torque bound or None, whether it is a balance run) of a resolved config."""
+def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], tuple[float, ...] | None, bool]:
+    """(the goal state, the torque bounds or None, whether it is a balance run) of a resolved
+    config: the swing-up's u_max (one for every input), else the controller's saturation (one per
+    input, in the order of the CSV's u1..um)."""
     target = _values(cfg, "swingup.target")
     if target is not None:
-        return tuple(target), (_values(cfg, "swingup.u_max") or [None])[0], False  # type: ignore[list-item]
+        u_max = _values(cfg, "swingup.u_max")
+        return tuple(target), (tuple(u_max) if u_max else None), False
     equilibrium = _values(cfg, "controller.equilibrium") or []
     saturation = _values(cfg, "controller.saturation")
-    return tuple(equilibrium), (max(saturation) if saturation else None), True
+    return tuple(equilibrium), (tuple(saturation) if saturation else None), True
 
 
 def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Judgement:
     """The success test on a fixed chain's CSV (t, theta0.., dtheta0.., u or u1.., the rig's
-    coordinates), then the torque bound; a ValueError or OSError if the CSV cannot be read."""
+    coordinates), then each input's torque bound; a ValueError or OSError if the CSV cannot be
+    read."""
     with csv.open() as f:
         columns = f.readline().strip().split(",")
     wanted = [columns.index("t")] + [columns.index(f"theta{i}") for i in range(links)]
@@ -229,15 +233,21 @@ def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Ju
     if len(data) == 0:
         raise ValueError("no samples")
     t, states, torques = data[:, 0], data[:, 1 : 1 + 2 * links], data[:, 1 + 2 * links :]
-    goal, limit, balance = goal_and_limit(cfg)
+    goal, limits, balance = goal_and_limit(cfg)
     verdict = judge(
         test, t, states, goal, rotary=False, status=status, travel=None, balance=balance, fixed=True
     )
-    largest = float(np.max(np.abs(torques))) if torques.size else 0.0
-    if verdict.passed and limit is not None and largest > limit * (1 + 1e-9):
+    if not verdict.passed or limits is None or not torques.size:
+        return verdict
+    # Each input against its own bound (saturations may differ per joint): the worst excess.
+    bounds = np.broadcast_to(np.asarray(limits, dtype=float), (torques.shape[1],))
+    largest = np.max(np.abs(torques), axis=0)
+    excess = largest - bounds * (1 + 1e-9)
+    worst = int(np.argmax(excess))
+    if excess[worst] > 0:
         return Judgement(
-            False, f"exceeded the torque bound ({largest:.4g} > {limit:g} N m)", verdict.angle_error,
-            verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
+            False, f"exceeded the torque bound ({largest[worst]:.4g} > {bounds[worst]:g} N m)",
+            verdict.angle_error, verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
         )  # fmt: skip
     return verdict
 
