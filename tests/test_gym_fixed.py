@@ -144,6 +144,7 @@ def test_a_wrong_action_is_one_line(make: object, action: object, message: str) 
     [
         ("dfki_c1", {}, "does not model Coulomb friction"),
         ("acrobot", {"sensors": {"resolution": 2048}}, "sensors are not supported for fixed-pivot"),
+        ("acrobot", {"x_limit": 1.0}, "x_limit = 1.0: a fixed-pivot chain has no base; leave x_limit out"),
         (
             "acrobot",
             {"spread": {"J_axial": 0.1}},
