@@ -29,7 +29,7 @@ from ipgen.common.safetext import abbreviate
 from ipgen.model.fixed import FixedPendulum
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scorecard
-from ipgen.sweeps.spec import KEY_PATTERN, Criterion, Key, Level, SweepError, parse_levels, parse_vary
+from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels, parse_vary, split_key
 from ipgen.sweeps.success import Judgement, Success, judge
 
 # The keys a fixed scene's sweep may override, by table (numbers, or one entry of an array).
@@ -134,13 +134,8 @@ def _is_design(line: str) -> bool:
 
 def parse_fixed_key(text: str) -> Key:
     """A `Key` a fixed scene's sweep may override (`KEYS`); else a SweepError naming them."""
-    match = KEY_PATTERN.match(text.strip())
-    if match is None:
-        raise SweepError(
-            f"--vary key {abbreviate(text)!r} is not a scene key: write table.key or table.key[i], "
-            "e.g. parameters.m[1], initial.theta[0], swingup.period"
-        )
-    table, name = match.group(1), match.group(2)
+    key = split_key(text, "parameters.m[1], initial.theta[0], swingup.period")
+    table, name = key.table, key.name
     if table not in KEYS:
         raise SweepError(
             f"--vary {abbreviate(text)}: a fixed-pivot scene's sweep takes keys of "
@@ -151,8 +146,7 @@ def parse_fixed_key(text: str) -> Key:
             f"--vary {abbreviate(text)}: [{table}] of a fixed-pivot scene's sweep has "
             f"{', '.join(KEYS[table])} (docs/sweep.md)"
         )
-    index = match.group(3)
-    return Key(table, name, None if index is None else int(index))
+    return key
 
 
 def nominal_array(scene: FixedScene, key: Key) -> list[float] | None:
