@@ -159,6 +159,19 @@ def energy_variables(first: int, kinetic: str, origin: str) -> list[Variable]:
     ]
 
 
+def energy_dependencies(
+    first: int, kinetic: list[int], potential: list[int], damping: list[int]
+) -> list[tuple[int, tuple[int, ...]]]:
+    """The `ENERGIES` outputs' dependencies (value references) from `first` on: T's, V's, both
+    for E, and the damped rates for the damping power."""
+    return [
+        (first, tuple(kinetic)),
+        (first + 1, tuple(potential)),
+        (first + 2, tuple(sorted(set(kinetic) | set(potential)))),
+        (first + 3, tuple(damping)),
+    ]
+
+
 def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] = ()) -> Layout:
     """The FMU's variables for `eqs`; `start` overrides parameter start values (a scene's),
     `initial` the states' (θ then θ̇)."""
@@ -253,12 +266,7 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     potential = sorted(q_vr[i] for i in v_angles)
     outputs = [(q_vr[i], (q_vr[i],)) for i in range(dof)]
     energy_vr = u_vr + 1
-    outputs += [
-        (energy_vr, tuple(kinetic)),
-        (energy_vr + 1, tuple(potential)),
-        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
-        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
-    ]
+    outputs += energy_dependencies(energy_vr, kinetic, potential, sorted(qd_vr[i] for i in d_rates))
     return Layout(tuple(variables), dof, tuple(outputs), tuple(derivatives))
 
 
@@ -477,10 +485,5 @@ def fixed_layout(
     kinetic = sorted([q_vr[i] for i in t_angles] + [qd_vr[i] for i in t_rates])
     potential = sorted(q_vr[i] for i in v_angles)
     outputs = [(q_vr[i], (q_vr[i],)) for i in range(1, n + 1)]
-    outputs += [
-        (energy_vr, tuple(kinetic)),
-        (energy_vr + 1, tuple(potential)),
-        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
-        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
-    ]
+    outputs += energy_dependencies(energy_vr, kinetic, potential, sorted(qd_vr[i] for i in d_rates))
     return Layout(tuple(variables), n, tuple(outputs), tuple(derivatives))
