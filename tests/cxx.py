@@ -67,6 +67,8 @@ def eigen_pch(flags: tuple[str, ...]) -> Path | None:
     cache = os.environ.get("IPGEN_CACHE_DIR")
     if not cache or os.environ.get("IPGEN_TEST_PCH") == "0":
         return None
+    if shutil.which(flags[0]) is None:  # no compiler: the compile reports it (or require_toolchain)
+        return None
     entry = Path(cache) / "eigen-pch" / pch_key(flags)
     header, compiled = entry / "eigen.hpp", entry / "eigen.hpp.gch"
     entry.mkdir(parents=True, exist_ok=True)

@@ -32,3 +32,12 @@ def test_no_cache_folder_or_pch_off_compiles_without_it(monkeypatch: pytest.Monk
     monkeypatch.setenv("IPGEN_CACHE_DIR", "/nonexistent-never-created")
     monkeypatch.setenv("IPGEN_TEST_PCH", "0")
     assert eigen_pch.__wrapped__((CXX, "-std=c++17")) is None
+
+
+def test_a_missing_compiler_builds_no_pch(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """cxx_command of a compiler that is not there returns its command (the compile then says so),
+    rather than raising while it keys the precompiled header."""
+    monkeypatch.setenv("IPGEN_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("IPGEN_TEST_PCH", raising=False)
+    assert eigen_pch.__wrapped__(("no-such-compiler-ipgen", "-std=c++17")) is None
+    assert not (tmp_path / "eigen-pch").exists()
