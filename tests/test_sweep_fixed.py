@@ -91,6 +91,10 @@ def test_each_torque_is_held_to_its_own_saturation(tmp_path: Path) -> None:
         ({"vary": ["actuator.joints=1,2"]}, r"\[actuator\] of a fixed-pivot scene's sweep has Ir, gr"),
         ({"vary": ["parameters.m[2]=0.5,0.6"]}, r"parameters.m has 2 entries \(indices 0..1\)"),
         ({"vary": ["parameters.m[0]=0.5,0.6"]}, "or .swingup.: a sweep judges a closed loop"),
+        (
+            {"vary": ["controller.saturation=3,4"]},
+            r"controller.saturation: the scene has no \[controller\] \(its loop is its \[swingup\]",
+        ),
     ],
 )
 def test_what_a_fixed_sweep_does_not_take_is_one_line(tmp_path: Path, options: dict, message: str) -> None:

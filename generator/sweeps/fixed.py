@@ -309,11 +309,18 @@ def parse_vary_fixed(spec: str) -> tuple[Key, tuple[float, ...]]:
 
 
 def check_keys(scene: FixedScene, criteria: list[Criterion]) -> None:
-    """Every criterion's first level applied to the document: an index the scene cannot have is a
-    SweepError now, not a refusal of every run."""
+    """Every criterion's first level applied to the document: an index the scene cannot have, or
+    a key of a [controller] or [swingup] the scene has not, is a SweepError now, not a refusal of
+    every run."""
+    present = [table for table in DESIGN_KEYS if table in scene.document]
     for criterion in criteria:
         if criterion.refused or not criterion.levels:
             continue
+        for text, _ in criterion.levels[0].overrides:
+            table = text.split(".", 1)[0]
+            if table in DESIGN_KEYS and table not in present:
+                loop = f"its loop is its [{present[0]}]: vary {present[0]}.* keys" if present else "no loop"
+                raise SweepError(f"--vary {abbreviate(text)}: the scene has no [{table}] ({loop})")
         try:
             apply(scene, criterion.levels[0].overrides)
         except SweepError as error:
