@@ -168,3 +168,33 @@ def test_two_mpc_scenes_of_other_sizes_in_one_file(folder: Path) -> None:
         [str(folder / "two")], capture_output=True, text=True, check=True
     ).stdout.split()
     assert (status_a, status_b) == ("0", "0") and float(ua) != 0 and float(ub) != 0
+
+
+SOFT_STEP = STEP.replace('"qube_servo2.h"', '"qube_soft.h"').replace("P_", "ipgen_qube_soft_")
+
+
+def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path) -> None:
+    """A design with a soft bound (IPGEN_MPC_SOFT = 1, which the QUBE preset has not): the header's
+    step with its sizes fixed at compile time returns the run-time-size step's u (the path ipsim
+    and ipgen.mpc run, checked against IPOPT in tests/test_mpc.py) and status to 1e-9 along the
+    simulator's estimates, the pendulum beyond the soft bound at first."""
+    scene = folder / "qube_soft.toml"
+    text = QUBE.format(controller="soft_bounds = [[1, -0.1, 0.1]]\n", extra="", t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', 'name = "qube_soft"\nemit = ["c"]'))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(scene), "-o", str(folder)]) == 0, err.getvalue()
+    assert "#define IPGEN_MPC_SOFT 1" in (folder / "qube_soft.h").read_text()
+    columns = _columns(folder)
+    estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    assert np.max(np.abs(estimate[:, 1])) > 0.1  # the pendulum beyond the soft bound at first
+    results, statuses = {}, {}
+    for name, defines in (("soft_fixed", ""), ("soft_runtime", "#define IPGEN_MPC_RUNTIME_SIZES\n")):
+        out = _run(_program(folder, name, defines + SOFT_STEP), estimate, "{!r}")
+        results[name] = np.array([float(v[0]) for v in out])
+        statuses[name] = [v[1] for v in out]
+    difference = np.max(np.abs(results["soft_fixed"] - results["soft_runtime"]))
+    assert difference <= 1e-9, difference
+    # The same statuses: mostly ok, a few QPs at their iteration budget (the soft bound is tight).
+    assert statuses["soft_fixed"] == statuses["soft_runtime"]
+    assert statuses["soft_fixed"].count("0") > 0.9 * len(estimate)
+    assert np.max(np.abs(results["soft_fixed"])) > 1
