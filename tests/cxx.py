@@ -37,11 +37,28 @@ def cxx_command(*arguments: str, optimisation: str = "-Og") -> tuple[str, ...]:
 PCH_TEXT = "#include <Eigen/Dense>\n"
 
 
+# Eigen's version macros: gcc does not check that a .gch's headers are unchanged, so another Eigen
+# at the same path must give another key (else the tests compile against the old one's .gch).
+EIGEN_VERSION_FILE = Path("Eigen", "src", "Core", "util", "Macros.h")
+
+
+def pch_key(flags: tuple[str, ...]) -> str:
+    """The precompiled header's cache key: `flags`, the compiler's version, Eigen's version
+    header (`EIGEN_VERSION_FILE` under the include path of `flags`, absent: empty) and `PCH_TEXT`."""
+    version = subprocess.run([CXX, "--version"], capture_output=True, text=True).stdout
+    include = Path(flags[flags.index("-isystem") + 1]) if "-isystem" in flags else EIGEN_INCLUDE
+    try:
+        eigen = (include / EIGEN_VERSION_FILE).read_text(errors="replace")
+    except OSError:
+        eigen = ""
+    return hashlib.sha256("\0".join((*flags, version, eigen, PCH_TEXT)).encode()).hexdigest()[:24]
+
+
 @functools.cache
 def eigen_pch(flags: tuple[str, ...]) -> Path | None:
     """`<cache>/eigen-pch/<key>/eigen.hpp`, with `eigen.hpp.gch` beside it compiled by `flags`
-    (keyed by them and the compiler's version; once per run for both xdist workers, under a lock),
-    or None where it cannot be built (the compile then parses Eigen as before).
+    (`pch_key`: them, the compiler's and Eigen's versions; once per run for both xdist workers,
+    under a lock), or None where it cannot be built (the compile then parses Eigen as before).
 
     Parsing Eigen is about 0.9 s of each test program's 1.3-3 s of compiler time (2026-11-29).
     gcc takes the .gch only for a compile with the same -O level and no macro that Eigen reads
@@ -50,9 +67,9 @@ def eigen_pch(flags: tuple[str, ...]) -> Path | None:
     cache = os.environ.get("IPGEN_CACHE_DIR")
     if not cache or os.environ.get("IPGEN_TEST_PCH") == "0":
         return None
-    version = subprocess.run([CXX, "--version"], capture_output=True, text=True).stdout
-    key = hashlib.sha256("\0".join((*flags, version, PCH_TEXT)).encode()).hexdigest()[:24]
-    entry = Path(cache) / "eigen-pch" / key
+    if shutil.which(flags[0]) is None:  # no compiler: the compile reports it (or require_toolchain)
+        return None
+    entry = Path(cache) / "eigen-pch" / pch_key(flags)
     header, compiled = entry / "eigen.hpp", entry / "eigen.hpp.gch"
     entry.mkdir(parents=True, exist_ok=True)
     with (entry / "lock").open("a") as lock:

@@ -144,6 +144,7 @@ def test_a_wrong_action_is_one_line(make: object, action: object, message: str) 
     [
         ("dfki_c1", {}, "does not model Coulomb friction"),
         ("acrobot", {"sensors": {"resolution": 2048}}, "sensors are not supported for fixed-pivot"),
+        ("acrobot", {"x_limit": 1.0}, "x_limit = 1.0: a fixed-pivot chain has no base; leave x_limit out"),
         (
             "acrobot",
             {"spread": {"J_axial": 0.1}},
@@ -155,3 +156,22 @@ def test_what_a_fixed_chain_does_not_take_is_one_line(source: str, options: dict
     with pytest.raises(GymError, match=message) as caught:
         ipgen.gym.make(source, **options)
     assert "\n" not in str(caught.value)
+
+
+def test_the_scenes_torque_limit_is_checked_unless_u_max_is_given(tmp_path: Path) -> None:
+    """u_max defaults to the scene's [swingup] u_max: one that is not a number > 0 is a one-line
+    GymError naming the key (not float()'s ValueError), unless u_max is given."""
+    from ipgen.common.presets import preset_path
+
+    text = preset_path("acrobot_swingup").read_text()
+    assert "\nu_max = 6.0\n" in text
+    scene = tmp_path / "acrobot.toml"
+    scene.write_text(text.replace("\nu_max = 6.0\n", '\nu_max = "big"\n'))
+    with pytest.raises(
+        GymError, match=r"the scene's swingup.u_max = 'big': expected finite numbers > 0"
+    ) as caught:
+        ipgen.gym.make(scene)
+    assert "\n" not in str(caught.value)
+    assert ipgen.gym.make(scene, u_max=3.0).action_space.high[0] == 3.0
+    scene.write_text(text.replace("\nu_max = 6.0\n", "\nu_max = 4.5\n"))
+    assert ipgen.gym.make(scene).unwrapped.ipgen_spec.u_max == 4.5

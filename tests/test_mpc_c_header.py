@@ -126,3 +126,75 @@ def test_mpc_step_replays_the_simulators_controller(folder: Path, scalar: str) -
     bound = 1e-9 if scalar == "double" else FLOAT_INPUT
     assert np.max(np.abs(u - columns["u"])) <= bound, np.max(np.abs(u - columns["u"]))
     assert np.max(np.abs(u)) <= U_MAX
+
+
+TWO = """\
+#include <stdio.h>
+#include "qube_servo2.h"
+#include "qube_short.h"
+/* Two MPC scenes of different horizons in one file: both steps run (status 0 each). */
+static ipgen_qube_servo2_mpc_state a;
+static ipgen_qube_short_mpc_state b;
+int main(void) {
+  double x[4] = {0.1, 0.05, 0.0, 0.0};
+  double ua, ub;
+  ipgen_qube_servo2_mpc_init(&a);
+  ipgen_qube_short_mpc_init(&b);
+  ua = ipgen_qube_servo2_mpc_step(&a, x);
+  ub = ipgen_qube_short_mpc_step(&b, x);
+  printf("%d %d %.17g %.17g\\n", a.info.status, b.info.status, ua, ub);
+  return 0;
+}
+"""
+
+
+def test_two_mpc_scenes_of_other_sizes_in_one_file(folder: Path) -> None:
+    """The first header fixes the MPC step's sizes (N = 30): a second scene's header with N = 20
+    stops the compile with an #error naming IPGEN_MPC_RUNTIME_SIZES (its step would refuse its
+    settings at run time, u = 0); with IPGEN_MPC_RUNTIME_SIZES both steps run."""
+    scene = folder / "qube_short.toml"
+    text = QUBE.format(controller="horizon = 20\n", extra="", t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', 'name = "qube_short"\nemit = ["c"]'))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(scene), "-o", str(folder)]) == 0, err.getvalue()
+    (folder / "two.c").write_text(TWO)
+    command = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{folder}", str(folder / "two.c"), "-lm"]
+    fixed = subprocess.run([*command, "-o", str(folder / "two")], capture_output=True, text=True)
+    assert fixed.returncode != 0 and "define IPGEN_MPC_RUNTIME_SIZES before including" in fixed.stderr
+    runtime = [*command, "-DIPGEN_MPC_RUNTIME_SIZES", "-o", str(folder / "two")]
+    built = subprocess.run(runtime, capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr[:3000]
+    status_a, status_b, ua, ub = subprocess.run(
+        [str(folder / "two")], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert (status_a, status_b) == ("0", "0") and float(ua) != 0 and float(ub) != 0
+
+
+SOFT_STEP = STEP.replace('"qube_servo2.h"', '"qube_soft.h"').replace("P_", "ipgen_qube_soft_")
+
+
+def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path) -> None:
+    """A design with a soft bound (IPGEN_MPC_SOFT = 1, which the QUBE preset has not): the header's
+    step with its sizes fixed at compile time returns the run-time-size step's u (the path ipsim
+    and ipgen.mpc run, checked against IPOPT in tests/test_mpc.py) and status to 1e-9 along the
+    simulator's estimates, the pendulum beyond the soft bound at first."""
+    scene = folder / "qube_soft.toml"
+    text = QUBE.format(controller="soft_bounds = [[1, -0.1, 0.1]]\n", extra="", t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', 'name = "qube_soft"\nemit = ["c"]'))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(scene), "-o", str(folder)]) == 0, err.getvalue()
+    assert "#define IPGEN_MPC_SOFT 1" in (folder / "qube_soft.h").read_text()
+    columns = _columns(folder)
+    estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    assert np.max(np.abs(estimate[:, 1])) > 0.1  # the pendulum beyond the soft bound at first
+    results, statuses = {}, {}
+    for name, defines in (("soft_fixed", ""), ("soft_runtime", "#define IPGEN_MPC_RUNTIME_SIZES\n")):
+        out = _run(_program(folder, name, defines + SOFT_STEP), estimate, "{!r}")
+        results[name] = np.array([float(v[0]) for v in out])
+        statuses[name] = [v[1] for v in out]
+    difference = np.max(np.abs(results["soft_fixed"] - results["soft_runtime"]))
+    assert difference <= 1e-9, difference
+    # The same statuses: mostly ok, a few QPs at their iteration budget (the soft bound is tight).
+    assert statuses["soft_fixed"] == statuses["soft_runtime"]
+    assert statuses["soft_fixed"].count("0") > 0.9 * len(estimate)
+    assert np.max(np.abs(results["soft_fixed"])) > 1

@@ -68,6 +68,21 @@ def test_a_torque_beyond_its_bound_fails_the_run(tmp_path: Path) -> None:
     assert verdict.passed and verdict.angle_error == 0.0
 
 
+def test_each_torque_is_held_to_its_own_saturation(tmp_path: Path) -> None:
+    """An LQR with saturations 4 and 6 N m (one per joint): 5 N m on the first input fails the run
+    though it is below the larger bound; within both bounds it passes."""
+    t = np.linspace(0.0, 2.0, 201)
+    u1 = np.where(t == t[50], 5.0, 1.0)
+    states = np.zeros((len(t), 4))
+    path = tmp_path / "run.csv"
+    header = "t,theta0,theta1,dtheta0,dtheta1,u1,u2"
+    np.savetxt(path, np.column_stack([t, states, u1, u1]), delimiter=",", header=header, comments="")
+    cfg = "controller.equilibrium = 0 0 0 0\ncontroller.saturation = 4 6\n"
+    verdict = fixed.judge_run(Success(), path, cfg, 2, 0)
+    assert not verdict.passed and verdict.reason == "exceeded the torque bound (5 > 4 N m)"
+    assert fixed.judge_run(Success(), path, cfg.replace("= 4 6", "= 5.5 6"), 2, 0).passed
+
+
 @pytest.mark.parametrize(
     ("options", "message"),
     [
@@ -76,6 +91,10 @@ def test_a_torque_beyond_its_bound_fails_the_run(tmp_path: Path) -> None:
         ({"vary": ["actuator.joints=1,2"]}, r"\[actuator\] of a fixed-pivot scene's sweep has Ir, gr"),
         ({"vary": ["parameters.m[2]=0.5,0.6"]}, r"parameters.m has 2 entries \(indices 0..1\)"),
         ({"vary": ["parameters.m[0]=0.5,0.6"]}, "or .swingup.: a sweep judges a closed loop"),
+        (
+            {"vary": ["controller.saturation=3,4"]},
+            r"controller.saturation: the scene has no \[controller\] \(its loop is its \[swingup\]",
+        ),
     ],
 )
 def test_what_a_fixed_sweep_does_not_take_is_one_line(tmp_path: Path, options: dict, message: str) -> None:

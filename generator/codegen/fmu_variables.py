@@ -138,6 +138,40 @@ def _angles_and_rates(eqs: Equations, keys: tuple[str, ...]) -> tuple[set[int], 
     return angles, rates
 
 
+# The energy outputs every FMU has, in this order: (name, C value); `energy_variables`.
+ENERGIES = (("kinetic_energy", "m->T"), ("potential_energy", "m->V"), ("energy", "m->T + m->V"),
+            ("damping_power", "2*m->D"))  # fmt: skip
+
+
+def energy_variables(first: int, kinetic: str, origin: str) -> list[Variable]:
+    """The `ENERGIES` outputs from value reference `first` on: T described as `kinetic`, V zero
+    with the centres of gravity at `origin`'s height (the base's, the pivot's), E and the damping
+    power."""
+    descriptions = (
+        kinetic,
+        f"potential energy V [J], zero with the centres of gravity at {origin}'s height",
+        "total mechanical energy E = T + V [J]",
+        "power lost to damping, 2 D (D the Rayleigh dissipation) [W]",
+    )
+    return [
+        Variable(first + k, name, "output", "continuous", text, "calculated", c_value=value, kind="energy")
+        for k, ((name, value), text) in enumerate(zip(ENERGIES, descriptions, strict=True))
+    ]
+
+
+def energy_dependencies(
+    first: int, kinetic: list[int], potential: list[int], damping: list[int]
+) -> list[tuple[int, tuple[int, ...]]]:
+    """The `ENERGIES` outputs' dependencies (value references) from `first` on: T's, V's, both
+    for E, and the damped rates for the damping power."""
+    return [
+        (first, tuple(kinetic)),
+        (first + 1, tuple(potential)),
+        (first + 2, tuple(sorted(set(kinetic) | set(potential)))),
+        (first + 3, tuple(damping)),
+    ]
+
+
 def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] = ()) -> Layout:
     """The FMU's variables for `eqs`; `start` overrides parameter start values (a scene's),
     `initial` the states' (θ then θ̇)."""
@@ -197,23 +231,8 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     u_vr = vr
     variables.append(Variable(vr, "u", "input", "continuous", force, "", 0.0, c_value="m->u", kind="u"))
     vr += 1
-    energies = (
-        ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd [J]", "m->T"),
-        (
-            "potential_energy",
-            "potential energy V [J], zero with the centres of gravity at the base's height",
-            "m->V",
-        ),
-        ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
-        ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
-    )
-    for name, description, value in energies:
-        variables.append(
-            Variable(
-                vr, name, "output", "continuous", description, "calculated", c_value=value, kind="energy"
-            )
-        )
-        vr += 1
+    variables += energy_variables(vr, "kinetic energy T = 1/2 qd^T M qd [J]", "the base")
+    vr += len(ENERGIES)
     paper = {f"{group}{i}": default_start(system, f"{group}{i}") for group in ("m", "l") for i in range(dof)}
     given = {**paper, **start}  # the masses and lengths the rod defaults are computed from
     for name in model_parameters(eqs):
@@ -247,12 +266,7 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     potential = sorted(q_vr[i] for i in v_angles)
     outputs = [(q_vr[i], (q_vr[i],)) for i in range(dof)]
     energy_vr = u_vr + 1
-    outputs += [
-        (energy_vr, tuple(kinetic)),
-        (energy_vr + 1, tuple(potential)),
-        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
-        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
-    ]
+    outputs += energy_dependencies(energy_vr, kinetic, potential, sorted(qd_vr[i] for i in d_rates))
     return Layout(tuple(variables), dof, tuple(outputs), tuple(derivatives))
 
 
@@ -428,32 +442,12 @@ def fixed_layout(
             )
         )
     energy_vr = u_vr + inputs
-    energies = (
-        ("kinetic_energy", "kinetic energy T = 1/2 qd^T M qd, the rotors included [J]", "m->T"),
-        (
-            "potential_energy",
-            "potential energy V [J], zero with the centres of gravity at the pivot's height",
-            "m->V",
-        ),
-        ("energy", "total mechanical energy E = T + V [J]", "m->T + m->V"),
-        ("damping_power", "power lost to damping, 2 D (D the Rayleigh dissipation) [W]", "2*m->D"),
+    variables += energy_variables(
+        energy_vr, "kinetic energy T = 1/2 qd^T M qd, the rotors included [J]", "the pivot"
     )
-    for offset, (name, description, value) in enumerate(energies):
-        variables.append(
-            Variable(
-                energy_vr + offset,
-                name,
-                "output",
-                "continuous",
-                description,
-                "calculated",
-                c_value=value,
-                kind="energy",
-            )
-        )
     given = {**{f"{g}{i}": fixed_default_start(f"{g}{i}", {}) for g in ("m", "l") for i in range(1, n + 1)}}
     given |= start
-    for vr, name in enumerate(fixed_parameters(n, inputs), start=energy_vr + 4):
+    for vr, name in enumerate(fixed_parameters(n, inputs), start=energy_vr + len(ENERGIES)):
         group, index = _split_fixed(name)
         rule = _FIXED_RULES[group]
         description = (
@@ -491,10 +485,5 @@ def fixed_layout(
     kinetic = sorted([q_vr[i] for i in t_angles] + [qd_vr[i] for i in t_rates])
     potential = sorted(q_vr[i] for i in v_angles)
     outputs = [(q_vr[i], (q_vr[i],)) for i in range(1, n + 1)]
-    outputs += [
-        (energy_vr, tuple(kinetic)),
-        (energy_vr + 1, tuple(potential)),
-        (energy_vr + 2, tuple(sorted(set(kinetic) | set(potential)))),
-        (energy_vr + 3, tuple(sorted(qd_vr[i] for i in d_rates))),
-    ]
+    outputs += energy_dependencies(energy_vr, kinetic, potential, sorted(qd_vr[i] for i in d_rates))
     return Layout(tuple(variables), n, tuple(outputs), tuple(derivatives))

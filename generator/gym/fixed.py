@@ -10,12 +10,15 @@ Coulomb friction is not in the header (the simulator adds it): a chain with fric
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.gym.checks import GymError
 from ipgen.model.fixed import FixedPendulum
@@ -112,12 +115,38 @@ def fixed_document(source: Any) -> tuple[FixedPendulum, dict[str, Any]] | None:
 
 def scene_torque(document: dict[str, Any]) -> float:
     """The torque limit [N m] a fixed scene states: its swing-up's u_max, else its controller's
-    (largest) saturation, else the RealAIGym leaderboard's 6 N m."""
+    (largest) saturation, else the RealAIGym leaderboard's 6 N m. A limit that is not a finite
+    number > 0 is a GymError naming the scene's key."""
     swingup, controller = document.get("swingup"), document.get("controller")
     if isinstance(swingup, dict) and "u_max" in swingup:
-        return float(swingup["u_max"])
-    if isinstance(controller, dict) and "saturation" in controller:
-        given = controller["saturation"]
-        values = given if isinstance(given, list) else [given]
-        return max(float(v) for v in values)
-    return LEADERBOARD_TORQUE
+        key, given = "swingup.u_max", swingup["u_max"]
+    elif isinstance(controller, dict) and "saturation" in controller:
+        key, given = "controller.saturation", controller["saturation"]
+    else:
+        return LEADERBOARD_TORQUE
+    values = [_torque(v) for v in (given if isinstance(given, list) else [given])]
+    if not values or None in values:
+        shown = f"[{', '.join(map(_shown, given))}]" if isinstance(given, list) else _shown(given)
+        raise GymError(
+            f"the scene's {key} = {abbreviate(shown)}: expected finite numbers > 0 [N m] "
+            "(the actions' bound; or pass u_max=...)"
+        )
+    return max(value for value in values if value is not None)
+
+
+def _torque(value: object) -> float | None:
+    """A scene's torque limit (the reader's Decimal, an int or a float) as a float, if finite and
+    > 0; else None."""
+    if isinstance(value, bool) or not isinstance(value, int | float | Decimal):
+        return None
+    number = float(value)
+    return number if math.isfinite(number) and number > 0 else None
+
+
+def _shown(value: object) -> str:
+    """A scene's value as its TOML would write it (numbers plain, others quoted)."""
+    return (
+        str(value)
+        if isinstance(value, int | float | Decimal) and not isinstance(value, bool)
+        else repr(value)
+    )

@@ -119,7 +119,8 @@ def spec_from_source(source: Any, task: str | None, **options: Any) -> EnvSpec:
     fixed = None if isinstance(source, Pendulum) else fixed_document(source)
     if fixed is not None:  # a chain on a fixed pivot: its torques bounded by the scene's limit
         chain, document = fixed
-        options.setdefault("u_max", scene_torque(document))
+        if "u_max" not in options:  # the scene's limit only where none is given
+            options["u_max"] = scene_torque(document)
         chosen = task if task is not None else ("swingup" if "swingup" in document else "balance")
         return spec_for(FixedSystem(chain.links, tuple(chain.joints)), fixed_row(chain), chosen, **options)
     task = "balance" if task is None else task

@@ -128,6 +128,10 @@ class EnvSpec:
         if self.system.type == "fixed":
             if self.task == "cartpole" or self.integrator != "rk4":
                 raise GymError("a fixed-pivot chain's tasks are balance and swingup (RK4)")
+            if self.x_limit != math.inf:  # the kernel has no base to bound
+                raise GymError(
+                    f"x_limit = {self.x_limit!r:.40}: a fixed-pivot chain has no base; leave x_limit out"
+                )
             if self.sensing is not None:
                 raise GymError(
                     "sensors are not supported for fixed-pivot chains yet: the observation is the exact state"
@@ -156,8 +160,8 @@ class EnvSpec:
 
     def draw(self, rng: np.random.Generator, overrides: Mapping[str, object] | None = None) -> np.ndarray:
         """One episode's parameter row: the nominal one, each group in `spread` scaled by
-        1 + U(−w, w) per entry (drawn in `GROUPS` order, then g), then `overrides` (absolute
-        values by group name) applied."""
+        1 + U(−w, w) per entry (drawn in the row's order, `spreadable`: `GROUPS` then g; a fixed
+        chain's m … J, g, Ir, gr), then `overrides` (absolute values by group name) applied."""
         row = self.nominal.copy()
         if not self.spread and not overrides:  # the common case, without the loop (an autoreset)
             return row

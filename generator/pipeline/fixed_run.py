@@ -14,8 +14,10 @@ clockwise; DFKI's: counterclockwise); [initial] and the CSV's columns are in the
 (`angles`, `zero`, `positive`), as for carts and arms. Coulomb friction acts on the joints'
 relative rates in either law (tanh, or DFKI's atan); J may be negative where J + m com² > 0.
 [controller] (kind = "lqr": q, r, equilibrium, saturation per input, period; or kind = "gain")
-closes the loop with u = −K (x − x_eq), K m × 2n (`fixed_controller`). What the simulator does
-not take for a fixed chain yet is refused in one line: [swingup] and the measured loop's tables.
+closes the loop with u = −K (x − x_eq), K m × 2n (`fixed_controller`); [swingup] (method
+trajectory, one driven joint) plans or reads a swing-up (`fixed_swingup_law`). What the simulator
+does not take for a fixed chain yet is refused in one line: the measured loop's tables ([sensors],
+[estimator]).
 
 The resolved config holds `type = fixed`, `joints`, `Ir`, `gr` (one per input), the per-link
 parameters and state (no base entry), `input` and `input.*` for the first input, and `input2`,

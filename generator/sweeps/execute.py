@@ -26,7 +26,7 @@ from ipgen.errors import Error
 from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps.spec import SEEDED_KEYS
-from ipgen.sweeps.success import Success, judge
+from ipgen.sweeps.success import Judgement, Success, judge
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
@@ -244,24 +244,17 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         return _refused(
             task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
         )
-    stem = f"run{task.index}_{threading.get_ident()}"
-    cfg, csv = prepared.scratch / f"{stem}.cfg", prepared.scratch / f"{stem}.csv"
-    cfg.write_text(resolved_config(scene, model=prepared.model))
+    done, cfg, csv = _simulate(prepared, task, resolved_config(scene, model=prepared.model))
     try:
-        done = subprocess.run(
-            [str(prepared.simulator), str(cfg), "--csv", str(csv), "--force"], capture_output=True, text=True
-        )
         if done.returncode == 2:  # the simulator refused the resolved scene
-            return _refused(task, " ".join(done.stderr.split())[:300] or "refused by the simulator", started)
+            return _refused(task, _simulator_refusal(done), started)
         dof = scene.links + 1
         try:
             t, states = _read_csv(csv, dof)
         except (OSError, ValueError):
             t, states = [], []
         if len(t) == 0:
-            nan = float("nan")
-            elapsed = time.perf_counter() - started
-            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan, elapsed)
+            return _no_trajectory(task, done.returncode, started)
         verdict = judge(
             test,
             t,
@@ -275,18 +268,27 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     finally:
         cfg.unlink(missing_ok=True)
         csv.unlink(missing_ok=True)
+    return _judged(task, verdict, done.returncode, started)
+
+
+def _simulator_refusal(done: subprocess.CompletedProcess) -> str:
+    """The reason of a run the simulator refused (exit status 2): its message on one line."""
+    return " ".join(done.stderr.split())[:300] or "refused by the simulator"
+
+
+def _no_trajectory(task: Task, status: int, started: float) -> Result:
+    """A failed run whose CSV has no samples (or cannot be read)."""
+    nan, elapsed = float("nan"), time.perf_counter() - started
+    return Result(task, "fail", "no trajectory", status, nan, nan, nan, nan, nan, elapsed)
+
+
+def _judged(task: Task, verdict: Judgement, status: int, started: float) -> Result:
+    """A run's row from the success test's verdict."""
     return Result(
-        task,
-        "pass" if verdict.passed else "fail",
-        verdict.reason,
-        done.returncode,
-        verdict.angle_error,
-        verdict.rate_error,
-        verdict.base_error,
-        verdict.max_travel,
-        verdict.t_final,
+        task, "pass" if verdict.passed else "fail", verdict.reason, status, verdict.angle_error,
+        verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
         time.perf_counter() - started,
-    )
+    )  # fmt: skip
 
 
 def _simulate(
@@ -305,7 +307,6 @@ def _simulate(
 
 def _run_fixed(prepared: Prepared, scene: FixedScene, task: Task, test: Success, started: float) -> Result:
     """A fixed-pivot scene's run (`sweeps.fixed`): refused, failed or passed."""
-    nan = float("nan")
     try:
         cfg_text = fixed_sweep.run_config(scene, prepared.path, task.overrides)
     except Error as error:  # without the scratch folder's name (the same on every worker)
@@ -314,20 +315,15 @@ def _run_fixed(prepared: Prepared, scene: FixedScene, task: Task, test: Success,
     done, cfg, csv = _simulate(prepared, task, cfg_text)
     try:
         if done.returncode == 2:  # the simulator refused the resolved scene
-            return _refused(task, " ".join(done.stderr.split())[:300] or "refused by the simulator", started)
+            return _refused(task, _simulator_refusal(done), started)
         try:
             verdict = fixed_sweep.judge_run(test, csv, cfg_text, scene.chain.links, done.returncode)
         except (OSError, ValueError):
-            elapsed = time.perf_counter() - started
-            return Result(task, "fail", "no trajectory", done.returncode, nan, nan, nan, nan, nan, elapsed)
+            return _no_trajectory(task, done.returncode, started)
     finally:
         cfg.unlink(missing_ok=True)
         csv.unlink(missing_ok=True)
-    return Result(
-        task, "pass" if verdict.passed else "fail", verdict.reason, done.returncode, verdict.angle_error,
-        verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
-        time.perf_counter() - started,
-    )  # fmt: skip
+    return _judged(task, verdict, done.returncode, started)
 
 
 def run_batch(source: SceneSource, tasks: list[Task], test: Success) -> list[Result]:

@@ -29,7 +29,7 @@ from ipgen.common.safetext import abbreviate
 from ipgen.model.fixed import FixedPendulum
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scorecard
-from ipgen.sweeps.spec import KEY_PATTERN, Criterion, Key, Level, SweepError, parse_levels, parse_vary
+from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels, parse_vary, split_key
 from ipgen.sweeps.success import Judgement, Success, judge
 
 # The keys a fixed scene's sweep may override, by table (numbers, or one entry of an array).
@@ -46,13 +46,13 @@ NOT_YET = (
     "not yet supported for fixed-pivot chains: ipgen run simulates them without [sensors] or drive "
     f"effects (their criteria: {', '.join(SUPPORTED)})"
 )
-DESIGN_KEYS = ("controller", "swingup")
+DESIGN_KEYS = ("controller", "swingup")  # the tables (and the cfg's key prefixes) of the design
 # What the success test adds for a fixed chain (scores.md, scores.json).
 NOTE = (
     "; a fixed-pivot chain has no base (no travel limit), its angles are compared in the scene's own "
     "coordinates, and a run also fails when a torque exceeds its bound (the swing-up's u_max or the "
     "controller's saturation)"
-)  # the cfg's keys (and prefixes) of the nominal design
+)
 
 
 def is_fixed_scene(path: Path) -> bool:
@@ -134,13 +134,8 @@ def _is_design(line: str) -> bool:
 
 def parse_fixed_key(text: str) -> Key:
     """A `Key` a fixed scene's sweep may override (`KEYS`); else a SweepError naming them."""
-    match = KEY_PATTERN.match(text.strip())
-    if match is None:
-        raise SweepError(
-            f"--vary key {abbreviate(text)!r} is not a scene key: write table.key or table.key[i], "
-            "e.g. parameters.m[1], initial.theta[0], swingup.period"
-        )
-    table, name = match.group(1), match.group(2)
+    key = split_key(text, "parameters.m[1], initial.theta[0], swingup.period")
+    table, name = key.table, key.name
     if table not in KEYS:
         raise SweepError(
             f"--vary {abbreviate(text)}: a fixed-pivot scene's sweep takes keys of "
@@ -151,8 +146,7 @@ def parse_fixed_key(text: str) -> Key:
             f"--vary {abbreviate(text)}: [{table}] of a fixed-pivot scene's sweep has "
             f"{', '.join(KEYS[table])} (docs/sweep.md)"
         )
-    index = match.group(3)
-    return Key(table, name, None if index is None else int(index))
+    return key
 
 
 def nominal_array(scene: FixedScene, key: Key) -> list[float] | None:
@@ -207,19 +201,23 @@ def _values(cfg: str, key: str) -> list[float] | None:
     return None
 
 
-def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], float | None, bool]:
-    """(the goal state, the torque bound or None, whether it is a balance run) of a resolved config."""
+def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], tuple[float, ...] | None, bool]:
+    """(the goal state, the torque bounds or None, whether it is a balance run) of a resolved
+    config: the swing-up's u_max (one for every input), else the controller's saturation (one per
+    input, in the order of the CSV's u1..um)."""
     target = _values(cfg, "swingup.target")
     if target is not None:
-        return tuple(target), (_values(cfg, "swingup.u_max") or [None])[0], False  # type: ignore[list-item]
+        u_max = _values(cfg, "swingup.u_max")
+        return tuple(target), (tuple(u_max) if u_max else None), False
     equilibrium = _values(cfg, "controller.equilibrium") or []
     saturation = _values(cfg, "controller.saturation")
-    return tuple(equilibrium), (max(saturation) if saturation else None), True
+    return tuple(equilibrium), (tuple(saturation) if saturation else None), True
 
 
 def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Judgement:
     """The success test on a fixed chain's CSV (t, theta0.., dtheta0.., u or u1.., the rig's
-    coordinates), then the torque bound; a ValueError or OSError if the CSV cannot be read."""
+    coordinates), then each input's torque bound; a ValueError or OSError if the CSV cannot be
+    read."""
     with csv.open() as f:
         columns = f.readline().strip().split(",")
     wanted = [columns.index("t")] + [columns.index(f"theta{i}") for i in range(links)]
@@ -229,15 +227,21 @@ def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Ju
     if len(data) == 0:
         raise ValueError("no samples")
     t, states, torques = data[:, 0], data[:, 1 : 1 + 2 * links], data[:, 1 + 2 * links :]
-    goal, limit, balance = goal_and_limit(cfg)
+    goal, limits, balance = goal_and_limit(cfg)
     verdict = judge(
         test, t, states, goal, rotary=False, status=status, travel=None, balance=balance, fixed=True
     )
-    largest = float(np.max(np.abs(torques))) if torques.size else 0.0
-    if verdict.passed and limit is not None and largest > limit * (1 + 1e-9):
+    if not verdict.passed or limits is None or not torques.size:
+        return verdict
+    # Each input against its own bound (saturations may differ per joint): the worst excess.
+    bounds = np.broadcast_to(np.asarray(limits, dtype=float), (torques.shape[1],))
+    largest = np.max(np.abs(torques), axis=0)
+    excess = largest - bounds * (1 + 1e-9)
+    worst = int(np.argmax(excess))
+    if excess[worst] > 0:
         return Judgement(
-            False, f"exceeded the torque bound ({largest:.4g} > {limit:g} N m)", verdict.angle_error,
-            verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
+            False, f"exceeded the torque bound ({largest[worst]:.4g} > {bounds[worst]:g} N m)",
+            verdict.angle_error, verdict.rate_error, verdict.base_error, verdict.max_travel, verdict.t_final,
         )  # fmt: skip
     return verdict
 
@@ -305,11 +309,18 @@ def parse_vary_fixed(spec: str) -> tuple[Key, tuple[float, ...]]:
 
 
 def check_keys(scene: FixedScene, criteria: list[Criterion]) -> None:
-    """Every criterion's first level applied to the document: an index the scene cannot have is a
-    SweepError now, not a refusal of every run."""
+    """Every criterion's first level applied to the document: an index the scene cannot have, or
+    a key of a [controller] or [swingup] the scene has not, is a SweepError now, not a refusal of
+    every run."""
+    present = [table for table in DESIGN_KEYS if table in scene.document]
     for criterion in criteria:
         if criterion.refused or not criterion.levels:
             continue
+        for text, _ in criterion.levels[0].overrides:
+            table = text.split(".", 1)[0]
+            if table in DESIGN_KEYS and table not in present:
+                loop = f"its loop is its [{present[0]}]: vary {present[0]}.* keys" if present else "no loop"
+                raise SweepError(f"--vary {abbreviate(text)}: the scene has no [{table}] ({loop})")
         try:
             apply(scene, criterion.levels[0].overrides)
         except SweepError as error:

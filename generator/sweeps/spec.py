@@ -28,7 +28,7 @@ MAX_LEVELS = 10_000
 # Runs of one sweep at most (levels × repetitions over every criterion): each is planned before the
 # first one starts (its task, later its row), so the total is bounded before anything is built.
 MAX_RUNS = 100_000
-KEY_PATTERN = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
+_KEY = re.compile(r"^([A-Za-z_]+)\.([A-Za-z_][A-Za-z0-9_]*)(?:\[(\d{1,4})\])?$")
 
 
 class SweepError(Error, ValueError):
@@ -54,16 +54,24 @@ class Key:
         return self.table in DESIGN_TABLES
 
 
-def parse_key(text: str) -> Key:
-    """A `Key` from `table.name` or `table.name[i]`, checked against the scene format."""
-    match = KEY_PATTERN.match(text.strip())
+def split_key(text: str, example: str = "parameters.m[1], initial.theta[1], controller.period") -> Key:
+    """A `Key` from `table.name` or `table.name[i]`, its form checked only (a SweepError naming
+    the form, with `example` keys); `parse_key` and a fixed chain's `parse_fixed_key` check it
+    against their scenes."""
+    match = _KEY.match(text.strip())
     if match is None:
         raise SweepError(
             f"--vary key {abbreviate(text)!r} is not a scene key: write table.key or table.key[i], "
-            "e.g. parameters.m[1], initial.theta[1], controller.period"
+            f"e.g. {example}"
         )
     table, name, index = match.group(1), match.group(2), match.group(3)
-    key = Key(table, name, None if index is None else int(index))
+    return Key(table, name, None if index is None else int(index))
+
+
+def parse_key(text: str) -> Key:
+    """A `Key` from `table.name` or `table.name[i]`, checked against the scene format."""
+    key = split_key(text)
+    table, name = key.table, key.name
     if table not in schema.TABLES:
         raise SweepError(
             f"--vary {key.text}: unknown table [{abbreviate(table)}] (a scene has {', '.join(schema.TABLES)})"
