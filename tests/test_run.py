@@ -32,6 +32,7 @@ from run_summary import simulator_of, was_built
 from scipy.integrate import solve_ivp
 
 from ipgen.command.cli import run
+from ipgen.pipeline.simulator import SIMULATOR_VARIABLE
 
 ROOT = Path(__file__).resolve().parents[1]
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -246,7 +247,8 @@ def fake_compiler(tmp_path: Path) -> dict[str, str]:
     cxx.write_text(FAKE_CXX.replace("PYTHON", sys.executable))
     cxx.chmod(cxx.stat().st_mode | stat.S_IXUSR)
     environment = {"CXX": str(cxx), "CC": str(cxx), "COUNT": str(tmp_path / "count")}
-    return {**environment, "IPGEN_CACHE_DIR": str(tmp_path / "cache")}
+    # The fake compiler builds the simulator too: not make test's CMake-built one (Makefile).
+    return {**environment, "IPGEN_CACHE_DIR": str(tmp_path / "cache"), SIMULATOR_VARIABLE: ""}
 
 
 def single_scene(tmp_path: Path, theta: str = "0.1") -> Path:
@@ -355,7 +357,7 @@ def test_a_missing_library_is_named(tmp_path: Path) -> None:
     compiler.chmod(0o755)
     result = ipgen_command(
         "run", str(single_scene(tmp_path)), "-o", str(tmp_path / "out"),
-        env={"CXX": str(compiler), "IPGEN_CACHE_DIR": str(tmp_path / "cache")},
+        env={"CXX": str(compiler), "IPGEN_CACHE_DIR": str(tmp_path / "cache"), SIMULATOR_VARIABLE: ""},
     )  # fmt: skip
     assert result.returncode == 2
     assert result.stderr.splitlines()[-1] == (

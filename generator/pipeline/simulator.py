@@ -204,7 +204,7 @@ def ipsim_source_files() -> list[Path]:
 
 
 def sources_digest() -> str:
-    """SHA-256 (hex) of ipsim's sources as `ipsim-simulate --sources-digest` prints it: of the
+    """SHA-256 (hex) of ipsim's sources as ipsim-simulate prints it (DIGEST_OPTION): of the
     text "NAME\nSHA256\n" per file of `ipsim_source_files` (cmake/ipgen.cmake computes the same
     at configure time and compiles it in)."""
     text = "".join(
