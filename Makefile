@@ -86,7 +86,8 @@ test-python: lint deps-docs ipsim-simulate
 ## The tests that take minutes by design (pytest marker fresh_venv): the README's install lines in
 ## a fresh virtualenv, then its CMake project (tests/test_package.py); and the docs' own whole C++
 ## programs, compiled as a reader would (marker user_program). CI runs it after make test.
-## And the C++ tests slow by design (ctest label slow: ipsim compiled for one model's C++ header,
+## --dist loadfile: a file's tests on one worker, so that a module's compiled program (the closed
+## loop's) is built once. And the C++ tests slow by design (ctest label slow: ipsim compiled for one model's C++ header,
 ## the n = 10 models' stability; cpp/tests/CMakeLists.txt), beside them: make test's build
 ## configures without them (IPGEN_SLOW_TESTS=OFF), this one adds them to the same build folder.
 test-slow: venv deps-docs
@@ -94,7 +95,7 @@ test-slow: venv deps-docs
 	@echo "make test-slow: all tests passed"
 
 test-slow-python: venv deps-docs ipsim-simulate
-	$(SIMULATOR_ENV) $(PY) -m pytest -q -n $(JOBS) -m "fresh_venv or user_program"
+	$(SIMULATOR_ENV) $(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "fresh_venv or user_program"
 
 test-cpp-slow: venv
 	@mkdir -p $(BUILD)

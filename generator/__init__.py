@@ -279,6 +279,8 @@ def identify(
     output_error: bool = True,
     progress: Callable[[str], None] | None = None,
     validate: Iterable[str | Path] = (),
+    fit: str | None = None,
+    offset: bool = True,
 ) -> Any:
     """Fit the `free` parameters of a rig to measurements (docs/identify.md; needs CasADi).
 
@@ -304,6 +306,14 @@ def identify(
         Refine the equation-error estimate by simulation.
     progress : callable, optional
         Called with a short message at each stage.
+    validate : iterable of str or Path
+        Fixed-pivot chains only: held-out recordings, scored but not fitted.
+    fit : {"sequential", "joint"}, optional
+        Fixed-pivot chains only (`ipgen identify --fit`): tip first, one joint's equation at a
+        time (the default), or all equations together, weighted.
+    offset : bool, default True
+        Fixed-pivot chains only (`--no-offset` for False): fit a constant offset of each measured
+        torque.
 
     Returns
     -------
@@ -325,9 +335,11 @@ def identify(
     """
     from ipgen.model.pendulum import Pendulum
 
-    fixed = _fixed_identification(scene, data, free, output, force, validate)
+    fixed = _fixed_identification(scene, data, free, output, force, validate, fit, offset)
     if fixed is not None:
         return fixed
+    if fit is not None or not offset:
+        raise Error("identify: fit and offset are for fixed-pivot chains (joint torques); leave them out")
     if free is None:
         raise Error("identify: name the parameters to fit (free), e.g. 'J1,delta0'")
     if not isinstance(data, str | Path):
@@ -353,7 +365,14 @@ def identify(
 
 
 def _fixed_identification(
-    scene: object, data: object, free: object, output: str | Path | None, force: bool, validate: Iterable
+    scene: object,
+    data: object,
+    free: object,
+    output: str | Path | None,
+    force: bool,
+    validate: Iterable,
+    fit: str | None,
+    offset: bool,
 ) -> Any:
     """`identify` of a fixed-pivot chain (a FixedPendulum or a fixed scene file), or None."""
     from ipgen.model.fixed import FixedPendulum
@@ -371,10 +390,14 @@ def _fixed_identification(
         return None
     if free is not None:
         raise Error("identify: a fixed-pivot chain fits every base parameter the data identify: no free")
+    from ipgen.identification.torque import DEFAULT_METHOD
     from ipgen.pipeline.identify_torques import identify_torques
 
     recordings = [data] if isinstance(data, str | Path) else list(data)  # type: ignore[call-overload]
-    return identify_torques(chain, stem, recordings, list(validate), output, force=force, keep=keep)
+    method = DEFAULT_METHOD if fit is None else fit
+    return identify_torques(
+        chain, stem, recordings, list(validate), output, method=method, offset=offset, force=force, keep=keep
+    )
 
 
 def sweep(

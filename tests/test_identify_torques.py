@@ -226,3 +226,17 @@ def test_public_identify_takes_a_fixed_pendulum() -> None:
     assert result.pooled("validate", "identified") is not None
     with pytest.raises(ipgen.Error):
         ipgen.identify(DFKI, [FIT], "m1")
+
+
+def test_public_identify_takes_the_fit_choices_of_the_command() -> None:
+    """ipgen.identify's fit and offset are `ipgen identify --fit` and `--no-offset`; they are
+    refused for anything but a fixed-pivot chain, and a fit that is not one is a one-line Error."""
+    joint = ipgen.identify(DFKI, [FIT], fit="joint", offset=False)
+    assert joint.fit.method == "joint" and not joint.fit.offset and len(joint.fit.estimate) == 9
+    default = ipgen.identify(DFKI, [FIT])
+    assert default.fit.method == "sequential" and default.fit.offset
+    assert not np.allclose(joint.fit.estimate, default.fit.estimate[:9])
+    with pytest.raises(ipgen.Error, match="fit method 'newton'"):
+        ipgen.identify(DFKI, [FIT], fit="newton")
+    with pytest.raises(ipgen.Error, match="for fixed-pivot chains"):
+        ipgen.identify(ipgen.Pendulum.preset("qube_servo2"), FIT, "J1", offset=False)
