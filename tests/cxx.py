@@ -23,11 +23,12 @@ WARNINGS = ("-Wall", "-Wextra", "-Wpedantic", "-Werror")
 ALLOW_NO_CXX = "IPGEN_ALLOW_NO_CXX"
 
 
-def cxx_command(*arguments: str, optimisation: str = "-Og") -> tuple[str, ...]:
+def cxx_command(*arguments: str, optimisation: str = "-Og", precompiled: bool = True) -> tuple[str, ...]:
     """The compiler, C++17, all warnings as errors, Eigen on the (system) include path, Eigen
-    precompiled (`eigen_pch`), then `arguments`."""
+    precompiled (`eigen_pch`; `precompiled=False`: not, e.g. to check that a header includes what
+    it uses), then `arguments`."""
     flags = (CXX, "-std=c++17", optimisation, *WARNINGS, "-isystem", str(EIGEN_INCLUDE))
-    pch = eigen_pch(flags)
+    pch = eigen_pch(flags) if precompiled else None
     return (*flags, *(("-include", str(pch)) if pch is not None else ()), *arguments)
 
 

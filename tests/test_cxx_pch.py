@@ -3,10 +3,13 @@ not check a .gch's headers, so a stale one would be used silently)."""
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 import pytest
-from cxx import CXX, EIGEN_VERSION_FILE, eigen_pch, pch_key
+from cxx import CXX, EIGEN_VERSION_FILE, cxx_command, eigen_pch, pch_key, require_toolchain
+
+from ipgen.command.cli import run
 
 
 def _eigen(root: Path, minor: int) -> Path:
@@ -41,3 +44,22 @@ def test_a_missing_compiler_builds_no_pch(monkeypatch: pytest.MonkeyPatch, tmp_p
     monkeypatch.delenv("IPGEN_TEST_PCH", raising=False)
     assert eigen_pch.__wrapped__(("no-such-compiler-ipgen", "-std=c++17")) is None
     assert not (tmp_path / "eigen-pch").exists()
+
+
+@pytest.mark.parametrize("system", [("rotary", 2), ("fixed", 2)])
+def test_generated_headers_include_what_they_use_without_the_pch(
+    tmp_path: Path, system: tuple[str, int]
+) -> None:
+    """The precompiled Eigen is force-included into the tests' programs, so it would hide a
+    generated C++ header that forgot `#include <Eigen/Dense>`: each kind of header compiled alone,
+    without it."""
+    require_toolchain()
+    kind, links = system
+    name = f"{kind}{links}"
+    assert run(["--type", kind, "--links", str(links), "--name", name, "-o", str(tmp_path)]) == 0
+    source = tmp_path / "alone.cpp"
+    source.write_text(f'#include "{name}.hpp"\nint main() {{ return 0; }}\n')
+    command = cxx_command(f"-I{tmp_path}", "-fsyntax-only", str(source), precompiled=False)
+    assert "-include" not in command
+    done = subprocess.run(command, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
