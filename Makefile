@@ -97,7 +97,7 @@ test-slow: venv deps-docs
 test-slow-python: venv deps-docs ipsim-simulate
 	$(SIMULATOR_ENV) $(PY) -m pytest -q -n $(JOBS) --dist loadfile -m "fresh_venv or user_program"
 
-test-cpp-slow: venv
+test-cpp-slow: venv ipsim-simulate
 	@mkdir -p $(BUILD)
 	@if { $(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) -DIPGEN_SLOW_TESTS=ON && \
 	      cmake --build $(BUILD) -j $(JOBS) && \
