@@ -740,18 +740,22 @@ _register()
 
 # numpy's floating-point warnings: "overflow encountered in matmul", "invalid value encountered in ..."
 _NUMPY_FLOATING = r"(overflow|underflow|invalid value|divide by zero) encountered"
+# scipy's LAPACK QZ giving up on a hostile matrix (a Riccati design at m = 1e308, say): scipy's
+# solver then checks its own result and raises, which the design turns into one line.
+_QZ_FAILED = r"The QZ iteration failed"
 
 
 def run(argv: list[str] | None = None) -> int:
     """Run the command; return its exit status instead of exiting (for tests and main).
 
     numpy's floating-point RuntimeWarnings (an overflow inside an LQR design on a hostile number,
-    say) are not shown: every result is checked for finiteness where it is used, and a problem is
-    the command's one line, not a stack of warnings before it."""
+    say) and scipy's failed QZ iteration are not shown: every result is checked for finiteness
+    where it is used, and a problem is the command's one line, not a stack of warnings before it."""
     try:
         with warnings.catch_warnings():
             if not sys.warnoptions:  # the user's own -W settings stay in force
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_FLOATING)
+                warnings.filterwarnings("ignore", category=RuntimeWarning, message=_QZ_FAILED)
             status = cli.main(args=argv, prog_name="ipgen", standalone_mode=False)
     except click.ClickException as e:
         click.echo(f"ipgen: error: {_one_line(e.format_message())} (see ipgen --help)", err=True)
