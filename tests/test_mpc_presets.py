@@ -8,6 +8,8 @@ from hanging by energy control and catches and holds it by MPC within ±10 V and
 from __future__ import annotations
 
 import io
+import re
+import tomllib
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
@@ -44,17 +46,31 @@ def test_preset_balances_within_its_constraints(
     assert abs(column["theta0"][-1]) < 0.05 and abs(column["dtheta0"][-1]) < 0.1
 
 
-def test_qube_swing_up_caught_by_mpc_within_its_constraints(tmp_path: Path) -> None:
-    scene = ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup.toml"
+SWINGUP = ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup.toml"
+
+
+def _swing_up(scene: Path, folder: Path) -> tuple[str, dict[str, np.ndarray], np.ndarray]:
+    """(the summary, the CSV's numeric columns, its phase column) of `ipgen run` of `scene`."""
     with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
-        assert run(["run", str(scene), "-o", str(tmp_path), "--no-plot"]) == 0, err.getvalue()
-    summary = out.getvalue()
-    assert "every status ok" in summary and "hold (MPC) from t = " in summary
-    header, *rows = next(tmp_path.glob("*.csv")).read_text().splitlines()
+        assert run(["run", str(scene), "-o", str(folder), "--no-plot"]) == 0, err.getvalue()
+    header, *rows = next(folder.glob("*.csv")).read_text().splitlines()
     names = header.split(",")
     phase = np.array([row.rsplit(",", 1)[1] for row in rows])
     data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
-    column = {name: data[:, i] for i, name in enumerate(names[:-1])}
+    return out.getvalue(), {name: data[:, i] for i, name in enumerate(names[:-1])}, phase
+
+
+@pytest.fixture(scope="module")
+def rti_swing_up(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict[str, np.ndarray], np.ndarray]:
+    """The shipped preset's run (real-time iteration), shared by the tests below."""
+    return _swing_up(SWINGUP, tmp_path_factory.mktemp("rti"))
+
+
+def test_qube_swing_up_caught_by_mpc_within_its_constraints(
+    rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray],
+) -> None:
+    summary, column, phase = rti_swing_up
+    assert "every status ok" in summary and "hold (MPC) from t = " in summary
     t, arm, link, u = column["t"], column["theta0"], column["theta1"], column["u"]
     assert link[0] == pytest.approx(np.pi) and column["dtheta1"][0] == 0.0  # hanging at rest
     # |u| <= 10 V at every sample (on its bound in the swing), the arm within its ±1 rad travel
@@ -69,3 +85,36 @@ def test_qube_swing_up_caught_by_mpc_within_its_constraints(tmp_path: Path) -> N
     last = t >= t[-1] - 1.0
     assert np.max(np.abs(upright[last])) < 0.02 and abs(upright[-1]) < 0.01
     assert np.max(np.abs(arm[last])) < 0.05
+
+
+def _hold_cost(
+    column: dict[str, np.ndarray], phase: np.ndarray, q: list[float], r: float, period: float
+) -> float:
+    """The closed loop's cost from the catch on: x'Qx + r u² at each MPC sample (every `period`
+    s), the pendulum's angle taken from the upright it was caught at (θ1 − 2πk)."""
+    t = column["t"]
+    first = int(np.argmax(phase == "hold"))
+    samples = np.arange(first, len(t), round(period / (t[1] - t[0])))
+    x = np.column_stack([column[name][samples] for name in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    x[:, 1] -= 2 * np.pi * np.round(x[:, 1] / (2 * np.pi))
+    u = column["u"][samples]
+    return float(np.sum(x**2 @ np.asarray(q)) + r * np.sum(u**2))
+
+
+def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
+    rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray], tmp_path: Path
+) -> None:
+    """Issue 47's bound: the real-time iteration's closed-loop cost over the swing-up (from the
+    catch, which the energy law makes the same in both) within 5 % of the same scene's with the
+    MPC iterated to convergence (mode = "converged") at every sample."""
+    controller = tomllib.loads(SWINGUP.read_text())["controller"]
+    text = SWINGUP.read_text()
+    converged = tmp_path / "qube_converged.toml"
+    converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
+    summary, column, phase = _swing_up(converged, tmp_path / "out")
+    assert "converged" in summary and "every status ok" in summary
+    weights = (controller["q"], controller["r"], controller["period"])
+    rti, full = _hold_cost(*rti_swing_up[1:], *weights), _hold_cost(column, phase, *weights)
+    catch = rti_swing_up[1]["t"][int(np.argmax(rti_swing_up[2] == "hold"))]
+    assert column["t"][int(np.argmax(phase == "hold"))] == catch  # the same swing
+    assert abs(rti / full - 1) <= 0.05, (rti, full)
