@@ -107,8 +107,8 @@ def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
     """Issue 47's bound: the real-time iteration's closed-loop cost over the swing-up (from the
     catch, which the energy law makes the same in both) within 5 % of the same scene's with the
     MPC iterated to convergence (mode = "converged") at every sample."""
-    controller = tomllib.loads(SWINGUP.read_text())["controller"]
     text = SWINGUP.read_text()
+    controller = tomllib.loads(text)["controller"]
     converged = tmp_path / "qube_converged.toml"
     converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
     summary, column, phase = _swing_up(converged, tmp_path / "out")

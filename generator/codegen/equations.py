@@ -280,34 +280,43 @@ class _Builder:
         return Block("tau", [self.line(rf"\tau_{{{i + 1}}}", forced[i, 0]) for i in range(forced.rows)])
 
 
+def _common(
+    name: str, command: str, links: int, blocks: list[Block], totals: Block, result: list[Block], n: tuple
+) -> dict:
+    """The context keys both kinds of document share: the names, the bodies and totals, M, N
+    (`n`: the block and its zero count), P, and how many entries were capped. `result` is
+    [M, N, P, …]."""
+    capped = [line for block in [*blocks, totals, *result] for line in block.lines if line.capped]
+    return {
+        "name": name,
+        "command": command,
+        "version": __version__,
+        "links": links,
+        "last": links,
+        "bodies": blocks,
+        "totals": totals,
+        "mass": result[0],
+        "n_block": n[0],
+        "n_zeros": n[1],
+        "gravity": result[2],
+        "capped": len(capped),
+        "cap": TERM_CAP,
+    }
+
+
 def _context(eqs: Equations, request: HeaderRequest) -> dict:
     builder = _Builder(eqs)
     system = eqs.system
-    n = system.links
     n_block, n_zeros = builder.n_matrix()
     blocks = [builder.base(), *builder.links()]
     totals = builder.totals()
     result = [builder.mass(), n_block, builder.gravity()]
-    capped = [line for block in [*blocks, totals, *result] for line in block.lines if line.capped]
-    fixed = [(name, format_exact(value)) for name, value in request.specialisation.fixed]
     return {
-        "name": request.name,
-        "command": request.command,
-        "version": __version__,
+        **_common(request.name, request.command, system.links, blocks, totals, result, (n_block, n_zeros)),
         "rotary": system.is_rotary,
-        "links": n,
         "dof": system.dof,
         "inertia": system.inertia,
-        "last": n,
-        "bodies": blocks,
-        "totals": totals,
-        "mass": result[0],
-        "n_block": n_block,
-        "n_zeros": n_zeros,
-        "gravity": result[2],
-        "capped": len(capped),
-        "cap": TERM_CAP,
-        "fixed": fixed,
+        "fixed": [(name, format_exact(value)) for name, value in request.specialisation.fixed],
         "rod_links": eqs.rod_links,
         "frame": frame_context(request.coordinates),
         "fixed_pivot": False,
@@ -337,25 +346,12 @@ def _fixed_context(name: str, command: str, joints: tuple[int, ...], links: int)
         ],
     )
     result = [builder.mass(chain.mass_matrix), n_block, builder.gravity(), builder.torques(chain)]
-    capped = [line for block in [*blocks, totals, *result] for line in block.lines if line.capped]
     matrix = chain.input_matrix
     return {
-        "name": name,
-        "command": command,
-        "version": __version__,
+        **_common(name, command, links, blocks, totals, result, (n_block, n_zeros)),
         "rotary": False,
-        "links": links,
         "dof": links,
         "inertia": "pivot",
-        "last": links,
-        "bodies": blocks,
-        "totals": totals,
-        "mass": result[0],
-        "n_block": n_block,
-        "n_zeros": n_zeros,
-        "gravity": result[2],
-        "capped": len(capped),
-        "cap": TERM_CAP,
         "fixed": [],
         "fixed_pivot": True,
         "rod_links": False,

@@ -22,6 +22,7 @@ once), cmdstanpy's compiled-model cache.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import re
@@ -224,16 +225,24 @@ def external_program() -> Built | None:
     unset = f"or unset {SIMULATOR_VARIABLE} (ipgen then compiles its own)"
     if not path.is_file() or not os.access(path, os.X_OK):
         raise BuildError(f"{shown} is not an executable file: build it (CMake target ipsim_simulate) {unset}")
-    try:
-        done = subprocess.run([str(path), DIGEST_OPTION], capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.TimeoutExpired, UnicodeDecodeError) as error:
-        raise BuildError(f"{shown} does not run ({type(error).__name__}): rebuild it {unset}") from None
-    if done.returncode != 0 or done.stdout.strip() != sources_digest():
+    stat = path.stat()
+    if _reported_digest(str(path.resolve()), stat.st_mtime_ns, stat.st_size) != sources_digest():
         raise BuildError(
             f"{shown} was not built from this ipgen's ipsim sources: rebuild it (CMake target "
             f"ipsim_simulate of this checkout or installation) {unset}"
         )
     return Built(path.resolve(), built=False, seconds=0.0)
+
+
+@functools.lru_cache(maxsize=8)
+def _reported_digest(program: str, mtime_ns: int, size: int) -> str | None:
+    """What `program` prints for DIGEST_OPTION (None if it fails): asked once per process for a
+    program file as it is (its time and size in the key), not at every run of a sweep."""
+    try:
+        done = subprocess.run([program, DIGEST_OPTION], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired, UnicodeDecodeError):
+        return None
+    return done.stdout.strip() if done.returncode == 0 else None
 
 
 def cache_key(cxx: str, header_text: str, version: str | None = None) -> str:
