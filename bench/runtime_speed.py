@@ -145,7 +145,10 @@ def _driver(command: list[str], folder: Path) -> dict[str, dict]:
     """One run of a driver: {setting: its JSON line}, setting "rk4 5e-3" or "bdf 1e-8"."""
     options = ["--reference", str(folder / "reference.csv"), "--rtols", repr(RTOL),
                "--rk4-steps", ",".join(repr(s) for s in RK4_STEPS), "--repeat-seconds", "0.1"]  # fmt: skip
-    done = subprocess.run([*command, *options], capture_output=True, text=True, check=True)
+    # One OpenBLAS thread (LAPACK: the eigenvalue guards at a run's start): its idle threads spin
+    # on sched_yield and took cores from the simulation (runtime rk4 on RSIP 1.2-1.7x between runs).
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    done = subprocess.run([*command, *options], capture_output=True, text=True, check=True, env=env)
     lines = [json.loads(line) for line in done.stdout.splitlines()]
     return {f"{line['method']} {line['knob']:g}": line for line in lines if line["kind"] == "run"}
 

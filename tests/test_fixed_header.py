@@ -268,7 +268,7 @@ def test_command_refuses_in_one_line(
     ("links", "joints"), [(2, (1,)), (2, (2,)), (3, (3, 1))], ids=["pendubot", "acrobot", "n3-j31"]
 )
 def test_model_library_behind_the_interface(links: int, joints: tuple[int, ...], tmp_path: Path) -> None:
-    """The model library (`--emit library`) through ipgen_model.h with ctypes: ABI 3, type
+    """The model library (`--emit library`) through ipgen_model.h with ctypes: ABI 4, type
     "fixed", dof = n, m inputs, B and joints; forward_dynamics, linearize, M, the energies and
     rod_links against the Python model, parameters in the interface's layout (index i: link
     i + 1; Ir, gr per input)."""
@@ -285,8 +285,9 @@ def test_model_library_behind_the_interface(links: int, joints: tuple[int, ...],
     lib.ipgen_model_get.restype = ctypes.POINTER(Model)
     model = lib.ipgen_model_get().contents
     n, m = links, len(joints)
-    assert (model.abi, model.type, model.links, model.dof, model.inputs) == (3, b"fixed", n, n, m)
+    assert (model.abi, model.type, model.links, model.dof, model.inputs) == (4, b"fixed", n, n, m)
     assert [model.joints[k] for k in range(m)] == list(joints)
+    assert not model.rk4_step  # ipsim steps a fixed chain itself (its inputs go through B)
     rng = np.random.default_rng(46)
     pendulum = _pendulum(links, joints, rng)
     python = FixedModel(pendulum)

@@ -69,6 +69,7 @@ class Model(ctypes.Structure):
         ("gravity", ctypes.CFUNCTYPE(None, VEC, PARAMS, VEC)),
         ("n_matrix", ctypes.CFUNCTYPE(None, VEC, VEC, PARAMS, VEC)),
         ("input_matrix", VEC), ("joints", ctypes.POINTER(ctypes.c_int)),
+        ("rk4_step", ctypes.CFUNCTYPE(ctypes.c_int, VEC, VEC, ctypes.c_double, PARAMS)),
     ]  # fmt: skip
 
 
@@ -110,7 +111,7 @@ def test_the_model_library_equals_kanes_equations(
     lib.ipgen_model_get.restype = ctypes.POINTER(Model)
     model = lib.ipgen_model_get().contents
     dof = links + 1
-    assert (model.abi, model.links, model.dof, model.inputs) == (3, links, dof, 1)
+    assert (model.abi, model.links, model.dof, model.inputs) == (4, links, dof, 1)
     assert [model.input_matrix[i] for i in range(dof)] == [1.0] + [0.0] * links and not model.joints
     assert model.type.decode() == kind and model.name.decode() == "m"
     ref = reference(kind, links, inertia, True)
@@ -135,6 +136,11 @@ def test_the_model_library_equals_kanes_equations(
         qdd = vector(np.zeros(dof))
         assert model.forward_dynamics(vector(q), vector(qd), vector([u]), ctypes.byref(p), qdd) == 0
         assert np.allclose(np.asarray(qdd), qdd_ref, rtol=1e-10, atol=1e-10)
+        # rk4_step: the classic RK4 step of forward_dynamics, to the bit (IEEE doubles here too).
+        x, h = np.concatenate([q, qd]), 0.01
+        stepped = vector(x)
+        assert model.rk4_step(stepped, vector([u]), h, ctypes.byref(p)) == 0
+        assert np.asarray(stepped).tolist() == rk4_of(model, p, x.tolist(), u, h)
         M = vector(np.zeros(dof * dof))
         model.mass_matrix(vector(q), ctypes.byref(p), M)
         assert np.allclose(np.asarray(M).reshape(dof, dof), M_ref, rtol=1e-12, atol=1e-12)
@@ -167,6 +173,35 @@ def test_the_model_library_equals_kanes_equations(
         if kind == "rotary":
             assert math.isclose(rods[0], m[0] * length[0] ** 2 / 3, rel_tol=1e-15)
     assert model.check_folded(ctypes.byref(p)) is None  # a general model folds nothing
+    # A step that fails leaves the state as it was: M not positive definite (a negative mass),
+    # a derivative that is not finite (an infinite rate).
+    for field, index, value in (("m", dof - 1, -1e3), ("delta", 0, math.inf)):
+        kept = getattr(p, field)[index]
+        getattr(p, field)[index] = value
+        x = np.concatenate([q, qd])
+        stepped = vector(x)
+        assert model.rk4_step(stepped, vector([u]), 0.01, ctypes.byref(p)) != 0
+        assert np.asarray(stepped).tolist() == x.tolist()
+        getattr(p, field)[index] = kept
+
+
+def rk4_of(model: Model, p: Parameters, x: list[float], u: float, h: float) -> list[float]:
+    """One RK4 step of x = [q; qd] from the library's forward_dynamics, in Python floats, in the
+    order of operations ipgen_model.h states."""
+    dof = len(x) // 2
+
+    def rate(state: list[float]) -> list[float]:
+        qdd = vector(np.zeros(dof))
+        q, qd = vector(state[:dof]), vector(state[dof:])
+        assert model.forward_dynamics(q, qd, vector([u]), ctypes.byref(p), qdd) == 0
+        return state[dof:] + list(qdd)
+
+    half, sixth = 0.5 * h, h / 6.0
+    k1 = rate(x)
+    k2 = rate([a + half * b for a, b in zip(x, k1, strict=True)])
+    k3 = rate([a + half * b for a, b in zip(x, k2, strict=True)])
+    k4 = rate([a + h * b for a, b in zip(x, k3, strict=True)])
+    return [a + sixth * (b + 2.0 * c + 2.0 * d + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4, strict=True)]
 
 
 SCENE = """\
@@ -252,7 +287,7 @@ def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     cases = {
         str(tmp_path / "missing.so"): "cannot load the model library",
         str(not_a_model): "exports no ipgen_model_get (not an ipgen model library)",
-        str(abi_library): "built for model ABI 99, this simulator reads 3",
+        str(abi_library): "built for model ABI 99, this simulator reads 4",
     }
     cfg = tmp_path / "out" / "s.cfg"
     for library, message in cases.items():
@@ -286,3 +321,22 @@ def test_the_capacity_is_stated_once_and_a_longer_chain_is_refused_in_one_line(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"up to {MAX_SIMULATED_LINKS} links, this scene has {links}" in err
     assert "ipgen_add_simulator" in err and not cache.exists()
+
+
+def test_the_library_rk4_step_gives_the_simulators_own_steps(tmp_path: Path) -> None:
+    """Method rk4 runs on the model library's rk4_step when the right-hand side is the model's
+    alone (no energy ledger) and on ipsim's own step otherwise (with the ledger): the angles and
+    rates are the same to the bit, through a pulse on the arm."""
+    require_toolchain()
+    columns = {}
+    arm = {"m": [0.5, 0.2, 0.1], "l": [0.3, 0.4, 0.3], "delta": [0.01, 0.001, 0.001], "theta": [0, 0.5, -0.3]}
+    for energy in ("true", "false"):
+        scene = tmp_path / f"rk4_{energy}.toml"
+        text = SCENE.format(kind="rotary", links=2, **arm).replace("energy = true", f"energy = {energy}")
+        pulse = '[input]\nkind = "pulse"\namplitude = 0.2\nduration = 0.5\n'
+        scene.write_text(text + 'method = "rk4"\nstep = 0.002\n' + pulse)
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+        rows = (tmp_path / "out" / f"rk4_{energy}.csv").read_text().splitlines()
+        columns[energy] = [",".join(row.split(",")[:7]) for row in rows]
+    assert len(columns["true"]) > 100 and columns["true"] == columns["false"]

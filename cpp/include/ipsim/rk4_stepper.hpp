@@ -17,6 +17,7 @@
 #include "ipsim/rhs.hpp"
 #include "ipsim/settings.hpp"
 #include "ipsim/sundials.hpp"
+#include "ipgen_model.h"
 
 namespace ipsim::detail {
 
@@ -33,11 +34,7 @@ class Rk4Stepper {
       : settings_(settings),
         rhs_context_(rhs_context),
         y_(y.data(), y.length()),
-        k1_(y.length()),
-        k2_(y.length()),
-        k3_(y.length()),
-        k4_(y.length()),
-        stage_(y.length()),
+        work_(5 * y.length()),
         initial_(y_) {}
 
   /// Integrates from the current time to exactly t_stop in ceil((t_stop − t)/step) steps (a
@@ -73,9 +70,12 @@ class Rk4Stepper {
   }
 
  private:
-  void evaluate(double t, const Eigen::VectorXd& x, Eigen::VectorXd& out) {
-    const int flag = evaluate_rhs<Model>(rhs_context_, t, x.data(), out.data(), static_cast<long>(x.size()));
-    if (flag != 0) throw integration_error("RK4", -1, kRk4RhsFail, t, settings_, explain_failure());
+  /// f(t, x) for ipgen_rk4_step: evaluate_rhs, the failing time kept for the error.
+  static int evaluate(void* self, double t, const double x[], double dx[]) {
+    auto& stepper = *static_cast<Rk4Stepper*>(self);
+    const int flag = evaluate_rhs<Model>(stepper.rhs_context_, t, x, dx, static_cast<long>(stepper.y_.size()));
+    if (flag != 0) stepper.failed_at_ = t;
+    return flag;
   }
 
   /// The likely cause of a non-finite derivative (guards.hpp), and whether the fixed step is
@@ -92,23 +92,47 @@ class Rk4Stepper {
     return text;
   }
 
+  /// Whether the model library's rk4_step computes this run's steps: a model loaded at run time
+  /// that has one, and a right-hand side that is the model's alone with the input held on the
+  /// segment (no energy ledger, drive lag, Coulomb friction, acceleration-driven base, fixed
+  /// chain's inputs or feedback input evaluated at each stage).
+  bool library_steps() const {
+    if constexpr (is_runtime<Model>) {
+      const RhsContext<Model>& c = rhs_context_;
+      return Model::has_rk4_step() && !c.energy_ledger && c.lag_index < 0 && c.coulomb_index < 0 &&
+             !c.acceleration && c.input_matrix == nullptr && c.input->piecewise_constant() &&
+             y_.size() == 2 * dof_of<Model>();
+    } else {
+      return false;
+    }
+  }
+
   void step(double t, double h) {
-    evaluate(t, y_, k1_);
-    stage_ = y_ + (0.5 * h) * k1_;
-    evaluate(t + 0.5 * h, stage_, k2_);
-    stage_ = y_ + (0.5 * h) * k2_;
-    evaluate(t + 0.5 * h, stage_, k3_);
-    stage_ = y_ + h * k3_;
-    evaluate(t + h, stage_, k4_);
-    y_ += (h / 6.0) * (k1_ + 2.0 * k2_ + 2.0 * k3_ + k4_);
+    if constexpr (is_runtime<Model>) {
+      // The model library's own step: the same ipgen_rk4_step with its sizes known to the
+      // compiler (one call a step instead of four). A failing step is redone below, which
+      // diagnoses it.
+      if (library_steps_) {
+        const double u = rhs_context_.segment_input + rhs_context_.segment_pulse;
+        if (Model::rk4_step(y_.data(), &u, h, *rhs_context_.params) == 0) {
+          ++steps_;
+          return;
+        }
+      }
+    }
+    if (ipgen_rk4_step(static_cast<int>(y_.size()), y_.data(), t, h, &Rk4Stepper::evaluate, this, work_.data()) != 0) {
+      throw integration_error("RK4", -1, kRk4RhsFail, failed_at_, settings_, explain_failure());
+    }
     ++steps_;
   }
 
   const Settings<Model>& settings_;
   RhsContext<Model>& rhs_context_;
   Eigen::Map<Eigen::VectorXd> y_;  ///< the caller's N_Vector, updated in place
-  Eigen::VectorXd k1_, k2_, k3_, k4_, stage_;
-  Eigen::VectorXd initial_;  ///< the state at t = 0, for the stability diagnosis
+  Eigen::VectorXd work_;           ///< ipgen_rk4_step's k1..k4 and stage
+  Eigen::VectorXd initial_;        ///< the state at t = 0, for the stability diagnosis
+  bool library_steps_ = library_steps();
+  double failed_at_ = 0.0;  ///< the time of the last evaluation that failed [s]
   double t_ = 0.0;
   long steps_ = 0;
 };

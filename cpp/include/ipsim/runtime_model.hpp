@@ -157,6 +157,13 @@ struct RuntimeModel {
       for (int i = 0; i < n; ++i) qdd[i] = std::numeric_limits<double>::quiet_NaN();
     }
   }
+  /// Whether the model library has rk4_step (ipgen_model.h).
+  static bool has_rk4_step() { return active().rk4_step != nullptr; }
+  /// One RK4 step h [s] of x = [q; qd] in place, the inputs u[0..inputs()) held (the library's
+  /// rk4_step, which has_rk4_step() says exists): 0, or non-zero with x unchanged.
+  static int rk4_step(double x[], const double u[], double h, const Params<double>& p) {
+    return active().rk4_step(x, u, h, &p);
+  }
   template <typename Scalar>
   static Derivatives<Scalar> forward_dynamics_derivatives(const Vector<Scalar>& q, const Vector<Scalar>& qd,
                                                           Scalar u, const Params<Scalar>& p) {
