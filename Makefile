@@ -133,8 +133,10 @@ cpp-early: deps-build
 ## the model interface, linking the same ipgen_ipsim_core as every CMake program), brought up to
 ## date before either side starts (one ninja at a time in the build folder). pytest takes it through
 ## $IPGEN_SIMULATOR instead of compiling a copy of its own into build/test-cache (about 40 s of
-## compiler CPU); `ipgen run` checks that it was built from the same ipsim sources.
-SIMULATOR_ENV = IPGEN_SIMULATOR=$(abspath $(BUILD))/bin/ipsim-simulate
+## compiler CPU); `ipgen run` checks that it was built from the same ipsim sources. The tests' own
+## ipsim programs link the same ipgen_ipsim_core ($IPGEN_TEST_IPSIM_CORE, tests/cxx.py; about 20 s).
+SIMULATOR_ENV = IPGEN_SIMULATOR=$(abspath $(BUILD))/bin/ipsim-simulate \
+  IPGEN_TEST_IPSIM_CORE=$(abspath $(BUILD))/cpp/libipgen_ipsim_core.a
 ipsim-simulate: venv cpp-early
 	cmake --build $(BUILD) -j $(JOBS) --target ipsim_simulate >/dev/null
 

@@ -9,7 +9,7 @@ simulation in one process, no files) compiled three ways, on the work-precision 
 
 The drivers use the work-precision bench's flags (-O3 -DNDEBUG; the runtime one without
 -Werror). Each run of a driver computes its reference (erk-fehlberg8 at rtol 1e-13) and then,
-per setting, the median wall time of `simulate()` over repeated runs (at least 0.1 s); the
+per setting, the median wall time of `simulate()` over repeated runs (at least 0.3 s); the
 three drivers and MuJoCo's `rollout` (RK4 at the same steps as ipsim's rk4: the same scheme and
 step, so the same error) alternate, and each number is the median over the rounds. Used by
 bench/runtime.py.
@@ -17,6 +17,7 @@ bench/runtime.py.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import statistics
@@ -44,6 +45,7 @@ RK4_STEPS = (5e-3, 1e-3)  # 5e-3: the issue's target on CDIP (error about 1e-8 a
 RTOL = 1e-8  # the error-controlled methods' setting shown
 ADAPTIVE = ("bdf", "erk-dp5")  # bdf: the scenes' default method
 VARIANTS = ("before", "per model", "runtime")
+REPEAT_SECONDS = 0.3  # each setting's runs in one driver call: the median of them is its time
 
 
 @dataclass(frozen=True)
@@ -55,10 +57,13 @@ class Built:
 
 
 def _compile(source: Path, include: Path, folder: Path, name: str | None, binary: Path) -> None:
-    """Compile the driver `source` into `binary` (unless `binary` is newer than every source): on
-    the model header `folder`/`name`.hpp, or with name None on the runtime model."""
+    """Compile the driver `source` into `binary` (unless it was compiled from these sources' text
+    before: regenerated headers keep their driver): on the model header `folder`/`name`.hpp, or
+    with name None on the runtime model."""
     sources = [source, *sorted(include.rglob("*.h*")), *([folder / f"{name}.hpp"] if name else [])]
-    if binary.exists() and binary.stat().st_mtime >= max(path.stat().st_mtime for path in sources):
+    digest = hashlib.sha256(b"".join(path.read_bytes() for path in sources)).hexdigest()
+    stamp = binary.with_name(binary.name + ".sources")
+    if binary.exists() and stamp.is_file() and stamp.read_text() == digest:
         return
     model = (
         [f"-I{folder}", f'-DIPGEN_MODEL_HEADER="{name}.hpp"', f"-DIPGEN_MODEL=ipgen::{name}::Model"]
@@ -73,6 +78,7 @@ def _compile(source: Path, include: Path, folder: Path, name: str | None, binary
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"compiling {source} failed:\n{done.stderr[-3000:]}")
+    stamp.write_text(digest)
 
 
 def _checkout(commit: str, folder: Path) -> Path:
@@ -144,7 +150,8 @@ def build_all(work: Path, library_of: dict[Path, tuple[Path, Path]]) -> dict[Pat
 def _driver(command: list[str], folder: Path) -> dict[str, dict]:
     """One run of a driver: {setting: its JSON line}, setting "rk4 5e-3" or "bdf 1e-8"."""
     options = ["--reference", str(folder / "reference.csv"), "--rtols", repr(RTOL),
-               "--rk4-steps", ",".join(repr(s) for s in RK4_STEPS), "--repeat-seconds", "0.1"]  # fmt: skip
+               "--rk4-steps", ",".join(repr(s) for s in RK4_STEPS),
+               "--repeat-seconds", repr(REPEAT_SECONDS)]  # fmt: skip
     # One OpenBLAS thread (LAPACK: the eigenvalue guards at a run's start): its idle threads spin
     # on sched_yield and took cores from the simulation (runtime rk4 on RSIP 1.2-1.7x between runs).
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
@@ -185,13 +192,18 @@ def measure(built: dict[Path, Built], rounds: int) -> list[list[str]]:
         settings = [f"rk4 {s:g}" for s in RK4_STEPS] + [f"{m} {RTOL:g}" for m in ADAPTIVE]
         for setting in settings:
             ms = {v: statistics.median(times[(v, setting)]) * 1e3 for v in VARIANTS}
+            # runtime / before of each round (both ran back to back), then the median: a slow spell
+            # of the shared machine then slows both sides of a ratio, not one variant's median.
+            paired = statistics.median(
+                r / b for r, b in zip(times[("runtime", setting)], times[("before", setting)], strict=True)
+            )
             key = f"rk4 {setting.split()[1]}" if setting.startswith("rk4") else None
             mujoco = statistics.median(times[("MuJoCo", key)]) * 1e3 if key else None
             same = "yes" if errors[("before", setting)] == errors[("runtime", setting)] else "no"
             rows.append([
                 label, setting, f"{errors[('runtime', setting)]:.1e}",
                 *(f"{ms[v]:.4f}" for v in VARIANTS),
-                f"{ms['runtime'] / ms['before']:.3f}", same,
+                f"{paired:.3f}", same,
                 f"{mujoco:.3f} ({errors[('MuJoCo', key)]:.1e})" if mujoco else "",
                 f"{mujoco / ms['before']:.1f}x" if mujoco else "",
                 f"{mujoco / ms['runtime']:.1f}x" if mujoco else "",
@@ -208,14 +220,16 @@ def section(rows: list[list[str]], rounds: int, load: tuple[str, str]) -> list[s
         "## Speed at equal error against MuJoCo RK4 (`make bench`'s driver)",
         "",
         "The work-precision driver of `make bench` (bench/workprecision/driver.cpp: `simulate()` in",
-        "one process, its median wall time per simulated second over repeated runs of at least 0.1 s,",
-        "no files; -O3 -DNDEBUG as in `make bench`) compiled three ways: **before**, the commit before",
+        "one process, its median wall time per simulated second over repeated runs of at least",
+        f"{REPEAT_SECONDS} s, no files; -O3 -DNDEBUG as in `make bench`; one OpenBLAS thread) compiled",
+        "three ways: **before**, the commit before",
         f"issue 45 ({BEFORE}: its driver, its ipsim and the C++ header its generator writes); **per model**,",
         "this commit's driver on the model's C++ header; **runtime**, this commit's driver compiled once",
         "for every model (-DIPSIM_RUNTIME_MODEL) on the model library `ipgen run` builds (C, -O2): the",
         "simulation `ipgen run` runs. MuJoCo RK4 (`mujoco.rollout`) at the same step as ipsim's rk4: the",
         "same scheme and step, so the same error (in brackets, at t = 10 s, against ipsim's reference).",
-        f"The drivers and MuJoCo alternate; each number is the median of {rounds} rounds. Same error:",
+        f"The drivers and MuJoCo alternate; each time is the median of {rounds} rounds, runtime / before",
+        "the median of the rounds' ratios (the two ran back to back in each round). Same error:",
         "whether before and runtime end at the same error to the last printed digit (the same steps).",
         "The ratio to MuJoCo RK4 is MuJoCo's time over ipgen's (larger: ipgen faster).",
         f"Load average (1, 5, 15 min) before this part: {load[0]}; after: {load[1]} (2 cores, shared).",

@@ -104,3 +104,20 @@ def require_toolchain() -> None:
     if os.environ.get(ALLOW_NO_CXX) == "1":
         pytest.skip(f"{problem}; skipped because {ALLOW_NO_CXX}=1")
     pytest.fail(f"{problem}; set {ALLOW_NO_CXX}=1 to skip the C++ checks instead", pytrace=False)
+
+
+IPSIM_CORE = "IPGEN_TEST_IPSIM_CORE"
+
+
+def ipsim_core() -> Path:
+    """ipsim's compiled core for a test's own ipsim program: the one $IPGEN_TEST_IPSIM_CORE names
+    (the Makefile's: the CMake build's libipgen_ipsim_core.a, built from the same sources with the
+    tests' -Og -DNDEBUG), else the run's simulator cache's (compiled there on first use)."""
+    from ipgen.pipeline.simulator import compiled_core
+
+    named = os.environ.get(IPSIM_CORE, "").strip()
+    if named:
+        if not Path(named).is_file():
+            pytest.fail(f"{IPSIM_CORE}={named} is not a file: build it (CMake target ipgen_ipsim_core)")
+        return Path(named)
+    return compiled_core()

@@ -9,14 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cxx import cxx_command, require_toolchain
+from cxx import cxx_command, ipsim_core, require_toolchain
 from numeric import assert_close
 
 import ipgen
 from ipgen.control import linear as control
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate_header
-from ipgen.pipeline.simulator import SEPARATE, compiled_core, optimisation
+from ipgen.pipeline.simulator import SEPARATE, optimisation
 
 ROOT = Path(__file__).resolve().parents[1]
 # A whole ipsim program of the model's C++ header (8-10 s of compiling): make test-slow, beside the
@@ -113,9 +113,9 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
         source = source.replace(name, value)
     (folder / "driver.cpp").write_text(source)
     binary = folder / "driver"
-    # ipsim's model-independent code from the test run's simulator cache, as `ipgen run` links it
-    # (same flags: the cache's optimisation, -DNDEBUG), so that it is not compiled once more here;
-    # the README's examples compile ipsim header-only.
+    # ipsim's model-independent code compiled once (the CMake build's, else the test run's
+    # simulator cache's; same flags: the tests' optimisation, -DNDEBUG), as `ipgen run` links it,
+    # so that it is not compiled once more here; the README's examples compile ipsim header-only.
     _std, level, *defines = optimisation()  # ("-std=c++17", level, "-DNDEBUG")
     build = subprocess.run(
         cxx_command(
@@ -124,7 +124,7 @@ def driver(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
             f"-I{folder}",
             f"-I{ROOT / 'cpp/include'}",
             str(folder / "driver.cpp"),
-            str(compiled_core()),
+            str(ipsim_core()),
             "-o",
             str(binary),
             *SUNDIALS,
