@@ -198,3 +198,48 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path) -> Non
     assert statuses["soft_fixed"] == statuses["soft_runtime"]
     assert statuses["soft_fixed"].count("0") > 0.9 * len(estimate)
     assert np.max(np.abs(results["soft_fixed"])) > 1
+
+
+SWINGUP_FIRMWARE = FIRMWARE.replace('"qube_servo2.h"', '"qube_servo2_mpc_swingup.h"').replace(
+    "P_", "ipgen_qube_servo2_mpc_swingup_"
+)
+
+
+def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path) -> None:
+    """The preset qube_servo2_mpc_swingup with emit = ["c"]: the firmware entry (energy law at
+    1 kHz, then the MPC step every 10th sample from the catch on, its u held in between, all in
+    ipgen_loop.h's swing-up with a catch law) fed the simulator's counts returns the voltage the
+    simulator applied at every sample of the swing, the catch and the hold, in double to 1e-9."""
+    require_toolchain()
+    require_cc()
+    preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_mpc_swingup.toml"
+    scene = tmp_path / "qube_servo2_mpc_swingup.toml"
+    scene.write_text(
+        preset.read_text().replace(
+            'name = "qube_servo2_mpc_swingup"', 'name = "qube_servo2_mpc_swingup"\nemit = ["c"]'
+        )
+    )
+    for argv in (
+        ["--scene", str(scene), "-o", str(tmp_path)],
+        ["run", str(scene), "-o", str(tmp_path / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    header, *rows = (tmp_path / "run" / "qube_servo2_mpc_swingup.csv").read_text().splitlines()
+    names = header.split(",")
+    phase = [row.rsplit(",", 1)[1] for row in rows][:-1]
+    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
+    columns = {name: data[:, i] for i, name in enumerate(names[:-1])}
+    step, zero = 2 * math.pi / 2048, np.array([0.0, math.pi])  # the encoders read 0 hanging at rest
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
+    counts = np.rint((y - zero) / step).astype(int)
+    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    program = tmp_path / "swingup_firmware"
+    (tmp_path / "swingup_firmware.c").write_text(SWINGUP_FIRMWARE)
+    command = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{tmp_path}", str(tmp_path / "swingup_firmware.c")]
+    built = subprocess.run([*command, "-o", str(program), "-lm"], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr[:3000]
+    volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
+    assert "swing" in phase and "hold" in phase, "the run swings and is caught"
+    assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
+    assert np.max(np.abs(volts)) <= U_MAX

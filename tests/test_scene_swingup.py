@@ -105,7 +105,6 @@ BAD = [
     ({"swingup.speed": "1"}, "swingup.speed", "unknown key"),
     ({"controller.kind": '"lqr"'}, "swingup.method", "remove the [controller] table"),
     ({**MPC, "swingup.period": "0.02"}, "swingup.period = 0.02", "a whole number of times"),
-    ({**MPC, "system.emit": '["c"]'}, "no C header yet", 'remove "c"'),
     ({"input.kind": '"constant"', "input.amplitude": "1"}, "swingup.method", "remove [input]"),
     ({"swingup.method": '"trajectory"'}, "swingup.method", "needs duration"),
     ({"swingup.method": '"trajectory"', "swingup.duration": "20"}, "swingup.duration = 20", "t_end"),

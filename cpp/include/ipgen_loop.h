@@ -370,19 +370,30 @@ typedef struct {
    * (ipsim passes the sum its LQR controllers form, so that its runs keep their bits.) */
   ipgen_real (*feedback)(void *context, int states, ipgen_real u_ref, const ipgen_real K[], const ipgen_real x[],
                          const ipgen_real x_ref[]);
+  /* Optional: a controller that catches and holds instead of hold_gain (a scene's MPC): its u for
+   * x with q1 relative to the caught upright (q1 - 2 pi k), at the catch and every catch_every
+   * samples after it, held in between; catch_context is passed to it. Null: the hold's LQR. */
+  ipgen_real (*catch_law)(void *catch_context, const ipgen_real x[]);
+  void *catch_context;
+  long catch_every;
 } ipgen_loop_swingup;
 
-/* What a swing-up remembers: its phase, the samples seen and the upright held (q1). */
+/* What a swing-up remembers: its phase, the samples seen and the upright held (q1); with a
+ * catch_law, the sample of the catch and the u it last gave. */
 typedef struct {
   int phase;
   long k;
   ipgen_real hold_q1;
+  long hold_sample;
+  ipgen_real catch_u;
 } ipgen_loop_swingup_state;
 
 IPGEN_LOOP_API void ipgen_loop_swingup_start(const ipgen_loop_swingup *law, ipgen_loop_swingup_state *s) {
   s->phase = law->steps > 0 ? IPGEN_LOOP_TRACK : IPGEN_LOOP_SWING;
   s->k = 0;
   s->hold_q1 = law->target[1];
+  s->hold_sample = 0;
+  s->catch_u = (ipgen_real)0;
 }
 
 /* Scratch entries ipgen_loop_swingup_step needs. */
@@ -401,11 +412,13 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
                         : ipgen_loop_feedback(2 * dof, law->inputs[s->k], K, x, x_ref);
     } else {
       s->phase = IPGEN_LOOP_HOLD;
+      s->hold_sample = s->k;
     }
   } else if (s->phase == IPGEN_LOOP_SWING) {
     if (ipgen_loop_energy_caught(&law->energy, x[1], x[dof + 1])) {
       s->phase = IPGEN_LOOP_HOLD;
       s->hold_q1 = ipgen_loop_upright(x[1]);
+      s->hold_sample = s->k;
     } else {
       ipgen_real *M = work, *b = work + dof * dof;
       if (law->mass_bias(law->context, x, x + dof, M, b) != 0) {
@@ -415,7 +428,16 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
       }
     }
   }
-  if (s->phase == IPGEN_LOOP_HOLD) {
+  if (s->phase == IPGEN_LOOP_HOLD && law->catch_law) {
+    if ((s->k - s->hold_sample) % law->catch_every == 0) {
+      ipgen_real *relative = work + dof * dof + dof;
+      int i;
+      for (i = 0; i < 2 * dof; ++i) relative[i] = x[i];
+      relative[1] -= s->hold_q1;
+      s->catch_u = ipgen_loop_saturate(law->catch_law(law->catch_context, relative), law->u_max);
+    }
+    u = s->catch_u;
+  } else if (s->phase == IPGEN_LOOP_HOLD) {
     ipgen_real *reference = work + dof * dof + dof;
     int i;
     for (i = 0; i < 2 * dof; ++i) reference[i] = law->target[i];

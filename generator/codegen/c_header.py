@@ -242,6 +242,8 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     context["mpc"] = mpc_context(mpc, request.controller.period, dof, spec.outputs) if mpc else None  # type: ignore[union-attr]
     context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n") if mpc else ""
     context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None
+    if mpc and request.swingup:  # the MPC catches: its step every catch_every swing-up samples
+        context["swingup"]["catch_every"] = round(request.controller.period / request.swingup.period)  # type: ignore[index,union-attr]
     context["estimator"] = (
         estimator_context(request.estimator, dof, spec.outputs) if request.estimator is not None else None
     )

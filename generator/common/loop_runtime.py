@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 31  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 33  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -125,13 +125,19 @@ class SwingUp(ctypes.Structure):
         ("energy", EnergyLaw), ("steps", ctypes.c_long), ("inputs", _address), ("states", _address),
         ("gains", _address), ("mass_bias", MASS_BIAS), ("context", ctypes.c_void_p),
         ("feedback", ctypes.c_void_p),  # null: ipgen_loop_feedback
+        ("catch_law", ctypes.c_void_p), ("catch_context", ctypes.c_void_p),  # null: the hold's LQR
+        ("catch_every", ctypes.c_long),
     ]  # fmt: skip
 
 
 class SwingUpState(ctypes.Structure):
-    """ipgen_loop_swingup_state: the phase (an index of PHASES), the samples seen, the upright held."""
+    """ipgen_loop_swingup_state: the phase (an index of PHASES), the samples seen, the upright held,
+    a catch law's sample of the catch and last u."""
 
-    _fields_ = [("phase", ctypes.c_int), ("k", ctypes.c_long), ("hold_q1", _real)]
+    _fields_ = [
+        ("phase", ctypes.c_int), ("k", ctypes.c_long), ("hold_q1", _real), ("hold_sample", ctypes.c_long),
+        ("catch_u", _real),
+    ]  # fmt: skip
 
 
 def _layout() -> list[int]:
@@ -151,8 +157,9 @@ def _layout() -> list[int]:
         *(offset(EnergyLaw, n) for n in ("energy_weight", "acceleration", "input_gain")),
         ctypes.sizeof(SwingUp),
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
-        offset(SwingUp, "context"),
+        offset(SwingUp, "context"), offset(SwingUp, "catch_every"),
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
+        offset(SwingUpState, "catch_u"),
         ctypes.sizeof(ctypes.c_long),
     ]  # fmt: skip
 

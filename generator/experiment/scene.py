@@ -245,11 +245,6 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             law = swing.law(tables["swingup"], pendulum(), start)
         except swing.SwingUpError as error:
             reader.fail(str(error))
-    if controller is not None and controller.mpc is not None and law is not None and "c" in system.emit:
-        reader.fail(
-            'an MPC catching a [swingup] has no C header yet: remove "c" from [system] emit '
-            "(the simulator runs it)"
-        )
     loop = _loop(reader, tables, controller, law, pendulum)
     travel = None if tables["limits"].travel is None else float(tables["limits"].travel)
     if travel is not None and abs(theta[0]) > travel:

@@ -135,8 +135,11 @@ struct SwingUp {
                                  gains.data(),
                                  &SwingUp::mass_bias<Model>,
                                  const_cast<void*>(static_cast<const void*>(&context)),
-                                 &SwingUp::feedback<Model>};
-    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1)};
+                                 &SwingUp::feedback<Model>,
+                                 catch_law ? &SwingUp::call_catch_law : nullptr,
+                                 const_cast<void*>(static_cast<const void*>(this)),
+                                 catch_every};
+    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
     if (loop.phase == IPGEN_LOOP_HOLD && state.phase != SwingPhase::hold) {
@@ -144,16 +147,9 @@ struct SwingUp {
       state.hold_since = t;
       state.equilibrium = target;
       state.equilibrium(1) = loop.hold_q1;
-      state.hold_sample = k;
     }
-    if (catch_law && state.phase == SwingPhase::hold) {
-      if ((k - state.hold_sample) % catch_every == 0) {
-        Eigen::VectorXd relative = x;
-        relative(1) -= state.equilibrium(1);
-        state.catch_u = std::clamp(catch_law(relative), -u_max, u_max);
-      }
-      return state.catch_u;
-    }
+    state.hold_sample = loop.hold_sample;
+    state.catch_u = loop.catch_u;
     return u;
   }
 
@@ -181,6 +177,13 @@ struct SwingUp {
   /// u_ref − K (x − x_ref) summed as the simulator summed it before ipgen_loop.h, so that its runs
   /// keep their bits (ipgen_loop_swingup.feedback): the hold as LinearFeedback does (Eigen's dot),
   /// a plan's step in the order of x (ipgen_loop_feedback, as Eigen summed the plan's gain row).
+  /// catch_law for ipgen_loop_swingup (context: this SwingUp) on x (2·kDof, θ1 relative to the
+  /// caught upright).
+  static double call_catch_law(void* context, const double x[]) {
+    const auto& self = *static_cast<const SwingUp*>(context);
+    return self.catch_law(Eigen::Map<const Eigen::VectorXd>(x, self.target.size()));
+  }
+
   template <class Model>
   static double feedback(void* context, int states, double u_ref, const double K[], const double x[],
                          const double x_ref[]) {
