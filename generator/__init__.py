@@ -420,6 +420,8 @@ def sweep(
     cache_dir: str | Path | None = None,
     plots: bool = True,
     converge: float = 0.25,
+    random: int = 0,
+    spread: float = 0.2,
 ) -> Outcome:
     """Run `scene` over levels of its keys and score its controller, as `ipgen sweep` does.
 
@@ -468,6 +470,13 @@ def sweep(
         The compiled simulators' cache (default: ipgen's).
     plots : bool, optional
         Write the PNGs (default True).
+    random : int, optional
+        That many random starts (criterion "random"; default none): even ones hanging (links at
+        π ± 0.1 rad), odd ones near upright (±0.2 rad, rates ±0.5 rad/s), the base within ±0.1,
+        every mass, damping coefficient and a dc_motor's Rm times U(1 − spread, 1 + spread);
+        each drawn from its run's seed. Its score is the fraction of runs that pass.
+    spread : float, optional
+        The parameters' relative spread of `random` (default 0.2: ±20 %).
 
     Returns
     -------
@@ -509,6 +518,8 @@ def sweep(
         force=force,
         cache=cache_dir,
         plot=plots,
+        random=random,
+        spread=spread,
     )
 
 

@@ -243,3 +243,31 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
     assert np.max(np.abs(volts)) <= U_MAX
+
+
+def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path: Path) -> None:
+    """The QUBE in Quanser's convention (positive = counterclockwise, zero = hanging) with encoders
+    + Kalman filter: the firmware entry estimates in the rig's coordinates, maps the estimate to
+    ipgen's (ipgen_NAME_to_canonical) for the MPC step, and fed the simulator's counts returns its
+    volts at every sample, in double to 1e-9."""
+    require_toolchain()
+    require_cc()
+    quanser = 'name = "qube_servo2"\nemit = ["c"]\npositive = "counterclockwise"\nzero = "hanging"'
+    initial = f"theta = [0.3, {math.pi - 0.15!r}]\ndtheta = [1.0, 0]"  # PUSHED, in the rig's angles
+    text = QUBE.format(controller="", extra=MEASURED, t_end=1.0, initial=initial)
+    scene = tmp_path / "qube_mpc.toml"
+    scene.write_text(text.replace('name = "qube_servo2"', quanser))
+    for argv in (
+        ["--scene", str(scene), "-o", str(tmp_path)],
+        ["run", str(scene), "-o", str(tmp_path / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    columns = _columns(tmp_path)
+    step, zero = 2 * math.pi / 2048, np.array([0.0, 0.0])  # hanging at rest is 0 in this convention
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
+    counts = np.rint((y - zero) / step).astype(int)
+    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    volts = np.array([float(v[0]) for v in _run(_program(tmp_path, "firmware", FIRMWARE), counts, "{:d}")])
+    assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
+    assert np.max(np.abs(columns["u"])) > 6

@@ -6,7 +6,9 @@ the inputs agree to 1e-9; the bound on u and the base's bound hold at every samp
 
 from __future__ import annotations
 
+import io
 import math
+from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
 import numpy as np
@@ -235,3 +237,55 @@ def test_any_mpc_table_loads_or_fails_in_one_line(tmp_path: Path, table: dict[st
     assert design.u_max > 0 and design.u_min == -design.u_max and design.mode in ("rti", "converged")
     assert all(math.isfinite(v) for v in (*design.Q, *design.P, design.R))
     assert all(0 <= i < 4 and lo < hi for i, lo, hi in (*design.bounds, *design.soft_bounds))
+
+
+def test_the_rigs_coordinates_give_the_same_physical_run(tmp_path: Path) -> None:
+    """The QUBE in Quanser's convention (positive = counterclockwise, zero = hanging: α = π − θ1
+    wherever θ1 is ipgen's) with the same physical start, weights, a soft bound on the pendulum
+    written in the rig's angles and encoders + Kalman filter: the MPC works in ipgen's coordinates
+    (the weights Pᵀ Q P, the bound mapped), so the run is the canonical scene's, its link angle
+    read through the map, its volts the same (1e-9: the Kalman filter is designed in the rig's
+    coordinates, P A P⁻¹)."""
+    soft = "soft_bounds = [[1, {lo}, {hi}]]\n"  # the link within ±1 rad of upright, in each convention
+    (tmp_path / "ipgen").mkdir()
+    canonical, _ = simulate(tmp_path / "ipgen", controller=soft.format(lo=-1.0, hi=1.0), extra=MEASURED)
+    quanser = 'name = "qube_servo2"\npositive = "counterclockwise"\nzero = "hanging"'
+    rig_text = QUBE.format(
+        controller=soft.format(lo=math.pi - 1.0, hi=math.pi + 1.0), extra=MEASURED, t_end=1.0,
+        initial=f"theta = [0.3, {math.pi - 0.15!r}]\ndtheta = [1.0, 0]",
+    ).replace('name = "qube_servo2"', quanser)  # fmt: skip
+    (tmp_path / "rig").mkdir()
+    path = tmp_path / "rig" / "qube_mpc.toml"
+    path.write_text(rig_text)
+    assert run(["run", str(path), "-o", str(tmp_path / "rig" / "out"), "--no-plot"]) == 0
+    header, *rows = (tmp_path / "rig" / "out" / "qube_mpc.csv").read_text().splitlines()
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    rig = {name: data[:, i] for i, name in enumerate(header.split(","))}
+    assert np.max(np.abs(rig["u"] - canonical["u"])) <= 1e-9 and np.max(np.abs(canonical["u"])) > 5
+    assert np.allclose(rig["theta0"], canonical["theta0"], atol=1e-9)
+    assert np.allclose(rig["theta1"], math.pi - canonical["theta1"], atol=1e-9)
+
+
+def test_a_bound_on_a_relative_angle_is_refused_in_one_line(tmp_path: Path) -> None:
+    """angles = "relative": a soft bound on link 2's angle bounds θ2 − θ1, not one of ipgen's
+    coordinates: refused, naming the coordinate and what to bound instead."""
+    text = QUBE.format(controller="soft_bounds = [[2, -1, 1]]\n", extra="", t_end=1.0, initial=PUSHED)
+    for old, new in (
+        ("links = 1", 'links = 2\nangles = "relative"'),
+        ("theta = [0.3, 0.15]\ndtheta = [1.0, 0]", "theta = [0.3, 0.15, 0]\ndtheta = [1.0, 0, 0]"),
+        ("m = [0.095, 0.024]", "m = [0.095, 0.024, 0.024]"),
+        ("l = [0.085, 0.129]", "l = [0.085, 0.129, 0.129]"),
+        ("J = [5.7197916666666667e-05, 3.3282e-05]\n", ""),
+        ("delta = [0.0015, 0.0005]", "delta = [0.0015, 0.0005, 0.0005]"),
+        ("q = [1, 10, 0.1, 0.1]", "q = [1, 10, 10, 0.1, 0.1, 0.1]"),
+    ):
+        text = text.replace(old, new)
+    path = tmp_path / "relative.toml"
+    path.write_text(text)
+    err = io.StringIO()
+    with redirect_stdout(io.StringIO()), redirect_stderr(err):
+        assert run(["run", str(path), "-o", str(tmp_path / "out"), "--no-plot"]) == 2
+    message = err.getvalue().strip()
+    assert message.count("\n") == 0 and "soft_bounds on coordinate 2 bound a relative angle" in message, (
+        message
+    )

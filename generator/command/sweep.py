@@ -23,7 +23,9 @@ HELP = """Sweep a scene: run it over levels of its keys and score how robust its
 --scorecard runs the robustness criteria (model parameters x0.75..1.25, damping, Coulomb
 friction, controller period; encoder resolution, noise, delay, drive noise, lag and pulses
 with [sensors] support), --vary KEY=LO:HI:N or KEY=v1,v2,... (repeatable: a 1-D or 2-D grid)
-any scene key, e.g. parameters.m[1], initial.theta[1], controller.period. The plant changes,
+any scene key, e.g. parameters.m[1], initial.theta[1], controller.period; --random N starts
+hanging or near upright with masses, damping and a motor's Rm each drawn within ±SPREAD (its
+score: the fraction of runs that end upright). The plant changes,
 the controller stays the one designed on the scene (unless a [controller]/[swingup] key is
 varied). Writes OUT/runs.csv (every run; an interrupted sweep resumes from it), scores.json,
 scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask ADDRESS
@@ -34,6 +36,7 @@ its bound. docs/sweep.md.
 \b
 Examples:
   ipgen sweep --preset rsip_lqr --scorecard -o out/rsip
+  ipgen sweep --preset qube_servo2_mpc_swingup --random 1000 -o out/starts
   ipgen sweep my_scene.toml --vary 'initial.theta[1]=-0.6:0.6:13' \\
               --vary 'initial.dtheta[1]=-3:3:13' -o out/basin
 """
@@ -160,6 +163,16 @@ def _criterion(spec: str) -> tuple[str, str]:
     metavar="KEY=LO:HI:N",
     help="A scene key over a range or list (repeatable: the grid of all combinations).",
 )
+@click.option(
+    "--random",
+    type=int,
+    default=0,
+    metavar="N",
+    help="N random starts (hanging or near upright) with masses, damping and a motor's Rm each ± SPREAD.",
+)
+@click.option(
+    "--spread", type=float, default=0.2, show_default=True, help="With --random: the parameters' ± fraction."
+)
 @click.option("--repeat", type=int, default=None, help="Runs per level (seeded criteria; --vary: default 1).")
 @click.option("--seed", type=int, default=0, show_default=True, help="The base of every run's seed.")
 @click.option(
@@ -206,6 +219,8 @@ def command(
     only: str | None,
     criteria: tuple[str, ...],
     vary: tuple[str, ...],
+    random: int,
+    spread: float,
     repeat: int | None,
     seed: int,
     angle_tolerance: float,
@@ -250,6 +265,8 @@ def command(
                 force=force,
                 cache=cache_dir,
                 progress=progress,
+                random=random,
+                spread=spread,
             )
     except KeyboardInterrupt as interrupt:
         progress.close()

@@ -71,20 +71,19 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
     from ipgen.control.linear import ControlError
     from ipgen.scene import controller as rules
 
-    if not p.coordinates.is_canonical:
-        raise GainError(
-            'controller: kind = "mpc" takes ipgen\'s coordinates only so far: remove [system] angles, zero '
-            "and positive"
-        )
     nx = 2 * p.dof
     soft = {i: (lo, hi) for i, lo, hi in table.soft_bounds or ()}
     penalty = table.soft_penalty if table.soft_penalty is not None else rules.DEFAULT_SOFT_PENALTY
+    stage, terminal, reference = np.eye(nx) if table.q is None else table.q, table.p, table.equilibrium
+    frame = p.coordinates
     try:
+        if not frame.is_canonical:  # the problem in ipgen's coordinates, which the MPC step takes
+            stage, terminal, reference, soft = _mpc_in_ipgen_coordinates(p, stage, terminal, reference, soft)
         design = mpc_module.mpc(
             p, horizon=table.horizon or rules.DEFAULT_HORIZON, period=float(table.period),
-            Q=np.eye(nx) if table.q is None else table.q, R=float(table.r), P=table.p,
+            Q=stage, R=float(table.r), P=terminal,
             u_max=float(table.u_max), travel=None if table.travel is None else float(table.travel),
-            soft_bounds=soft or None, soft_penalty=tuple(penalty), reference=table.equilibrium,
+            soft_bounds=soft or None, soft_penalty=tuple(penalty), reference=reference,
             substeps=table.substeps or 1, mode=table.mode or "rti", sqp_iterations=table.iterations,
             qp_iterations=table.qp_iterations,
         )  # fmt: skip
@@ -92,6 +91,10 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
         raise GainError(f"controller: no MPC: {exc}") from None
     _, a, b = design.rk4(design.x_ref, 0.0)
     gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
+    x_ref = design.x_ref
+    if not frame.is_canonical:  # the gain and equilibrium the scene states: in the rig's coordinates
+        matrix, _ = frame.matrices(p.links)
+        gain, x_ref = gain @ np.linalg.inv(matrix), frame.to_user(x_ref, p.links)
 
     def flat(matrix: Any) -> tuple[float, ...]:
         return tuple(float(v) for v in np.ravel(matrix))
@@ -111,6 +114,43 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
         input_gain=float(p.gain),
     )  # fmt: skip
     return Controller(
-        kind="mpc", gain=flat(gain), equilibrium=flat(design.x_ref), saturation=design.u_max,
+        kind="mpc", gain=flat(gain), equilibrium=flat(x_ref), saturation=design.u_max,
         period=float(table.period), unit=_unit(p), mpc=resolved,
     )  # fmt: skip
+
+
+def _mpc_in_ipgen_coordinates(
+    p: Pendulum, stage: Any, terminal: Any, reference: Any, soft: dict[int, tuple[float, float]]
+) -> tuple[Any, Any, Any, dict[int, tuple[float, float]]]:
+    """The MPC's weights, reference and soft bounds given in the rig's coordinates (x_user = P x + c,
+    `Coordinates.matrices`) in ipgen's, where its step works: Q and a terminal P as Pᵀ Q P, an
+    equilibrium given as angles mapped ("upright", "hanging": the same physical state), a bound
+    on one coordinate mapped when that coordinate is one of ipgen's times ±1 plus a constant (the
+    base, or a link in absolute angles); a bound on a relative angle is refused (it bounds a
+    difference of two of ipgen's coordinates, not one)."""
+    import numpy as np
+
+    from ipgen.control.linear import checked_vector, weights
+
+    frame, links, dof = p.coordinates, p.links, p.dof
+    matrix, offset = frame.matrices(links)
+    q, _ = weights(stage, 1.0, 2 * dof)
+    stage = matrix.T @ q @ matrix
+    if terminal is not None:
+        terminal = matrix.T @ np.asarray(terminal, dtype=float).reshape(2 * dof, 2 * dof) @ matrix
+    if reference is not None and not isinstance(reference, str):
+        angles = checked_vector("equilibrium", reference, dof, "θ0 and one angle per link")
+        reference = frame.to_canonical(np.concatenate([angles, np.zeros(dof)]), links)
+    mapped = {}
+    for index, (low, high) in soft.items():
+        row = matrix[index]
+        if np.count_nonzero(row) != 1:
+            raise GainError(
+                f"controller: soft_bounds on coordinate {index} bound a relative angle (angles = "
+                '"relative"): the MPC bounds single coordinates of ipgen\'s; bound link 1 or the base, '
+                "or use absolute angles"
+            )
+        sign = float(row[index])  # user = sign · x + offset
+        ends = sorted(((low - offset[index]) / sign, (high - offset[index]) / sign))
+        mapped[index] = (ends[0], ends[1])
+    return stage, terminal, reference, mapped

@@ -104,6 +104,8 @@ def sweep(
     cache: str | Path | None = None,
     progress: Callable[[int, int], None] | None = None,
     plot: bool = True,
+    random: int = 0,
+    spread: float = scorecard.RANDOM_SPREAD,
 ) -> Outcome:
     """Run the sweep of `scene` into the folder `out` (see `ipgen.sweep`)."""
     from ipgen.experiment.scene import load_scene
@@ -115,13 +117,19 @@ def sweep(
         raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
     if not isinstance(seed, int) or seed < 0:
         raise SweepError(f"--seed {seed!r}: give an integer >= 0")
-    if not scorecard_criteria and not vary:
-        raise SweepError("nothing to sweep: pass --scorecard, or --vary KEY=LO:HI:N (repeatable)")
+    if not scorecard_criteria and not vary and not random:
+        raise SweepError(
+            "nothing to sweep: pass --scorecard, --random N, or --vary KEY=LO:HI:N (repeatable)"
+        )
     path, out = Path(scene), Path(out)
     fixed = fixed_sweep.load_fixed(path) if fixed_sweep.is_fixed_scene(path) else None
     criteria: list[Criterion] = []
     nominal: Scene | None = None
     if fixed is not None:  # a chain on a fixed pivot (sweeps/fixed.py)
+        if random:
+            raise SweepError(
+                "--random is for a cart or an arm so far: sweep a fixed chain with --scorecard or --vary"
+            )
         if not fixed.controlled:
             raise SweepError(
                 f"{shown_path(path)} has no [controller] or [swingup]: a sweep judges a closed loop "
@@ -138,7 +146,7 @@ def sweep(
         fixed_sweep.check_keys(fixed, criteria)
     else:
         nominal = load_scene(path)  # a scene with a problem stops here, with its own message
-        criteria = _criteria(path, nominal, scorecard_criteria, vary, levels, repeat)
+        criteria = _criteria(path, nominal, scorecard_criteria, vary, levels, repeat, (random, spread, seed))
     text = path.read_text()
     if len(text) > MAX_SCENE_CHARS:
         raise SweepError(f"{shown_path(path)} is too large for a sweep")
@@ -172,8 +180,10 @@ def _criteria(
     vary: tuple[str, ...],
     levels: dict[str, str] | None,
     repeat: int | None,
+    random: tuple[int, float, int] = (0, scorecard.RANDOM_SPREAD, 0),
 ) -> list[Criterion]:
-    """The criteria of a cart's or arm's scene: the scorecard's and the `--vary` grid, checked."""
+    """The criteria of a cart's or arm's scene: the scorecard's, the `--vary` grid and `random`'s
+    (count, spread, seed) random starts, checked."""
     from ipgen.experiment.scene import read_document
 
     if nominal.specialise and any(spec.strip().startswith("parameters.") for spec in vary):
@@ -190,6 +200,9 @@ def _criteria(
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:
         criteria.append(grid([parse_vary(spec) for spec in vary], repeat or 1))
+    count, spread, seed = random
+    if count:
+        criteria.append(scorecard.random_starts(nominal, count, spread, seed))
     check_total(criteria)  # before the runs are planned: a bound on the work, in one line
     _check_keys(path, nominal, criteria)
     return criteria

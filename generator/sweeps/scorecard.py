@@ -184,3 +184,59 @@ def criteria(
         )
         found.append(Criterion(default.name, default.label, (default.label,), built, reps, refused, seeded))
     return found
+
+
+RANDOM_SPREAD = 0.2  # --spread: ±20 % on every mass, damping coefficient and a motor's resistance
+HANGING_TILT = 0.1  # rad: a hanging start's links within π ± this, at rest
+UPRIGHT_TILT, UPRIGHT_RATE = 0.2, 0.5  # rad, rad/s: a near-upright start's links and their rates
+BASE_OFFSET = 0.1  # m or rad: the base's start within ± this of 0
+
+
+def random_start(scene: Scene, spread: float, seed: int, hanging: bool) -> tuple[tuple[str, object], ...]:
+    """The overrides of one random start, drawn from `seed` (numpy PCG64): every mass and every
+    damping coefficient, and a dc_motor's resistance Rm, times U(1 − spread, 1 + spread) each; the
+    base at U(−BASE_OFFSET, BASE_OFFSET) at rest; the links hanging (π ± HANGING_TILT, at rest)
+    or near upright (±UPRIGHT_TILT, rates ±UPRIGHT_RATE), drawn in ipgen's coordinates and
+    written in the scene's."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    dof = scene.links + 1
+
+    def scaled(values: list[float]) -> list[float]:
+        return [float(v * rng.uniform(1.0 - spread, 1.0 + spread)) for v in values]
+
+    overrides: list[tuple[str, object]] = [
+        ("parameters.m", scaled(_scaled(scene, "m", 1.0))),
+        ("parameters.delta", scaled(_scaled(scene, "delta", 1.0))),
+    ]
+    if scene.actuator.is_motor:
+        overrides.append(("actuator.Rm", scaled([scene.actuator.Rm])[0]))
+    x = np.zeros(2 * dof)
+    x[0] = rng.uniform(-BASE_OFFSET, BASE_OFFSET)
+    if hanging:
+        x[1:dof] = np.pi + rng.uniform(-HANGING_TILT, HANGING_TILT, dof - 1)
+    else:
+        x[1:dof] = rng.uniform(-UPRIGHT_TILT, UPRIGHT_TILT, dof - 1)
+        x[dof + 1 :] = rng.uniform(-UPRIGHT_RATE, UPRIGHT_RATE, dof - 1)
+    user = scene.coordinates.to_user(x, scene.links)
+    overrides.append(("initial.theta", [float(v) for v in user[:dof]]))
+    overrides.append(("initial.dtheta", [float(v) for v in user[dof:]]))
+    return tuple(overrides)
+
+
+def random_starts(scene: Scene, count: int, spread: float, seed: int) -> Criterion:
+    """`count` runs from random starts (`random_start`; even runs hanging, odd near upright), each
+    one level of one run, so that the criterion's score is the fraction of runs that pass."""
+    if not isinstance(count, int) or count < 1:
+        raise SweepError(f"--random {count!r}: give a number of random starts >= 1")
+    if not (0.0 <= spread < 1.0):
+        raise SweepError(f"--spread {spread!r}: give a fraction in [0, 1), e.g. 0.2 for ±20 %")
+    if scene.controller is None and scene.swingup is None:
+        raise SweepError("--random needs a scene with a [controller] or a [swingup]: it scores a closed loop")
+    levels = tuple(
+        Level((float(i),), random_start(scene, spread, seed_of(seed, "random", i, 0), hanging=i % 2 == 0))
+        for i in range(count)
+    )
+    label = f"random start (±{100 * spread:g} % on m, δ{', Rm' if scene.actuator.is_motor else ''})"
+    return Criterion("random", label, ("random start",), levels, 1, "", True, {"spread": spread})

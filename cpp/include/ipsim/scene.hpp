@@ -374,9 +374,6 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
 template <class Model>
 void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   const int n = dof_of<Model>(), nx = 2 * n;
-  if (!scene.coordinates.canonical()) {
-    file.fail(file.line("controller"), "controller = mpc takes ipgen's coordinates only (no angles, zero, positive)");
-  }
   if (scene.settings.acceleration) file.fail(file.line("controller"), "controller = mpc with actuator = acceleration is not supported");
   if (!(has_derivatives<Model> && provides<Model>(Feature::derivatives))) {
     file.fail(file.line("controller"), "controller = mpc needs the model's forward_dynamics_derivatives: regenerate its header");
