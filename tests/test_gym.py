@@ -391,3 +391,26 @@ def test_a_preset_with_a_dc_motor_is_folded_once_and_driven_in_volts() -> None:
     env.reset(seed=0)
     obs, *_ = env.step(np.array([1.0], np.float32))
     assert obs.shape == (5,)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.text(min_size=1, max_size=30).filter(lambda s: not s.endswith(".toml")))
+def test_an_unknown_name_lists_every_name_make_takes(name: str) -> None:
+    """A name that is no preset (e.g. "Acrobot", capitalised): one line naming the presets and the
+    names only make() knows ("acrobot", "pendubot", "cartpole-v1")."""
+    from ipgen.common.presets import preset_path
+    from ipgen.errors import Error
+    from ipgen.gym.fixed import ALIASES
+
+    try:
+        preset_path(ALIASES.get(name, name))
+        return  # a preset or an alias: made elsewhere
+    except Error:
+        pass
+    if name.lower() == "cartpole-v1":
+        return
+    with pytest.raises(GymError) as info:
+        ipgen.gym.make(name)
+    message = str(info.value)
+    names = ("'acrobot'", "'pendubot'", "'cartpole-v1'")
+    assert "\n" not in message and all(word in message for word in names), message

@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 
 from ipgen.gym.checks import GymError, is_number
-from ipgen.gym.fixed import LEADERBOARD_TORQUE, FixedSystem, fixed_document, fixed_row, scene_torque
+from ipgen.gym.fixed import ALIASES, LEADERBOARD_TORQUE, FixedSystem, fixed_document, fixed_row, scene_torque
 from ipgen.gym.sensing import Sensing
 from ipgen.gym.spec import GROUPS, EnvSpec
 from ipgen.model.paper import paper_pendulum
-from ipgen.model.pendulum import Pendulum
+from ipgen.model.pendulum import Pendulum, PendulumError
 from ipgen.model.system import System
 
 # Defaults per task: (u_max [N or N m], x_limit [m or rad], dt [s], substeps, max_episode_steps)
@@ -146,7 +146,13 @@ def as_pendulum(source: Any) -> Pendulum:
     if isinstance(source, Path) or (isinstance(source, str) and source.endswith(".toml")):
         return Pendulum.from_scene(source)
     if isinstance(source, str):
-        return Pendulum.preset(source)
+        try:
+            return Pendulum.preset(source)
+        except PendulumError as error:  # the presets it lists, and the names only make() knows
+            raise GymError(
+                f"{error}; or {', '.join(repr(name) for name in sorted(ALIASES))} (fixed chains), "
+                "'cartpole-v1' (gymnasium's CartPole) or a scene file (.toml)"
+            ) from None
     raise GymError(
         f"make() takes an ipgen.Pendulum, a scene file or a preset name, not {type(source).__name__}"
     )
