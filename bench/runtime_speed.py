@@ -58,13 +58,9 @@ class Built:
 
 def _compile(source: Path, include: Path, folder: Path, name: str | None, binary: Path) -> None:
     """Compile the driver `source` into `binary` (unless it was compiled from these sources' text
-    before: regenerated headers keep their driver): on the model header `folder`/`name`.hpp, or
-    with name None on the runtime model."""
+    with this command before: regenerated headers keep their driver): on the model header
+    `folder`/`name`.hpp, or with name None on the runtime model."""
     sources = [source, *sorted(include.rglob("*.h*")), *([folder / f"{name}.hpp"] if name else [])]
-    digest = hashlib.sha256(b"".join(path.read_bytes() for path in sources)).hexdigest()
-    stamp = binary.with_name(binary.name + ".sources")
-    if binary.exists() and stamp.is_file() and stamp.read_text() == digest:
-        return
     model = (
         [f"-I{folder}", f'-DIPGEN_MODEL_HEADER="{name}.hpp"', f"-DIPGEN_MODEL=ipgen::{name}::Model"]
         if name is not None
@@ -75,6 +71,12 @@ def _compile(source: Path, include: Path, folder: Path, name: str | None, binary
     flags = FLAGS if name is not None else tuple(flag for flag in FLAGS if flag != "-Werror")
     command = [COMPILER, *flags, f"-I{include}", "-isystem", "/usr/include/eigen3", *model, str(source),
                "-o", str(binary), *LIBRARIES, *([] if name is not None else ["-ldl"])]  # fmt: skip
+    digest = hashlib.sha256(
+        b"".join(path.read_bytes() for path in sources) + "\0".join(command).encode()
+    ).hexdigest()
+    stamp = binary.with_name(binary.name + ".sources")
+    if binary.exists() and stamp.is_file() and stamp.read_text() == digest:
+        return
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:
         raise RuntimeError(f"compiling {source} failed:\n{done.stderr[-3000:]}")
@@ -192,8 +194,9 @@ def measure(built: dict[Path, Built], rounds: int) -> list[list[str]]:
         settings = [f"rk4 {s:g}" for s in RK4_STEPS] + [f"{m} {RTOL:g}" for m in ADAPTIVE]
         for setting in settings:
             ms = {v: statistics.median(times[(v, setting)]) * 1e3 for v in VARIANTS}
-            # runtime / before of each round (both ran back to back), then the median: a slow spell
-            # of the shared machine then slows both sides of a ratio, not one variant's median.
+            # runtime / before of each round (both ran within the round, seconds apart), then the
+            # median: a slow spell of the shared machine then slows both sides of a ratio, not one
+            # variant's median.
             paired = statistics.median(
                 r / b for r, b in zip(times[("runtime", setting)], times[("before", setting)], strict=True)
             )
@@ -229,7 +232,7 @@ def section(rows: list[list[str]], rounds: int, load: tuple[str, str]) -> list[s
         "simulation `ipgen run` runs. MuJoCo RK4 (`mujoco.rollout`) at the same step as ipsim's rk4: the",
         "same scheme and step, so the same error (in brackets, at t = 10 s, against ipsim's reference).",
         f"The drivers and MuJoCo alternate; each time is the median of {rounds} rounds, runtime / before",
-        "the median of the rounds' ratios (the two ran back to back in each round). Same error:",
+        "the median of the rounds' ratios (the two ran within seconds in each round). Same error:",
         "whether before and runtime end at the same error to the last printed digit (the same steps).",
         "The ratio to MuJoCo RK4 is MuJoCo's time over ipgen's (larger: ipgen faster).",
         f"Load average (1, 5, 15 min) before this part: {load[0]}; after: {load[1]} (2 cores, shared).",

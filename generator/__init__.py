@@ -471,10 +471,11 @@ def sweep(
     plots : bool, optional
         Write the PNGs (default True).
     random : int, optional
-        That many random starts (criterion "random"; default none): even ones hanging (links at
-        π ± 0.1 rad), odd ones near upright (±0.2 rad, rates ±0.5 rad/s), the base within ±0.1,
-        every mass, damping coefficient and a dc_motor's Rm times U(1 − spread, 1 + spread);
-        each drawn from its run's seed. Its score is the fraction of runs that pass.
+        That many random starts (criterion "random"; default none): with a [swingup] even ones
+        hanging (links at π ± 0.1 rad) and odd ones near upright (±0.2 rad, rates ±0.5 rad/s), a
+        balance scene near upright only; the base within ±0.1, every entry of m and delta and a
+        dc_motor's Rm times U(1 − spread, 1 + spread); each drawn from its run's seed. Its score
+        is the fraction of runs that pass.
     spread : float, optional
         The parameters' relative spread of `random` (default 0.2: ±20 %).
 

@@ -266,6 +266,26 @@ def test_the_rigs_coordinates_give_the_same_physical_run(tmp_path: Path) -> None
     assert np.allclose(rig["theta1"], math.pi - canonical["theta1"], atol=1e-9)
 
 
+def test_a_terminal_weight_in_the_rigs_coordinates_is_mapped_as_the_stage_weights(tmp_path: Path) -> None:
+    """p given as 2 dof weights or as a matrix in Quanser's convention: the resolved terminal
+    weight in ipgen's coordinates is Pᵀ p P (a sign flip keeps a diagonal; the off-diagonal
+    entries of a matrix change sign with it)."""
+    quanser = 'name = "qube_servo2"\npositive = "counterclockwise"'
+    for stated, expected in (
+        ("p = [2, 3, 4, 5]", np.diag([2.0, 3.0, 4.0, 5.0])),
+        ("p = [[2, 1, 0, 0], [1, 3, 0, 0], [0, 0, 4, 0], [0, 0, 0, 5]]",
+         np.array([[2.0, -1, 0, 0], [-1, 3, 0, 0], [0, 0, 4, 0], [0, 0, 0, 5]])),
+    ):  # fmt: skip
+        path = tmp_path / "qube_mpc.toml"
+        path.write_text(
+            QUBE.format(controller=stated + "\n", extra="", t_end=1.0, initial=PUSHED).replace(
+                'name = "qube_servo2"', quanser
+            )
+        )
+        design = load_scene(path).controller.mpc
+        assert np.allclose(np.array(design.P).reshape(4, 4), expected, rtol=0, atol=0)
+
+
 def test_a_bound_on_a_relative_angle_is_refused_in_one_line(tmp_path: Path) -> None:
     """angles = "relative": a soft bound on link 2's angle bounds θ2 − θ1, not one of ipgen's
     coordinates: refused, naming the coordinate and what to bound instead."""

@@ -340,3 +340,24 @@ def test_the_library_rk4_step_gives_the_simulators_own_steps(tmp_path: Path) -> 
         rows = (tmp_path / "out" / f"rk4_{energy}.csv").read_text().splitlines()
         columns[energy] = [",".join(row.split(",")[:7]) for row in rows]
     assert len(columns["true"]) > 100 and columns["true"] == columns["false"]
+
+
+def test_a_failing_library_step_is_diagnosed_as_ipsims_own(tmp_path: Path) -> None:
+    """A stiff cart (a light link, joint damping 1e4 N m s: a decaying mode near -1e8 1/s) with
+    method rk4 and no energy ledger: the library's rk4_step runs until a derivative is not
+    finite, then ipsim redoes that step itself and stops with RK4_RHSFUNC_FAIL, the likely cause
+    and "stiff: use BDF", writing no CSV (as the simulator compiled for the model does: ctest
+    ipsim.cli.stiff_rk4)."""
+    require_toolchain()
+    scene = tmp_path / "stiff.toml"
+    scene.write_text(
+        '[system]\ntype = "classical"\nlinks = 1\n[parameters]\nm = [0.3, 0.001]\nl = [0, 0.5]\n'
+        "delta = [0.3, 10000]\n[initial]\ntheta = [0, 0.2]\n[input]\nkind = \"pulse\"\namplitude = 0.4\n"
+        'duration = 0.5\n[simulation]\nt_end = 1\nmethod = "rk4"\nstep = 0.001\n'
+    )
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        status = run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"])
+    message = err.getvalue()
+    assert status == 1, message
+    assert all(part in message for part in ("RK4_RHSFUNC_FAIL", "likely cause", "stiff: use BDF")), message
+    assert not (tmp_path / "out" / "stiff.csv").exists()

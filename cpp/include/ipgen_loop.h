@@ -372,7 +372,8 @@ typedef struct {
                          const ipgen_real x_ref[]);
   /* Optional: a controller that catches and holds instead of hold_gain (a scene's MPC): its u for
    * x with q1 relative to the caught upright (q1 - 2 pi k), at the catch and every catch_every
-   * samples after it, held in between; catch_context is passed to it. Null: the hold's LQR. */
+   * (>= 1; 0 or less is taken as 1) samples after it, held in between; catch_context is passed to
+   * it. Null: the hold's LQR. */
   ipgen_real (*catch_law)(void *catch_context, const ipgen_real x[]);
   void *catch_context;
   long catch_every;
@@ -429,7 +430,7 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
     }
   }
   if (s->phase == IPGEN_LOOP_HOLD && law->catch_law) {
-    if ((s->k - s->hold_sample) % law->catch_every == 0) {
+    if (law->catch_every <= 1 || (s->k - s->hold_sample) % law->catch_every == 0) {
       ipgen_real *relative = work + dof * dof + dof;
       int i;
       for (i = 0; i < 2 * dof; ++i) relative[i] = x[i];

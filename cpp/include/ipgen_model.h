@@ -109,7 +109,7 @@ typedef struct {
   /* A fixed chain: the driven joint of each input (inputs entries, 1 = the shoulder); a cart or
    * an arm: null (its input drives the base). */
   const int *joints;
-  /* Optional: one step h [s] of ipgen_rk4_step (below) of x = [q; qd] (2 dof), in place, with the
+  /* Optional: one step h [s] of ipgen_rk4 (below) of x = [q; qd] (2 dof), in place, with the
    * inputs u held: what ipsim's method rk4 computes, in one call instead of four. Non-zero, x
    * unchanged, when M(q) is not positive definite or a derivative is not finite at a stage. */
   int (*rk4_step)(double x[], const double u[], double h, const ipgen_parameters *p);
@@ -119,11 +119,14 @@ typedef struct {
  * once for ipsim's fixed-step method rk4 and for every model library's rk4_step:
  *   k1 = f(t, x), k2 = f(t + h/2, x + h/2 k1), k3 = f(t + h/2, x + h/2 k2), k4 = f(t + h, x + h k3),
  *   x <- x + h/6 (k1 + 2 k2 + 2 k3 + k4),
- * in this order of operations (so both give the same bits). `work` holds 5 n doubles. Returns 0,
- * or the first non-zero return of f (x then unchanged). */
-static inline int ipgen_rk4_step(int n, double x[], double t, double h,
-                                 int (*f)(void *context, double t, const double x[], double dx[]), void *context,
-                                 double work[]) {
+ * in this order of operations (so both give the same bits where neither compiler fuses a
+ * multiply and an add: GCC's defaults on x86-64; with FMA enabled, e.g. -march=native, compile
+ * with -ffp-contract=off for that). `work` holds 5 n doubles. Returns 0, or the first non-zero
+ * return of f (x then unchanged). Named without a suffix: every symbol of a model's header is
+ * ipgen_<name>_<something>, so none can be this one. */
+static inline int ipgen_rk4(int n, double x[], double t, double h,
+                            int (*f)(void *context, double t, const double x[], double dx[]), void *context,
+                            double work[]) {
   double *k1 = work, *k2 = work + n, *k3 = work + 2 * n, *k4 = work + 3 * n, *stage = work + 4 * n;
   const double half = 0.5 * h, sixth = h / 6.0;
   int i, flag;

@@ -24,8 +24,8 @@ HELP = """Sweep a scene: run it over levels of its keys and score how robust its
 friction, controller period; encoder resolution, noise, delay, drive noise, lag and pulses
 with [sensors] support), --vary KEY=LO:HI:N or KEY=v1,v2,... (repeatable: a 1-D or 2-D grid)
 any scene key, e.g. parameters.m[1], initial.theta[1], controller.period; --random N starts
-hanging or near upright with masses, damping and a motor's Rm each drawn within ±SPREAD (its
-score: the fraction of runs that end upright). The plant changes,
+hanging (with a [swingup]) or near upright with masses, damping and a motor's Rm each drawn
+within ±SPREAD (its score: the fraction of runs that end upright). The plant changes,
 the controller stays the one designed on the scene (unless a [controller]/[swingup] key is
 varied). Writes OUT/runs.csv (every run; an interrupted sweep resumes from it), scores.json,
 scores.md and PNGs. Runs go to all local cores, or a Dask cluster with --dask ADDRESS
@@ -168,7 +168,7 @@ def _criterion(spec: str) -> tuple[str, str]:
     type=int,
     default=0,
     metavar="N",
-    help="N random starts (hanging or near upright) with masses, damping and a motor's Rm each ± SPREAD.",
+    help="N random starts (hanging with a [swingup], near upright) with m, delta and a motor's Rm ± SPREAD.",
 )
 @click.option(
     "--spread", type=float, default=0.2, show_default=True, help="With --random: the parameters' ± fraction."

@@ -48,6 +48,7 @@ class Controller:
     saturation: float | None = None  # |u| ≤ saturation [N or N m, or `unit`]; None: unbounded
     period: float | None = None  # sampling period [s]; None: continuous
     unit: str = ""  # what u is, for comments ("" = the direct input: force [N] or torque [N m])
-    # kind "mpc": the problem; gain is then the discrete LQR's at the reference with the same Q, R
-    # (what the unconstrained MPC is near it), saturation u_max, equilibrium the reference.
+    # kind "mpc": the problem (in ipgen's coordinates); gain is then the discrete LQR's at the
+    # reference with the same Q, R (what the unconstrained MPC is near it), saturation u_max,
+    # equilibrium the reference, both in the scene's coordinates as for LQR.
     mpc: MpcDesign | None = None

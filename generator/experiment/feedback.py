@@ -136,8 +136,8 @@ def _mpc_in_ipgen_coordinates(
     matrix, offset = frame.matrices(links)
     q, _ = weights(stage, 1.0, 2 * dof)
     stage = matrix.T @ q @ matrix
-    if terminal is not None:
-        terminal = matrix.T @ np.asarray(terminal, dtype=float).reshape(2 * dof, 2 * dof) @ matrix
+    if terminal is not None:  # 2 dof weights or a matrix, as Q
+        terminal = matrix.T @ weights(terminal, 1.0, 2 * dof)[0] @ matrix
     if reference is not None and not isinstance(reference, str):
         angles = checked_vector("equilibrium", reference, dof, "θ0 and one angle per link")
         reference = frame.to_canonical(np.concatenate([angles, np.zeros(dof)]), links)

@@ -226,16 +226,23 @@ def random_start(scene: Scene, spread: float, seed: int, hanging: bool) -> tuple
 
 
 def random_starts(scene: Scene, count: int, spread: float, seed: int) -> Criterion:
-    """`count` runs from random starts (`random_start`; even runs hanging, odd near upright), each
-    one level of one run, so that the criterion's score is the fraction of runs that pass."""
+    """`count` runs from random starts (`random_start`), each one level of one run, so that the
+    criterion's score is the fraction of runs that pass: with a [swingup] the even runs start
+    hanging and the odd ones near upright; a balance scene (a [controller] alone) starts near
+    upright only (from hanging it fails by construction)."""
     if not isinstance(count, int) or count < 1:
         raise SweepError(f"--random {count!r}: give a number of random starts >= 1")
     if not (0.0 <= spread < 1.0):
         raise SweepError(f"--spread {spread!r}: give a fraction in [0, 1), e.g. 0.2 for ±20 %")
     if scene.controller is None and scene.swingup is None:
         raise SweepError("--random needs a scene with a [controller] or a [swingup]: it scores a closed loop")
+    if scene.specialise:
+        raise SweepError(
+            "--random draws the parameters, which this specialised scene compiles in: set specialise = false"
+        )
+    swings = scene.swingup is not None
     levels = tuple(
-        Level((float(i),), random_start(scene, spread, seed_of(seed, "random", i, 0), hanging=i % 2 == 0))
+        Level((float(i),), random_start(scene, spread, seed_of(seed, "random", i, 0), swings and i % 2 == 0))
         for i in range(count)
     )
     label = f"random start (±{100 * spread:g} % on m, δ{', Rm' if scene.actuator.is_motor else ''})"

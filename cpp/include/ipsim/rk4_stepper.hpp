@@ -70,7 +70,7 @@ class Rk4Stepper {
   }
 
  private:
-  /// f(t, x) for ipgen_rk4_step: evaluate_rhs, the failing time kept for the error.
+  /// f(t, x) for ipgen_rk4: evaluate_rhs, the failing time kept for the error.
   static int evaluate(void* self, double t, const double x[], double dx[]) {
     auto& stepper = *static_cast<Rk4Stepper*>(self);
     const int flag = evaluate_rhs<Model>(stepper.rhs_context_, t, x, dx, static_cast<long>(stepper.y_.size()));
@@ -109,7 +109,7 @@ class Rk4Stepper {
 
   void step(double t, double h) {
     if constexpr (is_runtime<Model>) {
-      // The model library's own step: the same ipgen_rk4_step with its sizes known to the
+      // The model library's own step: the same ipgen_rk4 with its sizes known to the
       // compiler (one call a step instead of four). A failing step is redone below, which
       // diagnoses it.
       if (library_steps_) {
@@ -120,7 +120,7 @@ class Rk4Stepper {
         }
       }
     }
-    if (ipgen_rk4_step(static_cast<int>(y_.size()), y_.data(), t, h, &Rk4Stepper::evaluate, this, work_.data()) != 0) {
+    if (ipgen_rk4(static_cast<int>(y_.size()), y_.data(), t, h, &Rk4Stepper::evaluate, this, work_.data()) != 0) {
       throw integration_error("RK4", -1, kRk4RhsFail, failed_at_, settings_, explain_failure());
     }
     ++steps_;
@@ -129,7 +129,7 @@ class Rk4Stepper {
   const Settings<Model>& settings_;
   RhsContext<Model>& rhs_context_;
   Eigen::Map<Eigen::VectorXd> y_;  ///< the caller's N_Vector, updated in place
-  Eigen::VectorXd work_;           ///< ipgen_rk4_step's k1..k4 and stage
+  Eigen::VectorXd work_;           ///< ipgen_rk4's k1..k4 and stage
   Eigen::VectorXd initial_;        ///< the state at t = 0, for the stability diagnosis
   bool library_steps_ = library_steps();
   double failed_at_ = 0.0;  ///< the time of the last evaluation that failed [s]

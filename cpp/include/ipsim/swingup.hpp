@@ -174,9 +174,6 @@ struct SwingUp {
     const double* hold_gain;
   };
 
-  /// u_ref − K (x − x_ref) summed as the simulator summed it before ipgen_loop.h, so that its runs
-  /// keep their bits (ipgen_loop_swingup.feedback): the hold as LinearFeedback does (Eigen's dot),
-  /// a plan's step in the order of x (ipgen_loop_feedback, as Eigen summed the plan's gain row).
   /// catch_law for ipgen_loop_swingup (context: this SwingUp) on x (2·kDof, θ1 relative to the
   /// caught upright).
   static double call_catch_law(void* context, const double x[]) {
@@ -184,6 +181,9 @@ struct SwingUp {
     return self.catch_law(Eigen::Map<const Eigen::VectorXd>(x, self.target.size()));
   }
 
+  /// u_ref − K (x − x_ref) summed as the simulator summed it before ipgen_loop.h, so that its runs
+  /// keep their bits (ipgen_loop_swingup.feedback): the hold as LinearFeedback does (Eigen's dot),
+  /// a plan's step in the order of x (ipgen_loop_feedback, as Eigen summed the plan's gain row).
   template <class Model>
   static double feedback(void* context, int states, double u_ref, const double K[], const double x[],
                          const double x_ref[]) {
