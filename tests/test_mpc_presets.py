@@ -8,6 +8,7 @@ from hanging by energy control and catches and holds it by MPC within ±10 V and
 from __future__ import annotations
 
 import io
+import math
 import re
 import tomllib
 from contextlib import redirect_stderr, redirect_stdout
@@ -118,3 +119,19 @@ def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
     catch = rti_swing_up[1]["t"][int(np.argmax(rti_swing_up[2] == "hold"))]
     assert column["t"][int(np.argmax(phase == "hold"))] == catch  # the same swing
     assert abs(rti / full - 1) <= 0.05, (rti, full)
+
+
+def test_the_cart_swung_up_along_its_plan_is_caught_by_mpc_within_its_rail(tmp_path: Path) -> None:
+    """scenes/cdip_mpc_swingup.toml: the plan (cart within ±0.9 m) tracked from hanging, the MPC
+    catching at the plan's end: |F| <= 50 N and the cart inside its ±1 m rail at every sample
+    (the run would stop at the rail), every MPC step ok, both links upright and at rest at the end."""
+    summary, column, phase = _swing_up(ROOT / "scenes" / "cdip_mpc_swingup.toml", tmp_path)
+    assert "every status ok" in summary and "hold (MPC) from t = " in summary
+    assert column["theta1"][0] == pytest.approx(np.pi) and column["theta2"][0] == pytest.approx(np.pi)
+    assert np.max(np.abs(column["u"])) <= 50.0 * (1 + 1e-12) and np.max(np.abs(column["u"])) > 40
+    assert np.max(np.abs(column["theta0"])) <= 1.0 and np.max(np.abs(column["theta0"])) > 0.85
+    assert "track" in phase and phase[-1] == "hold"
+    for link in ("theta1", "theta2"):
+        assert abs(math.remainder(column[link][-1], 2 * math.pi)) < 1e-3
+        assert abs(column["d" + link][-1]) < 1e-2
+    assert abs(column["theta0"][-1]) < 1e-2
