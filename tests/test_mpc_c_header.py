@@ -99,6 +99,16 @@ def _program(folder: Path, name: str, source: str, scalar: str = "double") -> Pa
     return folder / name
 
 
+def _counts(columns: dict[str, np.ndarray], zero: tuple[float, float]) -> np.ndarray:
+    """The encoders' counts (2048 a revolution) the simulator's measured y are, counted from `zero`
+    (the angles where the counts are 0); asserts that every y is a whole count."""
+    step, offset = 2 * math.pi / 2048, np.array(zero)
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
+    counts = np.rint((y - offset) / step).astype(int)
+    assert np.allclose(offset + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    return counts
+
+
 def _run(program: Path, rows: np.ndarray, fmt: str) -> list[list[str]]:
     text = "\n".join(" ".join(fmt.format(v) for v in row) for row in rows.tolist()) + "\n"
     out = subprocess.run([str(program)], input=text, capture_output=True, text=True, check=True).stdout
@@ -107,10 +117,7 @@ def _run(program: Path, rows: np.ndarray, fmt: str) -> list[list[str]]:
 
 def test_firmware_step_replays_the_simulators_volts(folder: Path) -> None:
     columns = _columns(folder)
-    step, zero = 2 * math.pi / 2048, np.array([0.0, math.pi])  # the encoders read 0 hanging at rest
-    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
-    counts = np.rint((y - zero) / step).astype(int)
-    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
     volts = np.array([float(v[0]) for v in _run(_program(folder, "firmware", FIRMWARE), counts, "{:d}")])
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9
     assert np.max(np.abs(columns["u"])) > 6 and np.max(np.abs(volts)) <= U_MAX
@@ -230,15 +237,8 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     phase = [row.rsplit(",", 1)[1] for row in rows][:-1]
     data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
     columns = {name: data[:, i] for i, name in enumerate(names[:-1])}
-    step, zero = 2 * math.pi / 2048, np.array([0.0, math.pi])  # the encoders read 0 hanging at rest
-    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
-    counts = np.rint((y - zero) / step).astype(int)
-    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
-    program = tmp_path / "swingup_firmware"
-    (tmp_path / "swingup_firmware.c").write_text(SWINGUP_FIRMWARE)
-    command = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{tmp_path}", str(tmp_path / "swingup_firmware.c")]
-    built = subprocess.run([*command, "-o", str(program), "-lm"], capture_output=True, text=True)
-    assert built.returncode == 0, built.stderr[:3000]
+    counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
+    program = _program(tmp_path, "swingup_firmware", SWINGUP_FIRMWARE)  # its P_ already replaced
     volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
@@ -264,10 +264,7 @@ def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path:
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
     columns = _columns(tmp_path)
-    step, zero = 2 * math.pi / 2048, np.array([0.0, 0.0])  # hanging at rest is 0 in this convention
-    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
-    counts = np.rint((y - zero) / step).astype(int)
-    assert np.allclose(zero + counts * step, y, atol=1e-12), "the simulator's y are whole counts"
+    counts = _counts(columns, (0.0, 0.0))  # hanging at rest is 0 in this convention
     volts = np.array([float(v[0]) for v in _run(_program(tmp_path, "firmware", FIRMWARE), counts, "{:d}")])
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
     assert np.max(np.abs(columns["u"])) > 6

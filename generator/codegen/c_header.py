@@ -187,9 +187,10 @@ ENERGY_FIELDS = (
 )
 
 
-def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
+def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -> dict[str, object]:
     """The swing-up for the template: limits, hold LQR, the energy law's constants or the plan's
-    tables (ū_k, x̄_k, K_k as const arrays: `table_bytes` of flash in double)."""
+    tables (ū_k, x̄_k, K_k as const arrays: `table_bytes` of flash in double); `catch_every`: the
+    samples between two steps of an MPC that catches (None: the hold LQR)."""
     size = 2 * dof
     if len(law.hold_gain) != size or len(law.target) != size:
         raise ControllerError(f"swing-up hold gain and target need {size} entries each")
@@ -208,6 +209,7 @@ def swingup_context(law: SwingUpLaw, dof: int) -> dict[str, object]:
         "input_gain_c": c_number(law.input_gain),  # ipgen_loop_energy_law's input_gain (1: none)
         # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
         "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
+        "catch_every": catch_every,
     }
     if law.method == "trajectory":
         rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]
@@ -241,9 +243,11 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     )
     context["mpc"] = mpc_context(mpc, request.controller.period, dof, spec.outputs) if mpc else None  # type: ignore[union-attr]
     context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n") if mpc else ""
-    context["swingup"] = swingup_context(request.swingup, dof) if request.swingup else None
-    if mpc and request.swingup:  # the MPC catches: its step every catch_every swing-up samples
-        context["swingup"]["catch_every"] = round(request.controller.period / request.swingup.period)  # type: ignore[index,union-attr]
+    # with an MPC that catches: its step every catch_every swing-up samples (the scene checked the ratio)
+    catch_every = None
+    if mpc and request.swingup:
+        catch_every = round(request.controller.period / request.swingup.period)  # type: ignore[union-attr]
+    context["swingup"] = swingup_context(request.swingup, dof, catch_every) if request.swingup else None
     context["estimator"] = (
         estimator_context(request.estimator, dof, spec.outputs) if request.estimator is not None else None
     )

@@ -207,8 +207,8 @@ def random_start(scene: Scene, spread: float, seed: int, hanging: bool) -> tuple
         return [float(v * rng.uniform(1.0 - spread, 1.0 + spread)) for v in values]
 
     overrides: list[tuple[str, object]] = [
-        ("parameters.m", scaled(_scaled(scene, "m", 1.0))),
-        ("parameters.delta", scaled(_scaled(scene, "delta", 1.0))),
+        (f"parameters.{name}", scaled(list(nominal_array(scene, Key("parameters", name)) or ())))
+        for name in ("m", "delta")
     ]
     if scene.actuator.is_motor:
         overrides.append(("actuator.Rm", scaled([scene.actuator.Rm])[0]))
