@@ -82,6 +82,13 @@
 #else
 #define IPGEN_MPC_SOFT_OF(s) ((s)->soft_count)
 #endif
+/* Every size fixed: the interior point's passes over the inequalities are specialised (their
+ * layout walked stage by stage, passes fused, one division per inequality and iteration:
+ * ipgen_mpc_qp's second form). Its rounding differs from the run-time path's. */
+#if defined(IPGEN_MPC_NX) && defined(IPGEN_MPC_NU) && defined(IPGEN_MPC_N) && defined(IPGEN_MPC_HARD) && \
+    defined(IPGEN_MPC_SOFT)
+#define IPGEN_MPC_FIXED 1
+#endif
 
 #ifdef __cplusplus
 extern "C" {
@@ -247,7 +254,11 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   }
 #undef IPGEN_MPC_TAKE
   l->exact = 0;
+#ifdef IPGEN_MPC_FIXED
+  l->nu_tmp = l->p; /* rhs is formed before the adjoint pass there; p is the Riccati solve's */
+#else
   l->nu_tmp = l->rhs; /* the adjoint pass runs before rhs is formed */
+#endif
   return (long)(w - work);
 }
 
@@ -509,7 +520,11 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s
   ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
   long i;
   int k, a, b;
+#ifdef IPGEN_MPC_FIXED /* its QP passes mu at least max |rp| (taken in its pass over the inequalities) */
+  (void)M;
+#else
   for (i = 0; i < M; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->rp[i]));
+#endif
   for (i = 0; i < nS; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->gs[i]) / scale);
   for (a = 0; a < nx; ++a) v[a] = l->gl[N * nx + a];
   *costate = (ipgen_mpc_real)0;
@@ -742,6 +757,222 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_recover(const ipgen_mpc_settings *s, co
   return alpha;
 }
 
+#ifdef IPGEN_MPC_FIXED
+/* The inequalities in ipgen_mpc_decode's order, ROW(i, var, sign, soft, kind) for each: the
+ * variable's index in z, its sign a, the slack's index and the kind (0: a bound on a variable,
+ * 1: a soft bound's relaxed inequality, 2: a slack's s >= 0: var and sign unused), the kind and
+ * the sign constants, the layout walked stage by stage. */
+#define IPGEN_MPC_EACH_INEQUALITY(s, ROW)                                                                \
+  do {                                                                                                   \
+    long i_ = 0, k_, j_;                                                                                 \
+    for (k_ = 0; k_ < IPGEN_MPC_N; ++k_)                                                                 \
+      for (j_ = 0; j_ < IPGEN_MPC_NU; ++j_, i_ += 2) {                                                   \
+        const long v_ = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + k_ * IPGEN_MPC_NU + j_;                 \
+        ROW(i_, v_, 1, -1L, 0);                                                                          \
+        ROW(i_ + 1, v_, -1, -1L, 0);                                                                     \
+      }                                                                                                  \
+    for (k_ = 1; k_ <= IPGEN_MPC_N; ++k_)                                                                \
+      for (j_ = 0; j_ < IPGEN_MPC_HARD; ++j_, i_ += 2) {                                                 \
+        const long v_ = k_ * IPGEN_MPC_NX + (s)->hard_index[j_];                                         \
+        ROW(i_, v_, 1, -1L, 0);                                                                          \
+        ROW(i_ + 1, v_, -1, -1L, 0);                                                                     \
+      }                                                                                                  \
+    for (k_ = 1; k_ <= IPGEN_MPC_N; ++k_)                                                                \
+      for (j_ = 0; j_ < IPGEN_MPC_SOFT; ++j_, i_ += 2) {                                                 \
+        const long v_ = k_ * IPGEN_MPC_NX + (s)->soft_index[j_];                                         \
+        const long f_ = i_ - 2L * IPGEN_MPC_N * (IPGEN_MPC_NU + IPGEN_MPC_HARD);                         \
+        (void)f_;                                                                                        \
+        ROW(i_, v_, 1, f_, 1);                                                                           \
+        ROW(i_ + 1, v_, -1, f_ + 1, 1);                                                                  \
+      }                                                                                                  \
+    for (j_ = 0; j_ < 2L * IPGEN_MPC_N * IPGEN_MPC_SOFT; ++j_, ++i_) ROW(i_, 0L, 0, j_, 2);             \
+  } while (0)
+/* The soft bounds' relaxed inequalities, SOFT(f, var, sign, j): slack f, soft bound j. */
+#define IPGEN_MPC_EACH_SOFT(s, SOFT)                                                                     \
+  do {                                                                                                   \
+    long f_ = 0, k_, j_;                                                                                 \
+    for (k_ = 1; k_ <= IPGEN_MPC_N; ++k_)                                                                \
+      for (j_ = 0; j_ < IPGEN_MPC_SOFT; ++j_, f_ += 2) {                                                 \
+        const long v_ = k_ * IPGEN_MPC_NX + (s)->soft_index[j_];                                         \
+        SOFT(f_, v_, 1, j_);                                                                             \
+        SOFT(f_ + 1, v_, -1, j_);                                                                        \
+      }                                                                                                  \
+  } while (0)
+
+/* ipgen_mpc_qp (below) with every size fixed: the same iterates in exact arithmetic, fewer passes
+ * over the inequalities. Per inequality 1/t is kept (l->code: the table is not read here) and
+ * the Newton system's linear terms are rewritten without the multipliers that cancel: rhs = the
+ * cost's gradient + sum a (lam / t) rp for the predictor (the effective multiplier minus lam is
+ * lam rp / t - lam, and C' lam adds lam back), and the corrector's rhs is the predictor's minus
+ * a w with w = (dt dlam - centring mu) / t (kept in l->rc). The predictor's mu_aff is summed
+ * during its recovery (sum lam t + alpha sum (lam dt + t dlam) + alpha^2 sum dt dlam); the step
+ * of t and lam is taken in the next iteration's first pass; the step length compares t < -alpha
+ * dt before dividing. Rounding differs from the run-time path's. */
+IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_info *info,
+                                  ipgen_mpc_real *costate) {
+  const int nx = IPGEN_MPC_NX, N = IPGEN_MPC_N;
+  const long Z = IPGEN_MPC_VARIABLES(IPGEN_MPC_NX, IPGEN_MPC_NU, IPGEN_MPC_N), nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N, IPGEN_MPC_SOFT);
+  const long M = IPGEN_MPC_INEQUALITIES(IPGEN_MPC_NU, IPGEN_MPC_N, IPGEN_MPC_HARD, IPGEN_MPC_SOFT), first_soft = M - 2 * nS;
+  const ipgen_mpc_real one = (ipgen_mpc_real)1, zero = (ipgen_mpc_real)0;
+  ipgen_mpc_real *const t = l->t, *const lam = l->lam, *const dt = l->dt, *const dlam = l->dlam, *const rp = l->rp;
+  ipgen_mpc_real *const w = l->rc, *const inv = l->code, *const z = l->z, *const dir = l->dir, *const hd = l->hd;
+  ipgen_mpc_real *const gl = l->gl, *const rhs = l->rhs, *const sig = l->sig, *const dsig = l->dsig, *const gs = l->gs;
+  ipgen_mpc_real *const hs = l->hs;
+  const ipgen_mpc_real *const bound = l->bound;
+  ipgen_mpc_real step = zero;
+  long i;
+  int k, a, m, iteration;
+  (void)first_soft;
+  ipgen_mpc_encode(s, l);
+  for (i = (long)(N + 1) * nx; i < Z; ++i) z[i] = zero;
+  for (k = 0; k < N; ++k) {
+    const ipgen_mpc_real *A = l->A + (long)k * nx * nx;
+    for (a = 0; a < nx; ++a) {
+      ipgen_mpc_real v = l->d[(long)k * nx + a];
+      for (m = 0; m < nx; ++m) v += A[a * nx + m] * z[(long)k * nx + m];
+      z[(long)(k + 1) * nx + a] = v;
+    }
+  }
+#define IPGEN_MPC_C(i, var, sign, soft, kind, x, sv) \
+  (((kind) != 2 ? (ipgen_mpc_real)(sign) * (x)[var] : zero) - ((kind) != 0 ? (sv)[soft] : zero))
+  for (i = 0; i < nS; ++i) sig[i] = zero;
+#define IPGEN_MPC_ROW(i, var, sign, soft, kind) \
+  if ((kind) == 1) sig[soft] = ipgen_mpc_max(sig[soft], (ipgen_mpc_real)(sign) * z[var] - bound[i]);
+  IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_ROW
+#define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
+  {                                                                                               \
+    t[i] = ipgen_mpc_max(bound[i] - IPGEN_MPC_C(i, var, sign, soft, kind, z, sig), one);          \
+    lam[i] = one;                                                                                 \
+  }
+  IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_ROW
+  for (iteration = 0;; ++iteration) {
+    ipgen_mpc_real mu = zero, worst = zero, mu_aff, alpha = one, centring, residual, s1 = zero, s2 = zero;
+    const ipgen_mpc_real scale = ipgen_mpc_gradient(s, l);
+    for (i = 0; i < Z; ++i) {
+      hd[i] = zero;
+      rhs[i] = gl[i];
+    }
+    /* t, lam stepped; rp, the gap, max |rp|, C' lam into gl and gs, 1/t, Sigma on the bounded
+     * variables and the predictor's a (lam / t) rp into rhs */
+#define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
+  {                                                                                               \
+    ipgen_mpc_real ti = t[i], li = lam[i], r, q, sg;                                              \
+    if (iteration > 0) {                                                                          \
+      ti += step * dt[i];                                                                         \
+      li += step * dlam[i];                                                                       \
+      t[i] = ti;                                                                                  \
+      lam[i] = li;                                                                                \
+    }                                                                                             \
+    r = IPGEN_MPC_C(i, var, sign, soft, kind, z, sig) + ti - bound[i];                            \
+    q = one / ti;                                                                                 \
+    sg = li * q;                                                                                  \
+    rp[i] = r;                                                                                    \
+    inv[i] = q;                                                                                   \
+    mu += li * ti;                                                                                \
+    worst = ipgen_mpc_max(worst, ipgen_mpc_abs(r));                                               \
+    if ((kind) != 2) {                                                                            \
+      gl[var] += (ipgen_mpc_real)(sign) * li;                                                     \
+      rhs[var] += (ipgen_mpc_real)(sign) * (sg * r);                                              \
+    }                                                                                             \
+    if ((kind) != 0) gs[soft] -= li;                                                              \
+    if ((kind) == 0) hd[var] += sg;                                                               \
+  }
+    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_ROW
+    residual = ipgen_mpc_qp_residual(s, l, ipgen_mpc_max(mu / (ipgen_mpc_real)M, worst), scale, costate);
+    mu = mu / (ipgen_mpc_real)M;
+    info->qp_residual = residual;
+    if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
+    if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
+    if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
+    info->qp_iterations += 1;
+    /* the slacks eliminated: their curvature, Sigma's part and the predictor's reduced gradient */
+#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
+  {                                                                                                          \
+    const long r_ = first_soft + (f), n_ = first_soft + nS + (f);                                            \
+    const ipgen_mpc_real sr = lam[r_] * inv[r_], sn = lam[n_] * inv[n_];                                     \
+    const ipgen_mpc_real h = (ipgen_mpc_real)2 * s->soft_quadratic[j] + sr + sn;                             \
+    const ipgen_mpc_real gsig = gs[f] - (sr * rp[r_] - lam[r_]) - (sn * rp[n_] - lam[n_]);                   \
+    hs[f] = h;                                                                                               \
+    hd[var] += sr - sr * sr / h;                                                                             \
+    dsig[f] = gsig;                                                                                          \
+    rhs[var] += (ipgen_mpc_real)(sign) * sr * gsig / h;                                                      \
+  }
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
+#undef IPGEN_MPC_SOFT_ROW
+    if (ipgen_mpc_riccati_factor(s, l) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
+    /* predictor */
+    ipgen_mpc_riccati_solve(s, l, rhs, dir);
+#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
+  {                                                                                                          \
+    const long r_ = first_soft + (f);                                                                        \
+    dsig[f] = ((ipgen_mpc_real)(sign) * lam[r_] * inv[r_] * dir[var] - dsig[f]) / hs[f];                     \
+  }
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
+#undef IPGEN_MPC_SOFT_ROW
+#define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
+  {                                                                                               \
+    const ipgen_mpc_real ti = t[i], li = lam[i], r = rp[i], cd = IPGEN_MPC_C(i, var, sign, soft, kind, dir, dsig); \
+    const ipgen_mpc_real d_t = -r - cd, d_l = li * inv[i] * (r + cd) - li - IPGEN_MPC_WTERM(i);   \
+    dt[i] = d_t;                                                                                  \
+    dlam[i] = d_l;                                                                                \
+    if (d_t < 0 && ti < -alpha * d_t) alpha = -ti / d_t;                                          \
+    if (d_l < 0 && li < -alpha * d_l) alpha = -li / d_l;                                          \
+    IPGEN_MPC_SUMS                                                                                \
+  }
+#define IPGEN_MPC_WTERM(i) zero
+#define IPGEN_MPC_SUMS                   \
+  s1 += li * d_t + ti * d_l;   \
+  s2 += d_t * d_l;
+    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_WTERM
+#undef IPGEN_MPC_SUMS
+    mu_aff = ipgen_mpc_max((mu * (ipgen_mpc_real)M + alpha * (s1 + alpha * s2)) / (ipgen_mpc_real)M, zero);
+    centring = mu > zero ? mu_aff / mu : zero;
+    centring = centring * centring * centring * mu;
+    /* corrector: targets centring mu with the predictor's second-order term */
+#define IPGEN_MPC_W(i, var, sign, soft, kind)                                                     \
+  {                                                                                               \
+    const ipgen_mpc_real wi = (dt[i] * dlam[i] - centring) * inv[i];                              \
+    w[i] = wi;                                                                                    \
+    if ((kind) != 2) rhs[var] -= (ipgen_mpc_real)(sign) * wi;                                     \
+  }
+    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_W);
+#undef IPGEN_MPC_W
+#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
+  {                                                                                                          \
+    const long r_ = first_soft + (f), n_ = first_soft + nS + (f);                                            \
+    const ipgen_mpc_real sr = lam[r_] * inv[r_], sn = lam[n_] * inv[n_];                                     \
+    dsig[f] = gs[f] - (sr * rp[r_] - lam[r_] - w[r_]) - (sn * rp[n_] - lam[n_] - w[n_]);                     \
+    rhs[var] += (ipgen_mpc_real)(sign) * sr * (w[r_] + w[n_]) / hs[f];                                      \
+  }
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
+#undef IPGEN_MPC_SOFT_ROW
+    ipgen_mpc_riccati_solve(s, l, rhs, dir);
+#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
+  {                                                                                                          \
+    const long r_ = first_soft + (f);                                                                        \
+    dsig[f] = ((ipgen_mpc_real)(sign) * lam[r_] * inv[r_] * dir[var] - dsig[f]) / hs[f];                     \
+  }
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
+#undef IPGEN_MPC_SOFT_ROW
+    alpha = one;
+#define IPGEN_MPC_WTERM(i) w[i]
+#define IPGEN_MPC_SUMS
+    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_WTERM
+#undef IPGEN_MPC_SUMS
+#undef IPGEN_MPC_ROW
+    alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
+    for (i = 0; i < Z; ++i) z[i] += alpha * dir[i];
+    for (i = 0; i < nS; ++i) sig[i] += alpha * dsig[i];
+    step = alpha; /* t and lam: in the next pass */
+  }
+#undef IPGEN_MPC_C
+}
+#else
 /* Solves the QP about the guess (z's x_0 part and the defects d set by the caller) by the
  * primal-dual interior-point method with Mehrotra's predictor-corrector; at most qp_iterations
  * iterations. Returns 0 (converged to qp_tolerance), 2 (budget reached), 4 (a breakdown);
@@ -831,6 +1062,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     }
   }
 }
+
+#endif
 
 /* The Lagrangian's Hessian per stage, H_k = blockdiag(2Q, 2R) + sum_i nu_i d2F_i/dw2 at w = (x_k,
  * u_k), nu the multipliers of x_{k+1} = F(x_k, u_k) (l->costate, from the last QP): column j by
