@@ -703,6 +703,141 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const 
   }
 }
 
+#ifdef IPGEN_MPC_FIXED
+/* ipgen_mpc_riccati_factor (Gauss-Newton) with every size fixed: P, P A and P B in local arrays
+ * (registers and the stack, which the workspace's stores cannot alias), B' P A as (P B)' A and
+ * B' P B as B' (P B) (P symmetric: the same numbers up to rounding). */
+IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  ipgen_mpc_real P[IPGEN_MPC_NX][IPGEN_MPC_NX], PA[IPGEN_MPC_NX][IPGEN_MPC_NX], PB[IPGEN_MPC_NX][IPGEN_MPC_NU];
+  ipgen_mpc_real Se[IPGEN_MPC_NU][IPGEN_MPC_NX], Re[IPGEN_MPC_NU * IPGEN_MPC_NU], Kl[IPGEN_MPC_NU][IPGEN_MPC_NX];
+  int k, i, j, m;
+  for (i = 0; i < IPGEN_MPC_NX; ++i)
+    for (j = 0; j < IPGEN_MPC_NX; ++j)
+      P[i][j] = (ipgen_mpc_real)2 * s->P[i * IPGEN_MPC_NX + j] + (i == j ? l->hd[IPGEN_MPC_N * IPGEN_MPC_NX + i] : (ipgen_mpc_real)0);
+  for (k = IPGEN_MPC_N - 1; k >= 0; --k) {
+    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NU;
+    ipgen_mpc_real *K = l->K + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NX, *Lk = l->L + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NU;
+    const ipgen_mpc_real *hu = l->hd + (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real Al[IPGEN_MPC_NX][IPGEN_MPC_NX], Bl[IPGEN_MPC_NX][IPGEN_MPC_NU];
+    for (i = 0; i < IPGEN_MPC_NX; ++i) {
+      for (j = 0; j < IPGEN_MPC_NX; ++j) Al[i][j] = A[i * IPGEN_MPC_NX + j];
+      for (j = 0; j < IPGEN_MPC_NU; ++j) Bl[i][j] = B[i * IPGEN_MPC_NU + j];
+    }
+    for (i = 0; i < IPGEN_MPC_NX; ++i) /* P B, P A */
+      for (j = 0; j < IPGEN_MPC_NU; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Bl[m][j];
+        PB[i][j] = v;
+      }
+    for (i = 0; i < IPGEN_MPC_NX; ++i)
+      for (j = 0; j < IPGEN_MPC_NX; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Al[m][j];
+        PA[i][j] = v;
+      }
+    for (i = 0; i < IPGEN_MPC_NU; ++i) { /* Re = 2R + diag + B' P B, Se = B' P A */
+      for (j = 0; j < IPGEN_MPC_NU; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->R[i * IPGEN_MPC_NU + j] + (i == j ? hu[i] : (ipgen_mpc_real)0);
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += Bl[m][i] * PB[m][j];
+        Re[i * IPGEN_MPC_NU + j] = v;
+      }
+      for (j = 0; j < IPGEN_MPC_NX; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)0;
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += PB[m][i] * Al[m][j];
+        Se[i][j] = v;
+      }
+    }
+#if IPGEN_MPC_SCALAR_INPUT
+    if (!(Re[0] > (ipgen_mpc_real)0)) return 1;
+    Re[0] = (ipgen_mpc_real)1 / Re[0];
+    for (j = 0; j < IPGEN_MPC_NX; ++j) Kl[0][j] = -(Se[0][j] * Re[0]);
+#else
+    if (ipgen_mpc_cholesky(IPGEN_MPC_NU, Re) != 0) return 1;
+    for (j = 0; j < IPGEN_MPC_NX; ++j) { /* K = -Re^-1 Se, column by column */
+      ipgen_mpc_real g[IPGEN_MPC_NU];
+      for (i = 0; i < IPGEN_MPC_NU; ++i) g[i] = Se[i][j];
+      ipgen_mpc_cholesky_solve(IPGEN_MPC_NU, Re, g);
+      for (i = 0; i < IPGEN_MPC_NU; ++i) Kl[i][j] = -g[i];
+    }
+#endif
+    for (i = 0; i < IPGEN_MPC_NU * IPGEN_MPC_NU; ++i) Lk[i] = Re[i];
+    for (i = 0; i < IPGEN_MPC_NU; ++i)
+      for (j = 0; j < IPGEN_MPC_NX; ++j) K[i * IPGEN_MPC_NX + j] = Kl[i][j];
+    if (k == 0) break;
+    for (i = 0; i < IPGEN_MPC_NX; ++i) { /* P_k = 2Q + diag + A' (P A) + Se' K, symmetric */
+      for (j = 0; j <= i; ++j) {
+        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->Q[i * IPGEN_MPC_NX + j] + (i == j ? l->hd[k * IPGEN_MPC_NX + i] : (ipgen_mpc_real)0);
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += Al[m][i] * PA[m][j];
+        for (m = 0; m < IPGEN_MPC_NU; ++m) v += Se[m][i] * Kl[m][j];
+        P[i][j] = v;
+        P[j][i] = v;
+      }
+    }
+  }
+  return 0;
+}
+
+/* ipgen_mpc_riccati_solve with every size fixed: the costate and the state in local arrays. */
+IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve_fixed(const ipgen_mpc_layout *l, const ipgen_mpc_real q[], ipgen_mpc_real dir[]) {
+  ipgen_mpc_real p[IPGEN_MPC_NX], x[IPGEN_MPC_NX];
+  int k, i, m;
+  for (i = 0; i < IPGEN_MPC_NX; ++i) p[i] = q[IPGEN_MPC_N * IPGEN_MPC_NX + i];
+  for (k = IPGEN_MPC_N - 1; k >= 0; --k) {
+    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NU;
+    const ipgen_mpc_real *K = l->K + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NX;
+    const long o = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real g[IPGEN_MPC_NU], f[IPGEN_MPC_NU], pn[IPGEN_MPC_NX];
+    for (i = 0; i < IPGEN_MPC_NU; ++i) {
+      ipgen_mpc_real v = q[o + i];
+      for (m = 0; m < IPGEN_MPC_NX; ++m) v += B[m * IPGEN_MPC_NU + i] * p[m];
+      g[i] = v;
+      f[i] = v;
+    }
+#if IPGEN_MPC_SCALAR_INPUT
+    f[0] *= l->L[k]; /* Re^-1 */
+#else
+    ipgen_mpc_cholesky_solve(IPGEN_MPC_NU, l->L + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NU, f);
+#endif
+    for (i = 0; i < IPGEN_MPC_NU; ++i) l->kff[(long)k * IPGEN_MPC_NU + i] = -f[i];
+    if (k == 0) break;
+    for (i = 0; i < IPGEN_MPC_NX; ++i) {
+      ipgen_mpc_real v = q[k * IPGEN_MPC_NX + i];
+      for (m = 0; m < IPGEN_MPC_NX; ++m) v += A[m * IPGEN_MPC_NX + i] * p[m];
+      for (m = 0; m < IPGEN_MPC_NU; ++m) v += K[m * IPGEN_MPC_NX + i] * g[m];
+      pn[i] = v;
+    }
+    for (i = 0; i < IPGEN_MPC_NX; ++i) p[i] = pn[i];
+  }
+  for (i = 0; i < IPGEN_MPC_NX; ++i) {
+    x[i] = (ipgen_mpc_real)0;
+    dir[i] = (ipgen_mpc_real)0;
+  }
+  for (k = 0; k < IPGEN_MPC_N; ++k) {
+    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NU;
+    const ipgen_mpc_real *K = l->K + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NX, *kff = l->kff + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real *du = dir + (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real *dxn = dir + (long)(k + 1) * IPGEN_MPC_NX;
+    ipgen_mpc_real u[IPGEN_MPC_NU], xn[IPGEN_MPC_NX];
+    for (i = 0; i < IPGEN_MPC_NU; ++i) {
+      ipgen_mpc_real v = kff[i];
+      for (m = 0; m < IPGEN_MPC_NX; ++m) v += K[i * IPGEN_MPC_NX + m] * x[m];
+      u[i] = v;
+    }
+    for (i = 0; i < IPGEN_MPC_NX; ++i) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (m = 0; m < IPGEN_MPC_NX; ++m) v += A[i * IPGEN_MPC_NX + m] * x[m];
+      for (m = 0; m < IPGEN_MPC_NU; ++m) v += B[i * IPGEN_MPC_NU + m] * u[m];
+      xn[i] = v;
+    }
+    for (i = 0; i < IPGEN_MPC_NU; ++i) du[i] = u[i];
+    for (i = 0; i < IPGEN_MPC_NX; ++i) {
+      dxn[i] = xn[i];
+      x[i] = xn[i];
+    }
+  }
+}
+#endif
+
 /* The effective multiplier lam + (lam rp - rc) / t of inequality i (the Newton system's). */
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_effective(const ipgen_mpc_layout *l, long i) {
   return l->lam[i] + (l->lam[i] * l->rp[i] - l->rc[i]) / l->t[i];
@@ -902,9 +1037,9 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
     IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
 #undef IPGEN_MPC_SOFT_ROW
-    if (ipgen_mpc_riccati_factor(s, l) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
+    if ((l->exact ? ipgen_mpc_riccati_factor(s, l) : ipgen_mpc_riccati_factor_fixed(s, l)) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
     /* predictor */
-    ipgen_mpc_riccati_solve(s, l, rhs, dir);
+    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
 #define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
   {                                                                                                          \
     const long r_ = first_soft + (f);                                                                        \
@@ -950,7 +1085,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
     IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
 #undef IPGEN_MPC_SOFT_ROW
-    ipgen_mpc_riccati_solve(s, l, rhs, dir);
+    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
 #define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
   {                                                                                                          \
     const long r_ = first_soft + (f);                                                                        \
