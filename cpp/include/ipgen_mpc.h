@@ -304,6 +304,76 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
   }
 }
 
+#ifdef IPGEN_MPC_FIXED
+/* ipgen_mpc_rk4_layout with every size fixed: its temporaries in local arrays (the workspace's
+ * RK4 parts unused), the stage sensitivity, its weighted sum and the next stage's point in one
+ * pass per stage. The same operations, in the same order per entry. */
+IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
+                                        ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[]) {
+#define IPGEN_MPC_NZ (IPGEN_MPC_NX + IPGEN_MPC_NU)
+#ifdef IPGEN_MPC_SECOND_ORDER
+#define IPGEN_MPC_FIRST (IPGEN_MPC_NX / 2)
+#else
+#define IPGEN_MPC_FIRST 0
+#endif
+  const int sens = A != 0 && B != 0;
+  const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
+  static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
+  static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
+  ipgen_mpc_real xs[IPGEN_MPC_NX], xt[IPGEN_MPC_NX], kk[IPGEN_MPC_NX], ksum[IPGEN_MPC_NX];
+  ipgen_mpc_real Ac[IPGEN_MPC_NX * IPGEN_MPC_NX], Bc[IPGEN_MPC_NX * IPGEN_MPC_NU];
+  ipgen_mpc_real S[IPGEN_MPC_NX][IPGEN_MPC_NZ], Ss[IPGEN_MPC_NX][IPGEN_MPC_NZ], dk[IPGEN_MPC_NX][IPGEN_MPC_NZ];
+  ipgen_mpc_real dsum[IPGEN_MPC_NX][IPGEN_MPC_NZ];
+  int step, stage, i, j, m;
+  for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] = x[i];
+  if (sens)
+    for (i = 0; i < IPGEN_MPC_NX; ++i)
+      for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] = (ipgen_mpc_real)(i == j);
+  for (step = 0; step < s->substeps; ++step) {
+    for (i = 0; i < IPGEN_MPC_NX; ++i) xt[i] = xs[i];
+    if (sens)
+      for (i = 0; i < IPGEN_MPC_NX; ++i)
+        for (j = 0; j < IPGEN_MPC_NZ; ++j) Ss[i][j] = S[i][j];
+    for (stage = 0; stage < 4; ++stage) {
+      const ipgen_mpc_real c = advance[stage] * h;
+      if (s->dynamics(s->context, xt, u, kk, sens ? Ac : 0, sens ? Bc : 0) != 0) return 1;
+      for (i = 0; i < IPGEN_MPC_NX; ++i) {
+        ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : ksum[i]) + weight[stage] * kk[i];
+        if (stage < 3) xt[i] = xs[i] + c * kk[i];
+      }
+      if (!sens) continue;
+      /* dk = Ac Ss + [0 | Bc] (ipgen_mpc_stage_sensitivity's; the [0 I] rows copied) */
+      for (i = 0; i < IPGEN_MPC_FIRST; ++i)
+        for (j = 0; j < IPGEN_MPC_NZ; ++j) dk[i][j] = Ss[IPGEN_MPC_FIRST + i][j];
+      for (i = IPGEN_MPC_FIRST; i < IPGEN_MPC_NX; ++i)
+        for (j = 0; j < IPGEN_MPC_NZ; ++j) {
+          ipgen_mpc_real v = j < IPGEN_MPC_NX ? (ipgen_mpc_real)0 : Bc[i * IPGEN_MPC_NU + (j - IPGEN_MPC_NX)];
+          for (m = 0; m < IPGEN_MPC_NX; ++m) v += Ac[i * IPGEN_MPC_NX + m] * Ss[m][j];
+          dk[i][j] = v;
+        }
+      for (i = 0; i < IPGEN_MPC_NX; ++i)
+        for (j = 0; j < IPGEN_MPC_NZ; ++j) {
+          dsum[i][j] = (stage == 0 ? (ipgen_mpc_real)0 : dsum[i][j]) + weight[stage] * dk[i][j];
+          if (stage < 3) Ss[i][j] = S[i][j] + c * dk[i][j];
+        }
+    }
+    for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] += h / (ipgen_mpc_real)6 * ksum[i];
+    if (sens)
+      for (i = 0; i < IPGEN_MPC_NX; ++i)
+        for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] += h / (ipgen_mpc_real)6 * dsum[i][j];
+  }
+  for (i = 0; i < IPGEN_MPC_NX; ++i) xn[i] = xs[i];
+  if (sens)
+    for (i = 0; i < IPGEN_MPC_NX; ++i) {
+      for (j = 0; j < IPGEN_MPC_NX; ++j) A[i * IPGEN_MPC_NX + j] = S[i][j];
+      for (j = 0; j < IPGEN_MPC_NU; ++j) B[i * IPGEN_MPC_NU + j] = S[i][IPGEN_MPC_NX + j];
+    }
+  return 0;
+#undef IPGEN_MPC_FIRST
+#undef IPGEN_MPC_NZ
+}
+#endif
+
 /* One sample of the discretised model: xn = F(x, u), `substeps` classical RK4 steps of length
  * T / substeps with u held, and, when A and B are not null, its exact sensitivities A = dF/dx
  * (nx x nx) and B = dF/du (nx x nu): the RK4 recursion differentiated stage by stage with the
@@ -312,6 +382,10 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, const ipgen_mpc_real x[],
                                          const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
                                          ipgen_mpc_real B[]) {
+#ifdef IPGEN_MPC_FIXED
+  (void)l;
+  return ipgen_mpc_rk4_fixed(s, x, u, xn, A, B);
+#else
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nz = nx + nu, sens = A != 0 && B != 0;
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
   static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
@@ -353,6 +427,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
     }
   }
   return 0;
+#endif
 }
 
 /* ipgen_mpc_rk4_layout on a workspace of ipgen_mpc_work_size entries (its warm start untouched). */
