@@ -595,11 +595,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s
   ipgen_mpc_real worst = mu, *v = l->nu_tmp, *vn = l->pn;
   long i;
   int k, a, b;
-#ifdef IPGEN_MPC_FIXED /* its QP passes mu at least max |rp| (taken in its pass over the inequalities) */
-  (void)M;
-#else
   for (i = 0; i < M; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->rp[i]));
-#endif
   for (i = 0; i < nS; ++i) worst = ipgen_mpc_max(worst, ipgen_mpc_abs(l->gs[i]) / scale);
   for (a = 0; a < nx; ++a) v[a] = l->gl[N * nx + a];
   *costate = (ipgen_mpc_real)0;
@@ -624,6 +620,95 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual(const ipgen_mpc_settings *s
   }
   return worst;
 }
+
+#ifdef IPGEN_MPC_FIXED
+/* ipgen_mpc_gradient with every size fixed, Gauss-Newton (the exact Hessian's QP calls
+ * ipgen_mpc_gradient): the weights, the reference and the adjoint in local arrays; the same
+ * operations in the same order per entry. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  ipgen_mpc_real Wq[IPGEN_MPC_NX * IPGEN_MPC_NX], Wp[IPGEN_MPC_NX * IPGEN_MPC_NX], xr[IPGEN_MPC_NX];
+  ipgen_mpc_real Rw[IPGEN_MPC_NU * IPGEN_MPC_NU], ur[IPGEN_MPC_NU];
+  ipgen_mpc_real scale = (ipgen_mpc_real)1;
+  const long nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N, IPGEN_MPC_SOFT);
+  long i;
+  int k, a, b;
+  if (l->exact) return ipgen_mpc_gradient(s, l);
+  for (i = 0; i < IPGEN_MPC_NX * IPGEN_MPC_NX; ++i) {
+    Wq[i] = s->Q[i];
+    Wp[i] = s->P[i];
+  }
+  for (i = 0; i < IPGEN_MPC_NU * IPGEN_MPC_NU; ++i) Rw[i] = s->R[i];
+  for (a = 0; a < IPGEN_MPC_NX; ++a) xr[a] = s->x_ref[a];
+  for (a = 0; a < IPGEN_MPC_NU; ++a) ur[a] = s->u_ref[a];
+  for (i = 0; i < IPGEN_MPC_NX; ++i) l->gl[i] = (ipgen_mpc_real)0;
+  for (k = 1; k <= IPGEN_MPC_N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
+    const ipgen_mpc_real *W = k == IPGEN_MPC_N ? Wp : Wq;
+    ipgen_mpc_real e[IPGEN_MPC_NX];
+    for (b = 0; b < IPGEN_MPC_NX; ++b) e[b] = l->traj[k * IPGEN_MPC_NX + b] + l->z[k * IPGEN_MPC_NX + b] - xr[b];
+    for (a = 0; a < IPGEN_MPC_NX; ++a) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (b = 0; b < IPGEN_MPC_NX; ++b) v += W[a * IPGEN_MPC_NX + b] * e[b];
+      v = (ipgen_mpc_real)2 * v;
+      l->gl[k * IPGEN_MPC_NX + a] = v;
+      scale = ipgen_mpc_max(scale, ipgen_mpc_abs(v));
+    }
+  }
+  for (k = 0; k < IPGEN_MPC_N; ++k) {
+    const long o = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real e[IPGEN_MPC_NU];
+    for (b = 0; b < IPGEN_MPC_NU; ++b) e[b] = l->traj[o + b] + l->z[o + b] - ur[b];
+    for (a = 0; a < IPGEN_MPC_NU; ++a) {
+      ipgen_mpc_real v = (ipgen_mpc_real)0;
+      for (b = 0; b < IPGEN_MPC_NU; ++b) v += Rw[a * IPGEN_MPC_NU + b] * e[b];
+      v = (ipgen_mpc_real)2 * v;
+      l->gl[o + a] = v;
+      scale = ipgen_mpc_max(scale, ipgen_mpc_abs(v));
+    }
+  }
+  for (i = 0; i < nS; ++i) {
+    const long j = ipgen_mpc_soft_bound(s, i);
+    l->gs[i] = s->soft_linear[j] + (ipgen_mpc_real)2 * s->soft_quadratic[j] * l->sig[i];
+    scale = ipgen_mpc_max(scale, ipgen_mpc_abs(l->gs[i]));
+  }
+  return scale;
+}
+
+/* ipgen_mpc_qp_residual with every size fixed, `worst` the larger of mu and max |rp| (the QP's
+ * pass takes it): the adjoint in local arrays. */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_qp_residual_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l, ipgen_mpc_real worst,
+                                                           ipgen_mpc_real scale, ipgen_mpc_real *costate) {
+  const long nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N, IPGEN_MPC_SOFT);
+  const ipgen_mpc_real inverse = (ipgen_mpc_real)1 / scale;
+  ipgen_mpc_real v[IPGEN_MPC_NX], c = (ipgen_mpc_real)0, r_max = (ipgen_mpc_real)0;
+  long i;
+  int k, a, b;
+  (void)s;
+  for (i = 0; i < nS; ++i) r_max = ipgen_mpc_max(r_max, ipgen_mpc_abs(l->gs[i]));
+  for (a = 0; a < IPGEN_MPC_NX; ++a) v[a] = l->gl[IPGEN_MPC_N * IPGEN_MPC_NX + a];
+  for (k = IPGEN_MPC_N - 1; k >= 0; --k) {
+    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NU;
+    const long o = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    ipgen_mpc_real vn[IPGEN_MPC_NX];
+    for (a = 0; a < IPGEN_MPC_NX; ++a) c = ipgen_mpc_max(c, ipgen_mpc_abs(v[a]));
+    if (l->costate)
+      for (a = 0; a < IPGEN_MPC_NX; ++a) l->costate[(long)k * IPGEN_MPC_NX + a] = v[a];
+    for (a = 0; a < IPGEN_MPC_NU; ++a) {
+      ipgen_mpc_real r = l->gl[o + a];
+      for (b = 0; b < IPGEN_MPC_NX; ++b) r += B[b * IPGEN_MPC_NU + a] * v[b];
+      r_max = ipgen_mpc_max(r_max, ipgen_mpc_abs(r));
+    }
+    if (k == 0) break;
+    for (a = 0; a < IPGEN_MPC_NX; ++a) {
+      ipgen_mpc_real r = l->gl[k * IPGEN_MPC_NX + a];
+      for (b = 0; b < IPGEN_MPC_NX; ++b) r += A[b * IPGEN_MPC_NX + a] * v[b];
+      vn[a] = r;
+    }
+    for (a = 0; a < IPGEN_MPC_NX; ++a) v[a] = vn[a];
+  }
+  *costate = c;
+  return ipgen_mpc_max(worst, r_max * inverse);
+}
+#endif
 
 /* Cholesky factor (lower, in place) of the n x n matrix M; 1 if it is not positive definite. */
 IPGEN_MPC_LOCAL int ipgen_mpc_cholesky(int n, ipgen_mpc_real M[]) {
@@ -1059,7 +1144,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
 #undef IPGEN_MPC_ROW
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, worst = zero, mu_aff, alpha = one, centring, residual, s1 = zero, s2 = zero;
-    const ipgen_mpc_real scale = ipgen_mpc_gradient(s, l);
+    const ipgen_mpc_real scale = ipgen_mpc_gradient_fixed(s, l);
     for (i = 0; i < Z; ++i) {
       hd[i] = zero;
       rhs[i] = gl[i];
@@ -1091,7 +1176,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   }
     IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
 #undef IPGEN_MPC_ROW
-    residual = ipgen_mpc_qp_residual(s, l, ipgen_mpc_max(mu / (ipgen_mpc_real)M, worst), scale, costate);
+    residual = ipgen_mpc_qp_residual_fixed(s, l, ipgen_mpc_max(mu / (ipgen_mpc_real)M, worst), scale, costate);
     mu = mu / (ipgen_mpc_real)M;
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
