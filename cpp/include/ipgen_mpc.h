@@ -347,8 +347,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen
         for (j = 0; j < IPGEN_MPC_NZ; ++j) dk[i][j] = Ss[IPGEN_MPC_FIRST + i][j];
       for (i = IPGEN_MPC_FIRST; i < IPGEN_MPC_NX; ++i)
         for (j = 0; j < IPGEN_MPC_NZ; ++j) {
-          ipgen_mpc_real v = j < IPGEN_MPC_NX ? (ipgen_mpc_real)0 : Bc[i * IPGEN_MPC_NU + (j - IPGEN_MPC_NX)];
-          for (m = 0; m < IPGEN_MPC_NX; ++m) v += Ac[i * IPGEN_MPC_NX + m] * Ss[m][j];
+          ipgen_mpc_real v = j < IPGEN_MPC_NX ? Ac[i * IPGEN_MPC_NX] * Ss[0][j] : Bc[i * IPGEN_MPC_NU + (j - IPGEN_MPC_NX)] + Ac[i * IPGEN_MPC_NX] * Ss[0][j];
+          for (m = 1; m < IPGEN_MPC_NX; ++m) v += Ac[i * IPGEN_MPC_NX + m] * Ss[m][j];
           dk[i][j] = v;
         }
       for (i = 0; i < IPGEN_MPC_NX; ++i)
@@ -646,8 +646,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
     ipgen_mpc_real e[IPGEN_MPC_NX];
     for (b = 0; b < IPGEN_MPC_NX; ++b) e[b] = l->traj[k * IPGEN_MPC_NX + b] + l->z[k * IPGEN_MPC_NX + b] - xr[b];
     for (a = 0; a < IPGEN_MPC_NX; ++a) {
-      ipgen_mpc_real v = (ipgen_mpc_real)0;
-      for (b = 0; b < IPGEN_MPC_NX; ++b) v += W[a * IPGEN_MPC_NX + b] * e[b];
+      ipgen_mpc_real v = W[a * IPGEN_MPC_NX] * e[0];
+      for (b = 1; b < IPGEN_MPC_NX; ++b) v += W[a * IPGEN_MPC_NX + b] * e[b];
       v = (ipgen_mpc_real)2 * v;
       l->gl[k * IPGEN_MPC_NX + a] = v;
       scale = ipgen_mpc_max(scale, ipgen_mpc_abs(v));
@@ -658,8 +658,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
     ipgen_mpc_real e[IPGEN_MPC_NU];
     for (b = 0; b < IPGEN_MPC_NU; ++b) e[b] = l->traj[o + b] + l->z[o + b] - ur[b];
     for (a = 0; a < IPGEN_MPC_NU; ++a) {
-      ipgen_mpc_real v = (ipgen_mpc_real)0;
-      for (b = 0; b < IPGEN_MPC_NU; ++b) v += Rw[a * IPGEN_MPC_NU + b] * e[b];
+      ipgen_mpc_real v = Rw[a * IPGEN_MPC_NU] * e[0];
+      for (b = 1; b < IPGEN_MPC_NU; ++b) v += Rw[a * IPGEN_MPC_NU + b] * e[b];
       v = (ipgen_mpc_real)2 * v;
       l->gl[o + a] = v;
       scale = ipgen_mpc_max(scale, ipgen_mpc_abs(v));
@@ -885,14 +885,14 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor_fixed(const ipgen_mpc_settings *s, 
     }
     for (i = 0; i < IPGEN_MPC_NX; ++i) /* P B, P A */
       for (j = 0; j < IPGEN_MPC_NU; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)0;
-        for (m = 0; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Bl[m][j];
+        ipgen_mpc_real v = P[i][0] * Bl[0][j];
+        for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Bl[m][j];
         PB[i][j] = v;
       }
     for (i = 0; i < IPGEN_MPC_NX; ++i)
       for (j = 0; j < IPGEN_MPC_NX; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)0;
-        for (m = 0; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Al[m][j];
+        ipgen_mpc_real v = P[i][0] * Al[0][j];
+        for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Al[m][j];
         PA[i][j] = v;
       }
     for (i = 0; i < IPGEN_MPC_NU; ++i) { /* Re = 2R + diag + B' P B, Se = B' P A */
@@ -902,8 +902,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor_fixed(const ipgen_mpc_settings *s, 
         Re[i * IPGEN_MPC_NU + j] = v;
       }
       for (j = 0; j < IPGEN_MPC_NX; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)0;
-        for (m = 0; m < IPGEN_MPC_NX; ++m) v += PB[m][i] * Al[m][j];
+        ipgen_mpc_real v = PB[0][i] * Al[0][j];
+        for (m = 1; m < IPGEN_MPC_NX; ++m) v += PB[m][i] * Al[m][j];
         Se[i][j] = v;
       }
     }
@@ -984,8 +984,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve_fixed(const ipgen_mpc_layout *l, co
       u[i] = v;
     }
     for (i = 0; i < IPGEN_MPC_NX; ++i) {
-      ipgen_mpc_real v = (ipgen_mpc_real)0;
-      for (m = 0; m < IPGEN_MPC_NX; ++m) v += A[i * IPGEN_MPC_NX + m] * x[m];
+      ipgen_mpc_real v = A[i * IPGEN_MPC_NX] * x[0];
+      for (m = 1; m < IPGEN_MPC_NX; ++m) v += A[i * IPGEN_MPC_NX + m] * x[m];
       for (m = 0; m < IPGEN_MPC_NU; ++m) v += B[i * IPGEN_MPC_NU + m] * u[m];
       xn[i] = v;
     }
