@@ -322,7 +322,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
   ipgen_mpc_real xs[IPGEN_MPC_NX], xt[IPGEN_MPC_NX], kk[IPGEN_MPC_NX], ksum[IPGEN_MPC_NX];
   ipgen_mpc_real Ac[IPGEN_MPC_NX * IPGEN_MPC_NX], Bc[IPGEN_MPC_NX * IPGEN_MPC_NU];
-  ipgen_mpc_real S[IPGEN_MPC_NX][IPGEN_MPC_NZ], Ss[IPGEN_MPC_NX][IPGEN_MPC_NZ], dk[IPGEN_MPC_NX][IPGEN_MPC_NZ];
+  ipgen_mpc_real S[IPGEN_MPC_NX][IPGEN_MPC_NZ], Ss[IPGEN_MPC_NX][IPGEN_MPC_NZ];
   ipgen_mpc_real dsum[IPGEN_MPC_NX][IPGEN_MPC_NZ];
   int step, stage, i, j, m;
   for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] = x[i];
@@ -342,20 +342,22 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen
         if (stage < 3) xt[i] = xs[i] + c * kk[i];
       }
       if (!sens) continue;
-      /* dk = Ac Ss + [0 | Bc] (ipgen_mpc_stage_sensitivity's; the [0 I] rows copied) */
-      for (i = 0; i < IPGEN_MPC_FIRST; ++i)
-        for (j = 0; j < IPGEN_MPC_NZ; ++j) dk[i][j] = Ss[IPGEN_MPC_FIRST + i][j];
-      for (i = IPGEN_MPC_FIRST; i < IPGEN_MPC_NX; ++i)
-        for (j = 0; j < IPGEN_MPC_NZ; ++j) {
-          ipgen_mpc_real v = j < IPGEN_MPC_NX ? Ac[i * IPGEN_MPC_NX] * Ss[0][j] : Bc[i * IPGEN_MPC_NU + (j - IPGEN_MPC_NX)] + Ac[i * IPGEN_MPC_NX] * Ss[0][j];
-          for (m = 1; m < IPGEN_MPC_NX; ++m) v += Ac[i * IPGEN_MPC_NX + m] * Ss[m][j];
-          dk[i][j] = v;
+      /* column by column (a column of dk needs that of Ss alone): dk = Ac Ss + [0 | Bc]
+       * (ipgen_mpc_stage_sensitivity's, the [0 I] rows copied), its weighted sum, the next Ss */
+      for (j = 0; j < IPGEN_MPC_NZ; ++j) {
+        ipgen_mpc_real col[IPGEN_MPC_NX], d[IPGEN_MPC_NX];
+        for (m = 0; m < IPGEN_MPC_NX; ++m) col[m] = Ss[m][j];
+        for (i = 0; i < IPGEN_MPC_FIRST; ++i) d[i] = col[IPGEN_MPC_FIRST + i];
+        for (i = IPGEN_MPC_FIRST; i < IPGEN_MPC_NX; ++i) {
+          ipgen_mpc_real v = j < IPGEN_MPC_NX ? Ac[i * IPGEN_MPC_NX] * col[0] : Bc[i * IPGEN_MPC_NU + (j - IPGEN_MPC_NX)] + Ac[i * IPGEN_MPC_NX] * col[0];
+          for (m = 1; m < IPGEN_MPC_NX; ++m) v += Ac[i * IPGEN_MPC_NX + m] * col[m];
+          d[i] = v;
         }
-      for (i = 0; i < IPGEN_MPC_NX; ++i)
-        for (j = 0; j < IPGEN_MPC_NZ; ++j) {
-          dsum[i][j] = (stage == 0 ? (ipgen_mpc_real)0 : dsum[i][j]) + weight[stage] * dk[i][j];
-          if (stage < 3) Ss[i][j] = S[i][j] + c * dk[i][j];
+        for (i = 0; i < IPGEN_MPC_NX; ++i) {
+          dsum[i][j] = stage == 0 ? d[i] : dsum[i][j] + weight[stage] * d[i];
+          if (stage < 3) Ss[i][j] = S[i][j] + c * d[i];
         }
+      }
     }
     for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] += h / (ipgen_mpc_real)6 * ksum[i];
     if (sens)
