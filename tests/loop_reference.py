@@ -200,6 +200,10 @@ class EnergyControl:
         x = np.asarray(x, dtype=float)
         dof = law.plant.dof
         turns = round(float(x[1]) / (2 * math.pi))
+        release = getattr(law, "release_angle", 0.0)
+        fallen = self._caught is not None and abs(float(x[1]) - 2 * math.pi * self._caught) > release
+        if release > 0 and fallen:
+            self._caught = None  # the hold gives the link back to the swing
         if (
             self._caught is None
             and abs(float(x[1]) - 2 * math.pi * turns) <= law.catch_angle

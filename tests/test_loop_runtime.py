@@ -18,7 +18,7 @@ import loop_reference as reference
 import numpy as np
 import pytest
 from estimation_cases import QUBE, RDIP, RSIP
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 import ipgen
@@ -336,6 +336,40 @@ def test_energy_swingup_equals_the_reference(acceleration: bool) -> None:
         assert abs(u - u_ref) <= 1e-12 * max(1.0, abs(u_ref)), (k, u, u_ref)
         phases.add(phase)
     assert phases == {"swing", "hold"}
+
+
+def test_energy_swingup_release_equals_the_reference() -> None:
+    """release_angle: a hold whose link falls more than it from the caught upright swings again,
+    and is caught again, as the reference says; without it the same states stay in the hold."""
+    from ipgen.control.casadi_model import plant
+    from ipgen.control.energy import energy_swingup
+
+    qube = plant("rotary", 1, [0.095, 0.024], [0.085, 0.129], [0.0005, 0.0])
+    caught = np.array([0.1, 2 * math.pi + 0.05, 0.0, 0.1])  # near the upright 2π, slow
+    fallen = np.array([0.1, 2 * math.pi + 0.9, 0.0, 2.0])  # 0.9 rad from it
+    for release, expected in ((0.8, ["hold", "swing", "hold"]), (None, ["hold", "hold", "hold"])):
+        law = energy_swingup(qube, u_max=0.5, release_angle=release)
+        ref = reference.EnergyControl(law)
+        phases = []
+        for k, x in enumerate((caught, fallen, caught)):
+            (u, phase), (u_ref, phase_ref) = law.control(k, x), ref.control(k, x)
+            assert phase == phase_ref and abs(u - u_ref) <= 1e-12 * max(1.0, abs(u_ref)), (release, k)
+            phases.append(phase)
+        assert phases == expected, release
+
+
+@given(angle=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.floats(-10, 10)))
+def test_energy_swingup_bad_release_angle_is_one_line(angle: float) -> None:
+    """A release angle not in (catch_angle, π/2] is refused in one line naming it."""
+    from ipgen.control.casadi_model import plant
+    from ipgen.control.energy import energy_swingup
+    from ipgen.control.trajectory import PlanError
+
+    assume(not (0.3 < angle <= math.pi / 2))
+    qube = plant("rotary", 1, [0.095, 0.024], [0.085, 0.129], [0.0005, 0.0])
+    with pytest.raises(PlanError, match="release_angle") as error:
+        energy_swingup(qube, u_max=0.5, catch_angle=0.3, release_angle=angle)
+    assert "\n" not in str(error.value)
 
 
 def test_energy_swingup_model_failure_propagates(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -69,6 +69,18 @@ def test_an_mpc_controller_catches_the_swing_up(tmp_path: Path) -> None:
     assert scene.loop is not None and config["estimator"] == "filter"
 
 
+def test_release_angle_reaches_the_config_only_when_set(tmp_path: Path) -> None:
+    """`release_angle` is written to the resolved config (swingup.release_angle) when the scene
+    sets it; a scene without it writes the config it wrote before (no such key)."""
+    released = load_scene(swingup(tmp_path, {"swingup.release_angle": "1.2"}))
+    assert released.swingup is not None and released.swingup.release_angle == 1.2
+    assert "swingup.release_angle = 1.2\n" in resolved_config(released)
+    (tmp_path / "plain").mkdir()
+    plain = load_scene(swingup(tmp_path / "plain"))
+    assert plain.swingup is not None and plain.swingup.release_angle == 0.0
+    assert "swingup.release_angle" not in resolved_config(plain)
+
+
 def test_trajectory_scene_carries_plan_and_schedule(tmp_path: Path) -> None:
     scene = load_scene(swingup(tmp_path, base=TRAJECTORY))
     config = config_dict(resolved_config(scene))
@@ -102,6 +114,13 @@ BAD = [
     ({"swingup.hold": "-1"}, "swingup.hold = -1", ">= 0"),
     ({"swingup.duration": "2"}, "swingup.duration = 2", 'method = "trajectory" only'),
     ({"swingup.x_max": "1"}, "swingup.x_max = 1", 'method = "trajectory" only'),
+    ({"swingup.release_angle": "0.3"}, "swingup.release_angle = 0.3", "more than catch_angle (0.3 rad)"),
+    ({"swingup.release_angle": "0.5", "swingup.catch_angle": "0.6"}, "swingup.release_angle = 0.5",
+     "more than catch_angle (0.6 rad)"),
+    ({"swingup.release_angle": "2"}, "swingup.release_angle = 2", "<= π/2"),
+    ({"swingup.release_angle": "0"}, "swingup.release_angle = 0", "> 0"),
+    ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.release_angle": "1"},
+     "swingup.release_angle = 1", 'method = "energy" only'),
     ({"swingup.speed": "1"}, "swingup.speed", "unknown key"),
     ({"controller.kind": '"lqr"'}, "swingup.method", "remove the [controller] table"),
     ({**MPC, "swingup.period": "0.02"}, "swingup.period = 0.02", "a whole number of times"),
@@ -155,7 +174,7 @@ VALUES = st.one_of(
         ]
     ),
 )
-KEYS = st.sampled_from(["method", "u_max", "x_max", "duration", "period", "hold", "gain"])
+KEYS = st.sampled_from(["method", "u_max", "x_max", "duration", "period", "hold", "gain", "release_angle"])
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -377,6 +377,12 @@ typedef struct {
   ipgen_real (*catch_law)(void *catch_context, const ipgen_real x[]);
   void *catch_context;
   long catch_every;
+  /* Optional, the energy law only: a hold that lets link 1 fall more than release_angle from the
+   * upright it caught gives the pendulum back to the energy law, which swings it up again for
+   * another catch (0: the hold is for good). catch_reset (null: none) is called then with
+   * catch_context, so that a catch law starts its next catch afresh (the MPC: cold). */
+  ipgen_real release_angle;
+  void (*catch_reset)(void *catch_context);
 } ipgen_loop_swingup;
 
 /* What a swing-up remembers: its phase, the samples seen and the upright held (q1); with a
@@ -406,6 +412,13 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
                                                   const ipgen_real x[], ipgen_real work[]) {
   const int dof = law->dof;
   ipgen_real u = (ipgen_real)0;
+  if (s->phase == IPGEN_LOOP_HOLD && law->steps == 0 && law->release_angle > 0) { /* released: swing again */
+    const ipgen_real dev = x[1] - s->hold_q1;
+    if ((dev < 0 ? -dev : dev) > law->release_angle) {
+      s->phase = IPGEN_LOOP_SWING;
+      if (law->catch_reset) law->catch_reset(law->catch_context);
+    }
+  }
   if (s->phase == IPGEN_LOOP_TRACK) {
     if (s->k < law->steps) {
       const ipgen_real *K = law->gains + s->k * 2 * dof, *x_ref = law->states + s->k * 2 * dof;

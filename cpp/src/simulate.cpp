@@ -706,6 +706,7 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                 scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
     if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (%s) from t = %.6g s", scene.mpc ? "MPC" : "LQR", state.hold_since);
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
+    if (state.releases > 0) std::printf(" after %d release%s back to the swing", state.releases, state.releases == 1 ? "" : "s");
     std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }
   print_loop(scene);

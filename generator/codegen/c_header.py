@@ -210,6 +210,7 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
         "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
         "catch_every": catch_every,
+        "release_angle": c_number(law.release_angle) if law.release_angle > 0 else None,
     }
     if law.method == "trajectory":
         rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]

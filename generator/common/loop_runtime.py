@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 33  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 35  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -127,6 +127,7 @@ class SwingUp(ctypes.Structure):
         ("feedback", ctypes.c_void_p),  # null: ipgen_loop_feedback
         ("catch_law", ctypes.c_void_p), ("catch_context", ctypes.c_void_p),  # null: the hold's LQR
         ("catch_every", ctypes.c_long),
+        ("release_angle", _real), ("catch_reset", ctypes.c_void_p),  # 0, null: the hold is for good
     ]  # fmt: skip
 
 
@@ -157,7 +158,8 @@ def _layout() -> list[int]:
         *(offset(EnergyLaw, n) for n in ("energy_weight", "acceleration", "input_gain")),
         ctypes.sizeof(SwingUp),
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
-        offset(SwingUp, "context"), offset(SwingUp, "catch_every"),
+        offset(SwingUp, "context"), offset(SwingUp, "catch_every"), offset(SwingUp, "release_angle"),
+        offset(SwingUp, "catch_reset"),
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
         offset(SwingUpState, "catch_u"),
         ctypes.sizeof(ctypes.c_long),

@@ -98,6 +98,7 @@ class EnergySwingUp:
     catch_rate: float  # rad/s
     energy_target: float = 0.0  # E0 [J]
     acceleration: bool = False  # u is the base's acceleration ([actuator] kind "acceleration"): u = a
+    release_angle: float = 0.0  # rad: the hold gives the link back to the swing beyond it (0: never)
     # ipgen_loop_swingup_state (the phase, the upright held); None until the first `control`
     _state: SwingUpState | None = field(default=None, init=False, repr=False, compare=False)
     _callback: Any = field(default=None, init=False, repr=False, compare=False)  # MASS_BIAS on the plant
@@ -154,8 +155,9 @@ class EnergySwingUp:
         if self._callback is None:
             self._callback = MASS_BIAS(self._mass_bias)
         law = SwingUp(
-            dof, self.u_max, address(hold), address(target), energy, 0, None, None, None, self._callback, None
-        )
+            dof, self.u_max, address(hold), address(target), energy, 0, None, None, None, self._callback,
+            None, None, None, None, 0, self.release_angle, None,
+        )  # fmt: skip
         run = library()
         if self._state is None:
             self._state = SwingUpState()
@@ -186,6 +188,7 @@ def energy_swingup(
     energy_target: float | None = None,
     design_speed: float = 0.0,
     law: str = "energy",
+    release_angle: float | None = None,
 ) -> EnergySwingUp:
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
@@ -204,6 +207,9 @@ def energy_swingup(
     is the base's viscous damping of `plant` (for a dc_motor's folded model: the arm's damping
     plus the back-EMF kt km / Rm). ω_d = 0 (default) gives the stall acceleration.
     `energy_target` E0 [J, relative to upright at rest; default 0].
+    `release_angle` [rad, catch_angle < it ≤ π/2; default None: the hold is for good]: a hold that
+    lets the link fall more than this from the upright it caught gives it back to the energy law,
+    which swings it up for another catch.
 
     `law = "proportional"`: Quanser's form of the same law (QUBE-Servo 2 swing-up lab), its
     constants in the rig's units at the base's tip (the arm's tip at l0 for a rotary base, the
@@ -234,6 +240,12 @@ def energy_swingup(
         number = finite_number(name, value)
         if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
+    release = 0.0 if release_angle is None else finite_number("release_angle", release_angle)
+    if release_angle is not None and not float(catch_angle) < release <= math.pi / 2:
+        raise PlanError(
+            f"release_angle = {release_angle!r}: expected more than catch_angle ({float(catch_angle):g} rad) "
+            f"and at most π/2 rad (the simulator stops a hold past π/2)"
+        )
     g = plant.g
     if not g > 0:  # k_E below divides by g: no gravity, no energy to pump
         raise PlanError(f'energy swing-up needs gravity: g = {g:g}; use method "trajectory"')
@@ -300,6 +312,7 @@ def energy_swingup(
         catch_rate=float(catch_rate),
         energy_target=e0,
         acceleration=acceleration,
+        release_angle=release,
     )
 
 

@@ -93,6 +93,8 @@ class SwingUpLaw:
     input_gain: float = 1.0
     # u is the base's acceleration ([actuator] kind "acceleration"): the energy law's a is u.
     base_acceleration: bool = False
+    # rad: a hold that lets link 1 fall this far gives it back to the energy law (0: never)
+    release_angle: float = 0.0
 
     @property
     def steps(self) -> int:
@@ -124,6 +126,7 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         target=(0.0,) * (2 * dof),
         energy=tuple((name, float(value)) for name, value in constants),
         base_acceleration=law.acceleration,
+        release_angle=law.release_angle,
     )
 
 

@@ -104,7 +104,8 @@ CFG_KEYS: dict[str, str] = {
         f"swingup.{key}": "the swing-up law (control/swingup.py)"
         for key in (
             "u_max period hold hold_gain target gain_energy gain_position gain_velocity accel_max "
-            "catch_angle catch_rate energy_target energy_inertia energy_weight steps inputs states gains"
+            "catch_angle catch_rate energy_target energy_inertia energy_weight release_angle "
+            "steps inputs states gains"
         ).split()
     },
     "actuator.noise": "σ of the noise on the applied input, held per sample interval (the drive)",
@@ -246,6 +247,8 @@ def _swingup(lines: _Lines, law: SwingUpLaw | None) -> None:
         lines.put(f"swingup.{key}", getattr(law, key))
     for name, value in law.energy:
         lines.put(f"swingup.{name}", value)
+    if law.release_angle > 0:  # absent: the hold is for good (the .cfg of a scene without it unchanged)
+        lines.put("swingup.release_angle", law.release_angle)
     if law.method == "trajectory":
         for key in ("steps", "inputs", "states", "gains"):
             lines.put(f"swingup.{key}", getattr(law, key))

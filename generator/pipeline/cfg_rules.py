@@ -56,6 +56,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "swingup.accel_max": ("swingup", "accel_max"),
     "swingup.catch_angle": ("swingup", "catch_angle"),
     "swingup.catch_rate": ("swingup", "catch_rate"),
+    "swingup.release_angle": ("swingup", "release_angle"),
     "sensors.measured": ("sensors", "measured"),
     "sensors.resolution": ("sensors", "resolution"),
     "sensors.noise": ("sensors", "noise"),

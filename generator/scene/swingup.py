@@ -24,12 +24,14 @@ ENERGY_KEYS: tuple[str, ...] = (
     "energy_target",
     "catch_angle",
     "catch_rate",
+    "release_angle",
     "gain_position",
     "gain_velocity",
     "q",
     "r",
 )
 DEFAULT_PERIOD = 0.01
+DEFAULT_CATCH_ANGLE = 0.3  # rad: control.energy.energy_swingup's
 DEFAULT_HOLD = 2.0
 
 
@@ -73,6 +75,14 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         for key in ("duration", "x_max", "margin"):
             if getattr(table, key) is not None:
                 refuse('is for method = "trajectory" only; remove it', key=key, value=getattr(table, key))
+        catch = DEFAULT_CATCH_ANGLE if table.catch_angle is None else float(table.catch_angle)
+        if table.release_angle is not None and not float(table.release_angle) > catch:
+            refuse(
+                f"must be more than catch_angle ({format_number(catch)} rad): the hold would give back "
+                "the link it has just caught",
+                key="release_angle",
+                value=table.release_angle,
+            )
     else:
         for key in ENERGY_KEYS:
             if getattr(table, key) is not None:

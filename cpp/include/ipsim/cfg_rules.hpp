@@ -120,6 +120,7 @@ inline constexpr const char* kKeys[] = {
     "swingup.energy_target",
     "swingup.energy_inertia",
     "swingup.energy_weight",
+    "swingup.release_angle",
     "swingup.steps",
     "swingup.inputs",
     "swingup.states",
@@ -177,6 +178,7 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // swingup.accel_max
     {0.0, true, kInf, false, false},  // swingup.catch_angle
     {0.0, true, kInf, false, false},  // swingup.catch_rate
+    {0.0, true, 1.5707963267948966, false, false},  // swingup.release_angle
     {0.0, false, kInf, false, false},  // actuator.lag
     {0.0, false, kInf, false, true},  // sensors.measured
     {0.0, false, 0.0, false, false},  // sensors.resolution
@@ -220,13 +222,14 @@ inline constexpr Rule kRules[] = {
     {"swingup.accel_max", "[swingup] accel_max", "> 0", 29, 1},
     {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 30, 1},
     {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 31, 1},
-    {"actuator.lag", "[actuator] lag", ">= 0", 32, 1},
-    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 33, 1},
-    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 34, 2},
-    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 36, 1},
-    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 37, 1},
-    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 38, 1},
-    {"estimator.cutoff", "[estimator] cutoff", "> 0", 39, 1},
+    {"swingup.release_angle", "[swingup] release_angle", "> 0 and <= 1.5708", 32, 1},
+    {"actuator.lag", "[actuator] lag", ">= 0", 33, 1},
+    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 34, 1},
+    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 35, 2},
+    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 37, 1},
+    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 38, 1},
+    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 39, 1},
+    {"estimator.cutoff", "[estimator] cutoff", "> 0", 40, 1},
 };
 
 /// Whether `value` is allowed as one number of `rule`'s key: finite and in one of its ranges.

@@ -114,6 +114,9 @@ class MpcController {
     return u;
   }
 
+  /// Forgets the warm start: the next step is cold (ipgen_mpc_reset).
+  void reset() { ipgen_mpc_reset(work_.data()); }
+
   const MpcProblem& problem() const noexcept { return p_; }
   const MpcTally& tally() const noexcept { return tally_; }
   std::size_t work_entries() const noexcept { return work_.size(); }

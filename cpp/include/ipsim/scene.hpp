@@ -38,6 +38,7 @@
 //   swingup.u_max  swingup.period  swingup.hold  swingup.hold_gain  swingup.target   (both methods)
 //   swingup.gain_energy gain_position gain_velocity accel_max catch_angle catch_rate energy_target
 //          energy_inertia energy_weight                                               (energy)
+//   swingup.release_angle   (optional, energy: the hold gives the link back to the swing past it)
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
 //   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
 //   sensors.seed = 0         (optional, with a sampled controller or swing-up: the measured loop, sensors.hpp)
@@ -215,6 +216,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.energy_target = file.number("swingup.energy_target");
     sw.energy_inertia = file.number("swingup.energy_inertia");
     sw.energy_weight = file.number("swingup.energy_weight");
+    if (file.has("swingup.release_angle")) sw.release_angle = file.number("swingup.release_angle");
   } else {
     if (sw.acceleration) file.fail(file.line("swingup"), "swingup = trajectory with actuator = acceleration is not supported yet");
     const long steps = file.integer("swingup.steps");
@@ -263,6 +265,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     }
     sw.catch_every = static_cast<long>(every);
     sw.catch_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x) { return b * (*mpc)(x); };
+    sw.catch_reset = [mpc = scene.mpc]() { mpc->reset(); };  // a released hold's next catch starts cold
   }
   scene.swingup_state = std::make_shared<SwingUp::State>();
   scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);

@@ -74,6 +74,11 @@ struct SwingUp {
   /// periods after it, its u held in between. Empty: the hold LQR.
   std::function<double(const Eigen::VectorXd&)> catch_law;
   long catch_every = 1;
+  /// Energy only: a hold that lets link 1 fall more than this from the upright it caught [rad]
+  /// gives it back to the energy law (0: the hold is for good); catch_reset (if any) then makes
+  /// the catch law's next catch start afresh.
+  double release_angle = 0.0;
+  std::function<void()> catch_reset;
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
   /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
@@ -87,6 +92,8 @@ struct SwingUp {
     /// catch_law: the sample index of the catch and the last u it gave
     long hold_sample = 0;
     double catch_u = 0.0;
+    /// release_angle: how many times the hold gave the link back to the swing
+    int releases = 0;
   };
 
   /// Problems, one line each (empty when valid).
@@ -138,7 +145,9 @@ struct SwingUp {
                                  &SwingUp::feedback<Model>,
                                  catch_law ? &SwingUp::call_catch_law : nullptr,
                                  const_cast<void*>(static_cast<const void*>(this)),
-                                 catch_every};
+                                 catch_every,
+                                 release_angle,
+                                 catch_reset ? &SwingUp::call_catch_reset : nullptr};
     ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
@@ -147,6 +156,10 @@ struct SwingUp {
       state.hold_since = t;
       state.equilibrium = target;
       state.equilibrium(1) = loop.hold_q1;
+    } else if (loop.phase == IPGEN_LOOP_SWING && state.phase == SwingPhase::hold) {  // released
+      state.phase = SwingPhase::swing;
+      state.hold_since = std::numeric_limits<double>::quiet_NaN();
+      ++state.releases;
     }
     state.hold_sample = loop.hold_sample;
     state.catch_u = loop.catch_u;
@@ -180,6 +193,9 @@ struct SwingUp {
     const auto& self = *static_cast<const SwingUp*>(context);
     return self.catch_law(Eigen::Map<const Eigen::VectorXd>(x, self.target.size()));
   }
+
+  /// catch_reset for ipgen_loop_swingup (context: this SwingUp).
+  static void call_catch_reset(void* context) { static_cast<const SwingUp*>(context)->catch_reset(); }
 
   /// u_ref − K (x − x_ref) summed as the simulator summed it before ipgen_loop.h, so that its runs
   /// keep their bits (ipgen_loop_swingup.feedback): the hold as LinearFeedback does (Eigen's dot),
@@ -301,6 +317,9 @@ IPSIM_DECL std::vector<std::string> SwingUp::problems(int state_size) const {
     positive("energy_inertia", energy_inertia);
     positive("catch_angle", catch_angle);
     positive("catch_rate", catch_rate);
+    if (!(std::isfinite(release_angle) && release_angle >= 0.0)) {
+      found.push_back("invalid setting swingup.release_angle = " + detail::format_number(release_angle) + ": must be finite and >= 0");
+    }
     for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
                                       {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
                                       {"accel_max", accel_max}}) {
