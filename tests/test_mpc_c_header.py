@@ -207,9 +207,35 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path) -> Non
     assert np.max(np.abs(results["soft_fixed"])) > 1
 
 
-SWINGUP_FIRMWARE = FIRMWARE.replace('"qube_servo2.h"', '"qube_servo2_mpc_swingup.h"').replace(
-    "P_", "ipgen_qube_servo2_mpc_swingup_"
-)
+def _replay_swing_up(folder: Path, name: str, changes: tuple[tuple[str, str], ...] = ()) -> list[str]:
+    """The preset `name` (scenes/rigs) with emit = ["c"] and the text `changes` made: its firmware
+    entry fed the simulator's counts returns the simulator's volts at every sample, in double to
+    1e-9. Returns the phase at each sample."""
+    preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / f"{name}.toml"
+    text = preset.read_text().replace(f'name = "{name}"', f'name = "{name}"\nemit = ["c"]')
+    for old, new in changes:
+        assert old in text, old
+        text = text.replace(old, new)
+    scene = folder / f"{name}.toml"
+    scene.write_text(text)
+    for argv in (
+        ["--scene", str(scene), "-o", str(folder)],
+        ["run", str(scene), "-o", str(folder / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    header, *rows = (folder / "run" / f"{name}.csv").read_text().splitlines()
+    names = header.split(",")
+    phase = [row.rsplit(",", 1)[1] for row in rows][:-1]
+    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
+    columns = {column: data[:, i] for i, column in enumerate(names[:-1])}
+    counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
+    firmware = FIRMWARE.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
+    program = _program(folder, "swingup_firmware", firmware)
+    volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
+    assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
+    assert np.max(np.abs(volts)) <= U_MAX
+    return phase
 
 
 def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path) -> None:
@@ -219,30 +245,22 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     simulator applied at every sample of the swing, the catch and the hold, in double to 1e-9."""
     require_toolchain()
     require_cc()
-    preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_mpc_swingup.toml"
-    scene = tmp_path / "qube_servo2_mpc_swingup.toml"
-    scene.write_text(
-        preset.read_text().replace(
-            'name = "qube_servo2_mpc_swingup"', 'name = "qube_servo2_mpc_swingup"\nemit = ["c"]'
-        )
-    )
-    for argv in (
-        ["--scene", str(scene), "-o", str(tmp_path)],
-        ["run", str(scene), "-o", str(tmp_path / "run"), "--no-plot"],
-    ):
-        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
-            assert run(argv) == 0, err.getvalue()
-    header, *rows = (tmp_path / "run" / "qube_servo2_mpc_swingup.csv").read_text().splitlines()
-    names = header.split(",")
-    phase = [row.rsplit(",", 1)[1] for row in rows][:-1]
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
-    columns = {name: data[:, i] for i, name in enumerate(names[:-1])}
-    counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
-    program = _program(tmp_path, "swingup_firmware", SWINGUP_FIRMWARE)  # its P_ already replaced
-    volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
+    phase = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup")
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
-    assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
-    assert np.max(np.abs(volts)) <= U_MAX
+
+
+def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_path: Path) -> None:
+    """The preset qube_servo2_mpc_swingup_ekf (EKF, release_angle) knocked off upright by a pulse on
+    the arm 2 s in: the hold gives the link back to the energy law, which swings it up for a second
+    catch, the MPC cold again. The firmware entry (its EKF, the release, the MPC's reset) fed the
+    simulator's counts returns its volts at every sample, in double to 1e-9."""
+    require_toolchain()
+    require_cc()
+    pulse = ('km = 0.042                    # V s/rad\n', 'km = 0.042\npulses = [[2.0, 0.05, 0.05]]\n')
+    phase = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup_ekf", (pulse,))
+    held = [i for i, p in enumerate(phase) if p == "hold"]
+    assert held and "swing" in phase[held[0] :], "caught, released, swung again"
+    assert phase[-1] == "hold", "caught again"
 
 
 def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path: Path) -> None:
