@@ -118,7 +118,10 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     require_cc()
     root = tmp_path_factory.mktemp("firmware")
     scene = root / "scene.toml"
-    scene.write_text(PRESET.read_text().replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
+    # release_angle: the header's release with the hold LQR compiles (-Werror) and, never reached
+    # here (the hold keeps the link within 1.2 rad), changes nothing
+    text = PRESET.read_text().replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]')
+    scene.write_text(text.replace('method = "energy"\n', 'method = "energy"\nrelease_angle = 1.2\n', 1))
     generate = ["--scene", str(scene), "-o", str(root)]
     for argv in (generate, ["run", str(scene), "-o", str(root / "run"), "--no-plot"]):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
@@ -160,6 +163,8 @@ def test_step_replays_the_simulators_voltages(folder: Path) -> None:
     samples = len(volts_c) - 1  # the last row repeats the command held at the end
     assert np.max(np.abs(volts_c[:samples] - run_["u"][:samples])) <= 1e-9 * U_MAX
     assert int(phases[-1]) == 2 and run_["phase"][-1] == "hold"
+    assert "release_angle = 1.2" in (folder / "scene.toml").read_text()
+    assert "1.2, /* release_angle" in (folder / f"{NAME}.h").read_text()
 
 
 def test_float_firmware_swings_up_and_holds_a_double_plant(folder: Path) -> None:

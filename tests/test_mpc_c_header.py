@@ -177,40 +177,45 @@ def test_two_mpc_scenes_of_other_sizes_in_one_file(folder: Path) -> None:
     assert (status_a, status_b) == ("0", "0") and float(ua) != 0 and float(ub) != 0
 
 
-SOFT_STEP = STEP.replace('"qube_servo2.h"', '"qube_soft.h"').replace("P_", "ipgen_qube_soft_")
-
-
-def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path) -> None:
+@pytest.mark.parametrize("mode", ["rti", "converged"])
+def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: str) -> None:
     """A design with a soft bound (IPGEN_MPC_SOFT = 1, which the QUBE preset has not): the header's
-    step with its sizes fixed at compile time returns the run-time-size step's u (the path ipsim
-    and ipgen.mpc run, checked against IPOPT in tests/test_mpc.py) and status to 1e-9 along the
-    simulator's estimates, the pendulum beyond the soft bound at first."""
-    scene = folder / "qube_soft.toml"
-    text = QUBE.format(controller="soft_bounds = [[1, -0.1, 0.1]]\n", extra="", t_end=1.0, initial=PUSHED)
-    scene.write_text(text.replace('name = "qube_servo2"', 'name = "qube_soft"\nemit = ["c"]'))
+    step with its sizes fixed at compile time (ipgen_mpc.h's fixed-size forms) returns the
+    run-time-size step's u (the path ipsim and ipgen.mpc run, checked against IPOPT in
+    tests/test_mpc.py) and status to 1e-9 along the simulator's estimates, the pendulum beyond the
+    soft bound at first; in the real-time iteration and in the converged mode (its exact Hessian's
+    gradient and Riccati factorisation are the run-time forms', the rest the fixed ones)."""
+    name = f"qube_soft_{mode}"
+    scene = folder / f"{name}.toml"
+    controller = "soft_bounds = [[1, -0.1, 0.1]]\n" + ('mode = "converged"\n' if mode == "converged" else "")
+    text = QUBE.format(controller=controller, extra="", t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', f'name = "{name}"\nemit = ["c"]'))
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
         assert run(["--scene", str(scene), "-o", str(folder)]) == 0, err.getvalue()
-    assert "#define IPGEN_MPC_SOFT 1" in (folder / "qube_soft.h").read_text()
+    assert "#define IPGEN_MPC_SOFT 1" in (folder / f"{name}.h").read_text()
     columns = _columns(folder)
     estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
     assert np.max(np.abs(estimate[:, 1])) > 0.1  # the pendulum beyond the soft bound at first
+    step = STEP.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
     results, statuses = {}, {}
-    for name, defines in (("soft_fixed", ""), ("soft_runtime", "#define IPGEN_MPC_RUNTIME_SIZES\n")):
-        out = _run(_program(folder, name, defines + SOFT_STEP), estimate, "{!r}")
-        results[name] = np.array([float(v[0]) for v in out])
-        statuses[name] = [v[1] for v in out]
-    difference = np.max(np.abs(results["soft_fixed"] - results["soft_runtime"]))
+    for kind, defines in (("fixed", ""), ("runtime", "#define IPGEN_MPC_RUNTIME_SIZES\n")):
+        out = _run(_program(folder, f"{name}_{kind}", defines + step), estimate, "{!r}")
+        results[kind] = np.array([float(v[0]) for v in out])
+        statuses[kind] = [v[1] for v in out]
+    difference = np.max(np.abs(results["fixed"] - results["runtime"]))
     assert difference <= 1e-9, difference
     # The same statuses: mostly ok, a few QPs at their iteration budget (the soft bound is tight).
-    assert statuses["soft_fixed"] == statuses["soft_runtime"]
-    assert statuses["soft_fixed"].count("0") > 0.9 * len(estimate)
-    assert np.max(np.abs(results["soft_fixed"])) > 1
+    assert statuses["fixed"] == statuses["runtime"]
+    assert statuses["fixed"].count("0") > 0.9 * len(estimate)
+    assert np.max(np.abs(results["fixed"])) > 1
 
 
-def _replay_swing_up(folder: Path, name: str, changes: tuple[tuple[str, str], ...] = ()) -> list[str]:
+def _replay_swing_up(
+    folder: Path, name: str, changes: tuple[tuple[str, str], ...] = ()
+) -> tuple[list[str], str]:
     """The preset `name` (scenes/rigs) with emit = ["c"] and the text `changes` made: its firmware
     entry fed the simulator's counts returns the simulator's volts at every sample, in double to
-    1e-9. Returns the phase at each sample."""
+    1e-9. Returns the phase at each sample and the simulator's summary."""
     preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / f"{name}.toml"
     text = preset.read_text().replace(f'name = "{name}"', f'name = "{name}"\nemit = ["c"]')
     for old, new in changes:
@@ -222,7 +227,7 @@ def _replay_swing_up(folder: Path, name: str, changes: tuple[tuple[str, str], ..
         ["--scene", str(scene), "-o", str(folder)],
         ["run", str(scene), "-o", str(folder / "run"), "--no-plot"],
     ):
-        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
     header, *rows = (folder / "run" / f"{name}.csv").read_text().splitlines()
     names = header.split(",")
@@ -235,7 +240,7 @@ def _replay_swing_up(folder: Path, name: str, changes: tuple[tuple[str, str], ..
     volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
     assert np.max(np.abs(volts)) <= U_MAX
-    return phase
+    return phase, out.getvalue()
 
 
 def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path) -> None:
@@ -245,7 +250,7 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     simulator applied at every sample of the swing, the catch and the hold, in double to 1e-9."""
     require_toolchain()
     require_cc()
-    phase = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup")
+    phase, _ = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup")
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
 
 
@@ -257,10 +262,11 @@ def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_pa
     require_toolchain()
     require_cc()
     pulse = ('km = 0.042                    # V s/rad\n', 'km = 0.042\npulses = [[2.0, 0.05, 0.05]]\n')
-    phase = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup_ekf", (pulse,))
+    phase, summary = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup_ekf", (pulse,))
     held = [i for i, p in enumerate(phase) if p == "hold"]
     assert held and "swing" in phase[held[0] :], "caught, released, swung again"
     assert phase[-1] == "hold", "caught again"
+    assert "(the hold released the link back to the swing 1 time)" in summary
 
 
 def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path: Path) -> None:

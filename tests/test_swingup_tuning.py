@@ -39,7 +39,12 @@ def _qube_plant():  # the QUBE's mechanics (direct drive in N m), ipgen's coordi
 
 
 def test_the_scene_layer_and_the_law_agree_on_the_laws() -> None:
+    import inspect
+
     assert swing.LAWS == energy.LAWS
+    # the default catch angle the scene's release_angle rule compares with
+    default = inspect.signature(energy.energy_swingup).parameters["catch_angle"].default
+    assert default == swing.DEFAULT_CATCH_ANGLE
 
 
 def test_proportional_law_is_quansers_formula_at_the_arm_tip() -> None:

@@ -49,7 +49,8 @@
  * IPGEN_MPC_N, IPGEN_MPC_HARD, IPGEN_MPC_SOFT: a firmware's build, as the C header of a scene
  * with an MPC defines them), every loop over the sizes has constant bounds (the compiler unrolls
  * and strength-reduces them) and ipgen_mpc_check refuses settings of other sizes; undefined (the
- * simulator, Python), the settings' sizes are read at run time. The same code either way. */
+ * simulator, Python), the settings' sizes are read at run time. The same code either way, but for
+ * the fixed-size forms of IPGEN_MPC_FIXED below. */
 #ifdef IPGEN_MPC_NX
 #define IPGEN_MPC_NX_OF(s) ((void)(s), IPGEN_MPC_NX)
 #else
@@ -82,11 +83,14 @@
 #else
 #define IPGEN_MPC_SOFT_OF(s) ((s)->soft_count)
 #endif
-/* Every size fixed: the interior point's passes over the inequalities are specialised (their
- * layout walked stage by stage, passes fused, one division per inequality and iteration:
- * ipgen_mpc_qp's second form). Its rounding differs from the run-time path's. */
+/* Every size fixed and one input (what a scene's C header prints): the step's hot parts have a
+ * second form on local arrays (RK4's sensitivities, the gradient, the residual, the Riccati
+ * recursion) and the interior point's passes over the inequalities are specialised (their layout
+ * walked stage by stage, passes fused, one division per inequality and iteration: ipgen_mpc_qp's
+ * second form). The same algorithm; its rounding differs from the run-time forms'. Other fixed
+ * sizes (more inputs) use the run-time forms with constant bounds. */
 #if defined(IPGEN_MPC_NX) && defined(IPGEN_MPC_NU) && defined(IPGEN_MPC_N) && defined(IPGEN_MPC_HARD) && \
-    defined(IPGEN_MPC_SOFT)
+    defined(IPGEN_MPC_SOFT) && IPGEN_MPC_SCALAR_INPUT
 #define IPGEN_MPC_FIXED 1
 #endif
 
@@ -909,19 +913,9 @@ IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor_fixed(const ipgen_mpc_settings *s, 
         Se[i][j] = v;
       }
     }
-#if IPGEN_MPC_SCALAR_INPUT
-    if (!(Re[0] > (ipgen_mpc_real)0)) return 1;
+    if (!(Re[0] > (ipgen_mpc_real)0)) return 1; /* nu = 1 (IPGEN_MPC_FIXED): Re a number, 1 / Re kept */
     Re[0] = (ipgen_mpc_real)1 / Re[0];
     for (j = 0; j < IPGEN_MPC_NX; ++j) Kl[0][j] = -(Se[0][j] * Re[0]);
-#else
-    if (ipgen_mpc_cholesky(IPGEN_MPC_NU, Re) != 0) return 1;
-    for (j = 0; j < IPGEN_MPC_NX; ++j) { /* K = -Re^-1 Se, column by column */
-      ipgen_mpc_real g[IPGEN_MPC_NU];
-      for (i = 0; i < IPGEN_MPC_NU; ++i) g[i] = Se[i][j];
-      ipgen_mpc_cholesky_solve(IPGEN_MPC_NU, Re, g);
-      for (i = 0; i < IPGEN_MPC_NU; ++i) Kl[i][j] = -g[i];
-    }
-#endif
     for (i = 0; i < IPGEN_MPC_NU * IPGEN_MPC_NU; ++i) Lk[i] = Re[i];
     for (i = 0; i < IPGEN_MPC_NU; ++i)
       for (j = 0; j < IPGEN_MPC_NX; ++j) K[i * IPGEN_MPC_NX + j] = Kl[i][j];
@@ -955,11 +949,7 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve_fixed(const ipgen_mpc_layout *l, co
       g[i] = v;
       f[i] = v;
     }
-#if IPGEN_MPC_SCALAR_INPUT
-    f[0] *= l->L[k]; /* Re^-1 */
-#else
-    ipgen_mpc_cholesky_solve(IPGEN_MPC_NU, l->L + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NU, f);
-#endif
+    f[0] *= l->L[k]; /* Re^-1 (nu = 1) */
     for (i = 0; i < IPGEN_MPC_NU; ++i) l->kff[(long)k * IPGEN_MPC_NU + i] = -f[i];
     if (k == 0) break;
     for (i = 0; i < IPGEN_MPC_NX; ++i) {

@@ -179,7 +179,8 @@ swingup = energy|trajectory with swingup.* (written by ipgen from a scene's [swi
 ends swingup.hold s after the hold phase begins, divergence is checked in the hold phase, and a
 tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5);
 with controller = mpc too, the MPC catches and holds (every controller.period, a whole multiple of
-the swing-up's period) instead of the hold LQR.
+the swing-up's period) instead of the hold LQR; with swingup.release_angle (energy), a hold whose
+link falls past it from the caught upright gives the link back to the swing, for another catch.
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
 (with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
@@ -705,8 +706,9 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
                 scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
                 scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
     if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (%s) from t = %.6g s", scene.mpc ? "MPC" : "LQR", state.hold_since);
+    else if (state.releases > 0) std::printf("in the swing at the end");
     else std::printf("never reached the hold phase (still in %s at the end)", ipsim::to_string(state.phase));
-    if (state.releases > 0) std::printf(" after %d release%s back to the swing", state.releases, state.releases == 1 ? "" : "s");
+    if (state.releases > 0) std::printf(" (the hold released the link back to the swing %d time%s)", state.releases, state.releases == 1 ? "" : "s");
     std::printf("; largest |u| %.6g%s.", result.max_abs_input / per, scene.motor ? " V" : "");
   }
   print_loop(scene);

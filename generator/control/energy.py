@@ -21,7 +21,8 @@ a zero-order hold (matrix exponential): the energy method runs without CasADi.
 
 Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
 the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
-and stays there ("swing" → "hold").
+and stays there ("swing" → "hold"), or with `release_angle` swings again once the link falls more
+than that from it ("hold" → "swing").
 
 Each sample runs the law as written once in C (cpp/include/ipgen_loop.h's ipgen_loop_swingup_step,
 the code of the firmware header and the simulator) through ctypes (`ipgen.common.loop_runtime`,
@@ -136,7 +137,8 @@ class EnergySwingUp:
         Returns
         -------
         tuple of (float, str)
-            u, clipped to ±u_max, and "swing" or "hold" (caught: the LQR hold from then on).
+            u, clipped to ±u_max, and "swing" or "hold" (caught: the LQR hold from then on, but
+            for a release past `release_angle`).
         """
         import numpy as np
 
@@ -207,7 +209,7 @@ def energy_swingup(
     is the base's viscous damping of `plant` (for a dc_motor's folded model: the arm's damping
     plus the back-EMF kt km / Rm). ω_d = 0 (default) gives the stall acceleration.
     `energy_target` E0 [J, relative to upright at rest; default 0].
-    `release_angle` [rad, catch_angle < it ≤ π/2; default None: the hold is for good]: a hold that
+    `release_angle` [rad, catch_angle < it < π/2; default None: the hold is for good]: a hold that
     lets the link fall more than this from the upright it caught gives it back to the energy law,
     which swings it up for another catch.
 
@@ -241,10 +243,10 @@ def energy_swingup(
         if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
     release = 0.0 if release_angle is None else finite_number("release_angle", release_angle)
-    if release_angle is not None and not float(catch_angle) < release <= math.pi / 2:
+    if release_angle is not None and not float(catch_angle) < release < math.pi / 2:
         raise PlanError(
             f"release_angle = {release_angle!r}: expected more than catch_angle ({float(catch_angle):g} rad) "
-            f"and at most π/2 rad (the simulator stops a hold past π/2)"
+            f"and less than π/2 rad (the simulator stops a hold past π/2)"
         )
     g = plant.g
     if not g > 0:  # k_E below divides by g: no gravity, no energy to pump

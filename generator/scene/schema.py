@@ -764,11 +764,11 @@ class SwingupTable(Table):
     catch_rate: Real(gt=0, says="must be > 0 rad/s") | None = Field(
         None, description="energy only: ... and within this link rate [rad/s] (default 3)"
     )
-    release_angle: Real(gt=0, le=math.pi / 2, says="must be > 0 and <= π/2 rad") | None = Field(
+    release_angle: Real(gt=0, lt=math.pi / 2, says="must be > 0 and < π/2 rad") | None = Field(
         None,
         description="energy only: a hold that lets the link fall this far [rad] from the upright it "
-        "caught gives it back to the swing, for another catch (more than catch_angle; default: "
-        "the hold is for good)",
+        "caught gives it back to the swing, for another catch (more than catch_angle, below the "
+        "simulator's divergence angle π/2; default: the hold is for good)",
     )
     gain_position: Real(ge=0, says="must be >= 0") | None = Field(
         None, description="energy only: centring k_x [1/s²] of the base (default 1)"

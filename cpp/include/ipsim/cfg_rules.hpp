@@ -178,7 +178,7 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // swingup.accel_max
     {0.0, true, kInf, false, false},  // swingup.catch_angle
     {0.0, true, kInf, false, false},  // swingup.catch_rate
-    {0.0, true, 1.5707963267948966, false, false},  // swingup.release_angle
+    {0.0, true, 1.5707963267948966, true, false},  // swingup.release_angle
     {0.0, false, kInf, false, false},  // actuator.lag
     {0.0, false, kInf, false, true},  // sensors.measured
     {0.0, false, 0.0, false, false},  // sensors.resolution
@@ -222,7 +222,7 @@ inline constexpr Rule kRules[] = {
     {"swingup.accel_max", "[swingup] accel_max", "> 0", 29, 1},
     {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 30, 1},
     {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 31, 1},
-    {"swingup.release_angle", "[swingup] release_angle", "> 0 and <= 1.5708", 32, 1},
+    {"swingup.release_angle", "[swingup] release_angle", "> 0 and < 1.5708", 32, 1},
     {"actuator.lag", "[actuator] lag", ">= 0", 33, 1},
     {"sensors.measured", "[sensors] measured", "a whole number >= 0", 34, 1},
     {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 35, 2},

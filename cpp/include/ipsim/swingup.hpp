@@ -319,6 +319,9 @@ IPSIM_DECL std::vector<std::string> SwingUp::problems(int state_size) const {
     positive("catch_rate", catch_rate);
     if (!(std::isfinite(release_angle) && release_angle >= 0.0)) {
       found.push_back("invalid setting swingup.release_angle = " + detail::format_number(release_angle) + ": must be finite and >= 0");
+    } else if (release_angle > 0.0 && !(release_angle > catch_angle)) {
+      found.push_back("invalid setting swingup.release_angle = " + detail::format_number(release_angle) +
+                      ": must be more than swingup.catch_angle (the hold would give back the link it has just caught)");
     }
     for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
                                       {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
