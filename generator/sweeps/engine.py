@@ -56,6 +56,23 @@ def _unreachable(address: str, why: str) -> SweepError:
     )
 
 
+def _listening(address: str, seconds: float) -> None:
+    """A SweepError at once when nothing listens at a TCP-based `address` (refused, unknown host):
+    Dask's own connect retries a refused connection until its timeout, 5 s of waiting for a typo."""
+    import socket
+
+    scheme, _, location = address.partition("://")
+    if scheme not in ("tcp", "tls", "ws", "wss"):
+        return
+    host, _, port = location.rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=seconds).close()
+    except TimeoutError:
+        raise _unreachable(address, f"no answer within {seconds:g} s") from None
+    except OSError as error:  # refused, unreachable, unknown host
+        raise _unreachable(address, str(error) or type(error).__name__) from None
+
+
 def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
     """A SweepError unless a Dask scheduler answers at `address` within `seconds` in all
     (connection, handshake and its identity): a listener that accepts and never answers, or no
@@ -75,6 +92,7 @@ def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
 
     from concurrent.futures import ThreadPoolExecutor
 
+    _listening(address, seconds)
     try:
         with ThreadPoolExecutor(max_workers=1) as thread:
             thread.submit(answered).result()
