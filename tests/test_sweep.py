@@ -438,11 +438,16 @@ def test_a_dask_local_cluster_gives_the_local_table(scene: Path, tmp_path: Path)
 
 
 def test_no_scheduler_at_the_address_is_one_line(scene: Path, tmp_path: Path, capsys) -> None:
+    """Nothing listening (the connection refused): the one line at once, not after Dask's 5 s."""
+    import time
+
     pytest.importorskip("distributed")
+    started = time.monotonic()
     status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), "--vary", "initial.theta[1]=0", "--dask",
                   "tcp://127.0.0.1:9"])  # fmt: skip
     err = capsys.readouterr().err
     assert status == 2 and "cannot reach a Dask scheduler" in err and err.count("\n") == 1
+    assert "refused" in err and time.monotonic() - started < 2.5
 
 
 def test_delay_levels_are_whole_multiples_of_the_period() -> None:
