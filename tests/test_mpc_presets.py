@@ -110,21 +110,24 @@ def _hold_cost(
     return float(np.sum(x**2 @ np.asarray(q)) + r * np.sum(u**2))
 
 
+@pytest.mark.parametrize("preset", ["qube_servo2_mpc_swingup", "qube_servo2_mpc_swingup_ekf"])
 def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
-    rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray], tmp_path: Path
+    preset: str, rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray], tmp_path: Path
 ) -> None:
     """Issue 47's bound: the real-time iteration's closed-loop cost over the swing-up (from the
     catch, which the energy law makes the same in both) within 5 % of the same scene's with the
-    MPC iterated to convergence (mode = "converged") at every sample."""
-    text = SWINGUP.read_text()
+    MPC iterated to convergence (mode = "converged") at every sample; for both QUBE presets."""
+    scene = SWINGUP.with_name(f"{preset}.toml")
+    rti_run = rti_swing_up if preset == SWINGUP.stem else _swing_up(scene, tmp_path / "rti")
+    text = scene.read_text()
     controller = tomllib.loads(text)["controller"]
     converged = tmp_path / "qube_converged.toml"
     converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
     summary, column, phase = _swing_up(converged, tmp_path / "out")
     assert "converged" in summary and "every status ok" in summary
     weights = (controller["q"], controller["r"], controller["period"])
-    rti, full = _hold_cost(*rti_swing_up[1:], *weights), _hold_cost(column, phase, *weights)
-    catch = rti_swing_up[1]["t"][int(np.argmax(rti_swing_up[2] == "hold"))]
+    rti, full = _hold_cost(*rti_run[1:], *weights), _hold_cost(column, phase, *weights)
+    catch = rti_run[1]["t"][int(np.argmax(rti_run[2] == "hold"))]
     assert column["t"][int(np.argmax(phase == "hold"))] == catch  # the same swing
     assert abs(rti / full - 1) <= 0.05, (rti, full)
 
