@@ -11,6 +11,7 @@ import io
 import math
 import re
 import tomllib
+from collections.abc import Callable
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
@@ -61,24 +62,29 @@ def _swing_up(scene: Path, folder: Path) -> tuple[str, dict[str, np.ndarray], np
     return out.getvalue(), {name: data[:, i] for i, name in enumerate(names[:-1])}, phase
 
 
+Run = tuple[str, dict[str, np.ndarray], np.ndarray]
+
+
 @pytest.fixture(scope="module")
-def rti_swing_up(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, dict[str, np.ndarray], np.ndarray]:
-    """The shipped preset's run (real-time iteration), shared by the tests below."""
-    return _swing_up(SWINGUP, tmp_path_factory.mktemp("rti"))
+def rti_swing_up(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Run]:
+    """Each QUBE swing-up preset's run (real-time iteration), made once and shared by the tests below."""
+    runs: dict[str, Run] = {}
+
+    def of(preset: str) -> Run:
+        if preset not in runs:
+            runs[preset] = _swing_up(SWINGUP.with_name(f"{preset}.toml"), tmp_path_factory.mktemp(preset))
+        return runs[preset]
+
+    return of
 
 
 @pytest.mark.parametrize("preset", ["qube_servo2_mpc_swingup", "qube_servo2_mpc_swingup_ekf"])
 def test_qube_swing_up_caught_by_mpc_within_its_constraints(
-    preset: str,
-    rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray],
-    tmp_path: Path,
+    preset: str, rti_swing_up: Callable[[str], Run]
 ) -> None:
     """Each QUBE swing-up preset from hanging at rest: |u| within 10 V (on it in the swing), the arm
     within its travel, caught by the MPC before 3 s and held upright for the scene's 5 s."""
-    if preset == SWINGUP.stem:
-        summary, column, phase = rti_swing_up
-    else:
-        summary, column, phase = _swing_up(SWINGUP.with_name(f"{preset}.toml"), tmp_path)
+    summary, column, phase = rti_swing_up(preset)
     assert "every status ok" in summary and "hold (MPC) from t = " in summary
     t, arm, link, u = column["t"], column["theta0"], column["theta1"], column["u"]
     assert link[0] == pytest.approx(np.pi) and column["dtheta1"][0] == 0.0  # hanging at rest
@@ -112,13 +118,13 @@ def _hold_cost(
 
 @pytest.mark.parametrize("preset", ["qube_servo2_mpc_swingup", "qube_servo2_mpc_swingup_ekf"])
 def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
-    preset: str, rti_swing_up: tuple[str, dict[str, np.ndarray], np.ndarray], tmp_path: Path
+    preset: str, rti_swing_up: Callable[[str], Run], tmp_path: Path
 ) -> None:
     """Issue 47's bound: the real-time iteration's closed-loop cost over the swing-up (from the
     catch, which the energy law makes the same in both) within 5 % of the same scene's with the
     MPC iterated to convergence (mode = "converged") at every sample; for both QUBE presets."""
     scene = SWINGUP.with_name(f"{preset}.toml")
-    rti_run = rti_swing_up if preset == SWINGUP.stem else _swing_up(scene, tmp_path / "rti")
+    rti_run = rti_swing_up(preset)
     text = scene.read_text()
     controller = tomllib.loads(text)["controller"]
     converged = tmp_path / "qube_converged.toml"

@@ -283,7 +283,7 @@ def test_a_listener_that_never_answers_is_an_error_within_5_s(scene: Path, tmp_p
         listener.close()
     assert done.returncode == 2 and _one_line(done.stderr), done.stderr[-2000:]
     assert "cannot reach a Dask scheduler" in done.stderr and not out.exists()
-    assert accepted and seconds < 15
+    assert len(accepted) >= 2 and seconds < 15  # the plain connection, then Dask's
 
 
 # ---------------------------------------------------------------------------- OUT and the policy

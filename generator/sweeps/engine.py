@@ -56,23 +56,6 @@ def _unreachable(address: str, why: str) -> SweepError:
     )
 
 
-def _listening(address: str, seconds: float) -> None:
-    """A SweepError at once when nothing listens at a TCP-based `address` (refused, unknown host):
-    Dask's own connect retries a refused connection until its timeout, 5 s of waiting for a typo."""
-    import socket
-
-    scheme, _, location = address.partition("://")
-    if scheme not in ("tcp", "tls", "ws", "wss"):
-        return
-    host, _, port = location.rpartition(":")
-    try:
-        socket.create_connection((host.strip("[]"), int(port)), timeout=seconds).close()
-    except TimeoutError:
-        raise _unreachable(address, f"no answer within {seconds:g} s") from None
-    except OSError as error:  # refused, unreachable, unknown host
-        raise _unreachable(address, str(error) or type(error).__name__) from None
-
-
 def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
     """A SweepError unless a Dask scheduler answers at `address` within `seconds` in all
     (connection, handshake and its identity): a listener that accepts and never answers, or no
@@ -82,7 +65,16 @@ def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
     from distributed.core import rpc
     from distributed.security import Security
 
+    scheme, _, location = address.partition("://")
+    host, _, port = location.rpartition(":")
+
     async def identity() -> None:
+        # A plain connection first: nothing listening is refused at once (Dask's own connect
+        # retries a refused connection until its timeout); the same deadline covers both.
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            _, writer = await asyncio.open_connection(host.strip("[]"), int(port))
+            writer.close()
+            await writer.wait_closed()
         args = Security().get_connection_args("client")
         async with rpc(address, connection_args=args, timeout=seconds) as scheduler:
             await scheduler.identity()
@@ -92,13 +84,14 @@ def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
 
     from concurrent.futures import ThreadPoolExecutor
 
-    _listening(address, seconds)
     try:
         with ThreadPoolExecutor(max_workers=1) as thread:
             thread.submit(answered).result()
     except TimeoutError:
         raise _unreachable(address, f"no answer within {seconds:g} s") from None
-    except (OSError, ValueError, RuntimeError, TypeError) as error:  # refused, unknown host, bad TLS
+    except ConnectionRefusedError:
+        raise _unreachable(address, "connection refused: nothing listens at that port") from None
+    except (OSError, ValueError, RuntimeError, TypeError) as error:  # unknown host, bad TLS
         raise _unreachable(address, str(error) or type(error).__name__) from None
 
 
