@@ -1190,15 +1190,15 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
 #undef IPGEN_MPC_SOFT_ROW
     if ((l->exact ? ipgen_mpc_riccati_factor(s, l) : ipgen_mpc_riccati_factor_fixed(s, l)) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
-    /* predictor */
-    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
+/* the slacks' step from the direction (the predictor's and the corrector's) */
+#define IPGEN_MPC_SOFT_STEP(f, var, sign, j)                                                                 \
   {                                                                                                          \
     const long r_ = first_soft + (f);                                                                        \
     dsig[f] = ((ipgen_mpc_real)(sign) * lam[r_] * inv[r_] * dir[var] - dsig[f]) / hs[f];                     \
   }
-    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
-#undef IPGEN_MPC_SOFT_ROW
+    /* predictor */
+    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
 #define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
   {                                                                                               \
     const ipgen_mpc_real ti = t[i], li = lam[i], r = rp[i], cd = IPGEN_MPC_C(i, var, sign, soft, kind, dir, dsig); \
@@ -1238,13 +1238,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
 #undef IPGEN_MPC_SOFT_ROW
     ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-#define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
-  {                                                                                                          \
-    const long r_ = first_soft + (f);                                                                        \
-    dsig[f] = ((ipgen_mpc_real)(sign) * lam[r_] * inv[r_] * dir[var] - dsig[f]) / hs[f];                     \
-  }
-    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
-#undef IPGEN_MPC_SOFT_ROW
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+#undef IPGEN_MPC_SOFT_STEP
     alpha = one;
 #define IPGEN_MPC_WTERM(i) w[i]
 #define IPGEN_MPC_SUMS
