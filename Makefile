@@ -258,10 +258,10 @@ bench-embedded: venv
 	$(PY) -m bench.embedded
 
 ## One real-time iteration of the MPC (the QUBE preset, N = 30, float) on a Cortex-M4F under QEMU:
-## instructions, cycles, RAM and flash (bench/mpc_m4.py, docs/bench/mpc.md).
+## instructions, cycles, RAM, flash and where the instructions go (bench/mpc_m4.py, docs/bench/mpc.md).
 bench-mpc-m4: venv
 	@$(call apt_install,$(ARM_PACKAGES))
-	$(PY) -m bench.mpc_m4
+	$(PY) -m bench.mpc_m4 --profile
 
 ## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
 ## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).

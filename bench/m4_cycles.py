@@ -83,6 +83,9 @@ class CallCounts:
 
     instructions: tuple[int, ...]
     cycles: tuple[int, ...]
+    # With `profile`: the instructions of the calls after the first, by the function addr2line
+    # names for each address (the innermost inlined one), most first.
+    functions: tuple[tuple[str, int], ...] = ()
 
 
 def _registers(operands: str) -> int:
@@ -142,9 +145,24 @@ def _symbol(elf: Path, name: str) -> tuple[int, int]:
     raise LookupError(name)
 
 
-def count(header: Path, prelude: str, call: str, calls: int) -> CallCounts:
+def _functions(elf: Path, executed: dict[int, int]) -> tuple[tuple[str, int], ...]:
+    """The executed instructions by function: addr2line (-f, the innermost inlined frame) of each
+    address, summed, most first."""
+    addresses = sorted(executed)
+    out = subprocess.run(
+        ["arm-none-eabi-addr2line", "-f", "-e", str(elf), *(hex(a) for a in addresses)],
+        check=True, capture_output=True, text=True,
+    ).stdout.splitlines()  # fmt: skip
+    totals: dict[str, int] = {}
+    for i, address in enumerate(addresses):
+        totals[out[2 * i]] = totals.get(out[2 * i], 0) + executed[address]
+    return tuple(sorted(totals.items(), key=lambda item: -item[1]))
+
+
+def count(header: Path, prelude: str, call: str, calls: int, profile: bool = False) -> CallCounts:
     """Build `prelude` + a `bench_call(long k)` with body `call` against the folder of `header`
-    and run it `calls` times on QEMU's Cortex-M4; the per-call counts."""
+    and run it `calls` times on QEMU's Cortex-M4; the per-call counts (`profile`: and where the
+    calls after the first go, by function; built with -g, which changes no instruction)."""
     with tempfile.TemporaryDirectory(prefix="ipgen-m4.") as folder:
         work = Path(folder)
         (work / "link.ld").write_text(LINKER_SCRIPT)
@@ -152,8 +170,8 @@ def count(header: Path, prelude: str, call: str, calls: int) -> CallCounts:
         elf = work / "main.elf"
         subprocess.run(
             [CC, "-std=c99", *TARGET, "-Wall", "-Wextra", "-Werror", "-nostartfiles",
-             "-T", str(work / "link.ld"), f"-I{header.parent}", str(work / "main.c"), "-o", str(elf),
-             "-lm", "-lc", "-lgcc"],
+             *(["-g"] if profile else []), "-T", str(work / "link.ld"), f"-I{header.parent}",
+             str(work / "main.c"), "-o", str(elf), "-lm", "-lc", "-lgcc"],
             check=True, capture_output=True, text=True,
         )  # fmt: skip
         table = _disassembly(elf)
@@ -168,6 +186,7 @@ def count(header: Path, prelude: str, call: str, calls: int) -> CallCounts:
         cycles: list[int] = []
         previous: Instruction | None = None
         previous_pc = -1
+        executed: dict[int, int] = {}  # address -> times, the calls after the first (profile)
         assert process.stdout is not None
         for line in process.stdout:
             match = _TRACE.match(line)
@@ -186,9 +205,12 @@ def count(header: Path, prelude: str, call: str, calls: int) -> CallCounts:
             if step is not None and instructions:
                 instructions[-1] += 1
                 cycles[-1] += step.cycles
+                if profile and len(instructions) > 1:
+                    executed[pc] = executed.get(pc, 0) + 1
             previous, previous_pc = step, pc
         if process.wait(timeout=600) != 0:
             raise RuntimeError(f"{QEMU} exited with status {process.returncode}")
+        functions = _functions(elf, executed) if profile else ()
     if len(instructions) != calls:
         raise RuntimeError(f"counted {len(instructions)} calls, expected {calls}")
-    return CallCounts(tuple(instructions), tuple(cycles))
+    return CallCounts(tuple(instructions), tuple(cycles), functions)

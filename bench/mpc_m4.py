@@ -17,7 +17,9 @@ workspace, IPGEN_MPC_WORK reals, and its info) from the ELF's symbol, plus the s
 (gcc -fstack-usage); flash: the ELF's text (the whole program: the step, the model, newlib's
 sqrtf/sinf/cosf) and bench_call's own size.
 
-Replaces the section between the markers below in --out (docs/bench/mpc.md).
+--profile adds where the RTI steps' instructions go, by function (addr2line's name of each
+executed address, the innermost inlined function; the ELF built with -g, which changes no
+instruction). Replaces the section between the markers below in --out (docs/bench/mpc.md).
 """
 
 from __future__ import annotations
@@ -136,18 +138,30 @@ def _sizes(header: Path, prelude: str) -> dict[str, int]:
         }
 
 
+def _profile_lines(functions: tuple[tuple[str, int], ...]) -> list[str]:
+    """With --profile: the RTI steps' instructions by function (the innermost inlined one)."""
+    if not functions:
+        return []
+    total = sum(n for _, n in functions)
+    shown = [(name, n) for name, n in functions if n >= 0.01 * total]
+    shares = ", ".join(f"`{name}` {100 * n / total:.0f} %" for name, n in shown)
+    head = "Where the RTI steps' instructions go (`--profile`, by function, those of 1 % and more)"
+    return ["", f"{head}: {shares}."]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=21, help="calls counted (the first is the cold start)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
-    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls the fixed sizes)")
+    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls fixed sizes)")
+    parser.add_argument("--profile", action="store_true", help="and the RTI steps' instructions by function")
     args = parser.parse_args()
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
         header, states = _scene(Path(folder))
         states = states[: args.samples]
         prelude = _prelude(states)
-        counts = m4_cycles.count(header, prelude, CALL, len(states))
+        counts = m4_cycles.count(header, prelude, CALL, len(states), profile=args.profile)
         sizes = _sizes(header, prelude)
     rti_i, rti_c = counts.instructions[1:], counts.cycles[1:]
     us = [c / CLOCK_MHZ for c in rti_c]
@@ -179,6 +193,7 @@ def main() -> None:
         f"step, the model, newlib's math; the {sizes['states_table']:,}-byte table of test states "
         f"included), of which the step and the model (bench_call and the functions of the header it "
         f"calls) {sizes['step']:,}.",
+        *_profile_lines(counts.functions),
         END,
     ]
     text = args.out.read_text() if args.out.exists() else ""
