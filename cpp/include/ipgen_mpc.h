@@ -258,11 +258,7 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   }
 #undef IPGEN_MPC_TAKE
   l->exact = 0;
-#ifdef IPGEN_MPC_FIXED
-  l->nu_tmp = l->p; /* rhs is formed before the adjoint pass there; p is the Riccati solve's */
-#else
-  l->nu_tmp = l->rhs; /* the adjoint pass runs before rhs is formed */
-#endif
+  l->nu_tmp = l->rhs; /* the adjoint pass runs before rhs is formed (the fixed forms keep theirs local) */
   return (long)(w - work);
 }
 

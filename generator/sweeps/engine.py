@@ -38,15 +38,21 @@ def check_address(address: str) -> str:
     text = address.strip()
     if text and "://" not in text:
         text = f"tcp://{text}"
-    scheme, _, location = text.partition("://")
-    host, colon, port = location.rpartition(":")
+    scheme, host, port = _parts(text)
     number = int(port) if port.isascii() and port.isdigit() else 0
-    if scheme not in SCHEMES or not colon or not host.strip("[]") or not 0 < number < 65536:
+    if scheme not in SCHEMES or not host or not 0 < number < 65536:
         raise SweepError(
             f"--dask {abbreviate(address)!r} is not a scheduler address: write SCHEME://HOST:PORT with "
             f"SCHEME one of {', '.join(SCHEMES)}, e.g. tcp://10.0.0.5:8786 (docs/sweep.md)"
         )
     return text
+
+
+def _parts(address: str) -> tuple[str, str, str]:
+    """SCHEME://HOST:PORT as (scheme, host without IPv6 brackets, port text); "" where absent."""
+    scheme, _, location = address.partition("://")
+    host, colon, port = location.rpartition(":")
+    return scheme, host.strip("[]") if colon else "", port if colon else ""
 
 
 def _unreachable(address: str, why: str) -> SweepError:
@@ -65,14 +71,13 @@ def probe(address: str, seconds: float = CONNECT_SECONDS) -> None:
     from distributed.core import rpc
     from distributed.security import Security
 
-    scheme, _, location = address.partition("://")
-    host, _, port = location.rpartition(":")
+    scheme, host, port = _parts(address)
 
     async def identity() -> None:
         # A plain connection first: nothing listening is refused at once (Dask's own connect
         # retries a refused connection until its timeout); the same deadline covers both.
         if scheme in ("tcp", "tls", "ws", "wss"):
-            _, writer = await asyncio.open_connection(host.strip("[]"), int(port))
+            _, writer = await asyncio.open_connection(host, int(port))
             writer.close()
             await writer.wait_closed()
         args = Security().get_connection_args("client")
