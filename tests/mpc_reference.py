@@ -39,9 +39,9 @@ def flow(controller: Mpc) -> Any:
 
 
 class IpoptReference:
-    """The NLP of `controller`'s problem with x_0 a parameter. `solve(x0)` returns (u_0, the
-    inputs); `states` then holds the states (nx × (N + 1)) and `objective` the cost. `F` is the
-    RK4 map (CasADi)."""
+    """The NLP of `controller`'s problem with x_0 and the reference per stage parameters.
+    `solve(x0, reference)` returns (u_0, the inputs); `states` then holds the states (nx × (N + 1))
+    and `objective` the cost. `F` is the RK4 map (CasADi)."""
 
     def __init__(self, controller: Mpc) -> None:
         ca = import_casadi()
@@ -49,18 +49,19 @@ class IpoptReference:
         nx, N = c.nx, c.N
         self.F = flow(c)
         X, U, x0 = ca.SX.sym("X", nx, N + 1), ca.SX.sym("U", 1, N), ca.SX.sym("x0", nx)
+        XR, UR = ca.SX.sym("XR", nx, N + 1), ca.SX.sym("UR", 1, N)  # x_ref_k, u_ref_k
         ns = len(c.soft)
         above, below = ca.SX.sym("above", ns, N), ca.SX.sym("below", ns, N)
-        Q, R, P, xr = (ca.DM(np.asarray(v, float)) for v in (c.Q, c.R, c.P, c.x_ref))
+        Q, R, P = (ca.DM(np.asarray(v, float)) for v in (c.Q, c.R, c.P))
         cost = 0
         constraints, lower, upper = [X[:, 0] - x0], [np.zeros(nx)], [np.zeros(nx)]
         for k in range(N):
-            e = X[:, k] - xr
-            cost += ca.mtimes([e.T, Q, e]) + R[0, 0] * U[0, k] ** 2
+            e = X[:, k] - XR[:, k]
+            cost += ca.mtimes([e.T, Q, e]) + R[0, 0] * (U[0, k] - UR[0, k]) ** 2
             constraints.append(self.F(X[:, k], U[0, k]) - X[:, k + 1])
             lower.append(np.zeros(nx))
             upper.append(np.zeros(nx))
-        e = X[:, N] - xr
+        e = X[:, N] - XR[:, N]
         cost += ca.mtimes([e.T, P, e])
         rho1, rho2 = c.soft_penalty
         for j, (index, lo, hi) in enumerate(c.soft):
@@ -77,19 +78,32 @@ class IpoptReference:
         self.lbx = np.concatenate([x_lo.T.reshape(-1), np.full(N, c.u_min), np.zeros(2 * ns * N)])
         self.ubx = np.concatenate([x_hi.T.reshape(-1), np.full(N, c.u_max), np.full(2 * ns * N, np.inf)])
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
-        problem = {"x": variables, "p": x0, "f": cost, "g": ca.vertcat(*[ca.vec(g) for g in constraints])}
+        parameters = ca.vertcat(x0, ca.vec(XR), ca.vec(UR))
+        problem = {"x": variables, "p": parameters, "f": cost, "g": ca.vertcat(*[ca.vec(g) for g in constraints])}
         options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
                    "ipopt.constr_viol_tol": 1e-12, "ipopt.max_iter": 500}  # fmt: skip
         self.solver = ca.nlpsol("reference", "ipopt", problem, options)
         self.nx, self.N, self.ns = nx, N, ns
+        self.x_ref, self.u_ref = np.asarray(c.x_ref, float), np.asarray(c.u_ref, float)
         self.states = np.zeros((nx, N + 1))
 
-    def solve(self, x0: np.ndarray) -> tuple[float, np.ndarray]:
-        """(u_0, every u_k) of the problem from x0, IPOPT started from x_k = x0, u_k = 0."""
+    def solve(self, x0: np.ndarray, reference: Any = None) -> tuple[float, np.ndarray]:
+        """(u_0, every u_k) of the problem from x0 about the controller's x_ref, u_ref, IPOPT
+        started from x_k = x0, u_k = 0; or about a reference per stage ((N + 1) × nx states, N
+        inputs), IPOPT started from it (x_k, u_k its rows, u clipped to its bounds: where
+        ipgen_mpc_track starts cold, so that both find the same local minimum of a nonconvex
+        problem)."""
         nx, N = self.nx, self.N
-        start = np.concatenate([np.tile(np.asarray(x0, float), N + 1), np.zeros(N + 2 * self.ns * N)])
+        if reference is None:
+            xs, us = np.tile(self.x_ref, (N + 1, 1)), np.full(N, self.u_ref[0])
+            guess = np.concatenate([np.tile(np.asarray(x0, float), N + 1), np.zeros(N)])
+        else:
+            xs, us = (np.asarray(v, float) for v in reference)
+            guess = np.concatenate([xs.reshape(-1), np.clip(us.reshape(-1), self.lbx[nx * (N + 1)], self.ubx[nx * (N + 1)])])
+        parameters = np.concatenate([np.asarray(x0, float), xs.reshape(-1), us.reshape(-1)])
+        start = np.concatenate([guess, np.zeros(2 * self.ns * N)])
         result = self.solver(
-            x0=start, p=np.asarray(x0, float), lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg
+            x0=start, p=parameters, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg
         )
         if not self.solver.stats()["success"]:
             raise RuntimeError(f"IPOPT failed from {x0}: {self.solver.stats()['return_status']}")

@@ -109,6 +109,56 @@ def test_the_converged_mode_equals_ipopt(case: str) -> None:
     assert soft_violated >= 3 if controller.soft else soft_violated == 0, soft_violated
 
 
+def rollout(controller: Mpc, x0: np.ndarray, inputs: np.ndarray) -> np.ndarray:
+    """The states x_0..x_N of the controller's own RK4 map from x0 under `inputs` (a plan's)."""
+    states = [np.asarray(x0, float)]
+    for u in inputs:
+        states.append(controller.rk4(states[-1], float(u))[0])
+    return np.array(states)
+
+
+@pytest.mark.parametrize("case", ["qube", "cdip"])
+def test_tracking_a_reference_per_stage_equals_ipopt(case: str) -> None:
+    """ipgen_mpc_track: the reference a plan gives (x_ref_k, u_ref_k per stage) in the converged
+    mode against IPOPT with the same reference, from states off the plan; the bounds active."""
+    make, lo, hi = CASES[case]
+    controller = make(mode="converged", sqp_iterations=200)
+    reference = IpoptReference(controller)
+    rng = np.random.default_rng(4747)
+    N, u_max = controller.N, controller.u_max
+    u_active = 0
+    for _ in range(6):
+        times = np.arange(N) * controller.period
+        plan_x = np.full((N + 1, controller.nx), np.inf)
+        while np.max(np.abs(plan_x[:, 0])) > 0.9:  # a plan within the base's travel, as planned ones are
+            start = rng.uniform(lo, hi) / 2
+            phase = rng.uniform(0, 2 * np.pi)
+            plan_u = u_max * 0.98 * np.sin(2 * np.pi * times / (N * controller.period) + phase)
+            plan_x = rollout(controller, start, plan_u)
+        x = plan_x[0] + rng.uniform(lo, hi) / 2  # off the plan (near it: one local minimum)
+        x[0] = np.clip(x[0], -0.95, 0.95)  # the base within its travel
+        u = controller.solve(x, (plan_x, plan_u))
+        assert controller.info is not None and controller.info.status in ("ok", "SQP budget reached"), x
+        u_ipopt, inputs = reference.solve(x, (plan_x, plan_u))
+        assert abs(u - u_ipopt) <= AGREEMENT, (x, u, u_ipopt)
+        if controller.info.status == "ok":
+            assert abs(controller.cost((plan_x, plan_u)) - reference.objective) <= 1e-8 * max(1.0, reference.objective)
+        u_active += bool(np.any(np.abs(inputs) > u_max - 1e-6))
+        # the constant reference's solution differs: the reference per stage was used
+        assert abs(controller.solve(x) - u) > 1e-3
+    assert u_active >= 1, u_active  # the input bound mattered
+
+
+def test_a_bad_reference_is_refused_in_one_line() -> None:
+    controller = qube()
+    N, nx = controller.N, controller.nx
+    for bad in (np.zeros(3), (np.zeros((N, nx)), np.zeros(N)), (np.zeros((N + 1, nx)), np.zeros(N + 1)),
+                (np.full((N + 1, nx), np.nan), np.zeros(N))):  # fmt: skip
+        with pytest.raises(MpcError) as caught:
+            controller.step(np.zeros(nx), bad)
+        assert "\n" not in str(caught.value) and "reference" in str(caught.value)
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_the_rk4_sensitivities_equal_casadi_and_differences(case: str) -> None:
     import casadi as ca

@@ -6,6 +6,7 @@
  *
  *   minimise   sum_{k=0}^{N-1} [ (x_k - x_ref)' Q (x_k - x_ref) + (u_k - u_ref)' R (u_k - u_ref) ]
  *              + (x_N - x_ref)' P (x_N - x_ref) + sum_{k=1}^{N} sum_soft (rho1 s + rho2 s^2)
+ *              (x_ref, u_ref the settings', or per stage x_ref_k, u_ref_k: ipgen_mpc_track, a plan)
  *   subject to x_0 = the estimate,  x_{k+1} = F(x_k, u_k)  (RK4 of x' = f(x, u), u held over T),
  *              u_min <= u_k <= u_max,  hard_min <= x_k[hard] <= hard_max (k = 1..N),
  *              soft_min - s <= x_k[soft] <= soft_max + s, s >= 0 (one s per side, stage, bound),
@@ -194,7 +195,13 @@ typedef struct {
   ipgen_mpc_real *Ac, *Bc, *xt, *k, *ksum, *xn, *S, *Ss, *dk, *dksum; /* RK4 temporaries */
   ipgen_mpc_real *H, *costate, *fd_w, *fd_g, *fd_A, *fd_B; /* exact Hessian (null without) */
   int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
+  const ipgen_mpc_real *x_refs, *u_refs;      /* a reference per stage (ipgen_mpc_track), or null */
 } ipgen_mpc_layout;
+
+/* The reference of stage k: row k of x_refs ((N + 1) x nx) or u_refs (N x nu) when given, else
+ * the settings' x_ref or u_ref. */
+#define IPGEN_MPC_X_REF(s, x_refs, k, nx) ((x_refs) ? (x_refs) + (long)(k) * (nx) : (s)->x_ref)
+#define IPGEN_MPC_U_REF(s, u_refs, k, nu) ((u_refs) ? (u_refs) + (long)(k) * (nu) : (s)->u_ref)
 
 /* Carves `work` into its parts; returns the entries used (ipgen_mpc_work_size). */
 IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real work[], ipgen_mpc_layout *l) {
@@ -203,6 +210,7 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   const long S = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   ipgen_mpc_real *w = work;
 #define IPGEN_MPC_TAKE(field, count) (l->field = w, w += (count))
+  l->x_refs = l->u_refs = 0;
   IPGEN_MPC_TAKE(warm, 1);
   IPGEN_MPC_TAKE(traj, Z);
   IPGEN_MPC_TAKE(A, (long)N * nx * nx);
@@ -544,6 +552,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
     for (k = 0; k < N; ++k) {
       const ipgen_mpc_real *Hk = l->H + (long)k * nz * nz, *zx = l->z + (long)k * nx;
       const ipgen_mpc_real *zu = l->z + (long)(N + 1) * nx + (long)k * nu;
+      const ipgen_mpc_real *xr = IPGEN_MPC_X_REF(s, l->x_refs, k, nx), *ur = IPGEN_MPC_U_REF(s, l->u_refs, k, nu);
       const long o = (long)(N + 1) * nx + (long)k * nu;
       for (a = 0; a < nz; ++a) {
         ipgen_mpc_real v = (ipgen_mpc_real)0;
@@ -551,29 +560,30 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient(const ipgen_mpc_settings *s, c
         for (b = 0; b < nx; ++b) v += Hk[a * nz + b] * zx[b];
         for (b = 0; b < nu; ++b) v += Hk[a * nz + nx + b] * zu[b];
         if (a < nx) {
-          for (b = 0; b < nx; ++b) v += (ipgen_mpc_real)2 * s->Q[a * nx + b] * (l->traj[k * nx + b] - s->x_ref[b]);
+          for (b = 0; b < nx; ++b) v += (ipgen_mpc_real)2 * s->Q[a * nx + b] * (l->traj[k * nx + b] - xr[b]);
           l->gl[k * nx + a] = v;
         } else {
           for (b = 0; b < nu; ++b)
-            v += (ipgen_mpc_real)2 * s->R[(a - nx) * nu + b] * (l->traj[o + b] - s->u_ref[b]);
+            v += (ipgen_mpc_real)2 * s->R[(a - nx) * nu + b] * (l->traj[o + b] - ur[b]);
           l->gl[o + a - nx] = v;
         }
       }
     }
   }
   for (k = l->exact ? N : 1; k <= N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
-    const ipgen_mpc_real *W = k == N ? s->P : s->Q;
+    const ipgen_mpc_real *W = k == N ? s->P : s->Q, *xr = IPGEN_MPC_X_REF(s, l->x_refs, k, nx);
     for (a = 0; a < nx; ++a) {
       ipgen_mpc_real v = (ipgen_mpc_real)0;
-      for (b = 0; b < nx; ++b) v += W[a * nx + b] * (l->traj[k * nx + b] + l->z[k * nx + b] - s->x_ref[b]);
+      for (b = 0; b < nx; ++b) v += W[a * nx + b] * (l->traj[k * nx + b] + l->z[k * nx + b] - xr[b]);
       l->gl[k * nx + a] = (ipgen_mpc_real)2 * v;
     }
   }
   for (k = 0; k < (l->exact ? 0 : N); ++k) {
     const long o = (long)(N + 1) * nx + (long)k * nu;
+    const ipgen_mpc_real *ur = IPGEN_MPC_U_REF(s, l->u_refs, k, nu);
     for (a = 0; a < nu; ++a) {
       ipgen_mpc_real v = (ipgen_mpc_real)0;
-      for (b = 0; b < nu; ++b) v += s->R[a * nu + b] * (l->traj[o + b] + l->z[o + b] - s->u_ref[b]);
+      for (b = 0; b < nu; ++b) v += s->R[a * nu + b] * (l->traj[o + b] + l->z[o + b] - ur[b]);
       l->gl[o + a] = (ipgen_mpc_real)2 * v;
     }
   }
@@ -645,8 +655,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
   for (i = 0; i < IPGEN_MPC_NX; ++i) l->gl[i] = (ipgen_mpc_real)0;
   for (k = 1; k <= IPGEN_MPC_N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
     const ipgen_mpc_real *W = k == IPGEN_MPC_N ? Wp : Wq;
+    const ipgen_mpc_real *r = l->x_refs ? l->x_refs + (long)k * IPGEN_MPC_NX : xr;
     ipgen_mpc_real e[IPGEN_MPC_NX];
-    for (b = 0; b < IPGEN_MPC_NX; ++b) e[b] = l->traj[k * IPGEN_MPC_NX + b] + l->z[k * IPGEN_MPC_NX + b] - xr[b];
+    for (b = 0; b < IPGEN_MPC_NX; ++b) e[b] = l->traj[k * IPGEN_MPC_NX + b] + l->z[k * IPGEN_MPC_NX + b] - r[b];
     for (a = 0; a < IPGEN_MPC_NX; ++a) {
       ipgen_mpc_real v = W[a * IPGEN_MPC_NX] * e[0];
       for (b = 1; b < IPGEN_MPC_NX; ++b) v += W[a * IPGEN_MPC_NX + b] * e[b];
@@ -657,8 +668,9 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
   }
   for (k = 0; k < IPGEN_MPC_N; ++k) {
     const long o = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
+    const ipgen_mpc_real *r = l->u_refs ? l->u_refs + (long)k * IPGEN_MPC_NU : ur;
     ipgen_mpc_real e[IPGEN_MPC_NU];
-    for (b = 0; b < IPGEN_MPC_NU; ++b) e[b] = l->traj[o + b] + l->z[o + b] - ur[b];
+    for (b = 0; b < IPGEN_MPC_NU; ++b) e[b] = l->traj[o + b] + l->z[o + b] - r[b];
     for (a = 0; a < IPGEN_MPC_NU; ++a) {
       ipgen_mpc_real v = Rw[a * IPGEN_MPC_NU] * e[0];
       for (b = 1; b < IPGEN_MPC_NU; ++b) v += Rw[a * IPGEN_MPC_NU + b] * e[b];
@@ -1396,7 +1408,8 @@ IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc
 /* The problem's cost (the header's comment) of the trajectory traj (states x_0..x_N, then the
  * inputs; soft violations from the states) and, when dz is not null, its derivative along dz
  * (the soft penalty's where a bound is violated). */
-IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real traj[],
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
+                                                         const ipgen_mpc_real u_refs[], const ipgen_mpc_real traj[],
                                                          const ipgen_mpc_real dz[], ipgen_mpc_real *slope) {
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const ipgen_mpc_real *x = traj, *u = traj + (long)(N + 1) * nx;
@@ -1404,11 +1417,12 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
   ipgen_mpc_real cost = (ipgen_mpc_real)0, d = (ipgen_mpc_real)0;
   int k, a, b, j;
   for (k = 0; k <= N; ++k) {
-    const ipgen_mpc_real *W = k == N ? s->P : s->Q;
+    const ipgen_mpc_real *W = k == N ? s->P : s->Q, *xr = IPGEN_MPC_X_REF(s, x_refs, k, nx);
+    const ipgen_mpc_real *ur = IPGEN_MPC_U_REF(s, u_refs, k < N ? k : 0, nu);
     for (a = 0; a < nx; ++a)
       for (b = 0; b < nx; ++b) {
-        const ipgen_mpc_real w = (x[k * nx + a] - s->x_ref[a]) * W[a * nx + b];
-        cost += w * (x[k * nx + b] - s->x_ref[b]);
+        const ipgen_mpc_real w = (x[k * nx + a] - xr[a]) * W[a * nx + b];
+        cost += w * (x[k * nx + b] - xr[b]);
         if (dz && k > 0) d += (ipgen_mpc_real)2 * w * dx[k * nx + b];
       }
     if (k > 0)
@@ -1424,8 +1438,8 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_trajectory_cost(const ipgen_mpc_setting
     if (k == N) break;
     for (a = 0; a < nu; ++a)
       for (b = 0; b < nu; ++b) {
-        const ipgen_mpc_real w = (u[k * nu + a] - s->u_ref[a]) * s->R[a * nu + b];
-        cost += w * (u[k * nu + b] - s->u_ref[b]);
+        const ipgen_mpc_real w = (u[k * nu + a] - ur[a]) * s->R[a * nu + b];
+        cost += w * (u[k * nu + b] - ur[b]);
         if (dz) d += (ipgen_mpc_real)2 * w * du[k * nu + b];
       }
   }
@@ -1450,14 +1464,20 @@ IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc
     }
     for (i = 0; i < nx; ++i) defects += ipgen_mpc_abs(x[i] - traj[i]);
   }
-  *merit = ipgen_mpc_trajectory_cost(s, traj, 0, 0) + weight * defects;
+  *merit = ipgen_mpc_trajectory_cost(s, l->x_refs, l->u_refs, traj, 0, 0) + weight * defects;
   return 0;
 }
 
 /* The problem's cost (the header's comment) of the trajectory held in `work` (states and inputs
  * as they are, soft violations from the states). */
 IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
-  return ipgen_mpc_trajectory_cost(s, work + 1, 0, 0);
+  return ipgen_mpc_trajectory_cost(s, 0, 0, work + 1, 0, 0);
+}
+
+/* The same cost about a reference per stage (ipgen_mpc_track's x_refs, u_refs). */
+IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost_tracking(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
+                                                     const ipgen_mpc_real u_refs[], const ipgen_mpc_real work[]) {
+  return ipgen_mpc_trajectory_cost(s, x_refs, u_refs, work + 1, 0, 0);
 }
 
 /* 0 if the settings describe a problem (sizes >= 1, finite period, bounds ordered, indices in
@@ -1494,14 +1514,17 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
 }
 
 /* One controller step: u (nu) for the state estimate x (nx), from the problem of the header's
- * comment solved about the warm start held in `work` (ipgen_mpc_work_size entries; shifted by one
- * sample first when s->shift), or cold after ipgen_mpc_reset (every x_k at the estimate, u_k at
- * u_ref clipped). Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
+ * comment about the reference x_refs ((N + 1) x nx, row k for x_k) and u_refs (N x nu, row k for
+ * u_k), each null for the settings' constant x_ref or u_ref, solved about the warm start held in
+ * `work` (ipgen_mpc_work_size entries; shifted by one sample first when s->shift), or cold after
+ * ipgen_mpc_reset (every x_k at the estimate, or at x_refs' row k; u_k at its u_ref clipped): a
+ * tracked plan's rows from this sample on are its x_refs and u_refs. Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
  * start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
  * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
-IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
-                                 ipgen_mpc_real work[], ipgen_mpc_info *info) {
+IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
+                                  const ipgen_mpc_real u_refs[], const ipgen_mpc_real x[], ipgen_mpc_real u[],
+                                  ipgen_mpc_real work[], ipgen_mpc_info *info) {
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
   ipgen_mpc_info own;
@@ -1517,15 +1540,17 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
     return info->status = IPGEN_MPC_BAD_SETTINGS;
   }
   ipgen_mpc_carve(s, work, &l);
+  l.x_refs = x_refs;
+  l.u_refs = u_refs;
   us = l.traj + (long)(N + 1) * nx;
   budget = s->sqp_iterations;
   if (!(*l.warm > 0)) {
     if (s->cold_iterations > budget) budget = s->cold_iterations;
     for (k = 0; k <= N; ++k)
-      for (i = 0; i < nx; ++i) l.traj[k * nx + i] = x[i];
+      for (i = 0; i < nx; ++i) l.traj[k * nx + i] = x_refs ? x_refs[(long)k * nx + i] : x[i];
     for (k = 0; k < N; ++k)
       for (i = 0; i < nu; ++i) {
-        const ipgen_mpc_real v = s->u_ref[i];
+        const ipgen_mpc_real v = IPGEN_MPC_U_REF(s, u_refs, k, nu)[i];
         us[k * nu + i] = v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v);
       }
   } else if (s->shift) {
@@ -1592,7 +1617,7 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
       int tries;
       weight = ipgen_mpc_max(weight, (ipgen_mpc_real)1.1 * costate + (ipgen_mpc_real)1e-3);
       ipgen_mpc_merit(s, &l, l.traj, x, weight, defects, &merit0);
-      ipgen_mpc_trajectory_cost(s, l.traj, l.z, &slope);
+      ipgen_mpc_trajectory_cost(s, l.x_refs, l.u_refs, l.traj, l.z, &slope);
       slope -= weight * defects;
       for (tries = 0; tries < 20; ++tries, alpha *= (ipgen_mpc_real)0.5) {
         for (i = 0; i < Z; ++i) l.dir[i] = l.traj[i] + alpha * l.z[i];
@@ -1621,6 +1646,12 @@ IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_re
     u[i] = ipgen_mpc_finite(v) ? (v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v)) : s->u_ref[i];
   }
   return info->status;
+}
+
+/* ipgen_mpc_track about the settings' constant x_ref and u_ref: the controller's step. */
+IPGEN_MPC_API int ipgen_mpc_step(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], ipgen_mpc_real u[],
+                                 ipgen_mpc_real work[], ipgen_mpc_info *info) {
+  return ipgen_mpc_track(s, 0, 0, x, u, work, info);
 }
 
 #ifdef __cplusplus

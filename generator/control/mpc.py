@@ -191,6 +191,8 @@ def library(precision: str = "double") -> ctypes.CDLL:
             ("ipgen_mpc_cost", real, (P, P)),
             ("ipgen_mpc_check", I, (P,)),
             ("ipgen_mpc_step", I, (P, P, P, P, P)),
+            ("ipgen_mpc_track", I, (P, P, P, P, P, P, P)),
+            ("ipgen_mpc_cost_tracking", real, (P, P, P, P)),
             ("ipgen_mpc_model_dynamics", I, (P, P, P, P, P, P)),
             ("ipgen_mpc_model_layout", L, (P,)),
         ):
@@ -458,7 +460,24 @@ class Mpc:
         """Forget the warm start: the next step starts cold."""
         self._lib.ipgen_mpc_reset(self.work.ctypes.data)
 
-    def step(self, x: Sequence[float] | np.ndarray) -> float:
+    def _reference(self, reference: Any) -> tuple[Any, Any, tuple[np.ndarray, ...]]:
+        """(x_refs pointer, u_refs pointer, the arrays kept alive) of a per-stage reference, or
+        null pointers for the constant x_ref, u_ref."""
+        if reference is None:
+            return None, None, ()
+        try:
+            states, inputs = reference
+        except (TypeError, ValueError):
+            raise MpcError(
+                "reference: expected (states, inputs), (N+1) × nx and N × nu arrays (a plan's rows from now on)"
+            ) from None
+        xs = self._vector(states, (self.N + 1) * self.nx, f"reference states ((N+1) × nx = {self.N + 1} × {self.nx})")
+        us = self._vector(inputs, self.N * self.nu, f"reference inputs (N × nu = {self.N} × {self.nu})")
+        if not (np.all(np.isfinite(xs)) and np.all(np.isfinite(us))):
+            raise MpcError("reference: every entry must be finite")
+        return xs.ctypes.data, us.ctypes.data, (xs, us)
+
+    def step(self, x: Sequence[float] | np.ndarray, reference: Any = None) -> float:
         """The input u for the state estimate x (2·dof entries, ipgen's coordinates): one real-time
         iteration on the shifted warm start (mode "rti") or the problem solved to convergence
         (mode "converged"); `info` says what was done.
@@ -467,6 +486,10 @@ class Mpc:
         ----------
         x : array_like
             The current state [θ; θ̇].
+        reference : (array_like, array_like), optional
+            A reference per stage instead of the constant x_ref, u_ref (a plan to track): the states
+            x_ref_0..x_ref_N ((N+1) × nx) and inputs u_ref_0..u_ref_{N-1} (N × nu) from this
+            sample on, one row a sample; a cold start starts from them (ipgen_mpc_track).
 
         Returns
         -------
@@ -474,9 +497,12 @@ class Mpc:
             u within [u_min, u_max] (volts for a DC motor, else N or N m).
         """
         state = self._vector(x, self.nx, "x")
+        x_refs, u_refs, _alive = self._reference(reference)
         u = np.zeros(1, dtype=self._dtype)
-        self._lib.ipgen_mpc_step(
+        self._lib.ipgen_mpc_track(
             ctypes.byref(self._settings),
+            x_refs,
+            u_refs,
             state.ctypes.data,
             u.ctypes.data,
             self.work.ctypes.data,
@@ -489,7 +515,7 @@ class Mpc:
         )  # fmt: skip
         return float(u[0])
 
-    def solve(self, x: Sequence[float] | np.ndarray) -> float:
+    def solve(self, x: Sequence[float] | np.ndarray, reference: Any = None) -> float:
         """The first input of the problem solved from a cold start to convergence, whatever the
         mode: up to `sqp_iterations` SQP iterations in the converged mode (500 from a real-time
         design), tolerances at least as tight as the converged mode's, the line search on and
@@ -499,6 +525,8 @@ class Mpc:
         ----------
         x : array_like
             The current state [θ; θ̇].
+        reference : (array_like, array_like), optional
+            A reference per stage, as for `step`.
 
         Returns
         -------
@@ -515,7 +543,7 @@ class Mpc:
         s.shift, s.line_search = 0, 1
         try:
             self.reset()
-            return self.step(x)
+            return self.step(x, reference)
         finally:
             s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search = saved
 
@@ -526,9 +554,15 @@ class Mpc:
         states = z[: (self.N + 1) * self.nx].reshape(self.N + 1, self.nx)
         return states, z[(self.N + 1) * self.nx :].reshape(self.N, self.nu)
 
-    def cost(self) -> float:
-        """The problem's cost of the trajectory held (`trajectory`)."""
-        return float(self._lib.ipgen_mpc_cost(ctypes.byref(self._settings), self.work.ctypes.data))
+    def cost(self, reference: Any = None) -> float:
+        """The problem's cost of the trajectory held (`trajectory`), about the constant x_ref, u_ref
+        or a reference per stage (as for `step`)."""
+        if reference is None:
+            return float(self._lib.ipgen_mpc_cost(ctypes.byref(self._settings), self.work.ctypes.data))
+        x_refs, u_refs, _alive = self._reference(reference)
+        return float(
+            self._lib.ipgen_mpc_cost_tracking(ctypes.byref(self._settings), x_refs, u_refs, self.work.ctypes.data)
+        )
 
     def rk4(self, x: Sequence[float] | np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F(x, u), ∂F/∂x, ∂F/∂u): one sample of the discretised model the MPC predicts with
