@@ -79,7 +79,8 @@ class IpoptReference:
         self.ubx = np.concatenate([x_hi.T.reshape(-1), np.full(N, c.u_max), np.full(2 * ns * N, np.inf)])
         self.lbg, self.ubg = np.concatenate(lower), np.concatenate(upper)
         parameters = ca.vertcat(x0, ca.vec(XR), ca.vec(UR))
-        problem = {"x": variables, "p": parameters, "f": cost, "g": ca.vertcat(*[ca.vec(g) for g in constraints])}
+        g = ca.vertcat(*[ca.vec(g) for g in constraints])
+        problem = {"x": variables, "p": parameters, "f": cost, "g": g}
         options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
                    "ipopt.constr_viol_tol": 1e-12, "ipopt.max_iter": 500}  # fmt: skip
         self.solver = ca.nlpsol("reference", "ipopt", problem, options)
@@ -99,7 +100,8 @@ class IpoptReference:
             guess = np.concatenate([np.tile(np.asarray(x0, float), N + 1), np.zeros(N)])
         else:
             xs, us = (np.asarray(v, float) for v in reference)
-            guess = np.concatenate([xs.reshape(-1), np.clip(us.reshape(-1), self.lbx[nx * (N + 1)], self.ubx[nx * (N + 1)])])
+            u_lo, u_hi = self.lbx[nx * (N + 1)], self.ubx[nx * (N + 1)]
+            guess = np.concatenate([xs.reshape(-1), np.clip(us.reshape(-1), u_lo, u_hi)])
         parameters = np.concatenate([np.asarray(x0, float), xs.reshape(-1), us.reshape(-1)])
         start = np.concatenate([guess, np.zeros(2 * self.ns * N)])
         result = self.solver(

@@ -469,10 +469,11 @@ class Mpc:
             states, inputs = reference
         except (TypeError, ValueError):
             raise MpcError(
-                "reference: expected (states, inputs), (N+1) × nx and N × nu arrays (a plan's rows from now on)"
+                "reference: expected (states, inputs), (N+1) × nx and N × nu arrays (a plan's rows from now)"
             ) from None
-        xs = self._vector(states, (self.N + 1) * self.nx, f"reference states ((N+1) × nx = {self.N + 1} × {self.nx})")
-        us = self._vector(inputs, self.N * self.nu, f"reference inputs (N × nu = {self.N} × {self.nu})")
+        N, nx, nu = self.N, self.nx, self.nu
+        xs = self._vector(states, (N + 1) * nx, f"reference states ((N+1) × nx = {N + 1} × {nx})")
+        us = self._vector(inputs, N * nu, f"reference inputs (N × nu = {N} × {nu})")
         if not (np.all(np.isfinite(xs)) and np.all(np.isfinite(us))):
             raise MpcError("reference: every entry must be finite")
         return xs.ctypes.data, us.ctypes.data, (xs, us)
@@ -560,9 +561,8 @@ class Mpc:
         if reference is None:
             return float(self._lib.ipgen_mpc_cost(ctypes.byref(self._settings), self.work.ctypes.data))
         x_refs, u_refs, _alive = self._reference(reference)
-        return float(
-            self._lib.ipgen_mpc_cost_tracking(ctypes.byref(self._settings), x_refs, u_refs, self.work.ctypes.data)
-        )
+        settings, work = ctypes.byref(self._settings), self.work.ctypes.data
+        return float(self._lib.ipgen_mpc_cost_tracking(settings, x_refs, u_refs, work))
 
     def rk4(self, x: Sequence[float] | np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F(x, u), ∂F/∂x, ∂F/∂u): one sample of the discretised model the MPC predicts with
