@@ -292,3 +292,64 @@ def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path:
     volts = np.array([float(v[0]) for v in _run(_program(tmp_path, "firmware", FIRMWARE), counts, "{:d}")])
     assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
     assert np.max(np.abs(columns["u"])) > 6
+
+
+TRACKER = """\
+#include <stdio.h>
+#include "cdip_mpc_track.h"
+/* Reads the state at a sample per line, prints the swing-up's u and its phase. */
+static P_swingup_state s;
+int main(void) {
+  double x[6];
+  IPGEN_SCALAR q[3], qd[3];
+  int i;
+  P_swingup_init(&s);
+  while (scanf("%lf %lf %lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3], &x[4], &x[5]) == 6) {
+    for (i = 0; i < 3; ++i) {
+      q[i] = (IPGEN_SCALAR)x[i];
+      qd[i] = (IPGEN_SCALAR)x[3 + i];
+    }
+    printf("%.17g %d\\n", (double)P_swingup(&s, q, qd, 0, 0), s.loop.phase); /* p, links: energy law only */
+  }
+  return 0;
+}
+"""
+
+
+def test_a_plan_tracked_by_the_mpc_replays_the_simulators_forces(tmp_path: Path) -> None:
+    """scenes/cdip_mpc_track.toml with emit = ["c"]: the header's swing-up (ipgen_loop.h's track
+    law: the plan's reference per stage from its tables, ipgen_mpc_track every second sample in
+    the fixed-size forms, then the MPC's hold) fed the simulator's states at its samples returns
+    the force the simulator applied (its run-time step) at every sample: double 1e-9 (6e-13
+    measured), float within 2e-3 u_max (0.07 N of 50 measured; the plan's tables in float too)."""
+    require_toolchain()
+    require_cc()
+    preset = Path(__file__).resolve().parents[1] / "scenes" / "cdip_mpc_track.toml"
+    scene = tmp_path / "cdip_mpc_track.toml"
+    name = 'name = "cdip_mpc_track"'
+    scene.write_text(preset.read_text().replace(name, name + '\nemit = ["c"]'))
+    for argv in (
+        ["--scene", str(scene), "-o", str(tmp_path)],
+        ["run", str(scene), "-o", str(tmp_path / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    header, *rows = (tmp_path / "run" / "cdip_mpc_track.csv").read_text().splitlines()
+    names = header.split(",")[:-1]
+    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
+    column = {name: data[:, i] for i, name in enumerate(names)}
+    state_names = ("theta0", "theta1", "theta2", "dtheta0", "dtheta1", "dtheta2")
+    states = np.column_stack([column[n] for n in state_names])
+    source = TRACKER.replace("P_", "ipgen_cdip_mpc_track_")
+    for scalar, bound in (("double", 1e-9), ("float", 2e-3 * 50.0)):
+        (tmp_path / f"track_{scalar}.c").write_text(source)
+        extra = [*FLOAT_WARNINGS] if scalar == "float" else []
+        program = tmp_path / f"track_{scalar}"
+        command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{tmp_path}", str(program.with_suffix(".c"))]
+        result = subprocess.run([*command, "-o", str(program), "-lm"], capture_output=True, text=True)
+        assert result.returncode == 0, result.stderr[:3000]
+        out = _run(program, states, "{!r}")
+        forces, phases = np.array([float(v[0]) for v in out]), [int(v[1]) for v in out]
+        assert np.max(np.abs(forces - column["u"])) <= bound, (scalar, np.max(np.abs(forces - column["u"])))
+        assert phases[0] == 1 and phases[-1] == 2  # IPGEN_LOOP_TRACK, then IPGEN_LOOP_HOLD
+    assert np.max(np.abs(column["u"])) > 45

@@ -114,6 +114,7 @@ def test_expected_scenes_are_shipped() -> None:
         "rotary1": "rsip_swingup",
         "classical2": "cdip_swingup",
         "cdip_mpc": "cdip_mpc",
+        "cdip_mpc_track": "cdip_mpc_track",
     }
 
 

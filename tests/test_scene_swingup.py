@@ -81,6 +81,19 @@ def test_release_angle_reaches_the_config_only_when_set(tmp_path: Path) -> None:
     assert "swingup.release_angle" not in resolved_config(plain)
 
 
+def test_tracking_reaches_the_config_only_when_the_mpc_tracks(tmp_path: Path) -> None:
+    """`tracking = "mpc"` is written to the resolved config (swingup.tracking = mpc); "lqr" or
+    absent writes nothing (the config of a scene without it unchanged)."""
+    changes = {**MPC, "controller.period": "0.02"}
+    tracked = load_scene(swingup(tmp_path, {**changes, "swingup.tracking": '"mpc"'}, base=TRAJECTORY))
+    assert tracked.swingup is not None and tracked.swingup.tracking == "mpc"
+    assert "swingup.tracking = mpc\n" in resolved_config(tracked)
+    for value in ('"lqr"', None):
+        plain = load_scene(swingup(tmp_path, {**changes, "swingup.tracking": value}, base=TRAJECTORY))
+        assert plain.swingup is not None and plain.swingup.tracking == "lqr"
+        assert "swingup.tracking" not in resolved_config(plain)
+
+
 def test_trajectory_scene_carries_plan_and_schedule(tmp_path: Path) -> None:
     scene = load_scene(swingup(tmp_path, base=TRAJECTORY))
     config = config_dict(resolved_config(scene))
@@ -122,6 +135,11 @@ BAD = [
     ({"swingup.release_angle": "0"}, "swingup.release_angle = 0", "> 0"),
     ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.release_angle": "1"},
      "swingup.release_angle = 1", 'method = "energy" only'),
+    ({"swingup.tracking": '"mpc"'}, "swingup.tracking", 'method = "trajectory" only'),
+    ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.tracking": '"mpc"'},
+     "swingup.tracking", 'needs a [controller] with kind = "mpc"'),
+    ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.tracking": '"tvlqr"'},
+     "swingup.tracking", '"lqr" or "mpc"'),
     ({"swingup.speed": "1"}, "swingup.speed", "unknown key"),
     ({"controller.kind": '"lqr"'}, "swingup.method", "remove the [controller] table"),
     ({**MPC, "swingup.period": "0.02"}, "swingup.period = 0.02", "a whole number of times"),
@@ -170,12 +188,16 @@ VALUES = st.one_of(
             "1e400",
             '"energy"',
             '"trajectory"',
+            '"mpc"',
+            '"lqr"',
             "true",
             "[1]",
         ]
     ),
 )
-KEYS = st.sampled_from(["method", "u_max", "x_max", "duration", "period", "hold", "gain", "release_angle"])
+KEYS = st.sampled_from(
+    ["method", "u_max", "x_max", "duration", "period", "hold", "gain", "release_angle", "tracking"]
+)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -383,7 +383,44 @@ typedef struct {
    * catch_context, so that a catch law starts its next catch afresh (the MPC: cold). */
   ipgen_real release_angle;
   void (*catch_reset)(void *catch_context);
+  /* Optional, a plan only: the catch law's controller tracks the plan too (a scene's MPC with the
+   * plan as its reference per stage, instead of the plan's gains): in the track phase, at k = 0
+   * and every catch_every samples, u = track_law(catch_context, x, x_refs, u_refs) with the
+   * plan's reference over the next track_horizon of its samples (ipgen_loop_plan_reference,
+   * written into track_refs: IPGEN_LOOP_TRACK_REFS(dof, track_horizon) entries, the caller's),
+   * held in between; at the plan's end the catch_law holds. Null: the plan's gains. */
+  ipgen_real (*track_law)(void *catch_context, const ipgen_real x[], const ipgen_real x_refs[],
+                          const ipgen_real u_refs[]);
+  int track_horizon;
+  ipgen_real *track_refs;
 } ipgen_loop_swingup;
+
+/* Entries of track_refs: the states (horizon + 1) x 2 dof, then the inputs (horizon). */
+#define IPGEN_LOOP_TRACK_REFS(dof, horizon) (((horizon) + 1) * 2 * (dof) + (horizon))
+
+/* The plan's reference for a controller that samples every `every` plan samples from sample k,
+ * over `horizon` of its samples: x_refs row j (j = 0..horizon) the plan's state at sample
+ * k + j every (its last state, the target, from the plan's end on), u_refs[j] the mean of the
+ * plan's inputs over samples k + j every .. k + (j + 1) every - 1 (0 past its end: the input
+ * that holds the upright). */
+IPGEN_LOOP_API void ipgen_loop_plan_reference(const ipgen_loop_swingup *law, long k, long every, int horizon,
+                                              ipgen_real x_refs[], ipgen_real u_refs[]) {
+  const int n = 2 * law->dof;
+  int j, i;
+  if (every < 1) every = 1;
+  for (j = 0; j <= horizon; ++j) {
+    long m = k + (long)j * every;
+    if (m > law->steps) m = law->steps;
+    for (i = 0; i < n; ++i) x_refs[j * n + i] = law->states[m * n + i];
+  }
+  for (j = 0; j < horizon; ++j) {
+    ipgen_real sum = (ipgen_real)0;
+    long m;
+    for (m = k + (long)j * every; m < k + (long)(j + 1) * every; ++m)
+      if (m < law->steps) sum += law->inputs[m];
+    u_refs[j] = sum / (ipgen_real)every;
+  }
+}
 
 /* What a swing-up remembers: its phase, the samples seen and the upright held (q1); with a
  * catch_law, the sample of the catch and the u it last gave. */
@@ -420,7 +457,15 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
     }
   }
   if (s->phase == IPGEN_LOOP_TRACK) {
-    if (s->k < law->steps) {
+    if (s->k < law->steps && law->track_law) { /* the controller tracks the plan, every catch_every */
+      const long every = law->catch_every <= 1 ? 1 : law->catch_every;
+      if (s->k % every == 0) {
+        ipgen_real *x_refs = law->track_refs, *u_refs = law->track_refs + (law->track_horizon + 1) * 2 * dof;
+        ipgen_loop_plan_reference(law, s->k, every, law->track_horizon, x_refs, u_refs);
+        s->catch_u = ipgen_loop_saturate(law->track_law(law->catch_context, x, x_refs, u_refs), law->u_max);
+      }
+      u = s->catch_u;
+    } else if (s->k < law->steps) {
       const ipgen_real *K = law->gains + s->k * 2 * dof, *x_ref = law->states + s->k * 2 * dof;
       u = law->feedback ? law->feedback(law->context, 2 * dof, law->inputs[s->k], K, x, x_ref)
                         : ipgen_loop_feedback(2 * dof, law->inputs[s->k], K, x, x_ref);

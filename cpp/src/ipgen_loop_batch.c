@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 35
+#define IPGEN_LOOP_BATCH_LAYOUT 38
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -50,6 +50,9 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_swingup, catch_every);
   out[i++] = (long)offsetof(ipgen_loop_swingup, release_angle);
   out[i++] = (long)offsetof(ipgen_loop_swingup, catch_reset);
+  out[i++] = (long)offsetof(ipgen_loop_swingup, track_law);
+  out[i++] = (long)offsetof(ipgen_loop_swingup, track_horizon);
+  out[i++] = (long)offsetof(ipgen_loop_swingup, track_refs);
   out[i++] = (long)sizeof(ipgen_loop_swingup_state);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, k);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, hold_q1);

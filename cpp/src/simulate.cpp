@@ -180,7 +180,8 @@ ends swingup.hold s after the hold phase begins, divergence is checked in the ho
 tracked plan (trajectory) is given up when a link is more than --divergence-angle from it (exit 5);
 with controller = mpc too, the MPC catches and holds (every controller.period, a whole multiple of
 the swing-up's period) instead of the hold LQR; with swingup.release_angle (energy), a hold whose
-link falls past it from the caught upright gives the link back to the swing, for another catch.
+link falls past it from the caught upright gives the link back to the swing, for another catch;
+with swingup.tracking = mpc (trajectory), the MPC tracks the plan too, the plan its reference.
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
 (with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
@@ -703,7 +704,9 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
     const ipsim::SwingUp::State& state = *scene.swingup_state;
     const double per = scene.input_gain;  // volts for a dc motor (b), else 1
     std::printf(" Swing-up: %s, sampled every %g s, |u| <= %g%s; ",
-                scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control" : "planned trajectory tracked by TVLQR",
+                scene.swingup->method == ipsim::SwingUp::Method::energy ? "energy control"
+                : scene.swingup->track_law                              ? "planned trajectory tracked by the MPC"
+                                                                        : "planned trajectory tracked by TVLQR",
                 scene.swingup->period, scene.swingup->u_max / per, scene.motor ? " V" : "");
     if (state.phase == ipsim::SwingPhase::hold) std::printf("hold (%s) from t = %.6g s", scene.mpc ? "MPC" : "LQR", state.hold_since);
     else if (state.releases > 0) std::printf("in the swing at the end");

@@ -211,6 +211,7 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
         "catch_every": catch_every,
         "release_angle": c_number(law.release_angle) if law.release_angle > 0 else None,
+        "tracking": law.tracking,  # "mpc": the MPC tracks the plan (its reference per stage)
     }
     if law.method == "trajectory":
         rows = [law.states[k * size : (k + 1) * size] for k in range(law.steps + 1)]

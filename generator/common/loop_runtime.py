@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 35  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 38  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -128,6 +128,8 @@ class SwingUp(ctypes.Structure):
         ("catch_law", ctypes.c_void_p), ("catch_context", ctypes.c_void_p),  # null: the hold's LQR
         ("catch_every", ctypes.c_long),
         ("release_angle", _real), ("catch_reset", ctypes.c_void_p),  # 0, null: the hold is for good
+        ("track_law", ctypes.c_void_p), ("track_horizon", ctypes.c_int),  # null: the plan's gains track
+        ("track_refs", _address),
     ]  # fmt: skip
 
 
@@ -159,7 +161,8 @@ def _layout() -> list[int]:
         ctypes.sizeof(SwingUp),
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
         offset(SwingUp, "context"), offset(SwingUp, "catch_every"), offset(SwingUp, "release_angle"),
-        offset(SwingUp, "catch_reset"),
+        offset(SwingUp, "catch_reset"), offset(SwingUp, "track_law"), offset(SwingUp, "track_horizon"),
+        offset(SwingUp, "track_refs"),
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
         offset(SwingUpState, "catch_u"),
         ctypes.sizeof(ctypes.c_long),

@@ -95,6 +95,9 @@ class SwingUpLaw:
     base_acceleration: bool = False
     # rad: a hold that lets link 1 fall this far gives it back to the energy law (0: never)
     release_angle: float = 0.0
+    # trajectory: what tracks the plan, "lqr" (the gains) or "mpc" (the scene's MPC, the plan its
+    # reference per stage: ipgen_loop.h's track_law)
+    tracking: str = "lqr"
 
     @property
     def steps(self) -> int:

@@ -105,7 +105,7 @@ CFG_KEYS: dict[str, str] = {
         for key in (
             "u_max period hold hold_gain target gain_energy gain_position gain_velocity accel_max "
             "catch_angle catch_rate energy_target energy_inertia energy_weight release_angle "
-            "steps inputs states gains"
+            "steps inputs states gains tracking"
         ).split()
     },
     "actuator.noise": "σ of the noise on the applied input, held per sample interval (the drive)",
@@ -252,6 +252,8 @@ def _swingup(lines: _Lines, law: SwingUpLaw | None) -> None:
     if law.method == "trajectory":
         for key in ("steps", "inputs", "states", "gains"):
             lines.put(f"swingup.{key}", getattr(law, key))
+        if law.tracking != "lqr":  # absent: the gains track (the .cfg of a scene without it unchanged)
+            lines.put("swingup.tracking", law.tracking)
 
 
 def _controller(lines: _Lines, controller: Controller | None) -> None:

@@ -89,4 +89,7 @@ def _law(
             f"swingup: no hold gain at period = {format_number(period)} s "
             f"({' '.join(str(exc).split())[:80]}): use a shorter period or other weights q, r"
         ) from None
-    return schedule_law(plan, schedule, hold)
+    import dataclasses
+
+    law = schedule_law(plan, schedule, hold)
+    return law if table.tracking in (None, "lqr") else dataclasses.replace(law, tracking=table.tracking)

@@ -731,6 +731,12 @@ class SwingupTable(Table):
     hold: Real(ge=0, says="must be >= 0 s") = Field(
         _exact(swing.DEFAULT_HOLD), description="seconds held upright (LQR) after arrival; then the run ends"
     )
+    tracking: Literal[swing.TRACKINGS] | None = Field(
+        None,
+        description='trajectory only: what tracks the plan, "lqr" (time-varying LQR on the plan\'s '
+        'linearisation, the default) or "mpc" (the [controller] kind = "mpc" with the plan as its '
+        "reference per stage, within its bounds; it then holds at the plan's end)",
+    )
     margin: Real(gt=0, le=1, says="must be in (0, 1]") | None = Field(
         None,
         description="trajectory only: plan within margin·u_max and margin·x_max, track within the full "

@@ -13,6 +13,7 @@ from ipgen.scene.fields import format_number
 from ipgen.scene.values import refuse
 
 METHODS: tuple[str, ...] = ("energy", "trajectory")
+TRACKINGS: tuple[str, ...] = ("lqr", "mpc")  # what tracks a plan: its gain schedule, or the MPC
 LAWS: tuple[str, ...] = ("energy", "proportional")  # = control.energy.LAWS (checked by a test)
 # The energy law's constants, each a key of [swingup] (method "energy" only) and an argument of
 # control.energy.energy_swingup; absent = that function's default (docs/swingup.md).
@@ -72,7 +73,7 @@ def relations(table: Any, context: dict[str, Any]) -> None:
                 key="method",
                 value=table.method,
             )
-        for key in ("duration", "x_max", "margin"):
+        for key in ("duration", "x_max", "margin", "tracking"):
             if getattr(table, key) is not None:
                 refuse('is for method = "trajectory" only; remove it', key=key, value=getattr(table, key))
         catch = DEFAULT_CATCH_ANGLE if table.catch_angle is None else float(table.catch_angle)
@@ -87,6 +88,13 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         for key in ENERGY_KEYS:
             if getattr(table, key) is not None:
                 refuse('is for method = "energy" only; remove it', key=key, value=getattr(table, key))
+    if table.tracking == "mpc" and not mpc:
+        refuse(
+            'tracking = "mpc" needs a [controller] with kind = "mpc" (the MPC that tracks the plan); '
+            'add one or remove tracking',
+            key="tracking",
+            value=table.tracking,
+        )
     if table.method == "trajectory" and table.duration is None:
         refuse(
             'method = "trajectory" needs duration = the manoeuvre\'s time in s',

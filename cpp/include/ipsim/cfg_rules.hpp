@@ -125,6 +125,7 @@ inline constexpr const char* kKeys[] = {
     "swingup.inputs",
     "swingup.states",
     "swingup.gains",
+    "swingup.tracking",
     "actuator.noise",
     "actuator.lag",
     "actuator.pulses",

@@ -100,10 +100,14 @@ class MpcController {
 
   /// u for the state estimate x (2·kDof, ipgen's coordinates), in the scene's unit (volts with a
   /// dc motor): one step of ipgen_mpc.h (its warm start kept in the workspace).
-  double operator()(const Eigen::VectorXd& x) {
+  double operator()(const Eigen::VectorXd& x) { return track(x, nullptr, nullptr); }
+
+  /// The same about a reference per stage (ipgen_mpc_track: x_refs (horizon + 1) × 2·kDof and
+  /// u_refs horizon entries in the scene's unit, row-major; null: the constant reference).
+  double track(const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
     double u = 0.0;
     ipgen_mpc_info info{};
-    ipgen_mpc_step(&settings_, x.data(), &u, work_.data(), &info);
+    ipgen_mpc_track(&settings_, x_refs, u_refs, x.data(), &u, work_.data(), &info);
     ++tally_.steps;
     tally_.qp_iterations += info.qp_iterations;
     if (info.qp_iterations > tally_.max_qp_iterations) tally_.max_qp_iterations = info.qp_iterations;

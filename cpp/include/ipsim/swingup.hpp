@@ -10,7 +10,9 @@
 //                              θ̈1 = −(M10 a + b1)/M11, u = M00 a + M01 θ̈1 + b0 (M, b the model's
 //                              mass matrix and bias at x), until |θ1 − 2πk| ≤ catch_angle and
 //                              |θ̇1| ≤ catch_rate: then hold about θ1 = 2πk;
-//   track  (method trajectory) u_k = ū_k − K_k (x − x̄_k) along the plan (k < steps);
+//   track  (method trajectory) u_k = ū_k − K_k (x − x̄_k) along the plan (k < steps), or a
+//                              scene's MPC with the plan as its reference per stage (track_law,
+//                              every catch_every periods, u held in between);
 //   hold                       u = −K_hold (x − x_target), or a catch controller's u (a scene's
 //                              [controller] kind = "mpc" with its [swingup]: the MPC's step every
 //                              catch_every periods from the catch on, fed x with θ1 − 2πk, u held
@@ -79,6 +81,12 @@ struct SwingUp {
   /// the catch law's next catch start afresh.
   double release_angle = 0.0;
   std::function<void()> catch_reset;
+  /// Trajectory only, [swingup] tracking = "mpc": the controller that tracks the plan instead of
+  /// its gains, u [N or N m] from x and the plan's reference per stage (x_refs: track_horizon + 1
+  /// rows of 2·kDof, u_refs: track_horizon inputs [N or N m]; ipgen_loop_plan_reference), every
+  /// catch_every periods from the start, u held in between; catch_law holds at the plan's end.
+  std::function<double(const Eigen::VectorXd&, const double*, const double*)> track_law;
+  int track_horizon = 0;
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
   /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
@@ -131,6 +139,7 @@ struct SwingUp {
     const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
                                        energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, 1.0};
     const LawContext<Model> context{&params, n, hold_gain.data()};
+    std::vector<double> refs(track_law ? static_cast<std::size_t>(IPGEN_LOOP_TRACK_REFS(n, track_horizon)) : 0U);
     const ipgen_loop_swingup law{n,
                                  u_max,
                                  hold_gain.data(),
@@ -147,7 +156,10 @@ struct SwingUp {
                                  const_cast<void*>(static_cast<const void*>(this)),
                                  catch_every,
                                  release_angle,
-                                 catch_reset ? &SwingUp::call_catch_reset : nullptr};
+                                 catch_reset ? &SwingUp::call_catch_reset : nullptr,
+                                 track_law ? &SwingUp::call_track_law : nullptr,
+                                 track_horizon,
+                                 refs.data()};
     ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
@@ -192,6 +204,12 @@ struct SwingUp {
   static double call_catch_law(void* context, const double x[]) {
     const auto& self = *static_cast<const SwingUp*>(context);
     return self.catch_law(Eigen::Map<const Eigen::VectorXd>(x, self.target.size()));
+  }
+
+  /// track_law for ipgen_loop_swingup (context: this SwingUp): x and the plan's reference.
+  static double call_track_law(void* context, const double x[], const double x_refs[], const double u_refs[]) {
+    const auto& self = *static_cast<const SwingUp*>(context);
+    return self.track_law(Eigen::Map<const Eigen::VectorXd>(x, self.target.size()), x_refs, u_refs);
   }
 
   /// catch_reset for ipgen_loop_swingup (context: this SwingUp).
