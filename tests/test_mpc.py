@@ -25,6 +25,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from mpc_reference import IpoptReference, flow
 
 import ipgen
@@ -150,14 +152,44 @@ def test_tracking_a_reference_per_stage_equals_ipopt(case: str) -> None:
     assert u_active >= 1, u_active  # the input bound mattered
 
 
-def test_a_bad_reference_is_refused_in_one_line() -> None:
-    controller = qube()
+REFERENCE_SHAPES = st.sampled_from([None, (), (3,), (31, 4), (30, 4), (31, 3), (124,), (31, 4, 1)])
+REFERENCE_VALUES = st.sampled_from([0.0, 1.0, -2.5, np.nan, np.inf, -np.inf])
+
+
+@settings(max_examples=60, deadline=None)
+@given(REFERENCE_SHAPES, REFERENCE_SHAPES, REFERENCE_VALUES, st.booleans())
+def test_any_reference_steps_or_is_refused_in_one_line(
+    states: tuple[int, ...] | None, inputs: tuple[int, ...] | None, value: float, pair: bool
+) -> None:
+    """A reference per stage of any shape and value (or not a pair at all): a step within the
+    input's bounds when it is (N+1) × nx states and N finite inputs (any array of that many
+    entries) or None, else one line naming the reference; never a crash of the C step."""
+    controller = _refusals_qube()
     N, nx = controller.N, controller.nx
-    for bad in (np.zeros(3), (np.zeros((N, nx)), np.zeros(N)), (np.zeros((N + 1, nx)), np.zeros(N + 1)),
-                (np.full((N + 1, nx), np.nan), np.zeros(N))):  # fmt: skip
-        with pytest.raises(MpcError) as caught:
-            controller.step(np.zeros(nx), bad)
-        assert "\n" not in str(caught.value) and "reference" in str(caught.value)
+    xs = None if states is None else np.full(states, value)
+    us = None if inputs is None else np.full(inputs, value)
+    reference = (xs, us) if pair else xs
+    good = reference is None or (  # None: the constant reference
+        pair and xs is not None and us is not None and xs.size == (N + 1) * nx and us.size == N
+        and bool(np.isfinite(value))
+    )  # fmt: skip
+    try:
+        u = controller.step(np.zeros(nx), reference)
+    except MpcError as caught:
+        assert not good, caught
+        assert "\n" not in str(caught) and "reference" in str(caught), caught
+        return
+    assert good and -controller.u_max <= u <= controller.u_max
+
+
+_QUBE: list[Mpc] = []
+
+
+def _refusals_qube() -> Mpc:
+    """One QUBE design shared by the examples above (building it once per example would be slow)."""
+    if not _QUBE:
+        _QUBE.append(qube())
+    return _QUBE[0]
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
