@@ -355,8 +355,9 @@ typedef int (*ipgen_loop_mass_bias)(void *context, const ipgen_real q[], const i
                                     ipgen_real b[]);
 
 /* A swing-up: the energy law (plan 0) or a plan of `steps` inputs u_k, states x_k ((steps + 1)
- * x 2 dof) and gains K_k (steps x 2 dof) tracked as u = u_k - K_k (x - x_k); then the hold
- * u = -hold_gain (x - x_hold), x_hold = target with q1 at the caught upright; |u| <= u_max. */
+ * x 2 dof) and gains K_k (steps x 2 dof) tracked as u = u_k - K_k (x - x_k) (or by a track_law,
+ * below); then the hold u = -hold_gain (x - x_hold), x_hold = target with q1 at the caught
+ * upright, or a catch_law; |u| <= u_max. */
 typedef struct {
   int dof;
   ipgen_real u_max;

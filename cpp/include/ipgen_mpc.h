@@ -1,8 +1,8 @@
 /* ipgen_mpc.h: constrained nonlinear model predictive control, written once (C99, also valid C++).
  *
- * One function, ipgen_mpc_step, takes the current state estimate and returns the input u. It
- * solves (once per sample, or to convergence) the optimal-control problem over N samples of
- * length T (docs/mpc.md):
+ * One function, ipgen_mpc_step, takes the current state estimate and returns the input u
+ * (ipgen_mpc_track: the same about a reference per stage, a plan to track). It solves (once per
+ * sample, or to convergence) the optimal-control problem over N samples of length T (docs/mpc.md):
  *
  *   minimise   sum_{k=0}^{N-1} [ (x_k - x_ref)' Q (x_k - x_ref) + (u_k - u_ref)' R (u_k - u_ref) ]
  *              + (x_N - x_ref)' P (x_N - x_ref) + sum_{k=1}^{N} sum_soft (rho1 s + rho2 s^2)
