@@ -641,6 +641,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
   ipgen_mpc_real Wq[IPGEN_MPC_NX * IPGEN_MPC_NX], Wp[IPGEN_MPC_NX * IPGEN_MPC_NX], xr[IPGEN_MPC_NX];
   ipgen_mpc_real Rw[IPGEN_MPC_NU * IPGEN_MPC_NU], ur[IPGEN_MPC_NU];
   ipgen_mpc_real scale = (ipgen_mpc_real)1;
+  const ipgen_mpc_real *x_refs = l->x_refs, *u_refs = l->u_refs; /* per stage, or null: xr, ur */
   const long nS = IPGEN_MPC_SLACKS(IPGEN_MPC_N, IPGEN_MPC_SOFT);
   long i;
   int k, a, b;
@@ -655,7 +656,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
   for (i = 0; i < IPGEN_MPC_NX; ++i) l->gl[i] = (ipgen_mpc_real)0;
   for (k = 1; k <= IPGEN_MPC_N; ++k) { /* 2 Q (x - x_ref), 2 P at k = N */
     const ipgen_mpc_real *W = k == IPGEN_MPC_N ? Wp : Wq;
-    const ipgen_mpc_real *r = l->x_refs ? l->x_refs + (long)k * IPGEN_MPC_NX : xr;
+    const ipgen_mpc_real *r = x_refs ? x_refs + (long)k * IPGEN_MPC_NX : xr;
     ipgen_mpc_real e[IPGEN_MPC_NX];
     for (b = 0; b < IPGEN_MPC_NX; ++b) e[b] = l->traj[k * IPGEN_MPC_NX + b] + l->z[k * IPGEN_MPC_NX + b] - r[b];
     for (a = 0; a < IPGEN_MPC_NX; ++a) {
@@ -668,7 +669,7 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_gradient_fixed(const ipgen_mpc_settings
   }
   for (k = 0; k < IPGEN_MPC_N; ++k) {
     const long o = (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
-    const ipgen_mpc_real *r = l->u_refs ? l->u_refs + (long)k * IPGEN_MPC_NU : ur;
+    const ipgen_mpc_real *r = u_refs ? u_refs + (long)k * IPGEN_MPC_NU : ur;
     ipgen_mpc_real e[IPGEN_MPC_NU];
     for (b = 0; b < IPGEN_MPC_NU; ++b) e[b] = l->traj[o + b] + l->z[o + b] - r[b];
     for (a = 0; a < IPGEN_MPC_NU; ++a) {
