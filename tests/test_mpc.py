@@ -7,6 +7,9 @@
   with soft state bounds, and the cart double pendulum (classical2, rail ±1 m, ±10 N), with the
   exact Hessian and with Gauss-Newton's; the bounds must be active (the soft ones violated) in
   some of them.
+- A reference per stage (ipgen_mpc_track, a plan to track) in the converged mode against IPOPT
+  with the same reference, from states off a plan, both started from the plan's rows; a bad
+  reference (any shape or value) is a step or one line.
 - The RK4 sensitivities of the C code against CasADi's Jacobians of the same RK4 and central
   differences of the C map.
 - The real-time iteration in closed loop with the exact model integrated by scipy (solve_ivp):
