@@ -385,3 +385,37 @@ def test_energy_swingup_model_failure_propagates(monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(energy, "mass_and_bias", failing)
     with pytest.raises(ZeroDivisionError, match="no mass"):
         law.control(0, np.array([0.0, math.pi, 0.0, 1.0]))
+
+
+# ---- a plan's reference for a tracking controller --------------------------------------------------
+
+
+def plan_reference(states: np.ndarray, inputs: np.ndarray, k: int, every: int, horizon: int):
+    """The reference of ipgen_loop_plan_reference written independently: row j the plan's state at
+    sample k + j every (its last row past the end), input j the mean of the plan's inputs over
+    samples k + j every .. k + (j + 1) every - 1 (0 past the end)."""
+    steps = len(inputs)
+    rows = np.array([states[min(k + j * every, steps)] for j in range(horizon + 1)])
+    windows = [range(k + j * every, k + (j + 1) * every) for j in range(horizon)]
+    means = np.array([sum(inputs[m] for m in window if m < steps) / every for window in windows])
+    return rows, means
+
+
+@SETTINGS
+@given(st.integers(1, 40), st.integers(1, 5), st.integers(1, 12), st.integers(0, 60), st.integers(1, 3))
+def test_the_plan_reference_equals_the_formula(
+    steps: int, every: int, horizon: int, k: int, dof: int
+) -> None:
+    """Every plan length, sampling ratio, horizon and start, past the plan's end included."""
+    rng = np.random.default_rng(steps * 1000 + every * 100 + horizon * 10 + k)
+    states = rng.normal(size=(steps + 1, 2 * dof))
+    inputs = rng.normal(size=steps)
+    law = loop_runtime.SwingUp()
+    law.dof, law.steps = dof, steps
+    law.states, law.inputs = address(states), address(inputs)
+    rows = np.zeros((horizon + 1, 2 * dof))
+    means = np.zeros(horizon)
+    library().ipgen_loop_plan_reference(ctypes.byref(law), k, every, horizon, address(rows), address(means))
+    want_rows, want_means = plan_reference(states, inputs, k, every, horizon)
+    assert np.array_equal(rows, want_rows)
+    assert close(means, want_means)

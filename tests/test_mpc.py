@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from mpc_reference import IpoptReference, flow
 
@@ -155,27 +155,43 @@ def test_tracking_a_reference_per_stage_equals_ipopt(case: str) -> None:
     assert u_active >= 1, u_active  # the input bound mattered
 
 
-REFERENCE_SHAPES = st.sampled_from([None, (), (3,), (31, 4), (30, 4), (31, 3), (124,), (31, 4, 1)])
-REFERENCE_VALUES = st.sampled_from([0.0, 1.0, -2.5, np.nan, np.inf, -np.inf])
+# The QUBE design's N = 30 and nx = 4: the shapes a reference's states and inputs may have (None:
+# absent), right ((31, 4), (124,); (30,), (30, 1)) and wrong (transposed, one short, one more axis).
+REFERENCE_SHAPES = st.sampled_from(
+    [None, (), (31, 4), (124,), (4, 31), (30, 4), (30,), (30, 1), (31,), (1, 30)]
+)
+REFERENCE_VALUES = st.sampled_from([0.0, 1.0, -2.5, np.nan, np.inf, -np.inf, "abc"])
 
 
-@settings(max_examples=60, deadline=None)
-@given(REFERENCE_SHAPES, REFERENCE_SHAPES, REFERENCE_VALUES, st.booleans())
+@settings(max_examples=80, deadline=None)
+@given(REFERENCE_SHAPES, REFERENCE_SHAPES, REFERENCE_VALUES, REFERENCE_VALUES, st.booleans())
+@example((31, 4), (30,), 0.5, 1.0, True)  # a plan's rows: a step
+@example((124,), (30, 1), 0.5, 1.0, True)  # flat: a step
+@example((4, 31), (30,), 0.5, 1.0, True)  # transposed: refused
+@example((31, 4), (30,), 0.5, np.nan, True)  # not finite: refused
 def test_any_reference_steps_or_is_refused_in_one_line(
-    states: tuple[int, ...] | None, inputs: tuple[int, ...] | None, value: float, pair: bool
+    states: tuple[int, ...] | None,
+    inputs: tuple[int, ...] | None,
+    x_value: object,
+    u_value: object,
+    pair: bool,
 ) -> None:
     """A reference per stage of any shape and value (or not a pair at all): a step within the
-    input's bounds when it is (N+1) × nx states and N finite inputs (any array of that many
-    entries) or None, else one line naming the reference; never a crash of the C step."""
+    input's bounds when it is N+1 rows of nx states (or their nx (N+1) entries, row by row) and
+    N finite inputs (or N × 1), or None; else one line naming the reference."""
     controller = _refusals_qube()
     N, nx = controller.N, controller.nx
-    xs = None if states is None else np.full(states, value)
-    us = None if inputs is None else np.full(inputs, value)
+    assert (N, nx) == (30, 4)  # REFERENCE_SHAPES' sizes
+
+    def array(shape: tuple[int, ...] | None, value: object) -> object:
+        return None if shape is None else np.full(shape, value, dtype=object)
+
+    xs, us = array(states, x_value), array(inputs, u_value)
     reference = (xs, us) if pair else xs
+    numbers = all(isinstance(v, float) and np.isfinite(v) for v in (x_value, u_value))
     good = reference is None or (  # None: the constant reference
-        pair and xs is not None and us is not None and xs.size == (N + 1) * nx and us.size == N
-        and bool(np.isfinite(value))
-    )  # fmt: skip
+        pair and states in ((31, 4), (124,)) and inputs in ((30,), (30, 1)) and numbers
+    )
     try:
         u = controller.step(np.zeros(nx), reference)
     except MpcError as caught:

@@ -358,7 +358,7 @@ typedef int (*ipgen_loop_mass_bias)(void *context, const ipgen_real q[], const i
  * x 2 dof) and gains K_k (steps x 2 dof) tracked as u = u_k - K_k (x - x_k) (or by a track_law,
  * below); then the hold u = -hold_gain (x - x_hold), x_hold = target with q1 at the caught
  * upright, or a catch_law; |u| <= u_max. */
-typedef struct {
+typedef struct { /* fields are appended over releases: zero it, then set them by name */
   int dof;
   ipgen_real u_max;
   const ipgen_real *hold_gain, *target; /* 2 dof each */
@@ -389,7 +389,9 @@ typedef struct {
    * and every catch_every samples, u = track_law(catch_context, x, x_refs, u_refs) with the
    * plan's reference over the next track_horizon of its samples (ipgen_loop_plan_reference,
    * written into track_refs: IPGEN_LOOP_TRACK_REFS(dof, track_horizon) entries, the caller's),
-   * held in between; at the plan's end the catch_law holds. Null: the plan's gains. */
+   * held in between; at the plan's end the catch_law holds, its steps on the same grid (a plan
+   * of steps not a multiple of catch_every: the last u held to the grid's next sample). Null:
+   * the plan's gains. */
   ipgen_real (*track_law)(void *catch_context, const ipgen_real x[], const ipgen_real x_refs[],
                           const ipgen_real u_refs[]);
   int track_horizon;
@@ -473,6 +475,8 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
     } else {
       s->phase = IPGEN_LOOP_HOLD;
       s->hold_sample = s->k;
+      if (law->track_law && law->catch_every > 1) /* the hold's steps stay on the tracking's grid */
+        s->hold_sample -= s->k % law->catch_every;
     }
   } else if (s->phase == IPGEN_LOOP_SWING) {
     if (ipgen_loop_energy_caught(&law->energy, x[1], x[dof + 1])) {

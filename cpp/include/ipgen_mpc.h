@@ -471,7 +471,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_decode(const ipgen_mpc_settings *s, long i, long 
     lo = s->u_min[j];
     hi = s->u_max[j];
   } else if (i < nU + nH) {
-    const long ii = i - nU, k = 1 + ii / (2 * nh), j = (ii % (2 * nh)) / 2;
+    /* nh > 0 here; the guard keeps a constant 0 divisor (fixed sizes, no hard bound) out of C++ */
+    const long ii = i - nU, pair = nh > 0 ? 2 * nh : 1, k = 1 + ii / pair, j = (ii % pair) / 2;
     r = ii;
     *var = k * nx + s->hard_index[j];
     lo = s->hard_min[j];
@@ -1403,7 +1404,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const i
 /* ---- the controller ----------------------------------------------------------------------- */
 
 /* Forgets the warm start: the next step starts cold (every state x_k at the estimate, every
- * input at u_ref clipped to its bounds). */
+ * input at u_ref clipped to its bounds; ipgen_mpc_track: at its reference's rows). */
 IPGEN_MPC_API void ipgen_mpc_reset(ipgen_mpc_real work[]) { work[0] = (ipgen_mpc_real)0; }
 
 /* The problem's cost (the header's comment) of the trajectory traj (states x_0..x_N, then the
@@ -1537,7 +1538,7 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
   info->sqp_iterations = info->qp_iterations = 0;
   info->step = info->defect = info->qp_residual = (ipgen_mpc_real)0;
   if (ipgen_mpc_check(s) != IPGEN_MPC_OK) {
-    for (i = 0; i < nu && i < s->nu; ++i) u[i] = s->u_ref[i];
+    for (i = 0; i < nu && i < s->nu; ++i) u[i] = IPGEN_MPC_U_REF(s, u_refs, 0, nu)[i];
     return info->status = IPGEN_MPC_BAD_SETTINGS;
   }
   ipgen_mpc_carve(s, work, &l);
@@ -1644,7 +1645,8 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
   }
   for (i = 0; i < nu; ++i) {
     const ipgen_mpc_real v = us[i];
-    u[i] = ipgen_mpc_finite(v) ? (v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v)) : s->u_ref[i];
+    u[i] = ipgen_mpc_finite(v) ? (v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v))
+                               : IPGEN_MPC_U_REF(s, u_refs, 0, nu)[i]; /* the reference's first input */
   }
   return info->status;
 }

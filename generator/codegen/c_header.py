@@ -219,7 +219,8 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         context["inputs"] = _c_list(law.inputs, "inputs")
         context["states"] = [_c_list(row, "states") for row in rows]
         context["gains"] = [_c_list(row, "gains") for row in gains]
-        context["table_bytes"] = 8 * (law.steps + (2 * law.steps + 1) * size)
+        tracked = law.tracking == "mpc"  # the MPC tracks: the gain schedule is not flashed
+        context["table_bytes"] = 8 * (law.steps + (law.steps * (0 if tracked else 1) + law.steps + 1) * size)
     return context
 
 

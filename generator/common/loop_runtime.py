@@ -210,6 +210,7 @@ SIGNATURES: tuple[tuple[str, Any, tuple[Any, ...]], ...] = (
     ("ipgen_loop_feedback", _real, (_I, _real, _P, _P, _P)),
     ("ipgen_loop_swingup_start", None, (ctypes.POINTER(SwingUp), ctypes.POINTER(SwingUpState))),
     ("ipgen_loop_swingup_step", _real, (ctypes.POINTER(SwingUp), ctypes.POINTER(SwingUpState), _P, _P)),
+    ("ipgen_loop_plan_reference", None, (ctypes.POINTER(SwingUp), _L, _L, _I, _P, _P)),
     ("ipgen_loop_batch_layout", _L, (_P,)),
     ("ipgen_loop_batch_observe", _L,
      (_L, _P, _I, _P, _P, _P, _I, _real, _real, _real, _L, _P, _P, _P, _L, _P)),

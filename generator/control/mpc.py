@@ -462,20 +462,24 @@ class Mpc:
 
     def _reference(self, reference: Any) -> tuple[Any, Any, tuple[np.ndarray, ...]]:
         """(x_refs pointer, u_refs pointer, the arrays kept alive) of a per-stage reference, or
-        null pointers for the constant x_ref, u_ref."""
+        null pointers for the constant x_ref, u_ref. States: (N+1) × nx (or flat, row by row);
+        inputs: N (or N × 1)."""
         if reference is None:
             return None, None, ()
+        N, nx, nu = self.N, self.nx, self.nu
+        usage = f"reference: expected (states, inputs), a plan's {N + 1} × {nx} states, {N} inputs from now"
         try:
             states, inputs = reference
+            xs = np.asarray(states, dtype=float)
+            us = np.asarray(inputs, dtype=float)
         except (TypeError, ValueError):
-            raise MpcError(
-                "reference: expected (states, inputs), (N+1) × nx and N × nu arrays (a plan's rows from now)"
-            ) from None
-        N, nx, nu = self.N, self.nx, self.nu
-        xs = self._vector(states, (N + 1) * nx, f"reference states ((N+1) × nx = {N + 1} × {nx})")
-        us = self._vector(inputs, N * nu, f"reference inputs (N × nu = {N} × {nu})")
+            raise MpcError(usage) from None
+        if xs.shape not in ((N + 1, nx), ((N + 1) * nx,)) or us.shape not in ((N,), (N, nu)):
+            raise MpcError(f"{usage}; got {xs.shape} and {us.shape} (a transposed plan reads wrong)")
         if not (np.all(np.isfinite(xs)) and np.all(np.isfinite(us))):
             raise MpcError("reference: every entry must be finite")
+        xs = np.ascontiguousarray(xs.reshape(-1), dtype=self._dtype)
+        us = np.ascontiguousarray(us.reshape(-1), dtype=self._dtype)
         return xs.ctypes.data, us.ctypes.data, (xs, us)
 
     def step(self, x: Sequence[float] | np.ndarray, reference: Any = None) -> float:

@@ -40,7 +40,7 @@
 //          energy_inertia energy_weight                                               (energy)
 //   swingup.release_angle   (optional, energy: the hold gives the link back to the swing past it)
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
-//   swingup.tracking = mpc  (optional, trajectory with controller = mpc: the MPC tracks the plan, ipsim/swingup.hpp)
+//   swingup.tracking = lqr | mpc  (optional, trajectory: the plan's gains track it, or with controller = mpc the MPC)
 //   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
 //   sensors.seed = 0         (optional, with a sampled controller or swing-up: the measured loop, sensors.hpp)
 //   sensors.zero = 0 -3.14…  (optional: the pose where the encoders read 0; absent: 0)
@@ -258,6 +258,15 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     file.fail(file.line("swingup.period"), "swingup.period = " + detail::format_number(sw.period) +
                                                ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
   }
+  // swingup.tracking: lqr (the plan's gains, the default) or mpc (the scene's MPC tracks the plan)
+  const bool tracked_by_mpc = file.has("swingup.tracking") && file.text("swingup.tracking") == "mpc";
+  if (file.has("swingup.tracking")) {
+    const std::string& tracking = file.text("swingup.tracking");
+    if ((tracking != "mpc" && tracking != "lqr") || sw.method != SwingUp::Method::trajectory) {
+      file.fail(file.line("swingup.tracking"), "swingup.tracking must be `lqr` or `mpc`, with swingup = trajectory");
+    }
+    if (tracked_by_mpc && !scene.mpc) file.fail(file.line("swingup.tracking"), "swingup.tracking = mpc needs controller = mpc");
+  }
   if (scene.mpc) {  // controller = mpc with a swing-up: the MPC catches and holds (every catch_every periods)
     const double every = std::round(scene.mpc->problem().period / sw.period);
     if (!(every >= 1.0 && std::abs(every * sw.period - scene.mpc->problem().period) <= 1e-9 * scene.mpc->problem().period)) {
@@ -267,10 +276,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.catch_every = static_cast<long>(every);
     sw.catch_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x) { return b * (*mpc)(x); };
     sw.catch_reset = [mpc = scene.mpc]() { mpc->reset(); };  // a released hold's next catch starts cold
-    if (file.has("swingup.tracking")) {  // the MPC tracks the plan too, its reference per stage
-      if (file.text("swingup.tracking") != "mpc" || sw.method != SwingUp::Method::trajectory) {
-        file.fail(file.line("swingup.tracking"), "swingup.tracking must be `mpc`, with swingup = trajectory");
-      }
+    if (tracked_by_mpc) {  // the MPC tracks the plan too, its reference per stage
       sw.track_horizon = scene.mpc->problem().horizon;
       // the plan's inputs are in N or N m here (× b above), the MPC's in the scene's unit
       sw.track_law = [mpc = scene.mpc, b, scratch = std::make_shared<std::vector<double>>()](
@@ -281,8 +287,6 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
         return b * mpc->track(x, x_refs, scratch->data());
       };
     }
-  } else if (file.has("swingup.tracking")) {
-    file.fail(file.line("swingup.tracking"), "swingup.tracking = mpc needs controller = mpc");
   }
   scene.swingup_state = std::make_shared<SwingUp::State>();
   scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);
