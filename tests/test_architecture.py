@@ -7,6 +7,7 @@ a circle that only typing or a lazy import hides is still a circle a reader has 
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "generator"
@@ -80,6 +81,14 @@ def _stage(module: str) -> str:
 
 
 def _graph() -> dict[str, set[str]]:
+    """Each module's imports of ipgen modules (but `LATE_IMPORTS`): a copy of `_parsed_graph`."""
+    return {name: set(targets) for name, targets in _parsed_graph().items()}
+
+
+@functools.cache
+def _parsed_graph() -> dict[str, set[str]]:
+    """The package's sources parsed once per process (three tests read the graph; the sources do
+    not change during a test run)."""
     modules = _modules()
     return {
         name: {t for t in _imports(path, modules) if t != name and (name, t) not in LATE_IMPORTS}

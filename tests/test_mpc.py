@@ -24,6 +24,7 @@ from __future__ import annotations
 import ctypes
 import subprocess
 from collections.abc import Callable
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -51,9 +52,16 @@ def qube(**options: object) -> Mpc:
     return mpc(p, u_max=10.0, travel=1.0, Q=[1, 10, 0.1, 0.1], R=0.1, **options)  # type: ignore[arg-type]
 
 
+@cache
+def cdip_pendulum() -> ipgen.Pendulum:
+    """The pendulum of scenes/cdip_swingup.toml, read once per process: loading the scene designs
+    its swing-up plan (about 0.5 s), which the MPCs below do not use; a Pendulum is frozen."""
+    return ipgen.Pendulum.from_scene(ROOT / "scenes" / "cdip_swingup.toml")
+
+
 def cdip(**options: object) -> Mpc:
     """The cart double pendulum of scenes/cdip_swingup.toml: rail ±1 m, ±10 N, 20 ms samples."""
-    p = ipgen.Pendulum.from_scene(ROOT / "scenes" / "cdip_swingup.toml")
+    p = cdip_pendulum()
     return mpc(
         p, u_max=10.0, travel=1.0, period=0.02, substeps=2, Q=[1, 10, 10, 0.1, 0.1, 0.1], R=1.0,
         **options,  # type: ignore[arg-type]
@@ -64,7 +72,7 @@ def cdip_fast(**options: object) -> Mpc:
     """The cart double pendulum with ±20 N and a heavier weight on the state: what the real-time
     iteration holds from a start far along the rail (±10 N and cdip's weights lose the links
     there: the basin of a bounded force is small on this chain, docs/control.md)."""
-    p = ipgen.Pendulum.from_scene(ROOT / "scenes" / "cdip_swingup.toml")
+    p = cdip_pendulum()
     return mpc(
         p, u_max=20.0, travel=1.0, period=0.02, substeps=2, Q=[10, 10, 10, 0.1, 0.1, 0.1], R=0.1,
         **options,  # type: ignore[arg-type]

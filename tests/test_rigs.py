@@ -15,6 +15,7 @@ import math
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -49,8 +50,30 @@ def model(name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, np.array(scene.controller.gain).reshape(1, -1)
 
 
+@pytest.fixture(scope="module")
+def generated(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Path]:
+    """The folder of `ipgen --scene scenes/rigs/<name>.toml -o <folder>`, run once per module and
+    preset (two tests read qube_servo2's files); the command's exit status is checked on each call,
+    and a failed run is not kept."""
+    done: dict[str, Path] = {}
+
+    def folder(name: str) -> Path:
+        if name not in done:
+            out = tmp_path_factory.mktemp(name)
+            result = subprocess.run(
+                [sys.executable, "-m", "ipgen", "--scene", str(RIGS / f"{name}.toml"), "-o", str(out)],
+                capture_output=True,
+                text=True,
+            )
+            assert result.returncode == 0, result.stderr
+            done[name] = out
+        return done[name]
+
+    return folder
+
+
 @pytest.mark.parametrize("name", PRESETS)
-def test_preset_loads_and_its_lqr_in_volts_stabilises(name: str, tmp_path: Path) -> None:
+def test_preset_loads_and_its_lqr_in_volts_stabilises(name: str, generated: Callable[[str], Path]) -> None:
     scene = load_scene(RIGS / f"{name}.toml")
     assert scene.actuator.is_motor
     assert scene.controller is not None and scene.controller.saturation == 10.0
@@ -60,13 +83,8 @@ def test_preset_loads_and_its_lqr_in_volts_stabilises(name: str, tmp_path: Path)
     assert "actuator = dc_motor" in config
     written = next(line for line in config.splitlines() if line.startswith("actuator.gain = "))
     assert float(written.split()[2]) == pytest.approx(scene.actuator.gain(), rel=1e-15)
-    result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "--scene", str(RIGS / f"{name}.toml"), "-o", str(tmp_path)],
-        capture_output=True,
-        text=True,
-    )
-    assert result.returncode == 0, result.stderr
-    assert (tmp_path / f"{scene.name}.hpp").is_file() and (tmp_path / f"{name}.cfg").is_file()
+    out = generated(name)
+    assert (out / f"{scene.name}.hpp").is_file() and (out / f"{name}.cfg").is_file()
 
 
 def test_qube_servo_2_preset_reproduces_quanser_in_volts() -> None:
@@ -178,14 +196,8 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
     assert not math.isclose(data[1, 1], 0.0)  # the arm moved
 
 
-def test_the_c_header_carries_the_lqr_in_volts(tmp_path: Path) -> None:
-    result = subprocess.run(
-        [sys.executable, "-m", "ipgen", "--scene", str(RIGS / "qube_servo2.toml"), "-o", str(tmp_path)],
-        capture_output=True,
-        text=True,
-    )
-    assert result.returncode == 0, result.stderr
-    header = (tmp_path / "qube_servo2.h").read_text()
+def test_the_c_header_carries_the_lqr_in_volts(generated: Callable[[str], Path]) -> None:
+    header = (generated("qube_servo2") / "qube_servo2.h").read_text()
     assert "(motor voltage [V]), clipped to |u| <= 10.0." in header
 
 

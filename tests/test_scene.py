@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from shipped_scenes import shipped_scene
 
 from ipgen import __version__
 from ipgen.errors import SceneError
@@ -96,7 +97,7 @@ def bits(x: float) -> bytes:
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_shipped_scene_loads(path: Path) -> None:
-    scene = load_scene(path)
+    scene = shipped_scene(path)
     assert scene.stem == path.stem
     assert len(scene.m) == len(scene.l) == len(scene.delta) == scene.links + 1
     assert scene.warnings == ()
@@ -105,7 +106,7 @@ def test_shipped_scene_loads(path: Path) -> None:
 
 
 def test_expected_scenes_are_shipped() -> None:
-    names = {load_scene(path).name: path.stem for path in SCENES}
+    names = {shipped_scene(path).name: path.stem for path in SCENES}
     assert names == {
         "cdip": "cdip_pulse",
         "rsip": "rsip_pulse",

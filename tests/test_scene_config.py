@@ -8,9 +8,9 @@ import re
 from pathlib import Path
 
 import pytest
+from shipped_scenes import shipped_scene
 
 from ipgen.experiment.config import CFG_KEYS, resolved_config
-from ipgen.experiment.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = sorted(
@@ -55,7 +55,7 @@ def test_the_simulators_help_names_the_written_keys() -> None:
 
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_every_written_key_is_in_the_table(path: Path) -> None:
-    lines = resolved_config(load_scene(path)).splitlines()
+    lines = resolved_config(shipped_scene(path)).splitlines()
     written = [line.split(" = ", 1)[0] for line in lines if not line.startswith("#")]
     assert written and set(written) <= set(CFG_KEYS)
     assert len(written) == len(set(written))  # one line per key

@@ -11,6 +11,7 @@ import contextlib
 import io
 import math
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +19,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import expm, solve_discrete_are
+from shipped_scenes import shipped_scene
 
 from ipgen.command.cli import MESSAGE_CHARS, run
 from ipgen.control.linear import linearize
 from ipgen.errors import SceneError
 from ipgen.experiment.config import resolved_config
-from ipgen.experiment.scene import load_scene
+from ipgen.experiment.scene import Scene, load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 LOOP_KEYS = ("sensors.", "estimator", "actuator.noise", "actuator.lag", "actuator.pulses")
@@ -57,8 +59,8 @@ def scene(tmp_path: Path, extra: str = "", *, period: str = "period = 0.001", ac
     return path
 
 
-def config(path: Path) -> dict[str, str]:
-    text = resolved_config(load_scene(path))
+def config(path: Path, load: Callable[[Path], Scene] = load_scene) -> dict[str, str]:
+    text = resolved_config(load(path))
     return dict(line.split(" = ", 1) for line in text.splitlines() if line and not line.startswith("#"))
 
 
@@ -70,7 +72,7 @@ def test_shipped_scenes_write_no_loop_keys() -> None:
             continue  # measured loops
         if 'type = "fixed"' in path.read_text(encoding="utf-8"):  # no simulator config yet
             continue
-        keys = config(path)
+        keys = config(path, shipped_scene)
         assert not [key for key in keys if key.startswith(LOOP_KEYS)], path
 
 

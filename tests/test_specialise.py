@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import cxx_command, require_toolchain
+from shipped_scenes import shipped_scene
 
 from ipgen.command.cli import run
 from ipgen.experiment.scene import load_scene
@@ -107,7 +108,7 @@ def compile_program(
 def test_specialised_header_agrees_with_general(tmp_path: Path, scene_path: Path) -> None:
     """Two specialisations of each scene, the simulator's (no energy functions) and the energy
     ledger's (scene.energy = true), in one program with the general header."""
-    scene = load_scene(scene_path)
+    scene = shipped_scene(scene_path)
     system = System(scene.type, scene.links, scene.inertia)  # type: ignore[arg-type]
     generate_header(system, "general", tmp_path)
     for name, energy in (("special", False), ("special_energy", True)):

@@ -2,7 +2,9 @@
 then hold) on the exact model ends upright and at rest, and matches the Python reference loop.
 
 One compile per model (about 10-20 s each on the shared 2-core machine), cached for the module;
-holds are short (0.5 s) to keep the runs brief.
+holds are short (0.5 s) to keep the runs brief. A scene that several tests check (the rotary
+single's energy swing-up: four tests) is run once per module (`runs`): each test asserts on that
+run's CSV, summary and .cfg, as it did on a run of its own of the same scene and simulator.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import math
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -96,10 +99,30 @@ def run_scene(tmp_path: Path, text: str, env: dict[str, str]) -> tuple[list[str]
     return columns, data, phases, (out / "swing.txt").read_text()
 
 
+Run = tuple[list[str], np.ndarray, list[str], str, Path]  # run_scene's four, then the output folder
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory, cache: dict[str, str]) -> Callable[[str], Run]:
+    """`run_scene` of a scene text, once per module and text (`ipgen run` is deterministic: the
+    same scene and simulator write the same CSV), into a folder of its own; each call gets its
+    own copy of the arrays and lists. A run that fails is not kept: each test asking for it fails."""
+    done: dict[str, Run] = {}
+
+    def run(text: str) -> Run:
+        if text not in done:
+            folder = tmp_path_factory.mktemp("run")
+            done[text] = (*run_scene(folder, text, cache), folder / "out")
+        columns, data, phases, summary, out = done[text]
+        return list(columns), data.copy(), list(phases), summary, out
+
+    return run
+
+
 @pytest.mark.parametrize("case", CASES, ids=[f"{c[0]}{c[1]}-{c[2]}" for c in CASES])
-def test_swingup_ends_upright_and_at_rest(tmp_path: Path, cache: dict[str, str], case: tuple) -> None:
+def test_swingup_ends_upright_and_at_rest(runs: Callable[[str], Run], case: tuple) -> None:
     _, links, method, u_max, duration, _, hold = case
-    _, data, phases, summary = run_scene(tmp_path, scene_text(*case), cache)
+    _, data, phases, summary, _ = runs(scene_text(*case))
     dof = links + 1
     t, x, u = data[:, 0], data[:, 1 : 1 + 2 * dof], data[:, 1 + 2 * dof]
     np.testing.assert_allclose(x[0, 1:dof], math.pi)  # started hanging
@@ -120,15 +143,15 @@ def test_swingup_ends_upright_and_at_rest(tmp_path: Path, cache: dict[str, str],
     assert "Swing-up:" in summary and "hold (LQR) from t =" in summary
 
 
-def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, cache: dict[str, str]) -> None:
+def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, runs: Callable[[str], Run]) -> None:
     """While a plan is tracked, a link farther from its planned angle than --divergence-angle
     stops the run with exit status 5 and a line naming the link (before: it ran on into the
     hold). With a bound of 1 mrad the rotary single pendulum's tracking (ZOH, RK4 plan) leaves
     it within the first second; the stop comes within one period of the first sample whose
     deviation from the plan (the .cfg's swingup.states, checked here) exceeds the bound."""
     case = ("rotary", 1, "trajectory", 5.0, 2.0, None, HOLD)
-    _, _, _, summary = run_scene(tmp_path, scene_text(*case), cache)  # exit 0 at the default bound
-    cfg = tmp_path / "out" / "swing.cfg"
+    _, _, _, summary, out = runs(scene_text(*case))  # exit 0 at the default bound
+    cfg = out / "swing.cfg"
     lines = dict(line.split(" = ", 1) for line in cfg.read_text().splitlines() if " = " in line)
     period = float(lines["swingup.period"])
     states = np.array([float(v) for v in lines["swingup.states"].split()]).reshape(-1, 4)
@@ -151,12 +174,12 @@ def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, cache: dict[str, str]
     assert off[first] > 0.001 and data[-1, 0] - data[first, 0] <= period + 1e-9, (data[first, 0], data[-1, 0])
 
 
-def test_energy_swingup_matches_the_python_reference(tmp_path: Path, cache: dict[str, str]) -> None:
+def test_energy_swingup_matches_the_python_reference(runs: Callable[[str], Run]) -> None:
     """The rotary single's energy swing-up in the simulator against tests/swingup_reference.py
     (scipy DOP853 on the sympy model, the Python controller): same phases at the same samples,
     the same states to 1e-6 through the swing."""
     case = ("rotary", 1, "energy", 5.0, None, None, HOLD)
-    _, data, phases, _ = run_scene(tmp_path, scene_text(*case), cache)
+    _, data, phases, _, _ = runs(scene_text(*case))
     m, l, delta = paper("rotary", 1)  # noqa: E741
     p = plant("rotary", 1, m, l, delta)
     controller = energy_swingup(p, u_max=5.0, period=0.01)
@@ -206,14 +229,14 @@ int main(void) {
     ids=["rotary1-energy", "classical2-trajectory"],
 )
 def test_c_header_swingup_computes_the_simulators_inputs(
-    tmp_path: Path, cache: dict[str, str], case: tuple
+    tmp_path: Path, runs: Callable[[str], Run], case: tuple
 ) -> None:
     """The C header's swing-up controller (--emit c), fed the states the C++ simulator sampled,
     returns the u the simulator applied at every sampling instant (the same law, the same
     sampling semantics), and ends in the hold phase."""
     kind, links, *_rest = case
     text = scene_text(*case)
-    _, data, phases, _ = run_scene(tmp_path, text, cache)
+    _, data, phases, _, _ = runs(text)
     dof = links + 1
     folder = tmp_path / "c"
     scene = tmp_path / "c.toml"
@@ -264,12 +287,11 @@ BAD_VALUES = st.one_of(
 
 
 @pytest.fixture(scope="module")
-def energy_run(tmp_path_factory: pytest.TempPathFactory, cache: dict[str, str]) -> tuple[str, str]:
+def energy_run(runs: Callable[[str], Run]) -> tuple[str, str]:
     """(simulator path, resolved .cfg text) of the rotary single's energy swing-up."""
-    folder = tmp_path_factory.mktemp("energy")
-    _, _, _, summary = run_scene(folder, scene_text("rotary", 1, "energy", 5.0, None, None, HOLD), cache)
+    _, _, _, summary, out = runs(scene_text("rotary", 1, "energy", 5.0, None, None, HOLD))
     simulator = summary.rsplit("Simulator ", 1)[1].split(" (")[0]
-    return simulator, (folder / "out" / "swing.cfg").read_text()
+    return simulator, (out / "swing.cfg").read_text()
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
