@@ -291,3 +291,27 @@ def test_templates_ship_with_a_plain_install(tmp_path: Path) -> None:
     result = ipgen("--type", "classical", "--links", "1", "-o", str(tmp_path / "o"), env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert (tmp_path / "o" / "classical1.hpp").is_file()
+
+
+def test_an_output_directory_made_meanwhile_by_a_concurrent_run_is_used(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two runs into one new -o: the one that loses the race to mkdir uses the folder the other
+    made (it failed "file exists" before); a path that became a file is still refused."""
+    from ipgen.common.files import OutputError, prepare_directory
+
+    def raced(self: Path, *args: object, **kwargs: object) -> None:
+        os.makedirs(self, exist_ok=True)  # the other run made it first
+        raise FileExistsError(17, "File exists", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", raced)
+    out = tmp_path / "new" / "out"
+    assert prepare_directory(out) is False and out.is_dir()
+
+    def raced_to_a_file(self: Path, *args: object, **kwargs: object) -> None:
+        self.write_text("not a folder")
+        raise FileExistsError(17, "File exists", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", raced_to_a_file)
+    with pytest.raises(OutputError, match="cannot create output directory"):
+        prepare_directory(tmp_path / "other")

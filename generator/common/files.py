@@ -93,7 +93,12 @@ def prepare_directory(directory: Path) -> bool:
             if not os.access(directory, os.W_OK | os.X_OK):
                 raise OutputError(f"cannot write to {_shown(directory)}: permission denied; pass another -o")
             return False
-        directory.mkdir(parents=True)
+        try:
+            directory.mkdir(parents=True)
+        except FileExistsError:  # made meanwhile by a concurrent run into the same new -o: use it
+            if directory.is_dir() and os.access(directory, os.W_OK | os.X_OK):
+                return False
+            raise
     except OSError as e:  # a component that is a file, a name too long, /proc, /sys, ...
         raise OutputError(
             f"cannot create output directory {_shown(directory)}: {_reason(e)}; pass another -o"
