@@ -401,13 +401,7 @@ def test_a_plan_tracked_by_the_mpc_replays_the_simulators_inputs(
     states = np.column_stack([column[n] for n in state_names])
     source = TRACKER.replace("NAME", name).replace("P_", f"ipgen_{name}_").replace("DOF", str(dof))
     for scalar, bound in (("double", 1e-9), ("float", float_bound * u_max)):
-        program = tmp_path / f"track_{scalar}"
-        program.with_suffix(".c").write_text(source)
-        extra = [*FLOAT_WARNINGS] if scalar == "float" else []
-        command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{tmp_path}", str(program.with_suffix(".c"))]
-        result = subprocess.run([*command, "-o", str(program), "-lm"], capture_output=True, text=True)
-        assert result.returncode == 0, result.stderr[:3000]
-        out = _run(program, states, "{!r}")
+        out = _run(_program(tmp_path, f"track_{scalar}", source, scalar), states, "{!r}")
         inputs, phases = np.array([float(v[0]) for v in out]), [int(v[1]) for v in out]
         assert np.max(np.abs(inputs - column["u"])) <= bound, (scalar, np.max(np.abs(inputs - column["u"])))
         assert phases[0] == 1 and phases[-1] == 2  # IPGEN_LOOP_TRACK, then IPGEN_LOOP_HOLD

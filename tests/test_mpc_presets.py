@@ -118,6 +118,17 @@ def _hold_cost(
     return float(np.sum(x**2 @ np.asarray(q)) + r * np.sum(u**2))
 
 
+def _converged(scene: Path, folder: Path) -> tuple[dict, Run]:
+    """(the [controller] table, the run) of `scene` with its MPC iterated to convergence at every
+    sample (mode = "converged"), run into folder/out; every step ok."""
+    text = scene.read_text()
+    converged = folder / f"{scene.stem}_converged.toml"
+    converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
+    run = _swing_up(converged, folder / "out")
+    assert "converged" in run[0] and "every status ok" in run[0]
+    return tomllib.loads(text)["controller"], run
+
+
 @pytest.mark.parametrize("preset", ["qube_servo2_mpc_swingup", "qube_servo2_mpc_swingup_ekf"])
 def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
     preset: str, rti_swing_up: Callable[[str], Run], tmp_path: Path
@@ -125,14 +136,8 @@ def test_qube_swing_up_rti_costs_what_the_converged_mode_costs(
     """Issue 47's bound: the real-time iteration's closed-loop cost over the swing-up (from the
     catch, which the energy law makes the same in both) within 5 % of the same scene's with the
     MPC iterated to convergence (mode = "converged") at every sample; for both QUBE presets."""
-    scene = SWINGUP.with_name(f"{preset}.toml")
     rti_run = rti_swing_up(preset)
-    text = scene.read_text()
-    controller = tomllib.loads(text)["controller"]
-    converged = tmp_path / "qube_converged.toml"
-    converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
-    summary, column, phase = _swing_up(converged, tmp_path / "out")
-    assert "converged" in summary and "every status ok" in summary
+    controller, (_, column, phase) = _converged(SWINGUP.with_name(f"{preset}.toml"), tmp_path)
     weights = (controller["q"], controller["r"], controller["period"])
     rti, full = _hold_cost(*rti_run[1:], *weights), _hold_cost(column, phase, *weights)
     catch = rti_run[1]["t"][int(np.argmax(rti_run[2] == "hold"))]
@@ -227,12 +232,7 @@ def test_the_tracking_rti_costs_what_the_converged_mode_costs(
     the plan (from hanging, the whole run) within 5 % of the same scene's with the MPC iterated to
     convergence at every sample."""
     (_, column, _), folder = tracked
-    text = TRACK.read_text()
-    controller = tomllib.loads(text)["controller"]
-    converged = tmp_path / "cdip_converged.toml"
-    converged.write_text(re.sub(r"\nhorizon = ", '\nmode = "converged"\nhorizon = ', text, count=1))
-    summary, full_column, _ = _swing_up(converged, tmp_path / "out")
-    assert "converged" in summary and "every status ok" in summary
+    controller, (_, full_column, _) = _converged(TRACK, tmp_path)
     every = round(controller["period"] / 0.01)
     rti = _tracking_cost(column, folder, controller["q"], controller["r"], every)
     full = _tracking_cost(full_column, tmp_path / "out", controller["q"], controller["r"], every)
