@@ -1471,15 +1471,16 @@ IPGEN_MPC_LOCAL int ipgen_mpc_merit(const ipgen_mpc_settings *s, const ipgen_mpc
 }
 
 /* The problem's cost (the header's comment) of the trajectory held in `work` (states and inputs
- * as they are, soft violations from the states). */
-IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
-  return ipgen_mpc_trajectory_cost(s, 0, 0, work + 1, 0, 0);
-}
-
-/* The same cost about a reference per stage (ipgen_mpc_track's x_refs, u_refs). */
+ * as they are, soft violations from the states) about a reference per stage (ipgen_mpc_track's
+ * x_refs, u_refs; null: the settings' constant x_ref, u_ref). */
 IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost_tracking(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
                                                      const ipgen_mpc_real u_refs[], const ipgen_mpc_real work[]) {
   return ipgen_mpc_trajectory_cost(s, x_refs, u_refs, work + 1, 0, 0);
+}
+
+/* ipgen_mpc_cost_tracking about the settings' constant x_ref and u_ref. */
+IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const ipgen_mpc_real work[]) {
+  return ipgen_mpc_cost_tracking(s, 0, 0, work);
 }
 
 /* 0 if the settings describe a problem (sizes >= 1, finite period, bounds ordered, indices in
@@ -1520,8 +1521,8 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * u_k), each null for the settings' constant x_ref or u_ref, solved about the warm start held in
  * `work` (ipgen_mpc_work_size entries; shifted by one sample first when s->shift), or cold after
  * ipgen_mpc_reset (every x_k at the estimate, or at x_refs' row k; u_k at its u_ref clipped): a
- * tracked plan's rows from this sample on are its x_refs and u_refs. Up to sqp_iterations Gauss-Newton SQP iterations (cold_iterations on a cold
- * start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
+ * tracked plan's rows from this sample on are its x_refs and u_refs. Up to sqp_iterations
+ * Gauss-Newton SQP iterations (cold_iterations on a cold start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
  * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
 IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],

@@ -218,9 +218,9 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         gains = [law.gains[k * size : (k + 1) * size] for k in range(law.steps)]
         context["inputs"] = _c_list(law.inputs, "inputs")
         context["states"] = [_c_list(row, "states") for row in rows]
-        context["gains"] = [_c_list(row, "gains") for row in gains]
-        tracked = law.tracking == "mpc"  # the MPC tracks: the gain schedule is not flashed
-        context["table_bytes"] = 8 * (law.steps + (law.steps * (0 if tracked else 1) + law.steps + 1) * size)
+        gain_rows = 0 if law.tracking == "mpc" else law.steps  # the MPC tracks: no gain schedule flashed
+        context["gains"] = [_c_list(row, "gains") for row in gains[:gain_rows]]
+        context["table_bytes"] = 8 * (law.steps + (law.steps + 1 + gain_rows) * size)
     return context
 
 

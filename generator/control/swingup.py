@@ -133,8 +133,9 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
     )
 
 
-def schedule_law(plan: Plan, schedule: GainSchedule, hold: float) -> SwingUpLaw:
-    """The `SwingUpLaw` of a planned swing-up tracked by `schedule`."""
+def schedule_law(plan: Plan, schedule: GainSchedule, hold: float, tracking: str = "lqr") -> SwingUpLaw:
+    """The `SwingUpLaw` of a planned swing-up tracked by `schedule` (`tracking` "lqr"), or by the
+    scene's MPC with the plan as its reference ("mpc": the schedule's gains then unused)."""
     return SwingUpLaw(
         method="trajectory",
         u_max=schedule.u_max,
@@ -147,6 +148,7 @@ def schedule_law(plan: Plan, schedule: GainSchedule, hold: float) -> SwingUpLaw:
         gains=tuple(float(v) for v in schedule.gains.ravel()),
         plan_iterations=plan.iterations,
         plan_time=plan.solve_time,
+        tracking=tracking,
     )
 
 

@@ -3,7 +3,6 @@ gains computed (`control.swingup`; the table's keys and rules: `scene.swingup`).
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 from ipgen.control.swingup import SwingUpLaw
@@ -90,5 +89,4 @@ def _law(
             f"swingup: no hold gain at period = {format_number(period)} s "
             f"({' '.join(str(exc).split())[:80]}): use a shorter period or other weights q, r"
         ) from None
-    law = schedule_law(plan, schedule, hold)
-    return law if table.tracking in (None, "lqr") else dataclasses.replace(law, tracking=table.tracking)
+    return schedule_law(plan, schedule, hold, table.tracking or "lqr")

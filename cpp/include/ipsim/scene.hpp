@@ -259,14 +259,11 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
                                                ": t_end / period exceeds " + detail::format_number(kMaxSamples) + " sampling instants");
   }
   // swingup.tracking: lqr (the plan's gains, the default) or mpc (the scene's MPC tracks the plan)
-  const bool tracked_by_mpc = file.has("swingup.tracking") && file.text("swingup.tracking") == "mpc";
-  if (file.has("swingup.tracking")) {
-    const std::string& tracking = file.text("swingup.tracking");
-    if ((tracking != "mpc" && tracking != "lqr") || sw.method != SwingUp::Method::trajectory) {
-      file.fail(file.line("swingup.tracking"), "swingup.tracking must be `lqr` or `mpc`, with swingup = trajectory");
-    }
-    if (tracked_by_mpc && !scene.mpc) file.fail(file.line("swingup.tracking"), "swingup.tracking = mpc needs controller = mpc");
+  const std::string tracking = file.has("swingup.tracking") ? file.text("swingup.tracking") : "lqr";
+  if (file.has("swingup.tracking") && ((tracking != "mpc" && tracking != "lqr") || sw.method != SwingUp::Method::trajectory)) {
+    file.fail(file.line("swingup.tracking"), "swingup.tracking must be `lqr` or `mpc`, with swingup = trajectory");
   }
+  if (tracking == "mpc" && !scene.mpc) file.fail(file.line("swingup.tracking"), "swingup.tracking = mpc needs controller = mpc");
   if (scene.mpc) {  // controller = mpc with a swing-up: the MPC catches and holds (every catch_every periods)
     const double every = std::round(scene.mpc->problem().period / sw.period);
     if (!(every >= 1.0 && std::abs(every * sw.period - scene.mpc->problem().period) <= 1e-9 * scene.mpc->problem().period)) {
@@ -276,15 +273,13 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.catch_every = static_cast<long>(every);
     sw.catch_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x) { return b * (*mpc)(x); };
     sw.catch_reset = [mpc = scene.mpc]() { mpc->reset(); };  // a released hold's next catch starts cold
-    if (tracked_by_mpc) {  // the MPC tracks the plan too, its reference per stage
+    if (tracking == "mpc") {  // the MPC tracks the plan too, its reference per stage
       sw.track_horizon = scene.mpc->problem().horizon;
       // the plan's inputs are in N or N m here (× b above), the MPC's in the scene's unit
-      sw.track_law = [mpc = scene.mpc, b, scratch = std::make_shared<std::vector<double>>()](
-                         const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
-        const auto horizon = static_cast<std::size_t>(mpc->problem().horizon);
-        scratch->assign(u_refs, u_refs + horizon);
-        for (double& u : *scratch) u /= b;
-        return b * mpc->track(x, x_refs, scratch->data());
+      sw.track_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
+        std::vector<double> inputs(u_refs, u_refs + mpc->problem().horizon);
+        for (double& u : inputs) u /= b;
+        return b * mpc->track(x, x_refs, inputs.data());
       };
     }
   }
