@@ -37,6 +37,11 @@ class FixedHeaderRequest:
     command: str
 
 
+def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
+    """The model (library) name of a chain: fixed<n>_j<joints>, e.g. fixed2_j1_2."""
+    return f"fixed{links}_j{'_'.join(map(str, joints))}"
+
+
 def fixed_command(name: str, links: int, joints: tuple[int, ...], emit: tuple[str, ...]) -> str:
     """The ipgen command that regenerates these files (in any output folder)."""
     emitting = "" if emit == ("cpp",) else " --emit " + ",".join(emit)

@@ -12,7 +12,10 @@ compiled into `<cache>/models/<key>/` like `ipgen run`'s; a DC motor is folded i
 (`Pendulum.folded`: u is then the voltage, the back-EMF in the base's damping).
 
 States are in ipgen's coordinates (docs/model.md): x = [θ; θ̇], θ0 the cart position [m] or the
-arm angle [rad], θ1..θn the absolute link angles from upright, clockwise positive.
+arm angle [rad], θ1..θn the absolute link angles from upright, clockwise positive. A chain on a
+fixed pivot (`FixedPendulum`, one driven joint: the acrobot, the pendubot) has no θ0: x = [θ1..θn;
+θ̇1..θ̇n] in the same convention, u the joint's torque [N m], clockwise positive (its model library
+is `ipgen run`'s for fixed scenes; its Coulomb friction is not in the prediction, as for LQR).
 """
 
 from __future__ import annotations
@@ -32,6 +35,7 @@ from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
 from ipgen.errors import Error
+from ipgen.model.fixed import FixedPendulum
 from ipgen.model.pendulum import Pendulum
 
 __all__ = ["MODES", "Mpc", "MpcError", "StepInfo", "mpc"]
@@ -211,20 +215,22 @@ def library(precision: str = "double") -> ctypes.CDLL:
         return lib
 
 
-def model_library(pendulum: Pendulum) -> ctypes.CDLL:
+def model_library(pendulum: Pendulum | FixedPendulum) -> ctypes.CDLL:
     """The compiled model library (ipgen_model.h) of `pendulum`'s system, loaded once per process
     and system (`ipgen.pipeline.model_library`: generated and compiled into the cache as `ipgen
     run` does; imported here, on request, from the later stage that builds it)."""
     from ipgen.pipeline.model_library import compiled_model_library
 
     with _lock:
-        system = pendulum.system
-        if system not in _models:
+        fixed = isinstance(pendulum, FixedPendulum)
+        system = pendulum.canonical() if fixed else pendulum.system
+        key = ("fixed", pendulum.links, tuple(pendulum.joints)) if fixed else system
+        if key not in _models:
             try:
-                _models[system] = compiled_model_library(system)
+                _models[key] = compiled_model_library(system)
             except Error as e:
                 raise MpcError(str(e)) from None
-        return _models[system]
+        return _models[key]
 
 
 # ---- the design --------------------------------------------------------------------------------
@@ -259,6 +265,28 @@ def _bounds(
     return out
 
 
+def _parameters(plant: Pendulum | FixedPendulum) -> Parameters:
+    """ipgen_parameters of `plant`: a cart's or arm's with its DC motor folded in (`Pendulum.folded`),
+    or a fixed chain's links (com and J resolved) and its motors' Ir, gr."""
+    params = Parameters()
+    dof = plant.dof
+    if isinstance(plant, FixedPendulum):
+        for field in ("m", "l", "delta"):
+            getattr(params, field)[:dof] = [float(v) for v in getattr(plant, field)]
+        params.g = float(plant.g)
+        params.com[:dof], params.J[:dof] = plant.resolved("com"), plant.resolved("J")
+        params.Ir[: plant.inputs], params.gr[: plant.inputs] = plant.motor("Ir"), plant.motor("gr")
+        return params
+    values = plant.folded().flat()
+    for k, field in enumerate(("m", "l", "delta")):
+        getattr(params, field)[:dof] = values[k * dof : (k + 1) * dof]
+    params.g = values[3 * dof]
+    for k, field in enumerate(("com", "J", "J_axial", "tip")):
+        start = 3 * dof + 1 + k * dof
+        getattr(params, field)[:dof] = values[start : start + dof]
+    return params
+
+
 class Mpc:
     """A constrained nonlinear MPC of one pendulum (docs/mpc.md), run by the C step of ipgen_mpc.h.
 
@@ -278,7 +306,7 @@ class Mpc:
 
     def __init__(
         self,
-        pendulum: Pendulum,
+        pendulum: Pendulum | FixedPendulum,
         *,
         horizon: int,
         period: float,
@@ -302,9 +330,15 @@ class Mpc:
         qp_tolerance: float | None,
         precision: str,
     ) -> None:
-        if not isinstance(pendulum, Pendulum):
-            raise MpcError(f"ipgen.mpc needs an ipgen.Pendulum, got {type(pendulum).__name__}")
-        if pendulum.actuator.is_acceleration:
+        fixed = isinstance(pendulum, FixedPendulum)
+        if not (fixed or isinstance(pendulum, Pendulum)):
+            raise MpcError(f"ipgen.mpc needs an ipgen.Pendulum or FixedPendulum, got {type(pendulum).__name__}")
+        if fixed and pendulum.inputs != 1:
+            raise MpcError(
+                f"ipgen.mpc: this chain drives {pendulum.inputs} joints {tuple(pendulum.joints)}; the MPC "
+                "takes one input (drive one joint: joints = [1] or [2])"
+            )
+        if not fixed and pendulum.actuator.is_acceleration:
             raise MpcError(
                 "ipgen.mpc: an acceleration-driven base is not supported (u must be a force, torque or volts)"
             )
@@ -328,6 +362,8 @@ class Mpc:
         self.Q, self.R = q, r
         if isinstance(reference, str):
             self.x_ref = equilibrium_state(pendulum.links, reference)
+            if fixed:  # no base: the links' angles and rates only
+                self.x_ref = np.delete(self.x_ref, [0, dof + 1])
         else:
             self.x_ref = np.asarray(reference, dtype=float).reshape(-1)
             if self.x_ref.size == dof:
@@ -344,6 +380,8 @@ class Mpc:
         self.u_min, self.u_max = lo, hi
         hard = dict(bounds or {})
         if travel is not None:
+            if fixed:
+                raise MpcError("travel: a chain on a fixed pivot has no base to bound (use bounds on its states)")
             if not (np.isfinite(travel) and travel > 0):
                 raise MpcError(f"travel {travel!r}: expected a positive bound on the base (m or rad)")
             hard[0] = (-float(travel), float(travel))
@@ -383,20 +421,10 @@ class Mpc:
         real, dtype, _ = PRECISIONS[self.precision]
         self._lib = library(self.precision)
         self._model_lib = model_library(self.pendulum)
-        folded = self.pendulum.folded()
-        values = folded.flat()
         dof = self.pendulum.dof
-        params = Parameters()
-        for k, field in enumerate(("m", "l", "delta")):
-            getattr(params, field)[:dof] = values[k * dof : (k + 1) * dof]
-        params.g = values[3 * dof]
-        for k, field in enumerate(("com", "J", "J_axial", "tip")):
-            start = 3 * dof + 1 + k * dof
-            getattr(params, field)[:dof] = values[start : start + dof]
-        self._params = params
-        self._context = ModelContext(
-            self._model_lib.ipgen_model_get(), ctypes.addressof(params), float(self.pendulum.gain)
-        )
+        self._params = params = _parameters(self.pendulum)
+        gain = 1.0 if isinstance(self.pendulum, FixedPendulum) else float(self.pendulum.gain)
+        self._context = ModelContext(self._model_lib.ipgen_model_get(), ctypes.addressof(params), gain)
         head = ModelHead.from_address(self._context.model)
         if head.dof != dof or head.inputs != 1:
             raise MpcError(
@@ -601,7 +629,7 @@ class Mpc:
 
 
 def mpc(
-    pendulum: Pendulum,
+    pendulum: Pendulum | FixedPendulum,
     *,
     horizon: int = 30,
     period: float = 0.01,
@@ -635,8 +663,9 @@ def mpc(
 
     Parameters
     ----------
-    pendulum : Pendulum
-        The system; a DC motor is folded in (u in volts).
+    pendulum : Pendulum or FixedPendulum
+        The system; a DC motor is folded in (u in volts). A fixed chain drives one joint (u its
+        torque [N m], clockwise positive; states without a base: docs/mpc.md).
     horizon : int, default 30
         N, samples predicted.
     period : float, default 0.01

@@ -18,7 +18,7 @@ from ipgen.model.links import rod_value
 from ipgen.scene.fields import format_number
 
 if TYPE_CHECKING:
-    from ipgen.control.controller import Controller
+    from ipgen.control.controller import Controller, MpcDesign
     from ipgen.control.coordinates import Coordinates
     from ipgen.control.swingup import SwingUpLaw
     from ipgen.experiment.loop import Loop
@@ -274,25 +274,32 @@ def _controller(lines: _Lines, controller: Controller | None) -> None:
 
 def _mpc(lines: _Lines, controller: Controller) -> None:
     """kind = "mpc": the problem, resolved (`MpcDesign`), in ipgen's coordinates and the unit of u."""
-    design = controller.mpc
-    assert design is not None
-    lines.put("controller.period", controller.period)
-    for key, value in (
-        ("horizon", design.horizon), ("substeps", design.substeps), ("q", design.Q), ("r", design.R),
-        ("p", design.P), ("reference", design.reference), ("u_min", design.u_min), ("u_max", design.u_max),
-    ):  # fmt: skip
-        lines.put(f"controller.{key}", value)
+    assert controller.mpc is not None and controller.period is not None
+    for key, value in mpc_entries(controller.period, controller.mpc):
+        lines.put(key, value)
+
+
+def mpc_entries(period: float, design: MpcDesign) -> list[tuple[str, Any]]:
+    """The .cfg's controller.* keys of an MPC (after `controller = mpc`), in their order: what
+    ipsim's MpcProblem reads (cpp/include/ipsim/scene.hpp, load_mpc)."""
+    entries: list[tuple[str, Any]] = [("controller.period", period)]
+    entries += [
+        ("controller.horizon", design.horizon), ("controller.substeps", design.substeps),
+        ("controller.q", design.Q), ("controller.r", design.R), ("controller.p", design.P),
+        ("controller.reference", design.reference), ("controller.u_min", design.u_min),
+        ("controller.u_max", design.u_max),
+    ]  # fmt: skip
     for key, bounds in (("bounds", design.bounds), ("soft_bounds", design.soft_bounds)):
         if bounds:
-            lines.put(f"controller.{key}", [float(v) for bound in bounds for v in bound])
+            entries.append((f"controller.{key}", [float(v) for bound in bounds for v in bound]))
     if design.soft_bounds:
-        lines.put("controller.soft_penalty", design.soft_penalty)
-    for key, value in (
-        ("mode", design.mode), ("iterations", design.sqp_iterations),
-        ("cold_iterations", design.cold_iterations), ("qp_iterations", design.qp_iterations),
-        ("sqp_tolerance", design.sqp_tolerance), ("qp_tolerance", design.qp_tolerance),
-    ):  # fmt: skip
-        lines.put(f"controller.{key}", value)
+        entries.append(("controller.soft_penalty", design.soft_penalty))
+    entries += [
+        ("controller.mode", design.mode), ("controller.iterations", design.sqp_iterations),
+        ("controller.cold_iterations", design.cold_iterations), ("controller.qp_iterations", design.qp_iterations),
+        ("controller.sqp_tolerance", design.sqp_tolerance), ("controller.qp_tolerance", design.qp_tolerance),
+    ]  # fmt: skip
+    return entries
 
 
 def _loop(lines: _Lines, loop_: Loop | None) -> None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from ipgen.control.controller import Controller, MpcDesign
+from ipgen.model.fixed import FixedPendulum
 from ipgen.model.pendulum import Pendulum
 
 
@@ -62,9 +63,11 @@ def _unit(p: Pendulum) -> str:
     return ""
 
 
-def _mpc(table: Any, p: Pendulum) -> Controller:
+def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
     """kind = "mpc": the problem resolved (`MpcDesign`) by `ipgen.mpc` on `p` (its defaults: the
-    terminal weight P the discrete LQR's Riccati matrix, the budgets of the mode)."""
+    terminal weight P the discrete LQR's Riccati matrix, the budgets of the mode). A fixed chain's
+    table (pipeline/fixed_run.py) has the same attributes; its gain and equilibrium are returned
+    in ipgen's coordinates (its scene states them in no comment)."""
     import numpy as np
 
     from ipgen.control import mpc as mpc_module
@@ -75,6 +78,7 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
     soft = {i: (lo, hi) for i, lo, hi in table.soft_bounds or ()}
     penalty = table.soft_penalty if table.soft_penalty is not None else rules.DEFAULT_SOFT_PENALTY
     stage, terminal, reference = np.eye(nx) if table.q is None else table.q, table.p, table.equilibrium
+    fixed = isinstance(p, FixedPendulum)
     frame = p.coordinates
     try:
         if not frame.is_canonical:  # the problem in ipgen's coordinates, which the MPC step takes
@@ -92,7 +96,7 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
     _, a, b = design.rk4(design.x_ref, 0.0)
     gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
     x_ref = design.x_ref
-    if not frame.is_canonical:  # the gain and equilibrium the scene states: in the rig's coordinates
+    if not (frame.is_canonical or fixed):  # the gain and equilibrium the scene states: in the rig's coordinates
         matrix, _ = frame.matrices(p.links)
         gain, x_ref = gain @ np.linalg.inv(matrix), frame.to_user(x_ref, p.links)
 
@@ -107,20 +111,20 @@ def _mpc(table: Any, p: Pendulum) -> Controller:
         sqp_iterations=design.sqp_iterations, cold_iterations=design.cold_iterations,
         qp_iterations=design.qp_iterations, sqp_tolerance=float(design.sqp_tolerance),
         qp_tolerance=float(design.qp_tolerance),
-        params=tuple(
+        params=() if fixed else tuple(
             (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))
             for name, value in p.folded().params().items()
         ),
-        input_gain=float(p.gain),
+        input_gain=1.0 if fixed else float(p.gain),
     )  # fmt: skip
     return Controller(
         kind="mpc", gain=flat(gain), equilibrium=flat(x_ref), saturation=design.u_max,
-        period=float(table.period), unit=_unit(p), mpc=resolved,
+        period=float(table.period), unit="" if fixed else _unit(p), mpc=resolved,
     )  # fmt: skip
 
 
 def _mpc_in_ipgen_coordinates(
-    p: Pendulum, stage: Any, terminal: Any, reference: Any, soft: dict[int, tuple[float, float]]
+    p: Pendulum | FixedPendulum, stage: Any, terminal: Any, reference: Any, soft: dict[int, tuple[float, float]]
 ) -> tuple[Any, Any, Any, dict[int, tuple[float, float]]]:
     """The MPC's weights, reference and soft bounds given in the rig's coordinates (x_user = P x + c,
     `Coordinates.matrices`) in ipgen's, where its step works: Q and a terminal P as Pᵀ Q P, an
@@ -132,15 +136,15 @@ def _mpc_in_ipgen_coordinates(
 
     from ipgen.control.linear import checked_vector, weights
 
-    frame, links, dof = p.coordinates, p.links, p.dof
-    matrix, offset = frame.matrices(links)
+    dof = p.dof
+    matrix, offset = fixed_frame(p) if isinstance(p, FixedPendulum) else p.coordinates.matrices(p.links)
     q, _ = weights(stage, 1.0, 2 * dof)
     stage = matrix.T @ q @ matrix
     if terminal is not None:  # 2 dof weights or a matrix, as Q
         terminal = matrix.T @ weights(terminal, 1.0, 2 * dof)[0] @ matrix
     if reference is not None and not isinstance(reference, str):
-        angles = checked_vector("equilibrium", reference, dof, "θ0 and one angle per link")
-        reference = frame.to_canonical(np.concatenate([angles, np.zeros(dof)]), links)
+        angles = checked_vector("equilibrium", reference, dof, "the angles (θ0 and one per link; fixed: one per link)")
+        reference = np.linalg.solve(matrix, np.concatenate([angles, np.zeros(dof)]) - offset)
     mapped = {}
     for index, (low, high) in soft.items():
         row = matrix[index]
@@ -154,3 +158,18 @@ def _mpc_in_ipgen_coordinates(
         ends = sorted(((low - offset[index]) / sign, (high - offset[index]) / sign))
         mapped[index] = (ends[0], ends[1])
     return stage, terminal, reference, mapped
+
+
+def fixed_frame(chain: FixedPendulum) -> tuple[Any, Any]:
+    """(P, c) of x_user = P x + c for a fixed chain's 2n states (its angle map θ = R q + z, inverted)."""
+    import numpy as np
+
+    from ipgen.model.fixed_equations import angle_map
+
+    rotation, zero = angle_map(chain.coordinates, chain.links)
+    inverse = np.linalg.inv(rotation)
+    n = chain.links
+    matrix = np.zeros((2 * n, 2 * n))
+    matrix[:n, :n] = matrix[n:, n:] = inverse
+    offset = np.concatenate([-inverse @ np.full(n, zero), np.zeros(n)])
+    return matrix, offset

@@ -14,18 +14,21 @@ import tempfile
 from pathlib import Path
 
 from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
+from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, fixed_model_name, render_fixed
+from ipgen.model.fixed import FixedPendulum
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate
 from ipgen.pipeline.simulator import BuildError, c_compiler, compile_command, compiler_version, library_key
 
 
-def compiled_model_library(system: System) -> ctypes.CDLL:
+def compiled_model_library(system: System | FixedPendulum) -> ctypes.CDLL:
     """The model library of `system` loaded with ctypes (`ipgen_model_get` returns a void pointer).
 
     Parameters
     ----------
-    system : System
-        The type, links and inertia; the library is general in every parameter.
+    system : System or FixedPendulum
+        The type, links and inertia (a fixed chain: its links and driven joints, the library of
+        `ipgen run`'s fixed scenes, in ipgen's coordinates); the library is general in every parameter.
 
     Returns
     -------
@@ -37,13 +40,16 @@ def compiled_model_library(system: System) -> ctypes.CDLL:
     BuildError
         No C compiler, or the compilation failed (one line).
     """
-    name = f"mpc_{system.type}{system.links}_{system.inertia}"
-    with tempfile.TemporaryDirectory() as scratch:
-        generate(system, name, Path(scratch), force=True, emit=("library",))
-        texts = {
-            f"{name}{suffix}": (Path(scratch) / f"{name}{suffix}").read_text()
-            for suffix in (".h", "_model.c")
-        }
+    if isinstance(system, FixedPendulum):
+        name, texts = _fixed_sources(system)
+    else:
+        name = f"mpc_{system.type}{system.links}_{system.inertia}"
+        with tempfile.TemporaryDirectory() as scratch:
+            generate(system, name, Path(scratch), force=True, emit=("library",))
+            texts = {
+                f"{name}{suffix}": (Path(scratch) / f"{name}{suffix}").read_text()
+                for suffix in (".h", "_model.c")
+            }
     cc = c_compiler()
     recipe = Recipe(
         sources=texts,
@@ -61,3 +67,11 @@ def compiled_model_library(system: System) -> ctypes.CDLL:
         raise BuildError(f"cannot load the model library {built.path}: {e}") from None
     lib.ipgen_model_get.restype = ctypes.c_void_p
     return lib
+
+
+def _fixed_sources(chain: FixedPendulum) -> tuple[str, dict[str, str]]:
+    """(name, {file: text}) of a fixed chain's model library: `ipgen run`'s for its fixed scenes."""
+    joints = tuple(chain.joints)
+    name = fixed_model_name(chain.links, joints)
+    request = FixedHeaderRequest(name, chain.links, joints, fixed_command(name, chain.links, joints, ("library",)))
+    return name, {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}

@@ -179,6 +179,14 @@ struct Scene {
 template <class Model>
 void load_mpc(const SceneFile& file, Scene<Model>& scene);
 
+/// The MPC's u (the scene's unit, a fixed chain's torque in ipgen's sense: the model's input) to
+/// the controller's output: × the DC motor's gain (N or N m per volt; 1 without a motor) and × a
+/// fixed chain's input sign (its outputs are in the rig's positive sense, as its CSV's u).
+template <class Model>
+double mpc_input_scale(const Scene<Model>& scene) {
+  return scene.input_gain * scene.settings.input_sign;
+}
+
 /// Fails at the first number outside its key's rule (cfg_rules.hpp: the scene schema's bounds).
 void check_rules(const SceneFile& file);
 
@@ -271,15 +279,16 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
                                                     " must be a whole multiple of swingup.period = " + detail::format_number(sw.period));
     }
     sw.catch_every = static_cast<long>(every);
-    sw.catch_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x) { return b * (*mpc)(x); };
+    const double to_input = mpc_input_scale(scene);  // the MPC's u -> the swing-up's output
+    sw.catch_law = [mpc = scene.mpc, to_input](const Eigen::VectorXd& x) { return to_input * (*mpc)(x); };
     sw.catch_reset = [mpc = scene.mpc]() { mpc->reset(); };  // a released hold's next catch starts cold
     if (tracking == "mpc") {  // the MPC tracks the plan too, its reference per stage
       sw.track_horizon = scene.mpc->problem().horizon;
-      // the plan's inputs are in N or N m here (× b above), the MPC's in the scene's unit
-      sw.track_law = [mpc = scene.mpc, b](const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
+      // the plan's inputs are in the swing-up's output unit here (× b above), the MPC's in its own
+      sw.track_law = [mpc = scene.mpc, to_input](const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
         std::vector<double> inputs(u_refs, u_refs + mpc->problem().horizon);
-        for (double& u : inputs) u /= b;
-        return b * mpc->track(x, x_refs, inputs.data());
+        for (double& u : inputs) u /= to_input;
+        return to_input * mpc->track(x, x_refs, inputs.data());
       };
     }
   }
@@ -397,8 +406,11 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   if (!(has_derivatives<Model> && provides<Model>(Feature::derivatives))) {
     file.fail(file.line("controller"), "controller = mpc needs the model's forward_dynamics_derivatives: regenerate its header");
   }
-  if constexpr (is_runtime<Model>) {
-    if (Model::fixed_pivot()) file.fail(file.line("controller"), "controller = mpc on a fixed chain is not supported yet");
+  if constexpr (is_runtime<Model>) {  // a fixed chain: one driven joint, u its torque
+    if (Model::fixed_pivot() && Model::inputs() != 1) {
+      file.fail(file.line("controller"), std::string("controller = mpc drives one joint; model ") + name_of<Model>() + " has " +
+                                             std::to_string(Model::inputs()) + " inputs");
+    }
   }
   MpcProblem p;
   auto list = [&](const std::string& key, Eigen::Index count) {
@@ -459,7 +471,7 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   if (mpc->check() != 0) {
     file.fail(file.line("controller"), "controller = mpc: its settings describe no problem (sizes, bounds, weights or budgets)");
   }
-  const double b = scene.input_gain;  // the step's u is in the scene's unit (volts with a dc motor)
+  const double b = mpc_input_scale(scene);
   scene.settings.input = Input::sampled(mpc->problem().period, [mpc, b](double, const Eigen::VectorXd& x) { return b * (*mpc)(x); });
   scene.mpc = std::move(mpc);
 }
@@ -526,7 +538,7 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
     file.fail(file.line("input" + std::to_string(m + 1)), "input" + std::to_string(m + 1) + ": model " + name_of<Model>() +
                                                                 " has " + std::to_string(m) + " input(s)");
   }
-  if (!file.has("controller")) return;
+  if (!file.has("controller") || file.text("controller") == "mpc") return;  // mpc: load_mpc
   // u = −K (x − x_eq): K m × 2n row-major, every input its row, in the rig's coordinates and sense.
   if (file.text("controller") != "lqr" && file.text("controller") != "gain") {
     file.fail(file.line("controller"), "controller must be `lqr` or `gain`, got `" + detail::abbreviate(file.text("controller")) + "`");
