@@ -332,7 +332,9 @@ class Mpc:
     ) -> None:
         fixed = isinstance(pendulum, FixedPendulum)
         if not (fixed or isinstance(pendulum, Pendulum)):
-            raise MpcError(f"ipgen.mpc needs an ipgen.Pendulum or FixedPendulum, got {type(pendulum).__name__}")
+            raise MpcError(
+                f"ipgen.mpc needs an ipgen.Pendulum or FixedPendulum, got {type(pendulum).__name__}"
+            )
         if fixed and pendulum.inputs != 1:
             raise MpcError(
                 f"ipgen.mpc: this chain drives {pendulum.inputs} joints {tuple(pendulum.joints)}; the MPC "
@@ -381,7 +383,9 @@ class Mpc:
         hard = dict(bounds or {})
         if travel is not None:
             if fixed:
-                raise MpcError("travel: a chain on a fixed pivot has no base to bound (use bounds on its states)")
+                raise MpcError(
+                    "travel: a chain on a fixed pivot has no base to bound (use bounds on its states)"
+                )
             if not (np.isfinite(travel) and travel > 0):
                 raise MpcError(f"travel {travel!r}: expected a positive bound on the base (m or rad)")
             hard[0] = (-float(travel), float(travel))

@@ -296,7 +296,8 @@ def mpc_entries(period: float, design: MpcDesign) -> list[tuple[str, Any]]:
         entries.append(("controller.soft_penalty", design.soft_penalty))
     entries += [
         ("controller.mode", design.mode), ("controller.iterations", design.sqp_iterations),
-        ("controller.cold_iterations", design.cold_iterations), ("controller.qp_iterations", design.qp_iterations),
+        ("controller.cold_iterations", design.cold_iterations),
+        ("controller.qp_iterations", design.qp_iterations),
         ("controller.sqp_tolerance", design.sqp_tolerance), ("controller.qp_tolerance", design.qp_tolerance),
     ]  # fmt: skip
     return entries

@@ -96,7 +96,9 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
     _, a, b = design.rk4(design.x_ref, 0.0)
     gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
     x_ref = design.x_ref
-    if not (frame.is_canonical or fixed):  # the gain and equilibrium the scene states: in the rig's coordinates
+    if not (
+        frame.is_canonical or fixed
+    ):  # the gain and equilibrium the scene states: in the rig's coordinates
         matrix, _ = frame.matrices(p.links)
         gain, x_ref = gain @ np.linalg.inv(matrix), frame.to_user(x_ref, p.links)
 
@@ -124,7 +126,11 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
 
 
 def _mpc_in_ipgen_coordinates(
-    p: Pendulum | FixedPendulum, stage: Any, terminal: Any, reference: Any, soft: dict[int, tuple[float, float]]
+    p: Pendulum | FixedPendulum,
+    stage: Any,
+    terminal: Any,
+    reference: Any,
+    soft: dict[int, tuple[float, float]],
 ) -> tuple[Any, Any, Any, dict[int, tuple[float, float]]]:
     """The MPC's weights, reference and soft bounds given in the rig's coordinates (x_user = P x + c,
     `Coordinates.matrices`) in ipgen's, where its step works: Q and a terminal P as Pᵀ Q P, an
@@ -143,7 +149,9 @@ def _mpc_in_ipgen_coordinates(
     if terminal is not None:  # 2 dof weights or a matrix, as Q
         terminal = matrix.T @ weights(terminal, 1.0, 2 * dof)[0] @ matrix
     if reference is not None and not isinstance(reference, str):
-        angles = checked_vector("equilibrium", reference, dof, "the angles (θ0 and one per link; fixed: one per link)")
+        angles = checked_vector(
+            "equilibrium", reference, dof, "the angles (θ0 and one per link; fixed: one per link)"
+        )
         reference = np.linalg.solve(matrix, np.concatenate([angles, np.zeros(dof)]) - offset)
     mapped = {}
     for index, (low, high) in soft.items():

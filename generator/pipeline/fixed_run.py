@@ -237,7 +237,8 @@ def fixed_controller(
     for key in table:
         if key not in known:
             reader.fail(
-                f"unknown key 'controller.{key}' in a fixed scene's kind = {kind!r} (expected: {', '.join(known)})"
+                f"unknown key 'controller.{key}' in a fixed scene's kind = {kind!r} "
+                f"(expected: {', '.join(known)})"
             )
     if kind == "mpc":
         return _fixed_mpc(reader, table, chain, settings)
@@ -333,13 +334,20 @@ def _fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[
 
     n = chain.links
     if chain.inputs != 1:
-        reader.fail(f'controller.kind = "mpc" drives one joint; this chain drives {chain.inputs} ({chain.joints})')
+        reader.fail(
+            f'controller.kind = "mpc" drives one joint; this chain drives {chain.inputs} ({chain.joints})'
+        )
     for key in ("saturation", "gain"):
         if key in table:
-            reader.fail(f'controller.{key}: kind = "mpc" bounds u by u_max and computes its input (remove {key})')
+            reader.fail(
+                f'controller.{key}: kind = "mpc" bounds u by u_max and computes its input (remove {key})'
+            )
     for key in ("period", "u_max"):
         if key not in table:
-            reader.fail(f'missing required key \'controller.{key}\' (kind = "mpc": the sample period [s], |u| <= u_max [N m])')
+            reader.fail(
+                f"missing required key 'controller.{key}' "
+                '(kind = "mpc": the sample period [s], |u| <= u_max [N m])'
+            )
     period = _period(reader, table, settings)
     assert period is not None
     u_max = float(_numbers(reader, "controller.u_max", table["u_max"], (1,), "a number > 0 [N m]")[0])
@@ -357,7 +365,13 @@ def _fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[
     def weights(key: str) -> Any:
         if key not in table:
             return None
-        values = _numbers(reader, f"controller.{key}", table[key], (2 * n, 4 * n * n), f"{2 * n} weights or a {2 * n} × {2 * n} matrix")
+        values = _numbers(
+            reader,
+            f"controller.{key}",
+            table[key],
+            (2 * n, 4 * n * n),
+            f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
+        )
         return np.diag(values) if values.size == 2 * n else values.reshape(2 * n, 2 * n)
 
     soft = None
@@ -374,7 +388,9 @@ def _fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[
             soft.append((int(values[0]), float(values[1]), float(values[2])))
     penalty = None
     if "soft_penalty" in table:
-        values = _numbers(reader, "controller.soft_penalty", table["soft_penalty"], (2,), "[rho1 >= 0, rho2 > 0]")
+        values = _numbers(
+            reader, "controller.soft_penalty", table["soft_penalty"], (2,), "[rho1 >= 0, rho2 > 0]"
+        )
         if values[0] < 0 or values[1] <= 0:
             reader.bad("controller.soft_penalty", table["soft_penalty"], "[rho1 >= 0, rho2 > 0]")
         penalty = (float(values[0]), float(values[1]))
@@ -479,7 +495,9 @@ def _tracking(reader: Reader, table: Any, controller: FixedController | None) ->
     if tracking not in ("lqr", "mpc"):
         reader.bad("swingup.tracking", tracking, 'expected "lqr" or "mpc"')
     if tracking == "mpc" and (controller is None or controller.mpc is None):
-        reader.fail('swingup.tracking = "mpc" needs a [controller] of kind = "mpc" (the MPC that tracks the plan)')
+        reader.fail(
+            'swingup.tracking = "mpc" needs a [controller] of kind = "mpc" (the MPC that tracks the plan)'
+        )
     return str(tracking)
 
 
@@ -565,7 +583,9 @@ def fixed_config(
     if energy:
         _put(lines, "energy", True)
     if controller is not None and controller.mpc is not None:
-        lines.append("# [controller] kind = mpc: the problem in ipgen's coordinates (u: the joint's torque, clockwise)")
+        lines.append(
+            "# [controller] kind = mpc: the problem in ipgen's coordinates (u: the joint's torque, clockwise)"
+        )
         _put(lines, "controller", "mpc")
         assert controller.period is not None
         for key, value in mpc_entries(controller.period, controller.mpc):
@@ -622,7 +642,9 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     swingup, tracking = None, "lqr"
     if "swingup" in document:
         if controller is not None and controller.mpc is None:
-            reader.fail('[swingup] has its own controller: remove [controller] (or make it kind = "mpc", which holds)')
+            reader.fail(
+                '[swingup] has its own controller: remove [controller] (or make it kind = "mpc", which holds)'
+            )
         if any(spec.kind != "zero" for spec in inputs):
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
         swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)

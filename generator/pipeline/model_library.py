@@ -13,8 +13,8 @@ import ctypes
 import tempfile
 from pathlib import Path
 
-from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
 from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, fixed_model_name, render_fixed
+from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.system import System
 from ipgen.pipeline.generate import generate
@@ -73,5 +73,7 @@ def _fixed_sources(chain: FixedPendulum) -> tuple[str, dict[str, str]]:
     """(name, {file: text}) of a fixed chain's model library: `ipgen run`'s for its fixed scenes."""
     joints = tuple(chain.joints)
     name = fixed_model_name(chain.links, joints)
-    request = FixedHeaderRequest(name, chain.links, joints, fixed_command(name, chain.links, joints, ("library",)))
+    request = FixedHeaderRequest(
+        name, chain.links, joints, fixed_command(name, chain.links, joints, ("library",))
+    )
     return name, {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}
