@@ -99,6 +99,11 @@ CFG_KEYS: dict[str, str] = {
             ("qp_tolerance", "the QP's stopping test"),
         )
     },
+    **{
+        f"controller.model.{key}": f"mpc: the model it predicts with, {key} (absent: the scene's; "
+        "a sweep's run keeps the nominal model, sweeps/mpc_model.py)"
+        for key in ("m", "l", "delta", "g", "com", "J", "J_axial", "tip", "gain", "Ir", "gr")
+    },
     "swingup": "energy | trajectory",
     **{
         f"swingup.{key}": "the swing-up law (control/swingup.py)"

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 from ipgen.errors import Error
 from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
+from ipgen.sweeps.mpc_model import model_lines
 from ipgen.sweeps.spec import SEEDED_KEYS
 from ipgen.sweeps.success import Judgement, Success, judge
 
@@ -244,7 +245,12 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         return _refused(
             task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
         )
-    done, cfg, csv = _simulate(prepared, task, resolved_config(scene, model=prepared.model))
+    text = resolved_config(scene, model=prepared.model)
+    if designed is not None:  # the nominal design: an MPC predicts with the nominal model too
+        text += "".join(
+            f"{line}\n" for line in model_lines(resolved_config(prepared.scene, model=prepared.model))
+        )
+    done, cfg, csv = _simulate(prepared, task, text)
     try:
         if done.returncode == 2:  # the simulator refused the resolved scene
             return _refused(task, _simulator_refusal(done), started)

@@ -29,6 +29,7 @@ from ipgen.common.safetext import abbreviate
 from ipgen.model.fixed import FixedPendulum
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scorecard
+from ipgen.sweeps.mpc_model import model_lines
 from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels, parse_vary, split_key
 from ipgen.sweeps.success import Judgement, Success, judge
 
@@ -121,7 +122,8 @@ def plan_run(path: Path, document: dict[str, Any]) -> Any:
 def prepare(scene: FixedScene) -> FixedScene:
     """The nominal run planned: its RunPlan and its design's cfg lines (`DESIGN_KEYS`)."""
     scene.plan = plan_run(scene.path, scene.document)
-    scene.design = tuple(line for line in scene.plan.cfg.splitlines() if _is_design(line))
+    design = [line for line in scene.plan.cfg.splitlines() if _is_design(line)]
+    scene.design = (*design, *model_lines(scene.plan.cfg))  # an MPC predicts with the nominal model
     return scene
 
 

@@ -467,7 +467,48 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
       if (!std::isfinite(v)) file.fail(file.line("controller"), "controller = mpc: its numbers must be finite");
     }
   }
-  auto mpc = std::make_shared<MpcController<Model>>(std::move(p), scene.params, scene.input_gain);
+  // The model the MPC predicts with: the scene's, or controller.model.* where given (a sweep's run
+  // keeps the nominal model while the plant changes, as it keeps the controller's other numbers).
+  ParamsOf<Model> model = scene.params;
+  double model_gain = scene.input_gain;
+  const int links_or_inputs[] = {n, n, n, 1, n, n, n, n};
+  const char* fields[] = {"m", "l", "delta", "g", "com", "J", "J_axial", "tip"};
+  for (int f = 0; f < 8; ++f) {
+    const std::string key = std::string("controller.model.") + fields[f];
+    if (!file.has(key)) continue;
+    const Eigen::VectorXd values = numbers_of(file, key, links_or_inputs[f]);
+    if (f == 3) {
+      model.g = values(0);
+      continue;
+    }
+    if (f >= 4 && !has_links_as_built<Model>) file.fail(file.line(key), "`" + key + "` needs a model generated with the links as built");
+    if constexpr (has_links_as_built<Model>) {
+      auto& field = f == 0 ? model.m : f == 1 ? model.l : f == 2 ? model.delta : f == 4 ? model.com : f == 5 ? model.J : f == 6 ? model.J_axial : model.tip;
+      for (int i = 0; i < n; ++i) field[static_cast<std::size_t>(i)] = values(i);
+    } else {
+      auto& field = f == 0 ? model.m : f == 1 ? model.l : model.delta;
+      for (int i = 0; i < n; ++i) field[static_cast<std::size_t>(i)] = values(i);
+    }
+  }
+  if (file.has("controller.model.gain")) model_gain = file.number("controller.model.gain");
+  if constexpr (is_runtime<Model>) {
+    if (Model::fixed_pivot()) {
+      for (const char* key : {"controller.model.Ir", "controller.model.gr"}) {
+        if (!file.has(key)) continue;
+        const Eigen::VectorXd values = numbers_of(file, key, Model::inputs());
+        for (int k = 0; k < Model::inputs(); ++k) (key[17] == 'I' ? model.Ir : model.gr)[k] = values(k);
+      }
+    }
+  }
+  for (const char* key : {"controller.model.m", "controller.model.l", "controller.model.g"}) {
+    if (file.has(key)) {
+      for (const double v : file.numbers(key)) {
+        if (!(std::isfinite(v) && v >= 0.0)) file.fail(file.line(key), std::string("`") + key + "` must be finite and >= 0");
+      }
+    }
+  }
+  if (!(std::isfinite(model_gain) && model_gain > 0.0)) file.fail(file.line("controller.model.gain"), "`controller.model.gain` must be > 0");
+  auto mpc = std::make_shared<MpcController<Model>>(std::move(p), model, model_gain);
   if (mpc->check() != 0) {
     file.fail(file.line("controller"), "controller = mpc: its settings describe no problem (sizes, bounds, weights or budgets)");
   }
