@@ -1,6 +1,7 @@
 """The MPC's optimal-control problem written independently in CasADi and solved by IPOPT, the
 reference of tests/test_mpc.py: the same RK4 discretisation (built here from the exact model's
-CasADi expressions, `ipgen.control.casadi_model`), weights, bounds and soft penalty as an
+CasADi expressions, `ipgen.control.casadi_model`; a fixed chain's from model/fixed_equations'
+Lagrange equations, control/fixed_swingup's CasADi dynamics), weights, bounds and soft penalty as an
 `ipgen.control.mpc.Mpc`, as a multiple-shooting NLP (states and inputs the variables, soft
 violations as slack variables; SX graphs, `nlpsol`)."""
 
@@ -11,7 +12,9 @@ from typing import Any
 import numpy as np
 
 from ipgen.control.casadi_model import Plant, casadi_model, import_casadi
+from ipgen.control.fixed_swingup import _dynamics as fixed_dynamics
 from ipgen.control.mpc import Mpc
+from ipgen.model.fixed import FixedPendulum
 
 
 def flow(controller: Mpc) -> Any:
@@ -19,13 +22,21 @@ def flow(controller: Mpc) -> Any:
     model's CasADi expressions (the motor folded in: force or torque gain · u), an SX function."""
     ca = import_casadi()
     c = controller
-    model = casadi_model(Plant(c.pendulum.folded()))
     dof, nx = c.pendulum.dof, c.nx
-    gain = float(c.pendulum.gain)
     x, u = ca.SX.sym("x", nx), ca.SX.sym("u")
+    if isinstance(
+        c.pendulum, FixedPendulum
+    ):  # Lagrange's equations of model/fixed_equations, ipgen's coordinates
+        chain = fixed_dynamics(c.pendulum.canonical())
 
-    def f(state: Any) -> Any:
-        return ca.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], gain * u))
+        def f(state: Any) -> Any:
+            return chain(state, u)
+    else:
+        model = casadi_model(Plant(c.pendulum.folded()))
+        gain = float(c.pendulum.gain)
+
+        def f(state: Any) -> Any:
+            return ca.vertcat(state[dof:], model.acceleration(state[:dof], state[dof:], gain * u))
 
     h = c.period / c.substeps
     state = x
@@ -104,9 +115,7 @@ class IpoptReference:
             guess = np.concatenate([xs.reshape(-1), np.clip(us.reshape(-1), u_lo, u_hi)])
         parameters = np.concatenate([np.asarray(x0, float), xs.reshape(-1), us.reshape(-1)])
         start = np.concatenate([guess, np.zeros(2 * self.ns * N)])
-        result = self.solver(
-            x0=start, p=parameters, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg
-        )
+        result = self.solver(x0=start, p=parameters, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         if not self.solver.stats()["success"]:
             raise RuntimeError(f"IPOPT failed from {x0}: {self.solver.stats()['return_status']}")
         self.objective = float(result["f"])

@@ -1,0 +1,256 @@
+"""The MPC on a chain on a fixed pivot, one driven joint (the acrobot, the pendubot; docs/mpc.md).
+
+- `ipgen.mpc` on a `FixedPendulum` in the converged mode against CasADi + IPOPT on the same problem
+  whose model is a second derivation (model/fixed_equations' Lagrange equations through
+  control/fixed_swingup's CasADi dynamics, where the MPC's model library is codegen/fixed_poly's):
+  first input within 1e-6 at seeded states near upright, the acrobot and the pendubot, the torque
+  bound active in some.
+- A fixed scene's `[controller] kind = "mpc"` in the simulator, in DFKI's coordinates (relative
+  angles, zero hanging, counterclockwise torques): its u at every sample is `ipgen.mpc`'s step fed
+  the simulator's state mapped to ipgen's coordinates, with the torque's sign flipped back (the
+  coordinates and the sign at the boundary), to 1e-9.
+- The presets `acrobot_mpc` and `pendubot_mpc` (the plan tracked by the MPC, `swingup.tracking =
+  "mpc"`): swung up and held, |u| <= 6 N m at every sample, every step's status ok.
+- Bad `[controller] kind = "mpc"` and `swingup.tracking` values in a fixed scene: one line each
+  (hypothesis over the keys and kinds of bad value).
+- `controller.model.*` (a sweep's run keeps the MPC's nominal model): the simulator predicts with
+  them; `sweeps.mpc_model` states the nominal config's parameters, for MPC configs only.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+from functools import cache
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from mpc_reference import IpoptReference
+
+import ipgen
+from ipgen.command.cli import run
+from ipgen.common.presets import preset_path
+from ipgen.control.mpc import Mpc, MpcError
+from ipgen.model.fixed import FixedPendulum
+from ipgen.model.fixed_equations import angle_map
+from ipgen.sweeps.mpc_model import model_lines
+
+pytest.importorskip("casadi")
+
+U_MAX = 6.0
+AGREEMENT = 1e-6  # the first input, converged mode against IPOPT [N m]
+
+
+@cache
+def chain(name: str) -> FixedPendulum:
+    """The chain of a preset (acrobot_swingup: elbow driven; pendubot_swingup: shoulder)."""
+    return FixedPendulum.from_scene(preset_path(name))
+
+
+def converged(name: str) -> Mpc:
+    return ipgen.mpc(
+        chain(name), horizon=20, period=0.02, Q=[10, 10, 0.1, 0.1], R=0.1, u_max=U_MAX, mode="converged"
+    )
+
+
+def canonical(c: FixedPendulum, rows: np.ndarray) -> np.ndarray:
+    """States [q; q̇] in the chain's coordinates (rows) -> ipgen's [θ; θ̇] (θ = R q + z)."""
+    rotation, zero = angle_map(c.coordinates, c.links)
+    n = c.links
+    return np.hstack([rows[:, :n] @ rotation.T + zero, rows[:, n:] @ rotation.T])
+
+
+@pytest.mark.parametrize("name", ["acrobot_swingup", "pendubot_swingup"])
+def test_converged_mode_equals_ipopt_on_a_second_derivation(name: str) -> None:
+    controller = converged(name)
+    reference = IpoptReference(controller)
+    rng = np.random.default_rng(47)
+    active = 0
+    for _ in range(6):
+        x = np.concatenate([rng.uniform(-0.25, 0.25, 2), rng.uniform(-1.0, 1.0, 2)])
+        expected, inputs = reference.solve(x)
+        got = controller.solve(x)
+        assert controller.info is not None and controller.info.status == "ok"
+        assert abs(got - expected) <= AGREEMENT, (x, got, expected)
+        active += int(np.max(np.abs(inputs)) > U_MAX - 1e-6)
+    assert active >= 1  # the torque bound shaped some of the solutions
+
+
+def test_a_fixed_chain_is_refused_what_it_cannot_take() -> None:
+    both = chain("acrobot_swingup").replace(joints=[1, 2])
+    with pytest.raises(MpcError, match="drives 2 joints"):
+        ipgen.mpc(both, u_max=U_MAX)
+    with pytest.raises(MpcError, match="no base"):
+        ipgen.mpc(chain("acrobot_swingup"), u_max=U_MAX, travel=1.0)
+
+
+# The acrobot in DFKI's coordinates balanced from a tilt by the MPC alone.
+BALANCE = """\
+[system]
+type = "fixed"
+links = 2
+angles = "relative"
+zero = "hanging"
+positive = "counterclockwise"
+
+[parameters]
+m = [0.5234602302310271, 0.6255677234174437]
+l = [0.2, 0.3]
+com = [0.2, 0.25569305436052964]
+J = [0.010948790382272026, 0.009970894693799519]
+delta = [0.001, 0.001]
+
+[actuator]
+joints = [2]
+
+[initial]
+theta = [3.06, 0.12]
+dtheta = [0.3, -0.2]
+
+[controller]
+kind = "mpc"
+period = 0.01
+horizon = 30
+u_max = 6.0
+q = [10.0, 10.0, 0.1, 0.1]
+r = 0.1
+{extra}
+[simulation]
+t_end = 3.0
+sample = 0.01
+"""
+
+
+def simulate(tmp_path: Path, text: str, stem: str = "balance") -> tuple[dict[str, np.ndarray], str]:
+    """Runs a fixed scene; (the CSV's columns by name, the resolved config's text)."""
+    path = tmp_path / f"{stem}.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert run(["run", str(path), "-o", str(out), "--no-plot", "--force"]) == 0
+    header, *rows = (out / f"{stem}.csv").read_text().splitlines()
+    numeric = [name for name in header.split(",") if name != "phase"]
+    keep = [i for i, name in enumerate(header.split(",")) if name != "phase"]
+    data = np.array([[float(row.split(",")[i]) for i in keep] for row in rows])
+    return {name: data[:, i] for i, name in enumerate(numeric)}, (out / f"{stem}.cfg").read_text()
+
+
+def cfg_numbers(cfg: str, key: str) -> np.ndarray:
+    found = re.search(rf"^{re.escape(key)} = (.*)$", cfg, re.MULTILINE)
+    assert found is not None, key
+    return np.array([float(v) for v in found.group(1).split()])
+
+
+def test_the_simulators_mpc_is_ipgen_mpc_in_dfki_coordinates(tmp_path: Path) -> None:
+    columns, cfg = simulate(tmp_path, BALANCE.format(extra=""))
+    c = FixedPendulum.from_scene(tmp_path / "balance.toml")
+    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    states = canonical(c, rows)
+    controller = ipgen.mpc(
+        c.canonical(), horizon=30, period=0.01, Q=cfg_numbers(cfg, "controller.q").reshape(4, 4), R=0.1,
+        P=cfg_numbers(cfg, "controller.p").reshape(4, 4), u_max=U_MAX,
+    )  # fmt: skip
+    expected = -np.array([controller.step(x) for x in states[:-1]])  # clockwise -> DFKI's counterclockwise
+    u = columns["u"][:-1]
+    assert np.max(np.abs(u - expected)) <= 1e-9
+    assert np.max(np.abs(u)) > 1.0  # a real push, not a hold at rest
+    assert abs(rows[-1, 0] - np.pi) < 1e-3 and abs(rows[-1, 1]) < 1e-3  # upright (DFKI: q1 = π, q2 = 0)
+
+
+@pytest.mark.parametrize("name", ["acrobot_mpc", "pendubot_mpc"])
+def test_the_presets_swing_up_by_mpc_within_the_torque_bound(tmp_path: Path, name: str) -> None:
+    out = tmp_path / "out"
+    assert run(["run", "--preset", name, "-o", str(out), "--no-plot"]) == 0
+    summary = (out / f"{name}.txt").read_text()
+    assert "planned trajectory tracked by the MPC" in summary and "every status ok" in summary
+    header, *rows = (out / f"{name}.csv").read_text().splitlines()
+    col = {k: i for i, k in enumerate(header.split(","))}
+    data = np.array([[float(row.split(",")[col[k]]) for k in ("t", "theta0", "theta1", "u")] for row in rows])
+    assert np.max(np.abs(data[:, 3])) <= U_MAX
+    assert np.max(np.abs(data[:10, 1])) < 0.1  # it starts hanging (DFKI: q1 = 0)
+    end = data[data[:, 0] >= 6.0]
+    assert np.max(np.abs(end[:, 1] - np.pi)) < 1e-3 and np.max(np.abs(end[:, 2])) < 1e-3  # held upright
+
+
+BAD_VALUES = {
+    "period": ["0", "-0.01", '"fast"', "20.0", "0.0033"],
+    "u_max": ["0", "-6", '"six"', "[6, 6]"],
+    "horizon": ["0", "2.5", "1001", '"long"'],
+    "q": ["[1, 2, 3]", '["a", 1, 1, 1]', "[1, 1, 1, inf]"],
+    "mode": ['"fast"', "1"],
+    "soft_bounds": ["[[4, -1, 1]]", "[[0, 1, -1]]", "[[0, 1]]", "[]"],
+    "soft_penalty": ["[-1, 1]", "[1, 0]", "[1]"],
+    "saturation": ["6.0"],
+    "travel": ["1.0"],
+    "equilibrium": ['"sideways"', "[0.5, 0]"],
+}
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    st.sampled_from(sorted(BAD_VALUES)).flatmap(
+        lambda k: st.tuples(st.just(k), st.sampled_from(BAD_VALUES[k]))
+    )
+)
+def test_any_bad_mpc_key_of_a_fixed_scene_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], bad: tuple[str, str]
+) -> None:
+    key, value = bad
+    text = BALANCE.format(extra="")
+    lines = [line for line in text.splitlines() if not line.startswith(f"{key} =")]
+    at = lines.index('kind = "mpc"') + 1
+    lines.insert(at, f"{key} = {value}")
+    path = tmp_path / "bad.toml"
+    path.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert run(["run", str(path), "-o", str(tmp_path / "never"), "--no-plot", "--force"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and key in err[0] and "Traceback" not in err[0], err
+    assert not (tmp_path / "never").exists()  # nothing half-written
+
+
+def test_tracking_needs_an_mpc_and_a_known_word(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    source = preset_path("acrobot_swingup")
+    (tmp_path / "acrobot_swingup.plan.csv").write_text(
+        source.with_name("acrobot_swingup.plan.csv").read_text()
+    )
+    plan = 'plan = "acrobot_swingup.plan.csv"'
+    for extra, says in (('tracking = "mpc"', 'needs a [controller] of kind = "mpc"'),
+                        ('tracking = "pid"', "swingup.tracking")):  # fmt: skip
+        path = tmp_path / "acrobot_swingup.toml"
+        path.write_text(source.read_text().replace(plan, f"{plan}\n{extra}"))
+        assert run(["run", str(path), "-o", str(tmp_path / "never"), "--no-plot"]) != 0
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and says in err[0], err
+
+
+def test_the_mpc_predicts_with_controller_model_where_given(tmp_path: Path) -> None:
+    """The resolved config with the model stated as the plant's own (the same CSV, bit for bit)
+    and as a heavier one (other torques): the simulator reads controller.model.*; `model_lines`
+    states a config's plant parameters, for an MPC's config only."""
+    simulate(tmp_path, BALANCE.format(extra=""))
+    out = tmp_path / "out"
+    cfg = (out / "balance.cfg").read_text()
+    found = re.search(r"Simulator (\S+)", (out / "balance.txt").read_text())
+    assert found is not None
+    simulator = found.group(1)
+    lines = model_lines(cfg)
+    assert {line.split(" = ")[0] for line in lines} >= {
+        "controller.model.m",
+        "controller.model.J",
+        "controller.model.Ir",
+    }
+    assert model_lines(cfg.replace("controller = mpc", "controller = lqr")) == []
+    heavier = [re.sub(r"^controller.model.m = .*$", "controller.model.m = 0.6 0.75", line) for line in lines]
+    csvs = {}
+    for label, extra in (("same", lines), ("heavier", heavier)):
+        path = tmp_path / f"{label}.cfg"
+        path.write_text(cfg + "\n".join(extra) + "\n")
+        done = subprocess.run([simulator, str(path), "--csv", str(tmp_path / f"{label}.csv"), "--force"],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        csvs[label] = (tmp_path / f"{label}.csv").read_text()
+    assert csvs["same"] == (out / "balance.csv").read_text()
+    assert csvs["heavier"] != csvs["same"]
