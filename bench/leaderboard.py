@@ -5,7 +5,9 @@ model 1.0 without rotors, damping or friction, 6 N m on the driven joint, 10 s f
 `--replan` plans the swing-up with IPOPT (control/fixed_swingup.py) and writes the preset's plan
 CSV; then `ipgen run` of the preset (ipsim: the plan tracked by TVLQR every 2 ms, then the LQR
 hold; CVODE between samples), and the v2 score of its CSV (experiment/leaderboard.py), beside the
-published entries. Writes docs/bench/leaderboard.md and a GIF per system (docs/bench/leaderboard_*.gif).
+published entries; the same for acrobot_mpc and pendubot_mpc (the same plan tracked by the MPC
+every 10 ms, then its hold). Writes docs/bench/leaderboard.md and a GIF per system
+(docs/bench/leaderboard_*.gif, the TVLQR runs).
 
     python -m bench.leaderboard [--replan] [--quick]   (--quick: no GIFs, build/bench/quick/)
 """
@@ -22,6 +24,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 RIGS = ROOT / "scenes" / "rigs"
 SYSTEMS = {"acrobot": 2, "pendubot": 1}
+# The presets of each system: the plan's tracking, by TVLQR (…_swingup) and by the MPC (…_mpc).
+TRACKING = {"swingup": "TVLQR", "mpc": "MPC"}
 # Plans: duration [s] and the planner's weights (fixed_swingup.fixed_plan).
 PLANS = {"acrobot": {"duration": 4.0}, "pendubot": {"duration": 3.0, "weight_velocity": 0.05}}
 # The published simulation v2 entries, "RealAI Score" column, highest first: github.com/
@@ -60,7 +64,8 @@ def published_lines(scores: dict[str, float]) -> list[str]:
     Parameters
     ----------
     scores : dict of str to float
-        ipgen's v2 score per system ("acrobot", "pendubot").
+        ipgen's v2 score per system ("acrobot", "pendubot"), or per system and tracking
+        ("acrobot TVLQR", "acrobot MPC").
 
     Returns
     -------
@@ -70,8 +75,11 @@ def published_lines(scores: dict[str, float]) -> list[str]:
     lines = [f"Published simulation_v2 entries ({PUBLISHED_SOURCE}), ipgen's score in bold among them:", ""]
     for which, entries in PUBLISHED.items():
         ranked = [(value, name) for name, value in entries]
-        if which in scores:
-            ranked.append((scores[which], "**ipgen (this run)**"))
+        for tracked, value in scores.items():
+            system, _, tracking = tracked.partition(" ")
+            if system == which:
+                label = f"ipgen {tracking} (this run)" if tracking else "ipgen (this run)"
+                ranked.append((value, f"**{label}**"))
         ranked.sort(key=lambda entry: -entry[0])
         text = ", ".join(
             f"**{name.strip('*')} {value:.3f}**" if name.startswith("**") else f"{name} {value:.3f}"
@@ -167,18 +175,18 @@ def main(argv: list[str] | None = None) -> None:
     for which, joint in SYSTEMS.items():
         if args.replan:
             notes.append(f"- {which}: replanned, {replan(which)}")
-        began = time.perf_counter()
-        outcome = run_scene(RIGS / f"{which}_swingup.toml", out_root / which, force=True, plot=False)
-        seconds = time.perf_counter() - began
-        if outcome.status != 0:
-            raise SystemExit(f"{which}: ipgen run exited with {outcome.status}")
-        csv_path = out_root / which / f"{which}_swingup.csv"
-        t, x, u, phases = read_csv(csv_path, joint)
-        s = score(t, x, u, 0.2, 0.3)
-        end = x[-1]
-        rows.append((which, s, seconds, end, phases))
-        if not args.quick:
-            animate(which, t, x, u, docs / f"leaderboard_{which}.gif")
+        for suffix, tracking in TRACKING.items():
+            name = f"{which}_{suffix}"
+            began = time.perf_counter()
+            outcome = run_scene(RIGS / f"{name}.toml", out_root / name, force=True, plot=False)
+            seconds = time.perf_counter() - began
+            if outcome.status != 0:
+                raise SystemExit(f"{name}: ipgen run exited with {outcome.status}")
+            t, x, u, phases = read_csv(out_root / name / f"{name}.csv", joint)
+            s = score(t, x, u, 0.2, 0.3)
+            rows.append((f"{which} {tracking}", s, seconds, x[-1], phases))
+            if not args.quick and suffix == "swingup":
+                animate(which, t, x, u, docs / f"leaderboard_{which}.gif")
     lines = [
         "# The RealAIGym simulation leaderboard's acrobot and pendubot in ipgen's simulator",
         "",
@@ -192,15 +200,18 @@ def main(argv: list[str] | None = None) -> None:
         "the input held over 10 ms, RK4 at 2 ms, CasADi + IPOPT; cost ∫u² + 10⁻⁴ ∫u̇² (+ 0.05 ∫|q̇|² for",
         "the pendubot); |u| ≤ 0.95·6 N m),",
         "shipped as the preset's plan CSV, tracked in ipsim by the discrete time-varying LQR every 2 ms",
-        "(Q = diag(10, 10, 1, 1), R = 1), then the discrete LQR hold; ipsim integrates with CVODE between",
-        "the samples and writes every 2 ms (the leaderboard's dt). The score is the repository's v2 formula",
+        "(Q = diag(10, 10, 1, 1), R = 1), then the discrete LQR hold (TVLQR rows); or by the constrained",
+        "MPC every 10 ms (presets `acrobot_mpc`, `pendubot_mpc`: N = 40, one real-time iteration a sample,",
+        "|u| ≤ 6 N m, the plan its reference per stage, then its hold; MPC rows, docs/mpc.md); ipsim",
+        "integrates with CVODE between the samples and writes every 2 ms (the leaderboard's dt). The score",
+        "is the repository's v2 formula",
         "(analysis/leaderboard.py with simulation_v2/calculate_leaderboard_score.py's weights, all 1, and",
         "normalisations) on ipgen's CSV (experiment/leaderboard.py):",
         "score = success · (1 − ⅕ Σ tanh(π · value / norm)), norms: "
         + ", ".join(f"{k} {v:g}" for k, v in NORMALIZE.items())
         + ".",
         "",
-        "| system | success | swing-up time [s] | energy [J] | torque cost | torque smoothness "
+        "| system, tracking | success | swing-up time [s] | energy [J] | torque cost | torque smoothness "
         "| velocity cost "
         "| max |u| [N m] | **score** | end state (q1, q2, q̇1, q̇2) | run [s] |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
