@@ -254,3 +254,39 @@ def test_the_mpc_predicts_with_controller_model_where_given(tmp_path: Path) -> N
         csvs[label] = (tmp_path / f"{label}.csv").read_text()
     assert csvs["same"] == (out / "balance.csv").read_text()
     assert csvs["heavier"] != csvs["same"]
+
+
+def nominal_and_run(cfg: str, key: str) -> tuple[list[float], list[float]]:
+    """(the run's plant value of `key`, the MPC's model value) in a resolved config's text."""
+    return list(cfg_numbers(cfg, key)), list(cfg_numbers(cfg, f"controller.model.{key}"))
+
+
+def test_a_sweeps_run_keeps_the_mpcs_nominal_model(tmp_path: Path) -> None:
+    """Heavier links in a run of a sweep: the plant's masses change, the MPC's model stays the
+    nominal scene's (a fixed chain's run and a cart's); designing anew (a [controller] key)
+    gives the MPC the run's own parameters (no model lines); a non-MPC scene gets none."""
+    from ipgen.experiment.scene import load_scene, read_document, scene_from_document
+    from ipgen.sweeps import execute, fixed, overrides
+
+    scene = fixed.prepare(fixed.load_fixed(preset_path("acrobot_mpc")))
+    nominal = list(chain("acrobot_swingup").m)
+    run_cfg = fixed.run_config(scene, preset_path("acrobot_mpc"), (("parameters.m[0]", 0.7),))
+    plant, model = nominal_and_run(run_cfg, "m")
+    assert plant == [0.7, nominal[1]] and model == nominal
+    redesigned = fixed.run_config(
+        scene, preset_path("acrobot_mpc"), (("parameters.m[0]", 0.7), ("controller.r", 0.2))
+    )
+    assert "controller.model." not in redesigned
+    tvlqr = fixed.prepare(fixed.load_fixed(preset_path("acrobot_swingup")))
+    assert not any("controller.model." in line for line in tvlqr.design)
+
+    path = preset_path("cdip_mpc")
+    cart = load_scene(path)
+    prepared = execute.Prepared(path, cart, {}, Path("unused"), tmp_path, "mpc_cdip", ())
+    changes = (("parameters.m[1]", 2 * cart.m[1]),)
+    document = overrides.apply(read_document(path), cart, changes)
+    heavier = scene_from_document(path, document, designed=cart)
+    text = execute.run_config(prepared, heavier, nominal_design=True)
+    plant, model = nominal_and_run(text, "m")
+    assert plant[1] == 2 * cart.m[1] and model[1] == cart.m[1] and plant[0] == model[0]
+    assert "controller.model." not in execute.run_config(prepared, heavier, nominal_design=False)

@@ -46,10 +46,11 @@ def test_the_cpp_parser_knows_exactly_the_written_keys() -> None:
 def test_the_simulators_help_names_the_written_keys() -> None:
     text = (ROOT / "cpp" / "src" / "simulate.cpp").read_text(encoding="utf-8")
     help_ = text[text.index("SCENE.cfg:") : text.index("exit status:")]
-    words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*(?:\.[A-Za-z_][A-Za-z_0-9]*)?", help_))
+    words = set(re.findall(r"[A-Za-z_][A-Za-z_0-9]*(?:\.[A-Za-z_][A-Za-z_0-9]*)*", help_))
     named = {key for key in CFG_KEYS if key in words}
     assert named == set(CFG_KEYS) - HELP_OMITS, (set(CFG_KEYS) - HELP_OMITS - named, named & HELP_OMITS)
-    dotted = set(re.findall(r"\b(?:input|controller|swingup|limits|actuator)\.[a-z_0-9]+", help_))
+    dotted_key = r"\b(?:input|controller|swingup|limits|actuator)\.[a-z_0-9]+(?:\.[A-Za-z_0-9]+)*"
+    dotted = set(re.findall(dotted_key, help_))
     assert dotted <= set(CFG_KEYS), dotted - set(CFG_KEYS)
 
 

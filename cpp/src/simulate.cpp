@@ -168,6 +168,10 @@ controller.substeps, controller.q, controller.r, controller.p (row-major), contr
 controller.u_min, controller.u_max, controller.bounds and controller.soft_bounds (index min max ...),
 controller.soft_penalty, controller.mode (rti|converged), controller.iterations,
 controller.cold_iterations, controller.qp_iterations, controller.sqp_tolerance, controller.qp_tolerance;
+optional controller.model.m, controller.model.l, controller.model.delta, controller.model.g,
+controller.model.com, controller.model.J, controller.model.J_axial, controller.model.tip,
+controller.model.gain (a motor's), controller.model.Ir, controller.model.gr (a fixed chain's): the
+model the MPC predicts with (absent: the scene's; a sweep's run states the nominal scene's);
 coulomb [N or N m] per coordinate and coulomb_speed [m/s or rad/s]: Coulomb friction
 c tanh(w / coulomb_speed) on the rate delta acts on (its dissipated energy is in the summary); a fixed
 chain: coulomb_law = atan with coulomb_gain k [s/rad] for DFKI's c atan(k w), and its inputs are

@@ -220,7 +220,6 @@ def _read_csv(path: Path, dof: int) -> tuple:
 
 def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     """Run `task` on the scene: refused, failed or passed, with its end-state errors."""
-    from ipgen.experiment.config import resolved_config
     from ipgen.experiment.scene import scene_from_document
 
     started = time.perf_counter()
@@ -245,12 +244,9 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         return _refused(
             task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
         )
-    text = resolved_config(scene, model=prepared.model)
-    if designed is not None:  # the nominal design: an MPC predicts with the nominal model too
-        text += "".join(
-            f"{line}\n" for line in model_lines(resolved_config(prepared.scene, model=prepared.model))
-        )
-    done, cfg, csv = _simulate(prepared, task, text)
+    done, cfg, csv = _simulate(
+        prepared, task, run_config(prepared, scene, nominal_design=designed is not None)
+    )
     try:
         if done.returncode == 2:  # the simulator refused the resolved scene
             return _refused(task, _simulator_refusal(done), started)
@@ -275,6 +271,18 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
         cfg.unlink(missing_ok=True)
         csv.unlink(missing_ok=True)
     return _judged(task, verdict, done.returncode, started)
+
+
+def run_config(prepared: Prepared, scene: Scene, *, nominal_design: bool) -> str:
+    """The resolved config of one run of a cart or arm scene: `scene`'s, and with the nominal
+    design an MPC's model stated as the nominal scene's (`sweeps.mpc_model`)."""
+    from ipgen.experiment.config import resolved_config
+
+    text = resolved_config(scene, model=prepared.model)
+    if nominal_design and prepared.scene is not None:
+        nominal = resolved_config(prepared.scene, model=prepared.model)
+        text += "".join(f"{line}\n" for line in model_lines(nominal))
+    return text
 
 
 def _simulator_refusal(done: subprocess.CompletedProcess) -> str:

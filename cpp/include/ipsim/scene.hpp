@@ -29,6 +29,8 @@
 //   controller.soft_bounds (index min max …, optional)  controller.soft_penalty (with soft_bounds: ρ1 ρ2)
 //   controller.mode = rti | converged   controller.iterations  controller.cold_iterations
 //   controller.qp_iterations  controller.sqp_tolerance  controller.qp_tolerance
+//   controller.model.m l delta g com J J_axial tip gain Ir gr   (optional: the model the MPC predicts
+//                              with; absent, the scene's: a sweep's run states the nominal scene's)
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
