@@ -290,3 +290,14 @@ def test_a_sweeps_run_keeps_the_mpcs_nominal_model(tmp_path: Path) -> None:
     plant, model = nominal_and_run(text, "m")
     assert plant[1] == 2 * cart.m[1] and model[1] == cart.m[1] and plant[0] == model[0]
     assert "controller.model." not in execute.run_config(prepared, heavier, nominal_design=False)
+
+
+def test_a_sweep_judges_a_fixed_mpc_by_its_reference_and_bound(tmp_path: Path) -> None:
+    """A fixed scene balanced by the MPC alone: its goal is the MPC's reference in the scene's
+    coordinates (DFKI's upright: q1 = π), its bound u_max; the nominal chain passes."""
+    path = tmp_path / "balance.toml"
+    path.write_text(BALANCE.format(extra=""))
+    nominal = chain("acrobot_swingup").m[1]
+    outcome = ipgen.sweep(path, tmp_path / "out", vary=[f"parameters.m[1]={nominal}"], jobs=1)
+    rows = (tmp_path / "out" / "runs.csv").read_text().splitlines()
+    assert outcome.score == 1.0, rows

@@ -14,8 +14,9 @@ clockwise; DFKI's: counterclockwise); [initial] and the CSV's columns are in the
 (`angles`, `zero`, `positive`), as for carts and arms. Coulomb friction acts on the joints'
 relative rates in either law (tanh, or DFKI's atan); J may be negative where J + m com² > 0.
 [controller] (kind = "lqr": q, r, equilibrium, saturation per input, period; or kind = "gain")
-closes the loop with u = −K (x − x_eq), K m × 2n (`fixed_controller`); [swingup] (method
-trajectory, one driven joint) plans or reads a swing-up (`fixed_swingup_law`). What the simulator
+closes the loop with u = −K (x − x_eq), K m × 2n (`fixed_controller`), or kind = "mpc" (one driven
+joint: pipeline/fixed_mpc.py); [swingup] (method trajectory, one driven joint) plans or reads a
+swing-up (`fixed_swingup_law`), tracked by its TVLQR or (`tracking = "mpc"`) by the MPC. What the simulator
 does not take for a fixed chain yet is refused in one line: the measured loop's tables ([sensors],
 [estimator]).
 
@@ -26,7 +27,6 @@ parameters and state (no base entry), `input` and `input.*` for the first input,
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -35,11 +35,12 @@ import numpy as np
 from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, fixed_model_name, render_fixed
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
-from ipgen.control.controller import MpcDesign
 from ipgen.errors import Error
 from ipgen.experiment.config import CFG_KEYS, mpc_entries
 from ipgen.experiment.scene import InputSpec
 from ipgen.model.fixed import FixedPendulum
+from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers
+from ipgen.pipeline.fixed_mpc import MPC_KEYS, fixed_mpc, swingup_tracking
 from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
 from ipgen.scene.fields import Reader, format_number
@@ -184,39 +185,6 @@ def _check_tables(reader: Reader, document: dict[str, Any], chain: FixedPendulum
 
 
 CONTROLLER_KEYS: tuple[str, ...] = ("kind", "q", "r", "equilibrium", "saturation", "period", "gain")
-# kind = "mpc" (docs/mpc.md): the cart's and arm's keys but travel (a fixed chain has no base)
-MPC_KEYS: tuple[str, ...] = (
-    "horizon", "p", "u_max", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations", "substeps",
-)  # fmt: skip
-
-
-@dataclass(frozen=True)
-class FixedController:
-    """A fixed chain's state feedback u = −K (x − x_eq): K m × 2n, x_eq, saturations (m), period,
-    all in the chain's coordinates and its inputs' positive sense."""
-
-    kind: str
-    gain: np.ndarray
-    equilibrium: np.ndarray
-    saturation: tuple[float, ...] | None
-    period: float | None
-    mpc: MpcDesign | None = None  # kind = "mpc": the problem, in ipgen's coordinates
-
-
-def _numbers(reader: Reader, key: str, value: Any, sizes: tuple[int, ...], what: str) -> np.ndarray:
-    import math
-    from decimal import Decimal
-
-    items = value if isinstance(value, list) else [value]
-    flat: list[Any] = []
-    for item in items:
-        flat.extend(item if isinstance(item, list) else [item])
-    if any(isinstance(x, bool) or not isinstance(x, int | float | Decimal) for x in flat):
-        reader.bad(key, value, f"expected {what}")
-    numbers = np.array([float(x) for x in flat])
-    if numbers.size not in sizes or not all(math.isfinite(x) for x in numbers):
-        reader.bad(key, value, f"expected {what}")
-    return numbers
 
 
 def fixed_controller(
@@ -241,17 +209,17 @@ def fixed_controller(
                 f"(expected: {', '.join(known)})"
             )
     if kind == "mpc":
-        return _fixed_mpc(reader, table, chain, settings)
+        return fixed_mpc(reader, table, chain, settings)
     n, m = chain.links, chain.inputs
     saturation = None
     if "saturation" in table:
-        values = _numbers(
+        values = numbers(
             reader, "controller.saturation", table["saturation"], (1, m), f"1 or {m} numbers > 0 [N m]"
         )
         if np.any(values <= 0):
             reader.bad("controller.saturation", table["saturation"], "the largest |u| must be > 0 N m")
         saturation = tuple(float(v) for v in np.broadcast_to(values, (m,)))
-    period = _period(reader, table, settings)
+    period = controller_period(reader, table, settings)
     try:
         equilibrium = fixed_equilibrium(chain, table.get("equilibrium"))
         if kind == "gain":
@@ -262,7 +230,7 @@ def fixed_controller(
                 reader.fail(
                     "missing required key 'controller.gain' (kind = \"gain\": K, m rows of 2n numbers)"
                 )
-            gain = _numbers(
+            gain = numbers(
                 reader, "controller.gain", table["gain"], (m * 2 * n,), f"{m} × {2 * n} numbers (K)"
             )
             gain = gain.reshape(m, 2 * n)
@@ -270,7 +238,7 @@ def fixed_controller(
             if "gain" in table:
                 reader.fail('controller.gain: kind = "lqr" computes K (remove gain, or kind = "gain")')
             q = table.get("q", [1.0] * (2 * n))
-            q = _numbers(
+            q = numbers(
                 reader,
                 "controller.q",
                 q,
@@ -278,144 +246,12 @@ def fixed_controller(
                 f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
             )
             q = np.diag(q) if q.size == 2 * n else q.reshape(2 * n, 2 * n)
-            r = _numbers(reader, "controller.r", table.get("r", 1.0), (1, m), f"1 or {m} weights > 0")
+            r = numbers(reader, "controller.r", table.get("r", 1.0), (1, m), f"1 or {m} weights > 0")
             gain = lqr_fixed(chain, q, r, equilibrium)
     except ControlError as exc:
         reader.fail(f"[controller]: {exc}")
     state = np.concatenate([equilibrium, np.zeros(n)])
     return FixedController(str(kind), gain, state, saturation, period)
-
-
-def _period(reader: Reader, table: Any, settings: dict[str, Any]) -> float | None:
-    """controller.period [s]: > 0, <= t_end, a whole multiple or fraction of the sample."""
-    if "period" not in table:
-        return None
-    period = float(_numbers(reader, "controller.period", table["period"], (1,), "a number > 0 [s]")[0])
-    t_end, sample = float(settings.get("t_end") or 0.0), float(settings.get("sample") or 0.0)
-    ratio = max(period, sample) / min(period, sample) if period > 0 and sample > 0 else 0.0
-    if period <= 0 or (t_end and period > t_end) or abs(ratio - round(ratio)) > 1e-9 * ratio:
-        reader.bad(
-            "controller.period",
-            table["period"],
-            "expected > 0 s, <= t_end, a whole multiple or fraction of sample",
-        )
-    return period
-
-
-@dataclass(frozen=True)
-class _MpcTable:
-    """A fixed scene's [controller] kind = "mpc", checked: the attributes `experiment.feedback`
-    reads from a cart's or arm's validated table (no travel: a fixed chain has no base)."""
-
-    period: float
-    u_max: float
-    q: Any = None
-    r: float = 1.0
-    p: Any = None
-    equilibrium: Any = "upright"
-    horizon: int | None = None
-    substeps: int | None = None
-    soft_bounds: tuple[tuple[int, float, float], ...] | None = None
-    soft_penalty: tuple[float, float] | None = None
-    mode: str | None = None
-    iterations: int | None = None
-    qp_iterations: int | None = None
-    travel: None = None
-    kind: str = "mpc"
-
-
-def _fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[str, Any]) -> FixedController:
-    """[controller] kind = "mpc" of a fixed chain (one driven joint): the problem of `ipgen.mpc`,
-    its weights, equilibrium and soft bounds in the chain's coordinates (mapped to ipgen's, where
-    the step works, by `experiment.feedback`); u_max [N m] and period [s] required."""
-    from ipgen.control.fixed_linear import fixed_equilibrium
-    from ipgen.control.linear import ControlError
-    from ipgen.experiment.feedback import GainError, controller
-
-    n = chain.links
-    if chain.inputs != 1:
-        reader.fail(
-            f'controller.kind = "mpc" drives one joint; this chain drives {chain.inputs} ({chain.joints})'
-        )
-    for key in ("saturation", "gain"):
-        if key in table:
-            reader.fail(
-                f'controller.{key}: kind = "mpc" bounds u by u_max and computes its input (remove {key})'
-            )
-    for key in ("period", "u_max"):
-        if key not in table:
-            reader.fail(
-                f"missing required key 'controller.{key}' "
-                '(kind = "mpc": the sample period [s], |u| <= u_max [N m])'
-            )
-    period = _period(reader, table, settings)
-    assert period is not None
-    u_max = float(_numbers(reader, "controller.u_max", table["u_max"], (1,), "a number > 0 [N m]")[0])
-    if u_max <= 0:
-        reader.bad("controller.u_max", table["u_max"], "expected a number > 0 [N m]")
-
-    def whole(key: str, low: int, high: int) -> int | None:
-        if key not in table:
-            return None
-        value = table[key]
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            reader.bad(f"controller.{key}", value, f"expected an integer in {low}..{high}")
-        return int(value)
-
-    def weights(key: str) -> Any:
-        if key not in table:
-            return None
-        values = _numbers(
-            reader,
-            f"controller.{key}",
-            table[key],
-            (2 * n, 4 * n * n),
-            f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
-        )
-        return np.diag(values) if values.size == 2 * n else values.reshape(2 * n, 2 * n)
-
-    soft = None
-    if "soft_bounds" in table:
-        rows = table["soft_bounds"]
-        what = f"[[index, min, max], ...]: index 0..{2 * n - 1} (θ1.. then θ̇1..), min < max"
-        if not isinstance(rows, list) or not rows:
-            reader.bad("controller.soft_bounds", rows, what)
-        soft = []
-        for row in rows:
-            values = _numbers(reader, "controller.soft_bounds", row, (3,), what)
-            if values[0] != round(values[0]) or not 0 <= values[0] < 2 * n or values[1] >= values[2]:
-                reader.bad("controller.soft_bounds", row, what)
-            soft.append((int(values[0]), float(values[1]), float(values[2])))
-    penalty = None
-    if "soft_penalty" in table:
-        values = _numbers(
-            reader, "controller.soft_penalty", table["soft_penalty"], (2,), "[rho1 >= 0, rho2 > 0]"
-        )
-        if values[0] < 0 or values[1] <= 0:
-            reader.bad("controller.soft_penalty", table["soft_penalty"], "[rho1 >= 0, rho2 > 0]")
-        penalty = (float(values[0]), float(values[1]))
-    mode = table.get("mode")
-    if mode is not None and mode not in ("rti", "converged"):
-        reader.bad("controller.mode", mode, 'expected "rti" or "converged"')
-    r = float(_numbers(reader, "controller.r", table.get("r", 1.0), (1,), "one weight > 0")[0])
-    if r <= 0:
-        reader.bad("controller.r", table["r"], "expected one weight > 0")
-    try:
-        equilibrium = fixed_equilibrium(chain, table.get("equilibrium"))  # checked: links upright or hanging
-        given = table.get("equilibrium", "upright")
-        checked = _MpcTable(
-            period=period, u_max=u_max, q=weights("q"), r=r, p=weights("p"),
-            equilibrium=given if isinstance(given, str) else [float(v) for v in equilibrium],
-            horizon=whole("horizon", 1, 1000), substeps=whole("substeps", 1, 1000),
-            soft_bounds=tuple(soft) if soft else None, soft_penalty=penalty, mode=mode,
-            iterations=whole("iterations", 1, 1000), qp_iterations=whole("qp_iterations", 1, 1000),
-        )  # fmt: skip
-        resolved = controller(checked, chain)
-    except (ControlError, GainError) as exc:
-        reader.fail(f"[controller]: {exc}")
-    state = np.concatenate([equilibrium, np.zeros(n)])
-    gain = np.asarray(resolved.gain).reshape(1, 2 * n)  # the discrete LQR's, ipgen's coordinates (unused)
-    return FixedController("mpc", gain, state, (u_max,), period, resolved.mpc)
 
 
 SWINGUP_KEYS: tuple[str, ...] = (
@@ -458,7 +294,7 @@ def fixed_swingup_law(
             if default is None:
                 reader.fail(f"missing required key 'swingup.{key}'")
             return float(default)  # type: ignore[arg-type]
-        value = float(_numbers(reader, f"swingup.{key}", table[key], (1,), "a number > 0")[0])
+        value = float(numbers(reader, f"swingup.{key}", table[key], (1,), "a number > 0")[0])
         if value <= 0:
             reader.bad(f"swingup.{key}", table[key], "expected a number > 0")
         return value
@@ -486,19 +322,6 @@ def fixed_swingup_law(
     except ControlError as exc:
         reader.fail(f"[swingup]: {exc}")
     return law
-
-
-def _tracking(reader: Reader, table: Any, controller: FixedController | None) -> str:
-    """swingup.tracking: "lqr" (the plan's time-varying LQR, the default) or "mpc" (the [controller]
-    kind = "mpc" tracks the plan, its reference per stage); with an MPC either way it holds."""
-    tracking = table.get("tracking", "lqr")
-    if tracking not in ("lqr", "mpc"):
-        reader.bad("swingup.tracking", tracking, 'expected "lqr" or "mpc"')
-    if tracking == "mpc" and (controller is None or controller.mpc is None):
-        reader.fail(
-            'swingup.tracking = "mpc" needs a [controller] of kind = "mpc" (the MPC that tracks the plan)'
-        )
-    return str(tracking)
 
 
 def model_name(chain: FixedPendulum) -> str:
@@ -648,7 +471,7 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         if any(spec.kind != "zero" for spec in inputs):
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
         swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
-        tracking = _tracking(reader, document["swingup"], controller)
+        tracking = swingup_tracking(reader, document["swingup"], controller)
     cfg = fixed_config(
         path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller, swingup,
         tracking,

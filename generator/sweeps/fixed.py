@@ -208,12 +208,38 @@ def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], tuple[float, ...] | Non
     config: the swing-up's u_max (one for every input), else the controller's saturation (one per
     input, in the order of the CSV's u1..um)."""
     target = _values(cfg, "swingup.target")
+    mpc = _values(cfg, "controller.u_max"), _values(cfg, "controller.u_min")
+    mpc_bound = max(abs(mpc[0][0]), abs(mpc[1][0])) if mpc[0] and mpc[1] else None
     if target is not None:
         u_max = _values(cfg, "swingup.u_max")
+        if u_max and mpc_bound is not None:  # an MPC holds (or tracks): the larger bound
+            u_max = [max(u_max[0], mpc_bound)]
         return tuple(target), (tuple(u_max) if u_max else None), False
+    if mpc_bound is not None:  # controller = mpc: its reference (ipgen's) in the scene's coordinates
+        return _user_state(cfg, _values(cfg, "controller.reference") or []), (mpc_bound,), True
     equilibrium = _values(cfg, "controller.equilibrium") or []
     saturation = _values(cfg, "controller.saturation")
     return tuple(equilibrium), (tuple(saturation) if saturation else None), True
+
+
+def _user_state(cfg: str, state: list[float]) -> tuple[float, ...]:
+    """A state of ipgen's coordinates in the coordinates the config states (angles, zero, positive)."""
+    from ipgen.model.coordinates import Coordinates
+    from ipgen.model.fixed_equations import angle_map
+
+    def word(key: str, default: str) -> str:
+        for line in cfg.splitlines():
+            name, _, value = line.partition("=")
+            if name.strip() == key:
+                return value.strip()
+        return default
+
+    frame = Coordinates(word("angles", "absolute"), word("zero", "upright"), word("positive", "clockwise"))
+    n = len(state) // 2
+    rotation, zero = angle_map(frame, n)
+    x = np.asarray(state, dtype=float)
+    angles = np.linalg.solve(rotation, x[:n] - zero)
+    return tuple(float(v) for v in (*angles, *np.linalg.solve(rotation, x[n:])))
 
 
 def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Judgement:
