@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from ipgen.control.casadi_model import Plant, casadi_model, import_casadi
-from ipgen.control.fixed_swingup import _dynamics as fixed_dynamics
+from ipgen.control.fixed_swingup import casadi_dynamics
 from ipgen.control.mpc import Mpc
 from ipgen.model.fixed import FixedPendulum
 
@@ -27,7 +27,7 @@ def flow(controller: Mpc) -> Any:
     if isinstance(
         c.pendulum, FixedPendulum
     ):  # Lagrange's equations of model/fixed_equations, ipgen's coordinates
-        chain = fixed_dynamics(c.pendulum.canonical())
+        chain = casadi_dynamics(c.pendulum.canonical())
 
         def f(state: Any) -> Any:
             return chain(state, u)

@@ -126,11 +126,23 @@ BASE = CHAIN.format(joints=[1, 2], tilt=3.0)
         ('kind = "lqr"\nsaturation = [6.0, 0.0]', "controller.saturation"),
         ('kind = "lqr"\nperiod = 0.003', "controller.period"),
         ('kind = "lqr"\nq = [1, 1]', "controller.q"),
+        ('kind = "lqr"\nq = [[1, 0], [0, 1]]', "controller.q"),  # 4 numbers, but not 4 × 4
         ('kind = "lqr"\nequilibrium = [1.0, 0.0]', "not an equilibrium"),
         ('kind = "gain"', "missing required key 'controller.gain'"),
         ('kind = "lqr"\ncolour = 1', "unknown key 'controller.colour'"),
     ],
-    ids=["kind", "r-size", "r-negative", "saturation", "period", "q-size", "equilibrium", "gain", "unknown"],
+    ids=[
+        "kind",
+        "r-size",
+        "r-negative",
+        "saturation",
+        "period",
+        "q-size",
+        "q-shape",
+        "equilibrium",
+        "gain",
+        "unknown",
+    ],
 )
 def test_bad_controller_tables_are_refused_in_one_line(tmp_path: Path, table: str, says: str) -> None:
     assert says in refusal(tmp_path, BASE + "\n[controller]\n" + table + "\n")

@@ -177,38 +177,82 @@ def test_the_presets_swing_up_by_mpc_within_the_torque_bound(tmp_path: Path, nam
 BAD_VALUES = {
     "period": ["0", "-0.01", '"fast"', "20.0", "0.0033"],
     "u_max": ["0", "-6", '"six"', "[6, 6]"],
-    "horizon": ["0", "2.5", "1001", '"long"'],
+    "horizon": ["0", "2.5", "1001", '"long"', "true"],
+    "substeps": ["0", "101"],
+    "iterations": ["0", "1001"],
+    "qp_iterations": ["0", "-3"],
     "q": ["[1, 2, 3]", '["a", 1, 1, 1]', "[1, 1, 1, inf]"],
+    "p": ["[1, 2]", "[[1, 0], [0, 1]]"],
+    "r": ["0", "-1", "[1, 2]"],
     "mode": ['"fast"', "1"],
     "soft_bounds": ["[[4, -1, 1]]", "[[0, 1, -1]]", "[[0, 1]]", "[]"],
     "soft_penalty": ["[-1, 1]", "[1, 0]", "[1]"],
     "saturation": ["6.0"],
+    "gain": ["[1, 2, 3, 4]"],
     "travel": ["1.0"],
     "equilibrium": ['"sideways"', "[0.5, 0]"],
+    "kind": ['"pid"'],
 }
+CASES = [(key, value) for key, values in sorted(BAD_VALUES.items()) for value in values]
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(
-    st.sampled_from(sorted(BAD_VALUES)).flatmap(
-        lambda k: st.tuples(st.just(k), st.sampled_from(BAD_VALUES[k]))
-    )
-)
-def test_any_bad_mpc_key_of_a_fixed_scene_is_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], bad: tuple[str, str]
-) -> None:
-    key, value = bad
-    text = BALANCE.format(extra="")
-    lines = [line for line in text.splitlines() if not line.startswith(f"{key} =")]
-    at = lines.index('kind = "mpc"') + 1
-    lines.insert(at, f"{key} = {value}")
+def write_scene(tmp_path: Path, key: str, value: str | None) -> Path:
+    """BALANCE with `key = value` in its [controller] (None: the key removed)."""
+    lines = [line for line in BALANCE.format(extra="").splitlines() if not line.startswith(f"{key} =")]
+    if value is not None:
+        lines.insert(lines.index("[controller]") + 1, f"{key} = {value}")
     path = tmp_path / "bad.toml"
     path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def refusal(tmp_path: Path, capsys: pytest.CaptureFixture[str], path: Path) -> str:
+    """The one line `ipgen run` prints refusing `path` (it exits non-zero and writes nothing)."""
     capsys.readouterr()
     assert run(["run", str(path), "-o", str(tmp_path / "never"), "--no-plot", "--force"]) != 0
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and key in err[0] and "Traceback" not in err[0], err
+    assert len(err) == 1 and "Traceback" not in err[0], err
     assert not (tmp_path / "never").exists()  # nothing half-written
+    return err[0]
+
+
+@pytest.mark.parametrize(("key", "value"), CASES, ids=[f"{k}={v}" for k, v in CASES])
+def test_every_bad_mpc_key_of_a_fixed_scene_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str, value: str
+) -> None:
+    assert key in refusal(tmp_path, capsys, write_scene(tmp_path, key, value))
+
+
+@pytest.mark.parametrize("key", ["period", "u_max"])
+def test_a_missing_period_or_bound_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str
+) -> None:
+    assert f"controller.{key}" in refusal(tmp_path, capsys, write_scene(tmp_path, key, None))
+
+
+def test_an_unknown_mpc_key_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert "controller.horizn" in refusal(tmp_path, capsys, write_scene(tmp_path, "horizn", "30"))
+
+
+VALUES = st.one_of(
+    st.integers(-3, 2000).map(str),
+    st.floats(allow_nan=True, allow_infinity=True).map(
+        lambda v: repr(v).replace("nan", "nan").replace("inf", "inf")
+    ),
+    st.sampled_from(['"rti"', '"x"', "true", "[]", "[1, 2]", "[[0, -1, 1]]", "[[9, 0, 1]]", "1e400"]),
+)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(sorted(BAD_VALUES)), value=VALUES)
+def test_any_value_of_any_mpc_key_runs_or_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str, value: str
+) -> None:
+    path = write_scene(tmp_path, key, value)
+    capsys.readouterr()
+    status = run(["run", str(path), "-o", str(tmp_path / "out"), "--no-plot", "--force"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert status == 0 or (len(err) == 1 and "Traceback" not in err[0]), err
 
 
 def test_tracking_needs_an_mpc_and_a_known_word(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -282,7 +326,10 @@ def test_a_sweeps_run_keeps_the_mpcs_nominal_model(tmp_path: Path) -> None:
 
     path = preset_path("cdip_mpc")
     cart = load_scene(path)
-    prepared = execute.Prepared(path, cart, {}, Path("unused"), tmp_path, "mpc_cdip", ())
+    from ipgen.experiment.config import resolved_config
+
+    lines = tuple(model_lines(resolved_config(cart, model="mpc_cdip")))
+    prepared = execute.Prepared(path, cart, {}, Path("unused"), tmp_path, "mpc_cdip", (), None, lines)
     changes = (("parameters.m[1]", 2 * cart.m[1]),)
     document = overrides.apply(read_document(path), cart, changes)
     heavier = scene_from_document(path, document, designed=cart)
@@ -301,3 +348,42 @@ def test_a_sweep_judges_a_fixed_mpc_by_its_reference_and_bound(tmp_path: Path) -
     outcome = ipgen.sweep(path, tmp_path / "out", vary=[f"parameters.m[1]={nominal}"], jobs=1)
     rows = (tmp_path / "out" / "runs.csv").read_text().splitlines()
     assert outcome.score == 1.0, rows
+
+
+def test_a_sweeps_mpc_predicts_with_the_nominal_links_the_cfg_leaves_out(tmp_path: Path) -> None:
+    """cdip_mpc's config writes no J (the rods): a run whose plant states other inertias still
+    has the MPC predict with the nominal rods. The first step (t = 0, the same state) is the
+    nominal run's to the bit with the model stated, and differs without it (the old behaviour)."""
+    from ipgen.experiment.config import resolved_config
+    from ipgen.experiment.scene import load_scene, read_document, scene_from_document
+    from ipgen.sweeps import execute, overrides
+
+    out = tmp_path / "nominal"
+    assert run(["run", "--preset", "cdip_mpc", "-o", str(out), "--no-plot"]) == 0
+    found = re.search(r"Simulator (\S+)", (out / "cdip_mpc.txt").read_text())
+    assert found is not None
+    path = preset_path("cdip_mpc")
+    cart = load_scene(path)
+    model = re.search(r"^model = (\S+)$", (out / "cdip_mpc.cfg").read_text(), re.MULTILINE)
+    assert model is not None
+    lines = tuple(model_lines(resolved_config(cart, model=model.group(1))))
+    assert not any(line.startswith("controller.model.J") for line in lines)  # the rods: not written
+    prepared = execute.Prepared(
+        path, cart, {}, Path(found.group(1)), tmp_path, model.group(1), (), None, lines
+    )
+    changes = (("parameters.J", [0.0, 0.02, 0.02]),)
+    document = overrides.apply(read_document(path), cart, changes)
+    stiffer = scene_from_document(path, document, designed=cart)
+    first = {}
+    for label, nominal_design in (("kept", True), ("own", False)):
+        cfg = tmp_path / f"{label}.cfg"
+        cfg.write_text(execute.run_config(prepared, stiffer, nominal_design=nominal_design))
+        assert "J = 0 0.02 0.02" in cfg.read_text()
+        done = subprocess.run([found.group(1), str(cfg), "--csv", str(tmp_path / f"{label}.csv"), "--force"],
+                              capture_output=True, text=True)  # fmt: skip
+        assert done.returncode in (0, 4), done.stderr
+        header, row = (tmp_path / f"{label}.csv").read_text().splitlines()[:2]
+        first[label] = float(row.split(",")[header.split(",").index("u")])
+    header, row = (out / "cdip_mpc.csv").read_text().splitlines()[:2]
+    nominal_u = float(row.split(",")[header.split(",").index("u")])
+    assert first["kept"] == nominal_u and first["own"] != nominal_u

@@ -116,6 +116,10 @@ def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str
         raise ControllerError(
             f"the MPC needs the header's {' and '.join(missing)}: add them to the scene's outputs"
         )
+    if not design.params:  # a fixed chain's design carries none: its headers have no loop yet
+        raise ControllerError(
+            "this MPC design states no model parameters to print (a fixed chain's MPC is not in C yet)"
+        )
     size = 2 * dof
     params = dict(design.params)
 

@@ -38,6 +38,7 @@ from ipgen.model.fixed import FixedPendulum
 
 __all__ = [
     "FixedPlan",
+    "casadi_dynamics",
     "fixed_plan",
     "fixed_schedule",
     "fixed_swingup",
@@ -61,7 +62,7 @@ class FixedPlan:
     held: np.ndarray  # N × m
 
 
-def _dynamics(chain: FixedPendulum) -> Any:
+def casadi_dynamics(chain: FixedPendulum) -> Any:
     """ẋ = f(x, u) as a CasADi Function of x (2n) and u (m): q̈ = M⁻¹ (B u − bias)."""
     import sympy as sp
 
@@ -116,7 +117,7 @@ def fixed_plan(
     intervals = round(duration / h)
     if intervals < 2 or abs(intervals * h - duration) > 1e-9:
         raise PlanError(f"duration = {duration!r}: expected a whole number (>= 2) of {h:g} s intervals")
-    f = _dynamics(chain)
+    f = casadi_dynamics(chain)
     step = _rk4(f, period)
     flow = step.mapaccum("flow", substeps)  # the states after each period of one interval
 
@@ -171,7 +172,7 @@ def sampled_plan(
 ) -> FixedPlan:
     """The plan at every controller period from its knots ((N+1) × 2n) and held inputs (N × m):
     RK4 at the period from each knot over its interval (the shooting's own map)."""
-    f = _dynamics(chain)
+    f = casadi_dynamics(chain)
     flow = _rk4(f, period).mapaccum("flow", substeps)
     states = [knots[0]]
     inputs = []
@@ -243,7 +244,7 @@ def fixed_schedule(
     n, m = chain.links, chain.inputs
     q_ = np.diag([10.0] * n + [1.0] * n) if q is None else np.asarray(q, dtype=float)
     r_ = np.eye(m) * r
-    step = _rk4(_dynamics(chain), plan.period)
+    step = _rk4(casadi_dynamics(chain), plan.period)
     xs, us = ca.MX.sym("x", 2 * n), ca.MX.sym("u", m)
     out = step(xs, us)
     jac = ca.Function("step_jacobians", [xs, us], [ca.jacobian(out, xs), ca.jacobian(out, us)])

@@ -66,8 +66,8 @@ def _unit(p: Pendulum) -> str:
 def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
     """kind = "mpc": the problem resolved (`MpcDesign`) by `ipgen.mpc` on `p` (its defaults: the
     terminal weight P the discrete LQR's Riccati matrix, the budgets of the mode). A fixed chain's
-    table (pipeline/fixed_run.py) has the same attributes; its gain and equilibrium are returned
-    in ipgen's coordinates (its scene states them in no comment)."""
+    table (pipeline/fixed_mpc.py) has the same attributes; its gain and equilibrium are returned
+    in ipgen's coordinates (fixed_mpc maps the gain)."""
     import numpy as np
 
     from ipgen.control import mpc as mpc_module
@@ -96,9 +96,7 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
     _, a, b = design.rk4(design.x_ref, 0.0)
     gain = np.linalg.solve(design.R + b.T @ design.P @ b, b.T @ design.P @ a)  # the discrete LQR's K
     x_ref = design.x_ref
-    if not (
-        frame.is_canonical or fixed
-    ):  # the gain and equilibrium the scene states: in the rig's coordinates
+    if not (frame.is_canonical or fixed):  # the gain and equilibrium the scene states: the rig's
         matrix, _ = frame.matrices(p.links)
         gain, x_ref = gain @ np.linalg.inv(matrix), frame.to_user(x_ref, p.links)
 

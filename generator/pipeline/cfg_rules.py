@@ -30,6 +30,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "J_axial": ("parameters", "J_axial"),
     "tip": ("parameters", "tip"),
     "coulomb": ("parameters", "coulomb"),
+    **{f"controller.model.{key}": ("parameters", key) for key in ("m", "delta", "g", "J", "J_axial", "tip")},
     "coulomb_speed": ("parameters", "coulomb_speed"),
     "actuator.lag": ("actuator", "lag"),
     "limits.travel": ("limits", "travel"),

@@ -56,3 +56,14 @@ def controller_period(reader: Reader, table: Any, settings: dict[str, Any]) -> f
             "expected > 0 s, <= t_end, a whole multiple or fraction of sample",
         )
     return period
+
+
+def weight_matrix(reader: Reader, key: str, value: Any, size: int) -> np.ndarray:
+    """A size × size weight: `size` diagonal weights, or a matrix of `size` rows of `size` (a
+    nested list of another shape is refused, not flattened into weights)."""
+    what = f"{size} weights or a {size} × {size} matrix"
+    matrix = isinstance(value, list) and any(isinstance(row, list) for row in value)
+    if matrix and (len(value) != size or any(not isinstance(row, list) or len(row) != size for row in value)):
+        reader.bad(key, value, f"expected {what}")
+    values = numbers(reader, key, value, (size, size * size), what)
+    return np.diag(values) if values.size == size else values.reshape(size, size)

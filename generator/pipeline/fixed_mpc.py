@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ipgen.model.fixed import FixedPendulum
-from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers
+from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, weight_matrix
+from ipgen.scene import controller as rules
 from ipgen.scene.fields import Reader
 
 # kind = "mpc" (docs/mpc.md): the cart's and arm's keys but travel (a fixed chain has no base)
@@ -47,7 +48,7 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
     the step works, by `experiment.feedback`); u_max [N m] and period [s] required."""
     from ipgen.control.fixed_linear import fixed_equilibrium
     from ipgen.control.linear import ControlError
-    from ipgen.experiment.feedback import GainError, controller
+    from ipgen.experiment.feedback import GainError, controller, fixed_frame
 
     n = chain.links
     if chain.inputs != 1:
@@ -80,16 +81,7 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
         return int(value)
 
     def weights(key: str) -> Any:
-        if key not in table:
-            return None
-        values = numbers(
-            reader,
-            f"controller.{key}",
-            table[key],
-            (2 * n, 4 * n * n),
-            f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
-        )
-        return np.diag(values) if values.size == 2 * n else values.reshape(2 * n, 2 * n)
+        return None if key not in table else weight_matrix(reader, f"controller.{key}", table[key], 2 * n)
 
     soft = None
     if "soft_bounds" in table:
@@ -123,15 +115,21 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
         checked = _MpcTable(
             period=period, u_max=u_max, q=weights("q"), r=r, p=weights("p"),
             equilibrium=given if isinstance(given, str) else [float(v) for v in equilibrium],
-            horizon=whole("horizon", 1, 1000), substeps=whole("substeps", 1, 1000),
+            horizon=whole("horizon", 1, rules.MAX_HORIZON),
+            substeps=whole("substeps", 1, rules.MAX_SUBSTEPS),
             soft_bounds=tuple(soft) if soft else None, soft_penalty=penalty, mode=mode,
-            iterations=whole("iterations", 1, 1000), qp_iterations=whole("qp_iterations", 1, 1000),
+            iterations=whole("iterations", 1, rules.MAX_ITERATIONS),
+            qp_iterations=whole("qp_iterations", 1, rules.MAX_ITERATIONS),
         )  # fmt: skip
         resolved = controller(checked, chain)
     except (ControlError, GainError) as exc:
         reader.fail(f"[controller]: {exc}")
     state = np.concatenate([equilibrium, np.zeros(n)])
-    gain = np.asarray(resolved.gain).reshape(1, 2 * n)  # the discrete LQR's, ipgen's coordinates (unused)
+    # K: the discrete LQR's at the reference (what the unconstrained MPC is near it), as the
+    # dataclass holds it: in the chain's coordinates and its input's sense (u_rig = sign u)
+    matrix, _ = fixed_frame(chain)
+    sign = -1.0 if chain.positive == "counterclockwise" else 1.0
+    gain = sign * np.asarray(resolved.gain).reshape(1, 2 * n) @ np.linalg.inv(matrix)
     return FixedController("mpc", gain, state, (u_max,), period, resolved.mpc)
 
 

@@ -39,7 +39,7 @@ from ipgen.errors import Error
 from ipgen.experiment.config import CFG_KEYS, mpc_entries
 from ipgen.experiment.scene import InputSpec
 from ipgen.model.fixed import FixedPendulum
-from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers
+from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, weight_matrix
 from ipgen.pipeline.fixed_mpc import MPC_KEYS, fixed_mpc, swingup_tracking
 from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
@@ -237,15 +237,7 @@ def fixed_controller(
         else:
             if "gain" in table:
                 reader.fail('controller.gain: kind = "lqr" computes K (remove gain, or kind = "gain")')
-            q = table.get("q", [1.0] * (2 * n))
-            q = numbers(
-                reader,
-                "controller.q",
-                q,
-                (2 * n, 4 * n * n),
-                f"{2 * n} weights or a {2 * n} × {2 * n} matrix",
-            )
-            q = np.diag(q) if q.size == 2 * n else q.reshape(2 * n, 2 * n)
+            q = weight_matrix(reader, "controller.q", table.get("q", [1.0] * (2 * n)), 2 * n)
             r = numbers(reader, "controller.r", table.get("r", 1.0), (1, m), f"1 or {m} weights > 0")
             gain = lqr_fixed(chain, q, r, equilibrium)
     except ControlError as exc:

@@ -23,6 +23,7 @@ MPC_MODES: tuple[str, ...] = ("rti", "converged")
 DEFAULT_HORIZON = 30
 MAX_HORIZON = 1000
 MAX_ITERATIONS = 1000
+MAX_SUBSTEPS = 100
 DEFAULT_SOFT_PENALTY = (1000.0, 1000.0)  # ρ1, ρ2: an exact penalty on the QUBE's arm (docs/mpc.md)
 MPC_KEYS: tuple[str, ...] = (
     "horizon", "p", "u_max", "travel", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations",

@@ -688,7 +688,7 @@ class ControllerTable(Table):
     qp_iterations: _Count(control.MAX_ITERATIONS, "mpc: interior-point iterations a QP") | None = Field(
         None, description="mpc only: interior-point iterations a QP at most (default: rti 20, converged 50)"
     )
-    substeps: _Count(100, "mpc: RK4 steps a sample") | None = Field(
+    substeps: _Count(control.MAX_SUBSTEPS, "mpc: RK4 steps a sample") | None = Field(
         None, description="mpc only: RK4 steps per sample in the prediction (default 1)"
     )
 

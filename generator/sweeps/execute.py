@@ -97,6 +97,7 @@ class Prepared:
     model: str
     header: tuple[tuple[str, str], ...]  # the model library's sources
     fixed: FixedScene | None = None
+    model_lines: tuple[str, ...] = ()  # an MPC's nominal model (`sweeps.mpc_model`), for every run
 
 
 _PREPARED: dict[str, Prepared] = {}
@@ -162,8 +163,12 @@ def prepare(source: SceneSource) -> Prepared:
             (source.model, source.header) if source.header else header_text(path, scratch / "model")
         )
         simulator = build(dict(header), name, None if source.cache is None else Path(source.cache))
+        from ipgen.experiment.config import resolved_config
+
+        scene = load_scene(path)
+        nominal = tuple(model_lines(resolved_config(scene, model=name)))
         prepared = Prepared(
-            path, load_scene(path), read_document(path), simulator.path, scratch, name, header
+            path, scene, read_document(path), simulator.path, scratch, name, header, None, nominal
         )
         _PREPARED[source.digest] = prepared
         return prepared
@@ -279,10 +284,7 @@ def run_config(prepared: Prepared, scene: Scene, *, nominal_design: bool) -> str
     from ipgen.experiment.config import resolved_config
 
     text = resolved_config(scene, model=prepared.model)
-    if nominal_design and prepared.scene is not None:
-        nominal = resolved_config(prepared.scene, model=prepared.model)
-        text += "".join(f"{line}\n" for line in model_lines(nominal))
-    return text
+    return text + "".join(f"{line}\n" for line in prepared.model_lines) if nominal_design else text
 
 
 def _simulator_refusal(done: subprocess.CompletedProcess) -> str:

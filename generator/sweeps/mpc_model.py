@@ -29,8 +29,9 @@ def is_mpc(cfg: str) -> bool:
 def model_lines(nominal_cfg: str) -> list[str]:
     """`controller.model.* = ...` lines holding the plant parameters of the nominal resolved config
     `nominal_cfg`, as written there (the same text: the nominal run predicts with bit-identical
-    numbers); none when its controller is not an MPC."""
-    if not is_mpc(nominal_cfg):
+    numbers; com and J where it writes them, else the simulator's rods of these m and l, as for
+    the plant); none when its controller is not an MPC or the config states its model already."""
+    if not is_mpc(nominal_cfg) or "\ncontroller.model." in f"\n{nominal_cfg}":  # none, or stated already
         return []
     lines = []
     for line in nominal_cfg.splitlines():

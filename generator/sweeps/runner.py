@@ -118,7 +118,9 @@ def sweep(
     if not isinstance(seed, int) or seed < 0:
         raise SweepError(f"--seed {seed!r}: give an integer >= 0")
     if not scorecard_criteria and not vary and not random:
-        raise SweepError("nothing to sweep: pass --scorecard, --random N, or --vary KEY=LO:HI:N (repeatable)")
+        raise SweepError(
+            "nothing to sweep: pass --scorecard, --random N, or --vary KEY=LO:HI:N (repeatable)"
+        )
     path, out = Path(scene), Path(out)
     fixed = fixed_sweep.load_fixed(path) if fixed_sweep.is_fixed_scene(path) else None
     criteria: list[Criterion] = []

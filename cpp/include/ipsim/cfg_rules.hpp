@@ -181,6 +181,12 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // controller.u_max
     {1.0, false, 1000.0, false, true},  // controller.iterations
     {1.0, false, 1000.0, false, true},  // controller.qp_iterations
+    {0.0, true, kInf, false, false},  // controller.model.m
+    {0.0, false, kInf, false, false},  // controller.model.delta
+    {0.0, false, kInf, false, false},  // controller.model.g
+    {0.0, false, kInf, false, false},  // controller.model.J
+    {0.0, false, kInf, false, false},  // controller.model.J_axial
+    {0.0, false, kInf, false, false},  // controller.model.tip
     {0.0, true, kInf, false, false},  // swingup.u_max
     {0.0, true, kInf, false, false},  // swingup.period
     {0.0, false, kInf, false, false},  // swingup.hold
@@ -225,23 +231,29 @@ inline constexpr Rule kRules[] = {
     {"controller.u_max", "[controller] u_max", "> 0", 20, 1},
     {"controller.iterations", "[controller] iterations", "a whole number >= 1 and <= 1000", 21, 1},
     {"controller.qp_iterations", "[controller] qp_iterations", "a whole number >= 1 and <= 1000", 22, 1},
-    {"swingup.u_max", "[swingup] u_max", "> 0", 23, 1},
-    {"swingup.period", "[swingup] period", "> 0", 24, 1},
-    {"swingup.hold", "[swingup] hold", ">= 0", 25, 1},
-    {"swingup.gain_energy", "[swingup] gain_energy", ">= 0", 26, 1},
-    {"swingup.gain_position", "[swingup] gain_position", ">= 0", 27, 1},
-    {"swingup.gain_velocity", "[swingup] gain_velocity", ">= 0", 28, 1},
-    {"swingup.accel_max", "[swingup] accel_max", "> 0", 29, 1},
-    {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 30, 1},
-    {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 31, 1},
-    {"swingup.release_angle", "[swingup] release_angle", "> 0 and < 1.5708", 32, 1},
-    {"actuator.lag", "[actuator] lag", ">= 0", 33, 1},
-    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 34, 1},
-    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 35, 2},
-    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 37, 1},
-    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 38, 1},
-    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 39, 1},
-    {"estimator.cutoff", "[estimator] cutoff", "> 0", 40, 1},
+    {"controller.model.m", "[parameters] m", "> 0", 23, 1},
+    {"controller.model.delta", "[parameters] delta", ">= 0", 24, 1},
+    {"controller.model.g", "[parameters] g", ">= 0", 25, 1},
+    {"controller.model.J", "[parameters] J", ">= 0", 26, 1},
+    {"controller.model.J_axial", "[parameters] J_axial", ">= 0", 27, 1},
+    {"controller.model.tip", "[parameters] tip", ">= 0", 28, 1},
+    {"swingup.u_max", "[swingup] u_max", "> 0", 29, 1},
+    {"swingup.period", "[swingup] period", "> 0", 30, 1},
+    {"swingup.hold", "[swingup] hold", ">= 0", 31, 1},
+    {"swingup.gain_energy", "[swingup] gain_energy", ">= 0", 32, 1},
+    {"swingup.gain_position", "[swingup] gain_position", ">= 0", 33, 1},
+    {"swingup.gain_velocity", "[swingup] gain_velocity", ">= 0", 34, 1},
+    {"swingup.accel_max", "[swingup] accel_max", "> 0", 35, 1},
+    {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 36, 1},
+    {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 37, 1},
+    {"swingup.release_angle", "[swingup] release_angle", "> 0 and < 1.5708", 38, 1},
+    {"actuator.lag", "[actuator] lag", ">= 0", 39, 1},
+    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 40, 1},
+    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 41, 2},
+    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 43, 1},
+    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 44, 1},
+    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 45, 1},
+    {"estimator.cutoff", "[estimator] cutoff", "> 0", 46, 1},
 };
 
 /// Whether `value` is allowed as one number of `rule`'s key: finite and in one of its ranges.

@@ -401,6 +401,72 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
   scene.loop = std::move(measured);
 }
 
+/// controller.model.*: the model the MPC predicts with, stated whole (m, l, delta, g required; the
+/// links as built where given, else the rods of m and l; a dc_motor's gain required; a fixed
+/// chain's Ir and gr where given, else no rotor and gr 1); what does not apply is refused.
+template <class Model>
+void load_mpc_model(const SceneFile& file, const Scene<Model>& scene, ParamsOf<Model>& model, double& gain) {
+  const int n = dof_of<Model>();
+  bool fixed = false;
+  if constexpr (is_runtime<Model>) fixed = Model::fixed_pivot();
+  model = ParamsOf<Model>{};
+  auto values = [&](const std::string& name, Eigen::Index count) { return numbers_of(file, "controller.model." + name, count); };
+  for (const std::string name : {"m", "l", "delta", "g"}) {
+    if (!file.has("controller.model." + name)) {
+      file.fail(file.line("controller.model.m"), "controller.model.* states the MPC's whole model: add controller.model." + name);
+    }
+  }
+  const Eigen::VectorXd m = values("m", n), l = values("l", n), delta = values("delta", n);
+  for (int i = 0; i < n; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    if (!(l(i) >= 0.0 && std::isfinite(l(i)))) file.fail(file.line("controller.model.l"), "`controller.model.l` must be finite and >= 0");
+    model.m[k] = m(i);
+    model.l[k] = l(i);
+    model.delta[k] = delta(i);
+  }
+  model.g = values("g", 1)(0);
+  for (const std::string name : {"com", "J", "J_axial", "tip"}) {
+    const std::string key = "controller.model." + name;
+    if (!file.has(key)) continue;
+    if ((fixed && (name == "J_axial" || name == "tip")) || !has_links_as_built<Model>) {
+      file.fail(file.line(key), "`" + key + "` does not apply to model " + name_of<Model>());
+    }
+    if constexpr (has_links_as_built<Model>) {
+      const Eigen::VectorXd v = values(name, n);
+      auto& field = name == "com" ? model.com : name == "J" ? model.J : name == "J_axial" ? model.J_axial : model.tip;
+      for (int i = 0; i < n; ++i) field[static_cast<std::size_t>(i)] = v(i);
+    }
+  }
+  if (file.has("controller.model.gain") != scene.motor) {
+    file.fail(file.line(scene.motor ? "controller.model.m" : "controller.model.gain"),
+              scene.motor ? "controller.model.* of a dc_motor scene needs controller.model.gain (N or N m per volt)"
+                          : "`controller.model.gain` applies to actuator = dc_motor only");
+  }
+  if (scene.motor) {
+    gain = file.number("controller.model.gain");
+    if (!(std::isfinite(gain) && gain > 0.0)) file.fail(file.line("controller.model.gain"), "`controller.model.gain` must be > 0");
+  }
+  for (const std::string name : {"Ir", "gr"}) {
+    const std::string key = "controller.model." + name;
+    if (!file.has(key)) continue;
+    if (!fixed) file.fail(file.line(key), "`" + key + "` applies to a fixed chain only");
+    if constexpr (is_runtime<Model>) {
+      const Eigen::VectorXd v = values(name, Model::inputs());
+      for (int k = 0; k < Model::inputs(); ++k) {
+        if (!std::isfinite(v(k)) || (name == "Ir" ? v(k) < 0.0 : v(k) == 0.0)) {
+          file.fail(file.line(key), key + " = " + detail::format_number(v(k)) + (name == "Ir" ? ": an inertia is >= 0" : ": a gear ratio is != 0"));
+        }
+        (name == "Ir" ? model.Ir : model.gr)[k] = v(k);
+      }
+    }
+  }
+  if constexpr (is_runtime<Model>) {
+    if (fixed && !file.has("controller.model.gr")) {
+      for (int k = 0; k < Model::inputs(); ++k) model.gr[k] = 1.0;
+    }
+  }
+}
+
 template <class Model>
 void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   const int n = dof_of<Model>(), nx = 2 * n;
@@ -469,47 +535,14 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
       if (!std::isfinite(v)) file.fail(file.line("controller"), "controller = mpc: its numbers must be finite");
     }
   }
-  // The model the MPC predicts with: the scene's, or controller.model.* where given (a sweep's run
-  // keeps the nominal model while the plant changes, as it keeps the controller's other numbers).
+  // The model the MPC predicts with: the scene's, or the one controller.model.* states (a sweep's
+  // run keeps the nominal model while the plant changes, as it keeps the controller's other numbers).
   ParamsOf<Model> model = scene.params;
   double model_gain = scene.input_gain;
-  const int links_or_inputs[] = {n, n, n, 1, n, n, n, n};
-  const char* fields[] = {"m", "l", "delta", "g", "com", "J", "J_axial", "tip"};
-  for (int f = 0; f < 8; ++f) {
-    const std::string key = std::string("controller.model.") + fields[f];
-    if (!file.has(key)) continue;
-    const Eigen::VectorXd values = numbers_of(file, key, links_or_inputs[f]);
-    if (f == 3) {
-      model.g = values(0);
-      continue;
-    }
-    if (f >= 4 && !has_links_as_built<Model>) file.fail(file.line(key), "`" + key + "` needs a model generated with the links as built");
-    if constexpr (has_links_as_built<Model>) {
-      auto& field = f == 0 ? model.m : f == 1 ? model.l : f == 2 ? model.delta : f == 4 ? model.com : f == 5 ? model.J : f == 6 ? model.J_axial : model.tip;
-      for (int i = 0; i < n; ++i) field[static_cast<std::size_t>(i)] = values(i);
-    } else {
-      auto& field = f == 0 ? model.m : f == 1 ? model.l : model.delta;
-      for (int i = 0; i < n; ++i) field[static_cast<std::size_t>(i)] = values(i);
-    }
-  }
-  if (file.has("controller.model.gain")) model_gain = file.number("controller.model.gain");
-  if constexpr (is_runtime<Model>) {
-    if (Model::fixed_pivot()) {
-      for (const char* key : {"controller.model.Ir", "controller.model.gr"}) {
-        if (!file.has(key)) continue;
-        const Eigen::VectorXd values = numbers_of(file, key, Model::inputs());
-        for (int k = 0; k < Model::inputs(); ++k) (key[17] == 'I' ? model.Ir : model.gr)[k] = values(k);
-      }
-    }
-  }
-  for (const char* key : {"controller.model.m", "controller.model.l", "controller.model.g"}) {
-    if (file.has(key)) {
-      for (const double v : file.numbers(key)) {
-        if (!(std::isfinite(v) && v >= 0.0)) file.fail(file.line(key), std::string("`") + key + "` must be finite and >= 0");
-      }
-    }
-  }
-  if (!(std::isfinite(model_gain) && model_gain > 0.0)) file.fail(file.line("controller.model.gain"), "`controller.model.gain` must be > 0");
+  const std::string prefix = "controller.model.";
+  bool stated = false;
+  for (const auto& key : file.keys()) stated = stated || key.rfind(prefix, 0) == 0;
+  if (stated) load_mpc_model<Model>(file, scene, model, model_gain);
   auto mpc = std::make_shared<MpcController<Model>>(std::move(p), model, model_gain);
   if (mpc->check() != 0) {
     file.fail(file.line("controller"), "controller = mpc: its settings describe no problem (sizes, bounds, weights or budgets)");
