@@ -387,3 +387,38 @@ def test_a_sweeps_mpc_predicts_with_the_nominal_links_the_cfg_leaves_out(tmp_pat
     header, row = (out / "cdip_mpc.csv").read_text().splitlines()[:2]
     nominal_u = float(row.split(",")[header.split(",").index("u")])
     assert first["kept"] == nominal_u and first["own"] != nominal_u
+
+
+@pytest.mark.parametrize("name", ["acrobot_mpc", "pendubot_mpc"])
+def test_the_tracked_plan_is_ipgen_mpc_about_the_plan_in_ipgen_coordinates(tmp_path: Path, name: str) -> None:
+    """Along the plan (t < its duration) the simulator's u every 10 ms is `ipgen.mpc`'s step with
+    the plan as its reference per stage (ipgen_loop_plan_reference's formula: the plan's state
+    every 5 of its 2-ms samples, the last from its end on; its mean torque over the sample),
+    everything mapped to ipgen's coordinates and the torques' sign flipped (DFKI's
+    counterclockwise): the map and the sign of the plan's inputs at the boundary, to 1e-9."""
+    out = tmp_path / "out"
+    assert run(["run", "--preset", name, "-o", str(out), "--no-plot"]) == 0
+    cfg = (out / f"{name}.cfg").read_text()
+    c = FixedPendulum.from_scene(preset_path(name))
+    steps, every, horizon = int(cfg_numbers(cfg, "swingup.steps")[0]), 5, 40
+    plan = canonical(c, cfg_numbers(cfg, "swingup.states").reshape(steps + 1, 4))
+    torques = -cfg_numbers(cfg, "swingup.inputs")  # DFKI's counterclockwise -> ipgen's clockwise
+    header, *rows = (out / f"{name}.csv").read_text().splitlines()
+    col = {k: i for i, k in enumerate(header.split(","))}
+    data = np.array(
+        [[float(r.split(",")[col[k]]) for k in ("theta0", "theta1", "dtheta0", "dtheta1", "u")] for r in rows]
+    )
+    controller = ipgen.mpc(
+        c.canonical(), horizon=horizon, period=0.01, Q=cfg_numbers(cfg, "controller.q").reshape(4, 4), R=0.1,
+        P=cfg_numbers(cfg, "controller.p").reshape(4, 4), u_max=U_MAX,
+    )  # fmt: skip
+    worst = 0.0
+    for j in range(steps // every):
+        k = j * every
+        states = plan[[min(k + i * every, steps) for i in range(horizon + 1)]]
+        inputs = [sum(torques[m] for m in range(k + i * every, k + (i + 1) * every) if m < steps) / every
+                  for i in range(horizon)]  # fmt: skip
+        u = controller.step(canonical(c, data[k : k + 1, :4])[0], reference=(states, inputs))
+        worst = max(worst, abs(-u - data[k, 4]))
+    assert worst <= 1e-9
+    assert np.max(np.abs(data[:, 4])) > 1.0  # the plan's swing, not a hold at rest
