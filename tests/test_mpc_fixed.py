@@ -143,8 +143,14 @@ def cfg_numbers(cfg: str, key: str) -> np.ndarray:
     return np.array([float(v) for v in found.group(1).split()])
 
 
-def test_the_simulators_mpc_is_ipgen_mpc_in_dfki_coordinates(tmp_path: Path) -> None:
-    columns, cfg = simulate(tmp_path, BALANCE.format(extra=""))
+@pytest.mark.parametrize("rotor", ["", "Ir = [0.001]\ngr = [-6.0]\n"], ids=["no rotor", "geared rotor"])
+def test_the_simulators_mpc_is_ipgen_mpc_in_dfki_coordinates(tmp_path: Path, rotor: str) -> None:
+    text = BALANCE.format(extra="").replace("joints = [2]\n", f"joints = [2]\n{rotor}")
+    columns, cfg = simulate(tmp_path, text)
+    # Q = diag(10, 10, 0.1, 0.1) on DFKI's q1 = π − θ1, q2 = θ1 − θ2 (and their rates) is, on ipgen's
+    # θ1, θ2: 10 (θ1 − π)² + 10 (θ1 − θ2)², i.e. [[20, −10], [−10, 10]] (and 0.1 × that on the rates)
+    expected_q = np.kron(np.diag([1.0, 0.01]), np.array([[20.0, -10.0], [-10.0, 10.0]]))
+    assert np.allclose(cfg_numbers(cfg, "controller.q").reshape(4, 4), expected_q, rtol=0, atol=1e-12)
     c = FixedPendulum.from_scene(tmp_path / "balance.toml")
     rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
     states = canonical(c, rows)
