@@ -29,6 +29,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from mpc_reference import IpoptReference
+from test_fixed_lqr import CHAIN
 
 import ipgen
 from ipgen.command.cli import run
@@ -87,23 +88,10 @@ def test_a_fixed_chain_is_refused_what_it_cannot_take() -> None:
         ipgen.mpc(chain("acrobot_swingup"), u_max=U_MAX, travel=1.0)
 
 
-# The acrobot in DFKI's coordinates balanced from a tilt by the MPC alone.
-BALANCE = """\
-[system]
-type = "fixed"
-links = 2
-angles = "relative"
-zero = "hanging"
-positive = "counterclockwise"
-
-[parameters]
-m = [0.5234602302310271, 0.6255677234174437]
-l = [0.2, 0.3]
-com = [0.2, 0.25569305436052964]
-J = [0.010948790382272026, 0.009970894693799519]
-delta = [0.001, 0.001]
-
-[actuator]
+# The acrobot in DFKI's coordinates (test_fixed_lqr's chain) balanced from a tilt by the MPC alone.
+BALANCE = (
+    CHAIN.split("[actuator]")[0].lstrip()
+    + """[actuator]
 joints = [2]
 
 [initial]
@@ -122,6 +110,7 @@ r = 0.1
 t_end = 3.0
 sample = 0.01
 """
+)
 
 
 def simulate(tmp_path: Path, text: str, stem: str = "balance") -> tuple[dict[str, np.ndarray], str]:
