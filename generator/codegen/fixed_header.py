@@ -42,6 +42,14 @@ def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
     return f"fixed{links}_j{'_'.join(map(str, joints))}"
 
 
+def fixed_library_sources(links: int, joints: tuple[int, ...]) -> tuple[str, dict[str, str]]:
+    """(the model's name, {file name: text}) of a chain's model library (`--emit library`): what
+    `ipgen run` compiles for a fixed scene and `ipgen.mpc` loads for a fixed chain."""
+    name = fixed_model_name(links, joints)
+    request = FixedHeaderRequest(name, links, joints, fixed_command(name, links, joints, ("library",)))
+    return name, {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}
+
+
 def fixed_command(name: str, links: int, joints: tuple[int, ...], emit: tuple[str, ...]) -> str:
     """The ipgen command that regenerates these files (in any output folder)."""
     emitting = "" if emit == ("cpp",) else " --emit " + ",".join(emit)

@@ -141,7 +141,12 @@ def _mpc_in_ipgen_coordinates(
     from ipgen.control.linear import checked_vector, weights
 
     dof = p.dof
-    matrix, offset = fixed_frame(p) if isinstance(p, FixedPendulum) else p.coordinates.matrices(p.links)
+    if isinstance(p, FixedPendulum):
+        from ipgen.model.fixed_equations import state_map
+
+        matrix, offset = state_map(p.coordinates, p.links)
+    else:
+        matrix, offset = p.coordinates.matrices(p.links)
     q, _ = weights(stage, 1.0, 2 * dof)
     stage = matrix.T @ q @ matrix
     if terminal is not None:  # 2 dof weights or a matrix, as Q
@@ -164,18 +169,3 @@ def _mpc_in_ipgen_coordinates(
         ends = sorted(((low - offset[index]) / sign, (high - offset[index]) / sign))
         mapped[index] = (ends[0], ends[1])
     return stage, terminal, reference, mapped
-
-
-def fixed_frame(chain: FixedPendulum) -> tuple[Any, Any]:
-    """(P, c) of x_user = P x + c for a fixed chain's 2n states (its angle map θ = R q + z, inverted)."""
-    import numpy as np
-
-    from ipgen.model.fixed_equations import angle_map
-
-    rotation, zero = angle_map(chain.coordinates, chain.links)
-    inverse = np.linalg.inv(rotation)
-    n = chain.links
-    matrix = np.zeros((2 * n, 2 * n))
-    matrix[:n, :n] = matrix[n:, n:] = inverse
-    offset = np.concatenate([-inverse @ np.full(n, zero), np.zeros(n)])
-    return matrix, offset

@@ -81,6 +81,18 @@ def angle_map(coordinates: Coordinates, links: int) -> tuple[np.ndarray, float]:
     return sign * ones, (np.pi if coordinates.zero == "hanging" else 0.0)
 
 
+def state_map(coordinates: Coordinates, links: int) -> tuple[np.ndarray, np.ndarray]:
+    """(P, c) of x_user = P x + c for a chain's 2n states [q; q̇] in `coordinates` against ipgen's
+    [θ; θ̇] (`angle_map` inverted: q = R⁻¹ (θ − z), q̇ = R⁻¹ θ̇)."""
+    import numpy as np
+
+    rotation, zero = angle_map(coordinates, links)
+    inverse = np.linalg.inv(rotation)
+    matrix = np.zeros((2 * links, 2 * links))
+    matrix[:links, :links] = matrix[links:, links:] = inverse
+    return matrix, np.concatenate([-inverse @ np.full(links, zero), np.zeros(links)])
+
+
 @cache
 def fixed_equations(
     links: int, joints: tuple[int, ...], coulomb_law: str, coordinates: Coordinates

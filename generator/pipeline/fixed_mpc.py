@@ -48,7 +48,8 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
     the step works, by `experiment.feedback`); u_max [N m] and period [s] required."""
     from ipgen.control.fixed_linear import fixed_equilibrium
     from ipgen.control.linear import ControlError
-    from ipgen.experiment.feedback import GainError, controller, fixed_frame
+    from ipgen.experiment.feedback import GainError, controller
+    from ipgen.model.fixed_equations import state_map
 
     n = chain.links
     if chain.inputs != 1:
@@ -127,7 +128,7 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
     state = np.concatenate([equilibrium, np.zeros(n)])
     # K: the discrete LQR's at the reference (what the unconstrained MPC is near it), as the
     # dataclass holds it: in the chain's coordinates and its input's sense (u_rig = sign u)
-    matrix, _ = fixed_frame(chain)
+    matrix, _ = state_map(chain.coordinates, n)
     sign = -1.0 if chain.positive == "counterclockwise" else 1.0
     gain = sign * np.asarray(resolved.gain).reshape(1, 2 * n) @ np.linalg.inv(matrix)
     return FixedController("mpc", gain, state, (u_max,), period, resolved.mpc)

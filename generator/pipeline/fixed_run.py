@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, fixed_model_name, render_fixed
+from ipgen.codegen.fixed_header import fixed_library_sources, fixed_model_name
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
@@ -435,15 +435,8 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     theta = _state(reader, initial, "theta", chain.links)
     dtheta = _state(reader, initial, "dtheta", chain.links)
     tables, inputs = fixed_inputs(reader, document, tuple(chain.joints))
-    name = model_name(chain)
-    request = FixedHeaderRequest(
-        name,
-        chain.links,
-        tuple(chain.joints),
-        fixed_command(name, chain.links, tuple(chain.joints), ("library",)),
-    )
     try:
-        sources = {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}
+        name, sources = fixed_library_sources(chain.links, tuple(chain.joints))
     except Error as exc:  # pragma: no cover - the chain was checked
         reader.fail(str(exc))
     settings = tables.simulation.settings()

@@ -13,7 +13,7 @@ import ctypes
 import tempfile
 from pathlib import Path
 
-from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, fixed_model_name, render_fixed
+from ipgen.codegen.fixed_header import fixed_library_sources
 from ipgen.common.build_cache import Recipe, cache_root, cached_build, last_error_line
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.system import System
@@ -41,7 +41,7 @@ def compiled_model_library(system: System | FixedPendulum) -> ctypes.CDLL:
         No C compiler, or the compilation failed (one line).
     """
     if isinstance(system, FixedPendulum):
-        name, texts = _fixed_sources(system)
+        name, texts = fixed_library_sources(system.links, tuple(system.joints))
     else:
         name = f"mpc_{system.type}{system.links}_{system.inertia}"
         with tempfile.TemporaryDirectory() as scratch:
@@ -67,13 +67,3 @@ def compiled_model_library(system: System | FixedPendulum) -> ctypes.CDLL:
         raise BuildError(f"cannot load the model library {built.path}: {e}") from None
     lib.ipgen_model_get.restype = ctypes.c_void_p
     return lib
-
-
-def _fixed_sources(chain: FixedPendulum) -> tuple[str, dict[str, str]]:
-    """(name, {file: text}) of a fixed chain's model library: `ipgen run`'s for its fixed scenes."""
-    joints = tuple(chain.joints)
-    name = fixed_model_name(chain.links, joints)
-    request = FixedHeaderRequest(
-        name, chain.links, joints, fixed_command(name, chain.links, joints, ("library",))
-    )
-    return name, {f"{name}{suffix}": text for suffix, text in render_fixed(request, "library").items()}

@@ -225,7 +225,7 @@ def goal_and_limit(cfg: str) -> tuple[tuple[float, ...], tuple[float, ...] | Non
 def _user_state(cfg: str, state: list[float]) -> tuple[float, ...]:
     """A state of ipgen's coordinates in the coordinates the config states (angles, zero, positive)."""
     from ipgen.model.coordinates import Coordinates
-    from ipgen.model.fixed_equations import angle_map
+    from ipgen.model.fixed_equations import state_map
 
     def word(key: str, default: str) -> str:
         for line in cfg.splitlines():
@@ -235,11 +235,8 @@ def _user_state(cfg: str, state: list[float]) -> tuple[float, ...]:
         return default
 
     frame = Coordinates(word("angles", "absolute"), word("zero", "upright"), word("positive", "clockwise"))
-    n = len(state) // 2
-    rotation, zero = angle_map(frame, n)
-    x = np.asarray(state, dtype=float)
-    angles = np.linalg.solve(rotation, x[:n] - zero)
-    return tuple(float(v) for v in (*angles, *np.linalg.solve(rotation, x[n:])))
+    matrix, offset = state_map(frame, len(state) // 2)
+    return tuple(float(v) for v in matrix @ np.asarray(state, dtype=float) + offset)
 
 
 def judge_run(test: Success, csv: Path, cfg: str, links: int, status: int) -> Judgement:
