@@ -401,6 +401,29 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
   scene.loop = std::move(measured);
 }
 
+/// A fixed chain's rotors: `<prefix>Ir` and `<prefix>gr` (optional, one per input of m: default no
+/// rotor, gr 1) into `params` (the plant's, prefix ""; the MPC's model, "controller.model.").
+template <class Params>
+void load_rotors(const SceneFile& file, const std::string& prefix, int m, Params& params) {
+  for (int k = 0; k < m; ++k) {
+    params.Ir[k] = 0.0;
+    params.gr[k] = 1.0;
+  }
+  for (const char* name : {"Ir", "gr"}) {
+    const std::string key = prefix + name;
+    if (!file.has(key)) continue;
+    const bool inertia = name[0] == 'I';
+    const Eigen::VectorXd values = numbers_of(file, key, m);
+    for (int k = 0; k < m; ++k) {
+      if (!std::isfinite(values(k)) || (inertia ? values(k) < 0.0 : values(k) == 0.0)) {
+        file.fail(file.line(key), key + "[" + std::to_string(k) + "] = " + detail::format_number(values(k)) +
+                                      (inertia ? ": an inertia is finite and >= 0" : ": a gear ratio is finite and != 0"));
+      }
+      (inertia ? params.Ir : params.gr)[k] = values(k);
+    }
+  }
+}
+
 /// controller.model.*: the model the MPC predicts with, stated whole (m, l, delta, g required; the
 /// links as built where given, else the rods of m and l; a dc_motor's gain required; a fixed
 /// chain's Ir and gr where given, else no rotor and gr 1); what does not apply is refused.
@@ -446,24 +469,11 @@ void load_mpc_model(const SceneFile& file, const Scene<Model>& scene, ParamsOf<M
     gain = file.number("controller.model.gain");
     if (!(std::isfinite(gain) && gain > 0.0)) file.fail(file.line("controller.model.gain"), "`controller.model.gain` must be > 0");
   }
-  for (const std::string name : {"Ir", "gr"}) {
-    const std::string key = "controller.model." + name;
-    if (!file.has(key)) continue;
-    if (!fixed) file.fail(file.line(key), "`" + key + "` applies to a fixed chain only");
-    if constexpr (is_runtime<Model>) {
-      const Eigen::VectorXd v = values(name, Model::inputs());
-      for (int k = 0; k < Model::inputs(); ++k) {
-        if (!std::isfinite(v(k)) || (name == "Ir" ? v(k) < 0.0 : v(k) == 0.0)) {
-          file.fail(file.line(key), key + " = " + detail::format_number(v(k)) + (name == "Ir" ? ": an inertia is >= 0" : ": a gear ratio is != 0"));
-        }
-        (name == "Ir" ? model.Ir : model.gr)[k] = v(k);
-      }
-    }
+  for (const char* key : {"controller.model.Ir", "controller.model.gr"}) {
+    if (file.has(key) && !fixed) file.fail(file.line(key), std::string("`") + key + "` applies to a fixed chain only");
   }
   if constexpr (is_runtime<Model>) {
-    if (fixed && !file.has("controller.model.gr")) {
-      for (int k = 0; k < Model::inputs(); ++k) model.gr[k] = 1.0;
-    }
+    if (fixed) load_rotors(file, "controller.model.", Model::inputs(), model);
   }
 }
 
@@ -570,8 +580,8 @@ Input input_of(const SceneFile& file, const std::string& prefix, double b);
 /// A fixed chain's keys (a model loaded at run time with type fixed): `joints` must be the
 /// model's, `Ir` and `gr` (optional, one per input: default no rotor, gr 1) into the parameters,
 /// `input2` … `inputM` (required, M the model's inputs) into settings.more_inputs, `coulomb_law`
-/// and `coulomb_gain` (DFKI's atan law), the inputs' sign of the rig's positive sense. The
-/// closed-loop keys are not supported here yet.
+/// and `coulomb_gain` (DFKI's atan law), the inputs' sign of the rig's positive sense, and
+/// `controller` = lqr | gain (u = −K (x − x_eq) per input; controller = mpc: load_mpc).
 template <class Model>
 void load_fixed(const SceneFile& file, Scene<Model>& scene) {
   const int m = Model::inputs();
@@ -584,18 +594,7 @@ void load_fixed(const SceneFile& file, Scene<Model>& scene) {
     file.fail(file.line("joints"), "joints = " + detail::abbreviate(file.text("joints")) + ", model " + name_of<Model>() +
                                        " is driven at joints " + model_joints);
   }
-  for (int k = 0; k < m; ++k) scene.params.gr[k] = 1.0;
-  for (const char* key : {"Ir", "gr"}) {
-    if (!file.has(key)) continue;
-    const Eigen::VectorXd values = numbers_of(file, key, m);
-    for (int k = 0; k < m; ++k) {
-      if (!std::isfinite(values(k)) || (key[0] == 'I' ? values(k) < 0.0 : values(k) == 0.0)) {
-        file.fail(file.line(key), std::string(key) + "[" + std::to_string(k) + "] = " + detail::format_number(values(k)) +
-                                      (key[0] == 'I' ? ": an inertia is finite and >= 0" : ": a gear ratio is finite and != 0"));
-      }
-      (key[0] == 'I' ? scene.params.Ir : scene.params.gr)[k] = values(k);
-    }
-  }
+  load_rotors(file, "", m, scene.params);
   for (const char* key : {"actuator", "sensors.measured"}) {
     if (file.has(key)) file.fail(file.line(key), std::string("`") + key + "` is not supported for a fixed chain in the simulator yet");
   }
