@@ -44,11 +44,13 @@ NAME = "qube_servo2_mpc"
 P = f"ipgen_{NAME}"
 
 
-def _scene(folder: Path) -> tuple[Path, np.ndarray]:
-    """The preset with emit = ["c"]: its header's path and the simulator's state estimates."""
+def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
+    """The preset with emit = ["c"] (and `controller`'s lines added to its [controller]): its
+    header's path and the simulator's state estimates."""
     from ipgen.command.cli import run
 
     text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
+    text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
     scene = folder / f"{NAME}.toml"
     scene.write_text(text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
     generate = ["--scene", str(scene), "-o", str(folder)]
@@ -79,14 +81,15 @@ CALL = f"  bench_sink = {P}_mpc_step(&bench_mpc, bench_states[k]);"
 
 def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tuple[int, set[str]]:
     """The stack of `root` and its deepest chain of calls (gcc -fstack-usage per function; a call
-    is a bl/b to a function's symbol in the disassembly, a blx through a register one to the MPC's
+    is a bl or a branch, conditional too, to a function's symbol in the disassembly, a blx through a register one to the MPC's
     model callback; newlib's functions, without .su, count 0)
     and the functions of the program's own source that `root` reaches (itself included)."""
     disassembly = [m4_cycles.OBJDUMP, "-d", str(elf)]
     text = subprocess.run(disassembly, capture_output=True, text=True, check=True).stdout
     calls: dict[str, set[str]] = {}
     current = ""
-    branch = re.compile(r"\s(?:bl|b\.w|b)\s+[0-9a-f]+ <([^>+]+)>$")
+    # bl, or a (conditional) branch to a function's entry: a tail call
+    branch = re.compile(r"\s(?:bl|b(?:eq|ne|cs|cc|hs|lo|mi|pl|vs|vc|hi|ls|ge|lt|gt|le)?(?:\.w|\.n)?)\s+[0-9a-f]+ <([^>+]+)>$")
     for line in text.splitlines():
         if match := re.match(r"^[0-9a-f]+ <([^>]+)>:$", line):
             current = match.group(1)
@@ -97,11 +100,14 @@ def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tu
             calls[current].add(f"{P}_mpc_dynamics")
     reached: set[str] = set()
 
+    def own(name: str) -> str:  # gcc's clone `f.constprop.0` is `f.constprop` in its .su file
+        return re.sub(r"\.\d+$", "", name)
+
     def depth(name: str, seen: frozenset[str]) -> int:
-        if name in usage:
+        if own(name) in usage:
             reached.add(name)
         below = [depth(c, seen | {c}) for c in calls.get(name, ()) if c not in seen]
-        return usage.get(name, 0) + max(below, default=0)
+        return usage.get(own(name), 0) + max(below, default=0)
 
     return depth(root, frozenset({root})), reached
 
@@ -155,10 +161,11 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
     parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls fixed sizes)")
     parser.add_argument("--profile", action="store_true", help="and the RTI steps' instructions by function")
+    parser.add_argument("--controller", default="", help="TOML lines added to the preset's [controller]")
     args = parser.parse_args()
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
-        header, states = _scene(Path(folder))
+        header, states = _scene(Path(folder), args.controller.replace(';', '\n') + '\n' if args.controller else '')
         states = states[: args.samples]
         prelude = _prelude(states)
         counts = m4_cycles.count(header, prelude, CALL, len(states), profile=args.profile)

@@ -52,9 +52,12 @@ def flow(controller: Mpc) -> Any:
 class IpoptReference:
     """The NLP of `controller`'s problem with x_0 and the reference per stage parameters.
     `solve(x0, reference)` returns (u_0, the inputs); `states` then holds the states (nx × (N + 1))
-    and `objective` the cost. `F` is the RK4 map (CasADi)."""
+    and `objective` the cost. `F` is the RK4 map (CasADi). With `barrier` κ > 0 the cost has
+    −κ log(distance) of every inequality added (u's bounds at k = 0..N−1; the hard and the soft
+    state bounds at k = 1..N, a soft bound's slacks >= 0): the problem ipgen_mpc_method's
+    barrier solves."""
 
-    def __init__(self, controller: Mpc) -> None:
+    def __init__(self, controller: Mpc, barrier: float = 0.0) -> None:
         ca = import_casadi()
         c = controller
         nx, N = c.nx, c.N
@@ -81,6 +84,13 @@ class IpoptReference:
             upper += [np.full(N, hi), np.full(N, np.inf)]
             cost += rho1 * (ca.sum2(above[j, :]) + ca.sum2(below[j, :]))
             cost += rho2 * (ca.sumsqr(above[j, :]) + ca.sumsqr(below[j, :]))
+            if barrier > 0:
+                distances = (hi + above[j, :] - X[index, 1:], X[index, 1:] + below[j, :] - lo, above[j, :], below[j, :])
+                cost -= barrier * sum(ca.sum2(ca.log(d)) for d in distances)
+        if barrier > 0:
+            cost -= barrier * (ca.sum2(ca.log(c.u_max - U)) + ca.sum2(ca.log(U - c.u_min)))
+            for index, lo, hi in c.hard:
+                cost -= barrier * (ca.sum2(ca.log(hi - X[index, 1:])) + ca.sum2(ca.log(X[index, 1:] - lo)))
         # variable bounds: u, the hard state bounds (x_1..x_N), the slacks >= 0
         x_lo, x_hi = np.full((nx, N + 1), -np.inf), np.full((nx, N + 1), np.inf)
         for index, lo, hi in c.hard:
@@ -94,8 +104,11 @@ class IpoptReference:
         problem = {"x": variables, "p": parameters, "f": cost, "g": g}
         options = {"print_time": False, "ipopt.print_level": 0, "ipopt.sb": "yes", "ipopt.tol": 1e-12,
                    "ipopt.constr_viol_tol": 1e-12, "ipopt.max_iter": 500}  # fmt: skip
+        if barrier > 0:  # the logarithms' arguments stay positive: no relaxed bounds; 1e-10 (1e-12
+            # stalls on the logarithms' rounding: "search direction becomes too small")
+            options.update({"ipopt.bound_relax_factor": 0.0, "ipopt.tol": 1e-10})
         self.solver = ca.nlpsol("reference", "ipopt", problem, options)
-        self.nx, self.N, self.ns = nx, N, ns
+        self.nx, self.N, self.ns, self.barrier = nx, N, ns, barrier
         self.x_ref, self.u_ref = np.asarray(c.x_ref, float), np.asarray(c.u_ref, float)
         self.states = np.zeros((nx, N + 1))
 
@@ -114,7 +127,8 @@ class IpoptReference:
             u_lo, u_hi = self.lbx[nx * (N + 1)], self.ubx[nx * (N + 1)]
             guess = np.concatenate([xs.reshape(-1), np.clip(us.reshape(-1), u_lo, u_hi)])
         parameters = np.concatenate([np.asarray(x0, float), xs.reshape(-1), us.reshape(-1)])
-        start = np.concatenate([guess, np.zeros(2 * self.ns * N)])
+        slack = 1.0 if self.barrier > 0 else 0.0  # inside the barrier's logarithms
+        start = np.concatenate([guess, np.full(2 * self.ns * N, slack)])
         result = self.solver(x0=start, p=parameters, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
         if not self.solver.stats()["success"]:
             raise RuntimeError(f"IPOPT failed from {x0}: {self.solver.stats()['return_status']}")

@@ -18,7 +18,11 @@
  * (Mehrotra predictor-corrector) whose Newton systems are solved by a Riccati recursion (O(N) in
  * the horizon). Real-time iteration: one SQP iteration per sample (sqp_iterations = 1) on the
  * previous solution shifted by one sample, a fixed budget of interior-point iterations: a
- * bounded, deterministic time per step. Converged mode: up to sqp_iterations iterations, with a
+ * bounded, deterministic time per step. With a barrier weight (barrier > 0) each QP is instead
+ * Newton's method on its log-barrier problem at that fixed weight, started on its central path
+ * (t at each bound's distance, lam = barrier / t: the previous sample's barrier solution, shifted),
+ * one Riccati solve an iteration and no predictor: qp_iterations = 1 is one factorisation a
+ * sample (the microcontroller's step). Converged mode: up to sqp_iterations iterations, with a
  * line search, until the step and the dynamics' defects are below sqp_tolerance.
  *
  * Sizes are given at run time (nx states, nu inputs, horizon N). Nothing is allocated: the
@@ -139,6 +143,22 @@ typedef struct {
                                  * IPGEN_MPC_WORK_HESSIAN more workspace; for double */
 } ipgen_mpc_settings;
 
+/* How a step solves, beyond the settings (ipgen_mpc_track_method; null or all zero: the interior
+ * point to qp_tolerance on RK4's exact sensitivities, which is ipgen_mpc_track). A struct of its
+ * own so that a caller's ipgen_mpc_settings keeps its fields. For the real-time iteration. */
+typedef struct {
+  ipgen_mpc_real barrier; /* 0: each QP by Mehrotra's interior point to qp_tolerance; > 0: the QP's log-barrier
+                           * problem at this fixed weight (the cost's units), qp_iterations Newton steps
+                           * from its central path, the last sample's (reaching the budget is then OK) */
+  int sensitivities;      /* IPGEN_MPC_EXACT: dF/dx, dF/du of the RK4 map (the chain rule through its
+                           * stages); IPGEN_MPC_FROZEN: from the second stage on, the model's Jacobians
+                           * at the stage's start discretised as RK4 discretises a linear model (one
+                           * Jacobian a stage instead of 4 a substep); the first stage's exact (the input
+                           * applied and x_1's bounds rest on it); the defects F(x, u) - x' stay exact */
+} ipgen_mpc_method;
+
+enum { IPGEN_MPC_EXACT = 0, IPGEN_MPC_FROZEN = 1 };
+
 /* What a step did. */
 typedef struct {
   int status;                 /* IPGEN_MPC_OK or one of the codes below */
@@ -159,6 +179,10 @@ enum {
   IPGEN_MPC_INFEASIBLE = 6    /* a QP diverged (no solution: a hard state bound the prediction cannot
                                * meet): the guess is kept, its first input applied; soft bounds avoid it */
 };
+
+/* With a barrier weight, a cold start's QPs take up to this many Newton steps (to qp_tolerance),
+ * if qp_iterations is fewer: the real-time iteration starts from solved QPs. */
+#define IPGEN_MPC_COLD_QP_ITERATIONS 20
 
 /* Inequalities and soft slacks of the QP: N (2 nu + 2 hard + 4 soft), 2 N soft. */
 #define IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) ((N) * (2 * (nu) + 2 * (hard) + 4 * (soft)))
@@ -195,6 +219,11 @@ typedef struct {
   ipgen_mpc_real *Ac, *Bc, *xt, *k, *ksum, *xn, *S, *Ss, *dk, *dksum; /* RK4 temporaries */
   ipgen_mpc_real *H, *costate, *fd_w, *fd_g, *fd_A, *fd_B; /* exact Hessian (null without) */
   int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
+  int qp_budget;                              /* the QP's iterations at most (ipgen_mpc_track sets it) */
+  ipgen_mpc_real barrier;                     /* the method's (0: the interior point) */
+  int frozen;                                 /* the method's sensitivities are IPGEN_MPC_FROZEN */
+  int duals_warm;                             /* the QP starts from t and lam as they are (the barrier's
+                                               * warm start: the last sample's, shifted) */
   const ipgen_mpc_real *x_refs, *u_refs;      /* a reference per stage (ipgen_mpc_track), or null */
 } ipgen_mpc_layout;
 
@@ -211,6 +240,9 @@ IPGEN_MPC_API long ipgen_mpc_carve(const ipgen_mpc_settings *s, ipgen_mpc_real w
   ipgen_mpc_real *w = work;
 #define IPGEN_MPC_TAKE(field, count) (l->field = w, w += (count))
   l->x_refs = l->u_refs = 0;
+  l->qp_budget = s->qp_iterations;
+  l->barrier = (ipgen_mpc_real)0;
+  l->frozen = l->duals_warm = 0;
   IPGEN_MPC_TAKE(warm, 1);
   IPGEN_MPC_TAKE(traj, Z);
   IPGEN_MPC_TAKE(A, (long)N * nx * nx);
@@ -312,6 +344,110 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
   }
 }
 
+
+/* P = Ac X (nx x cols, X row-major with `cols` columns); with IPGEN_MPC_SECOND_ORDER the [0 I]
+ * rows of Ac copy X's last nx / 2 rows (as ipgen_mpc_stage_sensitivity). */
+IPGEN_MPC_LOCAL void ipgen_mpc_ac_times(int nx, int cols, const ipgen_mpc_real Ac[], const ipgen_mpc_real X[],
+                                        ipgen_mpc_real P[]) {
+#ifdef IPGEN_MPC_SECOND_ORDER
+  const int first = nx / 2;
+#else
+  const int first = 0;
+#endif
+  int i, j, m;
+  for (i = 0; i < first * cols; ++i) P[i] = X[first * cols + i];
+  for (i = first; i < nx; ++i)
+    for (j = 0; j < cols; ++j) {
+      ipgen_mpc_real v = Ac[i * nx] * X[j];
+      for (m = 1; m < nx; ++m) v += Ac[i * nx + m] * X[m * cols + j];
+      P[i * cols + j] = v;
+    }
+}
+
+/* Frozen sensitivities (IPGEN_MPC_FROZEN): the model's Jacobians Ac, Bc at the sample's start,
+ * discretised as RK4 discretises a linear model. One RK4 step of length h of x' = Ac x + Bc u is
+ * x+ = Phi x + Gamma u with M = h Ac, Phi = I + M + M^2/2 + M^3/6 + M^4/24 and
+ * Gamma = h (I + M/2 + M^2/6 + M^3/24) Bc; by Horner Psi = I + M/4, then I + M Psi / 3, then
+ * I + M Psi / 2, and Gamma = h Psi Bc, Phi = I + M Psi. Over `substeps` steps A = Phi^substeps
+ * and B = sum_{i < substeps} Phi^i Gamma. T1, T2: nx (nx + nu) temporaries each. */
+IPGEN_MPC_LOCAL void ipgen_mpc_frozen(int nx, int nu, ipgen_mpc_real h, int substeps, const ipgen_mpc_real Ac[],
+                                      const ipgen_mpc_real Bc[], ipgen_mpc_real A[], ipgen_mpc_real B[],
+                                      ipgen_mpc_real T1[], ipgen_mpc_real T2[]) {
+  static const ipgen_mpc_real factor[3] = {(ipgen_mpc_real)0.25, (ipgen_mpc_real)1 / (ipgen_mpc_real)3,
+                                           (ipgen_mpc_real)0.5};
+  int i, j, m, r, step;
+  for (i = 0; i < nx; ++i)
+    for (j = 0; j < nx; ++j) T1[i * nx + j] = (ipgen_mpc_real)(i == j) + factor[0] * h * Ac[i * nx + j];
+  for (r = 1; r < 3; ++r) {
+    ipgen_mpc_ac_times(nx, nx, Ac, T1, T2);
+    for (i = 0; i < nx; ++i)
+      for (j = 0; j < nx; ++j) T1[i * nx + j] = (ipgen_mpc_real)(i == j) + factor[r] * h * T2[i * nx + j];
+  }
+  for (i = 0; i < nx; ++i)
+    for (j = 0; j < nu; ++j) {
+      ipgen_mpc_real v = T1[i * nx] * Bc[j];
+      for (m = 1; m < nx; ++m) v += T1[i * nx + m] * Bc[m * nu + j];
+      B[i * nu + j] = h * v;
+    }
+  ipgen_mpc_ac_times(nx, nx, Ac, T1, T2);
+  for (i = 0; i < nx; ++i)
+    for (j = 0; j < nx; ++j) A[i * nx + j] = (ipgen_mpc_real)(i == j) + h * T2[i * nx + j];
+  if (substeps > 1) { /* T1: Phi then Gamma; T2: Phi A then Phi B + Gamma */
+    ipgen_mpc_real *const Gamma = T1 + nx * nx, *const PB = T2 + nx * nx;
+    for (i = 0; i < nx * nx; ++i) T1[i] = A[i];
+    for (i = 0; i < nx * nu; ++i) Gamma[i] = B[i];
+    for (step = 1; step < substeps; ++step) {
+      for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j) {
+          ipgen_mpc_real v = T1[i * nx] * A[j];
+          for (m = 1; m < nx; ++m) v += T1[i * nx + m] * A[m * nx + j];
+          T2[i * nx + j] = v;
+        }
+        for (j = 0; j < nu; ++j) {
+          ipgen_mpc_real v = Gamma[i * nu + j];
+          for (m = 0; m < nx; ++m) v += T1[i * nx + m] * B[m * nu + j];
+          PB[i * nu + j] = v;
+        }
+      }
+      for (i = 0; i < nx * nx; ++i) A[i] = T2[i];
+      for (i = 0; i < nx * nu; ++i) B[i] = PB[i];
+    }
+  }
+}
+
+/* One sample of the discretised model with frozen sensitivities: xn = F(x, u) by RK4 as
+ * ipgen_mpc_rk4_layout (the model's Jacobians asked for at the first stage only), then A, B by
+ * ipgen_mpc_frozen. xs, xt, k, ksum: nx temporaries; Ac, Bc: the Jacobians' room; T1, T2: as
+ * ipgen_mpc_frozen's. Returns 0, 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
+                                         ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[],
+                                         ipgen_mpc_real xs[], ipgen_mpc_real xt[], ipgen_mpc_real k[],
+                                         ipgen_mpc_real ksum[], ipgen_mpc_real Ac[], ipgen_mpc_real Bc[],
+                                         ipgen_mpc_real T1[], ipgen_mpc_real T2[]) {
+  const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s);
+  const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
+  static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
+  static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
+  int step, stage, i;
+  for (i = 0; i < nx; ++i) xs[i] = x[i];
+  for (step = 0; step < s->substeps; ++step) {
+    for (i = 0; i < nx; ++i) xt[i] = xs[i];
+    for (stage = 0; stage < 4; ++stage) {
+      const int jacobians = step == 0 && stage == 0;
+      const ipgen_mpc_real c = advance[stage] * h;
+      if (s->dynamics(s->context, xt, u, k, jacobians ? Ac : 0, jacobians ? Bc : 0) != 0) return 1;
+      for (i = 0; i < nx; ++i) {
+        ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : ksum[i]) + weight[stage] * k[i];
+        if (stage < 3) xt[i] = xs[i] + c * k[i];
+      }
+    }
+    for (i = 0; i < nx; ++i) xs[i] += h / (ipgen_mpc_real)6 * ksum[i];
+  }
+  for (i = 0; i < nx; ++i) xn[i] = xs[i];
+  ipgen_mpc_frozen(nx, nu, h, s->substeps, Ac, Bc, A, B, T1, T2);
+  return 0;
+}
+
 #ifdef IPGEN_MPC_FIXED
 /* ipgen_mpc_rk4_layout with every size fixed: its temporaries in local arrays (the workspace's
  * RK4 parts unused), the stage sensitivity, its weighted sum and the next stage's point in one
@@ -393,7 +529,12 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
                                          const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
                                          ipgen_mpc_real B[]) {
 #ifdef IPGEN_MPC_FIXED
-  (void)l;
+  if (l->frozen && A != 0 && B != 0) { /* the temporaries local, as ipgen_mpc_rk4_fixed's */
+    ipgen_mpc_real xs[IPGEN_MPC_NX], xt[IPGEN_MPC_NX], k[IPGEN_MPC_NX], ksum[IPGEN_MPC_NX];
+    ipgen_mpc_real Ac[IPGEN_MPC_NX * IPGEN_MPC_NX], Bc[IPGEN_MPC_NX * IPGEN_MPC_NU];
+    ipgen_mpc_real T1[IPGEN_MPC_NX * (IPGEN_MPC_NX + IPGEN_MPC_NU)], T2[IPGEN_MPC_NX * (IPGEN_MPC_NX + IPGEN_MPC_NU)];
+    return ipgen_mpc_rk4_frozen(s, x, u, xn, A, B, xs, xt, k, ksum, Ac, Bc, T1, T2);
+  }
   return ipgen_mpc_rk4_fixed(s, x, u, xn, A, B);
 #else
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nz = nx + nu, sens = A != 0 && B != 0;
@@ -402,6 +543,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
   ipgen_mpc_real *xs = l->xn, *S = l->S;
   int step, stage, i, j;
+  if (l->frozen && sens) return ipgen_mpc_rk4_frozen(s, x, u, xn, A, B, xs, l->xt, l->k, l->ksum, l->Ac, l->Bc, S, l->Ss);
   for (i = 0; i < nx; ++i) xs[i] = x[i];
   if (sens)
     for (i = 0; i < nx; ++i)
@@ -445,6 +587,17 @@ IPGEN_MPC_API int ipgen_mpc_rk4(const ipgen_mpc_settings *s, const ipgen_mpc_rea
                                 ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
   ipgen_mpc_layout l;
   ipgen_mpc_carve(s, work, &l);
+  return ipgen_mpc_rk4_layout(s, &l, x, u, xn, A, B);
+}
+
+/* ipgen_mpc_rk4 with the sensitivities of `method` (null: exact): what a step of that method
+ * linearises each stage with. */
+IPGEN_MPC_API int ipgen_mpc_rk4_method(const ipgen_mpc_settings *s, const ipgen_mpc_method *method,
+                                       const ipgen_mpc_real x[], const ipgen_mpc_real u[], ipgen_mpc_real xn[],
+                                       ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
+  ipgen_mpc_layout l;
+  ipgen_mpc_carve(s, work, &l);
+  l.frozen = method != 0 && method->sensitivities == IPGEN_MPC_FROZEN;
   return ipgen_mpc_rk4_layout(s, &l, x, u, xn, A, B);
 }
 
@@ -1116,6 +1269,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   ipgen_mpc_real *const gl = l->gl, *const rhs = l->rhs, *const sig = l->sig, *const dsig = l->dsig, *const gs = l->gs;
   ipgen_mpc_real *const hs = l->hs;
   const ipgen_mpc_real *const bound = l->bound;
+  const ipgen_mpc_real kappa = l->barrier, t_floor = kappa > zero ? kappa : one; /* t at least this at the start */
   ipgen_mpc_real step = zero;
   long i;
   int k, a, m, iteration;
@@ -1139,10 +1293,10 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
 #undef IPGEN_MPC_ROW
 #define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
   {                                                                                               \
-    t[i] = ipgen_mpc_max(bound[i] - IPGEN_MPC_C(i, var, sign, soft, kind, z, sig), one);          \
-    lam[i] = one;                                                                                 \
+    t[i] = ipgen_mpc_max(bound[i] - IPGEN_MPC_C(i, var, sign, soft, kind, z, sig), t_floor);        \
+    lam[i] = kappa > zero ? kappa / t[i] : one;                                                   \
   }
-  IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+  if (!l->duals_warm) IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
 #undef IPGEN_MPC_ROW
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, worst = zero, mu_aff, alpha = one, centring, residual, s1 = zero, s2 = zero;
@@ -1151,8 +1305,9 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
       hd[i] = zero;
       rhs[i] = gl[i];
     }
-    /* t, lam stepped; rp, the gap, max |rp|, C' lam into gl and gs, 1/t, Sigma on the bounded
-     * variables and the predictor's a (lam / t) rp into rhs */
+    /* t, lam stepped; rp, the gap (the barrier's: |t lam - kappa|), max |rp|, C' lam into gl and gs,
+     * 1/t, Sigma on the bounded variables and the predictor's a (lam / t) rp into rhs (the
+     * barrier's Newton step: a (lam rp + kappa) / t) */
 #define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
   {                                                                                               \
     ipgen_mpc_real ti = t[i], li = lam[i], r, q, sg;                                              \
@@ -1167,11 +1322,11 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     sg = li * q;                                                                                  \
     rp[i] = r;                                                                                    \
     inv[i] = q;                                                                                   \
-    mu += li * ti;                                                                                \
+    mu += ipgen_mpc_abs(li * ti - kappa);                                                         \
     worst = ipgen_mpc_max(worst, ipgen_mpc_abs(r));                                               \
     if ((kind) != 2) {                                                                            \
       gl[var] += (ipgen_mpc_real)(sign) * li;                                                     \
-      rhs[var] += (ipgen_mpc_real)(sign) * (sg * r);                                              \
+      rhs[var] += (ipgen_mpc_real)(sign) * (sg * r + kappa * q);                                  \
     }                                                                                             \
     if ((kind) != 0) gs[soft] -= li;                                                              \
     if ((kind) == 0) hd[var] += sg;                                                               \
@@ -1183,7 +1338,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
     if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
-    if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
+    if (iteration >= l->qp_budget) return IPGEN_MPC_QP_BUDGET;
     info->qp_iterations += 1;
     /* the slacks eliminated: their curvature, Sigma's part and the predictor's reduced gradient */
 #define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
@@ -1191,7 +1346,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     const long r_ = first_soft + (f), n_ = first_soft + nS + (f);                                            \
     const ipgen_mpc_real sr = lam[r_] * inv[r_], sn = lam[n_] * inv[n_];                                     \
     const ipgen_mpc_real h = (ipgen_mpc_real)2 * s->soft_quadratic[j] + sr + sn;                             \
-    const ipgen_mpc_real gsig = gs[f] - (sr * rp[r_] - lam[r_]) - (sn * rp[n_] - lam[n_]);                   \
+    const ipgen_mpc_real gsig =                                                                              \
+        gs[f] - (sr * rp[r_] - lam[r_]) - (sn * rp[n_] - lam[n_]) - kappa * (inv[r_] + inv[n_]);             \
     hs[f] = h;                                                                                               \
     hd[var] += sr - sr * sr / h;                                                                             \
     dsig[f] = gsig;                                                                                          \
@@ -1206,9 +1362,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     const long r_ = first_soft + (f);                                                                        \
     dsig[f] = ((ipgen_mpc_real)(sign) * lam[r_] * inv[r_] * dir[var] - dsig[f]) / hs[f];                     \
   }
-    /* predictor */
-    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+/* the inequalities' steps dt, dlam and the step length; WTERM: the complementarity target's term */
 #define IPGEN_MPC_ROW(i, var, sign, soft, kind)                                                   \
   {                                                                                               \
     const ipgen_mpc_real ti = t[i], li = lam[i], r = rp[i], cd = IPGEN_MPC_C(i, var, sign, soft, kind, dir, dsig); \
@@ -1219,24 +1373,36 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     if (d_l < 0 && li < -alpha * d_l) alpha = -li / d_l;                                          \
     IPGEN_MPC_SUMS                                                                                \
   }
-#define IPGEN_MPC_WTERM(i) zero
-#define IPGEN_MPC_SUMS                   \
-  s1 += li * d_t + ti * d_l;   \
-  s2 += d_t * d_l;
-    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+    if (kappa > zero) { /* Newton's step on the barrier problem: its target t lam = kappa is in rhs */
+      ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
+      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+#define IPGEN_MPC_WTERM(i) (-kappa * inv[i])
+#define IPGEN_MPC_SUMS
+      IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
 #undef IPGEN_MPC_WTERM
 #undef IPGEN_MPC_SUMS
-    mu_aff = ipgen_mpc_max((mu * (ipgen_mpc_real)M + alpha * (s1 + alpha * s2)) / (ipgen_mpc_real)M, zero);
-    centring = mu > zero ? mu_aff / mu : zero;
-    centring = centring * centring * centring * mu;
-    /* corrector: targets centring mu with the predictor's second-order term */
+    } else {
+      /* predictor */
+      ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
+      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+#define IPGEN_MPC_WTERM(i) zero
+#define IPGEN_MPC_SUMS           \
+  s1 += li * d_t + ti * d_l;   \
+  s2 += d_t * d_l;
+      IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+#undef IPGEN_MPC_WTERM
+#undef IPGEN_MPC_SUMS
+      mu_aff = ipgen_mpc_max((mu * (ipgen_mpc_real)M + alpha * (s1 + alpha * s2)) / (ipgen_mpc_real)M, zero);
+      centring = mu > zero ? mu_aff / mu : zero;
+      centring = centring * centring * centring * mu;
+      /* corrector: targets centring mu with the predictor's second-order term */
 #define IPGEN_MPC_W(i, var, sign, soft, kind)                                                     \
   {                                                                                               \
     const ipgen_mpc_real wi = (dt[i] * dlam[i] - centring) * inv[i];                              \
     w[i] = wi;                                                                                    \
     if ((kind) != 2) rhs[var] -= (ipgen_mpc_real)(sign) * wi;                                     \
   }
-    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_W);
+      IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_W);
 #undef IPGEN_MPC_W
 #define IPGEN_MPC_SOFT_ROW(f, var, sign, j)                                                                  \
   {                                                                                                          \
@@ -1245,22 +1411,32 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     dsig[f] = gs[f] - (sr * rp[r_] - lam[r_] - w[r_]) - (sn * rp[n_] - lam[n_] - w[n_]);                     \
     rhs[var] += (ipgen_mpc_real)(sign) * sr * (w[r_] + w[n_]) / hs[f];                                      \
   }
-    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
+      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_ROW);
 #undef IPGEN_MPC_SOFT_ROW
-    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
-#undef IPGEN_MPC_SOFT_STEP
-    alpha = one;
+      ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
+      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+      alpha = one;
 #define IPGEN_MPC_WTERM(i) w[i]
 #define IPGEN_MPC_SUMS
-    IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
+      IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
 #undef IPGEN_MPC_WTERM
 #undef IPGEN_MPC_SUMS
+    }
+#undef IPGEN_MPC_SOFT_STEP
 #undef IPGEN_MPC_ROW
     alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
     for (i = 0; i < Z; ++i) z[i] += alpha * dir[i];
     for (i = 0; i < nS; ++i) sig[i] += alpha * dsig[i];
     step = alpha; /* t and lam: in the next pass */
+    /* the barrier's budget spent: the step is the answer (its residual is the one before it); t and
+     * lam stepped, the next sample's warm start */
+    if (kappa > zero && iteration + 1 >= l->qp_budget) {
+      for (i = 0; i < M; ++i) {
+        t[i] += step * dt[i];
+        lam[i] += step * dlam[i];
+      }
+      return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
+    }
   }
 #undef IPGEN_MPC_C
 }
@@ -1275,11 +1451,13 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N), nS = IPGEN_MPC_SLACKS(N, IPGEN_MPC_SOFT_OF(s));
   const long M = IPGEN_MPC_INEQUALITIES(nu, N, IPGEN_MPC_HARD_OF(s), IPGEN_MPC_SOFT_OF(s)), first_soft = M - 2 * nS;
   const ipgen_mpc_real one = (ipgen_mpc_real)1, zero = (ipgen_mpc_real)0;
+  const ipgen_mpc_real kappa = l->barrier, t_floor = kappa > zero ? kappa : one; /* t at least this at the start */
   long i, var, soft;
   int k, a, m, iteration;
   ipgen_mpc_real sign, bound;
   /* start: the dynamics rolled out with du = 0 (every later step keeps them), slacks at the
-   * violation, t at the distance to the bound (at least 1), lam = 1 */
+   * violation, t at the distance to the bound (at least 1), lam = 1; with a barrier weight on
+   * its central path: t at the distance (at least kappa), lam = kappa / t */
   ipgen_mpc_encode(s, l);
   for (i = (long)(N + 1) * nx; i < Z; ++i) l->z[i] = zero;
   for (k = 0; k < N; ++k) {
@@ -1295,10 +1473,10 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
     if (soft >= 0) l->sig[soft] = ipgen_mpc_max(l->sig[soft], sign * l->z[var] - bound);
   }
-  for (i = 0; i < M; ++i) {
+  for (i = 0; i < M && !l->duals_warm; ++i) {
     ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
-    l->t[i] = ipgen_mpc_max(bound - ipgen_mpc_constraint(var, sign, soft, l->z, l->sig), one);
-    l->lam[i] = one;
+    l->t[i] = ipgen_mpc_max(bound - ipgen_mpc_constraint(var, sign, soft, l->z, l->sig), t_floor);
+    l->lam[i] = kappa > zero ? kappa / l->t[i] : one;
   }
   for (iteration = 0;; ++iteration) {
     ipgen_mpc_real mu = zero, mu_aff = zero, alpha, centring, residual;
@@ -1309,7 +1487,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     for (i = 0; i < M; ++i) {
       ipgen_mpc_inequality(s, l, i, &var, &sign, &soft, &bound);
       l->rp[i] = ipgen_mpc_constraint(var, sign, soft, l->z, l->sig) + l->t[i] - bound;
-      mu += l->lam[i] * l->t[i];
+      mu += ipgen_mpc_abs(l->lam[i] * l->t[i] - kappa); /* the gap, or the barrier's distance to its path */
       if (var >= 0) l->gl[var] += sign * l->lam[i];
       if (soft >= 0) l->gs[soft] -= l->lam[i];
       if (i < first_soft) l->hd[var] += l->lam[i] / l->t[i];
@@ -1319,7 +1497,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     info->qp_residual = residual;
     if (!ipgen_mpc_finite(residual)) return IPGEN_MPC_NOT_FINITE;
     if (residual <= s->qp_tolerance) return IPGEN_MPC_OK;
-    if (iteration >= s->qp_iterations) return IPGEN_MPC_QP_BUDGET;
+    if (iteration >= l->qp_budget) return IPGEN_MPC_QP_BUDGET;
     info->qp_iterations += 1;
     for (i = 0; i < nS; ++i) { /* the slacks eliminated */
       const long r = first_soft + i, n = first_soft + nS + i;
@@ -1331,6 +1509,22 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     /* A Riccati breakdown (Re not positive definite: Sigma's spread beyond the precision, at the
      * end of a solve) keeps the iterate reached, which satisfies the dynamics. */
     if (ipgen_mpc_riccati_factor(s, l) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
+    if (kappa > zero) { /* Newton's step on the barrier problem: complementarity targets kappa */
+      for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] - kappa;
+      ipgen_mpc_newton_rhs(s, l);
+      ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
+      alpha = ipgen_mpc_recover(s, l);
+      alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
+      for (i = 0; i < Z; ++i) l->z[i] += alpha * l->dir[i];
+      for (i = 0; i < nS; ++i) l->sig[i] += alpha * l->dsig[i];
+      for (i = 0; i < M; ++i) {
+        l->t[i] += alpha * l->dt[i];
+        l->lam[i] += alpha * l->dlam[i];
+      }
+      /* the budget spent: the step is the answer (its residual is the one before it) */
+      if (iteration + 1 >= l->qp_budget) return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
+      continue;
+    }
     /* predictor: complementarity targets 0 */
     for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
     ipgen_mpc_newton_rhs(s, l);
@@ -1399,6 +1593,21 @@ IPGEN_MPC_LOCAL int ipgen_mpc_exact_hessian(const ipgen_mpc_settings *s, const i
       for (j = 0; j < nu; ++j) Hk[(nx + i) * nz + nx + j] += (ipgen_mpc_real)2 * s->R[i * nu + j];
   }
   return 0;
+}
+
+/* Shifts the inequalities' values v (t or lam) by one stage: each of their four blocks, stage by
+ * stage over N stages (u's bounds 2 nu a stage, the hard bounds' 2 hard, the soft bounds' 2 soft,
+ * their slacks' 2 soft), takes its next stage's values; the last stage keeps its own. */
+IPGEN_MPC_LOCAL void ipgen_mpc_shift_inequalities(const ipgen_mpc_settings *s, ipgen_mpc_real v[]) {
+  const int N = IPGEN_MPC_N_OF(s);
+  const long width[4] = {2L * IPGEN_MPC_NU_OF(s), 2L * IPGEN_MPC_HARD_OF(s), 2L * IPGEN_MPC_SOFT_OF(s),
+                         2L * IPGEN_MPC_SOFT_OF(s)};
+  long base = 0, i;
+  int b;
+  for (b = 0; b < 4; ++b) {
+    for (i = 0; i < (long)(N - 1) * width[b]; ++i) v[base + i] = v[base + width[b] + i];
+    base += (long)N * width[b];
+  }
 }
 
 /* ---- the controller ----------------------------------------------------------------------- */
@@ -1524,31 +1733,45 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * tracked plan's rows from this sample on are its x_refs and u_refs. Up to sqp_iterations
  * Gauss-Newton SQP iterations (cold_iterations on a cold start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
- * beyond it by that much). `info` (may be null) reports what was done; returns its status. */
-IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
-                                  const ipgen_mpc_real u_refs[], const ipgen_mpc_real x[], ipgen_mpc_real u[],
-                                  ipgen_mpc_real work[], ipgen_mpc_info *info) {
+ * beyond it by that much). `info` (may be null) reports what was done; returns its status.
+ * `method` (may be null): how each QP is solved and the model linearised (ipgen_mpc_method); a
+ * barrier weight that is negative or not finite, unknown sensitivities, or frozen ones with the
+ * exact Hessian (which differentiates the sensitivities) are IPGEN_MPC_BAD_SETTINGS. */
+IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipgen_mpc_method *method,
+                                         const ipgen_mpc_real x_refs[], const ipgen_mpc_real u_refs[],
+                                         const ipgen_mpc_real x[], ipgen_mpc_real u[], ipgen_mpc_real work[],
+                                         ipgen_mpc_info *info) {
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), N = IPGEN_MPC_N_OF(s);
   const long Z = IPGEN_MPC_VARIABLES(nx, nu, N);
   ipgen_mpc_info own;
   ipgen_mpc_layout l;
   ipgen_mpc_real *us, weight = (ipgen_mpc_real)0, previous = (ipgen_mpc_real)0;
-  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK;
+  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK, frozen = 0;
   if (info == 0) info = &own;
   info->status = IPGEN_MPC_OK;
   info->sqp_iterations = info->qp_iterations = 0;
   info->step = info->defect = info->qp_residual = (ipgen_mpc_real)0;
-  if (ipgen_mpc_check(s) != IPGEN_MPC_OK) {
+  if (ipgen_mpc_check(s) != IPGEN_MPC_OK ||
+      (method != 0 && (!(method->barrier >= 0) || !ipgen_mpc_finite(method->barrier) ||
+                       (method->sensitivities != IPGEN_MPC_EXACT && method->sensitivities != IPGEN_MPC_FROZEN) ||
+                       (method->sensitivities == IPGEN_MPC_FROZEN && s->exact_hessian)))) {
     for (i = 0; i < nu && i < s->nu; ++i) u[i] = IPGEN_MPC_U_REF(s, u_refs, 0, nu)[i];
     return info->status = IPGEN_MPC_BAD_SETTINGS;
   }
   ipgen_mpc_carve(s, work, &l);
+  if (method != 0) {
+    l.barrier = method->barrier;
+    frozen = method->sensitivities == IPGEN_MPC_FROZEN;
+  }
   l.x_refs = x_refs;
   l.u_refs = u_refs;
   us = l.traj + (long)(N + 1) * nx;
   budget = s->sqp_iterations;
+  l.qp_budget = s->qp_iterations;
   if (!(*l.warm > 0)) {
     if (s->cold_iterations > budget) budget = s->cold_iterations;
+    /* the barrier's warm start is the previous solution: a cold start solves its QPs first */
+    if (l.barrier > 0 && l.qp_budget < IPGEN_MPC_COLD_QP_ITERATIONS) l.qp_budget = IPGEN_MPC_COLD_QP_ITERATIONS;
     for (k = 0; k <= N; ++k)
       for (i = 0; i < nx; ++i) l.traj[k * nx + i] = x_refs ? x_refs[(long)k * nx + i] : x[i];
     for (k = 0; k < N; ++k)
@@ -1561,6 +1784,11 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
       for (i = 0; i < nx; ++i) l.traj[k * nx + i] = l.traj[(k + 1) * nx + i];
     for (k = 0; k + 1 < N; ++k)
       for (i = 0; i < nu; ++i) us[k * nu + i] = us[(k + 1) * nu + i];
+    if (l.barrier > 0) { /* the barrier's QP continues from the last sample's slacks and multipliers */
+      ipgen_mpc_shift_inequalities(s, l.t);
+      ipgen_mpc_shift_inequalities(s, l.lam);
+      l.duals_warm = 1;
+    }
   }
   *l.warm = (ipgen_mpc_real)1;
   for (iteration = 0; iteration < budget; ++iteration) {
@@ -1569,6 +1797,7 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
     int qp;
     for (k = 0; k < N; ++k) { /* linearise: F, dF/dx, dF/du and the defects */
       ipgen_mpc_real *dk = l.d + (long)k * nx;
+      l.frozen = frozen && k > 0; /* the first stage exact: the input applied and x_1's bounds rest on it */
       if (ipgen_mpc_rk4_layout(s, &l, l.traj + (long)k * nx, us + (long)k * nu, dk, l.A + (long)k * nx * nx,
                                l.B + (long)k * nx * nu) != 0) {
         status = IPGEN_MPC_MODEL_FAILED;
@@ -1580,6 +1809,7 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
         defects += ipgen_mpc_abs(dk[i]);
       }
     }
+    l.frozen = 0; /* the exact Hessian's sensitivities are exact */
     if (status != IPGEN_MPC_OK) break;
     info->defect = defect;
     /* converged: the step and the defects below the tolerance; or the step below its square root
@@ -1597,6 +1827,7 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
      * delta crawls) or the model fails */
     l.exact = s->exact_hessian && info->sqp_iterations > 0 && ipgen_mpc_exact_hessian(s, &l) == 0;
     qp = ipgen_mpc_qp(s, &l, info, &costate);
+    l.duals_warm = 0; /* a step's later QPs start on the central path of their distances */
     if (qp == IPGEN_MPC_NOT_FINITE && l.exact) {
       l.exact = 0;
       qp = ipgen_mpc_qp(s, &l, info, &costate);
@@ -1650,6 +1881,13 @@ IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_r
                                : IPGEN_MPC_U_REF(s, u_refs, 0, nu)[i]; /* the reference's first input */
   }
   return info->status;
+}
+
+/* ipgen_mpc_track_method with the default method: the interior point, RK4's exact sensitivities. */
+IPGEN_MPC_API int ipgen_mpc_track(const ipgen_mpc_settings *s, const ipgen_mpc_real x_refs[],
+                                  const ipgen_mpc_real u_refs[], const ipgen_mpc_real x[], ipgen_mpc_real u[],
+                                  ipgen_mpc_real work[], ipgen_mpc_info *info) {
+  return ipgen_mpc_track_method(s, 0, x_refs, u_refs, x, u, work, info);
 }
 
 /* ipgen_mpc_track about the settings' constant x_ref and u_ref: the controller's step. */

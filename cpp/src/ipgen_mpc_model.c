@@ -23,7 +23,7 @@ typedef struct {
 } ipgen_mpc_model_context;
 
 /* Entries ipgen_mpc_model_layout writes. */
-#define IPGEN_MPC_MODEL_LAYOUT 40
+#define IPGEN_MPC_MODEL_LAYOUT 42
 
 int ipgen_mpc_model_dynamics(void *context, const ipgen_mpc_real x[], const ipgen_mpc_real u[], ipgen_mpc_real f[],
                              ipgen_mpc_real A[], ipgen_mpc_real B[]) {
@@ -90,6 +90,8 @@ long ipgen_mpc_model_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_mpc_settings, line_search);
   out[i++] = (long)offsetof(ipgen_mpc_settings, cold_iterations);
   out[i++] = (long)offsetof(ipgen_mpc_settings, exact_hessian);
+  out[i++] = (long)sizeof(ipgen_mpc_method);
+  out[i++] = (long)offsetof(ipgen_mpc_method, sensitivities);
   out[i++] = (long)sizeof(ipgen_mpc_info);
   out[i++] = (long)offsetof(ipgen_mpc_info, sqp_iterations);
   out[i++] = (long)offsetof(ipgen_mpc_info, qp_iterations);

@@ -160,6 +160,11 @@ def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str
         "qp_iterations": design.qp_iterations,
         "sqp_tolerance": c_number(design.sqp_tolerance),
         "qp_tolerance": c_number(design.qp_tolerance),
+        # the method (ipgen_mpc_method), printed only when not the default: headers stay as before
+        "method": design.barrier > 0 or design.sensitivities != "exact",
+        "barrier": c_number(design.barrier),
+        "barrier_set": design.barrier > 0,
+        "frozen": design.sensitivities == "frozen",
         # float: the tolerances ipgen.mpc takes in float (qp 1e-4 in RTI, 1e-5 converged; converged sqp 1e-4)
         "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
         "qp_tolerance_float": c_number(1e-5 if design.mode == "converged" else 1e-4),

@@ -38,6 +38,8 @@ class MpcDesign:
     # the force or torque on the base per unit of u (a dc_motor's gain; 1 otherwise).
     params: tuple[tuple[str, tuple[float, ...] | float], ...] = ()
     input_gain: float = 1.0
+    barrier: float = 0.0  # > 0: each QP Newton steps on its log-barrier problem at this weight
+    sensitivities: str = "exact"  # or "frozen": the Jacobians at each stage's start, discretised
 
 
 @dataclass(frozen=True)

@@ -50,9 +50,10 @@ PRECISIONS = {
 }
 MODES = ("rti", "converged")
 HESSIANS = ("gauss-newton", "exact")
+SENSITIVITIES = ("exact", "frozen")  # IPGEN_MPC_EXACT, IPGEN_MPC_FROZEN
 MAX_DOF = 41  # IPGEN_MAX_DOF
 MAX_INPUTS = MAX_DOF  # IPGEN_MAX_INPUTS
-LAYOUT_ENTRIES = 40  # IPGEN_MPC_MODEL_LAYOUT
+LAYOUT_ENTRIES = 42  # IPGEN_MPC_MODEL_LAYOUT
 STATUS = {
     0: "ok",
     1: "model failed",
@@ -85,6 +86,11 @@ def _settings_type(real: type) -> type[ctypes.Structure]:
         ("line_search", ctypes.c_int), ("cold_iterations", ctypes.c_int), ("exact_hessian", ctypes.c_int),
     ]  # fmt: skip
     return type(f"Settings_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
+
+
+def _method_type(real: type) -> type[ctypes.Structure]:
+    fields = [("barrier", real), ("sensitivities", ctypes.c_int)]
+    return type(f"Method_{real.__name__}", (ctypes.Structure,), {"_fields_": fields})
 
 
 def _info_type(real: type) -> type[ctypes.Structure]:
@@ -133,9 +139,10 @@ def _layout(real: type) -> list[int]:
              "hard_max", "soft_count", "soft_index", "soft_quadratic", "sqp_iterations", "sqp_tolerance",
              "qp_iterations", "qp_tolerance", "shift", "line_search",
              "cold_iterations", "exact_hessian")  # fmt: skip
+    method = _method_type(real)
     return [
         ctypes.sizeof(real), ctypes.sizeof(settings), *(at(settings, n) for n in names),
-        ctypes.sizeof(info),
+        ctypes.sizeof(method), at(method, "sensitivities"), ctypes.sizeof(info),
         *(at(info, n) for n in ("sqp_iterations", "qp_iterations", "step", "defect", "qp_residual")),
         ctypes.sizeof(ModelContext), at(ModelContext, "parameters"), at(ModelContext, "gain"),
         ctypes.sizeof(Parameters), at(Parameters, "g"), at(Parameters, "tip"),
@@ -191,11 +198,13 @@ def library(precision: str = "double") -> ctypes.CDLL:
             ("ipgen_mpc_work_size", L, (P,)),
             ("ipgen_mpc_carve", L, (P, P, P)),
             ("ipgen_mpc_rk4", I, (P, P, P, P, P, P, P)),
+            ("ipgen_mpc_rk4_method", I, (P, P, P, P, P, P, P, P)),
             ("ipgen_mpc_reset", None, (P,)),
             ("ipgen_mpc_cost", real, (P, P)),
             ("ipgen_mpc_check", I, (P,)),
             ("ipgen_mpc_step", I, (P, P, P, P, P)),
             ("ipgen_mpc_track", I, (P, P, P, P, P, P, P)),
+            ("ipgen_mpc_track_method", I, (P, P, P, P, P, P, P, P)),
             ("ipgen_mpc_cost_tracking", real, (P, P, P, P)),
             ("ipgen_mpc_model_dynamics", I, (P, P, P, P, P, P)),
             ("ipgen_mpc_model_layout", L, (P,)),
@@ -329,6 +338,8 @@ class Mpc:
         sqp_tolerance: float | None,
         qp_tolerance: float | None,
         precision: str,
+        barrier: float = 0.0,
+        sensitivities: str = "exact",
     ) -> None:
         fixed = isinstance(pendulum, FixedPendulum)
         if not (fixed or isinstance(pendulum, Pendulum)):
@@ -409,6 +420,16 @@ class Mpc:
         qp_eps = (1e-10 if converged else 1e-9) if double else (1e-5 if converged else 1e-4)
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
+        if isinstance(barrier, bool) or not (isinstance(barrier, int | float) and np.isfinite(barrier) and barrier >= 0):
+            raise MpcError(f"barrier {barrier!r}: expected a weight >= 0 (0: the interior point to its tolerance)")
+        if barrier > 0 and converged:
+            raise MpcError("barrier: a fixed barrier weight is for the real-time iteration, not mode 'converged'")
+        self.barrier = float(barrier)
+        if sensitivities not in SENSITIVITIES:
+            raise MpcError(f"sensitivities {sensitivities!r}: expected one of {', '.join(SENSITIVITIES)}")
+        if sensitivities == "frozen" and converged:
+            raise MpcError("sensitivities 'frozen': for the real-time iteration, not mode 'converged'")
+        self.sensitivities = sensitivities
         if hessian is None:
             hessian = "exact" if converged and double else "gauss-newton"
         if hessian not in HESSIANS:
@@ -467,6 +488,7 @@ class Mpc:
         settings.cold_iterations = self.cold_iterations
         settings.exact_hessian = int(self.hessian == "exact")
         self._settings = settings
+        self._method = _method_type(real)(self.barrier, SENSITIVITIES.index(self.sensitivities))
         self._dtype = dtype
         self._info = _info_type(real)()
         self.work = np.zeros(int(self._lib.ipgen_mpc_work_size(ctypes.byref(settings))), dtype=dtype)
@@ -536,8 +558,9 @@ class Mpc:
         state = self._vector(x, self.nx, "x")
         x_refs, u_refs, _alive = self._reference(reference)
         u = np.zeros(1, dtype=self._dtype)
-        self._lib.ipgen_mpc_track(
+        self._lib.ipgen_mpc_track_method(
             ctypes.byref(self._settings),
+            ctypes.byref(self._method),
             x_refs,
             u_refs,
             state.ctypes.data,
@@ -556,7 +579,9 @@ class Mpc:
         """The first input of the problem solved from a cold start to convergence, whatever the
         mode: up to `sqp_iterations` SQP iterations in the converged mode (500 from a real-time
         design), tolerances at least as tight as the converged mode's, the line search on and
-        the design's Hessian; the warm start then holds that solution, unshifted.
+        the design's Hessian; the warm start then holds that solution, unshifted. A barrier
+        weight stays (the solution is its barrier problem's, the point its steps track); frozen
+        sensitivities are exact here (the problem's solution, which theirs approximates).
 
         Parameters
         ----------
@@ -578,11 +603,13 @@ class Mpc:
         s.qp_iterations = max(saved[2], 50)
         s.qp_tolerance = min(saved[3], qp_eps)
         s.shift, s.line_search = 0, 1
+        frozen, self._method.sensitivities = self._method.sensitivities, SENSITIVITIES.index("exact")
         try:
             self.reset()
             return self.step(x, reference)
         finally:
             s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search = saved
+            self._method.sensitivities = frozen
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """(states (N+1) × nx, inputs N × nu) held in the workspace: the last step's solution
@@ -603,15 +630,25 @@ class Mpc:
     def rk4(self, x: Sequence[float] | np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F(x, u), ∂F/∂x, ∂F/∂u): one sample of the discretised model the MPC predicts with
         (`substeps` RK4 steps over `period`) and its exact sensitivities, from the C code."""
+        return self._sample(x, u, None)
+
+    def linearisation(
+        self, x: Sequence[float] | np.ndarray, u: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(F(x, u), A, B) as a step linearises a stage: `rk4`'s, or with ``sensitivities="frozen"``
+        A, B from the model's Jacobians at (x, u) discretised as RK4 discretises a linear model."""
+        return self._sample(x, u, self._method)
+
+    def _sample(self, x: Any, u: float, method: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         state = self._vector(x, self.nx, "x")
         inputs = self._vector([u], 1, "u")
         xn = np.zeros(self.nx, dtype=self._dtype)
         a = np.zeros((self.nx, self.nx), dtype=self._dtype)
         b = np.zeros((self.nx, 1), dtype=self._dtype)
         scratch = np.zeros_like(self.work)
-        failed = self._lib.ipgen_mpc_rk4(
-            ctypes.byref(self._settings), state.ctypes.data, inputs.ctypes.data, xn.ctypes.data,
-            a.ctypes.data, b.ctypes.data, scratch.ctypes.data,
+        failed = self._lib.ipgen_mpc_rk4_method(
+            ctypes.byref(self._settings), None if method is None else ctypes.byref(method), state.ctypes.data,
+            inputs.ctypes.data, xn.ctypes.data, a.ctypes.data, b.ctypes.data, scratch.ctypes.data,
         )  # fmt: skip
         if failed:
             raise MpcError("the model failed at this state (its mass matrix is not positive definite)")
@@ -656,6 +693,8 @@ def mpc(
     sqp_tolerance: float | None = None,
     qp_tolerance: float | None = None,
     precision: str = "double",
+    barrier: float = 0.0,
+    sensitivities: str = "exact",
 ) -> Mpc:
     """A constrained nonlinear MPC of `pendulum` on its exact model (docs/mpc.md).
 
@@ -712,6 +751,15 @@ def mpc(
         and the QP's largest residual (rti 1e-9, converged 1e-10; float 1e-5) are below.
     precision : str, default "double"
         "double" or "float" (the C step compiled with IPGEN_MPC_REAL=float; the model in double).
+    barrier : float, default 0
+        0: each QP solved by the interior point to `qp_tolerance`. > 0 (rti only): each QP is
+        `qp_iterations` Newton steps on its log-barrier problem at this fixed weight, started on
+        its central path from the previous sample's solution (one Riccati factorisation an
+        iteration): with ``qp_iterations=1`` the microcontroller's fixed-time step (docs/mpc.md).
+    sensitivities : str, default "exact"
+        The linearisation of each stage: "exact" (dF/dx, dF/du of the RK4 map) or "frozen" (rti
+        only: the model's Jacobians at the stage's start, discretised as RK4 discretises a linear
+        model; one Jacobian a stage instead of four, an inexact Newton step with exact defects).
 
     Returns
     -------
@@ -742,5 +790,5 @@ def mpc(
         substeps=substeps,
         mode=mode, sqp_iterations=sqp_iterations, cold_iterations=cold_iterations, hessian=hessian,
         qp_iterations=qp_iterations, sqp_tolerance=sqp_tolerance,
-        qp_tolerance=qp_tolerance, precision=precision,
+        qp_tolerance=qp_tolerance, precision=precision, barrier=barrier, sensitivities=sensitivities,
     )  # fmt: skip

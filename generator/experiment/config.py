@@ -97,6 +97,8 @@ CFG_KEYS: dict[str, str] = {
             ("qp_iterations", "interior-point iterations a QP at most"),
             ("sqp_tolerance", "the SQP's stopping test (0: run the budget)"),
             ("qp_tolerance", "the QP's stopping test"),
+            ("barrier", "> 0: the QP's fixed log-barrier weight (absent: the interior point)"),
+            ("sensitivities", "exact | frozen (absent: exact)"),
         )
     },
     **{
@@ -305,6 +307,11 @@ def mpc_entries(period: float, design: MpcDesign) -> list[tuple[str, Any]]:
         ("controller.qp_iterations", design.qp_iterations),
         ("controller.sqp_tolerance", design.sqp_tolerance), ("controller.qp_tolerance", design.qp_tolerance),
     ]  # fmt: skip
+    # the method, written only when not the default: every existing scene's config stays as it was
+    if design.barrier > 0:
+        entries.append(("controller.barrier", design.barrier))
+    if design.sensitivities != "exact":
+        entries.append(("controller.sensitivities", design.sensitivities))
     return entries
 
 

@@ -89,7 +89,8 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
             u_max=float(table.u_max), travel=None if table.travel is None else float(table.travel),
             soft_bounds=soft or None, soft_penalty=tuple(penalty), reference=reference,
             substeps=table.substeps or 1, mode=table.mode or "rti", sqp_iterations=table.iterations,
-            qp_iterations=table.qp_iterations,
+            qp_iterations=table.qp_iterations, barrier=float(table.barrier or 0.0),
+            sensitivities=table.sensitivities or "exact",
         )  # fmt: skip
     except (mpc_module.MpcError, ControlError) as exc:  # ControlError: the weights' checks (lqr's)
         raise GainError(f"controller: no MPC: {exc}") from None
@@ -115,7 +116,8 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
             (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))
             for name, value in p.folded().params().items()
         ),
-        input_gain=1.0 if fixed else float(p.gain),
+        input_gain=1.0 if fixed else float(p.gain), barrier=design.barrier,
+        sensitivities=design.sensitivities,
     )  # fmt: skip
     return Controller(
         kind="mpc", gain=flat(gain), equilibrium=flat(x_ref), saturation=design.u_max,

@@ -48,6 +48,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "controller.u_max": ("controller", "u_max"),
     "controller.iterations": ("controller", "iterations"),
     "controller.qp_iterations": ("controller", "qp_iterations"),
+    "controller.barrier": ("controller", "barrier"),
     "swingup.u_max": ("swingup", "u_max"),
     "swingup.period": ("swingup", "period"),
     "swingup.hold": ("swingup", "hold"),

@@ -17,6 +17,7 @@ from ipgen.scene.fields import Reader
 # kind = "mpc" (docs/mpc.md): the cart's and arm's keys but travel (a fixed chain has no base)
 MPC_KEYS: tuple[str, ...] = (
     "horizon", "p", "u_max", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations", "substeps",
+    "barrier", "sensitivities",
 )  # fmt: skip
 
 
@@ -38,6 +39,8 @@ class _MpcTable:
     mode: str | None = None
     iterations: int | None = None
     qp_iterations: int | None = None
+    barrier: float | None = None
+    sensitivities: str | None = None
     travel: None = None
     kind: str = "mpc"
 
@@ -107,6 +110,14 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
     mode = table.get("mode")
     if mode is not None and mode not in ("rti", "converged"):
         reader.bad("controller.mode", mode, 'expected "rti" or "converged"')
+    barrier = None
+    if "barrier" in table:
+        barrier = float(numbers(reader, "controller.barrier", table["barrier"], (1,), "a weight >= 0")[0])
+        if barrier < 0:
+            reader.bad("controller.barrier", table["barrier"], "expected a weight >= 0 (0: the interior point)")
+    sensitivities = table.get("sensitivities")
+    if sensitivities is not None and sensitivities not in rules.MPC_SENSITIVITIES:
+        reader.bad("controller.sensitivities", sensitivities, 'expected "exact" or "frozen"')
     r = float(numbers(reader, "controller.r", table.get("r", 1.0), (1,), "one weight > 0")[0])
     if r <= 0:
         reader.bad("controller.r", table["r"], "expected one weight > 0")
@@ -120,7 +131,8 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
             substeps=whole("substeps", 1, rules.MAX_SUBSTEPS),
             soft_bounds=tuple(soft) if soft else None, soft_penalty=penalty, mode=mode,
             iterations=whole("iterations", 1, rules.MAX_ITERATIONS),
-            qp_iterations=whole("qp_iterations", 1, rules.MAX_ITERATIONS),
+            qp_iterations=whole("qp_iterations", 1, rules.MAX_ITERATIONS), barrier=barrier,
+            sensitivities=sensitivities,
         )  # fmt: skip
         resolved = controller(checked, chain)
     except (ControlError, GainError) as exc:

@@ -20,6 +20,7 @@ from ipgen.scene.values import at, check_count, context_of, number, refuse, refu
 CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain", "mpc")
 # kind = "mpc" (docs/mpc.md): its defaults and bounds, and the keys only it takes.
 MPC_MODES: tuple[str, ...] = ("rti", "converged")
+MPC_SENSITIVITIES: tuple[str, ...] = ("exact", "frozen")
 DEFAULT_HORIZON = 30
 MAX_HORIZON = 1000
 MAX_ITERATIONS = 1000
@@ -27,7 +28,7 @@ MAX_SUBSTEPS = 100
 DEFAULT_SOFT_PENALTY = (1000.0, 1000.0)  # ρ1, ρ2: an exact penalty on the QUBE's arm (docs/mpc.md)
 MPC_KEYS: tuple[str, ...] = (
     "horizon", "p", "u_max", "travel", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations",
-    "substeps",
+    "substeps", "barrier", "sensitivities",
 )  # fmt: skip
 SOFT_BOUNDS_SCHEMA: dict[str, Any] = {
     "type": "array",

@@ -691,6 +691,19 @@ class ControllerTable(Table):
     substeps: _Count(control.MAX_SUBSTEPS, "mpc: RK4 steps a sample") | None = Field(
         None, description="mpc only: RK4 steps per sample in the prediction (default 1)"
     )
+    barrier: Real(ge=0, says="the barrier weight must be >= 0 (0: the interior point)") | None = Field(
+        None,
+        description="mpc only (rti): > 0 solves each QP by qp_iterations Newton steps on its log-barrier "
+        "problem at this fixed weight, warm-started from the last sample (qp_iterations = 1: one "
+        "factorisation a sample, the microcontroller's step); 0 or absent: the interior point to its "
+        "tolerance",
+    )
+    sensitivities: Literal[control.MPC_SENSITIVITIES] | None = Field(
+        None,
+        description='mpc only (rti): "exact" (the default: dF/dx, dF/du of the RK4 map) or "frozen" (the '
+        "model's Jacobians at each stage's start, discretised as RK4 discretises a linear model: one "
+        "Jacobian a stage instead of four)",
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> ControllerTable:

@@ -36,6 +36,8 @@ struct MpcProblem {
   bool converged = false;  ///< mode converged: the line search and (double) the exact Hessian, as ipgen.mpc
   int sqp_iterations = 1, cold_iterations = 10, qp_iterations = 20;
   double sqp_tolerance = 0.0, qp_tolerance = 1e-9;
+  double barrier = 0.0;   ///< > 0: each QP Newton steps on its log-barrier problem at this weight
+  bool frozen = false;    ///< the sensitivities from the Jacobians at each stage's start (ipgen_mpc_method)
 };
 
 /// What the steps did over a run (the summary's MPC part).
@@ -90,6 +92,8 @@ class MpcController {
     s.line_search = p_.converged ? 1 : 0;
     s.cold_iterations = p_.cold_iterations;
     s.exact_hessian = p_.converged ? 1 : 0;
+    method_.barrier = p_.barrier;
+    method_.sensitivities = p_.frozen ? IPGEN_MPC_FROZEN : IPGEN_MPC_EXACT;
     work_.assign(static_cast<std::size_t>(ipgen_mpc_work_size(&s)), 0.0);
   }
   MpcController(const MpcController&) = delete;
@@ -107,7 +111,7 @@ class MpcController {
   double track(const Eigen::VectorXd& x, const double* x_refs, const double* u_refs) {
     double u = 0.0;
     ipgen_mpc_info info{};
-    ipgen_mpc_track(&settings_, x_refs, u_refs, x.data(), &u, work_.data(), &info);
+    ipgen_mpc_track_method(&settings_, &method_, x_refs, u_refs, x.data(), &u, work_.data(), &info);
     ++tally_.steps;
     tally_.qp_iterations += info.qp_iterations;
     if (info.qp_iterations > tally_.max_qp_iterations) tally_.max_qp_iterations = info.qp_iterations;
@@ -168,6 +172,7 @@ class MpcController {
   double gain_;
   std::vector<double> u_ref_;
   ipgen_mpc_settings settings_{};
+  ipgen_mpc_method method_{};
   std::vector<double> work_;
   MpcTally tally_;
 };

@@ -29,6 +29,8 @@
 //   controller.soft_bounds (index min max …, optional)  controller.soft_penalty (with soft_bounds: ρ1 ρ2)
 //   controller.mode = rti | converged   controller.iterations  controller.cold_iterations
 //   controller.qp_iterations  controller.sqp_tolerance  controller.qp_tolerance
+//   controller.barrier         (optional, > 0: each QP Newton steps on its log-barrier problem at this weight)
+//   controller.sensitivities = exact | frozen   (optional: frozen, the Jacobians at each stage's start)
 //   controller.model.m l delta g com J J_axial tip gain Ir gr   (optional: the model the MPC predicts
 //                              with; absent, the scene's: a sweep's run states the nominal scene's)
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
@@ -539,6 +541,18 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   p.qp_iterations = whole("controller.qp_iterations");
   p.sqp_tolerance = file.number("controller.sqp_tolerance");
   p.qp_tolerance = file.number("controller.qp_tolerance");
+  if (file.has("controller.barrier")) p.barrier = file.number("controller.barrier");  // absent: the interior point
+  if (file.has("controller.sensitivities")) {  // absent: exact
+    const std::string& sensitivities = file.text("controller.sensitivities");
+    if (sensitivities != "exact" && sensitivities != "frozen") {
+      file.fail(file.line("controller.sensitivities"),
+                "controller.sensitivities must be `exact` or `frozen`, got `" + detail::abbreviate(sensitivities) + "`");
+    }
+    p.frozen = sensitivities == "frozen";
+  }
+  if (p.converged && (p.barrier > 0.0 || p.frozen)) {
+    file.fail(file.line("controller.mode"), "controller.barrier and controller.sensitivities = frozen are for mode rti");
+  }
   if (!(std::isfinite(p.period) && p.period > 0.0)) file.fail(file.line("controller.period"), "controller.period must be > 0");
   for (const auto* vector : {&p.Q, &p.R, &p.P, &p.reference, &p.hard_min, &p.hard_max, &p.soft_min, &p.soft_max}) {
     for (const double v : *vector) {

@@ -1,0 +1,144 @@
+"""The microcontroller's method of the MPC step (ipgen_mpc_method, docs/mpc.md "One factorisation a
+sample"): a fixed log-barrier weight with Newton steps warm-started on its central path, and
+frozen sensitivities.
+
+- The barrier problem: `solve` (iterated to convergence with the barrier's Newton steps) gives
+  IPOPT's first input on the same problem with −κ log(distance) of every inequality added
+  (tests/mpc_reference.py, written independently), within 1e-6 at seeded random states, with and
+  without soft bounds; the bounds active at some of them.
+- Frozen sensitivities: A, B are the fourth-order Taylor polynomials (what RK4 does to a linear
+  model) of CasADi's Jacobians of the exact model at the stage's start, F the exact path's; with
+  substeps, Φ^s and Σ Φ^i Γ.
+- One Newton step a sample on frozen sensitivities in closed loop (the exact model by solve_ivp):
+  |u| within its bound, the arm within its travel, upright at the end; its cost within 1 % of the
+  interior point's real-time iteration from the same start; float follows double.
+- Bad methods: one line in Python; IPGEN_MPC_BAD_SETTINGS from the C step.
+"""
+
+from __future__ import annotations
+
+import ctypes
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from mpc_reference import IpoptReference
+from test_mpc import FLOAT_INPUT, RTI_TRAVEL, closed_loop, qube, qube_soft
+
+from ipgen.control.casadi_model import Plant, casadi_model
+from ipgen.control.mpc import Mpc, MpcError
+
+pytest.importorskip("casadi")
+
+AGREEMENT = 1e-6  # the first input against IPOPT's on the barrier problem [V]
+FAST = {"barrier": 1e-3, "qp_iterations": 1, "sensitivities": "frozen"}  # the microcontroller's method
+
+
+@pytest.mark.parametrize("make", [qube, qube_soft], ids=["qube", "qube-soft"])
+def test_the_barrier_problem_equals_ipopt(make: object) -> None:
+    kappa = 1e-2  # large enough that the barrier moves the solution well beyond the agreement
+    controller = make(barrier=kappa)  # type: ignore[operator]
+    plain = make()  # type: ignore[operator]
+    reference = IpoptReference(controller, barrier=kappa)
+    rng = np.random.default_rng(11)
+    near_bound = moved = 0
+    for _ in range(12):
+        x = rng.uniform([-0.9, -0.25, -1, -1], [0.9, 0.25, 1, 1])
+        u = controller.solve(x)
+        # "SQP budget reached": Gauss-Newton's linear rate, as in test_mpc (its first input is right)
+        assert controller.info is not None and controller.info.status in ("ok", "SQP budget reached"), x
+        u_ref, inputs = reference.solve(x)
+        assert abs(u - u_ref) <= AGREEMENT, (x, u, u_ref)
+        near_bound += bool(np.max(np.abs(inputs)) > controller.u_max - 0.05)
+        near_bound += bool(np.max(np.abs(reference.states[0])) > 0.95)  # the arm near its travel
+        moved += abs(u - plain.solve(x)) > 100 * AGREEMENT  # the barrier's problem is another one
+    assert near_bound >= 2 and moved >= 6, (near_bound, moved)
+
+
+def _taylor(a: np.ndarray, b: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """One RK4 step of x' = a x + b u: (I + M + M²/2 + M³/6 + M⁴/24, h (I + M/2 + M²/6 + M³/24) b)."""
+    m, eye = h * a, np.eye(len(a))
+    phi = eye + m + m @ m / 2 + m @ m @ m / 6 + m @ m @ m @ m / 24
+    gamma = h * (eye + m / 2 + m @ m / 6 + m @ m @ m / 24) @ b
+    return phi, gamma
+
+
+@pytest.mark.parametrize("substeps", [1, 3])
+def test_frozen_sensitivities_are_rk4_of_the_models_jacobians(substeps: int) -> None:
+    import casadi as ca
+
+    frozen, exact = qube(sensitivities="frozen", substeps=substeps), qube(substeps=substeps)
+    model = casadi_model(Plant(frozen.pendulum.folded()))
+    x, u = ca.SX.sym("x", 4), ca.SX.sym("u")
+    f = ca.vertcat(x[2:], model.acceleration(x[:2], x[2:], float(frozen.pendulum.gain) * u))
+    jacobians = ca.Function("J", [x, u], [ca.jacobian(f, x), ca.jacobian(f, u)])
+    h = frozen.period / substeps
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        state, drive = rng.uniform(-1, 1, 4), float(rng.uniform(-10, 10))
+        a_c, b_c = (np.asarray(v, float) for v in jacobians(state, drive))
+        phi, gamma = _taylor(a_c, b_c, h)
+        a_ref, b_ref = np.eye(4), np.zeros((4, 1))
+        for _ in range(substeps):
+            a_ref, b_ref = phi @ a_ref, phi @ b_ref + gamma
+        xn, a, b = frozen.linearisation(state, drive)
+        assert np.abs(a - a_ref).max() <= 1e-12 * max(1.0, np.abs(a_ref).max())
+        assert np.abs(b - b_ref).max() <= 1e-12 * max(1.0, np.abs(b_ref).max())
+        xn_exact, a_exact, _ = exact.rk4(state, drive)
+        assert np.allclose(xn, xn_exact, rtol=1e-14, atol=1e-15)  # the defects stay exact
+        assert np.array_equal(frozen.rk4(state, drive)[1], a_exact)  # rk4 stays exact
+        # an approximation: up to 10 % of A's largest entry at these states (±10 V, rates ±1 rad/s)
+        assert 1e-8 < np.abs(a - a_exact).max() < 0.2 * np.abs(a_exact).max()
+
+
+def test_one_newton_step_a_sample_keeps_the_bounds_near_the_interior_points_cost() -> None:
+    fast, interior = qube(**FAST), qube()
+    costs = []
+    for controller in (fast, interior):
+        states, inputs = closed_loop([controller], [0.5, 0.15, 1.0, 0.0], 3.0)
+        assert np.all(np.abs(inputs) <= controller.u_max)
+        assert np.max(np.abs(states[:, 0])) <= 1.0 + RTI_TRAVEL
+        assert np.max(np.abs(inputs)) >= controller.u_max - 0.05  # the bound mattered
+        assert np.max(np.abs(states[-1])) <= 5e-2, states[-1]  # upright, near rest
+        if controller is fast:
+            assert controller.info is not None and controller.info.qp_iterations == 1
+        x, u = states[:-1], inputs[:, 0]
+        costs.append(float(np.einsum("ki,ij,kj->", x, controller.Q, x) + controller.R[0, 0] * u @ u))
+    assert abs(costs[0] - costs[1]) <= 0.01 * costs[1], costs
+
+
+def test_float_follows_double_with_the_microcontrollers_method() -> None:
+    double, single = qube(**FAST), qube(precision="float", **FAST)
+    _, inputs = closed_loop([double, single], [0.5, 0.15, 1.0, 0.0], 2.0)
+    assert np.max(np.abs(inputs[:, 1] - inputs[:, 0])) <= FLOAT_INPUT * double.u_max
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    barrier=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=3), st.booleans()),
+    sensitivities=st.one_of(st.text(max_size=8), st.integers(), st.none()),
+    mode=st.sampled_from(["rti", "converged"]),
+)
+def test_any_method_is_a_design_or_one_line(barrier: object, sensitivities: object, mode: str) -> None:
+    try:
+        controller = qube(barrier=barrier, sensitivities=sensitivities, mode=mode)
+    except MpcError as error:
+        assert "\n" not in str(error) and ("barrier" in str(error) or "sensitivities" in str(error))
+        return
+    assert isinstance(barrier, float) and barrier >= 0 and sensitivities in ("exact", "frozen")
+    assert mode == "rti" or (barrier == 0 and sensitivities == "exact")
+    assert isinstance(controller, Mpc)
+
+
+@pytest.mark.parametrize(
+    ("barrier", "sensitivities", "exact_hessian"),
+    [(-1.0, 0, 0), (float("nan"), 0, 0), (float("inf"), 0, 0), (0.0, 2, 0), (0.0, -1, 0), (0.0, 1, 1)],
+)
+def test_the_c_step_refuses_a_bad_method(barrier: float, sensitivities: int, exact_hessian: int) -> None:
+    controller = qube()
+    controller._method.barrier, controller._method.sensitivities = barrier, sensitivities  # noqa: SLF001
+    controller._settings.exact_hessian = exact_hessian  # noqa: SLF001
+    u = controller.step([0.1, 0.05, 0.0, 0.0])
+    assert controller.info is not None and controller.info.status == "bad settings" and u == 0.0
+    assert isinstance(controller._method, ctypes.Structure)  # noqa: SLF001
