@@ -10,14 +10,17 @@ compiled for the Cortex-M4F (bench/m4_cycles.py: arm-none-eabi-gcc -mcpu=cortex-
 the loops over them) and `ipgen_qube_servo2_mpc_mpc_step` is called on the first K state
 estimates of the simulator's own run of the preset (its hat_* columns: the cold first step, then
 the real-time iteration along the closed loop, where u reaches its bound and the arm its
-travel). QEMU counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
+travel). Twice: with the preset's method (the interior point to its tolerance, RK4's exact
+sensitivities) and with the microcontroller's (FAST: `barrier = 1e-3`, `qp_iterations = 1`,
+`sensitivities = "frozen"` added to its [controller]; each run on its own simulator run's
+estimates). QEMU counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
 estimate (each instruction weighted by the Cortex-M4 TRM's cycle count, zero-wait-state memory,
 a taken branch 1 + 2), µs at 168 MHz (an STM32F405/407's clock). RAM: the MPC's state (its
 workspace, IPGEN_MPC_WORK reals, and its info) from the ELF's symbol, plus the stack of the call
 (gcc -fstack-usage); flash: the ELF's text (the whole program: the step, the model, newlib's
 sqrtf/sinf/cosf) and bench_call's own size.
 
---profile adds where the RTI steps' instructions go, by function (addr2line's name of each
+--profile adds where the RTI steps' instructions go (for each method), by function (addr2line's name of each
 executed address, the innermost inlined function; the ELF built with -g, which changes no
 instruction). Replaces the section between the markers below in --out (docs/bench/mpc.md).
 """
@@ -39,6 +42,12 @@ from bench import m4_cycles
 from bench.report import ROOT
 
 CLOCK_MHZ = 168.0
+# The microcontroller's method (docs/mpc.md), lines added to the preset's [controller].
+FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
+METHODS = (
+    ("the interior point (the preset's method)", ""),
+    ("FAST: one barrier Newton step, frozen sensitivities", FAST),
+)
 BEGIN, END = "<!-- bench.mpc_m4: begin -->", "<!-- bench.mpc_m4: end -->"
 NAME = "qube_servo2_mpc"
 P = f"ipgen_{NAME}"
@@ -81,15 +90,16 @@ CALL = f"  bench_sink = {P}_mpc_step(&bench_mpc, bench_states[k]);"
 
 def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tuple[int, set[str]]:
     """The stack of `root` and its deepest chain of calls (gcc -fstack-usage per function; a call
-    is a bl or a branch, conditional too, to a function's symbol in the disassembly, a blx through a register one to the MPC's
-    model callback; newlib's functions, without .su, count 0)
+    is a bl or a branch, conditional too, to a function's symbol in the disassembly, a blx
+    through a register one to the MPC's model callback; newlib's functions, without .su, count 0)
     and the functions of the program's own source that `root` reaches (itself included)."""
     disassembly = [m4_cycles.OBJDUMP, "-d", str(elf)]
     text = subprocess.run(disassembly, capture_output=True, text=True, check=True).stdout
     calls: dict[str, set[str]] = {}
     current = ""
     # bl, or a (conditional) branch to a function's entry: a tail call
-    branch = re.compile(r"\s(?:bl|b(?:eq|ne|cs|cc|hs|lo|mi|pl|vs|vc|hi|ls|ge|lt|gt|le)?(?:\.w|\.n)?)\s+[0-9a-f]+ <([^>+]+)>$")
+    conditions = "eq|ne|cs|cc|hs|lo|mi|pl|vs|vc|hi|ls|ge|lt|gt|le"
+    branch = re.compile(rf"\s(?:bl|b(?:{conditions})?(?:\.w|\.n)?)\s+[0-9a-f]+ <([^>+]+)>$")
     for line in text.splitlines():
         if match := re.match(r"^[0-9a-f]+ <([^>]+)>:$", line):
             current = match.group(1)
@@ -155,45 +165,27 @@ def _profile_lines(functions: tuple[tuple[str, int], ...]) -> list[str]:
     return ["", f"{head}: {shares}."]
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--samples", type=int, default=21, help="calls counted (the first is the cold start)")
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
-    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls fixed sizes)")
-    parser.add_argument("--profile", action="store_true", help="and the RTI steps' instructions by function")
-    parser.add_argument("--controller", default="", help="TOML lines added to the preset's [controller]")
-    args = parser.parse_args()
-    m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
+def _method(name: str, controller: str, args: argparse.Namespace) -> tuple[list[str], list[str]]:
+    """The table rows and the paragraph (RAM, flash, profile) of one method."""
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
-        header, states = _scene(Path(folder), args.controller.replace(';', '\n') + '\n' if args.controller else '')
+        header, states = _scene(Path(folder), controller)
         states = states[: args.samples]
         prelude = _prelude(states)
         counts = m4_cycles.count(header, prelude, CALL, len(states), profile=args.profile)
         sizes = _sizes(header, prelude)
     rti_i, rti_c = counts.instructions[1:], counts.cycles[1:]
     us = [c / CLOCK_MHZ for c in rti_c]
-    lines = [
-        BEGIN,
-        "## One RTI step on a Cortex-M4F (QEMU)",
-        "",
-        "Made by `.venv/bin/python -m bench.mpc_m4` (bench/mpc_m4.py; what it counts and how is its",
-        "docstring and bench/m4_cycles.py's): the preset scenes/rigs/qube_servo2_mpc.toml's C header in",
-        f"float, N = 30, `{P}_mpc_step` on the first {len(states)} state estimates of the simulator's",
-        "closed loop (the first call cold: 10 SQP iterations; then one a sample),",
-        f"arm-none-eabi-gcc {args.opt}, QEMU mps2-an386. Cycles: the TRM's per-instruction counts,",
-        "zero-wait-state memory, a taken branch 3 (an estimate, not a measurement);",
-        f"µs at {CLOCK_MHZ:g} MHz.",
-        "",
-        "| what | instructions | cycles (estimate) | µs at 168 MHz |",
-        "| --- | ---: | ---: | ---: |",
-        f"| RTI step, median of {len(rti_c)} | {int(statistics.median(rti_i)):,} "
+    rows = [
+        f"| {name}: RTI step, median of {len(rti_c)} | {int(statistics.median(rti_i)):,} "
         f"| {int(statistics.median(rti_c)):,} | {statistics.median(us):.0f} |",
-        f"| RTI step, largest | {max(rti_i):,} | {max(rti_c):,} | {max(us):.0f} |",
-        f"| cold first step (10 SQP iterations) | {counts.instructions[0]:,} | {counts.cycles[0]:,} "
+        f"| {name}: RTI step, largest | {max(rti_i):,} | {max(rti_c):,} | {max(us):.0f} |",
+        f"| {name}: cold first step (10 SQP iterations) | {counts.instructions[0]:,} | {counts.cycles[0]:,} "
         f"| {counts.cycles[0] / CLOCK_MHZ:.0f} |",
+    ]
+    text = [
         "",
-        f"Cycles per instruction (the estimate's): {statistics.median(rti_c) / statistics.median(rti_i):.2f} "
-        f"({args.opt}). "
+        f"{name}: cycles per instruction (the estimate's) "
+        f"{statistics.median(rti_c) / statistics.median(rti_i):.2f} ({args.opt}). "
         f"RAM: the MPC's state {sizes['state']:,} bytes (its workspace in float and its info) plus "
         f"{sizes['stack']:,} bytes of stack for the call (gcc -fstack-usage: bench_call and its deepest "
         f"chain of calls, newlib's not counted); flash: the program's text {sizes['text']:,} bytes (the "
@@ -201,6 +193,40 @@ def main() -> None:
         f"included), of which the step and the model (bench_call and the functions of the header it "
         f"calls) {sizes['step']:,}.",
         *_profile_lines(counts.functions),
+    ]
+    return rows, text
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--samples", type=int, default=21, help="calls counted (the first is the cold start)")
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench" / "mpc.md")
+    parser.add_argument("--opt", default="-O3", help="the optimisation flag (-O3: unrolls fixed sizes)")
+    parser.add_argument("--profile", action="store_true", help="and the RTI steps' instructions by function")
+    args = parser.parse_args()
+    m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
+    rows, texts = [], []
+    for name, controller in METHODS:
+        method_rows, text = _method(name, controller, args)
+        rows += method_rows
+        texts += text
+    lines = [
+        BEGIN,
+        "## One RTI step on a Cortex-M4F (QEMU)",
+        "",
+        "Made by `.venv/bin/python -m bench.mpc_m4` (bench/mpc_m4.py; what it counts and how is its",
+        "docstring and bench/m4_cycles.py's): the preset scenes/rigs/qube_servo2_mpc.toml's C header in",
+        f"float, N = 30, `{P}_mpc_step` on the first {args.samples} state estimates of the simulator's",
+        "closed loop (the first call cold: 10 SQP iterations; then one a sample), with the preset's",
+        "method and with FAST (`barrier = 0.001`, `qp_iterations = 1`, `sensitivities = \"frozen\"` in",
+        f"its [controller]), arm-none-eabi-gcc {args.opt}, QEMU mps2-an386. Cycles: the TRM's",
+        "per-instruction counts, zero-wait-state memory, a taken branch 3 (an estimate, not a",
+        f"measurement); µs at {CLOCK_MHZ:g} MHz.",
+        "",
+        "| method: what | instructions | cycles (estimate) | µs at 168 MHz |",
+        "| --- | ---: | ---: | ---: |",
+        *rows,
+        *texts,
         END,
     ]
     text = args.out.read_text() if args.out.exists() else ""

@@ -85,7 +85,12 @@ class IpoptReference:
             cost += rho1 * (ca.sum2(above[j, :]) + ca.sum2(below[j, :]))
             cost += rho2 * (ca.sumsqr(above[j, :]) + ca.sumsqr(below[j, :]))
             if barrier > 0:
-                distances = (hi + above[j, :] - X[index, 1:], X[index, 1:] + below[j, :] - lo, above[j, :], below[j, :])
+                distances = (
+                    hi + above[j, :] - X[index, 1:],
+                    X[index, 1:] + below[j, :] - lo,
+                    above[j, :],
+                    below[j, :],
+                )
                 cost -= barrier * sum(ca.sum2(ca.log(d)) for d in distances)
         if barrier > 0:
             cost -= barrier * (ca.sum2(ca.log(c.u_max - U)) + ca.sum2(ca.log(U - c.u_min)))

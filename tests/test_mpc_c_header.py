@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
 from cxx import CXX, require_toolchain
-from test_mpc_scene import MEASURED, PUSHED, QUBE, U_MAX
+from test_mpc_scene import FAST, MEASURED, PUSHED, QUBE, U_MAX
 
 from ipgen.command.cli import run
 
@@ -135,6 +135,55 @@ def test_mpc_step_replays_the_simulators_controller(folder: Path, scalar: str) -
     assert np.max(np.abs(u)) <= U_MAX
 
 
+@pytest.fixture(scope="module")
+def fast(folder: Path) -> tuple[Path, dict[str, np.ndarray]]:
+    """The measured QUBE scene with FAST: its C header and the simulator's run (CSV columns)."""
+    name = "qube_fast"
+    scene = folder / f"{name}.toml"
+    text = QUBE.format(controller=FAST, extra=MEASURED, t_end=1.0, initial=PUSHED)
+    scene.write_text(text.replace('name = "qube_servo2"', f'name = "{name}"\nemit = ["c"]'))
+    for argv in (
+        ["--scene", str(scene), "-o", str(folder)],
+        ["run", str(scene), "-o", str(folder / name), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    header, *rows = (folder / name / f"{name}.csv").read_text().splitlines()
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])[:-1]  # the sampling instants
+    return folder / f"{name}.h", {column: data[:, i] for i, column in enumerate(header.split(","))}
+
+
+@pytest.mark.parametrize("scalar", ["double", "float"])
+def test_the_microcontrollers_method_replays_the_simulators_controller(
+    folder: Path, fast: tuple[Path, dict[str, np.ndarray]], scalar: str
+) -> None:
+    """The measured QUBE scene with FAST (barrier 1e-3, one Newton step a sample, frozen
+    sensitivities): the header's step (its fixed-size forms) fed the estimates the simulator's
+    controller saw (the run-time forms) returns its u: double 1e-9, float within FLOAT_INPUT."""
+    header, columns = fast
+    assert "IPGEN_MPC_FROZEN" in header.read_text()
+    estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    step = STEP.replace('"qube_servo2.h"', f'"{header.name}"').replace("P_", f"ipgen_{header.stem}_")
+    out = _run(_program(folder, f"{header.stem}_{scalar}", step, scalar), estimate, "{!r}")
+    u = np.array([float(v[0]) for v in out])
+    assert all(v[1] == "0" for v in out), "every status ok"
+    bound = 1e-9 if scalar == "double" else FLOAT_INPUT
+    assert np.max(np.abs(u - columns["u"])) <= bound, np.max(np.abs(u - columns["u"]))
+    assert np.max(np.abs(u)) > 6 and np.max(np.abs(u)) <= U_MAX
+
+
+def test_the_microcontrollers_method_in_the_firmware_entry(
+    folder: Path, fast: tuple[Path, dict[str, np.ndarray]]
+) -> None:
+    """The same scene's firmware entry (counts in, volts out, its Kalman filter and the fast
+    step) fed the simulator's counts returns the simulator's volts, double, 1e-9."""
+    header, columns = fast
+    counts = _counts(columns, (0.0, math.pi))
+    firmware = FIRMWARE.replace('"qube_servo2.h"', f'"{header.name}"').replace("P_", f"ipgen_{header.stem}_")
+    volts = np.array([float(v[0]) for v in _run(_program(folder, "fast_firmware", firmware), counts, "{:d}")])
+    assert np.max(np.abs(volts - columns["u"])) <= 1e-9
+
+
 TWO = """\
 #include <stdio.h>
 #include "qube_servo2.h"
@@ -177,17 +226,21 @@ def test_two_mpc_scenes_of_other_sizes_in_one_file(folder: Path) -> None:
     assert (status_a, status_b) == ("0", "0") and float(ua) != 0 and float(ub) != 0
 
 
-@pytest.mark.parametrize("mode", ["rti", "converged"])
+@pytest.mark.parametrize("mode", ["rti", "converged", "fast"])
 def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: str) -> None:
     """A design with a soft bound (IPGEN_MPC_SOFT = 1, which the QUBE preset has not): the header's
     step with its sizes fixed at compile time (ipgen_mpc.h's fixed-size forms) returns the
     run-time-size step's u (the path ipsim and ipgen.mpc run, checked against IPOPT in
     tests/test_mpc.py) and status to 1e-9 along the simulator's estimates, the pendulum beyond the
     soft bound at first; in the real-time iteration and in the converged mode (its exact Hessian's
-    gradient and Riccati factorisation are the run-time forms', the rest the fixed ones)."""
+    gradient and Riccati factorisation are the run-time forms', the rest the fixed ones); and with
+    the microcontroller's method (one barrier Newton step a sample, frozen sensitivities)."""
     name = f"qube_soft_{mode}"
     scene = folder / f"{name}.toml"
-    controller = "soft_bounds = [[1, -0.1, 0.1]]\n" + ('mode = "converged"\n' if mode == "converged" else "")
+    controller = (
+        "soft_bounds = [[1, -0.1, 0.1]]\n"
+        + {"rti": "", "converged": 'mode = "converged"\n', "fast": FAST}[mode]
+    )
     text = QUBE.format(controller=controller, extra="", t_end=1.0, initial=PUSHED)
     scene.write_text(text.replace('name = "qube_servo2"', f'name = "{name}"\nemit = ["c"]'))
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
@@ -261,7 +314,7 @@ def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_pa
     simulator's counts returns its volts at every sample, in double to 1e-9."""
     require_toolchain()
     require_cc()
-    pulse = ('km = 0.042                    # V s/rad\n', 'km = 0.042\npulses = [[2.0, 0.05, 0.05]]\n')
+    pulse = ("km = 0.042                    # V s/rad\n", "km = 0.042\npulses = [[2.0, 0.05, 0.05]]\n")
     phase, summary = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup_ekf", (pulse,))
     held = [i for i, p in enumerate(phase) if p == "hold"]
     assert held and "swing" in phase[held[0] :], "caught, released, swung again"

@@ -19,8 +19,10 @@
 
 from __future__ import annotations
 
+import io
 import re
 import subprocess
+from contextlib import redirect_stdout
 from functools import cache
 from pathlib import Path
 
@@ -176,6 +178,8 @@ BAD_VALUES = {
     "substeps": ["0", "101"],
     "iterations": ["0", "1001"],
     "qp_iterations": ["0", "-3"],
+    "barrier": ["-1", '"x"', "nan"],
+    "sensitivities": ['"exakt"', "1"],
     "q": ["[1, 2, 3]", '["a", 1, 1, 1]', "[1, 1, 1, inf]"],
     "p": ["[1, 2]", "[[1, 0], [0, 1]]"],
     "r": ["0", "-1", "[1, 2]"],
@@ -223,6 +227,28 @@ def test_a_missing_period_or_bound_is_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str
 ) -> None:
     assert f"controller.{key}" in refusal(tmp_path, capsys, write_scene(tmp_path, key, None))
+
+
+def test_the_microcontrollers_method_reaches_the_simulator(tmp_path: Path) -> None:
+    """barrier, qp_iterations = 1 and frozen sensitivities in a fixed scene's [controller]: in its
+    resolved config (absent by default) and run by the simulator, every MPC status ok."""
+    lines = BALANCE.format(extra="").splitlines()
+    method = ["barrier = 0.001", "qp_iterations = 1", 'sensitivities = "frozen"']
+    lines[lines.index("[controller]") + 1 : lines.index("[controller]") + 1] = method
+    path = tmp_path / "fast.toml"
+    path.write_text("\n".join(lines) + "\n")
+    plain = tmp_path / "plain.toml"
+    plain.write_text(BALANCE.format(extra=""))
+    configs, summaries = [], []
+    for scene in (path, plain):
+        out = io.StringIO()
+        with redirect_stdout(out):
+            assert run(["run", str(scene), "-o", str(tmp_path / scene.stem), "--no-plot"]) == 0
+        configs.append(next((tmp_path / scene.stem).glob("*.cfg")).read_text())
+        summaries.append(out.getvalue())
+    assert "controller.barrier = 0.001" in configs[0] and "controller.sensitivities = frozen" in configs[0]
+    assert "controller.barrier" not in configs[1] and "controller.sensitivities" not in configs[1]
+    assert "every status ok" in summaries[0], summaries[0]
 
 
 def test_an_unknown_mpc_key_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -17,8 +17,6 @@ frozen sensitivities.
 
 from __future__ import annotations
 
-import ctypes
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -137,8 +135,7 @@ def test_any_method_is_a_design_or_one_line(barrier: object, sensitivities: obje
 )
 def test_the_c_step_refuses_a_bad_method(barrier: float, sensitivities: int, exact_hessian: int) -> None:
     controller = qube()
-    controller._method.barrier, controller._method.sensitivities = barrier, sensitivities  # noqa: SLF001
-    controller._settings.exact_hessian = exact_hessian  # noqa: SLF001
+    controller._method.barrier, controller._method.sensitivities = barrier, sensitivities
+    controller._settings.exact_hessian = exact_hessian
     u = controller.step([0.1, 0.05, 0.0, 0.0])
     assert controller.info is not None and controller.info.status == "bad settings" and u == 0.0
-    assert isinstance(controller._method, ctypes.Structure)  # noqa: SLF001

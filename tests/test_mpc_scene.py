@@ -69,6 +69,8 @@ U_MAX, TRAVEL = 10.0, 1.0
 
 
 PUSHED = "theta = [0.3, 0.15]\ndtheta = [1.0, 0]"
+# the microcontroller's method (docs/mpc.md): one Newton step a sample on the barrier, frozen sensitivities
+FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
 
 
 def simulate(
@@ -149,6 +151,14 @@ def test_the_resolved_config_holds_the_whole_problem(tmp_path: Path) -> None:
     assert keys["controller.u_min"] == "-10" and keys["controller.u_max"] == "10"
     assert len(keys["controller.p"].split()) == 16 and keys["controller.mode"] == "rti"
     assert "controller.gain" not in keys and "controller.saturation" not in keys
+    # the method's keys only when set: the interior point's configs are as before them
+    assert "controller.barrier" not in keys and "controller.sensitivities" not in keys
+    path.write_text(QUBE.format(controller=FAST, extra="", t_end=1.0, initial=""))
+    fast = dict(
+        line.split(" = ", 1) for line in resolved_config(load_scene(path)).splitlines() if " = " in line
+    )
+    assert fast["controller.barrier"] == "0.001" and fast["controller.sensitivities"] == "frozen"
+    assert fast["controller.qp_iterations"] == "1"
 
 
 # ---- the keys' errors: one line each --------------------------------------------------------
@@ -180,6 +190,11 @@ BAD = [
     ({"controller.soft_penalty": "[1, 0]"}, "controller.soft_penalty", "ρ2 > 0"),
     ({"controller.gain": "[1, 2, 3, 4]"}, "controller.gain", 'is for kind = "gain"'),
     ({"controller.kind": '"lqr"', "controller.u_max": "5"}, "controller.u_max = 5", 'is for kind = "mpc"'),
+    ({"controller.barrier": "-1"}, "controller.barrier = -1", ">= 0"),
+    ({"controller.barrier": '"x"'}, "controller.barrier", ""),
+    ({"controller.sensitivities": '"exakt"'}, "controller.sensitivities", "frozen"),
+    ({"controller.barrier": "0.001", "controller.mode": '"converged"'}, "controller", "real-time iteration"),
+    ({"controller.sensitivities": '"frozen"', "controller.mode": '"converged"'}, "controller", "real-time"),
     ({"controller.q": "[0, 1, 1, 1]", "controller.r": "1e-30"}, "controller", ""),
 ]
 
@@ -196,7 +211,9 @@ def test_bad_mpc_key_is_one_line(tmp_path: Path, changes: dict, key: str, expect
 
 VALUES = st.one_of(
     st.integers(-2, 40).map(str),
-    st.sampled_from(['"rti"', '"converged"', '"x"', "0.5", "-1", "nan", "inf", "true", "1e400"]),
+    st.sampled_from(
+        ['"rti"', '"converged"', '"x"', "0.5", "-1", "nan", "inf", "true", "1e400", '"frozen"', "1e-3"]
+    ),
     st.lists(st.sampled_from(["0", "1", "-1", "2.5", '"x"']), max_size=4).map(
         lambda v: "[" + ", ".join(v) + "]"
     ),
@@ -215,6 +232,8 @@ KEYS = st.sampled_from(
         "iterations",
         "qp_iterations",
         "substeps",
+        "barrier",
+        "sensitivities",
     ]
 )
 
@@ -237,6 +256,8 @@ def test_any_mpc_table_loads_or_fails_in_one_line(tmp_path: Path, table: dict[st
     assert design.u_max > 0 and design.u_min == -design.u_max and design.mode in ("rti", "converged")
     assert all(math.isfinite(v) for v in (*design.Q, *design.P, design.R))
     assert all(0 <= i < 4 and lo < hi for i, lo, hi in (*design.bounds, *design.soft_bounds))
+    assert design.barrier >= 0 and design.sensitivities in ("exact", "frozen")
+    assert design.mode == "rti" or (design.barrier == 0 and design.sensitivities == "exact")
 
 
 def test_the_rigs_coordinates_give_the_same_physical_run(tmp_path: Path) -> None:

@@ -420,10 +420,16 @@ class Mpc:
         qp_eps = (1e-10 if converged else 1e-9) if double else (1e-5 if converged else 1e-4)
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
-        if isinstance(barrier, bool) or not (isinstance(barrier, int | float) and np.isfinite(barrier) and barrier >= 0):
-            raise MpcError(f"barrier {barrier!r}: expected a weight >= 0 (0: the interior point to its tolerance)")
+        if isinstance(barrier, bool) or not (
+            isinstance(barrier, int | float) and np.isfinite(barrier) and barrier >= 0
+        ):
+            raise MpcError(
+                f"barrier {barrier!r}: expected a weight >= 0 (0: the interior point to its tolerance)"
+            )
         if barrier > 0 and converged:
-            raise MpcError("barrier: a fixed barrier weight is for the real-time iteration, not mode 'converged'")
+            raise MpcError(
+                "barrier: a fixed barrier weight is for the real-time iteration, not mode 'converged'"
+            )
         self.barrier = float(barrier)
         if sensitivities not in SENSITIVITIES:
             raise MpcError(f"sensitivities {sensitivities!r}: expected one of {', '.join(SENSITIVITIES)}")

@@ -114,7 +114,9 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
     if "barrier" in table:
         barrier = float(numbers(reader, "controller.barrier", table["barrier"], (1,), "a weight >= 0")[0])
         if barrier < 0:
-            reader.bad("controller.barrier", table["barrier"], "expected a weight >= 0 (0: the interior point)")
+            reader.bad(
+                "controller.barrier", table["barrier"], "expected a weight >= 0 (0: the interior point)"
+            )
     sensitivities = table.get("sensitivities")
     if sensitivities is not None and sensitivities not in rules.MPC_SENSITIVITIES:
         reader.bad("controller.sensitivities", sensitivities, 'expected "exact" or "frozen"')
