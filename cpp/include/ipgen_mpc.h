@@ -18,12 +18,14 @@
  * (Mehrotra predictor-corrector) whose Newton systems are solved by a Riccati recursion (O(N) in
  * the horizon). Real-time iteration: one SQP iteration per sample (sqp_iterations = 1) on the
  * previous solution shifted by one sample, a fixed budget of interior-point iterations: a
- * bounded, deterministic time per step. With a barrier weight (barrier > 0) each QP is instead
- * Newton's method on its log-barrier problem at that fixed weight, started on its central path
- * (t at each bound's distance, lam = barrier / t: the previous sample's barrier solution, shifted),
- * one Riccati solve an iteration and no predictor: qp_iterations = 1 is one factorisation a
- * sample (the microcontroller's step). Converged mode: up to sqp_iterations iterations, with a
- * line search, until the step and the dynamics' defects are below sqp_tolerance.
+ * bounded, deterministic time per step. With a method (ipgen_mpc_method, ipgen_mpc_track_method)
+ * of barrier weight kappa > 0, each QP is instead Newton's method on its log-barrier problem at
+ * that fixed weight, continued from the previous sample's slacks and multipliers (shifted as the
+ * trajectory is), one Riccati solve an iteration and no predictor: qp_iterations = 1 is one
+ * factorisation a sample (the microcontroller's step); its frozen sensitivities take the model's
+ * Jacobians at each stage's start (from the second stage on), one a stage. Converged mode: up to
+ * sqp_iterations iterations, with a line search, until the step and the dynamics' defects are
+ * below sqp_tolerance.
  *
  * Sizes are given at run time (nx states, nu inputs, horizon N). Nothing is allocated: the
  * caller owns every array, among them one workspace of IPGEN_MPC_WORK(...) reals (plus
@@ -149,7 +151,8 @@ typedef struct {
 typedef struct {
   ipgen_mpc_real barrier; /* 0: each QP by Mehrotra's interior point to qp_tolerance; > 0: the QP's log-barrier
                            * problem at this fixed weight (the cost's units), qp_iterations Newton steps
-                           * from its central path, the last sample's (reaching the budget is then OK) */
+                           * from the last sample's slacks and multipliers, shifted (a cold start: from
+                           * its central path, up to IPGEN_MPC_COLD_QP_ITERATIONS); the budget reached is OK */
   int sensitivities;      /* IPGEN_MPC_EXACT: dF/dx, dF/du of the RK4 map (the chain rule through its
                            * stages); IPGEN_MPC_FROZEN: from the second stage on, the model's Jacobians
                            * at the stage's start discretised as RK4 discretises a linear model (one
@@ -1457,7 +1460,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   ipgen_mpc_real sign, bound;
   /* start: the dynamics rolled out with du = 0 (every later step keeps them), slacks at the
    * violation, t at the distance to the bound (at least 1), lam = 1; with a barrier weight on
-   * its central path: t at the distance (at least kappa), lam = kappa / t */
+   * its central path, t at the distance (at least kappa), lam = kappa / t, unless t and lam are
+   * the last sample's (l->duals_warm) */
   ipgen_mpc_encode(s, l);
   for (i = (long)(N + 1) * nx; i < Z; ++i) l->z[i] = zero;
   for (k = 0; k < N; ++k) {

@@ -164,6 +164,7 @@ def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str
         "method": design.barrier > 0 or design.sensitivities != "exact",
         "barrier": c_number(design.barrier),
         "barrier_set": design.barrier > 0,
+        "barrier_value": f"{design.barrier:g}",
         "frozen": design.sensitivities == "frozen",
         # float: the tolerances ipgen.mpc takes in float (qp 1e-4 in RTI, 1e-5 converged; converged sqp 1e-4)
         "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
