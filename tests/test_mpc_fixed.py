@@ -178,7 +178,7 @@ BAD_VALUES = {
     "substeps": ["0", "101"],
     "iterations": ["0", "1001"],
     "qp_iterations": ["0", "-3"],
-    "barrier": ["-1", '"x"', "nan"],
+    "barrier": ["-1", '"x"', "nan", "[0.1]", "2e6"],
     "sensitivities": ['"exakt"', "1"],
     "q": ["[1, 2, 3]", '["a", 1, 1, 1]', "[1, 1, 1, inf]"],
     "p": ["[1, 2]", "[[1, 0], [0, 1]]"],

@@ -21,6 +21,7 @@ is `ipgen run`'s for fixed scenes; its Coulomb friction is not in the prediction
 from __future__ import annotations
 
 import ctypes
+import numbers
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -51,6 +52,7 @@ PRECISIONS = {
 MODES = ("rti", "converged")
 HESSIANS = ("gauss-newton", "exact")
 SENSITIVITIES = ("exact", "frozen")  # IPGEN_MPC_EXACT, IPGEN_MPC_FROZEN
+MAX_BARRIER = 1e6  # the barrier weight's bound (as scene.controller's): finite in float, above a cost's scale
 MAX_DOF = 41  # IPGEN_MAX_DOF
 MAX_INPUTS = MAX_DOF  # IPGEN_MAX_INPUTS
 LAYOUT_ENTRIES = 42  # IPGEN_MPC_MODEL_LAYOUT
@@ -421,10 +423,10 @@ class Mpc:
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
         if isinstance(barrier, bool) or not (
-            isinstance(barrier, int | float) and np.isfinite(barrier) and barrier >= 0
+            isinstance(barrier, numbers.Real) and np.isfinite(barrier) and 0 <= barrier <= MAX_BARRIER
         ):
             raise MpcError(
-                f"barrier {barrier!r}: expected a weight >= 0 (0: the interior point to its tolerance)"
+                f"barrier {barrier!r}: expected a weight >= 0 and <= {MAX_BARRIER:g} (0: the interior point)"
             )
         if barrier > 0 and converged:
             raise MpcError(

@@ -112,11 +112,12 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
         reader.bad("controller.mode", mode, 'expected "rti" or "converged"')
     barrier = None
     if "barrier" in table:
-        barrier = float(numbers(reader, "controller.barrier", table["barrier"], (1,), "a weight >= 0")[0])
-        if barrier < 0:
-            reader.bad(
-                "controller.barrier", table["barrier"], "expected a weight >= 0 (0: the interior point)"
-            )
+        what = f"a weight >= 0 and <= {rules.MAX_BARRIER:g} (0: the interior point)"
+        if isinstance(table["barrier"], list):
+            reader.bad("controller.barrier", table["barrier"], f"expected {what}")
+        barrier = float(numbers(reader, "controller.barrier", table["barrier"], (1,), what)[0])
+        if not 0 <= barrier <= rules.MAX_BARRIER:
+            reader.bad("controller.barrier", table["barrier"], f"expected {what}")
     sensitivities = table.get("sensitivities")
     if sensitivities is not None and sensitivities not in rules.MPC_SENSITIVITIES:
         reader.bad("controller.sensitivities", sensitivities, 'expected "exact" or "frozen"')

@@ -183,7 +183,7 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // controller.u_max
     {1.0, false, 1000.0, false, true},  // controller.iterations
     {1.0, false, 1000.0, false, true},  // controller.qp_iterations
-    {0.0, false, kInf, false, false},  // controller.barrier
+    {0.0, false, 1000000.0, false, false},  // controller.barrier
     {0.0, true, kInf, false, false},  // controller.model.m
     {0.0, false, kInf, false, false},  // controller.model.delta
     {0.0, false, kInf, false, false},  // controller.model.g
@@ -234,7 +234,7 @@ inline constexpr Rule kRules[] = {
     {"controller.u_max", "[controller] u_max", "> 0", 20, 1},
     {"controller.iterations", "[controller] iterations", "a whole number >= 1 and <= 1000", 21, 1},
     {"controller.qp_iterations", "[controller] qp_iterations", "a whole number >= 1 and <= 1000", 22, 1},
-    {"controller.barrier", "[controller] barrier", ">= 0", 23, 1},
+    {"controller.barrier", "[controller] barrier", ">= 0 and <= 1000000", 23, 1},
     {"controller.model.m", "[parameters] m", "> 0", 24, 1},
     {"controller.model.delta", "[parameters] delta", ">= 0", 25, 1},
     {"controller.model.g", "[parameters] g", ">= 0", 26, 1},
