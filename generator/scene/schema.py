@@ -691,9 +691,14 @@ class ControllerTable(Table):
     substeps: _Count(control.MAX_SUBSTEPS, "mpc: RK4 steps a sample") | None = Field(
         None, description="mpc only: RK4 steps per sample in the prediction (default 1)"
     )
-    barrier: Real(
-        ge=0, le=control.MAX_BARRIER, says=f"the barrier weight must be >= 0 and <= {control.MAX_BARRIER:g}"
-    ) | None = Field(
+    barrier: (
+        Real(
+            ge=0,
+            le=control.MAX_BARRIER,
+            says=f"the barrier weight must be >= 0 and <= {control.MAX_BARRIER:g}",
+        )
+        | None
+    ) = Field(
         None,
         description="mpc only (rti): > 0 solves each QP by qp_iterations Newton steps on its log-barrier "
         "problem at this fixed weight, warm-started from the last sample (qp_iterations = 1: one "
