@@ -41,6 +41,7 @@ HEADER = [
     "max |u| [V]",
     "max |x| at 3 s",
     "host µs a step",
+    "QP residual: median, max",
 ]
 STARTS = ([0.5, 0.15, 1.0, 0.0], [0.0, 0.3, 1.5, 0.0], [-0.3, -0.2, -1.5, 0.5])
 METHODS: tuple[tuple[str, dict[str, object]], ...] = (
@@ -57,7 +58,8 @@ METHODS: tuple[tuple[str, dict[str, object]], ...] = (
 
 
 def _timed(make: object, options: dict[str, object], x0: list[float]) -> tuple[float, ...]:
-    """(cost, max |θ0|, max |u|, max |x_end|, median seconds a warm step) of one closed loop."""
+    """(cost, max |θ0|, max |u|, max |x_end|, median seconds a warm step, median and largest QP
+    residual of the warm steps) of one closed loop."""
     from test_mpc import closed_loop
 
     controller = make(**options)  # type: ignore[operator]
@@ -65,13 +67,15 @@ def _timed(make: object, options: dict[str, object], x0: list[float]) -> tuple[f
     x, u = states[:-1], inputs[:, 0]
     cost = float(np.einsum("ki,ij,kj->", x, controller.Q, x) + controller.R[0, 0] * u @ u)
     controller.reset()
-    seconds = []
+    seconds, residuals = [], []
     for state in states[:-1]:  # the same states again, timed (the first, cold, left out)
         start = time.perf_counter()
         controller.step(state)
         seconds.append(time.perf_counter() - start)
+        residuals.append(controller.info.qp_residual if controller.info else float("nan"))
     return (cost, float(np.max(np.abs(states[:, 0]))), float(np.max(np.abs(u))),
-            float(np.max(np.abs(states[-1]))), statistics.median(seconds[1:]))  # fmt: skip
+            float(np.max(np.abs(states[-1]))), statistics.median(seconds[1:]),
+            statistics.median(residuals[1:]), max(residuals[1:]))  # fmt: skip
 
 
 def main() -> None:
@@ -93,6 +97,7 @@ def main() -> None:
                 f"{name}, {precision}", " / ".join(f"{c:.2f}" for c in costs), change,
                 " / ".join(f"{r[1]:.5f}" for r in results), f"{max(r[2] for r in results):.4f}",
                 f"{max(r[3] for r in results):.1e}", f"{1e6 * statistics.median(r[4] for r in results):.0f}",
+                f"{statistics.median(r[5] for r in results):.1e}, {max(r[6] for r in results):.1e}",
             ])  # fmt: skip
     lines = [
         "# MPC: the microcontroller's method in closed loop",
@@ -107,7 +112,8 @@ def main() -> None:
         'the three starts). FAST = `qp_iterations = 1`, `sensitivities = "frozen"` at the barrier',
         "weight shown. Cost change: against the default method's cost from the same start, the same",
         "precision. Host time: the median warm step through ctypes (this machine; the M4's count is",
-        "docs/bench/mpc.md's).",
+        "docs/bench/mpc.md's). QP residual: `info.qp_residual` of the warm steps (the interior point's",
+        "at its end, the barrier's before its last Newton step), the starts' median and largest.",
         "",
         *table(HEADER, rows),
     ]

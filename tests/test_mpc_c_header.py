@@ -234,7 +234,8 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: 
     tests/test_mpc.py) and status to 1e-9 along the simulator's estimates, the pendulum beyond the
     soft bound at first; in the real-time iteration and in the converged mode (its exact Hessian's
     gradient and Riccati factorisation are the run-time forms', the rest the fixed ones); and with
-    the microcontroller's method (one barrier Newton step a sample, frozen sensitivities)."""
+    the microcontroller's method (one barrier Newton step a sample, frozen sensitivities: 1e-8,
+    its rounding carried over from sample to sample)."""
     name = f"qube_soft_{mode}"
     scene = folder / f"{name}.toml"
     controller = (
@@ -256,7 +257,9 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: 
         results[kind] = np.array([float(v[0]) for v in out])
         statuses[kind] = [v[1] for v in out]
     difference = np.max(np.abs(results["fixed"] - results["runtime"]))
-    assert difference <= 1e-9, difference
+    # fast: one Newton step a sample carries each form's rounding over in t and lam (a QP solved to
+    # its tolerance would reset it), so it accumulates along the loop: 2.9e-9 V measured
+    assert difference <= (1e-8 if mode == "fast" else 1e-9), difference
     # The same statuses: mostly ok, a few QPs at their iteration budget (the soft bound is tight).
     assert statuses["fixed"] == statuses["runtime"]
     assert statuses["fixed"].count("0") > 0.9 * len(estimate)

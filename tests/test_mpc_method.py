@@ -155,22 +155,6 @@ def test_more_sqp_iterations_carry_the_slacks_and_multipliers_over() -> None:
         assert np.max(np.abs(states[-1])) <= 5e-2, states[-1]
 
 
-def test_a_start_it_cannot_balance_from_is_reported() -> None:
-    """The arm at 0.9 rad moving at 6 rad/s toward its ±1 rad travel, the link 0.1 rad off: no
-    input within ±10 V keeps both. The barrier's Newton steps are far from their QPs' solutions
-    (their residual above IPGEN_MPC_BARRIER_FAR = 1 before the step): those QPs are solved by the
-    interior point instead, and the statuses say so (not "ok" at every sample)."""
-    controller = qube(**FAST)
-    statuses = []
-    x = np.array([0.9, 0.1, 6.0, 0.0])
-    for _ in range(50):
-        u = controller.step(x)
-        statuses.append(controller.info.status if controller.info else "")
-        assert abs(u) <= controller.u_max
-        x = controller.rk4(x, u)[0]
-    assert any(status != "ok" for status in statuses), statuses
-
-
 def test_the_barriers_bound_is_the_scenes() -> None:
     assert rules.MAX_BARRIER == MAX_BARRIER
 

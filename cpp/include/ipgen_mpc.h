@@ -186,12 +186,6 @@ enum {
 /* With a barrier weight, a cold start's QPs take up to this many Newton steps (to qp_tolerance),
  * if qp_iterations is fewer: the real-time iteration starts from solved QPs. */
 #define IPGEN_MPC_COLD_QP_ITERATIONS 20
-/* With a barrier weight, a QP whose largest residual (ipgen_mpc_info's qp_residual) was above this
- * before its last Newton step is far from its solution: IPGEN_MPC_QP_BUDGET (u applied), and
- * above 1e6 IPGEN_MPC_INFEASIBLE, as the interior point's. */
-#ifndef IPGEN_MPC_BARRIER_FAR
-#define IPGEN_MPC_BARRIER_FAR 1
-#endif
 
 /* Inequalities and soft slacks of the QP: N (2 nu + 2 hard + 4 soft), 2 N soft. */
 #define IPGEN_MPC_INEQUALITIES(nu, N, hard, soft) ((N) * (2 * (nu) + 2 * (hard) + 4 * (soft)))
@@ -1444,7 +1438,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
         t[i] += step * dt[i];
         lam[i] += step * dlam[i];
       }
-      return residual <= (ipgen_mpc_real)IPGEN_MPC_BARRIER_FAR ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
+      return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
     }
   }
 #undef IPGEN_MPC_C
@@ -1532,7 +1526,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
         l->lam[i] += alpha * l->dlam[i];
       }
       /* the budget spent: the step is the answer (its residual is the one before it) */
-      if (iteration + 1 >= l->qp_budget) return residual <= (ipgen_mpc_real)IPGEN_MPC_BARRIER_FAR ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
+      if (iteration + 1 >= l->qp_budget) return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
       continue;
     }
     /* predictor: complementarity targets 0 */
@@ -1846,20 +1840,6 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
       l.duals_warm = 0;
       qp = ipgen_mpc_qp(s, &l, info, &costate);
       l.duals_warm = l.barrier > 0;
-    }
-    if (qp == IPGEN_MPC_QP_BUDGET && l.barrier > 0) {
-      /* the barrier's Newton step far from the QP's solution (a disturbance, a bound the prediction
-       * cannot meet): this QP by the interior point to qp_tolerance instead, the next sample's
-       * barrier QP from its central path */
-      const ipgen_mpc_real kappa = l.barrier;
-      const int budget_qp = l.qp_budget;
-      l.barrier = (ipgen_mpc_real)0;
-      l.duals_warm = 0;
-      if (l.qp_budget < IPGEN_MPC_COLD_QP_ITERATIONS) l.qp_budget = IPGEN_MPC_COLD_QP_ITERATIONS;
-      qp = ipgen_mpc_qp(s, &l, info, &costate);
-      l.barrier = kappa;
-      l.qp_budget = budget_qp;
-      l.t[0] = (ipgen_mpc_real)0;
     }
     info->sqp_iterations += 1;
     if (qp == IPGEN_MPC_NOT_FINITE) {
