@@ -1515,31 +1515,19 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     if (ipgen_mpc_riccati_factor(s, l) != 0) return iteration > 0 ? IPGEN_MPC_QP_BUDGET : IPGEN_MPC_NOT_FINITE;
     if (kappa > zero) { /* Newton's step on the barrier problem: complementarity targets kappa */
       for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] - kappa;
+    } else {
+      /* predictor: complementarity targets 0 */
+      for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
       ipgen_mpc_newton_rhs(s, l);
       ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
       alpha = ipgen_mpc_recover(s, l);
-      alpha = alpha < one ? (ipgen_mpc_real)0.995 * alpha : one;
-      for (i = 0; i < Z; ++i) l->z[i] += alpha * l->dir[i];
-      for (i = 0; i < nS; ++i) l->sig[i] += alpha * l->dsig[i];
-      for (i = 0; i < M; ++i) {
-        l->t[i] += alpha * l->dt[i];
-        l->lam[i] += alpha * l->dlam[i];
-      }
-      /* the budget spent: the step is the answer (its residual is the one before it) */
-      if (iteration + 1 >= l->qp_budget) return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
-      continue;
+      for (i = 0; i < M; ++i) mu_aff += (l->lam[i] + alpha * l->dlam[i]) * (l->t[i] + alpha * l->dt[i]);
+      mu_aff = M > 0 ? mu_aff / (ipgen_mpc_real)M : zero;
+      centring = mu > zero ? mu_aff / mu : zero;
+      centring = centring * centring * centring;
+      /* corrector: targets centring mu, with the predictor's second-order term */
+      for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] + l->dt[i] * l->dlam[i] - centring * mu;
     }
-    /* predictor: complementarity targets 0 */
-    for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i];
-    ipgen_mpc_newton_rhs(s, l);
-    ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
-    alpha = ipgen_mpc_recover(s, l);
-    for (i = 0; i < M; ++i) mu_aff += (l->lam[i] + alpha * l->dlam[i]) * (l->t[i] + alpha * l->dt[i]);
-    mu_aff = M > 0 ? mu_aff / (ipgen_mpc_real)M : zero;
-    centring = mu > zero ? mu_aff / mu : zero;
-    centring = centring * centring * centring;
-    /* corrector: targets centring mu, with the predictor's second-order term */
-    for (i = 0; i < M; ++i) l->rc[i] = l->lam[i] * l->t[i] + l->dt[i] * l->dlam[i] - centring * mu;
     ipgen_mpc_newton_rhs(s, l);
     ipgen_mpc_riccati_solve(s, l, l->rhs, l->dir);
     alpha = ipgen_mpc_recover(s, l);
@@ -1550,6 +1538,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
       l->t[i] += alpha * l->dt[i];
       l->lam[i] += alpha * l->dlam[i];
     }
+    /* the barrier's budget spent: the step is the answer (its residual is the one before it) */
+    if (kappa > zero && iteration + 1 >= l->qp_budget) return residual <= (ipgen_mpc_real)1e6 ? IPGEN_MPC_OK : IPGEN_MPC_QP_BUDGET;
   }
 }
 
