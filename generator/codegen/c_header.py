@@ -292,7 +292,7 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         missing = [f for f in ("forward_dynamics", "forward_dynamics_derivatives") if f not in functions]
         if missing:
             raise ControllerError(
-                f'estimator "ekf" needs the header\'s {" and ".join(missing)}: '
+                f"estimator \"ekf\" needs the header's {' and '.join(missing)}: "
                 "add them to the scene's outputs"
             )
     context: dict[str, object] = {

@@ -761,13 +761,14 @@ def mpc(
         "double" or "float" (the C step compiled with IPGEN_MPC_REAL=float; the model in double).
     barrier : float, default 0
         0: each QP solved by the interior point to `qp_tolerance`. > 0 (rti only): each QP is
-        `qp_iterations` Newton steps on its log-barrier problem at this fixed weight, started on
-        its central path from the previous sample's solution (one Riccati factorisation an
+        `qp_iterations` Newton steps on its log-barrier problem at this fixed weight, continued
+        from the previous sample's slacks and multipliers, shifted (one Riccati factorisation an
         iteration): with ``qp_iterations=1`` the microcontroller's fixed-time step (docs/mpc.md).
     sensitivities : str, default "exact"
         The linearisation of each stage: "exact" (dF/dx, dF/du of the RK4 map) or "frozen" (rti
-        only: the model's Jacobians at the stage's start, discretised as RK4 discretises a linear
-        model; one Jacobian a stage instead of four, an inexact Newton step with exact defects).
+        only; from the second stage on: the model's Jacobians at the stage's start, discretised as
+        RK4 discretises a linear model; one Jacobian a stage instead of four, an inexact Newton
+        step with exact defects).
 
     Returns
     -------
