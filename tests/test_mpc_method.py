@@ -24,9 +24,9 @@ from hypothesis import strategies as st
 from mpc_reference import IpoptReference
 from test_mpc import FLOAT_INPUT, RTI_TRAVEL, closed_loop, qube, qube_soft
 
+from ipgen.common.limits import MAX_MPC_BARRIER
 from ipgen.control.casadi_model import Plant, casadi_model
-from ipgen.control.mpc import MAX_BARRIER, Mpc, MpcError
-from ipgen.scene import controller as rules
+from ipgen.control.mpc import Mpc, MpcError
 
 pytest.importorskip("casadi")
 
@@ -155,10 +155,6 @@ def test_more_sqp_iterations_carry_the_slacks_and_multipliers_over() -> None:
         assert np.max(np.abs(states[-1])) <= 5e-2, states[-1]
 
 
-def test_the_barriers_bound_is_the_scenes() -> None:
-    assert rules.MAX_BARRIER == MAX_BARRIER
-
-
 def test_float_follows_double_with_the_microcontrollers_method() -> None:
     double, single = qube(**FAST), qube(precision="float", **FAST)
     _, inputs = closed_loop([double, single], [0.5, 0.15, 1.0, 0.0], 2.0)
@@ -179,7 +175,8 @@ def test_any_method_is_a_design_or_one_line(barrier: object, sensitivities: obje
     except MpcError as error:
         assert "\n" not in str(error) and ("barrier" in str(error) or "sensitivities" in str(error))
         return
-    assert isinstance(barrier, float) and 0 <= barrier <= MAX_BARRIER and sensitivities in ("exact", "frozen")
+    assert isinstance(barrier, float) and 0 <= barrier <= MAX_MPC_BARRIER
+    assert sensitivities in ("exact", "frozen")
     assert mode == "rti" or (barrier == 0 and sensitivities == "exact")
     assert isinstance(controller, Mpc)
 

@@ -324,18 +324,20 @@ IPGEN_MPC_LOCAL int ipgen_mpc_finite(ipgen_mpc_real v) { return v == v && v - v 
 
 /* ---- discretisation: RK4 and its exact sensitivities ------------------------------------- */
 
-/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope. With
- * IPGEN_MPC_SECOND_ORDER defined (before the first include: a model x = [q; qd], f = [qd; qdd],
- * as every ipgen model's callback, so that Ac's first nx / 2 rows are [0 I] and Bc's are 0), those
- * rows of dk are Sv's last nx / 2 rows, copied instead of multiplied: the same numbers. */
+/* The rows of Ac that are [0 I] (and of Bc that are 0), copied instead of multiplied: nx / 2 with
+ * IPGEN_MPC_SECOND_ORDER (defined before the first include: a model x = [q; qd], f = [qd; qdd],
+ * as every ipgen model's callback), else none. */
+#ifdef IPGEN_MPC_SECOND_ORDER
+#define IPGEN_MPC_COPIED_ROWS(nx) ((nx) / 2)
+#else
+#define IPGEN_MPC_COPIED_ROWS(nx) 0
+#endif
+
+/* dk = Ac Sv + [0 | Bc] (nx x (nx + nu)): the sensitivity of one RK4 stage's slope; the
+ * IPGEN_MPC_COPIED_ROWS rows of dk are Sv's last ones, copied: the same numbers. */
 IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc_real Ac[], const ipgen_mpc_real Bc[],
                                                  const ipgen_mpc_real Sv[], ipgen_mpc_real dk[]) {
-  const int nz = nx + nu;
-#ifdef IPGEN_MPC_SECOND_ORDER
-  const int first = nx / 2;
-#else
-  const int first = 0;
-#endif
+  const int nz = nx + nu, first = IPGEN_MPC_COPIED_ROWS(nx);
   int i, j, m;
   for (i = 0; i < first * nz; ++i) dk[i] = Sv[first * nz + i];
   for (i = first; i < nx; ++i) {
@@ -348,15 +350,11 @@ IPGEN_MPC_LOCAL void ipgen_mpc_stage_sensitivity(int nx, int nu, const ipgen_mpc
 }
 
 
-/* P = Ac X (nx x cols, X row-major with `cols` columns); with IPGEN_MPC_SECOND_ORDER the [0 I]
- * rows of Ac copy X's last nx / 2 rows (as ipgen_mpc_stage_sensitivity). */
+/* P = Ac X (nx x cols, X row-major with `cols` columns); its IPGEN_MPC_COPIED_ROWS rows are X's
+ * last ones, copied. */
 IPGEN_MPC_LOCAL void ipgen_mpc_ac_times(int nx, int cols, const ipgen_mpc_real Ac[], const ipgen_mpc_real X[],
                                         ipgen_mpc_real P[]) {
-#ifdef IPGEN_MPC_SECOND_ORDER
-  const int first = nx / 2;
-#else
-  const int first = 0;
-#endif
+  const int first = IPGEN_MPC_COPIED_ROWS(nx);
   int i, j, m;
   for (i = 0; i < first * cols; ++i) P[i] = X[first * cols + i];
   for (i = first; i < nx; ++i)
@@ -419,8 +417,9 @@ IPGEN_MPC_LOCAL void ipgen_mpc_frozen(int nx, int nu, ipgen_mpc_real h, int subs
 }
 
 /* One sample of the discretised model with frozen sensitivities: xn = F(x, u) by RK4 as
- * ipgen_mpc_rk4_layout (the model's Jacobians asked for at the first stage only), then A, B by
- * ipgen_mpc_frozen. xs, xt, k, ksum: nx temporaries; Ac, Bc: the Jacobians' room; T1, T2: as
+ * ipgen_mpc_rk4_layout (the model's Jacobians asked for at the first stage only, whose slope is
+ * F's first: its own RK4 loop saves a model call a stage against rk4_layout's plus a Jacobian
+ * call, on the microcontroller's hot path), then A, B by ipgen_mpc_frozen. xs, xt, k, ksum: nx temporaries; Ac, Bc: the Jacobians' room; T1, T2: as
  * ipgen_mpc_frozen's. Returns 0, 1 if the model failed. */
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
                                          ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[],
@@ -458,11 +457,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipge
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
                                         ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[]) {
 #define IPGEN_MPC_NZ (IPGEN_MPC_NX + IPGEN_MPC_NU)
-#ifdef IPGEN_MPC_SECOND_ORDER
-#define IPGEN_MPC_FIRST (IPGEN_MPC_NX / 2)
-#else
-#define IPGEN_MPC_FIRST 0
-#endif
+#define IPGEN_MPC_FIRST IPGEN_MPC_COPIED_ROWS(IPGEN_MPC_NX)
   const int sens = A != 0 && B != 0;
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
   static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
@@ -1376,18 +1371,16 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
     if (d_l < 0 && li < -alpha * d_l) alpha = -li / d_l;                                          \
     IPGEN_MPC_SUMS                                                                                \
   }
-    if (kappa > zero) { /* Newton's step on the barrier problem: its target t lam = kappa is in rhs */
-      ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+    /* the barrier's Newton step (its target t lam = kappa is in rhs), or the predictor */
+    ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
+    IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
+    if (kappa > zero) {
 #define IPGEN_MPC_WTERM(i) (-kappa * inv[i])
 #define IPGEN_MPC_SUMS
       IPGEN_MPC_EACH_INEQUALITY(s, IPGEN_MPC_ROW);
 #undef IPGEN_MPC_WTERM
 #undef IPGEN_MPC_SUMS
     } else {
-      /* predictor */
-      ipgen_mpc_riccati_solve_fixed(l, rhs, dir);
-      IPGEN_MPC_EACH_SOFT(s, IPGEN_MPC_SOFT_STEP);
 #define IPGEN_MPC_WTERM(i) zero
 #define IPGEN_MPC_SUMS           \
   s1 += li * d_t + ti * d_l;   \
@@ -1804,7 +1797,6 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
         defects += ipgen_mpc_abs(dk[i]);
       }
     }
-    l.frozen = 0; /* the exact Hessian's sensitivities are exact */
     if (status != IPGEN_MPC_OK) break;
     info->defect = defect;
     /* converged: the step and the defects below the tolerance; or the step below its square root

@@ -34,6 +34,9 @@ Why these values:
   The scene layer (`experiment.loop`) and the simulator (`ipsim/scene.hpp`) apply this one rule.
 - `MESSAGE_VALUE_CHARS`, `MESSAGE_PATH_CHARS`: a value (a path) quoted in a message is cut to
   this many characters, in the middle.
+- `MAX_MPC_BARRIER`: the MPC's barrier weight (`[controller] barrier`, `ipgen.mpc(barrier=)`) is
+  in the cost's units; 1e6 is far above any cost's scale and finite in float, where the C header's
+  step may run (a larger one would turn into inf there and every step refuse its settings).
 """
 
 from __future__ import annotations
@@ -53,6 +56,7 @@ MAX_DELAY_PERIODS = 1_000_000
 DELAY_TOLERANCE = 1e-9
 MESSAGE_VALUE_CHARS = 60
 MESSAGE_PATH_CHARS = 240
+MAX_MPC_BARRIER = 1e6
 
 
 def fold_problem(text: str) -> str | None:

@@ -32,6 +32,7 @@ import numpy as np
 
 from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
+from ipgen.common.limits import MAX_MPC_BARRIER
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
@@ -52,7 +53,6 @@ PRECISIONS = {
 MODES = ("rti", "converged")
 HESSIANS = ("gauss-newton", "exact")
 SENSITIVITIES = ("exact", "frozen")  # IPGEN_MPC_EXACT, IPGEN_MPC_FROZEN
-MAX_BARRIER = 1e6  # the barrier weight's bound (as scene.controller's): finite in float, above a cost's scale
 MAX_DOF = 41  # IPGEN_MAX_DOF
 MAX_INPUTS = MAX_DOF  # IPGEN_MAX_INPUTS
 LAYOUT_ENTRIES = 42  # IPGEN_MPC_MODEL_LAYOUT
@@ -423,10 +423,11 @@ class Mpc:
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
         self.cold_iterations = cold_iterations
         if isinstance(barrier, bool) or not (
-            isinstance(barrier, numbers.Real) and np.isfinite(barrier) and 0 <= barrier <= MAX_BARRIER
+            isinstance(barrier, numbers.Real) and np.isfinite(barrier) and 0 <= barrier <= MAX_MPC_BARRIER
         ):
             raise MpcError(
-                f"barrier {barrier!r}: expected a weight >= 0 and <= {MAX_BARRIER:g} (0: the interior point)"
+                f"barrier {barrier!r}: expected a weight >= 0 and <= {MAX_MPC_BARRIER:g} "
+                "(0: the interior point)"
             )
         if barrier > 0 and converged:
             raise MpcError(

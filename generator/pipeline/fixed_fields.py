@@ -42,6 +42,13 @@ def numbers(reader: Reader, key: str, value: Any, sizes: tuple[int, ...], what: 
     return numbers
 
 
+def scalar(reader: Reader, key: str, value: Any, what: str) -> float:
+    """One finite number (not an array of one), or one line naming `key`."""
+    if isinstance(value, list):
+        reader.bad(key, value, f"expected {what}")
+    return float(numbers(reader, key, value, (1,), what)[0])
+
+
 def controller_period(reader: Reader, table: Any, settings: dict[str, Any]) -> float | None:
     """controller.period [s]: > 0, <= t_end, a whole multiple or fraction of the sample."""
     if "period" not in table:

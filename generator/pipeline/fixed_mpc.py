@@ -9,8 +9,9 @@ from typing import Any
 
 import numpy as np
 
+from ipgen.common import limits
 from ipgen.model.fixed import FixedPendulum
-from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, weight_matrix
+from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, scalar, weight_matrix
 from ipgen.scene import controller as rules
 from ipgen.scene.fields import Reader
 
@@ -112,11 +113,9 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
         reader.bad("controller.mode", mode, 'expected "rti" or "converged"')
     barrier = None
     if "barrier" in table:
-        what = f"a weight >= 0 and <= {rules.MAX_BARRIER:g} (0: the interior point)"
-        if isinstance(table["barrier"], list):
-            reader.bad("controller.barrier", table["barrier"], f"expected {what}")
-        barrier = float(numbers(reader, "controller.barrier", table["barrier"], (1,), what)[0])
-        if not 0 <= barrier <= rules.MAX_BARRIER:
+        what = f"a weight >= 0 and <= {limits.MAX_MPC_BARRIER:g} (0: the interior point)"
+        barrier = scalar(reader, "controller.barrier", table["barrier"], what)
+        if not 0 <= barrier <= limits.MAX_MPC_BARRIER:
             reader.bad("controller.barrier", table["barrier"], f"expected {what}")
     sensitivities = table.get("sensitivities")
     if sensitivities is not None and sensitivities not in rules.MPC_SENSITIVITIES:

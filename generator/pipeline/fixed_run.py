@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from ipgen.codegen.fixed_header import fixed_library_sources, fixed_model_name
+from ipgen.codegen.fixed_header import fixed_library_sources
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
 from ipgen.errors import Error
@@ -316,11 +316,6 @@ def fixed_swingup_law(
     return law
 
 
-def model_name(chain: FixedPendulum) -> str:
-    """The model (library) name of a chain: fixed<n>_j<joints>, e.g. fixed2_j1_2."""
-    return fixed_model_name(chain.links, tuple(chain.joints))
-
-
 def _put(lines: list[str], key: str, value: object) -> None:
     base = key
     if key.startswith("input") and key[5:6].isdigit():  # input2, input2.amplitude: input's keys
@@ -476,4 +471,4 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     )
 
 
-__all__ = ["FixedController", "fixed_config", "fixed_controller", "fixed_inputs", "fixed_plan", "model_name"]
+__all__ = ["FixedController", "fixed_config", "fixed_controller", "fixed_inputs", "fixed_plan"]

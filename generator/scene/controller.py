@@ -21,7 +21,6 @@ CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain", "mpc")
 # kind = "mpc" (docs/mpc.md): its defaults and bounds, and the keys only it takes.
 MPC_MODES: tuple[str, ...] = ("rti", "converged")
 MPC_SENSITIVITIES: tuple[str, ...] = ("exact", "frozen")
-MAX_BARRIER = 1e6  # the barrier weight's bound: far above any cost's scale, finite in float
 DEFAULT_HORIZON = 30
 MAX_HORIZON = 1000
 MAX_ITERATIONS = 1000

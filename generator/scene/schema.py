@@ -694,8 +694,8 @@ class ControllerTable(Table):
     barrier: (
         Real(
             ge=0,
-            le=control.MAX_BARRIER,
-            says=f"the barrier weight must be >= 0 and <= {control.MAX_BARRIER:g}",
+            le=limits.MAX_MPC_BARRIER,
+            says=f"the barrier weight must be >= 0 and <= {limits.MAX_MPC_BARRIER:g}",
         )
         | None
     ) = Field(
