@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 
 import ipgen
 from ipgen.command.cli import run as cli
-from ipgen.common.presets import preset_path
 from ipgen.errors import SceneError
 from ipgen.model.dfki import dfki_pendulum, read_model_parameters
 from ipgen.scene.fixed import load_fixed_scene
@@ -38,7 +37,6 @@ def test_presets_list_the_fixed_chains(capsys: pytest.CaptureFixture[str]) -> No
     [
         ["--type", "fixed", "--links", "2", "--angles", "relative", "--emit", "fmu", "-o", "{out}"],
         ["--type", "fixed", "--links", "2", "--fix", "m1=1", "-o", "{out}"],
-        ["--scene", str(preset_path("dfki_c0")), "-o", "{out}"],
         ["excite", "--preset", "dfki_c0", "--u-max", "1", "-o", "{out}"],
     ],
 )

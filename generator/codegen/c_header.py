@@ -107,29 +107,48 @@ def control_context(controller: Controller, dof: int) -> dict[str, object]:
     }
 
 
-def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str, ...]) -> dict[str, object]:
-    """The MPC of a scene (kind "mpc") for the template: its problem as constants and the model
-    it predicts with (the design's parameters, a motor folded in); the step is
-    cpp/include/ipgen_mpc.h's, printed whole (`mpc_runtime`)."""
+# The fields of a header's params and links structs in their order: the MPC's model printed as
+# their initialisers (a cart's or an arm's model.h; a fixed chain's fixed.h).
+Structs = tuple[tuple[str, ...], tuple[str, ...]]
+CART_STRUCTS: Structs = (("m", "l", "delta", "g"), ("com", "J", "J_axial", "tip"))
+FIXED_STRUCTS: Structs = (("m", "l", "delta", "g", "Ir", "gr"), ("com", "J"))
+
+
+def mpc_context(
+    design: MpcDesign,
+    period: float,
+    dof: int,
+    functions: tuple[str, ...],
+    structs: Structs = CART_STRUCTS,
+    u_what: str | None = None,
+) -> dict[str, object]:
+    """The MPC of a scene (kind "mpc") for the template (mpc_step.h.jinja): its problem as
+    constants and the model it predicts with (the design's parameters, a motor folded in, as
+    the initialisers of the header's `structs`); the step is cpp/include/ipgen_mpc.h's, printed
+    whole (`mpc_runtime`). `u_what` names u in the comments (default: a cart's or an arm's)."""
     missing = [f for f in ("forward_dynamics", "forward_dynamics_derivatives") if f not in functions]
     if missing:
         raise ControllerError(
             f"the MPC needs the header's {' and '.join(missing)}: add them to the scene's outputs"
         )
-    if not design.params:  # a fixed chain's design carries none: its headers have no loop yet
-        raise ControllerError(
-            "this MPC design states no model parameters to print (a fixed chain's MPC is not in C yet)"
-        )
+    if not design.params:
+        raise ControllerError("this MPC design states no model parameters to print")
     size = 2 * dof
     params = dict(design.params)
 
-    def group(*names: str) -> str:
-        return ", ".join("{" + _c_list(tuple(params[n]), f"MPC {n}") + "}" for n in names)  # type: ignore[arg-type]
+    def initialiser(names: tuple[str, ...]) -> str:
+        """A struct's initialiser: {array}, ... or a number, field by field."""
+        return ", ".join(
+            c_number(float(value)) if isinstance(value := params[n], float | int)
+            else "{" + _c_list(tuple(value), f"MPC {n}") + "}"
+            for n in names
+        )  # fmt: skip
 
     def indices(bounds: tuple[tuple[int, float, float], ...]) -> str:
         return ", ".join(str(int(i)) for i, _, _ in bounds)
 
     hard, soft = design.bounds, design.soft_bounds
+    motor = design.input_gain != 1.0
     return {
         "horizon": design.horizon,
         "substeps": design.substeps,
@@ -170,9 +189,10 @@ def mpc_context(design: MpcDesign, period: float, dof: int, functions: tuple[str
         "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
         "qp_tolerance_float": c_number(1e-5 if design.mode == "converged" else 1e-4),
         "input_gain": c_number(design.input_gain),
-        "motor": design.input_gain != 1.0,
-        "params": group("m", "l", "delta") + ", " + c_number(float(params["g"])),  # type: ignore[arg-type]
-        "links": group("com", "J", "J_axial", "tip"),
+        "motor": motor,
+        "u_what": u_what or ("the motor voltage [V]" if motor else "force [N] or torque [N m]"),
+        "params": initialiser(structs[0]),
+        "links": initialiser(structs[1]),
     }
 
 

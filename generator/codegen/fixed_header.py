@@ -12,10 +12,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from ipgen.codegen.c_header import FIXED_STRUCTS, mpc_context
 from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
 from ipgen.codegen.header import environment, function_bodies
+from ipgen.common.locations import mpc_runtime
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
+from ipgen.control.controller import MpcDesign
 from ipgen.model.fixed_poly import fixed_poly_equations
 from ipgen.model.specialise import FUNCTIONS
 
@@ -29,12 +32,16 @@ _CPP_LATE = {"forward_dynamics_derivatives": "d.qdd"}
 
 @dataclass(frozen=True)
 class FixedHeaderRequest:
-    """What determines a fixed chain's headers: its name, links, driven joints and command."""
+    """What determines a fixed chain's headers: its name, links, driven joints and command; and
+    a scene's MPC (`[controller] kind = "mpc"`, one driven joint), which the C header prints with
+    its sample period [s]."""
 
     name: str
     links: int
     joints: tuple[int, ...]
     command: str
+    mpc: MpcDesign | None = None
+    mpc_period: float = 0.0
 
 
 def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
@@ -87,6 +94,8 @@ def _context(
         ],
         "fn": function_bodies(eqs, FUNCTIONS, syntax=syntax, late=late),
         "rod_fills": rod_fills,
+        "mpc": None,
+        "mpc_runtime": "",
     }
 
 
@@ -96,6 +105,12 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
         context = _context(request, "fixed.hpp.jinja", FIXED_CPP_SYNTAX, _CPP_LATE)
         return {".hpp": environment().get_template("fixed.hpp.jinja").render(context)}
     context = _context(request, "fixed.h.jinja", FIXED_C_SYNTAX, _C_LATE)
+    if target == "c" and request.mpc is not None:  # the scene's MPC step (mpc_step.h.jinja)
+        u_what = f"the torque [N m] at joint {request.joints[0]}, clockwise positive"
+        context["mpc"] = mpc_context(
+            request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
+        )
+        context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
     header = environment().get_template("fixed.h.jinja").render(context)
     if target == "c":
         return {".h": header}

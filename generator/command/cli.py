@@ -237,6 +237,9 @@ def cli(
     if system_type == "fixed" or joints is not None:
         _generate_fixed(system_type, links, joints, directory, name, emit, force, context.params)
         return
+    if scene is not None and not describe and _is_fixed_scene(scene):
+        _generate_fixed_scene(scene, directory, emit, force, context.params)
+        return
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
 
@@ -268,6 +271,36 @@ def cli(
     _report(planned.system, planned.name, written[:-1])
     click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene_.stem})")
     _warn(scene_.warnings)
+
+
+def _is_fixed_scene(scene: Path) -> bool:
+    """Whether the scene file declares `[system] type = "fixed"` (its TOML errors: one line)."""
+    from ipgen.scene.fixed import is_fixed_document
+    from ipgen.scene.load import parse_document
+
+    return is_fixed_document(parse_document(scene)[1])
+
+
+def _generate_fixed_scene(
+    scene: Path, directory: str | None, emit: str | None, force: bool, params: dict[str, object]
+) -> None:
+    """`ipgen --scene FIXED.toml -o DIR`: the chain's files and the scene's resolved config."""
+    from ipgen.pipeline.fixed_generate import coordinates_warning, generate_fixed_scene
+
+    allowed = {"scene", "directory", "emit", "force"}
+    extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
+    if extra:
+        option = "--" + extra[0].replace("_", "-")
+        raise job.OptionsError(
+            f"{option} with a fixed scene: the scene says the system (--scene FILE takes -o, --emit "
+            "and --force)"
+        )
+    written = generate_fixed_scene(scene, directory, emit, force)
+    for file in written[:-1]:
+        click.echo(f"{_VERBS[file.status]} {file.path} (fixed, {file.size // 1024} KiB)")
+    click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene.stem})")
+    warning = coordinates_warning(scene)
+    _warn((warning,) if warning else ())
 
 
 def _generate_fixed(

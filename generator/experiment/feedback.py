@@ -112,10 +112,7 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
         sqp_iterations=design.sqp_iterations, cold_iterations=design.cold_iterations,
         qp_iterations=design.qp_iterations, sqp_tolerance=float(design.sqp_tolerance),
         qp_tolerance=float(design.qp_tolerance),
-        params=() if fixed else tuple(
-            (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))
-            for name, value in p.folded().params().items()
-        ),
+        params=_model_params(p),
         input_gain=1.0 if fixed else float(p.gain), barrier=design.barrier,
         sensitivities=design.sensitivities,
     )  # fmt: skip
@@ -123,6 +120,22 @@ def _mpc(table: Any, p: Pendulum | FixedPendulum) -> Controller:
         kind="mpc", gain=flat(gain), equilibrium=flat(x_ref), saturation=design.u_max,
         period=float(table.period), unit="" if fixed else _unit(p), mpc=resolved,
     )  # fmt: skip
+
+
+def _model_params(p: Pendulum | FixedPendulum) -> tuple[tuple[str, tuple[float, ...] | float], ...]:
+    """The parameters the MPC predicts with, by the names of the C header's structs: a cart's or
+    an arm's with a motor folded in (`Pendulum.folded().params()`), a fixed chain's m, l, delta,
+    g, Ir, gr (one per input), com and J (the rods' where not given)."""
+    if isinstance(p, FixedPendulum):
+        groups: dict[str, object] = {"m": p.m, "l": p.l, "delta": p.delta, "g": p.g}
+        groups |= {name: p.motor(name) for name in ("Ir", "gr")}
+        groups |= {name: p.resolved(name) for name in ("com", "J")}
+    else:
+        groups = dict(p.folded().params())
+    return tuple(
+        (name, tuple(float(v) for v in value) if isinstance(value, tuple | list) else float(value))  # type: ignore[arg-type]
+        for name, value in groups.items()
+    )
 
 
 def _mpc_in_ipgen_coordinates(

@@ -12,11 +12,11 @@ from __future__ import annotations
 import contextlib
 from pathlib import Path
 
-from ipgen.codegen.emit import parse_emit
+from ipgen.codegen.emit import EmitError, parse_emit
 from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, render_fixed
 from ipgen.common.files import prepare_directory, write_files
 from ipgen.common.naming import name_problem
-from ipgen.common.safetext import abbreviate
+from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.model.fixed import joints_problem
 from ipgen.pipeline.generate import Written
 from ipgen.pipeline.job import LINKS_WITHOUT_FORCE, OptionsError
@@ -111,6 +111,90 @@ def render_target(request: FixedHeaderRequest, target: str) -> dict[str, str | b
     return dict(render_fixed(request, target))
 
 
+def plan_fixed_scene(
+    scene: Path, directory: str | Path | None, emit: str | None
+) -> tuple[FixedHeaderRequest, Path, tuple[str, ...], str]:
+    """The request, folder, targets and resolved config of `ipgen --scene FIXED.toml -o DIR`: the
+    scene checked as `ipgen run` checks it; the header named by `[system] name` (default
+    fixed<links>); the targets `--emit` or `[system] emit` names (default cpp); a scene's MPC
+    (`[controller] kind = "mpc"`) printed into the C header."""
+    from ipgen.pipeline.fixed_run import fixed_scene
+    from ipgen.scene.load import parse_document
+
+    if directory is None:
+        raise OptionsError("missing -o DIR: say where to write the header")
+    if not str(directory).strip():
+        raise OptionsError(f"-o {str(directory)!r} is empty: name the output folder, e.g. -o out/")
+    reader, document = parse_document(scene)
+    parts = fixed_scene(scene, document, reader)
+    system = document["system"]
+    chain = parts.chain
+    name = system.get("name", f"fixed{chain.links}")
+    problem = name_problem(name) if isinstance(name, str) else "is not a string"
+    if problem:
+        reader.bad("system.name", name, f"this name {problem}; choose another")
+    listed = system.get("emit", ["cpp"])
+    if emit is None and not isinstance(listed, list):
+        choices = ", ".join(FIXED_TARGETS)
+        reader.bad("system.emit", listed, f'expected a list of targets, e.g. ["c"] (of {choices})')
+    try:
+        targets = parse_emit(emit) if emit is not None else parse_emit(listed, "system.emit")
+    except EmitError as exc:
+        reader.fail(str(exc))
+    others = [target for target in targets if target not in FIXED_TARGETS]
+    if others:
+        reader.fail(
+            f"{'--emit' if emit is not None else 'system.emit'}: {others[0]} is not yet supported for "
+            f"fixed-pivot models; choose from {', '.join(FIXED_TARGETS)}"
+        )
+    if not chain.coordinates.is_canonical and any(target in ("fmu", "fmu3") for target in targets):
+        reader.fail(
+            f"{'--emit' if emit is not None else 'system.emit'}: an FMU's variables are ipgen's "
+            f"coordinates, not this scene's (angles = {chain.angles!r}, zero = {chain.zero!r}, "
+            f"positive = {chain.positive!r}): emit it from ipgen --type fixed, or drop fmu"
+        )
+    controller = parts.controller
+    mpc = controller.mpc if controller is not None else None
+    emitting = f" --emit {','.join(targets)}" if emit is not None else ""
+    command = f"ipgen --scene {scene.name}{emitting} -o <dir>"
+    request = FixedHeaderRequest(
+        name, chain.links, tuple(chain.joints), command, mpc,
+        float(controller.period) if mpc is not None and controller is not None and controller.period else 0.0,
+    )  # fmt: skip
+    return request, Path(directory), targets, parts.cfg
+
+
+def coordinates_warning(scene: Path) -> str | None:
+    """The warning `ipgen --scene` prints when a fixed scene's coordinates are not ipgen's: its
+    headers are in ipgen's (the caller maps the state and the torque at the boundary)."""
+    from ipgen.scene.fixed import load_fixed_scene
+
+    chain = load_fixed_scene(scene)
+    if chain.coordinates.is_canonical:
+        return None
+    return (
+        f"{shown_path(scene.as_posix())}: warning: angles = {chain.angles!r}, zero = {chain.zero!r}, "
+        f"positive = {chain.positive!r}; the headers are in ipgen's coordinates (absolute, from upright, "
+        "clockwise): map x and u at the boundary (docs/mpc.md, \"On a fixed pivot\")"
+    )
+
+
+def generate_fixed_scene(
+    scene: Path, directory: str | Path | None, emit: str | None = None, force: bool = False
+) -> list[Written]:
+    """`ipgen --scene FIXED.toml -o DIR`: every target of the scene's chain as DIR/<name><suffix>
+    (the C header with the scene's MPC) and DIR/<stem>.cfg last, all or none (`plan_fixed_scene`)."""
+    request, folder, targets, cfg = plan_fixed_scene(scene, directory, emit)
+    files: list[tuple[Path, str | bytes]] = []
+    for target in targets:
+        files += [
+            (folder / f"{request.name}{suffix}", text)
+            for suffix, text in render_target(request, target).items()
+        ]
+    files.append((folder / f"{scene.stem}.cfg", cfg))
+    return _write(folder, files, force)
+
+
 def generate_fixed(
     links: object,
     joints: str | None,
@@ -127,6 +211,11 @@ def generate_fixed(
             (folder / f"{request.name}{suffix}", text)
             for suffix, text in render_target(request, target).items()
         ]
+    return _write(folder, files, force)
+
+
+def _write(folder: Path, files: list[tuple[Path, str | bytes]], force: bool) -> list[Written]:
+    """`files` written all or none (a folder this call made removed again on failure)."""
     created = prepare_directory(folder)
     try:
         statuses = write_files(files, force)

@@ -27,6 +27,7 @@ parameters and state (no base entry), `input` and `input.*` for the first input,
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -421,8 +422,39 @@ def fixed_config(
     return "\n".join(lines) + "\n"
 
 
+@dataclass(frozen=True)
+class FixedScene:
+    """A fixed scene checked as `ipgen run` checks it: its chain, resolved config, model library
+    (name and sources) and controller (None without [controller])."""
+
+    chain: FixedPendulum
+    cfg: str
+    library: str
+    sources: dict[str, str]
+    controller: FixedController | None
+
+
 def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     """The run plan of a fixed scene (its checks first, each problem one line)."""
+    scene = fixed_scene(path, document, reader)
+    chain = scene.chain
+    return RunPlan(
+        name=scene.library,
+        stem=path.stem,
+        type="fixed",
+        links=chain.links,
+        angles=chain.angles,
+        zero=chain.zero,
+        positive=chain.positive,
+        unit=None,
+        warnings=(),
+        cfg=scene.cfg,
+        sources=scene.sources,
+    )
+
+
+def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedScene:
+    """A fixed scene's parts (`FixedScene`), every table checked, each problem one line."""
     chain_tables = {table: value for table, value in document.items() if table in CHAIN_KEYS}
     chain = fixed_pendulum_of(reader, chain_tables)
     _check_tables(reader, document, chain)
@@ -456,19 +488,10 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller, swingup,
         tracking,
     )  # fmt: skip
-    return RunPlan(
-        name=name,
-        stem=path.stem,
-        type="fixed",
-        links=chain.links,
-        angles=chain.angles,
-        zero=chain.zero,
-        positive=chain.positive,
-        unit=None,
-        warnings=(),
-        cfg=cfg,
-        sources=sources,
-    )
+    return FixedScene(chain, cfg, name, sources, controller)
 
 
-__all__ = ["FixedController", "fixed_config", "fixed_controller", "fixed_inputs", "fixed_plan"]
+__all__ = [
+    "FixedController", "FixedScene", "fixed_config", "fixed_controller", "fixed_inputs", "fixed_plan",
+    "fixed_scene",
+]  # fmt: skip

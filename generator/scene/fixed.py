@@ -1,6 +1,7 @@
 """Scenes of fixed-pivot chains: `[system] type = "fixed"` (docs/scenes.md, "A fixed pivot").
 
-A fixed scene has three tables: [system] (type, links, name, angles, zero, positive),
+A fixed scene has three tables: [system] (type, links, name, angles, zero, positive; emit: the
+targets `ipgen --scene` writes, pipeline/fixed_generate.py),
 [parameters] (m, l, delta, g, com, J, coulomb, coulomb_law, coulomb_speed, coulomb_gain; one
 entry per link, no base) and [actuator] (joints, Ir, gr); and, for `ipgen run`, the tables of an
 open-loop run, [initial], [input] or [[input]], [simulation], [outputs] (RUN_TABLES: checked by
@@ -22,7 +23,7 @@ from ipgen.scene.load import FIXED_NOT_YET as NOT_YET
 from ipgen.scene.load import parse_document
 
 KEYS: dict[str, tuple[str, ...]] = {
-    "system": ("type", "links", "name", "angles", "zero", "positive"),
+    "system": ("type", "links", "name", "angles", "zero", "positive", "emit"),
     "parameters": (
         "m",
         "l",

@@ -1,0 +1,232 @@
+"""A fixed chain's MPC in its C header (issue 47): `ipgen --scene FIXED.toml -o DIR` writes the
+chain's targets (`[system] emit`, default cpp) and the resolved config; with `[controller] kind =
+"mpc"` its C header carries `ipgen_NAME_mpc_step` (ipgen_mpc.h printed whole, the design as
+constants, the chain's own functions as the model the step predicts with).
+
+- Along the simulator's closed loop (the acrobot of tests/test_mpc_fixed.py in DFKI's coordinates
+  balanced by the MPC from a tilt; the pendubot with a geared rotor; the acrobot with the
+  microcontroller's method), the header's step fed the simulator's states mapped to ipgen's
+  coordinates returns the simulator's torque with DFKI's counterclockwise sign flipped back: double
+  to 1e-9, float (every operation single precision) within FLOAT_INPUT (the cold first step
+  FLOAT_COLD); compiled with -std=c99
+  -Wall -Wextra -Wpedantic -Werror (float: -Wdouble-promotion -Wconversion too).
+- The command: its files all or none, nothing overwritten without --force, a bad `[system] emit`
+  or `name` one line (hypothesis over the kinds of bad value), the system options refused.
+"""
+
+from __future__ import annotations
+
+import io
+import shutil
+import subprocess
+from contextlib import redirect_stderr, redirect_stdout
+from pathlib import Path
+
+import numpy as np
+import pytest
+from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_mpc_fixed import BALANCE, U_MAX, canonical, simulate
+
+from ipgen.command.cli import run
+from ipgen.model.fixed import FixedPendulum
+
+# The float step against the simulator's (double) fed the same states: the bound of the cart's
+# and the arm's header (tests/test_mpc_c_header.py), 1e-3 of the torque bound (measured 9e-6 N m);
+# the cold first step, whose iterations stop at float's tolerances, within 1e-2 of it (measured
+# 0.016 N m, 2.6e-3 of it, for the pendubot).
+FLOAT_INPUT = 1e-3 * U_MAX
+FLOAT_COLD = 1e-2 * U_MAX
+FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
+ROTOR = "Ir = [0.001]\ngr = [-6.0]\n"
+
+STEP = """\
+#include <stdio.h>
+#include "NAME.h"
+/* Reads a state per line (ipgen's coordinates), prints u of the MPC step and its status. */
+static ipgen_NAME_mpc_state s;
+int main(void) {
+  double x[4];
+  IPGEN_SCALAR xs[4];
+  int i;
+  ipgen_NAME_mpc_init(&s);
+  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
+    double u;
+    for (i = 0; i < 4; ++i) xs[i] = (IPGEN_SCALAR)x[i];
+    u = (double)ipgen_NAME_mpc_step(&s, xs);
+    printf("%.17g %d\\n", u, s.info.status);
+  }
+  return 0;
+}
+"""
+
+# the header's name: (the driven joint, lines added to [actuator], lines added to [controller])
+CASES = {
+    "acrobot": ("2", "", ""),
+    "pendubot_rotor": ("1", ROTOR, ""),  # a geared rotor at the shoulder
+    "acrobot_fast": ("2", "", FAST),  # the microcontroller's method
+}
+
+
+def scene_text(joint: str, rotor: str, method: str, name: str) -> str:
+    """BALANCE with the driven joint, a rotor and the method; named, emitting the C header."""
+    text = BALANCE.format(extra="").replace("joints = [2]\n", f"joints = [{joint}]\n{rotor}")
+    text = text.replace("[controller]\n", f"[controller]\n{method}")
+    return text.replace('type = "fixed"\n', f'type = "fixed"\nname = "{name}"\nemit = ["c"]\n', 1)
+
+
+def generate(scene: Path, out: Path, *options: str) -> tuple[int, str]:
+    """`ipgen --scene SCENE -o OUT [options]`: (exit status, stderr)."""
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        status = run(["--scene", str(scene), "-o", str(out), *options])
+    return status, err.getvalue()
+
+
+def compiled(folder: Path, name: str, scalar: str) -> Path:
+    source = folder / f"{name}_{scalar}.c"
+    source.write_text(STEP.replace("NAME", name))
+    extra = [*FLOAT_WARNINGS] if scalar == "float" else []
+    program = folder / f"{name}_{scalar}"
+    command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(source), "-o", str(program)]
+    result = subprocess.run([*command, "-lm"], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[:3000]
+    return program
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def loop(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str, dict]:
+    """A case's header (`ipgen --scene`) and the simulator's run of the same scene."""
+    require_cc()
+    name = request.param
+    joint, rotor, method = CASES[name]
+    folder = tmp_path_factory.mktemp("fixed_mpc_c")
+    scene = folder / "balance.toml"
+    scene.write_text(scene_text(joint, rotor, method, name))
+    status, err = generate(scene, folder)
+    assert status == 0, err
+    columns, _ = simulate(folder, scene.read_text())
+    return folder, name, columns
+
+
+@pytest.mark.parametrize("scalar", ["double", "float"])
+def test_the_headers_step_replays_the_simulators_mpc(loop: tuple[Path, str, dict], scalar: str) -> None:
+    folder, name, columns = loop
+    chain = FixedPendulum.from_scene(folder / "balance.toml")
+    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    states = canonical(chain, rows)[:-1]  # the sampling instants (sample = the MPC's period)
+    text = "\n".join(" ".join(repr(v) for v in row) for row in states.tolist()) + "\n"
+    out = subprocess.run(
+        [str(compiled(folder, name, scalar))], input=text, capture_output=True, text=True, check=True
+    ).stdout.split("\n")
+    steps = [line.split() for line in out if line]
+    u = -np.array([float(v[0]) for v in steps])  # ipgen's clockwise -> DFKI's counterclockwise
+    assert len(u) == len(states) and all(v[1] == "0" for v in steps), "a step a sample, every status ok"
+    error = np.abs(u - columns["u"][:-1])
+    if scalar == "double":
+        assert np.max(error) <= 1e-9, np.max(error)
+    else:
+        assert error[0] <= FLOAT_COLD and np.max(error[1:]) <= FLOAT_INPUT, (error[0], np.max(error[1:]))
+    assert np.max(np.abs(u)) > 1.0 and np.max(np.abs(u)) <= U_MAX + 1e-12  # a real push, within the bound
+
+
+def test_the_header_states_the_chains_model_and_the_method(loop: tuple[Path, str, dict]) -> None:
+    """The model constants are the scene's chain (a rotor's Ir and gr where given); the method is
+    printed only where the scene sets it; the .cfg written beside it is `ipgen run`'s."""
+    folder, name, _ = loop
+    header = (folder / f"{name}.h").read_text()
+    assert f"ipgen_{name}_mpc_step" in header and "IPGEN_MPC_NX 4" in header
+    assert ("(IPGEN_SCALAR)-6.0}" in header) == (name == "pendubot_rotor")  # gr = -6 in the params
+    assert (f"ipgen_{name}_mpc_method" in header) == (name == "acrobot_fast")
+    assert (folder / "balance.cfg").read_text() == (folder / "out" / "balance.cfg").read_text()
+
+
+def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> None:
+    """Without [controller] the scene's C header is `ipgen --type fixed`'s for its chain (named
+    by the scene), and cpp is the default target."""
+    text = scene_text("2", "", "", "plain").split("[controller]")[0] + "[simulation]\nt_end = 1.0\n"
+    scene = tmp_path / "plain.toml"
+    scene.write_text(text)
+    status, err = generate(scene, tmp_path / "scene")
+    assert status == 0, err
+    with redirect_stdout(io.StringIO()):
+        args = ["--type", "fixed", "--links", "2", "--joints", "2", "--name", "plain", "--emit", "c"]
+        assert run([*args, "-o", str(tmp_path / "command")]) == 0
+    body = (tmp_path / "scene" / "plain.h").read_text().split("Do not edit")[1].split("\n", 3)[3]
+    assert body == (tmp_path / "command" / "plain.h").read_text().split("Do not edit")[1].split("\n", 3)[3]
+    assert "mpc" not in body
+    scene.write_text(text.replace('emit = ["c"]\n', ""))
+    status, err = generate(scene, tmp_path / "default")
+    assert status == 0, err
+    assert sorted(p.name for p in (tmp_path / "default").iterdir()) == ["plain.cfg", "plain.hpp"]
+
+
+def test_nothing_is_overwritten_without_force(tmp_path: Path) -> None:
+    scene = tmp_path / "balance.toml"
+    scene.write_text(scene_text("2", "", "", "kept"))
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "kept.h").write_text("mine\n")
+    status, err = generate(scene, tmp_path / "out")
+    assert status != 0 and "--force" in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "out" / "kept.h").read_text() == "mine\n"
+    assert not (tmp_path / "out" / "balance.cfg").exists()  # all or none
+    assert generate(scene, tmp_path / "out", "--force")[0] == 0
+    assert "ipgen_kept_mpc_step" in (tmp_path / "out" / "kept.h").read_text()
+
+
+BAD_EMIT = st.one_of(
+    st.just("[]"), st.just('["gym"]'), st.just('["c", "library"]'), st.just('"c"'), st.just("[1]"),
+    st.text(alphabet="abcxyz_+", min_size=1, max_size=8).map(lambda s: f'["{s}"]'),
+)  # fmt: skip
+BAD_NAME = st.one_of(
+    st.just('"1abc"'), st.just('"a b"'), st.just('"int"'), st.just('"a__b"'), st.just("3"),
+    st.text(alphabet="-.;é ", min_size=1, max_size=6).map(lambda s: f'"{s}"'),
+)  # fmt: skip
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(["emit", "name"]), data=st.data())
+def test_a_bad_emit_or_name_is_one_line_and_writes_nothing(
+    tmp_path: Path, key: str, data: st.DataObject
+) -> None:
+    value = data.draw(BAD_EMIT if key == "emit" else BAD_NAME)
+    text = scene_text("2", "", "", "chain")
+    old = 'emit = ["c"]' if key == "emit" else '"chain"'
+    text = text.replace(old, f"emit = {value}" if key == "emit" else value)
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    out = tmp_path / "bad_out"
+    shutil.rmtree(out, ignore_errors=True)  # hypothesis reuses tmp_path
+    status, err = generate(scene, out)
+    assert status == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert f"system.{key}" in err, err
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("option", [["--links", "2"], ["--name", "x"], ["--type", "fixed"], ["--fix", "g"]])
+def test_system_options_with_a_fixed_scene_are_one_line(tmp_path: Path, option: list[str]) -> None:
+    scene = tmp_path / "balance.toml"
+    scene.write_text(scene_text("2", "", "", "chain"))
+    status, err = generate(scene, tmp_path / "out", *option)
+    assert status == 2 and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_scene_in_the_rigs_coordinates_is_warned_and_gets_no_fmu(tmp_path: Path) -> None:
+    """DFKI's coordinates: the headers are written in ipgen's with one warning line saying so; an
+    FMU (its variables ipgen's) is refused in one line, nothing written."""
+    scene = tmp_path / "balance.toml"
+    scene.write_text(scene_text("2", "", "", "chain"))
+    status, err = generate(scene, tmp_path / "out")
+    assert status == 0 and err.count("\n") == 1 and "warning: angles = 'relative'" in err, err
+    canonical_scene = tmp_path / "ipgen.toml"
+    text = scene.read_text()
+    for key in ("angles", "zero", "positive"):
+        text = "\n".join(line for line in text.splitlines() if not line.startswith(f"{key} =")) + "\n"
+    tilt = "[initial]\ntheta = [0.08, 0.05]"  # near upright in ipgen's coordinates
+    canonical_scene.write_text(text.replace("[initial]\ntheta = [3.06, 0.12]", tilt))
+    status, err = generate(canonical_scene, tmp_path / "canonical")
+    assert status == 0 and err == "", err
+    status, err = generate(scene, tmp_path / "fmu", "--emit", "c,fmu")
+    assert status == 2 and err.count("\n") == 1 and "FMU" in err, err
+    assert not (tmp_path / "fmu").exists()
