@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 from test_mpc_fixed import BALANCE, U_MAX, canonical, simulate
 
 from ipgen.command.cli import run
+from ipgen.common.presets import preset_path
 from ipgen.model.fixed import FixedPendulum
 
 # The float step against the simulator's (double) fed the same states: the bound of the cart's
@@ -83,15 +84,23 @@ def generate(scene: Path, out: Path, *options: str) -> tuple[int, str]:
     return status, err.getvalue()
 
 
-def compiled(folder: Path, name: str, scalar: str) -> Path:
+def compiled(folder: Path, name: str, scalar: str, program_text: str = STEP) -> Path:
+    """`program_text` (NAME: the header's name) compiled against the header, C99, warnings as errors."""
     source = folder / f"{name}_{scalar}.c"
-    source.write_text(STEP.replace("NAME", name))
+    source.write_text(program_text.replace("NAME", name))
     extra = [*FLOAT_WARNINGS] if scalar == "float" else []
     program = folder / f"{name}_{scalar}"
     command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(source), "-o", str(program)]
     result = subprocess.run([*command, "-lm"], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr[:3000]
     return program
+
+
+def replay(program: Path, states: np.ndarray) -> list[list[str]]:
+    """The program's output line by line (split), fed one state a line."""
+    text = "\n".join(" ".join(repr(v) for v in row) for row in states.tolist()) + "\n"
+    out = subprocess.run([str(program)], input=text, capture_output=True, text=True, check=True).stdout
+    return [line.split() for line in out.splitlines() if line]
 
 
 @pytest.fixture(scope="module", params=list(CASES))
@@ -115,11 +124,7 @@ def test_the_headers_step_replays_the_simulators_mpc(loop: tuple[Path, str, dict
     chain = FixedPendulum.from_scene(folder / "balance.toml")
     rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
     states = canonical(chain, rows)[:-1]  # the sampling instants (sample = the MPC's period)
-    text = "\n".join(" ".join(repr(v) for v in row) for row in states.tolist()) + "\n"
-    out = subprocess.run(
-        [str(compiled(folder, name, scalar))], input=text, capture_output=True, text=True, check=True
-    ).stdout.split("\n")
-    steps = [line.split() for line in out if line]
+    steps = replay(compiled(folder, name, scalar), states)
     u = -np.array([float(v[0]) for v in steps])  # ipgen's clockwise -> DFKI's counterclockwise
     assert len(u) == len(states) and all(v[1] == "0" for v in steps), "a step a sample, every status ok"
     error = np.abs(u - columns["u"][:-1])
@@ -230,3 +235,56 @@ def test_a_scene_in_the_rigs_coordinates_is_warned_and_gets_no_fmu(tmp_path: Pat
     status, err = generate(scene, tmp_path / "fmu", "--emit", "c,fmu")
     assert status == 2 and err.count("\n") == 1 and "FMU" in err, err
     assert not (tmp_path / "fmu").exists()
+
+
+SWINGUP = """\
+#include <stdio.h>
+#include "NAME.h"
+/* Reads a state per line (ipgen's coordinates), prints u of the swing-up and its phase. */
+static ipgen_NAME_swingup_state s;
+int main(void) {
+  double x[4];
+  IPGEN_SCALAR q[2], qd[2];
+  ipgen_NAME_params p = ipgen_NAME_PARAMS; /* read by the energy law only: a plan's swing-up ignores them */
+  ipgen_NAME_swingup_init(&s);
+  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
+    q[0] = (IPGEN_SCALAR)x[0];
+    q[1] = (IPGEN_SCALAR)x[1];
+    qd[0] = (IPGEN_SCALAR)x[2];
+    qd[1] = (IPGEN_SCALAR)x[3];
+    printf("%.17g\\n", (double)ipgen_NAME_swingup(&s, q, qd, &p, 0));
+  }
+  return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("preset", ["pendubot_mpc", "acrobot_swingup"])
+def test_a_plans_swing_up_in_the_header_replays_the_simulators(tmp_path: Path, preset: str) -> None:
+    """A fixed scene's [swingup] in its C header: the plan as const tables, tracked by the MPC
+    (pendubot_mpc: ipgen_NAME_mpc_track every 5 samples about the plan's reference) or by its
+    time-varying LQR (acrobot_swingup), then held (the MPC, or the hold's LQR): ipgen_NAME_swingup
+    fed the simulator's states at its samples (ipgen's coordinates) returns the simulator's torque
+    (DFKI's sign flipped back), double, 1e-9; 4.5 s of the preset's run (the plan and the catch);
+    it compiles in float too."""
+    require_cc()
+    source = preset_path(preset)
+    shutil.copy(source.parent / source.read_text().split('plan = "')[1].split('"')[0], tmp_path)
+    text = source.read_text().replace("t_end = 10.0", "t_end = 4.5")
+    text = text.replace('type = "fixed"\n', 'type = "fixed"\nname = "chain"\nemit = ["c"]\n', 1)
+    scene = tmp_path / f"{preset}.toml"
+    scene.write_text(text)
+    status, err = generate(scene, tmp_path)
+    assert status == 0, err
+    columns, _ = simulate(tmp_path, text, preset)
+    chain = FixedPendulum.from_scene(scene)
+    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    states = canonical(chain, rows)[:-1]
+    header = (tmp_path / "chain.h").read_text()
+    params = header.split("ipgen_chain_mpc_params = ")[1].split(";")[0] if "_mpc_params" in header else "{0}"
+    program = compiled(tmp_path, "chain", "double", SWINGUP.replace("ipgen_NAME_PARAMS", params))
+    compiled(tmp_path, "chain", "float", SWINGUP.replace("ipgen_NAME_PARAMS", params))  # and in float    u = -np.array([float(v[0]) for v in replay(program, states)])
+    assert len(u) == len(states)
+    error = np.max(np.abs(u - columns["u"][:-1]))
+    assert error <= 1e-9, error
+    assert np.max(np.abs(u)) > 1.0 and abs(rows[-1, 0] - np.pi) < 0.05  # a real swing; upright at the end

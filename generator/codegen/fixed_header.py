@@ -12,13 +12,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ipgen.codegen.c_header import FIXED_STRUCTS, mpc_context
+from ipgen.codegen.c_header import FIXED_STRUCTS, mpc_context, swingup_context
 from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
 from ipgen.codegen.header import environment, function_bodies
-from ipgen.common.locations import mpc_runtime
+from ipgen.common.locations import loop_runtime, mpc_runtime
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import MpcDesign
+from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.fixed_poly import fixed_poly_equations
 from ipgen.model.specialise import FUNCTIONS
 
@@ -34,7 +35,7 @@ _CPP_LATE = {"forward_dynamics_derivatives": "d.qdd"}
 class FixedHeaderRequest:
     """What determines a fixed chain's headers: its name, links, driven joints and command; and
     a scene's MPC (`[controller] kind = "mpc"`, one driven joint), which the C header prints with
-    its sample period [s]."""
+    its sample period [s], and its swing-up (a plan tracked by its gains or by the MPC)."""
 
     name: str
     links: int
@@ -42,6 +43,7 @@ class FixedHeaderRequest:
     command: str
     mpc: MpcDesign | None = None
     mpc_period: float = 0.0
+    swingup: SwingUpLaw | None = None  # a scene's [swingup] (its plan), which the C header prints
 
 
 def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
@@ -96,6 +98,8 @@ def _context(
         "rod_fills": rod_fills,
         "mpc": None,
         "mpc_runtime": "",
+        "swingup": None,
+        "loop_runtime": "",
     }
 
 
@@ -111,6 +115,11 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
             request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
         )
         context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
+    if target == "c" and request.swingup is not None:  # the scene's swing-up (swingup_step.h.jinja)
+        law = request.swingup
+        catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None
+        context["swingup"] = swingup_context(law, request.links, catch_every)
+        context["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n")
     header = environment().get_template("fixed.h.jinja").render(context)
     if target == "c":
         return {".h": header}

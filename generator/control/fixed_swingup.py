@@ -21,6 +21,7 @@ what ipsim's [swingup] method "trajectory" reads (one input: m = 1).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -296,3 +297,29 @@ def fixed_swingup(
         plan_time=plan.seconds,
     )
     return law, plan
+
+
+def law_in_ipgen_coordinates(law: SwingUpLaw, chain: FixedPendulum) -> SwingUpLaw:
+    """A fixed chain's `SwingUpLaw` (the rig's coordinates and torque sense, as `fixed_swingup`
+    makes it and the simulator reads it) in ipgen's, where the C header's loop works: with
+    x_user = P x + c and u_user = s u (s = −1 for counterclockwise torques), the plan's states and
+    the target x = P⁻¹ (x_user − c), its inputs s u_user, its gains and the hold's s K_user P."""
+    from ipgen.model.fixed_equations import state_map
+
+    if chain.coordinates.is_canonical:
+        return law
+    size = 2 * chain.links
+    matrix, offset = state_map(chain.coordinates, chain.links)
+    sign = -1.0 if chain.positive == "counterclockwise" else 1.0
+
+    def states(flat: tuple[float, ...]) -> tuple[float, ...]:
+        rows = np.reshape(flat, (-1, size))
+        return tuple(float(v) for v in np.linalg.solve(matrix, (rows - offset).T).T.reshape(-1))
+
+    def gains(flat: tuple[float, ...]) -> tuple[float, ...]:
+        return tuple(float(v) for v in (sign * np.reshape(flat, (-1, size)) @ matrix).reshape(-1))
+
+    return dataclasses.replace(
+        law, states=states(law.states), target=states(law.target), inputs=tuple(sign * u for u in law.inputs),
+        gains=gains(law.gains), hold_gain=gains(law.hold_gain),
+    )  # fmt: skip

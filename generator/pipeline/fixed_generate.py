@@ -118,6 +118,7 @@ def plan_fixed_scene(
     scene checked as `ipgen run` checks it; the header named by `[system] name` (default
     fixed<links>); the targets `--emit` or `[system] emit` names (default cpp); a scene's MPC
     (`[controller] kind = "mpc"`) printed into the C header."""
+    from ipgen.control.fixed_swingup import law_in_ipgen_coordinates
     from ipgen.pipeline.fixed_run import fixed_scene
     from ipgen.scene.load import parse_document
 
@@ -160,6 +161,7 @@ def plan_fixed_scene(
     request = FixedHeaderRequest(
         name, chain.links, tuple(chain.joints), command, mpc,
         float(controller.period) if mpc is not None and controller is not None and controller.period else 0.0,
+        law_in_ipgen_coordinates(parts.swingup, chain) if parts.swingup is not None else None,
     )  # fmt: skip
     return request, Path(directory), targets, parts.cfg
 

@@ -27,6 +27,7 @@ parameters and state (no base entry), `input` and `input.*` for the first input,
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,6 +37,7 @@ import numpy as np
 from ipgen.codegen.fixed_header import fixed_library_sources
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
+from ipgen.control.swingup import SwingUpLaw
 from ipgen.errors import Error
 from ipgen.experiment.config import CFG_KEYS, mpc_entries
 from ipgen.experiment.scene import InputSpec
@@ -432,6 +434,7 @@ class FixedScene:
     library: str
     sources: dict[str, str]
     controller: FixedController | None
+    swingup: SwingUpLaw | None  # its tracking the scene's (swingup.tracking)
 
 
 def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
@@ -488,7 +491,8 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedSc
         path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller, swingup,
         tracking,
     )  # fmt: skip
-    return FixedScene(chain, cfg, name, sources, controller)
+    tracked = dataclasses.replace(swingup, tracking=tracking) if swingup is not None else None
+    return FixedScene(chain, cfg, name, sources, controller, tracked)
 
 
 __all__ = [
