@@ -283,7 +283,8 @@ def test_a_plans_swing_up_in_the_header_replays_the_simulators(tmp_path: Path, p
     header = (tmp_path / "chain.h").read_text()
     params = header.split("ipgen_chain_mpc_params = ")[1].split(";")[0] if "_mpc_params" in header else "{0}"
     program = compiled(tmp_path, "chain", "double", SWINGUP.replace("ipgen_NAME_PARAMS", params))
-    compiled(tmp_path, "chain", "float", SWINGUP.replace("ipgen_NAME_PARAMS", params))  # and in float    u = -np.array([float(v[0]) for v in replay(program, states)])
+    compiled(tmp_path, "chain", "float", SWINGUP.replace("ipgen_NAME_PARAMS", params))  # and in float
+    u = -np.array([float(v[0]) for v in replay(program, states)])
     assert len(u) == len(states)
     error = np.max(np.abs(u - columns["u"][:-1]))
     assert error <= 1e-9, error
