@@ -281,20 +281,23 @@ def _is_fixed_scene(scene: Path) -> bool:
     return is_fixed_document(parse_document(scene)[1])
 
 
+def _refuse_others(params: dict[str, object], allowed: set[str], why: str) -> None:
+    """One line for the first option given that is not in `allowed`: "--option <why>"."""
+    extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
+    if extra:
+        raise job.OptionsError(f"--{extra[0].replace('_', '-')} {why}")
+
+
 def _generate_fixed_scene(
     scene: Path, directory: str | None, emit: str | None, force: bool, params: dict[str, object]
 ) -> None:
     """`ipgen --scene FIXED.toml -o DIR`: the chain's files and the scene's resolved config."""
     from ipgen.pipeline.fixed_generate import coordinates_warning, generate_fixed_scene
 
-    allowed = {"scene", "directory", "emit", "force"}
-    extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
-    if extra:
-        option = "--" + extra[0].replace("_", "-")
-        raise job.OptionsError(
-            f"{option} with a fixed scene: the scene says the system (--scene FILE takes -o, --emit "
-            "and --force)"
-        )
+    _refuse_others(
+        params, {"scene", "directory", "emit", "force"},
+        "with a fixed scene: the scene says the system (--scene FILE takes -o, --emit and --force)",
+    )  # fmt: skip
     written = generate_fixed_scene(scene, directory, emit, force)
     for file in written[:-1]:
         click.echo(f"{_VERBS[file.status]} {file.path} (fixed, {file.size // 1024} KiB)")
@@ -318,14 +321,11 @@ def _generate_fixed(
 
     if system_type != "fixed":
         raise job.OptionsError("--joints is for --type fixed (a chain on a fixed pivot driven at its joints)")
-    allowed = {"system_type", "links", "joints", "directory", "name", "emit", "force"}
-    extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
-    if extra:
-        option = "--" + extra[0].replace("_", "-")
-        raise job.OptionsError(
-            f"{option} with --type fixed: not yet supported for fixed-pivot models (they take --links, "
-            "--joints, --name, --emit cpp, c, library, equations, fmu or fmu3, --force and -o)"
-        )
+    _refuse_others(
+        params, {"system_type", "links", "joints", "directory", "name", "emit", "force"},
+        "with --type fixed: not yet supported for fixed-pivot models (they take --links, --joints, "
+        "--name, --emit cpp, c, library, equations, fmu or fmu3, --force and -o)",
+    )  # fmt: skip
     written = generate_fixed(links, joints, directory, name, emit, force)
     for file in written:
         click.echo(f"{_VERBS[file.status]} {file.path} (fixed, {file.size // 1024} KiB)")
