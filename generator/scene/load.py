@@ -54,13 +54,14 @@ FIXED_NOT_YET = "not yet supported for fixed-pivot models"
 
 def validate_document(reader: Reader, document: dict[str, Any]) -> schema.SceneDocument:
     """`document` validated against the scene format; `SceneError` (one line) naming `reader`'s file.
-    A fixed-pivot scene (`[system] type = "fixed"`, read by `scene.fixed`) is refused here: the
-    simulator, the headers and the commands built on scenes do not take it yet."""
+    A fixed-pivot scene (`[system] type = "fixed"`, read by `scene.fixed` and the commands that
+    take it: ipgen --scene -o, run, sweep, identify) is refused here: what validates a cart's or
+    an arm's scene does not take it."""
     system = document.get("system")
     if isinstance(system, dict) and system.get("type") == "fixed":
         reader.fail(
-            f'[system] type = "fixed": this command is {FIXED_NOT_YET} (ipgen identify and '
-            "ipgen.FixedPendulum.from_scene read this scene)"
+            f'[system] type = "fixed": this command is {FIXED_NOT_YET} (ipgen --scene FILE -o DIR, run, '
+            "sweep, identify and ipgen.FixedPendulum.from_scene read this scene)"
         )
     return _validate(reader, document)
 
