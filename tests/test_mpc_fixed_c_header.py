@@ -166,6 +166,18 @@ def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> N
     assert sorted(p.name for p in (tmp_path / "default").iterdir()) == ["plain.cfg", "plain.hpp"]
 
 
+def test_an_lqr_the_header_does_not_print_is_warned(tmp_path: Path) -> None:
+    """[controller] kind = "lqr" on a fixed chain: the C header is written without it, and one
+    warning line says so (besides the coordinates' line)."""
+    text = scene_text("2", "", "", "lqr").split("[controller]")[0]
+    scene = tmp_path / "lqr.toml"
+    lqr = '[controller]\nkind = "lqr"\nq = [10.0, 10.0, 0.1, 0.1]\nr = 0.1\n'
+    scene.write_text(text + lqr + "\n[simulation]\nt_end = 1.0\n")
+    status, err = generate(scene, tmp_path / "out")
+    assert status == 0 and err.count("\n") == 2 and 'kind = "lqr" is not printed' in err, err
+    assert "mpc_step" not in (tmp_path / "out" / "lqr.h").read_text()
+
+
 def test_nothing_is_overwritten_without_force(tmp_path: Path) -> None:
     scene = tmp_path / "balance.toml"
     scene.write_text(scene_text("2", "", "", "kept"))

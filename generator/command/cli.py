@@ -292,18 +292,17 @@ def _generate_fixed_scene(
     scene: Path, directory: str | None, emit: str | None, force: bool, params: dict[str, object]
 ) -> None:
     """`ipgen --scene FIXED.toml -o DIR`: the chain's files and the scene's resolved config."""
-    from ipgen.pipeline.fixed_generate import coordinates_warning, generate_fixed_scene
+    from ipgen.pipeline.fixed_generate import generate_fixed_scene
 
     _refuse_others(
         params, {"scene", "directory", "emit", "force"},
         "with a fixed scene: the scene says the system (--scene FILE takes -o, --emit and --force)",
     )  # fmt: skip
-    written = generate_fixed_scene(scene, directory, emit, force)
+    written, warnings = generate_fixed_scene(scene, directory, emit, force)
     for file in written[:-1]:
         click.echo(f"{_VERBS[file.status]} {file.path} (fixed, {file.size // 1024} KiB)")
     click.echo(f"{_VERBS[written[-1].status]} {written[-1].path} (resolved scene {scene.stem})")
-    warning = coordinates_warning(scene)
-    _warn((warning,) if warning else ())
+    _warn(warnings)
 
 
 def _generate_fixed(

@@ -10,6 +10,7 @@ cart's and the arm's.
 from __future__ import annotations
 
 import contextlib
+from dataclasses import dataclass
 from pathlib import Path
 
 from ipgen.codegen.emit import EmitError, parse_emit
@@ -111,13 +112,23 @@ def render_target(request: FixedHeaderRequest, target: str) -> dict[str, str | b
     return dict(render_fixed(request, target))
 
 
-def plan_fixed_scene(
-    scene: Path, directory: str | Path | None, emit: str | None
-) -> tuple[FixedHeaderRequest, Path, tuple[str, ...], str]:
-    """The request, folder, targets and resolved config of `ipgen --scene FIXED.toml -o DIR`: the
-    scene checked as `ipgen run` checks it; the header named by `[system] name` (default
-    fixed<links>); the targets `--emit` or `[system] emit` names (default cpp); a scene's MPC
-    (`[controller] kind = "mpc"`) printed into the C header."""
+@dataclass(frozen=True)
+class FixedScenePlan:
+    """What `ipgen --scene FIXED.toml -o DIR` writes: the chain's request and targets, the folder,
+    the resolved config and the warnings to print (one line each)."""
+
+    request: FixedHeaderRequest
+    folder: Path
+    targets: tuple[str, ...]
+    cfg: str
+    warnings: tuple[str, ...]
+
+
+def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None) -> FixedScenePlan:
+    """`ipgen --scene FIXED.toml -o DIR` planned: the scene checked as `ipgen run` checks it; the
+    header named by `[system] name` (default fixed<links>); the targets `--emit` or `[system]
+    emit` names (default cpp); a scene's MPC and swing-up printed into the C header, in ipgen's
+    coordinates (a warning when the scene's are others, or when its LQR is not printed)."""
     from ipgen.control.fixed_swingup import law_in_ipgen_coordinates
     from ipgen.pipeline.fixed_run import fixed_scene
     from ipgen.scene.load import parse_document
@@ -156,45 +167,48 @@ def plan_fixed_scene(
         )
     controller = parts.controller
     mpc = controller.mpc if controller is not None else None
+    period = float(controller.period or 0.0) if controller is not None and mpc is not None else 0.0
+    swingup = law_in_ipgen_coordinates(parts.swingup, chain) if parts.swingup is not None else None
     emitting = f" --emit {','.join(targets)}" if emit is not None else ""
     command = f"ipgen --scene {scene.name}{emitting} -o <dir>"
-    request = FixedHeaderRequest(
-        name, chain.links, tuple(chain.joints), command, mpc,
-        float(controller.period) if mpc is not None and controller is not None and controller.period else 0.0,
-        law_in_ipgen_coordinates(parts.swingup, chain) if parts.swingup is not None else None,
-    )  # fmt: skip
-    return request, Path(directory), targets, parts.cfg
+    request = FixedHeaderRequest(name, chain.links, tuple(chain.joints), command, mpc, period, swingup)
+    where = f"{shown_path(scene.as_posix())}: warning:"
+    warnings = []
+    if not chain.coordinates.is_canonical:
+        warnings.append(
+            f"{where} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
+            "the headers are in ipgen's coordinates (absolute, from upright, clockwise): map x and u "
+            'at the boundary (docs/mpc.md, "On a fixed pivot")'
+        )
+    if controller is not None and mpc is None and "c" in targets:
+        warnings.append(
+            f'{where} [controller] kind = "{controller.kind}" is not printed into a fixed chain\'s C '
+            'header yet (kind = "mpc" is)'
+        )
+    return FixedScenePlan(request, Path(directory), targets, parts.cfg, tuple(warnings))
 
 
-def coordinates_warning(scene: Path) -> str | None:
-    """The warning `ipgen --scene` prints when a fixed scene's coordinates are not ipgen's: its
-    headers are in ipgen's (the caller maps the state and the torque at the boundary)."""
-    from ipgen.scene.fixed import load_fixed_scene
-
-    chain = load_fixed_scene(scene)
-    if chain.coordinates.is_canonical:
-        return None
-    return (
-        f"{shown_path(scene.as_posix())}: warning: angles = {chain.angles!r}, zero = {chain.zero!r}, "
-        f"positive = {chain.positive!r}; the headers are in ipgen's coordinates (absolute, from upright, "
-        "clockwise): map x and u at the boundary (docs/mpc.md, \"On a fixed pivot\")"
-    )
+def _files(
+    request: FixedHeaderRequest, folder: Path, targets: tuple[str, ...]
+) -> list[tuple[Path, str | bytes]]:
+    """(path, contents) of every target of the chain, DIR/<name><suffix>."""
+    return [
+        (folder / f"{request.name}{suffix}", text)
+        for target in targets
+        for suffix, text in render_target(request, target).items()
+    ]
 
 
 def generate_fixed_scene(
     scene: Path, directory: str | Path | None, emit: str | None = None, force: bool = False
-) -> list[Written]:
+) -> tuple[list[Written], tuple[str, ...]]:
     """`ipgen --scene FIXED.toml -o DIR`: every target of the scene's chain as DIR/<name><suffix>
-    (the C header with the scene's MPC) and DIR/<stem>.cfg last, all or none (`plan_fixed_scene`)."""
-    request, folder, targets, cfg = plan_fixed_scene(scene, directory, emit)
-    files: list[tuple[Path, str | bytes]] = []
-    for target in targets:
-        files += [
-            (folder / f"{request.name}{suffix}", text)
-            for suffix, text in render_target(request, target).items()
-        ]
-    files.append((folder / f"{scene.stem}.cfg", cfg))
-    return _write(folder, files, force)
+    (the C header with the scene's MPC and swing-up) and DIR/<stem>.cfg last, all or none; and the
+    warnings to print (`plan_fixed_scene`)."""
+    plan = plan_fixed_scene(scene, directory, emit)
+    files = _files(plan.request, plan.folder, plan.targets)
+    files.append((plan.folder / f"{scene.stem}.cfg", plan.cfg))
+    return _write(plan.folder, files, force), plan.warnings
 
 
 def generate_fixed(
@@ -207,13 +221,7 @@ def generate_fixed(
 ) -> list[Written]:
     """Render every target of `emit` for the chain as DIR/<name><suffix> and write them all or none."""
     request, folder, targets = plan_fixed(links, joints, directory, name, emit, force)
-    files: list[tuple[Path, str | bytes]] = []
-    for target in targets:
-        files += [
-            (folder / f"{request.name}{suffix}", text)
-            for suffix, text in render_target(request, target).items()
-        ]
-    return _write(folder, files, force)
+    return _write(folder, _files(request, folder, targets), force)
 
 
 def _write(folder: Path, files: list[tuple[Path, str | bytes]], force: bool) -> list[Written]:
