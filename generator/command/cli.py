@@ -282,7 +282,7 @@ def _is_fixed_scene(scene: Path) -> bool:
 
 
 def _refuse_others(params: dict[str, object], allowed: set[str], why: str) -> None:
-    """One line for the first option given that is not in `allowed`: "--option <why>"."""
+    """One line for the first option given that is not in `allowed`: its name, then `why`."""
     extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
     if extra:
         raise job.OptionsError(f"--{extra[0].replace('_', '-')} {why}")
