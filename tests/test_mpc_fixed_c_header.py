@@ -17,6 +17,7 @@ constants, the chain's own functions as the model the step predicts with).
 from __future__ import annotations
 
 import io
+import math
 import shutil
 import subprocess
 from contextlib import redirect_stderr, redirect_stdout
@@ -27,6 +28,8 @@ import pytest
 from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_fixed_lqr import CHAIN as LQR_CHAIN
+from test_fixed_lqr import CONTROLLER as LQR_CONTROLLER
 from test_mpc_fixed import BALANCE, U_MAX, canonical, simulate
 
 from ipgen.command.cli import run
@@ -167,16 +170,58 @@ def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> N
     assert sorted(p.name for p in (tmp_path / "default").iterdir()) == ["plain.cfg", "plain.hpp"]
 
 
-def test_an_lqr_the_header_does_not_print_is_warned(tmp_path: Path) -> None:
-    """[controller] kind = "lqr" on a fixed chain: the C header is written without it, and one
-    warning line says so (besides the coordinates' line)."""
-    text = scene_text("2", "", "", "lqr").split("[controller]")[0]
-    scene = tmp_path / "lqr.toml"
-    lqr = '[controller]\nkind = "lqr"\nq = [10.0, 10.0, 0.1, 0.1]\nr = 0.1\n'
-    scene.write_text(text + lqr + "\n[simulation]\nt_end = 1.0\n")
-    status, err = generate(scene, tmp_path / "out")
-    assert status == 0 and err.count("\n") == 2 and 'kind = "lqr" is not printed' in err, err
-    assert "mpc_step" not in (tmp_path / "out" / "lqr.h").read_text()
+CONTROL = """\
+#include <stdio.h>
+#include "NAME.h"
+/* Reads a state per line (ipgen's coordinates), prints the inputs of the state feedback. */
+int main(void) {
+  double x[4];
+  IPGEN_SCALAR q[2], qd[2], u[IPGEN_NAME_INPUTS];
+  int k;
+  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
+    q[0] = (IPGEN_SCALAR)x[0];
+    q[1] = (IPGEN_SCALAR)x[1];
+    qd[0] = (IPGEN_SCALAR)x[2];
+    qd[1] = (IPGEN_SCALAR)x[3];
+    ipgen_NAME_control(q, qd, u);
+    for (k = 0; k < IPGEN_NAME_INPUTS; ++k) printf("%.17g ", (double)u[k]);
+    printf("\\n");
+  }
+  return 0;
+}
+"""
+
+
+@pytest.mark.parametrize(
+    ("joints", "period"), [([1], 0.002), ([2], 0.002), ([1, 2], None)], ids=["pendubot", "acrobot", "both"]
+)
+def test_an_lqr_in_the_header_replays_the_simulators(
+    tmp_path: Path, joints: list[int], period: float | None
+) -> None:
+    """[controller] kind = "lqr" on a fixed chain (test_fixed_lqr's scenes: DFKI's coordinates, a
+    tilt held within 6 N m, sampled or continuous, one input or two): `ipgen_NAME_control` (K
+    mapped to ipgen's coordinates) fed the simulator's states returns its torques with DFKI's
+    sign flipped back, double to 1e-9 (the acrobot's on its clip at first), float within FLOAT_INPUT."""
+    require_cc()
+    text = LQR_CHAIN.format(joints=joints, tilt=math.pi - 0.08)
+    text += LQR_CONTROLLER.format(period="" if period is None else f"period = {period}")
+    text = text.replace('type = "fixed"\n', 'type = "fixed"\nname = "lqr"\nemit = ["c"]\n', 1)
+    scene = tmp_path / "hold.toml"
+    scene.write_text(text)
+    status, err = generate(scene, tmp_path)
+    assert status == 0 and "warning: angles" in err, err
+    columns, _ = simulate(tmp_path, text, "hold")
+    chain = FixedPendulum.from_scene(scene)
+    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    names = ["u"] if len(joints) == 1 else [f"u{k + 1}" for k in range(len(joints))]  # the CSV's
+    torques = np.column_stack([columns[name] for name in names])[:-1]  # the last row: u held to t_end
+    states = canonical(chain, rows)[:-1]
+    for scalar, bound in (("double", 1e-9), ("float", FLOAT_INPUT)):
+        program = compiled(tmp_path, "lqr", scalar, CONTROL.replace("IPGEN_NAME_INPUTS", "IPGEN_LQR_INPUTS"))
+        u = -np.array([[float(v) for v in line] for line in replay(program, states)])
+        error = np.max(np.abs(u - torques))
+        assert error <= bound, (scalar, error)
+    assert 0.4 < np.max(np.abs(torques)) <= 6.0 + 1e-12  # a real push, within the clip (on it: the acrobot)
 
 
 def test_nothing_is_overwritten_without_force(tmp_path: Path) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ipgen.codegen.c_header import FIXED_STRUCTS, mpc_context, swingup_context
+from ipgen.codegen.c_header import FIXED_STRUCTS, c_number, mpc_context, swingup_context
 from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
 from ipgen.codegen.header import environment, function_bodies
 from ipgen.common.locations import loop_runtime, mpc_runtime
@@ -23,12 +23,25 @@ from ipgen.control.swingup import SwingUpLaw
 from ipgen.model.fixed_poly import fixed_poly_equations
 from ipgen.model.specialise import FUNCTIONS
 
-__all__ = ["FIXED_CPP_SYNTAX", "FIXED_C_SYNTAX", "FixedHeaderRequest", "render_fixed"]
+__all__ = ["FIXED_CPP_SYNTAX", "FIXED_C_SYNTAX", "FixedFeedback", "FixedHeaderRequest", "render_fixed"]
 
 FIXED_CPP_SYNTAX: Syntax = replace(CPP_SYNTAX, offset=1)
 FIXED_C_SYNTAX: Syntax = replace(C_SYNTAX, offset=1, resolved=("com", "J"))
 _C_LATE = {"forward_dynamics_derivatives": "qdd"}
 _CPP_LATE = {"forward_dynamics_derivatives": "d.qdd"}
+
+
+@dataclass(frozen=True)
+class FixedFeedback:
+    """A fixed scene's state feedback u = −K (x − x_eq) as the C header prints it, in ipgen's
+    coordinates and torque sense: K one row per input, x_eq (2n), |u_k| bounds (None: none) and
+    the sampling period [s] (None: continuous)."""
+
+    kind: str
+    gain: tuple[tuple[float, ...], ...]
+    equilibrium: tuple[float, ...]
+    saturation: tuple[float, ...] | None
+    period: float | None
 
 
 @dataclass(frozen=True)
@@ -44,6 +57,7 @@ class FixedHeaderRequest:
     mpc: MpcDesign | None = None
     mpc_period: float = 0.0
     swingup: SwingUpLaw | None = None  # a scene's [swingup] (its plan), which the C header prints
+    control: FixedFeedback | None = None  # a scene's [controller] kind = "lqr" or "gain"
 
 
 def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
@@ -100,6 +114,7 @@ def _context(
         "mpc_runtime": "",
         "swingup": None,
         "loop_runtime": "",
+        "control": None,
     }
 
 
@@ -115,6 +130,15 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
             request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
         )
         context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
+    if target == "c" and request.control is not None:  # the scene's state feedback
+        feedback = request.control
+        context["control"] = {
+            "kind": comment_safe(feedback.kind),
+            "gain": [", ".join(c_number(v) for v in row) for row in feedback.gain],
+            "equilibrium": ", ".join(c_number(v) for v in feedback.equilibrium),
+            "saturation": ", ".join(c_number(v) for v in feedback.saturation) if feedback.saturation else "",
+            "period": repr(float(feedback.period)) if feedback.period else "",
+        }
     if target == "c" and request.swingup is not None:  # the scene's swing-up (swingup_step.h.jinja)
         law = request.swingup
         catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None

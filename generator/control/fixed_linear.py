@@ -112,3 +112,22 @@ def _input_weights(R: float | Sequence[float] | np.ndarray, inputs: int) -> np.n
     if not np.allclose(r, r.T) or float(np.min(np.linalg.eigvalsh(0.5 * (r + r.T)))) <= 0:
         raise ControlError("R must be symmetric positive definite (every input weighted > 0)")
     return 0.5 * (r + r.T)
+
+
+def states_in_ipgen_coordinates(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
+    """States [q; q̇] in the chain's coordinates (one a row) in ipgen's [θ; θ̇]: with x_user =
+    P x + c (`fixed_equations.state_map`), x = P⁻¹ (x_user − c)."""
+    from ipgen.model.fixed_equations import state_map
+
+    matrix, offset = state_map(p.coordinates, p.links)
+    return np.linalg.solve(matrix, (np.atleast_2d(rows) - offset).T).T
+
+
+def gains_in_ipgen_coordinates(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
+    """Gains K_user (one row per input: u_user = −K_user (x_user − x̄_user)) in ipgen's: the rig's
+    torque is s u (s = −1 for counterclockwise), so u = −s K_user P (x − x̄), K = s K_user P."""
+    from ipgen.model.fixed_equations import state_map
+
+    matrix, _ = state_map(p.coordinates, p.links)
+    sign = -1.0 if p.positive == "counterclockwise" else 1.0
+    return sign * np.atleast_2d(rows) @ matrix

@@ -301,25 +301,26 @@ def fixed_swingup(
 
 def law_in_ipgen_coordinates(law: SwingUpLaw, chain: FixedPendulum) -> SwingUpLaw:
     """A fixed chain's `SwingUpLaw` (the rig's coordinates and torque sense, as `fixed_swingup`
-    makes it and the simulator reads it) in ipgen's, where the C header's loop works: with
-    x_user = P x + c and u_user = s u (s = −1 for counterclockwise torques), the plan's states and
-    the target x = P⁻¹ (x_user − c), its inputs s u_user, its gains and the hold's s K_user P."""
-    from ipgen.model.fixed_equations import state_map
+    makes it and the simulator reads it) in ipgen's, where the C header's loop works: its plan's
+    states and target mapped (`states_in_ipgen_coordinates`), its inputs times the torque's sign,
+    its gains and the hold's mapped (`gains_in_ipgen_coordinates`)."""
+    from ipgen.control.fixed_linear import gains_in_ipgen_coordinates, states_in_ipgen_coordinates
 
     if chain.coordinates.is_canonical:
         return law
     size = 2 * chain.links
-    matrix, offset = state_map(chain.coordinates, chain.links)
     sign = -1.0 if chain.positive == "counterclockwise" else 1.0
 
-    def states(flat: tuple[float, ...]) -> tuple[float, ...]:
-        rows = np.reshape(flat, (-1, size))
-        return tuple(float(v) for v in np.linalg.solve(matrix, (rows - offset).T).T.reshape(-1))
+    def flat(values: np.ndarray) -> tuple[float, ...]:
+        return tuple(float(v) for v in np.ravel(values))
 
-    def gains(flat: tuple[float, ...]) -> tuple[float, ...]:
-        return tuple(float(v) for v in (sign * np.reshape(flat, (-1, size)) @ matrix).reshape(-1))
+    def rows(values: tuple[float, ...]) -> np.ndarray:
+        return np.reshape(values, (-1, size))
 
     return dataclasses.replace(
-        law, states=states(law.states), target=states(law.target), inputs=tuple(sign * u for u in law.inputs),
-        gains=gains(law.gains), hold_gain=gains(law.hold_gain),
+        law, states=flat(states_in_ipgen_coordinates(chain, rows(law.states))),
+        target=flat(states_in_ipgen_coordinates(chain, rows(law.target))),
+        inputs=tuple(sign * u for u in law.inputs),
+        gains=flat(gains_in_ipgen_coordinates(chain, rows(law.gains))),
+        hold_gain=flat(gains_in_ipgen_coordinates(chain, rows(law.hold_gain))),
     )  # fmt: skip

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ipgen.codegen.emit import EmitError, parse_emit
-from ipgen.codegen.fixed_header import FixedHeaderRequest, fixed_command, render_fixed
+from ipgen.codegen.fixed_header import FixedFeedback, FixedHeaderRequest, fixed_command, render_fixed
 from ipgen.common.files import prepare_directory, write_files
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
@@ -128,7 +128,8 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     """`ipgen --scene FIXED.toml -o DIR` planned: the scene checked as `ipgen run` checks it; the
     header named by `[system] name` (default fixed<links>); the targets `--emit` or `[system]
     emit` names (default cpp); a scene's MPC and swing-up printed into the C header, in ipgen's
-    coordinates (a warning when the scene's are others, or when its LQR is not printed)."""
+    coordinates (a warning when the scene's are others); its LQR or gain as `P_control`."""
+    from ipgen.control.fixed_linear import gains_in_ipgen_coordinates, states_in_ipgen_coordinates
     from ipgen.control.fixed_swingup import law_in_ipgen_coordinates
     from ipgen.pipeline.fixed_run import fixed_scene
     from ipgen.scene.load import parse_document
@@ -171,7 +172,18 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     swingup = law_in_ipgen_coordinates(parts.swingup, chain) if parts.swingup is not None else None
     emitting = f" --emit {','.join(targets)}" if emit is not None else ""
     command = f"ipgen --scene {scene.name}{emitting} -o <dir>"
-    request = FixedHeaderRequest(name, chain.links, tuple(chain.joints), command, mpc, period, swingup)
+    feedback = None
+    if controller is not None and mpc is None:  # kind = "lqr" or "gain": u = −K (x − x_eq), mapped
+        feedback = FixedFeedback(
+            controller.kind,
+            tuple(tuple(float(v) for v in row) for row in gains_in_ipgen_coordinates(chain, controller.gain)),
+            tuple(float(v) for v in states_in_ipgen_coordinates(chain, controller.equilibrium)[0]),
+            controller.saturation,
+            controller.period,
+        )
+    request = FixedHeaderRequest(
+        name, chain.links, tuple(chain.joints), command, mpc, period, swingup, feedback
+    )
     where = f"{shown_path(scene.as_posix())}: warning:"
     warnings = []
     if not chain.coordinates.is_canonical:
@@ -179,11 +191,6 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
             f"{where} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
             "the headers are in ipgen's coordinates (absolute, from upright, clockwise): map x and u "
             'at the boundary (docs/mpc.md, "On a fixed pivot")'
-        )
-    if controller is not None and mpc is None and "c" in targets:
-        warnings.append(
-            f'{where} [controller] kind = "{controller.kind}" is not printed into a fixed chain\'s C '
-            'header yet (kind = "mpc" is)'
         )
     return FixedScenePlan(request, Path(directory), targets, parts.cfg, tuple(warnings))
 
