@@ -43,6 +43,7 @@ from ipgen.pipeline.fixed_generate import FIXED_TARGETS
 # 0.016 N m, 2.6e-3 of it, for the pendubot).
 FLOAT_INPUT = 1e-3 * U_MAX
 FLOAT_COLD = 1e-2 * U_MAX
+RIG_KEYS = ("angles", "zero", "positive")  # DFKI's coordinates, in BALANCE
 FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
 ROTOR = "Ir = [0.001]\ngr = [-6.0]\n"
 
@@ -151,9 +152,10 @@ def test_the_header_states_the_chains_model_and_the_method(loop: tuple[Path, str
 
 
 def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> None:
-    """Without [controller] the scene's C header is `ipgen --type fixed`'s for its chain (named
-    by the scene), and cpp is the default target."""
+    """Without [controller], in ipgen's coordinates, the scene's C header is `ipgen --type fixed`'s
+    for its chain (named by the scene), and cpp is the default target."""
     text = scene_text("2", "", "", "plain").split("[controller]")[0] + "[simulation]\nt_end = 1.0\n"
+    text = "".join(line for line in text.splitlines(keepends=True) if line.split(" =")[0] not in RIG_KEYS)
     scene = tmp_path / "plain.toml"
     scene.write_text(text)
     status, err = generate(scene, tmp_path / "scene")
@@ -173,18 +175,20 @@ def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> N
 CONTROL = """\
 #include <stdio.h>
 #include "NAME.h"
-/* Reads a state per line (ipgen's coordinates), prints the inputs of the state feedback. */
+/* Reads a state per line in the rig's coordinates, prints the state feedback's torques in the
+ * rig's sense (the header's mapping both ways). */
 int main(void) {
   double x[4];
-  IPGEN_SCALAR q[2], qd[2], u[IPGEN_NAME_INPUTS];
+  IPGEN_SCALAR q_rig[2], qd_rig[2], q[2], qd[2], u[IPGEN_NAME_INPUTS];
   int k;
   while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
-    q[0] = (IPGEN_SCALAR)x[0];
-    q[1] = (IPGEN_SCALAR)x[1];
-    qd[0] = (IPGEN_SCALAR)x[2];
-    qd[1] = (IPGEN_SCALAR)x[3];
+    q_rig[0] = (IPGEN_SCALAR)x[0];
+    q_rig[1] = (IPGEN_SCALAR)x[1];
+    qd_rig[0] = (IPGEN_SCALAR)x[2];
+    qd_rig[1] = (IPGEN_SCALAR)x[3];
+    ipgen_NAME_rig_to_ipgen(q_rig, qd_rig, q, qd);
     ipgen_NAME_control(q, qd, u);
-    for (k = 0; k < IPGEN_NAME_INPUTS; ++k) printf("%.17g ", (double)u[k]);
+    for (k = 0; k < IPGEN_NAME_INPUTS; ++k) printf("%.17g ", (double)ipgen_NAME_torque_to_rig(u[k]));
     printf("\\n");
   }
   return 0;
@@ -200,8 +204,9 @@ def test_an_lqr_in_the_header_replays_the_simulators(
 ) -> None:
     """[controller] kind = "lqr" on a fixed chain (test_fixed_lqr's scenes: DFKI's coordinates, a
     tilt held within 6 N m, sampled or continuous, one input or two): `ipgen_NAME_control` (K
-    mapped to ipgen's coordinates) fed the simulator's states returns its torques with DFKI's
-    sign flipped back, double to 1e-9 (the acrobot's on its clip at first), float within FLOAT_INPUT."""
+    mapped to ipgen's coordinates) fed the simulator's states in DFKI's coordinates through the
+    header's `_rig_to_ipgen` returns, through `_torque_to_rig`, its torques: double to 1e-9 (the
+    acrobot's on its clip at first), float within FLOAT_INPUT."""
     require_cc()
     text = LQR_CHAIN.format(joints=joints, tilt=math.pi - 0.08)
     text += LQR_CONTROLLER.format(period="" if period is None else f"period = {period}")
@@ -211,14 +216,12 @@ def test_an_lqr_in_the_header_replays_the_simulators(
     status, err = generate(scene, tmp_path)
     assert status == 0 and "warning: angles" in err, err
     columns, _ = simulate(tmp_path, text, "hold")
-    chain = FixedPendulum.from_scene(scene)
-    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])[:-1]
     names = ["u"] if len(joints) == 1 else [f"u{k + 1}" for k in range(len(joints))]  # the CSV's
     torques = np.column_stack([columns[name] for name in names])[:-1]  # the last row: u held to t_end
-    states = canonical(chain, rows)[:-1]
     for scalar, bound in (("double", 1e-9), ("float", FLOAT_INPUT)):
         program = compiled(tmp_path, "lqr", scalar, CONTROL.replace("IPGEN_NAME_INPUTS", "IPGEN_LQR_INPUTS"))
-        u = -np.array([[float(v) for v in line] for line in replay(program, states)])
+        u = np.array([[float(v) for v in line] for line in replay(program, rows)])
         error = np.max(np.abs(u - torques))
         assert error <= bound, (scalar, error)
     assert 0.4 < np.max(np.abs(torques)) <= 6.0 + 1e-12  # a real push, within the clip (on it: the acrobot)
@@ -286,8 +289,7 @@ def test_a_scene_in_the_rigs_coordinates_is_warned_and_gets_no_fmu(tmp_path: Pat
     assert status == 0 and err.count("\n") == 1 and "warning: angles = 'relative'" in err, err
     canonical_scene = tmp_path / "ipgen.toml"
     text = scene.read_text()
-    for key in ("angles", "zero", "positive"):
-        text = "\n".join(line for line in text.splitlines() if not line.startswith(f"{key} =")) + "\n"
+    text = "".join(line for line in text.splitlines(keepends=True) if line.split(" =")[0] not in RIG_KEYS)
     tilt = "[initial]\ntheta = [0.08, 0.05]"  # near upright in ipgen's coordinates
     canonical_scene.write_text(text.replace("[initial]\ntheta = [3.06, 0.12]", tilt))
     status, err = generate(canonical_scene, tmp_path / "canonical")

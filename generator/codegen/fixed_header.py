@@ -20,6 +20,7 @@ from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import MpcDesign
 from ipgen.control.swingup import SwingUpLaw
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.fixed_poly import fixed_poly_equations
 from ipgen.model.specialise import FUNCTIONS
 
@@ -58,6 +59,7 @@ class FixedHeaderRequest:
     mpc_period: float = 0.0
     swingup: SwingUpLaw | None = None  # a scene's [swingup] (its plan), which the C header prints
     control: FixedFeedback | None = None  # a scene's [controller] kind = "lqr" or "gain"
+    rig: Coordinates | None = None  # a scene's coordinates, when not ipgen's: the C header maps them
 
 
 def fixed_model_name(links: int, joints: tuple[int, ...]) -> str:
@@ -115,6 +117,32 @@ def _context(
         "swingup": None,
         "loop_runtime": "",
         "control": None,
+        "rig": None,
+    }
+
+
+def _rig_context(coordinates: Coordinates, links: int) -> dict[str, object]:
+    """The scene's coordinates for the C header: θ = R q + z (`fixed_equations.angle_map`) as one
+    C expression per link, θ̇ = R q̇ likewise, and the torque's sign (u_rig = sign u)."""
+    from ipgen.model.fixed_equations import angle_map
+
+    rotation, zero = angle_map(coordinates, links)
+
+    def expression(variable: str, offset: float, i: int) -> str:
+        """Row i of R times `variable`, plus `offset`: one C expression."""
+        parts = [c_number(offset)] if offset else []
+        for j, k in enumerate(float(v) for v in rotation[i]):
+            if k:
+                term = f"{variable}[{j}]" if abs(k) == 1 else f"{c_number(abs(k))} * {variable}[{j}]"
+                parts.append((("- " if k < 0 else "+ ") if parts else ("-" if k < 0 else "")) + term)
+        return " ".join(parts) or c_number(0.0)
+
+    described = f"angles = {coordinates.angles}, zero = {coordinates.zero}, positive = {coordinates.positive}"
+    return {
+        "describe": described,
+        "angles": [expression("q_rig", zero, i) for i in range(links)],
+        "rates": [expression("qd_rig", 0.0, i) for i in range(links)],
+        "sign": -1 if coordinates.positive == "counterclockwise" else 1,
     }
 
 
@@ -139,6 +167,8 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
             "saturation": ", ".join(c_number(v) for v in feedback.saturation) if feedback.saturation else "",
             "period": repr(float(feedback.period)) if feedback.period else "",
         }
+    if target == "c" and request.rig is not None and not request.rig.is_canonical:
+        context["rig"] = _rig_context(request.rig, request.links)
     if target == "c" and request.swingup is not None:  # the scene's swing-up (swingup_step.h.jinja)
         law = request.swingup
         catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None

@@ -182,15 +182,17 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
             controller.period,
         )
     request = FixedHeaderRequest(
-        name, chain.links, tuple(chain.joints), command, mpc, period, swingup, feedback
+        name, chain.links, tuple(chain.joints), command, mpc, period, swingup, feedback, chain.coordinates
     )
     where = f"{shown_path(scene.as_posix())}: warning:"
     warnings = []
     if not chain.coordinates.is_canonical:
         warnings.append(
             f"{where} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
-            "the headers are in ipgen's coordinates (absolute, from upright, clockwise): map x and u "
-            'at the boundary (docs/mpc.md, "On a fixed pivot")'
+            "the headers are in ipgen's coordinates (absolute, from upright, clockwise): "
+            + (f"{name}.h's ipgen_{name}_rig_to_ipgen and _torque_to_rig map x and u" if "c" in targets
+               else "map x and u at the boundary")
+            + ' (docs/mpc.md, "On a fixed pivot")'
         )
     return FixedScenePlan(request, Path(directory), targets, parts.cfg, tuple(warnings))
 
