@@ -37,11 +37,13 @@ from ipgen.common.presets import preset_path
 from ipgen.model.fixed import FixedPendulum
 from ipgen.pipeline.fixed_generate import FIXED_TARGETS
 
-# The float step against the simulator's (double) fed the same states: the bound of the cart's
-# and the arm's header (tests/test_mpc_c_header.py), 1e-3 of the torque bound (measured 9e-6 N m);
-# the cold first step, whose iterations stop at float's tolerances, within 1e-2 of it (measured
-# 0.016 N m, 2.6e-3 of it, for the pendubot).
+# Float against the simulator (double) fed the same states. The MPC step: 1e-3 of the torque
+# bound, the cart's and the arm's (measured 9e-6 N m; 1.7e-3 N m with the microcontroller's
+# method, whose one Newton step a sample carries its rounding over), its cold first step, whose
+# iterations stop at float's tolerances, 1e-2 of it (measured 0.016 N m for the pendubot). The LQR
+# and the swing-ups: 1e-4 of it (measured 1.2e-5 and 4.5e-5 N m).
 FLOAT_INPUT = 1e-3 * U_MAX
+FLOAT_LOOP = 1e-4 * U_MAX
 FLOAT_COLD = 1e-2 * U_MAX
 RIG_KEYS = ("angles", "zero", "positive")  # DFKI's coordinates, in BALANCE
 FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
@@ -186,9 +188,10 @@ int main(void) {
     q_rig[1] = (IPGEN_SCALAR)x[1];
     qd_rig[0] = (IPGEN_SCALAR)x[2];
     qd_rig[1] = (IPGEN_SCALAR)x[3];
-    ipgen_NAME_rig_to_ipgen(q_rig, qd_rig, q, qd);
+    ipgen_NAME_to_canonical(q_rig, q);
+    ipgen_NAME_rates_to_canonical(qd_rig, qd);
     ipgen_NAME_control(q, qd, u);
-    for (k = 0; k < IPGEN_NAME_INPUTS; ++k) printf("%.17g ", (double)ipgen_NAME_torque_to_rig(u[k]));
+    for (k = 0; k < IPGEN_NAME_INPUTS; ++k) printf("%.17g ", (double)ipgen_NAME_torque_from_canonical(u[k]));
     printf("\\n");
   }
   return 0;
@@ -197,19 +200,23 @@ int main(void) {
 
 
 @pytest.mark.parametrize(
-    ("joints", "period"), [([1], 0.002), ([2], 0.002), ([1, 2], None)], ids=["pendubot", "acrobot", "both"]
+    ("joints", "period", "equilibrium"),
+    [([1], 0.002, ""), ([2], 0.002, ""), ([1, 2], None, ""), ([1], 0.002, 'equilibrium = "hanging"')],
+    ids=["pendubot", "acrobot", "both", "pendubot-hanging"],
 )
 def test_an_lqr_in_the_header_replays_the_simulators(
-    tmp_path: Path, joints: list[int], period: float | None
+    tmp_path: Path, joints: list[int], period: float | None, equilibrium: str
 ) -> None:
     """[controller] kind = "lqr" on a fixed chain (test_fixed_lqr's scenes: DFKI's coordinates, a
-    tilt held within 6 N m, sampled or continuous, one input or two): `ipgen_NAME_control` (K
+    tilt held within 6 N m, sampled or continuous, one input or two; and held hanging, where x_eq
+    is not 0 in ipgen's coordinates): `ipgen_NAME_control` (K
     mapped to ipgen's coordinates) fed the simulator's states in DFKI's coordinates through the
-    header's `_rig_to_ipgen` returns, through `_torque_to_rig`, its torques: double to 1e-9 (the
-    acrobot's on its clip at first), float within FLOAT_INPUT."""
+    header's `_to_canonical` and `_rates_to_canonical` returns, through `_torque_from_canonical`,
+    its torques: double to 1e-9 (the
+    acrobot's on its clip at first), float within FLOAT_LOOP."""
     require_cc()
-    text = LQR_CHAIN.format(joints=joints, tilt=math.pi - 0.08)
-    text += LQR_CONTROLLER.format(period="" if period is None else f"period = {period}")
+    text = LQR_CHAIN.format(joints=joints, tilt=0.3 if equilibrium else math.pi - 0.08)
+    text += LQR_CONTROLLER.format(period="" if period is None else f"period = {period}") + equilibrium + "\n"
     text = text.replace('type = "fixed"\n', 'type = "fixed"\nname = "lqr"\nemit = ["c"]\n', 1)
     scene = tmp_path / "hold.toml"
     scene.write_text(text)
@@ -219,7 +226,7 @@ def test_an_lqr_in_the_header_replays_the_simulators(
     rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])[:-1]
     names = ["u"] if len(joints) == 1 else [f"u{k + 1}" for k in range(len(joints))]  # the CSV's
     torques = np.column_stack([columns[name] for name in names])[:-1]  # the last row: u held to t_end
-    for scalar, bound in (("double", 1e-9), ("float", FLOAT_INPUT)):
+    for scalar, bound in (("double", 1e-9), ("float", FLOAT_LOOP)):
         program = compiled(tmp_path, "lqr", scalar, CONTROL.replace("IPGEN_NAME_INPUTS", "IPGEN_LQR_INPUTS"))
         u = np.array([[float(v) for v in line] for line in replay(program, rows)])
         error = np.max(np.abs(u - torques))
@@ -242,6 +249,7 @@ def test_nothing_is_overwritten_without_force(tmp_path: Path) -> None:
 
 BAD_EMIT = st.one_of(
     st.just("[]"), st.just('["gym"]'), st.just('["c", "library"]'), st.just('"c"'), st.just("[1]"),
+    st.just('[["c"]]'), st.just("[[]]"), st.just("[{a = 1}]"), st.just('["c", 2]'),
     st.text(alphabet="abcxyz_+", min_size=1, max_size=8).filter(lambda s: s not in FIXED_TARGETS).map(
         lambda s: f'["{s}"]'
     ),
@@ -297,6 +305,31 @@ def test_a_scene_in_the_rigs_coordinates_is_warned_and_gets_no_fmu(tmp_path: Pat
     status, err = generate(scene, tmp_path / "fmu", "--emit", "c,fmu")
     assert status == 2 and err.count("\n") == 1 and "FMU" in err, err
     assert not (tmp_path / "fmu").exists()
+    status, err = generate(scene, tmp_path / "cpp", "--emit", "cpp")  # the MPC would go nowhere
+    assert status == 0 and err.count("\n") == 2 and "go into the C header only" in err, err
+
+
+def test_a_name_the_printed_runtime_defines_is_one_line(tmp_path: Path) -> None:
+    """name = "loop" with a swing-up makes ipgen_loop_swingup, the loop runtime's struct: refused in
+    one line, nothing written; "mpc" with the MPC clashes with nothing and compiles."""
+    source = preset_path("pendubot_mpc")
+    shutil.copy(source.parent / "pendubot_swingup.plan.csv", tmp_path)
+    for name, expected in (("loop", 2), ("mpc", 0)):
+        named = f'type = "fixed"\nname = "{name}"\nemit = ["c"]\n'
+        text = source.read_text().replace('type = "fixed"\n', named, 1)
+        scene = tmp_path / f"{name}.toml"
+        scene.write_text(text)
+        status, err = generate(scene, tmp_path / name)
+        assert status == expected, err
+        if expected:
+            assert "ipgen_loop_swingup" in err and err.count("\n") == 1 and not (tmp_path / name).exists()
+    program = tmp_path / "mpc" / "main.c"
+    program.write_text(
+        '#include "mpc.h"\nint main(void) {\n  static ipgen_mpc_swingup_state s;\n'
+        "  ipgen_mpc_swingup_init(&s);\n  return 0;\n}\n"
+    )
+    command = [CC, "-std=c99", *WARNINGS, str(program), "-o", str(tmp_path / "mpc" / "main"), "-lm"]
+    assert subprocess.run(command, capture_output=True, text=True).returncode == 0
 
 
 SWINGUP = """\
@@ -327,7 +360,7 @@ def test_a_plans_swing_up_in_the_header_replays_the_simulators(tmp_path: Path, p
     (pendubot_mpc: ipgen_NAME_mpc_track every 5 samples about the plan's reference) or by its
     time-varying LQR (acrobot_swingup), then held (the MPC, or the hold's LQR): ipgen_NAME_swingup
     fed the simulator's states at its samples (ipgen's coordinates) returns the simulator's torque
-    (DFKI's sign flipped back), double, 1e-9 (measured 5e-13), float within FLOAT_INPUT (measured
+    (DFKI's sign flipped back), double, 1e-9 (measured 5e-13), float within FLOAT_LOOP (measured
     4.5e-5 N m); 4.5 s of the preset's run (the plan and the catch)."""
     require_cc()
     source = preset_path(preset)
@@ -344,7 +377,7 @@ def test_a_plans_swing_up_in_the_header_replays_the_simulators(tmp_path: Path, p
     states = canonical(chain, rows)[:-1]
     header = (tmp_path / "chain.h").read_text()
     params = header.split("ipgen_chain_mpc_params = ")[1].split(";")[0] if "_mpc_params" in header else "{0}"
-    for scalar, bound in (("double", 1e-9), ("float", FLOAT_INPUT)):
+    for scalar, bound in (("double", 1e-9), ("float", FLOAT_LOOP)):
         program = compiled(tmp_path, "chain", scalar, SWINGUP.replace("ipgen_NAME_PARAMS", params))
         u = -np.array([float(v[0]) for v in replay(program, states)])
         assert len(u) == len(states)

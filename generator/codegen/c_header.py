@@ -15,6 +15,7 @@ with its constants.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -196,6 +197,34 @@ def mpc_context(
     }
 
 
+def runtime_name_clash(name: str, header: str, runtimes: tuple[str, ...]) -> None:
+    """Refuses (`ControllerError`, one line) a model name for which the header defines an
+    identifier that a runtime printed whole into it defines too: name = "loop" makes
+    ipgen_loop_swingup, ipgen_loop.h's struct, with a swing-up."""
+    printed = [text for text in runtimes if text]
+    if not printed:
+        return
+    own = header
+    for text in printed:
+        own = own.replace(text, "")
+    ident = rf"(ipgen_{re.escape(name)}_\w+)"
+    defined = set()
+    for form in (
+        rf"\bstatic inline [^;{{(]*?\b{ident}\s*\(",  # a function
+        rf"\bstatic const [^;{{=]*?\b{ident}\s*[\[=]",  # a constant
+        rf"}}\s*{ident}\s*;",  # a typedef'd struct
+        rf"\btypedef [^;{{]*?\b{ident}\s*;",  # a typedef
+    ):
+        defined |= set(re.findall(form, own))
+    theirs = set(re.findall(r"\bipgen_\w+", "\n".join(printed)))
+    clash = sorted(defined & theirs)
+    if clash:
+        raise ControllerError(
+            f"the model name {name!r} makes {clash[0]}, which the runtime printed into the C header "
+            "defines too: choose another name"
+        )
+
+
 def _c_list(values: tuple[float, ...] | list[float], what: str) -> str:
     for i, v in enumerate(values):
         if not math.isfinite(v):
@@ -287,7 +316,9 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     # ipgen_loop.h printed whole when the header runs a loop (an estimator, a swing-up)
     needs_loop = request.estimator is not None or request.swingup is not None
     context["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n") if needs_loop else ""
-    return environment().get_template(TEMPLATE).render(context)
+    header = environment().get_template(TEMPLATE).render(context)
+    runtime_name_clash(request.name, header, (context["mpc_runtime"], context["loop_runtime"]))
+    return header
 
 
 def _c_rows(rows: tuple[tuple[float, ...], ...] | tuple[float, ...], what: str) -> str:

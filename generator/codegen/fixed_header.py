@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ipgen.codegen.c_header import FIXED_STRUCTS, c_number, mpc_context, swingup_context
+from ipgen.codegen.c_header import FIXED_STRUCTS, c_number, mpc_context, runtime_name_clash, swingup_context
 from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
 from ipgen.codegen.header import environment, function_bodies
 from ipgen.common.locations import loop_runtime, mpc_runtime
@@ -121,6 +121,35 @@ def _context(
     }
 
 
+def _scene_parts(request: FixedHeaderRequest) -> dict[str, object]:
+    """What a scene adds to the C header: its MPC (mpc_step.h.jinja), its state feedback, the map
+    from its coordinates, its swing-up (swingup_step.h.jinja); the runtimes they print."""
+    parts: dict[str, object] = {}
+    if request.mpc is not None:
+        u_what = f"the torque [N m] at joint {request.joints[0]}, clockwise positive"
+        parts["mpc"] = mpc_context(
+            request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
+        )
+        parts["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
+    if request.control is not None:
+        feedback = request.control
+        parts["control"] = {
+            "kind": comment_safe(feedback.kind),
+            "gain": [", ".join(c_number(v) for v in row) for row in feedback.gain],
+            "equilibrium": ", ".join(c_number(v) for v in feedback.equilibrium),
+            "saturation": ", ".join(c_number(v) for v in feedback.saturation) if feedback.saturation else "",
+            "period": repr(float(feedback.period)) if feedback.period else "",
+        }
+    if request.rig is not None and not request.rig.is_canonical:
+        parts["rig"] = _rig_context(request.rig, request.links)
+    if request.swingup is not None:
+        law = request.swingup
+        catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None
+        parts["swingup"] = swingup_context(law, request.links, catch_every)
+        parts["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n")
+    return parts
+
+
 def _rig_context(coordinates: Coordinates, links: int) -> dict[str, object]:
     """The scene's coordinates for the C header: θ = R q + z (`fixed_equations.angle_map`) as one
     C expression per link, θ̇ = R q̇ likewise, and the torque's sign (u_rig = sign u)."""
@@ -142,7 +171,7 @@ def _rig_context(coordinates: Coordinates, links: int) -> dict[str, object]:
         "describe": described,
         "angles": [expression("q_rig", zero, i) for i in range(links)],
         "rates": [expression("qd_rig", 0.0, i) for i in range(links)],
-        "sign": -1 if coordinates.positive == "counterclockwise" else 1,
+        "sign": int(coordinates.sign),
     }
 
 
@@ -152,30 +181,11 @@ def render_fixed(request: FixedHeaderRequest, target: str) -> dict[str, str]:
         context = _context(request, "fixed.hpp.jinja", FIXED_CPP_SYNTAX, _CPP_LATE)
         return {".hpp": environment().get_template("fixed.hpp.jinja").render(context)}
     context = _context(request, "fixed.h.jinja", FIXED_C_SYNTAX, _C_LATE)
-    if target == "c" and request.mpc is not None:  # the scene's MPC step (mpc_step.h.jinja)
-        u_what = f"the torque [N m] at joint {request.joints[0]}, clockwise positive"
-        context["mpc"] = mpc_context(
-            request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
-        )
-        context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
-    if target == "c" and request.control is not None:  # the scene's state feedback
-        feedback = request.control
-        context["control"] = {
-            "kind": comment_safe(feedback.kind),
-            "gain": [", ".join(c_number(v) for v in row) for row in feedback.gain],
-            "equilibrium": ", ".join(c_number(v) for v in feedback.equilibrium),
-            "saturation": ", ".join(c_number(v) for v in feedback.saturation) if feedback.saturation else "",
-            "period": repr(float(feedback.period)) if feedback.period else "",
-        }
-    if target == "c" and request.rig is not None and not request.rig.is_canonical:
-        context["rig"] = _rig_context(request.rig, request.links)
-    if target == "c" and request.swingup is not None:  # the scene's swing-up (swingup_step.h.jinja)
-        law = request.swingup
-        catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None
-        context["swingup"] = swingup_context(law, request.links, catch_every)
-        context["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n")
+    if target == "c":
+        context |= _scene_parts(request)
     header = environment().get_template("fixed.h.jinja").render(context)
     if target == "c":
+        runtime_name_clash(request.name, header, (context["mpc_runtime"], context["loop_runtime"]))
         return {".h": header}
     if target == "library":
         context["template"] = "fixed_model_library.c.jinja"

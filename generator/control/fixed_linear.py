@@ -14,7 +14,7 @@ import numpy as np
 
 from ipgen.control.linear import ControlError, check_stabilisable, checked_vector, weights
 from ipgen.model.fixed import FixedPendulum
-from ipgen.model.fixed_equations import angle_map
+from ipgen.model.fixed_equations import angle_map, state_map
 from ipgen.model.fixed_numeric import FixedModel
 
 
@@ -114,20 +114,16 @@ def _input_weights(R: float | Sequence[float] | np.ndarray, inputs: int) -> np.n
     return 0.5 * (r + r.T)
 
 
-def states_in_ipgen_coordinates(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
-    """States [q; q̇] in the chain's coordinates (one a row) in ipgen's [θ; θ̇]: with x_user =
-    P x + c (`fixed_equations.state_map`), x = P⁻¹ (x_user − c)."""
-    from ipgen.model.fixed_equations import state_map
-
+def canonical_states(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
+    """States [q; q̇] in the chain's coordinates (one a row) in ipgen's canonical [θ; θ̇]: with
+    x_user = P x + c (`fixed_equations.state_map`), x = P⁻¹ (x_user − c)."""
     matrix, offset = state_map(p.coordinates, p.links)
     return np.linalg.solve(matrix, (np.atleast_2d(rows) - offset).T).T
 
 
-def gains_in_ipgen_coordinates(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
-    """Gains K_user (one row per input: u_user = −K_user (x_user − x̄_user)) in ipgen's: the rig's
-    torque is s u (s = −1 for counterclockwise), so u = −s K_user P (x − x̄), K = s K_user P."""
-    from ipgen.model.fixed_equations import state_map
-
+def canonical_gains(p: FixedPendulum, rows: np.ndarray) -> np.ndarray:
+    """Gains K_user (one row per input: u_user = −K_user (x_user − x̄_user)) in ipgen's canonical
+    coordinates: the rig's torque is s u (`Coordinates.sign`), so u = −s K_user P (x − x̄) and
+    K = s K_user P."""
     matrix, _ = state_map(p.coordinates, p.links)
-    sign = -1.0 if p.positive == "counterclockwise" else 1.0
-    return sign * np.atleast_2d(rows) @ matrix
+    return p.coordinates.sign * np.atleast_2d(rows) @ matrix

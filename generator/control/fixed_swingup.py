@@ -299,17 +299,16 @@ def fixed_swingup(
     return law, plan
 
 
-def law_in_ipgen_coordinates(law: SwingUpLaw, chain: FixedPendulum) -> SwingUpLaw:
+def canonical_law(law: SwingUpLaw, chain: FixedPendulum) -> SwingUpLaw:
     """A fixed chain's `SwingUpLaw` (the rig's coordinates and torque sense, as `fixed_swingup`
-    makes it and the simulator reads it) in ipgen's, where the C header's loop works: its plan's
-    states and target mapped (`states_in_ipgen_coordinates`), its inputs times the torque's sign,
-    its gains and the hold's mapped (`gains_in_ipgen_coordinates`)."""
-    from ipgen.control.fixed_linear import gains_in_ipgen_coordinates, states_in_ipgen_coordinates
+    makes it and the simulator reads it) in ipgen's canonical coordinates, where the C header's
+    loop works: its plan's states and target mapped (`canonical_states`), its inputs times the
+    torque's sign, its gains and the hold's mapped (`canonical_gains`)."""
+    from ipgen.control.fixed_linear import canonical_gains, canonical_states
 
     if chain.coordinates.is_canonical:
         return law
     size = 2 * chain.links
-    sign = -1.0 if chain.positive == "counterclockwise" else 1.0
 
     def flat(values: np.ndarray) -> tuple[float, ...]:
         return tuple(float(v) for v in np.ravel(values))
@@ -318,9 +317,9 @@ def law_in_ipgen_coordinates(law: SwingUpLaw, chain: FixedPendulum) -> SwingUpLa
         return np.reshape(values, (-1, size))
 
     return dataclasses.replace(
-        law, states=flat(states_in_ipgen_coordinates(chain, rows(law.states))),
-        target=flat(states_in_ipgen_coordinates(chain, rows(law.target))),
-        inputs=tuple(sign * u for u in law.inputs),
-        gains=flat(gains_in_ipgen_coordinates(chain, rows(law.gains))),
-        hold_gain=flat(gains_in_ipgen_coordinates(chain, rows(law.hold_gain))),
+        law, states=flat(canonical_states(chain, rows(law.states))),
+        target=flat(canonical_states(chain, rows(law.target))),
+        inputs=tuple(chain.coordinates.sign * u for u in law.inputs),
+        gains=flat(canonical_gains(chain, rows(law.gains))),
+        hold_gain=flat(canonical_gains(chain, rows(law.hold_gain))),
     )  # fmt: skip

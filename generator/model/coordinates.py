@@ -57,6 +57,12 @@ class Coordinates:
     def is_canonical(self) -> bool:
         return self == Coordinates()
 
+    @property
+    def sign(self) -> float:
+        """1 (clockwise) or −1 (counterclockwise): a torque in this convention's sense is sign
+        times ipgen's."""
+        return 1.0 if self.positive == "clockwise" else -1.0
+
     def matrices(self, links: int) -> tuple[np.ndarray, np.ndarray]:
         """(P, c) of x_user = P x + c, for 2 (links + 1) states."""
         import numpy as np

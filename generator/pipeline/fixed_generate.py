@@ -129,8 +129,8 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     header named by `[system] name` (default fixed<links>); the targets `--emit` or `[system]
     emit` names (default cpp); a scene's MPC and swing-up printed into the C header, in ipgen's
     coordinates (a warning when the scene's are others); its LQR or gain as `P_control`."""
-    from ipgen.control.fixed_linear import gains_in_ipgen_coordinates, states_in_ipgen_coordinates
-    from ipgen.control.fixed_swingup import law_in_ipgen_coordinates
+    from ipgen.control.fixed_linear import canonical_gains, canonical_states
+    from ipgen.control.fixed_swingup import canonical_law
     from ipgen.pipeline.fixed_run import fixed_scene
     from ipgen.scene.load import parse_document
 
@@ -147,7 +147,7 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     if problem:
         reader.bad("system.name", name, f"this name {problem}; choose another")
     listed = system.get("emit", ["cpp"])
-    if emit is None and not isinstance(listed, list):
+    if emit is None and not (isinstance(listed, list) and all(isinstance(item, str) for item in listed)):
         choices = ", ".join(FIXED_TARGETS)
         reader.bad("system.emit", listed, f'expected a list of targets, e.g. ["c"] (of {choices})')
     try:
@@ -169,15 +169,15 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     controller = parts.controller
     mpc = controller.mpc if controller is not None else None
     period = float(controller.period or 0.0) if controller is not None and mpc is not None else 0.0
-    swingup = law_in_ipgen_coordinates(parts.swingup, chain) if parts.swingup is not None else None
+    swingup = canonical_law(parts.swingup, chain) if parts.swingup is not None else None
     emitting = f" --emit {','.join(targets)}" if emit is not None else ""
     command = f"ipgen --scene {scene.name}{emitting} -o <dir>"
     feedback = None
     if controller is not None and mpc is None:  # kind = "lqr" or "gain": u = −K (x − x_eq), mapped
         feedback = FixedFeedback(
             controller.kind,
-            tuple(tuple(float(v) for v in row) for row in gains_in_ipgen_coordinates(chain, controller.gain)),
-            tuple(float(v) for v in states_in_ipgen_coordinates(chain, controller.equilibrium)[0]),
+            tuple(tuple(float(v) for v in row) for row in canonical_gains(chain, controller.gain)),
+            tuple(float(v) for v in canonical_states(chain, controller.equilibrium)[0]),
             controller.saturation,
             controller.period,
         )
@@ -190,9 +190,14 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
         warnings.append(
             f"{where} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
             "the headers are in ipgen's coordinates (absolute, from upright, clockwise): "
-            + (f"{name}.h's ipgen_{name}_rig_to_ipgen and _torque_to_rig map x and u" if "c" in targets
-               else "map x and u at the boundary")
+            + (f"{name}.h's ipgen_{name}_to_canonical, _rates_to_canonical and _torque_from_canonical "
+               "map x and u" if "c" in targets else "map x and u at the boundary")
             + ' (docs/mpc.md, "On a fixed pivot")'
+        )
+    if (controller is not None or swingup is not None) and "c" not in targets:
+        warnings.append(
+            f"{where} its [controller] and [swingup] go into the C header only: add c to the targets "
+            '(emit = ["c"] or --emit c)'
         )
     return FixedScenePlan(request, Path(directory), targets, parts.cfg, tuple(warnings))
 

@@ -60,8 +60,8 @@ def validate_document(reader: Reader, document: dict[str, Any]) -> schema.SceneD
     system = document.get("system")
     if isinstance(system, dict) and system.get("type") == "fixed":
         reader.fail(
-            f'[system] type = "fixed": this command is {FIXED_NOT_YET} (ipgen --scene FILE -o DIR, run, '
-            "sweep, identify and ipgen.FixedPendulum.from_scene read this scene)"
+            f'[system] type = "fixed": this command is {FIXED_NOT_YET} (these read it: ipgen --scene FILE '
+            "-o DIR without --describe, ipgen run, sweep, identify and ipgen.FixedPendulum.from_scene)"
         )
     return _validate(reader, document)
 
