@@ -330,6 +330,12 @@ def test_a_name_the_printed_runtime_defines_is_one_line(tmp_path: Path) -> None:
     )
     command = [CC, "-std=c99", *WARNINGS, str(program), "-o", str(tmp_path / "mpc" / "main"), "-lm"]
     assert subprocess.run(command, capture_output=True, text=True).returncode == 0
+    cart = tmp_path / "cart.toml"  # the arm's swing-up named "loop": the same check on the cart's path
+    named = preset_path("rsip_swingup").read_text().replace("[system]\n", '[system]\nname = "loop"\n', 1)
+    cart.write_text(named)
+    status, err = generate(cart, tmp_path / "cart", "--emit", "c")
+    assert status == 2 and "ipgen_loop_swingup" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "cart").exists()
 
 
 SWINGUP = """\
