@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from ipgen.codegen.fixed_header import fixed_library_sources
+from ipgen.codegen.fixed_header import fixed_library_sources, fixed_model_name
 from ipgen.common.safetext import quote_path
 from ipgen.common.version import __version__
 from ipgen.control.swingup import SwingUpLaw
@@ -426,13 +426,12 @@ def fixed_config(
 
 @dataclass(frozen=True)
 class FixedScene:
-    """A fixed scene checked as `ipgen run` checks it: its chain, resolved config, model library
-    (name and sources) and controller (None without [controller])."""
+    """A fixed scene checked as `ipgen run` checks it: its chain, resolved config, model library's
+    name, controller (None without [controller]) and swing-up (None without [swingup])."""
 
     chain: FixedPendulum
     cfg: str
     library: str
-    sources: dict[str, str]
     controller: FixedController | None
     swingup: SwingUpLaw | None  # its tracking the scene's (swingup.tracking)
 
@@ -441,6 +440,10 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     """The run plan of a fixed scene (its checks first, each problem one line)."""
     scene = fixed_scene(path, document, reader)
     chain = scene.chain
+    try:
+        _, sources = fixed_library_sources(chain.links, tuple(chain.joints))
+    except Error as exc:  # pragma: no cover - the chain was checked
+        reader.fail(str(exc))
     return RunPlan(
         name=scene.library,
         stem=path.stem,
@@ -452,7 +455,7 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         unit=None,
         warnings=(),
         cfg=scene.cfg,
-        sources=scene.sources,
+        sources=sources,
     )
 
 
@@ -465,10 +468,7 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedSc
     theta = _state(reader, initial, "theta", chain.links)
     dtheta = _state(reader, initial, "dtheta", chain.links)
     tables, inputs = fixed_inputs(reader, document, tuple(chain.joints))
-    try:
-        name, sources = fixed_library_sources(chain.links, tuple(chain.joints))
-    except Error as exc:  # pragma: no cover - the chain was checked
-        reader.fail(str(exc))
+    name = fixed_model_name(chain.links, tuple(chain.joints))
     settings = tables.simulation.settings()
     controller = None
     if "controller" in document:
@@ -492,7 +492,7 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedSc
         tracking,
     )  # fmt: skip
     tracked = dataclasses.replace(swingup, tracking=tracking) if swingup is not None else None
-    return FixedScene(chain, cfg, name, sources, controller, tracked)
+    return FixedScene(chain, cfg, name, controller, tracked)
 
 
 __all__ = [
