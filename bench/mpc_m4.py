@@ -2,6 +2,10 @@
 
     .venv/bin/python -m bench.mpc_m4 [--samples K] [--out docs/bench/mpc.md]
 
+Also DFKI's pendubot: scenes/rigs/pendubot_mpc.toml's chain and [controller] (N = 40 samples of
+10 ms, |u| <= 6 N m) without its [swingup], holding the upright from 0.14 rad off at rest, its
+header's `ipgen_pendubot_mpc_step` on the simulator's states mapped to the header's coordinates.
+
 The preset scenes/rigs/qube_servo2_mpc.toml (the QUBE-Servo 2 in volts, ±10 V, the arm within
 ±1 rad, N = 30 samples of 10 ms) with emit = ["c"]: its generated C header in float
 (IPGEN_SCALAR = float: ipgen_mpc.h printed whole, the header's own model as the callback) is
@@ -50,45 +54,78 @@ METHODS = (
 )
 BEGIN, END = "<!-- bench.mpc_m4: begin -->", "<!-- bench.mpc_m4: end -->"
 NAME = "qube_servo2_mpc"
-P = f"ipgen_{NAME}"
+# DFKI's pendubot (scenes/rigs/pendubot_mpc.toml's chain and MPC, N = 40) holding the upright from
+# a tilt: the preset without its [swingup], started 0.14 rad off (DFKI's coordinates), run 2 s.
+PENDUBOT = "pendubot"
+STATE = ("theta0", "theta1", "dtheta0", "dtheta1")  # the CSV's columns of x
 
 
-def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
-    """The preset with emit = ["c"] (and `controller`'s lines added to its [controller]): its
-    header's path and the simulator's state estimates."""
+def _run_scene(folder: Path, text: str, name: str) -> Path:
+    """`ipgen --scene` (the C header) and `ipgen run` of the scene `text`; the run's CSV."""
     from ipgen.command.cli import run
 
-    text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
-    text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
-    scene = folder / f"{NAME}.toml"
-    scene.write_text(text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'))
+    scene = folder / f"{name}.toml"
+    scene.write_text(text)
     generate = ["--scene", str(scene), "-o", str(folder)]
     for argv in (generate, ["run", str(scene), "-o", str(folder / "run"), "--no-plot"]):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             if run(argv) != 0:
                 raise SystemExit(err.getvalue())
-    header, *rows = (folder / "run" / f"{NAME}.csv").read_text().splitlines()
-    names = header.split(",")
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
-    columns = [names.index(f"hat_{n}") for n in ("theta0", "theta1", "dtheta0", "dtheta1")]
-    return folder / f"{NAME}.h", data[:, columns]
+    return folder / "run" / f"{name}.csv"
 
 
-def _prelude(states: np.ndarray) -> str:
+def _columns(csv: Path, names: tuple[str, ...]) -> np.ndarray:
+    header, *rows = csv.read_text().splitlines()
+    keys = header.split(",")
+    keep = [keys.index(n) for n in names]
+    return np.array([[float(row.split(",")[i]) for i in keep] for row in rows])
+
+
+def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
+    """The preset with emit = ["c"] (and `controller`'s lines added to its [controller]): its
+    header's path and the simulator's state estimates."""
+    text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
+    text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
+    csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
+    return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
+
+
+def _pendubot(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
+    """PENDUBOT's scene (and `controller`'s lines): its header's path and the simulator's states
+    at its samples in the header's (canonical) coordinates."""
+    from ipgen.control.fixed_linear import canonical_states
+    from ipgen.model.fixed import FixedPendulum
+
+    text = (ROOT / "scenes" / "rigs" / "pendubot_mpc.toml").read_text()
+    text = text.split("[swingup]")[0] + "[controller]" + text.split("[controller]")[1]
+    text = text.replace("\ntheta = [0.0, 0.0]", "\ntheta = [3.0, 0.1]").replace("t_end = 10.0", "t_end = 2.0")
+    text = text.replace("sample = 0.002", "sample = 0.01")
+    text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
+    text = text.replace('type = "fixed"\n', f'type = "fixed"\nname = "{PENDUBOT}"\nemit = ["c"]\n', 1)
+    csv = _run_scene(folder, text, PENDUBOT)
+    chain = FixedPendulum.from_scene(folder / f"{PENDUBOT}.toml")
+    states = canonical_states(chain, _columns(csv, STATE))
+    return folder / f"{PENDUBOT}.h", states
+
+
+def _prelude(states: np.ndarray, name: str = NAME) -> str:
     rows = ",\n  ".join("{" + ", ".join(f"{v!r}f" for v in row) + "}" for row in states.tolist())
     return (
         "#define IPGEN_SCALAR float\n"
-        f'#include "{NAME}.h"\n'
-        f"{P}_mpc_state bench_mpc;\n"
+        f'#include "{name}.h"\n'
+        f"ipgen_{name}_mpc_state bench_mpc;\n"
         "volatile float bench_sink;\n"
         f"static const float bench_states[{len(states)}][4] = {{\n  {rows}\n}};\n"
     )
 
 
-CALL = f"  bench_sink = {P}_mpc_step(&bench_mpc, bench_states[k]);"
+def _call(name: str = NAME) -> str:
+    return f"  bench_sink = ipgen_{name}_mpc_step(&bench_mpc, bench_states[k]);"
 
 
-def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tuple[int, set[str]]:
+def _call_tree(
+    elf: Path, usage: dict[str, int], name: str, root: str = "bench_call"
+) -> tuple[int, set[str]]:
     """The stack of `root` and its deepest chain of calls (gcc -fstack-usage per function; a call
     is a bl or a branch, conditional too, to a function's symbol in the disassembly, a blx
     through a register one to the MPC's model callback; newlib's functions, without .su, count 0)
@@ -107,7 +144,7 @@ def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tu
         elif (match := branch.search(line)) and match.group(1) != current:
             calls[current].add(match.group(1))
         elif re.search(r"\sblx\s+(?:r\d+|fp|ip|sl|lr)$", line):  # through a pointer: the model callback
-            calls[current].add(f"{P}_mpc_dynamics")
+            calls[current].add(f"ipgen_{name}_mpc_dynamics")
     reached: set[str] = set()
 
     def own(name: str) -> str:  # gcc's clone `f.constprop.0` is `f.constprop` in its .su file
@@ -122,12 +159,13 @@ def _call_tree(elf: Path, usage: dict[str, int], root: str = "bench_call") -> tu
     return depth(root, frozenset({root})), reached
 
 
-def _sizes(header: Path, prelude: str) -> dict[str, int]:
+def _sizes(header: Path, prelude: str, name: str) -> dict[str, int]:
     """RAM and flash of the counting program (the same build as m4_cycles.count)."""
     with tempfile.TemporaryDirectory(prefix="ipgen-m4-size.") as folder:
         work = Path(folder)
         (work / "link.ld").write_text(m4_cycles.LINKER_SCRIPT)
-        (work / "main.c").write_text(m4_cycles.PROGRAM % {"prelude": prelude, "call": CALL, "calls": 1})
+        program = m4_cycles.PROGRAM % {"prelude": prelude, "call": _call(name), "calls": 1}
+        (work / "main.c").write_text(program)
         elf = work / "main.elf"
         subprocess.run(
             [m4_cycles.CC, "-std=c99", *m4_cycles.TARGET, "-fstack-usage", "-nostartfiles", "-T",
@@ -144,7 +182,7 @@ def _sizes(header: Path, prelude: str) -> dict[str, int]:
         sections = {m.group(1): int(m.group(2)) for m in re.finditer(r"^(\.\w+)\s+(\d+)", size, re.M)}
         nm = subprocess.run(["arm-none-eabi-nm", "-S", str(elf)], capture_output=True, text=True).stdout
         symbols = {f[3]: int(f[1], 16) for f in (line.split() for line in nm.splitlines()) if len(f) == 4}
-        stack, own = _call_tree(elf, usage)
+        stack, own = _call_tree(elf, usage, name)
         return {
             "state": symbols.get("bench_mpc", 0),
             "stack": stack,
@@ -165,14 +203,22 @@ def _profile_lines(functions: tuple[tuple[str, int], ...]) -> list[str]:
     return ["", f"{head}: {shares}."]
 
 
-def _method(name: str, controller: str, args: argparse.Namespace) -> tuple[list[str], list[str]]:
-    """The table rows and the paragraph (RAM, flash, profile) of one method."""
+# (the header's name, what the rows say, the scene maker)
+CASES = ((NAME, "the QUBE", _scene), (PENDUBOT, "DFKI's pendubot", _pendubot))
+
+
+def _method(
+    name: str, controller: str, args: argparse.Namespace, case: tuple = CASES[0]
+) -> tuple[list[str], list[str]]:
+    """The table rows and the paragraph (RAM, flash, profile) of one method on one case."""
+    model, what, scene = case
+    name = f"{what}, {name}"
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
-        header, states = _scene(Path(folder), controller)
+        header, states = scene(Path(folder), controller)
         states = states[: args.samples]
-        prelude = _prelude(states)
-        counts = m4_cycles.count(header, prelude, CALL, len(states), profile=args.profile)
-        sizes = _sizes(header, prelude)
+        prelude = _prelude(states, model)
+        counts = m4_cycles.count(header, prelude, _call(model), len(states), profile=args.profile)
+        sizes = _sizes(header, prelude, model)
     rti_i, rti_c = counts.instructions[1:], counts.cycles[1:]
     us = [c / CLOCK_MHZ for c in rti_c]
     rows = [
@@ -206,18 +252,22 @@ def main() -> None:
     args = parser.parse_args()
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     rows, texts = [], []
-    for name, controller in METHODS:
-        method_rows, text = _method(name, controller, args)
-        rows += method_rows
-        texts += text
+    for case in CASES:
+        for name, controller in METHODS:
+            method_rows, text = _method(name, controller, args, case)
+            rows += method_rows
+            texts += text
     lines = [
         BEGIN,
         "## One RTI step on a Cortex-M4F (QEMU)",
         "",
         "Made by `.venv/bin/python -m bench.mpc_m4` (bench/mpc_m4.py; what it counts and how is its",
         "docstring and bench/m4_cycles.py's): the preset scenes/rigs/qube_servo2_mpc.toml's C header in",
-        f"float, N = 30, `{P}_mpc_step` on the first {args.samples} state estimates of the simulator's",
-        "closed loop (the first call cold: 10 SQP iterations; then one a sample), with the preset's",
+        f"float, N = 30, `ipgen_{NAME}_mpc_step` on the first {args.samples} state estimates of the",
+        "simulator's closed loop (the first call cold: 10 SQP iterations; then one a sample); and DFKI's",
+        "pendubot (scenes/rigs/pendubot_mpc.toml's chain and MPC, N = 40, without its swing-up: holding",
+        "the upright from 0.14 rad off at rest, the simulator's states mapped to the header's",
+        "coordinates); with the preset's",
         "method and with FAST (`barrier = 0.001`, `qp_iterations = 1`, `sensitivities = \"frozen\"` in",
         f"its [controller]), arm-none-eabi-gcc {args.opt}, QEMU mps2-an386. Cycles: the TRM's",
         "per-instruction counts, zero-wait-state memory, a taken branch 3 (an estimate, not a",
