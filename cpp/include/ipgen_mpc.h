@@ -177,9 +177,10 @@ enum {
   IPGEN_MPC_MODEL_FAILED = 1, /* the model failed: u is the warm start's, the next step starts cold */
   IPGEN_MPC_QP_BUDGET = 2,    /* the last QP stopped above qp_tolerance: its budget, or a late breakdown (u applied) */
   IPGEN_MPC_SQP_BUDGET = 3,   /* sqp_tolerance > 0 not reached within sqp_iterations (u applied) */
-  IPGEN_MPC_NOT_FINITE = 4,   /* a QP's Riccati recursion broke down or produced NaN: as MODEL_FAILED */
+  IPGEN_MPC_NOT_FINITE = 4,   /* a QP's Riccati recursion broke down or produced NaN, or a QP diverged
+                               * with no hard state bound to be infeasible against: as MODEL_FAILED */
   IPGEN_MPC_BAD_SETTINGS = 5, /* a size or a bound that no problem has: nothing done, u = u_ref */
-  IPGEN_MPC_INFEASIBLE = 6    /* a QP diverged (no solution: a hard state bound the prediction cannot
+  IPGEN_MPC_INFEASIBLE = 6    /* a QP diverged with hard state bounds (no solution: one the prediction cannot
                                * meet): the guess is kept, its first input applied; soft bounds avoid it */
 };
 
@@ -1826,6 +1827,10 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
     info->sqp_iterations += 1;
     if (qp == IPGEN_MPC_NOT_FINITE) {
       status = qp;
+      break;
+    }
+    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6) && s->hard_count == 0) {
+      status = IPGEN_MPC_NOT_FINITE; /* no hard bound to be infeasible against: a breakdown, the next step cold */
       break;
     }
     if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6)) {
