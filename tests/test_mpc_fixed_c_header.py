@@ -104,6 +104,11 @@ def compiled(folder: Path, name: str, scalar: str, program_text: str = STEP) -> 
     return program
 
 
+def state_rows(columns: dict[str, np.ndarray]) -> np.ndarray:
+    """The simulator's states [q; q̇] a row (its CSV's columns, the rig's coordinates)."""
+    return np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+
+
 def replay(program: Path, states: np.ndarray) -> list[list[str]]:
     """The program's output line by line (split), fed one state a line."""
     text = "\n".join(" ".join(repr(v) for v in row) for row in states.tolist()) + "\n"
@@ -130,7 +135,7 @@ def loop(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactor
 def test_the_headers_step_replays_the_simulators_mpc(loop: tuple[Path, str, dict], scalar: str) -> None:
     folder, name, columns = loop
     chain = FixedPendulum.from_scene(folder / "balance.toml")
-    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    rows = state_rows(columns)
     states = canonical(chain, rows)[:-1]  # the sampling instants (sample = the MPC's period)
     steps = replay(compiled(folder, name, scalar), states)
     u = -np.array([float(v[0]) for v in steps])  # ipgen's clockwise -> DFKI's counterclockwise
@@ -165,7 +170,7 @@ def test_the_header_follows_the_simulator_through_a_breakdown(tmp_path: Path) ->
     assert status == 0, err
     columns, _ = simulate(tmp_path, text, "violent")
     chain = FixedPendulum.from_scene(scene)
-    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    rows = state_rows(columns)
     states = canonical_states(chain, rows)  # which of 4 and 6 rounding picks: this map's rounding
     steps = replay(compiled(tmp_path, "violent", "double"), states[:-1])
     u = -np.array([float(v[0]) for v in steps])
@@ -254,7 +259,7 @@ def test_an_lqr_in_the_header_replays_the_simulators(
     status, err = generate(scene, tmp_path)
     assert status == 0 and "warning: angles" in err, err
     columns, _ = simulate(tmp_path, text, "hold")
-    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])[:-1]
+    rows = state_rows(columns)[:-1]
     names = ["u"] if len(joints) == 1 else [f"u{k + 1}" for k in range(len(joints))]  # the CSV's
     torques = np.column_stack([columns[name] for name in names])[:-1]  # the last row: u held to t_end
     for scalar, bound in (("double", 1e-9), ("float", FLOAT_LOOP)):
@@ -410,7 +415,7 @@ def test_a_plans_swing_up_in_the_header_replays_the_simulators(tmp_path: Path, p
     assert status == 0, err
     columns, _ = simulate(tmp_path, text, preset)
     chain = FixedPendulum.from_scene(scene)
-    rows = np.column_stack([columns[k] for k in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    rows = state_rows(columns)
     states = canonical(chain, rows)[:-1]
     header = (tmp_path / "chain.h").read_text()
     params = header.split("ipgen_chain_mpc_params = ")[1].split(";")[0] if "_mpc_params" in header else "{0}"

@@ -1829,12 +1829,12 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
       status = qp;
       break;
     }
-    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6) && s->hard_count == 0) {
-      status = IPGEN_MPC_NOT_FINITE; /* no hard bound to be infeasible against: a breakdown, the next step cold */
-      break;
-    }
-    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6)) {
-      info->status = IPGEN_MPC_INFEASIBLE; /* its iterates diverge: keep the guess */
+    if (qp == IPGEN_MPC_QP_BUDGET && !(info->qp_residual <= (ipgen_mpc_real)1e6)) { /* its iterates diverge */
+      if (s->hard_count == 0) {
+        status = IPGEN_MPC_NOT_FINITE; /* no hard bound to be infeasible against: a breakdown, the next step cold */
+        break;
+      }
+      info->status = IPGEN_MPC_INFEASIBLE; /* keep the guess */
       l.t[0] = (ipgen_mpc_real)0;          /* but not the barrier's slacks and multipliers */
       break;
     }

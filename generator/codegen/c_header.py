@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.codegen.functions import C_SYNTAX, FunctionBody
@@ -197,6 +198,11 @@ def mpc_context(
     }
 
 
+def printed(runtime: Path) -> str:
+    """A runtime (cpp/include/ipgen_mpc.h, ipgen_loop.h) as a C header prints it whole."""
+    return runtime.read_text(encoding="utf-8").rstrip("\n")
+
+
 def runtime_name_clash(name: str, header: str, runtimes: tuple[str, ...]) -> None:
     """Refuses (`ControllerError`, one line) a model name for which the header defines an
     identifier that a runtime printed whole into it defines too: name = "loop" makes
@@ -304,7 +310,7 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
         control_context(request.controller, dof) if request.controller and not mpc else None
     )
     context["mpc"] = mpc_context(mpc, request.controller.period, dof, spec.outputs) if mpc else None  # type: ignore[union-attr]
-    context["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n") if mpc else ""
+    context["mpc_runtime"] = printed(mpc_runtime()) if mpc else ""
     # with an MPC that catches: its step every catch_every swing-up samples (the scene checked the ratio)
     catch_every = None
     if mpc and request.swingup:
@@ -315,7 +321,7 @@ def render_c_header(eqs: Equations, request: HeaderRequest) -> str:
     )
     # ipgen_loop.h printed whole when the header runs a loop (an estimator, a swing-up)
     needs_loop = request.estimator is not None or request.swingup is not None
-    context["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n") if needs_loop else ""
+    context["loop_runtime"] = printed(loop_runtime()) if needs_loop else ""
     header = environment().get_template(TEMPLATE).render(context)
     runtime_name_clash(request.name, header, (context["mpc_runtime"], context["loop_runtime"]))
     return header

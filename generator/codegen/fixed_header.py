@@ -12,7 +12,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from ipgen.codegen.c_header import FIXED_STRUCTS, c_number, mpc_context, runtime_name_clash, swingup_context
+from ipgen.codegen.c_header import (
+    FIXED_STRUCTS,
+    c_number,
+    mpc_context,
+    printed,
+    runtime_name_clash,
+    swingup_context,
+)
 from ipgen.codegen.functions import C_SYNTAX, CPP_SYNTAX, Syntax, params_field
 from ipgen.codegen.header import environment, function_bodies
 from ipgen.common.locations import loop_runtime, mpc_runtime
@@ -130,7 +137,7 @@ def _scene_parts(request: FixedHeaderRequest) -> dict[str, object]:
         parts["mpc"] = mpc_context(
             request.mpc, request.mpc_period, request.links, FUNCTIONS, FIXED_STRUCTS, u_what
         )
-        parts["mpc_runtime"] = mpc_runtime().read_text(encoding="utf-8").rstrip("\n")
+        parts["mpc_runtime"] = printed(mpc_runtime())
     if request.control is not None:
         feedback = request.control
         parts["control"] = {
@@ -146,7 +153,7 @@ def _scene_parts(request: FixedHeaderRequest) -> dict[str, object]:
         law = request.swingup
         catch_every = round(request.mpc_period / law.period) if request.mpc is not None else None
         parts["swingup"] = swingup_context(law, request.links, catch_every)
-        parts["loop_runtime"] = loop_runtime().read_text(encoding="utf-8").rstrip("\n")
+        parts["loop_runtime"] = printed(loop_runtime())
     return parts
 
 

@@ -67,23 +67,36 @@ def plan_fixed(
             f"--links {links} is large; pass --force to go ahead (up to {LINKS_WITHOUT_FORCE} need none)"
         )
     chosen = parse_joints(joints, links)
-    if directory is None:
-        raise OptionsError("missing -o DIR: say where to write the header")
-    if not str(directory).strip():
-        raise OptionsError(f"-o {str(directory)!r} is empty: name the output folder, e.g. -o out/")
+    folder = _folder(directory)
     name = name if name is not None else f"fixed{links}"
     problem = name_problem(name)
     if problem:
         raise OptionsError(f"--name {abbreviate(name)!r} {problem}; choose another name")
-    targets = parse_emit(emit) if emit is not None else ("cpp",)
+    targets = _fixed_targets(emit, "--emit") if emit is not None else ("cpp",)
+    request = FixedHeaderRequest(name, links, chosen, fixed_command(name, links, chosen, targets))
+    return request, folder, targets
+
+
+def _folder(directory: str | Path | None) -> Path:
+    """The output folder of -o, or an OptionsError (missing, or empty)."""
+    if directory is None:
+        raise OptionsError("missing -o DIR: say where to write the header")
+    if not str(directory).strip():
+        raise OptionsError(f"-o {str(directory)!r} is empty: name the output folder, e.g. -o out/")
+    return Path(directory)
+
+
+def _fixed_targets(values: str | list[str], where: str) -> tuple[str, ...]:
+    """`parse_emit`'s targets, each one a fixed chain takes (`FIXED_TARGETS`); `EmitError` (one
+    line, naming `where`) otherwise."""
+    targets = parse_emit(values, where)
     others = [target for target in targets if target not in FIXED_TARGETS]
     if others:
-        raise OptionsError(
-            f"--emit {others[0]}: not yet supported for fixed-pivot models; "
-            f"choose from {', '.join(FIXED_TARGETS)}"
+        choices = ", ".join(FIXED_TARGETS)
+        raise EmitError(
+            f"{where} {others[0]}: not yet supported for fixed-pivot models; choose from {choices}"
         )
-    request = FixedHeaderRequest(name, links, chosen, fixed_command(name, links, chosen, targets))
-    return request, Path(directory), targets
+    return targets
 
 
 def render_target(request: FixedHeaderRequest, target: str) -> dict[str, str | bytes]:
@@ -134,10 +147,7 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     from ipgen.pipeline.fixed_run import fixed_scene
     from ipgen.scene.load import parse_document
 
-    if directory is None:
-        raise OptionsError("missing -o DIR: say where to write the header")
-    if not str(directory).strip():
-        raise OptionsError(f"-o {str(directory)!r} is empty: name the output folder, e.g. -o out/")
+    folder = _folder(directory)
     reader, document = parse_document(scene)
     parts = fixed_scene(scene, document, reader)
     system = document["system"]
@@ -150,19 +160,14 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     if emit is None and not (isinstance(listed, list) and all(isinstance(item, str) for item in listed)):
         choices = ", ".join(FIXED_TARGETS)
         reader.bad("system.emit", listed, f'expected a list of targets, e.g. ["c"] (of {choices})')
+    given, where = (emit, "--emit") if emit is not None else (listed, "system.emit")
     try:
-        targets = parse_emit(emit) if emit is not None else parse_emit(listed, "system.emit")
+        targets = _fixed_targets(given, where)
     except EmitError as exc:
         reader.fail(str(exc))
-    others = [target for target in targets if target not in FIXED_TARGETS]
-    if others:
-        reader.fail(
-            f"{'--emit' if emit is not None else 'system.emit'}: {others[0]} is not yet supported for "
-            f"fixed-pivot models; choose from {', '.join(FIXED_TARGETS)}"
-        )
     if not chain.coordinates.is_canonical and any(target in ("fmu", "fmu3") for target in targets):
         reader.fail(
-            f"{'--emit' if emit is not None else 'system.emit'}: an FMU's variables are ipgen's "
+            f"{where}: an FMU's variables are ipgen's "
             f"coordinates, not this scene's (angles = {chain.angles!r}, zero = {chain.zero!r}, "
             f"positive = {chain.positive!r}): emit it from ipgen --type fixed, or drop fmu"
         )
@@ -184,11 +189,11 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
     request = FixedHeaderRequest(
         name, chain.links, tuple(chain.joints), command, mpc, period, swingup, feedback, chain.coordinates
     )
-    where = f"{shown_path(scene.as_posix())}: warning:"
+    warn = f"{shown_path(scene.as_posix())}: warning:"
     warnings = []
     if not chain.coordinates.is_canonical:
         warnings.append(
-            f"{where} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
+            f"{warn} angles = {chain.angles!r}, zero = {chain.zero!r}, positive = {chain.positive!r}; "
             "the headers are in ipgen's coordinates (absolute, from upright, clockwise): "
             + (f"{name}.h's ipgen_{name}_to_canonical, _rates_to_canonical and _torque_from_canonical "
                "map x and u" if "c" in targets else "map x and u at the boundary")
@@ -196,10 +201,10 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
         )
     if (controller is not None or swingup is not None) and "c" not in targets:
         warnings.append(
-            f"{where} its [controller] and [swingup] go into the C header only: add c to the targets "
+            f"{warn} its [controller] and [swingup] go into the C header only: add c to the targets "
             '(emit = ["c"] or --emit c)'
         )
-    return FixedScenePlan(request, Path(directory), targets, parts.cfg, tuple(warnings))
+    return FixedScenePlan(request, folder, targets, parts.cfg, tuple(warnings))
 
 
 def _files(
