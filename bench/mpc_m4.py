@@ -14,10 +14,12 @@ compiled for the Cortex-M4F (bench/m4_cycles.py: arm-none-eabi-gcc -mcpu=cortex-
 the loops over them) and `ipgen_qube_servo2_mpc_mpc_step` is called on the first K state
 estimates of the simulator's own run of the preset (its hat_* columns: the cold first step, then
 the real-time iteration along the closed loop, where u reaches its bound and the arm its
-travel). Three times: with the preset's method (the interior point to its tolerance, RK4's exact
-sensitivities), with the microcontroller's (FAST: `barrier = 1e-3`, `qp_iterations = 1`,
-`sensitivities = "frozen"` added to its [controller]) and with qube_servo2_mpc_swingup_fast's
-(`barrier = 0.1`, `qp_iterations = 2`); each run on its own simulator run's estimates. QEMU
+travel). Twice: with the preset's method (the interior point to its tolerance, RK4's exact
+sensitivities) and with the microcontroller's (FAST: `barrier = 1e-3`, `qp_iterations = 1`,
+`sensitivities = "frozen"` added to its [controller]); each run on its own simulator run's
+estimates. Then the QUBE swing-up's MPC: the preset qube_servo2_mpc_swingup_fast's [controller]
+(two Newton steps a sample, the arm's soft bound besides its hard one) in place of
+qube_servo2_mpc's, on the same hold, and with one Newton step. QEMU
 counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
 estimate (each instruction weighted by the Cortex-M4 TRM's cycle count, zero-wait-state memory,
 a taken branch 1 + 2), µs at 168 MHz (an STM32F405/407's clock). RAM: the MPC's state (its
@@ -49,12 +51,17 @@ from bench.report import ROOT
 CLOCK_MHZ = 168.0
 # The microcontroller's method (docs/mpc.md), lines added to the preset's [controller].
 FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
-# qube_servo2_mpc_swingup_fast's method: two Newton steps a sample at the barrier weight 0.1.
-FAST_TWO = 'barrier = 0.1\nqp_iterations = 2\nsensitivities = "frozen"\n'
 METHODS = (
     ("the interior point (the preset's method)", ""),
     ("FAST: one barrier Newton step, frozen sensitivities", FAST),
-    ("FAST, two Newton steps (κ = 0.1, qube_servo2_mpc_swingup_fast's)", FAST_TWO),
+)
+# The QUBE swing-up's MPC: qube_servo2_mpc_swingup_fast's [controller] (its method: two Newton steps
+# a sample at κ = 0.1; the arm's hard bound at 0.98 rad and soft bound at 0.9 rad) in place of
+# qube_servo2_mpc's, on that preset's hold; and the same with one Newton step.
+SWINGUP_FAST = "qube_servo2_mpc_swingup_fast"
+SWINGUP_METHODS = (
+    ("its method: two barrier Newton steps (κ = 0.1)", ""),
+    ("one barrier Newton step (κ = 0.1)", "qp_iterations = 1\n"),
 )
 BEGIN, END = "<!-- bench.mpc_m4: begin -->", "<!-- bench.mpc_m4: end -->"
 NAME = "qube_servo2_mpc"
@@ -90,6 +97,21 @@ def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     header's path and the simulator's state estimates."""
     text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
     text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
+    csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
+    return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
+
+
+def _swingup_mpc(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
+    """SWINGUP_FAST's [controller] in place of NAME's (`controller`'s keys replacing its own): the
+    header's path and the simulator's state estimates of NAME's hold."""
+    table = (ROOT / "scenes" / "rigs" / f"{SWINGUP_FAST}.toml").read_text().split("\n[controller]\n")[1]
+    table = table.split("\n[")[0]
+    for line in controller.splitlines():
+        key = line.split("=")[0].strip()
+        table = "\n".join(line if row.split("=")[0].strip() == key else row for row in table.splitlines())
+    text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
+    head, rest = text.split("\n[controller]\n")
+    text = f"{head}\n[controller]\n{table}\n\n[" + rest.split("\n[", 1)[1]
     csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
     return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
 
@@ -207,15 +229,19 @@ def _profile_lines(functions: tuple[tuple[str, int], ...]) -> list[str]:
     return ["", f"{head}: {shares}."]
 
 
-# (the header's name, what the rows say, the scene maker)
-CASES = ((NAME, "the QUBE", _scene), (PENDUBOT, "DFKI's pendubot", _pendubot))
+# (the header's name, what the rows say, the scene maker, its methods)
+CASES = (
+    (NAME, "the QUBE", _scene, METHODS),
+    (NAME, "the QUBE swing-up's MPC", _swingup_mpc, SWINGUP_METHODS),
+    (PENDUBOT, "DFKI's pendubot", _pendubot, METHODS),
+)
 
 
 def _method(
     name: str, controller: str, args: argparse.Namespace, case: tuple = CASES[0]
 ) -> tuple[list[str], list[str]]:
     """The table rows and the paragraph (RAM, flash, profile) of one method on one case."""
-    model, what, scene = case
+    model, what, scene, _ = case
     name = f"{what}, {name}"
     with tempfile.TemporaryDirectory(prefix="ipgen-mpc-m4.") as folder:
         header, states = scene(Path(folder), controller)
@@ -257,7 +283,7 @@ def main() -> None:
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     rows, texts = [], []
     for case in CASES:
-        for name, controller in METHODS:
+        for name, controller in case[3]:
             method_rows, text = _method(name, controller, args, case)
             rows += method_rows
             texts += text
@@ -272,9 +298,11 @@ def main() -> None:
         "pendubot (scenes/rigs/pendubot_mpc.toml's chain and MPC, N = 40, without its swing-up: holding",
         "the upright from 0.14 rad off at rest, the simulator's states mapped to the header's",
         "coordinates); with the preset's",
-        "method, with FAST (`barrier = 0.001`, `qp_iterations = 1`, `sensitivities = \"frozen\"` in",
-        "its [controller]) and with qube_servo2_mpc_swingup_fast's two Newton steps a sample",
-        f"(`barrier = 0.1`, `qp_iterations = 2`), arm-none-eabi-gcc {args.opt}, QEMU mps2-an386.",
+        "method and with FAST (`barrier = 0.001`, `qp_iterations = 1`, `sensitivities = \"frozen\"` in",
+        "its [controller]); and the QUBE swing-up's MPC: qube_servo2_mpc_swingup_fast's [controller]",
+        "(two Newton steps a sample at `barrier = 0.1`, the arm's hard bound at 0.98 rad and soft bound",
+        "at 0.9 rad, r = 0.3) on qube_servo2_mpc's hold, and the same with one Newton step;",
+        f"arm-none-eabi-gcc {args.opt}, QEMU mps2-an386.",
         "Cycles: the TRM's per-instruction counts, zero-wait-state memory, a taken branch 3 (an",
         f"estimate, not a measurement); µs at {CLOCK_MHZ:g} MHz.",
         "",
