@@ -101,17 +101,28 @@ def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
 
 
+def _table(scene: str, name: str) -> tuple[list[str], list[str], list[str]]:
+    """scenes/rigs/SCENE.toml's lines before the table [NAME]'s header, its rows (up to the next
+    table's header), and the lines from that header on."""
+    lines = (ROOT / "scenes" / "rigs" / f"{scene}.toml").read_text().splitlines()
+    header = re.compile(rf"^\[{name}\]\s*(#.*)?$")
+    start = next(i for i, line in enumerate(lines) if header.match(line))
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("[")), len(lines))
+    return lines[:start], lines[start + 1 : end], lines[end:]
+
+
 def _swingup_mpc(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     """SWINGUP_FAST's [controller] in place of NAME's (`controller`'s keys replacing its own): the
     header's path and the simulator's state estimates of NAME's hold."""
-    table = (ROOT / "scenes" / "rigs" / f"{SWINGUP_FAST}.toml").read_text().split("\n[controller]\n")[1]
-    table = table.split("\n[")[0]
+    rows = _table(SWINGUP_FAST, "controller")[1]
     for line in controller.splitlines():
         key = line.split("=")[0].strip()
-        table = "\n".join(line if row.split("=")[0].strip() == key else row for row in table.splitlines())
-    text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
-    head, rest = text.split("\n[controller]\n")
-    text = f"{head}\n[controller]\n{table}\n\n[" + rest.split("\n[", 1)[1]
+        found = [i for i, row in enumerate(rows) if row.split("=")[0].strip() == key]
+        if not found:
+            raise SystemExit(f"bench.mpc_m4: {SWINGUP_FAST}'s [controller] has no {key} to replace")
+        rows[found[0]] = line
+    before, _, after = _table(NAME, "controller")
+    text = "\n".join([*before, "[controller]", *rows, *after])
     csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
     return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
 

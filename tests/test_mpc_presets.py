@@ -2,8 +2,9 @@
 encoders + Kalman filter, the identified damping) and scenes/cdip_mpc.toml (the cart double
 pendulum, ±20 N, rail ±1 m) balance from their tilted, moving starts within their constraints:
 |u| within its bound and the base within its travel at every sample, every step's status ok,
-upright and nearly at rest at the end; scenes/rigs/qube_servo2_mpc_swingup.toml swings the QUBE up
-from hanging by energy control and catches and holds it by MPC within ±10 V and the arm's travel;
+upright and nearly at rest at the end; scenes/rigs/qube_servo2_mpc_swingup.toml (and its
+_ekf and _fast variants) swings the QUBE up from hanging by energy control and catches and holds it
+by MPC within ±10 V and the arm's travel;
 scenes/cdip_mpc_track.toml swings the cart double pendulum up by MPC along a plan within its rail
 (and the same plan tracked by time-varying LQR leaves it)."""
 
