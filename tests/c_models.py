@@ -29,6 +29,26 @@ DRIVER = C_DIR / "eval_model.c"
 WARNINGS = ("-Wall", "-Wextra", "-Wpedantic", "-Werror")
 FLOAT_WARNINGS = ("-DIPGEN_SCALAR=float", "-Wdouble-promotion", "-Wconversion")
 STDERR_LINES = 40
+# A C header's MPC step as a program: a state per line in (ipgen's coordinates), u of
+# ipgen_NAME_mpc_step and its status out (NAME: the header's model name, replaced by the caller).
+MPC_STEP_PROGRAM = """\
+#include <stdio.h>
+#include "NAME.h"
+static ipgen_NAME_mpc_state s;
+int main(void) {
+  double x[4];
+  IPGEN_SCALAR xs[4];
+  int i;
+  ipgen_NAME_mpc_init(&s);
+  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
+    double u;
+    for (i = 0; i < 4; ++i) xs[i] = (IPGEN_SCALAR)x[i];
+    u = (double)ipgen_NAME_mpc_step(&s, xs);
+    printf("%.17g %d\\n", u, s.info.status);
+  }
+  return 0;
+}
+"""
 
 
 def c_command(*arguments: str, scalar: str = "double", optimisation: str = "-O1") -> tuple[str, ...]:

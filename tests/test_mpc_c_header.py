@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
+from c_models import CC, FLOAT_WARNINGS, MPC_STEP_PROGRAM, WARNINGS, require_cc
 from cxx import CXX, require_toolchain
 from test_mpc_scene import FAST, MEASURED, PUSHED, QUBE, U_MAX
 
@@ -46,24 +46,7 @@ int main(void) {
 }
 """
 
-STEP = """\
-#include <stdio.h>
-#include "qube_servo2.h"
-/* Reads a state estimate per line, prints u of the MPC step and its status. */
-static P_mpc_state s;
-int main(void) {
-  double x[4];
-  IPGEN_SCALAR xs[4];
-  int i;
-  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
-    double u;
-    for (i = 0; i < 4; ++i) xs[i] = (IPGEN_SCALAR)x[i];
-    u = (double)P_mpc_step(&s, xs);
-    printf("%.17g %d\\n", u, s.info.status);
-  }
-  return 0;
-}
-"""
+STEP = MPC_STEP_PROGRAM.replace("ipgen_NAME_", "P_").replace("NAME", "qube_servo2")
 
 
 @pytest.fixture(scope="module")

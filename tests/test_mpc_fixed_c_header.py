@@ -25,12 +25,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
+from c_models import MPC_STEP_PROGRAM, c_command, compile_c, require_cc
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_fixed_lqr import CHAIN as LQR_CHAIN
 from test_fixed_lqr import CONTROLLER as LQR_CONTROLLER
 from test_mpc_fixed import BALANCE, U_MAX, canonical, simulate
+from test_mpc_scene import FAST
 
 from ipgen.command.cli import run
 from ipgen.common.presets import preset_path
@@ -47,28 +48,9 @@ FLOAT_INPUT = 1e-3 * U_MAX
 FLOAT_LOOP = 1e-4 * U_MAX
 FLOAT_COLD = 1e-2 * U_MAX
 RIG_KEYS = ("angles", "zero", "positive")  # DFKI's coordinates, in BALANCE
-FAST = 'barrier = 0.001\nqp_iterations = 1\nsensitivities = "frozen"\n'
 ROTOR = "Ir = [0.001]\ngr = [-6.0]\n"
 
-STEP = """\
-#include <stdio.h>
-#include "NAME.h"
-/* Reads a state per line (ipgen's coordinates), prints u of the MPC step and its status. */
-static ipgen_NAME_mpc_state s;
-int main(void) {
-  double x[4];
-  IPGEN_SCALAR xs[4];
-  int i;
-  ipgen_NAME_mpc_init(&s);
-  while (scanf("%lf %lf %lf %lf", &x[0], &x[1], &x[2], &x[3]) == 4) {
-    double u;
-    for (i = 0; i < 4; ++i) xs[i] = (IPGEN_SCALAR)x[i];
-    u = (double)ipgen_NAME_mpc_step(&s, xs);
-    printf("%.17g %d\\n", u, s.info.status);
-  }
-  return 0;
-}
-"""
+STEP = MPC_STEP_PROGRAM
 
 # the header's name: (the driven joint, lines added to [actuator], lines added to [controller])
 CASES = {
@@ -96,11 +78,9 @@ def compiled(folder: Path, name: str, scalar: str, program_text: str = STEP) -> 
     """`program_text` (NAME: the header's name) compiled against the header, C99, warnings as errors."""
     source = folder / f"{name}_{scalar}.c"
     source.write_text(program_text.replace("NAME", name))
-    extra = [*FLOAT_WARNINGS] if scalar == "float" else []
     program = folder / f"{name}_{scalar}"
-    command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(source), "-o", str(program)]
-    result = subprocess.run([*command, "-lm"], capture_output=True, text=True)
-    assert result.returncode == 0, result.stderr[:3000]
+    failure = compile_c(c_command(f"-I{folder}", str(source), "-o", str(program), scalar=scalar))
+    assert failure is None, failure
     return program
 
 
@@ -364,8 +344,8 @@ def test_a_name_the_printed_runtime_defines_is_one_line(tmp_path: Path) -> None:
         '#include "mpc.h"\nint main(void) {\n  static ipgen_mpc_swingup_state s;\n'
         "  ipgen_mpc_swingup_init(&s);\n  return 0;\n}\n"
     )
-    command = [CC, "-std=c99", *WARNINGS, str(program), "-o", str(tmp_path / "mpc" / "main"), "-lm"]
-    assert subprocess.run(command, capture_output=True, text=True).returncode == 0
+    failure = compile_c(c_command(str(program), "-o", str(tmp_path / "mpc" / "main")))
+    assert failure is None, failure
     cart = tmp_path / "cart.toml"  # the arm's swing-up named "loop": the same check on the cart's path
     named = preset_path("rsip_swingup").read_text().replace("[system]\n", '[system]\nname = "loop"\n', 1)
     cart.write_text(named)
