@@ -248,9 +248,7 @@ CASES = (
 )
 
 
-def _method(
-    name: str, controller: str, args: argparse.Namespace, case: tuple = CASES[0]
-) -> tuple[list[str], list[str]]:
+def _method(name: str, controller: str, args: argparse.Namespace, case: tuple) -> tuple[list[str], list[str]]:
     """The table rows and the paragraph (RAM, flash, profile) of one method on one case."""
     model, what, scene, _ = case
     name = f"{what}, {name}"
@@ -294,7 +292,8 @@ def main() -> None:
     m4_cycles.TARGET[:] = [args.opt if flag.startswith("-O") else flag for flag in m4_cycles.TARGET]
     rows, texts = [], []
     for case in CASES:
-        for name, controller in case[3]:
+        *_, methods = case
+        for name, controller in methods:
             method_rows, text = _method(name, controller, args, case)
             rows += method_rows
             texts += text
