@@ -319,7 +319,10 @@ IPGEN_MPC_API long ipgen_mpc_work_size(const ipgen_mpc_settings *s) {
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_sqrt(ipgen_mpc_real v) {
   return sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)sqrtf((float)v) : (ipgen_mpc_real)sqrt((double)v);
 }
-IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_abs(ipgen_mpc_real v) { return v < 0 ? -v : v; }
+/* |v| by fabsf or fabs (one instruction on an FPU: v < 0 ? -v : v is a compare and a branch). */
+IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_abs(ipgen_mpc_real v) {
+  return sizeof(ipgen_mpc_real) == sizeof(float) ? (ipgen_mpc_real)fabsf((float)v) : (ipgen_mpc_real)fabs((double)v);
+}
 IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_max(ipgen_mpc_real a, ipgen_mpc_real b) { return a < b ? b : a; }
 IPGEN_MPC_LOCAL int ipgen_mpc_finite(ipgen_mpc_real v) { return v == v && v - v == v - v; }
 
@@ -1248,6 +1251,34 @@ IPGEN_MPC_LOCAL ipgen_mpc_real ipgen_mpc_recover(const ipgen_mpc_settings *s, co
       }                                                                                                  \
   } while (0)
 
+/* ipgen_mpc_encode's bounds b = a (value - traj[var]) with every size fixed, written stage by
+ * stage without decoding each index (the fixed form's ipgen_mpc_qp keeps 1/t in the code table). */
+IPGEN_MPC_LOCAL void ipgen_mpc_bounds_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
+  const ipgen_mpc_real *const x = l->traj;
+  ipgen_mpc_real *const b = l->bound;
+  long i = 0;
+  int k, j;
+  for (k = 0; k < IPGEN_MPC_N; ++k)
+    for (j = 0; j < IPGEN_MPC_NU; ++j, i += 2) {
+      const ipgen_mpc_real v = x[(long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + k * IPGEN_MPC_NU + j];
+      b[i] = s->u_max[j] - v;
+      b[i + 1] = -(s->u_min[j] - v);
+    }
+  for (k = 1; k <= IPGEN_MPC_N; ++k)
+    for (j = 0; j < IPGEN_MPC_HARD; ++j, i += 2) {
+      const ipgen_mpc_real v = x[k * IPGEN_MPC_NX + s->hard_index[j]];
+      b[i] = s->hard_max[j] - v;
+      b[i + 1] = -(s->hard_min[j] - v);
+    }
+  for (k = 1; k <= IPGEN_MPC_N; ++k)
+    for (j = 0; j < IPGEN_MPC_SOFT; ++j, i += 2) {
+      const ipgen_mpc_real v = x[k * IPGEN_MPC_NX + s->soft_index[j]];
+      b[i] = s->soft_max[j] - v;
+      b[i + 1] = -(s->soft_min[j] - v);
+    }
+  for (j = 0; j < 2 * IPGEN_MPC_N * IPGEN_MPC_SOFT; ++j, ++i) b[i] = (ipgen_mpc_real)0;
+}
+
 /* ipgen_mpc_qp (below) with every size fixed: the same iterates in exact arithmetic, fewer passes
  * over the inequalities. Per inequality 1/t is kept (l->code: the table is not read here) and
  * the Newton system's linear terms are rewritten without the multipliers that cancel: rhs = the
@@ -1273,7 +1304,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_qp(const ipgen_mpc_settings *s, const ipgen_mpc_la
   long i;
   int k, a, m, iteration;
   (void)first_soft;
-  ipgen_mpc_encode(s, l);
+  ipgen_mpc_bounds_fixed(s, l);
   for (i = (long)(N + 1) * nx; i < Z; ++i) z[i] = zero;
   for (k = 0; k < N; ++k) {
     const ipgen_mpc_real *A = l->A + (long)k * nx * nx;
