@@ -48,7 +48,12 @@ def test_preset_balances_within_its_constraints(
     assert np.max(np.abs(column["theta0"])) <= travel and np.max(np.abs(column["theta0"])) > 0.7 * travel
     assert max(abs(column[name][0]) for name in links) >= tilt
     assert all(abs(column[name][-1]) < 0.01 for name in links)
-    assert abs(column["theta0"][-1]) < 0.05 and abs(column["dtheta0"][-1]) < 0.1
+    # held over the last second: the base near its centre and its rate small in RMS, not at the last
+    # sample alone (the QUBE's encoders, 3.07 mrad a count, keep its hold in a limit cycle whose rate
+    # at one sample differs between machines: 0.16 rad/s on one, below 0.1 on another, same commit)
+    last = column["t"] > column["t"][-1] - 1.0
+    assert np.max(np.abs(column["theta0"][last])) < 0.05
+    assert np.sqrt(np.mean(column["dtheta0"][last] ** 2)) < 0.15
 
 
 SWINGUP = ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup.toml"
