@@ -50,7 +50,9 @@
 #       ${CMAKE_BINARY_DIR}/scenes/<stem>.cfg (re-run when the scene, the generator or its
 #       templates change). Adds the target scene_<stem> (part of ALL: the .cfg and the simulator)
 #       and run_scene_<stem> (runs it, writing ${CMAKE_BINARY_DIR}/scenes/<stem>.csv). <var>
-#       receives the .cfg path.
+#       receives the .cfg path. A fixed-pivot scene ([system] type = "fixed": the acrobot, the
+#       pendubot, DFKI's rig) is a specialised model (its header is the scene's own: its driven
+#       joints, rotors and controller), simulated through its C adapter: C must be enabled.
 #
 #   ipgen_find_ipsim()
 #       Finds Eigen 3.4, SUNDIALS 6 and LAPACK (each missing one stops CMake naming its Debian
@@ -82,9 +84,15 @@ else()
   set(_IPGEN_CHECKOUT FALSE CACHE INTERNAL "ipgen.cmake is used from a checkout")
 endif()
 
-# Flags every target of the project is compiled with.
+# Flags every target ipgen's functions create is compiled with: the warnings, and -Werror where
+# IPGEN_WERROR is set (ipgen's own build: its CMakeLists.txt). A project that uses ipgen gets the
+# warnings without failing on them: a newer compiler may warn where ipgen's tests' does not (as
+# `ipgen run` compiles its simulators without -Werror).
 function(ipgen_target_warnings target)
-  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic)
+  if(IPGEN_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
 endfunction()
 
 # Resolves IPGEN_PYTHON (cache): the interpreter whose ipgen owns this file, or stops with a
@@ -359,7 +367,10 @@ function(ipgen_add_runtime_simulator model_target)
   target_include_directories(${simulator} PRIVATE "${adapter_dir}" "${_IPGEN_ROOT}/cpp/include")
   target_link_libraries(${simulator} PRIVATE ipgen_ipsim_runtime m)
   # The model's functions are the adapter's only entry point: found through ipgen_model_get.
-  target_compile_options(${simulator} PRIVATE $<$<COMPILE_LANGUAGE:C>:-Wall -Wextra -Wpedantic -Werror>)
+  target_compile_options(${simulator} PRIVATE $<$<COMPILE_LANGUAGE:C>:-Wall -Wextra -Wpedantic>)
+  if(IPGEN_WERROR)
+    target_compile_options(${simulator} PRIVATE $<$<COMPILE_LANGUAGE:C>:-Werror>)
+  endif()
   add_dependencies(${simulator} ${model_target})
 endfunction()
 
@@ -402,7 +413,7 @@ function(_ipgen_describe_scene scene prefix)
   if(NOT errors STREQUAL " ")
     message(WARNING "${errors}")
   endif()
-  set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+) specialise=(true|false)$")
+  set(pattern "^name=([A-Za-z0-9_]+) type=(classical|rotary|fixed) links=([0-9]+) inertia=(pivot|full) stem=([^ ]+) specialise=(true|false)$")
   if(NOT description MATCHES "${pattern}")
     message(FATAL_ERROR "ipgen: unexpected output of `${IPGEN_PYTHON} -m ipgen --scene ${scene} "
                         "--describe`: `${description}`")
@@ -476,6 +487,10 @@ function(ipgen_add_scene scene_file)
     get_property(languages GLOBAL PROPERTY ENABLED_LANGUAGES)
     if("C" IN_LIST languages)
       ipgen_add_runtime_simulator(${model_target})
+    elseif(system_TYPE STREQUAL "fixed")
+      # A fixed-pivot chain is simulated through its C adapter only (as `ipgen run` does).
+      message(FATAL_ERROR "ipgen_add_scene(${scene}): a fixed-pivot chain's simulator links its C adapter: "
+                          "enable C in the project (project(... LANGUAGES CXX C))")
     else()
       ipgen_add_simulator(${model_target})
     endif()

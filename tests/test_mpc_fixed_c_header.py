@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import io
 import math
+import re
 import shutil
 import subprocess
 from contextlib import redirect_stderr, redirect_stdout
@@ -160,13 +161,16 @@ def test_the_header_follows_the_simulator_through_a_breakdown(tmp_path: Path) ->
 
 def test_the_header_states_the_chains_model_and_the_method(loop: tuple[Path, str, dict]) -> None:
     """The model constants are the scene's chain (a rotor's Ir and gr where given); the method is
-    printed only where the scene sets it; the .cfg written beside it is `ipgen run`'s."""
+    printed only where the scene sets it; the .cfg written beside it is `ipgen run`'s but for its
+    model, the header's."""
     folder, name, _ = loop
     header = (folder / f"{name}.h").read_text()
     assert f"ipgen_{name}_mpc_step" in header and "IPGEN_MPC_NX 4" in header
     assert ("(IPGEN_SCALAR)-6.0}" in header) == (name == "pendubot_rotor")  # gr = -6 in the params
     assert (f"ipgen_{name}_mpc_method" in header) == (name == "acrobot_fast")
-    assert (folder / "balance.cfg").read_text() == (folder / "out" / "balance.cfg").read_text()
+    written, ran = (folder / "balance.cfg").read_text(), (folder / "out" / "balance.cfg").read_text()
+    assert f"\nmodel = {name}\n" in written
+    assert re.sub(r"\nmodel = \w+\n", "\n", written) == re.sub(r"\nmodel = \w+\n", "\n", ran)
 
 
 def test_a_chain_without_a_controller_gets_the_plain_header(tmp_path: Path) -> None:
@@ -293,6 +297,53 @@ def test_a_bad_emit_or_name_is_one_line_and_writes_nothing(
     assert status == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert f"system.{key}" in err, err
     assert not out.exists() or not any(out.iterdir())
+
+
+def describe(scene: Path, *options: str) -> tuple[int, str, str]:
+    """`ipgen --scene SCENE --describe [options]`: (exit status, stdout, stderr)."""
+    with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
+        status = run(["--scene", str(scene), "--describe", *options])
+    return status, out.getvalue(), err.getvalue()
+
+
+def test_describe_gives_cmake_the_fixed_scenes_own_model(tmp_path: Path) -> None:
+    """What CMake's ipgen_add_scene reads: the header's name, a specialised model (the scene's own
+    header), the warnings `--scene -o` prints; nothing written. And the .cfg `--scene -o` writes
+    names that model (the simulator linked to DIR/<name>_model.c takes it), where `ipgen run`'s
+    names the library it builds; the rest of the two files is the same."""
+    scene = tmp_path / "balance.toml"
+    text = scene_text("2", "", "", "chain")
+    scene.write_text(text)
+    status, out, err = describe(scene)
+    assert status == 0, err
+    assert out == "name=chain type=fixed links=2 inertia=full stem=balance specialise=true\n"
+    assert err.count("\n") == 1 and "warning: angles = 'relative'" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["balance.toml"]
+    status, err = generate(scene, tmp_path / "generated")
+    assert status == 0, err
+    written = (tmp_path / "generated" / "balance.cfg").read_text().splitlines()
+    ran = simulate(tmp_path, text, "balance")[1].splitlines()
+    assert "model = chain" in written and "model = fixed2_j2" in ran
+    assert [line for line in written if not line.startswith("model =")] == [
+        line for line in ran if not line.startswith("model =")
+    ]
+    status, out, err = describe(scene, "--links", "2")
+    assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and "--describe" in err, err
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(key=st.sampled_from(["emit", "name"]), data=st.data())
+def test_describe_refuses_what_generating_refuses_in_one_line(
+    tmp_path: Path, key: str, data: st.DataObject
+) -> None:
+    value = data.draw(BAD_EMIT if key == "emit" else BAD_NAME)
+    text = scene_text("2", "", "", "chain")
+    old = 'emit = ["c"]' if key == "emit" else '"chain"'
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text.replace(old, f"emit = {value}" if key == "emit" else value))
+    status, out, err = describe(scene)
+    assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert f"system.{key}" in err, err
 
 
 @pytest.mark.parametrize("option", [["--links", "2"], ["--name", "x"], ["--type", "fixed"], ["--fix", "g"]])

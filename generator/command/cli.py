@@ -237,8 +237,11 @@ def cli(
     if system_type == "fixed" or joints is not None:
         _generate_fixed(system_type, links, joints, directory, name, emit, force, context.params)
         return
-    if scene is not None and not describe and _is_fixed_scene(scene):
-        _generate_fixed_scene(scene, directory, emit, force, context.params)
+    if scene is not None and _is_fixed_scene(scene):
+        if describe:
+            _describe_fixed_scene(scene, context.params)
+        else:
+            _generate_fixed_scene(scene, directory, emit, force, context.params)
         return
     if cmake_dir:
         from ipgen.common.locations import cmake_dir as folder
@@ -286,6 +289,19 @@ def _refuse_others(params: dict[str, object], allowed: set[str], why: str) -> No
     extra = sorted(key for key, value in params.items() if key not in allowed and value not in _NOT_GIVEN)
     if extra:
         raise job.OptionsError(f"--{extra[0].replace('_', '-')} {why}")
+
+
+def _describe_fixed_scene(scene: Path, params: dict[str, object]) -> None:
+    """`ipgen --scene FIXED.toml --describe`: the chain's line for CMake's ipgen_add_scene."""
+    from ipgen.pipeline.fixed_generate import describe_fixed_scene
+
+    _refuse_others(
+        params, {"scene", "describe"},
+        "with --describe: the scene says the system (--scene FILE --describe takes nothing else)",
+    )  # fmt: skip
+    line, warnings = describe_fixed_scene(scene)
+    click.echo(line)
+    _warn(warnings)
 
 
 def _generate_fixed_scene(
@@ -648,15 +664,6 @@ def identify_command(
     )
     click.echo(result.report, nl=False)
     click.echo(f"wrote {', '.join(str(path) for path in result.files)}")
-
-
-def _is_fixed_scene(scene: Path) -> bool:
-    """Whether the scene file declares a fixed-pivot chain (read before the scene checks,
-    which refuse it for the other commands)."""
-    from ipgen.scene.fixed import is_fixed_document
-    from ipgen.scene.load import parse_document
-
-    return is_fixed_document(parse_document(scene)[1])
 
 
 def _identify_fixed(

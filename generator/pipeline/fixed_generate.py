@@ -204,7 +204,24 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
             f"{warn} its [controller] and [swingup] go into the C header only: add c to the targets "
             '(emit = ["c"] or --emit c)'
         )
-    return FixedScenePlan(request, folder, targets, parts.cfg, tuple(warnings))
+    # the .cfg names the model these files are (`name`), not the one `ipgen run` builds for the
+    # chain (fixed<n>_j<joints>): a simulator linked to DIR/<name>_model.c then takes it
+    model_line = f"\nmodel = {parts.library}\n"
+    if model_line not in parts.cfg:
+        raise AssertionError(f"fixed_config wrote no `model = {parts.library}` line")
+    cfg = parts.cfg.replace(model_line, f"\nmodel = {name}\n", 1)
+    return FixedScenePlan(request, folder, targets, cfg, tuple(warnings))
+
+
+def describe_fixed_scene(scene: Path) -> tuple[str, tuple[str, ...]]:
+    """`ipgen --scene FIXED.toml --describe`: the scene checked as `--scene FILE -o DIR` checks it
+    (`plan_fixed_scene`, nothing written) and its line for CMake's ipgen_add_scene,
+    `name=<header> type=fixed links=<n> inertia=full stem=<file stem> specialise=true` (the header
+    is the scene's own: its driven joints, rotors and controller are in it; inertia is full: each
+    link's J is its own), with the warnings to print."""
+    plan = plan_fixed_scene(scene, ".", None)
+    system = f"name={plan.request.name} type=fixed links={plan.request.links} inertia=full"
+    return f"{system} stem={scene.stem} specialise=true", plan.warnings
 
 
 def _files(

@@ -61,7 +61,7 @@ def validate_document(reader: Reader, document: dict[str, Any]) -> schema.SceneD
     if isinstance(system, dict) and system.get("type") == "fixed":
         reader.fail(
             f'[system] type = "fixed": this command is {FIXED_NOT_YET} (these read it: ipgen --scene FILE '
-            "-o DIR without --describe, ipgen run, sweep, identify and ipgen.FixedPendulum.from_scene)"
+            "-o DIR or --describe, ipgen run, sweep, identify and ipgen.FixedPendulum.from_scene)"
         )
     return _validate(reader, document)
 

@@ -41,7 +41,12 @@ namespace solve {
 /// instance, and so the same bits, as a model compiled for that size.
 template <int N, class Result, class MatrixA, class MatrixB>
 Result fixed(const MatrixA& a, const MatrixB& b) {
-  if constexpr (MatrixB::ColsAtCompileTime == 1) {
+  if constexpr (N == 1) {
+    // B / a: the bits of Eigen's LDLT of a 1 × 1 matrix (its solve divides by D = a), without the
+    // copy into 1 × 1 matrices, on which gcc 12 at -O2 warns (-Warray-bounds: Eigen's packet copy
+    // of a run-time-sized source; a false positive that -Werror turns into an error).
+    return Result(b / a(0, 0));
+  } else if constexpr (MatrixB::ColsAtCompileTime == 1) {
     return Result(ldlt_solve<N, 1>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, 1>(b)));
   } else if (b.cols() == 1) {
     return Result(ldlt_solve<N, 1>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, 1>(b)));

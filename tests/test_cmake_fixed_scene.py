@@ -1,0 +1,65 @@
+"""CMake's ipgen_add_scene with a fixed-pivot scene, as a project using ipgen builds it.
+
+A project of its own (CXX and C, no build type: ipgen::ipsim's -O2) adds scenes/rigs/dfki_c0.toml
+(DFKI's double pendulum let go, its rig's friction): CMake reads `ipgen --scene --describe`, builds
+the scene's own model and the simulator linked to its C adapter, without a compiler warning, and
+`run_scene_dfki_c0` writes the trajectory `ipgen run` writes. ipgen's own build covers the same
+path at -Og (ctest ipsim.cli.scene.dfki_c0); this one compiles ipsim's runtime at -O2 (about a
+minute of compiling: make test-slow).
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import ipgen
+from ipgen.command.cli import run
+
+pytestmark = pytest.mark.user_program
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = ROOT / "scenes" / "rigs" / "dfki_c0.toml"
+
+
+def _columns(csv: Path) -> dict[str, np.ndarray]:
+    header, *rows = csv.read_text().splitlines()
+    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    return {name: data[:, i] for i, name in enumerate(header.split(","))}
+
+
+def test_a_project_builds_and_runs_a_fixed_scene(tmp_path: Path) -> None:
+    if shutil.which("cmake") is None:
+        pytest.fail("cmake is not installed (make deps installs it)")
+    project = tmp_path / "project"
+    project.mkdir()
+    shutil.copy(SCENE, project / SCENE.name)
+    (project / "CMakeLists.txt").write_text(
+        "cmake_minimum_required(VERSION 3.25)\nproject(p LANGUAGES CXX C)\n"
+        "find_package(ipgen CONFIG REQUIRED)\nipgen_add_scene(dfki_c0.toml)\n"
+    )
+    build = tmp_path / "build"
+    generator = ["-G", "Ninja"] if shutil.which("ninja") else []
+    steps = [
+        ["cmake", "-S", str(project), "-B", str(build), *generator, f"-Dipgen_DIR={ipgen.cmake_dir()}"],
+        ["cmake", "--build", str(build)],
+        ["cmake", "--build", str(build), "--target", "run_scene_dfki_c0"],
+    ]
+    outputs = []
+    for step in steps:
+        result = subprocess.run(step, capture_output=True, text=True)
+        assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+        outputs.append(result.stdout + result.stderr)
+    compiled = outputs[1].splitlines()
+    assert [line for line in compiled if "warning:" in line and not line.startswith("ipgen:")] == []
+    assert "scene dfki_c0: model fixed2 (fixed, 2 links)" in outputs[2]
+    with_cmake = _columns(build / "scenes" / "dfki_c0.csv")
+    assert run(["run", str(SCENE), "-o", str(tmp_path / "run"), "--no-plot"]) == 0
+    with_run = _columns(tmp_path / "run" / "dfki_c0.csv")
+    assert set(with_cmake) == set(with_run) and len(with_cmake["t"]) == 501
+    for name, values in with_run.items():  # the same model, method and tolerances: -O2 against -O2
+        assert np.max(np.abs(with_cmake[name] - values)) <= 1e-9 * (1 + np.max(np.abs(values))), name
