@@ -296,8 +296,8 @@ def _describe_fixed_scene(scene: Path, params: dict[str, object]) -> None:
     from ipgen.pipeline.fixed_generate import describe_fixed_scene
 
     _refuse_others(
-        params, {"scene", "describe"},
-        "with --describe: the scene says the system (--scene FILE --describe takes nothing else)",
+        params, {"scene", "describe", "directory", "emit", "force"},
+        "with a fixed scene: the scene says the system (--scene FILE --describe describes it)",
     )  # fmt: skip
     line, warnings = describe_fixed_scene(scene)
     click.echo(line)
