@@ -330,6 +330,8 @@ def test_describe_gives_cmake_the_fixed_scenes_own_model(tmp_path: Path) -> None
     assert [line for line in written if not line.startswith("model =")] == [
         line for line in ran if not line.startswith("model =")
     ]
+    ignored = describe(scene, "-o", str(tmp_path / "unused"), "--emit", "c", "--force")  # as a cart's
+    assert ignored[:2] == (0, out) and not (tmp_path / "unused").exists()
     status, out, err = describe(scene, "--links", "2")
     assert status == 2 and out == "" and len(err.strip().splitlines()) == 1 and "--describe" in err, err
 

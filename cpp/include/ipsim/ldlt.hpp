@@ -10,6 +10,9 @@
 // are the numbers.
 #pragma once
 
+#include <cmath>
+#include <limits>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 
@@ -42,10 +45,13 @@ namespace solve {
 template <int N, class Result, class MatrixA, class MatrixB>
 Result fixed(const MatrixA& a, const MatrixB& b) {
   if constexpr (N == 1) {
-    // B / a: the bits of Eigen's LDLT of a 1 × 1 matrix (its solve divides by D = a), without the
-    // copy into 1 × 1 matrices, on which gcc 12 at -O2 warns (-Warray-bounds: Eigen's packet copy
-    // of a run-time-sized source; a false positive that -Werror turns into an error).
-    return Result(b / a(0, 0));
+    // What Eigen's LDLT of a 1 × 1 matrix computes (its solve divides by D = a where |D| exceeds
+    // the smallest normal double, else gives 0), bit for bit, without the copies through 1 × 1
+    // matrices, on which gcc 12 at -O2 warns (-Warray-bounds, a false positive: Eigen's two-wide
+    // packet copy of the 1 × 1 source into `Result`) and -Werror would stop the build.
+    const double d = a(0, 0);
+    if (std::abs(d) > std::numeric_limits<double>::min()) return Result(b / d);
+    return Result(Result::Zero(b.rows(), b.cols()));
   } else if constexpr (MatrixB::ColsAtCompileTime == 1) {
     return Result(ldlt_solve<N, 1>(Eigen::Matrix<double, N, N>(a), Eigen::Matrix<double, N, 1>(b)));
   } else if (b.cols() == 1) {
