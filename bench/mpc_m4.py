@@ -96,7 +96,11 @@ def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     """The preset with emit = ["c"] (and `controller`'s lines added to its [controller]): its
     header's path and the simulator's state estimates."""
     text = (ROOT / "scenes" / "rigs" / f"{NAME}.toml").read_text()
-    text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
+    return _qube(folder, text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1))
+
+
+def _qube(folder: Path, text: str) -> tuple[Path, np.ndarray]:
+    """NAME's scene `text` with emit = ["c"]: its header's path and the simulator's state estimates."""
     csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
     return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
 
@@ -122,9 +126,7 @@ def _swingup_mpc(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
             raise SystemExit(f"bench.mpc_m4: {SWINGUP_FAST}'s [controller] has no {key} to replace")
         rows[found[0]] = line
     before, _, after = _table(NAME, "controller")
-    text = "\n".join([*before, "[controller]", *rows, *after])
-    csv = _run_scene(folder, text.replace(f'name = "{NAME}"', f'name = "{NAME}"\nemit = ["c"]'), NAME)
-    return folder / f"{NAME}.h", _columns(csv, tuple(f"hat_{n}" for n in STATE))
+    return _qube(folder, "\n".join([*before, "[controller]", *rows, *after]))
 
 
 def _pendubot(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:

@@ -149,10 +149,11 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
 
     folder = _folder(directory)
     reader, document = parse_document(scene)
-    parts = fixed_scene(scene, document, reader)
     system = document["system"]
+    name = system.get("name", f"fixed{system.get('links')}")  # links: fixed_scene checks them first
+    # the .cfg names the model these files are (a simulator linked to DIR/<name>_model.c takes it)
+    parts = fixed_scene(scene, document, reader, model=name if isinstance(name, str) else None)
     chain = parts.chain
-    name = system.get("name", f"fixed{chain.links}")
     problem = name_problem(name) if isinstance(name, str) else "is not a string"
     if problem:
         reader.bad("system.name", name, f"this name {problem}; choose another")
@@ -204,13 +205,7 @@ def plan_fixed_scene(scene: Path, directory: str | Path | None, emit: str | None
             f"{warn} its [controller] and [swingup] go into the C header only: add c to the targets "
             '(emit = ["c"] or --emit c)'
         )
-    # the .cfg names the model these files are (`name`), not the one `ipgen run` builds for the
-    # chain (fixed<n>_j<joints>): a simulator linked to DIR/<name>_model.c then takes it
-    model_line = f"\nmodel = {parts.library}\n"
-    if model_line not in parts.cfg:
-        raise AssertionError(f"fixed_config wrote no `model = {parts.library}` line")
-    cfg = parts.cfg.replace(model_line, f"\nmodel = {name}\n", 1)
-    return FixedScenePlan(request, folder, targets, cfg, tuple(warnings))
+    return FixedScenePlan(request, folder, targets, parts.cfg, tuple(warnings))
 
 
 def describe_fixed_scene(scene: Path) -> tuple[str, tuple[str, ...]]:

@@ -459,8 +459,9 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     )
 
 
-def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedScene:
-    """A fixed scene's parts (`FixedScene`), every table checked, each problem one line."""
+def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str | None = None) -> FixedScene:
+    """A fixed scene's parts (`FixedScene`), every table checked, each problem one line; its config
+    names `model` (`ipgen --scene -o`: the header's), else the library `ipgen run` builds."""
     chain_tables = {table: value for table, value in document.items() if table in CHAIN_KEYS}
     chain = fixed_pendulum_of(reader, chain_tables)
     _check_tables(reader, document, chain)
@@ -488,8 +489,8 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader) -> FixedSc
         swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
         tracking = swingup_tracking(reader, document["swingup"], controller)
     cfg = fixed_config(
-        path, chain, name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller, swingup,
-        tracking,
+        path, chain, model or name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller,
+        swingup, tracking,
     )  # fmt: skip
     tracked = dataclasses.replace(swingup, tracking=tracking) if swingup is not None else None
     return FixedScene(chain, cfg, name, controller, tracked)
