@@ -23,7 +23,9 @@
  * that fixed weight, continued from the previous sample's slacks and multipliers (shifted as the
  * trajectory is), one Riccati solve an iteration and no predictor: qp_iterations = 1 is one
  * factorisation a sample (the microcontroller's step); its frozen sensitivities take the model's
- * Jacobians at each stage's start (from the second stage on), one a stage. Converged mode: up to
+ * Jacobians at each stage's start (from the second stage on), one a stage; shifted ones keep the
+ * last sample's stage Jacobians, shifted as the trajectory is, and compute the model's Jacobians
+ * at the first and the last stage only. Converged mode: up to
  * sqp_iterations iterations, with a line search, until the step and the dynamics' defects are
  * below sqp_tolerance.
  *
@@ -157,10 +159,14 @@ typedef struct {
                            * stages); IPGEN_MPC_FROZEN: from the second stage on, the model's Jacobians
                            * at the stage's start discretised as RK4 discretises a linear model (one
                            * Jacobian a stage instead of 4 a substep); the first stage's exact (the input
-                           * applied and x_1's bounds rest on it); the defects F(x, u) - x' stay exact */
+                           * applied and x_1's bounds rest on it); the defects F(x, u) - x' stay exact.
+                           * IPGEN_MPC_SHIFTED: as FROZEN, but a warm, shifted step's first linearisation
+                           * keeps stages 1 .. N-2's A and B from the last sample's stages 2 .. N-1 (the
+                           * trajectory moves by one sample; their defects are new), computes stage 0's
+                           * exactly and stage N-1's frozen: two Jacobians a sample instead of N */
 } ipgen_mpc_method;
 
-enum { IPGEN_MPC_EXACT = 0, IPGEN_MPC_FROZEN = 1 };
+enum { IPGEN_MPC_EXACT = 0, IPGEN_MPC_FROZEN = 1, IPGEN_MPC_SHIFTED = 2 };
 
 /* What a step did. */
 typedef struct {
@@ -420,6 +426,42 @@ IPGEN_MPC_LOCAL void ipgen_mpc_frozen(int nx, int nu, ipgen_mpc_real h, int subs
   }
 }
 
+/* xn = F(x, u): `substeps` RK4 steps, each substep's four slopes unrolled (ksum = k1 + 2 k2 + 2 k3
+ * + k4 summed left to right, as ipgen_mpc_rk4_layout's loop over the stages: the same numbers);
+ * the model's Jacobians at (x, u), the first slope's, into Ac and Bc when they are not null.
+ * xs, xt, kk, ksum: nx temporaries. Returns 0, 1 if the model failed. */
+IPGEN_MPC_LOCAL int ipgen_mpc_rk4_slopes(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
+                                         ipgen_mpc_real xn[], ipgen_mpc_real Ac[], ipgen_mpc_real Bc[],
+                                         ipgen_mpc_real xs[], ipgen_mpc_real xt[], ipgen_mpc_real kk[],
+                                         ipgen_mpc_real ksum[]) {
+  const int nx = IPGEN_MPC_NX_OF(s);
+  const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps, half = (ipgen_mpc_real)0.5 * h;
+  const ipgen_mpc_real sixth = h / (ipgen_mpc_real)6, two = (ipgen_mpc_real)2;
+  int step, i;
+  for (i = 0; i < nx; ++i) xs[i] = x[i];
+  for (step = 0; step < s->substeps; ++step) {
+    if (s->dynamics(s->context, xs, u, kk, step == 0 ? Ac : 0, step == 0 ? Bc : 0) != 0) return 1;
+    for (i = 0; i < nx; ++i) {
+      ksum[i] = kk[i];
+      xt[i] = xs[i] + half * kk[i];
+    }
+    if (s->dynamics(s->context, xt, u, kk, 0, 0) != 0) return 1;
+    for (i = 0; i < nx; ++i) {
+      ksum[i] += two * kk[i];
+      xt[i] = xs[i] + half * kk[i];
+    }
+    if (s->dynamics(s->context, xt, u, kk, 0, 0) != 0) return 1;
+    for (i = 0; i < nx; ++i) {
+      ksum[i] += two * kk[i];
+      xt[i] = xs[i] + h * kk[i];
+    }
+    if (s->dynamics(s->context, xt, u, kk, 0, 0) != 0) return 1;
+    for (i = 0; i < nx; ++i) xs[i] += sixth * (ksum[i] + kk[i]);
+  }
+  for (i = 0; i < nx; ++i) xn[i] = xs[i];
+  return 0;
+}
+
 /* One sample of the discretised model with frozen sensitivities: xn = F(x, u) by RK4 as
  * ipgen_mpc_rk4_layout (the model's Jacobians asked for at the first stage only, whose slope is
  * F's first: its own RK4 loop saves a model call a stage against rk4_layout's plus a Jacobian
@@ -432,24 +474,7 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipge
                                          ipgen_mpc_real T1[], ipgen_mpc_real T2[]) {
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s);
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
-  static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
-  static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
-  int step, stage, i;
-  for (i = 0; i < nx; ++i) xs[i] = x[i];
-  for (step = 0; step < s->substeps; ++step) {
-    for (i = 0; i < nx; ++i) xt[i] = xs[i];
-    for (stage = 0; stage < 4; ++stage) {
-      const int jacobians = step == 0 && stage == 0;
-      const ipgen_mpc_real c = advance[stage] * h;
-      if (s->dynamics(s->context, xt, u, k, jacobians ? Ac : 0, jacobians ? Bc : 0) != 0) return 1;
-      for (i = 0; i < nx; ++i) {
-        ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : ksum[i]) + weight[stage] * k[i];
-        if (stage < 3) xt[i] = xs[i] + c * k[i];
-      }
-    }
-    for (i = 0; i < nx; ++i) xs[i] += h / (ipgen_mpc_real)6 * ksum[i];
-  }
-  for (i = 0; i < nx; ++i) xn[i] = xs[i];
+  if (ipgen_mpc_rk4_slopes(s, x, u, xn, Ac, Bc, xs, xt, k, ksum) != 0) return 1;
   ipgen_mpc_frozen(nx, nu, h, s->substeps, Ac, Bc, A, B, T1, T2);
   return 0;
 }
@@ -537,6 +562,10 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
     ipgen_mpc_real T1[IPGEN_MPC_NX * (IPGEN_MPC_NX + IPGEN_MPC_NU)], T2[IPGEN_MPC_NX * (IPGEN_MPC_NX + IPGEN_MPC_NU)];
     return ipgen_mpc_rk4_frozen(s, x, u, xn, A, B, xs, xt, k, ksum, Ac, Bc, T1, T2);
   }
+  if (A == 0 || B == 0) { /* F alone */
+    ipgen_mpc_real xs[IPGEN_MPC_NX], xt[IPGEN_MPC_NX], k[IPGEN_MPC_NX], ksum[IPGEN_MPC_NX];
+    return ipgen_mpc_rk4_slopes(s, x, u, xn, 0, 0, xs, xt, k, ksum);
+  }
   return ipgen_mpc_rk4_fixed(s, x, u, xn, A, B);
 #else
   const int nx = IPGEN_MPC_NX_OF(s), nu = IPGEN_MPC_NU_OF(s), nz = nx + nu, sens = A != 0 && B != 0;
@@ -599,7 +628,7 @@ IPGEN_MPC_API int ipgen_mpc_rk4_method(const ipgen_mpc_settings *s, const ipgen_
                                        ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
   ipgen_mpc_layout l;
   ipgen_mpc_carve(s, work, &l);
-  l.frozen = method != 0 && method->sensitivities == IPGEN_MPC_FROZEN;
+  l.frozen = method != 0 && method->sensitivities != IPGEN_MPC_EXACT; /* SHIFTED: a new stage's are frozen */
   return ipgen_mpc_rk4_layout(s, &l, x, u, xn, A, B);
 }
 
@@ -1035,65 +1064,60 @@ IPGEN_MPC_LOCAL void ipgen_mpc_riccati_solve(const ipgen_mpc_settings *s, const 
 }
 
 #ifdef IPGEN_MPC_FIXED
-/* ipgen_mpc_riccati_factor (Gauss-Newton) with every size fixed: P, P A and P B in local arrays
- * (registers and the stack, which the workspace's stores cannot alias), B' P A as (P B)' A and
- * B' P B as B' (P B) (P symmetric: the same numbers up to rounding). */
+/* ipgen_mpc_riccati_factor (Gauss-Newton) with every size fixed, nu = 1: P in a local array,
+ * A taken column by column (column j of P A, then entry j of B' P A and column j of A' P A below
+ * the diagonal), so that one column's products stay in registers; B' P A as (P B)' A and B' P B
+ * as B' (P B) (P symmetric: the same numbers up to rounding). */
 IPGEN_MPC_LOCAL int ipgen_mpc_riccati_factor_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_layout *l) {
-  ipgen_mpc_real P[IPGEN_MPC_NX][IPGEN_MPC_NX], PA[IPGEN_MPC_NX][IPGEN_MPC_NX], PB[IPGEN_MPC_NX][IPGEN_MPC_NU];
-  ipgen_mpc_real Se[IPGEN_MPC_NU][IPGEN_MPC_NX], Re[IPGEN_MPC_NU * IPGEN_MPC_NU], Kl[IPGEN_MPC_NU][IPGEN_MPC_NX];
+  ipgen_mpc_real P[IPGEN_MPC_NX][IPGEN_MPC_NX], Q2[IPGEN_MPC_NX][IPGEN_MPC_NX]; /* 2Q read once */
+  const ipgen_mpc_real R2 = (ipgen_mpc_real)2 * s->R[0];
   int k, i, j, m;
   for (i = 0; i < IPGEN_MPC_NX; ++i)
-    for (j = 0; j < IPGEN_MPC_NX; ++j)
+    for (j = 0; j < IPGEN_MPC_NX; ++j) {
+      Q2[i][j] = (ipgen_mpc_real)2 * s->Q[i * IPGEN_MPC_NX + j];
       P[i][j] = (ipgen_mpc_real)2 * s->P[i * IPGEN_MPC_NX + j] + (i == j ? l->hd[IPGEN_MPC_N * IPGEN_MPC_NX + i] : (ipgen_mpc_real)0);
+    }
   for (k = IPGEN_MPC_N - 1; k >= 0; --k) {
-    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NU;
-    ipgen_mpc_real *K = l->K + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NX, *Lk = l->L + (long)k * IPGEN_MPC_NU * IPGEN_MPC_NU;
-    const ipgen_mpc_real *hu = l->hd + (long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + (long)k * IPGEN_MPC_NU;
-    ipgen_mpc_real Al[IPGEN_MPC_NX][IPGEN_MPC_NX], Bl[IPGEN_MPC_NX][IPGEN_MPC_NU];
-    for (i = 0; i < IPGEN_MPC_NX; ++i) {
-      for (j = 0; j < IPGEN_MPC_NX; ++j) Al[i][j] = A[i * IPGEN_MPC_NX + j];
-      for (j = 0; j < IPGEN_MPC_NU; ++j) Bl[i][j] = B[i * IPGEN_MPC_NU + j];
+    const ipgen_mpc_real *A = l->A + (long)k * IPGEN_MPC_NX * IPGEN_MPC_NX, *B = l->B + (long)k * IPGEN_MPC_NX;
+    ipgen_mpc_real *K = l->K + (long)k * IPGEN_MPC_NX;
+    ipgen_mpc_real PB[IPGEN_MPC_NX], Se[IPGEN_MPC_NX], Kl[IPGEN_MPC_NX], APA[IPGEN_MPC_NX][IPGEN_MPC_NX], re;
+    for (i = 0; i < IPGEN_MPC_NX; ++i) { /* P B */
+      ipgen_mpc_real v = P[i][0] * B[0];
+      for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * B[m];
+      PB[i] = v;
     }
-    for (i = 0; i < IPGEN_MPC_NX; ++i) /* P B, P A */
-      for (j = 0; j < IPGEN_MPC_NU; ++j) {
-        ipgen_mpc_real v = P[i][0] * Bl[0][j];
-        for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Bl[m][j];
-        PB[i][j] = v;
+    re = R2 + l->hd[(long)(IPGEN_MPC_N + 1) * IPGEN_MPC_NX + k]; /* Re = 2R + diag + B' P B */
+    for (m = 0; m < IPGEN_MPC_NX; ++m) re += B[m] * PB[m];
+    for (j = 0; j < IPGEN_MPC_NX; ++j) {
+      ipgen_mpc_real pa[IPGEN_MPC_NX], v;
+      for (i = 0; i < IPGEN_MPC_NX; ++i) {
+        v = P[i][0] * A[j];
+        for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * A[m * IPGEN_MPC_NX + j];
+        pa[i] = v;
       }
-    for (i = 0; i < IPGEN_MPC_NX; ++i)
-      for (j = 0; j < IPGEN_MPC_NX; ++j) {
-        ipgen_mpc_real v = P[i][0] * Al[0][j];
-        for (m = 1; m < IPGEN_MPC_NX; ++m) v += P[i][m] * Al[m][j];
-        PA[i][j] = v;
-      }
-    for (i = 0; i < IPGEN_MPC_NU; ++i) { /* Re = 2R + diag + B' P B, Se = B' P A */
-      for (j = 0; j < IPGEN_MPC_NU; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->R[i * IPGEN_MPC_NU + j] + (i == j ? hu[i] : (ipgen_mpc_real)0);
-        for (m = 0; m < IPGEN_MPC_NX; ++m) v += Bl[m][i] * PB[m][j];
-        Re[i * IPGEN_MPC_NU + j] = v;
-      }
-      for (j = 0; j < IPGEN_MPC_NX; ++j) {
-        ipgen_mpc_real v = PB[0][i] * Al[0][j];
-        for (m = 1; m < IPGEN_MPC_NX; ++m) v += PB[m][i] * Al[m][j];
-        Se[i][j] = v;
+      v = PB[0] * A[j];
+      for (m = 1; m < IPGEN_MPC_NX; ++m) v += PB[m] * A[m * IPGEN_MPC_NX + j];
+      Se[j] = v;
+      for (i = j; i < IPGEN_MPC_NX; ++i) { /* 2Q + diag + A' (P A), summed in that order */
+        v = Q2[i][j] + (i == j ? l->hd[k * IPGEN_MPC_NX + i] : (ipgen_mpc_real)0);
+        for (m = 0; m < IPGEN_MPC_NX; ++m) v += A[m * IPGEN_MPC_NX + i] * pa[m];
+        APA[i][j] = v;
       }
     }
-    if (!(Re[0] > (ipgen_mpc_real)0)) return 1; /* nu = 1 (IPGEN_MPC_FIXED): Re a number, 1 / Re kept */
-    Re[0] = (ipgen_mpc_real)1 / Re[0];
-    for (j = 0; j < IPGEN_MPC_NX; ++j) Kl[0][j] = -(Se[0][j] * Re[0]);
-    for (i = 0; i < IPGEN_MPC_NU * IPGEN_MPC_NU; ++i) Lk[i] = Re[i];
-    for (i = 0; i < IPGEN_MPC_NU; ++i)
-      for (j = 0; j < IPGEN_MPC_NX; ++j) K[i * IPGEN_MPC_NX + j] = Kl[i][j];
+    if (!(re > (ipgen_mpc_real)0)) return 1;
+    re = (ipgen_mpc_real)1 / re; /* 1 / Re kept */
+    for (j = 0; j < IPGEN_MPC_NX; ++j) {
+      Kl[j] = -(Se[j] * re);
+      K[j] = Kl[j];
+    }
+    l->L[k] = re;
     if (k == 0) break;
-    for (i = 0; i < IPGEN_MPC_NX; ++i) { /* P_k = 2Q + diag + A' (P A) + Se' K, symmetric */
+    for (i = 0; i < IPGEN_MPC_NX; ++i) /* P_k = 2Q + diag + A' (P A) + Se' K, symmetric */
       for (j = 0; j <= i; ++j) {
-        ipgen_mpc_real v = (ipgen_mpc_real)2 * s->Q[i * IPGEN_MPC_NX + j] + (i == j ? l->hd[k * IPGEN_MPC_NX + i] : (ipgen_mpc_real)0);
-        for (m = 0; m < IPGEN_MPC_NX; ++m) v += Al[m][i] * PA[m][j];
-        for (m = 0; m < IPGEN_MPC_NU; ++m) v += Se[m][i] * Kl[m][j];
+        const ipgen_mpc_real v = APA[i][j] + Se[i] * Kl[j];
         P[i][j] = v;
         P[j][i] = v;
       }
-    }
   }
   return 0;
 }
@@ -1754,8 +1778,8 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
  * beyond it by that much). `info` (may be null) reports what was done; returns its status.
  * `method` (may be null): how each QP is solved and the model linearised (ipgen_mpc_method); a
- * barrier weight that is negative or not finite, unknown sensitivities, or frozen ones with the
- * exact Hessian (which differentiates the sensitivities) are IPGEN_MPC_BAD_SETTINGS. */
+ * barrier weight that is negative or not finite, unknown sensitivities, or frozen or shifted ones
+ * with the exact Hessian (which differentiates the sensitivities) are IPGEN_MPC_BAD_SETTINGS. */
 IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipgen_mpc_method *method,
                                          const ipgen_mpc_real x_refs[], const ipgen_mpc_real u_refs[],
                                          const ipgen_mpc_real x[], ipgen_mpc_real u[], ipgen_mpc_real work[],
@@ -1765,22 +1789,24 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
   ipgen_mpc_info own;
   ipgen_mpc_layout l;
   ipgen_mpc_real *us, weight = (ipgen_mpc_real)0, previous = (ipgen_mpc_real)0;
-  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK, frozen = 0;
+  int k, i, iteration, budget, stalled = 0, status = IPGEN_MPC_OK, frozen = 0, shifted = 0, kept = 0;
   if (info == 0) info = &own;
   info->status = IPGEN_MPC_OK;
   info->sqp_iterations = info->qp_iterations = 0;
   info->step = info->defect = info->qp_residual = (ipgen_mpc_real)0;
   if (ipgen_mpc_check(s) != IPGEN_MPC_OK ||
       (method != 0 && (!(method->barrier >= 0) || !ipgen_mpc_finite(method->barrier) ||
-                       (method->sensitivities != IPGEN_MPC_EXACT && method->sensitivities != IPGEN_MPC_FROZEN) ||
-                       (method->sensitivities == IPGEN_MPC_FROZEN && s->exact_hessian)))) {
+                       (method->sensitivities != IPGEN_MPC_EXACT && method->sensitivities != IPGEN_MPC_FROZEN &&
+                        method->sensitivities != IPGEN_MPC_SHIFTED) ||
+                       (method->sensitivities != IPGEN_MPC_EXACT && s->exact_hessian)))) {
     for (i = 0; i < nu && i < s->nu; ++i) u[i] = IPGEN_MPC_U_REF(s, u_refs, 0, nu)[i];
     return info->status = IPGEN_MPC_BAD_SETTINGS;
   }
   ipgen_mpc_carve(s, work, &l);
   if (method != 0) {
     l.barrier = method->barrier;
-    frozen = method->sensitivities == IPGEN_MPC_FROZEN;
+    frozen = method->sensitivities != IPGEN_MPC_EXACT;
+    shifted = method->sensitivities == IPGEN_MPC_SHIFTED;
   }
   l.x_refs = x_refs;
   l.u_refs = u_refs;
@@ -1799,6 +1825,7 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
         us[k * nu + i] = v < s->u_min[i] ? s->u_min[i] : (v > s->u_max[i] ? s->u_max[i] : v);
       }
   } else if (s->shift) {
+    kept = shifted; /* the last sample's stage Jacobians, shifted below */
     for (k = 0; k < N; ++k)
       for (i = 0; i < nx; ++i) l.traj[k * nx + i] = l.traj[(k + 1) * nx + i];
     for (k = 0; k + 1 < N; ++k)
@@ -1815,11 +1842,17 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
     ipgen_mpc_real defect = (ipgen_mpc_real)0, defects = (ipgen_mpc_real)0, step = (ipgen_mpc_real)0;
     ipgen_mpc_real costate = (ipgen_mpc_real)0, alpha = (ipgen_mpc_real)1;
     int qp;
+    if (kept) /* stage k's A, B from the last sample's stage k + 1 (shifted sensitivities) */
+      for (k = 1; k + 1 < N; ++k) {
+        for (i = 0; i < nx * nx; ++i) l.A[(long)k * nx * nx + i] = l.A[(long)(k + 1) * nx * nx + i];
+        for (i = 0; i < nx * nu; ++i) l.B[(long)k * nx * nu + i] = l.B[(long)(k + 1) * nx * nu + i];
+      }
     for (k = 0; k < N; ++k) { /* linearise: F, dF/dx, dF/du and the defects */
       ipgen_mpc_real *dk = l.d + (long)k * nx;
+      const int keep = kept && k > 0 && k + 1 < N; /* F only: A, B kept */
       l.frozen = frozen && k > 0; /* the first stage exact: the input applied and x_1's bounds rest on it */
-      if (ipgen_mpc_rk4_layout(s, &l, l.traj + (long)k * nx, us + (long)k * nu, dk, l.A + (long)k * nx * nx,
-                               l.B + (long)k * nx * nu) != 0) {
+      if (ipgen_mpc_rk4_layout(s, &l, l.traj + (long)k * nx, us + (long)k * nu, dk,
+                               keep ? 0 : l.A + (long)k * nx * nx, keep ? 0 : l.B + (long)k * nx * nu) != 0) {
         status = IPGEN_MPC_MODEL_FAILED;
         break;
       }
@@ -1829,6 +1862,7 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
         defects += ipgen_mpc_abs(dk[i]);
       }
     }
+    kept = 0; /* a later iteration linearises about its own guess */
     if (status != IPGEN_MPC_OK) break;
     info->defect = defect;
     /* converged: the step and the defects below the tolerance; or the step below its square root
