@@ -19,7 +19,8 @@ sensitivities) and with the microcontroller's (FAST: `barrier = 1e-3`, `qp_itera
 `sensitivities = "frozen"` added to its [controller]); each run on its own simulator run's
 estimates. Then the QUBE swing-up's MPC: the preset qube_servo2_mpc_swingup_fast's [controller]
 (two Newton steps a sample, the arm's soft bound besides its hard one) in place of
-qube_servo2_mpc's, on the same hold, and with one Newton step; both also without the soft bound. QEMU
+qube_servo2_mpc's, on the same hold, and with one Newton step; both also without the soft bound; and
+qube_servo2_mpc_swingup_m4f's [controller] (two Newton steps on shifted sensitivities, no soft bound). QEMU
 counts the instructions of each call exactly; the cycles are bench/m4_cycles.py's
 estimate (each instruction weighted by the Cortex-M4 TRM's cycle count, zero-wait-state memory,
 a taken branch 1 + 2), µs at 168 MHz (an STM32F405/407's clock). RAM: the MPC's state (its
@@ -60,6 +61,9 @@ METHODS = (
 # qube_servo2_mpc's, on that preset's hold; and the same with one Newton step; and both without
 # the soft bound (the hard one only: docs/mpc.md's designs of 99.0 and 98.6 %).
 SWINGUP_FAST = "qube_servo2_mpc_swingup_fast"
+# ... and qube_servo2_mpc_swingup_m4f's: two Newton steps on shifted sensitivities, no soft bound.
+SWINGUP_M4F = "qube_servo2_mpc_swingup_m4f"
+M4F_METHODS = (("its method: two barrier Newton steps, shifted sensitivities, no soft bound", ""),)
 SWINGUP_METHODS = (
     ("its method: two barrier Newton steps (κ = 0.1)", ""),
     ("one barrier Newton step (κ = 0.1)", "qp_iterations = 1\n"),
@@ -118,18 +122,23 @@ def _table(scene: str, name: str) -> tuple[list[str], list[str], list[str]]:
     return lines[:start], lines[start + 1 : end], lines[end:]
 
 
-def _swingup_mpc(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
-    """SWINGUP_FAST's [controller] in place of NAME's (`controller`'s keys replacing its own): the
+def _swingup_mpc(folder: Path, controller: str = "", preset: str = SWINGUP_FAST) -> tuple[Path, np.ndarray]:
+    """`preset`'s [controller] in place of NAME's (`controller`'s keys replacing its own): the
     header's path and the simulator's state estimates of NAME's hold."""
-    rows = _table(SWINGUP_FAST, "controller")[1]
+    rows = _table(preset, "controller")[1]
     for line in controller.splitlines():
         key = line.split("=")[0].strip()
         found = [i for i, row in enumerate(rows) if row.split("=")[0].strip() == key]
         if not found:
-            raise SystemExit(f"bench.mpc_m4: {SWINGUP_FAST}'s [controller] has no {key} to replace")
+            raise SystemExit(f"bench.mpc_m4: {preset}'s [controller] has no {key} to replace")
         rows[found[0]] = line
     before, _, after = _table(NAME, "controller")
     return _qube(folder, "\n".join([*before, "[controller]", *rows, *after]))
+
+
+def _m4f_mpc(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
+    """SWINGUP_M4F's [controller] on NAME's hold (as _swingup_mpc)."""
+    return _swingup_mpc(folder, controller, SWINGUP_M4F)
 
 
 def _pendubot(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
@@ -249,6 +258,7 @@ def _profile_lines(functions: tuple[tuple[str, int], ...]) -> list[str]:
 CASES = (
     (NAME, "the QUBE", _scene, METHODS),
     (NAME, "the QUBE swing-up's MPC", _swingup_mpc, SWINGUP_METHODS),
+    (NAME, "the QUBE swing-up's MPC for the M4F", _m4f_mpc, M4F_METHODS),
     (PENDUBOT, "DFKI's pendubot", _pendubot, METHODS),
 )
 
@@ -317,7 +327,8 @@ def main() -> None:
         "its [controller]); and the QUBE swing-up's MPC: qube_servo2_mpc_swingup_fast's [controller]",
         "(two Newton steps a sample at `barrier = 0.1`, the arm's hard bound at 0.98 rad and soft bound",
         "at 0.9 rad, r = 0.3) on qube_servo2_mpc's hold, and the same with one Newton step, and both",
-        "without the soft bound;",
+        "without the soft bound; and qube_servo2_mpc_swingup_m4f's (two Newton steps on shifted",
+        "sensitivities, no soft bound) on the same hold;",
         f"arm-none-eabi-gcc {args.opt}, QEMU mps2-an386.",
         "Cycles: the TRM's per-instruction counts, zero-wait-state memory, a taken branch 3 (an",
         f"estimate, not a measurement); µs at {CLOCK_MHZ:g} MHz.",

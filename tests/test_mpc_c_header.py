@@ -118,12 +118,10 @@ def test_mpc_step_replays_the_simulators_controller(folder: Path, scalar: str) -
     assert np.max(np.abs(u)) <= U_MAX
 
 
-@pytest.fixture(scope="module")
-def fast(folder: Path) -> tuple[Path, dict[str, np.ndarray]]:
-    """The measured QUBE scene with FAST: its C header and the simulator's run (CSV columns)."""
-    name = "qube_fast"
+def _fast_scene(folder: Path, name: str, controller: str) -> tuple[Path, dict[str, np.ndarray]]:
+    """The measured QUBE scene with `controller`'s lines: its C header and the simulator's run."""
     scene = folder / f"{name}.toml"
-    text = QUBE.format(controller=FAST, extra=MEASURED, t_end=1.0, initial=PUSHED)
+    text = QUBE.format(controller=controller, extra=MEASURED, t_end=1.0, initial=PUSHED)
     scene.write_text(text.replace('name = "qube_servo2"', f'name = "{name}"\nemit = ["c"]'))
     for argv in (
         ["--scene", str(scene), "-o", str(folder)],
@@ -136,15 +134,33 @@ def fast(folder: Path) -> tuple[Path, dict[str, np.ndarray]]:
     return folder / f"{name}.h", {column: data[:, i] for i, column in enumerate(header.split(","))}
 
 
+@pytest.fixture(scope="module")
+def fast(folder: Path) -> tuple[Path, dict[str, np.ndarray]]:
+    """The measured QUBE scene with FAST: its C header and the simulator's run (CSV columns)."""
+    return _fast_scene(folder, "qube_fast", FAST)
+
+
+@pytest.fixture(scope="module")
+def shifted(folder: Path) -> tuple[Path, dict[str, np.ndarray]]:
+    """The same with two Newton steps a sample on shifted sensitivities (most stages' A, B kept
+    from the last sample): the step's only path through RK4 without sensitivities."""
+    controller = FAST.replace("qp_iterations = 1", "qp_iterations = 2").replace('"frozen"', '"shifted"')
+    return _fast_scene(folder, "qube_shifted", controller)
+
+
 @pytest.mark.parametrize("scalar", ["double", "float"])
+@pytest.mark.parametrize(
+    ("scene", "method"), [("fast", "IPGEN_MPC_FROZEN"), ("shifted", "IPGEN_MPC_SHIFTED")]
+)
 def test_the_microcontrollers_method_replays_the_simulators_controller(
-    folder: Path, fast: tuple[Path, dict[str, np.ndarray]], scalar: str
+    folder: Path, request: pytest.FixtureRequest, scene: str, method: str, scalar: str
 ) -> None:
     """The measured QUBE scene with FAST (barrier 1e-3, one Newton step a sample, frozen
-    sensitivities): the header's step (its fixed-size forms) fed the estimates the simulator's
-    controller saw (the run-time forms) returns its u: double 1e-9, float within FLOAT_INPUT."""
-    header, columns = fast
-    assert "IPGEN_MPC_FROZEN" in header.read_text()
+    sensitivities) and with two Newton steps on shifted ones: the header's step (its fixed-size
+    forms) fed the estimates the simulator's controller saw (the run-time forms) returns its u:
+    double 1e-9, float within FLOAT_INPUT."""
+    header, columns = request.getfixturevalue(scene)
+    assert f"m->sensitivities = {method};" in header.read_text()
     estimate = np.column_stack([columns[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
     step = STEP.replace('"qube_servo2.h"', f'"{header.name}"').replace("P_", f"ipgen_{header.stem}_")
     out = _run(_program(folder, f"{header.stem}_{scalar}", step, scalar), estimate, "{!r}")

@@ -145,6 +145,60 @@ def test_the_first_stage_keeps_the_exact_sensitivities() -> None:
     assert all(np.array_equal(A[k], a_frozen) and np.array_equal(B[k], b_frozen) for k in range(1, N))
 
 
+def _stage_models(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A, B and the defects d of the last QP, from the workspace (ipgen_mpc_carve's order: the warm
+    flag, the trajectory, A, B, d)."""
+    nx, N = controller.nx, controller.N
+    start = 1 + (N + 1) * nx + N
+    A = controller.work[start : start + N * nx * nx].reshape(N, nx, nx).copy()
+    start += N * nx * nx
+    B = controller.work[start : start + N * nx].reshape(N, nx, 1).copy()
+    start += N * nx
+    return A, B, controller.work[start : start + N * nx].reshape(N, nx).copy()
+
+
+def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
+    """A warm step with shifted sensitivities linearises about the last solution moved by one
+    sample: stages 1 .. N-2 take the last QP's A, B of stages 2 .. N-1 as they were, stage 0 RK4's
+    exact sensitivities and stage N-1 the frozen ones at the guess, and every defect is new,
+    F(x_k, u_k) - x_{k+1} at the guess (`rk4`). The frozen method's step computes those stages
+    at the guess instead (and differs: so the test can tell)."""
+    x0, x1 = np.array([0.3, 0.2, 1.0, -0.5]), np.array([0.31, 0.19, 0.9, -0.6])
+    method = {"barrier": 0.1, "qp_iterations": 2}
+    shifted, frozen = qube(**method, sensitivities="shifted"), qube(**method, sensitivities="frozen")
+    N = shifted.N
+    assert shifted.step(x0) == frozen.step(x0)  # a cold step computes every stage: the same
+    A0, B0, _ = _stage_models(shifted)
+    pairs = zip(_stage_models(shifted), _stage_models(frozen), strict=True)
+    assert all(np.array_equal(a, b) for a, b in pairs)
+    states, inputs = shifted.trajectory()
+    guess_x = np.vstack([states[1:], states[-1:]])  # the shift: the last state and input repeated
+    guess_u = np.concatenate([inputs[1:, 0], inputs[-1:, 0]])
+    shifted.step(x1)
+    frozen.step(x1)
+    A, B, d = _stage_models(shifted)
+    assert np.array_equal(A[1 : N - 1], A0[2:]) and np.array_equal(B[1 : N - 1], B0[2:])
+    _, a_exact, b_exact = shifted.rk4(guess_x[0], guess_u[0])
+    assert np.array_equal(A[0], a_exact) and np.array_equal(B[0], b_exact)
+    _, a_last, b_last = shifted.linearisation(guess_x[N - 1], guess_u[N - 1])
+    assert np.array_equal(A[N - 1], a_last) and np.array_equal(B[N - 1], b_last)
+    for k in range(N):
+        assert np.allclose(d[k], shifted.rk4(guess_x[k], guess_u[k])[0] - guess_x[k + 1], rtol=0, atol=1e-15)
+    A_frozen = _stage_models(frozen)[0]
+    for k in (1, N // 2, N - 2):
+        assert np.array_equal(A_frozen[k], frozen.linearisation(guess_x[k], guess_u[k])[1])
+        assert np.abs(A_frozen[k] - A[k]).max() > 1e-9
+
+
+def test_shifted_sensitivities_hold_the_qube_within_its_travel() -> None:
+    """In closed loop (the exact model) from the arm swinging: the arm within its travel, upright
+    at the end, as with the frozen ones."""
+    controller = qube(barrier=0.1, qp_iterations=2, sensitivities="shifted")
+    states, inputs = closed_loop([controller], [0.5, 0.15, 1.0, 0.0], 3.0)
+    assert np.max(np.abs(states[:, 0])) <= 1.0 + RTI_TRAVEL
+    assert np.max(np.abs(inputs)) <= controller.u_max and np.max(np.abs(states[-1])) <= 5e-2, states[-1]
+
+
 def test_more_sqp_iterations_carry_the_slacks_and_multipliers_over() -> None:
     """Two and three SQP iterations a sample, each one Newton step: a step's later QPs continue
     from the one before (not from their central path), so the arm keeps its travel as with one."""
@@ -165,7 +219,7 @@ def test_float_follows_double_with_the_microcontrollers_method() -> None:
 @given(
     barrier=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=3), st.booleans()),
     sensitivities=st.one_of(
-        st.sampled_from(["exact", "frozen"]), st.text(max_size=8), st.integers(), st.none()
+        st.sampled_from(["exact", "frozen", "shifted"]), st.text(max_size=8), st.integers(), st.none()
     ),
     mode=st.sampled_from(["rti", "converged"]),
 )
@@ -176,14 +230,18 @@ def test_any_method_is_a_design_or_one_line(barrier: object, sensitivities: obje
         assert "\n" not in str(error) and ("barrier" in str(error) or "sensitivities" in str(error))
         return
     assert isinstance(barrier, float) and 0 <= barrier <= MAX_MPC_BARRIER
-    assert sensitivities in ("exact", "frozen")
+    assert sensitivities in ("exact", "frozen", "shifted")
     assert mode == "rti" or (barrier == 0 and sensitivities == "exact")
     assert isinstance(controller, Mpc)
 
 
 @pytest.mark.parametrize(
     ("barrier", "sensitivities", "exact_hessian"),
-    [(-1.0, 0, 0), (float("nan"), 0, 0), (float("inf"), 0, 0), (0.0, 2, 0), (0.0, -1, 0), (0.0, 1, 1)],
+    [
+        *((bad, 0, 0) for bad in (-1.0, float("nan"), float("inf"))),
+        *((0.0, bad, 0) for bad in (3, -1)),  # IPGEN_MPC_EXACT, _FROZEN, _SHIFTED are 0, 1, 2
+        *((0.0, inexact, 1) for inexact in (1, 2)),  # the exact Hessian needs exact sensitivities
+    ],
 )
 def test_the_c_step_refuses_a_bad_method(barrier: float, sensitivities: int, exact_hessian: int) -> None:
     controller = qube()

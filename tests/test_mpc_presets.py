@@ -87,7 +87,13 @@ def rti_swing_up(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Ru
 
 
 @pytest.mark.parametrize(
-    "preset", ["qube_servo2_mpc_swingup", "qube_servo2_mpc_swingup_ekf", "qube_servo2_mpc_swingup_fast"]
+    "preset",
+    [
+        "qube_servo2_mpc_swingup",
+        "qube_servo2_mpc_swingup_ekf",
+        "qube_servo2_mpc_swingup_fast",
+        "qube_servo2_mpc_swingup_m4f",
+    ],
 )
 def test_qube_swing_up_caught_by_mpc_within_its_constraints(
     preset: str, rti_swing_up: Callable[[str], Run]

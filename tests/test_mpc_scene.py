@@ -210,10 +210,11 @@ def test_bad_mpc_key_is_one_line(tmp_path: Path, changes: dict, key: str, expect
     assert not expected, "loaded"  # the last case may design (a weak weight is not an error)
 
 
+METHODS = ('"frozen"', '"shifted"')
 VALUES = st.one_of(
     st.integers(-2, 40).map(str),
     st.sampled_from(
-        ['"rti"', '"converged"', '"x"', "0.5", "-1", "nan", "inf", "true", "1e400", '"frozen"', "1e-3"]
+        ['"rti"', '"converged"', '"x"', "0.5", "-1", "nan", "inf", "true", "1e400", *METHODS, "1e-3"]
     ),
     st.lists(st.sampled_from(["0", "1", "-1", "2.5", '"x"']), max_size=4).map(
         lambda v: "[" + ", ".join(v) + "]"
@@ -257,7 +258,7 @@ def test_any_mpc_table_loads_or_fails_in_one_line(tmp_path: Path, table: dict[st
     assert design.u_max > 0 and design.u_min == -design.u_max and design.mode in ("rti", "converged")
     assert all(math.isfinite(v) for v in (*design.Q, *design.P, design.R))
     assert all(0 <= i < 4 and lo < hi for i, lo, hi in (*design.bounds, *design.soft_bounds))
-    assert design.barrier >= 0 and design.sensitivities in ("exact", "frozen")
+    assert design.barrier >= 0 and design.sensitivities in ("exact", "frozen", "shifted")
     assert design.mode == "rti" or (design.barrier == 0 and design.sensitivities == "exact")
 
 

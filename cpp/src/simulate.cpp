@@ -169,7 +169,7 @@ controller.u_min, controller.u_max, controller.bounds and controller.soft_bounds
 controller.soft_penalty, controller.mode (rti|converged), controller.iterations,
 controller.cold_iterations, controller.qp_iterations, controller.sqp_tolerance, controller.qp_tolerance;
 optional controller.barrier (> 0: each QP Newton steps on its log-barrier problem) and
-controller.sensitivities (exact|frozen); optional controller.model.m, controller.model.l, controller.model.delta, controller.model.g,
+controller.sensitivities (exact|frozen|shifted); optional controller.model.m, controller.model.l, controller.model.delta, controller.model.g,
 controller.model.com, controller.model.J, controller.model.J_axial, controller.model.tip,
 controller.model.gain (a motor's), controller.model.Ir, controller.model.gr (a fixed chain's): the
 model the MPC predicts with (absent: the scene's; a sweep's run states the nominal scene's);

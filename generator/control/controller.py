@@ -39,7 +39,8 @@ class MpcDesign:
     params: tuple[tuple[str, tuple[float, ...] | float], ...] = ()
     input_gain: float = 1.0
     barrier: float = 0.0  # > 0: each QP Newton steps on its log-barrier problem at this weight
-    sensitivities: str = "exact"  # or "frozen": the Jacobians at each stage's start, discretised
+    # "frozen": the Jacobians at each stage's start, discretised; "shifted": most kept from the last sample
+    sensitivities: str = "exact"
 
 
 @dataclass(frozen=True)

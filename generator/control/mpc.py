@@ -52,7 +52,7 @@ PRECISIONS = {
 }
 MODES = ("rti", "converged")
 HESSIANS = ("gauss-newton", "exact")
-SENSITIVITIES = ("exact", "frozen")  # IPGEN_MPC_EXACT, IPGEN_MPC_FROZEN
+SENSITIVITIES = ("exact", "frozen", "shifted")  # IPGEN_MPC_EXACT, IPGEN_MPC_FROZEN, IPGEN_MPC_SHIFTED
 MAX_DOF = 41  # IPGEN_MAX_DOF
 MAX_INPUTS = MAX_DOF  # IPGEN_MAX_INPUTS
 LAYOUT_ENTRIES = 42  # IPGEN_MPC_MODEL_LAYOUT
@@ -436,8 +436,10 @@ class Mpc:
         self.barrier = float(barrier)
         if sensitivities not in SENSITIVITIES:
             raise MpcError(f"sensitivities {sensitivities!r}: expected one of {', '.join(SENSITIVITIES)}")
-        if sensitivities == "frozen" and converged:
-            raise MpcError("sensitivities 'frozen': for the real-time iteration, not mode 'converged'")
+        if sensitivities != "exact" and converged:
+            raise MpcError(
+                f"sensitivities {sensitivities!r}: for the real-time iteration, not mode 'converged'"
+            )
         self.sensitivities = sensitivities
         if hessian is None:
             hessian = "exact" if converged and double else "gauss-newton"
@@ -645,7 +647,8 @@ class Mpc:
         self, x: Sequence[float] | np.ndarray, u: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(F(x, u), A, B) as a step linearises a stage: `rk4`'s, or with ``sensitivities="frozen"``
-        A, B from the model's Jacobians at (x, u) discretised as RK4 discretises a linear model."""
+        (and a stage that ``"shifted"`` computes) A, B from the model's Jacobians at (x, u)
+        discretised as RK4 discretises a linear model."""
         return self._sample(x, u, self._method)
 
     def _sample(self, x: Any, u: float, method: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -769,7 +772,10 @@ def mpc(
         The linearisation of each stage: "exact" (dF/dx, dF/du of the RK4 map) or "frozen" (rti
         only; from the second stage on: the model's Jacobians at the stage's start, discretised as
         RK4 discretises a linear model; one Jacobian a stage instead of four, an inexact Newton
-        step with exact defects).
+        step with exact defects) or "shifted" (rti only; as "frozen", but a warm step keeps the
+        last sample's A, B of stages 2 .. N-1 for its stages 1 .. N-2, the trajectory having moved
+        by one sample: the model's Jacobians at the first and the last stage only; the defects
+        stay exact).
 
     Returns
     -------

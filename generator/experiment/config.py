@@ -98,7 +98,7 @@ CFG_KEYS: dict[str, str] = {
             ("sqp_tolerance", "the SQP's stopping test (0: run the budget)"),
             ("qp_tolerance", "the QP's stopping test"),
             ("barrier", "> 0: the QP's fixed log-barrier weight (absent: the interior point)"),
-            ("sensitivities", "exact | frozen (absent: exact)"),
+            ("sensitivities", "exact | frozen | shifted (absent: exact)"),
         )
     },
     **{

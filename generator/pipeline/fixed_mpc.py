@@ -119,7 +119,7 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
             reader.bad("controller.barrier", table["barrier"], f"expected {what}")
     sensitivities = table.get("sensitivities")
     if sensitivities is not None and sensitivities not in rules.MPC_SENSITIVITIES:
-        reader.bad("controller.sensitivities", sensitivities, 'expected "exact" or "frozen"')
+        reader.bad("controller.sensitivities", sensitivities, 'expected "exact", "frozen" or "shifted"')
     r = float(numbers(reader, "controller.r", table.get("r", 1.0), (1,), "one weight > 0")[0])
     if r <= 0:
         reader.bad("controller.r", table["r"], "expected one weight > 0")

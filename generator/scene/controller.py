@@ -20,7 +20,7 @@ from ipgen.scene.values import at, check_count, context_of, number, refuse, refu
 CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain", "mpc")
 # kind = "mpc" (docs/mpc.md): its defaults and bounds, and the keys only it takes.
 MPC_MODES: tuple[str, ...] = ("rti", "converged")
-MPC_SENSITIVITIES: tuple[str, ...] = ("exact", "frozen")
+MPC_SENSITIVITIES: tuple[str, ...] = ("exact", "frozen", "shifted")
 DEFAULT_HORIZON = 30
 MAX_HORIZON = 1000
 MAX_ITERATIONS = 1000

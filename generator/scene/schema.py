@@ -709,7 +709,8 @@ class ControllerTable(Table):
         None,
         description='mpc only (rti): "exact" (the default: dF/dx, dF/du of the RK4 map) or "frozen" (the '
         "model's Jacobians at each stage's start, discretised as RK4 discretises a linear model: one "
-        "Jacobian a stage instead of four)",
+        'Jacobian a stage instead of four) or "shifted" (frozen, and each warm step keeps the last '
+        "sample's Jacobians of stages 2 .. N-1 for stages 1 .. N-2: two Jacobians a sample)",
     )
 
     @model_validator(mode="after")

@@ -30,7 +30,8 @@
 //   controller.mode = rti | converged   controller.iterations  controller.cold_iterations
 //   controller.qp_iterations  controller.sqp_tolerance  controller.qp_tolerance
 //   controller.barrier         (optional, > 0: each QP Newton steps on its log-barrier problem at this weight)
-//   controller.sensitivities = exact | frozen   (optional: frozen, the Jacobians at each stage's start)
+//   controller.sensitivities = exact | frozen | shifted   (optional: frozen, the Jacobians at each stage's
+//                                            start; shifted, those kept from the last sample)
 //   controller.model.m l delta g com J J_axial tip gain Ir gr   (optional: the model the MPC predicts
 //                              with; absent, the scene's: a sweep's run states the nominal scene's)
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
@@ -544,14 +545,14 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
   if (file.has("controller.barrier")) p.barrier = file.number("controller.barrier");  // absent: the interior point
   if (file.has("controller.sensitivities")) {  // absent: exact
     const std::string& sensitivities = file.text("controller.sensitivities");
-    if (sensitivities != "exact" && sensitivities != "frozen") {
-      file.fail(file.line("controller.sensitivities"),
-                "controller.sensitivities must be `exact` or `frozen`, got `" + detail::abbreviate(sensitivities) + "`");
+    if (sensitivities != "exact" && sensitivities != "frozen" && sensitivities != "shifted") {
+      file.fail(file.line("controller.sensitivities"), "controller.sensitivities must be `exact`, `frozen` or `shifted`, got `" +
+                                                           detail::abbreviate(sensitivities) + "`");
     }
-    p.frozen = sensitivities == "frozen";
+    p.sensitivities = sensitivities == "frozen" ? IPGEN_MPC_FROZEN : sensitivities == "shifted" ? IPGEN_MPC_SHIFTED : IPGEN_MPC_EXACT;
   }
-  if (p.converged && (p.barrier > 0.0 || p.frozen)) {
-    file.fail(file.line("controller.mode"), "controller.barrier and controller.sensitivities = frozen are for mode rti");
+  if (p.converged && (p.barrier > 0.0 || p.sensitivities != IPGEN_MPC_EXACT)) {
+    file.fail(file.line("controller.mode"), "controller.barrier and controller.sensitivities = frozen or shifted are for mode rti");
   }
   if (!(std::isfinite(p.period) && p.period > 0.0)) file.fail(file.line("controller.period"), "controller.period must be > 0");
   for (const auto* vector : {&p.Q, &p.R, &p.P, &p.reference, &p.hard_min, &p.hard_max, &p.soft_min, &p.soft_max}) {
