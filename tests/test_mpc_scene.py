@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import io
 import math
+import re
+import subprocess
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
@@ -159,6 +161,33 @@ def test_the_resolved_config_holds_the_whole_problem(tmp_path: Path) -> None:
     )
     assert fast["controller.barrier"] == "0.001" and fast["controller.sensitivities"] == "frozen"
     assert fast["controller.qp_iterations"] == "1"
+
+
+@pytest.mark.parametrize(
+    ("lines", "message"),
+    [
+        ("controller.sensitivities = sideways\ncontroller.mode = rti", "`exact`, `frozen` or `shifted`"),
+        ("controller.sensitivities = shifted\ncontroller.mode = converged", "are for mode rti"),
+        ("controller.sensitivities = frozen\ncontroller.mode = converged", "are for mode rti"),
+    ],
+)
+def test_the_simulator_refuses_a_bad_method_line(tmp_path: Path, lines: str, message: str) -> None:
+    """A .cfg not written by ipgen (the FAST scene's, its method lines replaced): one line
+    `simulate: error: ...` naming the key, exit 2, no CSV; the shifted method's own line runs."""
+    simulate(tmp_path, controller=FAST.replace('"frozen"', '"shifted"'), t_end=0.05)
+    out = tmp_path / "out"
+    cfg = (out / "qube_mpc.cfg").read_text()
+    assert "controller.sensitivities = shifted" in cfg
+    found = re.search(r"Simulator (\S+)", (out / "qube_mpc.txt").read_text())
+    assert found is not None
+    method = ("controller.sensitivities", "controller.mode")
+    kept = [line for line in cfg.splitlines() if not line.startswith(method)]
+    bad = tmp_path / "bad.cfg"
+    bad.write_text("\n".join([*kept, *lines.split("\n")]) + "\n")
+    command = [found.group(1), str(bad), "--csv", str(tmp_path / "bad.csv")]
+    done = subprocess.run(command, capture_output=True, text=True, check=False)
+    assert done.returncode == 2 and not (tmp_path / "bad.csv").exists()
+    assert len(done.stderr.strip().splitlines()) == 1 and message in done.stderr, done.stderr
 
 
 # ---- the keys' errors: one line each --------------------------------------------------------

@@ -163,7 +163,8 @@ typedef struct {
                            * IPGEN_MPC_SHIFTED: as FROZEN, but a warm, shifted step's first linearisation
                            * keeps stages 1 .. N-2's A and B from the last sample's stages 2 .. N-1 (the
                            * trajectory moves by one sample; their defects are new), computes stage 0's
-                           * exactly and stage N-1's frozen: two Jacobians a sample instead of N */
+                           * exactly and stage N-1's frozen: the model's Jacobians at those two stages
+                           * only (4 a substep for stage 0's exact sensitivities, 1 for stage N-1's) */
 } ipgen_mpc_method;
 
 enum { IPGEN_MPC_EXACT = 0, IPGEN_MPC_FROZEN = 1, IPGEN_MPC_SHIFTED = 2 };
@@ -231,7 +232,8 @@ typedef struct {
   int exact;                                  /* the QP at hand uses H (else 2Q, 2R: Gauss-Newton) */
   int qp_budget;                              /* the QP's iterations at most (ipgen_mpc_track sets it) */
   ipgen_mpc_real barrier;                     /* the method's (0: the interior point) */
-  int frozen;                                 /* the method's sensitivities are IPGEN_MPC_FROZEN */
+  int frozen;                                 /* frozen sensitivities from the second stage on (the method's
+                                               * IPGEN_MPC_FROZEN, or a stage IPGEN_MPC_SHIFTED computes) */
   int duals_warm;                             /* the QP starts from t and lam as they are (the barrier's
                                                * warm start: the last sample's, shifted) */
   const ipgen_mpc_real *x_refs, *u_refs;      /* a reference per stage (ipgen_mpc_track), or null */
@@ -628,7 +630,8 @@ IPGEN_MPC_API int ipgen_mpc_rk4_method(const ipgen_mpc_settings *s, const ipgen_
                                        ipgen_mpc_real A[], ipgen_mpc_real B[], ipgen_mpc_real work[]) {
   ipgen_mpc_layout l;
   ipgen_mpc_carve(s, work, &l);
-  l.frozen = method != 0 && method->sensitivities != IPGEN_MPC_EXACT; /* SHIFTED: a new stage's are frozen */
+  l.frozen = method != 0 && (method->sensitivities == IPGEN_MPC_FROZEN ||
+                             method->sensitivities == IPGEN_MPC_SHIFTED); /* SHIFTED: a new stage's are frozen */
   return ipgen_mpc_rk4_layout(s, &l, x, u, xn, A, B);
 }
 
@@ -1774,7 +1777,9 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
  * `work` (ipgen_mpc_work_size entries; shifted by one sample first when s->shift), or cold after
  * ipgen_mpc_reset (every x_k at the estimate, or at x_refs' row k; u_k at its u_ref clipped): a
  * tracked plan's rows from this sample on are its x_refs and u_refs. Up to sqp_iterations
- * Gauss-Newton SQP iterations (cold_iterations on a cold start, if more), each: the RK4 map and its sensitivities at every stage, then one QP. u is
+ * Gauss-Newton SQP iterations (cold_iterations on a cold start, if more), each: the RK4 map and its
+ * sensitivities at every stage (with shifted sensitivities a warm step's first iteration keeps most
+ * stages' from the last sample), then one QP. u is
  * clipped to [u_min, u_max] (an interior-point solution within qp_tolerance of a bound may lie
  * beyond it by that much). `info` (may be null) reports what was done; returns its status.
  * `method` (may be null): how each QP is solved and the model linearised (ipgen_mpc_method); a

@@ -591,8 +591,8 @@ class Mpc:
         mode: up to `sqp_iterations` SQP iterations in the converged mode (500 from a real-time
         design), tolerances at least as tight as the converged mode's, the line search on and
         the design's Hessian; the warm start then holds that solution, unshifted. A barrier
-        weight stays (the solution is its barrier problem's, the point its steps track); frozen
-        sensitivities are exact here (the problem's solution, which theirs approximates).
+        weight stays (the solution is its barrier problem's, the point its steps track); frozen or
+        shifted sensitivities are exact here (the problem's solution, which theirs approximates).
 
         Parameters
         ----------
@@ -614,13 +614,13 @@ class Mpc:
         s.qp_iterations = max(saved[2], 50)
         s.qp_tolerance = min(saved[3], qp_eps)
         s.shift, s.line_search = 0, 1
-        frozen, self._method.sensitivities = self._method.sensitivities, SENSITIVITIES.index("exact")
+        method, self._method.sensitivities = self._method.sensitivities, SENSITIVITIES.index("exact")
         try:
             self.reset()
             return self.step(x, reference)
         finally:
             s.sqp_iterations, s.sqp_tolerance, s.qp_iterations, s.qp_tolerance, s.shift, s.line_search = saved
-            self._method.sensitivities = frozen
+            self._method.sensitivities = method
 
     def trajectory(self) -> tuple[np.ndarray, np.ndarray]:
         """(states (N+1) × nx, inputs N × nu) held in the workspace: the last step's solution

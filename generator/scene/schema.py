@@ -710,7 +710,8 @@ class ControllerTable(Table):
         description='mpc only (rti): "exact" (the default: dF/dx, dF/du of the RK4 map) or "frozen" (the '
         "model's Jacobians at each stage's start, discretised as RK4 discretises a linear model: one "
         'Jacobian a stage instead of four) or "shifted" (frozen, and each warm step keeps the last '
-        "sample's Jacobians of stages 2 .. N-1 for stages 1 .. N-2: two Jacobians a sample)",
+        "sample's sensitivities of stages 2 .. N-1 for stages 1 .. N-2: the model's Jacobians at the first "
+        "and the last stage only)",
     )
 
     @model_validator(mode="after")

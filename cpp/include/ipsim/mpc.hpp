@@ -37,7 +37,8 @@ struct MpcProblem {
   int sqp_iterations = 1, cold_iterations = 10, qp_iterations = 20;
   double sqp_tolerance = 0.0, qp_tolerance = 1e-9;
   double barrier = 0.0;   ///< > 0: each QP Newton steps on its log-barrier problem at this weight
-  int sensitivities = IPGEN_MPC_EXACT;  ///< IPGEN_MPC_FROZEN, IPGEN_MPC_SHIFTED (ipgen_mpc_method)
+  bool frozen = false;    ///< the sensitivities from the Jacobians at each stage's start (ipgen_mpc_method)
+  bool shifted = false;   ///< and most of them kept from the last sample (IPGEN_MPC_SHIFTED; implies frozen)
 };
 
 /// What the steps did over a run (the summary's MPC part).
@@ -93,7 +94,7 @@ class MpcController {
     s.cold_iterations = p_.cold_iterations;
     s.exact_hessian = p_.converged ? 1 : 0;
     method_.barrier = p_.barrier;
-    method_.sensitivities = p_.sensitivities;
+    method_.sensitivities = p_.shifted ? IPGEN_MPC_SHIFTED : p_.frozen ? IPGEN_MPC_FROZEN : IPGEN_MPC_EXACT;
     work_.assign(static_cast<std::size_t>(ipgen_mpc_work_size(&s)), 0.0);
   }
   MpcController(const MpcController&) = delete;

@@ -549,9 +549,10 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
       file.fail(file.line("controller.sensitivities"), "controller.sensitivities must be `exact`, `frozen` or `shifted`, got `" +
                                                            detail::abbreviate(sensitivities) + "`");
     }
-    p.sensitivities = sensitivities == "frozen" ? IPGEN_MPC_FROZEN : sensitivities == "shifted" ? IPGEN_MPC_SHIFTED : IPGEN_MPC_EXACT;
+    p.frozen = sensitivities == "frozen" || sensitivities == "shifted";
+    p.shifted = sensitivities == "shifted";
   }
-  if (p.converged && (p.barrier > 0.0 || p.sensitivities != IPGEN_MPC_EXACT)) {
+  if (p.converged && (p.barrier > 0.0 || p.frozen)) {
     file.fail(file.line("controller.mode"), "controller.barrier and controller.sensitivities = frozen or shifted are for mode rti");
   }
   if (!(std::isfinite(p.period) && p.period > 0.0)) file.fail(file.line("controller.period"), "controller.period must be > 0");
