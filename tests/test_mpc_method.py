@@ -190,6 +190,27 @@ def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
         assert np.abs(A_frozen[k] - A[k]).max() > 1e-9
 
 
+def test_a_later_sqp_iteration_computes_every_stage_again() -> None:
+    """With two SQP iterations a sample only the first keeps the last sample's stages: the second
+    linearises every stage at its own guess, the solution minus its last step (z, after d in the
+    workspace; full steps in the real-time iteration): stage 0 by `rk4`, the others by
+    `linearisation` there, none the kept one."""
+    controller = qube(barrier=0.1, qp_iterations=2, sensitivities="shifted", sqp_iterations=2)
+    nx, N = controller.nx, controller.N
+    Z = (N + 1) * nx + N
+    controller.step([0.3, 0.2, 1.0, -0.5])
+    kept = _stage_models(controller)[0][2:]
+    controller.step([0.31, 0.19, 0.9, -0.6])
+    A = _stage_models(controller)[0]
+    start = 1 + Z + N * nx * nx + 2 * N * nx  # z
+    guess = controller.work[1 : 1 + Z] - controller.work[start : start + Z]
+    x, u = guess[: (N + 1) * nx].reshape(N + 1, nx), guess[(N + 1) * nx :]
+    assert np.allclose(A[0], controller.rk4(x[0], u[0])[1], rtol=0, atol=1e-9)
+    for k in range(1, N):
+        assert np.allclose(A[k], controller.linearisation(x[k], u[k])[1], rtol=0, atol=1e-9), k
+    assert np.abs(A[1 : N - 1] - kept).max() > 1e-8
+
+
 def test_shifted_sensitivities_hold_the_qube_within_its_travel() -> None:
     """In closed loop (the exact model) from the arm swinging: the arm within its travel, upright
     at the end, as with the frozen ones."""
