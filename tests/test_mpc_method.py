@@ -211,6 +211,24 @@ def test_a_later_sqp_iteration_computes_every_stage_again() -> None:
     assert np.abs(A[1 : N - 1] - kept).max() > 1e-8
 
 
+def test_after_an_infeasible_step_the_next_keeps_that_steps_stages() -> None:
+    """The arm past its hard travel: the step reports "QP infeasible" and keeps its guess (and the
+    A, B it linearised it with); the next, warm step keeps those stages shifted, computes stage 0
+    and N-1 anew and, the arm back inside, solves."""
+    controller = qube(sensitivities="shifted")
+    N = controller.N
+    controller.step([1.05, 0.0, 0.0, 0.0])
+    assert controller.info is not None and controller.info.status == "QP infeasible"
+    A0 = _stage_models(controller)[0]
+    states, inputs = controller.trajectory()
+    controller.step([0.9, 0.0, -1.0, 0.0])
+    assert controller.info.status == "ok"
+    A = _stage_models(controller)[0]
+    assert np.array_equal(A[1 : N - 1], A0[2:])
+    assert np.array_equal(A[0], controller.rk4(states[1], inputs[1, 0])[1])
+    assert np.array_equal(A[N - 1], controller.linearisation(states[N], inputs[N - 1, 0])[1])
+
+
 def test_shifted_sensitivities_hold_the_qube_within_its_travel() -> None:
     """In closed loop (the exact model) from the arm swinging: the arm within its travel, upright
     at the end, as with the frozen ones."""
