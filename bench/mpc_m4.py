@@ -151,8 +151,8 @@ def _m4f_catch(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     text = text.replace(f'name = "{SWINGUP_M4F}"', f'name = "{SWINGUP_M4F}"\nemit = ["c"]')
     text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
     csv = _run_scene(folder, text, SWINGUP_M4F)
-    header = csv.read_text().split("\n", 1)[0].split(",")
-    phases = [row.split(",")[header.index("phase")] for row in csv.read_text().splitlines()[1:]]
+    header, *rows = csv.read_text().splitlines()
+    phases = [row.split(",")[header.split(",").index("phase")] for row in rows]
     scene = tomllib.loads(text)
     every = round(scene["controller"]["period"] / scene["simulation"]["sample"])  # the MPC's samples
     first = phases.index("hold")

@@ -134,10 +134,8 @@ def test_the_first_stage_keeps_the_exact_sensitivities() -> None:
     x = np.array([0.3, 0.2, 1.0, -0.5])
     controller = qube(**FAST, cold_iterations=1)
     controller.step(x)
-    nx, N = controller.nx, controller.N
-    start = 1 + (N + 1) * nx + N  # the warm flag, then the trajectory, then A (ipgen_mpc_carve)
-    A = controller.work[start : start + N * nx * nx].reshape(N, nx, nx)
-    B = controller.work[start + N * nx * nx : start + N * nx * (nx + 1)].reshape(N, nx, 1)
+    N = controller.N
+    A, B, _, _ = _last_qp(controller)
     _, a_exact, b_exact = controller.rk4(x, 0.0)
     _, a_frozen, b_frozen = controller.linearisation(x, 0.0)
     assert np.abs(a_exact - a_frozen).max() > 1e-6  # they differ here, so the test can tell
@@ -145,16 +143,21 @@ def test_the_first_stage_keeps_the_exact_sensitivities() -> None:
     assert all(np.array_equal(A[k], a_frozen) and np.array_equal(B[k], b_frozen) for k in range(1, N))
 
 
-def _stage_models(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A, B and the defects d of the last QP, from the workspace (ipgen_mpc_carve's order: the warm
-    flag, the trajectory, A, B, d)."""
+def _last_qp(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A, B, the defects d and the step z of the last QP, copied from the workspace (ipgen_mpc_carve's
+    order: the warm flag, the trajectory, A, B, d, z; nu = 1)."""
     nx, N = controller.nx, controller.N
-    start = 1 + (N + 1) * nx + N
-    A = controller.work[start : start + N * nx * nx].reshape(N, nx, nx).copy()
-    start += N * nx * nx
-    B = controller.work[start : start + N * nx].reshape(N, nx, 1).copy()
-    start += N * nx
-    return A, B, controller.work[start : start + N * nx].reshape(N, nx).copy()
+    sizes = {"A": N * nx * nx, "B": N * nx, "d": N * nx, "z": (N + 1) * nx + N}
+    start, parts = 1 + sizes["z"], {}
+    for name, size in sizes.items():
+        parts[name] = controller.work[start : start + size].copy()
+        start += size
+    return parts["A"].reshape(N, nx, nx), parts["B"].reshape(N, nx, 1), parts["d"].reshape(N, nx), parts["z"]
+
+
+def _stage_models(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A, B and the defects d of the last QP (`_last_qp`)."""
+    return _last_qp(controller)[:3]
 
 
 def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
@@ -197,13 +200,11 @@ def test_a_later_sqp_iteration_computes_every_stage_again() -> None:
     `linearisation` there, none the kept one."""
     controller = qube(barrier=0.1, qp_iterations=2, sensitivities="shifted", sqp_iterations=2)
     nx, N = controller.nx, controller.N
-    Z = (N + 1) * nx + N
     controller.step([0.3, 0.2, 1.0, -0.5])
     kept = _stage_models(controller)[0][2:]
     controller.step([0.31, 0.19, 0.9, -0.6])
-    A = _stage_models(controller)[0]
-    start = 1 + Z + N * nx * nx + 2 * N * nx  # z
-    guess = controller.work[1 : 1 + Z] - controller.work[start : start + Z]
+    A, _, _, z = _last_qp(controller)
+    guess = controller.work[1 : 1 + len(z)] - z
     x, u = guess[: (N + 1) * nx].reshape(N + 1, nx), guess[(N + 1) * nx :]
     assert np.allclose(A[0], controller.rk4(x[0], u[0])[1], rtol=0, atol=1e-9)
     for k in range(1, N):

@@ -429,7 +429,8 @@ IPGEN_MPC_LOCAL void ipgen_mpc_frozen(int nx, int nu, ipgen_mpc_real h, int subs
 }
 
 /* xn = F(x, u): `substeps` RK4 steps, each substep's four slopes unrolled (ksum = k1 + 2 k2 + 2 k3
- * + k4 summed left to right, as ipgen_mpc_rk4_layout's loop over the stages: the same numbers);
+ * + k4 summed left to right, as the loops over the stages of ipgen_mpc_rk4_layout and
+ * ipgen_mpc_rk4_fixed, which add the sensitivities: the same numbers for F). Every F alone;
  * the model's Jacobians at (x, u), the first slope's, into Ac and Bc when they are not null.
  * xs, xt, kk, ksum: nx temporaries. Returns 0, 1 if the model failed. */
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_slopes(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
@@ -464,11 +465,11 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_slopes(const ipgen_mpc_settings *s, const ipge
   return 0;
 }
 
-/* One sample of the discretised model with frozen sensitivities: xn = F(x, u) by RK4 as
- * ipgen_mpc_rk4_layout (the model's Jacobians asked for at the first stage only, whose slope is
- * F's first: its own RK4 loop saves a model call a stage against rk4_layout's plus a Jacobian
- * call, on the microcontroller's hot path), then A, B by ipgen_mpc_frozen. xs, xt, k, ksum: nx temporaries; Ac, Bc: the Jacobians' room; T1, T2: as
- * ipgen_mpc_frozen's. Returns 0, 1 if the model failed. */
+/* One sample of the discretised model with frozen sensitivities: xn = F(x, u) by
+ * ipgen_mpc_rk4_slopes with the model's Jacobians asked for at the first slope only (F's first:
+ * a model call a stage fewer than a separate Jacobian call, on the microcontroller's hot path),
+ * then A, B by ipgen_mpc_frozen. xs, xt, k, ksum: nx temporaries; Ac, Bc: the Jacobians' room;
+ * T1, T2: as ipgen_mpc_frozen's. Returns 0, 1 if the model failed. */
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
                                          ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[],
                                          ipgen_mpc_real xs[], ipgen_mpc_real xt[], ipgen_mpc_real k[],
@@ -482,14 +483,14 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_frozen(const ipgen_mpc_settings *s, const ipge
 }
 
 #ifdef IPGEN_MPC_FIXED
-/* ipgen_mpc_rk4_layout with every size fixed: its temporaries in local arrays (the workspace's
- * RK4 parts unused), the stage sensitivity, its weighted sum and the next stage's point in one
- * pass per stage. The same operations, in the same order per entry. */
+/* ipgen_mpc_rk4_layout with its sensitivities (A and B not null; F alone is ipgen_mpc_rk4_slopes)
+ * and every size fixed: its temporaries in local arrays (the workspace's RK4 parts unused), the
+ * stage sensitivity, its weighted sum and the next stage's point in one pass per stage. The same
+ * operations, in the same order per entry. */
 IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen_mpc_real x[], const ipgen_mpc_real u[],
                                         ipgen_mpc_real xn[], ipgen_mpc_real A[], ipgen_mpc_real B[]) {
 #define IPGEN_MPC_NZ (IPGEN_MPC_NX + IPGEN_MPC_NU)
 #define IPGEN_MPC_FIRST IPGEN_MPC_COPIED_ROWS(IPGEN_MPC_NX)
-  const int sens = A != 0 && B != 0;
   const ipgen_mpc_real h = s->period / (ipgen_mpc_real)s->substeps;
   static const ipgen_mpc_real weight[4] = {(ipgen_mpc_real)1, (ipgen_mpc_real)2, (ipgen_mpc_real)2, (ipgen_mpc_real)1};
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
@@ -499,22 +500,19 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen
   ipgen_mpc_real dsum[IPGEN_MPC_NX][IPGEN_MPC_NZ];
   int step, stage, i, j, m;
   for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] = x[i];
-  if (sens)
-    for (i = 0; i < IPGEN_MPC_NX; ++i)
-      for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] = (ipgen_mpc_real)(i == j);
+  for (i = 0; i < IPGEN_MPC_NX; ++i)
+    for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] = (ipgen_mpc_real)(i == j);
   for (step = 0; step < s->substeps; ++step) {
     for (i = 0; i < IPGEN_MPC_NX; ++i) xt[i] = xs[i];
-    if (sens)
-      for (i = 0; i < IPGEN_MPC_NX; ++i)
-        for (j = 0; j < IPGEN_MPC_NZ; ++j) Ss[i][j] = S[i][j];
+    for (i = 0; i < IPGEN_MPC_NX; ++i)
+      for (j = 0; j < IPGEN_MPC_NZ; ++j) Ss[i][j] = S[i][j];
     for (stage = 0; stage < 4; ++stage) {
       const ipgen_mpc_real c = advance[stage] * h;
-      if (s->dynamics(s->context, xt, u, kk, sens ? Ac : 0, sens ? Bc : 0) != 0) return 1;
+      if (s->dynamics(s->context, xt, u, kk, Ac, Bc) != 0) return 1;
       for (i = 0; i < IPGEN_MPC_NX; ++i) {
         ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : ksum[i]) + weight[stage] * kk[i];
         if (stage < 3) xt[i] = xs[i] + c * kk[i];
       }
-      if (!sens) continue;
       /* column by column (a column of dk needs that of Ss alone): dk = Ac Ss + [0 | Bc]
        * (ipgen_mpc_stage_sensitivity's, the [0 I] rows copied), its weighted sum, the next Ss */
       for (j = 0; j < IPGEN_MPC_NZ; ++j) {
@@ -533,16 +531,14 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_fixed(const ipgen_mpc_settings *s, const ipgen
       }
     }
     for (i = 0; i < IPGEN_MPC_NX; ++i) xs[i] += h / (ipgen_mpc_real)6 * ksum[i];
-    if (sens)
-      for (i = 0; i < IPGEN_MPC_NX; ++i)
-        for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] += h / (ipgen_mpc_real)6 * dsum[i][j];
+    for (i = 0; i < IPGEN_MPC_NX; ++i)
+      for (j = 0; j < IPGEN_MPC_NZ; ++j) S[i][j] += h / (ipgen_mpc_real)6 * dsum[i][j];
   }
-  for (i = 0; i < IPGEN_MPC_NX; ++i) xn[i] = xs[i];
-  if (sens)
-    for (i = 0; i < IPGEN_MPC_NX; ++i) {
-      for (j = 0; j < IPGEN_MPC_NX; ++j) A[i * IPGEN_MPC_NX + j] = S[i][j];
-      for (j = 0; j < IPGEN_MPC_NU; ++j) B[i * IPGEN_MPC_NU + j] = S[i][IPGEN_MPC_NX + j];
-    }
+  for (i = 0; i < IPGEN_MPC_NX; ++i) {
+    xn[i] = xs[i];
+    for (j = 0; j < IPGEN_MPC_NX; ++j) A[i * IPGEN_MPC_NX + j] = S[i][j];
+    for (j = 0; j < IPGEN_MPC_NU; ++j) B[i * IPGEN_MPC_NU + j] = S[i][IPGEN_MPC_NX + j];
+  }
   return 0;
 #undef IPGEN_MPC_FIRST
 #undef IPGEN_MPC_NZ
@@ -576,40 +572,33 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
   static const ipgen_mpc_real advance[4] = {(ipgen_mpc_real)0.5, (ipgen_mpc_real)0.5, (ipgen_mpc_real)1, (ipgen_mpc_real)0};
   ipgen_mpc_real *xs = l->xn, *S = l->S;
   int step, stage, i, j;
-  if (l->frozen && sens) return ipgen_mpc_rk4_frozen(s, x, u, xn, A, B, xs, l->xt, l->k, l->ksum, l->Ac, l->Bc, S, l->Ss);
+  if (!sens) return ipgen_mpc_rk4_slopes(s, x, u, xn, 0, 0, xs, l->xt, l->k, l->ksum); /* F alone */
+  if (l->frozen) return ipgen_mpc_rk4_frozen(s, x, u, xn, A, B, xs, l->xt, l->k, l->ksum, l->Ac, l->Bc, S, l->Ss);
   for (i = 0; i < nx; ++i) xs[i] = x[i];
-  if (sens)
-    for (i = 0; i < nx; ++i)
-      for (j = 0; j < nz; ++j) S[i * nz + j] = (ipgen_mpc_real)(i == j);
+  for (i = 0; i < nx; ++i)
+    for (j = 0; j < nz; ++j) S[i * nz + j] = (ipgen_mpc_real)(i == j);
   for (step = 0; step < s->substeps; ++step) {
     for (i = 0; i < nx; ++i) l->xt[i] = xs[i];
-    if (sens)
-      for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i];
+    for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i];
     for (stage = 0; stage < 4; ++stage) {
-      if (s->dynamics(s->context, l->xt, u, l->k, sens ? l->Ac : 0, sens ? l->Bc : 0) != 0) return 1;
+      if (s->dynamics(s->context, l->xt, u, l->k, l->Ac, l->Bc) != 0) return 1;
       for (i = 0; i < nx; ++i) l->ksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : l->ksum[i]) + weight[stage] * l->k[i];
-      if (sens) {
-        ipgen_mpc_stage_sensitivity(nx, nu, l->Ac, l->Bc, l->Ss, l->dk);
-        for (i = 0; i < nx * nz; ++i)
-          l->dksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : l->dksum[i]) + weight[stage] * l->dk[i];
-      }
+      ipgen_mpc_stage_sensitivity(nx, nu, l->Ac, l->Bc, l->Ss, l->dk);
+      for (i = 0; i < nx * nz; ++i)
+        l->dksum[i] = (stage == 0 ? (ipgen_mpc_real)0 : l->dksum[i]) + weight[stage] * l->dk[i];
       if (stage < 3) { /* the next stage's point: x + c h k, its sensitivity S + c h dk */
         const ipgen_mpc_real c = advance[stage] * h;
         for (i = 0; i < nx; ++i) l->xt[i] = xs[i] + c * l->k[i];
-        if (sens)
-          for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i] + c * l->dk[i];
+        for (i = 0; i < nx * nz; ++i) l->Ss[i] = S[i] + c * l->dk[i];
       }
     }
     for (i = 0; i < nx; ++i) xs[i] += h / (ipgen_mpc_real)6 * l->ksum[i];
-    if (sens)
-      for (i = 0; i < nx * nz; ++i) S[i] += h / (ipgen_mpc_real)6 * l->dksum[i];
+    for (i = 0; i < nx * nz; ++i) S[i] += h / (ipgen_mpc_real)6 * l->dksum[i];
   }
-  for (i = 0; i < nx; ++i) xn[i] = xs[i];
-  if (sens) {
-    for (i = 0; i < nx; ++i) {
-      for (j = 0; j < nx; ++j) A[i * nx + j] = S[i * nz + j];
-      for (j = 0; j < nu; ++j) B[i * nu + j] = S[i * nz + nx + j];
-    }
+  for (i = 0; i < nx; ++i) {
+    xn[i] = xs[i];
+    for (j = 0; j < nx; ++j) A[i * nx + j] = S[i * nz + j];
+    for (j = 0; j < nu; ++j) B[i * nu + j] = S[i * nz + nx + j];
   }
   return 0;
 #endif

@@ -186,9 +186,7 @@ def mpc_context(
         "barrier": c_number(design.barrier),
         "barrier_set": design.barrier > 0,
         "barrier_value": f"{design.barrier:g}",
-        "frozen": design.sensitivities != "exact",
-        "sensitivities": f"IPGEN_MPC_{design.sensitivities.upper()}",  # EXACT, FROZEN or SHIFTED
-        "shifted": design.sensitivities == "shifted",
+        "sensitivities": design.sensitivities,  # exact, frozen or shifted: IPGEN_MPC_EXACT, ...
         # float: the tolerances ipgen.mpc takes in float (qp 1e-4 in RTI, 1e-5 converged; converged sqp 1e-4)
         "sqp_tolerance_float": c_number(1e-4 if design.mode == "converged" else 0.0),
         "qp_tolerance_float": c_number(1e-5 if design.mode == "converged" else 1e-4),
