@@ -372,6 +372,20 @@ def test_scratch_goes_to_tmpdir_and_is_removed_when_the_sweep_is_ended(
     assert not leftover, "worker processes outlived the sweep"
 
 
+def test_an_interrupted_pool_has_ended_its_manager_thread_before_the_exit() -> None:
+    """Interrupted, the local pool ends its workers and then its manager thread, so Python's exit
+    hook finds no thread still closing its wake-up pipe (a race that printed "OSError: Bad file
+    descriptor" after the one-line message: seen once, in a make test on a loaded machine)."""
+    from ipgen.sweeps.engine import _local
+
+    with pytest.raises(KeyboardInterrupt), _local(2) as pool:
+        futures = [pool.submit(time.sleep, 30) for _ in range(4)]
+        futures[0].running() or time.sleep(0.2)
+        manager = pool._executor_manager_thread  # type: ignore[attr-defined]
+        raise KeyboardInterrupt
+    assert manager is not None and not manager.is_alive()
+
+
 def _interruptible() -> None:
     """SIGINT at its default in the sweep's process: a shell that runs the tests in the background
     (a CI job, `make test &`) starts them with SIGINT ignored, which the sweep would inherit and

@@ -119,6 +119,7 @@ def _local(workers: int) -> Iterator[Executor]:
         yield pool
     except BaseException:
         processes = list((getattr(pool, "_processes", None) or {}).values())
+        manager = getattr(pool, "_executor_manager_thread", None)  # shutdown forgets it
         pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -126,6 +127,12 @@ def _local(workers: int) -> Iterator[Executor]:
         for process in processes:
             with contextlib.suppress(OSError, ValueError, AttributeError, AssertionError):
                 process.join(timeout=5)
+        # The pool's manager thread closes its wake-up pipe as it ends. Python 3.11's exit hook
+        # (concurrent.futures.process._python_exit) writes to that pipe without a lock; while the
+        # thread is still ending, the write can meet the closed pipe and print a traceback
+        # (OSError: Bad file descriptor) after the one-line message. Ended first, it is quiet.
+        if manager is not None:
+            manager.join(timeout=5)
         raise
     pool.shutdown(wait=True)
 
