@@ -263,9 +263,10 @@ def closed_loop(controllers: list[Mpc], x0: list[float], seconds: float) -> tupl
         u = [c.step(x) for c in controllers]
         inputs.append(u)
         drive = u[0]
-        x = solve_ivp(lambda _, s, v=drive: field.f(s, v), (0.0, lead.period), x, rtol=1e-10, atol=1e-12).y[
-            :, -1
-        ]
+        step = solve_ivp(
+            lambda _, s, v=drive: field.f(s, v), (0.0, lead.period), x, "DOP853", rtol=1e-10, atol=1e-12
+        )
+        x = step.y[:, -1]
         states.append(x)
     return np.array(states), np.array(inputs)
 

@@ -13,7 +13,7 @@ from ipgen.common.locations import presets_dir
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 
-__all__ = ["Preset", "preset_path", "presets"]
+__all__ = ["Preset", "preset_names", "preset_path", "presets"]
 
 SOURCE_PREFIX = "# Values from: "
 
@@ -56,13 +56,16 @@ def presets() -> list[Preset]:
     return sorted((_describe(path) for path in folder.rglob("*.toml")), key=lambda p: p.name)
 
 
+def preset_names() -> tuple[str, ...]:
+    """Every preset's name, sorted: the files' stems only (`presets` also reads each file)."""
+    return tuple(sorted(path.stem for path in presets_dir().rglob("*.toml")))
+
+
 def preset_path(name: str) -> Path:
     """The scene file of the preset `name`; an `Error` naming the presets there are otherwise."""
     folder = presets_dir()
     found = [path for path in folder.rglob("*.toml") if path.stem == name]
     if len(found) == 1:
         return found[0]
-    names = sorted(path.stem for path in folder.rglob("*.toml"))
-    raise Error(
-        f"no preset {abbreviate(name)!r}: choose one of {', '.join(names)} (ipgen presets lists them)"
-    )
+    names = ", ".join(preset_names())
+    raise Error(f"no preset {abbreviate(name)!r}: choose one of {names} (ipgen presets lists them)")

@@ -539,9 +539,9 @@ def presets() -> tuple[str, ...]:
     >>> "qube_servo2" in presets()
     True
     """
-    from ipgen.common.presets import presets as shipped
+    from ipgen.common.presets import preset_names
 
-    return tuple(preset.name for preset in shipped())
+    return preset_names()
 
 
 def from_scene_object(scene: Scene, *, exact: bool = False) -> Pendulum:
