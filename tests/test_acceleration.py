@@ -22,6 +22,7 @@ import pytest
 import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from run_csv import read_run_csv
 from run_summary import simulator_of
 from scipy.integrate import solve_ivp
 
@@ -396,10 +397,9 @@ def test_ipgen_run_acceleration_scene(tmp_path: Path) -> None:
         env=env,
     )
     assert done.returncode == 0, done.stderr
-    header, *rows = (tmp_path / "out" / "acin_double_accel.csv").read_text().splitlines()
-    assert header.split(",")[-1] == "u" and "input_work" in header
-    names = header.split(",")
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    run_ = read_run_csv(tmp_path / "out" / "acin_double_accel.csv")
+    names, data = run_.names, run_.data
+    assert names[-1] == "u" and "input_work" in names
     x = data[:, 1:7]
     m, l, delta = [0.2, 0.9363, 0.5505], [0, 0.419, 0.484], [0.1, 0.0042, 0.0003]  # noqa: E741
     links = {"com": [0, 0.2687, 0.2256], "J": [0, 0.0243, 0.0183]}
@@ -512,10 +512,8 @@ def test_energy_swingup_with_an_acceleration_input(tmp_path: Path) -> None:
         env=env,
     )
     assert done.returncode == 0, done.stderr
-    header, *rows = (tmp_path / "out" / "cart_accel_swing.csv").read_text().splitlines()
-    names = header.split(",")
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
-    phases = [row.split(",")[-1] for row in rows]
+    run_ = read_run_csv(tmp_path / "out" / "cart_accel_swing.csv")
+    names, data, phases = run_.names, run_.data, run_.phase
     assert "hold" in phases and np.max(np.abs(data[:, names.index("u")])) == pytest.approx(10.0)
     assert abs(math.remainder(data[-1, 2], 2 * math.pi)) < 0.05
 

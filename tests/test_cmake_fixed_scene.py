@@ -17,18 +17,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from run_csv import read_run_csv
 
 import ipgen
 from ipgen.command.cli import run
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "scenes" / "rigs" / "dfki_c0.toml"
-
-
-def _columns(csv: Path) -> dict[str, np.ndarray]:
-    header, *rows = csv.read_text().splitlines()
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
-    return {name: data[:, i] for i, name in enumerate(header.split(","))}
 
 
 def _project(tmp_path: Path, languages: str) -> list[str]:
@@ -70,9 +65,9 @@ def test_a_project_builds_and_runs_a_fixed_scene(tmp_path: Path) -> None:
     compiled = outputs[1].splitlines()
     assert [line for line in compiled if "warning:" in line and not line.startswith("ipgen:")] == []
     assert "scene dfki_c0: model fixed2 (fixed, 2 links)" in outputs[2]
-    with_cmake = _columns(build / "scenes" / "dfki_c0.csv")
+    with_cmake = read_run_csv(build / "scenes" / "dfki_c0.csv").columns()
     assert run(["run", str(SCENE), "-o", str(tmp_path / "run"), "--no-plot"]) == 0
-    with_run = _columns(tmp_path / "run" / "dfki_c0.csv")
+    with_run = read_run_csv(tmp_path / "run" / "dfki_c0.csv").columns()
     assert set(with_cmake) == set(with_run) and len(with_cmake["t"]) == 501
     for name, values in with_run.items():  # the same model, method and tolerances: -O2 against -O2
         assert np.max(np.abs(with_cmake[name] - values)) <= 1e-9 * (1 + np.max(np.abs(values))), name

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from c_models import c_command, compile_c, require_cc
 from cxx import require_toolchain
+from run_csv import read_run_csv
 
 import ipgen
 from ipgen.command.cli import run
@@ -123,9 +124,7 @@ def simulate(simulator: Path, folder: Path) -> dict[str, np.ndarray]:
         text=True,
     )
     assert result.returncode == 0, result.stderr
-    header, *rows = csv.read_text().splitlines()
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])[:-1]  # the sampling instants
-    return {name: data[:, i] for i, name in enumerate(header.split(","))}
+    return read_run_csv(csv).columns(slice(-1))  # the sampling instants
 
 
 def run_c(folder: Path, kind: str, scalar: str, y: np.ndarray) -> np.ndarray:

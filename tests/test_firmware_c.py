@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 from c_models import CC, FLOAT_WARNINGS, WARNINGS, require_cc
 from cxx import CXX, require_toolchain
+from run_csv import read_run_csv
 
 from ipgen.command.cli import run
 
@@ -130,14 +131,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _csv(path: Path) -> dict[str, np.ndarray]:
-    header, *rows = path.read_text().splitlines()
-    names = header.split(",")
-    phase = names.index("phase")
-    data = np.array([[float(v) for j, v in enumerate(row.split(",")) if j != phase] for row in rows])
-    columns = [name for name in names if name != "phase"]
-    result = {name: data[:, i] for i, name in enumerate(columns)}
-    result["phase"] = np.array([row.split(",")[phase] for row in rows])
-    return result
+    run_ = read_run_csv(path)
+    return {**run_.columns(), "phase": np.array(run_.phase)}
 
 
 def _compile(command: list[str]) -> None:

@@ -12,16 +12,12 @@ from pathlib import Path
 
 import numpy as np
 from cxx import require_toolchain
+from run_csv import read_run_csv
 
 from ipgen.experiment.config import resolved_config
 from ipgen.experiment.scene import load_scene
 
 RIGS = Path(__file__).resolve().parents[1] / "scenes" / "rigs"
-
-
-def _csv(path: Path) -> np.ndarray:
-    _, *rows = path.read_text().splitlines()
-    return np.array([[float(v) for v in row.split(",")] for row in rows])
 
 
 def test_motor_folded_exactly() -> None:
@@ -67,7 +63,7 @@ def test_specialised_motor_scene_runs_like_the_general_one(tmp_path: Path) -> No
             env=env,
         )
         assert done.returncode == 0, done.stderr
-        runs[stem] = _csv(tmp_path / stem / f"{stem}.csv")
+        runs[stem] = read_run_csv(tmp_path / stem / f"{stem}.csv").data
     import ipgen
 
     ipgen.write_header(tmp_path / "gen", scene=scenes / "special.toml")
@@ -110,6 +106,6 @@ def test_specialised_rsip_with_a_motor_runs_like_the_general_one(tmp_path: Path)
             text=True,
         )
         assert done.returncode == 0, done.stderr
-        runs[stem] = _csv(tmp_path / stem / f"{stem}.csv")
+        runs[stem] = read_run_csv(tmp_path / stem / f"{stem}.csv").data
     assert np.ptp(runs["general"][:, 1]) > 1e-3  # the arm moved: the comparison means something
     np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-6, atol=1e-8)

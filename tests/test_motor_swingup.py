@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from c_models import c_command, require_cc
 from cxx import require_toolchain
+from run_csv import read_run_csv
 
 import ipgen
 from ipgen.experiment.scene import load_scene
@@ -61,8 +62,7 @@ def _run(scene: Path, out: Path, env: dict[str, str]) -> np.ndarray:
         env=env,
     )
     assert done.returncode == 0, done.stderr
-    _, *rows = (out / f"{scene.stem}.csv").read_text().splitlines()
-    return np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
+    return read_run_csv(out / f"{scene.stem}.csv").data
 
 
 def test_motor_swingup_is_the_folded_direct_swingup(tmp_path: Path) -> None:

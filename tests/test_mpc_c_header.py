@@ -24,6 +24,7 @@ import numpy as np
 import pytest
 from c_models import CC, FLOAT_WARNINGS, MPC_STEP_PROGRAM, WARNINGS, require_cc
 from cxx import CXX, require_toolchain
+from run_csv import read_run_csv
 from test_mpc_scene import FAST, MEASURED, PUSHED, QUBE, U_MAX
 
 from ipgen.command.cli import run
@@ -68,9 +69,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _columns(folder: Path) -> dict[str, np.ndarray]:
-    header, *rows = (folder / "run" / "qube_mpc.csv").read_text().splitlines()
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
-    return {name: data[:-1, i] for i, name in enumerate(header.split(","))}  # the sampling instants
+    return read_run_csv(folder / "run" / "qube_mpc.csv").columns(slice(-1))  # the sampling instants
 
 
 def _program(folder: Path, name: str, source: str, scalar: str = "double") -> Path:
@@ -129,9 +128,7 @@ def _fast_scene(folder: Path, name: str, controller: str) -> tuple[Path, dict[st
     ):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    header, *rows = (folder / name / f"{name}.csv").read_text().splitlines()
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])[:-1]  # the sampling instants
-    return folder / f"{name}.h", {column: data[:, i] for i, column in enumerate(header.split(","))}
+    return folder / f"{name}.h", read_run_csv(folder / name / f"{name}.csv").columns(slice(-1))
 
 
 @pytest.fixture(scope="module")
@@ -284,11 +281,9 @@ def _replay_swing_up(
     ):
         with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    header, *rows = (folder / "run" / f"{name}.csv").read_text().splitlines()
-    names = header.split(",")
-    phase = [row.rsplit(",", 1)[1] for row in rows][:-1]
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
-    columns = {column: data[:, i] for i, column in enumerate(names[:-1])}
+    run_ = read_run_csv(folder / "run" / f"{name}.csv")
+    phase = run_.phase[:-1]  # the sampling instants
+    columns = run_.columns(slice(-1))
     counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
     firmware = FIRMWARE.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
     program = _program(folder, "swingup_firmware", firmware)
@@ -448,10 +443,7 @@ def test_a_plan_tracked_by_the_mpc_replays_the_simulators_inputs(
     ):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    header, *rows = (tmp_path / "run" / f"{name}.csv").read_text().splitlines()
-    names = header.split(",")[:-1]
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])[:-1]  # the sampling instants
-    column = {column: data[:, i] for i, column in enumerate(names)}
+    column = read_run_csv(tmp_path / "run" / f"{name}.csv").columns(slice(-1))  # the sampling instants
     state_names = [f"theta{i}" for i in range(dof)] + [f"dtheta{i}" for i in range(dof)]
     states = np.column_stack([column[n] for n in state_names])
     source = TRACKER.replace("NAME", name).replace("P_", f"ipgen_{name}_").replace("DOF", str(dof))

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from run_csv import read_run_csv
 
 from ipgen.command.cli import run
 
@@ -39,10 +40,8 @@ def test_preset_balances_within_its_constraints(
             err.getvalue()
         )
     assert "every status ok" in out.getvalue()
-    header, *rows = next(tmp_path.glob("*.csv")).read_text().splitlines()
-    names = header.split(",")
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
-    column = {name: data[:, i] for i, name in enumerate(names)}
+    run_ = read_run_csv(next(tmp_path.glob("*.csv")))
+    names, column = run_.names, run_.columns()
     links = [name for name in names if name.startswith("theta") and name != "theta0"]
     assert np.max(np.abs(column["u"])) <= u_max * (1 + 1e-12) and np.max(np.abs(column["u"])) > 0.9 * u_max
     assert np.max(np.abs(column["theta0"])) <= travel and np.max(np.abs(column["theta0"])) > 0.7 * travel
@@ -63,11 +62,8 @@ def _swing_up(scene: Path, folder: Path) -> tuple[str, dict[str, np.ndarray], np
     """(the summary, the CSV's numeric columns, its phase column) of `ipgen run` of `scene`."""
     with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
         assert run(["run", str(scene), "-o", str(folder), "--no-plot"]) == 0, err.getvalue()
-    header, *rows = next(folder.glob("*.csv")).read_text().splitlines()
-    names = header.split(",")
-    phase = np.array([row.rsplit(",", 1)[1] for row in rows])
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
-    return out.getvalue(), {name: data[:, i] for i, name in enumerate(names[:-1])}, phase
+    run_ = read_run_csv(next(folder.glob("*.csv")))
+    return out.getvalue(), run_.columns(), np.array(run_.phase)
 
 
 Run = tuple[str, dict[str, np.ndarray], np.ndarray]

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from cxx import require_toolchain
 from motor_by_hand import flat_parameters
+from run_csv import read_run_csv
 from run_summary import simulator_of
 from scipy.integrate import solve_ivp
 from test_actuator import by_hand
@@ -159,9 +160,9 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
         env=env,
     )
     assert result.returncode == 0, result.stderr
-    header, *rows = (tmp_path / "out" / "qube_servo2.csv").read_text().splitlines()
-    assert header.split(",") == ["t", "theta0", "theta1", "dtheta0", "dtheta1", "u"]
-    data = np.array([[float(v) for v in row.split(",")] for row in rows])
+    run_ = read_run_csv(tmp_path / "out" / "qube_servo2.csv")
+    assert run_.names == ["t", "theta0", "theta1", "dtheta0", "dtheta1", "u"] and not run_.phase
+    data = run_.data
     _, _, k = model("qube_servo2")
     volts = np.clip(-(data[:, 1:5] @ k.ravel()), -10.0, 10.0)
     assert np.allclose(data[:, 5], volts, rtol=1e-9, atol=1e-9)
@@ -261,14 +262,12 @@ def test_the_ip02_swings_up_within_its_rail_and_10_volts(tmp_path: Path) -> None
         env=dict(os.environ),  # the run's shared simulator cache (tests/conftest.py)
     )
     assert result.returncode == 0, result.stderr
-    header, *rows = (tmp_path / "ip02_sip_swingup.csv").read_text().splitlines()
-    columns = header.split(",")
-    phase = [row.split(",")[-1] for row in rows]
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
-    assert columns[-1] == "phase" and "hold" in phase and phase[-1] == "hold"
+    run_ = read_run_csv(tmp_path / "ip02_sip_swingup.csv")
+    phase, data = run_.phase, run_.data
+    assert "hold" in phase and phase[-1] == "hold"
     caught = data[phase.index("hold"), 0]
     assert 0 < caught < 10 and data[-1, 0] == pytest.approx(caught + 5, abs=2e-3)
     assert np.max(np.abs(data[:, 1])) <= 0.7 * 0.407
-    assert np.max(np.abs(data[:, columns.index("u")])) <= 10.0 + 1e-12
+    assert np.max(np.abs(run_["u"])) <= 10.0 + 1e-12
     upright = data[-1, 2] - 2 * math.pi * round(data[-1, 2] / (2 * math.pi))
     assert abs(upright) < 1e-3 and abs(data[-1, 1]) < 1e-2 and np.max(np.abs(data[-1, 3:5])) < 1e-2

@@ -21,6 +21,7 @@ import pytest
 from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from run_csv import read_run_csv
 from run_summary import simulator_of
 from test_scene import ROTARY, config_dict, make
 
@@ -172,11 +173,6 @@ def _run(scene: Path, out: Path) -> subprocess.CompletedProcess[str]:
     )
 
 
-def _csv(path: Path) -> tuple[list[str], np.ndarray]:
-    header, *rows = path.read_text().splitlines()
-    return header.split(","), np.array([[float(v) for v in row.split(",")] for row in rows])
-
-
 def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
     """The same physical open-loop run, once in ipgen's coordinates and once in a rig's
     (relative, hanging, counter-clockwise): the rig's CSV is the Python map of ipgen's, the
@@ -211,8 +207,8 @@ def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
     for scene in (own, rig):
         result = _run(scene, tmp_path / "out")
         assert result.returncode == 0, result.stderr
-    header_own, data_own = _csv(tmp_path / "out" / "own.csv")
-    header_rig, data_rig = _csv(tmp_path / "out" / "rig.csv")
+    own, rig = read_run_csv(tmp_path / "out" / "own.csv"), read_run_csv(tmp_path / "out" / "rig.csv")
+    header_own, data_own, header_rig, data_rig = own.names, own.data, rig.names, rig.data
     assert header_rig == header_own  # the same columns: every CSV reader keeps working
     assert np.allclose(data_rig[0, 1:7], user, rtol=0, atol=1e-15)
     mapped = np.array([RIG.to_user(row, 2) for row in data_own[:, 1:7]])

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import sympy as sp
 from cxx import require_toolchain
+from run_csv import read_run_csv
 
 import ipgen
 from ipgen.command.cli import run
@@ -86,9 +87,8 @@ class Run:
         )
         assert result.returncode == 0, result.stderr
         self.summary = result.stdout
-        header, *rows = self.csv.read_text().splitlines()
-        self.names = header.split(",")
-        self.data = np.array([[float(v) for v in row.split(",")] for row in rows])
+        run_ = read_run_csv(self.csv)
+        self.names, self.data = run_.names, run_.data
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.data[:-1, self.names.index(name)]  # the sampling instants (the last row is t_end)

@@ -21,6 +21,7 @@ import pytest
 from cxx import require_toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from run_csv import read_run_csv
 from run_summary import simulator_of
 from swingup_reference import simulate
 
@@ -91,12 +92,9 @@ def run_scene(tmp_path: Path, text: str, env: dict[str, str]) -> tuple[list[str]
         env={**os.environ, **env},
     )
     assert result.returncode == 0, result.stderr
-    header, *rows = (out / "swing.csv").read_text().splitlines()
-    columns = header.split(",")
-    assert columns[-2:] == ["u", "phase"]
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
-    phases = [row.rsplit(",", 1)[1] for row in rows]
-    return columns, data, phases, (out / "swing.txt").read_text()
+    run_ = read_run_csv(out / "swing.csv")
+    assert run_.names[-1] == "u" and run_.phase
+    return [*run_.names, "phase"], run_.data, run_.phase, (out / "swing.txt").read_text()
 
 
 Run = tuple[list[str], np.ndarray, list[str], str, Path]  # run_scene's four, then the output folder
@@ -165,9 +163,9 @@ def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, runs: Callable[[str],
     message = done.stderr.strip()
     assert "\n" not in message and "the swing-up lost its plan at t = " in message, message
     assert "link 1 is " in message and "beyond --divergence-angle 0.001 rad" in message, message
-    _, *rows = csv.read_text().splitlines()
-    assert rows and all(row.endswith(",track") for row in rows)  # stopped before the hold
-    data = np.array([[float(v) for v in row.split(",")[:-1]] for row in rows])
+    run_ = read_run_csv(csv)
+    assert run_.phase and set(run_.phase) == {"track"}  # stopped before the hold
+    data = run_.data
     k = np.rint(data[:, 0] / period).astype(int)
     off = np.abs(data[:, 2] - states[k, 1])
     first = int(np.argmax(off > 0.001))
