@@ -34,15 +34,17 @@ class RunCsv:
         return {name: self.data[rows, i] for i, name in enumerate(self.names)}
 
 
-def read_run_csv(path: Path) -> RunCsv:
-    """The CSV at `path` (a header line, then rows of numbers; `phase` text when it is a column)."""
+def read_run_csv(path: Path, *, phase: bool) -> RunCsv:
+    """The CSV at `path`: a header line, then rows of numbers, with the text column `phase` last
+    when `phase` (a swing-up's run), without it otherwise (asserted either way)."""
     header, *rows = Path(path).read_text().splitlines()
     names = header.split(",")
+    assert (names[-1] == PHASE) == phase, f"{path}: phase column expected {phase}, header {header}"
     cells = [row.split(",") for row in rows]
-    phase: list[str] = []
-    if names[-1] == PHASE:
+    phases: list[str] = []
+    if phase:
         names = names[:-1]
-        phase = [row[-1] for row in cells]
+        phases = [row[-1] for row in cells]
         cells = [row[:-1] for row in cells]
     data = np.array([[float(value) for value in row] for row in cells]).reshape(len(cells), len(names))
-    return RunCsv(names, data, phase)
+    return RunCsv(names, data, phases)

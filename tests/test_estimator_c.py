@@ -124,7 +124,7 @@ def simulate(simulator: Path, folder: Path) -> dict[str, np.ndarray]:
         text=True,
     )
     assert result.returncode == 0, result.stderr
-    return read_run_csv(csv).columns(slice(-1))  # the sampling instants
+    return read_run_csv(csv, phase=False).columns(slice(-1))  # the sampling instants
 
 
 def run_c(folder: Path, kind: str, scalar: str, y: np.ndarray) -> np.ndarray:

@@ -330,7 +330,7 @@ def test_the_simulator_applies_the_same_input_as_python(
     path = write_scene(tmp_path, table, t_end=2.0)
     done = ipgen("run", str(path), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
-    run_ = read_run_csv(tmp_path / "out" / "s.csv")
+    run_ = read_run_csv(tmp_path / "out" / "s.csv", phase=False)
     header, data = run_.names, run_.data
     assert header[-1] == "u"  # an excitation's recording carries its input
     spec = load_scene(path).input
@@ -351,7 +351,7 @@ def test_a_run_that_leaves_its_travel_stops_with_status_4(tmp_path: Path, cache:
     assert done.returncode == 4, done.stderr
     errors = [line for line in done.stderr.splitlines() if line.startswith("simulate: error:")]
     assert len(errors) == 1 and "limits.travel = 0.3" in errors[0], done.stderr
-    data = read_run_csv(tmp_path / "out" / "s.csv").data
+    data = read_run_csv(tmp_path / "out" / "s.csv", phase=False).data
     assert abs(data[-1, 1]) > 0.3 and np.all(np.abs(data[:-1, 1]) <= 0.3) and data[-1, 0] < 2.0
     # Within the travel nothing stops: the same push with a wide limit runs to the end.
     path.write_text(path.read_text().replace("travel = 0.3", "travel = 1000"))
@@ -401,7 +401,7 @@ def test_the_rig_experiments_are_what_excite_allows_and_stay_within_their_limits
     assert scene.t_end == design.duration
     done = ipgen("run", str(RIGS / f"{experiment}.toml"), "-o", str(tmp_path), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
-    run_ = read_run_csv(tmp_path / f"{experiment}.csv")
+    run_ = read_run_csv(tmp_path / f"{experiment}.csv", phase=False)
     header, data = run_.names, run_.data
     assert data[-1, 0] == pytest.approx(scene.t_end) and header[-1] == "u"
     assert np.max(np.abs(data[:, -1])) <= scene.input.amplitude * (1 + 1e-12)  # volts, as in the scene
@@ -637,7 +637,7 @@ def test_a_free_decay_is_designed_within_the_limits_and_needs_no_u_max(
     assert narrow.limited_by == "travel" and narrow.base <= 0.7 * 0.1 + 1e-12
     done = ipgen("run", str(out), "-o", str(tmp_path / "run"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
-    data = read_run_csv(tmp_path / "run" / "decay.csv").data
+    data = read_run_csv(tmp_path / "run" / "decay.csv", phase=False).data
     assert np.max(np.abs(data[:, 1])) == pytest.approx(design.base, rel=0.05)
 
 
@@ -656,7 +656,7 @@ def test_a_free_decay_recorded_by_2048_count_encoders_identifies_the_damping(
     rig.write_text(text.replace("delta = [0.0015, 0.0005]", f"delta = [{RIG_DAMPING[0]}, {RIG_DAMPING[1]}]"))
     done = ipgen("run", str(rig), "-o", str(tmp_path / "run"), "--no-plot", env=cache)
     assert done.returncode == 0, done.stderr
-    data = read_run_csv(tmp_path / "run" / "rig.csv").data
+    data = read_run_csv(tmp_path / "run" / "rig.csv", phase=False).data
     step = 2 * math.pi / 2048
     counts = np.column_stack([data[:, 0], np.rint(data[:, 1:3] / step) * step])
     csv = tmp_path / "encoders.csv"

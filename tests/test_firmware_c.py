@@ -131,7 +131,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _csv(path: Path) -> dict[str, np.ndarray]:
-    run_ = read_run_csv(path)
+    run_ = read_run_csv(path, phase=True)
     return {**run_.columns(), "phase": np.array(run_.phase)}
 
 

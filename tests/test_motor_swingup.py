@@ -62,7 +62,7 @@ def _run(scene: Path, out: Path, env: dict[str, str]) -> np.ndarray:
         env=env,
     )
     assert done.returncode == 0, done.stderr
-    return read_run_csv(out / f"{scene.stem}.csv").data
+    return read_run_csv(out / f"{scene.stem}.csv", phase=True).data
 
 
 def test_motor_swingup_is_the_folded_direct_swingup(tmp_path: Path) -> None:

@@ -69,7 +69,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _columns(folder: Path) -> dict[str, np.ndarray]:
-    return read_run_csv(folder / "run" / "qube_mpc.csv").columns(slice(-1))  # the sampling instants
+    run_ = read_run_csv(folder / "run" / "qube_mpc.csv", phase=False)
+    return run_.columns(slice(-1))  # the sampling instants
 
 
 def _program(folder: Path, name: str, source: str, scalar: str = "double") -> Path:
@@ -128,7 +129,7 @@ def _fast_scene(folder: Path, name: str, controller: str) -> tuple[Path, dict[st
     ):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    return folder / f"{name}.h", read_run_csv(folder / name / f"{name}.csv").columns(slice(-1))
+    return folder / f"{name}.h", read_run_csv(folder / name / f"{name}.csv", phase=False).columns(slice(-1))
 
 
 @pytest.fixture(scope="module")
@@ -281,7 +282,7 @@ def _replay_swing_up(
     ):
         with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    run_ = read_run_csv(folder / "run" / f"{name}.csv")
+    run_ = read_run_csv(folder / "run" / f"{name}.csv", phase=True)
     phase = run_.phase[:-1]  # the sampling instants
     columns = run_.columns(slice(-1))
     counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
@@ -443,7 +444,8 @@ def test_a_plan_tracked_by_the_mpc_replays_the_simulators_inputs(
     ):
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
-    column = read_run_csv(tmp_path / "run" / f"{name}.csv").columns(slice(-1))  # the sampling instants
+    run_ = read_run_csv(tmp_path / "run" / f"{name}.csv", phase=True)
+    column = run_.columns(slice(-1))  # the sampling instants
     state_names = [f"theta{i}" for i in range(dof)] + [f"dtheta{i}" for i in range(dof)]
     states = np.column_stack([column[n] for n in state_names])
     source = TRACKER.replace("NAME", name).replace("P_", f"ipgen_{name}_").replace("DOF", str(dof))

@@ -40,7 +40,7 @@ def test_preset_balances_within_its_constraints(
             err.getvalue()
         )
     assert "every status ok" in out.getvalue()
-    run_ = read_run_csv(next(tmp_path.glob("*.csv")))
+    run_ = read_run_csv(next(tmp_path.glob("*.csv")), phase=False)
     names, column = run_.names, run_.columns()
     links = [name for name in names if name.startswith("theta") and name != "theta0"]
     assert np.max(np.abs(column["u"])) <= u_max * (1 + 1e-12) and np.max(np.abs(column["u"])) > 0.9 * u_max
@@ -62,7 +62,7 @@ def _swing_up(scene: Path, folder: Path) -> tuple[str, dict[str, np.ndarray], np
     """(the summary, the CSV's numeric columns, its phase column) of `ipgen run` of `scene`."""
     with redirect_stdout(io.StringIO()) as out, redirect_stderr(io.StringIO()) as err:
         assert run(["run", str(scene), "-o", str(folder), "--no-plot"]) == 0, err.getvalue()
-    run_ = read_run_csv(next(folder.glob("*.csv")))
+    run_ = read_run_csv(next(folder.glob("*.csv")), phase=True)
     return out.getvalue(), run_.columns(), np.array(run_.phase)
 
 

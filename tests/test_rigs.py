@@ -160,7 +160,7 @@ def test_ipgen_run_qube_servo_2(tmp_path: Path) -> None:
         env=env,
     )
     assert result.returncode == 0, result.stderr
-    run_ = read_run_csv(tmp_path / "out" / "qube_servo2.csv")
+    run_ = read_run_csv(tmp_path / "out" / "qube_servo2.csv", phase=False)
     assert run_.names == ["t", "theta0", "theta1", "dtheta0", "dtheta1", "u"] and not run_.phase
     data = run_.data
     _, _, k = model("qube_servo2")
@@ -262,7 +262,7 @@ def test_the_ip02_swings_up_within_its_rail_and_10_volts(tmp_path: Path) -> None
         env=dict(os.environ),  # the run's shared simulator cache (tests/conftest.py)
     )
     assert result.returncode == 0, result.stderr
-    run_ = read_run_csv(tmp_path / "ip02_sip_swingup.csv")
+    run_ = read_run_csv(tmp_path / "ip02_sip_swingup.csv", phase=True)
     phase, data = run_.phase, run_.data
     assert "hold" in phase and phase[-1] == "hold"
     caught = data[phase.index("hold"), 0]

@@ -123,7 +123,7 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     first = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), env=env)
     assert first.returncode == 0, first.stderr
     out = tmp_path / "out"
-    run_ = read_run_csv(out / "triple.csv")
+    run_ = read_run_csv(out / "triple.csv", phase=False)
     header, data = run_.names, run_.data
     assert header == ["t", *(f"theta{i}" for i in range(4)), *(f"dtheta{i}" for i in range(4))]
     assert data[0, 0] == 0.0 and data[-1, 0] == pytest.approx(1.0) and len(data) == 101
@@ -149,7 +149,7 @@ def test_run_a_rotary_triple_pendulum_then_again_from_the_cache(
     assert second.returncode == 0, second.stderr
     assert "building" not in second.stderr and "taken from the cache" in (out / "triple.txt").read_text()
     assert binaries[0].stat().st_mtime_ns == built
-    again = read_run_csv(out / "triple.csv").data
+    again = read_run_csv(out / "triple.csv", phase=False).data
     assert np.allclose(again[-1, 1:], independent_final_state(-0.2), atol=1e-6)
     assert seconds < 10, f"a cached run took {seconds:.1f} s"  # ~1 s; generous for a loaded machine
 
@@ -173,7 +173,7 @@ def test_every_scene_of_one_model_shares_its_simulator(tmp_path: Path, cache: di
         )
         assert done.returncode == 0, done.stderr
         summaries.append((tmp_path / stem / f"{stem}.txt").read_text())
-        data.append(read_run_csv(tmp_path / stem / f"{stem}.csv").data)
+        data.append(read_run_csv(tmp_path / stem / f"{stem}.csv", phase=False).data)
     assert simulator_of(summaries[0]) == simulator_of(summaries[1])
     assert summaries[1].startswith("scene rig: model rotary3 (rotary, 3 links)")
     absolute, relative = data[0][:, 1:5], data[1][:, 1:5]
@@ -619,7 +619,7 @@ def test_run_simulates_links_as_built_like_an_independent_model(
     assert result.returncode == 0, result.stderr
     config = (tmp_path / "out" / "as_built.cfg").read_text()
     assert "tip" in config and "com" in config
-    data = read_run_csv(tmp_path / "out" / "as_built.csv").data
+    data = read_run_csv(tmp_path / "out" / "as_built.csv", phase=False).data
 
     model = reference("rotary", 2, "pivot", general=True)
     m, lengths, delta = [0.25, 0.127, 0.097], [0.2159, 0.3366, 0.2], [0.0024] * 3

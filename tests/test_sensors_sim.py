@@ -87,7 +87,7 @@ class Run:
         )
         assert result.returncode == 0, result.stderr
         self.summary = result.stdout
-        run_ = read_run_csv(self.csv)
+        run_ = read_run_csv(self.csv, phase=False)
         self.names, self.data = run_.names, run_.data
 
     def __getitem__(self, name: str) -> np.ndarray:

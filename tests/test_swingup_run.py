@@ -92,7 +92,7 @@ def run_scene(tmp_path: Path, text: str, env: dict[str, str]) -> tuple[list[str]
         env={**os.environ, **env},
     )
     assert result.returncode == 0, result.stderr
-    run_ = read_run_csv(out / "swing.csv")
+    run_ = read_run_csv(out / "swing.csv", phase=True)
     assert run_.names[-1] == "u" and run_.phase
     return [*run_.names, "phase"], run_.data, run_.phase, (out / "swing.txt").read_text()
 
@@ -163,7 +163,7 @@ def test_a_lost_plan_stops_the_run_at_once(tmp_path: Path, runs: Callable[[str],
     message = done.stderr.strip()
     assert "\n" not in message and "the swing-up lost its plan at t = " in message, message
     assert "link 1 is " in message and "beyond --divergence-angle 0.001 rad" in message, message
-    run_ = read_run_csv(csv)
+    run_ = read_run_csv(csv, phase=True)
     assert run_.phase and set(run_.phase) == {"track"}  # stopped before the hold
     data = run_.data
     k = np.rint(data[:, 0] / period).astype(int)
