@@ -94,11 +94,17 @@ def _run_scene(folder: Path, text: str, name: str) -> Path:
     return folder / "run" / f"{name}.csv"
 
 
-def _columns(csv: Path, names: tuple[str, ...]) -> np.ndarray:
+def _cells(csv: Path) -> dict[str, list[str]]:
+    """The CSV's columns by name, as text."""
     header, *rows = csv.read_text().splitlines()
-    keys = header.split(",")
-    keep = [keys.index(n) for n in names]
-    return np.array([[float(row.split(",")[i]) for i in keep] for row in rows])
+    cells = [row.split(",") for row in rows]
+    return {name: [row[i] for row in cells] for i, name in enumerate(header.split(","))}
+
+
+def _columns(csv: Path | dict[str, list[str]], names: tuple[str, ...]) -> np.ndarray:
+    """The columns `names` (rows × names) of the CSV or of its `_cells`, as numbers."""
+    cells = _cells(csv) if isinstance(csv, Path) else csv
+    return np.array([[float(value) for value in cells[name]] for name in names]).T
 
 
 def _scene(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
@@ -150,13 +156,11 @@ def _m4f_catch(folder: Path, controller: str = "") -> tuple[Path, np.ndarray]:
     text = (ROOT / "scenes" / "rigs" / f"{SWINGUP_M4F}.toml").read_text()
     text = text.replace(f'name = "{SWINGUP_M4F}"', f'name = "{SWINGUP_M4F}"\nemit = ["c"]')
     text = text.replace("\n[controller]\n", f"\n[controller]\n{controller}", 1)
-    csv = _run_scene(folder, text, SWINGUP_M4F)
-    header, *rows = csv.read_text().splitlines()
-    phases = [row.split(",")[header.split(",").index("phase")] for row in rows]
+    cells = _cells(_run_scene(folder, text, SWINGUP_M4F))
     scene = tomllib.loads(text)
     every = round(scene["controller"]["period"] / scene["simulation"]["sample"])  # the MPC's samples
-    first = phases.index("hold")
-    states = _columns(csv, tuple(f"hat_{n}" for n in STATE))[first::every]
+    first = cells["phase"].index("hold")
+    states = _columns(cells, tuple(f"hat_{n}" for n in STATE))[first::every]
     states[:, 1] -= 2 * np.pi * np.round(states[:, 1] / (2 * np.pi))
     return folder / f"{SWINGUP_M4F}.h", states
 

@@ -155,11 +155,6 @@ def _last_qp(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     return parts["A"].reshape(N, nx, nx), parts["B"].reshape(N, nx, 1), parts["d"].reshape(N, nx), parts["z"]
 
 
-def _stage_models(controller: Mpc) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A, B and the defects d of the last QP (`_last_qp`)."""
-    return _last_qp(controller)[:3]
-
-
 def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
     """A warm step with shifted sensitivities linearises about the last solution moved by one
     sample: stages 1 .. N-2 take the last QP's A, B of stages 2 .. N-1 as they were, stage 0 RK4's
@@ -171,15 +166,15 @@ def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
     shifted, frozen = qube(**method, sensitivities="shifted"), qube(**method, sensitivities="frozen")
     N = shifted.N
     assert shifted.step(x0) == frozen.step(x0)  # a cold step computes every stage: the same
-    A0, B0, _ = _stage_models(shifted)
-    pairs = zip(_stage_models(shifted), _stage_models(frozen), strict=True)
+    A0, B0, _, _ = _last_qp(shifted)
+    pairs = zip(_last_qp(shifted)[:3], _last_qp(frozen)[:3], strict=True)
     assert all(np.array_equal(a, b) for a, b in pairs)
     states, inputs = shifted.trajectory()
     guess_x = np.vstack([states[1:], states[-1:]])  # the shift: the last state and input repeated
     guess_u = np.concatenate([inputs[1:, 0], inputs[-1:, 0]])
     shifted.step(x1)
     frozen.step(x1)
-    A, B, d = _stage_models(shifted)
+    A, B, d, _ = _last_qp(shifted)
     assert np.array_equal(A[1 : N - 1], A0[2:]) and np.array_equal(B[1 : N - 1], B0[2:])
     _, a_exact, b_exact = shifted.rk4(guess_x[0], guess_u[0])
     assert np.array_equal(A[0], a_exact) and np.array_equal(B[0], b_exact)
@@ -187,7 +182,7 @@ def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
     assert np.array_equal(A[N - 1], a_last) and np.array_equal(B[N - 1], b_last)
     for k in range(N):
         assert np.array_equal(d[k], shifted.rk4(guess_x[k], guess_u[k])[0] - guess_x[k + 1])
-    A_frozen = _stage_models(frozen)[0]
+    A_frozen = _last_qp(frozen)[0]
     for k in (1, N // 2, N - 2):
         assert np.array_equal(A_frozen[k], frozen.linearisation(guess_x[k], guess_u[k])[1])
         assert np.abs(A_frozen[k] - A[k]).max() > 1e-9
@@ -201,11 +196,11 @@ def test_a_later_sqp_iteration_computes_every_stage_again() -> None:
     controller = qube(barrier=0.1, qp_iterations=2, sensitivities="shifted", sqp_iterations=2)
     nx, N = controller.nx, controller.N
     controller.step([0.3, 0.2, 1.0, -0.5])
-    kept = _stage_models(controller)[0][2:]
+    kept = _last_qp(controller)[0][2:]
     controller.step([0.31, 0.19, 0.9, -0.6])
     A, _, _, z = _last_qp(controller)
-    guess = controller.work[1 : 1 + len(z)] - z
-    x, u = guess[: (N + 1) * nx].reshape(N + 1, nx), guess[(N + 1) * nx :]
+    states, inputs = controller.trajectory()
+    x, u = states - z[: (N + 1) * nx].reshape(N + 1, nx), inputs[:, 0] - z[(N + 1) * nx :]
     assert np.allclose(A[0], controller.rk4(x[0], u[0])[1], rtol=0, atol=1e-9)
     for k in range(1, N):
         assert np.allclose(A[k], controller.linearisation(x[k], u[k])[1], rtol=0, atol=1e-9), k
@@ -220,11 +215,11 @@ def test_after_an_infeasible_step_the_next_keeps_that_steps_stages() -> None:
     N = controller.N
     controller.step([1.05, 0.0, 0.0, 0.0])
     assert controller.info is not None and controller.info.status == "QP infeasible"
-    A0 = _stage_models(controller)[0]
+    A0 = _last_qp(controller)[0]
     states, inputs = controller.trajectory()
     controller.step([0.9, 0.0, -1.0, 0.0])
     assert controller.info.status == "ok"
-    A = _stage_models(controller)[0]
+    A = _last_qp(controller)[0]
     assert np.array_equal(A[1 : N - 1], A0[2:])
     assert np.array_equal(A[0], controller.rk4(states[1], inputs[1, 0])[1])
     assert np.array_equal(A[N - 1], controller.linearisation(states[N], inputs[N - 1, 0])[1])

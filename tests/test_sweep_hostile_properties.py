@@ -380,7 +380,9 @@ def test_an_interrupted_pool_has_ended_its_manager_thread_before_the_exit() -> N
 
     with pytest.raises(KeyboardInterrupt), _local(2) as pool:
         futures = [pool.submit(time.sleep, 30) for _ in range(4)]
-        futures[0].running() or time.sleep(0.2)
+        deadline = time.monotonic() + 10
+        while not futures[0].running() and time.monotonic() < deadline:  # the workers at work
+            time.sleep(0.01)
         manager = pool._executor_manager_thread  # type: ignore[attr-defined]
         raise KeyboardInterrupt
     assert manager is not None and not manager.is_alive()

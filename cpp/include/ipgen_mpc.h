@@ -554,6 +554,8 @@ IPGEN_MPC_LOCAL int ipgen_mpc_rk4_layout(const ipgen_mpc_settings *s, const ipge
                                          const ipgen_mpc_real u[], ipgen_mpc_real xn[], ipgen_mpc_real A[],
                                          ipgen_mpc_real B[]) {
 #ifdef IPGEN_MPC_FIXED
+  /* the frozen stages first: the microcontroller's hot path (F alone first costs the FAST step 29
+   * instructions of 85,879 on the M4F, make bench-mpc-m4) */
   if (l->frozen && A != 0 && B != 0) { /* the temporaries local, as ipgen_mpc_rk4_fixed's */
     ipgen_mpc_real xs[IPGEN_MPC_NX], xt[IPGEN_MPC_NX], k[IPGEN_MPC_NX], ksum[IPGEN_MPC_NX];
     ipgen_mpc_real Ac[IPGEN_MPC_NX * IPGEN_MPC_NX], Bc[IPGEN_MPC_NX * IPGEN_MPC_NU];
