@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow ipsim-simulate test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-leaderboard stability configure build clean
+.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow ipsim-simulate test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-hold-margins bench-leaderboard stability configure build clean
 
 all: test
 
@@ -183,7 +183,7 @@ $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
 
-bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-leaderboard
+bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-hold-margins bench-leaderboard
 	$(PY) -m bench.run $(BENCH_ARGS)
 
 ## The links as built against the rods-only generator (67de603): forward_dynamics operations and
@@ -239,6 +239,11 @@ bench-mpc-method: venv
 
 ## The RealAIGym simulation leaderboard's acrobot and pendubot swung up in ipsim, scored by the v2
 ## formula, with GIFs (bench/leaderboard.py, docs/bench/leaderboard.md). LEADERBOARD_ARGS: --replan
+## How far a hold of the QUBE (the MPC's unconstrained law) can go against the scorecard's delay,
+## lag and drive noise at once: linear bounds over a grid of designs (docs/bench/hold_margins.md).
+bench-hold-margins: $(VENV)/.bench-installed
+	$(PY) -m bench.hold_margins
+
 bench-leaderboard: $(VENV)/.bench-installed
 	$(PY) -m bench.leaderboard $(LEADERBOARD_ARGS)
 
