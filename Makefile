@@ -237,13 +237,13 @@ bench-mpc: $(VENV)/.bench-installed
 bench-mpc-method: venv
 	$(PY) -m bench.mpc_method
 
-## The RealAIGym simulation leaderboard's acrobot and pendubot swung up in ipsim, scored by the v2
-## formula, with GIFs (bench/leaderboard.py, docs/bench/leaderboard.md). LEADERBOARD_ARGS: --replan
 ## How far a hold of the QUBE (the MPC's unconstrained law) can go against the scorecard's delay,
-## lag and drive noise at once: linear bounds over a grid of designs (docs/bench/hold_margins.md).
+## lag and drive noise at once, linear at upright, over designs (docs/bench/hold_margins.md).
 bench-hold-margins: $(VENV)/.bench-installed
 	$(PY) -m bench.hold_margins
 
+## The RealAIGym simulation leaderboard's acrobot and pendubot swung up in ipsim, scored by the v2
+## formula, with GIFs (bench/leaderboard.py, docs/bench/leaderboard.md). LEADERBOARD_ARGS: --replan
 bench-leaderboard: $(VENV)/.bench-installed
 	$(PY) -m bench.leaderboard $(LEADERBOARD_ARGS)
 

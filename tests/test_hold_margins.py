@@ -20,7 +20,7 @@ import scipy.linalg
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository: bench/
 
-from bench.hold_margins import delayed_radius, lagged_radius, spread_per_volt, zoh
+from bench.hold_margins import delayed_radius, lagged_radius, lqr_gain, mpc_model, spread_per_volt, zoh
 
 H = 0.001  # s: the reference's step
 
@@ -35,7 +35,9 @@ def _plant() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, gain
 
 
-def _fine_loop(a, b, gain, period, delay=0.0, tau=0.0):
+def _fine_loop(
+    a: np.ndarray, b: np.ndarray, gain: np.ndarray, period: float, delay: float = 0.0, tau: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """(monodromy over one period, noise covariance added over it per V²) of the loop stepped every H."""
     n = a.shape[0]
     if tau > 0:
@@ -68,13 +70,18 @@ def _fine_loop(a, b, gain, period, delay=0.0, tau=0.0):
     return monodromy, noise
 
 
-def _radius(m):
+def _radius(m: np.ndarray) -> float:
     return max(abs(np.linalg.eigvals(m)))
 
 
-@pytest.mark.parametrize("period", [0.01, 0.002])
-@pytest.mark.parametrize("delay", [0.0, 0.002, 0.006, 0.012, 0.02, 0.034])
-def test_a_delayed_loop_has_the_spectral_radius_of_the_loop_stepped_every_millisecond(period, delay):
+@pytest.mark.parametrize(
+    ("period", "delay"),
+    [(0.01, d) for d in (0.0, 0.002, 0.006, 0.012, 0.02, 0.034)]
+    + [(0.002, d) for d in (0.0, 0.001, 0.003, 0.011, 0.02)],
+)
+def test_a_delayed_loop_has_the_spectral_radius_of_the_loop_stepped_every_millisecond(
+    period: float, delay: float
+):
     a, b, gain = _plant()
     reference = _radius(_fine_loop(a, b, gain, period, delay=delay)[0])
     assert delayed_radius(a, b, gain, period, delay) == pytest.approx(reference, rel=1e-9)
@@ -82,14 +89,16 @@ def test_a_delayed_loop_has_the_spectral_radius_of_the_loop_stepped_every_millis
 
 @pytest.mark.parametrize("period", [0.01, 0.002])
 @pytest.mark.parametrize("tau", [0.0, 0.0025, 0.02, 0.05])
-def test_a_lagged_loop_has_the_spectral_radius_of_the_loop_stepped_every_millisecond(period, tau):
+def test_a_lagged_loop_has_the_spectral_radius_of_the_loop_stepped_every_millisecond(
+    period: float, tau: float
+):
     a, b, gain = _plant()
     reference = _radius(_fine_loop(a, b, gain, period, tau=tau)[0])
     assert lagged_radius(a, b, gain, period, tau) == pytest.approx(reference, rel=1e-9)
 
 
 @pytest.mark.parametrize("period", [0.01, 0.005, 0.001])
-def test_the_spread_under_drive_noise_is_the_fine_loops(period):
+def test_the_spread_under_drive_noise_is_the_fine_loops(period: float):
     a, b, gain = _plant()
     monodromy, noise = _fine_loop(a, b, gain, period)
     covariance = scipy.linalg.solve_discrete_lyapunov(monodromy, noise)
@@ -104,3 +113,31 @@ def test_delay_and_lag_both_end_the_hold_and_the_bench_sees_it():
     assert lagged_radius(a, b, gain, 0.01, 0.05) > 1
     unstable = spread_per_volt(a, b, np.zeros_like(gain), 0.01)  # the open loop
     assert unstable == (float("inf"), float("inf"))
+
+
+def test_the_held_step_is_scipys_zero_order_hold():
+    """zoh, which both constructions above share, against scipy.signal.cont2discrete."""
+    import scipy.signal
+
+    a, b, _ = _plant()
+    for t in (0.001, 0.0037, 0.01):
+        phi, gamma, *_ = scipy.signal.cont2discrete((a, b, np.eye(4), np.zeros((4, 1))), t, method="zoh")
+        mine = zoh(a, b, t)
+        assert np.allclose(mine[0], phi, rtol=1e-10, atol=1e-12)
+        assert np.allclose(mine[1], gamma, rtol=1e-10, atol=1e-14)
+
+
+def test_the_converged_mpc_near_upright_is_the_lqr_the_bench_analyses():
+    """The bench's premise: without an active bound the MPC's optimum is −K x, K the discrete LQR
+    of its own model with its Q, R (its terminal weight is that LQR's Riccati matrix)."""
+    import ipgen
+
+    pendulum = ipgen.Pendulum.preset("qube_servo2_mpc_swingup_m4f")
+    controller = ipgen.mpc(pendulum, u_max=10.0, period=0.01, Q=[1, 10, 0.1, 0.1], R=0.3)
+    gain = lqr_gain(*mpc_model(pendulum, 0.01), (1.0, 10.0, 0.1, 0.1), 0.3)
+    for x in (
+        [1e-4, 2e-4, 0.0, 0.0],
+        [-2e-4, 1e-4, 5e-4, -1e-3],
+    ):  # small: the model's curvature is 4e-4 of u at 0.02 rad
+        expected = float(-(gain @ np.array(x))[0])
+        assert controller.solve(x) == pytest.approx(expected, rel=1e-6)
