@@ -262,8 +262,8 @@ def stabilising_signs(
     a: np.ndarray, b: np.ndarray, period: float, samples: int = 20000
 ) -> set[tuple[int, ...]]:
     """The sign patterns of the static gains that stabilise the loop at `period`, among `samples`
-    gains drawn uniformly from the box [−5, 5] × [−100, 20] × [−5, 5] × [−10, 5], which holds the
-    LQR gains of the grid's weights (numpy PCG64, seed 0)."""
+    gains drawn uniformly from the box [−5, 5] × [−100, 20] × [−5, 5] × [−10, 5] about the preset's
+    LQR gain (numpy PCG64, seed 0)."""
     rng = np.random.default_rng(0)
     phi, gamma = zoh(a, b, period)
     box = rng.uniform([-5, -100, -5, -10], [5, 20, 5, 5], size=(samples, 4))
@@ -450,8 +450,9 @@ def write(
         f"threshold is {threshold:.3f} rad/s. The most levels counted with the threshold at 0.8, 1 "
         f"and 1.25 times that (the designs above, their noise levels counted again): {sensitivity}.",
         "",
-        "The signs of the static gains that stabilise the loop (20,000 gains drawn from a box "
-        f"holding the grid's LQR gains, numpy seed 0): {sign_text}; the search covers those.",
+        "The signs of the static gains that stabilise the loop, among 20,000 drawn from the box "
+        "[−5, 5] × [−100, 20] × [−5, 5] × [−10, 5] about the preset's LQR gain (numpy seed 0): "
+        f"{sign_text}; the search covers those.",
         "",
         "![designs](hold_margins.png)",
         "",
