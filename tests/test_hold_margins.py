@@ -135,7 +135,8 @@ def test_the_converged_mpc_near_upright_is_the_lqr_the_bench_analyses():
     pendulum = ipgen.Pendulum.preset("qube_servo2_mpc_swingup_m4f")
     controller = ipgen.mpc(pendulum, u_max=10.0, period=0.01, Q=[1, 10, 0.1, 0.1], R=0.3)
     gain = lqr_gain(*mpc_model(pendulum, 0.01), (1.0, 10.0, 0.1, 0.1), 0.3)
-    # Small states: the nonlinear terms grow with the state (4e-4 of u with the link at 0.02 rad, 4e-8 at 2e-4).
+    # Small states: the nonlinear terms grow with the state (4e-4 of u with the link at 0.02 rad,
+    # 4e-8 at 2e-4).
     for x in ([1e-4, 2e-4, 0.0, 0.0], [-2e-4, 1e-4, 5e-4, -1e-3]):
         expected = float(-(gain @ np.array(x))[0])
         assert controller.solve(x) == pytest.approx(expected, rel=1e-6)
