@@ -5,7 +5,8 @@ double; in float within FLOAT_ANGLE / FLOAT_RATE / FLOAT_INPUT (stated in docs/e
 Also against the Python estimators (ipgen.estimation) on the same samples.
 
 The QUBE-Servo 2 preset (a DC motor: u in volts; Quanser's counter-clockwise α) on its 2048-count
-encoders, with noise, sampled at 1 kHz; every estimator kind, one with a delay of two periods.
+encoders, with noise, sampled at 1 kHz; every estimator kind, one with a delay of two periods, and
+the EKF with a delay of four that its law predicts over ([estimator] predict).
 """
 
 from __future__ import annotations
@@ -40,7 +41,10 @@ VARIANTS = {  # name: ([sensors] extra lines, [estimator] table)
     "kalman": ("noise = 2e-4\n", 'kind = "kalman"\n'),
     "kalman-delay": ("noise = 2e-4\ndelay = 0.002\n", 'kind = "kalman"\n'),
     "ekf": ("noise = 2e-4\n", 'kind = "ekf"\n'),
+    # the law on the estimate carried over a delay of 4 periods (ipgen_loop_predict)
+    "ekf-predict": ("noise = 2e-4\ndelay = 0.004\n", 'kind = "ekf"\npredict = true\n'),
 }
+DELAYS = {"kalman-delay": 2, "ekf-predict": 4}  # periods
 
 DRIVER = """\
 #include <stdio.h>
@@ -148,7 +152,7 @@ def test_c_loop_matches_the_simulator(generated, name) -> None:
     columns = simulate(generated["simulator"], folder)
     y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
     hat = np.column_stack([columns[c] for c in ("hat_theta0", "hat_theta1", "hat_dtheta0", "hat_dtheta1")])
-    delay = 2 if "delay" in name else 0
+    delay = DELAYS.get(name, 0)
     applied = columns["u"]
     assert np.all(np.abs(hat[:, 1]) < 0.2), "the loop must stay near upright for this check"
     for scalar in ("double", "float"):

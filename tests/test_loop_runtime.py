@@ -419,3 +419,66 @@ def test_the_plan_reference_equals_the_formula(
     want_rows, want_means = plan_reference(states, inputs, k, every, horizon)
     assert np.array_equal(rows, want_rows)
     assert close(means, want_means)
+
+
+# ---- the delay compensated: ipgen_loop_rk4, ipgen_loop_predict ----------------------------------
+
+
+def _field(rates):
+    """An ipgen_loop_field of x' = rates(x, u) for ctypes (2 states, no Jacobian); kept by the caller."""
+
+    def field(context, x, u, f, a) -> int:
+        got = rates(np.array([x[0], x[1]]), u)
+        if got is None:
+            return 1
+        f[0], f[1] = got
+        return 0
+
+    return loop_runtime.FIELD(field)
+
+
+def _predict(
+    field, period: float, gain: float, pending: list[float], x0: list[float]
+) -> tuple[int, np.ndarray]:
+    """ipgen_loop_predict over a delay of len(pending) − 1 periods: (its code, x_ahead)."""
+    arrays = [np.array(pending, dtype=float), np.array(x0, dtype=float), np.zeros(2), np.zeros(12)]
+    code = library().ipgen_loop_predict(field, None, 2, period, gain, len(pending) - 1, *map(address, arrays))
+    return code, arrays[2]
+
+
+@settings(max_examples=15, deadline=None)
+@given(delay=st.integers(0, 30), seed=st.integers(0, 2**32 - 1))
+def test_the_prediction_is_the_pendulum_over_the_commands_in_flight(delay: int, seed: int) -> None:
+    """A damped pendulum θ'' = −(g/l) sin θ − c θ' + b u carried over the pending commands (each
+    held one period): as scipy's solve_ivp (DOP853, rtol 1e-12) integrates it, to RK4's error."""
+    from scipy.integrate import solve_ivp
+
+    rng = np.random.default_rng(seed)
+    period, gain = 0.001, 2.5
+    pending = [float(v) for v in rng.uniform(-3, 3, delay + 1)]  # pending[0] acted already
+    x0 = [float(rng.uniform(-3, 3)), float(rng.uniform(-5, 5))]
+
+    def rates(x: np.ndarray, u: float) -> tuple[float, float]:
+        return x[1], -(9.81 / 0.3) * math.sin(x[0]) - 0.2 * x[1] + u
+
+    field = _field(rates)
+    code, ahead = _predict(field, period, gain, pending, x0)
+    assert code == 0
+    x = np.array(x0)
+    for u in pending[1:]:
+        x = solve_ivp(lambda t, s, u=u: rates(s, gain * u), (0, period), x, method="DOP853",
+                      rtol=1e-12, atol=1e-14).y[:, -1]  # fmt: skip
+    np.testing.assert_allclose(ahead, x, rtol=0, atol=1e-9 * (1 + delay))
+    if delay == 0:
+        assert np.array_equal(ahead, x0)
+
+
+def test_a_prediction_through_a_failing_model_returns_the_estimate() -> None:
+    calls = []
+
+    def rates(x: np.ndarray, u: float) -> tuple[float, float] | None:
+        calls.append(u)
+        return None if len(calls) > 6 else (x[1], u)  # fails in the second step
+
+    code, ahead = _predict(_field(rates), 0.01, 1.0, [0.0, 1.0, 1.0, 1.0], [0.5, -0.5])
+    assert code == 1 and np.array_equal(ahead, [0.5, -0.5])

@@ -264,11 +264,12 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: 
 
 
 def _replay_swing_up(
-    folder: Path, name: str, changes: tuple[tuple[str, str], ...] = ()
+    folder: Path, name: str, changes: tuple[tuple[str, str], ...] = (), delay: int = 0
 ) -> tuple[list[str], str]:
     """The preset `name` (scenes/rigs) with emit = ["c"] and the text `changes` made: its firmware
-    entry fed the simulator's counts returns the simulator's volts at every sample, in double to
-    1e-9. Returns the phase at each sample and the simulator's summary."""
+    entry fed the simulator's counts returns the simulator's volts at every sample (`delay`
+    samples later: what it sends now acts then), in double to 1e-9. Returns the phase at each
+    sample and the simulator's summary."""
     preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / f"{name}.toml"
     text = preset.read_text().replace(f'name = "{name}"', f'name = "{name}"\nemit = ["c"]')
     for old, new in changes:
@@ -289,7 +290,10 @@ def _replay_swing_up(
     firmware = FIRMWARE.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
     program = _program(folder, "swingup_firmware", firmware)
     volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
-    assert np.max(np.abs(volts - columns["u"])) <= 1e-9, np.max(np.abs(volts - columns["u"]))
+    applied = columns["u"]
+    assert np.all(applied[:delay] == 0.0)  # nothing has arrived yet
+    volts, applied = volts[: len(volts) - delay], applied[delay:]
+    assert np.max(np.abs(volts - applied)) <= 1e-9, np.max(np.abs(volts - applied))
     assert np.max(np.abs(volts)) <= U_MAX
     return phase, out.getvalue()
 
@@ -318,6 +322,22 @@ def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_pa
     assert held and "swing" in phase[held[0] :], "caught, released, swung again"
     assert phase[-1] == "hold", "caught again"
     assert "(the hold released the link back to the swing 1 time)" in summary
+
+
+def test_a_predicted_delay_in_the_firmware_replays_the_simulators_volts(tmp_path: Path) -> None:
+    """The preset qube_servo2_mpc_swingup_delay (20 ms of delay, [estimator] predict): the
+    firmware entry carries its EKF's estimate over the delay with the commands in flight
+    (ipgen_loop_predict) before the energy law, the catch and the MPC, as the simulator does: its
+    volts at every sample, in double to 1e-9. Without the prediction the swing stalls (below)."""
+    require_toolchain()
+    require_cc()
+    phase, summary = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup_delay", delay=20)
+    assert "swing" in phase and phase[-1] == "hold", "the run swings and is caught"
+    assert "predicted over the delay" in summary
+    plain = (("predict = true", ""),)
+    (tmp_path / "plain").mkdir()
+    stalled, _ = _replay_swing_up(tmp_path / "plain", "qube_servo2_mpc_swingup_delay", plain, delay=20)
+    assert "hold" not in stalled, "without predict the 20 ms delay stalls the swing"
 
 
 def test_firmware_in_the_rigs_coordinates_replays_the_simulators_volts(tmp_path: Path) -> None:

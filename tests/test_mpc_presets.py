@@ -89,6 +89,7 @@ def rti_swing_up(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Ru
         "qube_servo2_mpc_swingup_ekf",
         "qube_servo2_mpc_swingup_fast",
         "qube_servo2_mpc_swingup_m4f",
+        "qube_servo2_mpc_swingup_delay",  # 20 ms of delay, the laws on the predicted estimate
     ],
 )
 def test_qube_swing_up_caught_by_mpc_within_its_constraints(

@@ -255,6 +255,27 @@ def test_misplaced_estimator_keys_are_refused() -> None:
     assert "estimator.kind" in refused(text('[estimator]\nkind = "luenberger"\n'))
 
 
+@settings(max_examples=12, deadline=None, suppress_health_check=_CHECKS)
+@given(value=st.one_of(st.integers(-2, 2), st.floats(allow_nan=False, allow_infinity=False),
+                       st.sampled_from(['"true"', '"yes"', "[true]", "{}"])))  # fmt: skip
+def test_predict_takes_only_true_or_false(value: object) -> None:
+    shown = value if isinstance(value, str) else number(float(value)) if isinstance(value, float) else value
+    message = refused(text(f'[sensors]\ndelay = 0.002\n[estimator]\nkind = "ekf"\npredict = {shown}\n'))
+    assert "estimator.predict" in message
+
+
+@pytest.mark.parametrize("kind", ["difference", "filter", "kalman"])
+def test_predict_needs_an_estimator_that_runs_the_model(kind: str) -> None:
+    message = refused(text(f'[sensors]\ndelay = 0.002\n[estimator]\nkind = "{kind}"\npredict = true\n'))
+    assert "estimator.predict" in message and '"ekf"' in message and kind in message
+
+
+def test_predict_is_written_only_when_asked(tmp_path: Path) -> None:
+    asked = config(scene(tmp_path, '[sensors]\ndelay = 0.002\n[estimator]\nkind = "exact"\npredict = true\n'))
+    assert asked["estimator.predict"] == "1" and asked["sensors.delay"] == "0.002"
+    assert "estimator.predict" not in config(scene(tmp_path, "[sensors]\ndelay = 0.002\n"))
+
+
 def test_load_scene_raises_scene_error(tmp_path: Path) -> None:
     with pytest.raises(SceneError, match=r"sensors\.seed"):
         load_scene(scene(tmp_path, "[sensors]\nseed = -1\n"))

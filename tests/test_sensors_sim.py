@@ -165,6 +165,26 @@ def test_the_delay_applies_each_command_whole_periods_later(simulator: Path, tmp
     assert "delay 3 sampling periods" in r.summary
 
 
+def test_a_predicted_delay_runs_as_the_loop_without_it(simulator: Path, tmp_path: Path) -> None:
+    """[estimator] predict over a delay of 20 periods: each command acts on the state it was
+    predicted for, so from t = d on the run is the undelayed loop's started at x(d) (u = 0 until
+    the first command arrives), to the prediction's RK4 error; without predict it is not."""
+    delayed = '[sensors]\ndelay = 0.02\n[estimator]\nkind = "exact"\n'
+    states = ("theta0", "theta1", "dtheta0", "dtheta1")
+    runs = {
+        name: Run(simulator, tmp_path, scene_text(delayed + extra), name=name)
+        for name, extra in (("predicted", "predict = true\n"), ("plain", ""))
+    }
+    x = {name: np.column_stack([r[c] for c in states]) for name, r in runs.items()}
+    np.testing.assert_array_equal(x["predicted"][:21], x["plain"][:21])  # u = 0 until t = d, then apart
+    start = [float(v) for v in x["predicted"][20]]
+    initial = f"theta = [{start[0]!r}, {start[1]!r}]\ndtheta = [{start[2]!r}, {start[3]!r}]"
+    free = Run(simulator, tmp_path, scene_text(t_end=0.48).replace("theta = [0, 0.05]", initial), name="free")
+    undelayed = np.column_stack([free[c] for c in states])
+    gap = {name: np.max(np.abs(value[20 : 20 + len(undelayed)] - undelayed)) for name, value in x.items()}
+    assert gap["predicted"] < 1e-7 < 1e-3 < gap["plain"], gap
+
+
 def test_difference_and_filter_estimates_from_the_measured_angles(simulator: Path, tmp_path: Path) -> None:
     for kind, extra in (("difference", ""), ("filter", "cutoff = 80\n")):
         r = Run(
@@ -360,6 +380,7 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
          "needs every coordinate measured"),
         ({"controller.period": "0"}, "controller.period = 0 must be > 0"),
         ({"actuator.pulses": "0.1 0.2"}, "3 numbers a pulse"),
+        ({"estimator.predict": "1"}, "estimator.predict needs estimator exact or ekf"),
     ],
 )  # fmt: skip
 def test_the_simulator_refuses_bad_loop_keys(

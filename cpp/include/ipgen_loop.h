@@ -167,6 +167,47 @@ IPGEN_LOOP_API void ipgen_loop_kalman_update(const ipgen_loop_kalman *f, long k,
  * (M(q) not positive definite). */
 typedef int (*ipgen_loop_field)(void *context, const ipgen_real x[], ipgen_real u, ipgen_real f[], ipgen_real A[]);
 
+/* One classical Runge-Kutta (RK4) step of length T of x' = f(x, u), the input held: from x
+ * (states entries) to x_next (not x); A, when not null, gets df/dx at x (the first slope's).
+ * `work`: 5 states entries. Returns 0, 1 if the model failed. */
+IPGEN_LOOP_API int ipgen_loop_rk4(ipgen_loop_field field, void *context, int states, ipgen_real T, ipgen_real u,
+                                  const ipgen_real x[], ipgen_real x_next[], ipgen_real A[], ipgen_real work[]) {
+  ipgen_real *xs = work, *k1 = xs + states, *k2 = k1 + states, *k3 = k2 + states, *k4 = k3 + states;
+  int i;
+  if (field(context, x, u, k1, A) != 0) return 1;
+  for (i = 0; i < states; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k1[i];
+  if (field(context, xs, u, k2, 0) != 0) return 1;
+  for (i = 0; i < states; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k2[i];
+  if (field(context, xs, u, k3, 0) != 0) return 1;
+  for (i = 0; i < states; ++i) xs[i] = x[i] + T * k3[i];
+  if (field(context, xs, u, k4, 0) != 0) return 1;
+  for (i = 0; i < states; ++i)
+    x_next[i] = x[i] + T / (ipgen_real)6 * (k1[i] + (ipgen_real)2 * k2[i] + (ipgen_real)2 * k3[i] + k4[i]);
+  return 0;
+}
+
+/* A known transport delay compensated: the state `delay` periods after x, when the command the
+ * law computes now will act. The commands already sent act until then: pending[1..delay] as
+ * ipgen_loop_delay keeps them before this sample's call (oldest first), each over one period.
+ * x_ahead (states entries, not x) = x carried by one RK4 step of x' = f(x, gain pending[j]) per
+ * period, j = 1..delay (x itself for delay 0). `work`: 6 states entries. Returns 0, 1 if the
+ * model failed (x_ahead = x then: the law sees the estimate unpredicted). */
+IPGEN_LOOP_API int ipgen_loop_predict(ipgen_loop_field field, void *context, int states, ipgen_real period,
+                                      ipgen_real gain, int delay, const ipgen_real pending[], const ipgen_real x[],
+                                      ipgen_real x_ahead[], ipgen_real work[]) {
+  ipgen_real *next = work;
+  int i, j;
+  for (i = 0; i < states; ++i) x_ahead[i] = x[i];
+  for (j = 1; j <= delay; ++j) {
+    if (ipgen_loop_rk4(field, context, states, period, gain * pending[j], x_ahead, next, 0, work + states) != 0) {
+      for (i = 0; i < states; ++i) x_ahead[i] = x[i];
+      return 1;
+    }
+    for (i = 0; i < states; ++i) x_ahead[i] = next[i];
+  }
+  return 0;
+}
+
 /* Extended Kalman filter on the nonlinear model: predict with one RK4 step of length `period`
  * of x' = f(x, gain u_previous) and P- = F P F^T + Qn, F = I + T A + (T A)^2 / 2 with A = df/dx
  * at the last estimate; update with K = P- C^T (C P- C^T + Rn)^-1 (Cholesky), x = xp + K (y - C xp),
@@ -193,7 +234,7 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
   const int n = 2 * e->measurement.dof, c = e->measurement.count;
   const int *measured = e->measurement.measured;
   const ipgen_real T = e->period;
-  ipgen_real *xs = work, *k1 = xs + n, *k2 = k1 + n, *k3 = k2 + n, *k4 = k3 + n, *xp = k4 + n;
+  ipgen_real *xs = work, *xp = xs + 5 * n; /* xs: ipgen_loop_rk4's 5 n entries */
   ipgen_real *A = xp + n, *F = A + n * n, *W = F + n * n, *Pp = W + n * n;
   ipgen_real *K = Pp + n * n, *S = K + n * c, *v = S + c * c, *innovation = v + c;
   int i, j, r, col;
@@ -203,15 +244,7 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
     for (i = 0; i < n; ++i) Pp[i * n + i] = (ipgen_real)1;
     for (r = 0; r < c; ++r) Pp[measured[r] * n + measured[r]] = e->Rn[r * c + r];
   } else {
-    const ipgen_real u = u_previous * e->gain;
-    if (e->field(e->context, x, u, k1, A) != 0) return 1;
-    for (i = 0; i < n; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k1[i];
-    if (e->field(e->context, xs, u, k2, 0) != 0) return 1;
-    for (i = 0; i < n; ++i) xs[i] = x[i] + (ipgen_real)0.5 * T * k2[i];
-    if (e->field(e->context, xs, u, k3, 0) != 0) return 1;
-    for (i = 0; i < n; ++i) xs[i] = x[i] + T * k3[i];
-    if (e->field(e->context, xs, u, k4, 0) != 0) return 1;
-    for (i = 0; i < n; ++i) xp[i] = x[i] + T / (ipgen_real)6 * (k1[i] + (ipgen_real)2 * k2[i] + (ipgen_real)2 * k3[i] + k4[i]);
+    if (ipgen_loop_rk4(e->field, e->context, n, T, u_previous * e->gain, x, xp, A, xs) != 0) return 1;
     for (i = 0; i < n * n; ++i) A[i] *= T; /* T A */
     for (r = 0; r < n; ++r) {              /* F = I + T A + (T A)^2 / 2 */
       for (col = 0; col < n; ++col) {

@@ -361,6 +361,7 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         "count": count,
         "size": size,
         "delay": estimator.delay,
+        "predict": numbers.predict,  # the law sees the estimate carried over the delay (ekf's model)
     }
     if numbers.kind == "filter":
         cutoff = float(numbers.cutoff or 0.0)

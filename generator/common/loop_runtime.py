@@ -204,6 +204,8 @@ SIGNATURES: tuple[tuple[str, Any, tuple[Any, ...]], ...] = (
     ("ipgen_loop_start_state", None, (ctypes.POINTER(Measurement), _P, _P)),
     ("ipgen_loop_kalman_update", None, (ctypes.POINTER(KalmanFilter), _L, _P, _real, _P, _P)),
     ("ipgen_loop_ekf_update", _I, (ctypes.POINTER(EkfFilter), _L, _P, _real, _P, _P, _P)),
+    ("ipgen_loop_rk4", _I, (FIELD, _P, _I, _real, _real, _P, _P, _P, _P)),
+    ("ipgen_loop_predict", _I, (FIELD, _P, _I, _real, _real, _I, _P, _P, _P, _P)),
     ("ipgen_loop_upright", _real, (_real,)),
     ("ipgen_loop_energy_caught", _I, (ctypes.POINTER(EnergyLaw), _real, _real)),
     ("ipgen_loop_energy_input", _real, (ctypes.POINTER(EnergyLaw), _I, _P, _P, _P, _P)),

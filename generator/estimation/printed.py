@@ -29,6 +29,7 @@ class EstimatorNumbers:
     input_equilibrium: float = 0.0  # kalman: u_eq
     process_noise: Rows = ()  # ekf: Qn
     measurement_noise: Rows = ()  # ekf: Rn
+    predict: bool = False  # exact, ekf: the law sees the estimate carried over the delay (ipgen_loop_predict)
 
 
 @dataclass(frozen=True)

@@ -133,6 +133,7 @@ CFG_KEYS: dict[str, str] = {
     "estimator.input": "kalman: u_eq",
     "estimator.process_noise": "ekf: Qn, row-major",
     "estimator.measurement_noise": "ekf: Rn, row-major",
+    "estimator.predict": "1: the law sees the estimate carried over sensors.delay (ipgen_loop_predict)",
 }
 
 
@@ -358,6 +359,8 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
     if estimator.kind == "ekf":
         lines.put("estimator.process_noise", matrix(estimator.process_noise))
         lines.put("estimator.measurement_noise", matrix(estimator.measurement_noise))
+    if estimator.predict:
+        lines.put("estimator.predict", 1)
 
 
 def motor_folded_parameters(

@@ -155,7 +155,7 @@ def loop(
             )
     result = Loop(
         sensors=Sensors(measured, resolution, noise, cart=cart, zero=tuple(float(v) for v in zero)),
-        estimator=EstimatorNumbers(kind=kind, cutoff=cutoff),
+        estimator=EstimatorNumbers(kind, cutoff, predict=estimator is not None and estimator.predict),
         delay=periods * period,
         seed=table.seed,
         drive_noise=drive_noise,

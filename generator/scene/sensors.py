@@ -216,11 +216,21 @@ class EstimatorTable(BaseModel):
     measurement_noise: _custom(
         _covariance, _MATRIX_SCHEMA, "kalman, ekf: Rn, a number, one per measured coordinate or a matrix"
     ) = None
+    predict: Annotated[bool, Field(strict=True)] = Field(
+        False,
+        description="exact, ekf: the law acts on the estimate carried over sensors.delay by the model "
+        "with the commands still in flight, the state its command will meet (a known delay compensated)",
+    )
 
     @model_validator(mode="after")
     def _relations(self) -> EstimatorTable:
         if self.cutoff is not None and self.kind != "filter":
             refuse_line(f'estimator.cutoff applies to kind = "filter" only (kind is "{self.kind}")')
+        if self.predict and self.kind not in ("exact", "ekf"):
+            refuse_line(
+                f'estimator.predict needs kind = "ekf" or "exact": the prediction runs the model '
+                f'(kind is "{self.kind}")'
+            )
         if self.kind not in ("kalman", "ekf"):
             for key in ("process_noise", "measurement_noise"):
                 if getattr(self, key) is not None:

@@ -52,6 +52,7 @@
 //   estimator = exact | difference | filter | kalman | ekf   estimator.cutoff (filter)
 //   estimator.equilibrium, estimator.A, estimator.B, estimator.gain, estimator.input   (kalman, row-major)
 //   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
+//   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
@@ -374,6 +375,11 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
     if (loop.kind == EstimatorKind::filter) {
       loop.cutoff = file.number("estimator.cutoff");
+    }
+    if (file.has("estimator.predict")) {
+      loop.predict = file.number("estimator.predict") != 0.0;
+      if (loop.predict && loop.kind != EstimatorKind::exact && loop.kind != EstimatorKind::ekf)
+        file.fail(file.line("estimator.predict"), "estimator.predict needs estimator exact or ekf (the prediction runs the model)");
     }
     if (loop.kind == EstimatorKind::kalman || loop.kind == EstimatorKind::ekf) {
       loop.equilibrium = numbers_of(file, "estimator.equilibrium", 2 * n);

@@ -8,6 +8,8 @@
 //             1/resolution [m] (a cart's position); z the pose where the encoder reads 0
 //             (sensors.zero, default 0); resolution 0: no quantisation
 //   estimate  x̂_k from y_0..y_k (and the inputs applied so far): exact, difference, filter, kalman, ekf
+//   predict   with estimator.predict, x̂_k carried over the delay by the model with the commands
+//             still in flight: the state u_k will meet (ipgen_loop_predict; exact and ekf)
 //   control   u_k = law(t_k, x̂_k) (the LQR, the swing-up law or TVLQR, saturated)
 //   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
@@ -104,6 +106,7 @@ struct LoopSettings {
   Eigen::MatrixXd A, gain, process_noise, measurement_noise;
   Eigen::VectorXd B, equilibrium;
   double input_equilibrium = 0.0;
+  bool predict = false;  ///< the law sees the estimate carried over the delay (ipgen_loop_predict)
 };
 
 /// One run's measure → estimate → control → delay → drive loop around a sampled control law.
@@ -138,6 +141,7 @@ class MeasuredLoop {
     measurement_noise_ = s_.measurement_noise;
     covariance_ = RowMajor::Zero(2 * n, 2 * n);
     work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(2 * n, static_cast<int>(m)));
+    predict_work_ = Eigen::VectorXd::Zero(6 * 2 * n);
   }
 
   /// The command applied on [t, t + period) for the true state x (ipgen's coordinates).
@@ -145,7 +149,16 @@ class MeasuredLoop {
     const Eigen::VectorXd user = coordinates_.to_user(x);
     measure(user);
     estimate(user);
-    const Eigen::VectorXd seen = s_.kind == EstimatorKind::exact ? x : coordinates_.to_canonical(estimate_);
+    Eigen::VectorXd seen = s_.kind == EstimatorKind::exact ? x : coordinates_.to_canonical(estimate_);
+    if (s_.predict && s_.delay_periods > 0) {  // the state the command will meet, `delay` later
+      Eigen::VectorXd ahead(2 * n);
+      // A failed prediction (M(q) not positive definite on the way) leaves the estimate as it is.
+      // pending_ holds forces or torques (gain 1), the estimate is in the scene's coordinates
+      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, 1.0, static_cast<int>(s_.delay_periods),
+                             pending_.data(), estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
+        seen = coordinates_.to_canonical(ahead);
+      }
+    }
     const double command = law_(t, seen);  // N or N m (saturated)
     // the command that reaches the drive now (u = 0 before the first arrives)
     const double applied = ipgen_loop_delay(pending_.data(), static_cast<int>(s_.delay_periods), command);
@@ -268,7 +281,7 @@ class MeasuredLoop {
   double pole_ = 0.0;                    ///< filter: exp(−ω_c T)
   std::vector<int> measured_;            ///< s_.measured as ipgen_loop.h takes it
   RowMajor A_, gain_rows_, process_noise_, measurement_noise_, covariance_;  ///< row-major copies, P
-  Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_;
+  Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_, predict_work_;
   long samples_ = 0;
 };
 
