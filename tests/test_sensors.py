@@ -180,10 +180,16 @@ def test_negative_or_non_finite_sensor_values_are_refused(key: str, value: float
 
 
 @settings(max_examples=10, deadline=None, suppress_health_check=_CHECKS)
-@given(k=st.integers(0, 50), fraction=st.floats(0.01, 0.99))
-def test_a_delay_between_periods_is_refused(k: int, fraction: float) -> None:
-    message = refused(text(f"[sensors]\ndelay = {(k + fraction) * 0.001!r}\n"))
-    assert "whole multiple of the period" in message
+@given(k=st.integers(0, 50), fraction=st.floats(0.01, 0.99), table=st.sampled_from(["sensors", "estimator"]))
+def test_a_delay_between_periods_is_refused(k: int, fraction: float, table: str) -> None:
+    message = refused(text(f"[{table}]\ndelay = {(k + fraction) * 0.001!r}\n"))
+    assert "whole multiple of the period" in message and f"{table}.delay" in message
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=_CHECKS)
+@given(value=bad_numbers)
+def test_a_negative_or_non_finite_assumed_delay_is_refused(value: float) -> None:
+    assert "estimator.delay" in refused(text(f"[sensors]\n[estimator]\ndelay = {number(value)}\n"))
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=_CHECKS)
@@ -273,7 +279,10 @@ def test_predict_needs_an_estimator_that_runs_the_model(kind: str) -> None:
 def test_predict_is_written_only_when_asked(tmp_path: Path) -> None:
     asked = config(scene(tmp_path, '[sensors]\ndelay = 0.002\n[estimator]\nkind = "exact"\npredict = true\n'))
     assert asked["estimator.predict"] == "1" and asked["sensors.delay"] == "0.002"
-    assert "estimator.predict" not in config(scene(tmp_path, "[sensors]\ndelay = 0.002\n"))
+    plain = config(scene(tmp_path, "[sensors]\ndelay = 0.002\n"))
+    assert "estimator.predict" not in plain and "estimator.delay" not in plain  # the rig's delay, known
+    told = config(scene(tmp_path, '[sensors]\ndelay = 0.002\n[estimator]\ndelay = 0.004\npredict = true\n'))
+    assert told["estimator.delay"] == "0.004" and told["sensors.delay"] == "0.002"
 
 
 def test_load_scene_raises_scene_error(tmp_path: Path) -> None:

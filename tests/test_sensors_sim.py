@@ -206,8 +206,10 @@ def test_difference_and_filter_estimates_from_the_measured_angles(simulator: Pat
         )
 
 
-def kalman_reference(r: Run, measured: list[int]) -> np.ndarray:
-    """The current-form steady-state Kalman filter of SENSORS_SPEC on the CSV's y_* and u."""
+def kalman_reference(r: Run, measured: list[int], shift: int = 0) -> np.ndarray:
+    """The current-form steady-state Kalman filter of SENSORS_SPEC on the CSV's y_* and u (u of
+    `shift` samples earlier, 0 before the first: the input a loop told of a longer delay assumes)."""
+    u = np.concatenate([np.zeros(shift), r["u"]])
     a, b = r.matrix("estimator.A", 4), r.matrix("estimator.B", 4)[:, 0]
     gain, x_eq = r.matrix("estimator.gain", 4), np.array(r.keys["estimator.equilibrium"].split(), dtype=float)
     c = np.eye(4)[measured]
@@ -218,8 +220,27 @@ def kalman_reference(r: Run, measured: list[int]) -> np.ndarray:
     for k in range(len(y)):
         estimate = predicted + gain @ (y[k] - c @ predicted)
         estimates.append(estimate)
-        predicted = x_eq + a @ (estimate - x_eq) + b * r["u"][k]
+        predicted = x_eq + a @ (estimate - x_eq) + b * u[k]
     return np.array(estimates)
+
+
+def test_a_loop_built_for_another_delay_predicts_with_the_commands_it_believes(
+    simulator: Path, tmp_path: Path
+) -> None:
+    """[estimator] delay: the rig applies each command at once, the loop believes it 3 periods
+    late, so its Kalman filter predicts with the command of 3 samples before (the reference on the
+    CSV). Told the rig's own delay, the run is the one without the key, byte for byte."""
+    table = "[sensors]\nmeasured = [0, 1]\nresolution = 2048\nnoise = 0.001\nseed = 4\n"
+    r = Run(simulator, tmp_path, scene_text(table + '[estimator]\nkind = "kalman"\ndelay = 0.003\n'))
+    assert r.keys["estimator.delay"] == "0.003" and "built for a delay of 3 sampling periods" in r.summary
+    hat = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
+    np.testing.assert_allclose(hat, kalman_reference(r, [0, 1], shift=3), rtol=1e-9, atol=1e-9)
+    assert np.max(np.abs(hat - kalman_reference(r, [0, 1]))) > 1e-6  # the shift is what it uses
+    delayed = table.replace("seed = 4", "seed = 4\ndelay = 0.003")
+    told = Run(simulator, tmp_path, scene_text(delayed + '[estimator]\nkind = "kalman"\ndelay = 0.003\n'),
+               name="told")  # fmt: skip
+    plain = Run(simulator, tmp_path, scene_text(delayed + '[estimator]\nkind = "kalman"\n'), name="plain")
+    assert told.csv.read_text() == plain.csv.read_text()
 
 
 def test_kalman_estimates_equal_the_reference_on_the_recorded_samples(

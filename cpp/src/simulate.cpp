@@ -190,8 +190,9 @@ with swingup.tracking = mpc (trajectory), the MPC tracks the plan too, the plan 
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
 (with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
-counts from sensors.zero), noisy, delayed measurements (with estimator.predict = 1, exact or ekf:
-the estimate carried over the delay by the model with the commands in flight); actuator.noise, actuator.lag,
+counts from sensors.zero), noisy, delayed measurements (estimator.delay: the delay the loop is built
+for, absent: sensors.delay; with estimator.predict = 1, exact or ekf: the estimate carried over it
+by the model with the commands in flight); actuator.noise, actuator.lag,
 actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
 (written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 
@@ -623,7 +624,10 @@ void print_loop(const ipsim::scene::Scene<Model>& scene) {
               loop.delay_periods, loop.delay_periods == 1 ? "" : "s", static_cast<unsigned long long>(loop.seed),
               ipsim::to_string(loop.kind));
   if (loop.kind == ipsim::EstimatorKind::filter) std::printf(" (cutoff %g rad/s)", loop.cutoff);
-  if (loop.predict && loop.delay_periods > 0) std::printf(", the law's estimate predicted over the delay");
+  if (loop.assumed_delay_periods != loop.delay_periods)
+    std::printf(", built for a delay of %ld sampling period%s", loop.assumed_delay_periods,
+                loop.assumed_delay_periods == 1 ? "" : "s");
+  if (loop.predict && loop.assumed_delay_periods > 0) std::printf(", the law's estimate predicted over the delay");
   const Eigen::VectorXd rms = scene.loop->rms_error();
   std::printf("; RMS estimation error over %ld samples:", scene.loop->samples());
   for (int i = 0; i < 2 * dof(); ++i) {

@@ -133,7 +133,8 @@ CFG_KEYS: dict[str, str] = {
     "estimator.input": "kalman: u_eq",
     "estimator.process_noise": "ekf: Qn, row-major",
     "estimator.measurement_noise": "ekf: Rn, row-major",
-    "estimator.predict": "1: the law sees the estimate carried over sensors.delay (ipgen_loop_predict)",
+    "estimator.delay": "s: the delay the loop is built for (estimator, prediction); absent: sensors.delay",
+    "estimator.predict": "1: the law sees the estimate carried over the delay (ipgen_loop_predict)",
 }
 
 
@@ -359,6 +360,8 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
     if estimator.kind == "ekf":
         lines.put("estimator.process_noise", matrix(estimator.process_noise))
         lines.put("estimator.measurement_noise", matrix(estimator.measurement_noise))
+    if loop_.assumed_delay is not None:
+        lines.put("estimator.delay", loop_.assumed_delay)
     if estimator.predict:
         lines.put("estimator.predict", 1)
 

@@ -36,6 +36,7 @@ class Loop:
     sensors: Sensors | None = None  # measured coordinates, resolutions, noise σ, zero pose
     estimator: EstimatorNumbers = field(default_factory=EstimatorNumbers)
     delay: float = 0.0  # [s], a whole number of periods
+    assumed_delay: float | None = None  # [s]: [estimator] delay, what the loop is built for (None: delay)
     seed: int = 0
     drive_noise: float = 0.0
     lag: float = 0.0
@@ -119,20 +120,11 @@ def loop(
             f"sensors.zero has {len(zero)} values for {len(measured)} measured coordinates "
             f"(sensors.measured = {list(measured)}): give one per measured coordinate"
         )
-    delay = 0.0 if table.delay is None else float(table.delay)
     assert period is not None
-    if not delay / period < MAX_DELAY_PERIODS + 0.5:  # so round() below is at most MAX_DELAY_PERIODS
-        raise SensorsError(
-            f"sensors.delay = {format_number(delay)} s is more than {MAX_DELAY_PERIODS:,} periods of "
-            f"{format_number(period)} s: is it in seconds?"
-        )
-    periods = round(delay / period)
-    if abs(delay - periods * period) > DELAY_TOLERANCE * max(delay, period):
-        raise SensorsError(
-            f"sensors.delay = {format_number(delay)} s is not a whole multiple of the period "
-            f"{format_number(period)} s: "
-            f"use k · {format_number(period)} s (e.g. {format_number(max(periods, 1) * period)} s)"
-        )
+    periods = _whole_periods(0.0 if table.delay is None else float(table.delay), period, "sensors.delay")
+    assumed = None if estimator is None or estimator.delay is None else float(estimator.delay)
+    if assumed is not None:
+        assumed = _whole_periods(assumed, period, "estimator.delay") * period
     if kind in ("difference", "filter") and measured != tuple(range(dof)):
         raise SensorsError(
             f'estimator kind "{kind}" needs every coordinate measured '
@@ -157,6 +149,7 @@ def loop(
         sensors=Sensors(measured, resolution, noise, cart=cart, zero=tuple(float(v) for v in zero)),
         estimator=EstimatorNumbers(kind, cutoff, predict=estimator is not None and estimator.predict),
         delay=periods * period,
+        assumed_delay=assumed,
         seed=table.seed,
         drive_noise=drive_noise,
         lag=lag,
@@ -167,6 +160,23 @@ def loop(
             raise SensorsError(f'estimator kind "{kind}" needs the model (no design given)')
         result = design(result, estimator)
     return result
+
+
+def _whole_periods(delay: float, period: float, key: str) -> int:
+    """A delay's whole number of sampling periods, or a one-line SensorsError naming `key`."""
+    if not delay / period < MAX_DELAY_PERIODS + 0.5:  # so round() below is at most MAX_DELAY_PERIODS
+        raise SensorsError(
+            f"{key} = {format_number(delay)} s is more than {MAX_DELAY_PERIODS:,} periods of "
+            f"{format_number(period)} s: is it in seconds?"
+        )
+    periods = round(delay / period)
+    if abs(delay - periods * period) > DELAY_TOLERANCE * max(delay, period):
+        raise SensorsError(
+            f"{key} = {format_number(delay)} s is not a whole multiple of the period "
+            f"{format_number(period)} s: "
+            f"use k · {format_number(period)} s (e.g. {format_number(max(periods, 1) * period)} s)"
+        )
+    return periods
 
 
 def covariance(value: Any, size: int, key: str) -> tuple[tuple[float, ...], ...]:

@@ -281,7 +281,7 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
         numbers=loop.estimator,
         sensors=loop.sensors,  # its zero: [sensors] zero, default the rig at rest, as the simulator's
         period=float(period),
-        delay=round(loop.delay / period),
+        delay=round((loop.delay if loop.assumed_delay is None else loop.assumed_delay) / period),
         input_gain=float(scene.actuator.gain()),
         params=scene.pendulum.folded().params(),
     )

@@ -216,10 +216,16 @@ class EstimatorTable(BaseModel):
     measurement_noise: _custom(
         _covariance, _MATRIX_SCHEMA, "kalman, ekf: Rn, a number, one per measured coordinate or a matrix"
     ) = None
+    delay: Real(ge=0, says="must be >= 0 s") | None = Field(
+        None,
+        description="s: the delay the loop is built for (its estimator's input, the prediction), a whole "
+        "multiple of the period; default sensors.delay (the rig's delay, known to the loop)",
+    )
     predict: Annotated[bool, Field(strict=True)] = Field(
         False,
-        description="exact, ekf: the law acts on the estimate carried over sensors.delay by the model "
-        "with the commands still in flight, the state its command will meet (a known delay compensated)",
+        description="exact, ekf: the law acts on the estimate carried over the delay (estimator.delay, "
+        "default sensors.delay) by the model with the commands still in flight, the state its command "
+        "will meet (a known delay compensated)",
     )
 
     @model_validator(mode="after")

@@ -157,6 +157,7 @@ inline constexpr const char* kKeys[] = {
     "estimator.input",
     "estimator.process_noise",
     "estimator.measurement_noise",
+    "estimator.delay",
     "estimator.predict",
 };
 

@@ -52,6 +52,7 @@
 //   estimator = exact | difference | filter | kalman | ekf   estimator.cutoff (filter)
 //   estimator.equilibrium, estimator.A, estimator.B, estimator.gain, estimator.input   (kalman, row-major)
 //   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
+//   estimator.delay = 0.02   (optional: the delay the loop is built for; absent: sensors.delay)
 //   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
@@ -359,6 +360,17 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       file.fail(file.line("sensors.delay"), "sensors.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
     }
     loop.delay_periods = static_cast<long>(periods);
+    loop.assumed_delay_periods = loop.delay_periods;
+    if (file.has("estimator.delay")) {  // the delay the loop is built for, not the rig's
+      const double assumed = file.number("estimator.delay");
+      const double assumed_periods = std::round(assumed / period);
+      if (!(std::isfinite(assumed) && assumed >= 0.0 &&
+            std::abs(assumed - assumed_periods * period) <= kDelayTolerance * std::max(assumed, period) &&
+            assumed_periods <= kMaxDelayPeriods)) {
+        file.fail(file.line("estimator.delay"), "estimator.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
+      }
+      loop.assumed_delay_periods = static_cast<long>(assumed_periods);
+    }
     const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
     loop.seed = static_cast<std::uint64_t>(seed);
     const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";

@@ -11,7 +11,9 @@
 //   predict   with estimator.predict, x̂_k carried over the delay by the model with the commands
 //             still in flight: the state u_k will meet (ipgen_loop_predict; exact and ekf)
 //   control   u_k = law(t_k, x̂_k) (the LQR, the swing-up law or TVLQR, saturated)
-//   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0
+//   delay     u_k is applied from t_{k+j} (delay = j·T); before the first command arrives u = 0;
+//             the loop itself (its estimator's input, the prediction) assumes estimator.delay
+//             (default the rig's j, known): a firmware told the wrong delay
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
 //
 // The quantiser, the delay and the estimators are ipgen_loop.h's (C99, shared with the firmware
@@ -97,7 +99,8 @@ struct LoopSettings {
   std::vector<double> resolution;  ///< counts per revolution or per metre, per measured; 0 exact
   std::vector<double> noise;       ///< σ per measured [rad or m]
   std::vector<double> zero;        ///< where the encoders read 0, per measured (empty: 0)
-  long delay_periods = 0;          ///< delay = delay_periods · period
+  long delay_periods = 0;          ///< delay = delay_periods · period (the rig's)
+  long assumed_delay_periods = 0;  ///< the delay the loop is built for (estimator.delay; default the rig's)
   std::uint64_t seed = 0;
   double drive_noise = 0.0;        ///< σ_u of the applied input [input unit]
   EstimatorKind kind = EstimatorKind::exact;
@@ -133,6 +136,7 @@ class MeasuredLoop {
     estimate_ = Eigen::VectorXd::Zero(2 * n);
     squared_error_ = Eigen::VectorXd::Zero(2 * n);
     pending_.assign(static_cast<std::size_t>(s_.delay_periods) + 1, 0.0);
+    believed_.assign(static_cast<std::size_t>(s_.assumed_delay_periods) + 1, 0.0);
     pole_ = std::exp(-s_.cutoff * period_);
     measured_.assign(s_.measured.begin(), s_.measured.end());
     A_ = s_.A;
@@ -150,19 +154,22 @@ class MeasuredLoop {
     measure(user);
     estimate(user);
     Eigen::VectorXd seen = s_.kind == EstimatorKind::exact ? x : coordinates_.to_canonical(estimate_);
-    if (s_.predict && s_.delay_periods > 0) {  // the state the command will meet, `delay` later
+    const int assumed = static_cast<int>(s_.assumed_delay_periods);
+    if (s_.predict && assumed > 0) {  // the state the command will meet, `assumed` periods later
       Eigen::VectorXd ahead(2 * n);
       // A failed prediction (M(q) not positive definite on the way) leaves the estimate as it is.
-      // pending_ holds forces or torques (gain 1), the estimate is in the scene's coordinates
-      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, 1.0, static_cast<int>(s_.delay_periods),
-                             pending_.data(), estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
+      // believed_ holds forces or torques (gain 1), the estimate is in the scene's coordinates
+      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, 1.0, assumed, believed_.data(),
+                             estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
         seen = coordinates_.to_canonical(ahead);
       }
     }
     const double command = law_(t, seen);  // N or N m (saturated)
     // the command that reaches the drive now (u = 0 before the first arrives)
     const double applied = ipgen_loop_delay(pending_.data(), static_cast<int>(s_.delay_periods), command);
-    last_input_ = applied / gain_;
+    // the one the loop believes acts now: its own queue of the delay it is built for (the rig's
+    // unless estimator.delay says otherwise), which its estimator predicts with
+    last_input_ = ipgen_loop_delay(believed_.data(), assumed, command) / gain_;
     const double noise = drive_noise_();
     ++samples_;
     return applied + gain_ * s_.drive_noise * noise;
@@ -277,6 +284,7 @@ class MeasuredLoop {
   Coordinates coordinates_;
   NormalStream sensor_noise_, drive_noise_;
   std::vector<double> pending_;          ///< the commands sent, not yet applied (ipgen_loop_delay)
+  std::vector<double> believed_;         ///< the same as the loop believes them (its assumed delay)
   double last_input_ = 0.0;              ///< the input applied over the last period [scene units]
   double pole_ = 0.0;                    ///< filter: exp(−ω_c T)
   std::vector<int> measured_;            ///< s_.measured as ipgen_loop.h takes it
