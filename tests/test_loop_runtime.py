@@ -17,7 +17,7 @@ from pathlib import Path
 import loop_reference as reference
 import numpy as np
 import pytest
-from estimation_cases import QUBE, RDIP, RSIP
+from estimation_cases import QUBE, QUBE_LQR, RDIP, RSIP
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
@@ -482,3 +482,26 @@ def test_a_prediction_through_a_failing_model_returns_the_estimate() -> None:
 
     code, ahead = _predict(_field(rates), 0.01, 1.0, [0.0, 1.0, 1.0, 1.0], [0.5, -0.5])
     assert code == 1 and np.array_equal(ahead, [0.5, -0.5])
+
+
+def test_python_closed_loop_with_a_predicted_delay_runs_as_the_loop_without_it() -> None:
+    """ipgen.estimation.loop.closed_loop(predict=True), the QUBE (motor, Quanser's coordinates) on
+    its LQR with 20 periods of delay: from t = d on the undelayed loop started at x(d), to the
+    prediction's RK4 error; without predict it is not (as the simulator, test_sensors_sim.py)."""
+    pytest.importorskip("casadi")
+    from ipgen.estimation.loop import closed_loop
+    from ipgen.estimation.pendulum import as_model
+
+    pendulum = ipgen.Pendulum(**QUBE)
+    model, gain = as_model(pendulum), ipgen.lqr(pendulum, QUBE_LQR["Q"], QUBE_LQR["R"])
+    sensors, x_eq = Sensors.of(2, None, 0), np.zeros(4)
+    initial = np.array([0.0, 0.1, 0.0, 0.0])
+    def states(predict: bool) -> np.ndarray:
+        run = closed_loop(model, gain, x_eq, None, sensors, 0.001, 0.3, initial, saturation=10.0,
+                          delay=20, predict=predict)  # fmt: skip
+        return run.x
+
+    runs = {predict: states(predict) for predict in (True, False)}
+    free = closed_loop(model, gain, x_eq, None, sensors, 0.001, 0.28, runs[True][20], saturation=10.0).x
+    gap = {predict: np.max(np.abs(x[20 : 20 + len(free)] - free)) for predict, x in runs.items()}
+    assert gap[True] < 1e-7 < 1e-3 < gap[False], gap

@@ -1,8 +1,9 @@
 """A sampled closed loop with sensors and an estimator, in Python (for the bench and tests).
 
 At t_k = k T: y_k = the sensors' sample of the true state; x̂_k = the estimator's step (or the
-true state, estimator None); u_k = sat(−K (x̂_k − x_eq)); u_k is applied from t_k + j T (delay
-of j periods; 0 before the first arrives) and held. Between samples the model ẋ = f(x, ū) is
+true state, estimator None); with `predict`, x̂_k carried over the delay by the model with the
+commands in flight (ipgen_loop_predict); u_k = sat(−K (x̂_k − x_eq)); u_k is applied from
+t_k + j T (delay of j periods; 0 before the first arrives) and held. Between samples the model ẋ = f(x, ū) is
 integrated by CasADi's RK4 flow map (`control.casadi_model`) in `substeps` steps per period
 (default steps of at most 0.1 ms), in ipgen's own coordinates; the estimator and controller
 see the pendulum's coordinates. The saturation and the delay are cpp/include/ipgen_loop.h's
@@ -17,7 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ipgen.common.loop_runtime import address, library
+from ipgen.common.loop_runtime import FIELD, address, library
 from ipgen.estimation.pendulum import EstimationError
 
 if TYPE_CHECKING:
@@ -74,6 +75,23 @@ def flow(model: VectorField, period: float, substeps: int | None = None) -> Any:
     return casadi_model(plant).flow_map(period, steps)
 
 
+def _field_of(model: VectorField) -> Any:
+    """ipgen_loop_field over model.f (the pendulum's coordinates, u in its input unit: gain 1);
+    code 1 where M(q) is singular."""
+    import numpy as np
+
+    def field(context: Any, x: Any, u: float, f: Any, a: Any) -> int:
+        size = 2 * model.dof
+        try:
+            value = model.f(np.ctypeslib.as_array(x, shape=(size,)).copy(), u)
+        except np.linalg.LinAlgError:
+            return 1
+        np.ctypeslib.as_array(f, shape=(size,))[:] = value
+        return 0
+
+    return field
+
+
 def closed_loop(
     model: VectorField,
     gain: Sequence[float] | np.ndarray,
@@ -88,10 +106,12 @@ def closed_loop(
     delay: int = 0,
     seed: int = 0,
     substeps: int | None = None,
+    predict: bool = False,
 ) -> LoopRun:
     """Run the loop (module docstring) from `initial` (2·dof, the pendulum's coordinates) for
     `t_end` seconds; `delay` in whole periods; the sensor noise drawn from numpy's PCG64 seeded
-    with `seed`."""
+    with `seed`; `predict`: the gain acts on the estimate carried over the delay (the loop knows
+    it), as the simulator's `[estimator] predict`."""
     import numpy as np
 
     if model.acceleration:
@@ -111,6 +131,8 @@ def closed_loop(
     pending = np.zeros(delay + 1)  # ipgen_loop_delay's: the commands on their way, oldest first
     if estimator is not None:
         estimator.reset()
+    field = FIELD(_field_of(model))  # kept alive while C may call it back
+    ahead, work = np.zeros(2 * dof), np.zeros(12 * dof)
     ts, xs, ys, hats, us, applied_ = [], [], [], [], [], []
     last_applied = 0.0
     fallen = False
@@ -121,7 +143,13 @@ def closed_loop(
             break
         y = sensors.sample(x_user[:dof], rng)
         hat = x_user.copy() if estimator is None else estimator.step(y, last_applied)
-        u = -float(k_row @ (hat - x_eq))
+        seen = hat
+        if predict and delay > 0:  # a failed prediction (code 1) leaves ahead = the estimate
+            estimate = np.ascontiguousarray(hat, dtype=float)
+            run.ipgen_loop_predict(field, None, 2 * dof, period, 1.0, delay, address(pending),
+                                   address(estimate), address(ahead), address(work))  # fmt: skip
+            seen = ahead
+        u = -float(k_row @ (seen - x_eq))
         if saturation is not None:
             u = run.ipgen_loop_saturate(u, saturation)
         applied = run.ipgen_loop_delay(address(pending), delay, u)
