@@ -294,7 +294,7 @@ def test_tracking_needs_an_mpc_and_a_known_word(tmp_path: Path, capsys: pytest.C
 def test_the_mpc_predicts_with_controller_model_where_given(tmp_path: Path) -> None:
     """The resolved config with the model stated as the plant's own (the same CSV, bit for bit)
     and as a heavier one (other torques): the simulator reads controller.model.*; `model_lines`
-    states a config's plant parameters, for an MPC's config only."""
+    states a config's plant parameters, for a loop that runs a model only."""
     simulate(tmp_path, BALANCE.format(extra=""))
     out = tmp_path / "out"
     cfg = (out / "balance.cfg").read_text()

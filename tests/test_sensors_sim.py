@@ -73,11 +73,13 @@ def simulator(tmp_path_factory: pytest.TempPathFactory) -> Path:
 class Run:
     """One simulator run: the CSV's columns by name, the summary, the resolved config's keys."""
 
-    def __init__(self, simulator: Path, folder: Path, text: str, *options: str, name: str = "loop") -> None:
+    def __init__(
+        self, simulator: Path, folder: Path, text: str, *options: str, name: str = "loop", cfg_lines: str = ""
+    ) -> None:
         path = folder / f"{name}.toml"
         path.write_text(text)
         cfg = folder / f"{name}.cfg"
-        cfg.write_text(resolved_config(load_scene(path)))
+        cfg.write_text(resolved_config(load_scene(path)) + cfg_lines)  # cfg_lines: e.g. a sweep's design
         self.keys = dict(line.split(" = ", 1) for line in cfg.read_text().splitlines() if " = " in line)
         self.csv = folder / f"{name}.csv"
         result = subprocess.run(
@@ -87,7 +89,7 @@ class Run:
         )
         assert result.returncode == 0, result.stderr
         self.summary = result.stdout
-        run_ = read_run_csv(self.csv, phase=False)
+        run_ = read_run_csv(self.csv, phase=self.csv.read_text().partition("\n")[0].endswith(",phase"))
         self.names, self.data = run_.names, run_.data
 
     def __getitem__(self, name: str) -> np.ndarray:
@@ -259,11 +261,12 @@ def test_kalman_estimates_equal_the_reference_on_the_recorded_samples(
         assert abs(r.data[-1, 2]) < 0.05  # the 0.05 rad tilt not grown: balanced on the estimate
 
 
-def model_functions() -> tuple:
-    """ẋ = f(x, u) from ipgen.derive's M and bias (sympy, lambdified here) and ∂f/∂x from ipgen.linearize."""
+def model_functions(m: list[float] = M) -> tuple:
+    """ẋ = f(x, u) from ipgen.derive's M and bias (sympy, lambdified here) and ∂f/∂x from ipgen.linearize,
+    with the masses `m` (the paper's by default)."""
     eq = ipgen.derive("rotary", 1)
     s = eq.symbols
-    values = dict(zip([*s.m, *s.l, *s.delta, s.g], [*M, *L, *DELTA, 9.81], strict=True))
+    values = dict(zip([*s.m, *s.l, *s.delta, s.g], [*m, *L, *DELTA, 9.81], strict=True))
     mass = sp.lambdify([*s.q], eq.mass_matrix.subs(values), "numpy")
     bias = sp.lambdify([*s.q, *s.qd], eq.bias.subs(values), "numpy")
 
@@ -276,17 +279,28 @@ def model_functions() -> tuple:
     def jacobian(x: np.ndarray, u: float) -> np.ndarray:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            return ipgen.linearize("rotary", 1, M, L, DELTA, q=x[:2], qd=x[2:], u=u)[0]
+            return ipgen.linearize("rotary", 1, m, L, DELTA, q=x[:2], qd=x[2:], u=u)[0]
 
     return f, jacobian
 
 
+# controller.model.*: the loop's design model (a sweep's nominal one) where the plant differs
+DESIGN_MASSES = [1.25 * v for v in M]
+DESIGN = "".join(
+    f"controller.model.{key} = {' '.join(repr(v) for v in values)}\n"
+    for key, values in (("m", DESIGN_MASSES), ("l", L), ("delta", DELTA), ("g", [9.81]))
+)
+
+
+@pytest.mark.parametrize("design", [False, True], ids=["plant", "design"])
 def test_ekf_estimates_equal_an_independent_ekf_on_the_recorded_samples(
-    simulator: Path, tmp_path: Path
+    simulator: Path, tmp_path: Path, design: bool
 ) -> None:
+    """The EKF runs the loop's design model: the plant's, or controller.model.*'s (masses × 1.25)."""
     r = Run(simulator, tmp_path, scene_text('[sensors]\nmeasured = [0, 1]\nresolution = 2048\nnoise = 0.002\n'
-                                            '[estimator]\nkind = "ekf"\n', t_end=0.2))  # fmt: skip
-    f, jacobian = model_functions()
+                                            '[estimator]\nkind = "ekf"\n', t_end=0.2),
+            cfg_lines=DESIGN if design else "")  # fmt: skip
+    f, jacobian = model_functions(DESIGN_MASSES if design else M)
     qn, rn = r.matrix("estimator.process_noise", 4), r.matrix("estimator.measurement_noise", 2)
     x_eq = np.array(r.keys["estimator.equilibrium"].split(), dtype=float)
     c, eye, t = np.eye(4)[:2], np.eye(4), PERIOD
@@ -310,7 +324,8 @@ def test_ekf_estimates_equal_an_independent_ekf_on_the_recorded_samples(
         p = big_f @ p @ big_f.T + qn
     got = np.column_stack([r[f"hat_{n}"] for n in ("theta0", "theta1", "dtheta0", "dtheta1")])
     np.testing.assert_allclose(got, np.array(hat), rtol=1e-9, atol=1e-9)
-    python = replay(ExtendedKalman(PENDULUM, PERIOD, qn, rn, measured=[0, 1]), r.csv)  # ipgen.estimation's
+    pendulum = {**PENDULUM, "m": DESIGN_MASSES} if design else PENDULUM
+    python = replay(ExtendedKalman(pendulum, PERIOD, qn, rn, measured=[0, 1]), r.csv)  # ipgen.estimation's
     np.testing.assert_allclose(python.estimate[: len(got)], got, rtol=1e-9, atol=1e-9)
 
 
@@ -364,6 +379,32 @@ def test_the_drive_lag_is_a_first_order_state(simulator: Path, tmp_path: Path) -
     assert np.max(np.abs(slow.data[:, 2] - plain.data[:, 2])) > 1e-3
     balance = float(slow.summary.split("balance error ")[1].split(" J")[0])
     assert abs(balance) < 1e-8
+
+
+@pytest.mark.parametrize("design", [False, True], ids=["plant", "design"])
+def test_the_energy_law_runs_the_design_model(simulator: Path, tmp_path: Path, design: bool) -> None:
+    """The energy swing-up's first command from hanging at rest, u = M00 a + M01 q̈1 + b0 with
+    q̈1 = −(M10 a + b1)/M11 and a = −a_max (the energy far below the target), from ipgen.derive's
+    M and bias (sympy) with the design model's masses: the plant's, or controller.model.*'s."""
+    text = SCENE.split("[initial]")[0].format(m=M, l=L, delta=DELTA) + (
+        '[simulation]\nt_end = 0.01\nsample = 0.001\n'
+        '[swingup]\nmethod = "energy"\nu_max = 50.0\nperiod = 0.001\n'
+    )
+    r = Run(simulator, tmp_path, text, cfg_lines=DESIGN if design else "", name="swing")
+    eq = ipgen.derive("rotary", 1)
+    sym = eq.symbols
+    expected = {}
+    for name, masses in (("plant", M), ("design", DESIGN_MASSES)):
+        values = dict(zip([*sym.m, *sym.l, *sym.delta, sym.g], [*masses, *L, *DELTA, 9.81], strict=True))
+        q, qd = [0.0, math.pi], [0.0, 0.0]
+        mass = np.array(sp.lambdify([*sym.q], eq.mass_matrix.subs(values))(*q), dtype=float)
+        bias = np.array(sp.lambdify([*sym.q, *sym.qd], eq.bias.subs(values))(*q, *qd), dtype=float).ravel()
+        a = -float(r.keys["swingup.accel_max"])
+        qdd1 = -(mass[1, 0] * a + bias[1]) / mass[1, 1]
+        expected[name] = mass[0, 0] * a + mass[0, 1] * qdd1 + bias[0]
+    got = r["u"][0]
+    assert got == pytest.approx(expected["design" if design else "plant"], rel=1e-9)
+    assert abs(expected["design"] - expected["plant"]) > 1e-3 * abs(got)  # the two models tell apart
 
 
 def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: Path, tmp_path: Path) -> None:

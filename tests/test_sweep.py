@@ -492,3 +492,28 @@ def test_the_estimator_stays_the_nominal_design() -> None:
     retuned = (*heavier, ("estimator.kind", "kalman"))
     anew = scene_from_document(path, overrides.apply(document, nominal, retuned), designed=nominal)
     assert nominal_estimator(anew, nominal, retuned).loop.estimator.A == changed.loop.estimator.A
+
+
+@pytest.mark.parametrize(
+    ("loop", "stated"),
+    [
+        ("controller = mpc\n", True),
+        ("swingup = energy\n", True),
+        ("estimator = ekf\n", True),
+        ("estimator = exact\nestimator.predict = 1\n", True),
+        ("controller = lqr\nestimator = kalman\n", False),
+        ("swingup = trajectory\n", False),
+    ],
+)
+def test_a_sweeps_runs_keep_the_model_a_loop_runs(loop: str, stated: bool) -> None:
+    """`model_lines`: the nominal plant stated as controller.model.* (the simulator's Scene::design)
+    for a loop that runs a model (an MPC, the energy law, an EKF, the prediction over a delay),
+    none for one that runs numbers (gains, a plan, a Kalman gain); none where already stated."""
+    from ipgen.sweeps.mpc_model import model_lines
+
+    cfg = "m = 0.5 0.3\nl = 0.6 0.5\ndelta = 0.3 0.01\ng = 9.81\nactuator.gain = 0.005\n" + loop
+    lines = model_lines(cfg)
+    keys = {line.split(" = ")[0] for line in lines}
+    plant = {"controller.model.m", "controller.model.l", "controller.model.delta", "controller.model.g"}
+    assert keys == ({*plant, "controller.model.gain"} if stated else set())
+    assert model_lines(cfg + "".join(f"{line}\n" for line in lines)) == []

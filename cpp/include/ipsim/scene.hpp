@@ -162,6 +162,12 @@ struct Scene {
   /// settings.input and controller are in N or N m. 1 for a direct drive.
   double input_gain = 1.0;
   bool motor = false;  ///< `actuator = dc_motor`
+  /// The model the loop is designed with: the MPC's predictions, the energy law's mass matrix and
+  /// bias, the EKF's and the delay prediction's dynamics, and its force per volt. The plant's
+  /// (params, input_gain) unless controller.model.* states another: a sweep's runs keep the
+  /// nominal scene's while the plant changes (generator/sweeps/mpc_model.py).
+  ParamsOf<Model> design{};
+  double design_gain = 1.0;
   /// `swingup = energy | trajectory`: the swing-up that sets settings.input (sampled), and the
   /// phase it is in (shared with the input).
   std::optional<SwingUp> swingup;
@@ -300,7 +306,9 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     }
   }
   scene.swingup_state = std::make_shared<SwingUp::State>();
-  scene.settings.input = sw.input<Model>(scene.params, scene.swingup_state);
+  // the energy law computes the design model's force; as volts (÷ design gain) it gives the plant b × V
+  sw.law_gain = scene.design_gain / scene.input_gain;
+  scene.settings.input = sw.input<Model>(scene.design, scene.swingup_state);
   scene.swingup = std::move(sw);
 }
 
@@ -417,7 +425,7 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
   }
   auto measured = std::make_shared<MeasuredLoop<Model>>(std::move(loop), s.input.feedback, period, scene.input_gain,
-                                                        scene.params, scene.coordinates);
+                                                        scene.design, scene.design_gain, scene.coordinates);
   s.input.feedback = [measured](double t, const Eigen::VectorXd& x) { return measured->step(t, x); };
   scene.loop = std::move(measured);
 }
@@ -445,7 +453,7 @@ void load_rotors(const SceneFile& file, const std::string& prefix, int m, Params
   }
 }
 
-/// controller.model.*: the model the MPC predicts with, stated whole (m, l, delta, g required; the
+/// controller.model.*: the model the loop is designed with (Scene::design), stated whole (m, l, delta, g required; the
 /// links as built where given, else the rods of m and l; a dc_motor's gain required; a fixed
 /// chain's Ir and gr where given, else no rotor and gr 1); what does not apply is refused.
 template <class Model>
@@ -457,7 +465,7 @@ void load_mpc_model(const SceneFile& file, const Scene<Model>& scene, ParamsOf<M
   auto values = [&](const std::string& name, Eigen::Index count) { return numbers_of(file, "controller.model." + name, count); };
   for (const std::string name : {"m", "l", "delta", "g"}) {
     if (!file.has("controller.model." + name)) {
-      file.fail(file.line("controller.model.m"), "controller.model.* states the MPC's whole model: add controller.model." + name);
+      file.fail(file.line("controller.model.m"), "controller.model.* states the loop's whole design model: add controller.model." + name);
     }
   }
   const Eigen::VectorXd m = values("m", n), l = values("l", n), delta = values("delta", n);
@@ -579,15 +587,8 @@ void load_mpc(const SceneFile& file, Scene<Model>& scene) {
       if (!std::isfinite(v)) file.fail(file.line("controller"), "controller = mpc: its numbers must be finite");
     }
   }
-  // The model the MPC predicts with: the scene's, or the one controller.model.* states (a sweep's
-  // run keeps the nominal model while the plant changes, as it keeps the controller's other numbers).
-  ParamsOf<Model> model = scene.params;
-  double model_gain = scene.input_gain;
-  const std::string prefix = "controller.model.";
-  bool stated = false;
-  for (const auto& key : file.keys()) stated = stated || key.rfind(prefix, 0) == 0;
-  if (stated) load_mpc_model<Model>(file, scene, model, model_gain);
-  auto mpc = std::make_shared<MpcController<Model>>(std::move(p), model, model_gain);
+  // The model the MPC predicts with: the loop's design model (Scene::design).
+  auto mpc = std::make_shared<MpcController<Model>>(std::move(p), scene.design, scene.design_gain);
   if (mpc->check() != 0) {
     file.fail(file.line("controller"), "controller = mpc: its settings describe no problem (sizes, bounds, weights or budgets)");
   }
@@ -849,6 +850,12 @@ Scene<Model> load(const SceneFile& file) {
   if (file.has("limits.travel")) {
     scene.travel = file.number("limits.travel");  // > 0: cfg_rules.hpp
   }
+  // The loop's design model (Scene::design): the plant's, or the one controller.model.* states.
+  scene.design = scene.params;
+  scene.design_gain = scene.input_gain;
+  bool stated = false;
+  for (const auto& key : file.keys()) stated = stated || key.rfind("controller.model.", 0) == 0;
+  if (stated) load_mpc_model<Model>(file, scene, scene.design, scene.design_gain);
   if (file.has("controller") && scene.fixed_controllers.empty() && file.text("controller") == "mpc") {
     if (kind != "zero") {
       file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");

@@ -120,13 +120,16 @@ class MeasuredLoop {
  public:
   int n = dof_of<Model>();  // degrees of freedom (before the members that use it)
 
+  /// `input_gain`: the plant's force per unit of u; `design`, `design_gain`: the model the EKF and
+  /// the prediction run (Scene::design: the plant's, or a sweep's nominal one) and its force per unit.
   MeasuredLoop(LoopSettings settings, Input::Feedback law, double period, double input_gain,
-               const ParamsOf<Model>& params, Coordinates coordinates)
+               const ParamsOf<Model>& design, double design_gain, Coordinates coordinates)
       : s_(std::move(settings)),
         law_(std::move(law)),
         period_(period),
         gain_(input_gain),
-        params_(with_rod_links<Model>(params)),
+        design_gain_(design_gain),
+        params_(with_rod_links<Model>(design)),
         coordinates_(coordinates),
         sensor_noise_(s_.seed, 1),
         drive_noise_(s_.seed, 2) {
@@ -158,8 +161,8 @@ class MeasuredLoop {
     if (s_.predict && assumed > 0) {  // the state the command will meet, `assumed` periods later
       Eigen::VectorXd ahead(2 * n);
       // A failed prediction (M(q) not positive definite on the way) leaves the estimate as it is.
-      // believed_ holds forces or torques (gain 1), the estimate is in the scene's coordinates
-      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, 1.0, assumed, believed_.data(),
+      // believed_ holds the plant's forces or torques (gain_ per unit of u), the model the design's
+      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, design_gain_ / gain_, assumed, believed_.data(),
                              estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
         seen = coordinates_.to_canonical(ahead);
       }
@@ -235,7 +238,7 @@ class MeasuredLoop {
         break;
       }
       case EstimatorKind::ekf: {
-        const ipgen_loop_ekf filter{measurement(), period_, gain_, process_noise_.data(), measurement_noise_.data(),
+        const ipgen_loop_ekf filter{measurement(), period_, design_gain_, process_noise_.data(), measurement_noise_.data(),
                                     &MeasuredLoop::field, this};
         // A failed step (M(q) or the innovation covariance not positive definite) keeps the
         // last estimate, as the firmware does.
@@ -279,7 +282,7 @@ class MeasuredLoop {
 
   LoopSettings s_;
   Input::Feedback law_;
-  double period_, gain_;
+  double period_, gain_, design_gain_;
   ParamsOf<Model> params_;
   Coordinates coordinates_;
   NormalStream sensor_noise_, drive_noise_;

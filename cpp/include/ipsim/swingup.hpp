@@ -60,6 +60,9 @@ struct SwingUp {
   enum class Method { energy, trajectory };
   Method method = Method::energy;
   double u_max = 0.0;   ///< |u| ≤ u_max [N or N m]
+  /// The energy law's force (the design model's) per force the plant gets for the same volts: the
+  /// design's force per volt over the plant's (1 unless a sweep's run changed the motor).
+  double law_gain = 1.0;
   double period = 0.0;  ///< sampling period [s]
   double hold = 0.0;    ///< the run ends this long into the hold phase [s]
   Eigen::VectorXd hold_gain, target;  ///< K_hold, x_target (2·kDof)
@@ -137,7 +140,7 @@ struct SwingUp {
       }
     }
     const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
-                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, 1.0};
+                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, law_gain};
     const LawContext<Model> context{&params, n, hold_gain.data()};
     std::vector<double> refs(track_law ? static_cast<std::size_t>(IPGEN_LOOP_TRACK_REFS(n, track_horizon)) : 0U);
     const ipgen_loop_swingup law{n,
