@@ -276,6 +276,18 @@ def test_predict_needs_an_estimator_that_runs_the_model(kind: str) -> None:
     assert "estimator.predict" in message and '"ekf"' in message and kind in message
 
 
+def test_predict_with_a_trajectory_swingup_or_an_acceleration_base_is_refused() -> None:
+    swing = BASE.split("[initial]")[0].format(type="rotary") + (
+        '[simulation]\nt_end = 3.0\nsample = 0.001\n[swingup]\nmethod = "trajectory"\nduration = 1.5\n'
+        'u_max = 5.0\nperiod = 0.001\n'
+    )
+    message = refused(swing + '[sensors]\ndelay = 0.002\n[estimator]\npredict = true\n')
+    assert "estimator.predict" in message and "trajectory" in message
+    message = refused(text('[sensors]\ndelay = 0.002\n[estimator]\npredict = true\n',
+                           actuator='[actuator]\nkind = "acceleration"'))  # fmt: skip
+    assert "estimator.predict" in message and "acceleration" in message
+
+
 def test_predict_is_written_only_when_asked(tmp_path: Path) -> None:
     asked = config(scene(tmp_path, '[sensors]\ndelay = 0.002\n[estimator]\nkind = "exact"\npredict = true\n'))
     assert asked["estimator.predict"] == "1" and asked["sensors.delay"] == "0.002"

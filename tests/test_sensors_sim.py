@@ -407,6 +407,29 @@ def test_the_energy_law_runs_the_design_model(simulator: Path, tmp_path: Path, d
     assert abs(expected["design"] - expected["plant"]) > 1e-3 * abs(got)  # the two models tell apart
 
 
+def test_the_energy_law_gives_the_design_motors_volts(simulator: Path, tmp_path: Path) -> None:
+    """A dc_motor scene whose design model's force per volt is 1.25 × the plant's (a sweep's run
+    with Rm × 0.8): the law's force is the same (the same design parameters), its volts are that
+    force over the design's gain, so the first command is 1/1.25 of the plant-designed run's."""
+    from ipgen.sweeps.mpc_model import model_lines
+
+    motor = '[actuator]\nkind = "dc_motor"\nRm = 8.4\nkt = 0.042\nkm = 0.042\n'
+    text = SCENE.split("[initial]")[0].format(m=M, l=L, delta=DELTA) + motor + (
+        '[simulation]\nt_end = 0.01\nsample = 0.001\n'
+        '[swingup]\nmethod = "energy"\nu_max = 50.0\nperiod = 0.001\n'
+    )
+    plain = Run(simulator, tmp_path, text, name="plain")
+    gain = float(plain.keys["actuator.gain"])
+    lines = [
+        f"controller.model.gain = {1.25 * gain!r}" if line.startswith("controller.model.gain") else line
+        for line in model_lines((tmp_path / "plain.cfg").read_text())
+    ]
+    assert any(line.startswith("controller.model.gain") for line in lines)
+    design = Run(simulator, tmp_path, text, name="design", cfg_lines="".join(f"{line}\n" for line in lines))
+    assert abs(plain["u"][0]) > 0.1  # volts
+    assert design["u"][0] == pytest.approx(plain["u"][0] / 1.25, rel=1e-9)
+
+
 def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: Path, tmp_path: Path) -> None:
     """The swing-up law sees the EKF's estimate from 2048-count encoders; it still swings up and
     holds, and the phase stays the CSV's last column."""
@@ -443,6 +466,7 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
         ({"controller.period": "0"}, "controller.period = 0 must be > 0"),
         ({"actuator.pulses": "0.1 0.2"}, "3 numbers a pulse"),
         ({"estimator.predict": "1"}, "estimator.predict needs estimator exact or ekf"),
+        ({"estimator.predict": "0.5"}, "estimator.predict must be 0 or 1"),
     ],
 )  # fmt: skip
 def test_the_simulator_refuses_bad_loop_keys(

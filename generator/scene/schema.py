@@ -823,6 +823,9 @@ class SwingupTable(Table):
             swing.relations(self, context)
         return self
 
+    def context(self) -> dict[str, Any]:
+        return {"swingup_method": self.method}
+
 
 # ---------------------------------------------------------------------------- the document
 

@@ -229,13 +229,24 @@ class EstimatorTable(BaseModel):
     )
 
     @model_validator(mode="after")
-    def _relations(self) -> EstimatorTable:
+    def _relations(self, info: ValidationInfo) -> EstimatorTable:
         if self.cutoff is not None and self.kind != "filter":
             refuse_line(f'estimator.cutoff applies to kind = "filter" only (kind is "{self.kind}")')
         if self.predict and self.kind not in ("exact", "ekf"):
             refuse_line(
                 f'estimator.predict needs kind = "ekf" or "exact": the prediction runs the model '
                 f'(kind is "{self.kind}")'
+            )
+        context = info.context or {}
+        if self.predict and context.get("swingup_method") == "trajectory":
+            refuse_line(
+                "estimator.predict with a trajectory swing-up is not supported yet (its plan would be "
+                "read a delay early): remove predict, or use the energy swing-up"
+            )
+        if self.predict and str(context.get("u_unit", "")).endswith("s^2"):
+            refuse_line(
+                "estimator.predict with an acceleration-driven base is not supported yet (the "
+                "prediction runs the force-driven model): remove predict"
             )
         if self.kind not in ("kalman", "ekf"):
             for key in ("process_noise", "measurement_noise"):

@@ -32,8 +32,9 @@
 //   controller.barrier         (optional, > 0: each QP Newton steps on its log-barrier problem at this weight)
 //   controller.sensitivities = exact | frozen | shifted   (optional: frozen, the Jacobians at each stage's
 //                                            start; shifted, those kept from the last sample)
-//   controller.model.m l delta g com J J_axial tip gain Ir gr   (optional: the model the MPC predicts
-//                              with; absent, the scene's: a sweep's run states the nominal scene's)
+//   controller.model.m l delta g com J J_axial tip gain Ir gr   (optional: the loop's design model: the MPC,
+//                              the energy law, the EKF and the prediction run it; absent, the scene's: a
+//                              sweep's run states the nominal scene's)
 //   coulomb = 0.01 0 0         coulomb_speed = 0.01          (optional: Coulomb friction [N or N m], smooth law)
 //   actuator = dc_motor        actuator.gain = b            (optional: u in volts, b the force or torque per
 //                              volt; the parameters are then the motor-folded ones, docs/model.md)
@@ -397,7 +398,9 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       loop.cutoff = file.number("estimator.cutoff");
     }
     if (file.has("estimator.predict")) {
-      loop.predict = file.number("estimator.predict") != 0.0;
+      const double predict = file.number("estimator.predict");
+      if (predict != 0.0 && predict != 1.0) file.fail(file.line("estimator.predict"), "estimator.predict must be 0 or 1");
+      loop.predict = predict == 1.0;
       if (loop.predict && loop.kind != EstimatorKind::exact && loop.kind != EstimatorKind::ekf)
         file.fail(file.line("estimator.predict"), "estimator.predict needs estimator exact or ekf (the prediction runs the model)");
     }
