@@ -517,3 +517,43 @@ def test_a_sweeps_runs_keep_the_model_a_loop_runs(loop: str, stated: bool) -> No
     plant = {"controller.model.m", "controller.model.l", "controller.model.delta", "controller.model.g"}
     assert keys == ({*plant, "controller.model.gain"} if stated else set())
     assert model_lines(cfg + "".join(f"{line}\n" for line in lines)) == []
+
+
+@pytest.mark.parametrize(
+    ("path", "kept"),
+    [
+        (ROOT / "scenes" / "rsip_swingup.toml", True),  # the energy law runs the model
+        (ROOT / "bench" / "scenes" / "rsip_swingup_ekf.toml", True),  # and its EKF
+        (ROOT / "bench" / "scenes" / "rsip_lqr_kalman.toml", False),  # gains and a Kalman gain: numbers
+    ],
+    ids=["energy", "energy+ekf", "lqr+kalman"],
+)
+def test_a_sweeps_run_keeps_the_energy_laws_and_the_ekfs_nominal_model(
+    tmp_path: Path, path: Path, kept: bool
+) -> None:
+    """A run of a sweep with the links twice as heavy: the plant's masses change, the model the
+    energy law and the EKF run (controller.model.*) stays the nominal scene's; a loop that runs
+    no model gets none."""
+    import re
+
+    from ipgen.experiment.config import resolved_config
+    from ipgen.experiment.scene import load_scene, read_document, scene_from_document
+    from ipgen.sweeps import execute, overrides
+    from ipgen.sweeps.mpc_model import model_lines
+
+    def numbers(cfg: str, key: str) -> list[float]:
+        found = re.search(rf"^{re.escape(key)} = (.*)$", cfg, re.MULTILINE)
+        assert found is not None, key
+        return [float(v) for v in found.group(1).split()]
+
+    scene = load_scene(path)
+    lines = tuple(model_lines(resolved_config(scene, model="rotary1")))
+    prepared = execute.Prepared(path, scene, {}, Path("unused"), tmp_path, "rotary1", (), None, lines)
+    changes = (("parameters.m[1]", 2 * scene.m[1]),)
+    heavier = scene_from_document(path, overrides.apply(read_document(path), scene, changes), designed=scene)
+    text = execute.run_config(prepared, heavier, nominal_design=True)
+    assert numbers(text, "m")[1] == 2 * scene.m[1]
+    if kept:
+        assert numbers(text, "controller.model.m") == [float(v) for v in scene.m]
+    else:
+        assert "controller.model." not in text
