@@ -14,7 +14,7 @@
 - Bad `[controller] kind = "mpc"` and `swingup.tracking` values in a fixed scene: one line each
   (hypothesis over the keys and kinds of bad value).
 - `controller.model.*` (a sweep's run keeps the MPC's nominal model): the simulator predicts with
-  them; `sweeps.mpc_model` states the nominal config's parameters, for MPC configs only.
+  them; `sweeps.design_model` states the nominal config's parameters, for MPC configs only.
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from ipgen.common.presets import preset_path
 from ipgen.control.mpc import Mpc, MpcError
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.fixed_equations import angle_map
-from ipgen.sweeps.mpc_model import model_lines
+from ipgen.sweeps.design_model import model_lines
 
 pytest.importorskip("casadi")
 

@@ -265,7 +265,7 @@ def test_misplaced_estimator_keys_are_refused() -> None:
 @given(value=st.one_of(st.integers(-2, 2), st.floats(allow_nan=False, allow_infinity=False),
                        st.sampled_from(['"true"', '"yes"', "[true]", "{}"])))  # fmt: skip
 def test_predict_takes_only_true_or_false(value: object) -> None:
-    shown = value if isinstance(value, str) else number(float(value)) if isinstance(value, float) else value
+    shown = number(value) if isinstance(value, float) else value  # a TOML float, or the value's own text
     message = refused(text(f'[sensors]\ndelay = 0.002\n[estimator]\nkind = "ekf"\npredict = {shown}\n'))
     assert "estimator.predict" in message
 

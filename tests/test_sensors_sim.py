@@ -411,7 +411,7 @@ def test_the_energy_law_gives_the_design_motors_volts(simulator: Path, tmp_path:
     """A dc_motor scene whose design model's force per volt is 1.25 × the plant's (a sweep's run
     with Rm × 0.8): the law's force is the same (the same design parameters), its volts are that
     force over the design's gain, so the first command is 1/1.25 of the plant-designed run's."""
-    from ipgen.sweeps.mpc_model import model_lines
+    from ipgen.sweeps.design_model import model_lines
 
     motor = '[actuator]\nkind = "dc_motor"\nRm = 8.4\nkt = 0.042\nkm = 0.042\n'
     text = SCENE.split("[initial]")[0].format(m=M, l=L, delta=DELTA) + motor + (

@@ -509,7 +509,7 @@ def test_a_sweeps_runs_keep_the_model_a_loop_runs(loop: str, stated: bool) -> No
     """`model_lines`: the nominal plant stated as controller.model.* (the simulator's Scene::design)
     for a loop that runs a model (an MPC, the energy law, an EKF, the prediction over a delay),
     none for one that runs numbers (gains, a plan, a Kalman gain); none where already stated."""
-    from ipgen.sweeps.mpc_model import model_lines
+    from ipgen.sweeps.design_model import model_lines
 
     cfg = "m = 0.5 0.3\nl = 0.6 0.5\ndelta = 0.3 0.01\ng = 9.81\nactuator.gain = 0.005\n" + loop
     lines = model_lines(cfg)
@@ -539,7 +539,7 @@ def test_a_sweeps_run_keeps_the_energy_laws_and_the_ekfs_nominal_model(
     from ipgen.experiment.config import resolved_config
     from ipgen.experiment.scene import load_scene, read_document, scene_from_document
     from ipgen.sweeps import execute, overrides
-    from ipgen.sweeps.mpc_model import model_lines
+    from ipgen.sweeps.design_model import model_lines
 
     def numbers(cfg: str, key: str) -> list[float]:
         found = re.search(rf"^{re.escape(key)} = (.*)$", cfg, re.MULTILINE)

@@ -131,7 +131,7 @@ def closed_loop(
     pending = np.zeros(delay + 1)  # ipgen_loop_delay's: the commands on their way, oldest first
     if estimator is not None:
         estimator.reset()
-    field = FIELD(_field_of(model))  # kept alive while C may call it back
+    field = FIELD(_field_of(model)) if predict else None  # kept alive while C may call it back
     ahead, work = np.zeros(2 * dof), np.zeros(12 * dof)
     ts, xs, ys, hats, us, applied_ = [], [], [], [], [], []
     last_applied = 0.0

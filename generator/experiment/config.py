@@ -103,7 +103,7 @@ CFG_KEYS: dict[str, str] = {
     },
     **{
         f"controller.model.{key}": f"mpc: the model it predicts with, {key} (absent: the scene's; "
-        "a sweep's run keeps the nominal model, sweeps/mpc_model.py)"
+        "a sweep's run keeps the nominal model, sweeps/design_model.py)"
         for key in ("m", "l", "delta", "g", "com", "J", "J_axial", "tip", "gain", "Ir", "gr")
     },
     "swingup": "energy | trajectory",

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 from ipgen.errors import Error
 from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
-from ipgen.sweeps.mpc_model import model_lines
+from ipgen.sweeps.design_model import model_lines
 from ipgen.sweeps.spec import SEEDED_KEYS
 from ipgen.sweeps.success import Judgement, Success, judge
 
@@ -97,7 +97,7 @@ class Prepared:
     model: str
     header: tuple[tuple[str, str], ...]  # the model library's sources
     fixed: FixedScene | None = None
-    model_lines: tuple[str, ...] = ()  # an MPC's nominal model (`sweeps.mpc_model`), for every run
+    model_lines: tuple[str, ...] = ()  # the loop's nominal design model (`sweeps.design_model`), every run
 
 
 _PREPARED: dict[str, Prepared] = {}
@@ -280,7 +280,7 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
 
 def run_config(prepared: Prepared, scene: Scene, *, nominal_design: bool) -> str:
     """The resolved config of one run of a cart or arm scene: `scene`'s, and with the nominal
-    design an MPC's model stated as the nominal scene's (`sweeps.mpc_model`)."""
+    design the loop's model stated as the nominal scene's (`sweeps.design_model`)."""
     from ipgen.experiment.config import resolved_config
 
     text = resolved_config(scene, model=prepared.model)

@@ -29,7 +29,7 @@ from ipgen.common.safetext import abbreviate
 from ipgen.model.fixed import FixedPendulum
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scorecard
-from ipgen.sweeps.mpc_model import model_lines
+from ipgen.sweeps.design_model import model_lines
 from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels, parse_vary, split_key
 from ipgen.sweeps.success import Judgement, Success, judge
 

@@ -166,7 +166,7 @@ struct Scene {
   /// The model the loop is designed with: the MPC's predictions, the energy law's mass matrix and
   /// bias, the EKF's and the delay prediction's dynamics, and its force per volt. The plant's
   /// (params, input_gain) unless controller.model.* states another: a sweep's runs keep the
-  /// nominal scene's while the plant changes (generator/sweeps/mpc_model.py).
+  /// nominal scene's while the plant changes (generator/sweeps/design_model.py).
   ParamsOf<Model> design{};
   double design_gain = 1.0;
   /// `swingup = energy | trajectory`: the swing-up that sets settings.input (sampled), and the
@@ -362,24 +362,19 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       loop.zero.assign(zero.data(), zero.data() + m);
     }
     // resolution, noise, zero, seed and cutoff: their ranges are cfg_rules.hpp's (checked in load)
-    const double delay = file.number("sensors.delay");
-    const double periods = std::round(delay / period);
-    if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= kDelayTolerance * std::max(delay, period) &&
-          periods <= kMaxDelayPeriods)) {
-      file.fail(file.line("sensors.delay"), "sensors.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
-    }
-    loop.delay_periods = static_cast<long>(periods);
-    loop.assumed_delay_periods = loop.delay_periods;
-    if (file.has("estimator.delay")) {  // the delay the loop is built for, not the rig's
-      const double assumed = file.number("estimator.delay");
-      const double assumed_periods = std::round(assumed / period);
-      if (!(std::isfinite(assumed) && assumed >= 0.0 &&
-            std::abs(assumed - assumed_periods * period) <= kDelayTolerance * std::max(assumed, period) &&
-            assumed_periods <= kMaxDelayPeriods)) {
-        file.fail(file.line("estimator.delay"), "estimator.delay must be a whole multiple of the period " + detail::format_number(period) + " s");
+    // A delay key's whole number of sampling periods (limits.hpp's rule), or its one-line failure.
+    auto whole_periods = [&](const std::string& key) {
+      const double delay = file.number(key);
+      const double periods = std::round(delay / period);
+      if (!(std::isfinite(delay) && delay >= 0.0 && std::abs(delay - periods * period) <= kDelayTolerance * std::max(delay, period) &&
+            periods <= kMaxDelayPeriods)) {
+        file.fail(file.line(key), key + " must be a whole multiple of the period " + detail::format_number(period) + " s");
       }
-      loop.assumed_delay_periods = static_cast<long>(assumed_periods);
-    }
+      return static_cast<long>(periods);
+    };
+    loop.delay_periods = whole_periods("sensors.delay");
+    // the delay the loop is built for: the rig's, unless estimator.delay tells it another
+    loop.assumed_delay_periods = file.has("estimator.delay") ? whole_periods("estimator.delay") : loop.delay_periods;
     const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
     loop.seed = static_cast<std::uint64_t>(seed);
     const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";
@@ -460,7 +455,7 @@ void load_rotors(const SceneFile& file, const std::string& prefix, int m, Params
 /// links as built where given, else the rods of m and l; a dc_motor's gain required; a fixed
 /// chain's Ir and gr where given, else no rotor and gr 1); what does not apply is refused.
 template <class Model>
-void load_mpc_model(const SceneFile& file, const Scene<Model>& scene, ParamsOf<Model>& model, double& gain) {
+void load_design_model(const SceneFile& file, const Scene<Model>& scene, ParamsOf<Model>& model, double& gain) {
   const int n = dof_of<Model>();
   bool fixed = false;
   if constexpr (is_runtime<Model>) fixed = Model::fixed_pivot();
@@ -858,7 +853,7 @@ Scene<Model> load(const SceneFile& file) {
   scene.design_gain = scene.input_gain;
   bool stated = false;
   for (const auto& key : file.keys()) stated = stated || key.rfind("controller.model.", 0) == 0;
-  if (stated) load_mpc_model<Model>(file, scene, scene.design, scene.design_gain);
+  if (stated) load_design_model<Model>(file, scene, scene.design, scene.design_gain);
   if (file.has("controller") && scene.fixed_controllers.empty() && file.text("controller") == "mpc") {
     if (kind != "zero") {
       file.fail(file.line("controller"), "a controller sets u: input must be `zero`, got `" + kind + "`");

@@ -22,20 +22,16 @@ PLANT_KEYS: dict[str, str] = {
 }
 
 
-def is_mpc(cfg: str) -> bool:
-    """Whether a resolved config's controller is an MPC (`controller = mpc`)."""
-    return any(line.replace(" ", "") == "controller=mpc" for line in cfg.splitlines())
-
-
-# Resolved-config lines of a loop that runs a model at run time (besides an MPC).
-MODEL_USERS = ("swingup=energy", "estimator=ekf", "estimator.predict=1")
+# Resolved-config lines (spaces removed) of a loop that runs a model at run time: an MPC, the energy
+# swing-up, an EKF, the prediction over a delay (the others run numbers designed before the run:
+# gains, plans, a Kalman gain).
+MODEL_USERS = ("controller=mpc", "swingup=energy", "estimator=ekf", "estimator.predict=1")
 
 
 def runs_a_model(cfg: str) -> bool:
-    """Whether a resolved config's loop runs a model: an MPC, the energy swing-up, an EKF or the
-    prediction over a delay (the others run numbers designed before the run: gains, plans)."""
+    """Whether a resolved config's loop runs a model (MODEL_USERS)."""
     lines = {line.replace(" ", "") for line in cfg.splitlines()}
-    return is_mpc(cfg) or any(line in lines for line in MODEL_USERS)
+    return any(line in lines for line in MODEL_USERS)
 
 
 def model_lines(nominal_cfg: str) -> list[str]:
