@@ -192,6 +192,33 @@ class EnergyControl:
     def __init__(self, law: Any) -> None:
         self.law = law
         self._caught: int | None = None
+        # energy_step: the target's offset, and what the learning rules remember
+        self.offset = 0.0
+        self._in_window = False
+        self._swinging = False
+        self._rate_before = 0.0
+        self._last_peak = 0.0
+
+    def _learn(self, angle: float, rate: float) -> None:
+        """docs/swingup.md's rules for the learnt target, at a swing sample."""
+        law = self.law
+        off = abs(angle - 2 * math.pi * math.floor(angle / (2 * math.pi) + 0.5))
+        in_window = off <= law.catch_angle
+        if in_window and not self._in_window and abs(rate) > law.catch_rate:
+            self.offset -= law.energy_step  # entering the window too fast to be caught
+        self._in_window = in_window
+        self._swinging = self._swinging or abs(rate) > law.catch_rate
+        if self._swinging and rate * self._rate_before < 0:  # a turn
+            self._swinging = False
+            if not in_window and off < math.pi / 2:
+                if self._last_peak > 0 and off >= self._last_peak - 0.1 * law.catch_angle:
+                    self.offset += law.energy_step  # no nearer upright than the last turn: stalled
+                self._last_peak = off
+            else:
+                self._last_peak = 0.0
+        self._rate_before = rate
+        limit = law.plant.m[1] * law.plant.g * law.plant.l[1]  # 2 energy_weight
+        self.offset = min(max(self.offset, -limit), limit)
 
     def control(self, k: int, x: np.ndarray) -> tuple[float, str]:
         from ipgen.control.energy import link_energy, mass_and_bias
@@ -217,9 +244,11 @@ class EnergyControl:
             return float(np.clip(u, -law.u_max, law.u_max)), "hold"
         q, qd = x[:dof], x[dof:]
         mass, bias = mass_and_bias(law.plant, q, qd)
+        if getattr(law, "energy_step", 0.0) > 0:
+            self._learn(float(x[1]), float(x[dof + 1]))
         energy = link_energy(law.plant, x)
         direction = math.copysign(1.0, float(qd[1]) * mass[1, 0]) if qd[1] * mass[1, 0] != 0 else 1.0
-        pump = law.gain_energy * (energy - law.energy_target) * direction
+        pump = law.gain_energy * (energy - (law.energy_target + self.offset)) * direction
         a = float(np.clip(pump, -law.accel_max, law.accel_max))
         a -= law.gain_position * float(q[0]) + law.gain_velocity * float(qd[0])
         if law.acceleration:

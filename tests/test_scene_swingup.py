@@ -81,6 +81,17 @@ def test_release_angle_reaches_the_config_only_when_set(tmp_path: Path) -> None:
     assert "swingup.release_angle" not in resolved_config(plain)
 
 
+def test_energy_step_reaches_the_config_only_when_set(tmp_path: Path) -> None:
+    """`energy_step` > 0 is written to the resolved config (swingup.energy_step); 0 or absent
+    writes the config a scene without it wrote before (no such key)."""
+    learnt = load_scene(swingup(tmp_path, {"swingup.energy_step": "0.002"}))
+    assert "swingup.energy_step = 0.002\n" in resolved_config(learnt)
+    for value in ("0", None):
+        (tmp_path / f"plain{value}").mkdir()
+        plain = load_scene(swingup(tmp_path / f"plain{value}", {"swingup.energy_step": value}))
+        assert "swingup.energy_step" not in resolved_config(plain)
+
+
 def test_tracking_reaches_the_config_only_when_the_mpc_tracks(tmp_path: Path) -> None:
     """`tracking = "mpc"` is written to the resolved config (swingup.tracking = mpc); "lqr" or
     absent writes nothing (the config of a scene without it unchanged)."""
@@ -135,6 +146,10 @@ BAD = [
     ({"swingup.release_angle": "0"}, "swingup.release_angle = 0", "> 0"),
     ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.release_angle": "1"},
      "swingup.release_angle = 1", 'method = "energy" only'),
+    ({"swingup.energy_step": "-0.001"}, "swingup.energy_step = -0.001", "J >= 0"),
+    ({"swingup.energy_step": '"1"'}, "swingup.energy_step", "expected a number"),
+    ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.energy_step": "0.001"},
+     "swingup.energy_step = 0.001", 'method = "energy" only'),
     ({"swingup.tracking": '"mpc"'}, "swingup.tracking", 'method = "trajectory" only'),
     ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.tracking": '"mpc"'},
      "swingup.tracking", 'needs a [controller] with kind = "mpc"'),
@@ -196,7 +211,18 @@ VALUES = st.one_of(
     ),
 )
 KEYS = st.sampled_from(
-    ["method", "u_max", "x_max", "duration", "period", "hold", "gain", "release_angle", "tracking"]
+    [
+        "method",
+        "u_max",
+        "x_max",
+        "duration",
+        "period",
+        "hold",
+        "gain",
+        "release_angle",
+        "energy_step",
+        "tracking",
+    ]
 )
 
 

@@ -343,6 +343,7 @@ typedef struct {
   ipgen_real catch_angle, catch_rate, energy_target, energy_inertia, energy_weight;
   int acceleration;      /* 1: the input is the base's acceleration */
   ipgen_real input_gain; /* force or torque per unit of u (a motor's volts): the law's force is divided by it */
+  ipgen_real energy_step; /* > 0: energy_target is learnt by steps of it (ipgen_loop_energy_learn); 0: fixed */
 } ipgen_loop_energy_law;
 
 /* The multiple of 2 pi nearest q1 (half-way rounds up). */
@@ -459,13 +460,19 @@ IPGEN_LOOP_API void ipgen_loop_plan_reference(const ipgen_loop_swingup *law, lon
 }
 
 /* What a swing-up remembers: its phase, the samples seen and the upright held (q1); with a
- * catch_law, the sample of the catch and the u it last gave. */
+ * catch_law, the sample of the catch and the u it last gave; with energy_step, what the energy
+ * law has learnt (ipgen_loop_energy_learn). */
 typedef struct {
   int phase;
   long k;
   ipgen_real hold_q1;
   long hold_sample;
   ipgen_real catch_u;
+  ipgen_real energy_offset; /* J, added to energy_target */
+  ipgen_real rate_before;   /* qd1 at the last swing sample */
+  ipgen_real last_peak;     /* |q1 - 2 pi k| at the last turn short of the catch (0: none) */
+  int in_window;            /* 1: the last swing sample was within catch_angle of upright */
+  int swinging;             /* 1: |qd1| passed catch_rate since the last turn */
 } ipgen_loop_swingup_state;
 
 IPGEN_LOOP_API void ipgen_loop_swingup_start(const ipgen_loop_swingup *law, ipgen_loop_swingup_state *s) {
@@ -474,6 +481,43 @@ IPGEN_LOOP_API void ipgen_loop_swingup_start(const ipgen_loop_swingup *law, ipge
   s->hold_q1 = law->target[1];
   s->hold_sample = 0;
   s->catch_u = (ipgen_real)0;
+  s->energy_offset = s->rate_before = s->last_peak = (ipgen_real)0;
+  s->in_window = s->swinging = 0;
+}
+
+/* The energy law's target learnt from the swing (law->energy_step > 0; the law then pumps to
+ * energy_target + s->energy_offset). A law whose model is not its rig settles on a swing that
+ * whirls past the catch (a lighter pendulum, a stronger motor) or turns short of it, because its
+ * E weighs speed and height in the model's ratio. So at a swing sample (x: q1, qd1):
+ * - entering the catch angle faster than catch_rate (it will pass the upright uncaught) lowers
+ *   the target by energy_step;
+ * - a turn of link 1 (qd1 changes sign, counted once: |qd1| must pass catch_rate in between)
+ *   short of the catch angle and above the horizontal, no nearer upright than the last such turn
+ *   by more than a tenth of the catch angle (the swing has stopped growing; the margin takes the
+ *   sampling's jitter of a turn's angle) raises it by energy_step.
+ * The offset stays within +-2 energy_weight (E's range from hanging to upright). */
+IPGEN_LOOP_API void ipgen_loop_energy_learn(const ipgen_loop_energy_law *law, ipgen_loop_swingup_state *s,
+                                            ipgen_real q1, ipgen_real qd1) {
+  const ipgen_real dev = q1 - ipgen_loop_upright(q1);
+  const ipgen_real off = dev < 0 ? -dev : dev, rate = qd1 < 0 ? -qd1 : qd1;
+  const ipgen_real limit = (ipgen_real)2 * law->energy_weight;
+  const int in_window = off <= law->catch_angle;
+  if (in_window && !s->in_window && rate > law->catch_rate) s->energy_offset -= law->energy_step;
+  s->in_window = in_window;
+  if (rate > law->catch_rate) s->swinging = 1;
+  if (s->swinging && qd1 * s->rate_before < 0) { /* a turn */
+    s->swinging = 0;
+    if (!in_window && off < (ipgen_real)1.5707963267948966) {
+      const ipgen_real margin = (ipgen_real)0.1 * law->catch_angle;
+      if (s->last_peak > 0 && off >= s->last_peak - margin) s->energy_offset += law->energy_step;
+      s->last_peak = off;
+    } else {
+      s->last_peak = (ipgen_real)0;
+    }
+  }
+  s->rate_before = qd1;
+  if (s->energy_offset > limit) s->energy_offset = limit;
+  if (s->energy_offset < -limit) s->energy_offset = -limit;
 }
 
 /* Scratch entries ipgen_loop_swingup_step needs. */
@@ -521,7 +565,10 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
       if (law->mass_bias(law->context, x, x + dof, M, b) != 0) {
         u = (ipgen_real)0;
       } else {
-        u = ipgen_loop_energy_input(&law->energy, dof, x, x + dof, M, b);
+        ipgen_loop_energy_law learnt = law->energy;
+        if (law->energy.energy_step > 0) ipgen_loop_energy_learn(&law->energy, s, x[1], x[dof + 1]);
+        learnt.energy_target += s->energy_offset;
+        u = ipgen_loop_energy_input(&learnt, dof, x, x + dof, M, b);
       }
     }
   }

@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 38
+#define IPGEN_LOOP_BATCH_LAYOUT 41
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -39,6 +39,7 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_energy_law, energy_weight);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, acceleration);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, input_gain);
+  out[i++] = (long)offsetof(ipgen_loop_energy_law, energy_step);
   out[i++] = (long)sizeof(ipgen_loop_swingup);
   out[i++] = (long)offsetof(ipgen_loop_swingup, u_max);
   out[i++] = (long)offsetof(ipgen_loop_swingup, target);
@@ -57,6 +58,8 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, k);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, hold_q1);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, catch_u);
+  out[i++] = (long)offsetof(ipgen_loop_swingup_state, energy_offset);
+  out[i++] = (long)offsetof(ipgen_loop_swingup_state, swinging);
   out[i++] = (long)sizeof(long);
   return i;
 }

@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 38  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 41  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -114,6 +114,7 @@ class EnergyLaw(ctypes.Structure):
             "energy_target", "energy_inertia", "energy_weight",
         )),
         ("acceleration", ctypes.c_int), ("input_gain", _real),
+        ("energy_step", _real),  # 0: the target is fixed
     ]  # fmt: skip
 
 
@@ -135,11 +136,13 @@ class SwingUp(ctypes.Structure):
 
 class SwingUpState(ctypes.Structure):
     """ipgen_loop_swingup_state: the phase (an index of PHASES), the samples seen, the upright held,
-    a catch law's sample of the catch and last u."""
+    a catch law's sample of the catch and last u, and what the energy law learns of its target."""
 
     _fields_ = [
         ("phase", ctypes.c_int), ("k", ctypes.c_long), ("hold_q1", _real), ("hold_sample", ctypes.c_long),
         ("catch_u", _real),
+        ("energy_offset", _real), ("rate_before", _real), ("last_peak", _real),
+        ("in_window", ctypes.c_int), ("swinging", ctypes.c_int),
     ]  # fmt: skip
 
 
@@ -157,14 +160,15 @@ def _layout() -> list[int]:
         ctypes.sizeof(EkfFilter),
         *(offset(EkfFilter, n) for n in ("period", "gain", "Qn", "Rn", "field", "context")),
         ctypes.sizeof(EnergyLaw),
-        *(offset(EnergyLaw, n) for n in ("energy_weight", "acceleration", "input_gain")),
+        *(offset(EnergyLaw, n) for n in ("energy_weight", "acceleration", "input_gain", "energy_step")),
         ctypes.sizeof(SwingUp),
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
         offset(SwingUp, "context"), offset(SwingUp, "catch_every"), offset(SwingUp, "release_angle"),
         offset(SwingUp, "catch_reset"), offset(SwingUp, "track_law"), offset(SwingUp, "track_horizon"),
         offset(SwingUp, "track_refs"),
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
-        offset(SwingUpState, "catch_u"),
+        offset(SwingUpState, "catch_u"), offset(SwingUpState, "energy_offset"),
+        offset(SwingUpState, "swinging"),
         ctypes.sizeof(ctypes.c_long),
     ]  # fmt: skip
 

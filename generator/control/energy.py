@@ -100,6 +100,7 @@ class EnergySwingUp:
     energy_target: float = 0.0  # E0 [J]
     acceleration: bool = False  # u is the base's acceleration ([actuator] kind "acceleration"): u = a
     release_angle: float = 0.0  # rad: the hold gives the link back to the swing beyond it (0: never)
+    energy_step: float = 0.0  # J: the target's learning step (0: E0 fixed; energy_swingup's docstring)
     # ipgen_loop_swingup_state (the phase, the upright held); None until the first `control`
     _state: SwingUpState | None = field(default=None, init=False, repr=False, compare=False)
     _callback: Any = field(default=None, init=False, repr=False, compare=False)  # MASS_BIAS on the plant
@@ -152,7 +153,7 @@ class EnergySwingUp:
         energy = EnergyLaw(
             self.gain_energy, self.gain_position, self.gain_velocity, self.accel_max, self.catch_angle,
             self.catch_rate, self.energy_target, m1 * l1**2 / 3, 0.5 * m1 * g * l1, int(self.acceleration),
-            1.0,
+            1.0, self.energy_step,
         )  # fmt: skip
         if self._callback is None:
             self._callback = MASS_BIAS(self._mass_bias)
@@ -191,6 +192,7 @@ def energy_swingup(
     design_speed: float = 0.0,
     law: str = "energy",
     release_angle: float | None = None,
+    energy_step: float = 0.0,
 ) -> EnergySwingUp:
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
@@ -212,6 +214,11 @@ def energy_swingup(
     `release_angle` [rad, catch_angle < it < π/2; default None: the hold is for good]: a hold that
     lets the link fall more than this from the upright it caught gives it back to the energy law,
     which swings it up for another catch.
+    `energy_step` [J, ≥ 0; default 0: E0 fixed]: the law learns its target on a rig unlike its
+    model. A pass through the catch window (|θ1| ≤ catch_angle) faster than catch_rate lowers the
+    target by this step; a swing that turns short of the window, above the horizontal and no
+    nearer upright than the last turn (by more than catch_angle / 10), raises it
+    (cpp/include/ipgen_loop.h, ipgen_loop_energy_learn).
 
     `law = "proportional"`: Quanser's form of the same law (QUBE-Servo 2 swing-up lab), its
     constants in the rig's units at the base's tip (the arm's tip at l0 for a rotary base, the
@@ -253,6 +260,9 @@ def energy_swingup(
         raise PlanError(f'energy swing-up needs gravity: g = {g:g}; use method "trajectory"')
     if law not in LAWS:
         raise PlanError(f"law = {law!r}: expected {' or '.join(map(repr, LAWS))}")
+    step = finite_number("energy_step", energy_step)
+    if step < 0:
+        raise PlanError(f"energy_step = {energy_step!r}: expected a finite number >= 0 (0: E0 fixed)")
     speed = finite_number("design_speed", design_speed)
     if speed < 0:
         raise PlanError(f"design_speed = {design_speed!r}: expected a finite number >= 0")
@@ -315,6 +325,7 @@ def energy_swingup(
         energy_target=e0,
         acceleration=acceleration,
         release_angle=release,
+        energy_step=step,
     )
 
 

@@ -119,6 +119,8 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         ("energy_target", law.energy_target),
         ("energy_inertia", m1 * l1**2 / 3),
         ("energy_weight", 0.5 * m1 * plant.g * l1),
+        # absent unless learning: the .cfg of a scene without it unchanged
+        *((("energy_step", law.energy_step),) if law.energy_step > 0 else ()),
     )
     return SwingUpLaw(
         method="energy",

@@ -111,7 +111,7 @@ CFG_KEYS: dict[str, str] = {
         f"swingup.{key}": "the swing-up law (control/swingup.py)"
         for key in (
             "u_max period hold hold_gain target gain_energy gain_position gain_velocity accel_max "
-            "catch_angle catch_rate energy_target energy_inertia energy_weight release_angle "
+            "catch_angle catch_rate energy_target energy_inertia energy_weight release_angle energy_step "
             "steps inputs states gains tracking"
         ).split()
     },

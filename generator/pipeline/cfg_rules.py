@@ -59,6 +59,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "swingup.catch_angle": ("swingup", "catch_angle"),
     "swingup.catch_rate": ("swingup", "catch_rate"),
     "swingup.release_angle": ("swingup", "release_angle"),
+    "swingup.energy_step": ("swingup", "energy_step"),
     "sensors.measured": ("sensors", "measured"),
     "sensors.resolution": ("sensors", "resolution"),
     "sensors.noise": ("sensors", "noise"),

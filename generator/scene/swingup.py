@@ -26,6 +26,7 @@ ENERGY_KEYS: tuple[str, ...] = (
     "catch_angle",
     "catch_rate",
     "release_angle",
+    "energy_step",
     "gain_position",
     "gain_velocity",
     "q",

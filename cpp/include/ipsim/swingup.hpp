@@ -83,6 +83,8 @@ struct SwingUp {
   /// gives it back to the energy law (0: the hold is for good); catch_reset (if any) then makes
   /// the catch law's next catch start afresh.
   double release_angle = 0.0;
+  /// J: > 0, the energy law learns its target by steps of it (ipgen_loop_energy_learn); 0: fixed
+  double energy_step = 0.0;
   std::function<void()> catch_reset;
   /// Trajectory only, [swingup] tracking = "mpc": the controller that tracks the plan instead of
   /// its gains, u [N or N m] from x and the plan's reference per stage (x_refs: track_horizon + 1
@@ -105,6 +107,9 @@ struct SwingUp {
     double catch_u = 0.0;
     /// release_angle: how many times the hold gave the link back to the swing
     int releases = 0;
+    /// energy_step: what the energy law has learnt of its target (ipgen_loop_swingup_state's)
+    double energy_offset = 0.0, rate_before = 0.0, last_peak = 0.0;
+    int in_window = 0, swinging = 0;
   };
 
   /// Problems, one line each (empty when valid).
@@ -140,7 +145,7 @@ struct SwingUp {
       }
     }
     const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
-                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, law_gain};
+                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, law_gain, energy_step};
     const LawContext<Model> context{&params, n, hold_gain.data()};
     std::vector<double> refs(track_law ? static_cast<std::size_t>(IPGEN_LOOP_TRACK_REFS(n, track_horizon)) : 0U);
     const ipgen_loop_swingup law{n,
@@ -163,7 +168,9 @@ struct SwingUp {
                                  track_law ? &SwingUp::call_track_law : nullptr,
                                  track_horizon,
                                  refs.data()};
-    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u};
+    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u,
+                                  state.energy_offset, state.rate_before, state.last_peak,
+                                  state.in_window, state.swinging};
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
     if (loop.phase == IPGEN_LOOP_HOLD && state.phase != SwingPhase::hold) {
@@ -178,6 +185,11 @@ struct SwingUp {
     }
     state.hold_sample = loop.hold_sample;
     state.catch_u = loop.catch_u;
+    state.energy_offset = loop.energy_offset;
+    state.rate_before = loop.rate_before;
+    state.last_peak = loop.last_peak;
+    state.in_window = loop.in_window;
+    state.swinging = loop.swinging;
     return u;
   }
 
@@ -346,7 +358,7 @@ IPSIM_DECL std::vector<std::string> SwingUp::problems(int state_size) const {
     }
     for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
                                       {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
-                                      {"accel_max", accel_max}}) {
+                                      {"accel_max", accel_max}, {"energy_step", energy_step}}) {
       if (!(std::isfinite(value) && value >= 0.0)) {
         found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
       }
