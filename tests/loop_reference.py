@@ -216,7 +216,8 @@ class EnergyControl:
                 self._last_peak = off
             else:
                 self._last_peak = 0.0
-        self._rate_before = rate
+        if rate != 0:  # a rate read as exactly 0 (quantised) does not hide a turn
+            self._rate_before = rate
         limit = law.plant.m[1] * law.plant.g * law.plant.l[1]  # 2 energy_weight
         self.offset = min(max(self.offset, -limit), limit)
 
@@ -230,7 +231,9 @@ class EnergyControl:
         release = getattr(law, "release_angle", 0.0)
         fallen = self._caught is not None and abs(float(x[1]) - 2 * math.pi * self._caught) > release
         if release > 0 and fallen:
-            self._caught = None  # the hold gives the link back to the swing
+            self._caught = None  # the hold gives the link back to the swing, which learns afresh
+            self._in_window = self._swinging = False  # (what it has learnt, the offset, is kept)
+            self._rate_before = self._last_peak = 0.0
         if (
             self._caught is None
             and abs(float(x[1]) - 2 * math.pi * turns) <= law.catch_angle

@@ -489,8 +489,8 @@ IPGEN_LOOP_API void ipgen_loop_swingup_start(const ipgen_loop_swingup *law, ipge
  * energy_target + s->energy_offset). A law whose model is not its rig settles on a swing that
  * whirls past the catch (a lighter pendulum, a stronger motor) or turns short of it, because its
  * E weighs speed and height in the model's ratio. So at a swing sample (x: q1, qd1):
- * - entering the catch angle faster than catch_rate (it will pass the upright uncaught) lowers
- *   the target by energy_step;
+ * - entering the catch angle faster than catch_rate lowers the target by energy_step (the law
+ *   then brakes, and the link may still slow to the catch rate inside the window and be caught);
  * - a turn of link 1 (qd1 changes sign, counted once: |qd1| must pass catch_rate in between)
  *   short of the catch angle and above the horizontal, no nearer upright than the last such turn
  *   by more than a tenth of the catch angle (the swing has stopped growing; the margin takes the
@@ -515,7 +515,7 @@ IPGEN_LOOP_API void ipgen_loop_energy_learn(const ipgen_loop_energy_law *law, ip
       s->last_peak = (ipgen_real)0;
     }
   }
-  s->rate_before = qd1;
+  if (qd1 != 0) s->rate_before = qd1; /* a rate read as exactly 0 (quantised) does not hide a turn */
   if (s->energy_offset > limit) s->energy_offset = limit;
   if (s->energy_offset < -limit) s->energy_offset = -limit;
 }
@@ -533,6 +533,8 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
     const ipgen_real dev = x[1] - s->hold_q1;
     if ((dev < 0 ? -dev : dev) > law->release_angle) {
       s->phase = IPGEN_LOOP_SWING;
+      s->rate_before = s->last_peak = (ipgen_real)0; /* the learning starts afresh, its offset kept */
+      s->in_window = s->swinging = 0;
       if (law->catch_reset) law->catch_reset(law->catch_context);
     }
   }

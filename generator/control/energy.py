@@ -215,7 +215,7 @@ def energy_swingup(
     lets the link fall more than this from the upright it caught gives it back to the energy law,
     which swings it up for another catch.
     `energy_step` [J, ≥ 0; default 0: E0 fixed]: the law learns its target on a rig unlike its
-    model. A pass through the catch window (|θ1| ≤ catch_angle) faster than catch_rate lowers the
+    model. Entering the catch window (|θ1| ≤ catch_angle) faster than catch_rate lowers the
     target by this step; a swing that turns short of the window, above the horizontal and no
     nearer upright than the last turn (by more than catch_angle / 10), raises it
     (cpp/include/ipgen_loop.h, ipgen_loop_energy_learn).

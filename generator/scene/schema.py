@@ -800,9 +800,9 @@ class SwingupTable(Table):
     )
     energy_step: Real(ge=0, says="must be a number of J >= 0") | None = Field(
         None,
-        description="energy only: the law learns its target on a rig unlike its model [J]: a pass "
-        "through the catch window faster than catch_rate lowers it by this step, a swing that stalls "
-        "short of the window raises it (default 0: the target is fixed)",
+        description="energy only: the law learns its target on a rig unlike its model [J]: entering "
+        "the catch window faster than catch_rate lowers it by this step, a swing that stalls short "
+        "of the window raises it (default 0: the target is fixed)",
     )
     gain_position: Real(ge=0, says="must be >= 0") | None = Field(
         None, description="energy only: centring k_x [1/s²] of the base (default 1)"
