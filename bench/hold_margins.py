@@ -48,7 +48,17 @@ U_MAX = 10.0  # V: the preset's input limit; drive noise is scored relative to i
 NOISE_STEP = 0.001  # s: drive noise is drawn once per loop sample (the rig's 1 kHz) and held
 TRAVEL = 1.0  # rad: the arm's travel; a drive-noise level also needs 3 σ of the arm within it
 PERIODS = (0.01, 0.005, 0.002, 0.001)  # s: the controller periods analysed
-PRESET_Q, PRESET_R = (1.0, 10.0, 0.1, 0.1), 0.3
+
+def preset_weights() -> tuple[tuple[float, ...], float]:
+    """The preset's MPC weights q (diagonal) and r, read from its scene file."""
+    import tomllib
+
+    from ipgen.common.presets import preset_path
+
+    controller = tomllib.loads(preset_path(PRESET).read_text())["controller"]
+    return tuple(float(v) for v in controller["q"]), float(controller["r"])
+
+
 GRID = {
     "q0": (0.1, 1.0, 10.0),
     "q1": (1.0, 10.0, 100.0),
@@ -297,7 +307,8 @@ def mpc_model(pendulum: Pendulum, period: float) -> tuple[np.ndarray, np.ndarray
     """(A_d, B_d) of the MPC's own discretised model at upright (RK4 over `period`, `Mpc.rk4`)."""
     import ipgen
 
-    controller = ipgen.mpc(pendulum, u_max=U_MAX, period=period, Q=list(PRESET_Q), R=PRESET_R)
+    weights, r = preset_weights()
+    controller = ipgen.mpc(pendulum, u_max=U_MAX, period=period, Q=list(weights), R=r)
     _, ad, bd = controller.rk4(np.zeros(4), 0.0)
     return ad, bd
 
@@ -322,7 +333,8 @@ def main() -> None:
     designs: list[Design] = []
     grid = list(itertools.product(*GRID.values()))
     signs = {period: stabilising_signs(a, b, period) for period in PERIODS}
-    preset_gain = lqr_gain(*mpc_model(pendulum, PERIODS[0]), PRESET_Q, PRESET_R)
+    preset_q, preset_r = preset_weights()
+    preset_gain = lqr_gain(*mpc_model(pendulum, PERIODS[0]), preset_q, preset_r)
     print("calibrating: the preset with the exact state over drive noise's levels (ipgen sweep)")
     calibration = calibrate(spread_per_volt(a, b, preset_gain, PERIODS[0])[1], scored[2])
     threshold = calibration.threshold
@@ -330,7 +342,7 @@ def main() -> None:
         ad, bd = mpc_model(pendulum, period)
         at: list[Design] = []
         for index, (*q, r) in enumerate(
-            tqdm([(*PRESET_Q, PRESET_R), *grid], desc=f"LQR designs at {period * 1e3:g} ms")
+            tqdm([(*preset_q, preset_r), *grid], desc=f"LQR designs at {period * 1e3:g} ms")
         ):
             k = lqr_gain(ad, bd, tuple(q), r)
             source = "preset" if index == 0 else "lqr"

@@ -31,7 +31,7 @@ def _plant() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     pendulum = ipgen.Pendulum.preset("qube_servo2_mpc_swingup_m4f")
     a, b = ipgen.linearize(pendulum)
-    gain = np.array([[-1.334, -22.71, -0.805, -1.853]])  # a stabilising hold (the preset's LQR, rounded)
+    gain = np.array([[-1.334, -22.71, -0.805, -1.853]])  # a stabilising hold (q = [1, 10, 0.1, 0.1], r = 0.3)
     return a, b, gain
 
 
