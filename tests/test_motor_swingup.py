@@ -94,7 +94,7 @@ def test_motor_swingup_law_is_in_volts(tmp_path: Path) -> None:
     ipgen.write_header(tmp_path / "gen", scene=_scene(tmp_path, "mc", True))
     header = (tmp_path / "gen" / "mc.h").read_text()
     # ipgen_loop_energy_input divides the law's torque by the energy law's input_gain, b
-    assert "(IPGEN_SCALAR)0.5 /* input_gain: the law's torque or force in volts" in header
+    assert "(IPGEN_SCALAR)0.5, /* input_gain: the law's torque or force in volts" in header
     (tmp_path / "main.c").write_text('#include "mc.h"\nint main(void) { return 0; }\n')
     subprocess.run(
         c_command(f"-I{tmp_path / 'gen'}", str(tmp_path / "main.c"), "-o", str(tmp_path / "a")), check=True

@@ -186,7 +186,7 @@ tracked plan (trajectory) is given up when a link is more than --divergence-angl
 with controller = mpc too, the MPC catches and holds (every controller.period, a whole multiple of
 the swing-up's period) instead of the hold LQR; with swingup.release_angle (energy), a hold whose
 link falls past it from the caught upright gives the link back to the swing, for another catch;
-with swingup.energy_step (energy), the law learns its target from the swing by steps of it [J];
+with swingup.energy_step (energy), the law learns its target from the swing by steps of it (joules);
 with swingup.tracking = mpc (trajectory), the MPC tracks the plan too, the plan its reference.
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*
