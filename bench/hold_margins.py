@@ -29,6 +29,7 @@ that one. With an estimator the hold passes fewer (the EKF preset: 48 % of drive
 from __future__ import annotations
 
 import argparse
+import functools
 import itertools
 import json
 from dataclasses import asdict, dataclass
@@ -49,8 +50,9 @@ NOISE_STEP = 0.001  # s: drive noise is drawn once per loop sample (the rig's 1 
 TRAVEL = 1.0  # rad: the arm's travel; a drive-noise level also needs 3 σ of the arm within it
 PERIODS = (0.01, 0.005, 0.002, 0.001)  # s: the controller periods analysed
 
+@functools.cache
 def preset_weights() -> tuple[tuple[float, ...], float]:
-    """The preset's MPC weights q (diagonal) and r, read from its scene file."""
+    """The preset's MPC weights q (diagonal) and r, read from its scene file (once)."""
     import tomllib
 
     from ipgen.common.presets import preset_path

@@ -259,6 +259,7 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
     size = 2 * dof
     if len(law.hold_gain) != size or len(law.target) != size:
         raise ControllerError(f"swing-up hold gain and target need {size} entries each")
+    energy_step = dict(law.energy).get("energy_step", 0.0)  # 0: the energy law's target is fixed
     context: dict[str, object] = {
         "method": law.method,
         "u_max": c_number(law.u_max),
@@ -274,8 +275,8 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         "input_gain_c": c_number(law.input_gain),  # ipgen_loop_energy_law's input_gain (1: none)
         # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
         "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
-        "energy_step": c_number(dict(law.energy).get("energy_step", 0.0)),
-        "energy_learns": dict(law.energy).get("energy_step", 0.0) > 0,  # else the target is fixed
+        "energy_step": c_number(energy_step),
+        "energy_learns": energy_step > 0,  # else the target is fixed
         "catch_every": catch_every,
         "release_angle": c_number(law.release_angle) if law.release_angle > 0 else None,
         "tracking": law.tracking,  # "mpc": the MPC tracks the plan (its reference per stage)

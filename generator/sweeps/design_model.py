@@ -11,8 +11,8 @@ reads the nominal resolved config's plant parameters and states them as `control
 
 from __future__ import annotations
 
-# Plant keys of a resolved config -> the MPC's model keys (a dc_motor's folded parameters and gain;
-# a fixed chain's rotors).
+# Plant keys of a resolved config -> the design model's keys (a dc_motor's folded parameters and
+# gain; a fixed chain's rotors).
 PLANT_KEYS: dict[str, str] = {
     **{
         key: f"controller.model.{key}"

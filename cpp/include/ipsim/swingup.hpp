@@ -102,14 +102,11 @@ struct SwingUp {
     /// track phase: at the last sampling instant, the link farthest from the plan and by how much [rad]
     int off_plan_link = 0;
     double off_plan = 0.0;
-    /// catch_law: the sample index of the catch and the last u it gave
-    long hold_sample = 0;
-    double catch_u = 0.0;
     /// release_angle: how many times the hold gave the link back to the swing
     int releases = 0;
-    /// energy_step: what the energy law has learnt of its target (ipgen_loop_swingup_state's)
-    double energy_offset = 0.0, rate_before = 0.0, last_peak = 0.0;
-    int in_window = 0, swinging = 0;
+    /// The loop runtime's memory between samples (a catch law's sample and last u, what the
+    /// energy law has learnt); its phase, k and hold_q1 are set from the fields above each sample.
+    ipgen_loop_swingup_state loop{};
   };
 
   /// Problems, one line each (empty when valid).
@@ -121,6 +118,7 @@ struct SwingUp {
   Input input(const ParamsOf<Model>& params, std::shared_ptr<State> state) const {
     state->equilibrium = target;
     state->phase = method == Method::energy ? SwingPhase::swing : SwingPhase::track;
+    state->loop = ipgen_loop_swingup_state{};
     const SwingUp copy = *this;
     auto law = [copy, params, state](double t, const Eigen::VectorXd& x) {
       return copy.control<Model>(t, x, params, *state);
@@ -168,9 +166,10 @@ struct SwingUp {
                                  track_law ? &SwingUp::call_track_law : nullptr,
                                  track_horizon,
                                  refs.data()};
-    ipgen_loop_swingup_state loop{phase_code(state.phase), k, state.equilibrium(1), state.hold_sample, state.catch_u,
-                                  state.energy_offset, state.rate_before, state.last_peak,
-                                  state.in_window, state.swinging};
+    ipgen_loop_swingup_state& loop = state.loop;
+    loop.phase = phase_code(state.phase);
+    loop.k = k;
+    loop.hold_q1 = state.equilibrium(1);
     std::vector<double> work(static_cast<std::size_t>(IPGEN_LOOP_SWINGUP_WORK(n)));
     const double u = ipgen_loop_swingup_step(&law, &loop, x.data(), work.data());
     if (loop.phase == IPGEN_LOOP_HOLD && state.phase != SwingPhase::hold) {
@@ -183,13 +182,6 @@ struct SwingUp {
       state.hold_since = std::numeric_limits<double>::quiet_NaN();
       ++state.releases;
     }
-    state.hold_sample = loop.hold_sample;
-    state.catch_u = loop.catch_u;
-    state.energy_offset = loop.energy_offset;
-    state.rate_before = loop.rate_before;
-    state.last_peak = loop.last_peak;
-    state.in_window = loop.in_window;
-    state.swinging = loop.swinging;
     return u;
   }
 
