@@ -14,7 +14,7 @@
 - Bad `[controller] kind = "mpc"` and `swingup.tracking` values in a fixed scene: one line each
   (hypothesis over the keys and kinds of bad value).
 - `controller.model.*` (a sweep's run keeps the MPC's nominal model): the simulator predicts with
-  them; `sweeps.design_model` states the nominal config's parameters, for MPC configs only.
+  them; `sweeps.design_model` states the nominal config's parameters, for a loop that runs a model.
 """
 
 from __future__ import annotations
