@@ -234,10 +234,13 @@ class EnergyControl:
             self._caught = None  # the hold gives the link back to the swing, which learns afresh
             self._in_window = self._swinging = False  # (what it has learnt, the offset, is kept)
             self._rate_before = self._last_peak = 0.0
+        deficit, base = getattr(law, "catch_deficit", 0.0), getattr(law, "catch_base", 0.0)
         if (
             self._caught is None
             and abs(float(x[1]) - 2 * math.pi * turns) <= law.catch_angle
             and abs(float(x[dof + 1])) <= law.catch_rate
+            and not (deficit > 0 and link_energy(law.plant, x) < -deficit)  # too slow to reach upright
+            and not (base > 0 and abs(float(x[0])) > base)  # the base too far out to brake
         ):
             self._caught = turns
         if self._caught is not None:

@@ -203,10 +203,11 @@ def _replaced(scene: int, line: int, kind: str, number: str, position: int) -> s
 
 
 # Not yet in the property: the energy law's constants (tests/test_swingup_tuning.py checks them;
-# release_angle and energy_step: tests/test_scene_swingup.py);
+# release_angle, energy_step, catch_deficit and catch_base: tests/test_scene_swingup.py);
 # `pulses` (arrays of arrays) is covered by tests/test_sensors.py's hypothesis tests.
 SWINGUP_TUNING = ("gain_energy", "accel_max", "design_speed", "energy_target", "catch_angle", "catch_rate",
-                  "gain_position", "gain_velocity", "release_angle", "energy_step")  # fmt: skip
+                  "gain_position", "gain_velocity", "release_angle", "energy_step",
+                  "catch_deficit", "catch_base")  # fmt: skip
 
 
 def test_every_numeric_key_is_covered() -> None:

@@ -92,6 +92,18 @@ def test_energy_step_reaches_the_config_only_when_set(tmp_path: Path) -> None:
         assert "swingup.energy_step" not in resolved_config(plain)
 
 
+@pytest.mark.parametrize(("key", "value"), [("catch_deficit", "0.0006"), ("catch_base", "0.45")])
+def test_a_catch_condition_reaches_the_config_only_when_set(tmp_path: Path, key: str, value: str) -> None:
+    """`catch_deficit` and `catch_base` > 0 are written to the resolved config; 0 or absent
+    writes the config a scene without them wrote before (no such key)."""
+    gated = load_scene(swingup(tmp_path, {f"swingup.{key}": value}))
+    assert f"swingup.{key} = {value}\n" in resolved_config(gated)
+    for off in ("0", None):
+        (tmp_path / f"plain{off}").mkdir()
+        plain = load_scene(swingup(tmp_path / f"plain{off}", {f"swingup.{key}": off}))
+        assert f"swingup.{key}" not in resolved_config(plain)
+
+
 def test_tracking_reaches_the_config_only_when_the_mpc_tracks(tmp_path: Path) -> None:
     """`tracking = "mpc"` is written to the resolved config (swingup.tracking = mpc); "lqr" or
     absent writes nothing (the config of a scene without it unchanged)."""
@@ -150,6 +162,11 @@ BAD = [
     ({"swingup.energy_step": '"1"'}, "swingup.energy_step", "expected a number"),
     ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.energy_step": "0.001"},
      "swingup.energy_step = 0.001", 'method = "energy" only'),
+    ({"swingup.catch_deficit": "-0.001"}, "swingup.catch_deficit = -0.001", "J >= 0"),
+    ({"swingup.catch_deficit": '"1"'}, "swingup.catch_deficit", "expected a number"),
+    ({"swingup.catch_base": "-0.5"}, "swingup.catch_base = -0.5", "rad or m >= 0"),
+    ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.catch_base": "0.5"},
+     "swingup.catch_base = 0.5", 'method = "energy" only'),
     ({"swingup.tracking": '"mpc"'}, "swingup.tracking", 'method = "trajectory" only'),
     ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.tracking": '"mpc"'},
      "swingup.tracking", 'needs a [controller] with kind = "mpc"'),
@@ -221,6 +238,8 @@ KEYS = st.sampled_from(
         "gain",
         "release_angle",
         "energy_step",
+        "catch_deficit",
+        "catch_base",
         "tracking",
     ]
 )

@@ -337,13 +337,19 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
  *   a = sat_accel_max(gain_energy (E - energy_target) sign(qd1 M10)) - gain_position q0 - gain_velocity qd0,
  * the base's acceleration; the input is a itself (acceleration), or the force or torque that
  * gives it, M00 a + M01 qdd1 + b0 with qdd1 = -(M10 a + b1) / M11 (M, b the mass matrix and bias
- * at q, qd), divided by input_gain. Caught when |q1 - 2 pi k| <= catch_angle and |qd1| <= catch_rate. */
+ * at q, qd), divided by input_gain. Caught when |q1 - 2 pi k| <= catch_angle and |qd1| <= catch_rate,
+ * and, where set, E >= -catch_deficit and |q0| <= catch_base (ipgen_loop_energy_ready). */
 typedef struct {
   ipgen_real gain_energy, gain_position, gain_velocity, accel_max;
   ipgen_real catch_angle, catch_rate, energy_target, energy_inertia, energy_weight;
   int acceleration;      /* 1: the input is the base's acceleration */
   ipgen_real input_gain; /* force or torque per unit of u (a motor's volts): the law's force is divided by it */
   ipgen_real energy_step; /* > 0: energy_target is learnt by steps of it (ipgen_loop_energy_learn); 0: fixed */
+  /* > 0: a catch needs E >= -catch_deficit, the link within it of upright's energy (one too slow
+   * to reach upright is left to the swing); 0: any E */
+  ipgen_real catch_deficit;
+  /* > 0: a catch needs |q0| <= catch_base, the base (rad or m) near its centre; 0: anywhere */
+  ipgen_real catch_base;
 } ipgen_loop_energy_law;
 
 /* The multiple of 2 pi nearest q1 (half-way rounds up). */
@@ -358,11 +364,24 @@ IPGEN_LOOP_API int ipgen_loop_energy_caught(const ipgen_loop_energy_law *law, ip
   return (dev < 0 ? -dev : dev) <= law->catch_angle && (qd1 < 0 ? -qd1 : qd1) <= law->catch_rate;
 }
 
+/* The law's energy E of link 1 at (q1, qd1) [J]: 0 upright at rest. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_link_energy(const ipgen_loop_energy_law *law, ipgen_real q1, ipgen_real qd1) {
+  return (ipgen_real)0.5 * law->energy_inertia * qd1 * qd1 + law->energy_weight * (ipgen_loop_cos(q1) - (ipgen_real)1);
+}
+
+/* 1 if the hold may take x = [q; qd] (2 dof entries): link 1 caught (ipgen_loop_energy_caught),
+ * with energy enough to reach upright (catch_deficit) and the base near its centre (catch_base). */
+IPGEN_LOOP_API int ipgen_loop_energy_ready(const ipgen_loop_energy_law *law, int dof, const ipgen_real x[]) {
+  const ipgen_real base = x[0] < 0 ? -x[0] : x[0];
+  if (!ipgen_loop_energy_caught(law, x[1], x[dof + 1])) return 0;
+  if (law->catch_deficit > 0 && ipgen_loop_link_energy(law, x[1], x[dof + 1]) < -law->catch_deficit) return 0;
+  return !(law->catch_base > 0 && base > law->catch_base);
+}
+
 /* The energy law's input at q, qd (above); M (dof x dof) and b (dof) at q, qd; not saturated. */
 IPGEN_LOOP_API ipgen_real ipgen_loop_energy_input(const ipgen_loop_energy_law *law, int dof, const ipgen_real q[],
                                                   const ipgen_real qd[], const ipgen_real M[], const ipgen_real b[]) {
-  const ipgen_real energy = (ipgen_real)0.5 * law->energy_inertia * qd[1] * qd[1] +
-                            law->energy_weight * (ipgen_loop_cos(q[1]) - (ipgen_real)1);
+  const ipgen_real energy = ipgen_loop_link_energy(law, q[1], qd[1]);
   const ipgen_real direction = qd[1] * M[dof] < 0 ? (ipgen_real)-1 : (ipgen_real)1;
   ipgen_real a = ipgen_loop_saturate(law->gain_energy * (energy - law->energy_target) * direction, law->accel_max);
   ipgen_real qdd1;
@@ -558,7 +577,7 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
         s->hold_sample -= s->k % law->catch_every;
     }
   } else if (s->phase == IPGEN_LOOP_SWING) {
-    if (ipgen_loop_energy_caught(&law->energy, x[1], x[dof + 1])) {
+    if (ipgen_loop_energy_ready(&law->energy, dof, x)) {
       s->phase = IPGEN_LOOP_HOLD;
       s->hold_q1 = ipgen_loop_upright(x[1]);
       s->hold_sample = s->k;

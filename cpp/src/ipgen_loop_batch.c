@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 41
+#define IPGEN_LOOP_BATCH_LAYOUT 43
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -40,6 +40,8 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_energy_law, acceleration);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, input_gain);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, energy_step);
+  out[i++] = (long)offsetof(ipgen_loop_energy_law, catch_deficit);
+  out[i++] = (long)offsetof(ipgen_loop_energy_law, catch_base);
   out[i++] = (long)sizeof(ipgen_loop_swingup);
   out[i++] = (long)offsetof(ipgen_loop_swingup, u_max);
   out[i++] = (long)offsetof(ipgen_loop_swingup, target);

@@ -187,6 +187,8 @@ with controller = mpc too, the MPC catches and holds (every controller.period, a
 the swing-up's period) instead of the hold LQR; with swingup.release_angle (energy), a hold whose
 link falls past it from the caught upright gives the link back to the swing, for another catch;
 with swingup.energy_step (energy), the law learns its target from the swing by steps of it (joules);
+with swingup.catch_deficit and swingup.catch_base (energy), a catch also needs the link's energy at
+most catch_deficit below upright's (joules) and the base within catch_base of its centre;
 with swingup.tracking = mpc (trajectory), the MPC tracks the plan too, the plan its reference.
 sensors.measured, sensors.resolution, sensors.noise, sensors.delay, sensors.seed, sensors.zero (where
 the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf with estimator.*

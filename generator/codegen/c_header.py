@@ -260,6 +260,8 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
     if len(law.hold_gain) != size or len(law.target) != size:
         raise ControllerError(f"swing-up hold gain and target need {size} entries each")
     energy_step = dict(law.energy).get("energy_step", 0.0)  # 0: the energy law's target is fixed
+    deficit = dict(law.energy).get("catch_deficit", 0.0)  # 0: a catch takes any energy
+    base = dict(law.energy).get("catch_base", 0.0)  # 0: a catch takes the base anywhere
     context: dict[str, object] = {
         "method": law.method,
         "u_max": c_number(law.u_max),
@@ -277,6 +279,10 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
         "energy_step": c_number(energy_step),
         "energy_learns": energy_step > 0,  # else the target is fixed
+        "catch_deficit": c_number(deficit),
+        "catch_deficit_set": deficit > 0,
+        "catch_base": c_number(base),
+        "catch_base_set": base > 0,
         "catch_every": catch_every,
         "release_angle": c_number(law.release_angle) if law.release_angle > 0 else None,
         "tracking": law.tracking,  # "mpc": the MPC tracks the plan (its reference per stage)

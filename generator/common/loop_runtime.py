@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 41  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 43  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -115,6 +115,7 @@ class EnergyLaw(ctypes.Structure):
         )),
         ("acceleration", ctypes.c_int), ("input_gain", _real),
         ("energy_step", _real),  # 0: the target is fixed
+        ("catch_deficit", _real), ("catch_base", _real),  # 0: no such condition on a catch
     ]  # fmt: skip
 
 
@@ -160,7 +161,9 @@ def _layout() -> list[int]:
         ctypes.sizeof(EkfFilter),
         *(offset(EkfFilter, n) for n in ("period", "gain", "Qn", "Rn", "field", "context")),
         ctypes.sizeof(EnergyLaw),
-        *(offset(EnergyLaw, n) for n in ("energy_weight", "acceleration", "input_gain", "energy_step")),
+        *(offset(EnergyLaw, n) for n in (
+            "energy_weight", "acceleration", "input_gain", "energy_step", "catch_deficit", "catch_base",
+        )),
         ctypes.sizeof(SwingUp),
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
         offset(SwingUp, "context"), offset(SwingUp, "catch_every"), offset(SwingUp, "release_angle"),
@@ -212,6 +215,8 @@ SIGNATURES: tuple[tuple[str, Any, tuple[Any, ...]], ...] = (
     ("ipgen_loop_predict", _I, (FIELD, _P, _I, _real, _real, _I, _P, _P, _P, _P)),
     ("ipgen_loop_upright", _real, (_real,)),
     ("ipgen_loop_energy_caught", _I, (ctypes.POINTER(EnergyLaw), _real, _real)),
+    ("ipgen_loop_energy_ready", _I, (ctypes.POINTER(EnergyLaw), _I, _P)),
+    ("ipgen_loop_link_energy", _real, (ctypes.POINTER(EnergyLaw), _real, _real)),
     ("ipgen_loop_energy_input", _real, (ctypes.POINTER(EnergyLaw), _I, _P, _P, _P, _P)),
     ("ipgen_loop_feedback", _real, (_I, _real, _P, _P, _P)),
     ("ipgen_loop_swingup_start", None, (ctypes.POINTER(SwingUp), ctypes.POINTER(SwingUpState))),

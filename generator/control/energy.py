@@ -19,10 +19,11 @@ swing-up extra), else from the same derivation evaluated with numpy, and the hol
 exact one-period flow map (CasADi) or, without it, from the linear model discretised exactly for
 a zero-order hold (matrix exponential): the energy method runs without CasADi.
 
-Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`,
-the controller switches to the discrete LQR hold (`discrete_lqr`, same period) about that upright
-and stays there ("swing" → "hold"), or with `release_angle` swings again once the link falls more
-than that from it ("hold" → "swing").
+Catch region: once |θ1 − 2πk| ≤ `catch_angle` (the nearest upright) and |θ̇1| ≤ `catch_rate`
+(and, where set, E ≥ −`catch_deficit` and |θ0| ≤ `catch_base`), the controller switches to the
+discrete LQR hold (`discrete_lqr`, same period) about that upright and stays there ("swing" →
+"hold"), or with `release_angle` swings again once the link falls more than that from it
+("hold" → "swing").
 
 Each sample runs the law as written once in C (cpp/include/ipgen_loop.h's ipgen_loop_swingup_step,
 the code of the firmware header and the simulator) through ctypes (`ipgen.common.loop_runtime`,
@@ -101,6 +102,8 @@ class EnergySwingUp:
     acceleration: bool = False  # u is the base's acceleration ([actuator] kind "acceleration"): u = a
     release_angle: float = 0.0  # rad: the hold gives the link back to the swing beyond it (0: never)
     energy_step: float = 0.0  # J: the target's learning step (0: E0 fixed; energy_swingup's docstring)
+    catch_deficit: float = 0.0  # J: a catch needs E >= -catch_deficit (0: any E)
+    catch_base: float = 0.0  # rad or m: a catch needs |θ0| <= catch_base (0: anywhere)
     # ipgen_loop_swingup_state (the phase, the upright held); None until the first `control`
     _state: SwingUpState | None = field(default=None, init=False, repr=False, compare=False)
     _callback: Any = field(default=None, init=False, repr=False, compare=False)  # MASS_BIAS on the plant
@@ -153,7 +156,7 @@ class EnergySwingUp:
         energy = EnergyLaw(
             self.gain_energy, self.gain_position, self.gain_velocity, self.accel_max, self.catch_angle,
             self.catch_rate, self.energy_target, m1 * l1**2 / 3, 0.5 * m1 * g * l1, int(self.acceleration),
-            1.0, self.energy_step,
+            1.0, self.energy_step, self.catch_deficit, self.catch_base,
         )  # fmt: skip
         if self._callback is None:
             self._callback = MASS_BIAS(self._mass_bias)
@@ -193,6 +196,8 @@ def energy_swingup(
     law: str = "energy",
     release_angle: float | None = None,
     energy_step: float = 0.0,
+    catch_deficit: float = 0.0,
+    catch_base: float = 0.0,
 ) -> EnergySwingUp:
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
@@ -219,6 +224,9 @@ def energy_swingup(
     target by this step; a swing that turns short of the window, above the horizontal and no
     nearer upright than the last turn (by more than catch_angle / 10), raises it
     (cpp/include/ipgen_loop.h, ipgen_loop_energy_learn).
+    `catch_deficit` [J, ≥ 0; default 0: any E] and `catch_base` [rad or m, ≥ 0; default 0:
+    anywhere]: a catch also needs E ≥ −catch_deficit (a link too slow to reach upright is left
+    to the swing) and |θ0| ≤ catch_base (the hold starts with room to brake the base).
 
     `law = "proportional"`: Quanser's form of the same law (QUBE-Servo 2 swing-up lab), its
     constants in the rig's units at the base's tip (the arm's tip at l0 for a rotary base, the
@@ -263,6 +271,11 @@ def energy_swingup(
     step = finite_number("energy_step", energy_step)
     if step < 0:
         raise PlanError(f"energy_step = {energy_step!r}: expected a finite number >= 0 (0: E0 fixed)")
+    gates = {"catch_deficit": catch_deficit, "catch_base": catch_base}
+    for name, value in gates.items():
+        gates[name] = finite_number(name, value)
+        if gates[name] < 0:
+            raise PlanError(f"{name} = {value!r}: expected a finite number >= 0 (0: no such condition)")
     speed = finite_number("design_speed", design_speed)
     if speed < 0:
         raise PlanError(f"design_speed = {design_speed!r}: expected a finite number >= 0")
@@ -326,6 +339,8 @@ def energy_swingup(
         acceleration=acceleration,
         release_angle=release,
         energy_step=step,
+        catch_deficit=gates["catch_deficit"],
+        catch_base=gates["catch_base"],
     )
 
 

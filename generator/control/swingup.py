@@ -121,6 +121,8 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         ("energy_weight", 0.5 * m1 * plant.g * l1),
         # absent unless learning: the .cfg of a scene without it unchanged
         *((("energy_step", law.energy_step),) if law.energy_step > 0 else ()),
+        *((("catch_deficit", law.catch_deficit),) if law.catch_deficit > 0 else ()),
+        *((("catch_base", law.catch_base),) if law.catch_base > 0 else ()),
     )
     return SwingUpLaw(
         method="energy",

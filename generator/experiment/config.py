@@ -112,6 +112,7 @@ CFG_KEYS: dict[str, str] = {
         for key in (
             "u_max period hold hold_gain target gain_energy gain_position gain_velocity accel_max "
             "catch_angle catch_rate energy_target energy_inertia energy_weight release_angle energy_step "
+            "catch_deficit catch_base "
             "steps inputs states gains tracking"
         ).split()
     },

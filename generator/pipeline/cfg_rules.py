@@ -60,6 +60,8 @@ SOURCES: dict[str, tuple[str, str]] = {
     "swingup.catch_rate": ("swingup", "catch_rate"),
     "swingup.release_angle": ("swingup", "release_angle"),
     "swingup.energy_step": ("swingup", "energy_step"),
+    "swingup.catch_deficit": ("swingup", "catch_deficit"),
+    "swingup.catch_base": ("swingup", "catch_base"),
     "sensors.measured": ("sensors", "measured"),
     "sensors.resolution": ("sensors", "resolution"),
     "sensors.noise": ("sensors", "noise"),

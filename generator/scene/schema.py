@@ -804,6 +804,17 @@ class SwingupTable(Table):
         "the catch window faster than catch_rate lowers it by this step, a swing that stalls short "
         "of the window raises it (default 0: the target is fixed)",
     )
+    catch_deficit: Real(ge=0, says="must be a number of J >= 0") | None = Field(
+        None,
+        description="energy only: a catch also needs the link's energy E at most this far below "
+        "upright's at rest [J] (E >= -catch_deficit: a link too slow to reach upright is left to the "
+        "swing; default 0: any E)",
+    )
+    catch_base: Real(ge=0, says="must be a number of rad or m >= 0") | None = Field(
+        None,
+        description="energy only: a catch also needs the base within this of its centre [rad or m] "
+        "(|θ0| in ipgen's coordinates: the hold starts with room to brake; default 0: anywhere)",
+    )
     gain_position: Real(ge=0, says="must be >= 0") | None = Field(
         None, description="energy only: centring k_x [1/s²] of the base (default 1)"
     )

@@ -27,6 +27,8 @@ ENERGY_KEYS: tuple[str, ...] = (
     "catch_rate",
     "release_angle",
     "energy_step",
+    "catch_deficit",
+    "catch_base",
     "gain_position",
     "gain_velocity",
     "q",

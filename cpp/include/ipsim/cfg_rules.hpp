@@ -135,6 +135,8 @@ inline constexpr const char* kKeys[] = {
     "swingup.energy_weight",
     "swingup.release_angle",
     "swingup.energy_step",
+    "swingup.catch_deficit",
+    "swingup.catch_base",
     "swingup.steps",
     "swingup.inputs",
     "swingup.states",
@@ -204,6 +206,8 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // swingup.catch_rate
     {0.0, true, 1.5707963267948966, true, false},  // swingup.release_angle
     {0.0, false, kInf, false, false},  // swingup.energy_step
+    {0.0, false, kInf, false, false},  // swingup.catch_deficit
+    {0.0, false, kInf, false, false},  // swingup.catch_base
     {0.0, false, kInf, false, false},  // actuator.lag
     {0.0, false, kInf, false, true},  // sensors.measured
     {0.0, false, 0.0, false, false},  // sensors.resolution
@@ -256,13 +260,15 @@ inline constexpr Rule kRules[] = {
     {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 38, 1},
     {"swingup.release_angle", "[swingup] release_angle", "> 0 and < 1.5708", 39, 1},
     {"swingup.energy_step", "[swingup] energy_step", ">= 0", 40, 1},
-    {"actuator.lag", "[actuator] lag", ">= 0", 41, 1},
-    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 42, 1},
-    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 43, 2},
-    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 45, 1},
-    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 46, 1},
-    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 47, 1},
-    {"estimator.cutoff", "[estimator] cutoff", "> 0", 48, 1},
+    {"swingup.catch_deficit", "[swingup] catch_deficit", ">= 0", 41, 1},
+    {"swingup.catch_base", "[swingup] catch_base", ">= 0", 42, 1},
+    {"actuator.lag", "[actuator] lag", ">= 0", 43, 1},
+    {"sensors.measured", "[sensors] measured", "a whole number >= 0", 44, 1},
+    {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 45, 2},
+    {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 47, 1},
+    {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 48, 1},
+    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 49, 1},
+    {"estimator.cutoff", "[estimator] cutoff", "> 0", 50, 1},
 };
 
 /// Whether `value` is allowed as one number of `rule`'s key: finite and in one of its ranges.

@@ -46,6 +46,7 @@
 //          energy_inertia energy_weight                                               (energy)
 //   swingup.release_angle   (optional, energy: the hold gives the link back to the swing past it)
 //   swingup.energy_step     (optional, energy: the law learns its target by steps of it [J])
+//   swingup.catch_deficit swingup.catch_base  (optional, energy: a catch needs E >= -deficit [J], |θ0| <= base)
 //   swingup.steps = K  swingup.inputs (K)  swingup.states ((K+1)·2·kDof)  swingup.gains (K·2·kDof)  (trajectory)
 //   swingup.tracking = lqr | mpc  (optional, trajectory: the plan's gains track it, or with controller = mpc the MPC)
 //   sensors.measured = 0 1   sensors.resolution = 2048 2048   sensors.noise = 0 0   sensors.delay = 0
@@ -242,6 +243,8 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
     sw.energy_weight = file.number("swingup.energy_weight");
     if (file.has("swingup.release_angle")) sw.release_angle = file.number("swingup.release_angle");
     if (file.has("swingup.energy_step")) sw.energy_step = file.number("swingup.energy_step");
+    if (file.has("swingup.catch_deficit")) sw.catch_deficit = file.number("swingup.catch_deficit");
+    if (file.has("swingup.catch_base")) sw.catch_base = file.number("swingup.catch_base");
   } else {
     if (sw.acceleration) file.fail(file.line("swingup"), "swingup = trajectory with actuator = acceleration is not supported yet");
     const long steps = file.integer("swingup.steps");

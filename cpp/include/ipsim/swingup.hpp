@@ -85,6 +85,10 @@ struct SwingUp {
   double release_angle = 0.0;
   /// J: > 0, the energy law learns its target by steps of it (ipgen_loop_energy_learn); 0: fixed
   double energy_step = 0.0;
+  /// J: > 0, a catch needs the law's E >= -catch_deficit (ipgen_loop_energy_ready); 0: any E
+  double catch_deficit = 0.0;
+  /// rad or m: > 0, a catch needs |θ0| <= catch_base (ipgen_loop_energy_ready); 0: anywhere
+  double catch_base = 0.0;
   std::function<void()> catch_reset;
   /// Trajectory only, [swingup] tracking = "mpc": the controller that tracks the plan instead of
   /// its gains, u [N or N m] from x and the plan's reference per stage (x_refs: track_horizon + 1
@@ -143,7 +147,8 @@ struct SwingUp {
       }
     }
     const ipgen_loop_energy_law energy{gain_energy, gain_position, gain_velocity, accel_max, catch_angle, catch_rate,
-                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, law_gain, energy_step};
+                                       energy_target, energy_inertia, energy_weight, acceleration ? 1 : 0, law_gain, energy_step,
+                                       catch_deficit, catch_base};
     const LawContext<Model> context{&params, n, hold_gain.data()};
     std::vector<double> refs(track_law ? static_cast<std::size_t>(IPGEN_LOOP_TRACK_REFS(n, track_horizon)) : 0U);
     const ipgen_loop_swingup law{n,
@@ -350,7 +355,8 @@ IPSIM_DECL std::vector<std::string> SwingUp::problems(int state_size) const {
     }
     for (const auto& [name, value] : {std::pair<const char*, double>{"gain_energy", gain_energy},
                                       {"gain_position", gain_position}, {"gain_velocity", gain_velocity},
-                                      {"accel_max", accel_max}, {"energy_step", energy_step}}) {
+                                      {"accel_max", accel_max}, {"energy_step", energy_step},
+                                      {"catch_deficit", catch_deficit}, {"catch_base", catch_base}}) {
       if (!(std::isfinite(value) && value >= 0.0)) {
         found.push_back(std::string("invalid setting swingup.") + name + " = " + detail::format_number(value) + ": must be finite and >= 0");
       }
