@@ -74,31 +74,48 @@ class SteadyStateKalman:
 
 
 class ExtendedKalman:
-    """The EKF of an `ipgen.estimation.ExtendedKalman` `ekf` (its model, Qn, Rn, C, x_eq)."""
+    """The EKF of an `ipgen.estimation.ExtendedKalman` `ekf` (its model, Qn, Rn, C, x_eq); with its
+    gain_spread > 0 the state is [x; ρ], x' = f(x, ρ u), ρ' = 0, ∂f/∂ρ = u ∂f/∂u (the model's B),
+    ρ's process noise gain_drift² T, ρ kept within [1/2, 2]."""
 
     def __init__(self, ekf: Any) -> None:
         self.ekf = ekf
+        self.learns = getattr(ekf, "gain_spread", 0.0) > 0
         self._x: np.ndarray | None = None
         self._p: np.ndarray | None = None
 
     def predict(self, x: np.ndarray, p: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
-        t, f = self.ekf.period, self.ekf.model.f
-        _, a_c, _ = self.ekf.model.jacobians(x, u)
-        k1 = f(x, u)
-        k2 = f(x + 0.5 * t * k1, u)
-        k3 = f(x + 0.5 * t * k2, u)
-        k4 = f(x + t * k3, u)
-        x_next = x + t / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        ta = t * a_c
+        t, f, n = self.ekf.period, self.ekf.model.f, 2 * self.ekf.dof
+        rho = x[n] if self.learns else 1.0
+        xs, us = x[:n], u * rho
+        _, a_c, b_c = self.ekf.model.jacobians(xs, us)
+        k1 = f(xs, us)
+        k2 = f(xs + 0.5 * t * k1, us)
+        k3 = f(xs + 0.5 * t * k2, us)
+        k4 = f(xs + t * k3, us)
+        x_next = xs + t / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        q = np.zeros((x.size, x.size))
+        q[:n, :n] = self.ekf.Qn
+        a = np.zeros((x.size, x.size))
+        a[:n, :n] = a_c
+        if self.learns:
+            a[:n, n] = u * np.asarray(b_c, dtype=float).reshape(-1)
+            q[n, n] = self.ekf.gain_drift**2 * t
+            x_next = np.append(x_next, rho)
+        ta = t * a
         transition = np.eye(x.size) + ta + 0.5 * ta @ ta
-        p_next = transition @ p @ transition.T + self.ekf.Qn
+        p_next = transition @ p @ transition.T + q
         return x_next, 0.5 * (p_next + p_next.T)
 
     def update(self, x: np.ndarray, p: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         c, rn = self.ekf.C, self.ekf.Rn
+        if self.learns:
+            c = np.hstack([c, np.zeros((c.shape[0], 1))])
         s = c @ p @ c.T + rn
         k = np.linalg.solve(s, c @ p).T
         x_new = x + k @ (y - c @ x)
+        if self.learns:
+            x_new[-1] = min(max(x_new[-1], 0.5), 2.0)
         i_kc = np.eye(x.size) - k @ c
         p_new = i_kc @ p @ i_kc.T + k @ rn @ k.T
         return x_new, 0.5 * (p_new + p_new.T)
@@ -109,10 +126,18 @@ class ExtendedKalman:
         if self._x is None or self._p is None:
             x = initial_state(e.dof, e.measured, values, e._x_eq)
             p = e.initial_covariance()
+            if self.learns:
+                x = np.append(x, 1.0)
+                p = np.pad(p, ((0, 1), (0, 1)))
+                p[-1, -1] = e.gain_spread**2
         else:
             x, p = self.predict(self._x, self._p, float(u))
         self._x, self._p = self.update(x, p, values)
-        return self._x.copy()
+        return self._x[: 2 * e.dof].copy()
+
+    @property
+    def gain(self) -> float:
+        return float(self._x[-1]) if self.learns and self._x is not None else 1.0
 
     @property
     def covariance(self) -> np.ndarray | None:

@@ -174,6 +174,8 @@ def test_a_lighter_pendulum_whirls_with_a_fixed_target_and_is_caught_with_a_lear
 
     require_toolchain()
     text = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml").read_text()
+    # the preset's design without its learnt input gain (which corrects the motor by itself)
+    text = "\n".join(line for line in text.splitlines() if not line.startswith("gain_spread"))
     assert "\nenergy_step = " in text
     fixed = "\n".join(line for line in text.splitlines() if not line.startswith("energy_step"))
     lighter = (("parameters.m", [0.095, 0.024 * 0.85]), ("actuator.Rm", 8.4 * 0.85))

@@ -300,3 +300,50 @@ def test_predict_is_written_only_when_asked(tmp_path: Path) -> None:
 def test_load_scene_raises_scene_error(tmp_path: Path) -> None:
     with pytest.raises(SceneError, match=r"sensors\.seed"):
         load_scene(scene(tmp_path, "[sensors]\nseed = -1\n"))
+
+
+# ---------------------------------------------------------------- the EKF that learns the input gain
+
+# The paper's rotary single pendulum swung up by the energy law (no [controller]).
+SWING = BASE.split("[initial]")[0].format(type="rotary") + (
+    "[initial]\ntheta = [0, 3.14]\n[simulation]\nt_end = 1.0\nsample = 0.001\n"
+    '[swingup]\nmethod = "energy"\nu_max = 5.0\nperiod = 0.001\n'
+)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=_CHECKS)
+@given(key=st.sampled_from(["gain_spread", "gain_drift"]), value=bad_numbers)
+def test_a_negative_or_non_finite_gain_setting_is_refused(key: str, value: float) -> None:
+    spread = "" if key == "gain_spread" else "gain_spread = 0.2\n"
+    message = refused(SWING + f'[sensors]\n[estimator]\nkind = "ekf"\n{spread}{key} = {number(value)}\n')
+    assert f"estimator.{key}" in message
+
+
+def test_gain_learning_needs_an_ekf_a_swingup_and_a_spread() -> None:
+    """gain_spread on a kalman filter, without a [swingup], and gain_drift alone: one line each."""
+    message = refused(SWING + '[sensors]\n[estimator]\nkind = "kalman"\ngain_spread = 0.2\n')
+    assert "estimator.gain_spread" in message and '"ekf"' in message
+    message = refused(text('[sensors]\n[estimator]\nkind = "ekf"\ngain_spread = 0.2\n'))
+    assert "estimator.gain_spread" in message and "[swingup]" in message
+    message = refused(SWING + '[sensors]\n[estimator]\nkind = "ekf"\ngain_drift = 0.01\n')
+    assert "estimator.gain_drift" in message and "gain_spread" in message
+
+
+def test_gain_learning_is_written_only_when_asked(tmp_path: Path) -> None:
+    """gain_spread > 0 writes it and the drift (its default unless given); 0 or absent writes
+    neither (the config of a scene without them unchanged)."""
+    from ipgen.scene.sensors import DEFAULT_GAIN_DRIFT
+
+    path = tmp_path / "swing.toml"
+    for extra, expected in (
+        ("gain_spread = 0.2\n", ("0.2", repr(DEFAULT_GAIN_DRIFT))),
+        ("gain_spread = 0.1\ngain_drift = 0.02\n", ("0.1", "0.02")),
+        ("gain_spread = 0\n", None),
+        ("", None),
+    ):
+        path.write_text(SWING + '[sensors]\n[estimator]\nkind = "ekf"\n' + extra)
+        keys = config(path)
+        if expected is None:
+            assert "estimator.gain_spread" not in keys and "estimator.gain_drift" not in keys
+        else:
+            assert (keys["estimator.gain_spread"], keys["estimator.gain_drift"]) == expected

@@ -212,7 +212,13 @@ IPGEN_LOOP_API int ipgen_loop_predict(ipgen_loop_field field, void *context, int
  * of x' = f(x, gain u_previous) and P- = F P F^T + Qn, F = I + T A + (T A)^2 / 2 with A = df/dx
  * at the last estimate; update with K = P- C^T (C P- C^T + Rn)^-1 (Cholesky), x = xp + K (y - C xp),
  * P = (I - K C) P- (I - K C)^T + K Rn K^T (Joseph form), made symmetric. At k = 0: xp = x_{0|-1},
- * P- = identity with Rn's diagonal at the measured coordinates. */
+ * P- = identity with Rn's diagonal at the measured coordinates.
+ * With gain_spread > 0 it also learns the plant's input gain: x gets one more entry, rho = the
+ * plant's force per unit of u over `gain` (a motor's Rm or torque constant unlike the model's),
+ * predicted with x' = f(x, rho gain u_previous), rho' = 0 (a random walk). A = df/dx gets the
+ * column df/drho = (f(x, rho gain u) - f(x, 0)) / rho (f is affine in u) and the row 0; Qn gets
+ * gain_drift^2 T for rho; at k = 0 rho = 1 with variance gain_spread^2. rho is kept within
+ * [1/2, 2]. x and P then have IPGEN_LOOP_EKF_STATES(dof, 1) entries a side. */
 typedef struct {
   ipgen_loop_measurement measurement;
   ipgen_real period;    /* T [s] */
@@ -221,17 +227,25 @@ typedef struct {
   const ipgen_real *Rn; /* measurement noise (count x count) */
   ipgen_loop_field field;
   void *context;        /* passed to field */
+  /* > 0: the input gain is learnt (above), rho's standard deviation at the start; 0: not learnt */
+  ipgen_real gain_spread;
+  ipgen_real gain_drift; /* rho's random walk: its standard deviation grows by this per sqrt(s) */
 } ipgen_loop_ekf;
 
-/* Scratch entries ipgen_loop_ekf_update needs for 2 dof = n states and count = c measured. */
+/* The entries of an EKF's x: 2 dof, and rho when it learns the input gain (learns: 0 or 1). */
+#define IPGEN_LOOP_EKF_STATES(dof, learns) (2 * (dof) + ((learns) ? 1 : 0))
+
+/* Scratch entries ipgen_loop_ekf_update needs for n = IPGEN_LOOP_EKF_STATES states and count = c
+ * measured. */
 #define IPGEN_LOOP_EKF_WORK(n, c) (6 * (n) + 4 * (n) * (n) + (n) * (c) + (c) * (c) + 2 * (c))
 
-/* One EKF sample (above): x, P (2 dof x 2 dof) updated in place; `work` holds
- * IPGEN_LOOP_EKF_WORK(2 dof, count) entries. Returns 0, 1 if the model failed, 2 if the
+/* One EKF sample (above): x (n = IPGEN_LOOP_EKF_STATES entries), P (n x n) updated in place;
+ * `work` holds IPGEN_LOOP_EKF_WORK(n, count) entries. Returns 0, 1 if the model failed, 2 if the
  * innovation covariance is not positive definite; x and P are unchanged then. */
 IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const ipgen_real y[], ipgen_real u_previous,
                                          ipgen_real x[], ipgen_real P[], ipgen_real work[]) {
-  const int n = 2 * e->measurement.dof, c = e->measurement.count;
+  const int m = 2 * e->measurement.dof, learns = e->gain_spread > 0, n = m + learns;
+  const int c = e->measurement.count;
   const int *measured = e->measurement.measured;
   const ipgen_real T = e->period;
   ipgen_real *xs = work, *xp = xs + 5 * n; /* xs: ipgen_loop_rk4's 5 n entries */
@@ -243,15 +257,35 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
     for (i = 0; i < n * n; ++i) Pp[i] = (ipgen_real)0;
     for (i = 0; i < n; ++i) Pp[i * n + i] = (ipgen_real)1;
     for (r = 0; r < c; ++r) Pp[measured[r] * n + measured[r]] = e->Rn[r * c + r];
+    if (learns) {
+      xp[m] = (ipgen_real)1;
+      Pp[m * n + m] = e->gain_spread * e->gain_spread;
+    }
   } else {
-    if (ipgen_loop_rk4(e->field, e->context, n, T, u_previous * e->gain, x, xp, A, xs) != 0) return 1;
-    for (i = 0; i < n * n; ++i) A[i] *= T; /* T A */
+    const ipgen_real rho = learns ? x[m] : (ipgen_real)1, u = u_previous * e->gain * rho;
+    if (ipgen_loop_rk4(e->field, e->context, m, T, u, x, xp, A, xs) != 0) return 1;
+    for (i = 0; i < m * m; ++i) A[i] *= T; /* T A (m x m) */
     for (r = 0; r < n; ++r) {              /* F = I + T A + (T A)^2 / 2 */
       for (col = 0; col < n; ++col) {
         ipgen_real sq = (ipgen_real)0;
-        for (j = 0; j < n; ++j) sq += A[r * n + j] * A[j * n + col];
-        F[r * n + col] = (ipgen_real)(r == col) + A[r * n + col] + (ipgen_real)0.5 * sq;
+        if (r < m && col < m) {
+          for (j = 0; j < m; ++j) sq += A[r * m + j] * A[j * m + col];
+          F[r * n + col] = (ipgen_real)(r == col) + A[r * m + col] + (ipgen_real)0.5 * sq;
+        } else {
+          F[r * n + col] = (ipgen_real)(r == col);
+        }
       }
+    }
+    if (learns) { /* rho's column of F: T b + (T A) T b / 2, b = df/drho (W as scratch) */
+      ipgen_real *b = W, *f0 = W + m;
+      if (e->field(e->context, x, u, b, 0) != 0 || e->field(e->context, x, (ipgen_real)0, f0, 0) != 0) return 1;
+      for (r = 0; r < m; ++r) b[r] = T * (b[r] - f0[r]) / rho;
+      for (r = 0; r < m; ++r) {
+        ipgen_real s = (ipgen_real)0;
+        for (j = 0; j < m; ++j) s += A[r * m + j] * b[j];
+        F[r * n + m] = b[r] + (ipgen_real)0.5 * s;
+      }
+      xp[m] = rho;
     }
     for (r = 0; r < n; ++r) {              /* W = F P */
       for (col = 0; col < n; ++col) {
@@ -264,7 +298,9 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
       for (col = 0; col < n; ++col) {
         ipgen_real s = (ipgen_real)0;
         for (j = 0; j < n; ++j) s += W[r * n + j] * F[col * n + j];
-        Pp[r * n + col] = s + e->Qn[r * n + col];
+        if (r < m && col < m) s += e->Qn[r * m + col];
+        else if (r == m && col == m) s += e->gain_drift * e->gain_drift * T;
+        Pp[r * n + col] = s;
       }
     }
   }
@@ -302,6 +338,8 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
     for (r = 0; r < c; ++r) s += K[i * c + r] * innovation[r];
     x[i] = xp[i] + s;
   }
+  if (learns && x[m] < (ipgen_real)0.5) x[m] = (ipgen_real)0.5;
+  if (learns && x[m] > (ipgen_real)2) x[m] = (ipgen_real)2;
   /* Joseph form, F reused for I - K C */
   for (r = 0; r < n; ++r)
     for (col = 0; col < n; ++col) F[r * n + col] = (ipgen_real)(r == col);
@@ -449,6 +487,10 @@ typedef struct { /* fields are appended over releases: zero it, then set them by
                           const ipgen_real u_refs[]);
   int track_horizon;
   ipgen_real *track_refs;
+  /* Optional: the plant's input gain over the model's as the loop learns it (an EKF's rho, the
+   * entry after its 2 dof states); every u is divided by it before the saturation, so that the
+   * plant gets the force the law asks of the model. Null: 1. */
+  const ipgen_real *gain_factor;
 } ipgen_loop_swingup;
 
 /* Entries of track_refs: the states (horizon + 1) x 2 dof, then the inputs (horizon). */
@@ -611,6 +653,7 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
                       : ipgen_loop_feedback(2 * dof, (ipgen_real)0, law->hold_gain, x, reference);
   }
   s->k += 1;
+  if (law->gain_factor && *law->gain_factor > 0) u /= *law->gain_factor;
   return ipgen_loop_saturate(u, law->u_max);
 }
 

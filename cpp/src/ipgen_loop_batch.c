@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 43
+#define IPGEN_LOOP_BATCH_LAYOUT 46
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -35,6 +35,8 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_ekf, Rn);
   out[i++] = (long)offsetof(ipgen_loop_ekf, field);
   out[i++] = (long)offsetof(ipgen_loop_ekf, context);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, gain_spread);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, gain_drift);
   out[i++] = (long)sizeof(ipgen_loop_energy_law);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, energy_weight);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, acceleration);
@@ -56,6 +58,7 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_swingup, track_law);
   out[i++] = (long)offsetof(ipgen_loop_swingup, track_horizon);
   out[i++] = (long)offsetof(ipgen_loop_swingup, track_refs);
+  out[i++] = (long)offsetof(ipgen_loop_swingup, gain_factor);
   out[i++] = (long)sizeof(ipgen_loop_swingup_state);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, k);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, hold_q1);

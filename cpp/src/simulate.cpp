@@ -195,7 +195,10 @@ the encoders read 0; absent: 0), estimator = exact|difference|filter|kalman|ekf 
 (with a sampled controller or swing-up): the controller sees the estimate from quantised (whole
 counts from sensors.zero), noisy, delayed measurements (estimator.delay: the delay the loop is built
 for, absent: sensors.delay; with estimator.predict = 1, exact or ekf: the estimate carried over it
-by the model with the commands in flight); actuator.noise, actuator.lag,
+by the model with the commands in flight; with estimator.gain_spread, ekf with a swing-up: the
+filter also learns the plant's input gain over the model's, starting from that standard deviation,
+estimator.gain_drift its growth per square root of a second, and the swing-up divides its input by
+it); actuator.noise, actuator.lag,
 actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
 (written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 

@@ -371,6 +371,10 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         "size": size,
         "delay": estimator.delay,
         "predict": numbers.predict,  # the law sees the estimate carried over the delay (ekf's model)
+        # ekf: the input gain learnt (x gets rho after the 2 dof states; the swing-up divides u by it)
+        "learns": numbers.kind == "ekf" and numbers.gain_spread > 0,
+        "gain_spread": c_number(numbers.gain_spread),
+        "gain_drift": c_number(numbers.gain_drift),
     }
     if numbers.kind == "filter":
         cutoff = float(numbers.cutoff or 0.0)

@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 43  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 46  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -97,11 +97,13 @@ class KalmanFilter(ctypes.Structure):
 
 
 class EkfFilter(ctypes.Structure):
-    """ipgen_loop_ekf: the extended Kalman filter's period, gain, Qn, Rn and its model `field`."""
+    """ipgen_loop_ekf: the extended Kalman filter's period, gain, Qn, Rn and its model `field`; with
+    gain_spread > 0 it learns the input gain too (x gets rho)."""
 
     _fields_ = [
         ("measurement", Measurement), ("period", _real), ("gain", _real), ("Qn", _address), ("Rn", _address),
         ("field", FIELD), ("context", ctypes.c_void_p),
+        ("gain_spread", _real), ("gain_drift", _real),  # 0: the gain is not learnt
     ]  # fmt: skip
 
 
@@ -132,6 +134,7 @@ class SwingUp(ctypes.Structure):
         ("release_angle", _real), ("catch_reset", ctypes.c_void_p),  # 0, null: the hold is for good
         ("track_law", ctypes.c_void_p), ("track_horizon", ctypes.c_int),  # null: the plan's gains track
         ("track_refs", _address),
+        ("gain_factor", _address),  # null: u is not divided by a learnt gain
     ]  # fmt: skip
 
 
@@ -160,6 +163,7 @@ def _layout() -> list[int]:
         offset(KalmanFilter, "u_eq"),
         ctypes.sizeof(EkfFilter),
         *(offset(EkfFilter, n) for n in ("period", "gain", "Qn", "Rn", "field", "context")),
+        offset(EkfFilter, "gain_spread"), offset(EkfFilter, "gain_drift"),
         ctypes.sizeof(EnergyLaw),
         *(offset(EnergyLaw, n) for n in (
             "energy_weight", "acceleration", "input_gain", "energy_step", "catch_deficit", "catch_base",
@@ -168,7 +172,7 @@ def _layout() -> list[int]:
         *(offset(SwingUp, n) for n in ("u_max", "target", "energy", "steps", "gains", "mass_bias")),
         offset(SwingUp, "context"), offset(SwingUp, "catch_every"), offset(SwingUp, "release_angle"),
         offset(SwingUp, "catch_reset"), offset(SwingUp, "track_law"), offset(SwingUp, "track_horizon"),
-        offset(SwingUp, "track_refs"),
+        offset(SwingUp, "track_refs"), offset(SwingUp, "gain_factor"),
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
         offset(SwingUpState, "catch_u"), offset(SwingUpState, "energy_offset"),
         offset(SwingUpState, "swinging"),

@@ -280,6 +280,11 @@ class ExtendedKalman(_Runtime):
         The measured coordinates (default all).
     equilibrium : sequence of float or str, optional
         Where the unmeasured coordinates start (default upright).
+    gain_spread : float, optional
+        > 0: the filter also learns the input gain of the plant over the model's, ρ (`gain`),
+        starting from ρ = 1 with this standard deviation (default 0: not learnt).
+    gain_drift : float, optional
+        With `gain_spread`: ρ's random walk, its standard deviation's growth per √s (default 0).
 
     Notes
     -----
@@ -297,9 +302,17 @@ class ExtendedKalman(_Runtime):
         *,
         measured: Sequence[int] | None = None,
         equilibrium: Sequence[float] | str | None = None,
+        gain_spread: float = 0.0,
+        gain_drift: float = 0.0,
     ) -> None:
         import numpy as np
 
+        for name, value in (("gain_spread", gain_spread), ("gain_drift", gain_drift)):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise EstimationError(
+                    f"{name} = {value!r}: expected a finite number >= 0 (0: the gain not learnt)"
+                )
+        self.gain_spread, self.gain_drift = float(gain_spread), float(gain_drift)
         self.model = as_model(pendulum)
         self.period = sampling_period(period)
         self.dof = self.model.dof
@@ -319,17 +332,22 @@ class ExtendedKalman(_Runtime):
         self._failure: BaseException | None = None
         self._field = FIELD(self._model_field)  # kept: C calls it back
         self._kept = [*kept, qn, rn]
+        # gain 1: the VectorField's u is the input itself (a motor's b folded in)
         self._filter = EkfFilter(
-            measurement, self.period, 1.0, address(qn), address(rn), self._field, None
-        )  # gain 1: the VectorField's u is the input itself (a motor's b folded in)
-        self._work = np.zeros(ekf_work(size, count))
+            measurement, self.period, 1.0, address(qn), address(rn), self._field, None,
+            self.gain_spread, self.gain_drift,
+        )  # fmt: skip
+        self._states = size + (1 if self.gain_spread > 0 else 0)  # IPGEN_LOOP_EKF_STATES
+        self._work = np.zeros(ekf_work(self._states, count))
         self.reset()
 
     def reset(self) -> None:
         import numpy as np
 
         self._start()
-        self._p = np.zeros((2 * self.dof, 2 * self.dof))  # P_{k−1|k−1}
+        self._x = np.zeros(self._states)  # the estimate, and ρ when the gain is learnt
+        self._x_at = address(self._x)
+        self._p = np.zeros((self._states, self._states))  # P_{k−1|k−1}
 
     def _model_field(self, context: Any, x: Any, u: float, f: Any, a: Any) -> int:
         """ipgen_loop_field on the `VectorField`: f(x, u) and, when `a` is not NULL, ∂f/∂x."""
@@ -399,9 +417,16 @@ class ExtendedKalman(_Runtime):
                 f"extended Kalman filter, sample {k}: the innovation covariance C P⁻ Cᵀ + Rn is not "
                 "positive definite (a diverged or non-finite estimate, input or measurement)"
             )
-        return self._x.copy()
+        return self._x[: 2 * self.dof].copy()
+
+    @property
+    def gain(self) -> float:
+        """ρ, the plant's input gain over the model's as learnt (1 when not learnt or before the
+        first sample; kept within [1/2, 2])."""
+        return float(self._x[-1]) if self._states > 2 * self.dof and self._k > 0 else 1.0
 
     @property
     def covariance(self) -> np.ndarray | None:
-        """P_{k|k} after the last step (None before the first)."""
+        """P_{k|k} after the last step (None before the first); with the gain learnt, ρ's row
+        and column last."""
         return None if self._k == 0 else self._p.copy()

@@ -30,6 +30,8 @@ class EstimatorNumbers:
     process_noise: Rows = ()  # ekf: Qn
     measurement_noise: Rows = ()  # ekf: Rn
     predict: bool = False  # exact, ekf: the law sees the estimate carried over the delay (ipgen_loop_predict)
+    gain_spread: float = 0.0  # ekf: > 0, the input gain is learnt (rho's prior σ); 0: not learnt
+    gain_drift: float = 0.0  # ekf with gain_spread: rho's random walk, σ's growth per √s
 
 
 @dataclass(frozen=True)

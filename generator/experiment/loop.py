@@ -15,7 +15,7 @@ from ipgen.estimation.printed import EstimatorNumbers
 from ipgen.model.coordinates import Coordinates
 from ipgen.model.pendulum import Pendulum
 from ipgen.scene.fields import format_number
-from ipgen.scene.sensors import EstimatorTable, SensorsTable
+from ipgen.scene.sensors import DEFAULT_GAIN_DRIFT, EstimatorTable, SensorsTable
 
 DEFAULT_CUTOFF = 50.0  # rad/s: Quanser's 50 s/(s + 50)
 # A delay is a whole number of periods, at most MAX_DELAY_PERIODS (the simulator's rule too).
@@ -147,7 +147,9 @@ def loop(
             )
     result = Loop(
         sensors=Sensors(measured, resolution, noise, cart=cart, zero=tuple(float(v) for v in zero)),
-        estimator=EstimatorNumbers(kind, cutoff, predict=estimator is not None and estimator.predict),
+        estimator=EstimatorNumbers(
+            kind, cutoff, predict=estimator is not None and estimator.predict, **_gain_learning(estimator)
+        ),
         delay=periods * period,
         assumed_delay=assumed,
         seed=table.seed,
@@ -160,6 +162,14 @@ def loop(
             raise SensorsError(f'estimator kind "{kind}" needs the model (no design given)')
         result = design(result, estimator)
     return result
+
+
+def _gain_learning(table: EstimatorTable | None) -> dict[str, float]:
+    """The EKF's gain learning (gain_spread, gain_drift) of [estimator]: none unless gain_spread > 0."""
+    if table is None or not table.gain_spread:
+        return {}
+    drift = DEFAULT_GAIN_DRIFT if table.gain_drift is None else float(table.gain_drift)
+    return {"gain_spread": float(table.gain_spread), "gain_drift": drift}
 
 
 def _whole_periods(delay: float, period: float, key: str) -> int:

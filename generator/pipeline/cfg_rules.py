@@ -68,6 +68,8 @@ SOURCES: dict[str, tuple[str, str]] = {
     "sensors.zero": ("sensors", "zero"),
     "sensors.seed": ("sensors", "seed"),
     "estimator.cutoff": ("estimator", "cutoff"),
+    "estimator.gain_spread": ("estimator", "gain_spread"),
+    "estimator.gain_drift": ("estimator", "gain_drift"),
 }
 
 HEADER = Path(__file__).resolve().parents[2] / "cpp" / "include" / "ipsim" / "cfg_rules.hpp"

@@ -16,6 +16,10 @@ from ipgen.estimation.measurement import LARGEST, noise_problem, resolution_prob
 from ipgen.scene.fields import show
 from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
 
+# per √s: [estimator] gain_drift's default, rho's standard deviation grows so much a √s (measured
+# on qube_servo2_mpc_swingup_m4f's random starts, docs/mpc.md "A learnt input gain")
+DEFAULT_GAIN_DRIFT = 0.003
+
 ESTIMATORS: tuple[str, ...] = ("exact", "difference", "filter", "kalman", "ekf")
 
 
@@ -221,6 +225,17 @@ class EstimatorTable(BaseModel):
         description="s: the delay the loop is built for (its estimator's input, the prediction), a whole "
         "multiple of the period; default sensors.delay (the rig's delay, known to the loop)",
     )
+    gain_spread: Real(ge=0, says="must be a number >= 0") | None = Field(
+        None,
+        description="ekf with a swing-up: the filter also learns the plant's input gain (a motor's "
+        "torque per volt) over the model's, rho, and the swing-up divides its u by it; this is rho's "
+        "standard deviation at the start (0.2: a gain within about ±20 %; default 0: not learnt)",
+    )
+    gain_drift: Real(ge=0, says="must be a number >= 0 per √s") | None = Field(
+        None,
+        description="with gain_spread: rho's random walk, its standard deviation's growth per √s "
+        f"(default {DEFAULT_GAIN_DRIFT}: the filter keeps learning)",
+    )
     predict: Annotated[bool, Field(strict=True)] = Field(
         False,
         description="exact, ekf: the law acts on the estimate carried over the delay (estimator.delay, "
@@ -238,6 +253,19 @@ class EstimatorTable(BaseModel):
                 f'(kind is "{self.kind}")'
             )
         context = info.context or {}
+        learns = bool(self.gain_spread)
+        if (learns or self.gain_drift is not None) and self.kind != "ekf":
+            key = "gain_spread" if self.gain_spread is not None else "gain_drift"
+            refuse_line(f'estimator.{key} applies to kind = "ekf" only (kind is "{self.kind}")')
+        if self.gain_drift is not None and not learns:
+            refuse_line(
+                "estimator.gain_drift needs estimator.gain_spread > 0 (the gain it lets drift is not learnt)"
+            )
+        if learns and context.get("swingup_method") is None:
+            refuse_line(
+                "estimator.gain_spread needs a [swingup] (the swing-up divides its input by the learnt "
+                "gain; a controller alone does not yet): remove gain_spread, or add a [swingup]"
+            )
         if self.predict and context.get("swingup_method") == "trajectory":
             refuse_line(
                 "estimator.predict with a trajectory swing-up is not supported yet (its plan would be "

@@ -189,6 +189,9 @@ struct Scene {
   std::shared_ptr<MeasuredLoop<Model>> loop;
   /// `controller = mpc`: the MPC whose step sets settings.input (sampled; ipsim/mpc.hpp).
   std::shared_ptr<MpcController<Model>> mpc;
+  /// The plant's input gain over the loop's model as the EKF learns it (estimator.gain_spread;
+  /// MeasuredLoop writes it, the swing-up divides its u by it); 1 when not learnt.
+  std::shared_ptr<double> gain_factor = std::make_shared<double>(1.0);
 };
 
 /// `controller = mpc`: the controller.* keys into scene.mpc, its sampled input into settings.input.
@@ -314,6 +317,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   scene.swingup_state = std::make_shared<SwingUp::State>();
   // the energy law computes the design model's force; as volts (÷ design gain) it gives the plant b × V
   sw.law_gain = scene.design_gain / scene.input_gain;
+  sw.gain_factor = scene.gain_factor;  // 1, or the gain the EKF learns (estimator.gain_spread)
   scene.settings.input = sw.input<Model>(scene.design, scene.swingup_state);
   scene.swingup = std::move(sw);
 }
@@ -397,6 +401,12 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     if (loop.kind == EstimatorKind::filter) {
       loop.cutoff = file.number("estimator.cutoff");
     }
+    if (file.has("estimator.gain_spread")) {  // >= 0, gain_drift too: cfg_rules.hpp
+      if (loop.kind != EstimatorKind::ekf) file.fail(file.line("estimator.gain_spread"), "estimator.gain_spread needs estimator = ekf (the filter learns the gain)");
+      if (!scene.swingup) file.fail(file.line("estimator.gain_spread"), "estimator.gain_spread needs a swing-up (swingup = energy or trajectory), whose input it corrects");
+      loop.gain_spread = file.number("estimator.gain_spread");
+      if (file.has("estimator.gain_drift")) loop.gain_drift = file.number("estimator.gain_drift");
+    }
     if (file.has("estimator.predict")) {
       const double predict = file.number("estimator.predict");
       if (predict != 0.0 && predict != 1.0) file.fail(file.line("estimator.predict"), "estimator.predict must be 0 or 1");
@@ -428,7 +438,8 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     }
   }
   auto measured = std::make_shared<MeasuredLoop<Model>>(std::move(loop), s.input.feedback, period, scene.input_gain,
-                                                        scene.design, scene.design_gain, scene.coordinates);
+                                                        scene.design, scene.design_gain, scene.coordinates,
+                                                        scene.gain_factor);
   s.input.feedback = [measured](double t, const Eigen::VectorXd& x) { return measured->step(t, x); };
   scene.loop = std::move(measured);
 }

@@ -110,6 +110,9 @@ struct LoopSettings {
   Eigen::VectorXd B, equilibrium;
   double input_equilibrium = 0.0;
   bool predict = false;  ///< the law sees the estimate carried over the delay (ipgen_loop_predict)
+  /// ekf: > 0, the filter learns the plant's input gain over the model's (rho, ipgen_loop_ekf's
+  /// gain_spread: its prior standard deviation) and its drift per sqrt(s)
+  double gain_spread = 0.0, gain_drift = 0.0;
 };
 
 /// One run's measure → estimate → control → delay → drive loop around a sampled control law.
@@ -122,8 +125,10 @@ class MeasuredLoop {
 
   /// `input_gain`: the plant's force per unit of u; `design`, `design_gain`: the model the EKF and
   /// the prediction run (Scene::design: the plant's, or a sweep's nominal one) and its force per unit.
+  /// `gain_factor`: where the learnt gain goes (estimator.gain_spread), read by the swing-up.
   MeasuredLoop(LoopSettings settings, Input::Feedback law, double period, double input_gain,
-               const ParamsOf<Model>& design, double design_gain, Coordinates coordinates)
+               const ParamsOf<Model>& design, double design_gain, Coordinates coordinates,
+               std::shared_ptr<double> gain_factor = nullptr)
       : s_(std::move(settings)),
         law_(std::move(law)),
         period_(period),
@@ -132,7 +137,8 @@ class MeasuredLoop {
         params_(with_rod_links<Model>(design)),
         coordinates_(coordinates),
         sensor_noise_(s_.seed, 1),
-        drive_noise_(s_.seed, 2) {
+        drive_noise_(s_.seed, 2),
+        gain_factor_(gain_factor ? std::move(gain_factor) : std::make_shared<double>(1.0)) {
     const auto m = static_cast<Eigen::Index>(s_.measured.size());
     y_ = Eigen::VectorXd::Zero(m);
     previous_y_ = y_;
@@ -146,8 +152,10 @@ class MeasuredLoop {
     gain_rows_ = s_.gain;
     process_noise_ = s_.process_noise;
     measurement_noise_ = s_.measurement_noise;
-    covariance_ = RowMajor::Zero(2 * n, 2 * n);
-    work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(2 * n, static_cast<int>(m)));
+    const int states = IPGEN_LOOP_EKF_STATES(n, learns());  // rho after the state when learnt
+    filtered_ = Eigen::VectorXd::Zero(states);
+    covariance_ = RowMajor::Zero(states, states);
+    work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(states, static_cast<int>(m)));
     predict_work_ = Eigen::VectorXd::Zero(6 * 2 * n);
   }
 
@@ -162,7 +170,7 @@ class MeasuredLoop {
       Eigen::VectorXd ahead(2 * n);
       // A failed prediction (M(q) not positive definite on the way) leaves the estimate as it is.
       // believed_ holds the plant's forces or torques (gain_ per unit of u), the model the design's
-      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, design_gain_ / gain_, assumed, believed_.data(),
+      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, design_gain_ / gain_ * *gain_factor_, assumed, believed_.data(),
                              estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
         seen = coordinates_.to_canonical(ahead);
       }
@@ -178,19 +186,22 @@ class MeasuredLoop {
     return applied + gain_ * s_.drive_noise * noise;
   }
 
-  /// Column names after the CSV's others: y_theta<i> per measured, hat_theta<i>, hat_dtheta<i>.
+  /// Column names after the CSV's others: y_theta<i> per measured, hat_theta<i>, hat_dtheta<i>,
+  /// and hat_gain (rho) when the EKF learns the input gain.
   std::vector<std::string> column_names() const {
     std::vector<std::string> names;
     for (const int i : s_.measured) names.push_back("y_theta" + std::to_string(i));
     for (int i = 0; i < n; ++i) names.push_back("hat_theta" + std::to_string(i));
     for (int i = 0; i < n; ++i) names.push_back("hat_dtheta" + std::to_string(i));
+    if (learns()) names.emplace_back("hat_gain");
     return names;
   }
 
   /// The values of column_names() at the latest sampling instant (held between instants).
   Eigen::VectorXd column_values() const {
-    Eigen::VectorXd values(y_.size() + 2 * n);
-    values << y_, estimate_;
+    Eigen::VectorXd values(y_.size() + 2 * n + (learns() ? 1 : 0));
+    values.head(y_.size() + 2 * n) << y_, estimate_;
+    if (learns()) values(values.size() - 1) = *gain_factor_;
     return values;
   }
 
@@ -239,15 +250,20 @@ class MeasuredLoop {
       }
       case EstimatorKind::ekf: {
         const ipgen_loop_ekf filter{measurement(), period_, design_gain_, process_noise_.data(), measurement_noise_.data(),
-                                    &MeasuredLoop::field, this};
+                                    &MeasuredLoop::field, this, s_.gain_spread, s_.gain_drift};
         // A failed step (M(q) or the innovation covariance not positive definite) keeps the
         // last estimate, as the firmware does.
-        (void)ipgen_loop_ekf_update(&filter, k, y_.data(), last_input_, estimate_.data(), covariance_.data(), work_.data());
+        (void)ipgen_loop_ekf_update(&filter, k, y_.data(), last_input_, filtered_.data(), covariance_.data(), work_.data());
+        estimate_ = filtered_.head(2 * n);
+        if (learns()) *gain_factor_ = filtered_(2 * n);
         break;
       }
     }
     squared_error_ += (estimate_ - user).cwiseAbs2();
   }
+
+  /// True if the EKF learns the input gain (estimator.gain_spread > 0).
+  bool learns() const { return s_.kind == EstimatorKind::ekf && s_.gain_spread > 0.0; }
 
   /// The Kalman filters' sizes, measured coordinates and equilibrium.
   ipgen_loop_measurement measurement() const {
@@ -292,7 +308,9 @@ class MeasuredLoop {
   double pole_ = 0.0;                    ///< filter: exp(−ω_c T)
   std::vector<int> measured_;            ///< s_.measured as ipgen_loop.h takes it
   RowMajor A_, gain_rows_, process_noise_, measurement_noise_, covariance_;  ///< row-major copies, P
+  std::shared_ptr<double> gain_factor_;  ///< rho, the learnt input gain over the model's (1: not learnt)
   Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_, predict_work_;
+  Eigen::VectorXd filtered_;             ///< the EKF's x: the estimate, and rho when it learns
   long samples_ = 0;
 };
 

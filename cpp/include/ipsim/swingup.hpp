@@ -96,6 +96,9 @@ struct SwingUp {
   /// catch_every periods from the start, u held in between; catch_law holds at the plan's end.
   std::function<double(const Eigen::VectorXd&, const double*, const double*)> track_law;
   int track_horizon = 0;
+  /// The plant's input gain over the model's (the EKF's learnt rho; null or 1: none): u is divided
+  /// by it before the saturation (ipgen_loop_swingup's gain_factor).
+  std::shared_ptr<const double> gain_factor;
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
   /// equilibrium it holds (x_target, or θ1 = 2πk for a caught energy swing-up).
@@ -170,7 +173,8 @@ struct SwingUp {
                                  catch_reset ? &SwingUp::call_catch_reset : nullptr,
                                  track_law ? &SwingUp::call_track_law : nullptr,
                                  track_horizon,
-                                 refs.data()};
+                                 refs.data(),
+                                 gain_factor.get()};
     ipgen_loop_swingup_state& loop = state.loop;
     loop.phase = phase_code(state.phase);
     loop.k = k;
