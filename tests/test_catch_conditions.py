@@ -72,9 +72,9 @@ def test_ready_is_the_window_the_energy_and_the_base(
 
 
 def test_a_link_too_slow_for_upright_is_left_to_the_swing() -> None:
-    """The link 0.5 rad from upright at 3 rad/s (E = −1.0 mJ: it turns short of upright) is caught
-    without a deficit bound and left to the swing with a 0.6 mJ one; at 5 rad/s (E = +0.3 mJ) it is
-    caught with it."""
+    """The link 0.49 rad from upright at 3 rad/s (E = −1.19 mJ: it turns short of upright) is caught
+    without a deficit bound and left to the swing with a 0.6 mJ one; at 5 rad/s (E = −0.12 mJ) it
+    is caught with it."""
     slow, fast = np.array([0.0, 0.49, 0.0, -3.0]), np.array([0.0, 0.49, 0.0, -5.0])
     assert energy(0.49, -3.0) < -6e-4 < energy(0.49, -5.0)
     assert ready(0.0, 0.0, slow) and not ready(6e-4, 0.0, slow) and ready(6e-4, 0.0, fast)

@@ -1,9 +1,9 @@
 """The EKF that learns the plant's input gain ([estimator] gain_spread, ipgen_loop_ekf's gain
 state in cpp/include/ipgen_loop.h): the C filter against tests/loop_reference.py's numpy one,
-the gain it finds on a simulated QUBE whose motor is stronger or weaker than its model (the
+the gain it finds on a simulated QUBE whose torque per volt is more or less than its model's (the
 truth integrated here by scipy), one-line errors for bad values, the swing-up's u divided by the
-learnt gain, and in the simulator a sweep draw with a heavier pendulum and a weaker motor that
-the learnt gain swings up and holds."""
+learnt gain, the C header's loop against the simulator's, and in the simulator a sweep draw with
+a motor 10 % stronger than the loop's model that the learnt gain swings up and holds."""
 
 from __future__ import annotations
 
@@ -79,9 +79,9 @@ def _true_run(ratio: float, seconds: float, seed: int) -> tuple[np.ndarray, np.n
 
 @pytest.mark.parametrize(("ratio", "seed"), [(1.25, 0), (0.8, 1)])
 def test_the_ekf_finds_a_motor_stronger_or_weaker_than_its_model(ratio: float, seed: int) -> None:
-    """A QUBE whose motor gives 1.25 or 0.8 times the model's torque per volt (Rm 20 % lower or 25 %
-    higher), hanging and driven for 4 s: the learnt ρ is within 3 % of the ratio; without the
-    gain state the filter's arm-rate error is larger than with it."""
+    """A QUBE whose motor gives 1.25 or 0.8 times the model's torque per volt (its back-EMF
+    damping the model's), hanging and driven for 4 s: the learnt ρ is within 3 % of the ratio;
+    without the gain state the filter's arm-rate error is larger than with it."""
     states, readings, inputs = _true_run(ratio, 4.0, seed)
     rn = np.eye(2) * STEP**2 / 12
     learning = ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-6, rn, equilibrium="hanging", gain_spread=0.2)
@@ -98,25 +98,36 @@ def test_the_ekf_finds_a_motor_stronger_or_weaker_than_its_model(ratio: float, s
 
 @given(
     name=st.sampled_from(["gain_spread", "gain_drift"]),
-    value=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.floats(-10, 0), st.text(max_size=3)),
+    value=st.one_of(
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.floats(-10, 0),
+        st.floats(1, 10),
+        st.text(max_size=3),
+        st.booleans(),
+    ),
 )
 def test_a_bad_gain_setting_is_one_line(name: str, value: object) -> None:
-    assume(not (isinstance(value, float) and math.isfinite(value) and value >= 0))
+    assume(isinstance(value, bool) or not (isinstance(value, float) and 0 <= value <= 1))
     with pytest.raises(EstimationError, match=name) as error:
         ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-6, np.eye(2) * 1e-6, **{name: value})
     assert "\n" not in str(error.value)
 
 
-@given(rho=st.floats(0.5, 2.0), angle=st.floats(-0.2, 0.2), rate=st.floats(-2, 2))
+@given(
+    rho=st.floats(0.5, 2.0), angle=st.floats(-0.2, 0.2), rate=st.floats(-2, 2),
+    u_max=st.sampled_from([0.05, 10.0]),
+)  # fmt: skip
 @settings(max_examples=25, deadline=None)
-def test_the_swing_up_divides_its_input_by_the_learnt_gain(rho: float, angle: float, rate: float) -> None:
-    """ipgen_loop_swingup_step with gain_factor → ρ gives the hold's u / ρ (saturated at u_max);
-    a null gain_factor the u itself."""
+def test_the_swing_up_divides_its_input_by_the_learnt_gain(
+    rho: float, angle: float, rate: float, u_max: float
+) -> None:
+    """ipgen_loop_swingup_step with gain_factor → ρ gives the hold's u / ρ, then saturated at u_max
+    (10: never, 0.05: mostly); a null gain_factor the u itself."""
     from ipgen.common.loop_runtime import SwingUp, SwingUpState, address, library, swingup_work
     from ipgen.control.casadi_model import plant
     from ipgen.control.energy import energy_swingup
 
-    law = energy_swingup(plant("rotary", 1, [0.095, 0.024], [0.085, 0.129], [0.0005, 0.0]), u_max=0.05)
+    law = energy_swingup(plant("rotary", 1, [0.095, 0.024], [0.085, 0.129], [0.0005, 0.0]), u_max=u_max)
     x = np.array([0.01, angle, 0.0, rate])  # in the catch window: the hold LQR
     hold, target = np.array(law.hold_gain, dtype=float).reshape(-1), np.zeros(4)
     work = np.zeros(swingup_work(2))
@@ -131,8 +142,10 @@ def test_the_swing_up_divides_its_input_by_the_learnt_gain(rho: float, angle: fl
         u = run.ipgen_loop_swingup_step(ctypes.byref(c_law), ctypes.byref(state), address(x), address(work))
         outputs.append(u)
     plain = -float(hold @ x)
-    assert outputs[0] == pytest.approx(float(np.clip(plain, -0.05, 0.05)), rel=1e-12, abs=1e-15)
-    assert outputs[1] == pytest.approx(float(np.clip(plain / rho, -0.05, 0.05)), rel=1e-12, abs=1e-15)
+    assert u_max == 0.05 or abs(plain / rho) < u_max  # u_max = 10: the division unclipped
+    assert outputs[0] == pytest.approx(float(np.clip(plain, -u_max, u_max)), rel=1e-12, abs=1e-15)
+    divided = float(np.clip(plain / rho, -u_max, u_max))
+    assert outputs[1] == pytest.approx(divided, rel=1e-12, abs=1e-15)
 
 
 # ---- the C header and the simulator ---------------------------------------------------------------
@@ -198,3 +211,34 @@ def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) 
     assert np.max(np.abs(values[:samples, 0] - run_["u"][:samples])) <= 1e-9 * 10.0
     assert np.max(np.abs(values[:samples, 1] - run_["hat_gain"][:samples])) <= 1e-9
     assert np.ptp(run_["hat_gain"]) > 1e-4  # it learnt something: the gain moved
+
+
+# Run 76 of `ipgen sweep --preset qube_servo2_mpc_swingup_m4f --random 1000` (the default seed):
+# the motor 10 % stronger than the loop's model (Rm), the pendulum 2 % heavier.
+DRAW = (
+    ("parameters.m", [0.09372615288982099, 0.024471066672504867]),
+    ("parameters.delta", [5.128401062268274e-06, 1.1551953479656535e-06]),
+    ("actuator.Rm", 7.554443312105122),
+    ("initial.theta", [0.0009314290807987124, 3.106980592404167]),
+    ("initial.dtheta", [0.0, 0.0]),
+)
+
+
+def test_the_learnt_gain_swings_up_a_draw_the_nominal_loop_runs_out_of_its_travel() -> None:
+    """qube_servo2_mpc_swingup_m4f on that draw (its loop nominal, as a sweep keeps it): without
+    gain_spread its first catch runs the arm out of its travel; with it the swing-up is held."""
+    from cxx import require_toolchain
+
+    from ipgen.sweeps import execute
+    from ipgen.sweeps.success import Success
+
+    require_toolchain()
+    text = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml").read_text()
+    assert "\ngain_spread = " in text
+    plain = "\n".join(line for line in text.splitlines() if not line.startswith("gain_spread"))
+    results = {}
+    for name, scene in (("learnt", text), ("plain", plain)):
+        task = execute.Task(0, "random", 0, 0, 0, DRAW)
+        results[name] = execute.run_one(execute.SceneSource(f"qube_{name}", scene), task, Success())
+    assert (results["plain"].outcome, results["plain"].reason) == ("fail", "left the travel"), results
+    assert results["learnt"].outcome == "pass", results["learnt"]

@@ -216,9 +216,10 @@ IPGEN_LOOP_API int ipgen_loop_predict(ipgen_loop_field field, void *context, int
  * With gain_spread > 0 it also learns the plant's input gain: x gets one more entry, rho = the
  * plant's force per unit of u over `gain` (a motor's Rm or torque constant unlike the model's),
  * predicted with x' = f(x, rho gain u_previous), rho' = 0 (a random walk). A = df/dx gets the
- * column df/drho = (f(x, rho gain u) - f(x, 0)) / rho (f is affine in u) and the row 0; Qn gets
+ * column df/drho = f(x, gain u) - f(x, 0) (f is affine in u) and the row 0; Qn gets
  * gain_drift^2 T for rho; at k = 0 rho = 1 with variance gain_spread^2. rho is kept within
- * [1/2, 2]. x and P then have IPGEN_LOOP_EKF_STATES(dof, 1) entries a side. */
+ * [1/2, 2]. x and P then have IPGEN_LOOP_EKF_STATES(dof, 1) entries a side: start x's rho at 1
+ * (a filter whose first sample fails predicts with it). */
 typedef struct {
   ipgen_loop_measurement measurement;
   ipgen_real period;    /* T [s] */
@@ -227,6 +228,7 @@ typedef struct {
   const ipgen_real *Rn; /* measurement noise (count x count) */
   ipgen_loop_field field;
   void *context;        /* passed to field */
+  /* Fields appended over releases: zero the struct, then set them by name. */
   /* > 0: the input gain is learnt (above), rho's standard deviation at the start; 0: not learnt */
   ipgen_real gain_spread;
   ipgen_real gain_drift; /* rho's random walk: its standard deviation grows by this per sqrt(s) */
@@ -277,9 +279,10 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
       }
     }
     if (learns) { /* rho's column of F: T b + (T A) T b / 2, b = df/drho (W as scratch) */
-      ipgen_real *b = W, *f0 = W + m;
-      if (e->field(e->context, x, u, b, 0) != 0 || e->field(e->context, x, (ipgen_real)0, f0, 0) != 0) return 1;
-      for (r = 0; r < m; ++r) b[r] = T * (b[r] - f0[r]) / rho;
+      ipgen_real *b = W, *f0 = W + m; /* f is affine in u: df/drho = f(x, gain u) - f(x, 0) */
+      if (e->field(e->context, x, u_previous * e->gain, b, 0) != 0 || e->field(e->context, x, (ipgen_real)0, f0, 0) != 0)
+        return 1;
+      for (r = 0; r < m; ++r) b[r] = T * (b[r] - f0[r]);
       for (r = 0; r < m; ++r) {
         ipgen_real s = (ipgen_real)0;
         for (j = 0; j < m; ++j) s += A[r * m + j] * b[j];
@@ -338,7 +341,7 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
     for (r = 0; r < c; ++r) s += K[i * c + r] * innovation[r];
     x[i] = xp[i] + s;
   }
-  if (learns && x[m] < (ipgen_real)0.5) x[m] = (ipgen_real)0.5;
+  if (learns && !(x[m] >= (ipgen_real)0.5)) x[m] = (ipgen_real)0.5; /* NaN too */
   if (learns && x[m] > (ipgen_real)2) x[m] = (ipgen_real)2;
   /* Joseph form, F reused for I - K C */
   for (r = 0; r < n; ++r)
@@ -488,8 +491,9 @@ typedef struct { /* fields are appended over releases: zero it, then set them by
   int track_horizon;
   ipgen_real *track_refs;
   /* Optional: the plant's input gain over the model's as the loop learns it (an EKF's rho, the
-   * entry after its 2 dof states); every u is divided by it before the saturation, so that the
-   * plant gets the force the law asks of the model. Null: 1. */
+   * entry after its 2 dof states); every u is divided by it, then clipped to u_max, so that the
+   * plant gets the force the law asks of the model (a catch or track law's u is clipped to u_max
+   * before as well, as without it). Null: 1. */
   const ipgen_real *gain_factor;
 } ipgen_loop_swingup;
 

@@ -181,7 +181,8 @@ def _layout() -> list[int]:
 
 
 def ekf_work(states: int, count: int) -> int:
-    """IPGEN_LOOP_EKF_WORK(n, c): scratch entries of one EKF sample (n = 2 dof states, c measured)."""
+    """IPGEN_LOOP_EKF_WORK(n, c): scratch entries of one EKF sample (n states: 2 dof, one more
+    when it learns the gain; c measured)."""
     n, c = states, count
     return 6 * n + 4 * n * n + n * c + c * c + 2 * c
 

@@ -284,7 +284,8 @@ class ExtendedKalman(_Runtime):
         > 0: the filter also learns the input gain of the plant over the model's, ρ (`gain`),
         starting from ρ = 1 with this standard deviation (default 0: not learnt).
     gain_drift : float, optional
-        With `gain_spread`: ρ's random walk, its standard deviation's growth per √s (default 0).
+        With `gain_spread`: ρ's random walk, its standard deviation's growth per √s (default 0:
+        ρ constant; a scene's `[estimator] gain_drift` defaults to 0.003). Both at most 1.
 
     Notes
     -----
@@ -308,9 +309,9 @@ class ExtendedKalman(_Runtime):
         import numpy as np
 
         for name, value in (("gain_spread", gain_spread), ("gain_drift", gain_drift)):
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+            if isinstance(value, bool) or not (isinstance(value, int | float) and 0 <= value <= 1):
                 raise EstimationError(
-                    f"{name} = {value!r}: expected a finite number >= 0 (0: the gain not learnt)"
+                    f"{name} = {value!r}: expected a number from 0 to 1 (0: the gain not learnt)"
                 )
         self.gain_spread, self.gain_drift = float(gain_spread), float(gain_drift)
         self.model = as_model(pendulum)
@@ -346,6 +347,7 @@ class ExtendedKalman(_Runtime):
 
         self._start()
         self._x = np.zeros(self._states)  # the estimate, and ρ when the gain is learnt
+        self._x[2 * self.dof :] = 1.0  # ρ before the first sample
         self._x_at = address(self._x)
         self._p = np.zeros((self._states, self._states))  # P_{k−1|k−1}
 

@@ -225,13 +225,13 @@ class EstimatorTable(BaseModel):
         description="s: the delay the loop is built for (its estimator's input, the prediction), a whole "
         "multiple of the period; default sensors.delay (the rig's delay, known to the loop)",
     )
-    gain_spread: Real(ge=0, says="must be a number >= 0") | None = Field(
+    gain_spread: Real(ge=0, le=1, says="must be a number from 0 to 1") | None = Field(
         None,
         description="ekf with a swing-up: the filter also learns the plant's input gain (a motor's "
         "torque per volt) over the model's, rho, and the swing-up divides its u by it; this is rho's "
         "standard deviation at the start (0.2: a gain within about ±20 %; default 0: not learnt)",
     )
-    gain_drift: Real(ge=0, says="must be a number >= 0 per √s") | None = Field(
+    gain_drift: Real(ge=0, le=1, says="must be a number from 0 to 1 per √s") | None = Field(
         None,
         description="with gain_spread: rho's random walk, its standard deviation's growth per √s "
         f"(default {DEFAULT_GAIN_DRIFT}: the filter keeps learning)",

@@ -407,6 +407,9 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       loop.gain_spread = file.number("estimator.gain_spread");
       if (file.has("estimator.gain_drift")) loop.gain_drift = file.number("estimator.gain_drift");
     }
+    if (file.has("estimator.gain_drift") && !file.has("estimator.gain_spread")) {
+      file.fail(file.line("estimator.gain_drift"), "estimator.gain_drift needs estimator.gain_spread (the gain it lets drift)");
+    }
     if (file.has("estimator.predict")) {
       const double predict = file.number("estimator.predict");
       if (predict != 0.0 && predict != 1.0) file.fail(file.line("estimator.predict"), "estimator.predict must be 0 or 1");

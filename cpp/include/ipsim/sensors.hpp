@@ -154,6 +154,7 @@ class MeasuredLoop {
     measurement_noise_ = s_.measurement_noise;
     const int states = IPGEN_LOOP_EKF_STATES(n, learns());  // rho after the state when learnt
     filtered_ = Eigen::VectorXd::Zero(states);
+    if (learns()) filtered_(2 * n) = 1.0;  // rho before the first sample (ipgen_loop_ekf)
     covariance_ = RowMajor::Zero(states, states);
     work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(states, static_cast<int>(m)));
     predict_work_ = Eigen::VectorXd::Zero(6 * 2 * n);
