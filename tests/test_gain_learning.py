@@ -96,6 +96,23 @@ def test_the_ekf_finds_a_motor_stronger_or_weaker_than_its_model(ratio: float, s
     assert rms_learning < rms_fixed
 
 
+def test_the_learnt_gain_stops_at_twice_the_models() -> None:
+    """A motor 3 times the model's: ρ climbs to its bound 2 and stays there (ipgen_loop_ekf's
+    clamp), in C and in the reference alike."""
+    _, readings, inputs = _true_run(3.0, 1.0, 2)
+    rn = np.eye(2) * STEP**2 / 12
+    ekf = ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-6, rn, equilibrium="hanging", gain_spread=0.5)
+    ref = reference.ExtendedKalman(ekf)
+    u_before, gains = 0.0, []
+    for y, u in zip(readings, inputs, strict=True):
+        ekf.step(y, u_before)
+        ref.step(y, u_before)
+        gains.append((ekf.gain, ref.gain))
+        u_before = u
+    assert gains[-1] == (2.0, 2.0)
+    assert max(g for g, _ in gains) == 2.0
+
+
 @given(
     name=st.sampled_from(["gain_spread", "gain_drift"]),
     value=st.one_of(
@@ -168,9 +185,11 @@ int main(void) {
 
 
 def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) -> None:
-    """qube_servo2_swingup with an EKF that learns the gain: the C header's firmware step, fed the
-    encoder counts of the simulator's run, returns the simulator's voltage at every sample (1e-9
-    of 10 V) and its learnt gain (the CSV's hat_gain, 1e-9); both compile under -Werror."""
+    """qube_servo2_swingup with an EKF that learns the gain, on a rig with a delay of 2 periods that
+    the loop predicts over (ρ scales the prediction's input too): the C header's firmware step,
+    fed the encoder counts of the simulator's run, returns the command the simulator applies 2
+    samples later (1e-9 of 10 V) and its learnt gain (the CSV's hat_gain, 1e-9); it compiles
+    under -Werror."""
     import io
     import subprocess
     from contextlib import redirect_stderr, redirect_stdout
@@ -186,7 +205,10 @@ def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) 
     name = "qube_servo2_swingup"
     text = (ROOT / "scenes" / "rigs" / f"{name}.toml").read_text()
     text = text.replace(f'name = "{name}"', f'name = "{name}"\nemit = ["c"]')
-    text = text.replace('kind = "filter"', 'kind = "ekf"\ngain_spread = 0.2\ngain_drift = 0.01', 1)
+    estimator = 'kind = "ekf"\ngain_spread = 0.2\ngain_drift = 0.01\npredict = true'
+    text = text.replace('kind = "filter"', estimator, 1)
+    text = text.replace("resolution = 2048 ", "delay = 0.002\nresolution = 2048 ", 1)
+    assert "\ndelay = 0.002\n" in text and "\npredict = true" in text
     scene = tmp_path / "scene.toml"
     scene.write_text(text)
     generate = ["--scene", str(scene), "-o", str(tmp_path)]
@@ -208,7 +230,9 @@ def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) 
     out = subprocess.run([str(program)], input=lines, capture_output=True, text=True, check=True).stdout
     values = np.array([[float(v) for v in line.split()] for line in out.splitlines()])
     samples = len(values) - 1  # the last row repeats the command held at the end
-    assert np.max(np.abs(values[:samples, 0] - run_["u"][:samples])) <= 1e-9 * 10.0
+    delay = 2  # the simulator's u at row k is the command of row k − 2 (zero before)
+    assert np.all(run_["u"][:delay] == 0.0)
+    assert np.max(np.abs(values[: samples - delay, 0] - run_["u"][delay:samples])) <= 1e-9 * 10.0
     assert np.max(np.abs(values[:samples, 1] - run_["hat_gain"][:samples])) <= 1e-9
     assert np.ptp(run_["hat_gain"]) > 1e-4  # it learnt something: the gain moved
 
