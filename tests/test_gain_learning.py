@@ -17,6 +17,8 @@ import pytest
 from estimation_cases import QUBE, RSIP
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+from test_catch_conditions import DRAW  # sweep run 76 of the m4f preset: its motor 10 % stronger
+from test_firmware_c import REPLAY as FIRMWARE_REPLAY
 
 from ipgen.estimation import EstimationError
 from ipgen.estimation.estimators import ExtendedKalman
@@ -167,21 +169,9 @@ def test_the_swing_up_divides_its_input_by_the_learnt_gain(
 
 # ---- the C header and the simulator ---------------------------------------------------------------
 
-REPLAY = """\
-#include <stdio.h>
-#include "NAME.h"
-/* Reads counts per line, prints the voltage step returns and the learnt gain. */
-int main(void) {
-  P_loop_state s;
-  long counts[2];
-  P_loop_init(&s);
-  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) {
-    double u = P_step(&s, counts);
-    printf("%.17g %.17g\\n", u, s.estimator.x[4]);
-  }
-  return 0;
-}
-"""
+# test_firmware_c's replay of counts, printing the learnt gain instead of the phase
+REPLAY = FIRMWARE_REPLAY.replace('"%.17g %d\\n", u, s.swingup.phase', '"%.17g %.17g\\n", u, s.estimator.x[4]')
+assert "s.estimator.x[4]" in REPLAY
 
 
 def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) -> None:
@@ -237,15 +227,6 @@ def test_the_headers_loop_learns_the_gain_as_the_simulator_does(tmp_path: Path) 
     assert np.ptp(run_["hat_gain"]) > 1e-4  # it learnt something: the gain moved
 
 
-# Run 76 of `ipgen sweep --preset qube_servo2_mpc_swingup_m4f --random 1000` (the default seed):
-# the motor 10 % stronger than the loop's model (Rm), the pendulum 2 % heavier.
-DRAW = (
-    ("parameters.m", [0.09372615288982099, 0.024471066672504867]),
-    ("parameters.delta", [5.128401062268274e-06, 1.1551953479656535e-06]),
-    ("actuator.Rm", 7.554443312105122),
-    ("initial.theta", [0.0009314290807987124, 3.106980592404167]),
-    ("initial.dtheta", [0.0, 0.0]),
-)
 
 
 def test_the_learnt_gain_swings_up_a_draw_the_nominal_loop_runs_out_of_its_travel() -> None:
