@@ -1,8 +1,17 @@
 """Pendulums the estimation tests share: the QUBE-Servo 2 preset (a DC motor, Quanser's
 counter-clockwise α) and the paper's rotary single and double pendulum (scenes/rsip_pulse.toml,
-scenes/rdip_lqr.toml), as ipgen's keyword descriptions."""
+scenes/rdip_lqr.toml), as ipgen's keyword descriptions; and the samples the EKF tests draw."""
 
 from __future__ import annotations
+
+from hypothesis import strategies as st
+
+# (y, u) samples for an EKF measuring two angles: y within ±0.3 rad, u within ±5
+EKF_SAMPLES = st.lists(
+    st.tuples(st.lists(st.floats(-0.3, 0.3), min_size=2, max_size=2), st.floats(-5, 5)),
+    min_size=1,
+    max_size=12,
+)
 
 QUBE = {
     "type": "rotary",

@@ -14,7 +14,7 @@ from pathlib import Path
 import loop_reference as reference
 import numpy as np
 import pytest
-from estimation_cases import QUBE, RSIP
+from estimation_cases import EKF_SAMPLES, QUBE, RSIP
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from test_catch_conditions import DRAW  # sweep run 76 of the m4f preset: its motor 10 % stronger
@@ -29,11 +29,7 @@ STEP = 2 * math.pi / 2048  # rad: the QUBE's encoder count
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    samples=st.lists(
-        st.tuples(st.lists(st.floats(-0.3, 0.3), min_size=2, max_size=2), st.floats(-5, 5)),
-        min_size=1,
-        max_size=12,
-    ),
+    samples=EKF_SAMPLES,
     case=st.sampled_from(["rsip", "qube"]),
     spread=st.floats(0.05, 0.5),
     drift=st.sampled_from([0.0, 0.003, 0.1]),

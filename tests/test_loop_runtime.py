@@ -17,7 +17,7 @@ from pathlib import Path
 import loop_reference as reference
 import numpy as np
 import pytest
-from estimation_cases import QUBE, QUBE_LQR, RDIP, RSIP
+from estimation_cases import EKF_SAMPLES, QUBE, QUBE_LQR, RDIP, RSIP
 from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
@@ -185,11 +185,7 @@ def test_steady_state_kalman_equals_the_reference(rdip_kalman, samples) -> None:
 
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    samples=st.lists(
-        st.tuples(st.lists(st.floats(-0.3, 0.3), min_size=2, max_size=2), st.floats(-5, 5)),
-        min_size=1,
-        max_size=12,
-    ),
+    samples=EKF_SAMPLES,
     case=st.sampled_from(["rsip", "qube", "rdip"]),
 )
 def test_extended_kalman_equals_the_reference(samples, case: str) -> None:

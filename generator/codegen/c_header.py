@@ -259,9 +259,10 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
     size = 2 * dof
     if len(law.hold_gain) != size or len(law.target) != size:
         raise ControllerError(f"swing-up hold gain and target need {size} entries each")
-    energy_step = dict(law.energy).get("energy_step", 0.0)  # 0: the energy law's target is fixed
-    deficit = dict(law.energy).get("catch_deficit", 0.0)  # 0: a catch takes any energy
-    base = dict(law.energy).get("catch_base", 0.0)  # 0: a catch takes the base anywhere
+    energy = dict(law.energy)  # the optional constants are absent when 0
+    energy_step = energy.get("energy_step", 0.0)  # 0: the energy law's target is fixed
+    deficit = energy.get("catch_deficit", 0.0)  # 0: a catch takes any energy
+    base = energy.get("catch_base", 0.0)  # 0: a catch takes the base anywhere
     context: dict[str, object] = {
         "method": law.method,
         "u_max": c_number(law.u_max),
@@ -269,14 +270,14 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         "period": repr(float(law.period)),
         "hold_gain": _c_list(law.hold_gain, "hold gain"),
         "target": _c_list(law.target, "target"),
-        "energy": {name: c_number(value) for name, value in law.energy},
+        "energy": {name: c_number(value) for name, value in energy.items()},
         "steps": law.steps,
         # a dc_motor: u in volts, the energy law's force divided by b (None: u is the force)
         "input_gain": c_number(law.input_gain) if law.input_gain != 1.0 else None,
         "base_acceleration": law.base_acceleration,  # u is the base's acceleration: the law's a
         "input_gain_c": c_number(law.input_gain),  # ipgen_loop_energy_law's input_gain (1: none)
         # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
-        "energy_fields": [(name, c_number(dict(law.energy).get(name, 0.0))) for name in ENERGY_FIELDS],
+        "energy_fields": [(name, c_number(energy.get(name, 0.0))) for name in ENERGY_FIELDS],
         "energy_step": c_number(energy_step),
         "energy_learns": energy_step > 0,  # else the target is fixed
         "catch_deficit": c_number(deficit),

@@ -97,7 +97,7 @@ struct SwingUp {
   std::function<double(const Eigen::VectorXd&, const double*, const double*)> track_law;
   int track_horizon = 0;
   /// The plant's input gain over the model's (the EKF's learnt rho; null or 1: none): u is divided
-  /// by it before the saturation (ipgen_loop_swingup's gain_factor).
+  /// by it, then clipped to u_max (ipgen_loop_swingup's gain_factor).
   std::shared_ptr<const double> gain_factor;
 
   /// What the controller did last: its phase, the time it entered the hold phase, and the
