@@ -467,6 +467,8 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
         ({"actuator.pulses": "0.1 0.2"}, "3 numbers a pulse"),
         ({"estimator.predict": "1"}, "estimator.predict needs estimator exact or ekf"),
         ({"estimator.predict": "0.5"}, "estimator.predict must be 0 or 1"),
+        ({"estimator.compensate_lag": "2"}, "estimator.compensate_lag must be 0 or 1"),
+        ({"estimator.compensate_lag": "-1"}, "estimator.compensate_lag must be 0 or 1"),
     ],
 )  # fmt: skip
 def test_the_simulator_refuses_bad_loop_keys(

@@ -81,6 +81,55 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_lag_rate(ipgen_real command, ipgen_real app
   return (command - applied) / lag;
 }
 
+/* A known first-order drive lag ([estimator] compensate_lag), as the loop models it: over a
+ * period T with the command u held, the drive's input is u + (a - u) e^(-t / lag) from its value a
+ * at the start. The loop tracks a (no measurement: the lag is deterministic), predicts with the
+ * input's mean over each period, and sends the command whose mean is the law's, within +-limit.
+ * decay = e^(-T / lag); weight = (lag / T)(1 - e^(-T / lag)), a's weight in the period's mean. */
+typedef struct {
+  ipgen_real decay, weight, limit;
+} ipgen_loop_lag;
+
+/* The lag of time constant `lag` [s] over `period` [s], commands within +-limit (>= 0, may be
+ * infinite). lag <= 0: none (decay = weight = 0: each period's input is its command). The exponentials
+ * are taken in double, once. */
+IPGEN_LOOP_API ipgen_loop_lag ipgen_loop_lag_of(double lag, double period, double limit) {
+  ipgen_loop_lag result;
+  result.decay = 0, result.weight = 0, result.limit = (ipgen_real)limit;
+  if (lag > 0 && period > 0) {
+    result.decay = (ipgen_real)exp(-period / lag);
+    result.weight = (ipgen_real)(-(lag / period) * expm1(-period / lag));
+  }
+  return result;
+}
+
+/* The mean of the drive's input over the period in which `command` is held, from *applied (its
+ * value at the period's start), which moves to its value at the period's end. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_lag_mean(const ipgen_loop_lag *lag, ipgen_real command, ipgen_real *applied) {
+  const ipgen_real mean = command + (*applied - command) * lag->weight;
+  *applied = command + (*applied - command) * lag->decay;
+  return mean;
+}
+
+/* The inputs the model sees over the `delay` periods still in flight: means[j] = the mean over
+ * period j of pending[j] (j = 1..delay, as ipgen_loop_delay keeps them before this sample's call;
+ * means[0] = pending[0]), from `applied`, the drive's input now. Returns the drive's input when
+ * this sample's command starts to act. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_lag_ahead(const ipgen_loop_lag *lag, ipgen_real applied, int delay,
+                                               const ipgen_real pending[], ipgen_real means[]) {
+  int j;
+  means[0] = pending[0];
+  for (j = 1; j <= delay; ++j) means[j] = ipgen_loop_lag_mean(lag, pending[j], &applied);
+  return applied;
+}
+
+/* The command whose input has the mean `wanted` over its first period, the drive's input then
+ * being `applied` (the inverse of ipgen_loop_lag_mean), within +-limit. No lag: `wanted`. */
+IPGEN_LOOP_API ipgen_real ipgen_loop_lag_command(const ipgen_loop_lag *lag, ipgen_real wanted, ipgen_real applied) {
+  if (lag->weight == 0) return wanted;
+  return ipgen_loop_saturate((wanted - applied * lag->weight) / (1 - lag->weight), lag->limit);
+}
+
 /* ---- state estimators ----------------------------------------------------------------------
  * Each is called once per sample k = 0, 1, ... with the measured coordinates y and leaves the
  * estimate x_{k|k} = [q; qd] in x. */

@@ -376,6 +376,9 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         "learns": numbers.kind == "ekf" and numbers.gain_spread > 0,
         "gain_spread": c_number(numbers.gain_spread),
         "gain_drift": c_number(numbers.gain_drift),
+        # compensate_lag with a lag: the loop models the drive's lag (ipgen_loop_lag_*)
+        "lag": repr(float(estimator.lag)) if estimator.lag > 0 else None,
+        "lag_limit": repr(float(estimator.lag_limit)) if math.isfinite(estimator.lag_limit) else "HUGE_VAL",
     }
     if numbers.kind == "filter":
         cutoff = float(numbers.cutoff or 0.0)

@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 46  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 48  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -105,6 +105,13 @@ class EkfFilter(ctypes.Structure):
         ("field", FIELD), ("context", ctypes.c_void_p),
         ("gain_spread", _real), ("gain_drift", _real),  # 0: the gain is not learnt
     ]  # fmt: skip
+
+
+class Lag(ctypes.Structure):
+    """ipgen_loop_lag: a known drive lag over one period, e^(-T/lag), the start's weight in the
+    period's mean, and the commands' bound."""
+
+    _fields_ = [("decay", _real), ("weight", _real), ("limit", _real)]
 
 
 class EnergyLaw(ctypes.Structure):
@@ -176,6 +183,7 @@ def _layout() -> list[int]:
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
         offset(SwingUpState, "catch_u"), offset(SwingUpState, "energy_offset"),
         offset(SwingUpState, "swinging"),
+        ctypes.sizeof(Lag), offset(Lag, "limit"),
         ctypes.sizeof(ctypes.c_long),
     ]  # fmt: skip
 
@@ -211,6 +219,10 @@ SIGNATURES: tuple[tuple[str, Any, tuple[Any, ...]], ...] = (
     ("ipgen_loop_saturate", _real, (_real, _real)),
     ("ipgen_loop_delay", _real, (_P, _I, _real)),
     ("ipgen_loop_lag_rate", _real, (_real, _real, _real)),
+    ("ipgen_loop_lag_of", Lag, (ctypes.c_double, ctypes.c_double, ctypes.c_double)),
+    ("ipgen_loop_lag_mean", _real, (ctypes.POINTER(Lag), _real, _P)),
+    ("ipgen_loop_lag_ahead", _real, (ctypes.POINTER(Lag), _real, _I, _P, _P)),
+    ("ipgen_loop_lag_command", _real, (ctypes.POINTER(Lag), _real, _real)),
     ("ipgen_loop_difference", None, (_I, _real, _L, _P, _P, _P)),
     ("ipgen_loop_filter", None, (_I, _real, _real, _L, _P, _P, _P)),
     ("ipgen_loop_start_state", None, (ctypes.POINTER(Measurement), _P, _P)),

@@ -32,6 +32,7 @@ class EstimatorNumbers:
     predict: bool = False  # exact, ekf: the law sees the estimate carried over the delay (ipgen_loop_predict)
     gain_spread: float = 0.0  # ekf: > 0, the input gain is learnt (rho's prior σ); 0: not learnt
     gain_drift: float = 0.0  # ekf with gain_spread: rho's random walk, σ's growth per √s
+    compensate_lag: bool = False  # the loop is built for the drive's lag ([actuator] lag, known)
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,9 @@ class PrintedEstimator:
     period: float  # the sampled loop's period T [s]
     delay: int = 0  # whole periods from sampling to applying a command
     input_gain: float = 1.0  # ekf: the force or torque per unit of u (a dc_motor's b)
+    # compensate_lag: the drive's lag [s] and the bound of the law's command [units of u]
+    lag: float = 0.0
+    lag_limit: float = float("inf")
     # The parameters the loop was designed with, the motor folded in (Pendulum.folded().params()):
     # the swing-up's energy law and the EKF read them, so the firmware entry needs no arguments.
     params: dict[str, tuple[float, ...] | float] | None = None

@@ -148,7 +148,11 @@ def loop(
     result = Loop(
         sensors=Sensors(measured, resolution, noise, cart=cart, zero=tuple(float(v) for v in zero)),
         estimator=EstimatorNumbers(
-            kind, cutoff, predict=estimator is not None and estimator.predict, **_gain_learning(estimator)
+            kind,
+            cutoff,
+            predict=estimator is not None and estimator.predict,
+            compensate_lag=estimator is not None and estimator.compensate_lag,
+            **_gain_learning(estimator),
         ),
         delay=periods * period,
         assumed_delay=assumed,

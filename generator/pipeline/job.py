@@ -284,4 +284,15 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
         delay=round((loop.delay if loop.assumed_delay is None else loop.assumed_delay) / period),
         input_gain=float(scene.actuator.gain()),
         params=scene.pendulum.folded().params(),
+        lag=loop.lag if loop.estimator.compensate_lag else 0.0,
+        lag_limit=command_bound(scene),
     )
+
+
+def command_bound(scene: Scene) -> float:
+    """The bound of the sampled law's command [units of u] that a lag's compensation keeps to: the
+    swing-up's u_max, else the controller's saturation (an MPC's u_max), else infinity."""
+    if scene.swingup is not None:
+        return float(scene.swingup.u_max)
+    saturation = None if scene.controller is None else scene.controller.saturation
+    return float("inf") if saturation is None else float(saturation)

@@ -242,6 +242,12 @@ class EstimatorTable(BaseModel):
         "default sensors.delay) by the model with the commands still in flight, the state its command "
         "will meet (a known delay compensated)",
     )
+    compensate_lag: Annotated[bool, Field(strict=True)] = Field(
+        False,
+        description="the loop is built for the drive's first-order lag ([actuator] lag, known): its "
+        "estimator and prediction take each period's mean lagged input, and each command is the one "
+        "whose lagged mean over its first period is the law's, within the law's bound",
+    )
 
     @model_validator(mode="after")
     def _relations(self, info: ValidationInfo) -> EstimatorTable:
@@ -270,6 +276,11 @@ class EstimatorTable(BaseModel):
             refuse_line(
                 "estimator.predict with a trajectory swing-up is not supported yet (its plan would be "
                 "read a delay early): remove predict, or use the energy swing-up"
+            )
+        if self.compensate_lag and str(context.get("u_unit", "")).endswith("s^2"):
+            refuse_line(
+                "estimator.compensate_lag needs a force- or torque-driven base (an acceleration-driven "
+                "base has no drive lag): remove compensate_lag"
             )
         if self.predict and str(context.get("u_unit", "")).endswith("s^2"):
             refuse_line(

@@ -162,6 +162,7 @@ inline constexpr const char* kKeys[] = {
     "estimator.measurement_noise",
     "estimator.delay",
     "estimator.predict",
+    "estimator.compensate_lag",
     "estimator.gain_spread",
     "estimator.gain_drift",
 };

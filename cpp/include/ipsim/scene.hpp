@@ -57,6 +57,7 @@
 //   estimator.equilibrium, estimator.process_noise, estimator.measurement_noise        (ekf, row-major)
 //   estimator.delay = 0.02   (optional: the delay the loop is built for; absent: sensors.delay)
 //   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
+//   estimator.compensate_lag = 1  (optional: the loop is built for actuator.lag, ipgen_loop_lag_*)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
@@ -325,6 +326,16 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
 /// A row-major rows × cols matrix under `key`.
 Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::Index rows, Eigen::Index cols);
 
+/// The bound of the sampled law's command [N or N m]: the swing-up's u_max, an MPC's u_max or a
+/// controller's saturation (infinity without one), which a lag's compensation keeps to.
+template <class Model>
+double command_limit(const Scene<Model>& scene) {
+  if (scene.swingup) return scene.swingup->u_max;
+  if (scene.mpc) return mpc_input_scale(scene) * std::max(std::abs(scene.mpc->problem().u_min), std::abs(scene.mpc->problem().u_max));
+  if (scene.controller) return scene.controller->saturation;
+  return std::numeric_limits<double>::infinity();
+}
+
 /// The drive keys (actuator.lag, actuator.pulses into the settings; actuator.noise) and the
 /// measured loop (sensors.*, estimator.*) around the sampled controller or swing-up (scene.loop).
 template <class Model>
@@ -438,6 +449,14 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       if (!loop.process_noise.allFinite() || !loop.measurement_noise.allFinite() || !loop.equilibrium.allFinite()) {
         file.fail(file.line("estimator.process_noise"), "estimator.process_noise, measurement_noise and equilibrium must be finite");
       }
+    }
+  }
+  if (file.has("estimator.compensate_lag")) {
+    const double compensate = file.number("estimator.compensate_lag");
+    if (compensate != 0.0 && compensate != 1.0) file.fail(file.line("estimator.compensate_lag"), "estimator.compensate_lag must be 0 or 1");
+    if (compensate == 1.0) {
+      loop.lag = s.lag;  // the rig's, known to the loop
+      loop.limit = command_limit(scene);
     }
   }
   auto measured = std::make_shared<MeasuredLoop<Model>>(std::move(loop), s.input.feedback, period, scene.input_gain,

@@ -15,6 +15,10 @@
 //             the loop itself (its estimator's input, the prediction) assumes estimator.delay
 //             (default the rig's j, known): a firmware told the wrong delay
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
+//   lag       with estimator.compensate_lag the loop models the drive's first-order lag (actuator.lag,
+//             known): its estimator and prediction take each period's mean lagged input, and u_k is
+//             the command whose lagged mean over its first period is the law's, within the law's
+//             bound (ipgen_loop_lag_*)
 //
 // The quantiser, the delay and the estimators are ipgen_loop.h's (C99, shared with the firmware
 // header and Python); this class holds their memory and the simulated world around them.
@@ -31,6 +35,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <random>
 #include <string>
@@ -113,6 +118,9 @@ struct LoopSettings {
   /// ekf: > 0, the filter learns the plant's input gain over the model's (rho, ipgen_loop_ekf's
   /// gain_spread: its prior standard deviation) and its drift per sqrt(s)
   double gain_spread = 0.0, gain_drift = 0.0;
+  /// estimator.compensate_lag: the drive's lag the loop is built for [s] (the rig's actuator.lag;
+  /// 0: none) and the bound of its commands [N or N m] (the law's saturation)
+  double lag = 0.0, limit = std::numeric_limits<double>::infinity();
 };
 
 /// One run's measure → estimate → control → delay → drive loop around a sampled control law.
@@ -158,6 +166,8 @@ class MeasuredLoop {
     covariance_ = RowMajor::Zero(states, states);
     work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(states, static_cast<int>(m)));
     predict_work_ = Eigen::VectorXd::Zero(6 * 2 * n);
+    means_.assign(believed_.size(), 0.0);
+    lag_ = ipgen_loop_lag_of(s_.lag, period_, s_.limit);
   }
 
   /// The command applied on [t, t + period) for the true state x (ipgen's coordinates).
@@ -167,21 +177,25 @@ class MeasuredLoop {
     estimate(user);
     Eigen::VectorXd seen = s_.kind == EstimatorKind::exact ? x : coordinates_.to_canonical(estimate_);
     const int assumed = static_cast<int>(s_.assumed_delay_periods);
+    // the inputs over the delay as the model sees them (with a known lag: their means) and the
+    // drive's input when this sample's command starts to act
+    const double applied_then = ipgen_loop_lag_ahead(&lag_, lag_applied_, assumed, believed_.data(), means_.data());
     if (s_.predict && assumed > 0) {  // the state the command will meet, `assumed` periods later
       Eigen::VectorXd ahead(2 * n);
       // A failed prediction (M(q) not positive definite on the way) leaves the estimate as it is.
       // believed_ holds the plant's forces or torques (gain_ per unit of u), the model the design's
-      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, design_gain_ / gain_ * *gain_factor_, assumed, believed_.data(),
+      if (ipgen_loop_predict(&MeasuredLoop::field, this, 2 * n, period_, design_gain_ / gain_ * *gain_factor_, assumed, means_.data(),
                              estimate_.data(), ahead.data(), predict_work_.data()) == 0) {
         seen = coordinates_.to_canonical(ahead);
       }
     }
-    const double command = law_(t, seen);  // N or N m (saturated)
+    // N or N m (saturated); with a known lag, the command whose lagged mean is the law's
+    const double command = ipgen_loop_lag_command(&lag_, law_(t, seen), applied_then);
     // the command that reaches the drive now (u = 0 before the first arrives)
     const double applied = ipgen_loop_delay(pending_.data(), static_cast<int>(s_.delay_periods), command);
     // the one the loop believes acts now: its own queue of the delay it is built for (the rig's
-    // unless estimator.delay says otherwise), which its estimator predicts with
-    last_input_ = ipgen_loop_delay(believed_.data(), assumed, command) / gain_;
+    // unless estimator.delay says otherwise), which its estimator predicts with (its mean, lagged)
+    last_input_ = ipgen_loop_lag_mean(&lag_, ipgen_loop_delay(believed_.data(), assumed, command), &lag_applied_) / gain_;
     const double noise = drive_noise_();
     ++samples_;
     return applied + gain_ * s_.drive_noise * noise;
@@ -313,6 +327,9 @@ class MeasuredLoop {
   Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_, predict_work_;
   Eigen::VectorXd filtered_;             ///< the EKF's x: the estimate, and rho when it learns
   long samples_ = 0;
+  ipgen_loop_lag lag_{};                 ///< the known lag (estimator.compensate_lag; none: zeros)
+  double lag_applied_ = 0.0;             ///< the drive's input now, as the loop models it [N or N m]
+  std::vector<double> means_;            ///< the inputs over the delay the model predicts with
 };
 
 }  // namespace ipsim
