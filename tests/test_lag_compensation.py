@@ -64,25 +64,32 @@ def test_the_lags_mean_and_end_value_are_the_odes(
 
 
 @settings(max_examples=40, deadline=None)
-@given(lag=lags, period=periods, wanted=inputs, start=inputs, limit=st.floats(0.5, 30.0))
-def test_the_command_gives_the_wanted_mean_or_its_bound(
-    lag: float, period: float, wanted: float, start: float, limit: float
+@given(lag=lags, period=periods, fraction=st.floats(-0.999, 0.999), start=inputs, limit=st.floats(0.5, 30.0))
+def test_the_command_of_a_mean_is_the_command_that_gave_it(
+    lag: float, period: float, fraction: float, start: float, limit: float
 ) -> None:
-    """Within the bound the command's mean over its period is the wanted one (the ODE's); at the
-    bound the mean is the closest the bound allows (the bound on the wanted side)."""
+    """The round trip: a command c within the bound gives the mean m over its period (the ODE's);
+    the command the loop sends for the wanted mean m from the same start is c."""
     lib = _lib()
     model = lib.ipgen_loop_lag_of(lag, period, limit)
-    command = lib.ipgen_loop_lag_command(ctypes.byref(model), wanted, start)
-    assert abs(command) <= limit
+    command = fraction * limit
     _, mean = _ode(command, start, lag, period)
-    if abs(command) < limit:
-        assert mean == pytest.approx(
-            wanted, abs=1e-7 * max(1.0, abs(wanted), abs(start)) * (1 + lag / period)
-        )
-    else:
-        _, best = _ode(math.copysign(limit, wanted - start * model.weight), start, lag, period)
-        assert command == math.copysign(limit, wanted - start * model.weight)
-        assert abs(best - wanted) <= abs(mean - wanted) + 1e-12 and (wanted - mean) * command >= 0
+    back = lib.ipgen_loop_lag_command(ctypes.byref(model), mean, start)
+    assert back == pytest.approx(command, abs=1e-8 * max(1.0, limit, abs(start)) * (1 + lag / period))
+
+
+@settings(max_examples=40, deadline=None)
+@given(lag=lags, period=periods, start=inputs, limit=st.floats(0.5, 30.0), beyond=st.floats(1e-3, 10.0),
+       sign=st.sampled_from([-1.0, 1.0]))  # fmt: skip
+def test_a_mean_out_of_reach_gets_the_bound_on_its_side(
+    lag: float, period: float, start: float, limit: float, beyond: float, sign: float
+) -> None:
+    """A wanted mean beyond what the bound gives (the ODE's mean of ±limit, plus a margin on that
+    side) is sent the bound on that side: the mean grows with the command, so it is the closest."""
+    lib = _lib()
+    model = lib.ipgen_loop_lag_of(lag, period, limit)
+    _, reach = _ode(sign * limit, start, lag, period)
+    assert lib.ipgen_loop_lag_command(ctypes.byref(model), reach + sign * beyond, start) == sign * limit
 
 
 @settings(max_examples=20, deadline=None)
@@ -210,6 +217,96 @@ def test_the_controllers_loop_steps_compensate_a_lag_and_compile(
         assert done.returncode == 0, done.stderr[:3000]
 
 
+def _lqr_run(tmp_path: Path, lag: str, key: bool, pinned: str = "") -> tuple[dict, str]:
+    """qube_servo2's LQR sampled every 2 ms, the exact state through [sensors], a drive `lag`, the
+    key or not (and `pinned`: [estimator] lag): the run's CSV columns and its resolved config."""
+    from run_csv import read_run_csv
+
+    from ipgen.command.cli import run
+
+    source = (ROOT / "scenes" / "rigs" / "qube_servo2.toml").read_text()
+    source = source.replace("saturation = 10 ", "period = 0.002\nsaturation = 10 ", 1)
+    source = source.replace("t_end = 5.0 ", "sample = 0.002\nt_end = 2.0 ", 1)
+    source += "\n[sensors]\n" + ("[estimator]\ncompensate_lag = true\n" if key else "")
+    source += f"lag = {pinned}\n" if pinned else ""
+    source = source.replace('kind = "dc_motor"', f'kind = "dc_motor"\nlag = {lag}', 1)
+    assert "\nperiod = 0.002" in source and "\nsample = 0.002" in source and f"\nlag = {lag}" in source
+    folder = tmp_path / f"lag{lag}_{key}_{pinned}"
+    folder.mkdir()
+    (folder / "scene.toml").write_text(source)
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["run", str(folder / "scene.toml"), "-o", str(folder / "out"), "--no-plot"]) == 0, (
+            err.getvalue()
+        )
+    return read_run_csv(folder / "out" / "scene.csv", phase=False).columns(), (
+        folder / "out" / "scene.cfg"
+    ).read_text()
+
+
+def test_the_simulators_drive_gets_the_laws_input_on_average(tmp_path: Path) -> None:
+    """The LQR on the exact state with a 20 ms drive lag the loop knows: the drive's input, the lag's
+    ODE driven by the commands the CSV records (integrated here by scipy from 0), has over each
+    period the mean the law asks, −K (x_k − x_eq) from the CSV's state, wherever the command is
+    within ±10 V (and the commands are not the law's)."""
+    from cxx import require_toolchain
+
+    require_toolchain()
+    columns, cfg = _lqr_run(tmp_path, "0.02", key=True)
+    lines = dict(line.split(" = ", 1) for line in cfg.splitlines() if " = " in line)
+    gain = np.array([float(v) for v in lines["controller.gain"].split()])
+    target = np.array([float(v) for v in lines["controller.equilibrium"].split()])
+    states = np.column_stack([columns[f"{kind}theta{i}"] for kind in ("", "d") for i in (0, 1)])
+    law = np.clip(-(states - target) @ gain, -10.0, 10.0)
+    commands, applied, means = columns["u"], 0.0, []
+    for command in commands[:-1]:
+        applied, mean = _ode(float(command), applied, 0.02, 0.002)
+        means.append(mean)
+    inside = np.abs(commands[:-1]) < 10.0 - 1e-9
+    assert inside.sum() > 100 and np.max(np.abs(commands)) == pytest.approx(10.0)
+    assert np.max(np.abs(np.array(means)[inside] - law[:-1][inside])) < 1e-6
+    assert np.max(np.abs(commands[:-1] - law[:-1])) > 1.0  # the inverse, not the law, is sent
+
+
+def test_without_a_lag_the_key_changes_no_number(tmp_path: Path) -> None:
+    """With [actuator] lag = 0 the run with compensate_lag writes the same CSV as the run without."""
+    from cxx import require_toolchain
+
+    require_toolchain()
+    with_key, _ = _lqr_run(tmp_path, "0", key=True)
+    without, _ = _lqr_run(tmp_path, "0", key=False)
+    assert with_key.keys() == without.keys()
+    assert all(np.array_equal(with_key[name], without[name]) for name in with_key)
+
+
+def test_a_pinned_lag_is_what_the_loop_is_built_for(tmp_path: Path) -> None:
+    """[estimator] lag pins the loop's lag: pinned at 0 on a rig with 20 ms the commands are the
+    law's (nothing inverted, the same CSV as without the key); pinned at 20 ms on a rig without
+    a lag they are not; the header's IPGEN_NAME_LAG is the pinned value."""
+    from cxx import require_toolchain
+
+    from ipgen.command.cli import run
+
+    require_toolchain()
+    plain, _ = _lqr_run(tmp_path, "0.02", key=False)
+    zero, cfg = _lqr_run(tmp_path, "0.02", key=True, pinned="0")
+    assert "estimator.lag = 0" in cfg and all(np.array_equal(zero[k], plain[k]) for k in plain)
+    told, cfg = _lqr_run(tmp_path, "0", key=True, pinned="0.02")
+    untold, _ = _lqr_run(tmp_path, "0", key=False)
+    assert "estimator.lag = 0.02" in cfg and np.max(np.abs(told["u"] - untold["u"])) > 1.0
+    source = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc.toml").read_text()
+    source = source.replace('name = "qube_servo2_mpc"', 'name = "qube_servo2_mpc"\nemit = ["c"]', 1)
+    source = source.replace("[estimator]", "[estimator]\ncompensate_lag = true\nlag = 0.01", 1)
+    source = source.replace('kind = "dc_motor"', 'kind = "dc_motor"\nlag = 0.02', 1)
+    (tmp_path / "pinned.toml").write_text(source)
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(tmp_path / "pinned.toml"), "-o", str(tmp_path / "header")]) == 0, (
+            err.getvalue()
+        )
+    assert (
+        "#define IPGEN_QUBE_SERVO2_MPC_LAG 0.01 " in (tmp_path / "header" / "qube_servo2_mpc.h").read_text()
+    )
+
+
 def test_a_known_lag_keeps_the_qube_upright_where_the_nominal_loop_loses_it() -> None:
     """qube_servo2_mpc_swingup_m4f on a drive with a 30 ms lag (the scorecard's lag level 12), its
     loop nominal as a sweep keeps it: without compensate_lag the swing-up is not held; with it, it is."""
@@ -239,6 +336,15 @@ def test_a_known_lag_keeps_the_qube_upright_where_the_nominal_loop_loses_it() ->
 def test_compensate_lag_takes_only_true_or_false(value: object) -> None:
     shown = repr(value) if isinstance(value, float) else value
     assert "estimator.compensate_lag" in refused(text(f"[sensors]\n[estimator]\ncompensate_lag = {shown}\n"))
+
+
+@settings(max_examples=10, deadline=None)
+@given(value=st.one_of(st.floats(max_value=-1e-9), st.just(math.nan), st.sampled_from(['"fast"', "[0.1]"])))
+def test_a_bad_or_lone_pinned_lag_is_refused(value: object) -> None:
+    shown = ("nan" if math.isnan(value) else repr(value)) if isinstance(value, float) else value
+    message = refused(text(f"[sensors]\n[estimator]\ncompensate_lag = true\nlag = {shown}\n"))
+    assert "estimator.lag" in message
+    assert "compensate_lag" in refused(text("[sensors]\n[estimator]\nlag = 0.01\n"))
 
 
 def test_compensate_lag_with_an_acceleration_base_is_refused() -> None:

@@ -469,6 +469,7 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
         ({"estimator.predict": "0.5"}, "estimator.predict must be 0 or 1"),
         ({"estimator.compensate_lag": "2"}, "estimator.compensate_lag must be 0 or 1"),
         ({"estimator.compensate_lag": "-1"}, "estimator.compensate_lag must be 0 or 1"),
+        ({"estimator.lag": "0.01"}, "estimator.lag needs estimator.compensate_lag = 1"),
     ],
 )  # fmt: skip
 def test_the_simulator_refuses_bad_loop_keys(

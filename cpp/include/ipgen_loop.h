@@ -85,9 +85,10 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_lag_rate(ipgen_real command, ipgen_real app
  * period T with the command u held, the drive's input is u + (a - u) e^(-t / lag) from its value a
  * at the start. The loop tracks a (no measurement: the lag is deterministic), predicts with the
  * input's mean over each period, and sends the command whose mean is the law's, within +-limit.
- * decay = e^(-T / lag); weight = (lag / T)(1 - e^(-T / lag)), a's weight in the period's mean. */
+ * decay = e^(-T / lag); weight = (lag / T)(1 - e^(-T / lag)), a's weight in the period's mean;
+ * boost = 1 / (1 - weight), the inverse's gain (about 2 lag / T), taken in double. */
 typedef struct {
-  ipgen_real decay, weight, limit;
+  ipgen_real decay, weight, boost, limit;
 } ipgen_loop_lag;
 
 /* The lag of time constant `lag` [s] over `period` [s], commands within +-limit (>= 0, may be
@@ -95,18 +96,23 @@ typedef struct {
  * are taken in double, once. */
 IPGEN_LOOP_API ipgen_loop_lag ipgen_loop_lag_of(double lag, double period, double limit) {
   ipgen_loop_lag result;
-  result.decay = 0, result.weight = 0, result.limit = (ipgen_real)limit;
+  result.decay = 0, result.weight = 0, result.boost = 1, result.limit = (ipgen_real)limit;
   if (lag > 0 && period > 0) {
+    const double weight = -(lag / period) * expm1(-period / lag);
     result.decay = (ipgen_real)exp(-period / lag);
-    result.weight = (ipgen_real)(-(lag / period) * expm1(-period / lag));
+    result.weight = (ipgen_real)weight;
+    result.boost = (ipgen_real)(1 / (1 - weight));
   }
   return result;
 }
 
 /* The mean of the drive's input over the period in which `command` is held, from *applied (its
- * value at the period's start), which moves to its value at the period's end. */
+ * value at the period's start), which moves to its value at the period's end. No lag: the
+ * command, exactly (whatever *applied held). */
 IPGEN_LOOP_API ipgen_real ipgen_loop_lag_mean(const ipgen_loop_lag *lag, ipgen_real command, ipgen_real *applied) {
-  const ipgen_real mean = command + (*applied - command) * lag->weight;
+  ipgen_real mean;
+  if (lag->weight == 0) return *applied = command;
+  mean = command + (*applied - command) * lag->weight;
   *applied = command + (*applied - command) * lag->decay;
   return mean;
 }
@@ -127,7 +133,7 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_lag_ahead(const ipgen_loop_lag *lag, ipgen_
  * being `applied` (the inverse of ipgen_loop_lag_mean), within +-limit. No lag: `wanted`. */
 IPGEN_LOOP_API ipgen_real ipgen_loop_lag_command(const ipgen_loop_lag *lag, ipgen_real wanted, ipgen_real applied) {
   if (lag->weight == 0) return wanted;
-  return ipgen_loop_saturate((wanted - applied * lag->weight) / (1 - lag->weight), lag->limit);
+  return ipgen_loop_saturate((wanted - applied * lag->weight) * lag->boost, lag->limit);
 }
 
 /* ---- state estimators ----------------------------------------------------------------------

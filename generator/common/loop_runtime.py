@@ -108,10 +108,10 @@ class EkfFilter(ctypes.Structure):
 
 
 class Lag(ctypes.Structure):
-    """ipgen_loop_lag: a known drive lag over one period, e^(-T/lag), the start's weight in the
-    period's mean, and the commands' bound."""
+    """ipgen_loop_lag: a known drive lag over one period, e^(-T/lag), the start's weight w in the
+    period's mean, the inverse's gain 1/(1 - w), and the commands' bound."""
 
-    _fields_ = [("decay", _real), ("weight", _real), ("limit", _real)]
+    _fields_ = [("decay", _real), ("weight", _real), ("boost", _real), ("limit", _real)]
 
 
 class EnergyLaw(ctypes.Structure):

@@ -33,6 +33,7 @@ class EstimatorNumbers:
     gain_spread: float = 0.0  # ekf: > 0, the input gain is learnt (rho's prior σ); 0: not learnt
     gain_drift: float = 0.0  # ekf with gain_spread: rho's random walk, σ's growth per √s
     compensate_lag: bool = False  # the loop is built for the drive's lag ([actuator] lag, known)
+    lag: float | None = None  # compensate_lag: the lag it is built for [s], pinned (None: the rig's)
 
 
 @dataclass(frozen=True)

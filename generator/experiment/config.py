@@ -137,6 +137,7 @@ CFG_KEYS: dict[str, str] = {
     "estimator.delay": "s: the delay the loop is built for (estimator, prediction); absent: sensors.delay",
     "estimator.predict": "1: the law sees the estimate carried over the delay (ipgen_loop_predict)",
     "estimator.compensate_lag": "1: the loop is built for actuator.lag (lagged inputs, the lag's inverse)",
+    "estimator.lag": "s: with compensate_lag, the lag the loop is built for; absent: actuator.lag",
     "estimator.gain_spread": "ekf: > 0, the input gain is learnt (rho's prior σ; the swing-up's u ÷ rho)",
     "estimator.gain_drift": "ekf with gain_spread: rho's random walk, σ's growth per √s",
 }
@@ -370,6 +371,8 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
         lines.put("estimator.predict", 1)
     if estimator.compensate_lag:  # absent otherwise: the .cfg of a scene without it unchanged
         lines.put("estimator.compensate_lag", 1)
+    if estimator.lag is not None:
+        lines.put("estimator.lag", estimator.lag)
     if estimator.gain_spread > 0:  # absent otherwise: the .cfg of a scene without it unchanged
         lines.put("estimator.gain_spread", estimator.gain_spread)
         lines.put("estimator.gain_drift", estimator.gain_drift)

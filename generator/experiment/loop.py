@@ -152,6 +152,7 @@ def loop(
             cutoff,
             predict=estimator is not None and estimator.predict,
             compensate_lag=estimator is not None and estimator.compensate_lag,
+            lag=None if estimator is None or estimator.lag is None else float(estimator.lag),
             **_gain_learning(estimator),
         ),
         delay=periods * period,

@@ -70,6 +70,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "estimator.cutoff": ("estimator", "cutoff"),
     "estimator.gain_spread": ("estimator", "gain_spread"),
     "estimator.gain_drift": ("estimator", "gain_drift"),
+    "estimator.lag": ("estimator", "lag"),
 }
 
 HEADER = Path(__file__).resolve().parents[2] / "cpp" / "include" / "ipsim" / "cfg_rules.hpp"

@@ -19,6 +19,7 @@ from ipgen.model.system import System, system_problem
 
 if TYPE_CHECKING:
     from ipgen.estimation.printed import PrintedEstimator
+    from ipgen.experiment.loop import Loop
     from ipgen.experiment.scene import Scene
     from ipgen.model.specialise import Specialisation
     from ipgen.pipeline.generate import Written
@@ -284,9 +285,17 @@ def printed_estimator(scene: Scene) -> PrintedEstimator | None:
         delay=round((loop.delay if loop.assumed_delay is None else loop.assumed_delay) / period),
         input_gain=float(scene.actuator.gain()),
         params=scene.pendulum.folded().params(),
-        lag=loop.lag if loop.estimator.compensate_lag else 0.0,
+        lag=_compensated_lag(loop),
         lag_limit=command_bound(scene),
     )
+
+
+def _compensated_lag(loop: Loop) -> float:
+    """The drive lag the loop's C header is built for [s]: [estimator] lag, else the rig's; 0 without
+    compensate_lag."""
+    if not loop.estimator.compensate_lag:
+        return 0.0
+    return loop.lag if loop.estimator.lag is None else loop.estimator.lag
 
 
 def command_bound(scene: Scene) -> float:

@@ -244,9 +244,15 @@ class EstimatorTable(BaseModel):
     )
     compensate_lag: Annotated[bool, Field(strict=True)] = Field(
         False,
-        description="the loop is built for the drive's first-order lag ([actuator] lag, known): its "
-        "estimator and prediction take each period's mean lagged input, and each command is the one "
-        "whose lagged mean over its first period is the law's, within the law's bound",
+        description="the loop is built for the drive's first-order lag (estimator.lag, default [actuator] "
+        "lag: the rig's, known): its estimator and prediction take each period's mean lagged input, and "
+        "each command is the one whose lagged mean over its first period is the law's, within the law's "
+        "bound; without a lag nothing changes",
+    )
+    lag: Real(ge=0, says="must be >= 0 s") | None = Field(
+        None,
+        description="with compensate_lag: the drive lag the loop is built for [s], pinned while [actuator] "
+        "lag (the rig's) differs; default [actuator] lag",
     )
 
     @model_validator(mode="after")
@@ -276,6 +282,11 @@ class EstimatorTable(BaseModel):
             refuse_line(
                 "estimator.predict with a trajectory swing-up is not supported yet (its plan would be "
                 "read a delay early): remove predict, or use the energy swing-up"
+            )
+        if self.lag is not None and not self.compensate_lag:
+            refuse_line(
+                "estimator.lag needs estimator.compensate_lag = true (it is the lag the compensation "
+                "is built for): add compensate_lag, or remove lag"
             )
         if self.compensate_lag and str(context.get("u_unit", "")).endswith("s^2"):
             refuse_line(

@@ -58,6 +58,7 @@
 //   estimator.delay = 0.02   (optional: the delay the loop is built for; absent: sensors.delay)
 //   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
 //   estimator.compensate_lag = 1  (optional: the loop is built for actuator.lag, ipgen_loop_lag_*)
+//   estimator.lag = 0.02     (optional, with compensate_lag: the lag the loop is built for; absent: actuator.lag)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
@@ -331,7 +332,7 @@ Eigen::MatrixXd matrix_of(const SceneFile& file, const std::string& key, Eigen::
 template <class Model>
 double command_limit(const Scene<Model>& scene) {
   if (scene.swingup) return scene.swingup->u_max;
-  if (scene.mpc) return mpc_input_scale(scene) * std::max(std::abs(scene.mpc->problem().u_min), std::abs(scene.mpc->problem().u_max));
+  if (scene.mpc) return std::abs(mpc_input_scale(scene)) * std::max(std::abs(scene.mpc->problem().u_min), std::abs(scene.mpc->problem().u_max));
   if (scene.controller) return scene.controller->saturation;
   return std::numeric_limits<double>::infinity();
 }
@@ -349,6 +350,11 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     for (std::size_t i = 0; i < values.size(); i += 3) s.pulses.push_back(Pulse{values[i], values[i + 1], values[i + 2]});
   }
   LoopSettings loop;
+  // estimator.compensate_lag: the loop is built for the drive's lag (estimator.lag, else the rig's)
+  const double compensate_key = file.has("estimator.compensate_lag") ? file.number("estimator.compensate_lag") : 0.0;
+  if (compensate_key != 0.0 && compensate_key != 1.0) file.fail(file.line("estimator.compensate_lag"), "estimator.compensate_lag must be 0 or 1");
+  const bool compensate = compensate_key == 1.0;
+  if (file.has("estimator.lag") && !compensate) file.fail(file.line("estimator.lag"), "estimator.lag needs estimator.compensate_lag = 1 (the lag the loop is built for)");
   if (file.has("actuator.noise")) {
     loop.drive_noise = file.number("actuator.noise");
     if (!(std::isfinite(loop.drive_noise) && loop.drive_noise >= 0.0)) {
@@ -451,13 +457,9 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       }
     }
   }
-  if (file.has("estimator.compensate_lag")) {
-    const double compensate = file.number("estimator.compensate_lag");
-    if (compensate != 0.0 && compensate != 1.0) file.fail(file.line("estimator.compensate_lag"), "estimator.compensate_lag must be 0 or 1");
-    if (compensate == 1.0) {
-      loop.lag = s.lag;  // the rig's, known to the loop
-      loop.limit = command_limit(scene);
-    }
+  if (compensate) {
+    loop.lag = file.has("estimator.lag") ? file.number("estimator.lag") : s.lag;  // pinned, or the rig's (known)
+    loop.limit = command_limit(scene);
   }
   auto measured = std::make_shared<MeasuredLoop<Model>>(std::move(loop), s.input.feedback, period, scene.input_gain,
                                                         scene.design, scene.design_gain, scene.coordinates,
