@@ -6,8 +6,10 @@ Also against the Python estimators (ipgen.estimation) on the same samples.
 
 The QUBE-Servo 2 preset (a DC motor: u in volts; Quanser's counter-clockwise α) on its 2048-count
 encoders, with noise, sampled at 1 kHz; every estimator kind, one with a delay of two periods, and
-the EKF with a delay of four that its law predicts over ([estimator] predict), and one whose loop
-is built for a delay of three on a rig without one ([estimator] delay).
+the EKF with a delay of four that its law predicts over ([estimator] predict), one whose loop
+is built for a delay of three on a rig without one ([estimator] delay), and a Kalman filter and
+an EKF (with a delay predicted over) on a drive with a 10 ms lag the loop compensates
+([estimator] compensate_lag).
 """
 
 from __future__ import annotations
@@ -46,8 +48,12 @@ VARIANTS = {  # name: ([sensors] extra lines, [estimator] table)
     "ekf-predict": ("noise = 2e-4\ndelay = 0.004\n", 'kind = "ekf"\npredict = true\n'),
     # a loop built for 3 periods on a rig without delay ([estimator] delay): the header's queue
     "ekf-told": ("noise = 2e-4\n", 'kind = "ekf"\ndelay = 0.003\npredict = true\n'),
+    # a 10 ms drive lag the loop is built for ([estimator] compensate_lag): the lag's inverse
+    "kalman-lag": ("noise = 2e-4\n", 'kind = "kalman"\ncompensate_lag = true\n'),
+    "ekf-lag": ("noise = 2e-4\ndelay = 0.002\n", 'kind = "ekf"\npredict = true\ncompensate_lag = true\n'),
 }
-DELAYS = {"kalman-delay": 2, "ekf-predict": 4}  # periods: the rig's
+DELAYS = {"kalman-delay": 2, "ekf-predict": 4, "ekf-lag": 2}  # periods: the rig's
+LAGS = {"kalman-lag": "0.01", "ekf-lag": "0.01"}  # s: [actuator] lag
 
 DRIVER = """\
 #include <stdio.h>
@@ -90,8 +96,10 @@ def ekf_setup() -> str:
     )
 
 
-def scene_text(sensors: str, estimator: str) -> str:
+def scene_text(sensors: str, estimator: str, lag: str = "") -> str:
     text = PRESET.read_text().replace('emit = ["cpp"]', 'emit = ["cpp", "c"]')
+    if lag:
+        text = text.replace('kind = "dc_motor"', f'kind = "dc_motor"\nlag = {lag}', 1)
     text = text.replace("t_end = 5.0", "t_end = 0.6\nsample = 0.001")
     text = text.replace(
         "delay = 0.0                   # s: the voltage is applied in the sample it is computed\n", ""
@@ -110,7 +118,7 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for name, (sensors, estimator) in VARIANTS.items():
         folder = root / name
         folder.mkdir()
-        (folder / "scene.toml").write_text(scene_text(sensors, estimator))
+        (folder / "scene.toml").write_text(scene_text(sensors, estimator, LAGS.get(name, "")))
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(["--scene", str(folder / "scene.toml"), "-o", str(folder)]) == 0, err.getvalue()
         # what `ipgen run` compiles and reads: the model's library and a .cfg naming it (in sim/)
@@ -179,8 +187,9 @@ def test_c_loop_matches_the_simulator(generated, name) -> None:
             assert np.max(np.abs(commanded - sent)) <= FLOAT_INPUT, (name, np.max(np.abs(commanded - sent)))
 
 
-# replay feeds the CSV's applied u; the "told" loop predicts with the commands it believes act
-@pytest.mark.parametrize("name", [name for name in VARIANTS if name != "ekf-told"])
+# replay feeds the CSV's applied u; the "told" loop predicts with the commands it believes act,
+# a lagged loop with their lagged means
+@pytest.mark.parametrize("name", [name for name in VARIANTS if name != "ekf-told" and name not in LAGS])
 def test_python_estimators_on_the_simulators_samples(generated, name) -> None:
     """ipgen.estimation.replay over the simulator's CSV: the same estimates (1e-9)."""
     folder = generated[name]
