@@ -118,7 +118,9 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for name, (sensors, estimator) in VARIANTS.items():
         folder = root / name
         folder.mkdir()
-        (folder / "scene.toml").write_text(scene_text(sensors, estimator, LAGS.get(name, "")))
+        text = scene_text(sensors, estimator, LAGS.get(name, ""))
+        assert (f"\nlag = {LAGS[name]}" in text) if name in LAGS else "\nlag = " not in text
+        (folder / "scene.toml").write_text(text)
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(["--scene", str(folder / "scene.toml"), "-o", str(folder)]) == 0, err.getvalue()
         # what `ipgen run` compiles and reads: the model's library and a .cfg naming it (in sim/)

@@ -451,6 +451,18 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
     assert abs(math.remainder(last[2], 2 * math.pi)) < 0.05  # θ1 upright
 
 
+def test_the_simulator_refuses_compensate_lag_without_sensors(simulator: Path, tmp_path: Path) -> None:
+    """A .cfg not written by ipgen with estimator.compensate_lag but no measured loop: one line,
+    exit 2 (ipgen writes the key only with [sensors])."""
+    path = tmp_path / "plain.toml"
+    path.write_text(scene_text())
+    cfg = tmp_path / "bad.cfg"
+    cfg.write_text(resolved_config(load_scene(path)) + "estimator.compensate_lag = 1\n")
+    result = subprocess.run([str(simulator), str(cfg)], capture_output=True, text=True)
+    assert result.returncode == 2 and "estimator.compensate_lag needs the sensors.* keys" in result.stderr
+    assert result.stderr.count("\n") == 1
+
+
 @pytest.mark.parametrize(
     ("change", "message"),
     [

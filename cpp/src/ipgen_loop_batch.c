@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 48
+#define IPGEN_LOOP_BATCH_LAYOUT 49
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -66,6 +66,7 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, energy_offset);
   out[i++] = (long)offsetof(ipgen_loop_swingup_state, swinging);
   out[i++] = (long)sizeof(ipgen_loop_lag);
+  out[i++] = (long)offsetof(ipgen_loop_lag, boost);
   out[i++] = (long)offsetof(ipgen_loop_lag, limit);
   out[i++] = (long)sizeof(long);
   return i;

@@ -61,7 +61,7 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 48  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 49  # IPGEN_LOOP_BATCH_LAYOUT
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -183,7 +183,7 @@ def _layout() -> list[int]:
         ctypes.sizeof(SwingUpState), offset(SwingUpState, "k"), offset(SwingUpState, "hold_q1"),
         offset(SwingUpState, "catch_u"), offset(SwingUpState, "energy_offset"),
         offset(SwingUpState, "swinging"),
-        ctypes.sizeof(Lag), offset(Lag, "limit"),
+        ctypes.sizeof(Lag), offset(Lag, "boost"), offset(Lag, "limit"),
         ctypes.sizeof(ctypes.c_long),
     ]  # fmt: skip
 

@@ -371,7 +371,7 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
         lines.put("estimator.predict", 1)
     if estimator.compensate_lag:  # absent otherwise: the .cfg of a scene without it unchanged
         lines.put("estimator.compensate_lag", 1)
-    if estimator.lag is not None:
+    if estimator.compensate_lag and estimator.lag is not None:
         lines.put("estimator.lag", estimator.lag)
     if estimator.gain_spread > 0:  # absent otherwise: the .cfg of a scene without it unchanged
         lines.put("estimator.gain_spread", estimator.gain_spread)

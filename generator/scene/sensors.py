@@ -249,7 +249,7 @@ class EstimatorTable(BaseModel):
         "each command is the one whose lagged mean over its first period is the law's, within the law's "
         "bound; without a lag nothing changes",
     )
-    lag: Real(ge=0, says="must be >= 0 s") | None = Field(
+    lag: Real(ge=0, le=60, says="must be from 0 to 60 s: is it in seconds?") | None = Field(
         None,
         description="with compensate_lag: the drive lag the loop is built for [s], pinned while [actuator] "
         "lag (the rig's) differs; default [actuator] lag",

@@ -220,7 +220,7 @@ inline constexpr Range kRanges[] = {
     {-1000000.0, false, 1000000.0, false, false},  // sensors.zero
     {0.0, false, 9.223372036854776e+18, true, true},  // sensors.seed
     {0.0, true, kInf, false, false},  // estimator.cutoff
-    {0.0, false, kInf, false, false},  // estimator.lag
+    {0.0, false, 60.0, false, false},  // estimator.lag
     {0.0, false, 1.0, false, false},  // estimator.gain_spread
     {0.0, false, 1.0, false, false},  // estimator.gain_drift
 };
@@ -276,7 +276,7 @@ inline constexpr Rule kRules[] = {
     {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 48, 1},
     {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 49, 1},
     {"estimator.cutoff", "[estimator] cutoff", "> 0", 50, 1},
-    {"estimator.lag", "[estimator] lag", ">= 0", 51, 1},
+    {"estimator.lag", "[estimator] lag", ">= 0 and <= 60", 51, 1},
     {"estimator.gain_spread", "[estimator] gain_spread", ">= 0 and <= 1", 52, 1},
     {"estimator.gain_drift", "[estimator] gain_drift", ">= 0 and <= 1", 53, 1},
 };

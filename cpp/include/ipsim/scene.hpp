@@ -364,6 +364,7 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
   loop.sensors = file.has("sensors.measured");
   if (!loop.sensors && file.has("estimator")) file.fail(file.line("estimator"), "`estimator` needs the `sensors.*` keys");
   const bool wanted = loop.sensors || loop.drive_noise > 0.0;
+  if (compensate && !loop.sensors) file.fail(file.line("estimator.compensate_lag"), "estimator.compensate_lag needs the sensors.* keys (the measured loop it compensates)");
   if (!wanted) return;
   const bool sampled = s.input.kind == Input::Kind::sampled;
   const int line = file.line(loop.sensors ? "sensors.measured" : "actuator.noise");

@@ -15,8 +15,8 @@
 //             the loop itself (its estimator's input, the prediction) assumes estimator.delay
 //             (default the rig's j, known): a firmware told the wrong delay
 //   drive     the command applied on [t_k, t_k+1) gets + N(0, σ_u²) (drawn once per interval, held)
-//   lag       with estimator.compensate_lag the loop models the drive's first-order lag (actuator.lag,
-//             known): its estimator and prediction take each period's mean lagged input, and u_k is
+//   lag       with estimator.compensate_lag the loop models the drive's first-order lag (estimator.lag,
+//             else actuator.lag: known): its estimator and prediction take each period's mean lagged input, and u_k is
 //             the command whose lagged mean over its first period is the law's, within the law's
 //             bound (ipgen_loop_lag_*)
 //
@@ -118,8 +118,8 @@ struct LoopSettings {
   /// ekf: > 0, the filter learns the plant's input gain over the model's (rho, ipgen_loop_ekf's
   /// gain_spread: its prior standard deviation) and its drift per sqrt(s)
   double gain_spread = 0.0, gain_drift = 0.0;
-  /// estimator.compensate_lag: the drive's lag the loop is built for [s] (the rig's actuator.lag;
-  /// 0: none) and the bound of its commands [N or N m] (the law's saturation)
+  /// estimator.compensate_lag: the drive's lag the loop is built for [s] (estimator.lag, else the
+  /// rig's actuator.lag; 0: none) and the bound of its commands [N or N m] (the law's saturation)
   double lag = 0.0, limit = std::numeric_limits<double>::infinity();
 };
 
