@@ -229,17 +229,9 @@ def test_the_learnt_gain_swings_up_a_draw_the_nominal_loop_runs_out_of_its_trave
     """qube_servo2_mpc_swingup_m4f on that draw (its loop nominal, as a sweep keeps it): without
     gain_spread its first catch runs the arm out of its travel; with it the swing-up is held."""
     from cxx import require_toolchain
-
-    from ipgen.sweeps import execute
-    from ipgen.sweeps.success import Success
+    from preset_runs import with_and_without
 
     require_toolchain()
-    text = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml").read_text()
-    assert "\ngain_spread = " in text
-    plain = "\n".join(line for line in text.splitlines() if not line.startswith("gain_spread"))
-    results = {}
-    for name, scene in (("learnt", text), ("plain", plain)):
-        task = execute.Task(0, "random", 0, 0, 0, DRAW)
-        results[name] = execute.run_one(execute.SceneSource(f"qube_{name}", scene), task, Success())
-    assert (results["plain"].outcome, results["plain"].reason) == ("fail", "left the travel"), results
-    assert results["learnt"].outcome == "pass", results["learnt"]
+    results = with_and_without("gain_spread", "random", DRAW)
+    assert (results["without"].outcome, results["without"].reason) == ("fail", "left the travel"), results
+    assert results["with"].outcome == "pass", results["with"]

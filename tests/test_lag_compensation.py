@@ -318,20 +318,12 @@ def test_a_known_lag_keeps_the_qube_upright_where_the_nominal_loop_loses_it() ->
     inside what the key passes, 0–32.5 ms; without it the preset passes to 7.5 ms), its loop
     nominal as a sweep keeps it: without compensate_lag the swing-up is not held; with it, it is."""
     from cxx import require_toolchain
-
-    from ipgen.sweeps import execute
-    from ipgen.sweeps.success import Success
+    from preset_runs import with_and_without
 
     require_toolchain()
-    source = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml").read_text()
-    assert "\ncompensate_lag = true" in source
-    plain = "\n".join(line for line in source.splitlines() if not line.startswith("compensate_lag"))
-    results = {}
-    for name, body in (("known", source), ("plain", plain)):
-        task = execute.Task(0, "lag", 0, 0, 0, (("actuator.lag", 0.02),))
-        results[name] = execute.run_one(execute.SceneSource(f"qube_{name}", body), task, Success())
-    assert results["plain"].outcome == "fail", results
-    assert results["known"].outcome == "pass", results["known"]
+    results = with_and_without("compensate_lag", "lag", (("actuator.lag", 0.02),))
+    assert results["without"].outcome == "fail", results
+    assert results["with"].outcome == "pass", results["with"]
 
 
 # ---- the scene key -----------------------------------------------------------------------------
