@@ -321,7 +321,7 @@ def test_a_known_lag_keeps_the_qube_upright_where_the_nominal_loop_loses_it() ->
     from preset_runs import with_and_without
 
     require_toolchain()
-    results = with_and_without("compensate_lag", "lag", (("actuator.lag", 0.02),))
+    results = with_and_without("compensate_lag", "lag", (("actuator.lag", 0.02),), rn="preset")
     assert results["without"].outcome == "fail", results
     assert results["with"].outcome == "pass", results["with"]
 
