@@ -186,19 +186,27 @@ def test_the_headers_loop_compensates_the_lag_as_the_simulator_does(tmp_path: Pa
 
 
 @pytest.mark.parametrize(
-    ("preset", "step"), [("qube_servo2_sensors", "loop_step"), ("qube_servo2_mpc", "mpc_loop_step")]
+    ("preset", "step", "bound"),
+    [
+        ("qube_servo2_sensors", "loop_step", "10.0"),
+        ("qube_servo2_sensors", "loop_step", ""),  # no saturation: the inverse unbounded (HUGE_VAL)
+        ("qube_servo2_mpc", "mpc_loop_step", "10.0"),
+    ],
 )
 def test_the_controllers_loop_steps_compensate_a_lag_and_compile(
-    tmp_path: Path, preset: str, step: str
+    tmp_path: Path, preset: str, step: str, bound: str
 ) -> None:
-    """An LQR's and an MPC's loop step (no swing-up) with a known lag: the step sends the lag's
-    inverse and the header compiles under -Werror in double and float (C99)."""
+    """An LQR's (with and without a saturation) and an MPC's loop step (no swing-up) with a known
+    lag: the step sends the lag's inverse, bounded by the law's bound, and the header compiles
+    under -Werror in double and float (C99)."""
     from c_models import CC, WARNINGS, require_cc
 
     from ipgen.command.cli import run
 
     require_cc()
     source = (ROOT / "scenes" / "rigs" / f"{preset}.toml").read_text()
+    if not bound:
+        source = re.sub(r"^saturation = .*\n", "", source, count=1, flags=re.M)
     source = re.sub(r"^emit = .*\n", "", source, flags=re.M)
     source = re.sub(r"^(name = .*)$", r'\1\nemit = ["c"]', source, count=1, flags=re.M)
     source = source.replace("[estimator]", "[estimator]\ncompensate_lag = true", 1)
@@ -213,6 +221,7 @@ def test_the_controllers_loop_steps_compensate_a_lag_and_compile(
     body = text[text.index(f"_{step}(") :]
     body = body[: body.index("\n}\n")]
     assert "ipgen_loop_lag_command(" in body and "s->acted" in body
+    assert f", {bound or 'HUGE_VAL'});" in text[text.index("= ipgen_loop_lag_of(") :].split("\n")[0]
     unit = tmp_path / "unit.c"
     unit.write_text(f'#include "{header.name}"\n')
     for scalar in ("double", "float"):
