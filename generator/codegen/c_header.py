@@ -250,6 +250,13 @@ ENERGY_FIELDS = (
     "energy_inertia",
     "energy_weight",
 )
+# ipgen_loop_energy_law's optional numbers after input_gain, in its order: (name, unit, what a
+# value > 0 does, what 0 means), printed with their comment in the header's initialiser.
+ENERGY_OPTIONS = (
+    ("energy_step", " [J]", "the law learns its target", "the target is fixed"),
+    ("catch_deficit", " [J]", "a catch needs E >= -catch_deficit", "any E"),
+    ("catch_base", "", "a catch needs |q0| <= catch_base", "the base anywhere"),
+)
 
 
 def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -> dict[str, object]:
@@ -260,9 +267,6 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
     if len(law.hold_gain) != size or len(law.target) != size:
         raise ControllerError(f"swing-up hold gain and target need {size} entries each")
     energy = dict(law.energy)  # the optional constants are absent when 0
-    energy_step = energy.get("energy_step", 0.0)  # 0: the energy law's target is fixed
-    deficit = energy.get("catch_deficit", 0.0)  # 0: a catch takes any energy
-    base = energy.get("catch_base", 0.0)  # 0: a catch takes the base anywhere
     context: dict[str, object] = {
         "method": law.method,
         "u_max": c_number(law.u_max),
@@ -278,12 +282,13 @@ def swingup_context(law: SwingUpLaw, dof: int, catch_every: int | None = None) -
         "input_gain_c": c_number(law.input_gain),  # ipgen_loop_energy_law's input_gain (1: none)
         # ipgen_loop_energy_law's numbers in its order (all 0 for a plan, which never swings)
         "energy_fields": [(name, c_number(energy.get(name, 0.0))) for name in ENERGY_FIELDS],
-        "energy_step": c_number(energy_step),
-        "energy_learns": energy_step > 0,  # else the target is fixed
-        "catch_deficit": c_number(deficit),
-        "catch_deficit_set": deficit > 0,
-        "catch_base": c_number(base),
-        "catch_base_set": base > 0,
+        # the optional numbers: (C value, comment), each set (> 0) or not
+        "energy_options": [
+            (c_number(energy.get(name, 0.0)), f"{name}{unit}: {on if energy.get(name, 0.0) > 0 else off}")
+            for name, unit, on, off in ENERGY_OPTIONS
+        ],
+        "energy_learns": energy.get("energy_step", 0.0) > 0,  # else the target is fixed
+        "catch_conditions": energy.get("catch_deficit", 0.0) > 0 or energy.get("catch_base", 0.0) > 0,
         "catch_every": catch_every,
         "release_angle": c_number(law.release_angle) if law.release_angle > 0 else None,
         "tracking": law.tracking,  # "mpc": the MPC tracks the plan (its reference per stage)

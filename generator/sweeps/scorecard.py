@@ -10,6 +10,7 @@ scene; the measurement, delay and drive criteria set [sensors] and [actuator] ke
 from __future__ import annotations
 
 import hashlib
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -63,12 +64,12 @@ def seed_of(base: int, criterion: str, level: int, repeat: int) -> int:
 
 
 def input_limit(scene: Scene) -> float:
-    """The input's limit the relative criteria scale by: u_max, the saturation, else 1."""
-    if scene.swingup is not None:
-        return scene.swingup.u_max
-    if scene.controller is not None and scene.controller.saturation is not None:
-        return scene.controller.saturation
-    return 1.0
+    """The input's limit the relative criteria scale by: the sampled law's bound
+    (`job.command_bound`: u_max, the saturation), else 1."""
+    from ipgen.pipeline.job import command_bound
+
+    bound = command_bound(scene)
+    return bound if math.isfinite(bound) else 1.0
 
 
 def force_limit(scene: Scene) -> float:
