@@ -76,13 +76,18 @@ class SteadyStateKalman:
 class ExtendedKalman:
     """The EKF of an `ipgen.estimation.ExtendedKalman` `ekf` (its model, Qn, Rn, C, x_eq); with its
     gain_spread > 0 the state is [x; ρ], x' = f(x, ρ u), ρ' = 0, ∂f/∂ρ = u ∂f/∂u (the model's B),
-    ρ's process noise gain_drift² T, ρ kept within [1/2, 2]."""
+    ρ's process noise gain_drift² T, ρ kept within [1/2, 2]. With its noise_memory > 0 each
+    measured coordinate's variance is learnt: an exponential mean (weight T / noise_memory) of
+    ν_r² − (C P⁻ Cᵀ)_rr, kept ≥ 0, from Rn's diagonal / noise_margin; after the first sample the
+    update uses Rn with the diagonal noise_margin times it, clipped to [noise_floor, noise_ceiling]."""
 
     def __init__(self, ekf: Any) -> None:
         self.ekf = ekf
         self.learns = getattr(ekf, "gain_spread", 0.0) > 0
+        self.memory = getattr(ekf, "noise_memory", 0.0)
         self._x: np.ndarray | None = None
         self._p: np.ndarray | None = None
+        self.learnt: np.ndarray | None = None  # the learnt variances (noise_memory > 0)
 
     def predict(self, x: np.ndarray, p: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
         t, f, n = self.ekf.period, self.ekf.model.f, 2 * self.ekf.dof
@@ -107,10 +112,29 @@ class ExtendedKalman:
         p_next = transition @ p @ transition.T + q
         return x_next, 0.5 * (p_next + p_next.T)
 
-    def update(self, x: np.ndarray, p: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c, rn = self.ekf.C, self.ekf.Rn
+    def noise(self, first: bool, innovation: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+        """The measurement covariance this sample's update uses (`predicted`: C P⁻ Cᵀ)."""
+        e, rn = self.ekf, np.array(self.ekf.Rn, dtype=float)
+        if self.memory <= 0:
+            return rn
+        if first:
+            self.learnt = np.diag(rn) / e.noise_margin
+            return rn
+        assert self.learnt is not None
+        weight = e.period / self.memory
+        sample = innovation**2 - np.diag(predicted)
+        self.learnt = np.maximum(self.learnt + weight * (sample - self.learnt), 0.0)
+        used = np.clip(e.noise_margin * self.learnt, e.noise_floor, e.noise_ceiling)
+        rn[np.diag_indices_from(rn)] = used
+        return rn
+
+    def update(
+        self, x: np.ndarray, p: np.ndarray, y: np.ndarray, first: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
+        c = self.ekf.C
         if self.learns:
             c = np.hstack([c, np.zeros((c.shape[0], 1))])
+        rn = self.noise(first, y - c @ x, c @ p @ c.T)
         s = c @ p @ c.T + rn
         k = np.linalg.solve(s, c @ p).T
         x_new = x + k @ (y - c @ x)
@@ -123,6 +147,7 @@ class ExtendedKalman:
     def step(self, y: Any, u: float = 0.0) -> np.ndarray:
         values = np.asarray(y, dtype=float).reshape(-1)
         e = self.ekf
+        first = self._x is None or self._p is None
         if self._x is None or self._p is None:
             x = initial_state(e.dof, e.measured, values, e._x_eq)
             p = e.initial_covariance()
@@ -132,7 +157,7 @@ class ExtendedKalman:
                 p[-1, -1] = e.gain_spread**2
         else:
             x, p = self.predict(self._x, self._p, float(u))
-        self._x, self._p = self.update(x, p, values)
+        self._x, self._p = self.update(x, p, values, first)
         return self._x[: 2 * e.dof].copy()
 
     @property

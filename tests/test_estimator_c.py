@@ -9,7 +9,8 @@ encoders, with noise, sampled at 1 kHz; every estimator kind, one with a delay o
 the EKF with a delay of four that its law predicts over ([estimator] predict), one whose loop
 is built for a delay of three on a rig without one ([estimator] delay), and a Kalman filter and
 an EKF (with a delay predicted over) on a drive with a 10 ms lag the loop compensates
-([estimator] compensate_lag).
+([estimator] compensate_lag), and an EKF that learns its measurement noise ([estimator]
+noise_memory) from encoders 2 mrad noisy.
 """
 
 from __future__ import annotations
@@ -51,6 +52,8 @@ VARIANTS = {  # name: ([sensors] extra lines, [estimator] table)
     # a 10 ms drive lag the loop is built for ([estimator] compensate_lag): the lag's inverse
     "kalman-lag": ("noise = 2e-4\n", 'kind = "kalman"\ncompensate_lag = true\n'),
     "ekf-lag": ("noise = 2e-4\ndelay = 0.002\n", 'kind = "ekf"\npredict = true\ncompensate_lag = true\n'),
+    # each encoder's noise learnt from the innovations over 50 ms ([estimator] noise_memory)
+    "ekf-noise": ("noise = 2e-3\n", 'kind = "ekf"\nnoise_memory = 0.05\n'),
 }
 DELAYS = {"kalman-delay": 2, "ekf-predict": 4, "ekf-lag": 2}  # periods: the rig's
 LAGS = {"kalman-lag": "0.01", "ekf-lag": "0.01"}  # s: [actuator] lag
@@ -191,7 +194,9 @@ def test_c_loop_matches_the_simulator(generated, name) -> None:
 
 # replay feeds the CSV's applied u; the "told" loop predicts with the commands it believes act,
 # a lagged loop with their lagged means
-@pytest.mark.parametrize("name", [name for name in VARIANTS if name != "ekf-told" and name not in LAGS])
+@pytest.mark.parametrize(
+    "name", [name for name in VARIANTS if name not in ("ekf-told", "ekf-noise") and name not in LAGS]
+)
 def test_python_estimators_on_the_simulators_samples(generated, name) -> None:
     """ipgen.estimation.replay over the simulator's CSV: the same estimates (1e-9)."""
     folder = generated[name]

@@ -329,6 +329,20 @@ def test_gain_learning_needs_an_ekf_a_swingup_and_a_spread() -> None:
     assert "estimator.gain_drift" in message and "gain_spread" in message
 
 
+@settings(max_examples=15, deadline=None, suppress_health_check=_CHECKS)
+@given(value=st.one_of(bad_numbers, st.just(0.0), st.floats(60.001, 1e300)))
+def test_a_bad_noise_memory_is_refused(value: float) -> None:
+    """[estimator] noise_memory zero, negative, above 60 s or not finite: one line naming it."""
+    message = refused(SWING + f'[sensors]\n[estimator]\nkind = "ekf"\nnoise_memory = {number(value)}\n')
+    assert "estimator.noise_memory" in message
+
+
+def test_noise_learning_needs_an_ekf() -> None:
+    for kind in ("kalman", "difference", "exact"):
+        message = refused(SWING + f'[sensors]\n[estimator]\nkind = "{kind}"\nnoise_memory = 1\n')
+        assert "estimator.noise_memory" in message and '"ekf"' in message
+
+
 def test_gain_learning_is_written_only_when_asked(tmp_path: Path) -> None:
     """gain_spread > 0 writes it and the drift (its default unless given); 0 or absent writes
     neither (the config of a scene without them unchanged)."""

@@ -274,7 +274,12 @@ IPGEN_LOOP_API int ipgen_loop_predict(ipgen_loop_field field, void *context, int
  * column df/drho = f(x, gain u) - f(x, 0) (f is affine in u) and the row 0; Qn gets
  * gain_drift^2 T for rho; at k = 0 rho = 1 with variance gain_spread^2. rho is kept within
  * [1/2, 2]. x and P then have IPGEN_LOOP_EKF_STATES(dof, 1) entries a side: start x's rho at 1
- * (a filter whose first sample fails predicts with it). */
+ * (a filter whose first sample fails predicts with it).
+ * With noise_weight > 0 it learns each measured coordinate's noise variance (a rig noisier or
+ * quieter than Rn says): noise[r] is an exponential mean, weight noise_weight a sample, of
+ * innovation_r^2 - (C P- C^T)_rr (kept >= 0), from Rn_rr / noise_margin at k = 0; each sample
+ * after the first uses Rn with its diagonal noise_margin noise[r] clamped to [noise_floor[r],
+ * noise_ceiling[r]] (the first: Rn). */
 typedef struct {
   ipgen_loop_measurement measurement;
   ipgen_real period;    /* T [s] */
@@ -287,6 +292,12 @@ typedef struct {
   /* > 0: the input gain is learnt (above), rho's standard deviation at the start; 0: not learnt */
   ipgen_real gain_spread;
   ipgen_real gain_drift; /* rho's random walk: its standard deviation grows by this per sqrt(s) */
+  /* > 0: the measurement noise is learnt (above), the mean's weight a sample (period / memory) */
+  ipgen_real noise_weight;
+  ipgen_real noise_margin;           /* the learnt variance's multiple the filter uses */
+  const ipgen_real *noise_floor;     /* count entries: the lowest variance used (the encoders') */
+  const ipgen_real *noise_ceiling;   /* count entries: the highest variance used */
+  ipgen_real *noise;                 /* count entries, the caller's: the learnt variances */
 } ipgen_loop_ekf;
 
 /* The entries of an EKF's x: 2 dof, and rho when it learns the input gain (learns: 0 or 1). */
@@ -294,11 +305,12 @@ typedef struct {
 
 /* Scratch entries ipgen_loop_ekf_update needs for n = IPGEN_LOOP_EKF_STATES states and count = c
  * measured. */
-#define IPGEN_LOOP_EKF_WORK(n, c) (6 * (n) + 4 * (n) * (n) + (n) * (c) + (c) * (c) + 2 * (c))
+#define IPGEN_LOOP_EKF_WORK(n, c) (6 * (n) + 4 * (n) * (n) + (n) * (c) + 2 * (c) * (c) + 2 * (c))
 
 /* One EKF sample (above): x (n = IPGEN_LOOP_EKF_STATES entries), P (n x n) updated in place;
  * `work` holds IPGEN_LOOP_EKF_WORK(n, count) entries. Returns 0, 1 if the model failed, 2 if the
- * innovation covariance is not positive definite; x and P are unchanged then. */
+ * innovation covariance is not positive definite; x and P are unchanged then (a learnt noise has
+ * taken the sample's innovation). */
 IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const ipgen_real y[], ipgen_real u_previous,
                                          ipgen_real x[], ipgen_real P[], ipgen_real work[]) {
   const int m = 2 * e->measurement.dof, learns = e->gain_spread > 0, n = m + learns;
@@ -308,6 +320,8 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
   ipgen_real *xs = work, *xp = xs + 5 * n; /* xs: ipgen_loop_rk4's 5 n entries */
   ipgen_real *A = xp + n, *F = A + n * n, *W = F + n * n, *Pp = W + n * n;
   ipgen_real *K = Pp + n * n, *S = K + n * c, *v = S + c * c, *innovation = v + c;
+  ipgen_real *R = innovation + c; /* Rn, or Rn with the learnt diagonal */
+  const int learns_noise = e->noise_weight > 0;
   int i, j, r, col;
   if (k == 0) {
     ipgen_loop_start_state(&e->measurement, y, xp);
@@ -362,9 +376,27 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
       }
     }
   }
-  /* S = C P- C^T + Rn, factorised S = L L^T in place (lower triangle) */
+  for (r = 0; r < c; ++r) innovation[r] = y[r] - xp[measured[r]];
+  for (r = 0; r < c * c; ++r) R[r] = e->Rn[r];
+  if (learns_noise) {
+    for (r = 0; r < c; ++r) {
+      ipgen_real used;
+      if (k == 0) {
+        e->noise[r] = e->Rn[r * c + r] / e->noise_margin;
+        continue;
+      }
+      used = innovation[r] * innovation[r] - Pp[measured[r] * n + measured[r]];
+      used = e->noise[r] + e->noise_weight * (used - e->noise[r]);
+      e->noise[r] = used > (ipgen_real)0 ? used : (ipgen_real)0; /* NaN too */
+      used = e->noise_margin * e->noise[r];
+      if (!(used >= e->noise_floor[r])) used = e->noise_floor[r];
+      if (used > e->noise_ceiling[r]) used = e->noise_ceiling[r];
+      R[r * c + r] = used;
+    }
+  }
+  /* S = C P- C^T + R, factorised S = L L^T in place (lower triangle) */
   for (r = 0; r < c; ++r)
-    for (col = 0; col < c; ++col) S[r * c + col] = Pp[measured[r] * n + measured[col]] + e->Rn[r * c + col];
+    for (col = 0; col < c; ++col) S[r * c + col] = Pp[measured[r] * n + measured[col]] + R[r * c + col];
   for (j = 0; j < c; ++j) {
     ipgen_real d = S[j * c + j];
     for (col = 0; col < j; ++col) d -= S[j * c + col] * S[j * c + col];
@@ -390,7 +422,6 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
     }
     for (r = 0; r < c; ++r) K[i * c + r] = v[r];
   }
-  for (r = 0; r < c; ++r) innovation[r] = y[r] - xp[measured[r]];
   for (i = 0; i < n; ++i) {
     ipgen_real s = (ipgen_real)0;
     for (r = 0; r < c; ++r) s += K[i * c + r] * innovation[r];
@@ -416,7 +447,7 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
       int a, b;
       for (j = 0; j < n; ++j) s += W[r * n + j] * F[col * n + j];
       for (a = 0; a < c; ++a)
-        for (b = 0; b < c; ++b) s += K[r * c + a] * e->Rn[a * c + b] * K[col * c + b];
+        for (b = 0; b < c; ++b) s += K[r * c + a] * R[a * c + b] * K[col * c + b];
       P[r * n + col] = s;
     }
   }

@@ -14,7 +14,7 @@
 #include "ipgen_loop.h"
 
 /* Entries ipgen_loop_batch_layout writes. */
-#define IPGEN_LOOP_BATCH_LAYOUT 49
+#define IPGEN_LOOP_BATCH_LAYOUT 54
 
 /* out[0..IPGEN_LOOP_BATCH_LAYOUT): sizeof(ipgen_real) and, per struct, its size and the offsets
  * of its fields in declaration order. Returns IPGEN_LOOP_BATCH_LAYOUT. */
@@ -37,6 +37,11 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)offsetof(ipgen_loop_ekf, context);
   out[i++] = (long)offsetof(ipgen_loop_ekf, gain_spread);
   out[i++] = (long)offsetof(ipgen_loop_ekf, gain_drift);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, noise_weight);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, noise_margin);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, noise_floor);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, noise_ceiling);
+  out[i++] = (long)offsetof(ipgen_loop_ekf, noise);
   out[i++] = (long)sizeof(ipgen_loop_energy_law);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, energy_weight);
   out[i++] = (long)offsetof(ipgen_loop_energy_law, acceleration);

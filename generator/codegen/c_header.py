@@ -34,6 +34,7 @@ from ipgen.common.locations import loop_runtime, mpc_runtime
 from ipgen.common.safetext import comment_safe
 from ipgen.control.controller import Controller, MpcDesign
 from ipgen.errors import Error
+from ipgen.estimation.covariance import NOISE_CEILING
 from ipgen.estimation.printed import PrintedEstimator
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import specialise
@@ -384,7 +385,18 @@ def estimator_context(estimator: PrintedEstimator, dof: int, functions: tuple[st
         # compensate_lag with a lag: the loop models the drive's lag (ipgen_loop_lag_*)
         "lag": repr(float(estimator.lag)) if estimator.lag > 0 else None,
         "lag_limit": repr(float(estimator.lag_limit)) if math.isfinite(estimator.lag_limit) else "HUGE_VAL",
+        # ekf with noise_memory: Rn's diagonal learnt (ipgen_loop_ekf's noise_*)
+        "learns_noise": numbers.kind == "ekf" and numbers.noise_memory > 0,
     }
+    if context["learns_noise"]:
+        context["noise_memory"] = repr(float(numbers.noise_memory))
+        context["noise_weight"] = c_number(estimator.period / numbers.noise_memory)
+        context["noise_margin"] = c_number(numbers.noise_margin)
+        context["noise_margin_value"] = f"{numbers.noise_margin:g}"
+        context["noise_floor"] = _c_rows(numbers.noise_floor, "noise_floor")
+        context["noise_ceiling"] = _c_rows(numbers.noise_ceiling, "noise_ceiling")
+        context["noise_ceiling_factor"] = f"{NOISE_CEILING:g}"
+
     if numbers.kind == "filter":
         cutoff = float(numbers.cutoff or 0.0)
         context["cutoff"] = c_number(cutoff)

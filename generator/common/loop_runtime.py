@@ -61,7 +61,8 @@ FLAGS = ("-std=c99", "-O2", "-shared", "-fPIC", "-DIPGEN_LOOP_EXPORT", "-Wall", 
 HEADER = "ipgen_loop.h"
 GLUE = "ipgen_loop_batch.c"
 TARGET = "libipgen_loop.so"
-LAYOUT_ENTRIES = 49  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ENTRIES = 54  # IPGEN_LOOP_BATCH_LAYOUT
+LAYOUT_ROOM = 1024  # entries the check lets C write: a library with more fields fails cleanly
 PHASES = ("swing", "track", "hold")  # IPGEN_LOOP_SWING, _TRACK, _HOLD
 
 _real = ctypes.c_double
@@ -104,6 +105,8 @@ class EkfFilter(ctypes.Structure):
         ("measurement", Measurement), ("period", _real), ("gain", _real), ("Qn", _address), ("Rn", _address),
         ("field", FIELD), ("context", ctypes.c_void_p),
         ("gain_spread", _real), ("gain_drift", _real),  # 0: the gain is not learnt
+        ("noise_weight", _real), ("noise_margin", _real),  # 0: Rn is fixed
+        ("noise_floor", _address), ("noise_ceiling", _address), ("noise", _address),
     ]  # fmt: skip
 
 
@@ -171,6 +174,9 @@ def _layout() -> list[int]:
         ctypes.sizeof(EkfFilter),
         *(offset(EkfFilter, n) for n in ("period", "gain", "Qn", "Rn", "field", "context")),
         offset(EkfFilter, "gain_spread"), offset(EkfFilter, "gain_drift"),
+        *(offset(EkfFilter, n) for n in (
+            "noise_weight", "noise_margin", "noise_floor", "noise_ceiling", "noise",
+        )),
         ctypes.sizeof(EnergyLaw),
         *(offset(EnergyLaw, n) for n in (
             "energy_weight", "acceleration", "input_gain", "energy_step", "catch_deficit", "catch_base",
@@ -192,7 +198,7 @@ def ekf_work(states: int, count: int) -> int:
     """IPGEN_LOOP_EKF_WORK(n, c): scratch entries of one EKF sample (n states: 2 dof, one more
     when it learns the gain; c measured)."""
     n, c = states, count
-    return 6 * n + 4 * n * n + n * c + c * c + 2 * c
+    return 6 * n + 4 * n * n + n * c + 2 * c * c + 2 * c
 
 
 def swingup_work(dof: int) -> int:
@@ -269,12 +275,13 @@ def declare(loaded: ctypes.CDLL) -> ctypes.CDLL:
     for name, restype, argtypes in SIGNATURES:
         function = getattr(loaded, name)
         function.restype, function.argtypes = restype, list(argtypes)
-    written = (ctypes.c_long * LAYOUT_ENTRIES)()
-    count = loaded.ipgen_loop_batch_layout(ctypes.addressof(written))
-    if count != LAYOUT_ENTRIES or list(written) != _layout():
+    room = (ctypes.c_long * LAYOUT_ROOM)()
+    count = loaded.ipgen_loop_batch_layout(ctypes.addressof(room))
+    written = list(room)[: max(0, min(count, LAYOUT_ROOM))]
+    if count != LAYOUT_ENTRIES or written != _layout():
         raise LoopRuntimeError(
             "the loop library's structs do not match ipgen.common.loop_runtime's mirrors "
-            f"(C {list(written)[:count]}, Python {_layout()}): update the mirrors with ipgen_loop.h"
+            f"(C {written}, Python {_layout()}): update the mirrors with ipgen_loop.h"
         )
     return loaded
 

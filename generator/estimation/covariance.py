@@ -31,6 +31,11 @@ if TYPE_CHECKING:
 RN_FLOOR = 1e-12  # (1e-6)²: rad² or m²
 INPUT_FRACTION = 0.01  # σ of the input's model error, as a fraction of u_scale
 Q_RATE = 1.0  # (rad/s)²/s or (m/s)²/s: the rates' random walk
+# [estimator] noise_memory (ipgen_loop_ekf's learnt noise): the filter uses NOISE_MARGIN times the
+# learnt variance (quantization is not white: coarse encoders need the filter slower than their
+# variance says; 4 lost the QUBE's 256 counts, 10 kept them) and at most NOISE_CEILING times Rn.
+NOISE_MARGIN = 10.0
+NOISE_CEILING = 10.0
 
 
 def measurement_covariance(sensors: Sensors) -> np.ndarray:

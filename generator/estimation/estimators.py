@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from ipgen.common.loop_runtime import FIELD, EkfFilter, KalmanFilter, Measurement, address, ekf_work, library
 from ipgen.estimation.checks import covariance_matrix, measured_indices, sampling_period
+from ipgen.estimation.covariance import NOISE_CEILING, NOISE_MARGIN, RN_FLOOR
 from ipgen.estimation.kalman import Kalman
 from ipgen.estimation.measurement import cutoff_problem
 from ipgen.estimation.pendulum import EstimationError, as_model, equilibrium_of
@@ -79,6 +80,41 @@ def _doubles(values: Any, shape: tuple[int, ...]) -> np.ndarray:
     import numpy as np
 
     return np.ascontiguousarray(np.array(values, dtype=np.float64).reshape(shape))
+
+
+def _noise_memory(memory: Any, margin: Any) -> float:
+    """The learnt noise's memory [s], checked with its margin (0: Rn fixed)."""
+    for name, value, low in (("noise_memory", memory, 0.0), ("noise_margin", margin, 0.0)):
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+            raise EstimationError(f"{name} = {value!r}: expected a finite number")
+        if value < low or (name == "noise_margin" and value <= 0):
+            bound = "> 0" if name == "noise_margin" else ">= 0"
+            raise EstimationError(f"{name} = {value!r}: must be {bound}")
+    return float(memory)
+
+
+def _noise_bounds(floor: Any, ceiling: Any, rn_diagonal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The learnt noise's floor and ceiling per measured coordinate (defaults RN_FLOOR and
+    NOISE_CEILING times Rn's diagonal), checked: finite, 0 < floor <= ceiling."""
+    import numpy as np
+
+    count = len(rn_diagonal)
+    try:
+        if any(isinstance(v, bool | str) for v in np.ravel(np.asarray([floor, ceiling], dtype=object))):
+            raise TypeError("not a number")
+        low = np.broadcast_to(np.asarray(RN_FLOOR if floor is None else floor, dtype=float), (count,))
+        high = NOISE_CEILING * rn_diagonal if ceiling is None else np.asarray(ceiling, dtype=float)
+        high = np.broadcast_to(high, (count,))
+        valid = bool(np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low > 0))
+        valid = valid and bool(np.all(high >= low))
+    except (TypeError, ValueError):
+        valid = False
+    if not valid:
+        raise EstimationError(
+            f"noise_floor = {floor!r}, noise_ceiling = {ceiling!r}: expected finite variances with "
+            "0 < floor <= ceiling, one or one per measured coordinate"
+        )
+    return low.copy(), np.maximum(high, low).copy()
 
 
 def _measurement_of(dof: int, measured: tuple[int, ...], x_eq: np.ndarray) -> tuple[Measurement, list[Any]]:
@@ -286,6 +322,16 @@ class ExtendedKalman(_Runtime):
     gain_drift : float, optional
         With `gain_spread`: ρ's random walk, its standard deviation's growth per √s (default 0:
         ρ constant; a scene's `[estimator] gain_drift` defaults to 0.003). Both at most 1.
+    noise_memory : float, optional
+        > 0: the filter learns each measured coordinate's noise variance from its innovations,
+        an exponential mean over this memory [s] (weight T / memory a sample) of
+        innovation² − (C P⁻ Cᵀ)_rr from Rn's diagonal, and uses `noise_margin` times it within
+        [`noise_floor`, `noise_ceiling`] (`noise`; default 0: Rn fixed).
+    noise_floor, noise_ceiling : float or sequence of float, optional
+        With `noise_memory`: the lowest and highest variance used, one or one per measured
+        coordinate (defaults: 1e-12, and 10 times Rn's diagonal).
+    noise_margin : float, optional
+        With `noise_memory`: the multiple of the learnt variance used (default 10).
 
     Notes
     -----
@@ -305,6 +351,10 @@ class ExtendedKalman(_Runtime):
         equilibrium: Sequence[float] | str | None = None,
         gain_spread: float = 0.0,
         gain_drift: float = 0.0,
+        noise_memory: float = 0.0,
+        noise_floor: float | Sequence[float] | None = None,
+        noise_ceiling: float | Sequence[float] | None = None,
+        noise_margin: float = NOISE_MARGIN,
     ) -> None:
         import numpy as np
 
@@ -332,11 +382,18 @@ class ExtendedKalman(_Runtime):
         qn, rn = _doubles(self.Qn, (size, size)), _doubles(self.Rn, (count, count))
         self._failure: BaseException | None = None
         self._field = FIELD(self._model_field)  # kept: C calls it back
-        self._kept = [*kept, qn, rn]
+        self.noise_memory = _noise_memory(noise_memory, noise_margin)
+        self.noise_margin = float(noise_margin)
+        self.noise_floor, self.noise_ceiling = _noise_bounds(noise_floor, noise_ceiling, np.diag(self.Rn))
+        floor, ceiling = _doubles(self.noise_floor, (count,)), _doubles(self.noise_ceiling, (count,))
+        self._noise = np.zeros(count)  # the learnt variances (noise)
+        self._kept = [*kept, qn, rn, floor, ceiling, self._noise]
+        weight = self.period / self.noise_memory if self.noise_memory > 0 else 0.0
         # gain 1: the VectorField's u is the input itself (a motor's b folded in)
         self._filter = EkfFilter(
             measurement, self.period, 1.0, address(qn), address(rn), self._field, None,
             self.gain_spread, self.gain_drift,
+            weight, self.noise_margin, address(floor), address(ceiling), address(self._noise),
         )  # fmt: skip
         self._states = size + (1 if self.gain_spread > 0 else 0)  # IPGEN_LOOP_EKF_STATES
         self._work = np.zeros(ekf_work(self._states, count))
@@ -426,6 +483,17 @@ class ExtendedKalman(_Runtime):
         """ρ, the plant's input gain over the model's as learnt (1 when not learnt or before the
         first sample; kept within [1/2, 2])."""
         return float(self._x[-1]) if self._states > 2 * self.dof and self._k > 0 else 1.0
+
+    @property
+    def noise(self) -> np.ndarray:
+        """The variances the filter uses for the measured coordinates now: Rn's diagonal, or with
+        `noise_memory` the learnt ones times `noise_margin` within their bounds (Rn's diagonal
+        before the second sample)."""
+        import numpy as np
+
+        if self.noise_memory <= 0 or self._k < 2:
+            return np.diag(self.Rn).copy()
+        return np.clip(self.noise_margin * self._noise, self.noise_floor, self.noise_ceiling)
 
     @property
     def covariance(self) -> np.ndarray | None:

@@ -34,6 +34,12 @@ class EstimatorNumbers:
     gain_drift: float = 0.0  # ekf with gain_spread: rho's random walk, σ's growth per √s
     compensate_lag: bool = False  # the loop is built for the drive's lag ([actuator] lag, known)
     lag: float | None = None  # compensate_lag: the lag it is built for [s], pinned (None: the rig's)
+    # ekf: > 0, each measured coordinate's noise variance is learnt over this memory [s]; the filter
+    # uses noise_margin times it within [noise_floor, noise_ceiling] (per measured, rad² or m²)
+    noise_memory: float = 0.0
+    noise_margin: float = 0.0
+    noise_floor: tuple[float, ...] = ()
+    noise_ceiling: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -140,6 +140,10 @@ CFG_KEYS: dict[str, str] = {
     "estimator.lag": "s: with compensate_lag, the lag the loop is built for; absent: actuator.lag",
     "estimator.gain_spread": "ekf: > 0, the input gain is learnt (rho's prior σ; the swing-up's u ÷ rho)",
     "estimator.gain_drift": "ekf with gain_spread: rho's random walk, σ's growth per √s",
+    "estimator.noise_memory": "ekf: > 0, each measured coordinate's noise variance learnt over it [s]",
+    "estimator.noise_margin": "ekf with noise_memory: the multiple of the learnt variance the filter uses",
+    "estimator.noise_floor": "ekf with noise_memory: the lowest variance used, per measured",
+    "estimator.noise_ceiling": "ekf with noise_memory: the highest variance used, per measured",
 }
 
 
@@ -376,6 +380,11 @@ def _loop(lines: _Lines, loop_: Loop | None) -> None:
     if estimator.gain_spread > 0:  # absent otherwise: the .cfg of a scene without it unchanged
         lines.put("estimator.gain_spread", estimator.gain_spread)
         lines.put("estimator.gain_drift", estimator.gain_drift)
+    if estimator.noise_memory > 0:  # absent otherwise: the .cfg of a scene without it unchanged
+        lines.put("estimator.noise_memory", estimator.noise_memory)
+        lines.put("estimator.noise_margin", estimator.noise_margin)
+        lines.put("estimator.noise_floor", numbers(estimator.noise_floor))
+        lines.put("estimator.noise_ceiling", numbers(estimator.noise_ceiling))
 
 
 def motor_folded_parameters(

@@ -153,6 +153,7 @@ def loop(
             predict=estimator is not None and estimator.predict,
             compensate_lag=estimator is not None and estimator.compensate_lag,
             lag=None if estimator is None or estimator.lag is None else float(estimator.lag),
+            noise_memory=float((estimator and estimator.noise_memory) or 0.0),
             **_gain_learning(estimator),
         ),
         delay=periods * period,
@@ -167,6 +168,21 @@ def loop(
             raise SensorsError(f'estimator kind "{kind}" needs the model (no design given)')
         result = design(result, estimator)
     return result
+
+
+def _noise_learning(memory: float, encoders: Any, rn: Any) -> dict[str, Any]:
+    """The EKF's learnt measurement noise (noise_memory > 0): its margin, and per measured its floor,
+    the encoders' own variance (`encoders`, the default Rn: quantization and sensors.noise), and
+    its ceiling, NOISE_CEILING times Rn's diagonal (at least the floor); none with memory 0."""
+    import numpy as np
+
+    from ipgen.estimation.covariance import NOISE_CEILING, NOISE_MARGIN
+
+    if memory <= 0:
+        return {}
+    floor = [float(v) for v in np.diag(encoders)]
+    ceiling = [max(NOISE_CEILING * float(v), low) for v, low in zip(np.diag(rn), floor, strict=True)]
+    return {"noise_margin": NOISE_MARGIN, "noise_floor": tuple(floor), "noise_ceiling": tuple(ceiling)}
 
 
 def _gain_learning(table: EstimatorTable | None) -> dict[str, float]:
@@ -270,6 +286,7 @@ def design(
             equilibrium=tuple(float(x) for x in equilibrium),
             process_noise=rows(qn),
             measurement_noise=rows(rn),
+            **_noise_learning(loop_.estimator.noise_memory, r_default, rn),
         )
         return dataclasses.replace(loop_, estimator=numbers)
     try:

@@ -71,6 +71,7 @@ SOURCES: dict[str, tuple[str, str]] = {
     "estimator.gain_spread": ("estimator", "gain_spread"),
     "estimator.gain_drift": ("estimator", "gain_drift"),
     "estimator.lag": ("estimator", "lag"),
+    "estimator.noise_memory": ("estimator", "noise_memory"),
 }
 
 HEADER = Path(__file__).resolve().parents[2] / "cpp" / "include" / "ipsim" / "cfg_rules.hpp"

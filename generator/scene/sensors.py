@@ -236,6 +236,12 @@ class EstimatorTable(BaseModel):
         description="with gain_spread: rho's random walk, its standard deviation's growth per √s "
         f"(default {DEFAULT_GAIN_DRIFT}: the filter keeps learning)",
     )
+    noise_memory: Real(gt=0, le=60, says="must be > 0 s and at most 60 s: is it in seconds?") | None = Field(
+        None,
+        description="ekf: the filter learns each measured coordinate's noise variance from its innovations, "
+        "an exponential mean over this memory [s], and uses 10 times it, at least the encoders' own variance "
+        "and at most 10 Rn (a rig noisier or quieter than Rn says; default: Rn fixed)",
+    )
     predict: Annotated[bool, Field(strict=True)] = Field(
         False,
         description="exact, ekf: the law acts on the estimate carried over the delay (estimator.delay, "
@@ -269,6 +275,8 @@ class EstimatorTable(BaseModel):
         if (learns or self.gain_drift is not None) and self.kind != "ekf":
             key = "gain_spread" if self.gain_spread is not None else "gain_drift"
             refuse_line(f'estimator.{key} applies to kind = "ekf" only (kind is "{self.kind}")')
+        if self.noise_memory is not None and self.kind != "ekf":
+            refuse_line(f'estimator.noise_memory applies to kind = "ekf" only (kind is "{self.kind}")')
         if self.gain_drift is not None and not learns:
             refuse_line(
                 "estimator.gain_drift needs estimator.gain_spread > 0 (the gain it lets drift is not learnt)"

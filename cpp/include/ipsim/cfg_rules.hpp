@@ -166,6 +166,10 @@ inline constexpr const char* kKeys[] = {
     "estimator.lag",
     "estimator.gain_spread",
     "estimator.gain_drift",
+    "estimator.noise_memory",
+    "estimator.noise_margin",
+    "estimator.noise_floor",
+    "estimator.noise_ceiling",
 };
 
 inline constexpr Range kRanges[] = {
@@ -223,6 +227,7 @@ inline constexpr Range kRanges[] = {
     {0.0, false, 60.0, false, false},  // estimator.lag
     {0.0, false, 1.0, false, false},  // estimator.gain_spread
     {0.0, false, 1.0, false, false},  // estimator.gain_drift
+    {0.0, true, 60.0, false, false},  // estimator.noise_memory
 };
 
 inline constexpr Rule kRules[] = {
@@ -279,6 +284,7 @@ inline constexpr Rule kRules[] = {
     {"estimator.lag", "[estimator] lag", ">= 0 and <= 60", 51, 1},
     {"estimator.gain_spread", "[estimator] gain_spread", ">= 0 and <= 1", 52, 1},
     {"estimator.gain_drift", "[estimator] gain_drift", ">= 0 and <= 1", 53, 1},
+    {"estimator.noise_memory", "[estimator] noise_memory", "> 0 and <= 60", 54, 1},
 };
 
 /// Whether `value` is allowed as one number of `rule`'s key: finite and in one of its ranges.

@@ -59,6 +59,8 @@
 //   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
 //   estimator.compensate_lag = 1  (optional: the loop is built for actuator.lag, ipgen_loop_lag_*)
 //   estimator.lag = 0.02     (optional, with compensate_lag: the lag the loop is built for; absent: actuator.lag)
+//   estimator.noise_memory = 1  estimator.noise_margin = 10  estimator.noise_floor (m)  estimator.noise_ceiling (m)
+//                            (optional, ekf: the measurement noise learnt, ipgen_loop_ekf's noise_*)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
 // The reader only checks what the C++ side must rely on: syntax, known keys, numbers, list
@@ -456,6 +458,17 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
       if (!loop.process_noise.allFinite() || !loop.measurement_noise.allFinite() || !loop.equilibrium.allFinite()) {
         file.fail(file.line("estimator.process_noise"), "estimator.process_noise, measurement_noise and equilibrium must be finite");
       }
+    }
+    if (file.has("estimator.noise_memory")) {  // > 0: cfg_rules.hpp; the rest is derived by ipgen
+      if (loop.kind != EstimatorKind::ekf) file.fail(file.line("estimator.noise_memory"), "estimator.noise_memory needs estimator = ekf (the filter learns the noise)");
+      loop.noise_memory = file.number("estimator.noise_memory");
+      loop.noise_margin = file.number("estimator.noise_margin");
+      loop.noise_floor = numbers_of(file, "estimator.noise_floor", m);
+      loop.noise_ceiling = numbers_of(file, "estimator.noise_ceiling", m);
+      bool valid = std::isfinite(loop.noise_margin) && loop.noise_margin > 0;
+      for (Eigen::Index i = 0; i < loop.noise_floor.size(); ++i)
+        valid = valid && loop.noise_floor(i) > 0 && std::isfinite(loop.noise_ceiling(i)) && loop.noise_ceiling(i) >= loop.noise_floor(i);
+      if (!valid) file.fail(file.line("estimator.noise_memory"), "estimator.noise_margin must be > 0 and 0 < noise_floor <= noise_ceiling, finite");
     }
   }
   if (compensate) {

@@ -118,6 +118,11 @@ struct LoopSettings {
   /// ekf: > 0, the filter learns the plant's input gain over the model's (rho, ipgen_loop_ekf's
   /// gain_spread: its prior standard deviation) and its drift per sqrt(s)
   double gain_spread = 0.0, gain_drift = 0.0;
+  /// ekf: > 0, the filter learns each measured coordinate's noise variance over this memory [s]
+  /// (ipgen_loop_ekf's noise_weight = period / noise_memory), uses noise_margin times it within
+  /// [noise_floor, noise_ceiling] (per measured) [rad² or m²]
+  double noise_memory = 0.0, noise_margin = 0.0;
+  Eigen::VectorXd noise_floor, noise_ceiling;
   /// estimator.compensate_lag: the drive's lag the loop is built for [s] (estimator.lag, else the
   /// rig's actuator.lag; 0: none) and the bound of its commands [N or N m] (the law's saturation)
   double lag = 0.0, limit = std::numeric_limits<double>::infinity();
@@ -164,6 +169,7 @@ class MeasuredLoop {
     filtered_ = Eigen::VectorXd::Zero(states);
     if (learns()) filtered_(2 * n) = 1.0;  // rho before the first sample (ipgen_loop_ekf)
     covariance_ = RowMajor::Zero(states, states);
+    learnt_noise_ = Eigen::VectorXd::Zero(m);
     work_ = Eigen::VectorXd::Zero(IPGEN_LOOP_EKF_WORK(states, static_cast<int>(m)));
     predict_work_ = Eigen::VectorXd::Zero(6 * 2 * n);
     means_.assign(believed_.size(), 0.0);
@@ -265,7 +271,9 @@ class MeasuredLoop {
       }
       case EstimatorKind::ekf: {
         const ipgen_loop_ekf filter{measurement(), period_, design_gain_, process_noise_.data(), measurement_noise_.data(),
-                                    &MeasuredLoop::field, this, s_.gain_spread, s_.gain_drift};
+                                    &MeasuredLoop::field, this, s_.gain_spread, s_.gain_drift,
+                                    s_.noise_memory > 0 ? period_ / s_.noise_memory : 0.0, s_.noise_margin,
+                                    s_.noise_floor.data(), s_.noise_ceiling.data(), learnt_noise_.data()};
         // A failed step (M(q) or the innovation covariance not positive definite) keeps the
         // last estimate, as the firmware does.
         (void)ipgen_loop_ekf_update(&filter, k, y_.data(), last_input_, filtered_.data(), covariance_.data(), work_.data());
@@ -326,6 +334,7 @@ class MeasuredLoop {
   std::shared_ptr<double> gain_factor_;  ///< rho, the learnt input gain over the model's (1: not learnt)
   Eigen::VectorXd y_, previous_y_, estimate_, squared_error_, work_, predict_work_;
   Eigen::VectorXd filtered_;             ///< the EKF's x: the estimate, and rho when it learns
+  Eigen::VectorXd learnt_noise_;         ///< the EKF's learnt measurement variances (noise_memory)
   long samples_ = 0;
   ipgen_loop_lag lag_{};                 ///< the known lag (estimator.compensate_lag; none: zeros)
   double lag_applied_ = 0.0;             ///< the drive's input now, as the loop models it [N or N m]
