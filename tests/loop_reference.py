@@ -78,8 +78,9 @@ class ExtendedKalman:
     gain_spread > 0 the state is [x; ρ], x' = f(x, ρ u), ρ' = 0, ∂f/∂ρ = u ∂f/∂u (the model's B),
     ρ's process noise gain_drift² T, ρ kept within [1/2, 2]. With its noise_memory > 0 each
     measured coordinate's variance is learnt: an exponential mean (weight T / noise_memory) of
-    ν_r² − (C P⁻ Cᵀ)_rr, kept ≥ 0, from Rn's diagonal / noise_margin; after the first sample the
-    update uses Rn with the diagonal noise_margin times it, clipped to [noise_floor, noise_ceiling]."""
+    ν_r² − (C P⁻ Cᵀ)_rr, kept ≥ 0 (a non-finite one keeps the last), from Rn's diagonal /
+    noise_margin; after the first sample the update uses Rn with the diagonal noise_margin times
+    it, clipped to [noise_floor, noise_ceiling]."""
 
     def __init__(self, ekf: Any) -> None:
         self.ekf = ekf
@@ -123,7 +124,8 @@ class ExtendedKalman:
         assert self.learnt is not None
         weight = e.period / self.memory
         sample = innovation**2 - np.diag(predicted)
-        self.learnt = np.maximum(self.learnt + weight * (sample - self.learnt), 0.0)
+        mean = self.learnt + weight * (sample - self.learnt)
+        self.learnt = np.maximum(np.where(np.isfinite(mean), mean, self.learnt), 0.0)
         used = np.clip(e.noise_margin * self.learnt, e.noise_floor, e.noise_ceiling)
         rn[np.diag_indices_from(rn)] = used
         return rn

@@ -54,7 +54,7 @@ def test_the_noise_learning_ekf_equals_the_reference(
         assert np.allclose(ekf.covariance, ref.covariance, rtol=1e-8, atol=1e-12)
         assert ref.learnt is not None
         expected = np.clip(margin * ref.learnt, floor, ceiling) if ekf._k > 1 else np.diag(ekf.Rn)
-        assert np.allclose(ekf.noise, expected, rtol=1e-9, atol=1e-15)
+        assert np.allclose(ekf.noise_used, expected, rtol=1e-9, atol=1e-15)
 
 
 @functools.cache
@@ -96,13 +96,13 @@ def test_the_ekf_learns_the_encoders_noise(sigma: float, seed: int) -> None:
     rates_fixed = _run(fixed, readings, inputs)[:, 2:]
     rates_learnt = _run(learning, readings, inputs)[:, 2:]
     truth = sigma**2 + quantization
-    assert np.all(np.abs(learning.noise / truth - 1.0) < 0.3), (learning.noise, truth)
+    assert np.all(np.abs(learning.noise_used / truth - 1.0) < 0.3), (learning.noise_used, truth)
     late = slice(len(states) // 2, None)  # after 3 s: the variance learnt
     error = lambda rates: np.sqrt(np.mean((rates[late] - states[late, 2:]) ** 2, axis=0))  # noqa: E731
     assert np.all(error(rates_learnt) < 0.8 * error(rates_fixed)), (error(rates_learnt), error(rates_fixed))
 
 
-def test_quiet_encoders_take_the_filter_to_its_floor() -> None:
+def test_quiet_encoders_take_the_filter_down_to_a_few_counts_variance() -> None:
     """Encoders as designed (quantization only) under an Rn 300 times too large: the variance
     used (the default margin, 10 times the learnt one) falls from Rn to within 5 times the
     quantization's Δ²/12."""
@@ -113,7 +113,7 @@ def test_quiet_encoders_take_the_filter_to_its_floor() -> None:
         noise_memory=1.0, noise_floor=quantization,
     )  # fmt: skip
     _run(learning, readings, inputs)
-    assert np.all(learning.noise <= 5 * quantization), learning.noise / quantization
+    assert np.all(learning.noise_used <= 5 * quantization), learning.noise_used / quantization
 
 
 BAD_NUMBERS = st.one_of(
@@ -136,10 +136,38 @@ def test_bad_noise_learning_values_are_refused(value, key: str) -> None:
     assert "\n" not in str(error.value) and key in str(error.value)
 
 
-def test_a_zero_margin_and_a_ceiling_under_the_floor_are_refused() -> None:
-    for extra in ({"noise_margin": 0.0}, {"noise_floor": 1e-4, "noise_ceiling": 1e-5}):
-        with pytest.raises(EstimationError):
-            ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-3, np.eye(2) * 1e-6, noise_memory=0.5, **extra)
+def test_a_zero_margin_a_short_memory_a_full_rn_and_a_ceiling_under_the_floor_are_refused() -> None:
+    """One EstimationError line each: margin 0, floor above ceiling, a memory under the period
+    (the mean's weight above 1), an Rn with off-diagonal entries (only the diagonal is learnt)."""
+    rn, full = np.eye(2) * 1e-6, np.array([[1e-6, 5e-7], [5e-7, 1e-6]])
+    cases = (
+        ({"noise_margin": 0.0}, rn, "noise_margin"),
+        ({"noise_floor": [1e-4, 1e-4], "noise_ceiling": 1e-5}, rn, "noise_floor"),
+        ({"noise_memory": 0.001}, rn, "shorter than the period"),
+        ({}, full, "diagonal Rn"),
+    )
+    for extra, noise, message in cases:
+        with pytest.raises(EstimationError, match=message) as error:
+            ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-3, noise, **{"noise_memory": 0.5, **extra})
+        assert "\n" not in str(error.value)
+
+
+def test_a_scene_refuses_a_short_memory_and_a_full_rn(tmp_path) -> None:
+    """In a scene: noise_memory under the loop's period, and with a non-diagonal measurement_noise:
+    one line each, naming the key."""
+    from ipgen.errors import SceneError
+    from ipgen.experiment.scene import load_scene
+
+    preset = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml").read_text()
+    short = preset.replace("noise_memory = 1.0 ", "noise_memory = 0.0005 ", 1)
+    full = preset.replace("measurement_noise = 3e-4 ", "measurement_noise = [[3e-4, 1e-5], [1e-5, 3e-4]] ", 1)
+    for text, message in ((short, "shorter than the loop's period"), (full, "diagonal")):
+        assert text != preset
+        path = tmp_path / "scene.toml"
+        path.write_text(text)
+        with pytest.raises(SceneError, match=message) as error:
+            load_scene(path)
+        assert "\n" not in str(error.value) and "estimator.noise_memory" in str(error.value)
 
 
 def test_without_a_memory_the_filter_is_the_fixed_one() -> None:

@@ -485,6 +485,8 @@ def test_the_simulator_refuses_compensate_lag_without_sensors(simulator: Path, t
         ({"estimator.noise_memory": "1", "estimator.noise_margin": "10", "estimator.noise_floor": "1e-6 1e-6",
           "estimator.noise_ceiling": "1e-3 1e-3"}, "estimator.noise_memory needs estimator = ekf"),
         ({"estimator.noise_memory": "0"}, "estimator.noise_memory = 0 must be > 0"),
+        ({"estimator.noise_margin": "10"}, "estimator.noise_margin needs estimator.noise_memory"),
+        ({"estimator.noise_floor": "1e-6 1e-6"}, "estimator.noise_floor needs estimator.noise_memory"),
     ],
 )  # fmt: skip
 def test_the_simulator_refuses_bad_loop_keys(

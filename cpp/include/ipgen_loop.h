@@ -276,10 +276,11 @@ IPGEN_LOOP_API int ipgen_loop_predict(ipgen_loop_field field, void *context, int
  * [1/2, 2]. x and P then have IPGEN_LOOP_EKF_STATES(dof, 1) entries a side: start x's rho at 1
  * (a filter whose first sample fails predicts with it).
  * With noise_weight > 0 it learns each measured coordinate's noise variance (a rig noisier or
- * quieter than Rn says): noise[r] is an exponential mean, weight noise_weight a sample, of
- * innovation_r^2 - (C P- C^T)_rr (kept >= 0), from Rn_rr / noise_margin at k = 0; each sample
- * after the first uses Rn with its diagonal noise_margin noise[r] clamped to [noise_floor[r],
- * noise_ceiling[r]] (the first: Rn). */
+ * quieter than Rn says; Rn diagonal, noise_weight <= 1): noise[r] is an exponential mean, weight
+ * noise_weight a sample, of innovation_r^2 - (C P- C^T)_rr (kept >= 0; a non-finite sample
+ * leaves it), from Rn_rr / noise_margin at k = 0; each sample after the first uses R = Rn with
+ * the diagonal noise_margin noise[r] clamped to [noise_floor[r], noise_ceiling[r]] (the first:
+ * Rn) in place of Rn in the update above. */
 typedef struct {
   ipgen_loop_measurement measurement;
   ipgen_real period;    /* T [s] */
@@ -309,8 +310,7 @@ typedef struct {
 
 /* One EKF sample (above): x (n = IPGEN_LOOP_EKF_STATES entries), P (n x n) updated in place;
  * `work` holds IPGEN_LOOP_EKF_WORK(n, count) entries. Returns 0, 1 if the model failed, 2 if the
- * innovation covariance is not positive definite; x and P are unchanged then (a learnt noise has
- * taken the sample's innovation). */
+ * innovation covariance is not positive definite; x, P (and a learnt noise) are unchanged then. */
 IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const ipgen_real y[], ipgen_real u_previous,
                                          ipgen_real x[], ipgen_real P[], ipgen_real work[]) {
   const int m = 2 * e->measurement.dof, learns = e->gain_spread > 0, n = m + learns;
@@ -378,17 +378,18 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
   }
   for (r = 0; r < c; ++r) innovation[r] = y[r] - xp[measured[r]];
   for (r = 0; r < c * c; ++r) R[r] = e->Rn[r];
-  if (learns_noise) {
+  if (learns_noise) { /* the new learnt variances in v (free until K), kept once S factorises */
     for (r = 0; r < c; ++r) {
       ipgen_real used;
       if (k == 0) {
-        e->noise[r] = e->Rn[r * c + r] / e->noise_margin;
+        v[r] = e->Rn[r * c + r] / e->noise_margin;
         continue;
       }
       used = innovation[r] * innovation[r] - Pp[measured[r] * n + measured[r]];
       used = e->noise[r] + e->noise_weight * (used - e->noise[r]);
-      e->noise[r] = used > (ipgen_real)0 ? used : (ipgen_real)0; /* NaN too */
-      used = e->noise_margin * e->noise[r];
+      if (!(used - used == (ipgen_real)0)) used = e->noise[r]; /* a non-finite sample: kept */
+      v[r] = used > (ipgen_real)0 ? used : (ipgen_real)0;
+      used = e->noise_margin * v[r];
       if (!(used >= e->noise_floor[r])) used = e->noise_floor[r];
       if (used > e->noise_ceiling[r]) used = e->noise_ceiling[r];
       R[r * c + r] = used;
@@ -409,6 +410,8 @@ IPGEN_LOOP_API int ipgen_loop_ekf_update(const ipgen_loop_ekf *e, long k, const 
       S[r * c + j] = s / d;
     }
   }
+  if (learns_noise)
+    for (r = 0; r < c; ++r) e->noise[r] = v[r];
   /* K = P- C^T S^-1, row by row: L L^T K_i^T = (P- C^T)_i^T */
   for (i = 0; i < n; ++i) {
     for (r = 0; r < c; ++r) v[r] = Pp[i * n + measured[r]];

@@ -200,7 +200,10 @@ filter also learns the plant's input gain over the model's, starting from that s
 estimator.gain_drift its growth per square root of a second, and the swing-up divides its input by
 it; with estimator.compensate_lag = 1: the loop is built for the drive's first-order lag, actuator.lag:
 it predicts with each period's lagged input and sends the command whose lagged mean is the law's,
-within the law's bound; estimator.lag: the lag it is built for, absent: actuator.lag); actuator.noise, actuator.lag,
+within the law's bound; estimator.lag: the lag it is built for, absent: actuator.lag; with
+estimator.noise_memory, ekf: the filter learns each measured coordinate's noise variance over that
+memory in seconds and uses estimator.noise_margin times it within estimator.noise_floor and
+estimator.noise_ceiling, one each per measured); actuator.noise, actuator.lag,
 actuator.pulses: drive noise per sampling interval, a first-order drive, disturbance pulses
 (written by ipgen from [sensors], [estimator] and [actuator]; ipsim/sensors.hpp, docs/scenes.md).
 

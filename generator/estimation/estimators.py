@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import numbers
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
@@ -82,14 +83,23 @@ def _doubles(values: Any, shape: tuple[int, ...]) -> np.ndarray:
     return np.ascontiguousarray(np.array(values, dtype=np.float64).reshape(shape))
 
 
-def _noise_memory(memory: Any, margin: Any) -> float:
-    """The learnt noise's memory [s], checked with its margin (0: Rn fixed)."""
-    for name, value, low in (("noise_memory", memory, 0.0), ("noise_margin", margin, 0.0)):
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+def _noise_memory(memory: Any, margin: Any, period: float, rn: np.ndarray) -> float:
+    """The learnt noise's memory [s] (0: Rn fixed), checked with its margin: at least one period
+    (the mean's weight T / memory at most 1), and Rn diagonal (only its diagonal is learnt)."""
+    import numpy as np
+
+    for name, value in (("noise_memory", memory), ("noise_margin", margin)):
+        if isinstance(value, bool | str) or not isinstance(value, numbers.Real) or not math.isfinite(value):
             raise EstimationError(f"{name} = {value!r}: expected a finite number")
-        if value < low or (name == "noise_margin" and value <= 0):
+        if value < 0 or (name == "noise_margin" and value <= 0):
             bound = "> 0" if name == "noise_margin" else ">= 0"
             raise EstimationError(f"{name} = {value!r}: must be {bound}")
+    if 0 < memory < period:
+        raise EstimationError(
+            f"noise_memory = {memory!r} s is shorter than the period {period!r} s: give at least one period"
+        )
+    if memory > 0 and np.count_nonzero(rn - np.diag(np.diag(rn))):
+        raise EstimationError("noise_memory needs a diagonal Rn (only its diagonal is learnt)")
     return float(memory)
 
 
@@ -110,8 +120,9 @@ def _noise_bounds(floor: Any, ceiling: Any, rn_diagonal: np.ndarray) -> tuple[np
     except (TypeError, ValueError):
         valid = False
     if not valid:
+        shown = [v if np.isscalar(v) or v is None else np.asarray(v).tolist() for v in (floor, ceiling)]
         raise EstimationError(
-            f"noise_floor = {floor!r}, noise_ceiling = {ceiling!r}: expected finite variances with "
+            f"noise_floor = {shown[0]!r}, noise_ceiling = {shown[1]!r}: expected finite variances with "
             "0 < floor <= ceiling, one or one per measured coordinate"
         )
     return low.copy(), np.maximum(high, low).copy()
@@ -324,9 +335,10 @@ class ExtendedKalman(_Runtime):
         ρ constant; a scene's `[estimator] gain_drift` defaults to 0.003). Both at most 1.
     noise_memory : float, optional
         > 0: the filter learns each measured coordinate's noise variance from its innovations,
-        an exponential mean over this memory [s] (weight T / memory a sample) of
-        innovation² − (C P⁻ Cᵀ)_rr from Rn's diagonal, and uses `noise_margin` times it within
-        [`noise_floor`, `noise_ceiling`] (`noise`; default 0: Rn fixed).
+        an exponential mean over this memory [s] (weight T / memory a sample, so at least one
+        period) of innovation² − (C P⁻ Cᵀ)_rr from Rn's diagonal / `noise_margin`, and uses
+        `noise_margin` times it within [`noise_floor`, `noise_ceiling`] (`noise_used`; default 0:
+        Rn fixed). Rn must be diagonal then.
     noise_floor, noise_ceiling : float or sequence of float, optional
         With `noise_memory`: the lowest and highest variance used, one or one per measured
         coordinate (defaults: 1e-12, and 10 times Rn's diagonal).
@@ -382,7 +394,7 @@ class ExtendedKalman(_Runtime):
         qn, rn = _doubles(self.Qn, (size, size)), _doubles(self.Rn, (count, count))
         self._failure: BaseException | None = None
         self._field = FIELD(self._model_field)  # kept: C calls it back
-        self.noise_memory = _noise_memory(noise_memory, noise_margin)
+        self.noise_memory = _noise_memory(noise_memory, noise_margin, self.period, self.Rn)
         self.noise_margin = float(noise_margin)
         self.noise_floor, self.noise_ceiling = _noise_bounds(noise_floor, noise_ceiling, np.diag(self.Rn))
         floor, ceiling = _doubles(self.noise_floor, (count,)), _doubles(self.noise_ceiling, (count,))
@@ -485,7 +497,7 @@ class ExtendedKalman(_Runtime):
         return float(self._x[-1]) if self._states > 2 * self.dof and self._k > 0 else 1.0
 
     @property
-    def noise(self) -> np.ndarray:
+    def noise_used(self) -> np.ndarray:
         """The variances the filter uses for the measured coordinates now: Rn's diagonal, or with
         `noise_memory` the learnt ones times `noise_margin` within their bounds (Rn's diagonal
         before the second sample)."""

@@ -170,16 +170,27 @@ def loop(
     return result
 
 
-def _noise_learning(memory: float, encoders: Any, rn: Any) -> dict[str, Any]:
+def _noise_learning(memory: float, period: float, encoders: Any, rn: Any) -> dict[str, Any]:
     """The EKF's learnt measurement noise (noise_memory > 0): its margin, and per measured its floor,
     the encoders' own variance (`encoders`, the default Rn: quantization and sensors.noise), and
-    its ceiling, NOISE_CEILING times Rn's diagonal (at least the floor); none with memory 0."""
+    its ceiling, NOISE_CEILING times Rn's diagonal (at least the floor); none with memory 0.
+    Refuses a memory shorter than the period and an Rn that is not diagonal."""
     import numpy as np
 
     from ipgen.estimation.covariance import NOISE_CEILING, NOISE_MARGIN
 
     if memory <= 0:
         return {}
+    if memory < period:
+        raise SensorsError(
+            f"estimator.noise_memory = {format_number(memory)} s is shorter than the loop's period "
+            f"{format_number(period)} s: give at least one period"
+        )
+    if np.count_nonzero(rn - np.diag(np.diag(rn))):
+        raise SensorsError(
+            "estimator.noise_memory needs a diagonal estimator.measurement_noise (only its diagonal is "
+            "learnt): give one variance per measured coordinate"
+        )
     floor = [float(v) for v in np.diag(encoders)]
     ceiling = [max(NOISE_CEILING * float(v), low) for v, low in zip(np.diag(rn), floor, strict=True)]
     return {"noise_margin": NOISE_MARGIN, "noise_floor": tuple(floor), "noise_ceiling": tuple(ceiling)}
@@ -286,7 +297,7 @@ def design(
             equilibrium=tuple(float(x) for x in equilibrium),
             process_noise=rows(qn),
             measurement_noise=rows(rn),
-            **_noise_learning(loop_.estimator.noise_memory, r_default, rn),
+            **_noise_learning(loop_.estimator.noise_memory, period, r_default, rn),
         )
         return dataclasses.replace(loop_, estimator=numbers)
     try:

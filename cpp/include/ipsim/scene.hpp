@@ -59,7 +59,7 @@
 //   estimator.predict = 1    (optional, exact or ekf: the law sees the estimate carried over the delay)
 //   estimator.compensate_lag = 1  (optional: the loop is built for actuator.lag, ipgen_loop_lag_*)
 //   estimator.lag = 0.02     (optional, with compensate_lag: the lag the loop is built for; absent: actuator.lag)
-//   estimator.noise_memory = 1  estimator.noise_margin = 10  estimator.noise_floor (m)  estimator.noise_ceiling (m)
+//   estimator.noise_memory = 1  estimator.noise_margin = 10  estimator.noise_floor = 1e-6 1e-6  estimator.noise_ceiling = …
 //                            (optional, ekf: the measurement noise learnt, ipgen_loop_ekf's noise_*)
 //   actuator.noise = σ_u     actuator.lag = τ [s]     actuator.pulses = start duration amplitude …
 //
@@ -459,16 +459,23 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
         file.fail(file.line("estimator.process_noise"), "estimator.process_noise, measurement_noise and equilibrium must be finite");
       }
     }
+    for (const char* key : {"estimator.noise_margin", "estimator.noise_floor", "estimator.noise_ceiling"}) {
+      if (file.has(key) && !file.has("estimator.noise_memory")) file.fail(file.line(key), std::string(key) + " needs estimator.noise_memory (the noise it bounds is not learnt)");
+    }
     if (file.has("estimator.noise_memory")) {  // > 0: cfg_rules.hpp; the rest is derived by ipgen
       if (loop.kind != EstimatorKind::ekf) file.fail(file.line("estimator.noise_memory"), "estimator.noise_memory needs estimator = ekf (the filter learns the noise)");
       loop.noise_memory = file.number("estimator.noise_memory");
+      if (loop.noise_memory < period) file.fail(file.line("estimator.noise_memory"), "estimator.noise_memory must be at least the loop's period " + detail::format_number(period) + " s");
       loop.noise_margin = file.number("estimator.noise_margin");
+      if (!(std::isfinite(loop.noise_margin) && loop.noise_margin > 0)) file.fail(file.line("estimator.noise_margin"), "estimator.noise_margin must be finite and > 0");
       loop.noise_floor = numbers_of(file, "estimator.noise_floor", m);
       loop.noise_ceiling = numbers_of(file, "estimator.noise_ceiling", m);
-      bool valid = std::isfinite(loop.noise_margin) && loop.noise_margin > 0;
-      for (Eigen::Index i = 0; i < loop.noise_floor.size(); ++i)
-        valid = valid && loop.noise_floor(i) > 0 && std::isfinite(loop.noise_ceiling(i)) && loop.noise_ceiling(i) >= loop.noise_floor(i);
-      if (!valid) file.fail(file.line("estimator.noise_memory"), "estimator.noise_margin must be > 0 and 0 < noise_floor <= noise_ceiling, finite");
+      for (Eigen::Index i = 0; i < loop.noise_floor.size(); ++i) {
+        if (!(std::isfinite(loop.noise_floor(i)) && loop.noise_floor(i) > 0)) file.fail(file.line("estimator.noise_floor"), "estimator.noise_floor must be finite and > 0");
+        if (!(std::isfinite(loop.noise_ceiling(i)) && loop.noise_ceiling(i) >= loop.noise_floor(i))) file.fail(file.line("estimator.noise_ceiling"), "estimator.noise_ceiling must be finite and at least estimator.noise_floor");
+      }
+      const Eigen::MatrixXd& rn = loop.measurement_noise;  // read above (ekf)
+      if (!(rn - Eigen::MatrixXd(rn.diagonal().asDiagonal())).isZero(0.0)) file.fail(file.line("estimator.noise_memory"), "estimator.noise_memory needs a diagonal estimator.measurement_noise");
     }
   }
   if (compensate) {
