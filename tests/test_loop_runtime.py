@@ -80,6 +80,19 @@ def test_a_struct_mirror_out_of_step_is_reported(monkeypatch: pytest.MonkeyPatch
         loop_runtime.declare(ctypes.CDLL(str(loop_runtime.build())))
 
 
+def test_an_ekf_scratch_size_out_of_step_is_reported(monkeypatch: pytest.MonkeyPatch) -> None:
+    """ekf_work (the scratch Python allocates for C's EKF) equals IPGEN_LOOP_EKF_WORK; one entry
+    short is refused when the library loads."""
+    loaded = library()
+    for n in range(1, 10):
+        for c in range(1, 5):
+            assert loaded.ipgen_loop_batch_ekf_work(n, c) == loop_runtime.ekf_work(n, c)
+    real = loop_runtime.ekf_work
+    monkeypatch.setattr(loop_runtime, "ekf_work", lambda n, c: real(n, c) - 1)
+    with pytest.raises(LoopRuntimeError, match="IPGEN_LOOP_EKF_WORK"):
+        loop_runtime.declare(ctypes.CDLL(str(loop_runtime.build())))
+
+
 def test_no_c_compiler_is_one_line_naming_the_fix(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("CC", "/nonexistent/ipgen-test-cc")
     with pytest.raises(LoopRuntimeError) as info:

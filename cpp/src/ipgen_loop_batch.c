@@ -3,6 +3,8 @@
  * needs beside them:
  * - ipgen_loop_batch_layout: the sizes and offsets of the header's structs, which the Python
  *   side checks against its ctypes.Structure mirrors once, when it loads the library;
+ * - ipgen_loop_batch_ekf_work: IPGEN_LOOP_EKF_WORK, the EKF's scratch size, checked the same way
+ *   (Python allocates the scratch C writes);
  * - ipgen_loop_batch_observe and ipgen_loop_batch_delay: ipgen.gym's measured observation and
  *   delayed action over a batch of environments (rows of a state array) in one call each, every
  *   row through the header's own ipgen_loop_quantise, _filter or _difference, and _delay.
@@ -76,6 +78,9 @@ long ipgen_loop_batch_layout(long out[]) {
   out[i++] = (long)sizeof(long);
   return i;
 }
+
+/* IPGEN_LOOP_EKF_WORK(n, c): the scratch entries of one EKF sample with n states and c measured. */
+long ipgen_loop_batch_ekf_work(long n, long c) { return (long)IPGEN_LOOP_EKF_WORK(n, c); }
 
 /* The measured observation of the environments `rows` (count of them) of a batch, dof <= 64
  * coordinates each: y = ipgen_loop_quantise(q, 0, step[j]) + noise (noise: count x dof, or null

@@ -246,6 +246,7 @@ SIGNATURES: tuple[tuple[str, Any, tuple[Any, ...]], ...] = (
     ("ipgen_loop_swingup_step", _real, (ctypes.POINTER(SwingUp), ctypes.POINTER(SwingUpState), _P, _P)),
     ("ipgen_loop_plan_reference", None, (ctypes.POINTER(SwingUp), _L, _L, _I, _P, _P)),
     ("ipgen_loop_batch_layout", _L, (_P,)),
+    ("ipgen_loop_batch_ekf_work", _L, (_L, _L)),
     ("ipgen_loop_batch_observe", _L,
      (_L, _P, _I, _P, _P, _P, _I, _real, _real, _real, _L, _P, _P, _P, _L, _P)),
     ("ipgen_loop_batch_delay", None, (_L, _P, _I, _P, _P, _P)),
@@ -283,6 +284,13 @@ def declare(loaded: ctypes.CDLL) -> ctypes.CDLL:
             "the loop library's structs do not match ipgen.common.loop_runtime's mirrors "
             f"(C {written}, Python {_layout()}): update the mirrors with ipgen_loop.h"
         )
+    for n, c in ((n, c) for n in range(1, 10) for c in range(1, 5)):  # up to 4 links and rho
+        work = loaded.ipgen_loop_batch_ekf_work(n, c)
+        if work != ekf_work(n, c):
+            raise LoopRuntimeError(
+                f"the loop library's IPGEN_LOOP_EKF_WORK({n}, {c}) is {work}, ekf_work's {ekf_work(n, c)}: "
+                "update ipgen.common.loop_runtime.ekf_work with ipgen_loop.h"
+            )
     return loaded
 
 
