@@ -103,29 +103,34 @@ def _noise_memory(memory: Any, margin: Any, period: float, rn: np.ndarray) -> fl
     return float(memory)
 
 
-def _noise_bounds(floor: Any, ceiling: Any, rn_diagonal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The learnt noise's floor and ceiling per measured coordinate (defaults RN_FLOOR and
-    NOISE_CEILING times Rn's diagonal), checked: finite, 0 < floor <= ceiling."""
+def _variances(name: str, value: Any, default: np.ndarray) -> np.ndarray:
+    """`value` (None: `default`), one variance or one per entry of `default`, each a finite
+    number > 0; else one EstimationError line."""
     import numpy as np
 
-    count = len(rn_diagonal)
-    try:
-        if any(isinstance(v, bool | str) for v in np.ravel(np.asarray([floor, ceiling], dtype=object))):
-            raise TypeError("not a number")
-        low = np.broadcast_to(np.asarray(RN_FLOOR if floor is None else floor, dtype=float), (count,))
-        high = NOISE_CEILING * rn_diagonal if ceiling is None else np.asarray(ceiling, dtype=float)
-        high = np.broadcast_to(high, (count,))
-        valid = bool(np.all(np.isfinite(low)) and np.all(np.isfinite(high)) and np.all(low > 0))
-        valid = valid and bool(np.all(high >= low))
-    except (TypeError, ValueError):
-        valid = False
-    if not valid:
-        shown = [v if np.isscalar(v) or v is None else np.asarray(v).tolist() for v in (floor, ceiling)]
+    if value is None:
+        return default.copy()
+    entries = list(value) if isinstance(value, Sequence | np.ndarray) else [value]
+    numeric = all(isinstance(v, numbers.Real) and not isinstance(v, bool) for v in entries)
+    fine = numeric and len(entries) in (1, len(default)) and all(math.isfinite(v) and v > 0 for v in entries)
+    if not fine:
+        shown = value.tolist() if isinstance(value, np.ndarray) else value
         raise EstimationError(
-            f"noise_floor = {shown[0]!r}, noise_ceiling = {shown[1]!r}: expected finite variances with "
-            "0 < floor <= ceiling, one or one per measured coordinate"
+            f"{name} = {shown!r}: expected a finite variance > 0, one or one per measured coordinate"
         )
-    return low.copy(), np.maximum(high, low).copy()
+    return np.broadcast_to(np.array(entries, dtype=float), default.shape).copy()
+
+
+def _noise_bounds(floor: Any, ceiling: Any, rn_diagonal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The learnt noise's floor and ceiling per measured coordinate (defaults RN_FLOOR and
+    NOISE_CEILING times Rn's diagonal, at least the floor), checked: 0 < floor <= ceiling."""
+    import numpy as np
+
+    low = _variances("noise_floor", floor, np.full(len(rn_diagonal), RN_FLOOR))
+    high = _variances("noise_ceiling", ceiling, NOISE_CEILING * rn_diagonal)
+    if ceiling is not None and np.any(high < low):
+        raise EstimationError(f"noise_ceiling = {high.tolist()!r} is below noise_floor = {low.tolist()!r}")
+    return low, np.maximum(high, low)
 
 
 def _measurement_of(dof: int, measured: tuple[int, ...], x_eq: np.ndarray) -> tuple[Measurement, list[Any]]:
