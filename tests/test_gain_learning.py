@@ -128,6 +128,16 @@ def test_a_bad_gain_setting_is_one_line(name: str, value: object) -> None:
     assert "\n" not in str(error.value)
 
 
+@given(drift=st.floats(1e-9, 1.0))
+def test_a_drift_without_a_learnt_gain_is_one_line(drift: float) -> None:
+    """gain_drift is a random walk of the learnt gain: without gain_spread (the gain not learnt)
+    it would be ignored; it is refused in one line naming both (as a scene's [estimator] is)."""
+    with pytest.raises(EstimationError, match=r"gain_drift .* gain_spread") as error:
+        ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-6, np.eye(2) * 1e-6, gain_drift=drift)
+    assert "\n" not in str(error.value)
+    ExtendedKalman(QUBE, 0.002, np.eye(4) * 1e-6, np.eye(2) * 1e-6, gain_drift=drift, gain_spread=0.1)
+
+
 @given(
     rho=st.floats(0.5, 2.0), angle=st.floats(-0.2, 0.2), rate=st.floats(-2, 2),
     u_max=st.sampled_from([0.05, 10.0]),

@@ -1,7 +1,8 @@
 """A drive lag known to the loop ([estimator] compensate_lag, ipgen_loop_lag_* in
 cpp/include/ipgen_loop.h): the C functions against the lag's ODE integrated here by scipy, the
-inverse's round trip and its bound, the C header's firmware loop against the simulator's, in the
-simulator the QUBE preset that a 30 ms lag defeats without the key and not with it, and one-line
+inverse's round trip and its bound, the C header's firmware loops (a swing-up's and an MPC's)
+against the simulator's, a failed EKF sample's command queued and lagged, in the simulator the QUBE
+preset that a 30 ms lag defeats without the key and not with it, and one-line
 errors and the .cfg key only when asked (the simulator's refusal: tests/test_sensors_sim.py)."""
 
 from __future__ import annotations
@@ -230,6 +231,133 @@ def test_the_controllers_loop_steps_compensate_a_lag_and_compile(
             [*flags, str(unit), "-o", str(tmp_path / "unit.o")], capture_output=True, text=True
         )
         assert done.returncode == 0, done.stderr[:3000]
+
+
+MPC_REPLAY = """\
+#include <stdio.h>
+#include "qube_servo2_mpc.h"
+/* Reads counts per line, prints the command the firmware entry returns. */
+static P_loop_state s;
+int main(void) {
+  long counts[2];
+  P_loop_init(&s);
+  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) printf("%.17g\\n", (double)P_step(&s, counts));
+  return 0;
+}
+"""
+
+# After `steps` samples of counts, the EKF is made to fail (P negative: the innovation covariance
+# is not positive definite) and the loop steps once more; prints the queue and the lag's state
+# before and after that sample, and the command it returned.
+FAILED_EKF = """\
+#include <stdio.h>
+#include "qube_servo2_mpc.h"
+static P_loop_state s;
+static void show(const char *label) {
+  int i;
+  printf("%s", label);
+  for (i = 0; i <= IPGEN_QUBE_SERVO2_MPC_DELAY; ++i) printf(" %.17g", s.estimator.pending[i]);
+  printf(" %.17g %.17g %ld\\n", s.estimator.applied, s.estimator.acted, s.estimator.k);
+}
+int main(void) {
+  long counts[2];
+  int i;
+  double u;
+  P_loop_init(&s);
+  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) (void)P_step(&s, counts);
+  for (i = 0; i < 16; ++i) s.estimator.P[i] = i % 5 == 0 ? -1e6 : 0.0;
+  show("before");
+  u = P_mpc_loop_step(&s.estimator, &s.mpc, s.estimator.x);
+  show("after");
+  printf("u %.17g\\n", u);
+  return 0;
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def lagged_mpc(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict]:
+    """qube_servo2_mpc with an EKF, a delay of 1 period predicted over and a 10 ms drive lag the
+    loop is built for, pushed from near upright: its C header (emit c) and the simulator's run."""
+    from cxx import require_toolchain
+    from run_csv import read_run_csv
+
+    from ipgen.command.cli import run
+
+    require_toolchain()
+    folder = tmp_path_factory.mktemp("lagged_mpc")
+    source = (ROOT / "scenes" / "rigs" / "qube_servo2_mpc.toml").read_text()
+    source = re.sub(r"^(name = .*)$", r'\1\nemit = ["c"]', source, count=1, flags=re.M)
+    estimator = 'kind = "ekf"\npredict = true\ncompensate_lag = true'
+    source = re.sub(r'^kind = "kalman".*$', estimator, source, flags=re.M)
+    source = source.replace("resolution = 2048 ", "delay = 0.01\nresolution = 2048 ", 1)
+    source = source.replace('kind = "dc_motor"', 'kind = "dc_motor"\nlag = 0.01', 1)
+    source = re.sub(r"^t_end = .*$", "t_end = 1.5", source, count=1, flags=re.M)
+    keys = ('emit = ["c"]', "compensate_lag", "delay = 0.01", "lag = 0.01", "t_end = 1.5")
+    assert all(key in source for key in keys)
+    path = folder / "qube_servo2_mpc.toml"
+    path.write_text(source)
+    for argv in (
+        ["--scene", str(path), "-o", str(folder)],
+        ["run", str(path), "-o", str(folder / "run"), "--no-plot"],
+    ):
+        with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+            assert run(argv) == 0, err.getvalue()
+    return folder, read_run_csv(folder / "run" / "qube_servo2_mpc.csv", phase=False).columns(slice(-1))
+
+
+def _compiled(folder: Path, name: str, source: str) -> Path:
+    from c_models import CC, WARNINGS, require_cc
+
+    require_cc()
+    (folder / f"{name}.c").write_text(source.replace("P_", "ipgen_qube_servo2_mpc_"))
+    command = [CC, "-std=c99", "-O1", *WARNINGS, f"-I{folder}", str(folder / f"{name}.c")]
+    done = subprocess.run([*command, "-o", str(folder / name), "-lm"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[:3000]
+    return folder / name
+
+
+def _counts(columns: dict) -> str:
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]]) - np.array([0.0, math.pi])
+    counts = np.rint(y / STEP).astype(int)
+    return "\n".join(f"{a} {b}" for a, b in counts.tolist()) + "\n"
+
+
+def test_the_mpcs_loop_step_compensates_the_lag_as_the_simulator_does(lagged_mpc: tuple[Path, dict]) -> None:
+    """The MPC's firmware entry (EKF, prediction over 1 period, a known 10 ms lag), fed the
+    encoder counts of the simulator's run, returns the command the simulator applies 1 sample
+    later (double, 1e-9 of 10 V); the lag's inverse is at work (commands unlike a plain MPC's
+    reach the bound) and the link is held."""
+    folder, columns = lagged_mpc
+    program = _compiled(folder, "replay", MPC_REPLAY)
+    out = subprocess.run([str(program)], input=_counts(columns), capture_output=True, text=True, check=True)
+    commands = np.array([float(v) for v in out.stdout.split()])
+    samples, delay = len(commands), 1
+    assert np.all(columns["u"][:delay] == 0.0)
+    assert np.max(np.abs(commands[: samples - delay] - columns["u"][delay:samples])) <= 1e-9 * 10.0
+    assert np.max(np.abs(columns["u"])) == pytest.approx(10.0)
+    assert abs(columns["theta1"][-1]) < 0.05  # held upright
+
+
+def test_a_failed_ekf_sends_the_last_command_again_and_queues_it(lagged_mpc: tuple[Path, dict]) -> None:
+    """A sample whose EKF fails returns the last command sent and keeps the loop's queue and
+    lag model in step with the rig's drive: the queue moves on by that command, the lag's input
+    follows τ a' = u − a over the period (a = u + (a0 − u) e^(−T/τ), its mean u + (a0 − u)
+    (τ/T)(1 − e^(−T/τ))), the estimator's sample count stays."""
+    folder, columns = lagged_mpc
+    program = _compiled(folder, "failed", FAILED_EKF)
+    counts = "".join(_counts(columns).splitlines(keepends=True)[:40])
+    out = subprocess.run([str(program)], input=counts, capture_output=True, text=True, check=True).stdout
+    rows = {line.split()[0]: [float(v) for v in line.split()[1:]] for line in out.splitlines()}
+    before, after, (u,) = rows["before"], rows["after"], rows["u"]
+    pending, applied, k = before[:2], before[2], before[4]
+    assert u == pending[-1] and u != pending[0]
+    assert after[:2] == [*pending[1:], u]
+    period, lag = 0.01, 0.01
+    assert after[2] == pytest.approx(pending[1] + (applied - pending[1]) * math.exp(-period / lag), rel=1e-12)
+    weight = (lag / period) * -math.expm1(-period / lag)
+    assert after[3] == pytest.approx(pending[1] + (applied - pending[1]) * weight, rel=1e-12)
+    assert after[4] == k == 40
 
 
 def _lqr_run(tmp_path: Path, lag: str, key: bool, pinned: str = "") -> tuple[dict, str]:

@@ -41,7 +41,7 @@ def test_the_noise_learning_ekf_equals_the_reference(
     samples, case, memory, margin, floor, ceiling, spread
 ) -> None:
     """x̂, P and the variances used of the C EKF (ipgen_loop_ekf_update) and the numpy one agree,
-    with and without the gain state, on samples that reach both of the variance's clamps."""
+    with and without the gain state (both clamps reached: the test after it)."""
     pendulum = {"rsip": RSIP, "qube": QUBE}[case]
     ekf = ExtendedKalman(
         pendulum, 0.002, np.eye(4) * 1e-3, np.eye(2) * 1e-6, gain_spread=spread,
@@ -55,6 +55,28 @@ def test_the_noise_learning_ekf_equals_the_reference(
         assert ref.learnt is not None
         expected = np.clip(margin * ref.learnt, floor, ceiling) if ekf._k > 1 else np.diag(ekf.Rn)
         assert np.allclose(ekf.noise_used, expected, rtol=1e-9, atol=1e-15)
+
+
+def test_the_reference_equality_covers_both_clamps() -> None:
+    """The equality above on one fixed sequence that surely reaches both clamps of the variance
+    used: readings jumping ±50 mrad (innovations far above the ceiling's 1e-3 rad²), then still
+    ones (the learnt variance decays below the floor's 1e-5): both bounds are met, in C and in
+    the reference alike."""
+    ekf = ExtendedKalman(
+        QUBE, 0.002, np.eye(4) * 1e-3, np.eye(2) * 1e-4,
+        noise_memory=0.004, noise_margin=10.0, noise_floor=1e-5, noise_ceiling=1e-3,
+    )  # fmt: skip
+    ref = reference.ExtendedKalman(ekf)
+    jumps = [(np.array([0.05, -0.05]) * (-1) ** k, 0.0) for k in range(20)]
+    still = [(np.zeros(2), 0.0)] * 60
+    reached = set()
+    for y, u in jumps + still:
+        assert np.allclose(ekf.step(y, u), ref.step(y, u), rtol=1e-9, atol=1e-10)
+        expected = np.clip(10.0 * ref.learnt, 1e-5, 1e-3) if ekf._k > 1 else np.diag(ekf.Rn)
+        assert np.allclose(ekf.noise_used, expected, rtol=1e-9, atol=1e-15)
+        reached |= {"ceiling"} if np.any(ekf.noise_used == 1e-3) else set()
+        reached |= {"floor"} if np.any(ekf.noise_used == 1e-5) else set()
+    assert reached == {"floor", "ceiling"}
 
 
 @functools.cache

@@ -380,6 +380,11 @@ class ExtendedKalman(_Runtime):
                 raise EstimationError(
                     f"{name} = {value!r}: expected a number from 0 to 1 (0: the gain not learnt)"
                 )
+        if gain_drift > 0 and gain_spread == 0:
+            raise EstimationError(
+                f"gain_drift = {gain_drift!r} without gain_spread: the drift is of a learnt gain; "
+                "give gain_spread > 0 too, or leave gain_drift at 0"
+            )
         self.gain_spread, self.gain_drift = float(gain_spread), float(gain_drift)
         self.model = as_model(pendulum)
         self.period = sampling_period(period)
