@@ -60,8 +60,9 @@ def test_the_noise_learning_ekf_equals_the_reference(
 def test_the_reference_equality_covers_both_clamps() -> None:
     """The equality above on one fixed sequence that surely reaches both clamps of the variance
     used: readings jumping ±50 mrad (innovations far above the ceiling's 1e-3 rad²), then still
-    ones (the learnt variance decays below the floor's 1e-5): both bounds are met, in C and in
-    the reference alike."""
+    ones (the learnt variance decays below the floor's 1e-5). The variances used (noise_used, the
+    learnt means clipped) meet both bounds, and the C filter's x̂ and P, which the clipped
+    variances shape, equal the reference's throughout."""
     ekf = ExtendedKalman(
         QUBE, 0.002, np.eye(4) * 1e-3, np.eye(2) * 1e-4,
         noise_memory=0.004, noise_margin=10.0, noise_floor=1e-5, noise_ceiling=1e-3,
@@ -72,6 +73,7 @@ def test_the_reference_equality_covers_both_clamps() -> None:
     reached = set()
     for y, u in jumps + still:
         assert np.allclose(ekf.step(y, u), ref.step(y, u), rtol=1e-9, atol=1e-10)
+        assert np.allclose(ekf.covariance, ref.covariance, rtol=1e-8, atol=1e-12)
         expected = np.clip(10.0 * ref.learnt, 1e-5, 1e-3) if ekf._k > 1 else np.diag(ekf.Rn)
         assert np.allclose(ekf.noise_used, expected, rtol=1e-9, atol=1e-15)
         reached |= {"ceiling"} if np.any(ekf.noise_used == 1e-3) else set()

@@ -361,3 +361,24 @@ def test_gain_learning_is_written_only_when_asked(tmp_path: Path) -> None:
             assert "estimator.gain_spread" not in keys and "estimator.gain_drift" not in keys
         else:
             assert (keys["estimator.gain_spread"], keys["estimator.gain_drift"]) == expected
+
+
+@pytest.mark.parametrize(("zero", "link"), [("upright", 0.0), ("hanging", math.pi)])
+def test_a_swing_ups_estimator_is_built_at_its_upright_in_the_scenes_coordinates(
+    tmp_path: Path, zero: str, link: float
+) -> None:
+    """A swing-up without a [controller] (its LQR hold) with an EKF: the filter's equilibrium
+    (where its unmeasured coordinates start, the default Qn's linearisation) is the upright the
+    hold aims at, written in the scene's coordinates: the link at 0 when they count from
+    upright, half a turn from their zero when they count from hanging (Quanser's QUBE: α
+    counter-clockwise)."""
+    source = (ROOT / "scenes" / "rigs" / "qube_servo2_swingup.toml").read_text()
+    sense = 'positive = "counterclockwise"'
+    source = source.replace(sense, f'{sense}\nzero = "{zero}"', 1)
+    source = source.replace('kind = "filter"', 'kind = "ekf"', 1)
+    assert f'zero = "{zero}"' in source and 'kind = "ekf"' in source and "[controller]" not in source
+    path = tmp_path / "swing.toml"
+    path.write_text(source)
+    equilibrium = [float(v) for v in config(path)["estimator.equilibrium"].split()]
+    assert equilibrium[0] == 0.0 and equilibrium[2:] == [0.0, 0.0]
+    assert math.remainder(equilibrium[1] - link, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)

@@ -337,7 +337,8 @@ class ExtendedKalman(_Runtime):
         starting from ρ = 1 with this standard deviation (default 0: not learnt).
     gain_drift : float, optional
         With `gain_spread`: ρ's random walk, its standard deviation's growth per √s (default 0:
-        ρ constant; a scene's `[estimator] gain_drift` defaults to 0.003). Both at most 1.
+        ρ constant; a scene's `[estimator] gain_drift` defaults to 0.003). Both at most 1; a
+        drift without `gain_spread` is refused.
     noise_memory : float, optional
         > 0: the filter learns each measured coordinate's noise variance from its innovations,
         an exponential mean over this memory [s] (weight T / memory a sample, so at least one

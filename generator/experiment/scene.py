@@ -307,13 +307,16 @@ def _loop(
     linearisation of `pendulum()` at the controller's (or the swing-up's hold) equilibrium. With
     a swing-up the loop runs at its period (an MPC catching it steps every few of them)."""
     period = law.period if law is not None else (controller.period if controller is not None else None)
-    equilibrium: tuple[float, ...] = ()
-    if controller is not None or law is not None:
-        equilibrium = controller.equilibrium if controller is not None else law.target
-    # the loop's input limit (the default Qn's scale): the controller's saturation, else the swing-up's
-    scale = controller.saturation if controller is not None else None
-    if scale is None and law is not None:
-        scale = law.u_max
+    if controller is not None:
+        equilibrium, scale = controller.equilibrium, controller.saturation
+    elif law is not None:  # the hold's target is in ipgen's coordinates, the loop in the scene's
+        import numpy as np
+
+        system = tables["system"]
+        target = system.coordinates().to_user(np.array(law.target, dtype=float), system.links)
+        equilibrium, scale = tuple(float(v) for v in target), law.u_max
+    else:
+        equilibrium, scale = (), None
 
     def design(loop: measuring.Loop, table: Any) -> measuring.Loop:
         return measuring.design(

@@ -17,7 +17,8 @@ from ipgen.scene.fields import show
 from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
 
 # per √s: [estimator] gain_drift's default, rho's standard deviation grows so much a √s (the
-# prototype's; docs/mpc.md "A learnt input gain" compares 0.001 and 0.01 on the m4f preset's draws)
+# prototype's; docs/mpc-robustness.md "A learnt input gain" compares 0.001 and 0.01 on the m4f
+# preset's draws)
 DEFAULT_GAIN_DRIFT = 0.003
 
 ESTIMATORS: tuple[str, ...] = ("exact", "difference", "filter", "kalman", "ekf")
