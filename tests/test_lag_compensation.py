@@ -137,8 +137,8 @@ def test_the_headers_loop_compensates_the_lag_as_the_simulator_does(tmp_path: Pa
     """qube_servo2_swingup with an EKF, a delay of 2 periods predicted over and a 5 ms drive lag
     the loop is built for: the C header's firmware step, fed the encoder counts of the simulator's
     run, returns the command the simulator applies 2 samples later (1e-9 of 10 V); the header
-    compiles under -Werror in double and in float; the commands differ from the law's (the lag's
-    inverse is in use) and reach the bound."""
+    compiles under -Werror in double and in float; the step sends the lag's inverse (its body
+    calls ipgen_loop_lag_command) and the commands reach the bound."""
     from c_models import CC, WARNINGS, require_cc
     from cxx import require_toolchain
     from run_csv import read_run_csv
@@ -163,7 +163,9 @@ def test_the_headers_loop_compensates_the_lag_as_the_simulator_does(tmp_path: Pa
         with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
             assert run(argv) == 0, err.getvalue()
     header = (tmp_path / f"{name}.h").read_text()
-    assert "ipgen_loop_lag_command(" in header and f"IPGEN_{name.upper()}_LAG 0.005" in header
+    step = header[header.index(f"ipgen_{name}_swingup_loop_step(") :]
+    assert "ipgen_loop_lag_command(" in step[: step.index("\n}\n")]  # the step sends the inverse
+    assert f"IPGEN_{name.upper()}_LAG 0.005" in header
     run_ = read_run_csv(tmp_path / "run" / "scene.csv", phase=True).columns()
     zero = np.array([0.0, -math.pi])
     counts = np.rint((np.column_stack([run_["y_theta0"], run_["y_theta1"]]) - zero) / STEP).astype(int)
@@ -183,7 +185,7 @@ def test_the_headers_loop_compensates_the_lag_as_the_simulator_does(tmp_path: Pa
     samples, delay = len(values) - 1, 2  # the simulator's u at row k is the command of row k − 2
     assert np.all(run_["u"][:delay] == 0.0)
     assert np.max(np.abs(values[: samples - delay, 0] - run_["u"][delay:samples])) <= 1e-9 * 10.0
-    assert np.max(np.abs(run_["u"])) == pytest.approx(10.0)  # the bound: the inverse asks for more
+    assert np.max(np.abs(run_["u"])) == pytest.approx(10.0)  # the bound
 
 
 @pytest.mark.parametrize(
