@@ -21,6 +21,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_firmware_c import REPLAY
 from test_gain_learning import STEP
+from test_mpc_c_header import FIRMWARE
 from test_sensors import config, refused, scene, text
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -235,18 +236,7 @@ def test_the_controllers_loop_steps_compensate_a_lag_and_compile(
         assert done.returncode == 0, done.stderr[:3000]
 
 
-MPC_REPLAY = """\
-#include <stdio.h>
-#include "qube_servo2_mpc.h"
-/* Reads counts per line, prints the command the firmware entry returns. */
-static P_loop_state s;
-int main(void) {
-  long counts[2];
-  P_loop_init(&s);
-  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) printf("%.17g\\n", (double)P_step(&s, counts));
-  return 0;
-}
-"""
+MPC_REPLAY = FIRMWARE.replace('"qube_servo2.h"', '"qube_servo2_mpc.h"')  # counts in, commands out
 
 # After the samples of counts, the EKF is made to fail (P negative: the innovation covariance is
 # not positive definite) and the MPC's loop steps once more. A copy of the loop taken before that
