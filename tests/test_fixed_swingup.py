@@ -89,3 +89,27 @@ def test_a_run_that_does_not_stay_up_scores_zero() -> None:
     x = np.array([[0.0, 0, 0, 0], [math.pi, 0, 0, 0], [0.0, 0, 0, 0], [math.pi, 0, 0, 0]])
     assert swingup_time(t, x, 1.0, 1.0) == 3.0
     assert score(t, x, np.zeros((4, 2)), 1.0, 1.0).score == 0.0
+
+
+def test_a_fixed_swing_up_without_initial_starts_hanging(tmp_path: Path) -> None:
+    """pendubot_swingup without [initial]: its links start hanging, where its plan starts
+    (docs/scenes.md), in whatever coordinates the scene counts: 0 0 in DFKI's (relative, from
+    hanging), π π in ipgen's (absolute, from upright; before, such a scene started upright and
+    lost its plan at t = 0). Without a [swingup] the default stays 0."""
+    import re
+
+    from ipgen.command.cli import run
+
+    preset = preset_path("pendubot_swingup")
+    plan = preset.with_name("pendubot_swingup.plan.csv")
+    (tmp_path / plan.name).write_text(plan.read_text())
+    source = re.sub(r"\[initial\]\ntheta = .*\ndtheta = .*\n", "", preset.read_text())
+    canonical = re.sub(r"^(angles|zero|positive) = .*\n", "", source, flags=re.M)
+    unswung = re.sub(r"\[swingup\]\n(.+\n)+", "", canonical)
+    assert "[initial]" not in source and "zero =" not in canonical and "[swingup]" not in unswung
+    expected = {"rig": "0 0", "canonical": f"{math.pi!r} {math.pi!r}", "unswung": "0 0"}
+    for name, text in (("rig", source), ("canonical", canonical), ("unswung", unswung)):
+        (tmp_path / f"{name}.toml").write_text(text)
+        assert run(["--scene", str(tmp_path / f"{name}.toml"), "-o", str(tmp_path / name)]) == 0
+        cfg = (tmp_path / name / f"{name}.cfg").read_text()
+        assert re.search(r"^theta = (.*)$", cfg, flags=re.M).group(1) == expected[name], name

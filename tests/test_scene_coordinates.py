@@ -91,6 +91,23 @@ def test_the_gain_is_the_canonical_one_carried_over(tmp_path: Path, frame: Coord
         assert [float(v) for v in config["controller.gain"].split()] == list(scene.controller.gain)
 
 
+@pytest.mark.parametrize("frame", CONVENTIONS, ids=lambda f: f"{f.angles}-{f.zero}-{f.positive}")
+def test_without_initial_the_pendulum_starts_upright_in_any_coordinates(
+    tmp_path: Path, frame: Coordinates
+) -> None:
+    """No [initial] theta (and no [swingup]): the pendulum starts upright at rest (docs/scenes.md),
+    whatever the scene counts from: its theta is ipgen's upright (all angles 0) written in the
+    scene's coordinates (counting from hanging: half a turn), and the LQR about upright holds it
+    there. Before, it started at 0 in the scene's coordinates: hanging, when they count from it."""
+    scene = load_scene(make(tmp_path, {**DOUBLE, **keys(frame), "initial.theta": None}))
+    state = np.array(scene.theta + scene.dtheta)
+    canonical = frame.to_canonical(state, 2)
+    assert np.allclose(np.remainder(canonical[:3] + math.pi, 2 * math.pi) - math.pi, 0.0, atol=1e-12)
+    assert np.allclose(scene.theta, np.array(scene.controller.equilibrium[:3]), atol=1e-12)
+    if frame.zero == "hanging":
+        assert abs(scene.theta[1]) == pytest.approx(math.pi)
+
+
 def test_an_equilibrium_given_in_the_rig_s_angles(tmp_path: Path) -> None:
     """[controller] equilibrium = [0, 0, π] with relative angles from hanging: link 1 hanging,
     link 2 turned by π from it, i.e. upright: the gain about ipgen's [0, π, 0]."""

@@ -224,7 +224,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             controller = feedback.controller(tables["controller"], pendulum())
         except feedback.GainError as error:
             reader.fail(str(error))
-    theta = zeros if initial.theta is None else _floats(initial.theta)
+    theta = _upright(coordinates, links) if initial.theta is None else _floats(initial.theta)
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
@@ -294,6 +294,15 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
 
 def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
+
+
+def _upright(coordinates: Coordinates, links: int) -> tuple[float, ...]:
+    """[initial] theta's default, upright, in the scene's coordinates (0 unless they count from
+    hanging)."""
+    import numpy as np
+
+    user = coordinates.to_user(np.zeros(2 * (links + 1)), links)
+    return tuple(float(v) + 0.0 for v in user[: links + 1])  # + 0.0: no -0
 
 
 def _loop(

@@ -101,6 +101,16 @@ def _spec(table: Any) -> InputSpec:
     )
 
 
+def default_theta(chain: FixedPendulum, document: dict[str, Any]) -> tuple[float, ...]:
+    """`[initial] theta` when the scene does not write it, in the chain's coordinates: every link
+    hanging with a [swingup] (where its plan starts), else 0 (docs/scenes.md)."""
+    if "swingup" not in document:
+        return (0.0,) * chain.links
+    from ipgen.control.fixed_linear import fixed_equilibrium
+
+    return tuple(float(v) + 0.0 for v in fixed_equilibrium(chain, "hanging"))  # + 0.0: no -0
+
+
 def _state(reader: Reader, initial: Any, key: str, links: int) -> tuple[float, ...]:
     import math
     from decimal import Decimal
@@ -467,6 +477,8 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
     _check_tables(reader, document, chain)
     initial = document.get("initial", {})
     theta = _state(reader, initial, "theta", chain.links)
+    if initial.get("theta") is None:
+        theta = default_theta(chain, document)
     dtheta = _state(reader, initial, "dtheta", chain.links)
     tables, inputs = fixed_inputs(reader, document, tuple(chain.joints))
     name = fixed_model_name(chain.links, tuple(chain.joints))

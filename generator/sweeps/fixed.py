@@ -162,8 +162,12 @@ def nominal_array(scene: FixedScene, key: Key) -> list[float] | None:
         return list(chain.coulomb) if chain.coulomb is not None else [0.0] * chain.links
     if key.table == "actuator" and key.name in ("Ir", "gr"):
         return list(chain.motor(key.name))
-    if key.table == "initial" and key.name in ("theta", "dtheta"):
-        return [0.0] * chain.links  # `ipgen run`'s default: every entry 0
+    if key.table == "initial" and key.name == "theta":  # `ipgen run`'s default
+        from ipgen.pipeline.fixed_run import default_theta
+
+        return list(default_theta(chain, scene.document))
+    if key.table == "initial" and key.name == "dtheta":
+        return [0.0] * chain.links  # `ipgen run`'s default: at rest
     return None
 
 
