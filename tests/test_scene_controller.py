@@ -117,7 +117,7 @@ BAD = [
     ({"controller.r": "-1"}, "controller.r = -1", "> 0"),
     ({"controller.r": '"1"'}, "controller.r", "expected a number"),
     ({"controller.equilibrium": '"sideways"'}, "controller.equilibrium", '"upright" or "hanging"'),
-    ({"controller.equilibrium": "[0, 1.0]"}, "controller.equilibrium[1] = 1.0", "upright (0) or hanging"),
+    ({"controller.equilibrium": "[0, 1.0]"}, "controller.equilibrium[1] = 1.0", "at a multiple of π"),
     ({"controller.equilibrium": "[0, 0, 0]"}, "controller.equilibrium has 3 entries, expected 2", "θ0"),
     ({"controller.equilibrium": "true"}, "controller.equilibrium", "got a boolean"),
     ({"controller.saturation": "0"}, "controller.saturation = 0", "must be > 0 N m"),

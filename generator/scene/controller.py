@@ -137,7 +137,8 @@ def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     for i, angle in enumerate(angles[1:], start=1):
         if abs(math.remainder(angle, math.pi)) > 1e-9:
             refuse(
-                "a link rests only upright (0) or hanging (π = 3.141592653589793, or any multiple of π)",
+                "a link rests only upright or hanging: at a multiple of π (3.141592653589793) "
+                "in the scene's angles (0 upright in ipgen's; 0 hanging where they count from it)",
                 key="equilibrium",
                 index=(i,),
                 value=value[i],
