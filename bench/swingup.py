@@ -37,6 +37,7 @@ from ipgen.control.energy import energy_swingup
 from ipgen.control.swingup import trajectory_swingup
 from ipgen.control.trajectory import PlanError
 from ipgen.plots.animation import animate_run, plot_plan_and_run
+from ipgen.plots.run import input_unit_beside
 from tests.swingup_reference import Run, simulate
 
 DOCS = ROOT / "docs" / "bench"
@@ -248,7 +249,10 @@ def main() -> None:
                     "plan_x": np.array([plan.state(t) for t in times[times <= plan.duration]]),
                     "plan_u": np.array([plan.input(t) for t in times[times <= plan.duration]]),
                 }
-            plot_plan_and_run(out / f"{stem}.png", csv_path, u_max=case.u_max, force=True, **kwargs)
+            unit = input_unit_beside(csv_path)  # V for a motor case
+            plot_plan_and_run(
+                out / f"{stem}.png", csv_path, u_max=case.u_max, force=True, input_unit=unit, **kwargs
+            )
     results["machine"] = machine({"casadi": version("casadi"), "repeat": str(args.repeat)})
     (out / "swingup.json").write_text(json.dumps(results, indent=1) + "\n")
     (out / "swingup.md").write_text(render(results, cases))

@@ -272,6 +272,8 @@ def test_the_firmwares_encoder_zero_is_the_rig_at_rest(tmp_path: Path) -> None:
         entries = line.split("{")[1].split("}")[0].split(",")
         values = [float(v.replace("(IPGEN_SCALAR)", "").strip().rstrip("f")) for v in entries]
         assert values == pytest.approx(expected, abs=1e-12), line
+        # the firmware entry of a motor's LQR loop says it returns volts (it said "the units of u")
+        assert "command to send (the motor voltage [V])" in header
 
 
 TWO_HEADERS = """\

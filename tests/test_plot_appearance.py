@@ -1,6 +1,7 @@
 """What the pictures show: a run about hanging keeps its own angle range, a sampled input is drawn
 as steps, a link upright after a full turn reads 0, the identify plot names its coordinates, the
-GIFs are larger than 420 × 216 and a cart's figure is mostly its side view."""
+GIFs are larger than 420 × 216 and a cart's figure is mostly its side view, `ipgen plot` names u's
+unit from the resolved scene beside the CSV (volts with a dc_motor)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,15 @@ import numpy as np
 import pytest
 
 from ipgen.control.coordinates import Coordinates
-from ipgen.plots.run import Run, display_turns, draw_run, plot_run, read_run, sampled_beside
+from ipgen.plots.run import (
+    Run,
+    display_turns,
+    draw_run,
+    input_unit_beside,
+    plot_run,
+    read_run,
+    sampled_beside,
+)  # fmt: skip
 
 
 def run_of(t: np.ndarray, theta: list[np.ndarray], u: np.ndarray | None = None) -> Run:
@@ -148,3 +157,40 @@ def test_gifs_are_larger_and_a_carts_figure_is_its_side_view(tmp_path: Path, kin
         assert box["side"].width * box["side"].height > 0.4 * area
         assert box["top"].height < 0.15 * fig.bbox.height
         assert box["top"].width > 0.8 * fig.bbox.width
+
+
+@pytest.mark.parametrize(
+    ("lines", "unit", "label"),
+    [
+        ("type = rotary\nactuator = dc_motor\n", "V", "input u [V]"),
+        ("type = rotary\nactuator = acceleration\n", "rad/s²", "input u [rad/s²]"),
+        ("type = classical\nactuator = acceleration\n", "m/s²", "input u [m/s²]"),
+        ("type = rotary\n", None, "input u [N m]"),
+        ("type = classical\n", None, "input u [N]"),
+    ],
+)
+def test_ipgen_plot_names_the_unit_of_u(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lines: str, unit: str | None, label: str
+) -> None:
+    """The unit of u `ipgen plot` draws with (`input_unit_beside`: the resolved scene's .cfg beside
+    the CSV): volts for a dc_motor, an acceleration for an acceleration-driven base, else the force
+    or torque of the base (`ipgen plot` called u of a motor's run "N m" before)."""
+    from ipgen.command.cli import run as cli
+
+    csv = tmp_path / "scene.csv"
+    csv.write_text("t,theta0,theta1,dtheta0,dtheta1,u\n0,0,0.1,0,0,1\n0.01,0,0.1,0,0,-1\n")
+    (tmp_path / "scene.cfg").write_text(lines + "l = 0.1 0.2\n")
+    assert input_unit_beside(csv) == unit
+    drawn = []
+    original = draw_run
+
+    def recording(*args, **kwargs):
+        fig = original(*args, **kwargs)
+        drawn.append([line.get_label() for ax in fig.axes for line in ax.get_lines()])
+        return fig
+
+    import ipgen.plots.run
+
+    monkeypatch.setattr(ipgen.plots.run, "draw_run", recording)
+    assert cli(["plot", str(csv), "-o", str(tmp_path / "plot.png")]) == 0
+    assert any(label == name for name in drawn[0]), drawn

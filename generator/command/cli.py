@@ -567,7 +567,7 @@ def plot_command(
 ) -> None:  # fmt: skip
     """Plot a CSV a simulator wrote (ipgen run, simulate_<model>): the base, the link angles and,
     for a closed loop, the input u against time."""
-    from ipgen.plots.run import plot_run, read_run, sampled_beside, system_type_beside
+    from ipgen.plots.run import input_unit_beside, plot_run, read_run, sampled_beside, system_type_beside
 
     target = _not_the_input(png if png is not None else csv.with_suffix(".png"), csv)
     kind = system_type or system_type_beside(csv)
@@ -575,6 +575,7 @@ def plot_command(
     plot_run(
         run, target, csv.name, kind, force=force,
         coordinates=_csv_coordinates(csv, angles, zero, positive), sampled=sampled_beside(csv),
+        input_unit=input_unit_beside(csv),
     )  # fmt: skip
     click.echo(f"wrote {target}")
 

@@ -430,9 +430,11 @@ def plot_plan_and_run(
     plan_u: np.ndarray | None = None,
     u_max: float | None = None,
     force: bool = False,
+    input_unit: str | None = None,
 ) -> Path:
     """Write a PNG: the run's angles (solid) against the plan's (dashed, when given), the base
-    coordinate, and u(t) of both with the limit ±u_max."""
+    coordinate, and u(t) of both with the limit ±u_max. `input_unit` labels u (default "N or N m";
+    `plots.run.input_unit_beside` reads it from the resolved scene next to a CSV)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -461,7 +463,7 @@ def plot_plan_and_run(
         for sign in (1, -1):
             axes[2].axhline(sign * u_max, color="tab:red", lw=0.8, ls=":")
         axes[2].plot([], [], color="tab:red", lw=0.8, ls=":", label=f"±u_max = {u_max:g}")
-    axes[2].set_ylabel("u [N or N m]")
+    axes[2].set_ylabel(f"u [{input_unit or 'N or N m'}]")
     axes[2].set_xlabel("t [s]")
     if axes[2].get_legend_handles_labels()[0]:
         axes[2].legend(fontsize=8)

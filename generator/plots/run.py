@@ -127,6 +127,23 @@ def coordinates_beside(csv_path: Path) -> Coordinates:
     return Coordinates(**{key: value for key, value in found.items() if value in allowed[key]})
 
 
+def input_unit_beside(csv_path: Path) -> str | None:
+    """u's unit from the resolved scene `<stem>.cfg` next to the CSV when it is not a force or a
+    torque: V with `actuator = dc_motor`, m/s² or rad/s² with `acceleration`; else None."""
+    cfg = csv_path.with_suffix(".cfg")
+    found: dict[str, str] = {}
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        for line in cfg.read_text().splitlines()[:64]:
+            match = re.fullmatch(r"(type|actuator) = (\w{1,20})", line.strip())
+            if match:
+                found.setdefault(match.group(1), match.group(2))
+    if found.get("actuator") == "dc_motor":
+        return "V"
+    if found.get("actuator") == "acceleration":
+        return "rad/s²" if found.get("type") == "rotary" else "m/s²"
+    return None
+
+
 def system_type_beside(csv_path: Path) -> str | None:
     """`classical`, `rotary` or `fixed` from the resolved scene `<stem>.cfg` next to the CSV, if there."""
     scene = scene_beside(csv_path)
