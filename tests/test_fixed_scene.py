@@ -92,6 +92,33 @@ def test_a_good_fixed_scene(tmp_path: Path) -> None:
     assert p.joints == (2, 3) and p.gr == (6.0, -6.0)
 
 
+@pytest.mark.parametrize(
+    ("lines", "refused"),
+    [
+        ('coulomb_law = "atan"\ncoulomb_speed = 0.5', "coulomb_speed"),
+        ("coulomb_gain = 50", "coulomb_gain"),  # the default law is tanh
+        ('coulomb_law = "tanh"\ncoulomb_gain = 50', "coulomb_gain"),
+        ('coulomb_law = "atan"\ncoulomb_gain = 50', None),
+        ("coulomb_speed = 0.5", None),
+    ],
+)
+def test_a_setting_of_the_other_coulomb_law_is_refused(
+    tmp_path: Path, lines: str, refused: str | None
+) -> None:
+    """coulomb_speed belongs to the tanh law, coulomb_gain to DFKI's atan law: one given for the
+    other law was silently dropped; it is refused in one line naming both."""
+    path = _scene(tmp_path, extra="")
+    text = path.read_text().replace("[parameters]\n", f"[parameters]\ncoulomb = [0.1, 0.1]\n{lines}\n", 1)
+    path.write_text(text)
+    if refused is None:
+        chain = load_fixed_scene(path)
+        assert chain.coulomb == (0.1, 0.1)
+        assert chain.coulomb_speed == 0.5 or chain.coulomb_gain == 50.0
+    else:
+        message = _refused(path)
+        assert f"parameters.{refused}" in message and "coulomb_law" in message
+
+
 def test_other_tables_wait_for_the_runtime(tmp_path: Path) -> None:
     message = _refused(_scene(tmp_path, extra="[sensors]\nnoise = 0.1\n"))
     assert "[sensors] is not yet supported for fixed-pivot models" in message

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from ipgen.common.presets import preset_path
 from ipgen.experiment.leaderboard import score, swingup_time
@@ -113,3 +115,48 @@ def test_a_fixed_swing_up_without_initial_starts_hanging(tmp_path: Path) -> None
         assert run(["--scene", str(tmp_path / f"{name}.toml"), "-o", str(tmp_path / name)]) == 0
         cfg = (tmp_path / name / f"{name}.cfg").read_text()
         assert re.search(r"^theta = (.*)$", cfg, flags=re.M).group(1) == expected[name], name
+
+
+def _toml(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, float) and math.isnan(value):
+        return "nan"
+    if isinstance(value, float) and math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return repr(value)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    value=st.one_of(
+        st.text(alphabet="abc xyz", max_size=5), st.booleans(), st.floats(max_value=-1e-9),
+        st.sampled_from([math.nan, math.inf, -math.inf]), st.lists(st.floats(0, 1), max_size=2),
+    )
+)  # fmt: skip
+def test_a_bad_hold_of_a_fixed_swing_up_is_one_line(value: object) -> None:
+    """[swingup] hold on a fixed chain: text, a bool, a negative, non-finite number or a list is
+    refused in one line naming the key, exit 2, nothing written (text crashed with a traceback,
+    true was taken as 1 s, a negative reached the simulator)."""
+    import contextlib
+    import io
+    import tempfile
+
+    from ipgen.command.cli import run
+
+    preset = preset_path("acrobot_swingup")
+    text = preset.read_text().replace("[swingup]\n", f"[swingup]\nhold = {_toml(value)}\n", 1)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        plan = preset.with_name("acrobot_swingup.plan.csv")
+        (folder / plan.name).write_text(plan.read_text())
+        (folder / "acrobot_swingup.toml").write_text(text)
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            status = run(["--scene", str(folder / "acrobot_swingup.toml"), "-o", str(folder / "out")])
+        message = err.getvalue()
+        assert status == 2, message
+        assert message.count("\n") == 1 and "swingup.hold" in message and "Traceback" not in message
+        assert not (folder / "out").exists()

@@ -30,6 +30,27 @@ def test_dfki_csv_is_read_as_it_is() -> None:
     assert recording.name == "design_C.0_20220914_sys_id_trajectory_02_excerpt"
 
 
+def test_dfkis_torques_are_read_by_joint_number(tmp_path: Path) -> None:
+    """DFKI's header has a torque per joint, `tau_measJ` joint J's (0 where passive): an acrobot
+    (joints = [2]) reads tau_meas2, a pendubot (joints = [1]) tau_meas1, joints = [2, 1] both in
+    that order (before, tau_meas1..m were taken in the order of joints: the acrobot read its
+    passive shoulder's zeros and identified nothing); a header without the joint's column is one
+    line naming it."""
+    t = np.arange(100) * 0.002
+    table = np.column_stack([t, np.sin(t), np.cos(t), np.zeros_like(t), 1 + t])
+    path = tmp_path / "acrobot.csv"
+    np.savetxt(path, table, delimiter=",", header="time,pos_meas1,pos_meas2,tau_meas1,tau_meas2", comments="")
+    np.testing.assert_array_equal(read_recording(path, 2, 1, (2,)).tau[:, 0], 1 + t)
+    np.testing.assert_array_equal(read_recording(path, 2, 1, (1,)).tau[:, 0], 0 * t)
+    both = read_recording(path, 2, 2, (2, 1)).tau
+    np.testing.assert_array_equal(both, np.column_stack([1 + t, 0 * t]))
+    short = tmp_path / "short.csv"
+    np.savetxt(short, table[:, :4], delimiter=",", header="time,pos_meas1,pos_meas2,tau_meas1", comments="")
+    with pytest.raises(RecordingError) as refused:
+        read_recording(short, 2, 1, (2,))
+    assert "\n" not in str(refused.value) and "tau_meas2" in str(refused.value)
+
+
 def test_ipgen_columns_and_missing_columns(tmp_path: Path) -> None:
     t = np.arange(100) * 0.002
     table = np.column_stack([t, np.sin(t), np.cos(t), t, -t])
@@ -132,6 +153,38 @@ def test_noisy_simulation_recovers_parameters_and_offsets() -> None:
     inertial = [0, 1, 2, 3, 8]  # I1 + ..., I2, h1 + ..., h2, Ir2
     np.testing.assert_allclose(fit.estimate[inertial], expected[inertial], rtol=0.03)
     np.testing.assert_allclose(fit.estimate[-2:], offsets, atol=0.01)
+
+
+def test_a_passive_tip_is_fitted_jointly() -> None:
+    """A pendubot (DFKI's C.0 driven at the shoulder only, no rotor or friction) simulated by scipy
+    on ipgen's model under a multisine at the shoulder: its elbow's equation has no torque, so the
+    default fit (tip first) is done jointly, says so, and finds the base parameters within 1 %
+    (tip first gave the elbow's I2, h2 as 0 and the shoulder's from them)."""
+    from scipy.integrate import solve_ivp
+
+    from ipgen.identification.recording import Recording
+
+    truth = DFKI.replace(joints=(1,), Ir=None, gr=None, coulomb=None)
+    model = FixedModel(truth)
+    recordings = []
+    for seed in (1, 2):
+        rng = np.random.default_rng(seed)
+        frequencies, phases = rng.uniform(0.3, 2.5, 4), rng.uniform(0, 2 * np.pi, 4)
+
+        def torque(t: float, f: np.ndarray = frequencies, p: np.ndarray = phases) -> np.ndarray:
+            return np.array([0.4 * np.sin(2 * np.pi * f * t + p).sum()])
+
+        def rhs(t: float, x: np.ndarray, u=torque) -> np.ndarray:
+            return np.concatenate([x[2:], model.forward_dynamics(x[:2], x[2:], u(t))])
+
+        t = np.arange(0, 6.0, 0.002)
+        run = solve_ivp(rhs, (0, t[-1]), np.zeros(4), t_eval=t, method="DOP853", rtol=1e-9, atol=1e-11)
+        tau = np.array([torque(s) for s in t])
+        recordings.append(filtered(Recording(f"sim{seed}", t, run.y[:2].T, tau), cutoff=20.0))
+    fit = fit_torques(regressor(truth), recordings, stride=12)
+    assert fit.method == "joint"
+    expected = fit.reference(truth)
+    np.testing.assert_allclose(fit.estimate[:4], expected[:4], rtol=0.01)  # I1 + …, I2, h1 + …, h2
 
 
 def test_sequential_fit_keeps_the_outer_link_from_the_inner_joints_error() -> None:

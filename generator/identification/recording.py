@@ -3,7 +3,7 @@ a CSV as the rig wrote it, and the filtered signals the torque regression uses.
 
 Columns recognised (docs/identify.md, "Fixed-pivot rigs: joint torques"): the time `time` or
 `t` [s]; the angles `pos_meas1..n` (DFKI's header) or `q1..qn` [rad], in the scene's
-coordinates; the measured torques `tau_meas1..m` (DFKI) or `tau1..taum` / `u1..um` [N m], one per
+coordinates; the measured torques `tau_measJ` (DFKI: by joint J) or `tau1..taum` / `u1..um` [N m], one per
 actuated joint in the order of `[actuator] joints`. Other columns (DFKI's vel_meas, pos_filt,
 vel_filt, tau_con, tau_fric) are ignored. A `.gz` file is read decompressed.
 
@@ -68,8 +68,13 @@ def _columns(header: list[str], prefixes: tuple[str, ...], count: int, path: Pat
     raise RecordingError(f"{path.name}: no {what} columns: expected {expected} in the header")
 
 
-def read_recording(path: str | Path, links: int, inputs: int) -> Recording:
-    """The recording at `path` (CSV, or CSV.gz) for a chain of `links` links and `inputs` torques.
+def read_recording(
+    path: str | Path, links: int, inputs: int, joints: tuple[int, ...] | None = None
+) -> Recording:
+    """The recording at `path` (CSV, or CSV.gz) for a chain of `links` links and `inputs` torques
+    at `joints` (1-based, the scene's `[actuator] joints`; default 1..inputs). DFKI's header names
+    a torque by its joint (`tau_measJ`, every joint's, 0 where passive): those of `joints` are
+    read; `tau1..`/`u1..` are the driven joints' in the order of `joints`.
 
     Raises
     ------
@@ -87,7 +92,15 @@ def read_recording(path: str | Path, links: int, inputs: int) -> Recording:
     if time_column is None:
         raise RecordingError(f"{path.name}: no time column: expected 'time' (DFKI) or 't' in the header")
     angles = _columns(header, ("pos_meas", "q"), links, path, "angle")
-    torques = _columns(header, ("tau_meas", "tau", "u"), inputs, path, "torque")
+    joints = tuple(joints) if joints is not None else tuple(range(1, inputs + 1))
+    dfki = [f"tau_meas{j}" for j in joints]
+    if all(name in header for name in dfki):  # DFKI's: by joint number
+        torques = [header.index(name) for name in dfki]
+    elif any(name.startswith("tau_meas") for name in header):
+        missing = ", ".join(name for name in dfki if name not in header)
+        raise RecordingError(f"{path.name}: no {missing} in the header: DFKI's tau_measJ is joint J's torque")
+    else:
+        torques = _columns(header, ("tau", "u"), inputs, path, "torque")
     try:
         data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:

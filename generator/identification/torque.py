@@ -341,6 +341,8 @@ def fit_torques(
         low-pass correlates neighbours: about the sampling rate over twice the cutoff).
     method : {"sequential", "joint"}
         Tip first, one equation at a time (the default), or all equations together, weighted.
+        A chain whose tip joint is not driven (a pendubot) is fitted jointly either way (its
+        `method` says so): the tip's equation has no torque to fix its parameters' scale.
     offset : bool
         Fit a constant offset of each measured torque.
 
@@ -360,6 +362,10 @@ def fit_torques(
     base = base_parameters(reg)
     y, target = _stacked(reg, base, recordings, offset)
     n = reg.pendulum.links
+    if method == "sequential" and not np.any(reg.B[-1] != 0):
+        # a passive tip's equation has no torque (Y_n β = 0): it fixes no scale, so tip first
+        # would fit its parameters to 0; all equations together need no driven tip
+        method = "joint"
     solver = _sequential if method == "sequential" else _joint
     estimate, covariance, weights = solver(y, target, n)
     stderr = np.sqrt(np.maximum(np.diag(covariance), 0) * stride)

@@ -58,6 +58,9 @@ def dfki_pendulum(
 ) -> FixedPendulum:
     """The `FixedPendulum` of DFKI's parameters `values` (m1, m2, l1, l2, r1, r2, I1, I2, b1, b2,
     cf1, cf2, Ir, gr, g), in DFKI's coordinates, driven at `joints`; `changes` overrides fields.
+    A rotor is modelled at a driven joint only: with one joint driven (an acrobot, a pendubot) a
+    rotor inertia Ir > 0 is refused (DFKI's closed form keeps the passive motor's rotor, which
+    `FixedPendulum` cannot hold); their leaderboard's parameters have Ir = 0.
 
     Examples
     --------
@@ -73,6 +76,12 @@ def dfki_pendulum(
             f"DFKI parameters lack {', '.join(missing)}: expected {', '.join(DFKI_KEYS)}"
         )
     v = {key: float(values[key]) for key in DFKI_KEYS}
+    if v["Ir"] != 0 and len(set(joints)) < 2 and "Ir" not in changes:
+        raise FixedPendulumError(
+            f"Ir = {v['Ir']:g} with joints = {tuple(joints)}: the passive joint's motor rotor is not "
+            "modelled (a rotor sits at a driven joint only); set Ir to 0, as DFKI's leaderboard does, "
+            "or drive both joints"
+        )
     fields: dict[str, Any] = {
         "m": [v["m1"], v["m2"]],
         "l": [v["l1"], v["l2"]],

@@ -42,7 +42,7 @@ from ipgen.errors import Error
 from ipgen.experiment.config import CFG_KEYS, mpc_entries
 from ipgen.experiment.scene import InputSpec
 from ipgen.model.fixed import FixedPendulum
-from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, weight_matrix
+from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, scalar, weight_matrix
 from ipgen.pipeline.fixed_mpc import MPC_KEYS, fixed_mpc, swingup_tracking
 from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
@@ -307,7 +307,11 @@ def fixed_swingup_law(
     u_max, duration = number("u_max"), number("duration")
     period = number("period", 0.002)
     t_end = float(settings.get("t_end") or 0.0)
-    hold = float(table["hold"]) if "hold" in table else max(t_end - duration, 0.0)
+    hold = max(t_end - duration, 0.0)
+    if "hold" in table:  # s held upright after the plan, then the run ends; 0: it ends with the plan
+        hold = scalar(reader, "swingup.hold", table["hold"], "a number of seconds >= 0")
+        if hold < 0:
+            reader.bad("swingup.hold", table["hold"], "expected a number of seconds >= 0")
     options = {key: number(key) for key in ("margin", "weight_rate", "weight_velocity") if key in table}
     try:
         plan = None

@@ -245,7 +245,7 @@ def identify_torques(
     reg = regressor(scene)
 
     def read(paths_: Sequence[str | Path]) -> list[Filtered]:
-        return [filtered(read_recording(p, scene.links, scene.inputs), cutoff) for p in paths_]
+        return [filtered(read_recording(p, scene.links, scene.inputs, scene.joints), cutoff) for p in paths_]
 
     fitting, checking = read(data), read(validate)
     step = float(np.median(np.diff(fitting[0].t))) if fitting else 0.002

@@ -82,6 +82,13 @@ def fixed_pendulum_of(reader: Reader, document: dict[str, Any]) -> FixedPendulum
     }
     for table in ("parameters", "actuator"):
         fields |= {key: _plain(value) for key, value in document.get(table, {}).items()}
+    law = fields.get("coulomb_law", "tanh")
+    for key, used_by in (("coulomb_speed", "tanh"), ("coulomb_gain", "atan")):
+        if key in fields and law in ("tanh", "atan") and law != used_by:  # a setting of the other law
+            reader.fail(
+                f"parameters.{key} is for coulomb_law = '{used_by}', this chain's is '{law}': "
+                f"remove it (or set coulomb_law = '{used_by}')"
+            )
     links = system["links"]
     if isinstance(links, bool) or not isinstance(links, int):
         reader.bad("system.links", links, "expected an integer >= 1 (the number of links on the pivot)")
