@@ -79,6 +79,15 @@ int main() {{
   show("A", lin.A);
   show("B", lin.B);
   show("Ac", Model::linearize(to_canonical(q), rates_to_canonical(qd), u, p).A);  // ipsim's view
+  double tau = 0;  // an acceleration-driven base: u is the base's acceleration here
+  show("qdda", forward_dynamics_acceleration(q, qd, u, p, &tau));
+  show("qddac", canonical::forward_dynamics_acceleration(to_canonical(q), rates_to_canonical(qd), u, p));
+  show("Aa", linearize_acceleration(q, qd, u, p).A);
+  show("Ba", linearize_acceleration(q, qd, u, p).B);
+  show("Aac", canonical::linearize_acceleration(to_canonical(q), rates_to_canonical(qd), u, p).A);
+  Eigen::Matrix<double, 1, 1> t;
+  t << tau;
+  show("tau", t);
   Eigen::Matrix<double, 3, 1> e;
   e << kinetic_energy(q, qd, p), canonical::kinetic_energy(to_canonical(q), rates_to_canonical(qd), p),
       dissipation(qd, p);
@@ -149,7 +158,7 @@ def _values(output: str, dof: int, language: str) -> dict[str, np.ndarray]:
     for line in output.splitlines():
         label, *numbers = line.split()
         found[label] = np.array([float(v) for v in numbers])
-    for label in ("M", "Mc", "N", "A", "Ac"):
+    for label in ("M", "Mc", "N", "A", "Ac", "Aa", "Aac"):
         if label not in found:
             continue
         size = 2 * dof if label.startswith("A") else dof
@@ -225,6 +234,14 @@ def test_functions_in_the_rig_s_coordinates(
     assert np.allclose(got["B"], b.ravel(), rtol=1e-9, atol=1e-12)
     if "Ac" in got:  # Model (what ipsim integrates) is ipgen's: A_q = T A T⁻¹, T = diag(R⁻¹, R⁻¹)
         assert np.allclose(got["A"], p @ got["Ac"] @ np.linalg.inv(p), rtol=1e-12, atol=1e-12)
+    if "qdda" in got:  # C++: an acceleration-driven base, u = a (they did not compile in a rig's frame)
+        qdda = got["qdda"]
+        assert qdda[0] == pytest.approx(U)  # the base's acceleration, the same in both frames
+        residual = got["M"] @ qdda + got["b"]  # the links' equations hold; the base's needs tau
+        assert np.allclose(residual[1:], 0.0, atol=1e-11) and residual[0] == pytest.approx(got["tau"][0])
+        assert np.allclose(r @ qdda, got["qddac"], rtol=1e-12, atol=1e-12)  # θ̈ = R q̈
+        assert np.allclose(got["Aa"], p @ got["Aac"] @ np.linalg.inv(p), rtol=1e-12, atol=1e-12)
+        assert got["Ba"][dof] == pytest.approx(1.0) and np.allclose(got["Ba"][:dof], 0.0)
 
 
 def test_the_scene_s_header_is_in_its_coordinates(tmp_path: Path) -> None:
