@@ -1729,9 +1729,10 @@ IPGEN_MPC_API ipgen_mpc_real ipgen_mpc_cost(const ipgen_mpc_settings *s, const i
   return ipgen_mpc_cost_tracking(s, 0, 0, work);
 }
 
-/* 0 if the settings describe a problem (sizes >= 1, finite period, bounds ordered, indices in
- * range, weights of the soft bounds valid), else IPGEN_MPC_BAD_SETTINGS. */
-IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
+/* What every step checks of the settings (cheap: no pass over the weights): sizes >= 1, a
+ * positive period, budgets >= 1, bounds ordered, indices in range, the soft bounds' weights
+ * valid; 0, else IPGEN_MPC_BAD_SETTINGS. ipgen_mpc_check adds finiteness. */
+IPGEN_MPC_LOCAL int ipgen_mpc_check_shape(const ipgen_mpc_settings *s) {
   int j;
   if (s->nx < 1 || s->nu < 1 || s->N < 1 || s->substeps < 1 || !(s->period > 0) || s->dynamics == 0) return IPGEN_MPC_BAD_SETTINGS;
   if (s->sqp_iterations < 1 || s->qp_iterations < 1 || s->hard_count < 0 || s->soft_count < 0) return IPGEN_MPC_BAD_SETTINGS;
@@ -1758,6 +1759,31 @@ IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
   for (j = 0; j < s->soft_count; ++j)
     if (s->soft_index[j] < 0 || s->soft_index[j] >= s->nx || !(s->soft_min[j] < s->soft_max[j]) ||
         !(s->soft_linear[j] >= 0) || !(s->soft_quadratic[j] > 0))
+      return IPGEN_MPC_BAD_SETTINGS;
+  return IPGEN_MPC_OK;
+}
+
+/* 0 if the settings describe a problem: ipgen_mpc_check_shape's conditions, and a finite period,
+ * u bounds, state bounds, soft weights, Q, R, P and x_ref, u_ref (a caller's check once, before
+ * its first step: the steps check only the shape), else IPGEN_MPC_BAD_SETTINGS. */
+IPGEN_MPC_API int ipgen_mpc_check(const ipgen_mpc_settings *s) {
+  const int nx = s->nx, nu = s->nu;
+  int j;
+  if (ipgen_mpc_check_shape(s) != IPGEN_MPC_OK || !ipgen_mpc_finite(s->period)) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < nu; ++j)
+    if (!ipgen_mpc_finite(s->u_min[j]) || !ipgen_mpc_finite(s->u_max[j]) || !ipgen_mpc_finite(s->u_ref[j]))
+      return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < nu * nu; ++j)
+    if (!ipgen_mpc_finite(s->R[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < nx * nx; ++j)
+    if (!ipgen_mpc_finite(s->Q[j]) || !ipgen_mpc_finite(s->P[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < nx; ++j)
+    if (!ipgen_mpc_finite(s->x_ref[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < s->hard_count; ++j)
+    if (!ipgen_mpc_finite(s->hard_min[j]) || !ipgen_mpc_finite(s->hard_max[j])) return IPGEN_MPC_BAD_SETTINGS;
+  for (j = 0; j < s->soft_count; ++j)
+    if (!ipgen_mpc_finite(s->soft_min[j]) || !ipgen_mpc_finite(s->soft_max[j]) || !ipgen_mpc_finite(s->soft_linear[j]) ||
+        !ipgen_mpc_finite(s->soft_quadratic[j]))
       return IPGEN_MPC_BAD_SETTINGS;
   return IPGEN_MPC_OK;
 }
@@ -1790,7 +1816,7 @@ IPGEN_MPC_API int ipgen_mpc_track_method(const ipgen_mpc_settings *s, const ipge
   info->status = IPGEN_MPC_OK;
   info->sqp_iterations = info->qp_iterations = 0;
   info->step = info->defect = info->qp_residual = (ipgen_mpc_real)0;
-  if (ipgen_mpc_check(s) != IPGEN_MPC_OK ||
+  if (ipgen_mpc_check_shape(s) != IPGEN_MPC_OK ||
       (method != 0 && (!(method->barrier >= 0) || !ipgen_mpc_finite(method->barrier) ||
                        (method->sensitivities != IPGEN_MPC_EXACT && method->sensitivities != IPGEN_MPC_FROZEN &&
                         method->sensitivities != IPGEN_MPC_SHIFTED) ||

@@ -32,7 +32,7 @@ import numpy as np
 
 from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
-from ipgen.common.limits import MAX_MPC_BARRIER
+from ipgen.common.limits import MAX_MPC_BARRIER, MAX_MPC_HORIZON, MAX_MPC_ITERATIONS, MAX_SOFT_PENALTY
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
@@ -261,19 +261,73 @@ class StepInfo:
     qp_residual: float
 
 
+def _shown(value: Any) -> str:
+    """`value` for a one-line message (at most 60 characters)."""
+    text = repr(value).replace("\n", " ")
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _real(name: str, value: Any) -> float:
+    """A finite real number (not a bool), else one line naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(float(value)):
+        raise MpcError(f"{name} = {_shown(value)}: expected a finite number")
+    return float(value)
+
+
+def _whole(name: str, value: Any, low: int, high: int) -> int:
+    """An integer (not a bool) in [low, high], else one line naming `name`."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
+        raise MpcError(f"{name} = {_shown(value)}: expected an integer from {low} to {high}")
+    return int(value)
+
+
+def _choice(name: str, value: Any, choices: Sequence[str]) -> str:
+    """One of `choices` (text), else one line naming `name`."""
+    if not (isinstance(value, str) and value in choices):
+        raise MpcError(f"{name} {_shown(value)}: expected one of {', '.join(choices)}")
+    return value
+
+
 def _bounds(
     name: str, given: Mapping[int, Sequence[float]] | None, states: int
 ) -> list[tuple[int, float, float]]:
     """{state index: (min, max)} as a sorted list, checked."""
+    if given is not None and not isinstance(given, Mapping):
+        raise MpcError(f"{name} = {_shown(given)}: expected {{state index: (min, max)}}, as {{0: (-1, 1)}}")
     out: list[tuple[int, float, float]] = []
-    for index, pair in sorted((given or {}).items()):
-        if not (isinstance(index, int) and 0 <= index < states):
-            raise MpcError(f"{name}: state index {index!r} is not one of 0..{states - 1}")
-        lo, hi = (float(v) for v in pair)
-        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+    for index, pair in (given or {}).items():
+        if isinstance(index, bool) or not (isinstance(index, numbers.Integral) and 0 <= index < states):
+            raise MpcError(f"{name}: state index {_shown(index)} is not one of 0..{states - 1}")
+        if not (isinstance(pair, Sequence | np.ndarray) and not isinstance(pair, str) and len(pair) == 2):
+            raise MpcError(f"{name}[{index}] = {_shown(pair)}: expected (min, max)")
+        lo, hi = (_real(f"{name}[{index}]", v) for v in pair)
+        if not lo < hi:
             raise MpcError(f"{name}[{index}] = ({lo:g}, {hi:g}): expected finite min < max")
-        out.append((index, lo, hi))
-    return out
+        out.append((int(index), lo, hi))
+    return sorted(out)
+
+
+def _state(name: str, x: Any, size: int) -> np.ndarray:
+    """A state of `size` finite entries, else one line."""
+    try:
+        state = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise MpcError(f"{name} = {_shown(x)}: expected {size} numbers") from None
+    if state.shape != (size,) or not np.all(np.isfinite(state)):
+        raise MpcError(f"{name} = {_shown(x)}: expected {size} finite numbers")
+    return state
+
+
+def _weights(Q: Any, R: Any, size: int, name: str = "Q") -> tuple[np.ndarray, np.ndarray]:
+    """`linear.weights`, its messages naming `name` (Q or P) and every bad value in one line."""
+    try:
+        return weights(Q, R, size)
+    except ControlError as error:
+        raise MpcError(str(error).replace("Q ", f"{name} ", 1) if name != "Q" else str(error)) from None
+    except (TypeError, ValueError):
+        raise MpcError(
+            f"{name} = {_shown(Q)}, R = {_shown(R)}: expected numbers ({size} weights or a matrix; R > 0)"
+        ) from None
 
 
 def _parameters(plant: Pendulum | FixedPendulum) -> Parameters:
@@ -357,15 +411,11 @@ class Mpc:
             raise MpcError(
                 "ipgen.mpc: an acceleration-driven base is not supported (u must be a force, torque or volts)"
             )
-        if mode not in MODES:
-            raise MpcError(f"mode {mode!r}: expected one of {', '.join(MODES)}")
-        if precision not in PRECISIONS:
-            raise MpcError(f"precision {precision!r}: expected 'double' or 'float'")
-        if not (isinstance(horizon, int) and horizon >= 1):
-            raise MpcError(f"horizon {horizon!r}: expected an integer >= 1 (samples)")
-        if not (isinstance(substeps, int) and substeps >= 1):
-            raise MpcError(f"substeps {substeps!r}: expected an integer >= 1")
-        if not (np.isfinite(period) and period > 0):
+        mode = _choice("mode", mode, tuple(MODES))
+        precision = _choice("precision", precision, tuple(PRECISIONS))
+        horizon = _whole("horizon", horizon, 1, MAX_MPC_HORIZON)
+        substeps = _whole("substeps", substeps, 1, 100)
+        if not _real("period", period) > 0:
             raise MpcError(f"period {period!r}: expected a positive number of seconds")
         self.pendulum = pendulum
         self.precision = precision
@@ -373,14 +423,17 @@ class Mpc:
         dof = pendulum.dof
         nx = 2 * dof
         self.nx, self.nu, self.N = nx, 1, horizon
-        q, r = weights(np.eye(nx) if Q is None else Q, 1.0 if R is None else R, nx)
+        q, r = _weights(np.eye(nx) if Q is None else Q, 1.0 if R is None else R, nx)
         self.Q, self.R = q, r
         if isinstance(reference, str):
             self.x_ref = equilibrium_state(pendulum.links, reference)
             if fixed:  # no base: the links' angles and rates only
                 self.x_ref = np.delete(self.x_ref, [0, dof + 1])
         else:
-            self.x_ref = np.asarray(reference, dtype=float).reshape(-1)
+            try:
+                self.x_ref = np.asarray(reference, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                self.x_ref = np.full(1, np.nan)  # refused below
             if self.x_ref.size == dof:
                 self.x_ref = np.concatenate([self.x_ref, np.zeros(dof)])
             if self.x_ref.size != nx or not np.all(np.isfinite(self.x_ref)):
@@ -388,40 +441,52 @@ class Mpc:
                     f"reference: expected 'upright', 'hanging', {dof} angles or a state of {nx} entries"
                 )
         self.u_ref = np.zeros(1)
-        hi = float(u_max)
-        lo = -hi if u_min is None else float(u_min)
+        hi = _real("u_max", u_max)
+        lo = -hi if u_min is None else _real("u_min", u_min)
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise MpcError(f"u bounds ({lo:g}, {hi:g}): expected finite u_min < u_max")
         self.u_min, self.u_max = lo, hi
-        hard = dict(bounds or {})
+        hard = {i: (lo, hi) for i, lo, hi in _bounds("bounds", bounds, nx)}  # checked before travel joins
         if travel is not None:
             if fixed:
                 raise MpcError(
                     "travel: a chain on a fixed pivot has no base to bound (use bounds on its states)"
                 )
-            if not (np.isfinite(travel) and travel > 0):
+            if not _real("travel", travel) > 0:
                 raise MpcError(f"travel {travel!r}: expected a positive bound on the base (m or rad)")
+            if 0 in hard:
+                raise MpcError("travel and bounds[0] both bound the base: give one of them")
             hard[0] = (-float(travel), float(travel))
         self.hard = _bounds("bounds", hard, nx)
         self.soft = _bounds("soft_bounds", soft_bounds, nx)
-        linear, quadratic = (float(v) for v in soft_penalty)
-        if self.soft and not (linear >= 0 and quadratic > 0):
+        pair = isinstance(soft_penalty, Sequence | np.ndarray) and not isinstance(soft_penalty, str)
+        if not (pair and len(soft_penalty) == 2):
+            raise MpcError(f"soft_penalty = {_shown(soft_penalty)}: expected (ρ1, ρ2): s costs ρ1 s + ρ2 s²")
+        linear, quadratic = (_real("soft_penalty", v) for v in soft_penalty)
+        if not (0 <= linear <= MAX_SOFT_PENALTY and 0 < quadratic <= MAX_SOFT_PENALTY):
             raise MpcError(
-                f"soft_penalty ({linear:g}, {quadratic:g}): expected linear >= 0 and quadratic > 0"
+                f"soft_penalty ({linear:g}, {quadratic:g}): expected 0 <= ρ1 <= {MAX_SOFT_PENALTY:g} "
+                f"and 0 < ρ2 <= {MAX_SOFT_PENALTY:g}"
             )
         self.soft_penalty = (linear, quadratic)
         self.period, self.substeps = float(period), substeps
         converged = mode == "converged"
         double = precision == "double"
-        self.sqp_iterations = sqp_iterations or (500 if converged else 1)
-        self.qp_iterations = qp_iterations or (50 if converged else 20)
+        budget = MAX_MPC_ITERATIONS if not converged else 100 * MAX_MPC_ITERATIONS
+        self.sqp_iterations = (500 if converged else 1) if sqp_iterations is None else sqp_iterations
+        self.sqp_iterations = _whole("sqp_iterations", self.sqp_iterations, 1, budget)
+        self.qp_iterations = (50 if converged else 20) if qp_iterations is None else qp_iterations
+        self.qp_iterations = _whole("qp_iterations", self.qp_iterations, 1, budget)
+        for name, given in (("sqp_tolerance", sqp_tolerance), ("qp_tolerance", qp_tolerance)):
+            if given is not None and not _real(name, given) >= 0:
+                raise MpcError(f"{name} = {_shown(given)}: expected a number >= 0")
         sqp_eps = (1e-10 if double else 1e-4) if converged else 0.0
         self.sqp_tolerance = sqp_tolerance if sqp_tolerance is not None else sqp_eps
         # float: 1e-4 in the real-time iteration (one interior-point iteration fewer a step on the
         # QUBE than 1e-5: docs/mpc.md), 1e-5 converged (below its SQP tolerance)
         qp_eps = (1e-10 if converged else 1e-9) if double else (1e-5 if converged else 1e-4)
         self.qp_tolerance = qp_tolerance if qp_tolerance is not None else qp_eps
-        self.cold_iterations = cold_iterations
+        self.cold_iterations = _whole("cold_iterations", cold_iterations, 1, MAX_MPC_ITERATIONS)
         if isinstance(barrier, bool) or not (
             isinstance(barrier, numbers.Real) and np.isfinite(barrier) and 0 <= barrier <= MAX_MPC_BARRIER
         ):
@@ -434,8 +499,7 @@ class Mpc:
                 "barrier: a fixed barrier weight is for the real-time iteration, not mode 'converged'"
             )
         self.barrier = float(barrier)
-        if sensitivities not in SENSITIVITIES:
-            raise MpcError(f"sensitivities {sensitivities!r}: expected one of {', '.join(SENSITIVITIES)}")
+        sensitivities = _choice("sensitivities", sensitivities, tuple(SENSITIVITIES))
         if sensitivities != "exact" and converged:
             raise MpcError(
                 f"sensitivities {sensitivities!r}: for the real-time iteration, not mode 'converged'"
@@ -443,11 +507,15 @@ class Mpc:
         self.sensitivities = sensitivities
         if hessian is None:
             hessian = "exact" if converged and double else "gauss-newton"
-        if hessian not in HESSIANS:
-            raise MpcError(f"hessian {hessian!r}: expected one of {', '.join(HESSIANS)}")
+        hessian = _choice("hessian", hessian, tuple(HESSIANS))
+        if hessian == "exact" and sensitivities != "exact":
+            raise MpcError(
+                f"sensitivities {sensitivities!r} with hessian 'exact': the Lagrangian's Hessian needs the "
+                "exact sensitivities (hessian 'gauss-newton', or sensitivities 'exact')"
+            )
         self.hessian = hessian
         self._setup()
-        self.P = self.lqr_terminal() if P is None else weights(P, 1.0, nx)[0]
+        self.P = self.lqr_terminal() if P is None else _weights(P, 1.0, nx, "P")[0]
         self._arrays["P"][:] = self.P.reshape(-1)
         self.info: StepInfo | None = None
 
@@ -509,9 +577,15 @@ class Mpc:
             )
 
     def _vector(self, values: Any, size: int, name: str) -> np.ndarray:
-        array = np.ascontiguousarray(np.asarray(values, dtype=float).reshape(-1), dtype=self._dtype)
+        """`values` flattened into `size` finite reals of the MPC's precision, else one line."""
+        try:
+            array = np.ascontiguousarray(np.asarray(values, dtype=float).reshape(-1), dtype=self._dtype)
+        except (TypeError, ValueError):
+            raise MpcError(f"{name} = {_shown(values)}: expected {size} numbers") from None
         if array.size != size:
             raise MpcError(f"{name} has {array.size} entries, expected {size}")
+        if not np.all(np.isfinite(array)):
+            raise MpcError(f"{name} = {_shown(values)}: expected finite numbers")
         return array
 
     # -- the controller -----------------------------------------------------------------------
@@ -566,7 +640,7 @@ class Mpc:
         float
             u within [u_min, u_max] (volts for a DC motor, else N or N m).
         """
-        state = self._vector(x, self.nx, "x")
+        state = self._vector(_state("x", x, self.nx), self.nx, "x")
         x_refs, u_refs, _alive = self._reference(reference)
         u = np.zeros(1, dtype=self._dtype)
         self._lib.ipgen_mpc_track_method(
@@ -652,7 +726,7 @@ class Mpc:
         return self._sample(x, u, self._method)
 
     def _sample(self, x: Any, u: float, method: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        state = self._vector(x, self.nx, "x")
+        state = self._vector(_state("x", x, self.nx), self.nx, "x")
         inputs = self._vector([u], 1, "u")
         xn = np.zeros(self.nx, dtype=self._dtype)
         a = np.zeros((self.nx, self.nx), dtype=self._dtype)

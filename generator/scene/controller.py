@@ -22,8 +22,8 @@ CONTROLLER_KINDS: tuple[str, ...] = ("lqr", "gain", "mpc")
 MPC_MODES: tuple[str, ...] = ("rti", "converged")
 MPC_SENSITIVITIES: tuple[str, ...] = ("exact", "frozen", "shifted")
 DEFAULT_HORIZON = 30
-MAX_HORIZON = 1000
-MAX_ITERATIONS = 1000
+MAX_HORIZON = limits.MAX_MPC_HORIZON
+MAX_ITERATIONS = limits.MAX_MPC_ITERATIONS
 MAX_SUBSTEPS = 100
 DEFAULT_SOFT_PENALTY = (1000.0, 1000.0)  # ρ1, ρ2: an exact penalty on the QUBE's arm (docs/mpc.md)
 MPC_KEYS: tuple[str, ...] = (
@@ -182,8 +182,8 @@ def soft_penalty(value: Any, info: ValidationInfo) -> tuple[float, float]:
         refuse(f"expected [ρ1, ρ2] (a violation s costs ρ1 s + ρ2 s²), got {type_name(value)}")
     check_count(value, 2, "ρ1, ρ2")
     linear, quadratic = (at(i, number, item, {}) for i, item in enumerate(value))
-    if linear < 0 or not quadratic > 0:
-        refuse("expected ρ1 >= 0 and ρ2 > 0")
+    if not (0 <= linear <= limits.MAX_SOFT_PENALTY and 0 < quadratic <= limits.MAX_SOFT_PENALTY):
+        refuse(f"expected 0 <= ρ1 <= {limits.MAX_SOFT_PENALTY:g} and 0 < ρ2 <= {limits.MAX_SOFT_PENALTY:g}")
     return linear, quadratic
 
 

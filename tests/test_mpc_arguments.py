@@ -1,0 +1,105 @@
+"""Bad arguments to `ipgen.mpc` and its step: each is one line (`MpcError`, a `ControlError`), never
+a numpy or ctypes traceback, a crash, a huge allocation or a controller that silently never steps;
+what is accepted steps. The combinations the C step refuses (frozen or shifted sensitivities
+with the exact Hessian; travel with a bound on the base) are refused when the MPC is built."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ipgen
+from ipgen.control.linear import ControlError
+from ipgen.control.mpc import MpcError
+
+QUBE = ipgen.Pendulum.preset("qube_servo2")
+X = [0.1, 0.05, 0.0, 0.0]
+ARGUMENTS = (
+    "horizon", "period", "Q", "R", "P", "u_max", "u_min", "travel", "bounds", "soft_bounds", "soft_penalty",
+    "reference", "substeps", "sqp_iterations", "qp_iterations", "cold_iterations", "sqp_tolerance",
+    "qp_tolerance", "barrier", "mode", "precision", "hessian", "sensitivities",
+)  # fmt: skip
+ODD = st.one_of(
+    st.booleans(), st.text(max_size=4),
+    st.sampled_from([math.nan, math.inf, -math.inf, 2**40, 2**31, 1.5, 1j]),
+    st.floats(-1e3, -1e-9), st.lists(st.one_of(st.floats(allow_nan=True), st.text(max_size=2)), max_size=3),
+    st.dictionaries(st.one_of(st.integers(-2, 9), st.text(max_size=2)), st.floats(), max_size=2),
+    st.lists(st.lists(st.floats(-1, 1), max_size=3), max_size=2), st.just(np.int64(3)), st.just(1e300),
+)  # fmt: skip
+
+
+@settings(max_examples=150, deadline=None)
+@given(name=st.sampled_from(ARGUMENTS), value=ODD)
+def test_any_argument_is_taken_and_steps_or_is_one_line(name: str, value: object) -> None:
+    """An argument of any type or value: refused in one line, or taken and the MPC steps to a
+    finite input within its bounds."""
+    try:
+        controller = ipgen.mpc(QUBE, **({"u_max": 10.0} | {name: value}))
+    except ControlError as error:
+        assert "\n" not in str(error) and len(str(error)) < 400, str(error)
+        return
+    u = controller.step(X)
+    assert math.isfinite(u) and controller.u_min - 1e-9 <= u <= controller.u_max + 1e-9
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "words"),
+    [
+        ({"sensitivities": "frozen", "hessian": "exact"}, "hessian 'exact'"),
+        ({"sensitivities": "shifted", "hessian": "exact"}, "hessian 'exact'"),
+        ({"travel": 1.0, "bounds": {0: (-0.5, 0.5)}}, "travel and bounds[0]"),
+        ({"soft_bounds": {0: (-0.9, 0.9)}, "soft_penalty": (1e12, 1.0)}, "soft_penalty"),
+        ({"P": [1.0, 2.0, 3.0]}, "P "),
+        ({"horizon": 1001}, "horizon"),
+        ({"horizon": np.int64(30)}, None),  # numpy's integers are integers
+        ({"bounds": {np.int64(1): (-1.0, 1.0)}}, None),
+    ],
+)
+def test_combinations_the_step_cannot_take_are_refused(kwargs: dict, words: str | None) -> None:
+    """Frozen or shifted sensitivities with the exact Hessian (the C step answered "bad settings" at
+    every sample), travel with a bound on the base (travel replaced it), a soft penalty the QP
+    breaks down at, P's errors naming P, a horizon above a scene's 1000: one line each; numpy's
+    integers are taken as integers."""
+    if words is None:
+        assert math.isfinite(ipgen.mpc(QUBE, u_max=10.0, **kwargs).step(X))
+        return
+    with pytest.raises(MpcError, match=None) as refused:
+        ipgen.mpc(QUBE, u_max=10.0, **kwargs)
+    assert words in str(refused.value) and "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    "x", [[math.nan, 0, 0, 0], [0, 0, math.inf, 0], [[0.1, 0.0], [0.0, 0.0]], ["a", 0, 0, 0]]
+)
+def test_a_bad_state_is_one_line(x: object) -> None:
+    """A non-finite, non-numeric or matrix-shaped state: one line from step, solve and rk4 (a warm
+    NaN step returned the warm start's input before)."""
+    controller = ipgen.mpc(QUBE, u_max=10.0)
+    controller.step(X)  # warm
+    for call in (controller.step, controller.solve, lambda s: controller.rk4(s, 0.0)):
+        with pytest.raises(MpcError) as refused:
+            call(x)
+        assert "\n" not in str(refused.value) and "x" in str(refused.value)
+
+
+@pytest.mark.parametrize("entry", ["Q", "P", "x_ref", "u_max", "period", "hard_max"])
+def test_the_c_check_refuses_a_non_finite_setting(entry: str) -> None:
+    """ipgen_mpc_check (what a C caller runs once before its steps) refuses a setting that is not
+    finite (it promised a finite period and bounds and checked neither: an infinite period passed
+    and the step reported a model failure)."""
+    import ctypes
+
+    controller = ipgen.mpc(QUBE, u_max=10.0, travel=1.0)
+    check = controller._lib.ipgen_mpc_check
+    settings = controller._settings
+    assert check(ctypes.byref(settings)) == 0
+    if entry == "period":
+        settings.period = math.inf
+    else:
+        array = controller._arrays[entry]
+        array[0] = math.inf
+    assert check(ctypes.byref(settings)) != 0
