@@ -216,6 +216,9 @@ BAD = [
     ({"controller.soft_bounds": "[[1, 0]]"}, "controller.soft_bounds[0] has 2 entries", "3"),
     ({"controller.soft_bounds": "[[1, -1, 1], [1, -2, 2]]"}, "controller.soft_bounds", "once"),
     ({"controller.soft_penalty": "[1, 0]"}, "controller.soft_penalty", "0 < ρ2"),
+    ({"controller.soft_penalty": "[1, 1]"}, "controller.soft_penalty", "soft_bounds"),  # no soft bounds
+    ({"controller.p": "[[1, 2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"}, "p[1][0]", "P must"),
+    ({"controller.p": "[[1, 0, 0, 0], [0, -1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]"}, "p", "P must be"),
     ({"controller.soft_penalty": "[1e300, 1000]"}, "controller.soft_penalty", "ρ1 <= 1e+06"),
     ({"controller.gain": "[1, 2, 3, 4]"}, "controller.gain", 'is for kind = "gain"'),
     ({"controller.kind": '"lqr"', "controller.u_max": "5"}, "controller.u_max = 5", 'is for kind = "mpc"'),

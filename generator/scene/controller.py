@@ -35,7 +35,8 @@ SOFT_BOUNDS_SCHEMA: dict[str, Any] = {
     "items": {"type": "array", "items": {"type": "number"}, "minItems": 3, "maxItems": 3},
 }
 SOFT_PENALTY_SCHEMA: dict[str, Any] = {
-    "type": "array", "items": {"type": "number", "minimum": 0}, "minItems": 2, "maxItems": 2,
+    "type": "array", "items": {"type": "number", "minimum": 0, "maximum": limits.MAX_SOFT_PENALTY},
+    "minItems": 2, "maxItems": 2,
 }  # fmt: skip
 EQUILIBRIA: tuple[str, ...] = ("upright", "hanging")
 DEFAULT_EQUILIBRIUM = "upright"
@@ -77,7 +78,7 @@ def weights(value: Any, info: ValidationInfo) -> list[list[float]] | list[float]
     if context is None:
         return None
     if all(isinstance(row, list) for row in value) and value:
-        return _matrix(value, len(value), context)
+        return _matrix(value, len(value), context, getattr(info, "field_name", None) or "q")
     return [at(i, _weight, item, context) for i, item in enumerate(value)]
 
 
@@ -88,7 +89,8 @@ def _weight(item: Any, context: dict[str, Any]) -> float:
     return weight
 
 
-def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[float]]:
+def _matrix(rows: list[Any], size: int, context: dict[str, Any], key: str = "q") -> list[list[float]]:
+    """A symmetric positive semidefinite `size` × `size` matrix of the key `key` (q or p)."""
     def row_of(row: list[Any], _: dict[str, Any]) -> list[float]:
         check_count(row, size, f"a {size} × {size} matrix")
         return [at(j, number, item, context) for j, item in enumerate(row)]
@@ -99,14 +101,15 @@ def _matrix(rows: list[Any], size: int, context: dict[str, Any]) -> list[list[fl
         for j in range(i):
             if abs(matrix[i][j] - matrix[j][i]) > 1e-12 * scale:
                 refuse_key(
-                    f" = {matrix[i][j]:g} differs from q[{j}][{i}] = {matrix[j][i]:g}: Q must be symmetric",
+                    f" = {matrix[i][j]:g} differs from {key}[{j}][{i}] = {matrix[j][i]:g}: "
+                    f"{key.upper()} must be symmetric",
                     index=(i, j),
                 )
     import numpy as np
 
     smallest = float(np.min(np.linalg.eigvalsh(np.array(matrix))))
     if smallest < -1e-12 * scale:
-        refuse_key(f": Q must be positive semidefinite, its smallest eigenvalue is {smallest:.3g}")
+        refuse_key(f": {key.upper()} must be positive semidefinite (smallest eigenvalue {smallest:.3g})")
     return matrix
 
 
@@ -267,3 +270,9 @@ def _mpc_relations(table: Any, given: set[str]) -> None:
         refuse('kind = "mpc" needs u_max, the bound on |u|: add u_max = ...', key="kind", value=table.kind)
     if table.period is None:
         refuse('kind = "mpc" is sampled: add period = ... (s)', key="kind", value=table.kind)
+    if "soft_penalty" in given and not table.soft_bounds:
+        refuse(
+            "weighs the violation of soft_bounds, which this MPC has none of: add soft_bounds or remove it",
+            key="soft_penalty",
+            value=table.soft_penalty,
+        )
