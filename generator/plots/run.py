@@ -93,17 +93,23 @@ def read_run(path: Path, fixed: bool = False) -> Run:
     return Run(columns, links=len(angles) - (0 if fixed else 1), phases=phases)
 
 
+def _cfg_beside(csv_path: Path, line_pattern: str) -> dict[str, str]:
+    """{key: value} of the first 64 lines of the resolved scene `<stem>.cfg` next to the CSV that
+    match `line_pattern` (groups: key, value; the first of each key kept); {} without one."""
+    found: dict[str, str] = {}
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        for line in csv_path.with_suffix(".cfg").read_text().splitlines()[:64]:
+            match = re.fullmatch(line_pattern, line.strip())
+            if match:
+                found.setdefault(match.group(1), match.group(2))
+    return found
+
+
 def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
     """(type, lengths) from the resolved scene `<stem>.cfg` next to the CSV (what `ipgen run`
     writes there), or None when there is none or it does not say: l0..ln for a cart or an arm,
     the links' l1..ln for a chain on a fixed pivot (type "fixed")."""
-    cfg = csv_path.with_suffix(".cfg")
-    found: dict[str, str] = {}
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        for line in cfg.read_text().splitlines()[:64]:
-            match = re.fullmatch(r"(type|l) = ([^=]{1,400})", line.strip())
-            if match:
-                found.setdefault(match.group(1), match.group(2))
+    found = _cfg_beside(csv_path, r"(type|l) = ([^=]{1,400})")
     if found.get("type") not in ("classical", "rotary", "fixed") or "l" not in found:
         return None
     try:
@@ -116,13 +122,7 @@ def scene_beside(csv_path: Path) -> tuple[str, list[float]] | None:
 def coordinates_beside(csv_path: Path) -> Coordinates:
     """The convention of the CSV's angles from the resolved scene `<stem>.cfg` next to it (its
     `angles`, `zero`, `positive` lines, which a scene in the rig's coordinates has), else ipgen's."""
-    cfg = csv_path.with_suffix(".cfg")
-    found: dict[str, str] = {}
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        for line in cfg.read_text().splitlines()[:64]:
-            match = re.fullmatch(r"(angles|zero|positive) = (\w{1,20})", line.strip())
-            if match:
-                found.setdefault(match.group(1), match.group(2))
+    found = _cfg_beside(csv_path, r"(angles|zero|positive) = (\w{1,20})")
     allowed = {"angles": ANGLES, "zero": ZEROS, "positive": POSITIVE}
     return Coordinates(**{key: value for key, value in found.items() if value in allowed[key]})
 
@@ -130,13 +130,7 @@ def coordinates_beside(csv_path: Path) -> Coordinates:
 def input_unit_beside(csv_path: Path) -> str | None:
     """u's unit from the resolved scene `<stem>.cfg` next to the CSV when it is not a force or a
     torque: V with `actuator = dc_motor`, m/s² or rad/s² with `acceleration`; else None."""
-    cfg = csv_path.with_suffix(".cfg")
-    found: dict[str, str] = {}
-    with contextlib.suppress(OSError, UnicodeDecodeError):
-        for line in cfg.read_text().splitlines()[:64]:
-            match = re.fullmatch(r"(type|actuator) = (\w{1,20})", line.strip())
-            if match:
-                found.setdefault(match.group(1), match.group(2))
+    found = _cfg_beside(csv_path, r"(type|actuator) = (\w{1,20})")
     if found.get("actuator") == "dc_motor":
         return "V"
     if found.get("actuator") == "acceleration":
