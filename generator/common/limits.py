@@ -57,6 +57,12 @@ DELAY_TOLERANCE = 1e-9
 MESSAGE_VALUE_CHARS = 60
 MESSAGE_PATH_CHARS = 240
 MAX_MPC_BARRIER = 1e6
+# An MPC's soft-bound penalty ρ1, ρ2 at most: its QP breaks down from about 1e12 (docs/mpc.md);
+# the default 1000 is an exact penalty on the QUBE's arm
+MAX_SOFT_PENALTY = 1e6
+# An MPC's horizon and its iteration budgets at most (as a scene's [controller])
+MAX_MPC_HORIZON = 1000
+MAX_MPC_ITERATIONS = 1000
 
 
 def fold_problem(text: str) -> str | None:
@@ -93,9 +99,3 @@ def fold_problem(text: str) -> str | None:
                 f"with a magnitude from 1e{FOLD_MIN_EXPONENT} to 1e{FOLD_MAX_EXPONENT}"
             )
     return None
-# An MPC's soft-bound penalty ρ1, ρ2 at most: its QP breaks down from about 1e12 (docs/mpc.md);
-# the default 1000 is an exact penalty on the QUBE's arm
-MAX_SOFT_PENALTY = 1e6
-# An MPC's horizon and its iteration budgets at most (as a scene's [controller])
-MAX_MPC_HORIZON = 1000
-MAX_MPC_ITERATIONS = 1000

@@ -588,7 +588,7 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
 
 
 def weights(
-    Q: np.ndarray | Sequence, R: float | np.ndarray | Sequence, size: int
+    Q: np.ndarray | Sequence, R: float | np.ndarray | Sequence, size: int, name: str = "Q"
 ) -> tuple[np.ndarray, np.ndarray]:
     """(Q, R) of an LQR as arrays, checked.
 
@@ -600,6 +600,8 @@ def weights(
         One number > 0, the weight of u².
     size : int
         The state's size, 2 (links + 1).
+    name : str, optional
+        What the messages call the matrix (Q, or an MPC's terminal weight P).
 
     Returns
     -------
@@ -622,23 +624,25 @@ def weights(
     q = np.asarray(Q, dtype=float)
     if q.ndim == 1:
         if q.size != size:
-            raise ControlError(f"Q has {q.size} diagonal entries, expected {size} (2 · (links + 1))")
+            raise ControlError(f"{name} has {q.size} diagonal entries, expected {size} (2 · (links + 1))")
         if np.any(q < 0):
-            raise ControlError("Q's diagonal weights must be >= 0")
+            raise ControlError(f"{name}'s diagonal weights must be >= 0")
         q = np.diag(q)
     if q.shape != (size, size):
-        raise ControlError(f"Q has shape {q.shape}, expected ({size}, {size}) or {size} diagonal entries")
+        raise ControlError(
+            f"{name} has shape {q.shape}, expected ({size}, {size}) or {size} diagonal entries"
+        )
     if not np.all(np.isfinite(q)):
-        raise ControlError("Q must be finite")
+        raise ControlError(f"{name} must be finite")
     if float(np.max(np.abs(q))) > MAX_WEIGHT:
         raise ControlError(
-            f"Q has an entry above {MAX_WEIGHT:g}: only the ratio of Q to R matters, scale both down"
+            f"{name} has an entry above {MAX_WEIGHT:g}: only the ratio of Q to R matters, scale both down"
         )
     if not np.allclose(q, q.T, rtol=1e-12, atol=1e-12 * max(1.0, float(np.max(np.abs(q))))):
-        raise ControlError("Q must be symmetric")
+        raise ControlError(f"{name} must be symmetric")
     q = 0.5 * q + 0.5 * q.T
     if float(np.min(np.linalg.eigvalsh(q))) < -1e-12 * max(1.0, float(np.max(np.abs(q)))):
-        raise ControlError("Q must be positive semidefinite (an eigenvalue is negative)")
+        raise ControlError(f"{name} must be positive semidefinite (an eigenvalue is negative)")
     r = np.asarray(R, dtype=float).reshape(-1)
     if r.size != 1 or not math.isfinite(float(r[0])) or float(r[0]) <= 0:
         raise ControlError(f"R = {np.asarray(R).tolist()}: expected one number > 0 (the weight of u²)")

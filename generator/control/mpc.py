@@ -321,9 +321,9 @@ def _state(name: str, x: Any, size: int) -> np.ndarray:
 def _weights(Q: Any, R: Any, size: int, name: str = "Q") -> tuple[np.ndarray, np.ndarray]:
     """`linear.weights`, its messages naming `name` (Q or P) and every bad value in one line."""
     try:
-        return weights(Q, R, size)
+        return weights(Q, R, size, name)
     except ControlError as error:
-        raise MpcError(str(error).replace("Q ", f"{name} ", 1) if name != "Q" else str(error)) from None
+        raise MpcError(str(error)) from None
     except (TypeError, ValueError):
         raise MpcError(
             f"{name} = {_shown(Q)}, R = {_shown(R)}: expected numbers ({size} weights or a matrix; R > 0)"
@@ -640,7 +640,7 @@ class Mpc:
         float
             u within [u_min, u_max] (volts for a DC motor, else N or N m).
         """
-        state = self._vector(_state("x", x, self.nx), self.nx, "x")
+        state = np.ascontiguousarray(_state("x", x, self.nx), dtype=self._dtype)
         x_refs, u_refs, _alive = self._reference(reference)
         u = np.zeros(1, dtype=self._dtype)
         self._lib.ipgen_mpc_track_method(
@@ -726,7 +726,7 @@ class Mpc:
         return self._sample(x, u, self._method)
 
     def _sample(self, x: Any, u: float, method: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        state = self._vector(_state("x", x, self.nx), self.nx, "x")
+        state = np.ascontiguousarray(_state("x", x, self.nx), dtype=self._dtype)
         inputs = self._vector([u], 1, "u")
         xn = np.zeros(self.nx, dtype=self._dtype)
         a = np.zeros((self.nx, self.nx), dtype=self._dtype)

@@ -224,7 +224,8 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
             controller = feedback.controller(tables["controller"], pendulum())
         except feedback.GainError as error:
             reader.fail(str(error))
-    theta = _upright(coordinates, links) if initial.theta is None else _floats(initial.theta)
+    upright = coordinates.user_state((0.0,) * 2 * (links + 1), links)[: links + 1]  # 0 unless from hanging
+    theta = upright if initial.theta is None else _floats(initial.theta)
     dtheta = zeros if initial.dtheta is None else _floats(initial.dtheta)
     law = None
     if tables["swingup"] is not None:
@@ -296,15 +297,6 @@ def _floats(numbers: tuple[Decimal, ...]) -> tuple[float, ...]:
     return tuple(float(number) for number in numbers)
 
 
-def _upright(coordinates: Coordinates, links: int) -> tuple[float, ...]:
-    """[initial] theta's default, upright, in the scene's coordinates (0 unless they count from
-    hanging)."""
-    import numpy as np
-
-    user = coordinates.to_user(np.zeros(2 * (links + 1)), links)
-    return tuple(float(v) + 0.0 for v in user[: links + 1])  # + 0.0: no -0
-
-
 def _loop(
     reader: Reader,
     tables: dict[str, Any],
@@ -319,11 +311,8 @@ def _loop(
     if controller is not None:
         equilibrium, scale = controller.equilibrium, controller.saturation
     elif law is not None:  # the hold's target is in ipgen's coordinates, the loop in the scene's
-        import numpy as np
-
         system = tables["system"]
-        target = system.coordinates().to_user(np.array(law.target, dtype=float), system.links)
-        equilibrium, scale = tuple(float(v) for v in target), law.u_max
+        equilibrium, scale = system.coordinates().user_state(law.target, system.links), law.u_max
     else:
         equilibrium, scale = (), None
 

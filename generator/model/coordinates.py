@@ -16,6 +16,7 @@ u = −K_u (x_user − x_eq,user) directly.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -86,6 +87,13 @@ class Coordinates:
     def to_user(self, x: np.ndarray, links: int) -> np.ndarray:
         p, c = self.matrices(links)
         return p @ x + c
+
+    def user_state(self, x: Sequence[float] | np.ndarray, links: int) -> tuple[float, ...]:
+        """`to_user` of a state in ipgen's coordinates as plain floats (no -0), as a scene and its
+        .cfg and CSV write them."""
+        import numpy as np
+
+        return tuple(float(v) + 0.0 for v in self.to_user(np.asarray(x, dtype=float), links))
 
     def to_canonical(self, x: np.ndarray, links: int) -> np.ndarray:
         import numpy as np

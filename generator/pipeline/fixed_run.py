@@ -480,9 +480,8 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
     chain = fixed_pendulum_of(reader, chain_tables)
     _check_tables(reader, document, chain)
     initial = document.get("initial", {})
-    theta = _state(reader, initial, "theta", chain.links)
-    if initial.get("theta") is None:
-        theta = default_theta(chain, document)
+    given = initial.get("theta") is not None
+    theta = _state(reader, initial, "theta", chain.links) if given else default_theta(chain, document)
     dtheta = _state(reader, initial, "dtheta", chain.links)
     tables, inputs = fixed_inputs(reader, document, tuple(chain.joints))
     name = fixed_model_name(chain.links, tuple(chain.joints))

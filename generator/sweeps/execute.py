@@ -212,13 +212,6 @@ def _refused(task: Task, reason: str, started: float) -> Result:
     return Result(task, "refused", reason, None, nan, nan, nan, nan, nan, time.perf_counter() - started)
 
 
-def _in_scene_coordinates(scene: Scene, state: tuple[float, ...]) -> tuple[float, ...]:
-    """`state` (ipgen's coordinates) in the scene's, as its CSV writes states."""
-    import numpy as np
-
-    return tuple(float(v) for v in scene.coordinates.to_user(np.array(state, dtype=float), scene.links))
-
-
 def _read_csv(path: Path, dof: int) -> tuple:
     import numpy as np
 
@@ -251,7 +244,7 @@ def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     if scene.controller is not None:
         goal = scene.controller.equilibrium
     elif scene.swingup is not None:  # the hold's target is in ipgen's coordinates, the CSV in the scene's
-        goal = _in_scene_coordinates(scene, scene.swingup.target)
+        goal = scene.coordinates.user_state(scene.swingup.target, scene.links)
     else:
         return _refused(
             task, "the scene has no [controller] or [swingup]: no goal to judge the run by", started
