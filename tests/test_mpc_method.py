@@ -159,8 +159,8 @@ def test_shifted_sensitivities_keep_the_last_samples_and_compute_two() -> None:
     """A warm step with shifted sensitivities linearises about the last solution moved by one
     sample: stages 1 .. N-2 take the last QP's A, B of stages 2 .. N-1 as they were, stage 0 RK4's
     exact sensitivities and stage N-1 the frozen ones at the guess, and every defect is new,
-    F(x_k, u_k) - x_{k+1} at the guess (`rk4`, to a few ulps of F). The frozen method's step computes those stages
-    at the guess instead (and differs: so the test can tell)."""
+    F(x_k, u_k) - x_{k+1} at the guess (`rk4`, to a few ulps of F). The frozen method's step
+    computes those stages at the guess instead (and differs: so the test can tell)."""
     x0, x1 = np.array([0.3, 0.2, 1.0, -0.5]), np.array([0.31, 0.19, 0.9, -0.6])
     method = {"barrier": 0.1, "qp_iterations": 2}
     shifted, frozen = qube(**method, sensitivities="shifted"), qube(**method, sensitivities="frozen")
