@@ -16,6 +16,7 @@ Checked, for classical and rotary (pivot) n = 1..5:
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 from fractions import Fraction
@@ -242,8 +243,12 @@ def test_controller(tmp_path: Path, saturation: float | None, scalar: str) -> No
     rng = np.random.default_rng(15)
     states = rng.uniform(-0.5, 0.5, (20, 4))
     text = "\n".join(" ".join(repr(float(v)) for v in row) for row in states)
+    text += "\n0 nan 0 0"  # a state that is not a number: NaN out, also through the clip (documented)
     run = subprocess.run([str(tmp_path / "main")], input=text, capture_output=True, text=True, check=True)
-    got = np.array([float(v) for v in run.stdout.split()])
+    *values, last = [float(v) for v in run.stdout.split()]
+    assert math.isnan(last)
+    assert (saturation is not None) == ("not a number gives NaN" in header)
+    got = np.array(values)
     expected = -(states - np.array(equilibrium)) @ np.array(gain)
     if saturation is not None:
         expected = np.clip(expected, -saturation, saturation)
