@@ -103,3 +103,39 @@ def test_the_c_check_refuses_a_non_finite_setting(entry: str) -> None:
         array = controller._arrays[entry]
         array[0] = math.inf
     assert check(ctypes.byref(settings)) != 0
+
+
+REST_ANGLES = st.integers(-3, 3).map(lambda k: k * math.pi)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    base=st.floats(-1.0, 1.0),
+    link=st.one_of(REST_ANGLES, st.floats(-7.0, 7.0)),
+    rate=st.one_of(st.just(0.0), st.floats(-5.0, 5.0)),
+    full=st.booleans(),
+)
+def test_a_constant_reference_is_a_rest_or_one_line(
+    base: float, link: float, rate: float, full: bool
+) -> None:
+    """A constant reference is a rest of the model with u_ref = 0 (the terminal LQR's point): the
+    base anywhere, the link upright or hanging (a multiple of π), rates 0. Anything else is refused
+    in one line naming the entry; a rest is taken."""
+    reference = [base, link, 0.0, rate] if full else [base, link]
+    rest = abs(math.remainder(link, math.pi)) <= 1e-9 and (rate == 0.0 or not full)
+    try:
+        controller = ipgen.mpc(QUBE, u_max=10.0, reference=reference)
+    except MpcError as error:
+        assert not rest, f"a rest refused: {error}"
+        assert "\n" not in str(error) and "x_ref[" in str(error), str(error)
+        return
+    assert rest, f"{reference} is no rest and was taken"
+    assert np.array_equal(controller.x_ref, np.array([base, link, 0.0, 0.0]))
+
+
+def test_a_fixed_chains_reference_is_a_rest() -> None:
+    """A fixed chain has no base: every angle of its reference is a link's."""
+    acrobot = ipgen.FixedPendulum.preset("acrobot_swingup")
+    assert ipgen.mpc(acrobot, u_max=5.0, reference=[math.pi, 0.0]).x_ref[0] == math.pi
+    with pytest.raises(MpcError, match=r"x_ref\[0\] = 0.5"):
+        ipgen.mpc(acrobot, u_max=5.0, reference=[0.5, 0.0])

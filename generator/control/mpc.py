@@ -21,6 +21,7 @@ is `ipgen run`'s for fixed scenes; its Coulomb friction is not in the prediction
 from __future__ import annotations
 
 import ctypes
+import math
 import numbers
 import threading
 from collections.abc import Mapping, Sequence
@@ -69,6 +70,23 @@ STATUS = {
 
 class MpcError(ControlError):
     """An MPC that cannot be built or run (bad weights or bounds, no compiler, a failed build)."""
+
+
+def _check_rest(x_ref: np.ndarray, dof: int, first_link: int) -> None:
+    """A constant reference is a rest of the model with u_ref = 0 (the terminal LQR's point): rates
+    0, each link upright (0) or hanging (π) in ipgen's absolute angles, a base anywhere."""
+    moving = [i for i in range(dof, 2 * dof) if x_ref[i] != 0.0]
+    if moving:
+        raise MpcError(
+            f"reference: rate x_ref[{moving[0]}] = {x_ref[moving[0]]:g} is not 0; a constant reference is a "
+            "rest (a moving one: step(x, reference=(states, inputs)) per stage)"
+        )
+    for i in range(first_link, dof):
+        if abs(math.remainder(float(x_ref[i]), math.pi)) > 1e-9:
+            raise MpcError(
+                f"reference: link angle x_ref[{i}] = {x_ref[i]:g} rad is not a rest with u = 0: links rest "
+                "upright (0) or hanging (π)"
+            )
 
 
 # ---- the header's types, mirrored (checked against the compiled layout when loaded) ----------
@@ -440,6 +458,7 @@ class Mpc:
                 raise MpcError(
                     f"reference: expected 'upright', 'hanging', {dof} angles or a state of {nx} entries"
                 )
+            _check_rest(self.x_ref, dof, first_link=0 if fixed else 1)
         self.u_ref = np.zeros(1)
         hi = _real("u_max", u_max)
         lo = -hi if u_min is None else _real("u_min", u_min)
@@ -816,6 +835,8 @@ def mpc(
         (ρ1, ρ2) of the soft bounds.
     reference : str or array_like, default "upright"
         x_ref: "upright", "hanging", dof angles or a full state (ipgen's coordinates); u_ref = 0.
+        A rest: each link at a multiple of π, rates 0, the base anywhere (else `MpcError`; a
+        moving reference goes per stage: ``step(x, reference=(states, inputs))``).
     substeps : int, default 1
         RK4 steps per sample.
     mode : str, default "rti"
