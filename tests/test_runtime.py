@@ -261,6 +261,12 @@ def test_two_models_run_on_one_compiled_simulator(tmp_path: Path) -> None:
         header = csv.read_text().splitlines()[0].split(",")
         assert header[:columns] == ["t", *[f"theta{i}" for i in range((columns - 1) // 2)],
                                     *[f"dtheta{i}" for i in range((columns - 1) // 2)]]  # fmt: skip
+    # A bare file name is the current folder's, as the docs write it (dlopen alone would search the
+    # system's library path for it, and not find it here)
+    cfg, csv = tmp_path / "out" / "arm1.cfg", tmp_path / "bare.csv"
+    bare = [str(program), str(cfg), "--model", arm.name, "--csv", str(csv)]
+    done = subprocess.run(bare, cwd=arm.parent, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
 
 
 def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
@@ -352,7 +358,7 @@ def test_a_failing_library_step_is_diagnosed_as_ipsims_own(tmp_path: Path) -> No
     scene = tmp_path / "stiff.toml"
     scene.write_text(
         '[system]\ntype = "classical"\nlinks = 1\n[parameters]\nm = [0.3, 0.001]\nl = [0, 0.5]\n'
-        "delta = [0.3, 10000]\n[initial]\ntheta = [0, 0.2]\n[input]\nkind = \"pulse\"\namplitude = 0.4\n"
+        'delta = [0.3, 10000]\n[initial]\ntheta = [0, 0.2]\n[input]\nkind = "pulse"\namplitude = 0.4\n'
         'duration = 0.5\n[simulation]\nt_end = 1\nmethod = "rk4"\nstep = 0.001\n'
     )
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
@@ -361,3 +367,31 @@ def test_a_failing_library_step_is_diagnosed_as_ipsims_own(tmp_path: Path) -> No
     assert status == 1, message
     assert all(part in message for part in ("RK4_RHSFUNC_FAIL", "likely cause", "stiff: use BDF")), message
     assert not (tmp_path / "out" / "stiff.csv").exists()
+
+
+def test_the_mpc_refuses_a_model_library_of_another_abi(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """ipgen.mpc reads the model library's description by the layout of its ABI: a library of
+    another ABI is refused in one line (it stepped with whatever the fields then held), and the
+    ABI it reads is ipgen_model.h's."""
+    import ipgen
+    from ipgen.control import mpc as mpc_module
+
+    _, include = simulator_sources()
+    header = (Path(include) / "ipgen_model.h").read_text()
+    assert re.search(r"#define IPGEN_MODEL_ABI (\d+)", header).group(1) == str(mpc_module.MODEL_ABI)
+    source = tmp_path / "abi.c"
+    source.write_text(
+        '#include "ipgen_model.h"\n'
+        'static const ipgen_model model = {99, "x", "rotary", "pivot", 1, 2, 1, 1};\n'
+        "const ipgen_model *ipgen_model_get(void) { return &model; }\n"
+    )
+    library = tmp_path / "libabi.so"
+    subprocess.run([c_compiler(), "-shared", "-fPIC", f"-I{include}", str(source), "-o", str(library)],
+                   check=True)  # fmt: skip
+    loaded = ctypes.CDLL(str(library))
+    loaded.ipgen_model_get.restype = ctypes.c_void_p
+    monkeypatch.setattr(mpc_module, "model_library", lambda pendulum: loaded)
+    with pytest.raises(mpc_module.MpcError, match=r"built for model ABI 99, this ipgen reads 4"):
+        ipgen.mpc(ipgen.Pendulum.preset("qube_servo2"), u_max=10.0)

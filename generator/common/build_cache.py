@@ -15,6 +15,7 @@ a lock).
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import fcntl
 import hashlib
 import os
@@ -28,9 +29,19 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ipgen.common.safetext import shown_path
+from ipgen.errors import Error
 
 MISSING = "missing"
 LAST_BUILD = "last_build_seconds.txt"
+NO_CACHE_HINT = "pass --cache-dir or set IPGEN_CACHE_DIR"
+
+# The cache folder a command was given (`--cache-dir`, `run_scene(cache=)`) while it runs: what it
+# builds on the way (the MPC's and the loop's runtime libraries, the model library) goes there too.
+_COMMAND_CACHE: contextvars.ContextVar[Path | None] = contextvars.ContextVar("ipgen_cache", default=None)
+
+
+class CacheError(Error):
+    """ipgen's cache folder cannot be found or written (one line naming --cache-dir)."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +79,12 @@ def required_compiler(
 ) -> str:
     """`chosen_compiler`, or `error` with one line naming what was tried and the Debian package."""
     found = chosen_compiler(variable, candidates)
+    given = os.environ.get(variable)
+    if found is None and given:
+        raise error(
+            f"${variable} = {given!r} is not a program on PATH: set {variable} to the compiler alone "
+            f"(e.g. {variable}={candidates[0]}; its flags are ipgen's), or unset it"
+        )
     if found is None:
         tried = ", ".join((f"${variable}", *candidates))
         raise error(
@@ -93,13 +110,32 @@ def compiler_key(compiler: str, *parts: str) -> str:
 
 
 def cache_root(override: Path | None = None) -> Path:
-    """The cache folder: `override`, $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen."""
-    if override is not None:
-        return override
+    """The cache folder, absolute (a launcher that names it runs from any folder): `override`, the
+    running command's (`cache_folder`), $IPGEN_CACHE_DIR, $XDG_CACHE_HOME/ipgen or ~/.cache/ipgen.
+    `CacheError` when none is set and there is no home folder (a user without one)."""
+    chosen = override if override is not None else _COMMAND_CACHE.get()
+    if chosen is not None:
+        return Path(chosen).absolute()
     if os.environ.get("IPGEN_CACHE_DIR"):
-        return Path(os.environ["IPGEN_CACHE_DIR"])
+        return Path(os.environ["IPGEN_CACHE_DIR"]).absolute()
     xdg = os.environ.get("XDG_CACHE_HOME")
-    return Path(xdg) / "ipgen" if xdg else Path.home() / ".cache" / "ipgen"
+    if xdg:
+        return (Path(xdg) / "ipgen").absolute()
+    try:
+        return Path.home() / ".cache" / "ipgen"
+    except RuntimeError:  # no $HOME and no entry in the password database
+        raise CacheError(f"no home folder for ipgen's cache of compiled files: {NO_CACHE_HINT}") from None
+
+
+@contextlib.contextmanager
+def cache_folder(folder: Path | None) -> Iterator[None]:
+    """While the block runs, `cache_root()` is `folder` (None: unchanged): a command's cache for
+    everything built on its way, not only its simulator."""
+    token = _COMMAND_CACHE.set(_COMMAND_CACHE.get() if folder is None else Path(folder).absolute())
+    try:
+        yield
+    finally:
+        _COMMAND_CACHE.reset(token)
 
 
 @contextlib.contextmanager
@@ -201,6 +237,20 @@ def cached_build(
         return Built(path, built=False)
     lock = folder / f"{key}.lock"
     _remove_corrupt(lock, "its lock is a folder", announce, recipe, lambda p: not p.is_dir())
+    try:
+        return _build_locked(folder, entry, path, lock, recipe, announce)
+    except OSError as e:  # a shared or read-only cache without this entry, a full disk
+        raise recipe.error(
+            f"cannot write to the cache folder {shown_path(folder)} ({e.strerror}), which has no "
+            f"{recipe.noun} for this yet: {NO_CACHE_HINT} (a folder of your own)"
+        ) from e
+
+
+def _build_locked(
+    folder: Path, entry: Path, path: Path, lock: Path, recipe: Recipe, announce: Callable[[str], None]
+) -> Built:
+    """`cached_build`'s build under the entry's lock (another process may have built it meanwhile)."""
+    target = path.name
     with locked(lock):
         problem = cache_problem(entry, path, recipe.legacy_whole, recipe.noun)
         if problem is None:  # built by a concurrent process while we waited

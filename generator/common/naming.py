@@ -64,6 +64,15 @@ RESERVED_NAMES: frozenset[str] = frozenset(
     | {"linearize", "Linearization", "StateVector", "StateMatrix"}
 )
 
+# C headers a folder holding NAME.h would hide from a compiler given that folder (-I, CMake's
+# include directories): C11's, and the POSIX and glibc ones programs around ipgen include.
+HEADER_STEMS: frozenset[str] = frozenset(
+    """assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal
+    stdalign stdarg stdatomic stdbool stddef stdint stdio stdlib stdnoreturn string tgmath
+    threads time uchar wchar wctype unistd fcntl dlfcn pthread sched strings memory malloc
+    endian features poll termios""".split()
+)
+
 
 def macro_problem(name: str) -> str | None:
     """Why `name` collides (or may collide) with a macro, or None."""
@@ -82,4 +91,6 @@ def name_problem(name: str) -> str | None:
         return "is not a C++ identifier: use a letter, then letters, digits or '_' (no '__')"
     if name in CPP_KEYWORDS or name in C_KEYWORDS or name in RESERVED_NAMES:
         return "is reserved in C++ or by the generated header"
+    if name in HEADER_STEMS:
+        return f"would write {name}.h, hiding the C library's <{name}.h> from a compiler given its folder"
     return macro_problem(name)

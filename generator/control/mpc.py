@@ -132,6 +132,9 @@ class Parameters(ctypes.Structure):
     ]  # fmt: skip
 
 
+MODEL_ABI = 4  # cpp/include/ipgen_model.h's IPGEN_MODEL_ABI: the layout ModelHead reads
+
+
 class ModelHead(ctypes.Structure):
     """The first fields of ipgen_model, up to the function pointers the MPC's callback calls."""
 
@@ -549,6 +552,11 @@ class Mpc:
         gain = 1.0 if isinstance(self.pendulum, FixedPendulum) else float(self.pendulum.gain)
         self._context = ModelContext(self._model_lib.ipgen_model_get(), ctypes.addressof(params), gain)
         head = ModelHead.from_address(self._context.model)
+        if head.abi != MODEL_ABI:  # the fields after abi mean something else in another ABI
+            raise MpcError(
+                f"the model library is built for model ABI {head.abi}, this ipgen reads {MODEL_ABI}: "
+                "delete it from the cache (ipgen builds it again)"
+            )
         if head.dof != dof or head.inputs != 1:
             raise MpcError(
                 f"the model library has dof {head.dof} and {head.inputs} inputs, expected {dof} and 1"

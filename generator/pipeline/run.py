@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ipgen.common.build_cache import cache_folder
 from ipgen.common.files import OutputError, check_replaceable, prepare_directory, write_file
 from ipgen.common.limits import MAX_SIMULATED_LINKS
 from ipgen.common.safetext import shown_path
@@ -124,6 +125,19 @@ def run_scene(
     Outcome
         The run's files, simulator, exit status and summary.
     """
+    with cache_folder(cache):  # what the run builds on its way (an MPC's libraries) goes there too
+        return _run_scene(scene_path, out, force, cache, announce, divergence_angle, plot)
+
+
+def _run_scene(
+    scene_path: Path,
+    out: Path,
+    force: bool,
+    cache: Path | None,
+    announce: Callable[[str], None],
+    divergence_angle: float | None,
+    plot: bool,
+) -> Outcome:
     key = plan_key(Path(scene_path), force)
     plan = load_plan(cache, key) if key is not None else None
     if plan is None:

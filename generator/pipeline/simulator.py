@@ -158,7 +158,8 @@ def compile_command(cc: str, entry: Path, name: str, library: Path) -> list[str]
         cc,
         *c_optimisation(),
         f"-I{include}",
-        f"-I{entry}",
+        "-iquote",  # NAME.h for #include "NAME.h" only: a model named math or string hides no <math.h>
+        str(entry),
         str(entry / f"{name}_model.c"),
         "-o",
         str(library),

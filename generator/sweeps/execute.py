@@ -225,6 +225,13 @@ def _read_csv(path: Path, dof: int) -> tuple:
 
 def run_one(source: SceneSource, task: Task, test: Success) -> Result:
     """Run `task` on the scene: refused, failed or passed, with its end-state errors."""
+    from ipgen.common.build_cache import cache_folder
+
+    with cache_folder(None if source.cache is None else Path(source.cache)):  # a Dask worker's too
+        return _run_one(source, task, test)
+
+
+def _run_one(source: SceneSource, task: Task, test: Success) -> Result:
     from ipgen.experiment.scene import scene_from_document
 
     started = time.perf_counter()

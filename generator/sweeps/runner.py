@@ -108,69 +108,74 @@ def sweep(
     spread: float = scorecard.RANDOM_SPREAD,
 ) -> Outcome:
     """Run the sweep of `scene` into the folder `out` (see `ipgen.sweep`)."""
-    from ipgen.experiment.scene import load_scene
+    from ipgen.common.build_cache import cache_folder
 
-    test = success or Success()
-    if repeat is not None and repeat < 1:
-        raise SweepError(f"--repeat {repeat}: give a number of runs per level >= 1")
-    if jobs is not None and jobs < 1:
-        raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
-    if not isinstance(seed, int) or seed < 0:
-        raise SweepError(f"--seed {seed!r}: give an integer >= 0")
-    if not scorecard_criteria and not vary and not random:
-        raise SweepError(
-            "nothing to sweep: pass --scorecard, --random N, or --vary KEY=LO:HI:N (repeatable)"
-        )
-    path, out = Path(scene), Path(out)
-    fixed = fixed_sweep.load_fixed(path) if fixed_sweep.is_fixed_scene(path) else None
-    criteria: list[Criterion] = []
-    nominal: Scene | None = None
-    if fixed is not None:  # a chain on a fixed pivot (sweeps/fixed.py)
-        if random:
+    with cache_folder(None if cache is None else Path(cache)):  # what it builds goes there too
+        from ipgen.experiment.scene import load_scene
+
+        test = success or Success()
+        if repeat is not None and repeat < 1:
+            raise SweepError(f"--repeat {repeat}: give a number of runs per level >= 1")
+        if jobs is not None and jobs < 1:
+            raise SweepError(f"--jobs {jobs}: give a number of worker processes >= 1")
+        if not isinstance(seed, int) or seed < 0:
+            raise SweepError(f"--seed {seed!r}: give an integer >= 0")
+        if not scorecard_criteria and not vary and not random:
             raise SweepError(
-                "--random is for a cart or an arm so far: sweep a fixed chain with --scorecard or --vary"
+                "nothing to sweep: pass --scorecard, --random N, or --vary KEY=LO:HI:N (repeatable)"
             )
-        if not fixed.controlled:
-            raise SweepError(
-                f"{shown_path(path)} has no [controller] or [swingup]: a sweep judges a closed loop "
-                "(its goal is the controller's equilibrium or the swing-up's target)"
-            )
-        if scorecard_criteria:
-            chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
-            criteria += fixed_sweep.fixed_criteria(fixed, chosen, levels, repeat)
-        elif levels:
-            raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
-        if vary:
-            criteria.append(grid([fixed_sweep.parse_vary_fixed(spec) for spec in vary], repeat or 1))
-        check_total(criteria)
-        fixed_sweep.check_keys(fixed, criteria)
-    else:
-        nominal = load_scene(path)  # a scene with a problem stops here, with its own message
-        criteria = _criteria(path, nominal, scorecard_criteria, vary, levels, repeat, (random, spread, seed))
-    text = path.read_text()
-    if len(text) > MAX_SCENE_CHARS:
-        raise SweepError(f"{shown_path(path)} is too large for a sweep")
-    beside = fixed.files() if fixed is not None else ()
-    if dask is not None:
-        engine.check_address(dask)
-    tasks = plan(criteria, seed, nominal)
-    _check_out(out, force)
-    digest = table.sweep_digest(text + "".join(f"\0{name}\0{body}" for name, body in beside), test)
-    finished = table.resumable(out / "runs.csv", tasks, force, digest)
-    source = SceneSource(path.stem, text, None if cache is None else str(Path(cache).resolve()), files=beside)
-    try:
-        # Generated and built once here: the workers get the header and find the simulator in the
-        # cache (forked local workers inherit this preparation).
-        prepared = prepare(source)
-        source = replace(source, model=prepared.model, header=prepared.header)
-        note = fixed_sweep.NOTE if fixed is not None else ""
-        planned = Planned(source, criteria, tasks, test, seed, digest, note)
-        with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
-            files.prepare_directory(out)
-            return _run(planned, finished, pool, workers, out, progress, plot)
-    except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
-        execute.release()  # the scratch folders now, not at exit
-        raise
+        path, out = Path(scene), Path(out)
+        fixed = fixed_sweep.load_fixed(path) if fixed_sweep.is_fixed_scene(path) else None
+        criteria: list[Criterion] = []
+        nominal: Scene | None = None
+        if fixed is not None:  # a chain on a fixed pivot (sweeps/fixed.py)
+            if random:
+                raise SweepError(
+                    "--random is for a cart or an arm so far: sweep a fixed chain with --scorecard or --vary"
+                )
+            if not fixed.controlled:
+                raise SweepError(
+                    f"{shown_path(path)} has no [controller] or [swingup]: a sweep judges a closed loop "
+                    "(its goal is the controller's equilibrium or the swing-up's target)"
+                )
+            if scorecard_criteria:
+                chosen = None if scorecard_criteria is True else tuple(scorecard_criteria)
+                criteria += fixed_sweep.fixed_criteria(fixed, chosen, levels, repeat)
+            elif levels:
+                raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
+            if vary:
+                criteria.append(grid([fixed_sweep.parse_vary_fixed(spec) for spec in vary], repeat or 1))
+            check_total(criteria)
+            fixed_sweep.check_keys(fixed, criteria)
+        else:
+            nominal = load_scene(path)  # a scene with a problem stops here, with its own message
+            draws = (random, spread, seed)
+            criteria = _criteria(path, nominal, scorecard_criteria, vary, levels, repeat, draws)
+        text = path.read_text()
+        if len(text) > MAX_SCENE_CHARS:
+            raise SweepError(f"{shown_path(path)} is too large for a sweep")
+        beside = fixed.files() if fixed is not None else ()
+        if dask is not None:
+            engine.check_address(dask)
+        tasks = plan(criteria, seed, nominal)
+        _check_out(out, force)
+        digest = table.sweep_digest(text + "".join(f"\0{name}\0{body}" for name, body in beside), test)
+        finished = table.resumable(out / "runs.csv", tasks, force, digest)
+        folder = None if cache is None else str(Path(cache).resolve())
+        source = SceneSource(path.stem, text, folder, files=beside)
+        try:
+            # Generated and built once here: the workers get the header and find the simulator in the
+            # cache (forked local workers inherit this preparation).
+            prepared = prepare(source)
+            source = replace(source, model=prepared.model, header=prepared.header)
+            note = fixed_sweep.NOTE if fixed is not None else ""
+            planned = Planned(source, criteria, tasks, test, seed, digest, note)
+            with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+                files.prepare_directory(out)
+                return _run(planned, finished, pool, workers, out, progress, plot)
+        except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
+            execute.release()  # the scratch folders now, not at exit
+            raise
 
 
 def _criteria(

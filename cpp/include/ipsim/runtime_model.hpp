@@ -263,10 +263,13 @@ class ModelLibrary {
     model_ = model;
   }
 
-  /// Loads `path`; throws Error naming the problem (no such file, not a model library, another
-  /// ABI, sizes out of range).
+  /// Loads `path` (a file name without a folder is the current folder's, as on a command line: not
+  /// searched for on the system's library path, where another library of that name could be);
+  /// throws Error naming the problem (no such file, not a model library, another ABI, sizes out of
+  /// range).
   explicit ModelLibrary(const std::string& path) {
-    handle_ = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+    const std::string file = path.find('/') == std::string::npos ? "./" + path : path;
+    handle_ = dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (handle_ == nullptr) {
       const char* why = dlerror();
       throw Error("cannot load the model library " + path + ": " + (why ? why : "dlopen failed"));
