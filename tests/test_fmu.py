@@ -448,13 +448,14 @@ def test_rewriting_the_same_fmu_leaves_it_unchanged(tmp_path: Path) -> None:
 
 
 def test_a_scene_emits_its_fmu_with_its_values_as_start_values(tmp_path: Path) -> None:
-    """`emit = ["fmu3"]` in a scene; its parameters and initial state are the start values."""
+    """`emit = ["fmu3"]` in a scene; its parameters, links as built and initial state are the start
+    values (the links as built were the rods' before: another pendulum than the scene's)."""
     from fmpy import read_model_description
 
     require_cc()
     text = (ROOT / "scenes" / "rsip_pulse.toml").read_text()
     text = text.replace('inertia = "pivot"', 'inertia = "pivot"\nemit = ["fmu3"]')
-    text = text.replace("m = [0.5, 0.275]", "m = [0.45, 0.3]").replace(
+    text = text.replace("m = [0.5, 0.275]", "m = [0.45, 0.3]\ncom = [0, 0.13]\ntip = [0, 0.01]").replace(
         "[input]", "[initial]\ntheta = [0, 0.1]\n\n[input]"
     )
     scene = tmp_path / "mine.toml"
@@ -464,6 +465,7 @@ def test_a_scene_emits_its_fmu_with_its_values_as_start_values(tmp_path: Path) -
     assert description.fmiVersion == "3.0"
     start = {v.name: float(v.start) for v in description.modelVariables if v.start is not None}
     assert (start["m1"], start["theta1"], start["l0"], start["delta1"]) == (0.3, 0.1, 0.6, 0.011458)
+    assert (start["com1"], start["tip1"]) == (0.13, 0.01)
     # the arm: its mass, or (links as built) its inertia, the rod's of the scene's m0 and l0
     assert start.get("m0", 0.45) == 0.45 and start.get("J0", 0.45 * 0.36 / 3) == pytest.approx(
         0.45 * 0.36 / 3

@@ -15,7 +15,7 @@ from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT
-from ipgen.model.system import System, system_problem
+from ipgen.model.system import System, group_indices, system_problem
 
 if TYPE_CHECKING:
     from ipgen.estimation.printed import PrintedEstimator
@@ -244,6 +244,11 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
 
         extra = ((f"{job.scene.stem}.cfg", resolved_config(job.scene, model=job.name)),)
         parameters = tuple((name, job.scene.value(name)) for name in job.scene.parameter_names())
+        parameters += tuple(  # the links as built the scene gives (com1, J0, tip1): an FMU's start values
+            (f"{group}{i}", float(values[i]))
+            for group, values in job.scene.link_values().items()
+            for i in group_indices(group, job.scene.links)
+        )
         initial = (*job.scene.theta, *job.scene.dtheta)
     return generate(
         job.system,
