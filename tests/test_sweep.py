@@ -579,3 +579,16 @@ def test_a_swing_up_counting_from_hanging_is_judged_at_its_upright() -> None:
     ]
     assert [r.outcome for r in results] == ["pass", "pass"], [r.reason for r in results]
     assert max(r.angle_error for r in results) < 0.01
+
+
+@given(values=st.lists(st.integers(-10**6, 10**6), min_size=1, max_size=12, unique=True).map(
+    lambda whole: sorted(v / 1000 for v in whole)))  # fmt: skip
+def test_a_grids_cells_hold_their_values_however_spaced(values: list[float]) -> None:
+    """grid.png draws each point of a 2-D sweep in a cell of its own around its value (a list such
+    as 0.05, 0.1, 1.5 is not evenly spaced: the cells spread evenly put 0.1's result up to 1.1)."""
+    from ipgen.sweeps.plots import cell_edges
+
+    edges = cell_edges(values)
+    assert len(edges) == len(values) + 1
+    assert all(lo < value < hi for lo, value, hi in zip(edges, values, edges[1:], strict=False))
+    assert cell_edges([0.05, 0.1, 1.5]) == pytest.approx([0.025, 0.075, 0.8, 2.2])

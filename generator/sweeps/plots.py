@@ -5,6 +5,7 @@ a heatmap of a 2-D grid.
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -140,16 +141,14 @@ def heatmap(s: CriterionScore, path: Path) -> Path:
             )
     figure, axis = plt.subplots(figsize=(6.5, 5.0))
     axis.set_facecolor("#bbbbbb")
-    image = axis.imshow(
-        grid,
-        origin="lower",
-        aspect="auto",
-        cmap="RdYlGn",
-        vmin=0,
-        vmax=1,
-        extent=_extent(first) + _extent(second),
+    # a cell per point, its edges halfway to the neighbours: the points of a list need not be evenly
+    # spaced (--vary KEY=v1,v2,...), and each is drawn where its value is
+    image = axis.pcolormesh(
+        cell_edges(first), cell_edges(second), np.ma.masked_invalid(grid), cmap="RdYlGn", vmin=0, vmax=1
     )
-    figure.colorbar(image, ax=axis, label="fraction of runs passed (grey: refused)")
+    points = [(level.values[0], level.values[1]) for level in s.criterion.levels]
+    axis.plot(*zip(*points, strict=True), "k.", markersize=4)  # the value each cell was run at
+    figure.colorbar(image, ax=axis, label="fraction of runs passed (grey: refused; dots: the points run)")
     axis.set_xlabel(s.criterion.axes[0])
     axis.set_ylabel(s.criterion.axes[1])
     score = "—" if s.score is None else f"{100 * s.score:.0f} %"
@@ -160,8 +159,10 @@ def heatmap(s: CriterionScore, path: Path) -> Path:
     return path
 
 
-def _extent(values: list[float]) -> tuple[float, float]:
+def cell_edges(values: list[float]) -> list[float]:
+    """The edges of the cells of sorted `values` on an axis: halfway between neighbours, the outer
+    ones as far out as the inner next to them (±0.5 about a single value)."""
     if len(values) == 1:
-        return values[0] - 0.5, values[0] + 0.5
-    step = (values[-1] - values[0]) / (len(values) - 1)
-    return values[0] - step / 2, values[-1] + step / 2
+        return [values[0] - 0.5, values[0] + 0.5]
+    middles = [(a + b) / 2 for a, b in itertools.pairwise(values)]
+    return [2 * values[0] - middles[0], *middles, 2 * values[-1] - middles[-1]]
