@@ -184,6 +184,24 @@ def test_a_table_is_resumed_only_by_its_own_sweep_as_written(
     assert table.read_bytes() == before
 
 
+@pytest.mark.parametrize("tail", ["×", "é", "€", "😀"])
+def test_a_last_line_cut_inside_a_character_is_run_again(
+    scene: Path, swept: Path, tmp_path: Path, tail: str
+) -> None:
+    """An interruption may cut the last line of runs.csv inside a character of several bytes (a
+    reason's "×"): that line is run again, as one cut between two bytes of ASCII (it was refused
+    as damaged)."""
+    from ipgen.sweeps import table
+
+    out = _copy(swept, tmp_path, "cut")
+    whole = table.read(out / "runs.csv")
+    lines = (out / "runs.csv").read_bytes().splitlines(keepends=True)
+    (out / "runs.csv").write_bytes(b"".join(lines[:-1]) + lines[-1][:20] + tail.encode()[:-1])
+    assert table.read(out / "runs.csv") == whole[:-1]
+    outcome = ipgen.sweep(scene, out, vary=[VARY], jobs=1, plots=False)
+    assert (outcome.runs, outcome.ran) == (2, 1)
+
+
 def test_the_same_sweep_resumes_its_own_table(scene: Path, swept: Path, tmp_path: Path) -> None:
     """The check does not refuse what it should accept: the same sweep resumes, running nothing."""
     out = _copy(swept, tmp_path, "same")

@@ -165,10 +165,13 @@ def read(path: Path) -> list[dict[str, str]]:
     damaged file (not UTF-8, not CSV, a field not as `row` writes it) is a one-line SweepError."""
     shown = shown_path(path)
     try:
-        with path.open(newline="", encoding="utf-8") as f:
-            lines = f.read().splitlines(keepends=True)
+        data = path.read_bytes()
     except OSError as error:
         raise SweepError(f"cannot read {shown}: {error.strerror}") from None
+    if b"\n" in data:  # a last line cut off by an interruption, maybe inside a character: dropped below
+        data = data[: data.rfind(b"\n") + 1]
+    try:
+        lines = data.decode("utf-8").splitlines(keepends=True)
     except UnicodeDecodeError as error:
         raise SweepError(
             f"{shown} is damaged (byte {error.start} is not UTF-8): pass another -o, or --force to start over"
