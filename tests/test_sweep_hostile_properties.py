@@ -202,6 +202,19 @@ def test_a_last_line_cut_inside_a_character_is_run_again(
     assert (outcome.runs, outcome.ran) == (2, 1)
 
 
+def test_starting_over_removes_the_earlier_sweeps_scores_and_pictures(
+    scene: Path, swept: Path, tmp_path: Path
+) -> None:
+    """--force starts over: the earlier sweep's scores and PNGs (another criterion's too) do not
+    stay beside the new runs; files a sweep does not write stay."""
+    out = _copy(swept, tmp_path, "again")
+    for name in ("criterion_mass.png", "grid.png", "scores.png", "scores.json", "notes.txt"):
+        (out / name).write_text("earlier")
+    ipgen.sweep(scene, out, vary=[VARY], jobs=1, plots=False, force=True)
+    assert not any((out / name).exists() for name in ("criterion_mass.png", "grid.png", "scores.png"))
+    assert (out / "scores.json").read_text() != "earlier" and (out / "notes.txt").read_text() == "earlier"
+
+
 def test_the_same_sweep_resumes_its_own_table(scene: Path, swept: Path, tmp_path: Path) -> None:
     """The check does not refuse what it should accept: the same sweep resumes, running nothing."""
     out = _copy(swept, tmp_path, "same")

@@ -59,6 +59,14 @@ def plan(criteria: list[Criterion], seed: int, scene_for_pulses: object = None) 
     return tasks
 
 
+def _remove_outputs(out: Path) -> None:
+    """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep."""
+    for path in [out / "scores.json", out / "scores.md", out / "scores.png", out / "grid.png",
+                 *out.glob("criterion_*.png")]:  # fmt: skip
+        if path.is_file() or path.is_symlink():
+            path.unlink()
+
+
 def _check_out(out: Path, force: bool) -> None:
     """The output policy's checks of OUT (`files.check_directory`), then: a folder with files
     but no runs.csv is another's, written into only with `force`."""
@@ -172,6 +180,8 @@ def sweep(
             planned = Planned(source, criteria, tasks, test, seed, digest, note)
             with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
                 files.prepare_directory(out)
+                if force:  # starting over: no scores or pictures of the sweep before beside the new runs
+                    _remove_outputs(out)
                 return _run(planned, finished, pool, workers, out, progress, plot)
         except BaseException:  # interrupted (SIGINT, or SIGTERM through the command), or failed
             execute.release()  # the scratch folders now, not at exit
