@@ -257,6 +257,8 @@ def test_bad_specifications_from_the_command_write_nothing(scene: Path, tmp_path
         (["--vary", "parameters.m[1]=1:2:0"], "the range is empty"),
         ([], "nothing to sweep"),
         (["--scorecard", "--only", "mass,wind"], "criterion 'wind' is unknown"),
+        (["--scorecard", "--criterion", "mass=1:1.2:2", "--criterion", "mass=0.5,0.6"], "given twice"),
+        (["--scorecard", "--only", "mass", "--criterion", "damping=0,1"], "damping is not among --only mass"),
         (["--vary", "initial.theta[1]=0,1", "--repeat", "0"], "--repeat 0"),
         (["--vary", "initial.theta[1]=0,1", "--jobs", "0"], "--jobs 0"),
     ):

@@ -140,6 +140,16 @@ def _criterion(spec: str) -> tuple[str, str]:
     return name.strip(), levels
 
 
+def _criteria_levels(specs: tuple[str, ...]) -> dict[str, str]:
+    """--criterion NAME=LEVELS options by name; a name given twice is an error (the last won)."""
+    levels: dict[str, str] = {}
+    for name, text in map(_criterion, specs):
+        if name in levels:
+            raise click.BadParameter(f"{name} is given twice: give its levels once", param_hint="--criterion")
+        levels[name] = text
+    return levels
+
+
 @click.command("sweep", help=HELP, context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("scene", type=NonEmptyPath(), metavar="[SCENE.toml]", required=False)
 @preset_option
@@ -256,7 +266,7 @@ def command(
                 out,
                 scorecard_criteria=chosen,
                 vary=vary,
-                levels=dict(map(_criterion, criteria)),
+                levels=_criteria_levels(criteria),
                 repeat=repeat,
                 seed=seed,
                 success=test,

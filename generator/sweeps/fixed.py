@@ -300,11 +300,7 @@ def fixed_criteria(
     """The scorecard's criteria for a fixed scene: those of `SUPPORTED` run, the others recorded
     as refused (`NOT_YET`); `chosen` naming one of those is a SweepError."""
     levels = dict(levels or {})
-    unknown = [name for name in [*(chosen or ()), *levels] if name not in scorecard.NAMES]
-    if unknown:
-        raise SweepError(
-            f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(scorecard.NAMES)}"
-        )
+    scorecard.check_names(chosen, levels)
     asked = [name for name in [*(chosen or ()), *levels] if name not in SUPPORTED]
     if asked:
         raise SweepError(f"scorecard criterion {asked[0]!r} is {NOT_YET}")

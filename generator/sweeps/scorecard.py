@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -140,6 +141,22 @@ def delay_levels(scene: Scene) -> str:
     return ",".join(repr(k * period) for k in range(0, steps + 1, stride))
 
 
+def check_names(chosen: tuple[str, ...] | None, levels: Mapping[str, str]) -> None:
+    """SweepError unless every criterion named (--only, --criterion) is one, and every one given
+    levels runs (a --criterion outside --only was dropped without a word)."""
+    unknown = [name for name in [*(chosen or ()), *levels] if name not in NAMES]
+    if unknown:
+        raise SweepError(
+            f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(NAMES)}"
+        )
+    left_out = [name for name in levels if chosen is not None and name not in chosen]
+    if left_out:
+        raise SweepError(
+            f"--criterion {left_out[0]}=...: {left_out[0]} is not among --only {','.join(chosen or ())}: "
+            "add it there, or drop its levels"
+        )
+
+
 def criteria(
     scene: Scene,
     chosen: tuple[str, ...] | None = None,
@@ -152,11 +169,7 @@ def criteria(
     [estimator] kind — with "exact" the controller sees the true state, so the measurement's
     resolution and noise change nothing and those criteria are not run)."""
     levels = dict(levels or {})
-    unknown = [name for name in [*(chosen or ()), *levels] if name not in NAMES]
-    if unknown:
-        raise SweepError(
-            f"scorecard criterion {unknown[0]!r} is unknown: the criteria are {', '.join(NAMES)}"
-        )
+    check_names(chosen, levels)
     if scene.controller is None and scene.swingup is None:
         raise SweepError(
             "--scorecard needs a scene with a [controller] or a [swingup]: it scores a closed loop"
