@@ -142,6 +142,90 @@ def test_any_action_steps_or_is_a_gym_error(action: object, vector: bool) -> Non
     assert np.isfinite(obs).all()
 
 
+def _one_number(action: object) -> bool:
+    """What a single environment's Box action is: one number, or an array or sequence holding
+    exactly one number (not text, not NaN)."""
+    try:
+        array = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    return np.asarray(action).dtype.kind not in "US" and array.size == 1 and not np.isnan(array).any()
+
+
+@settings(max_examples=60, deadline=None)
+@given(action=st.one_of(ACTIONS, st.sampled_from(["5", "0.5", b"1", [0.5, 0.9], (0.2,), [0.3]])))
+def test_an_action_steps_exactly_when_it_is_one_number(action: object) -> None:
+    """A single environment takes one number (or a sequence of exactly one) and steps as with
+    that number; anything else is a GymError (two numbers used the first, text was read as a
+    number)."""
+    system, row = paper_system("rotary", 1)
+    env, twin = (PendulumEnv(spec_for(system, row, "balance")) for _ in range(2))
+    env.reset(seed=0)
+    twin.reset(seed=0)
+    if not _one_number(action):
+        with pytest.raises(GymError, match="expected"):
+            env.step(action)
+        return
+    value = float(np.asarray(action, dtype=np.float64).reshape(1)[0])
+    assert np.array_equal(env.step(action)[0], twin.step(np.array([value]))[0])
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    action=st.one_of(
+        st.integers(-3, 3), st.floats(allow_nan=True), st.text(max_size=2),
+        st.sampled_from([np.int64(1), np.array(0), np.array(1.0), True, None, [1]]),
+    ),
+    vector=st.booleans(),
+)  # fmt: skip
+def test_cartpole_takes_0_or_1_only(action: object, vector: bool) -> None:
+    """CartPole's Discrete(2): the integers 0 and 1 (Python or numpy), as gymnasium's own; 2, -1,
+    0.7, text or NaN are a GymError (they all pushed left). A batch: 0 or 1 each."""
+    from ipgen.gym.make import cartpole_spec
+
+    spec = cartpole_spec()
+    if vector:
+        env: PendulumEnv | PendulumVectorEnv = PendulumVectorEnv(spec, 2)
+        batch = [action, 1]
+        valid = _one_number(action) and np.ndim(action) == 0  # each environment's entry a number
+        valid = valid and float(np.asarray(action, dtype=np.float64)) in (0.0, 1.0)
+    else:
+        env = PendulumEnv(spec)
+        batch = action
+        integral = isinstance(action, int | np.integer) or (
+            isinstance(action, np.ndarray) and np.issubdtype(action.dtype, np.integer)
+        )
+        valid = integral and int(action) in (0, 1)  # type: ignore[call-overload]
+    env.reset(seed=0)
+    if not valid:
+        with pytest.raises(GymError, match=r"0 \(push left\) or 1" if not vector else "expected"):
+            env.step(batch)
+        return
+    assert np.isfinite(env.step(batch)[0]).all()
+
+
+def test_a_vector_reset_takes_a_state_and_one_seed_per_environment() -> None:
+    """options={"state": x} starts every environment at x (or row i at x[i]), as a single
+    environment's reset does (it was ignored: random starts); a list of seeds has one per
+    environment (a short one raised an IndexError, a long one lost its last)."""
+    system, row = paper_system("classical", 1)
+    spec = spec_for(system, row, "balance")
+    single = PendulumEnv(spec)
+    vector = PendulumVectorEnv(spec, 3)
+    start = [0.0, 0.15, 0.0, 0.0]
+    one, _ = single.reset(seed=0, options={"state": start})
+    batch, _ = vector.reset(seed=0, options={"state": start})
+    assert all(np.array_equal(observation, one) for observation in batch)
+    rows = [[0.0, 0.1 * (i + 1), 0.0, 0.0] for i in range(3)]
+    batch, _ = vector.reset(seed=0, options={"state": rows})
+    for observation, state in zip(batch, rows, strict=True):
+        assert np.array_equal(observation, single.reset(seed=0, options={"state": state})[0])
+    for seeds in ([1, 2], [1, 2, 3, 4], "7"):
+        with pytest.raises(GymError, match="one seed per"):
+            vector.reset(seed=seeds)  # type: ignore[arg-type]
+    vector.reset(seed=[1, 2, 3])
+
+
 @settings(max_examples=3, deadline=None)
 @given(num_envs=st.integers(10**6, 10**12))
 def test_num_envs_is_bounded_by_the_memory_it_needs(num_envs: int) -> None:

@@ -53,8 +53,9 @@ def actions_of(actions: Any, count: int, shape: tuple[int, ...] | None = None) -
     GymError (a ValueError) saying what to pass. `shape`: the shape the actions must have
     (a fixed chain's (m,) or (N, m)); None: any with `count` entries."""
     try:
+        text = np.asarray(actions).dtype.kind in "US"  # "5", b"1", ["0.5"]: text, not a number
         array = np.asarray(actions, dtype=np.float64)
-        given = array.reshape(count) if shape is None or array.shape == shape else None
+        given = array.reshape(count) if not text and (shape is None or array.shape == shape) else None
     except (TypeError, ValueError):
         given = None
     if given is None or np.isnan(given).any():
@@ -64,6 +65,17 @@ def actions_of(actions: Any, count: int, shape: tuple[int, ...] | None = None) -
             "e.g. an element of env.action_space"
         )
     return given
+
+
+def discrete_action(action: Any) -> int:
+    """A Discrete(2) action (CartPole's): the integer 0 (push left) or 1 (push right), a Python or
+    numpy integer as gymnasium's space holds it; anything else the GymError saying what to pass."""
+    integral = isinstance(action, int | np.integer) or (
+        isinstance(action, np.ndarray) and action.shape == () and np.issubdtype(action.dtype, np.integer)
+    )
+    if not integral or int(action) not in (0, 1):
+        raise GymError(f"action {abbreviate(repr(action))}: expected 0 (push left) or 1 (push right)")
+    return int(action)
 
 
 def check_observation(obs: np.ndarray) -> None:
@@ -166,9 +178,11 @@ class PendulumEnv(gymnasium.Env):
             info = {"failed": True} if ended == 2 else {}
             return self._obs_row.copy(), self._reward.value, ended != 0, False, info
         if self._discrete:
-            self._action.value = 1.0 if action == 1 else -1.0
+            self._action.value = 1.0 if discrete_action(action) == 1 else -1.0
         else:
             try:  # the fast path: a number, or a sequence of one number
+                if hasattr(action, "__len__") and (len(action) != 1 or isinstance(action, str | bytes)):
+                    raise TypeError  # two numbers, text: refused below
                 value = action[0] if hasattr(action, "__len__") else action
                 self._action.value = value
             except (IndexError, KeyError, TypeError, ValueError):

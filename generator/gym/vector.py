@@ -14,8 +14,17 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from ipgen.common.safetext import abbreviate
 from ipgen.gym.budget import check_num_envs
-from ipgen.gym.env import action_count, action_space, actions_of, check_observation, observation_space
+from ipgen.gym.checks import GymError
+from ipgen.gym.env import (
+    action_count,
+    action_space,
+    actions_of,
+    check_observation,
+    initial_state_of,
+    observation_space,
+)
 from ipgen.gym.fixed import FixedSystem
 from ipgen.gym.kernel import load
 from ipgen.gym.sensing import MeasuredLoop
@@ -82,6 +91,13 @@ class PendulumVectorEnv(VectorEnv):
         self.state[i] = self.ipgen_spec.initial_state(rng)
         self.elapsed[i] = 0
 
+    def _states(self, value: Any) -> np.ndarray:
+        """options['state'] for every row: one state (broadcast) or N × its size."""
+        size = self.state.shape[1]
+        if np.ndim(value) == 2 and len(value) == self.num_envs:
+            return np.array([initial_state_of(row, size) for row in value])
+        return np.broadcast_to(initial_state_of(value, size), self.state.shape)
+
     def _params_info(self, mask: np.ndarray) -> dict[str, Any]:
         """`info["params"]`: each group as an N × entries array (rows of the envs in `mask` valid)."""
         return {"params": self.ipgen_spec.params_info(self.params), "_params": mask.copy()}
@@ -92,12 +108,19 @@ class PendulumVectorEnv(VectorEnv):
         seeds = [None] * self.num_envs if seed is None else seed
         if isinstance(seeds, int):
             seeds = [seeds + i for i in range(self.num_envs)]
+        if not isinstance(seeds, list | tuple) or len(seeds) != self.num_envs:
+            raise GymError(
+                f"reset(seed={abbreviate(repr(seed))}): give an integer, None, or a list of one seed per "
+                f"environment ({self.num_envs})"
+            )
         if seed is not None or not hasattr(self, "_seeded"):
             self.generators = [seeding.np_random(s)[0] for s in seeds]
             self._seeded = True
         overrides = (options or {}).get("params")
         for i in range(self.num_envs):
             self._reset_one(i, overrides)
+        if "state" in (options or {}):  # one state for every environment, or a row each
+            self.state[:] = self._states((options or {})["state"])
         self._overridden[:] = bool(overrides)
         self.needs_reset[:] = False
         if self.loop is None:
@@ -113,7 +136,13 @@ class PendulumVectorEnv(VectorEnv):
             self.actions[:] = actions_of(actions, self.num_envs * self._inputs, shape).reshape(shape)
         else:
             given = actions_of(actions, self.num_envs)
-            self.actions[:] = np.where(given == 1, 1.0, -1.0) if self.ipgen_spec.task == "cartpole" else given
+            if self.ipgen_spec.task == "cartpole":
+                if not np.isin(given, (0.0, 1.0)).all():
+                    raise GymError(
+                        f"actions {abbreviate(repr(actions))}: expected 0 (push left) or 1 (push right) each"
+                    )
+                given = np.where(given == 1, 1.0, -1.0)
+            self.actions[:] = given
         if self.loop is not None:  # the rows being reset draw nothing this step (as a single env)
             active = np.flatnonzero(~self.needs_reset)
             self.actions[active] = self.loop.apply(active, self.actions[active], self.generators)
