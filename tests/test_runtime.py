@@ -395,3 +395,25 @@ def test_the_mpc_refuses_a_model_library_of_another_abi(
     monkeypatch.setattr(mpc_module, "model_library", lambda pendulum: loaded)
     with pytest.raises(mpc_module.MpcError, match=r"built for model ABI 99, this ipgen reads 4"):
         ipgen.mpc(ipgen.Pendulum.preset("qube_servo2"), u_max=10.0)
+
+
+def test_a_model_library_refuses_to_compile_in_float(tmp_path: Path) -> None:
+    """The model interface passes doubles: a model library (a cart's or arm's, a fixed chain's)
+    compiled with -DIPGEN_SCALAR=float stops at compile time, naming why (it compiled with
+    warnings, passed ipsim's check and failed at run time as a near-singular mass matrix)."""
+    from ipgen.codegen.fixed_header import fixed_library_sources
+
+    _, include = simulator_sources()
+    with redirect_stdout(io.StringIO()):
+        assert run(["--type", "rotary", "--links", "1", "--emit", "library", "-o", str(tmp_path / "a")]) == 0
+    name, texts = fixed_library_sources(2, (2,))
+    for file_name, text in texts.items():
+        (tmp_path / file_name).write_text(text)
+    for source in (tmp_path / "a" / "rotary1_model.c", tmp_path / f"{name}_model.c"):
+        for scalar, fails in (("double", False), ("float", True)):
+            done = subprocess.run(
+                [c_compiler(), "-std=c99", "-fsyntax-only", f"-DIPGEN_SCALAR={scalar}", f"-I{include}",
+                 f"-I{source.parent}", str(source)], capture_output=True, text=True,
+            )  # fmt: skip
+            assert (done.returncode != 0) == fails, done.stderr
+            assert ("library_needs_a_double_scalar" in done.stderr) == fails
