@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -612,6 +613,24 @@ def test_the_experiment_starts_hanging_in_the_rigs_own_coordinates(
     canonical = experiment.coordinates.to_canonical(state, experiment.links)
     absolute = canonical[1 : experiment.links + 1]
     assert np.allclose(np.cos(absolute), -1.0, atol=1e-12), (angles, zero, positive, experiment.theta)
+
+
+def test_the_experiment_starts_the_base_where_its_design_counted_from(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The design's travel margin counts from the rig scene's base (θ0 = 0.2 rad here); the
+    experiment it writes starts its base there too (it started at 0: an experiment 29 % weaker than
+    the limits allowed, or refused for a start the experiment did not have)."""
+    text = (RIGS / "qube_servo2.toml").read_text().replace("theta = [0, 0.1]", "theta = [0.2, 0.1]")
+    designs = {}
+    for theta0 in (0.0, 0.2):
+        rig = tmp_path / f"rig{theta0}.toml"
+        rig.write_text(text.replace("theta = [0.2, 0.1]", f"theta = [{theta0}, 0.1]"))
+        out = tmp_path / f"experiment{theta0}.toml"
+        assert cli(["excite", str(rig), "--u-max", "10", "--travel", "1", "-o", str(out)]) == 0
+        designs[theta0] = float(re.search(r"base within ±(\S+) rad", capsys.readouterr().out).group(1))
+        assert load_scene(out).theta[0] == theta0
+    assert designs[0.2] == pytest.approx(0.5) and designs[0.0] == pytest.approx(0.7)
 
 
 # ---------------------------------------------------------------------------- free decay (issue 33)

@@ -36,7 +36,8 @@ def _line(text: str, comment: str) -> str:
 def _hanging(rig: Scene, release: float = 0.0) -> list[float]:
     """The hanging state's angles in the rig's own coordinates, each in (−π, π], as its [initial]
     is written (ipgen's: every link at π; 0 with zero = "hanging"; relative: the links above 1 at 0),
-    link 1 turned by `release` rad from hanging (a free decay's start)."""
+    link 1 turned by `release` rad from hanging (a free decay's start), the base where the rig's
+    scene starts it (the design's margins count from there)."""
     import numpy as np
 
     dof = rig.links + 1
@@ -45,7 +46,7 @@ def _hanging(rig: Scene, release: float = 0.0) -> list[float]:
     canonical[1] += release
     user = rig.coordinates.to_user(canonical, rig.links)[:dof]
     wrapped = [float(x) % (2 * math.pi) for x in user[1:]]
-    return [float(user[0]), *(x - 2 * math.pi if x > math.pi else x + 0.0 for x in wrapped)]
+    return [float(rig.theta[0]), *(x - 2 * math.pi if x > math.pi else x + 0.0 for x in wrapped)]
 
 
 def scene_text(rig: Scene, design: Design) -> str:
