@@ -196,3 +196,25 @@ def test_replay_over_a_csv_is_stepping_by_hand(tmp_path) -> None:
     assert np.array_equal(got.y, ys)
     with pytest.raises(EstimationError, match=r"no column .nope."):
         replay(SteadyStateKalman(k), path, measured=["y_theta0", "nope"])
+
+
+@pytest.mark.parametrize("bad", ["y", "u"])
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf, "x"])
+def test_a_reading_that_is_not_a_number_is_refused_and_the_filter_goes_on(bad: str, value: object) -> None:
+    """A non-finite (or non-numeric) measurement or input: an EstimationError, and the filter stays
+    at the sample before, as docs/estimation.md says (the EKF took the NaN and failed on every
+    sample after; the steady-state filter returned NaN without a word). Its next good sample equals
+    that of a twin that never saw the bad one."""
+    rng = np.random.default_rng(3)
+    samples = [(rng.normal(0, 0.05, 2), float(rng.normal())) for _ in range(6)]
+    for make in (
+        lambda: ExtendedKalman(QUBE, 1e-3, 1e-6 * np.eye(4), 1e-6),
+        lambda: SteadyStateKalman(ipgen.kalman(QUBE, 1e-3, 1e-6 * np.eye(4), 1e-6)),
+    ):
+        filtered, twin = make(), make()
+        for k, (y, u) in enumerate(samples):
+            if k == 3:
+                wrong = ([value, y[1]], u) if bad == "y" else (y, value)
+                with pytest.raises(EstimationError, match=r"not finite|expected"):
+                    filtered.step(*wrong)
+            assert np.array_equal(filtered.step(y, u), twin.step(y, u))

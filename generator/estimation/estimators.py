@@ -37,6 +37,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from ipgen.common.loop_runtime import FIELD, EkfFilter, KalmanFilter, Measurement, address, ekf_work, library
+from ipgen.common.safetext import abbreviate
 from ipgen.estimation.checks import covariance_matrix, measured_indices, sampling_period
 from ipgen.estimation.covariance import NOISE_CEILING, NOISE_MARGIN, RN_FLOOR
 from ipgen.estimation.kalman import Kalman
@@ -67,13 +68,31 @@ class Estimator(ABC):
     def _measurement(self, y: Any) -> np.ndarray:
         import numpy as np
 
-        values = np.asarray(y, dtype=float).reshape(-1)
+        try:
+            values = np.asarray(y, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            raise EstimationError(
+                f"y = {abbreviate(repr(y))}: expected numbers, one per measured coordinate"
+            ) from None
         if values.size != len(self.measured):
             raise EstimationError(
                 f"y has {values.size} entries, expected {len(self.measured)} "
                 f"(measured = {list(self.measured)})"
             )
+        if not np.isfinite(values).all():  # refused before the filter sees it: it stays as it was
+            raise EstimationError(f"y = {abbreviate(repr(y))} is not finite: an encoder's reading failed?")
         return values
+
+
+def _input(u: Any) -> float:
+    """ū_{k−1} as a finite float, or the EstimationError saying so (the filter is left as it was)."""
+    try:
+        value = float(u)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not math.isfinite(value):
+        raise EstimationError(f"u = {abbreviate(repr(u))}: expected a finite number (the input held)")
+    return value
 
 
 def _doubles(values: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -309,9 +328,10 @@ class SteadyStateKalman(_Runtime):
         numpy.ndarray
             x̂_{k|k} (2·dof), a new array.
         """
+        held = _input(u)
         k = self._take(y)
         library().ipgen_loop_kalman_update(
-            ctypes.byref(self._filter), k, self._y_at, float(u), self._x_at, address(self._work)
+            ctypes.byref(self._filter), k, self._y_at, held, self._x_at, address(self._work)
         )
         return self._x.copy()
 
@@ -483,10 +503,11 @@ class ExtendedKalman(_Runtime):
         EstimationError
             The model failed, or C P⁻ Cᵀ + Rn is not positive definite (the class's Notes).
         """
+        held = _input(u)
         k = self._take(y)
         self._failure = None
         code = library().ipgen_loop_ekf_update(
-            ctypes.byref(self._filter), k, self._y_at, float(u), self._x_at, address(self._p),
+            ctypes.byref(self._filter), k, self._y_at, held, self._x_at, address(self._p),
             address(self._work),
         )  # fmt: skip
         if code != 0:
