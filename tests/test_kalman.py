@@ -178,3 +178,18 @@ def test_a_pendulum_and_its_keywords_give_the_same_filter() -> None:
     b = ipgen.kalman(QUBE, 1e-3, 1e-6 * np.eye(4), 1e-6)
     for name in ("A", "B", "C", "L", "P", "M"):
         assert_close(getattr(a, name), getattr(b, name), 1e-12, name)
+
+
+@pytest.mark.parametrize("told", [False, True])
+@pytest.mark.parametrize("kind", ["kalman", "ekf"])
+def test_a_carts_position_encoder_counts_metres_whatever_the_sensors_say(kind: str, told: bool) -> None:
+    """The default Rn of a cart's position encoder: Δ = 1 / resolution [m], (Δ² / 12); of an
+    angle's, 2π / resolution. `design` takes the cart from the model (Sensors.of's `cart` left at
+    its default gave the cart a Δ 2π times too large: Rn 4π² ≈ 39.5 times)."""
+    ip02 = ipgen.Pendulum.preset("ip02_sip")
+    sensors = Sensors.of(2, resolution=[100000, 4096], cart=told)
+    rn = design(ip02, kind, 1e-3, sensors, u_scale=10.0).Rn
+    assert rn[0, 0] == pytest.approx((1 / 100000) ** 2 / 12, rel=1e-12)
+    assert rn[1, 1] == pytest.approx((2 * math.pi / 4096) ** 2 / 12, rel=1e-12)
+    arm = design(QUBE, kind, 1e-3, Sensors.of(2, resolution=[2048, 2048], cart=told), u_scale=10.0).Rn
+    assert arm[0, 0] == pytest.approx((2 * math.pi / 2048) ** 2 / 12, rel=1e-12)

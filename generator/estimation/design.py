@@ -9,6 +9,7 @@ gives the Python estimator of a design.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -93,6 +94,9 @@ def design(
     x_eq = equilibrium_of(model, equilibrium)
     if sensors.measured and max(sensors.measured) >= dof:
         raise EstimationError(f"measured: coordinate {max(sensors.measured)} does not exist (0..{dof - 1})")
+    cart = model.pendulum.system.type == "classical"
+    if sensors.cart != cart:  # a cart's position encoder counts metres, 1 / resolution a count, not 2π / it
+        sensors = dataclasses.replace(sensors, cart=cart)
     if cutoff is not None and kind != "filter":
         raise EstimationError(f'cutoff applies to kind "filter" only, not {kind!r}: remove it')
     if (process_noise is not None or measurement_noise is not None) and kind not in ("kalman", "ekf"):
