@@ -195,3 +195,38 @@ def test_nonlinear_closed_loop_returns_upright_from_a_tilt(type_: str, links: in
     # and the open loop falls: the test can fail
     zero = closed_loop(type_, links, np.zeros(2 * dof), x0, t_end=3.0)
     assert np.max(np.abs(zero[1:dof])) > 0.5
+
+
+ODD_WEIGHTS = [
+    "abc", b"1", None, {"a": 1}, [[1, 0], [0]], [1, "x", 1, 1], [math.nan] * 4, [1, 1], object(), 1j,
+]
+
+
+@pytest.mark.parametrize("which", ["Q", "R"])
+@pytest.mark.parametrize("value", ODD_WEIGHTS, ids=[f"odd{i}" for i in range(len(ODD_WEIGHTS))])
+def test_weights_of_any_type_are_a_control_error(which: str, value: object) -> None:
+    """ipgen.lqr's Q and R of any type: a ControlError (an ipgen.Error) naming the weight in one
+    line, as docs/control.md says (text or a ragged list raised numpy's ValueError)."""
+    qube = ipgen.Pendulum.preset("qube_servo2")
+    weights = {"Q": [1, 1, 1, 1], "R": 1.0} | {which: value}
+    with pytest.raises(ControlError) as error:
+        ipgen.lqr(qube, weights["Q"], weights["R"])
+    assert str(error.value).startswith(which) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("law", ["energy", "trajectory"])
+def test_the_swing_up_laws_refuse_a_rigs_coordinates(law: str) -> None:
+    """The swing-up laws and plans take ipgen's coordinates; a Pendulum in a rig's (QUBE's
+    counterclockwise) is refused in one line naming p.canonical() (it was taken as ipgen's: the
+    hold pushed the wrong way)."""
+    from ipgen.control.energy import energy_swingup
+    from ipgen.control.swingup import trajectory_swingup
+
+    direct = ipgen.Pendulum("rotary", 1, [0.095, 0.024], [0.085, 0.129], [5e-6, 1e-6])
+    rig = direct.replace(positive="counterclockwise")
+    with pytest.raises(ControlError, match=r"p\.canonical\(\)"):
+        if law == "energy":
+            energy_swingup(rig, u_max=0.05)
+        else:
+            trajectory_swingup(rig, duration=1.0, u_max=0.05)
+    assert energy_swingup(direct, u_max=0.05) is not None

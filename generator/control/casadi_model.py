@@ -128,8 +128,8 @@ def as_plant(system: Plant | Pendulum, what: str) -> Plant:
     ------
     ControlError
         A "dc_motor" Pendulum (a plan's u is a force or torque: plan on `p.folded()` with
-        u_max · `p.gain`; a scene's [swingup] does that and converts the law to volts), or
-        something else than a Plant or a Pendulum.
+        u_max · `p.gain`; a scene's [swingup] does that and converts the law to volts), one in a
+        rig's coordinates (plan on `p.canonical()`), or something else than a Plant or a Pendulum.
 
     Examples
     --------
@@ -143,6 +143,11 @@ def as_plant(system: Plant | Pendulum, what: str) -> Plant:
         raise ControlError(
             f"{what} plans a force or torque, this Pendulum is driven by a dc_motor: pass p.folded() "
             "and u_max times p.gain (volts times the force per volt)"
+        )
+    if isinstance(system, Pendulum) and not system.coordinates.is_canonical:
+        raise ControlError(  # its laws and plans take and give states in ipgen's coordinates
+            f"{what} works in ipgen's coordinates (absolute angles from upright, clockwise), this Pendulum "
+            "is in a rig's: pass p.canonical() and map states with p.coordinates (a scene's [swingup] does)"
         )
     if isinstance(system, Pendulum):
         return Plant(system)

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.actuator import Actuator
 from ipgen.model.links import resolve_links
@@ -621,7 +622,14 @@ def weights(
     """
     import numpy as np
 
-    q = np.asarray(Q, dtype=float)
+    try:
+        if np.asarray(Q).dtype.kind in "US":  # "1" and b"1" would convert: text is no weight
+            raise ValueError
+        q = np.asarray(Q, dtype=float)
+    except (TypeError, ValueError):  # text, a ragged list
+        raise ControlError(
+            f"{name} = {abbreviate(repr(Q))}: expected {size} diagonal weights or a {size} x {size} matrix"
+        ) from None
     if q.ndim == 1:
         if q.size != size:
             raise ControlError(f"{name} has {q.size} diagonal entries, expected {size} (2 · (links + 1))")
@@ -643,9 +651,14 @@ def weights(
     q = 0.5 * q + 0.5 * q.T
     if float(np.min(np.linalg.eigvalsh(q))) < -1e-12 * max(1.0, float(np.max(np.abs(q)))):
         raise ControlError(f"{name} must be positive semidefinite (an eigenvalue is negative)")
-    r = np.asarray(R, dtype=float).reshape(-1)
+    try:
+        if np.asarray(R).dtype.kind in "US":
+            raise ValueError
+        r = np.asarray(R, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        r = np.full(2, math.nan)  # refused below
     if r.size != 1 or not math.isfinite(float(r[0])) or float(r[0]) <= 0:
-        raise ControlError(f"R = {np.asarray(R).tolist()}: expected one number > 0 (the weight of u²)")
+        raise ControlError(f"R = {abbreviate(repr(R))}: expected one number > 0 (the weight of u²)")
     if not 1 / MAX_WEIGHT <= float(r[0]) <= MAX_WEIGHT:
         raise ControlError(
             f"R = {float(r[0]):g} is outside [{1 / MAX_WEIGHT:g}, {MAX_WEIGHT:g}]: only the ratio of Q to R "
