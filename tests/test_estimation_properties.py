@@ -141,3 +141,36 @@ def test_bad_pendulum(pendulum) -> None:
     with pytest.raises(EstimationError) as info:
         ipgen.kalman(pendulum, 1e-3, 1e-6, 1e-6)
     _one_line(info.value)
+
+
+ODD = st.one_of(
+    st.text(max_size=3), st.none(), st.integers(-3, 3), st.floats(allow_nan=True, allow_infinity=True),
+    st.lists(st.one_of(st.integers(-1, 3), st.text(max_size=1)), max_size=3), st.just(np.int64(1)),
+    st.just(b"1"), st.just({"a": 1}),
+)  # fmt: skip
+
+
+@settings(max_examples=120, deadline=None)
+@given(
+    where=st.sampled_from(
+        ["kalman.equilibrium", "kalman.measured", "filter.cutoff", "filter.dof", "difference.dof"]
+    ),
+    value=ODD,
+)
+def test_any_argument_of_an_estimator_is_taken_or_one_line(where: str, value: object) -> None:
+    """The estimators' and ipgen.kalman's arguments of any type: an ipgen.Error in one line, or
+    taken (text, None or a negative size raised numpy's or Python's ValueError / TypeError)."""
+    from ipgen.estimation import DerivativeFilter, Difference
+
+    qube = ipgen.Pendulum.preset("qube_servo2")
+    calls = {
+        "kalman.equilibrium": lambda: ipgen.kalman(qube, 1e-3, 1e-6 * np.eye(4), 1e-6, equilibrium=value),
+        "kalman.measured": lambda: ipgen.kalman(qube, 1e-3, 1e-6 * np.eye(4), 1e-6, measured=value),
+        "filter.cutoff": lambda: DerivativeFilter(1e-3, 2, value),
+        "filter.dof": lambda: DerivativeFilter(1e-3, value),
+        "difference.dof": lambda: Difference(1e-3, value),
+    }
+    try:
+        calls[where]()
+    except ipgen.Error as error:
+        assert "\n" not in str(error) and len(str(error)) < 300

@@ -25,6 +25,11 @@ def sampling_period(period: Any) -> float:
 
 def measured_indices(measured: Sequence[int] | None, dof: int) -> tuple[int, ...]:
     """The measured coordinates (default: every angle: all dof coordinates)."""
+    import numpy as np
+
+    listed = isinstance(measured, Sequence | np.ndarray) and not isinstance(measured, str | bytes)
+    if measured is not None and not listed:
+        raise EstimationError(f"measured = {measured!r}: expected a list of coordinate indices, e.g. [0, 1]")
     return Sensors.of(dof, measured).measured
 
 

@@ -186,6 +186,8 @@ class _Rates(_Runtime):
 
     def __init__(self, period: float, dof: int) -> None:
         self.period = sampling_period(period)
+        if isinstance(dof, bool) or not isinstance(dof, numbers.Integral) or not 1 <= dof <= 2**16:
+            raise EstimationError(f"dof = {abbreviate(repr(dof))}: expected a whole number >= 1")
         self.dof = int(dof)
         self.measured = tuple(range(self.dof))
 
@@ -247,7 +249,10 @@ class DerivativeFilter(_Rates):
 
     def __init__(self, period: float, dof: int, cutoff: float = 50.0) -> None:
         super().__init__(period, dof)
-        cutoff_ = float(cutoff)
+        try:
+            cutoff_ = math.nan if isinstance(cutoff, str | bytes) else float(cutoff)
+        except (TypeError, ValueError):
+            cutoff_ = math.nan
         if not (math.isfinite(cutoff_) and cutoff_ > 0):
             raise EstimationError(f"cutoff = {cutoff!r}: expected a frequency > 0 rad/s (e.g. 50)")
         problem = cutoff_problem(cutoff_, self.period)

@@ -11,6 +11,7 @@ cpp/include/ipgen_loop.h's ipgen_loop_quantise, called through ctypes (`ipgen.co
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -109,8 +110,9 @@ class Sensors:
         if not indices:
             raise EstimationError("measured: at least one coordinate must be measured")
         for i in indices:
-            if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < dof:
+            if isinstance(i, bool) or not isinstance(i, numbers.Integral) or not 0 <= i < dof:
                 raise EstimationError(f"measured: {i!r} is not a coordinate index 0..{dof - 1}")
+        indices = tuple(int(i) for i in indices)  # numpy's integers too
         if len(set(indices)) != len(indices) or list(indices) != sorted(indices):
             raise EstimationError(f"measured: {list(indices)} must be increasing without repeats")
         count = len(indices)

@@ -69,7 +69,10 @@ def equilibrium_of(model: VectorField, equilibrium: Sequence[float] | str | None
         except ControlError as exc:
             raise EstimationError(str(exc)) from None
         return frame_p @ x + frame_c
-    values = np.asarray(equilibrium, dtype=float).reshape(-1)
+    try:
+        values = np.asarray(equilibrium, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        values = np.full(1, np.nan)  # refused below
     if values.size == 2 * dof:
         if np.any(values[dof:] != 0):
             raise EstimationError("equilibrium: the rates (its last dof entries) must be zero")
