@@ -80,10 +80,15 @@ def required_compiler(
     """`chosen_compiler`, or `error` with one line naming what was tried and the Debian package."""
     found = chosen_compiler(variable, candidates)
     given = os.environ.get(variable)
-    if found is None and given:
+    if found is None and given and len(given.split()) > 1:  # "gcc -O2", "ccache gcc"
         raise error(
             f"${variable} = {given!r} is not a program on PATH: set {variable} to the compiler alone "
             f"(e.g. {variable}={candidates[0]}; its flags are ipgen's), or unset it"
+        )
+    if found is None and given:
+        raise error(
+            f"no {language} compiler found: ${variable} = {given!r} is not on PATH; install one (Debian: "
+            f"apt-get install {package}) or unset {variable}"
         )
     if found is None:
         tried = ", ".join((f"${variable}", *candidates))
