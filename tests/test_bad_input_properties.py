@@ -560,3 +560,25 @@ def test_scene_size_and_dotted_keys_refused_before_parsing(tmp_path: Path) -> No
     with pytest.raises(SceneError, match="more than a scene needs"):
         load_scene(big)
     _assert_quick(started, 1)
+
+
+@pytest.mark.parametrize("scene", ["scenes/cdip_pulse.toml", "scenes/rigs/dfki_c0.toml"])
+@pytest.mark.parametrize("api", [False, True])
+def test_class3_force_never_writes_over_the_scene_itself(tmp_path: Path, scene: str, api: bool) -> None:
+    """A scene named like the .cfg its generation writes (s.cfg into its own folder): refused in
+    one line even with --force, the scene unchanged, as `ipgen run` does (it was replaced by the
+    resolved scene: the user's input lost)."""
+    import ipgen
+
+    path = tmp_path / "s.cfg"
+    path.write_text((ROOT / scene).read_text())
+    before = path.read_bytes()
+    err = io.StringIO()
+    if api and "dfki" not in scene:
+        with pytest.raises(ipgen.Error, match="the scene file itself"):
+            ipgen.write_header(tmp_path, scene=path, force=True)
+    else:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+            assert run(["--scene", str(path), "-o", str(tmp_path), "--force"]) == 2
+        assert "the scene file itself" in err.getvalue() and err.getvalue().count("\n") == 1
+    assert path.read_bytes() == before

@@ -239,7 +239,7 @@ def generate_fixed_scene(
     plan = plan_fixed_scene(scene, directory, emit)
     files = _files(plan.request, plan.folder, plan.targets)
     files.append((plan.folder / f"{scene.stem}.cfg", plan.cfg))
-    return _write(plan.folder, files, force), plan.warnings
+    return _write(plan.folder, files, force, keep=(Path(scene),)), plan.warnings
 
 
 def generate_fixed(
@@ -255,11 +255,14 @@ def generate_fixed(
     return _write(folder, _files(request, folder, targets), force)
 
 
-def _write(folder: Path, files: list[tuple[Path, str | bytes]], force: bool) -> list[Written]:
-    """`files` written all or none (a folder this call made removed again on failure)."""
+def _write(
+    folder: Path, files: list[tuple[Path, str | bytes]], force: bool, keep: tuple[Path, ...] = ()
+) -> list[Written]:
+    """`files` written all or none (a folder this call made removed again on failure); `keep`:
+    the command's inputs, never written (a scene named like its .cfg), even with force."""
     created = prepare_directory(folder)
     try:
-        statuses = write_files(files, force)
+        statuses = write_files(files, force, keep)
     except BaseException:
         if created:
             with contextlib.suppress(OSError):

@@ -75,6 +75,7 @@ def generate(
     swingup: SwingUpLaw | None = None,
     coordinates: Coordinates | None = None,
     estimator: PrintedEstimator | None = None,
+    keep: tuple[Path, ...] = (),
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
@@ -82,7 +83,8 @@ def generate(
     targets that print it; `parameters` (name, value) and `initial` (θ then θ̇), a scene's, to
     the targets that carry start values (the FMU); `swingup` (a scene's) to the C header;
     `coordinates` (default ipgen's) are those the headers' functions take and return;
-    `estimator` (a scene's sampled loop's) to the C header."""
+    `estimator` (a scene's sampled loop's) to the C header; `keep`: the command's inputs (its
+    scene), never written, even with force."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
     frame = coordinates if coordinates is not None else Coordinates()
@@ -106,7 +108,7 @@ def generate(
     report("writing")
     created = prepare_directory(directory)
     try:
-        statuses = write_files(files, force)
+        statuses = write_files(files, force, keep)
     except BaseException:
         if created:
             with contextlib.suppress(OSError):

@@ -265,6 +265,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         initial=initial,
         coordinates=job.coordinates,
         estimator=printed_estimator(job.scene) if job.scene is not None else None,
+        keep=(job.scene.path,) if job.scene is not None else (),
     )
 
 
