@@ -475,3 +475,19 @@ def test_a_scene_emits_its_fmu_with_its_values_as_start_values(tmp_path: Path) -
         assert fmu.get(["m1", "theta1", "dtheta1"]).tolist() == [0.3, 0.1, 0.0]
     finally:
         fmu.close()
+
+
+@pytest.mark.parametrize("kind", ["classical", "rotary"])
+def test_a_parameters_declared_min_is_its_rule(kind: str) -> None:
+    """An FMU declares min = 0 for the parameters that must be >= 0 or > 0 (m, l, J, delta, tip)
+    and none for a com, which may be negative (a counterweight: CoG beyond the pivot); a negative
+    com's start value sat below its declared min 0."""
+    from ipgen.codegen.fmu_variables import layout
+
+    table = layout(derive(System(kind, 2)), {"com1": -0.1})
+    parameters = {v.name: v for v in table.variables if v.kind == "parameter"}
+    assert parameters["com1"].start == -0.1 and parameters["com1"].minimum is None
+    for name, variable in parameters.items():
+        bounded = variable.rule in ("positive", "nonnegative")
+        assert (variable.minimum == "0") == bounded, name
+        assert not name.startswith("com") or not bounded, name

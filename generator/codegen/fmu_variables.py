@@ -43,7 +43,7 @@ class Variable:
     c_value: str = ""  # C expression of the value, in the model struct `m`
     rule: str = ""  # parameters: "positive" (> 0), "nonnegative" (>= 0), "finite", "nonzero"
     kind: str = ""  # time | q | qd | qdd | u | energy | parameter
-    minimum: str | None = "0"  # a parameter's declared min (None: none); the cart's and the arm's: "0"
+    minimum: str | None = "0"  # a parameter's declared min (None: none, e.g. a com, which may be negative)
 
 
 @dataclass(frozen=True)
@@ -237,6 +237,7 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
     given = {**paper, **start}  # the masses and lengths the rod defaults are computed from
     for name in model_parameters(eqs):
         value = start.get(name, default_start(system, name, given))
+        rule = _rule(system, name)
         variables.append(
             Variable(
                 vr,
@@ -247,8 +248,9 @@ def layout(eqs: Equations, start: dict[str, float], initial: tuple[float, ...] =
                 "exact",
                 float(value),
                 c_value=c_field(name),
-                rule=_rule(system, name),
+                rule=rule,
                 kind="parameter",
+                minimum="0" if rule in ("positive", "nonnegative") else None,  # com: any finite number
             )
         )
         vr += 1
