@@ -582,3 +582,25 @@ def test_class3_force_never_writes_over_the_scene_itself(tmp_path: Path, scene: 
             assert run(["--scene", str(path), "-o", str(tmp_path), "--force"]) == 2
         assert "the scene file itself" in err.getvalue() and err.getvalue().count("\n") == 1
     assert path.read_bytes() == before
+
+
+@settings(max_examples=30, deadline=None)
+@given(exponent=st.integers(-(10**9), 10**9), digits=st.integers(1, 3000))
+def test_class2_an_exact_decimal_of_any_size_is_quick(exponent: int, digits: int) -> None:
+    """A Decimal parameter (the API's) or a scene's decimal made exact (Pendulum.from_scene(...,
+    exact=True)): taken, or one line, within a second of CPU (1e-99999999 as a Fraction took
+    minutes, 1e-999999999 never ended)."""
+    from decimal import Decimal
+
+    import ipgen
+
+    text = "1." + "7" * (digits - 1) + f"e{exponent}"
+    started = time.process_time()
+    with contextlib.suppress(ipgen.Error):
+        ipgen.Pendulum("rotary", 1, m=[0.5, 0.275], l=[0.6, 0.5], delta=[0.3, Decimal(text)])
+    with tempfile.TemporaryDirectory() as folder:
+        scene = Path(folder) / "s.toml"
+        scene.write_text((ROOT / "scenes" / "rsip_pulse.toml").read_text().replace("0.011458", text))
+        with contextlib.suppress(ipgen.Error):
+            ipgen.Pendulum.from_scene(scene, exact=True)
+    assert time.process_time() - started < 1.0

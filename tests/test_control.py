@@ -230,3 +230,11 @@ def test_the_swing_up_laws_refuse_a_rigs_coordinates(law: str) -> None:
         else:
             trajectory_swingup(rig, duration=1.0, u_max=0.05)
     assert energy_swingup(direct, u_max=0.05) is not None
+
+
+@pytest.mark.parametrize("u", ["1", b"1", "nan", None, [1.0]])
+def test_linearize_takes_a_number_for_u(u: object) -> None:
+    """u about which to linearise: a number; text is refused as the Pendulum refuses it ("1" was
+    read as 1)."""
+    with pytest.raises(ControlError, match="u must be a finite number"):
+        ipgen.linearize(ipgen.Pendulum.preset("qube_servo2"), u=u)

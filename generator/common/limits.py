@@ -41,6 +41,8 @@ Why these values:
 
 from __future__ import annotations
 
+from typing import Any
+
 MAX_SAMPLES = 10_000_000
 MAX_SIMULATED_LINKS = 40
 RTOL_MIN = 1e-15
@@ -63,6 +65,30 @@ MAX_SOFT_PENALTY = 1e6
 # An MPC's horizon and its iteration budgets at most (as a scene's [controller])
 MAX_MPC_HORIZON = 1000
 MAX_MPC_ITERATIONS = 1000
+
+
+# An exact rational of a decimal costs time and memory with its exponent (1e-99999999 as a
+# Fraction: minutes): what becomes one exactly stays within these.
+EXACT_MAX_EXPONENT = 400
+EXACT_MAX_DIGITS = 1000
+
+
+def exact_problem(value: Any) -> str | None:
+    """Why the decimal `value` (a Decimal or its text) is too large to be made an exact rational
+    cheaply, or None (also for what is no decimal: that is another check's)."""
+    from decimal import Decimal, InvalidOperation
+
+    try:
+        number = value if isinstance(value, Decimal) else Decimal(str(value).strip())
+    except (InvalidOperation, ValueError):
+        return None
+    if not number.is_finite() or number == 0:
+        return None
+    if abs(number.adjusted()) > EXACT_MAX_EXPONENT or len(number.as_tuple().digits) > EXACT_MAX_DIGITS:
+        return (
+            f"outside 1e-{EXACT_MAX_EXPONENT} .. 1e{EXACT_MAX_EXPONENT} or over {EXACT_MAX_DIGITS} digits"
+        )
+    return None
 
 
 def fold_problem(text: str) -> str | None:

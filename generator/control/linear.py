@@ -428,7 +428,7 @@ def _linearize_canonical(
     import numpy as np
 
     try:
-        u = float(u)  # type: ignore[arg-type]
+        u = math.nan if isinstance(u, str | bytes) else float(u)  # type: ignore[arg-type]
     except (TypeError, ValueError):
         u = math.nan
     if not math.isfinite(u):

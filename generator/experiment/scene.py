@@ -17,10 +17,13 @@ from pathlib import Path
 from typing import Any
 
 from ipgen.codegen.emit import DEFAULT_EMIT, unsupported
+from ipgen.common.limits import exact_problem
+from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control import signals
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
+from ipgen.errors import SceneError
 from ipgen.experiment import feedback
 from ipgen.experiment import loop as measuring
 from ipgen.experiment import swingup as swing
@@ -165,6 +168,9 @@ class Scene:
     def exact(self, name: str) -> Fraction:
         """A parameter by name as an exact rational of its decimal text (0.1 -> 1/10)."""
         text = dict(self.decimals).get(name)
+        too_large = exact_problem(text) if text is not None else None
+        if too_large:  # before the Fraction, which would take minutes
+            raise SceneError(f"{shown_path(self.path)}: parameter {name} = {abbreviate(text)}: {too_large}")
         return Fraction(text) if text is not None else Fraction(repr(self.value(name)))
 
     def link_values(self) -> dict[str, tuple[float, ...]]:

@@ -28,6 +28,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.limits import exact_problem
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT, Actuator, as_actuator, fold_base
@@ -52,6 +53,9 @@ def _number(name: str, value: object) -> Number:
     """`value` as a float, or as a Fraction if it is one (or an exact Decimal); finite."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
         return _fail(f"{name} = {abbreviate(repr(value))}: expected a number")
+    too_large = exact_problem(value) if isinstance(value, Decimal) else None
+    if too_large:  # 1e-99999999 as a Fraction takes minutes and memory: refused on its exponent first
+        return _fail(f"{name} = {abbreviate(str(value))}: {too_large}")
     try:
         if isinstance(value, Decimal):
             number: Number = Fraction(value)
