@@ -238,3 +238,18 @@ def test_linearize_takes_a_number_for_u(u: object) -> None:
     read as 1)."""
     with pytest.raises(ControlError, match="u must be a finite number"):
         ipgen.linearize(ipgen.Pendulum.preset("qube_servo2"), u=u)
+
+
+@pytest.mark.parametrize(
+    ("key", "value"),
+    [("accel_max", -1.0), ("accel_max", "5"), ("gain_energy", "x"), ("gain_position", math.nan),
+     ("gain_velocity", [1.0])],
+)  # fmt: skip
+def test_the_energy_laws_bad_numbers_name_their_key(key: str, value: object) -> None:
+    """A bad accel_max is named as such (its derived gain_energy was named), and text is no
+    number (gain_energy = "x" raised Python's ValueError)."""
+    from ipgen.control.energy import energy_swingup
+
+    rod = ipgen.Pendulum("rotary", 1, [0.095, 0.024], [0.085, 0.129], [5e-6, 1e-6])
+    with pytest.raises(Error, match=f"^{key} = "):
+        energy_swingup(rod, u_max=0.05, **{key: value})

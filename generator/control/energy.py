@@ -302,15 +302,16 @@ def energy_swingup(
             )
         a_max = force / inertia
     else:
-        a_max = float(accel_max)
+        a_max = finite_number("accel_max", accel_max)
     if depth == 0:  # g, m1 or l1 so small that m1 g l1 underflows
         raise PlanError(f"the link's potential energy m1 g l1 underflows to 0 (g = {g:g}): check g, m and l")
-    k_e = 10 * a_max / depth if gain_energy is None else float(gain_energy)
+    k_e = 10 * a_max / depth if gain_energy is None else finite_number("gain_energy", gain_energy)
     e0 = 0.0 if energy_target is None else finite_number("energy_target", energy_target)
     omega = 1.0
-    k_x = omega**2 if gain_position is None else float(gain_position)
-    k_v = 2 * omega if gain_velocity is None else float(gain_velocity)
-    gains = {"gain_energy": k_e, "gain_position": k_x, "gain_velocity": k_v, "accel_max": a_max}
+    k_x = omega**2 if gain_position is None else finite_number("gain_position", gain_position)
+    k_v = 2 * omega if gain_velocity is None else finite_number("gain_velocity", gain_velocity)
+    # accel_max first: gain_energy's default follows from it, and a message names what was given
+    gains = {"accel_max": a_max, "gain_energy": k_e, "gain_position": k_x, "gain_velocity": k_v}
     for name, value in gains.items():
         if not math.isfinite(value) or value < 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number >= 0")
