@@ -253,3 +253,11 @@ def test_the_energy_laws_bad_numbers_name_their_key(key: str, value: object) -> 
     rod = ipgen.Pendulum("rotary", 1, [0.095, 0.024], [0.085, 0.129], [5e-6, 1e-6])
     with pytest.raises(Error, match=f"^{key} = "):
         energy_swingup(rod, u_max=0.05, **{key: value})
+
+
+def test_an_equilibrium_in_a_rigs_coordinates_is_named_as_given() -> None:
+    """The QUBE counts counterclockwise: an equilibrium that is no rest is named as the user wrote
+    it (0.5; it was named as ipgen's -0.5), with the coordinates it was read in."""
+    with pytest.raises(ControlError) as error:
+        ipgen.lqr(ipgen.Pendulum.preset("qube_servo2"), [1, 1, 1, 1], 1, equilibrium=[0, 0.5])
+    assert "[0.0, 0.5]" in str(error.value) and "counterclockwise" in str(error.value)

@@ -829,7 +829,16 @@ def _lqr(
             [checked_vector("equilibrium", equilibrium, dof, "θ0 and one angle per link"), np.zeros(dof)]
         )
         equilibrium = list(convention.to_canonical(user, links)[:dof])
-    x_eq = equilibrium_state(links, equilibrium)
+        try:
+            x_eq = equilibrium_state(links, equilibrium)
+        except ControlError:  # named as the user wrote it (the canonical angle was named)
+            given = abbreviate(repr([float(v) for v in user[:dof]]))
+            raise ControlError(
+                f"equilibrium {given} (in the pendulum's coordinates: angles {convention.angles}, zero "
+                f"{convention.zero}, positive {convention.positive}) is no rest: each link upright or hanging"
+            ) from None
+    else:
+        x_eq = equilibrium_state(links, equilibrium)
     a, b = _linearize_canonical(p, x_eq[:dof], x_eq[dof:], 0.0, stacklevel=3)
     if not convention.is_canonical:
         matrix, _ = convention.matrices(links)
