@@ -568,3 +568,18 @@ def test_each_identifiability_finding_is_said_once() -> None:
         and "delta0" in stats["statements"][0]
         and "delta1" in stats["statements"][0]
     )
+
+
+def test_a_pendulum_and_a_csv_without_u_says_what_is_missing(tmp_path: Path) -> None:
+    """ipgen.identify of a Pendulum (no scene) and a CSV without a u column: one line saying that
+    u is missing and there is no input signal to compute it from (it spoke of the scene's input
+    being feedback, with no scene in sight)."""
+    import ipgen
+
+    t = np.arange(400) * 0.005
+    angles = (f"{a},{0.1 * math.sin(3 * a)},{math.pi + 0.05 * math.sin(5 * a)}" for a in t)
+    rows = ["t,theta0,theta1", *angles]
+    (tmp_path / "nou.csv").write_text("\n".join(rows) + "\n")
+    with pytest.raises(DataError, match="no u column, and no input signal") as error:
+        ipgen.identify(ipgen.Pendulum.preset("qube_servo2"), tmp_path / "nou.csv", ["delta1"])
+    assert "feedback:" not in str(error.value)

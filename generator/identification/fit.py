@@ -186,7 +186,8 @@ def _identify(
         u = np.asarray(input_fn(data.t), dtype=float)
     else:
         raise DataError(
-            f"{data.source}: no u column, and the scene's input is feedback: record u as a column"
+            f"{data.source}: no u column, and no input signal to compute it from (a scene's [input], "
+            "not feedback): record u as a column"
         )
     check_measurements(data, u)  # values the fit's squares take, a bounded resampling grid
     _check_excitation(data, u, free, setup)
