@@ -269,6 +269,20 @@ def test_two_models_run_on_one_compiled_simulator(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
 
 
+def library_of_another_abi(folder: Path) -> Path:
+    """A model library of ABI 99 (this ipgen reads 4), compiled into `folder`."""
+    _, include = simulator_sources()
+    source, library = folder / "abi.c", folder / "libabi.so"
+    source.write_text(
+        '#include "ipgen_model.h"\n'
+        'static const ipgen_model model = {99, "x", "rotary", "pivot", 1, 2, 1, 1};\n'
+        "const ipgen_model *ipgen_model_get(void) { return &model; }\n"
+    )
+    subprocess.run([c_compiler(), "-shared", "-fPIC", f"-I{include}", str(source), "-o", str(library)],
+                   check=True)  # fmt: skip
+    return library
+
+
 def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     """No such file, a shared object that is no model library, a library of another ABI, and
     none at all: exit status 2, one line naming the problem, no CSV."""
@@ -279,16 +293,7 @@ def test_a_bad_model_library_is_refused_in_one_line(tmp_path: Path) -> None:
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()):
         assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0
     program, _ = launcher_parts((tmp_path / "out" / "s.txt").read_text())
-    other_abi = tmp_path / "abi.c"
-    _, include = simulator_sources()
-    other_abi.write_text(
-        '#include "ipgen_model.h"\n'
-        'static const ipgen_model model = {99, "x", "rotary", "pivot", 1, 2, 1, 1};\n'
-        "const ipgen_model *ipgen_model_get(void) { return &model; }\n"
-    )
-    abi_library = tmp_path / "libabi.so"
-    subprocess.run([c_compiler(), "-shared", "-fPIC", f"-I{include}", str(other_abi), "-o", str(abi_library)],
-                   check=True)  # fmt: skip
+    abi_library = library_of_another_abi(tmp_path)
     not_a_model = next(path for path in LIBM if path.exists())
     cases = {
         str(tmp_path / "missing.so"): "cannot load the model library",
@@ -381,16 +386,7 @@ def test_the_mpc_refuses_a_model_library_of_another_abi(
     _, include = simulator_sources()
     header = (Path(include) / "ipgen_model.h").read_text()
     assert re.search(r"#define IPGEN_MODEL_ABI (\d+)", header).group(1) == str(mpc_module.MODEL_ABI)
-    source = tmp_path / "abi.c"
-    source.write_text(
-        '#include "ipgen_model.h"\n'
-        'static const ipgen_model model = {99, "x", "rotary", "pivot", 1, 2, 1, 1};\n'
-        "const ipgen_model *ipgen_model_get(void) { return &model; }\n"
-    )
-    library = tmp_path / "libabi.so"
-    subprocess.run([c_compiler(), "-shared", "-fPIC", f"-I{include}", str(source), "-o", str(library)],
-                   check=True)  # fmt: skip
-    loaded = ctypes.CDLL(str(library))
+    loaded = ctypes.CDLL(str(library_of_another_abi(tmp_path)))
     loaded.ipgen_model_get.restype = ctypes.c_void_p
     monkeypatch.setattr(mpc_module, "model_library", lambda pendulum: loaded)
     with pytest.raises(mpc_module.MpcError, match=r"built for model ABI 99, this ipgen reads 4"):
