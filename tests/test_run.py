@@ -33,6 +33,7 @@ from run_summary import simulator_of, was_built
 from scipy.integrate import solve_ivp
 
 from ipgen.command.cli import run
+from ipgen.common.presets import preset_path
 from ipgen.pipeline.simulator import SIMULATOR_VARIABLE
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -209,6 +210,57 @@ def test_run_reports_a_diverging_closed_loop(tmp_path: Path, cache: dict[str, st
     assert "the closed loop diverged at t = " in result.stderr
     assert "ipgen: the simulation ended with exit status 3" in result.stderr
     assert (tmp_path / "out" / "cdip_diverges.csv").is_file()  # the run up to the divergence
+
+
+FALLING = {
+    "fixed LQR": (
+        '[system]\ntype = "fixed"\nlinks = 2\n[parameters]\nm = [0.5, 0.6]\nl = [0.2, 0.3]\n'
+        "delta = [0.0, 0.0]\n[actuator]\njoints = [1]\n[initial]\ntheta = [0.5, 0.3]\n"
+        '[controller]\nkind = "lqr"\nsaturation = 0.5\n[simulation]\nt_end = 5.0\n',
+        "link 1 is 1.5\\d* rad from the controller's equilibrium \\(theta0 = 0\\)",
+    ),
+    "MPC": (
+        '[system]\ntype = "classical"\nlinks = 1\n[parameters]\nm = [0.5, 0.2]\nl = [0, 0.4]\n'
+        "delta = [0.1, 0.001]\n[initial]\ntheta = [0, 1.0]\n"
+        '[controller]\nkind = "mpc"\nu_max = 0.5\nperiod = 0.02\nhorizon = 20\n[simulation]\nt_end = 3.0\n',
+        "link 1 is 1.6\\d* rad from the MPC's reference \\(theta1 = 0\\)",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(FALLING))
+def test_a_fixed_chains_and_an_mpcs_falling_loop_is_stopped(
+    tmp_path: Path, cache: dict[str, str], case: str
+) -> None:
+    """A fixed chain's LQR (link 1 is its coordinate 0) and a cart's MPC, each too weak to hold
+    its start: stopped at --divergence-angle with exit 3, naming the link (they ran on, spinning,
+    and exited 0: only a cart's or arm's LQR was watched)."""
+    require_toolchain()
+    text, named = FALLING[case]
+    scene = tmp_path / "falls.toml"
+    scene.write_text(text)
+    result = ipgen_command("run", str(scene), "-o", str(tmp_path / "out"), "--no-plot", env=cache)
+    assert result.returncode == 3, result.stderr
+    assert re.search(named, result.stderr), result.stderr
+
+
+def test_a_fixed_swing_up_watches_link_1(tmp_path: Path, cache: dict[str, str]) -> None:
+    """The pendubot's plan tracked from link 1 off by 0.3 rad and link 2 by 0.3 rad: the lost
+    plan is seen on link 1, the shoulder (coordinate 0 on a fixed pivot; it was skipped and the
+    run exited 0)."""
+    require_toolchain()
+    source = preset_path("pendubot_swingup")
+    (tmp_path / source.name).write_text(
+        source.read_text().replace("theta = [0.0, 0.0]", "theta = [0.3, -0.25]")
+    )
+    plan = source.with_name("pendubot_swingup.plan.csv")
+    (tmp_path / plan.name).write_text(plan.read_text())
+    out = str(tmp_path / "out")
+    result = ipgen_command(
+        "run", str(tmp_path / source.name), "-o", out, "--no-plot", "--divergence-angle", "0.05", env=cache
+    )  # fmt: skip
+    assert result.returncode == 5, result.stderr
+    assert "link 1 is 0.3 rad from the planned angle" in result.stderr
 
 
 LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og")  # what IPGEN_SIM_OPT takes

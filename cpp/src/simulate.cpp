@@ -743,16 +743,22 @@ void print_summary(const Options& options, const ipsim::scene::Scene<Model>& sce
 
 /// The one-line report of a closed loop stopped because it left the controller's region: when,
 /// which link, where the CSV is, and what to change in the scene.
-std::string divergence_message(const ipsim::Divergence& d, double angle, const ipsim::LinearFeedback& controller,
-                               const Options& options, std::size_t rows, const ipsim::Coordinates& coordinates) {
-  char where[200];
+std::string divergence_message(const ipsim::Divergence& d, double angle, const Eigen::VectorXd& goal,
+                               const ipsim::LinearFeedback* controller, const Options& options, std::size_t rows,
+                               const ipsim::Coordinates& coordinates, int first_link) {
+  // `controller`: the linear law whose equilibrium `goal` is (a cart's or arm's, a fixed chain's
+  // first row); null for an MPC, whose reference it is
+  const int coordinate = d.link - 1 + first_link;
+  char where[240];
   std::snprintf(where, sizeof where,
-                "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the controller's equilibrium "
-                "(theta%d = %.4g), beyond --divergence-angle %.4g rad",
-                d.t, d.link, d.deviation, d.link, coordinates.to_user(controller.equilibrium)(d.link), angle);
+                "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the %s (theta%d = %.4g), beyond "
+                "--divergence-angle %.4g rad",
+                d.t, d.link, d.deviation, controller ? "controller's equilibrium" : "MPC's reference", coordinate,
+                coordinates.to_user(goal)(coordinate), angle);
   std::string fixes = "a smaller initial tilt ([initial] theta), other weights ([controller] q, r)";
-  if (controller.period > 0.0) fixes += ", a shorter [controller] period";
-  if (std::isfinite(controller.saturation)) fixes += ", a larger [controller] saturation";
+  if (controller && controller->period > 0.0) fixes += ", a shorter [controller] period";
+  if (controller && std::isfinite(controller->saturation)) fixes += ", a larger [controller] saturation";
+  if (!controller) fixes += ", a longer [controller] horizon, a larger [controller] u_max";
   return std::string(where) + "; stopped there, the " + std::to_string(rows) + " samples up to then are in " +
          shown_path(options.csv_path) + ". Try " + fixes +
          ", or a swing-up that brings the pendulum near the equilibrium first";
@@ -810,18 +816,28 @@ int run(int argc, char** argv) {
     const std::shared_ptr<const ipsim::MeasuredLoop<Model>> loop = scene.loop;
     rows.extra_columns(loop->column_names(), [loop] { return loop->column_values(); });
   }
+  const int first_link = scene.coordinates.base;  // link 1's coordinate: 0 on a fixed pivot
   std::optional<ipsim::SwingUpMonitor> swing_monitor;
   if (scene.swingup) {
     const std::shared_ptr<const ipsim::SwingUp::State> state = scene.swingup_state;
     rows.phase_column([state] { return ipsim::to_string(state->phase); });
-    swing_monitor.emplace(rows, state, dof(), scene.swingup->hold, options.divergence_angle);
+    swing_monitor.emplace(rows, state, dof(), scene.swingup->hold, options.divergence_angle, first_link);
+  }
+  // The goal a closed loop holds (in ipgen's coordinates): the controller's equilibrium, a fixed
+  // chain's, or the MPC's reference; a swing-up's hold is watched by its own monitor above.
+  std::optional<Eigen::VectorXd> goal;
+  if (scene.controller) goal = scene.controller->equilibrium;
+  else if (!scene.fixed_controllers.empty()) goal = scene.fixed_controllers.front().equilibrium;
+  else if (scene.mpc && !scene.swingup) {
+    const std::vector<double>& reference = scene.mpc->problem().reference;
+    goal = Eigen::Map<const Eigen::VectorXd>(reference.data(), static_cast<Eigen::Index>(reference.size()));
   }
   std::optional<ipsim::DivergenceMonitor> monitor;
-  if (scene.controller && std::isfinite(options.divergence_angle)) {
-    monitor.emplace(rows, scene.controller->equilibrium, dof(), options.divergence_angle);
+  if (goal && std::isfinite(options.divergence_angle)) {
+    monitor.emplace(rows, *goal, dof(), options.divergence_angle, first_link);
     Eigen::VectorXd start(2 * dof());
     start << s.theta, s.dtheta;
-    if (const auto [link, deviation] = ipsim::farthest_link(start, scene.controller->equilibrium, dof());
+    if (const auto [link, deviation] = ipsim::farthest_link(start, *goal, dof(), first_link);
         deviation > options.divergence_angle) {
       std::fprintf(stderr,
                    "simulate: warning: the initial state is outside the controller's region: link %d is %.4g rad "
@@ -855,8 +871,11 @@ int run(int argc, char** argv) {
   if (monitor && monitor->divergence()) {
     std::fflush(stdout);
     std::fprintf(stderr, "simulate: error: %s\n",
-                 divergence_message(*monitor->divergence(), monitor->angle(), *scene.controller, options, rows.rows(),
-                                    scene.coordinates)
+                 divergence_message(*monitor->divergence(), monitor->angle(), *goal,
+                                    scene.controller ? &*scene.controller
+                                    : scene.fixed_controllers.empty() ? nullptr
+                                                                      : &scene.fixed_controllers.front(),
+                                    options, rows.rows(), scene.coordinates, first_link)
                      .c_str());
     return kExitDiverged;
   }

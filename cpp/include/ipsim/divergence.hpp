@@ -1,7 +1,7 @@
 // DivergenceMonitor: stops a closed-loop run once the state has left the region where a linear
 // controller (LinearFeedback) can hold it.
 //
-// The criterion: a link angle θi (i = 1..n, not the cart or arm θ0) more than `angle` (default
+// The criterion: a link angle θi (every link, not the cart or arm θ0) more than `angle` (default
 // π/2) from the controller's equilibrium x_eq, i.e. for the upright equilibrium a link below the
 // horizontal. There the linearisation the gain was computed from has lost its meaning (cos θi
 // changed sign), and a link that gets there under LQR falls: the cart or arm then runs away
@@ -30,14 +30,15 @@ struct Divergence {
   double deviation = 0.0;  ///< |θi − x_eq,i| [rad]
 };
 
-/// The link angle farthest from `equilibrium` in state x (size 2·dof, links 1..dof−1), and its
-/// distance |θi − x_eq,i| [rad]; {0, 0} for dof 1.
+/// The link angle farthest from `equilibrium` in state x (size 2·dof; the links are coordinates
+/// first..dof−1: first = 1 behind a cart or arm, 0 on a fixed pivot), as (its link number 1..n,
+/// its distance |θi − x_eq,i| [rad]); {0, 0} without a link.
 inline std::pair<int, double> farthest_link(const Eigen::Ref<const Eigen::VectorXd>& x,
-                                            const Eigen::VectorXd& equilibrium, int dof) {
+                                            const Eigen::VectorXd& equilibrium, int dof, int first = 1) {
   std::pair<int, double> worst{0, 0.0};
-  for (int i = 1; i < dof; ++i) {
+  for (int i = first; i < dof; ++i) {
     const double deviation = std::abs(x(i) - equilibrium(i));
-    if (deviation > worst.second) worst = {i, deviation};
+    if (deviation > worst.second) worst = {i - first + 1, deviation};
   }
   return worst;
 }
@@ -51,8 +52,9 @@ class DivergenceMonitor : public SampleSink {
   /// \param equilibrium x_eq of the controller (2·dof entries)
   /// \param dof         kDof of the model (links + 1)
   /// \param angle       the region's half-width [rad], > 0; infinity: never stop
-  DivergenceMonitor(SampleSink& inner, Eigen::VectorXd equilibrium, int dof, double angle = kHalfPi)
-      : inner_(inner), equilibrium_(std::move(equilibrium)), dof_(dof), angle_(angle) {}
+  /// \param first       the first link's coordinate (1 behind a cart or arm, 0 on a fixed pivot)
+  DivergenceMonitor(SampleSink& inner, Eigen::VectorXd equilibrium, int dof, double angle = kHalfPi, int first = 1)
+      : inner_(inner), equilibrium_(std::move(equilibrium)), dof_(dof), angle_(angle), first_(first) {}
 
   static constexpr double kHalfPi = 1.57079632679489661923;
 
@@ -62,7 +64,7 @@ class DivergenceMonitor : public SampleSink {
 
   bool record(const Sample& sample) override {
     const bool more = inner_.record(sample);
-    const auto [link, deviation] = farthest_link(sample.x(), equilibrium_, dof_);
+    const auto [link, deviation] = farthest_link(sample.x(), equilibrium_, dof_, first_);
     if (deviation <= angle_) {
       armed_ = true;
     } else if (armed_) {
@@ -82,6 +84,7 @@ class DivergenceMonitor : public SampleSink {
   Eigen::VectorXd equilibrium_;
   int dof_;
   double angle_;
+  int first_;
   bool armed_ = false;
   std::optional<Divergence> divergence_;
 };

@@ -227,6 +227,7 @@ void load_swingup(const SceneFile& file, Scene<Model>& scene, const std::string&
   if (scene.controller) file.fail(file.line("swingup"), "a swing-up has its own controller: remove `controller`");
   const Eigen::Index size = 2 * dof_of<Model>();
   SwingUp sw;
+  sw.first_link = scene.coordinates.base;  // 0 on a fixed pivot: link 1 is coordinate 0
   sw.acceleration = scene.settings.acceleration;
   sw.method = method == "energy" ? SwingUp::Method::energy : SwingUp::Method::trajectory;
   sw.u_max = file.number("swingup.u_max");

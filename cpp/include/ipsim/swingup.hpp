@@ -60,6 +60,7 @@ struct SwingUp {
   enum class Method { energy, trajectory };
   Method method = Method::energy;
   double u_max = 0.0;   ///< |u| ≤ u_max [N or N m]
+  int first_link = 1;   ///< link 1's coordinate: 1 behind a cart or arm, 0 on a fixed pivot
   /// The energy law's force (the design model's) per force the plant gets for the same volts: the
   /// design's force per volt over the plant's (1 unless a sweep's run changed the motor).
   double law_gain = 1.0;
@@ -141,11 +142,11 @@ struct SwingUp {
     const long k = std::lround(t / period);
     if (state.phase == SwingPhase::track && k < inputs.size()) {  // how far the links are from the plan
       state.off_plan = 0.0;
-      for (int i = 1; i < n; ++i) {
+      for (int i = first_link; i < n; ++i) {  // every link (a fixed chain's first too), not a base
         const double off = std::abs(x(i) - states(k, i));
         if (!(off <= state.off_plan)) {  // NaN counts as off
           state.off_plan = off;
-          state.off_plan_link = i;
+          state.off_plan_link = i - first_link + 1;
         }
       }
     }
@@ -278,8 +279,8 @@ struct LostPlan {
 class SwingUpMonitor : public SampleSink {
  public:
   SwingUpMonitor(SampleSink& inner, std::shared_ptr<const SwingUp::State> state, int dof, double hold,
-                 double angle = DivergenceMonitor::kHalfPi)
-      : inner_(inner), state_(std::move(state)), dof_(dof), hold_(hold), angle_(angle) {}
+                 double angle = DivergenceMonitor::kHalfPi, int first = 1)
+      : inner_(inner), state_(std::move(state)), dof_(dof), hold_(hold), angle_(angle), first_(first) {}
 
   void begin(std::size_t samples, int state_size, bool energy_ledger) override {
     inner_.begin(samples, state_size, energy_ledger);
@@ -295,7 +296,7 @@ class SwingUpMonitor : public SampleSink {
       return more;
     }
     if (state_->phase != SwingPhase::hold) return more;
-    const auto [link, deviation] = farthest_link(sample.x(), state_->equilibrium, dof_);
+    const auto [link, deviation] = farthest_link(sample.x(), state_->equilibrium, dof_, first_);
     if (deviation > angle_) {
       divergence_ = Divergence{sample.t, link, deviation};
       return false;
@@ -318,6 +319,7 @@ class SwingUpMonitor : public SampleSink {
   std::shared_ptr<const SwingUp::State> state_;
   int dof_;
   double hold_, angle_;
+  int first_;
   bool finished_ = false;
   std::optional<Divergence> divergence_;
   std::optional<LostPlan> lost_;
