@@ -704,3 +704,16 @@ def test_run_simulates_links_as_built_like_an_independent_model(
 
     as_rods = solve_ivp(f_rod, (0.0, 1.0), x0, method="DOP853", rtol=1e-9, atol=1e-10).y[:, -1]
     assert not np.allclose(data[-1, 1:], as_rods, atol=1e-3)
+
+
+def test_a_simulator_ended_by_a_signal_has_the_shells_status_and_the_signals_name() -> None:
+    """A simulator killed by signal n (a file size limit, a crash) ends ipgen run with 128 + n, as
+    a shell reports it, and the summary names the signal (it said "exit status -25: no message")."""
+    import signal
+
+    from ipgen.pipeline.run import _status
+
+    assert _status(0) == (0, "") and _status(3) == (3, "")
+    status, named = _status(-int(signal.SIGXFSZ))
+    assert status == 128 + int(signal.SIGXFSZ) and named.startswith(" (ended by SIGXFSZ")
+    assert _status(-int(signal.SIGSEGV))[1].startswith(" (ended by SIGSEGV")

@@ -18,6 +18,7 @@ simulator wrote a CSV).
 from __future__ import annotations
 
 import re
+import signal
 import subprocess
 import tempfile
 import time
@@ -161,6 +162,7 @@ def _run_scene(
     start = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True)
     seconds = time.perf_counter() - start
+    status, ended_by = _status(done.returncode)
     files = [paths["cfg"]]
     report = " ".join(done.stdout.split())
     unplotted = ""
@@ -171,8 +173,8 @@ def _run_scene(
 
         links = f"{plan.links} link{'s' if plan.links > 1 else ''}"
         title = f"{stem}: {plan.type} pendulum, {links} (model {name})"
-        if done.returncode != 0:
-            title += f"; the run ended with status {done.returncode}"
+        if status != 0:
+            title += f"; the run ended with status {status}{ended_by}"
         try:
             plot_run(
                 read_run(paths["csv"], fixed=plan.type == "fixed"),
@@ -191,9 +193,9 @@ def _run_scene(
         f"built in {simulator.seconds:.1f} s" if simulator.built else "taken from the cache, not compiled"
     )
     parts = [report] if report else []
-    if done.returncode != 0:
+    if status != 0:
         problem = " ".join(done.stderr.split()) or "no message"
-        parts.append(f"The simulator stopped with exit status {done.returncode}: {problem}")
+        parts.append(f"The simulator stopped with exit status {status}{ended_by}: {problem}")
     if unplotted:
         parts.append(unplotted)
     parts.append(f"Simulator {simulator.path} ({origin}).")
@@ -212,7 +214,22 @@ def _run_scene(
         force=True,
     )
     files.append(paths["txt"])
-    return Outcome(done.returncode, files, simulator, summary, done.stderr, seconds)
+    messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by.strip(" ()")) if part)
+    return Outcome(status, files, simulator, summary, messages, seconds)
+
+
+def _status(returncode: int) -> tuple[int, str]:
+    """A simulator's exit status as a shell reports it (ended by signal n: 128 + n), and the
+    signal named (" (ended by SIGXFSZ: ...)") or ""."""
+    if returncode >= 0:
+        return returncode, ""
+    number = -returncode
+    try:
+        name = signal.Signals(number).name
+        why = signal.strsignal(number) or ""
+    except ValueError:
+        name, why = f"signal {number}", ""
+    return 128 + number, f" (ended by {name}{': ' + why if why else ''})"
 
 
 def _paths(stem: str, out: Path, plot: bool) -> dict[str, Path]:
