@@ -259,6 +259,11 @@ def test_the_csv_is_in_the_rig_s_coordinates(tmp_path: Path) -> None:
     assert _csv_coordinates(alone, None, None, None).is_canonical
     assert _csv_coordinates(alone, "relative", "hanging", "counterclockwise") == RIG
     assert _csv_coordinates(tmp_path / "out" / "rig.csv", None, None, None) == RIG
+    # one option restated or changed: the .cfg's others stay (they were reset to ipgen's)
+    assert _csv_coordinates(tmp_path / "out" / "rig.csv", None, RIG.zero, None) == RIG
+    assert _csv_coordinates(tmp_path / "out" / "rig.csv", "absolute", None, None) == Coordinates(
+        "absolute", RIG.zero, RIG.positive
+    )
     assert run(["plot", str(alone), "--angles", "relative", "--zero", "hanging"]) == 0
     assert alone.with_suffix(".png").is_file()
     assert run(["plot", str(alone), "--zero", "sideways", "--force"]) == 2

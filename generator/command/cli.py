@@ -521,12 +521,16 @@ def _coordinate_options(command: Callable[..., None]) -> Callable[..., None]:
 
 
 def _csv_coordinates(csv: Path, angles: str | None, zero: str | None, positive: str | None) -> Coordinates:
-    """The options' convention when any is given (the others ipgen's), else the .cfg's beside the CSV."""
+    """The .cfg's convention beside the CSV (else ipgen's), with each option given in its place (one
+    option alone reset the other two to ipgen's: a QUBE run drawn mirrored)."""
+    import dataclasses
+
     from ipgen.plots.run import coordinates_beside
 
-    if any(value is not None for value in (angles, zero, positive)):
-        return job.check_coordinates(angles, zero, positive)
-    return coordinates_beside(csv)
+    checked = job.check_coordinates(angles, zero, positive)  # the options' values checked
+    given = {name: getattr(checked, name) for name, value in
+             (("angles", angles), ("zero", zero), ("positive", positive)) if value is not None}  # fmt: skip
+    return dataclasses.replace(coordinates_beside(csv), **given)
 
 
 def _not_the_input(target: Path, csv: Path) -> Path:
