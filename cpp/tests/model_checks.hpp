@@ -193,7 +193,8 @@ void check_settings_validation() {
   const double inf = std::numeric_limits<double>::infinity();
   expect([](auto& s) { s.rtol = 0; }, "invalid setting rtol = 0: must be finite and > 0");
   expect([](auto& s) { s.rtol = -1e-6; }, "invalid setting rtol = -1e-06");
-  expect([](auto& s) { s.atol = -1; }, "invalid setting atol = -1: must be finite and >= 0");
+  expect([](auto& s) { s.atol = -1; }, "invalid setting atol = -1: must be finite and > 0");
+  expect([](auto& s) { s.atol = 0; }, "invalid setting atol = 0: must be finite and > 0");  // CVODE: ewt infinite
   expect([](auto& s) { s.t_end = 0; }, "invalid setting t_end = 0: must be finite and > 0");
   expect([](auto& s) { s.sample = 0; }, "invalid setting sample = 0: must be finite and > 0");
   expect([](auto& s) { s.sample = 1e-12; }, "exceeds 10000000 output samples");

@@ -537,7 +537,7 @@ class SimulationTable(Table):
         description="relative tolerance (every method but rk4)",
         json_schema_extra={"minimum": RTOL_MIN},
     )
-    atol: Real(ge=0, says="must be >= 0") = Field(
+    atol: Real(gt=0, says="must be > 0 (0 makes the error weight of a state that is 0 infinite)") = Field(
         _exact(DEFAULT_ATOL), description="absolute tolerance (every method but rk4)"
     )
     step: Any = Field(  # checked by method (`method_settings`)

@@ -186,7 +186,7 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // sample
     {0.0, true, kInf, false, false},  // step
     {1e-15, false, 1.0, true, false},  // rtol
-    {0.0, false, kInf, false, false},  // atol
+    {0.0, true, kInf, false, false},  // atol
     {1.0, false, kInf, false, true},  // max_steps
     {0.0, true, kInf, false, false},  // controller.saturation
     {0.0, true, kInf, false, false},  // controller.period
@@ -244,7 +244,7 @@ inline constexpr Rule kRules[] = {
     {"sample", "[simulation] sample", "> 0", 10, 1},
     {"step", "[simulation] step", "> 0", 11, 1},
     {"rtol", "[simulation] rtol", ">= 1e-15 and < 1", 12, 1},
-    {"atol", "[simulation] atol", ">= 0", 13, 1},
+    {"atol", "[simulation] atol", "> 0", 13, 1},
     {"max_steps", "[simulation] max_steps", "a whole number >= 1", 14, 1},
     {"controller.saturation", "[controller] saturation", "> 0", 15, 1},
     {"controller.period", "[controller] period", "> 0", 16, 1},

@@ -252,7 +252,7 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
   } else if (!(settings.rtol >= kRtolMin && settings.rtol < 1.0)) {  // limits.hpp, shared with ipgen
     report("rtol", settings.rtol, "must be >= 1e-15 (double precision cannot meet less) and < 1");
   }
-  if (!(std::isfinite(settings.atol) && settings.atol >= 0.0)) report("atol", settings.atol, "must be finite and >= 0");
+  if (!(std::isfinite(settings.atol) && settings.atol > 0.0)) report("atol", settings.atol, "must be finite and > 0");
   if (!(std::isfinite(settings.t_end) && settings.t_end > 0.0)) report("t_end", settings.t_end, "must be finite and > 0");
   if (!(std::isfinite(settings.sample) && settings.sample > 0.0)) {
     report("sample", settings.sample, "must be finite and > 0");
