@@ -14,6 +14,7 @@ import math
 import os
 import re
 import shlex
+import signal
 import stat
 import subprocess
 import sys
@@ -717,3 +718,39 @@ def test_a_simulator_ended_by_a_signal_has_the_shells_status_and_the_signals_nam
     status, named = _status(-int(signal.SIGXFSZ))
     assert status == 128 + int(signal.SIGXFSZ) and named.startswith(" (ended by SIGXFSZ")
     assert _status(-int(signal.SIGSEGV))[1].startswith(" (ended by SIGSEGV")
+
+
+LONG = (
+    '[system]\ntype = "classical"\nlinks = 1\n[parameters]\nm = [0.5, 0.2]\nl = [0, 0.4]\n'
+    'delta = [0.1, 0.001]\n[initial]\ntheta = [0, 0.1]\n'
+    '[simulation]\nt_end = 20.0\nmethod = "rk4"\nstep = 1e-7\n'
+)
+
+
+@pytest.mark.parametrize(("sent", "status"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_an_interrupted_run_stops_its_simulator_and_says_what_it_wrote(
+    tmp_path: Path, cache: dict[str, str], sent: signal.Signals, status: int
+) -> None:
+    """SIGINT or SIGTERM to `ipgen run` alone (not its process group) while the simulator runs:
+    the simulator is stopped too and takes its scratch file with it, and the message names the
+    .cfg written before (SIGINT killed the simulator, which left its .simulate.* file, and said
+    "no file was written"; SIGTERM left the simulator running on alone)."""
+    require_toolchain()
+    scene = tmp_path / "long.toml"
+    scene.write_text(LONG)
+    out = tmp_path / "out"
+    with subprocess.Popen(
+        [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--no-plot"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, **cache},
+    ) as ipgen_process:  # fmt: skip
+        deadline = time.monotonic() + 60
+        while not list(out.glob(".simulate.*")) and time.monotonic() < deadline:
+            time.sleep(0.05)  # the simulator has started writing
+        assert list(out.glob(".simulate.*")), "the simulator never started"
+        ipgen_process.send_signal(sent)
+        _, err = ipgen_process.communicate(timeout=30)
+    assert ipgen_process.returncode == status, err
+    assert "the simulator was stopped" in err and "long.cfg" in err, err
+    assert not list(out.glob(".simulate.*")) and not (out / "long.csv").exists()
+    running = subprocess.run(["pgrep", "-f", f"{out}/long.cfg"], capture_output=True, text=True).stdout
+    assert not running.strip(), f"a simulator runs on: {running}"

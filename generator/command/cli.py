@@ -472,15 +472,24 @@ def run_command(
         raise job.OptionsError(
             "missing -o OUT: say where to write the results, e.g. ipgen run SCENE.toml -o out/"
         )
-    outcome = run_scene(
-        scene,
-        directory,
-        force=force,
-        cache=cache_dir,
-        announce=lambda line: click.echo(f"ipgen: {line}", err=True),
-        divergence_angle=divergence_angle,
-        plot=not no_plot,
-    )
+    from ipgen.command.interrupts import interrupted_status, sigterm_interrupts
+    from ipgen.pipeline.run import RunInterrupted
+
+    try:
+        with sigterm_interrupts():  # SIGTERM ends the simulator too, as Ctrl-C does
+            outcome = run_scene(
+                scene,
+                directory,
+                force=force,
+                cache=cache_dir,
+                announce=lambda line: click.echo(f"ipgen: {line}", err=True),
+                divergence_angle=divergence_angle,
+                plot=not no_plot,
+            )
+    except RunInterrupted as interrupt:
+        wrote = ", ".join(shown_path(path) for path in interrupt.written)
+        click.echo(f"ipgen: interrupted; the simulator was stopped, no CSV written; wrote {wrote}", err=True)
+        return interrupted_status(interrupt.cause)
     if outcome.simulator.built:
         click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)
     click.echo(f"wrote {', '.join(str(path) for path in outcome.files)}")
@@ -807,9 +816,11 @@ def run(argv: list[str] | None = None) -> int:
     except Error as e:  # ipgen.Error: the library's one-line message (job.py and what it calls)
         click.echo(f"ipgen: error: {_one_line(str(e))}", err=True)
         return EXIT_USAGE
-    except (KeyboardInterrupt, click.Abort):
+    except (KeyboardInterrupt, click.Abort) as interrupt:
+        from ipgen.command.interrupts import interrupted_status
+
         click.echo("ipgen: interrupted; no file was written", err=True)
-        return 130
+        return interrupted_status(interrupt)
     except OSError as e:
         if e.errno not in STDOUT_ERRNOS:
             raise

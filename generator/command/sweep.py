@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
-import signal
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import TextIO
 
 import click
 
+from ipgen.command.interrupts import interrupted_status, sigterm_interrupts
 from ipgen.command.paths import NonEmptyPath
 from ipgen.command.scene_choice import chosen_scene, preset_option
 from ipgen.errors import Error
@@ -105,30 +104,6 @@ def _duration(seconds: float) -> str:
         return f"{minutes} min {seconds} s"
     hours, minutes = divmod(minutes, 60)
     return f"{hours} h {minutes} min"
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM, raised where the sweep is: it ends as an interruption does (workers ended,
-    scratch removed, the finished runs kept in runs.csv)."""
-
-
-def _terminate(signum: int, frame: object) -> None:
-    raise Terminated(signum)
-
-
-@contextlib.contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM as `Terminated` while the sweep runs (Python's default would end the process
-    without any cleanup: the scratch folders and worker processes would stay)."""
-    try:
-        previous = signal.signal(signal.SIGTERM, _terminate)
-    except ValueError:  # not the main thread: nothing to install
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _criterion(spec: str) -> tuple[str, str]:
@@ -260,7 +235,7 @@ def command(
     test = Success(angle_tolerance, rate_tolerance, hold, base_tolerance, travel, converge)
     progress = _Progress()
     try:
-        with _sigterm_interrupts():
+        with sigterm_interrupts():
             outcome = sweep(
                 scene,
                 out,
@@ -284,7 +259,7 @@ def command(
             f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
             err=True,
         )
-        return 128 + int(signal.SIGTERM) if isinstance(interrupt, Terminated) else 130
+        return interrupted_status(interrupt)
     finally:
         progress.close()
     resumed = outcome.runs - outcome.ran

@@ -160,7 +160,7 @@ def _run_scene(
     if divergence_angle is not None:
         command += ["--divergence-angle", repr(float(divergence_angle))]
     start = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True)
+    done = _simulate(command, written=[paths["cfg"]])
     seconds = time.perf_counter() - start
     status, ended_by = _status(done.returncode)
     files = [paths["cfg"]]
@@ -216,6 +216,34 @@ def _run_scene(
     files.append(paths["txt"])
     messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by.strip(" ()")) if part)
     return Outcome(status, files, simulator, summary, messages, seconds)
+
+
+class RunInterrupted(KeyboardInterrupt):
+    """`ipgen run` interrupted (Ctrl-C, or SIGTERM as the command's `Terminated`) while its simulator
+    ran: the simulator was ended the same way (it removes its partial CSV); `written`: the files
+    written before it started, `cause` the interruption."""
+
+    def __init__(self, written: list[Path], cause: BaseException) -> None:
+        super().__init__(*cause.args)
+        self.written = written
+        self.cause = cause
+
+
+def _simulate(command: list[str], written: list[Path]) -> subprocess.CompletedProcess[str]:
+    """Runs the simulator to its end; interrupted, it passes SIGTERM on and waits for it (10 s,
+    then SIGKILL), so no simulator goes on alone and its scratch file goes with it."""
+    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = child.communicate()
+    except KeyboardInterrupt as interrupt:
+        child.terminate()
+        try:
+            child.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.communicate()
+        raise RunInterrupted(written, interrupt) from interrupt
+    return subprocess.CompletedProcess(command, child.returncode, out, err)
 
 
 def _status(returncode: int) -> tuple[int, str]:
