@@ -754,3 +754,20 @@ def test_an_interrupted_run_stops_its_simulator_and_says_what_it_wrote(
     assert not list(out.glob(".simulate.*")) and not (out / "long.csv").exists()
     running = subprocess.run(["pgrep", "-f", f"{out}/long.cfg"], capture_output=True, text=True).stdout
     assert not running.strip(), f"a simulator runs on: {running}"
+
+
+def test_a_failed_rerun_says_the_csv_is_an_earlier_runs(tmp_path: Path, cache: dict[str, str]) -> None:
+    """A run that fails (max_steps = 2) into a folder holding the scene's earlier CSV: the summary
+    and the message say that CSV is an earlier run's (it sat beside the new .cfg and .txt as if
+    this run had written it)."""
+    require_toolchain()
+    scene = tmp_path / "x.toml"
+    text = LONG.replace('method = "rk4"\nstep = 1e-7\n', "").replace("t_end = 20.0", "t_end = 1.0")
+    scene.write_text(text)
+    out = str(tmp_path / "out")
+    assert ipgen_command("run", str(scene), "-o", out, "--no-plot", env=cache).returncode == 0
+    scene.write_text(text + "max_steps = 2\n")
+    result = ipgen_command("run", str(scene), "-o", out, "--no-plot", env=cache)
+    assert result.returncode == 1, result.stderr
+    assert "x.csv is an earlier run's: this run wrote no CSV" in result.stderr
+    assert "is an earlier run's" in (tmp_path / "out" / "x.txt").read_text()

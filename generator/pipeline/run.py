@@ -196,6 +196,9 @@ def _run_scene(
     if status != 0:
         problem = " ".join(done.stderr.split()) or "no message"
         parts.append(f"The simulator stopped with exit status {status}{ended_by}: {problem}")
+    stale = paths["csv"] not in files and paths["csv"].is_file()  # kept by the simulator's policy
+    if stale:
+        parts.append(f"{shown_path(paths['csv'])} is an earlier run's: this run wrote no CSV.")
     if unplotted:
         parts.append(unplotted)
     parts.append(f"Simulator {simulator.path} ({origin}).")
@@ -214,7 +217,8 @@ def _run_scene(
         force=True,
     )
     files.append(paths["txt"])
-    messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by.strip(" ()")) if part)
+    earlier = f"{shown_path(paths['csv'])} is an earlier run's: this run wrote no CSV" if stale else ""
+    messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by.strip(" ()"), earlier) if part)
     return Outcome(status, files, simulator, summary, messages, seconds)
 
 
