@@ -293,3 +293,22 @@ def test_public_identify_takes_the_fit_choices_of_the_command() -> None:
         ipgen.identify(DFKI, [FIT], fit="newton")
     with pytest.raises(ipgen.Error, match="for fixed-pivot chains"):
         ipgen.identify(ipgen.Pendulum.preset("qube_servo2"), FIT, "J1", offset=False)
+
+
+def test_a_recording_larger_than_the_limit_is_refused_reading_no_more(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A recording (a .gz too, whose few kB can hold gigabytes) is read up to the data limit and
+    refused past it in one line (it was read whole: 11.8 GB for a 4 MB .gz of spaces)."""
+    import gzip
+
+    from ipgen.identification import recording
+
+    monkeypatch.setattr(recording, "MAX_DATA_BYTES", 1000)
+    rows = "t,q1,q2,tau1,tau2\n" + "".join(f"{k * 0.002},0,0,0,0\n" for k in range(200))
+    plain, packed = tmp_path / "big.csv", tmp_path / "big.csv.gz"
+    plain.write_text(rows)
+    packed.write_bytes(gzip.compress(rows.encode()))
+    for path in (plain, packed):
+        with pytest.raises(RecordingError, match=r"more than 0 MB \(decompressed\): cut it into parts"):
+            read_recording(path, 2, 2)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ipgen.errors import Error
+from ipgen.identification.data import MAX_DATA_BYTES
 
 DEFAULT_CUTOFF = 6.0  # Hz: above the pendulum's swing (≈ 1–2 Hz) and DFKI's excitation, below the noise
 DEFAULT_EDGE = 0.1  # s dropped at each end after filtering
@@ -82,9 +83,14 @@ def read_recording(
         One line: a missing column, a non-number, a time that does not increase, too few rows.
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-        text = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode("utf-8")
+    try:  # at most MAX_DATA_BYTES, decompressed: a small .gz can hold gigabytes
+        with (gzip.open(path, "rb") if path.suffix == ".gz" else path.open("rb")) as stream:
+            raw = stream.read(MAX_DATA_BYTES + 1)
+        if len(raw) > MAX_DATA_BYTES:
+            raise RecordingError(
+                f"{path.name}: more than {MAX_DATA_BYTES // 2**20} MB (decompressed): cut it into parts"
+            )
+        text = raw.decode("utf-8")
     except (OSError, EOFError, gzip.BadGzipFile, UnicodeDecodeError) as exc:
         raise RecordingError(f"{path.name}: cannot read it ({exc})") from None
     header = [name.strip() for name in text.split("\n", 1)[0].split(",")]
