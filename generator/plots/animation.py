@@ -12,7 +12,8 @@ links [m]); angles are absolute from upright, clockwise positive (docs/model.md)
   (r, z) at the arm's tip, r along (cos θ0, −sin θ0) (the view of an observer riding the arm).
 
 Both views trace the last link's tip over the last `trace` seconds. Frames are subsampled to
-`fps` (default 15 per second of the run) and written as a GIF by pillow; every file is
+`fps` (default 15 per second of the run: a frame every 1 / fps s of it, each shown so that k
+frames play k / fps s to a hundredth, the GIF's unit) and written as a GIF by pillow; every file is
 written to a temporary name and renamed, and an existing file is kept unless `force`.
 """
 
@@ -21,6 +22,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -154,6 +156,14 @@ def frame_plan(duration: float, fps: float) -> tuple[int, float]:
     if wanted <= MAX_FRAMES:
         return max(2, int(wanted)), 1.0
     return MAX_FRAMES, (duration * fps) / (MAX_FRAMES - 1)
+
+
+def frame_delays(count: int, fps: float) -> list[int]:
+    """Each frame's delay [ms] for `count` frames at `fps`: a GIF counts whole hundredths of a
+    second, so frame k ends at round(100 k / fps) cs and the GIF plays k / fps s in k frames to a
+    hundredth (one delay of round(1000 / fps) ms, truncated to cs, played 15 fps 10 % fast)."""
+    ends = [round(100 * k / fps) for k in range(count + 1)]
+    return [10 * max(1, b - a) for a, b in itertools.pairwise(ends)]
 
 
 def _on_a_still_base(data: RunData) -> RunData:
@@ -342,7 +352,8 @@ def animate_run(
             f"the run lasts {duration:.6g} s: at {fps:g} frames per second of the run that is more than "
             f"{MAX_FRAMES} frames, so the GIF plays it {speedup:.3g} times faster (lower --fps for fewer)"
         )
-    times = np.linspace(data.t[0], data.t[-1], count)
+    # a frame every speedup / fps s of the run (1 / fps in real time: none left over at the end)
+    times = np.minimum(data.t[0] + np.arange(count) * (speedup / fps), data.t[-1])
     frames = np.searchsorted(data.t, times).clip(0, len(data.t) - 1)
     points = geometry(type, lengths, canonical_angles(data, coordinates))
     reach_drawn = max(float(np.max(np.abs(points["side"]))), float(np.max(np.abs(points["top"]))))
@@ -410,7 +421,7 @@ def animate_run(
             comment=f"{files.MARKER} (ipgen animate)".encode(),  # a GIF ipgen may replace
             save_all=True,
             append_images=images[1:],
-            duration=round(1000 / fps),
+            duration=frame_delays(count, fps),
             loop=0,
             optimize=False,
         )
