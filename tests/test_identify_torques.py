@@ -312,3 +312,17 @@ def test_a_recording_larger_than_the_limit_is_refused_reading_no_more(
     for path in (plain, packed):
         with pytest.raises(RecordingError, match=r"more than 0 MB \(decompressed\): cut it into parts"):
             read_recording(path, 2, 2)
+
+
+@pytest.mark.parametrize("validate", [False, True])
+def test_the_pictures_title_names_the_recordings_drawn(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, validate: bool
+) -> None:
+    """Without --validate the picture draws the fit recordings and says so (its title said "the
+    validation recordings" there)."""
+    from ipgen.pipeline import identify_torques as module
+
+    titles: list[str] = []
+    monkeypatch.setattr(module, "_png", lambda fit, scene, recordings, title: titles.append(title) or b"png")
+    module.identify_torques(DFKI, "dfki_c0", [FIT], [VALIDATE] if validate else [], tmp_path / "out")
+    assert titles and titles[0].endswith("validation recordings" if validate else "on the fit recordings")

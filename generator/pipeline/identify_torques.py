@@ -259,7 +259,8 @@ def identify_torques(
     report = _report(fit, scene, stem, scores, cutoff, seconds)
     if not paths:
         return TorqueIdentified(fit, tuple(scores), report, ())
-    title = f"ipgen identify: {stem}, measured against predicted torques on the validation recordings"
+    which = "validation" if checking else "fit"  # drawn: the validation recordings, else the fit's
+    title = f"ipgen identify: {stem},\nmeasured against predicted torques on the {which} recordings"
     png = _png(fit, scene, checking or fitting, title)
     prepare_directory(Path(output))  # type: ignore[arg-type]
     write_files(
