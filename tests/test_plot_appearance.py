@@ -194,3 +194,25 @@ def test_ipgen_plot_names_the_unit_of_u(
     monkeypatch.setattr(ipgen.plots.run, "draw_run", recording)
     assert cli(["plot", str(csv), "-o", str(tmp_path / "plot.png")]) == 0
     assert any(label == name for name in drawn[0]), drawn
+
+
+@pytest.mark.parametrize(
+    ("frame", "ylabel", "second"),
+    [
+        (Coordinates(), "(0 upright, cw)", "link 2 angle"),
+        (Coordinates("relative", "hanging", "counterclockwise"), "(0 hanging, ccw)",
+         "link 2 angle from link 1"),
+    ],
+)
+def test_a_fixed_chains_picture_says_what_its_angles_count_from(
+    tmp_path: Path, frame: Coordinates, ylabel: str, second: str
+) -> None:
+    """A fixed chain's picture labels its angles in the run's coordinates (DFKI's: from hanging,
+    counterclockwise, link 2 from link 1); it said "link angle [rad]" whatever they were."""
+    csv = tmp_path / "chain.csv"
+    rows = ["t,theta0,theta1,dtheta0,dtheta1", *(f"{k * 0.01},{0.1 * k},{-0.05 * k},0,0" for k in range(20))]
+    csv.write_text("\n".join(rows) + "\n")
+    figure = draw_run(read_run(csv, fixed=True), "chain", "fixed", coordinates=frame)
+    links = figure.axes[0]
+    assert links.get_ylabel().endswith(ylabel)
+    assert [line.get_label() for line in links.get_lines()][1] == second

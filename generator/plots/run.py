@@ -203,7 +203,7 @@ def draw_run(
     ±π where the links come near them) and, for a closed loop, the input u (as steps when
     `sampled`: u held between the controller's samples)."""
     if system_type == "fixed":
-        return _draw_fixed(run, title)
+        return _draw_fixed(run, title, coordinates if coordinates is not None else Coordinates())
     frame = coordinates if coordinates is not None else Coordinates()
     # The object-oriented API without pyplot: no GUI backend, no global state, a faster import.
     from matplotlib.figure import Figure
@@ -281,9 +281,10 @@ def draw_run(
     return fig
 
 
-def _draw_fixed(run: Run, title: str) -> Figure:
-    """A fixed-pivot chain's figure (the scene's coordinates): the link angles (theta0..theta(n-1) of
-    the CSV are links 1..n) and the joints' torques (u, or u1..um)."""
+def _draw_fixed(run: Run, title: str, frame: Coordinates) -> Figure:
+    """A fixed-pivot chain's figure in the scene's coordinates `frame`: the link angles
+    (theta0..theta(n-1) of the CSV are links 1..n; the labels say what they count from) and the
+    joints' torques (u, or u1..um)."""
     from matplotlib.figure import Figure
 
     t = run.time
@@ -297,8 +298,10 @@ def _draw_fixed(run: Run, title: str) -> Figure:
         values = run.columns[f"theta{i}"]
         k = display_turns(values, 0.0)
         values = [v - 2 * math.pi * k for v in values] if k else values
-        links.plot(t, values, label=f"link {i + 1} angle{_turns_label(k)}")
-    links.set_ylabel("link angle [rad]")
+        relative = f" from link {i}" if frame.angles == "relative" and i >= 1 else ""
+        links.plot(t, values, label=f"link {i + 1} angle{_turns_label(k)}{relative}")
+    sense = "ccw" if frame.positive == "counterclockwise" else "cw"
+    links.set_ylabel(f"link angle [rad] (0 {frame.zero}, {sense})")
     for name in inputs:
         axes[1].plot(t, run.columns[name], label=f"torque {name} [N m]")
     if inputs:
