@@ -134,7 +134,7 @@ def test_ipgen_run_passes_the_divergence_angle_to_the_simulator(tmp_path: Path, 
     status = ipgen(["run", str(path), "-o", str(tmp_path / "out"), "--divergence-angle", "0.2", "--no-plot"])
     err = capsys.readouterr().err
     assert status == 3, err
-    assert "beyond --divergence-angle 0.2 rad" in err, err
+    assert "beyond 0.2 rad (--divergence-angle)" in err, err
     last = (tmp_path / "out" / "falling.csv").read_text().splitlines()[-1].split(",")
     assert 0.19 < abs(float(last[2])) < 0.3  # stopped near 0.2 rad, not at the default π/2
 

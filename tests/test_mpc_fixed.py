@@ -115,12 +115,15 @@ sample = 0.01
 )
 
 
-def simulate(tmp_path: Path, text: str, stem: str = "balance") -> tuple[dict[str, np.ndarray], str]:
-    """Runs a fixed scene; (the CSV's columns by name, the resolved config's text)."""
+def simulate(
+    tmp_path: Path, text: str, stem: str = "balance", options: tuple[str, ...] = ()
+) -> tuple[dict[str, np.ndarray], str]:
+    """Runs a fixed scene (`options`: more of ipgen run's); (the CSV's columns by name, the
+    resolved config's text)."""
     path = tmp_path / f"{stem}.toml"
     path.write_text(text)
     out = tmp_path / "out"
-    assert run(["run", str(path), "-o", str(out), "--no-plot", "--force"]) == 0
+    assert run(["run", str(path), "-o", str(out), "--no-plot", "--force", *options]) == 0
     header, *rows = (out / f"{stem}.csv").read_text().splitlines()
     numeric = [name for name in header.split(",") if name != "phase"]
     keep = [i for i, name in enumerate(header.split(",")) if name != "phase"]
@@ -402,7 +405,7 @@ def test_a_sweeps_mpc_predicts_with_the_nominal_links_the_cfg_leaves_out(tmp_pat
         assert "J = 0 0.02 0.02" in cfg.read_text()
         done = subprocess.run([found.group(1), str(cfg), "--csv", str(tmp_path / f"{label}.csv"), "--force"],
                               capture_output=True, text=True)  # fmt: skip
-        assert done.returncode in (0, 4), done.stderr
+        assert done.returncode in (0, 3, 4), done.stderr  # the plant is another: the loop may lose it
         header, row = (tmp_path / f"{label}.csv").read_text().splitlines()[:2]
         first[label] = float(row.split(",")[header.split(",").index("u")])
     header, row = (out / "cdip_mpc.csv").read_text().splitlines()[:2]

@@ -384,7 +384,7 @@ ERRORS: list[tuple[str, dict[str, str | None], tuple[str, ...]]] = [
         {"simulation.rtol": "1e-16"},
         ("simulation.rtol = 1e-16", "double precision", "1e-14"),
     ),
-    ("atol negative", {"simulation.atol": "-1e-12"}, ("simulation.atol = -1e-12", ">= 0")),
+    ("atol negative", {"simulation.atol": "-1e-12"}, ("simulation.atol = -1e-12", "must be > 0")),
     ("max_steps zero", {"simulation.max_steps": "0"}, ("simulation.max_steps = 0", ">= 1")),
     (
         "max_steps float",

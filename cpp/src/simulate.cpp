@@ -752,9 +752,9 @@ std::string divergence_message(const ipsim::Divergence& d, double angle, const E
   char where[240];
   std::snprintf(where, sizeof where,
                 "the closed loop diverged at t = %.6g s: link %d is %.4g rad from the %s (theta%d = %.4g), beyond "
-                "--divergence-angle %.4g rad",
+                "%.4g rad (--divergence-angle%s)",
                 d.t, d.link, d.deviation, controller ? "controller's equilibrium" : "MPC's reference", coordinate,
-                coordinates.to_user(goal)(coordinate), angle);
+                coordinates.to_user(goal)(coordinate), angle, controller ? "" : ", twice it for an MPC");
   std::string fixes = "a smaller initial tilt ([initial] theta), other weights ([controller] q, r)";
   if (controller && controller->period > 0.0) fixes += ", a shorter [controller] period";
   if (controller && std::isfinite(controller->saturation)) fixes += ", a larger [controller] saturation";
@@ -832,18 +832,21 @@ int run(int argc, char** argv) {
     const std::vector<double>& reference = scene.mpc->problem().reference;
     goal = Eigen::Map<const Eigen::VectorXd>(reference.data(), static_cast<Eigen::Index>(reference.size()));
   }
+  // An MPC predicts with the nonlinear model and brings links back from beyond where a linear
+  // law's region ends: it is watched at twice the angle (pi by default: a link through hanging).
+  const bool nonlinear = !scene.controller && scene.fixed_controllers.empty();
+  const double region = nonlinear ? 2.0 * options.divergence_angle : options.divergence_angle;
   std::optional<ipsim::DivergenceMonitor> monitor;
-  if (goal && std::isfinite(options.divergence_angle)) {
-    monitor.emplace(rows, *goal, dof(), options.divergence_angle, first_link);
+  if (goal && std::isfinite(region)) {
+    monitor.emplace(rows, *goal, dof(), region, first_link);
     Eigen::VectorXd start(2 * dof());
     start << s.theta, s.dtheta;
-    if (const auto [link, deviation] = ipsim::farthest_link(start, *goal, dof(), first_link);
-        deviation > options.divergence_angle) {
+    if (const auto [link, deviation] = ipsim::farthest_link(start, *goal, dof(), first_link); deviation > region) {
       std::fprintf(stderr,
                    "simulate: warning: the initial state is outside the controller's region: link %d is %.4g rad "
-                   "from the equilibrium, more than --divergence-angle %.4g rad; divergence is checked only once "
-                   "every link is within it\n",
-                   link, deviation, options.divergence_angle);
+                   "from the equilibrium, more than %.4g rad (--divergence-angle%s); divergence is checked only "
+                   "once every link is within it\n",
+                   link, deviation, region, nonlinear ? ", twice it for an MPC" : "");
     }
   }
   ipsim::SampleSink& inner = swing_monitor ? static_cast<ipsim::SampleSink&>(*swing_monitor)
