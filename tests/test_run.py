@@ -742,6 +742,8 @@ def test_an_interrupted_run_stops_its_simulator_and_says_what_it_wrote(
     with subprocess.Popen(
         [sys.executable, "-m", "ipgen", "run", str(scene), "-o", str(out), "--no-plot"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, **cache},
+        # SIGINT as a terminal's: an xdist worker ignores it, and a child would inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     ) as ipgen_process:  # fmt: skip
         deadline = time.monotonic() + 60
         while not list(out.glob(".simulate.*")) and time.monotonic() < deadline:
