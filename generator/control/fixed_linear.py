@@ -13,6 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ipgen.control.linear import ControlError, check_stabilisable, checked_vector, weights
+from ipgen.model.coordinates import rests
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.fixed_equations import angle_map, state_map
 from ipgen.model.fixed_numeric import FixedModel
@@ -56,7 +57,7 @@ def fixed_equilibrium(p: FixedPendulum, equilibrium: Sequence[float] | str | Non
     angles = checked_vector("equilibrium", equilibrium, n, "one angle per link, in the chain's coordinates")
     theta = matrix @ angles + zero
     for i, angle in enumerate(theta):
-        if abs(math.remainder(angle, math.pi)) > 1e-9:
+        if not rests(angle):
             raise ControlError(
                 f"equilibrium: link {i + 1} at {angle:g} rad from upright is not an equilibrium without "
                 "torque: each link upright or hanging"

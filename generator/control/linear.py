@@ -23,9 +23,11 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.arrays import float_array
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.actuator import Actuator
+from ipgen.model.coordinates import rests
 from ipgen.model.links import resolve_links
 from ipgen.model.pendulum import Pendulum, PendulumError
 from ipgen.model.system import System
@@ -579,7 +581,7 @@ def equilibrium_state(links: int, equilibrium: Sequence[float] | str | None) -> 
         "equilibrium", equilibrium, dof, "θ0 and one absolute angle per link; velocities are zero"
     )
     for i, angle in enumerate(angles[1:], start=1):
-        if abs(math.remainder(angle, math.pi)) > 1e-9:
+        if not rests(angle):
             raise ControlError(
                 f"equilibrium[{i}] = {angle:g} is not an equilibrium angle: "
                 "links rest upright (0) or hanging (π)"
@@ -623,9 +625,7 @@ def weights(
     import numpy as np
 
     try:
-        if np.asarray(Q).dtype.kind in "US":  # "1" and b"1" would convert: text is no weight
-            raise ValueError
-        q = np.asarray(Q, dtype=float)
+        q = float_array(Q)
     except (TypeError, ValueError):  # text, a ragged list
         raise ControlError(
             f"{name} = {abbreviate(repr(Q))}: expected {size} diagonal weights or a {size} x {size} matrix"
@@ -652,9 +652,7 @@ def weights(
     if float(np.min(np.linalg.eigvalsh(q))) < -1e-12 * max(1.0, float(np.max(np.abs(q)))):
         raise ControlError(f"{name} must be positive semidefinite (an eigenvalue is negative)")
     try:
-        if np.asarray(R).dtype.kind in "US":
-            raise ValueError
-        r = np.asarray(R, dtype=float).reshape(-1)
+        r = float_array(R).reshape(-1)
     except (TypeError, ValueError):
         r = np.full(2, math.nan)  # refused below
     if r.size != 1 or not math.isfinite(float(r[0])) or float(r[0]) <= 0:

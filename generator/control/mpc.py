@@ -21,7 +21,6 @@ is `ipgen run`'s for fixed scenes; its Coulomb friction is not in the prediction
 from __future__ import annotations
 
 import ctypes
-import math
 import numbers
 import threading
 from collections.abc import Mapping, Sequence
@@ -38,6 +37,7 @@ from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
 from ipgen.errors import Error
+from ipgen.model.coordinates import rests
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.pendulum import Pendulum
 
@@ -82,7 +82,7 @@ def _check_rest(x_ref: np.ndarray, dof: int, first_link: int) -> None:
             "rest (a moving one: step(x, reference=(states, inputs)) per stage)"
         )
     for i in range(first_link, dof):
-        if abs(math.remainder(float(x_ref[i]), math.pi)) > 1e-9:
+        if not rests(x_ref[i]):
             raise MpcError(
                 f"reference: link angle x_ref[{i}] = {x_ref[i]:g} rad is not a rest with u = 0: links rest "
                 "upright (0) or hanging (π)"

@@ -7,12 +7,12 @@ J_axial, tip, actuator, angles, zero, positive), or as a ready `VectorField`.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ipgen.control.linear import ControlError, VectorField, equilibrium_state, vector_field
 from ipgen.errors import Error
+from ipgen.model.coordinates import rests
 from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
@@ -84,7 +84,7 @@ def equilibrium_of(model: VectorField, equilibrium: Sequence[float] | str | None
     x = np.concatenate([values, np.zeros(dof)])
     canonical = np.linalg.solve(frame_p, x - frame_c)
     for i, angle in enumerate(canonical[1:dof], start=1):
-        if abs(math.remainder(float(angle), math.pi)) > 1e-9:
+        if not rests(angle):
             raise EstimationError(
                 f"equilibrium[{i}] is not an equilibrium angle: links rest upright or hanging"
             )

@@ -13,6 +13,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from ipgen.common.arrays import float_array
 from ipgen.common.safetext import abbreviate
 from ipgen.gym.checks import GymError
 from ipgen.gym.fixed import FixedSystem
@@ -53,9 +54,8 @@ def actions_of(actions: Any, count: int, shape: tuple[int, ...] | None = None) -
     GymError (a ValueError) saying what to pass. `shape`: the shape the actions must have
     (a fixed chain's (m,) or (N, m)); None: any with `count` entries."""
     try:
-        text = np.asarray(actions).dtype.kind in "US"  # "5", b"1", ["0.5"]: text, not a number
-        array = np.asarray(actions, dtype=np.float64)
-        given = array.reshape(count) if not text and (shape is None or array.shape == shape) else None
+        array = float_array(actions)  # "5", b"1", ["0.5"]: text, not a number
+        given = array.reshape(count) if shape is None or array.shape == shape else None
     except (TypeError, ValueError):
         given = None
     if given is None or np.isnan(given).any():

@@ -31,6 +31,12 @@ ZEROS: tuple[str, ...] = ("upright", "hanging")
 POSITIVE: tuple[str, ...] = ("clockwise", "counterclockwise")
 
 
+def rests(angle: float) -> bool:
+    """Whether a link at the absolute angle `angle` (ipgen's, from upright) rests without torque:
+    upright or hanging, a multiple of π (to 1e-9 rad)."""
+    return abs(math.remainder(float(angle), math.pi)) <= 1e-9
+
+
 class CoordinateError(Error, ValueError):
     """An unknown convention; the message lists the allowed ones."""
 

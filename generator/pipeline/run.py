@@ -163,6 +163,7 @@ def _run_scene(
     done = _simulate(command, written=[paths["cfg"]])
     seconds = time.perf_counter() - start
     status, ended_by = _status(done.returncode)
+    why = f" ({ended_by})" if ended_by else ""
     files = [paths["cfg"]]
     report = " ".join(done.stdout.split())
     unplotted = ""
@@ -174,7 +175,7 @@ def _run_scene(
         links = f"{plan.links} link{'s' if plan.links > 1 else ''}"
         title = f"{stem}: {plan.type} pendulum, {links} (model {name})"
         if status != 0:
-            title += f"; the run ended with status {status}{ended_by}"
+            title += f"; the run ended with status {status}{why}"
         try:
             plot_run(
                 read_run(paths["csv"], fixed=plan.type == "fixed"),
@@ -195,10 +196,11 @@ def _run_scene(
     parts = [report] if report else []
     if status != 0:
         problem = " ".join(done.stderr.split()) or "no message"
-        parts.append(f"The simulator stopped with exit status {status}{ended_by}: {problem}")
+        parts.append(f"The simulator stopped with exit status {status}{why}: {problem}")
     stale = paths["csv"] not in files and paths["csv"].is_file()  # kept by the simulator's policy
-    if stale:
-        parts.append(f"{shown_path(paths['csv'])} is an earlier run's: this run wrote no CSV.")
+    earlier = f"{shown_path(paths['csv'])} is an earlier run's: this run wrote no CSV" if stale else ""
+    if earlier:
+        parts.append(f"{earlier}.")
     if unplotted:
         parts.append(unplotted)
     parts.append(f"Simulator {simulator.path} ({origin}).")
@@ -217,8 +219,7 @@ def _run_scene(
         force=True,
     )
     files.append(paths["txt"])
-    earlier = f"{shown_path(paths['csv'])} is an earlier run's: this run wrote no CSV" if stale else ""
-    messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by.strip(" ()"), earlier) if part)
+    messages = "\n".join(part for part in (done.stderr.rstrip("\n"), ended_by, earlier) if part)
     return Outcome(status, files, simulator, summary, messages, seconds)
 
 
@@ -252,7 +253,7 @@ def _simulate(command: list[str], written: list[Path]) -> subprocess.CompletedPr
 
 def _status(returncode: int) -> tuple[int, str]:
     """A simulator's exit status as a shell reports it (ended by signal n: 128 + n), and the
-    signal named (" (ended by SIGXFSZ: ...)") or ""."""
+    signal named ("ended by SIGXFSZ: ...") or ""."""
     if returncode >= 0:
         return returncode, ""
     number = -returncode
@@ -261,7 +262,7 @@ def _status(returncode: int) -> tuple[int, str]:
         why = signal.strsignal(number) or ""
     except ValueError:
         name, why = f"signal {number}", ""
-    return 128 + number, f" (ended by {name}{': ' + why if why else ''})"
+    return 128 + number, f"ended by {name}{': ' + why if why else ''}"
 
 
 def _paths(stem: str, out: Path, plot: bool) -> dict[str, Path]:

@@ -7,12 +7,12 @@ Every problem is one line naming the file and the key.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from pydantic import ValidationInfo
 
 from ipgen.common import limits
+from ipgen.model.coordinates import rests
 from ipgen.scene.fields import format_number, one_of, type_name
 from ipgen.scene.values import at, check_count, context_of, number, refuse, refuse_key
 
@@ -138,7 +138,7 @@ def equilibrium(value: Any, info: ValidationInfo) -> str | list[float]:
     check_count(value, dof, "θ0 and one angle per link")
     angles = [at(i, number, item, context) for i, item in enumerate(value)]
     for i, angle in enumerate(angles[1:], start=1):
-        if abs(math.remainder(angle, math.pi)) > 1e-9:
+        if not rests(angle):
             refuse(
                 "a link rests only upright or hanging: at a multiple of π (3.141592653589793) "
                 "in the scene's angles (0 upright in ipgen's; 0 hanging where they count from it)",

@@ -59,10 +59,19 @@ def plan(criteria: list[Criterion], seed: int, scene_for_pulses: object = None) 
     return tasks
 
 
+# What a sweep writes besides runs.csv (`_write_outputs`): the scores and their picture, and a
+# picture per criterion (a 1-D one's criterion_<name>.png, a 2-D grid's grid.png, spec.grid's name).
+SCORES = ("scores.json", "scores.md", "scores.png")
+
+
+def _picture(criterion: Criterion) -> str:
+    """The file name of a criterion's picture."""
+    return f"criterion_{criterion.name}.png" if len(criterion.axes) == 1 else f"{criterion.name}.png"
+
+
 def _remove_outputs(out: Path) -> None:
     """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep."""
-    for path in [out / "scores.json", out / "scores.md", out / "scores.png", out / "grid.png",
-                 *out.glob("criterion_*.png")]:  # fmt: skip
+    for path in [*(out / name for name in SCORES), out / "grid.png", *out.glob("criterion_*.png")]:
         if path.is_file() or path.is_symlink():
             path.unlink()
 
@@ -295,9 +304,10 @@ def _write_outputs(
     """scores.json, scores.md and the PNGs; the files written (runs.csv first)."""
     total = scoring.total(found)
     written = [out / "runs.csv"]
+    json_name, markdown_name, picture_name = SCORES
     for name, text in (
-        ("scores.json", scoring.as_json(stem, planned.test, found, planned.seed, planned.note)),
-        ("scores.md", scoring.as_markdown(stem, planned.test, found, len(rows), planned.note)),
+        (json_name, scoring.as_json(stem, planned.test, found, planned.seed, planned.note)),
+        (markdown_name, scoring.as_markdown(stem, planned.test, found, len(rows), planned.note)),
     ):
         with files.replacing(out / name) as partial:
             partial.write_text(text, encoding="utf-8")
@@ -307,10 +317,8 @@ def _write_outputs(
             if s.criterion.refused or not s.criterion.levels:
                 continue
             if len(s.criterion.axes) == 1:
-                written.append(
-                    plots.criterion_plot(s, rows, planned.test, out / f"criterion_{s.criterion.name}.png")
-                )
+                written.append(plots.criterion_plot(s, rows, planned.test, out / _picture(s.criterion)))
             elif len(s.criterion.axes) == 2:
-                written.append(plots.heatmap(s, out / f"{s.criterion.name}.png"))
-        written.append(plots.scores_plot(found, total, stem, out / "scores.png"))
+                written.append(plots.heatmap(s, out / _picture(s.criterion)))
+        written.append(plots.scores_plot(found, total, stem, out / picture_name))
     return written

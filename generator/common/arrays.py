@@ -1,0 +1,19 @@
+"""Numbers from what a user passes: numpy converts text ("1", b"1", ["0.5"]) to numbers, which
+ipgen's arguments refuse as it refuses text anywhere a number is asked for."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import numpy as np
+
+
+def float_array(value: Any) -> np.ndarray:
+    """`value` as float64 numbers (its own shape); ValueError for text, ValueError or TypeError for
+    what numpy cannot convert (a ragged list, a mapping, None)."""
+    import numpy as np
+
+    if np.asarray(value).dtype.kind in "US":
+        raise ValueError(f"{value!r} is text, not numbers")
+    return np.asarray(value, dtype=np.float64)
