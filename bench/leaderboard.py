@@ -209,7 +209,7 @@ def main(argv: list[str] | None = None) -> None:
         "normalisations) on ipgen's CSV (experiment/leaderboard.py):",
         "score = success · (1 − ⅕ Σ tanh(π · value / norm)), norms: "
         + ", ".join(f"{k} {v:g}" for k, v in NORMALIZE.items())
-        + ".",
+        + "; a record shorter than 0.99 of the 10 s episode scores 0 (DFKI's rule).",
         "",
         "| system, tracking | success | swing-up time [s] | energy [J] | torque cost | torque smoothness "
         "| velocity cost "

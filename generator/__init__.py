@@ -249,7 +249,7 @@ def write_header(
     ...     print(error)
     --type must be one of classical, rotary (got 'rotory')
     """
-    from ipgen.pipeline.job import plan, run
+    from ipgen.pipeline.job import named_by_scene, plan, run
 
     job = plan(
         output,
@@ -266,7 +266,7 @@ def write_header(
         zero=zero,
         positive=positive,
     )
-    return [written.path for written in run(job)]
+    return [written.path for written in run(named_by_scene(job))]
 
 
 def identify(

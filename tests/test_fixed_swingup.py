@@ -74,7 +74,7 @@ def test_the_score_equals_the_v2_formula_on_a_hand_computed_example() -> None:
         )
         / 5
     )
-    s = score(t, x, u, 1.0, 1.0)
+    s = score(t, x, u, 1.0, 1.0, t_final=1.5)
     assert s.success
     assert (s.swingup_time, s.energy, s.tau_cost, s.velocity_cost) == pytest.approx(
         (time, energy, cost, velocity)
@@ -89,8 +89,21 @@ def test_the_score_equals_the_v2_formula_on_a_hand_computed_example() -> None:
 def test_a_run_that_does_not_stay_up_scores_zero() -> None:
     t = np.array([0.0, 1.0, 2.0, 3.0])
     x = np.array([[0.0, 0, 0, 0], [math.pi, 0, 0, 0], [0.0, 0, 0, 0], [math.pi, 0, 0, 0]])
-    assert swingup_time(t, x, 1.0, 1.0) == 3.0
-    assert score(t, x, np.zeros((4, 2)), 1.0, 1.0).score == 0.0
+    assert swingup_time(t, x, 1.0, 1.0, t_final=3.0) == 3.0
+    assert score(t, x, np.zeros((4, 2)), 1.0, 1.0, t_final=3.0).score == 0.0
+
+
+def test_a_record_shorter_than_the_episode_scores_zero() -> None:
+    """DFKI's get_swingup_time: a record that ends before 0.99 of t_final (the leaderboard's 10 s)
+    has an infinite swing-up time and no success, however upright it ends (before, any record
+    that ended upright scored); one that reaches 0.99 of it is scored."""
+    upright = [math.pi, 0.0, 0.0, 0.0]
+    for end, scored in ((3.0, False), (9.89, False), (9.9, True), (10.0, True)):
+        t = np.linspace(0.0, end, 101)
+        x = np.array([[0.0, 0.0, 0.0, 0.0]] * 10 + [upright] * 91)
+        s = score(t, x, np.zeros((101, 2)), 1.0, 1.0)
+        assert s.success is scored and (s.score > 0) is scored, end
+        assert math.isinf(s.swingup_time) is not scored
 
 
 def test_a_fixed_swing_up_without_initial_starts_hanging(tmp_path: Path) -> None:

@@ -139,3 +139,48 @@ def test_a_fixed_chains_reference_is_a_rest() -> None:
     assert ipgen.mpc(acrobot, u_max=5.0, reference=[math.pi, 0.0]).x_ref[0] == math.pi
     with pytest.raises(MpcError, match=r"x_ref\[0\] = 0.5"):
         ipgen.mpc(acrobot, u_max=5.0, reference=[0.5, 0.0])
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    index=st.integers(0, 3),
+    lo=st.floats(-3.0, 3.0),
+    width=st.floats(0.01, 3.0),
+    arm=st.floats(-3.0, 3.0),
+)
+def test_a_reference_outside_a_hard_bound_is_one_line(
+    index: int, lo: float, width: float, arm: float
+) -> None:
+    """A hard bound that excludes the reference's state (before, the MPC was built and every QP
+    near the reference was infeasible: a run drove the arm past its travel): refused in one line
+    naming the state and the bound; a bound that holds it is taken and steps."""
+    reference = [arm, 0.0]
+    state = [arm, 0.0, 0.0, 0.0][index]
+    bounds = {index: (lo, lo + width)}
+    if lo <= state <= lo + width:
+        assert math.isfinite(ipgen.mpc(QUBE, u_max=10.0, bounds=bounds, reference=reference).step(X))
+        return
+    with pytest.raises(MpcError) as refused:
+        ipgen.mpc(QUBE, u_max=10.0, bounds=bounds, reference=reference)
+    assert f"state {index} = " in str(refused.value) and "hard bound" in str(refused.value)
+    assert "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "words"),
+    [
+        ({"travel": 1.0, "reference": [5.0, 0.0]}, "state 0 = 5 is outside its hard bound [-1, 1]"),
+        ({"u_min": 5.0}, "exclude 0"),
+        ({"u_min": -10.0, "u_max": -1.0}, "exclude 0"),
+        ({"reference": "sideways"}, "reference 'sideways'"),
+        ({"period": 1e6}, "beyond 1000 s"),
+        ({"period": 1e-300}, "period 1e-300"),
+    ],
+)
+def test_what_no_mpc_can_meet_is_an_mpc_error(kwargs: dict, words: str) -> None:
+    """A reference outside the MPC's own bounds, u bounds without the rest's input 0, a word that is
+    no reference (before a ControlError naming "equilibrium"), a prediction beyond 1000 s or a period
+    below a microsecond (before, a Riccati message that named neither): an MpcError naming it."""
+    with pytest.raises(MpcError) as refused:
+        ipgen.mpc(QUBE, **({"u_max": 10.0} | kwargs))
+    assert words in str(refused.value) and "\n" not in str(refused.value)

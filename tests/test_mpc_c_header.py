@@ -98,6 +98,14 @@ def _run(program: Path, rows: np.ndarray, fmt: str) -> list[list[str]]:
     return [line.split() for line in out.splitlines()]
 
 
+def test_a_scene_headers_regenerate_line_names_the_scene(folder: Path) -> None:
+    """The header's "regenerate with" is `ipgen --scene S --emit c`, which writes it again with its
+    MPC, estimator and loop (before, it named `--type rotary --links 1 ...`, a model-only header)."""
+    header = (folder / "qube_servo2.h").read_text()
+    command = header.split("regenerate with", 1)[1].split("\n", 2)[1].strip(" *")
+    assert command == f"ipgen --scene {(folder / 'qube_mpc.toml').as_posix()} --emit c -o <dir>", command
+
+
 def test_firmware_step_replays_the_simulators_volts(folder: Path) -> None:
     columns = _columns(folder)
     counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest

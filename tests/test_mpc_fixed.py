@@ -187,8 +187,8 @@ BAD_VALUES = {
     "p": ["[1, 2]", "[[1, 0], [0, 1]]"],
     "r": ["0", "-1", "[1, 2]"],
     "mode": ['"fast"', "1"],
-    "soft_bounds": ["[[4, -1, 1]]", "[[0, 1, -1]]", "[[0, 1]]", "[]"],
-    "soft_penalty": ["[-1, 1]", "[1, 0]", "[1]"],
+    "soft_bounds": ["[[4, -1, 1]]", "[[0, 1, -1]]", "[[0, 1]]", "[]", "[[0, -1, 1], [0, -0.1, 0.1]]"],
+    "soft_penalty": ["[-1, 1]", "[1, 0]", "[1]", "[1e7, 2]", "[10, 1000]"],
     "saturation": ["6.0"],
     "gain": ["[1, 2, 3, 4]"],
     "travel": ["1.0"],
@@ -273,9 +273,16 @@ def test_any_value_of_any_mpc_key_runs_or_is_one_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str, value: str
 ) -> None:
     path = write_scene(tmp_path, key, value)
+    # 0.2 s of the run: every key is read, checked and used by the simulator's MPC, in a tenth of
+    # the time (a long horizon makes every sample costly)
+    path.write_text(path.read_text().replace("t_end = 3.0", "t_end = 0.2"))
     capsys.readouterr()
     status = run(["run", str(path), "-o", str(tmp_path / "out"), "--no-plot", "--force"])
     err = capsys.readouterr().err.strip().splitlines()
+    if status == 3:  # a value the scene takes whose MPC does not hold the links (a long horizon's RTI)
+        assert err[0].startswith("simulate: error: the closed loop diverged at t = "), err
+        assert err[1:] == ["ipgen: the simulation ended with exit status 3"], err
+        return
     assert status == 0 or (len(err) == 1 and "Traceback" not in err[0]), err
 
 
@@ -292,6 +299,32 @@ def test_tracking_needs_an_mpc_and_a_known_word(tmp_path: Path, capsys: pytest.C
         assert run(["run", str(path), "-o", str(tmp_path / "never"), "--no-plot"]) != 0
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and says in err[0], err
+
+
+def test_a_plan_with_a_value_that_is_not_finite_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A NaN or inf in a plan CSV: one line naming the plan file and its row, nothing written
+    (before, the scene's checks took it and the simulator refused its own .cfg in three lines,
+    leaving the .cfg and .txt behind)."""
+    source = preset_path("acrobot_swingup")
+    rows = source.with_name("acrobot_swingup.plan.csv").read_text().splitlines()
+    first = next(i for i, row in enumerate(rows) if row and not row.startswith("#")) + 1  # the header's
+    for value in ("nan", "inf", "-inf"):
+        broken = list(rows)
+        cells = broken[first + 4].split(",")
+        cells[1] = value
+        broken[first + 4] = ",".join(cells)
+        (tmp_path / "acrobot_swingup.plan.csv").write_text("\n".join(broken) + "\n")
+        path = tmp_path / "acrobot_swingup.toml"
+        path.write_text(source.read_text())
+        assert run(["run", str(path), "-o", str(tmp_path / "never"), "--no-plot"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert (
+            len(err) == 1
+            and "acrobot_swingup.plan.csv: data row 5 holds a value that is not finite" in err[0]
+        )
+        assert not (tmp_path / "never").exists()
 
 
 def test_the_mpc_predicts_with_controller_model_where_given(tmp_path: Path) -> None:

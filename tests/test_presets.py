@@ -37,6 +37,16 @@ def test_every_preset_says_where_its_values_come_from() -> None:
         assert preset.system.startswith(system["type"] + ", ")
 
 
+def test_a_source_over_two_lines_stays_the_source() -> None:
+    """cdip_mpc's "# Values from:" runs onto a second comment line: all of it is the source, none
+    of it the title (before, the second line ended the title and left the source cut)."""
+    preset = next(p for p in presets() if p.name == "cdip_mpc")
+    assert preset.source.endswith("(as cdip_swingup); MPC by ipgen"), preset.source
+    assert "cdip_swingup)" not in preset.title and preset.title.endswith(
+        "(LQR with a clipped force cannot know the rail)."
+    )
+
+
 def test_the_wheel_ships_the_presets() -> None:
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert {"ipgen.presets", "ipgen.presets.rigs"} <= set(project["packages"])

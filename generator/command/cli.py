@@ -390,6 +390,7 @@ def _report(system: System, name: str, written: list[Written]) -> None:
 
 
 def _generate(planned: job.Job) -> list[Written]:
+    planned = job.named_by_scene(planned)
     system = planned.system
     if system.links < PROGRESS_FROM_LINKS[system.type]:
         return job.run(planned)
@@ -505,7 +506,8 @@ def run_command(
 
 # What to try after a run that ended with one of these exit statuses (measured: docs/swingup.md).
 EXIT_HINTS = {
-    5: "a swing-up plan the tracking cannot follow: plan another one with a different [swingup] duration "
+    5: "a swing-up plan the tracking cannot follow: start the run where the plan starts (a fixed chain's "
+    "plan at rest hanging, with [initial] left out), or plan another one with a different [swingup] duration "
     "(for a lightly damped cart triple the duration decided; the sample rate and the margin did not: "
     'docs/swingup.md, "When the plan is lost")',
 }
@@ -652,6 +654,11 @@ def identify_command(
     if directory is None:
         raise job.OptionsError("missing -o OUT: say where to write the results, e.g. -o out/identified/")
     if _is_fixed_scene(scene):
+        if equation_error_only:
+            raise job.OptionsError(
+                "--equation-error-only: a fixed-pivot scene's fit is a linear regression on the torques, "
+                "with no output-error refinement to skip; leave it out"
+            )
         _identify_fixed(scene, data, validate, cutoff, free, directory, force, fit_method, no_offset)
         return
     if validate or cutoff is not None or fit_method is not None or no_offset or len(data) > 1:

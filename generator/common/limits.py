@@ -37,6 +37,8 @@ Why these values:
 - `MAX_MPC_BARRIER`: the MPC's barrier weight (`[controller] barrier`, `ipgen.mpc(barrier=)`) is
   in the cost's units; 1e6 is far above any cost's scale and finite in float, where the C header's
   step may run (a larger one would turn into inf there and every step refuse its settings).
+- `MAX_MPC_SPAN`, `MIN_MPC_PERIOD`: an MPC predicts at most 1000 s ahead (horizon · period) and
+  is sampled at most every microsecond, in a scene and in `ipgen.mpc` alike.
 """
 
 from __future__ import annotations
@@ -65,6 +67,10 @@ MAX_SOFT_PENALTY = 1e6
 # An MPC's horizon and its iteration budgets at most (as a scene's [controller])
 MAX_MPC_HORIZON = 1000
 MAX_MPC_ITERATIONS = 1000
+# An MPC's prediction, horizon · period, at most [s]; and its period at least [s] (below it the
+# discretisation's Riccati equation loses its digits: no pendulum is sampled that fast)
+MAX_MPC_SPAN = 1000.0
+MIN_MPC_PERIOD = 1e-6
 
 
 # An exact rational of a decimal costs time and memory with its exponent (1e-99999999 as a

@@ -38,8 +38,10 @@ def _describe(path: Path) -> Preset:
             break
         header.append(line[1:].strip())
     marker = SOURCE_PREFIX.removeprefix("# ")
-    source = next((line.removeprefix(marker) for line in header if line.startswith(marker)), "")
-    paragraph = " ".join(line for line in header if not line.startswith(marker))
+    # The source runs from its marker to the header's end (it may wrap onto more lines).
+    start = next((i for i, line in enumerate(header) if line.startswith(marker)), len(header))
+    source = " ".join(header[start:]).removeprefix(marker)
+    paragraph = " ".join(header[:start])
     title = re.split(r"\.\s+(?=[A-Z`])", paragraph, maxsplit=1)[0].rstrip(".") + "."
     try:
         system = tomllib.loads(text).get("system", {})

@@ -222,6 +222,12 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     n, m = chain.links, chain.inputs
     if len(header) != 1 + m + 2 * n or len(body) < 3:
         raise PlanError(f"{path}: expected columns t, u1..u{m}, x1..x{2 * n} and >= 3 rows")
+    bad = np.flatnonzero(~np.all(np.isfinite(body), axis=1))
+    if bad.size:
+        raise PlanError(
+            f"{path}: data row {bad[0] + 1} holds a value that is not finite: plan again "
+            "(leave out swingup.plan) or repair the file"
+        )
     h = body[1, 0] - body[0, 0]
     substeps = round(h / period)
     if substeps < 1 or abs(substeps * period - h) > 1e-9 or np.any(np.abs(np.diff(body[:, 0]) - h) > 1e-9):

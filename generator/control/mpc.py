@@ -32,7 +32,14 @@ import numpy as np
 
 from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
-from ipgen.common.limits import MAX_MPC_BARRIER, MAX_MPC_HORIZON, MAX_MPC_ITERATIONS, MAX_SOFT_PENALTY
+from ipgen.common.limits import (
+    MAX_MPC_BARRIER,
+    MAX_MPC_HORIZON,
+    MAX_MPC_ITERATIONS,
+    MAX_MPC_SPAN,
+    MAX_SOFT_PENALTY,
+    MIN_MPC_PERIOD,
+)
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
 from ipgen.control.linear import ControlError, equilibrium_state, weights
@@ -328,6 +335,25 @@ def _bounds(
     return sorted(out)
 
 
+def _check_reachable(
+    x_ref: np.ndarray, hard: list[tuple[int, float, float]], u_min: float, u_max: float
+) -> None:
+    """MpcError unless the reference rests inside the hard bounds: its state within each, and u = 0
+    (what holds a rest) within [u_min, u_max]; otherwise every QP is infeasible near it."""
+    for index, lo, hi in hard:
+        if not lo <= x_ref[index] <= hi:
+            raise MpcError(
+                f"reference: state {index} = {x_ref[index]:g} is outside its hard bound [{lo:g}, {hi:g}] "
+                "(travel or bounds): the MPC could never reach it; move the reference inside or widen "
+                "the bound"
+            )
+    if not u_min <= 0.0 <= u_max:
+        raise MpcError(
+            f"u bounds [{u_min:g}, {u_max:g}] exclude 0, the input that holds the reference at rest: "
+            "give u_min <= 0 <= u_max"
+        )
+
+
 def _state(name: str, x: Any, size: int) -> np.ndarray:
     """A state of `size` finite entries, else one line."""
     try:
@@ -436,8 +462,13 @@ class Mpc:
         precision = _choice("precision", precision, tuple(PRECISIONS))
         horizon = _whole("horizon", horizon, 1, MAX_MPC_HORIZON)
         substeps = _whole("substeps", substeps, 1, 100)
-        if not _real("period", period) > 0:
-            raise MpcError(f"period {period!r}: expected a positive number of seconds")
+        if not _real("period", period) >= MIN_MPC_PERIOD:
+            raise MpcError(f"period {period!r}: expected a number of seconds >= {MIN_MPC_PERIOD:g}")
+        if horizon * period > MAX_MPC_SPAN:
+            raise MpcError(
+                f"horizon · period = {horizon} · {period:g} s: the prediction reaches beyond "
+                f"{MAX_MPC_SPAN:g} s; give a shorter horizon or period"
+            )
         self.pendulum = pendulum
         self.precision = precision
         self.mode = mode
@@ -447,7 +478,13 @@ class Mpc:
         q, r = _weights(np.eye(nx) if Q is None else Q, 1.0 if R is None else R, nx)
         self.Q, self.R = q, r
         if isinstance(reference, str):
-            self.x_ref = equilibrium_state(pendulum.links, reference)
+            try:
+                self.x_ref = equilibrium_state(pendulum.links, reference)
+            except ControlError:
+                raise MpcError(
+                    f"reference {reference!r}: expected 'upright', 'hanging', {dof} angles or a state "
+                    f"of {nx} entries"
+                ) from None
             if fixed:  # no base: the links' angles and rates only
                 self.x_ref = np.delete(self.x_ref, [0, dof + 1])
         else:
@@ -480,6 +517,7 @@ class Mpc:
                 raise MpcError("travel and bounds[0] both bound the base: give one of them")
             hard[0] = (-float(travel), float(travel))
         self.hard = _bounds("bounds", hard, nx)
+        _check_reachable(self.x_ref, self.hard, lo, hi)
         self.soft = _bounds("soft_bounds", soft_bounds, nx)
         pair = isinstance(soft_penalty, Sequence | np.ndarray) and not isinstance(soft_penalty, str)
         if not (pair and len(soft_penalty) == 2):

@@ -12,7 +12,8 @@ over the five criteria with a weight (w = 1 each; max torque and integrated torq
 
 - swing-up time (norm 20 s): the first sample from which the end point stays above
   0.9 (l1 + l2) (DFKI's scan runs from the second-to-last sample back to the second, stopping at
-  the first sample below; success = that time < the last sample's time);
+  the first sample below; success = that time < the last sample's time); infinite, so no
+  success, for a record that ends before 0.99 of the episode's t_final (10 s);
 - energy (norm 60 J): Σ_k |Δq_i,k · u_i,k| over both joints (u of the sample before the step);
 - torque cost (norm 20): Σ_k u_kᵀ u_k Δt_k;
 - torque smoothness (norm 0.1): std(Δu_1) + std(Δu_2) (numpy's population std);
@@ -38,6 +39,7 @@ NORMALIZE = {
     "velocity_cost": 400.0,
 }
 HEIGHT = 0.9
+T_FINAL = 10.0  # s: the leaderboard's episode; a shorter record has not stayed up for it
 
 
 @dataclass(frozen=True)
@@ -54,8 +56,13 @@ class Score:
     score: float
 
 
-def swingup_time(t: np.ndarray, x: np.ndarray, l1: float, l2: float, height: float = HEIGHT) -> float:
-    """The time from which the end point stays above height·(l1 + l2) (DFKI's scan; t[-1] if never)."""
+def swingup_time(
+    t: np.ndarray, x: np.ndarray, l1: float, l2: float, height: float = HEIGHT, t_final: float = T_FINAL
+) -> float:
+    """The time from which the end point stays above height·(l1 + l2) (DFKI's scan; t[-1] if never;
+    inf when the record ends before 0.99 `t_final`, as DFKI's get_swingup_time)."""
+    if t[-1] < 0.99 * t_final:
+        return math.inf
     q1, q2 = x[:, 0], x[:, 1]
     y = -l1 * np.cos(q1) - l2 * np.cos(q1 + q2)
     up = y > height * (l1 + l2)
@@ -68,12 +75,15 @@ def swingup_time(t: np.ndarray, x: np.ndarray, l1: float, l2: float, height: flo
     return float(t[index])
 
 
-def score(t: np.ndarray, x: np.ndarray, u: np.ndarray, l1: float, l2: float) -> Score:
-    """The v2 score of samples t (N), x (N × 4: q1, q2, q̇1, q̇2) and u (N × 2)."""
+def score(
+    t: np.ndarray, x: np.ndarray, u: np.ndarray, l1: float, l2: float, t_final: float = T_FINAL
+) -> Score:
+    """The v2 score of samples t (N), x (N × 4: q1, q2, q̇1, q̇2) and u (N × 2) of an episode of
+    `t_final` seconds (the leaderboard's 10 s; a record shorter than 0.99 of it scores 0)."""
     t, x, u = (np.asarray(a, dtype=float) for a in (t, x, u))
     dt = np.diff(t)
     values = {
-        "swingup_time": swingup_time(t, x, l1, l2),
+        "swingup_time": swingup_time(t, x, l1, l2, t_final=t_final),
         "energy": float(
             np.sum(np.abs(np.diff(x[:, 0]) * u[:-1, 0])) + np.sum(np.abs(np.diff(x[:, 1]) * u[:-1, 1]))
         ),
@@ -91,4 +101,4 @@ def score(t: np.ndarray, x: np.ndarray, u: np.ndarray, l1: float, l2: float) -> 
     )
 
 
-__all__ = ["NORMALIZE", "WEIGHTS", "Score", "score", "swingup_time"]
+__all__ = ["NORMALIZE", "T_FINAL", "WEIGHTS", "Score", "score", "swingup_time"]

@@ -200,6 +200,9 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
     system, parameters = tables["system"], tables["parameters"]
     kind, links = system.type, system.links
     name = system.name or System(kind, links, system.inertia).default_name
+    for key, text in parameters.decimals(kind):  # each may be made exact (a motor's fold, specialise)
+        if problem := exact_problem(text):
+            reader.fail(f"parameter {key} = {abbreviate(text)}: {problem}")
     masses, damping = _floats(parameters.m), _floats(parameters.delta)
     lengths = _floats(parameters.lengths(kind))
     initial = tables["initial"]

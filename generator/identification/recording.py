@@ -18,13 +18,20 @@ from __future__ import annotations
 
 import gzip
 import io
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ipgen.errors import Error
-from ipgen.identification.data import MAX_DATA_BYTES
+from ipgen.identification.data import (
+    LARGEST_TIME,
+    LARGEST_VALUE,
+    MAX_DATA_BYTES,
+    MAX_GRID_FACTOR,
+    grid_points,
+)
 
 DEFAULT_CUTOFF = 6.0  # Hz: above the pendulum's swing (≈ 1–2 Hz) and DFKI's excitation, below the noise
 DEFAULT_EDGE = 0.1  # s dropped at each end after filtering
@@ -90,7 +97,7 @@ def read_recording(
             raise RecordingError(
                 f"{path.name}: more than {MAX_DATA_BYTES // 2**20} MB (decompressed): cut it into parts"
             )
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark (spreadsheets' "CSV UTF-8") is not a name
     except (OSError, EOFError, gzip.BadGzipFile, UnicodeDecodeError) as exc:
         raise RecordingError(f"{path.name}: cannot read it ({exc})") from None
     header = [name.strip() for name in text.split("\n", 1)[0].split(",")]
@@ -108,15 +115,37 @@ def read_recording(
     else:
         torques = _columns(header, ("tau", "u"), inputs, path, "torque")
     try:
-        data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
+        with warnings.catch_warnings():  # no rows: numpy warns, then the row count below says it
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise RecordingError(f"{path.name}: not a table of numbers ({str(exc)[:80]})") from None
     if data.shape[0] < MIN_SAMPLES or not np.all(np.isfinite(data[:, [time_column, *angles, *torques]])):
         raise RecordingError(f"{path.name}: needs at least {MIN_SAMPLES} rows of finite numbers")
     t = data[:, time_column]
+    _check_magnitudes(path, t, data[:, [*angles, *torques]])
     if np.any(np.diff(t) <= 0):
         raise RecordingError(f"{path.name}: the time does not increase from row to row")
+    points = grid_points(t)
+    if points > MAX_GRID_FACTOR * len(t):  # the resampling grid's memory follows its points
+        raise RecordingError(
+            f"{path.name}: the samples are unevenly spaced (median step {np.median(np.diff(t)):.3g} s, "
+            f"{t[-1] - t[0]:.3g} s in all): resampling would take {points:.3g} points, more than "
+            f"{MAX_GRID_FACTOR} times the {len(t)} rows; record at a steady rate or resample first"
+        )
     return Recording(path.name.removesuffix(".gz").removesuffix(".csv"), t, data[:, angles], data[:, torques])
+
+
+def _check_magnitudes(path: Path, t: np.ndarray, values: np.ndarray) -> None:
+    """RecordingError for a time beyond ±LARGEST_TIME or an angle or torque beyond ±LARGEST_VALUE
+    (a wrong column or a corrupt sample; the regression's squares would overflow)."""
+    if not np.all(np.abs(t) <= LARGEST_TIME):
+        raise RecordingError(f"{path.name}: a time beyond ±{LARGEST_TIME:g} s: remove or repair the sample")
+    if not np.all(np.abs(values) <= LARGEST_VALUE):
+        raise RecordingError(
+            f"{path.name}: an angle or torque beyond ±{LARGEST_VALUE:g}: a wrong column or a corrupt "
+            "sample; remove or repair it"
+        )
 
 
 def filtered(recording: Recording, cutoff: float = DEFAULT_CUTOFF, edge: float = DEFAULT_EDGE) -> Filtered:
@@ -132,8 +161,10 @@ def filtered(recording: Recording, cutoff: float = DEFAULT_CUTOFF, edge: float =
 
     nyquist = 0.5 / step
     if not 0 < cutoff < nyquist:
+        unit = " (is its time in ms? it must be in s)" if step >= 0.5 else ""
         raise RecordingError(
-            f"cutoff {cutoff:g} Hz: must be between 0 and the Nyquist frequency {nyquist:g} Hz"
+            f"{recording.name}: sampled every {step:g} s{unit}: the cutoff {cutoff:g} Hz must be between 0 "
+            f"and its Nyquist frequency {nyquist:g} Hz; give a lower --cutoff"
         )
     b, a = butter(FILTER_ORDER, cutoff / nyquist)
     q_raw, tau_raw = resampled(recording.q), resampled(recording.tau)

@@ -48,6 +48,9 @@ Z95 = 1.959963984540054
 PASSES = 2
 FIT_METHODS = ("sequential", "joint")
 DEFAULT_METHOD = "sequential"
+# φ's kinds that physics keeps ≥ 0 (inertias about the joint, rotor inertias, masses, damping and
+# Coulomb coefficients); a first moment h = m·c is negative for a centre of mass behind the joint.
+NONNEGATIVE_KINDS = ("I", "Ir", "m", "delta", "cf")
 
 
 class TorqueFitError(Error, ValueError):
@@ -169,6 +172,24 @@ class BaseParameters:
     def of(self, phi: np.ndarray) -> np.ndarray:
         """β of the full parameter vector φ."""
         return phi[list(self.kept)] + self.combination @ phi[list(self.dropped)]
+
+    def sign_definite(self) -> list[bool]:
+        """Per base parameter: whether physics makes it ≥ 0, a sum with positive factors of
+        quantities that cannot be negative (inertias I and Ir, masses m, damping delta, Coulomb
+        cf; a first moment h can)."""
+
+        def nonnegative(index: int) -> bool:
+            return self.names[index].rstrip("0123456789") in NONNEGATIVE_KINDS
+
+        return [
+            nonnegative(index)
+            and all(
+                factor >= 0 and nonnegative(other)
+                for other, factor in zip(self.dropped, self.combination[row], strict=True)
+                if factor != 0
+            )
+            for row, index in enumerate(self.kept)
+        ]
 
     def unidentifiable(self) -> list[str]:
         """The φ that enter no base parameter alone: dropped, absorbed into others."""

@@ -99,14 +99,21 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
             values = numbers(reader, "controller.soft_bounds", row, (3,), what)
             if values[0] != round(values[0]) or not 0 <= values[0] < 2 * n or values[1] >= values[2]:
                 reader.bad("controller.soft_bounds", row, what)
+            if any(index == int(values[0]) for index, _, _ in soft):
+                reader.bad("controller.soft_bounds", rows, f"{what}; each state index may be bounded once")
             soft.append((int(values[0]), float(values[1]), float(values[2])))
     penalty = None
     if "soft_penalty" in table:
-        values = numbers(
-            reader, "controller.soft_penalty", table["soft_penalty"], (2,), "[rho1 >= 0, rho2 > 0]"
-        )
-        if values[0] < 0 or values[1] <= 0:
-            reader.bad("controller.soft_penalty", table["soft_penalty"], "[rho1 >= 0, rho2 > 0]")
+        top = limits.MAX_SOFT_PENALTY
+        what = f"[rho1, rho2]: 0 <= rho1 <= {top:g}, 0 < rho2 <= {top:g}"
+        values = numbers(reader, "controller.soft_penalty", table["soft_penalty"], (2,), what)
+        if not (0 <= values[0] <= top and 0 < values[1] <= top):
+            reader.bad("controller.soft_penalty", table["soft_penalty"], what)
+        if soft is None:
+            reader.fail(
+                "controller.soft_penalty weighs the violation of soft_bounds, which this MPC has none of: "
+                "add soft_bounds or remove it"
+            )
         penalty = (float(values[0]), float(values[1]))
     mode = table.get("mode")
     if mode is not None and mode not in ("rti", "converged"):

@@ -25,6 +25,7 @@ from ipgen.identification.recording import DEFAULT_CUTOFF, FILTER_ORDER, Filtere
 from ipgen.identification.torque import (
     DEFAULT_METHOD,
     TorqueFit,
+    TorqueFitError,
     fit_torques,
     reference_torques,
     regressor,
@@ -117,6 +118,7 @@ def _report(
         fit.labels(), fit.estimate, fit.interval, reference, strict=True
     ):
         lines.append(f"{label:<40} {value:>12.6g} [{low:>12.6g}, {high:>12.6g}] {prior:>12.6g}")
+    lines += _unphysical(fit)
     lines += [
         "",
         f"RMS torque error [N m] ({joints}; against the filtered measured torque, raw in brackets):",
@@ -132,6 +134,36 @@ def _report(
                 f"scene {np.array2string(theirs, precision=4)}"
             )
     return "\n".join(lines) + "\n"
+
+
+def _check_distinct(data: Sequence[str | Path], validate: Sequence[str | Path]) -> None:
+    """TorqueFitError for a recording given twice: twice in the fit counts its samples twice (the
+    intervals narrow for nothing), and one in the fit and the validation is not held out."""
+    seen: dict[Path, str] = {}
+    for role, paths_ in (("--data", data), ("--validate", validate)):
+        for path in paths_:
+            resolved = Path(path).resolve()
+            if resolved in seen:
+                raise TorqueFitError(
+                    f"{Path(path).name}: given as {seen[resolved]} and as {role}: a recording counts once, "
+                    "and one held out for validation must not be fitted; give each file once"
+                )
+            seen[resolved] = role
+
+
+def _unphysical(fit: TorqueFit) -> list[str]:
+    """A warning per base parameter that physics keeps ≥ 0 (`BaseParameters.sign_definite`) but
+    whose whole 95 % interval lies below 0: the data or their columns are not what the scene says."""
+    found = [
+        f"warning: {label} = {value:.6g} is negative, with its whole 95 % interval, but is a sum of "
+        "inertias, masses or friction coefficients: check that the torque columns are the driven joints' "
+        "(tau_measJ joint J's; tau1.. in the order of [actuator] joints) and the angles' coordinates"
+        for label, value, (_, high), definite in zip(
+            fit.labels(), fit.estimate, fit.interval, fit.base.sign_definite(), strict=False
+        )
+        if definite and high < 0
+    ]
+    return ["", *found] if found else []
 
 
 def _csv(scores: Sequence[Score], inputs: int) -> str:
@@ -236,6 +268,7 @@ def identify_torques(
     Error
         One line: a recording that cannot be read, data that cannot identify the parameters.
     """
+    _check_distinct(data, validate)
     paths = {}
     if output is not None:
         paths = {kind: Path(output) / f"{stem}_identify.{kind}" for kind in ("txt", "csv", "png")}

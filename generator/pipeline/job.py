@@ -52,6 +52,18 @@ class Job:
     coordinates: Coordinates = field(default_factory=Coordinates)
 
 
+def named_by_scene(planned: Job) -> Job:
+    """`planned` with its files' "regenerate with" naming its scene (`ipgen --scene S`), which writes
+    them again with all they print from it (a controller, an estimator, the rig's coordinates). For
+    the files a user asked for (`ipgen --scene`, `write_header(scene=)`); a run's and a sweep's model
+    files keep the model's command, so that every scene of one model shares one simulator."""
+    if planned.scene is None or planned.spec.scene:
+        return planned
+    from ipgen.common.safetext import quote_path
+
+    return replace(planned, spec=replace(planned.spec, scene=quote_path(planned.scene.path.as_posix())))
+
+
 def cost_estimate(links: int) -> str:
     """A rough cost of generating `links` links, scaled from runs on a 2-core machine."""
     # Measured on a shared 2-core machine (classical, docs/bench/baseline.md): n = 50 took 13 s

@@ -234,8 +234,9 @@ def relations(table: Any, context: dict[str, Any]) -> None:
         )
     if table.period is None:
         return
-    if table.kind == "mpc" and table.horizon is not None and table.horizon * float(table.period) > 1e3:
-        refuse("horizon · period is beyond 1000 s", key="horizon", value=table.horizon)
+    span = limits.MAX_MPC_SPAN
+    if table.kind == "mpc" and table.horizon is not None and table.horizon * float(table.period) > span:
+        refuse(f"horizon · period is beyond {span:g} s", key="horizon", value=table.horizon)
     sampling_period(table.period, context["t_end"], context["sample"], "> 0 s and ")
 
 
