@@ -93,7 +93,7 @@ __all__ = [
 def derive(
     type: str | Pendulum | FixedPendulum,
     links: int | None = None,
-    inertia: str = "pivot",
+    inertia: str | None = None,
     *,
     general: bool = False,
     actuator: Actuator | Mapping[str, object] | None = None,
@@ -113,7 +113,7 @@ def derive(
         Number of links >= 1 (not with a Pendulum).
     inertia : str, default "pivot"
         Rotary only: "pivot" (the published model: a link's spin about its pivot axis only) or
-        "full" (the complete thin-rod inertia).
+        "full" (the complete thin-rod inertia); not with a Pendulum (which has its own).
     general : bool, default False
         True: the links as built, the views also written in `symbols.com` (pivot-to-CoG
         distances), `symbols.J` (inertias about the CoGs; `J[0]` the arm's about the vertical),
@@ -147,8 +147,11 @@ def derive(
     from ipgen.model.fixed import FixedPendulum
 
     if isinstance(type, FixedPendulum):
-        if links is not None or actuator is not None:
-            raise Error("derive(p) takes the links and the joints from the FixedPendulum: pass neither")
+        if links is not None or actuator is not None or inertia is not None:
+            raise Error(
+                "derive(p) takes the links and the joints from the FixedPendulum: pass no links, inertia "
+                "or actuator"
+            )
         from ipgen.model.fixed_equations import equations_of
 
         return equations_of(type)  # type: ignore[return-value]
@@ -158,11 +161,14 @@ def derive(
     from ipgen.model.system import check_system
 
     if isinstance(type, Pendulum):
-        if links is not None or actuator is not None:
-            raise Error("derive(p) takes the links and the actuator from the Pendulum: pass neither")
+        if links is not None or actuator is not None or inertia is not None:
+            raise Error(
+                "derive(p) takes the links, the inertia and the actuator from the Pendulum: pass none of them"
+            )
         system, drive = type.system, type.actuator
         actuator = None if drive.kind == "direct" else drive
     else:
+        inertia = "pivot" if inertia is None else inertia
         system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
         drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
         drive.check(system)

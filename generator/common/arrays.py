@@ -1,5 +1,5 @@
-"""Numbers from what a user passes: numpy converts text ("1", b"1", ["0.5"]) to numbers, which
-ipgen's arguments refuse as it refuses text anywhere a number is asked for."""
+"""Numbers from what a user passes: numpy converts text ("1", b"1", ["0.5"]) and booleans to
+numbers, which ipgen's arguments refuse as it refuses them anywhere a number is asked for."""
 
 from __future__ import annotations
 
@@ -10,10 +10,16 @@ if TYPE_CHECKING:
 
 
 def float_array(value: Any) -> np.ndarray:
-    """`value` as float64 numbers (its own shape); ValueError for text, ValueError or TypeError for
-    what numpy cannot convert (a ragged list, a mapping, None)."""
+    """`value` as float64 numbers (its own shape); ValueError for text or booleans, ValueError or
+    TypeError for what numpy cannot convert (a ragged list, a mapping, None)."""
     import numpy as np
 
-    if np.asarray(value).dtype.kind in "US":
+    kind = np.asarray(value).dtype.kind
+    if kind in "US":
         raise ValueError(f"{value!r} is text, not numbers")
-    return np.asarray(value, dtype=np.float64)
+    if kind == "b":
+        raise ValueError(f"{value!r} holds booleans, not numbers")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except OverflowError:  # an integer beyond a double
+        raise ValueError(f"{value!r} holds a number beyond a double") from None

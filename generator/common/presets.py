@@ -65,6 +65,8 @@ def preset_names() -> tuple[str, ...]:
 
 def preset_path(name: str) -> Path:
     """The scene file of the preset `name`; an `Error` naming the presets there are otherwise."""
+    if not isinstance(name, str):
+        raise Error(f"preset {abbreviate(repr(name))}: expected a preset's name (ipgen presets lists them)")
     folder = presets_dir()
     found = [path for path in folder.rglob("*.toml") if path.stem == name]
     if len(found) == 1:

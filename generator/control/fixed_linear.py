@@ -12,6 +12,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ipgen.common.arrays import float_array
+from ipgen.common.safetext import abbreviate
 from ipgen.control.linear import ControlError, check_stabilisable, checked_vector, weights
 from ipgen.model.coordinates import rests
 from ipgen.model.fixed import FixedPendulum
@@ -101,7 +103,15 @@ def lqr_fixed(
 
 
 def _input_weights(R: float | Sequence[float] | np.ndarray, inputs: int) -> np.ndarray:
-    r = np.asarray(R, dtype=float)
+    """R as an inputs × inputs symmetric positive definite matrix (one number, a diagonal or a
+    matrix), or a one-line ControlError naming R."""
+    try:
+        r = float_array(R)
+    except (TypeError, ValueError):
+        raise ControlError(
+            f"R = {abbreviate(repr(R))}: expected one number, {inputs} weights or a {inputs} × {inputs} "
+            "matrix"
+        ) from None
     if r.ndim == 0 or r.size == 1:
         r = np.eye(inputs) * float(r.reshape(-1)[0])
     elif r.ndim == 1:

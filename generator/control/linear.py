@@ -218,7 +218,7 @@ def checked_vector(name: str, value: Sequence[float] | None, size: int, what: st
     if value is None:
         return np.zeros(size)
     try:
-        array = np.asarray(value, dtype=float).reshape(-1)
+        array = float_array(value).reshape(-1)
     except (TypeError, ValueError):
         raise ControlError(f"{name} must be {size} numbers ({what})") from None
     if array.size != size:

@@ -24,10 +24,13 @@ force that realises it is τ = M_0· θ̈ + b_0 (docs/model.md, "An acceleration
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
+from decimal import Decimal
 from typing import Any
 
+from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.system import System
 
@@ -133,6 +136,7 @@ class Actuator:
             value = getattr(self, name)
             if value is None:
                 continue
+            value = _constant(name, value)
             if not math.isfinite(value):
                 raise ActuatorError(f"actuator {name} = {value}: must be a finite number")
             if name in ("eta_g", "eta_m") and not 0 < value <= 1:
@@ -273,6 +277,17 @@ def fold_base(
 DIRECT = Actuator()
 
 
+def _constant(name: str, value: Any) -> float:
+    """A motor constant as a float: a real number (Decimal and numpy's included), else one line
+    (text, bools and complex numbers are not constants; an integer beyond a double is refused)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
+        raise ActuatorError(f"actuator {name} = {value!r}: expected a number [{MOTOR_CONSTANTS[name][0]}]")
+    try:
+        return float(value)
+    except OverflowError:
+        raise ActuatorError(f"actuator {name} = {abbreviate(str(value))}: too large for a double") from None
+
+
 def _or_inf(value: Callable[[], float]) -> float:
     """value(), or inf where it overflows a double (OverflowError: an int too large for a float)."""
     try:
@@ -295,11 +310,7 @@ def as_actuator(value: Actuator | dict | None) -> Actuator:
             raise ActuatorError(
                 f"unknown actuator constant {unknown[0]!r}: expected kind, {', '.join(MOTOR_CONSTANTS)}"
             )
-        try:
-            numbers = {k: (v if k == "kind" or v is None else float(v)) for k, v in value.items()}
-        except (TypeError, ValueError):
-            raise ActuatorError("actuator constants must be numbers") from None
-        return Actuator(**numbers)
+        return Actuator(**{k: (v if k == "kind" or v is None else _constant(k, v)) for k, v in value.items()})
     raise ActuatorError(f"actuator must be an ipgen Actuator, a dict or None, got {type(value).__name__}")
 
 

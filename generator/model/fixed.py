@@ -17,14 +17,16 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import KW_ONLY, dataclass
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.coordinates import Coordinates
+from ipgen.model.system import UnknownParameter
 
 __all__ = ["COULOMB_LAWS", "FixedPendulum", "FixedPendulumError"]
 
@@ -42,7 +44,8 @@ def _fail(message: str) -> Any:
 
 
 def _number(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    """`value` as a finite float (a real number: numpy's and Decimal included), else one line."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | Decimal):
         return _fail(f"{name} = {abbreviate(repr(value))}: expected a number")
     try:
         number = float(value)
@@ -54,7 +57,7 @@ def _number(name: str, value: object) -> float:
 
 
 def _array(name: str, value: object, size: int, what: str) -> tuple[float, ...]:
-    if isinstance(value, str | bytes | Mapping) or not hasattr(value, "__len__"):
+    if isinstance(value, str | bytes | Mapping | Set) or not hasattr(value, "__len__"):
         return _fail(f"{name} must be a list of {size} numbers ({what}), got {abbreviate(str(value))}")
     items = list(value)  # type: ignore[call-overload]
     if len(items) != size:
@@ -69,7 +72,7 @@ def _array(name: str, value: object, size: int, what: str) -> tuple[float, ...]:
 
 def joints_problem(joints: object, links: int) -> str | None:
     """Why `joints` cannot be the actuated joints of an n-link chain, or None."""
-    if isinstance(joints, str | bytes | Mapping) or not hasattr(joints, "__len__"):
+    if isinstance(joints, str | bytes | Mapping | Set) or not hasattr(joints, "__len__"):
         return (
             f"joints must be a list of joint numbers 1..{links} (1 = shoulder), got {abbreviate(str(joints))}"
         )
@@ -215,7 +218,13 @@ class FixedPendulum:
                 )
         com, inertia = self.resolved("com"), self.resolved("J")
         for i in range(self.links):
-            if not inertia[i] + self.m[i] * com[i] * com[i] > 0:
+            about_pivot = inertia[i] + self.m[i] * com[i] * com[i]
+            if not math.isfinite(about_pivot):  # a rod's m l²/12 past a double's range
+                _fail(
+                    f"link {i + 1}'s inertia about its pivot overflows (m[{i}] = {self.m[i]:g}, "
+                    f"l[{i}] = {self.l[i]:g}): check the units"
+                )
+            if not about_pivot > 0:
                 _fail(
                     f"link {i + 1} has no inertia about its pivot (J[{i}] + m[{i}] com[{i}]² = "
                     f"{inertia[i] + self.m[i] * com[i] * com[i]:g} <= 0): check J and com"
@@ -265,14 +274,18 @@ class FixedPendulum:
         >>> FixedPendulum(1, m=[2.0], l=[0.5], delta=[0.0]).value("com1")
         0.25
         """
+        if not isinstance(name, str):
+            raise UnknownParameter(f"parameter name {name!r}: expected text such as 'm1' or 'g'")
         if name == "g":
             return self.g
         group = name.rstrip("0123456789")
         if group not in ("m", "l", "delta", "com", "J", "coulomb") or group == name:
-            raise KeyError(f"unknown parameter {name!r}")
+            raise UnknownParameter(
+                f"unknown parameter {name!r}: a fixed chain has m, l, delta, com, J, coulomb and g"
+            )
         index = int(name[len(group) :])
         if not 1 <= index <= self.links:
-            raise KeyError(f"unknown parameter {name!r}: links are numbered 1..{self.links}")
+            raise UnknownParameter(f"unknown parameter {name!r}: links are numbered 1..{self.links}")
         if group in ("com", "J"):
             return self.resolved(group)[index - 1]
         values = getattr(self, group)

@@ -38,7 +38,7 @@ class FixedModel:
     --------
     >>> from ipgen.model.fixed import FixedPendulum
     >>> model = FixedModel(FixedPendulum(1, m=[1.0], l=[1.0], delta=[0.0], g=10.0))
-    >>> float(model.forward_dynamics([0.1], [0.0], [0.0])[0]) == 15 * np.sin(0.1)
+    >>> bool(np.isclose(model.forward_dynamics([0.1], [0.0], [0.0])[0], 15 * np.sin(0.1), rtol=1e-14))
     True
     """
 

@@ -99,9 +99,7 @@ def link_problem(system: System, m: Sequence[float], l: Sequence[float], links: 
     """Why these links cannot be built, or None (the rules of the module docstring)."""
     n = system.links
     for group in LINK_GROUPS:
-        for i, value in enumerate(getattr(links, group)):
-            if i == 0 and group != "J":
-                continue
+        for i, value in enumerate(getattr(links, group)):  # index 0's too: unused, but not nonsense
             problem = value_problem(system, f"{group}[{i}]", group, value)
             if problem:
                 return problem

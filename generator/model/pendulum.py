@@ -21,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping, Sequence, Set
 from dataclasses import KW_ONLY, dataclass
 from decimal import Decimal
 from fractions import Fraction
@@ -34,7 +34,7 @@ from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT, Actuator, as_actuator, fold_base
 from ipgen.model.coordinates import Coordinates
 from ipgen.model.links import LinkValues, link_problem, rod_value
-from ipgen.model.system import LINK_GROUPS, System, split_parameter, system_problem
+from ipgen.model.system import LINK_GROUPS, System, UnknownParameter, split_parameter, system_problem
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
@@ -82,7 +82,7 @@ def _fail(message: str) -> Any:
 
 def _array(name: str, value: object, dof: int) -> tuple[Number, ...]:
     """`value` as a tuple of `dof` numbers (base, link 1, ...)."""
-    if isinstance(value, str | bytes | Mapping) or not hasattr(value, "__len__"):
+    if isinstance(value, str | bytes | Mapping | Set) or not hasattr(value, "__len__"):
         return _fail(
             f"{name} must be a list of {dof} numbers (the base, then each link), got {_shown(value)}"
         )
@@ -343,8 +343,8 @@ class Pendulum:
 
         Raises
         ------
-        KeyError
-            A name this pendulum has not.
+        UnknownParameter
+            A name this pendulum has not (an ipgen.Error and a KeyError).
 
         Examples
         --------
@@ -355,7 +355,7 @@ class Pendulum:
         if index is None:
             return self.g
         if index > self.links:
-            raise KeyError(f"unknown parameter {name!r}: this pendulum has indices 0..{self.links}")
+            raise UnknownParameter(f"unknown parameter {name!r}: this pendulum has indices 0..{self.links}")
         given = getattr(self, group)
         if given is not None:
             return given[index]
@@ -485,10 +485,14 @@ class Pendulum:
         >>> Pendulum.from_scene(presets_dir() / "rigs" / "qube_servo2.toml").positive  # doctest: +SKIP
         'counterclockwise'
         """
-        if not isinstance(scene, str | Path):
-            return from_scene_object(scene, exact=exact)
-        from ipgen.experiment.scene import load_scene  # the scene stage: read on request only
+        from ipgen.experiment.scene import Scene, load_scene  # the scene stage: read on request only
 
+        if isinstance(scene, Scene):
+            return from_scene_object(scene, exact=exact)
+        if not isinstance(scene, str | Path):
+            raise PendulumError(
+                f"from_scene({abbreviate(repr(scene))}): expected a scene file's path or a Scene"
+            )
         return from_scene_object(load_scene(Path(scene)), exact=exact)
 
     @classmethod

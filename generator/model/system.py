@@ -192,14 +192,23 @@ def all_parameter_range(links: int) -> str:
     )
 
 
+class UnknownParameter(Error, KeyError):
+    """A parameter name the model does not have (a KeyError, as a mapping's; one line)."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
+
+
 def split_parameter(name: str) -> tuple[str, int | None]:
-    """ "delta2" -> ("delta", 2), "J_axial1" -> ("J_axial", 1), "g" -> ("g", None); KeyError if
-    `name` is no parameter name."""
+    """ "delta2" -> ("delta", 2), "J_axial1" -> ("J_axial", 1), "g" -> ("g", None);
+    `UnknownParameter` (a KeyError) if `name` is no parameter name."""
+    if not isinstance(name, str):
+        raise UnknownParameter(f"parameter name {name!r}: expected text such as 'm1' or 'g'")
     if name == "g":
         return "g", None
     group = name.rstrip("0123456789")
     if group not in PARAMETER_GROUPS + LINK_GROUPS or group == name:
-        raise KeyError(f"unknown parameter {name!r}")
+        raise UnknownParameter(f"unknown parameter {name!r}")
     return group, int(name[len(group) :])
 
 

@@ -16,7 +16,8 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
-from ipgen.errors import Error
+from ipgen.common.safetext import abbreviate
+from ipgen.errors import Error, SceneError
 from ipgen.model.fixed import FixedPendulum
 from ipgen.scene.fields import Reader
 from ipgen.scene.load import FIXED_NOT_YET as NOT_YET
@@ -109,6 +110,8 @@ def load_fixed_scene(path: str | Path) -> FixedPendulum:
     >>> load_fixed_scene(preset_path("dfki_c0")).joints
     (1, 2)
     """
+    if not isinstance(path, str | Path):
+        raise SceneError(f"{abbreviate(repr(path))}: expected a scene file's path")
     reader, document = parse_document(Path(path))
     if not is_fixed_document(document):
         reader.fail('expected a fixed-pivot scene ([system] type = "fixed")')
