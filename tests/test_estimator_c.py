@@ -192,6 +192,23 @@ def test_c_loop_matches_the_simulator(generated, name) -> None:
             assert np.max(np.abs(commanded - sent)) <= FLOAT_INPUT, (name, np.max(np.abs(commanded - sent)))
 
 
+@pytest.mark.parametrize("name", ["difference", "filter", "kalman", "ekf"])
+def test_a_sample_that_is_not_finite_leaves_the_c_estimate_as_it_was(generated, name) -> None:
+    """One NaN or inf reading in the middle of the simulator's samples: the header's estimator skips
+    it (the update returns 3, its state unchanged), the law acts on the kept estimate, and every
+    later sample is estimated and commanded as without it (before, a Kalman filter's or an EKF's
+    estimate and every command stayed NaN from there on, a filter's rate too)."""
+    folder = generated[name]
+    columns = simulate(generated["simulator"], folder)
+    y = np.column_stack([columns["y_theta0"], columns["y_theta1"]])
+    plain = run_c(folder, name, "double", y)
+    for bad in ([np.nan, y[300, 1]], [y[300, 0], np.inf]):
+        glitched = run_c(folder, name, "double", np.insert(y, 300, bad, axis=0))
+        assert np.all(np.isfinite(glitched))
+        np.testing.assert_array_equal(glitched[300], plain[299])  # the kept estimate, its command
+        np.testing.assert_array_equal(np.delete(glitched, 300, axis=0), plain)
+
+
 # replay feeds the CSV's applied u; the "told" loop predicts with the commands it believes act,
 # a lagged loop with their lagged means
 @pytest.mark.parametrize(

@@ -148,3 +148,22 @@ def test_the_bases_entries_of_the_links_as_built_are_checked_too(links: dict) ->
         ipgen.Pendulum(kind, 1, m=[1.0, 0.1], l=[0.1, 0.5], delta=[0, 0], inertia=inertia, **links)
     assert "cannot be negative" in _one_line(refused.value)
     assert math.isfinite(ipgen.Pendulum(kind, 1, m=[1.0, 0.1], l=[0.1, 0.5], delta=[0, 0]).value("m0"))
+
+
+@pytest.mark.parametrize(
+    ("call", "words"),
+    [
+        (lambda p, c: ipgen.linearize(p, qq=1), "ipgen.linearize() got an unexpected keyword argument 'qq'"),
+        (lambda p, c: ipgen.lqr(p, [1, 1, 1, 1], 1, None, 5), "ipgen.lqr() takes from 3 to 4"),
+        (lambda p, c: ipgen.lqr(c), "ipgen.lqr() missing 2 required positional arguments: 'Q' and 'R'"),
+        (lambda p, c: ipgen.linearize(c, 1, 2, 3, 4), "ipgen.linearize() takes from 1 to 4"),
+        (lambda p, c: ipgen.linearize(None), "ipgen.linearize() missing 4 required positional arguments"),
+    ],
+)
+def test_arguments_fitting_no_form_name_the_public_function(call: object, words: str) -> None:
+    """A misspelt keyword or a wrong count named the private form (`_linearize()`, `lqr_fixed()`);
+    now ipgen's, as an ipgen.Error that is still a TypeError."""
+    pendulum = ipgen.Pendulum("classical", 1, m=[1.0, 0.1], l=[0, 0.5], delta=[0, 0])
+    with pytest.raises(TypeError) as refused:
+        call(pendulum, ipgen.FixedPendulum.preset("dfki_c1"))  # type: ignore[operator]
+    assert words in _one_line(refused.value)

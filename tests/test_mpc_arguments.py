@@ -184,3 +184,12 @@ def test_what_no_mpc_can_meet_is_an_mpc_error(kwargs: dict, words: str) -> None:
     with pytest.raises(MpcError) as refused:
         ipgen.mpc(QUBE, **({"u_max": 10.0} | kwargs))
     assert words in str(refused.value) and "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize("reference", [(None, None), (1.0, 2.0), (None, [0.0] * 30)])
+def test_a_plan_that_is_no_plan_is_named_as_given(reference: tuple) -> None:
+    """step(x, reference=(None, None)) said "got () and ()"; now it shows what was passed."""
+    controller = ipgen.mpc(QUBE, u_max=10.0)
+    with pytest.raises(MpcError) as refused:
+        controller.step(X, reference=reference)
+    assert "a plan's 31 × 4 states" in str(refused.value) and "()" not in str(refused.value)

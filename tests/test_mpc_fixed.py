@@ -327,6 +327,18 @@ def test_a_plan_with_a_value_that_is_not_finite_is_one_line(
         assert not (tmp_path / "never").exists()
 
 
+def test_a_presets_scene_copied_without_its_plan_names_where_the_plan_is(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`ipgen presets acrobot_swingup > acro.toml` copies the scene, not its plan CSV beside it:
+    the one-line refusal names the shipped plan to copy (before, only "No such file")."""
+    (tmp_path / "acro.toml").write_text(preset_path("acrobot_swingup").read_text())
+    assert run(["run", str(tmp_path / "acro.toml"), "-o", str(tmp_path / "never"), "--no-plot"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    shipped = preset_path("acrobot_swingup").with_name("acrobot_swingup.plan.csv")
+    assert len(err) == 1 and f"copy it from {shipped}" in err[0], err
+
+
 def test_the_mpc_predicts_with_controller_model_where_given(tmp_path: Path) -> None:
     """The resolved config with the model stated as the plant's own (the same CSV, bit for bit)
     and as a heavier one (other torques): the simulator reads controller.model.*; `model_lines`

@@ -432,6 +432,51 @@ def test_run_replaces_no_user_file(tmp_path: Path) -> None:
     assert mine.read_text().startswith("t,theta0")
 
 
+@pytest.mark.parametrize(
+    ("header", "ours"),
+    [
+        ("t,theta0,theta1,dtheta0,dtheta1", True),
+        ("t,theta0,theta1,dtheta0,dtheta1,kinetic,potential,input_work,dissipated,u", True),
+        ("t,theta0,theta1,dtheta0,dtheta1,u,phase", True),  # a swing-up's
+        ("t,theta0,theta1,dtheta0,dtheta1,u1,u2", True),  # a fixed chain's
+        (
+            "t,theta0,theta1,dtheta0,dtheta1,u,y_theta0,y_theta1,hat_theta0,hat_theta1,hat_dtheta0,hat_dtheta1",
+            True,
+        ),
+        (
+            "t,theta0,theta1,dtheta0,dtheta1,u,y_theta1,hat_theta0,hat_theta1,hat_dtheta0,hat_dtheta1,hat_gain,phase",
+            True,
+        ),
+        ("t,theta0,theta1,dtheta0,dtheta1,u,mine", False),
+        ("t,theta0,theta1,dtheta0,dtheta1,phase,u", False),
+        ("my,own,data", False),
+    ],
+)
+def test_a_csv_the_simulator_writes_is_known_as_its(tmp_path: Path, header: str, ours: bool) -> None:
+    """Every header the simulator writes (ipsim/csv.hpp: the energies, u or u1..um, the measured
+    loop's y_ and hat_ columns, a swing-up's phase) is its, so a run into the same folder replaces
+    it (before, a swing-up's or a measured loop's CSV was refused as a user's on the second run)."""
+    from ipgen.pipeline.run import _csv_from_simulator
+
+    csv = tmp_path / "run.csv"
+    csv.write_text(header + "\n0,0,0,0,0\n")
+    assert _csv_from_simulator(csv) is ours
+
+
+def test_a_measured_swing_up_runs_again_into_its_folder(tmp_path: Path) -> None:
+    """The second `ipgen run` of a swing-up with sensors and an EKF into the same folder replaces
+    its CSV (Python's check and the simulator's both know the columns), without --force."""
+    scene = preset_path("qube_servo2_mpc_swingup_m4f")
+    text = scene.read_text(encoding="utf-8").replace("t_end = 10.0", "t_end = 0.05")
+    path = tmp_path / "m4f.toml"
+    path.write_text(text, encoding="utf-8")
+    for _ in range(2):
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()) as err:
+            assert run(["run", str(path), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+    header = (tmp_path / "out" / "m4f.csv").read_text().splitlines()[0]
+    assert "hat_gain" in header and header.endswith(",phase"), header
+
+
 def test_plot_any_simulator_csv(tmp_path: Path) -> None:
     csv = tmp_path / "run.csv"
     csv.write_text(
@@ -722,7 +767,7 @@ def test_a_simulator_ended_by_a_signal_has_the_shells_status_and_the_signals_nam
 
 LONG = (
     '[system]\ntype = "classical"\nlinks = 1\n[parameters]\nm = [0.5, 0.2]\nl = [0, 0.4]\n'
-    'delta = [0.1, 0.001]\n[initial]\ntheta = [0, 0.1]\n'
+    "delta = [0.1, 0.001]\n[initial]\ntheta = [0, 0.1]\n"
     '[simulation]\nt_end = 20.0\nmethod = "rk4"\nstep = 1e-7\nmax_steps = 100000000\n'
 )
 

@@ -449,6 +449,10 @@ def test_an_energy_swingup_on_encoders_with_an_ekf_reaches_the_hold(simulator: P
     assert rows[-1].endswith(",hold") and "Estimator: ekf" in result.stdout
     last = [float(v) for v in rows[-1].split(",")[:-1]]
     assert abs(math.remainder(last[2], 2 * math.pi)) < 0.05  # θ1 upright
+    # Its CSV is the simulator's: a second run replaces it without --force (before, the y_ and
+    # hat_ columns made it a user's file, refused)
+    again = subprocess.run([str(simulator), str(cfg), "--csv", str(csv)], capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr
 
 
 def test_the_simulator_refuses_compensate_lag_without_sensors(simulator: Path, tmp_path: Path) -> None:

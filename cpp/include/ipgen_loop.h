@@ -140,6 +140,17 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_lag_command(const ipgen_loop_lag *lag, ipge
  * Each is called once per sample k = 0, 1, ... with the measured coordinates y and leaves the
  * estimate x_{k|k} = [q; qd] in x. */
 
+/* 1 if the count entries of y and u are all finite, else 0: a generated header's estimator
+ * skips such a sample (its state unchanged), which a filter's recursion would otherwise carry
+ * on for ever. */
+IPGEN_LOOP_API int ipgen_loop_finite(int count, const ipgen_real y[], ipgen_real u) {
+  int i;
+  if (!(u - u == (ipgen_real)0)) return 0; /* NaN or inf: inf - inf is NaN */
+  for (i = 0; i < count; ++i)
+    if (!(y[i] - y[i] == (ipgen_real)0)) return 0;
+  return 1;
+}
+
 /* Backward difference, every coordinate measured (dof of them, in order): q = y_k,
  * qd = (y_k - y_{k-1}) / period, qd = 0 at k = 0. `previous` keeps y_{k-1}. */
 IPGEN_LOOP_API void ipgen_loop_difference(int dof, ipgen_real period, long k, const ipgen_real y[],

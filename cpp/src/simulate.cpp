@@ -419,6 +419,11 @@ bool written_by_simulator(const std::string& path) {
   // Optional columns: the energies, then u (scenes with a controller).
   std::vector<std::string> rest(fields.begin() + static_cast<std::ptrdiff_t>(1 + 2 * n), fields.end());
   if (!rest.empty() && rest.back() == "phase") rest.pop_back();
+  // The measured loop's columns (ipsim/sensors.hpp): y_theta<i>..., hat_theta<i>..., hat_dtheta<i>..., hat_gain.
+  if (!rest.empty() && rest.back() == "hat_gain") rest.pop_back();
+  for (const char* prefix : {"hat_dtheta", "hat_theta", "y_theta"}) {
+    while (!rest.empty() && rest.back().rfind(prefix, 0) == 0) rest.pop_back();
+  }
   if (!rest.empty() && rest.back() == "u") {
     rest.pop_back();
   } else if (!rest.empty() && rest.back().size() > 1 && rest.back()[0] == 'u') {  // u1..um (a fixed chain's inputs)

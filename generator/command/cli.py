@@ -45,6 +45,8 @@ Systems (docs/model.md in the repository has the exact model):
   classical  a cart on a rail carrying a chain of n rods; q(0) = cart position [m]
   rotary     a horizontal arm turning about the vertical (Furuta) carrying n rods;
              q(0) = arm angle [rad]
+  fixed      a chain of n rods on a fixed pivot, torques at chosen joints (--joints);
+             q(1..n) only (acrobot, pendubot, DFKI's double pendulum)
 Link angles q(1..n) are absolute, from the upright vertical, clockwise positive.
 
 \b

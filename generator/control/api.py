@@ -19,12 +19,12 @@ def _is_fixed(args: tuple, kwargs: dict) -> bool:
 @functools.wraps(linear.linearize)
 def linearize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     if _is_fixed(args, kwargs):
-        return fixed_linear.linearize_fixed(*args, **kwargs)
+        return linear.called("linearize", fixed_linear.linearize_fixed, *args, **kwargs)
     return linear.linearize(*args, **kwargs)
 
 
 @functools.wraps(linear.lqr)
 def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
     if _is_fixed(args, kwargs):
-        return fixed_linear.lqr_fixed(*args, **kwargs)
+        return linear.called("lqr", fixed_linear.lqr_fixed, *args, **kwargs)
     return linear.lqr(*args, **kwargs)

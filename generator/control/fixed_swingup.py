@@ -213,7 +213,12 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     try:
         text = Path(path).read_text()
     except OSError as exc:
-        raise PlanError(f"cannot read the plan {path}: {exc.strerror}") from None
+        from ipgen.common.presets import presets_dir
+
+        name = Path(path).name  # a preset's plan, its scene copied alone (`ipgen presets NAME > S.toml`)
+        shipped = next((found for found in presets_dir().rglob("*.csv") if found.name == name), None)
+        hint = f": copy it from {shipped}, or leave out swingup.plan to plan anew" if shipped else ""
+        raise PlanError(f"cannot read the plan {path}: {exc.strerror}{hint}") from None
     rows = [line.split(",") for line in text.splitlines() if line.strip() and not line.startswith("#")]
     try:
         header, body = rows[0], np.array([[float(v) for v in row] for row in rows[1:]])

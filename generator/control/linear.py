@@ -61,6 +61,10 @@ class ControlError(Error):
     """A controller that cannot be computed (bad weights, an uncontrollable pair, ...)."""
 
 
+class CallError(ControlError, TypeError):
+    """Arguments that fit none of a public function's forms (a TypeError, as Python's own)."""
+
+
 class EquilibriumWarning(UserWarning):
     """`linearize` was asked for a state that is not an equilibrium for the given input."""
 
@@ -357,8 +361,8 @@ def linearize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """
     if _is_pendulum_call(args, kwargs):
         p, rest, options = _pendulum_call("linearize", args, kwargs)
-        return _linearize(p, *rest, **options)
-    return _linearize_keywords(*args, **kwargs)
+        return called("linearize", _linearize, p, *rest, **options)
+    return called("linearize", _linearize_keywords, *args, **kwargs)
 
 
 def _linearize_keywords(
@@ -777,8 +781,20 @@ def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
     """
     if _is_pendulum_call(args, kwargs):
         p, rest, options = _pendulum_call("lqr", args, kwargs)
-        return _lqr(p, *rest, **options)
-    return _lqr_keywords(*args, **kwargs)
+        return called("lqr", _lqr, p, *rest, **options)
+    return called("lqr", _lqr_keywords, *args, **kwargs)
+
+
+def called(name: str, function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """`function(*args, **kwargs)`, one of public `name`'s forms; arguments that do not fit it (a
+    misspelt keyword, one too many) are a ControlError naming `ipgen.name`, not its private form."""
+    try:
+        return function(*args, **kwargs)
+    except TypeError as error:
+        if error.__traceback__ is None or error.__traceback__.tb_next is not None:
+            raise  # raised inside the function: not about its arguments
+        message = str(error).replace(f"{function.__name__}()", f"ipgen.{name}()")
+        raise CallError(f"{message}: help(ipgen.{name}) shows its forms") from None
 
 
 def _lqr_keywords(

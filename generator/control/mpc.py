@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ipgen.common.arrays import float_array
 from ipgen.common.build_cache import runtime_library
 from ipgen.common.install import REINSTALL
 from ipgen.common.limits import (
@@ -674,10 +675,12 @@ class Mpc:
         usage = f"reference: expected (states, inputs), a plan's {N + 1} × {nx} states, {N} inputs from now"
         try:
             states, inputs = reference
-            xs = np.asarray(states, dtype=float)
-            us = np.asarray(inputs, dtype=float)
+            xs = float_array(states)
+            us = float_array(inputs)
         except (TypeError, ValueError):
             raise MpcError(usage) from None
+        if xs.ndim == 0 or us.ndim == 0:  # None, or one number: not a plan
+            raise MpcError(f"{usage}; got {_shown(states)} and {_shown(inputs)}")
         if xs.shape not in ((N + 1, nx), ((N + 1) * nx,)) or us.shape not in ((N,), (N, nu)):
             raise MpcError(f"{usage}; got {xs.shape} and {us.shape} (a transposed plan reads wrong)")
         if not (np.all(np.isfinite(xs)) and np.all(np.isfinite(us))):

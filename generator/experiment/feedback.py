@@ -176,7 +176,7 @@ def _mpc_in_ipgen_coordinates(
         row = matrix[index]
         if np.count_nonzero(row) != 1:
             raise GainError(
-                f"controller: soft_bounds on coordinate {index} bound a relative angle (angles = "
+                f"controller: soft_bounds on coordinate {index} bound a relative angle or its rate (angles = "
                 '"relative"): the MPC bounds single coordinates of ipgen\'s; bound link 1 or the base, '
                 "or use absolute angles"
             )

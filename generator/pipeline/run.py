@@ -38,9 +38,11 @@ from ipgen.pipeline.simulator import BuildError, Simulator, build, model_sources
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
 
-# The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator).
+# The first line of a CSV the simulator wrote (the rule of simulate.cpp's written_by_simulator):
+# the state, the energies, u, the measured loop's columns (ipsim/sensors.hpp) and a swing-up's phase.
 SIMULATOR_CSV = re.compile(
     r"t((?:,theta\d+)+)((?:,dtheta\d+)+)(,kinetic,potential,input_work,dissipated)?(,u|(?:,u\d+)+)?"
+    r"(?:,y_theta\d+)*(?:,hat_theta\d+)*(?:,hat_dtheta\d+)*(?:,hat_gain)?(?:,phase)?"
 )
 
 
