@@ -167,3 +167,15 @@ def test_arguments_fitting_no_form_name_the_public_function(call: object, words:
     with pytest.raises(TypeError) as refused:
         call(pendulum, ipgen.FixedPendulum.preset("dfki_c1"))  # type: ignore[operator]
     assert words in _one_line(refused.value)
+
+
+def test_numpys_integers_count_links_and_name_joints() -> None:
+    """links = np.int64(1) and joints = np.array([1, 2]) were refused ("np.int64(1) is not a joint
+    number"); now taken as the Python integers they are, and stored as such."""
+    plain = ipgen.Pendulum("rotary", 1, **ROTARY)
+    numpy = ipgen.Pendulum("rotary", np.int64(1), **ROTARY)
+    assert numpy == plain and type(numpy.links) is int
+    chain = ipgen.FixedPendulum(
+        np.int64(2), m=[1.0, 1.0], l=[1.0, 1.0], delta=[0, 0], joints=np.array([1, 2])
+    )
+    assert chain.joints == (1, 2) and all(type(j) is int for j in chain.joints) and type(chain.links) is int

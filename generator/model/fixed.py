@@ -80,7 +80,7 @@ def joints_problem(joints: object, links: int) -> str | None:
     if not items:
         return f"joints is empty: give at least one actuated joint, 1..{links} (1 = shoulder)"
     for joint in items:
-        if isinstance(joint, bool) or not isinstance(joint, int):
+        if isinstance(joint, bool) or not isinstance(joint, numbers.Integral):
             return f"joints: {abbreviate(repr(joint))} is not a joint number: expected integers 1..{links}"
         if not 1 <= joint <= links:
             return f"joints: joint {joint} is out of range: this chain has joints 1..{links} (1 = shoulder)"
@@ -157,6 +157,8 @@ class FixedPendulum:
     positive: str = "clockwise"
 
     def __post_init__(self) -> None:
+        if isinstance(self.links, numbers.Integral) and not isinstance(self.links, bool):
+            object.__setattr__(self, "links", int(self.links))  # numpy's integers too
         n = self.links
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             _fail(
@@ -165,7 +167,7 @@ class FixedPendulum:
         problem = joints_problem(self.joints, n)
         if problem:
             _fail(problem)
-        fixed: dict[str, Any] = {"joints": tuple(self.joints)}
+        fixed: dict[str, Any] = {"joints": tuple(int(joint) for joint in self.joints)}
         for name in ("m", "l", "delta"):
             fixed[name] = _array(name, getattr(self, name), n, "one per link")
         for name in ("com", "J", "coulomb"):

@@ -161,6 +161,8 @@ class Pendulum:
     positive: str = "clockwise"
 
     def __post_init__(self) -> None:
+        if isinstance(self.links, numbers.Integral) and not isinstance(self.links, bool):
+            object.__setattr__(self, "links", int(self.links))  # numpy's integers too
         problem = system_problem(self.type, self.links, self.inertia)
         if problem is not None:
             raise PendulumError(str(problem))
