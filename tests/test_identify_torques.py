@@ -388,6 +388,11 @@ def test_a_byte_order_mark_is_not_part_of_the_first_name(tmp_path: Path) -> None
     np.testing.assert_array_equal(plain.tau, marked.tau)
 
 
+def _dfki_identify(*options: str) -> list[str]:
+    """`ipgen identify --preset dfki_c0 --data FIT` with `options`."""
+    return ["identify", "--preset", "dfki_c0", "--data", str(FIT), *options]
+
+
 def test_a_recording_is_fitted_or_validated_once(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The same file twice in --data (its samples counted twice: narrower intervals for nothing),
     or in --data and --validate (not held out): one line naming it, nothing written."""
@@ -404,34 +409,14 @@ def test_a_recording_is_fitted_or_validated_once(tmp_path: Path, capsys: pytest.
             identify_torques(DFKI, "dfki_c0", data, validate, tmp_path / "out")
         assert "give each file once" in str(refused.value) and "\n" not in str(refused.value)
     assert not (tmp_path / "out").exists()
-    args = [
-        "identify",
-        "--preset",
-        "dfki_c0",
-        "--data",
-        str(FIT),
-        "--validate",
-        str(FIT),
-        "-o",
-        str(tmp_path / "o"),
-    ]
-    assert cli(args) == 2 and capsys.readouterr().err.count("\n") == 1
+    assert cli(_dfki_identify("--validate", str(FIT), "-o", str(tmp_path / "o"))) == 2
+    assert capsys.readouterr().err.count("\n") == 1
 
 
 def test_equation_error_only_is_refused_for_a_fixed_scene(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    args = [
-        "identify",
-        "--preset",
-        "dfki_c0",
-        "--data",
-        str(FIT),
-        "--equation-error-only",
-        "-o",
-        str(tmp_path),
-    ]
-    assert cli(args) == 2
+    assert cli(_dfki_identify("--equation-error-only", "-o", str(tmp_path))) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--equation-error-only" in err
     assert not list(tmp_path.iterdir())
