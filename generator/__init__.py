@@ -7,10 +7,10 @@ The public API (stable; everything else is internal):
   coulomb, coulomb_speed, actuator, angles, zero, positive)`: one immutable, validated
   description of a system (`Pendulum.preset("qube_servo2")`, `Pendulum.from_scene(path)`,
   `.replace(...)`, `.folded()`, `.params()`), what the functions below take;
-- `FixedPendulum(links, m, l, delta, g=9.81, *, com, J, coulomb, coulomb_law, joints, Ir, gr,
-  angles, zero, positive)`: a chain on a fixed pivot driven by torques at chosen joints (the
-  pendubot, the acrobot, the DFKI double pendulum); `derive`, `linearize` (B 2n × m) and `lqr`
-  (K m × 2n) take it too (docs/model.md, "A fixed pivot");
+- `FixedPendulum(links, m, l, delta, g=9.81, *, com, J, coulomb, coulomb_law, coulomb_speed,
+  coulomb_gain, joints, Ir, gr, angles, zero, positive)`: a chain on a fixed pivot driven by
+  torques at chosen joints (the pendubot, the acrobot, the DFKI double pendulum); `derive`,
+  `linearize` (B 2n × m) and `lqr` (K m × 2n) take it too (docs/model.md, "A fixed pivot");
 - `derive(p)` or `derive(type, links, inertia="pivot") -> Equations`: the equations of motion
   M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ as sympy matrices and expressions;
 - `write_header(output, type, links, ...)`: what the `ipgen` command does, as a call;

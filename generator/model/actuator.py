@@ -103,6 +103,7 @@ class Actuator:
 
     @property
     def is_motor(self) -> bool:
+        """Whether u is a DC motor's voltage (kind "dc_motor")."""
         return self.kind == "dc_motor"
 
     @property

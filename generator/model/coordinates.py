@@ -62,6 +62,7 @@ class Coordinates:
 
     @property
     def is_canonical(self) -> bool:
+        """Whether these are ipgen's own coordinates (absolute, from upright, clockwise)."""
         return self == Coordinates()
 
     @property
@@ -91,6 +92,7 @@ class Coordinates:
         return p, offset
 
     def to_user(self, x: np.ndarray, links: int) -> np.ndarray:
+        """A state [θ; θ̇] of `links` links in ipgen's coordinates -> in these: P x + c."""
         p, c = self.matrices(links)
         return p @ x + c
 
@@ -102,6 +104,7 @@ class Coordinates:
         return tuple(float(v) + 0.0 for v in self.to_user(np.asarray(x, dtype=float), links))
 
     def to_canonical(self, x: np.ndarray, links: int) -> np.ndarray:
+        """A state in these coordinates -> in ipgen's: P⁻¹ (x − c) (the inverse of `to_user`)."""
         import numpy as np
 
         p, c = self.matrices(links)

@@ -233,6 +233,7 @@ class Pendulum:
 
     @property
     def is_rotary(self) -> bool:
+        """Whether the base is a Furuta arm (type "rotary") rather than a cart."""
         return self.type == "rotary"
 
     @property
