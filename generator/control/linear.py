@@ -469,7 +469,8 @@ def _linearize_canonical(
     b[dof:, 0] = du * gain
     if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
         raise ControlError(
-            f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state"
+            f"the linear model overflows at this state and input (u = {u:g}): use a smaller u or state, "
+            "or check the parameters' units (a mass or inertia near 0 divides)"
         )
     return a, b
 
