@@ -179,6 +179,10 @@ demo: configure deps-docs
 ## docs/bench/ alone.
 BENCH_ARGS ?=
 BENCH_QUICK := $(filter --quick,$(BENCH_ARGS))
+# The benchmarks without a quick mode run in full under --quick too, but write their pages into
+# build/bench/quick/ (a folder, or the page named): docs/bench/ stays as measured.
+QUICK_DIR := build/bench/quick
+quick_out = $(if $(BENCH_QUICK),--out $(QUICK_DIR)$(if $(1),/$(1)))
 $(VENV)/.bench-installed: pyproject.toml $(VENV)/.installed
 	$(PY) -m pip install -q -e '.[test,bench]'
 	@touch $@
@@ -191,7 +195,7 @@ bench: $(VENV)/.bench-installed bench-workprecision bench-specialisation bench-c
 ## GENERAL_LINKS_ARGS passes options, e.g. make bench-general-links GENERAL_LINKS_ARGS=--rounds=3
 GENERAL_LINKS_ARGS ?=
 bench-general-links: $(VENV)/.bench-installed
-	$(PY) -m bench.general_links $(GENERAL_LINKS_ARGS)
+	$(PY) -m bench.general_links $(GENERAL_LINKS_ARGS) $(call quick_out)
 
 ## Identification of a 60 s, 1 kHz recording of the QUBE-Servo 2 preset (rotary, DC motor):
 ## target <= 10 s (bench/identify.py, docs/bench/identify.md). IDENTIFY_ARGS: e.g. --quick
@@ -203,7 +207,7 @@ bench-identify: $(VENV)/.bench-installed
 ## model_3.0 (bench/dfki_identify.py, docs/bench/dfki_identify.md); DFKI_RECORDINGS: their folder
 DFKI_RECORDINGS ?= ../shared/dfki
 bench-dfki: $(VENV)/.bench-installed
-	$(PY) -m bench.dfki_identify --recordings $(DFKI_RECORDINGS)
+	$(PY) -m bench.dfki_identify --recordings $(DFKI_RECORDINGS) $(call quick_out)
 
 ## ipgen sweep: the rotary single pendulum's scorecard and a ~700-run sweep (LQR at 1 kHz, 10 s runs;
 ## target <= 2 min on 2 cores), 1 vs 2 local workers and a Dask LocalCluster (docs/bench/sweep.md);
@@ -230,29 +234,29 @@ bench-gym: $(VENV)/.bench-installed
 ## The MPC's real-time iteration on the host (QUBE-Servo 2, N = 30) beside DAQP on the condensed QP,
 ## OSQP on the sparse one and IPOPT on the whole NLP (bench/mpc.py, docs/bench/mpc.md).
 bench-mpc: $(VENV)/.bench-installed
-	$(PY) -m bench.mpc
+	$(PY) -m bench.mpc $(call quick_out,mpc.md)
 
 ## The MPC's microcontroller method (one barrier Newton step a sample, frozen sensitivities) against
 ## the interior point in closed loop: cost, bounds, time (bench/mpc_method.py, docs/bench/mpc_method.md).
 bench-mpc-method: venv
-	$(PY) -m bench.mpc_method
+	$(PY) -m bench.mpc_method $(call quick_out,mpc_method.md)
 
 ## How far a hold of the QUBE (the MPC's unconstrained law) can go against the scorecard's delay,
 ## lag and drive noise at once, linear at upright, over designs (docs/bench/hold_margins.md).
 bench-hold-margins: $(VENV)/.bench-installed
-	$(PY) -m bench.hold_margins
+	$(PY) -m bench.hold_margins $(call quick_out)
 
 ## The RealAIGym simulation leaderboard's acrobot and pendubot swung up in ipsim, scored by the v2
 ## formula, with GIFs (bench/leaderboard.py, docs/bench/leaderboard.md). LEADERBOARD_ARGS: --replan
 bench-leaderboard: $(VENV)/.bench-installed
-	$(PY) -m bench.leaderboard $(LEADERBOARD_ARGS)
+	$(PY) -m bench.leaderboard $(LEADERBOARD_ARGS) $(BENCH_QUICK)
 
 ## Compile time of a program with one model and one ipsim::simulate call, against the headers of
 ## the commit before the compile-cost work (bench/compile_time.py, docs/bench/compile.md).
 ## COMPILE_ARGS passes options, e.g. make bench-compile COMPILE_ARGS=--repeat=1
 COMPILE_ARGS ?=
 bench-compile: venv
-	$(PY) -m bench.compile_time $(COMPILE_ARGS)
+	$(PY) -m bench.compile_time $(COMPILE_ARGS) $(call quick_out,compile.md)
 
 ## General against scene-specialised headers (bench/specialisation.py, docs/bench/specialisation.md).
 ## SPECIALISATION_ARGS passes options, e.g. make bench-specialisation SPECIALISATION_ARGS=--quick
@@ -265,13 +269,13 @@ bench-specialisation: venv
 ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
 bench-embedded: venv
 	@$(call apt_install,$(ARM_PACKAGES))
-	$(PY) -m bench.embedded
+	$(PY) -m bench.embedded $(call quick_out)
 
 ## One real-time iteration of the MPC (the QUBE preset, N = 30, float) on a Cortex-M4F under QEMU:
 ## instructions, cycles, RAM, flash and where the instructions go (bench/mpc_m4.py, docs/bench/mpc.md).
 bench-mpc-m4: venv
 	@$(call apt_install,$(ARM_PACKAGES))
-	$(PY) -m bench.mpc_m4 --profile
+	$(PY) -m bench.mpc_m4 --profile $(call quick_out,mpc.md)
 
 ## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
 ## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).
@@ -300,7 +304,7 @@ bench-estimation: $(VENV)/.bench-installed
 ## docs/bench/simulator_memory.md).
 bench-memory: $(VENV)/.bench-installed
 	@$(call apt_install,time)
-	$(PY) -m bench.simulator_memory
+	$(PY) -m bench.simulator_memory $(call quick_out,simulator_memory.md)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.

@@ -156,6 +156,24 @@ def sampled_radius(kind: str, links: int, gain: list[float], period: float) -> f
     return float(np.max(np.abs(np.linalg.eigvals(closed))))
 
 
+# What the full run shows (written for it; a --quick run, with fewer systems and steps, says so instead)
+FULL_STEPS = 10
+QUICK_NOTE = (
+    "(A quick run: n = 1, 2 and 5 bisection steps; the full run's reading is docs/bench/control.md's.)"
+)
+READING = [
+    "Reading it: a single pendulum (cart or arm) comes back from about 1 rad, under every",
+    "sampling; the saturation cuts it to 0.62 rad (5 N, cart) and 0.28 rad (1 N m, arm). The",
+    "classical double and triple pendulums come back from only 0.02–0.03 rad: with these weights",
+    "a bent chain (link 1 tilted alone) asks for hundreds of N per rad, and the nonlinear loop",
+    "leaves the linear regime early; sampling and saturation take little more from that. The",
+    "rotary double and triple lose a lot to the 1 N m saturation (4–5x) and are not stabilised at",
+    "20 Hz at all, as the linear loop under a 20 Hz hold already says (radius ≥ 1). A discrete",
+    "LQR design (not done here) would be the fix for slow sampling. 100 Hz costs at most 2 %",
+    "(3.5 % saturated), a few times the bisection's resolution of 0.7 %.",
+]
+
+
 def render(results: dict, out: Path) -> None:
     for key, value in results["linear"].items():  # also for a JSON written before they existed
         kind, links = key.split(" n = ")
@@ -210,15 +228,7 @@ def render(results: dict, out: Path) -> None:
             ["system", "slowest pole", "fastest pole", "|K[1]|", "radius at 100 Hz", "radius at 20 Hz"], poles
         ),
         "",
-        "Reading it: a single pendulum (cart or arm) comes back from about 1 rad, under every",
-        "sampling; the saturation cuts it to 0.62 rad (5 N, cart) and 0.28 rad (1 N m, arm). The",
-        "classical double and triple pendulums come back from only 0.02–0.03 rad: with these weights",
-        "a bent chain (link 1 tilted alone) asks for hundreds of N per rad, and the nonlinear loop",
-        "leaves the linear regime early; sampling and saturation take little more from that. The",
-        "rotary double and triple lose a lot to the 1 N m saturation (4–5x) and are not stabilised at",
-        "20 Hz at all, as the linear loop under a 20 Hz hold already says (radius ≥ 1). A discrete",
-        "LQR design (not done here) would be the fix for slow sampling. 100 Hz costs at most 2 %",
-        "(3.5 % saturated), a few times the bisection's resolution of 0.7 %.",
+        *(READING if results["steps"] == FULL_STEPS else [QUICK_NOTE]),
         "",
         "## Machine",
         "",
@@ -275,7 +285,7 @@ def main() -> int:
         print(f"wrote {out / 'control.md'} and control.png from {args.from_json}")
         return 0
     links = (1, 2) if args.quick else (1, 2, 3)
-    steps = 5 if args.quick else 10
+    steps = 5 if args.quick else FULL_STEPS
     started = time.perf_counter()
     systems = [(kind, n) for kind in ("classical", "rotary") for n in links]
     with ThreadPoolExecutor(2) as pool:

@@ -247,6 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     header = ["", "ipgen τ1", "ipgen τ2", "model_3.0 τ1", "model_3.0 τ2", "ipgen ≤ model_3.0 both"]
+    args.out.mkdir(parents=True, exist_ok=True)
     main_run = _run(args.recordings, *SPLIT, out=args.out / "dfki_identify")
     rows = []
     for score_ours, score_theirs in zip(main_run.scores[::2], main_run.scores[1::2], strict=True):

@@ -34,6 +34,9 @@ FREE = tuple(FACTORS)
 TARGET = 10.0  # s
 
 
+HEADER = ["parameter", "preset", "truth", "estimate", "std. error", "relative error", "truth in 95 % int."]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="10 s of data; write to build/bench/quick/")
@@ -54,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"simulating {seconds:g} s at 1 kHz ...", flush=True)
     x0 = np.array([0.0, math.pi + 0.05, 0.0, 0.0])
     data = measure(truth, t, multisine, x0, 0.0015, np.random.default_rng(1))
-    csv = work / "qube_servo2_60s.csv"
+    csv = work / f"qube_servo2_{seconds:g}s.csv"
     write_csv(csv, t, data.theta, data.u)
     print(f"identifying {', '.join(FREE)} from {csv} ({csv.stat().st_size / 1e6:.1f} MB) ...", flush=True)
     load = os.getloadavg()[0]
@@ -72,6 +75,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{values[name]:.5g}",
                 f"{fit.estimate[name]:.5g}",
                 f"{fit.stderr[name]:.2g}",
+                f"{abs(fit.estimate[name] - values[name]) / abs(values[name]):.2g}",
                 "yes" if low <= values[name] <= high else "no",
             ]
         )
@@ -91,7 +95,13 @@ def main(argv: list[str] | None = None) -> int:
         f"**{elapsed:.2f} s** (target ≤ {TARGET:g} s: {'met' if met else 'NOT met'}); stages: {stages}.",
         f"Load average (1 min) just before the timed call: {load:.2f}.",
         "",
-        *table(["parameter", "preset", "truth", "estimate", "std. error", "truth in 95 % interval"], rows),
+        *table(
+            HEADER,
+            rows,
+        ),
+        "",
+        "A short recording (`--quick`: 10 s) may not determine every parameter: its relative errors "
+        "and standard errors say so.",
         "",
         "## Machine",
         "",
@@ -102,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     target.write_text("\n".join(lines))
     print("\n".join(lines))
     print(f"wrote {target}")
-    return 0 if met else 1
+    return 0  # a missed time target is reported on the page, not an error that stops make bench
 
 
 if __name__ == "__main__":

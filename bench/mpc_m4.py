@@ -372,6 +372,7 @@ def main() -> None:
         text = text.split(BEGIN)[0] + section + text.split(END, 1)[1]
     else:
         text = text.rstrip("\n") + "\n\n" + section + "\n"
+    args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
     print(section)
 

@@ -117,16 +117,18 @@ class IpoptReference:
         self.x_ref, self.u_ref = np.asarray(c.x_ref, float), np.asarray(c.u_ref, float)
         self.states = np.zeros((nx, N + 1))
 
-    def solve(self, x0: np.ndarray, reference: Any = None) -> tuple[float, np.ndarray]:
+    def solve(self, x0: np.ndarray, reference: Any = None, warm: Any = None) -> tuple[float, np.ndarray]:
         """(u_0, every u_k) of the problem from x0 about the controller's x_ref, u_ref, IPOPT
-        started from x_k = x0, u_k = 0; or about a reference per stage ((N + 1) × nx states, N
-        inputs), IPOPT started from it (x_k, u_k its rows, u clipped to its bounds: where
-        ipgen_mpc_track starts cold, so that both find the same local minimum of a nonconvex
-        problem)."""
+        started from x_k = x0, u_k = 0, or from `warm` ((N + 1) × nx states, N inputs: a warm
+        start); or about a reference per stage ((N + 1) × nx states, N inputs), IPOPT started
+        from it (x_k, u_k its rows, u clipped to its bounds: where ipgen_mpc_track starts cold, so
+        that both find the same local minimum of a nonconvex problem)."""
         nx, N = self.nx, self.N
         if reference is None:
             xs, us = np.tile(self.x_ref, (N + 1, 1)), np.full(N, self.u_ref[0])
             guess = np.concatenate([np.tile(np.asarray(x0, float), N + 1), np.zeros(N)])
+            if warm is not None:
+                guess = np.concatenate([np.asarray(part, float).reshape(-1) for part in warm])
         else:
             xs, us = (np.asarray(v, float) for v in reference)
             u_lo, u_hi = self.lbx[nx * (N + 1)], self.ubx[nx * (N + 1)]
