@@ -63,6 +63,9 @@ def test_a_fixed_chains_lqr_weight_r_of_any_type_is_one_line(value: object) -> N
         ipgen.lqr(chain, Q=[1.0, 1.0, 0.1, 0.1], R=value)
     except ipgen.Error as error:
         assert "R" in _one_line(error)
+        return
+    # only a list of numbers may be weights; text, bytes, booleans, complex, {} and 10**400 never
+    assert isinstance(value, list) and value != [[1.0, 2.0], [3.0]], value
 
 
 def test_derive_of_a_pendulum_takes_no_inertia() -> None:

@@ -10,9 +10,10 @@ energy columns) are ignored. Every problem is one `DataError` line naming the fi
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.identification.model import IdentifyError
@@ -30,6 +31,7 @@ __all__ = [
     "MIN_ROWS",
     "DataError",
     "Measurements",
+    "check_columns",
     "check_measurements",
     "grid_points",
     "read_measurements",
@@ -241,22 +243,31 @@ def check_measurements(data: Measurements, u: np.ndarray | None = None) -> None:
     value finite and within LARGEST_VALUE (t within LARGEST_TIME), t increasing, and a
     resampling grid of at most MAX_GRID_FACTOR times the samples. `read_measurements` checks a
     CSV so (naming its lines); the fit checks measurements made any other way."""
+    columns = {"t": data.t, "theta": data.theta, "dtheta": data.dtheta, "u": u if u is not None else data.u}
+    check_columns(data.source, columns)
+
+
+def check_columns(where: str, columns: Mapping[str, Any]) -> None:
+    """A DataError naming `where` unless the columns (name: values or None; "t" the time) are
+    what a fit can take: every value finite and within LARGEST_VALUE (t within LARGEST_TIME), t
+    increasing, and a resampling grid of at most MAX_GRID_FACTOR times the samples. The torque
+    regression's recordings (identification/recording.py) are checked by it too."""
     import numpy as np
 
-    columns = {"t": data.t, "theta": data.theta, "dtheta": data.dtheta, "u": u if u is not None else data.u}
     for name, values in columns.items():
         if values is None:
             continue
         largest = LARGEST_TIME if name == "t" else LARGEST_VALUE
         if not np.all(np.abs(np.asarray(values, dtype=float)) <= largest):  # NaN fails too
             raise DataError(
-                f"{data.source}: {name} holds a value that is not finite or beyond ±{largest:g}: "
+                f"{where}: {name} holds a value that is not finite or beyond ±{largest:g}: "
                 "remove or repair the sample"
             )
-    steps = np.diff(data.t)
+    t = np.asarray(columns["t"], dtype=float)
+    steps = np.diff(t)
     if np.any(steps <= 0):
-        raise DataError(f"{data.source}: t does not increase; sort the samples and drop repeated times")
-    _check_spacing(data.t, steps, data.source)
+        raise DataError(f"{where}: t does not increase; sort the samples and drop repeated times")
+    _check_spacing(t, steps, where)
 
 
 def _check_spacing(t: np.ndarray, steps: np.ndarray, where: str) -> None:

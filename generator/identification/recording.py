@@ -25,13 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ipgen.errors import Error
-from ipgen.identification.data import (
-    LARGEST_TIME,
-    LARGEST_VALUE,
-    MAX_DATA_BYTES,
-    MAX_GRID_FACTOR,
-    grid_points,
-)
+from ipgen.identification.data import MAX_DATA_BYTES, DataError, check_columns
 
 DEFAULT_CUTOFF = 6.0  # Hz: above the pendulum's swing (≈ 1–2 Hz) and DFKI's excitation, below the noise
 DEFAULT_EDGE = 0.1  # s dropped at each end after filtering
@@ -123,29 +117,14 @@ def read_recording(
     if data.shape[0] < MIN_SAMPLES or not np.all(np.isfinite(data[:, [time_column, *angles, *torques]])):
         raise RecordingError(f"{path.name}: needs at least {MIN_SAMPLES} rows of finite numbers")
     t = data[:, time_column]
-    _check_magnitudes(path, t, data[:, [*angles, *torques]])
     if np.any(np.diff(t) <= 0):
         raise RecordingError(f"{path.name}: the time does not increase from row to row")
-    points = grid_points(t)
-    if points > MAX_GRID_FACTOR * len(t):  # the resampling grid's memory follows its points
-        raise RecordingError(
-            f"{path.name}: the samples are unevenly spaced (median step {np.median(np.diff(t)):.3g} s, "
-            f"{t[-1] - t[0]:.3g} s in all): resampling would take {points:.3g} points, more than "
-            f"{MAX_GRID_FACTOR} times the {len(t)} rows; record at a steady rate or resample first"
-        )
-    return Recording(path.name.removesuffix(".gz").removesuffix(".csv"), t, data[:, angles], data[:, torques])
-
-
-def _check_magnitudes(path: Path, t: np.ndarray, values: np.ndarray) -> None:
-    """RecordingError for a time beyond ±LARGEST_TIME or an angle or torque beyond ±LARGEST_VALUE
-    (a wrong column or a corrupt sample; the regression's squares would overflow)."""
-    if not np.all(np.abs(t) <= LARGEST_TIME):
-        raise RecordingError(f"{path.name}: a time beyond ±{LARGEST_TIME:g} s: remove or repair the sample")
-    if not np.all(np.abs(values) <= LARGEST_VALUE):
-        raise RecordingError(
-            f"{path.name}: an angle or torque beyond ±{LARGEST_VALUE:g}: a wrong column or a corrupt "
-            "sample; remove or repair it"
-        )
+    q, tau = data[:, angles], data[:, torques]
+    try:  # the classical fit's rules: magnitudes no pendulum measures, a bounded resampling grid
+        check_columns(path.name, {"t": t, "angles": q, "torques": tau})
+    except DataError as error:
+        raise RecordingError(str(error)) from None
+    return Recording(path.name.removesuffix(".gz").removesuffix(".csv"), t, q, tau)
 
 
 def filtered(recording: Recording, cutoff: float = DEFAULT_CUTOFF, edge: float = DEFAULT_EDGE) -> Filtered:

@@ -110,10 +110,7 @@ def fixed_mpc(reader: Reader, table: Any, chain: FixedPendulum, settings: dict[s
         if not (0 <= values[0] <= top and 0 < values[1] <= top):
             reader.bad("controller.soft_penalty", table["soft_penalty"], what)
         if soft is None:
-            reader.fail(
-                "controller.soft_penalty weighs the violation of soft_bounds, which this MPC has none of: "
-                "add soft_bounds or remove it"
-            )
+            reader.fail(f"controller.soft_penalty {rules.PENALTY_WITHOUT_BOUNDS}")
         penalty = (float(values[0]), float(values[1]))
     mode = table.get("mode")
     if mode is not None and mode not in ("rti", "converged"):

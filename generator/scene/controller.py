@@ -26,6 +26,11 @@ MAX_HORIZON = limits.MAX_MPC_HORIZON
 MAX_ITERATIONS = limits.MAX_MPC_ITERATIONS
 MAX_SUBSTEPS = 100
 DEFAULT_SOFT_PENALTY = (1000.0, 1000.0)  # ρ1, ρ2: an exact penalty on the QUBE's arm (docs/mpc.md)
+# The refusals an MPC's soft bounds share in every scene (cart, arm and fixed chain)
+BOUNDED_TWICE = "each state index may be bounded once"
+PENALTY_WITHOUT_BOUNDS = (
+    "weighs the violation of soft_bounds, which this MPC has none of: add soft_bounds or remove it"
+)
 MPC_KEYS: tuple[str, ...] = (
     "horizon", "p", "u_max", "travel", "soft_bounds", "soft_penalty", "mode", "iterations", "qp_iterations",
     "substeps", "barrier", "sensitivities",
@@ -175,7 +180,7 @@ def soft_bounds(value: Any, info: ValidationInfo) -> list[tuple[int, float, floa
     bounds = [at(i, bound, item, context) for i, item in enumerate(value)]
     indices = [b[0] for b in bounds]
     if len(set(indices)) != len(indices):
-        refuse("each state index may be bounded once")
+        refuse(BOUNDED_TWICE)
     return bounds
 
 
@@ -273,7 +278,7 @@ def _mpc_relations(table: Any, given: set[str]) -> None:
         refuse('kind = "mpc" is sampled: add period = ... (s)', key="kind", value=table.kind)
     if "soft_penalty" in given and not table.soft_bounds:
         refuse(
-            "weighs the violation of soft_bounds, which this MPC has none of: add soft_bounds or remove it",
+            PENALTY_WITHOUT_BOUNDS,
             key="soft_penalty",
             value=table.soft_penalty,
         )
