@@ -253,3 +253,52 @@ def test_a_cached_run_without_the_plot_imports_none_of_the_heavy_libraries(tmp_p
     again = subprocess.run([sys.executable, "-c", program], capture_output=True, text=True, env=os.environ)
     assert again.returncode == 0, again.stderr
     assert again.stdout.split()[-1:] == ["0"], again.stdout
+
+
+def _plan_scene(folder: Path) -> Path:
+    """The acrobot's swing-up preset with its plan CSV beside it, shortened to its 4 s plan."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rigs = ROOT / "scenes" / "rigs"
+    (folder / "acrobot_swingup.plan.csv").write_bytes((rigs / "acrobot_swingup.plan.csv").read_bytes())
+    text = (rigs / "acrobot_swingup.toml").read_text(encoding="utf-8")
+    text = text.replace("\nt_end = 10.0\n", "\nt_end = 4.0\n").replace("\nsample = 0.002\n", "\nsample = 0.01\n")
+    assert "\nt_end = 4.0\n" in text and "\nsample = 0.01\n" in text
+    scene = folder / "acrobot_swingup.toml"
+    scene.write_text(text, encoding="utf-8")
+    return scene
+
+
+def test_the_key_follows_the_plan_file_a_scene_names(tmp_path: Path) -> None:
+    """A fixed chain's `[swingup] plan` CSV is part of the key: edited or deleted, it is another
+    key (a folder in its place counts as deleted); rewritten with the same bytes, the same."""
+    scene = _plan_scene(tmp_path)
+    plan = tmp_path / "acrobot_swingup.plan.csv"
+    key = plan_key(scene, False)
+    assert key is not None
+    plan.write_bytes(plan.read_bytes())
+    assert plan_key(scene, False) == key
+    keys = {key}
+    plan.write_bytes(plan.read_bytes().replace(b"\n", b"\n ", 1))
+    keys.add(plan_key(scene, False))
+    plan.unlink()
+    keys.add(plan_key(scene, False))
+    assert len(keys) == 3 and None not in keys
+    plan.mkdir()  # not a file: as if missing (the run refuses both)
+    assert plan_key(scene, False) != key
+
+
+def test_a_plan_file_edited_after_a_run_is_read_again(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A cached run of a scene whose plan CSV has since been broken or deleted reads it again:
+    the run is refused in one line instead of simulating the old plan."""
+    require_toolchain()
+    scene = _plan_scene(tmp_path)
+    plan = tmp_path / "acrobot_swingup.plan.csv"
+    assert run(["run", str(scene), "-o", str(tmp_path / "first"), "--no-plot"]) == 0
+    capsys.readouterr()
+    plan.write_text("garbage, not a plan\n", encoding="utf-8")
+    assert run(["run", str(scene), "-o", str(tmp_path / "second"), "--no-plot"]) == 2
+    assert "expected columns t, u1..u1" in capsys.readouterr().err
+    plan.unlink()
+    assert run(["run", str(scene), "-o", str(tmp_path / "third"), "--no-plot"]) == 2
+    assert "acrobot_swingup.plan.csv" in capsys.readouterr().err
+    assert not (tmp_path / "second" / "acrobot_swingup.csv").exists()

@@ -5,7 +5,8 @@ A run's plan is the model's name and library sources (`--emit library`), the res
 number of links, coordinates, the unit of u and its warnings. Making it costs the scene's checks
 (pydantic), the derivation, a controller's LQR design (sympy, scipy) and an estimator's, with
 their imports: most of the CPU time of a run whose simulator is cached (docs/bench/runtime.md).
-A plan depends only on the scene file (its text and its path, as given and resolved), ipgen's own
+A plan depends only on the scene file (its text and its path, as given and resolved), the files
+it names (a fixed chain's `[swingup] plan` CSV: its contents, or that it is missing), ipgen's own
 sources (every Python file and template of the package) and the installed distributions (their
 names and versions), so `<cache>/runs/<key>.json` keeps it, the key the SHA-256 of all of them
 and of the run's --force. The next run of the same scene reads it instead of making it again.
@@ -23,6 +24,7 @@ import hashlib
 import json
 import os
 import sys
+import tomllib
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -72,6 +74,19 @@ def _files_digest(digest: Any, folder: Path, pattern: str) -> None:
             digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
 
 
+def _named_files(scene: Path, text: bytes) -> list[Path]:
+    """The files `scene` names whose contents its plan reads: a fixed chain's `[swingup] plan`
+    (relative to the scene, as pipeline/fixed_run.py reads it). Nothing for a scene that is not TOML
+    (the run refuses it and keeps no plan)."""
+    try:
+        table = tomllib.loads(text.decode("utf-8-sig"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError, RecursionError):
+        return []
+    swingup = table.get("swingup")
+    plan = swingup.get("plan") if isinstance(swingup, dict) else None
+    return [scene.parent / plan] if isinstance(plan, str) and "\0" not in plan else []
+
+
 def _templates() -> Path | None:
     """The templates folder (as codegen.header.templates_dir finds it, without importing jinja2)."""
     for folder in (PACKAGE / "templates", PACKAGE.parent / "templates"):
@@ -117,6 +132,12 @@ def plan_key(scene: Path, force: bool) -> str | None:
     for part in (FORMAT, sys.version, str(scene), str(resolved), str(force)):
         digest.update(part.encode(errors="surrogateescape") + b"\0")
     digest.update(text + b"\0")
+    for named in _named_files(scene, text):  # an edited or deleted plan CSV is a new plan
+        try:
+            contents = b"file\0" + named.read_bytes() if named.is_file() else b"missing\0"
+        except OSError:
+            contents = b"unreadable\0"
+        digest.update(str(named).encode(errors="surrogateescape") + b"\0" + contents + b"\0")
     _files_digest(digest, PACKAGE, "*.py")
     templates = _templates()
     if templates is not None:
