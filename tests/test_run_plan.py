@@ -261,7 +261,9 @@ def _plan_scene(folder: Path) -> Path:
     rigs = ROOT / "scenes" / "rigs"
     (folder / "acrobot_swingup.plan.csv").write_bytes((rigs / "acrobot_swingup.plan.csv").read_bytes())
     text = (rigs / "acrobot_swingup.toml").read_text(encoding="utf-8")
-    text = text.replace("\nt_end = 10.0\n", "\nt_end = 4.0\n").replace("\nsample = 0.002\n", "\nsample = 0.01\n")
+    text = text.replace("\nt_end = 10.0\n", "\nt_end = 4.0\n").replace(
+        "\nsample = 0.002\n", "\nsample = 0.01\n"
+    )
     assert "\nt_end = 4.0\n" in text and "\nsample = 0.01\n" in text
     scene = folder / "acrobot_swingup.toml"
     scene.write_text(text, encoding="utf-8")
@@ -287,7 +289,9 @@ def test_the_key_follows_the_plan_file_a_scene_names(tmp_path: Path) -> None:
     assert plan_key(scene, False) != key
 
 
-def test_a_plan_file_edited_after_a_run_is_read_again(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_plan_file_edited_after_a_run_is_read_again(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """A cached run of a scene whose plan CSV has since been broken or deleted reads it again:
     the run is refused in one line instead of simulating the old plan."""
     require_toolchain()
