@@ -2,11 +2,13 @@
 
 For a single pendulum (classical or rotary, links = 1) the link's energy relative to upright,
 
-    E = ½ J θ̇1² + ½ m1 g l1 (cos θ1 − 1),   J = m1 l1²/3 (the rod about its pivot),
+    E = ½ J θ̇1² + w (cos θ1 − 1),   J = J1 + m1 com1² + tip1 l1²,   w = g (m1 com1 + tip1 l1)
 
-is 0 upright at rest and −m1 g l1 hanging at rest. The law commands a base acceleration a
+(J the link's inertia about its pivot, w its gravity moment's amplitude, the links as built of
+docs/links.md; the paper's rod: J = m1 l1²/3, w = ½ m1 g l1) is 0 upright at rest and −2w
+hanging at rest. The law commands a base acceleration a
 (cart [m/s²] or arm [rad/s²]): with M θ̈ + bias = B u, the link's row gives
-J θ̈1 − ½ m1 g l1 sin θ1 = −M10 a − (damping and centrifugal terms), so Ė = −θ̇1 M10 a + …, and
+J θ̈1 − w sin θ1 = −M10 a − (damping and centrifugal terms), so Ė = −θ̇1 M10 a + …, and
 
     a = sat_{a_max}( k_E (E − E0) sign(θ̇1 M10) ) − k_x θ0 − k_v θ̇0
 
@@ -62,6 +64,7 @@ __all__ = [
     "discrete_acceleration_lqr",
     "discrete_zoh_lqr",
     "energy_swingup",
+    "link_constants",
     "link_energy",
     "mass_and_bias",
 ]
@@ -71,11 +74,35 @@ QUANSER_GAIN = 50.0  # μ [m/s² per J at the arm tip]: Quanser's QUBE-Servo 2 s
 QUANSER_ACCEL = 6.0  # a_max [m/s² at the arm tip]: the same lab
 
 
+def link_constants(plant: Plant) -> tuple[float, float]:
+    """(J, w) of link 1's energy E = ½ J θ̇1² + w (cos θ1 − 1) (module docstring).
+
+    Parameters
+    ----------
+    plant : Plant
+        The planners' view of the pendulum, its links as built filled in.
+
+    Returns
+    -------
+    tuple of (float, float)
+        J = J1 + m1 com1² + tip1 l1², the link's inertia about its pivot [kg m²], and
+        w = g (m1 com1 + tip1 l1) [J]. For the paper's rod (com1 = l1/2, J1 = m1 l1²/12, no tip)
+        the rod's own expressions m1 l1²/3 and ½ m1 g l1, as ipgen computed them before the links
+        as built, to the last bit.
+    """
+    m1, l1, g = plant.m[1], plant.l[1], plant.g
+    built = plant.links_as_built
+    com, inertia, tip = built["com"][1], built["J"][1], built["tip"][1]
+    if com == l1 / 2 and inertia == m1 * l1**2 / 12 and tip == 0:
+        return m1 * l1**2 / 3, 0.5 * m1 * g * l1
+    return inertia + m1 * com**2 + tip * l1**2, g * (m1 * com + tip * l1)
+
+
 def link_energy(plant: Plant, x: np.ndarray) -> float:
     """E of link 1 relative to upright at rest [J] (module docstring)."""
-    m1, l1, g = plant.m[1], plant.l[1], plant.g
+    inertia, weight = link_constants(plant)
     dof = plant.dof
-    return 0.5 * m1 * l1**2 / 3 * float(x[dof + 1]) ** 2 + 0.5 * m1 * g * l1 * (math.cos(float(x[1])) - 1.0)
+    return 0.5 * inertia * float(x[dof + 1]) ** 2 + weight * (math.cos(float(x[1])) - 1.0)
 
 
 @dataclass
@@ -151,11 +178,11 @@ class EnergySwingUp:
         hold = np.array(self.hold_gain, dtype=float).reshape(2 * dof)
         target = np.zeros(2 * dof)  # upright at rest; the caught turn replaces θ1
         work = np.zeros(swingup_work(dof))
-        m1, l1, g = self.plant.m[1], self.plant.l[1], self.plant.g
-        # link_energy's J = m1 l1²/3 and ½ m1 g l1; input gain 1: u is the force or torque itself
+        inertia, weight = link_constants(self.plant)
+        # link_energy's J and w; input gain 1: u is the force or torque itself
         energy = EnergyLaw(
             self.gain_energy, self.gain_position, self.gain_velocity, self.accel_max, self.catch_angle,
-            self.catch_rate, self.energy_target, m1 * l1**2 / 3, 0.5 * m1 * g * l1, int(self.acceleration),
+            self.catch_rate, self.energy_target, inertia, weight, int(self.acceleration),
             1.0, self.energy_step, self.catch_deficit, self.catch_base,
         )  # fmt: skip
         if self._callback is None:
@@ -202,7 +229,7 @@ def energy_swingup(
     """The energy swing-up of a single pendulum (`plant.links == 1`) with its discrete LQR catch.
 
     Defaults scale with the plant: a_max = u_max / M00 at hanging rest (the base acceleration
-    the input limit buys), k_E = 10 a_max / (m1 g l1) so that the energy term saturates until
+    the input limit buys), k_E = 10 a_max / (2w) so that the energy term saturates until
     E is within a tenth of the hanging pendulum's deficit, k_x and k_v a slow second-order
     centring (ω = 1 rad/s, ζ = 1). `q` and `r` weigh the hold LQR (default Q = I, R = 1).
     `acceleration`: u is the base's acceleration ([actuator] kind "acceleration"): the law's a
@@ -232,8 +259,8 @@ def energy_swingup(
     constants in the rig's units at the base's tip (the arm's tip at l0 for a rotary base, the
     cart for a classical one): a_tip = sat_{a_max}(μ (E_r − E) sign(θ̇1 cos θ1)) with
     μ = `gain_energy` [m/s² per J, default 50], a_max = `accel_max` [m/s², default 6] and
-    E_r = `energy_target` [J above hanging at rest, default m1 g l1: upright]. They map onto the
-    law above exactly: k_E = μ / l0, a_max / l0 and E0 = E_r − m1 g l1 (rotary; l0 → 1 for a
+    E_r = `energy_target` [J above hanging at rest, default 2w: upright]. They map onto the
+    law above exactly: k_E = μ / l0, a_max / l0 and E0 = E_r − 2w (rotary; l0 → 1 for a
     cart). The input that produces the acceleration is ipgen's exact one (module docstring).
     """
     import numpy as np
@@ -279,7 +306,7 @@ def energy_swingup(
     speed = finite_number("design_speed", design_speed)
     if speed < 0:
         raise PlanError(f"design_speed = {design_speed!r}: expected a finite number >= 0")
-    depth = plant.m[1] * g * plant.l[1]  # J: the hanging link at rest has E = −depth
+    depth = 2 * link_constants(plant)[1]  # J: the hanging link at rest has E = −depth
     if law == "proportional":
         tip = plant.l[0] if plant.system.type == "rotary" else 1.0  # base tip travel per unit θ0
         mu = QUANSER_GAIN if gain_energy is None else finite_number("gain_energy", gain_energy)
@@ -305,6 +332,11 @@ def energy_swingup(
         a_max = finite_number("accel_max", accel_max)
     if depth == 0:  # g, m1 or l1 so small that m1 g l1 underflows
         raise PlanError(f"the link's potential energy m1 g l1 underflows to 0 (g = {g:g}): check g, m and l")
+    if depth < 0:  # com1 < 0: the link's centre of mass above its pivot when it hangs
+        raise PlanError(
+            f"the link's gravity moment g (m1 com1 + tip1 l1) = {depth / 2:.4g} J is negative: its centre of "
+            "mass lies beyond the pivot, so hanging is not its rest; check com[1] and tip[1]"
+        )
     k_e = 10 * a_max / depth if gain_energy is None else finite_number("gain_energy", gain_energy)
     e0 = 0.0 if energy_target is None else finite_number("energy_target", energy_target)
     omega = 1.0

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.control.casadi_model import Plant
-from ipgen.control.energy import EnergySwingUp
+from ipgen.control.energy import EnergySwingUp, link_constants
 from ipgen.control.trajectory import Plan, PlanError, finite_number, plan_swingup
 from ipgen.control.tvlqr import GainSchedule, track
 from ipgen.model.pendulum import Pendulum
@@ -70,8 +70,8 @@ class SwingUpLaw:
     phase is the discrete LQR u = −hold_gain (x − target), stopped `hold` s after it begins.
 
     method "energy" (`energy.EnergySwingUp`): `energy` holds k_E, k_x, k_v, a_max, the catch
-    angle and rate, E0 and the link energy's constants J = `energy_inertia` and
-    m1 g l1 / 2 = `energy_weight` (E = ½ J θ̇1² + energy_weight (cos θ1 − 1)).
+    angle and rate, E0 and the link energy's constants J = `energy_inertia` (about the pivot) and
+    w = `energy_weight` (E = ½ J θ̇1² + w (cos θ1 − 1); energy.link_constants).
     method "trajectory" (`tvlqr.GainSchedule`): `inputs` ū_k (K), `states` x̄_k ((K+1) × 2·dof,
     flattened row by row), `gains` K_k (K × 2·dof, flattened); target = x̄_K.
     """
@@ -108,7 +108,7 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
     """The `SwingUpLaw` of an energy controller (catch about θ1 = 0)."""
     plant = law.plant
     dof = plant.dof
-    m1, l1 = plant.m[1], plant.l[1]
+    inertia, weight = link_constants(plant)
     constants = (
         ("gain_energy", law.gain_energy),
         ("gain_position", law.gain_position),
@@ -117,8 +117,8 @@ def energy_law(law: EnergySwingUp, hold: float) -> SwingUpLaw:
         ("catch_angle", law.catch_angle),
         ("catch_rate", law.catch_rate),
         ("energy_target", law.energy_target),
-        ("energy_inertia", m1 * l1**2 / 3),
-        ("energy_weight", 0.5 * m1 * plant.g * l1),
+        ("energy_inertia", inertia),
+        ("energy_weight", weight),
         # absent unless learning: the .cfg of a scene without it unchanged
         *((("energy_step", law.energy_step),) if law.energy_step > 0 else ()),
         *((("catch_deficit", law.catch_deficit),) if law.catch_deficit > 0 else ()),
