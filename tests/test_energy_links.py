@@ -52,8 +52,11 @@ def test_the_constants_are_the_derived_models_inertia_and_gravity_moment(
 def test_the_rods_constants_are_the_rods_expressions_to_the_bit() -> None:
     """Unset links as built: the paper's rod, m1 l1²/3 and ½ m1 g l1 exactly (scenes keep their
     .cfg numbers)."""
-    p = plant("rotary", 1, M, L, DELTA)
-    assert link_constants(p) == (M[1] * L[1] ** 2 / 3, 0.5 * M[1] * 9.81 * L[1])
+    rods = (M[1] * L[1] ** 2 / 3, 0.5 * M[1] * 9.81 * L[1])
+    assert link_constants(plant("rotary", 1, M, L, DELTA)) == rods
+    written = float(f"{M[1] * L[1] ** 2 / 12 * (1 + 3e-16):.17g}")  # a rod's J as a decimal in a scene
+    assert link_constants(plant("rotary", 1, M, L, DELTA, J=[0.01, written], com=[0.3, 0.25])) == rods
+    assert link_constants(plant("rotary", 1, M, L, DELTA, J=[0.01, written * (1 + 1e-9)])) != rods
 
 
 def test_a_centre_of_mass_beyond_the_pivot_is_refused() -> None:

@@ -72,6 +72,7 @@ __all__ = [
 LAWS: tuple[str, ...] = ("energy", "proportional")  # ipgen's constants | Quanser's (energy_swingup)
 QUANSER_GAIN = 50.0  # μ [m/s² per J at the arm tip]: Quanser's QUBE-Servo 2 swing-up lab
 QUANSER_ACCEL = 6.0  # a_max [m/s² at the arm tip]: the same lab
+ROD_TOLERANCE = 1e-12  # relative: com1 and J1 this near the rod's are the rod (link_constants)
 
 
 def link_constants(plant: Plant) -> tuple[float, float]:
@@ -86,14 +87,16 @@ def link_constants(plant: Plant) -> tuple[float, float]:
     -------
     tuple of (float, float)
         J = J1 + m1 com1² + tip1 l1², the link's inertia about its pivot [kg m²], and
-        w = g (m1 com1 + tip1 l1) [J]. For the paper's rod (com1 = l1/2, J1 = m1 l1²/12, no tip)
-        the rod's own expressions m1 l1²/3 and ½ m1 g l1, as ipgen computed them before the links
-        as built, to the last bit.
+        w = g (m1 com1 + tip1 l1) [J]. For the paper's rod (com1 = l1/2, J1 = m1 l1²/12 within
+        ROD_TOLERANCE, as a rod's J written out as a decimal is; no tip) the rod's own
+        expressions m1 l1²/3 and ½ m1 g l1, as ipgen computed them before the links as built, to
+        the last bit: a scene's .cfg keeps its numbers.
     """
     m1, l1, g = plant.m[1], plant.l[1], plant.g
     built = plant.links_as_built
     com, inertia, tip = built["com"][1], built["J"][1], built["tip"][1]
-    if com == l1 / 2 and inertia == m1 * l1**2 / 12 and tip == 0:
+    rod = math.isclose(com, l1 / 2, rel_tol=ROD_TOLERANCE) and tip == 0
+    if rod and math.isclose(inertia, m1 * l1**2 / 12, rel_tol=ROD_TOLERANCE):
         return m1 * l1**2 / 3, 0.5 * m1 * g * l1
     return inertia + m1 * com**2 + tip * l1**2, g * (m1 * com + tip * l1)
 
