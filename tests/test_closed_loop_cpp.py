@@ -53,6 +53,18 @@ int main(int argc, char** argv) {
     }
     return 0;
   }
+  if (argc > 1 && std::strcmp(argv[1], "wrong-size") == 0) {  // a gain of another model: refused
+    ipsim::LinearFeedback wrong;
+    wrong.gain = Eigen::VectorXd::Ones(4);
+    wrong.equilibrium = Eigen::VectorXd::Zero(4);
+    try {
+      ipsim::closed_loop_poles<Model>(p, wrong);
+    } catch (const ipsim::InvalidInput& error) {
+      std::printf("%s\n", error.what());
+      return 0;
+    }
+    return 1;
+  }
   ipsim::LinearFeedback c;
   c.gain = Eigen::VectorXd(6);
   c.gain << GAIN;
@@ -197,3 +209,11 @@ def test_divergence_check_leaves_a_holding_loop_alone(driver: tuple[Path, np.nda
     assert rows.shape == reference.shape and np.array_equal(rows, reference)
     assert largest == reference_largest
     assert np.max(np.abs(rows[:, 3:5])) < np.pi / 2  # the links (θ1, θ2 after t and u)
+
+
+def test_closed_loop_poles_refuse_a_gain_of_another_size(driver: tuple[Path, np.ndarray]) -> None:
+    """A LinearFeedback of 4 entries on the 6-state rdip: InvalidInput naming the sizes (it read
+    past the gain's end: a crash, or poles of garbage)."""
+    done = subprocess.run([str(driver[0]), "wrong-size"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "controller.gain: has 4 entries, the model's state has 2·kDof = 6" in done.stdout

@@ -390,6 +390,29 @@ void check_guards() {
   CHECK(stiff.stats.steps < 2000);
 }
 
+/// controller.hpp: a LinearFeedback whose K or x_eq has the wrong size is refused (it ran with
+/// part of the state, or read past the end of x); closed_loop_poles' check is in
+/// tests/test_closed_loop_cpp.py (the stand-in has no linearize).
+void check_linear_feedback() {
+  const ipsim::ParamsOf<Model> p{{0.5, 0.275}, {0.0, 0.5}, {0.3, 0.1}};
+  ipsim::LinearFeedback c;
+  c.gain = Eigen::VectorXd::Ones(3);
+  c.equilibrium = Eigen::VectorXd::Zero(4);
+  CHECK_THROWS(c.input(), ipsim::InvalidInput, "controller.gain: has 3 entries, controller.equilibrium 4: both need");
+  c.equilibrium = Eigen::VectorXd::Zero(3);
+  ipsim::Settings<Model> s;
+  s.t_end = 0.1;
+  s.input = c.input();
+  CHECK_THROWS(ipsim::simulate<Model>(p, s), ipsim::InvalidInput,
+               "controller.gain: has 3 entries and controller.equilibrium 3, the state x has 4 (2·kDof)");
+  c.gain = Eigen::VectorXd::Ones(4);
+  c.equilibrium = Eigen::VectorXd::Zero(4);
+  s.input = c.input();
+  CHECK(ipsim::simulate<Model>(p, s).times.size() == 11);
+  c.saturation = 0.0;
+  CHECK_THROWS(c.input(), ipsim::InvalidInput, "controller.saturation = 0: must be > 0");
+}
+
 }  // namespace
 
 /// Every check above; the exit status: 0 when all passed, 1 otherwise.
@@ -405,6 +428,7 @@ inline int run() {
   check_scene_method_keys();
   check_coordinates();
   check_model_without_derivatives();
+  check_linear_feedback();
   return ipsim_test::finish("ipsim unit checks");
 }
 

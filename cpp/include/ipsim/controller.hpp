@@ -36,22 +36,36 @@ struct LinearFeedback {
   double period = 0.0;                                           ///< sampling period [s]; 0: continuous
   bool given = false;  ///< true: K was given (a scene's `gain`), false: ipgen's LQR gain (for the summary)
 
-  /// The (saturated) input in state x (2·kDof entries).
+  /// The (saturated) input in state x (2·kDof entries). Throws InvalidInput when K or x_eq does
+  /// not have x's size (a gain of another model).
   double operator()(const Eigen::VectorXd& x) const {
+    if (gain.size() != x.size() || equilibrium.size() != x.size()) {
+      throw InvalidInput({"invalid setting controller.gain: has " + std::to_string(gain.size()) +
+                          " entries and controller.equilibrium " + std::to_string(equilibrium.size()) +
+                          ", the state x has " + std::to_string(x.size()) + " (2·kDof)"});
+    }
     const double u = -gain.dot(x - equilibrium);
     return ipgen_loop_saturate(u, saturation);
   }
 
   /// The ipsim input that applies this feedback: Input::from_feedback, or Input::sampled when
-  /// period > 0.
+  /// period > 0. Throws InvalidInput for the problems() of K's own size (K and x_eq of different
+  /// sizes, an entry not finite, saturation ≤ 0, a bad period); the first call checks x's size.
   Input input() const {
+    if (gain.size() != equilibrium.size()) {
+      throw InvalidInput({"invalid setting controller.gain: has " + std::to_string(gain.size()) +
+                          " entries, controller.equilibrium " + std::to_string(equilibrium.size()) +
+                          ": both need 2·kDof"});
+    }
+    const std::vector<std::string> found = problems(static_cast<int>(gain.size()));
+    if (!found.empty()) throw InvalidInput(found);
     LinearFeedback copy = *this;
     auto law = [copy](double /*t*/, const Eigen::VectorXd& x) { return copy(x); };
     return period > 0.0 ? Input::sampled(period, std::move(law)) : Input::from_feedback(std::move(law));
   }
 
   /// Problems, one line each (empty when valid): sizes against 2·kDof, finiteness, saturation > 0,
-  /// period ≥ 0.
+  /// period ≥ 0. closed_loop_poles and input() throw them as InvalidInput.
   std::vector<std::string> problems(int state_size) const;
 };
 
@@ -79,6 +93,8 @@ Eigen::VectorXcd closed_loop_poles(const ParamsOf<Model>& params, const LinearFe
                                    bool acceleration = false) {
   static_assert(has_linearize<Model>, "closed_loop_poles needs the model's linearize (forward_dynamics_derivatives)");
   const int n = dof_of<Model>();
+  const std::vector<std::string> found = controller.problems(2 * n);
+  if (!found.empty()) throw InvalidInput(found);
   const VectorOf<Model> q = controller.equilibrium.head(n);
   const VectorOf<Model> qd = controller.equilibrium.segment(n, n);
   double force = 0.0;
