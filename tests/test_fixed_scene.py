@@ -155,3 +155,57 @@ def test_rotor_without_gear_refused(rotor: float) -> None:
     with tempfile.TemporaryDirectory() as folder:
         path = _scene(Path(folder), actuator=f"joints = [1]\nIr = [{rotor!r}]")
         assert "Ir without gr" in _refused(path)
+
+
+RUN_SCENE = """\
+[system]
+type = "fixed"
+links = 2
+
+[parameters]
+m = [0.6, 0.6]
+l = [0.3, 0.2]
+delta = [0.01, 0.01]
+
+[actuator]
+joints = [2]
+
+[initial]
+theta = [@ANGLE@, 0.0]
+dtheta = [0.0, @RATE@]
+
+[controller]
+kind = "lqr"
+saturation = @SATURATION@
+period = @PERIOD@
+q = [@Q@, 1, 1, 1]
+
+[simulation]
+t_end = 0.1
+"""
+HUGE_KEYS = ("ANGLE", "RATE", "SATURATION", "PERIOD", "Q")
+DEFAULTS = {"ANGLE": "3.0", "RATE": "0.0", "SATURATION": "5.0", "PERIOD": "0.01", "Q": "10"}
+
+
+@settings(max_examples=20, deadline=None)
+@given(key=st.sampled_from(HUGE_KEYS), digits=st.integers(310, 4000), sign=st.sampled_from(["", "-"]))
+def test_an_integer_beyond_a_double_is_one_line(key: str, digits: int, sign: str) -> None:
+    """An integer too large for a double in a fixed scene's [initial] or [controller] (ipgen run):
+    one line naming the key, exit 2 (float() raised an OverflowError: a traceback)."""
+    import contextlib
+    import io
+    import tempfile
+
+    text = RUN_SCENE
+    for name, value in DEFAULTS.items():
+        text = text.replace(f"@{name}@", sign + "9" * digits if name == key else value)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "chain.toml"
+        path.write_text(text, encoding="utf-8")
+        error = io.StringIO()
+        with contextlib.redirect_stderr(error):
+            status = cli(["run", str(path), "-o", str(Path(folder) / "out"), "--no-plot"])
+    lines = error.getvalue().strip().splitlines()
+    assert status == 2 and len(lines) == 1, error.getvalue()
+    field = {"ANGLE": "initial.theta", "RATE": "initial.dtheta"}.get(key, f"controller.{key.lower()}")
+    assert field in lines[0] and "Traceback" not in lines[0], lines[0]

@@ -42,7 +42,14 @@ from ipgen.errors import Error
 from ipgen.experiment.config import CFG_KEYS, mpc_entries
 from ipgen.experiment.scene import InputSpec
 from ipgen.model.fixed import FixedPendulum
-from ipgen.pipeline.fixed_fields import FixedController, controller_period, numbers, scalar, weight_matrix
+from ipgen.pipeline.fixed_fields import (
+    FixedController,
+    controller_period,
+    finite_or_inf,
+    numbers,
+    scalar,
+    weight_matrix,
+)
 from ipgen.pipeline.fixed_mpc import MPC_KEYS, fixed_mpc, swingup_tracking
 from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
@@ -126,7 +133,7 @@ def _state(reader: Reader, initial: Any, key: str, links: int) -> tuple[float, .
     for i, item in enumerate(value):
         if isinstance(item, bool) or not isinstance(item, int | float | Decimal):
             reader.bad(f"initial.{key}[{i}]", item, "expected a number")
-        number = float(item)
+        number = finite_or_inf(item)
         if not math.isfinite(number):
             reader.bad(f"initial.{key}[{i}]", item, "must be a finite number")
         numbers.append(number)
