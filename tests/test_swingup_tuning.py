@@ -8,6 +8,7 @@ the input at a speed (force balance), and the coordinate map α = −θ1 by hand
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -120,6 +121,12 @@ def test_absent_keys_keep_todays_config(tmp_path: Path) -> None:
         ({"swingup.accel_max": "0"}, "accel_max", "> 0"),
         ({"swingup.gain_energy": "-1"}, "gain_energy", ">= 0"),
         ({"swingup.catch_angle": "-0.1"}, "catch_angle", "> 0"),
+        # a catch that wide took the hanging link: "the hold diverged at t = 0 s"
+        ({"swingup.catch_angle": "1.5708"}, "catch_angle", "< π/2"),
+        ({"swingup.catch_angle": "4"}, "catch_angle", "< π/2"),
+        # design_speed sets a_max only when it is computed: it was silently dropped
+        ({"swingup.design_speed": "1e6", "swingup.accel_max": "10"}, "design_speed", "accel_max is given"),
+        ({"swingup.design_speed": "5", "swingup.law": '"proportional"'}, "design_speed", "own a_max"),
         ({"swingup.method": '"trajectory"', "swingup.duration": "2", "swingup.catch_rate": "1"},
          "catch_rate", 'method = "energy" only'),
     ],
@@ -192,3 +199,57 @@ def test_no_plan_message_states_the_limit_in_volts() -> None:
         trajectory_swingup(
             _qube_plant(), duration=0.2, u_max=0.05, margin=0.9, period=0.01, input_gain=0.005, intervals=20
         )
+
+
+RSIP = ("rotary", 1, [0.5, 0.275], [0.6, 0.5], [0.3, 0.011458])
+
+
+@pytest.mark.parametrize(
+    ("arguments", "expected"),
+    [
+        ({"catch_angle": 2.0}, "catch_angle = 2.0: expected less than π/2"),
+        ({"accel_max": 0}, "accel_max = 0: expected a finite number > 0"),
+        (
+            {"design_speed": 1e6, "accel_max": 10},
+            "design_speed = 1000000.0 sets a_max only when it is computed",
+        ),
+        ({"design_speed": 1.0, "law": "proportional"}, 'law = "proportional" has its own a_max'),
+        ({"design_speed": 1.0, "acceleration": True}, "u is the base's acceleration"),
+    ],
+)
+def test_energy_arguments_that_do_nothing_or_harm_are_refused(arguments: dict, expected: str) -> None:
+    """Each of these was taken: a catch below the horizontal, a law that never pumps, or a
+    design speed that was silently dropped."""
+    with pytest.raises(PlanError, match=re.escape(expected)):
+        energy_swingup(plant(*RSIP), u_max=5.0, **arguments)
+
+
+def test_a_plan_of_a_duration_not_a_whole_number_of_periods_is_refused_before_planning(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """trajectory_swingup refuses duration = 3.005 s at period = 0.01 s before IPOPT plans (it
+    was refused by track after seconds of planning); input_gain = 0 is one line (a
+    ZeroDivisionError in the failure message)."""
+    from ipgen.control import swingup
+    from ipgen.control.trajectory import plan_swingup
+
+    def planned(*args: object, **kwargs: object) -> None:
+        raise AssertionError("planned before the duration was checked")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(swingup, "plan_swingup", planned)
+        with pytest.raises(PlanError, match=r"duration 3\.005 s is not a whole multiple of period = 0\.01 s"):
+            swingup.trajectory_swingup(plant(*RSIP), duration=3.005, u_max=5.0, period=0.01)
+    with pytest.raises(PlanError, match=r"input_gain = 0: expected a finite number > 0"):
+        plan_swingup(plant(*RSIP), duration=0.2, u_max=0.01, input_gain=0)
+
+
+def test_a_refusal_under_a_margin_names_the_margin() -> None:
+    """x_max = 1 with margin = 0.8: the refusal's "x_max = 0.8" is the planning limit, and the
+    message says so (it read as if the user had set 0.8)."""
+    from ipgen.control.swingup import trajectory_swingup
+
+    cart = plant("classical", 2, [0.3, 0.275, 0.275], [0.0, 0.5, 0.5], [0.3, 0.1, 0.1])
+    start = [0.9, math.pi, math.pi, 0.0, 0.0, 0.0]
+    with pytest.raises(PlanError, match=r"x_max = 0\.8 \(planned within margin = 0\.8 of u_max and x_max\)"):
+        trajectory_swingup(cart, duration=3.0, u_max=50.0, x_max=1.0, margin=0.8, start=start)

@@ -287,6 +287,11 @@ def energy_swingup(
         number = finite_number(name, value)
         if positive and number <= 0:
             raise PlanError(f"{name} = {value!r}: expected a finite number > 0")
+    if not float(catch_angle) < math.pi / 2:
+        raise PlanError(
+            f"catch_angle = {catch_angle!r}: expected less than π/2 rad (a catch that wide takes a link "
+            "below the horizontal, and the simulator stops a hold past π/2)"
+        )
     release = 0.0 if release_angle is None else finite_number("release_angle", release_angle)
     if release_angle is not None and not float(catch_angle) < release < math.pi / 2:
         raise PlanError(
@@ -309,6 +314,17 @@ def energy_swingup(
     speed = finite_number("design_speed", design_speed)
     if speed < 0:
         raise PlanError(f"design_speed = {design_speed!r}: expected a finite number >= 0")
+    if speed > 0 and (accel_max is not None or law == "proportional" or acceleration):
+        why = (
+            "accel_max is given" if accel_max is not None
+            else 'law = "proportional" has its own a_max' if law == "proportional"
+            else "u is the base's acceleration (a_max = u_max)"
+        )  # fmt: skip
+        raise PlanError(
+            f"design_speed = {design_speed!r} sets a_max only when it is computed, but {why}; remove one"
+        )
+    if accel_max is not None and not finite_number("accel_max", accel_max) > 0:
+        raise PlanError(f"accel_max = {accel_max!r}: expected a finite number > 0 (the law would never pump)")
     depth = 2 * link_constants(plant)[1]  # J: the hanging link at rest has E = −depth
     if law == "proportional":
         tip = plant.l[0] if plant.system.type == "rotary" else 1.0  # base tip travel per unit θ0

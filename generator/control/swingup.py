@@ -49,15 +49,28 @@ def trajectory_swingup(
     if not 0 < margin_ <= 1:
         raise PlanError(f"margin = {margin!r}: expected a fraction of u_max in (0, 1]")
     u_limit = finite_number("u_max", u_max)
-    plan = plan_swingup(
-        plant,
-        duration=duration,
-        u_max=u_limit * margin_,
-        x_max=None if x_max is None else finite_number("x_max", x_max) * margin_,
-        start=start,
-        intervals=intervals,
-        input_gain=input_gain,
-    )
+    duration_, period_ = finite_number("duration", duration), finite_number("period", period)
+    if duration_ > 0 and period_ > 0:  # planning takes seconds: refuse what track would first
+        steps = duration_ / period_
+        if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
+            raise PlanError(
+                f"duration {duration_:g} s is not a whole multiple of period = {period_:g} s; "
+                "choose a duration of k·period"
+            )
+    try:
+        plan = plan_swingup(
+            plant,
+            duration=duration,
+            u_max=u_limit * margin_,
+            x_max=None if x_max is None else finite_number("x_max", x_max) * margin_,
+            start=start,
+            intervals=intervals,
+            input_gain=input_gain,
+        )
+    except PlanError as exc:
+        if margin_ < 1:  # its limits are margin · u_max and margin · x_max, not the ones given
+            raise PlanError(f"{exc} (planned within margin = {margin_:g} of u_max and x_max)") from None
+        raise
     plan = dataclasses.replace(plan, u_max=u_limit)
     return plan, track(plan, period, q=q, r=r)
 

@@ -370,6 +370,8 @@ def plan_swingup(
     except ControlError as exc:
         raise PlanError(str(exc)) from None
     duration_, u_max_, x_max_, x0, x1, n = _check(plant, duration, u_max, x_max, start, target, intervals)
+    if not finite_number("input_gain", input_gain) > 0:
+        raise PlanError(f"input_gain = {input_gain!r}: expected a finite number > 0 (force or torque per u)")
     t_build = time.perf_counter()
     nlp = _build(plant, duration_, n, max_iter)
     build_time = time.perf_counter() - t_build

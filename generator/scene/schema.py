@@ -786,7 +786,7 @@ class SwingupTable(Table):
     energy_target: Real(says="must be a finite number of J") | None = Field(
         None, description="energy only: E0 [J] relative to upright (proportional: E_r above hanging rest)"
     )
-    catch_angle: Real(gt=0, says="must be > 0 rad") | None = Field(
+    catch_angle: Real(gt=0, lt=math.pi / 2, says="must be > 0 and < π/2 rad") | None = Field(
         None, description="energy only: switch to the hold within this angle of upright [rad] (default 0.3)"
     )
     catch_rate: Real(gt=0, says="must be > 0 rad/s") | None = Field(

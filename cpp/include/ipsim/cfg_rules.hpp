@@ -210,7 +210,7 @@ inline constexpr Range kRanges[] = {
     {0.0, false, kInf, false, false},  // swingup.gain_position
     {0.0, false, kInf, false, false},  // swingup.gain_velocity
     {0.0, true, kInf, false, false},  // swingup.accel_max
-    {0.0, true, kInf, false, false},  // swingup.catch_angle
+    {0.0, true, 1.5707963267948966, true, false},  // swingup.catch_angle
     {0.0, true, kInf, false, false},  // swingup.catch_rate
     {0.0, true, 1.5707963267948966, true, false},  // swingup.release_angle
     {0.0, false, kInf, false, false},  // swingup.energy_step
@@ -268,7 +268,7 @@ inline constexpr Rule kRules[] = {
     {"swingup.gain_position", "[swingup] gain_position", ">= 0", 34, 1},
     {"swingup.gain_velocity", "[swingup] gain_velocity", ">= 0", 35, 1},
     {"swingup.accel_max", "[swingup] accel_max", "> 0", 36, 1},
-    {"swingup.catch_angle", "[swingup] catch_angle", "> 0", 37, 1},
+    {"swingup.catch_angle", "[swingup] catch_angle", "> 0 and < 1.5708", 37, 1},
     {"swingup.catch_rate", "[swingup] catch_rate", "> 0", 38, 1},
     {"swingup.release_angle", "[swingup] release_angle", "> 0 and < 1.5708", 39, 1},
     {"swingup.energy_step", "[swingup] energy_step", ">= 0", 40, 1},
