@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +22,9 @@ from hypothesis import strategies as st
 
 from ipgen.common.presets import preset_path
 from ipgen.experiment.leaderboard import score, swingup_time
+from ipgen.pipeline.fixed_run import default_theta
 from ipgen.pipeline.run import run_scene
+from ipgen.scene.fixed import load_fixed_scene
 
 
 def _read(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
@@ -110,7 +113,8 @@ def test_a_fixed_swing_up_without_initial_starts_hanging(tmp_path: Path) -> None
     """pendubot_swingup without [initial]: its links start hanging, where its plan starts
     (docs/scenes.md), in whatever coordinates the scene counts: 0 0 in DFKI's (relative, from
     hanging), π π in ipgen's (absolute, from upright; before, such a scene started upright and
-    lost its plan at t = 0). Without a [swingup] the default stays 0."""
+    lost its plan at t = 0; its DFKI plan is now refused there). Without a [swingup] the default
+    stays 0."""
     import re
 
     from ipgen.command.cli import run
@@ -122,12 +126,18 @@ def test_a_fixed_swing_up_without_initial_starts_hanging(tmp_path: Path) -> None
     canonical = re.sub(r"^(angles|zero|positive) = .*\n", "", source, flags=re.M)
     unswung = re.sub(r"\[swingup\]\n(.+\n)+", "", canonical)
     assert "[initial]" not in source and "zero =" not in canonical and "[swingup]" not in unswung
-    expected = {"rig": "0 0", "canonical": f"{math.pi!r} {math.pi!r}", "unswung": "0 0"}
-    for name, text in (("rig", source), ("canonical", canonical), ("unswung", unswung)):
+    expected = {"rig": "0 0", "unswung": "0 0"}
+    for name, text in (("rig", source), ("unswung", unswung)):
         (tmp_path / f"{name}.toml").write_text(text)
         assert run(["--scene", str(tmp_path / f"{name}.toml"), "-o", str(tmp_path / name)]) == 0
         cfg = (tmp_path / name / f"{name}.cfg").read_text()
         assert re.search(r"^theta = (.*)$", cfg, flags=re.M).group(1) == expected[name], name
+    # In ipgen's coordinates the chain hangs at π π; DFKI's plan (its rows in DFKI's coordinates)
+    # does not start there, and is refused (it was tracked from the wrong state).
+    (tmp_path / "canonical.toml").write_text(canonical)
+    chain = load_fixed_scene(tmp_path / "canonical.toml")
+    assert default_theta(chain, tomllib.loads(canonical)) == (math.pi, math.pi)
+    assert run(["--scene", str(tmp_path / "canonical.toml"), "-o", str(tmp_path / "canonical")]) == 2
 
 
 def _toml(value: object) -> str:
@@ -173,3 +183,48 @@ def test_a_bad_hold_of_a_fixed_swing_up_is_one_line(value: object) -> None:
         assert status == 2, message
         assert message.count("\n") == 1 and "swingup.hold" in message and "Traceback" not in message
         assert not (folder / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        # [initial] away from hanging at rest: the plan was tracked from where the chain was not
+        (
+            ("theta = [0.0, 0.0]", "theta = [0.5, 0.0]"),
+            "[swingup] plans from hanging at rest, [initial] starts",
+        ),
+        (("dtheta = [0.0, 0.0]", "dtheta = [0.0, 0.1]"), "set theta = [0, 0] and dtheta = 0"),
+        # the pendubot's plan in the acrobot's scene ends upright too, but lasts 3 s: refused by
+        # its length; a plan that does not start hanging (edited here), by its first row
+        (None, "its first row is not this chain hanging at rest"),
+    ],
+)
+def test_a_swing_up_from_elsewhere_or_a_plan_of_another_start_is_refused(
+    tmp_path: Path, change: tuple[str, str] | None, expected: str
+) -> None:
+    """acrobot_swingup with [initial] away from hanging, or with a plan CSV whose first row is
+    not hanging at rest: one line, exit 2, before the simulator runs (both ran, then exit 5)."""
+    import contextlib
+    import io
+
+    from ipgen.command.cli import run
+
+    preset = preset_path("acrobot_swingup")
+    plan = preset.with_name("acrobot_swingup.plan.csv")
+    text, rows = preset.read_text(), plan.read_text().splitlines()
+    if change is None:
+        first = next(i for i, row in enumerate(rows) if row and not row.startswith(("#", "t")))
+        values = rows[first].split(",")
+        values[2] = "0.25"  # q1 of the first knot
+        rows[first] = ",".join(values)
+    else:
+        assert change[0] in text
+        text = text.replace(change[0], change[1], 1)
+    (tmp_path / plan.name).write_text("\n".join(rows) + "\n")
+    (tmp_path / "acro.toml").write_text(text)
+    error = io.StringIO()
+    with contextlib.redirect_stderr(error):
+        status = run(["run", str(tmp_path / "acro.toml"), "-o", str(tmp_path / "out"), "--no-plot"])
+    assert status == 2 and error.getvalue().count("\n") == 1, error.getvalue()
+    assert expected in error.getvalue(), error.getvalue()
+    assert not (tmp_path / "out" / "acro.csv").exists()

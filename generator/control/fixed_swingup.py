@@ -208,8 +208,12 @@ def write_plan(path: Path, plan: FixedPlan, note: str = "") -> None:
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+PLAN_END_TOLERANCE = 1e-6  # rad, rad/s: a plan CSV's first and last rows against hanging and upright at rest
+
+
 def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
-    """A plan written by `write_plan`, sampled at `period` (`PlanError` if it does not fit the chain)."""
+    """A plan written by `write_plan`, sampled at `period` (`PlanError` if it does not fit the
+    chain: its columns, its knots against the period, its ends hanging and upright at rest)."""
     try:
         text = Path(path).read_text()
     except OSError as exc:
@@ -237,6 +241,18 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     substeps = round(h / period)
     if substeps < 1 or abs(substeps * period - h) > 1e-9 or np.any(np.abs(np.diff(body[:, 0]) - h) > 1e-9):
         raise PlanError(f"{path}: its knots every {h:g} s are not a whole number of periods of {period:g} s")
+    n_angles = chain.links
+    for row, where in ((0, "hanging"), (-1, "upright")):  # fixed_plan's ends: a plan of another chain
+        end = np.concatenate([fixed_equilibrium(chain, where), np.zeros(n_angles)])
+        off = body[row, 1 + m :] - end
+        off[:n_angles] = np.remainder(off[:n_angles] + math.pi, 2 * math.pi) - math.pi
+        if np.max(np.abs(off)) > PLAN_END_TOLERANCE:
+            first = "first" if row == 0 else "last"
+            raise PlanError(
+                f"{path}: its {first} row is not this chain {where} at rest (off by "
+                f"{np.max(np.abs(off)):.3g}): a plan of another chain or start; plan again "
+                "(leave out swingup.plan)"
+            )
     return sampled_plan(chain, period, substeps, body[:, 1 + m :], body[:-1, 1 : 1 + m])
 
 

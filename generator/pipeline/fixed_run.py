@@ -480,6 +480,25 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
     )
 
 
+def _starts_hanging(
+    reader: Reader, chain: FixedPendulum, theta: tuple[float, ...], dtheta: tuple[float, ...]
+) -> None:
+    """A swing-up's plan goes from hanging at rest: an [initial] elsewhere is refused (the run
+    tracked a plan from a state it was not in, and ended with exit 5)."""
+    import math
+
+    from ipgen.control.fixed_linear import fixed_equilibrium
+
+    hanging = fixed_equilibrium(chain, "hanging")
+    off = [math.remainder(angle - rest, 2 * math.pi) for angle, rest in zip(theta, hanging, strict=True)]
+    if max(map(abs, off)) > 1e-9 or any(rate != 0 for rate in dtheta):
+        shown = ", ".join(f"{angle + 0.0:g}" for angle in hanging)  # + 0.0: no -0
+        reader.fail(
+            f"[swingup] plans from hanging at rest, [initial] starts elsewhere: remove [initial] or set "
+            f"theta = [{shown}] and dtheta = 0 (hanging, in the chain's coordinates)"
+        )
+
+
 def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str | None = None) -> FixedScene:
     """A fixed scene's parts (`FixedScene`), every table checked, each problem one line; its config
     names `model` (`ipgen --scene -o`: the header's), else the library `ipgen run` builds."""
@@ -510,6 +529,7 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
         swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
         tracking = swingup_tracking(reader, document["swingup"], controller)
+        _starts_hanging(reader, chain, theta, dtheta)
     cfg = fixed_config(
         path, chain, model or name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller,
         swingup, tracking,
