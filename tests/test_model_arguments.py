@@ -44,13 +44,25 @@ def test_a_motor_constant_that_is_not_a_number_is_one_line(name: str, value: obj
 
 
 def test_a_motor_constant_of_any_real_type_is_taken_alike() -> None:
-    """numpy's floats, and in the dict form Decimal, are numbers: the same pendulum as plain floats."""
+    """numpy's floats and Decimal, in the dict form and in `ipgen.Actuator`, are numbers: the same
+    pendulum as plain floats (an Actuator of Decimals raised a TypeError in its gain, and in
+    derive, linearize and lqr)."""
     plain = ipgen.Pendulum("rotary", 1, **ROTARY, actuator=ipgen.Actuator("dc_motor", **MOTOR))
     numpy = {k: np.float64(v) for k, v in MOTOR.items()}
-    decimal = {"kind": "dc_motor", **{k: Decimal(str(v)) for k, v in MOTOR.items()}}
-    for actuator in (ipgen.Actuator("dc_motor", **numpy), {"kind": "dc_motor", **numpy}, decimal):
+    decimals = {k: Decimal(str(v)) for k, v in MOTOR.items()}
+    for actuator in (
+        ipgen.Actuator("dc_motor", **numpy),
+        {"kind": "dc_motor", **numpy},
+        {"kind": "dc_motor", **decimals},
+        ipgen.Actuator("dc_motor", **decimals),
+    ):
         other = ipgen.Pendulum("rotary", 1, **ROTARY, actuator=actuator)
         assert other.actuator.gain() == plain.actuator.gain()
+        assert np.array_equal(ipgen.linearize(other)[1], ipgen.linearize(plain)[1])
+    motor = ipgen.Actuator("dc_motor", **decimals)
+    assert ipgen.derive("rotary", 1, actuator=motor).mass_matrix == ipgen.derive(
+        "rotary", 1, actuator=ipgen.Actuator("dc_motor", **MOTOR)
+    ).mass_matrix
 
 
 @settings(max_examples=40, deadline=None)

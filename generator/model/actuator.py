@@ -175,7 +175,9 @@ class Actuator:
         >>> sorted(Actuator("dc_motor", Rm=8.4, kt=0.042, km=0.042).constants())
         ['Jm', 'Kg', 'Rm', 'eta_g', 'eta_m', 'km', 'kt']
         """
-        return {name: getattr(self, name) for name in MOTOR_CONSTANTS if getattr(self, name) is not None}
+        # as floats: a Decimal or numpy constant (check() takes them) would not mix with the floats
+        given = {name: getattr(self, name) for name in MOTOR_CONSTANTS}
+        return {name: _constant(name, value) for name, value in given.items() if value is not None}
 
     def gain(self) -> float:
         """b: the generalised force on θ0 per unit of u (1 for "direct"; N m/V or N/V)."""
