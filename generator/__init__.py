@@ -100,9 +100,11 @@ def derive(
 ) -> Equations:
     """The equations of motion M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ, as sympy views.
 
-    Called as ``derive(p)`` with a `Pendulum` (its type, links, inertia and actuator; its numbers
-    are not substituted: the views are symbolic), or as ``derive(type, links, inertia="pivot",
-    *, general=False, actuator=None)``.
+    Called as ``derive(p)`` with a `Pendulum` (its type, links, inertia and actuator, and its
+    links as built: `general` is implied when it sets com, J, J_axial or tip; its numbers are not
+    substituted: the views are symbolic), or as ``derive(type, links, inertia="pivot", *,
+    general=False, actuator=None)``. The views are in ipgen's coordinates (absolute angles from
+    upright, clockwise) whatever a Pendulum's own are (`p.coordinates` maps them; docs/model.md).
 
     Parameters
     ----------
@@ -167,6 +169,8 @@ def derive(
             )
         system, drive = type.system, type.actuator
         actuator = None if drive.kind == "direct" else drive
+        # a Pendulum with links as built: rod equations (general=False) would not describe it
+        general = general or any(group is not None for group in (type.com, type.J, type.J_axial, type.tip))
     else:
         inertia = "pivot" if inertia is None else inertia
         system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)

@@ -10,6 +10,7 @@ from decimal import Decimal
 
 import numpy as np
 import pytest
+import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -194,3 +195,17 @@ def test_numpys_integers_count_links_and_name_joints() -> None:
         np.int64(2), m=[1.0, 1.0], l=[1.0, 1.0], delta=[0, 0], joints=np.array([1, 2])
     )
     assert chain.joints == (1, 2) and all(type(j) is int for j in chain.joints) and type(chain.links) is int
+
+
+def test_derive_of_a_pendulum_with_links_as_built_describes_them() -> None:
+    """derive(p) of a Pendulum that sets com, J or tip gives the general views (M11 = J1 + m1 com1²
+    + tip1 l1²), equal to derive(..., general=True); it gave the rods' (m1 l1²/3), which are not
+    p's. A Pendulum of rods keeps the rods' views."""
+    built = ipgen.Pendulum("rotary", 1, **ROTARY, tip=[0.0, 0.05])
+    views = ipgen.derive(built)
+    s = views.symbols
+    pivot = s.J[1] + s.m[1] * s.com[1] ** 2 + s.tip[1] * s.l[1] ** 2
+    assert sp.expand(views.mass_matrix[1, 1] - pivot) == 0
+    assert views.mass_matrix == ipgen.derive("rotary", 1, general=True).mass_matrix
+    rods = ipgen.Pendulum("rotary", 1, **ROTARY)
+    assert ipgen.derive(rods).mass_matrix == ipgen.derive("rotary", 1).mass_matrix
