@@ -551,7 +551,15 @@ def test_malformed_toml(tmp_path: Path) -> None:
 
 
 def test_duplicate_key_is_malformed(tmp_path: Path) -> None:
-    expect_error(write(tmp_path, scene_text({}) + "\n[system]\nlinks = 3\n"), "malformed TOML")
+    """A table or a key given twice: the message names it and its line (tomllib's said only
+    "Cannot overwrite a value")."""
+    text = scene_text({})
+    again = text.count("\n") + 2  # the second [system]'s line
+    expect_error(write(tmp_path, text + "\n[system]\nlinks = 3\n"), f"[system] is given twice (line {again})")
+    twice = text.replace("[simulation]\n", "[simulation]\nt_end = 1.0\nt_end = 2.0\n", 1)
+    assert twice != text
+    number = twice.splitlines().index("t_end = 2.0") + 1
+    expect_error(write(tmp_path, twice), f"malformed TOML: t_end is given twice (line {number}): remove one")
 
 
 def test_missing_file(tmp_path: Path) -> None:
@@ -671,3 +679,12 @@ def test_an_absolute_tolerance_of_0_is_refused(tmp_path: Path, atol: str) -> Non
     )
     with pytest.raises(SceneError, match=r"simulation\.atol = .*must be > 0"):
         load_scene(scene)
+
+
+def test_a_strict_upper_bound_holds_for_the_double_too(tmp_path: Path) -> None:
+    """rtol < 1: 0.99999999999999999999 is below 1, but its double (what the simulator reads) is
+    1, which the simulator refused after ipgen had taken it; ipgen now refuses it in one line."""
+    text = scene_text({}).replace("[simulation]\n", "[simulation]\nrtol = 0.99999999999999999999\n", 1)
+    expect_error(write(tmp_path, text), "simulation.rtol = 0.99999999999999999999: must be in (0, 1)")
+    ok = text.replace("0.99999999999999999999", "0.9999999999999999")
+    assert load_scene(write(tmp_path, ok)).rtol == 0.9999999999999999

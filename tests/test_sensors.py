@@ -382,3 +382,40 @@ def test_a_swing_ups_estimator_is_built_at_its_upright_in_the_scenes_coordinates
     equilibrium = [float(v) for v in config(path)["estimator.equilibrium"].split()]
     assert equilibrium[0] == 0.0 and equilibrium[2:] == [0.0, 0.0]
     assert math.remainder(equilibrium[1] - link, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("line", "runs"),
+    [
+        ("seed = 9223372036854774784", True),  # 2^63 - 1024, the largest double below 2^63
+        ("seed = 9223372036854775807", False),  # ipgen took it, the simulator refused it
+        ("max_steps = 9223372036854774784", True),
+        ("max_steps = 9223372036854775807", False),
+        ("max_steps = 100000000000000000000", False),  # ipgen took it, the simulator refused it
+    ],
+)
+def test_the_largest_seed_and_step_limit_ipgen_takes_the_simulator_takes(
+    tmp_path: Path, line: str, runs: bool
+) -> None:
+    """At the top of [sensors] seed and [simulation] max_steps, ipgen and the simulator agree: a
+    value ipgen takes runs, one past it is one line from ipgen (exit 2) naming the key."""
+    from cxx import require_toolchain
+
+    require_toolchain()
+    shipped = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_sensors.toml"
+    text = shipped.read_text(encoding="utf-8")
+    text = text.replace("t_end = 5.0 ", "t_end = 0.02 ").replace("[sensors]\n", "[sensors]\n" + line + "\n")
+    if line.startswith("max_steps"):
+        text = text.replace(line + "\n", "").replace("[simulation]\n", "[simulation]\n" + line + "\n")
+    assert line in text and "t_end = 0.02 " in text
+    scene = tmp_path / "s.toml"
+    scene.write_text(text, encoding="utf-8")
+    error = io.StringIO()
+    with contextlib.redirect_stderr(error):
+        status = run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"])
+    if runs:
+        assert status == 0, error.getvalue()
+    else:
+        key = line.split(" = ")[0]
+        assert status == 2 and error.getvalue().count("\n") == 1 and key in error.getvalue(), error.getvalue()
+        assert "ipgen: error:" in error.getvalue() and "simulate:" not in error.getvalue()

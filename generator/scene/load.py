@@ -117,7 +117,7 @@ def _parse_toml(reader: Reader, text: str) -> dict[str, Any]:
     try:
         return tomllib.loads(text, parse_float=_decimal)
     except tomllib.TOMLDecodeError as exc:
-        reader.fail(f"malformed TOML: {abbreviate(str(exc), 120)}")
+        reader.fail(f"malformed TOML: {abbreviate(_named(str(exc), text), 120)}")
     except RecursionError:  # not expected after shape_problem: one line all the same
         reader.fail(f"nested too deeply to parse (at most {limits.MAX_SCENE_NESTING} levels)")
     except ValueError:  # Python reads at most 4300 decimal digits into an integer
@@ -125,6 +125,19 @@ def _parse_toml(reader: Reader, text: str) -> dict[str, Any]:
         where = f"line {text.count(chr(10), 0, found.start()) + 1}: " if found else ""
         limit = "a scene's numbers fit a double (at most 1.8e308)"
         reader.fail(f"{where}an integer of more than 4300 digits: {limit}")
+
+
+def _named(message: str, text: str) -> str:
+    """tomllib's message, with the key named where it only says a value cannot be overwritten (a
+    key or table given twice): `rtol` is given twice (at line 34): remove one."""
+    found = re.fullmatch(r"Cannot (?:overwrite a value|declare .*?) \(at line (\d+), column \d+\)", message)
+    if not found:
+        return message
+    number = int(found.group(1))
+    lines = text.splitlines()
+    line = lines[number - 1].strip() if 0 < number <= len(lines) else ""
+    key = line.split("=", 1)[0].strip() if "=" in line and not line.startswith("[") else line
+    return f"{abbreviate(key, 60)} is given twice (line {number}): remove one" if key else message
 
 
 # ---------------------------------------------------------------------------- validation

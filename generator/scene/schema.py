@@ -545,8 +545,13 @@ class SimulationTable(Table):
         description="rk4 only (required there): the fixed step [s], > 0 and <= sample",
         json_schema_extra={"type": "number", "exclusiveMinimum": 0},
     )
-    max_steps: Annotated[int, Says("must be an integer >= 1")] = Field(
-        DEFAULT_MAX_STEPS, strict=True, ge=1, description="the integrator's step limit between two samples"
+    max_steps: Annotated[int, Says("must be an integer >= 1 and <= 2^63 - 1024")] = Field(
+        DEFAULT_MAX_STEPS,
+        strict=True,
+        ge=1,
+        le=2**63 - 1024,  # the largest double below 2^63: the simulator's rules are on doubles (and a
+        # long): it refused a larger one after ipgen had taken it
+        description="the integrator's step limit between two samples",
     )
 
     @model_validator(mode="after")

@@ -139,7 +139,12 @@ def _pulses(value: Any, context: dict[str, Any]) -> tuple[tuple[float, float, fl
     return tuple(at(i, pulse, item, context) for i, item in enumerate(value))
 
 
-Seed = Annotated[int, Field(strict=True, ge=0, lt=2**63), Says("must be an integer >= 0 and below 2^63")]
+# At most 2^63 - 1024, the largest double below 2^63: the simulator checks its rules on doubles, and
+# a seed above that rounded to 2^63 there and was refused after ipgen had taken it.
+LARGEST_SEED = 2**63 - 1024
+Seed = Annotated[
+    int, Field(strict=True, ge=0, le=LARGEST_SEED), Says("must be an integer >= 0 and <= 2^63 - 1024")
+]
 _NOISE = {"type": "number", "minimum": 0, "maximum": LARGEST}
 _NOISE_SCHEMA = {"oneOf": [_NOISE, {"type": "array", "items": _NOISE}]}
 _COUNTS = {"oneOf": [{"const": 0}, {"type": "number", "minimum": 1}]}

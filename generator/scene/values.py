@@ -63,10 +63,11 @@ def context_of(info: ValidationInfo, *keys: str) -> dict[str, Any] | None:
 # ---------------------------------------------------------------------------- numbers
 
 
-def toml_number(value: Any, gt: float | None = None) -> Any:
+def toml_number(value: Any, gt: float | None = None, lt: float | None = None) -> Any:
     """A TOML integer or float (not a boolean, not a string) whose value fits a double; inf and
-    nan are left to pydantic's `allow_inf_nan=False`. A lower bound `gt` holds for the double
-    too (1e-400 > 0, but its double is 0)."""
+    nan are left to pydantic's `allow_inf_nan=False`. The strict bounds `gt` and `lt` hold for the
+    double too (1e-400 > 0, but its double is 0; 0.99999999999999999999 < 1, but its double is 1:
+    the simulator reads the double)."""
     if isinstance(value, bool) or not isinstance(value, int | Decimal):
         raise PydanticCustomError("number_type", "expected a number")
     if isinstance(value, Decimal) and not value.is_finite():
@@ -79,6 +80,8 @@ def toml_number(value: Any, gt: float | None = None) -> Any:
         raise PydanticCustomError("double_range", "is too large for a double")
     if gt is not None and not as_float > gt:
         raise PydanticCustomError("greater_than", "Input should be greater than {gt}", {"gt": gt})
+    if lt is not None and not as_float < lt:
+        raise PydanticCustomError("less_than", "Input should be less than {lt}", {"lt": lt})
     return value
 
 
@@ -95,7 +98,7 @@ def Real(
     return Annotated[
         Decimal,
         Field(gt=gt, ge=ge, lt=lt, le=le, allow_inf_nan=False),
-        BeforeValidator(partial(toml_number, gt=gt)),
+        BeforeValidator(partial(toml_number, gt=gt, lt=lt)),
         Says(says, what),
     ]
 

@@ -187,7 +187,7 @@ inline constexpr Range kRanges[] = {
     {0.0, true, kInf, false, false},  // step
     {1e-15, false, 1.0, true, false},  // rtol
     {0.0, true, kInf, false, false},  // atol
-    {1.0, false, kInf, false, true},  // max_steps
+    {1.0, false, 9.223372036854775e+18, false, true},  // max_steps
     {0.0, true, kInf, false, false},  // controller.saturation
     {0.0, true, kInf, false, false},  // controller.period
     {1.0, false, 1000.0, false, true},  // controller.horizon
@@ -222,7 +222,7 @@ inline constexpr Range kRanges[] = {
     {1.0, false, kInf, false, false},  // sensors.resolution
     {0.0, false, 1e+100, false, false},  // sensors.noise
     {-1000000.0, false, 1000000.0, false, false},  // sensors.zero
-    {0.0, false, 9.223372036854776e+18, true, true},  // sensors.seed
+    {0.0, false, 9.223372036854775e+18, false, true},  // sensors.seed
     {0.0, true, kInf, false, false},  // estimator.cutoff
     {0.0, false, 60.0, false, false},  // estimator.lag
     {0.0, false, 1.0, false, false},  // estimator.gain_spread
@@ -245,7 +245,7 @@ inline constexpr Rule kRules[] = {
     {"step", "[simulation] step", "> 0", 11, 1},
     {"rtol", "[simulation] rtol", ">= 1e-15 and < 1", 12, 1},
     {"atol", "[simulation] atol", "> 0", 13, 1},
-    {"max_steps", "[simulation] max_steps", "a whole number >= 1", 14, 1},
+    {"max_steps", "[simulation] max_steps", "a whole number >= 1 and <= 9.22337e+18", 14, 1},
     {"controller.saturation", "[controller] saturation", "> 0", 15, 1},
     {"controller.period", "[controller] period", "> 0", 16, 1},
     {"controller.horizon", "[controller] horizon", "a whole number >= 1 and <= 1000", 17, 1},
@@ -279,7 +279,7 @@ inline constexpr Rule kRules[] = {
     {"sensors.resolution", "[sensors] resolution", "0 or >= 1", 45, 2},
     {"sensors.noise", "[sensors] noise", ">= 0 and <= 1e+100", 47, 1},
     {"sensors.zero", "[sensors] zero", ">= -1000000 and <= 1000000", 48, 1},
-    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and < 9.22337e+18", 49, 1},
+    {"sensors.seed", "[sensors] seed", "a whole number >= 0 and <= 9.22337e+18", 49, 1},
     {"estimator.cutoff", "[estimator] cutoff", "> 0", 50, 1},
     {"estimator.lag", "[estimator] lag", ">= 0 and <= 60", 51, 1},
     {"estimator.gain_spread", "[estimator] gain_spread", ">= 0 and <= 1", 52, 1},
