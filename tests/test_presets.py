@@ -64,6 +64,20 @@ def test_an_unknown_preset_names_the_choices(capsys: pytest.CaptureFixture[str])
     assert err.count("\n") == 1 and "no preset 'qube'" in err and "ipgen presets" in err
 
 
+@pytest.mark.parametrize(
+    ("name", "meant"),
+    [("cdip_puls", "did you mean cdip_pulse,"), ("Acrobot", "did you mean acrobot_mpc, acrobot_swingup?")],
+)
+def test_a_misspelt_preset_gets_the_names_it_may_mean(
+    name: str, meant: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A near miss is answered with the presets it may mean, whole (the list of every name was
+    cut in its middle by the CLI's 400 characters, hiding pendubot_swingup and qube_servo2)."""
+    assert cli(["presets", name]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and meant in err and "..." not in err, err
+
+
 def test_ipgen_presets_lists_and_prints(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli(["presets"]) == 0
     listing = capsys.readouterr().out

@@ -71,5 +71,21 @@ def preset_path(name: str) -> Path:
     found = [path for path in folder.rglob("*.toml") if path.stem == name]
     if len(found) == 1:
         return found[0]
-    names = ", ".join(preset_names())
-    raise Error(f"no preset {abbreviate(name)!r}: choose one of {names} (ipgen presets lists them)")
+    names = preset_names()
+    suggestion = _suggestion(name, names)
+    raise Error(f"no preset {abbreviate(name)!r}: {suggestion} (ipgen presets lists all {len(names)})")
+
+
+def _suggestion(name: str, names: tuple[str, ...], most: int = 5) -> str:
+    """The presets `name` may have meant (those containing it, then difflib's close matches), or,
+    with none, every name: one line that the CLI's 400 characters do not cut in the middle."""
+    import difflib
+
+    containing = [found for found in names if name.lower() in found.lower()]
+    close = difflib.get_close_matches(name, names, n=most, cutoff=0.6)
+    meant = list(dict.fromkeys(containing + close))
+    if meant:
+        more = ", …" if len(meant) > most else ""
+        return f"did you mean {', '.join(meant[:most])}{more}?"
+    listed = ", ".join(names)
+    return f"choose one of {listed}" if len(listed) < 250 else f"choose one of {', '.join(names[:8])}, …"
