@@ -1,7 +1,8 @@
 # ipgen's CMake package: `find_package(ipgen CONFIG REQUIRED)` with -Dipgen_DIR=$(ipgen --cmake-dir)
 # (this folder, installed with the Python package; in a checkout: its cmake/ folder).
 #
-# Provides ipgen::ipsim (the header-only simulator with Eigen, SUNDIALS and LAPACK) and the
+# Provides ipgen::ipsim (the header-only simulator with Eigen, SUNDIALS and LAPACK), ipgen_ipsim_core
+# (the same with ipsim's model-independent code compiled once, for several models) and the
 # functions ipgen_add_model, ipgen_add_simulator and ipgen_add_scene (ipgen.cmake, which
 # documents them and how the generator's Python is found: the one whose ipgen holds this file).
 #
@@ -21,4 +22,5 @@ unset(_ipgen_languages)
 
 include("${CMAKE_CURRENT_LIST_DIR}/ipgen.cmake")
 ipgen_find_ipsim()
+ipgen_ipsim_core()  # the target docs/simulator.md says to link for several models (built only then)
 set(ipgen_FOUND TRUE)
