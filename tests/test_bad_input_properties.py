@@ -345,6 +345,7 @@ def test_class6_limits_are_the_same_in_python_and_cpp() -> None:
     cpp = cpp_limits()
     assert cpp == {
         "kMaxSamples": limits.MAX_SAMPLES,
+        "kMinTEnd": limits.MIN_T_END,
         "kRtolMin": limits.RTOL_MIN,
         "kMessageValueChars": limits.MESSAGE_VALUE_CHARS,
         "kMessagePathChars": limits.MESSAGE_PATH_CHARS,

@@ -195,7 +195,9 @@ void check_settings_validation() {
   expect([](auto& s) { s.rtol = -1e-6; }, "invalid setting rtol = -1e-06");
   expect([](auto& s) { s.atol = -1; }, "invalid setting atol = -1: must be finite and > 0");
   expect([](auto& s) { s.atol = 0; }, "invalid setting atol = 0: must be finite and > 0");  // CVODE: ewt infinite
-  expect([](auto& s) { s.t_end = 0; }, "invalid setting t_end = 0: must be finite and > 0");
+  expect([](auto& s) { s.t_end = 0; }, "invalid setting t_end = 0: must be finite and >= 1e-9 s (kMinTEnd)");
+  // CVODE refused a stop time this short at t = 0 (CV_ILL_INPUT): now an InvalidInput before it runs
+  expect([](auto& s) { s.t_end = 1e-300; }, "invalid setting t_end = 1e-300: must be finite and >= 1e-9 s");
   expect([](auto& s) { s.sample = 0; }, "invalid setting sample = 0: must be finite and > 0");
   expect([](auto& s) { s.sample = 1e-12; }, "exceeds 10000000 output samples");
   expect([](auto& s) { s.max_steps = 0; }, "invalid setting max_steps = 0: must be > 0");

@@ -6,6 +6,8 @@ scene the generator accepts is never refused by the simulator for a limit.
 
 Why these values:
 
+- `MIN_T_END`: a run lasts at least a nanosecond (1e-9 s). CVODE refuses a stop time of 1e-200 s
+  as "behind the current t = 0"; shorter than a nanosecond is no simulation of a pendulum.
 - `MAX_SAMPLES`: t_end / sample output samples at most. The simulator writes one CSV row per
   sample as the run reaches it (its memory does not grow with the samples; a C++ caller of
   ipsim::simulate without a sink keeps them, 2 kDof + 1 doubles each): 1e7 samples of a double
@@ -46,6 +48,7 @@ from __future__ import annotations
 from typing import Any
 
 MAX_SAMPLES = 10_000_000
+MIN_T_END = 1e-9
 MAX_SIMULATED_LINKS = 40
 RTOL_MIN = 1e-15
 MAX_SCENE_BYTES = 1 << 18

@@ -513,7 +513,11 @@ class LimitsTable(Table):
 class SimulationTable(Table):
     """[simulation]: how long, how often to sample, and how to integrate."""
 
-    t_end: Real(gt=0, says="must be > 0 s", what="the simulated time in s, > 0") = Field(
+    t_end: Real(
+        ge=limits.MIN_T_END,
+        says=f"must be >= {limits.MIN_T_END:g} s",
+        what=f"the simulated time in s, >= {limits.MIN_T_END:g}",
+    ) = Field(
         description="the simulated time [s]"
     )
     sample: Annotated[Real(), AfterValidator(checks.sample)] = Field(

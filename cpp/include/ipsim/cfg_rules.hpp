@@ -182,7 +182,7 @@ inline constexpr Range kRanges[] = {
     {0.0, false, kInf, false, false},  // coulomb
     {0.0, true, kInf, false, false},  // coulomb_speed
     {0.0, true, kInf, false, false},  // limits.travel
-    {0.0, true, kInf, false, false},  // t_end
+    {1e-09, false, kInf, false, false},  // t_end
     {0.0, true, kInf, false, false},  // sample
     {0.0, true, kInf, false, false},  // step
     {1e-15, false, 1.0, true, false},  // rtol
@@ -240,7 +240,7 @@ inline constexpr Rule kRules[] = {
     {"coulomb", "[parameters] coulomb", ">= 0", 6, 1},
     {"coulomb_speed", "[parameters] coulomb_speed", "> 0", 7, 1},
     {"limits.travel", "[limits] travel", "> 0", 8, 1},
-    {"t_end", "[simulation] t_end", "> 0", 9, 1},
+    {"t_end", "[simulation] t_end", ">= 1e-09", 9, 1},
     {"sample", "[simulation] sample", "> 0", 10, 1},
     {"step", "[simulation] step", "> 0", 11, 1},
     {"rtol", "[simulation] rtol", ">= 1e-15 and < 1", 12, 1},

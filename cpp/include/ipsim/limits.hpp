@@ -11,6 +11,8 @@ namespace ipsim {
 /// double pendulum: about 1.4 GB of CSV; simulate_<model> streams them, simulate() without a sink
 /// keeps them in a Result: 0.5 GB).
 inline constexpr double kMaxSamples = 1e7;
+/// Shortest run t_end [s]: CVODE refuses a stop time of 1e-200 s ("behind current t = 0").
+inline constexpr double kMinTEnd = 1e-9;
 /// Smallest relative tolerance: below it double precision cannot meet the request (rtol < 1 too).
 inline constexpr double kRtolMin = 1e-15;
 /// sensors.delay is k whole sampling periods, k = round(delay / period) <= kMaxDelayPeriods, to

@@ -119,7 +119,7 @@ struct Settings {
   double step = 0.0;         ///< rk4 only: the fixed step [s], > 0; shortened to land on every stop
   long max_steps = 100000;   ///< integrator steps allowed between two stops, > 0
   double sample = 0.01;      ///< output interval [s]: samples at t = k·sample, plus t_end
-  double t_end = 10.0;       ///< final time [s], > 0; the run starts at t = 0
+  double t_end = 10.0;       ///< final time [s], >= kMinTEnd (1e-9 s); the run starts at t = 0
   VectorOf<Model> theta = zero_vector<Model>();   ///< initial θ: base [m or rad], link angles [rad]
   VectorOf<Model> dtheta = zero_vector<Model>();  ///< initial θ̇ [m/s or rad/s]
   Input input;               ///< u(t) on θ0 [N or N m] (a fixed chain: the torque of its first driven joint)
@@ -253,7 +253,9 @@ std::vector<std::string> validate(const Settings<Model>& settings) {
     report("rtol", settings.rtol, "must be >= 1e-15 (double precision cannot meet less) and < 1");
   }
   if (!(std::isfinite(settings.atol) && settings.atol > 0.0)) report("atol", settings.atol, "must be finite and > 0");
-  if (!(std::isfinite(settings.t_end) && settings.t_end > 0.0)) report("t_end", settings.t_end, "must be finite and > 0");
+  if (!(std::isfinite(settings.t_end) && settings.t_end >= kMinTEnd)) {
+    report("t_end", settings.t_end, "must be finite and >= 1e-9 s (kMinTEnd)");
+  }
   if (!(std::isfinite(settings.sample) && settings.sample > 0.0)) {
     report("sample", settings.sample, "must be finite and > 0");
   } else if (std::isfinite(settings.t_end) && settings.t_end / settings.sample > kMaxSamples) {
