@@ -109,3 +109,23 @@ def test_specialised_rsip_with_a_motor_runs_like_the_general_one(tmp_path: Path)
         runs[stem] = read_run_csv(tmp_path / stem / f"{stem}.csv", phase=False).data
     assert np.ptp(runs["general"][:, 1]) > 1e-3  # the arm moved: the comparison means something
     np.testing.assert_allclose(runs["special"], runs["general"], rtol=1e-6, atol=1e-8)
+
+
+def test_a_specialised_motor_header_says_its_damping_and_inertia_hold_the_motor(tmp_path: Path) -> None:
+    """A dc_motor scene with specialise = true: the header says delta0 and J0 are folded with the
+    motor and to pass the .cfg's params (a user who followed its _with_motor instructions on the
+    datasheet's values got "delta0" from check_folded, a last-bit difference); a scene without a
+    motor has no such line."""
+    from ipgen.command.cli import run
+
+    notes = {}
+    for name, source in (("motor", RIGS / "qube_servo2.toml"), ("direct", RIGS.parent / "rsip_lqr.toml")):
+        text = source.read_text()
+        text = text.replace("[system]\n", "[system]\nspecialise = true\n", 1)
+        scene = tmp_path / f"{name}.toml"
+        scene.write_text(text)
+        assert run(["--scene", str(scene), "-o", str(tmp_path / name), "--emit", "c"]) == 0
+        notes[name] = "\n".join(path.read_text() for path in (tmp_path / name).glob("*.h"))
+    assert "dc_motor folded into delta0 and J0" in notes["motor"]
+    assert "check_folded reports it" in notes["motor"]
+    assert "dc_motor folded" not in notes["direct"]

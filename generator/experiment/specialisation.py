@@ -30,6 +30,7 @@ def from_scene(scene: Scene) -> Specialisation:
         outputs=tuple(f for f in FUNCTIONS if f in outputs),
         zero_input=scene.input.kind == "zero" and scene.controller is None and scene.swingup is None,
         scene=quote_path(scene.path.as_posix()),  # it is quoted in the header's comments
+        motor=bool(motor),
     )
 
 

@@ -53,6 +53,7 @@ class Specialisation:
     outputs: tuple[str, ...] = FUNCTIONS  # functions to emit, in header order
     zero_input: bool = False  # the input is identically zero: drop its path
     scene: str = ""  # the scene file it is made for (posix path, `quote_path`d), or "" for --fix/--outputs
+    motor: bool = False  # a dc_motor scene: delta0 and J0 (m0 on a cart) are folded with the motor
 
     @property
     def origin(self) -> str:
@@ -67,6 +68,11 @@ class Specialisation:
             exact = "" if value.denominator == 1 or shown == f"{value}" else f" ({value})"
             effect = "pruned (its terms vanish)" if value == 0 else "folded"
             lines.append(f"{name} = {shown}{exact} {effect}")
+        if self.motor:
+            lines.append(
+                "dc_motor folded into delta0 and J0 (m0 on a cart): pass the .cfg's params, not "
+                "_with_motor's (its sum may differ in the last bit; check_folded reports it)"
+            )
         if self.zero_input:
             lines.append("input u = 0: its path is pruned (u is accepted and ignored)")
         missing = [f for f in FUNCTIONS if f not in self.outputs]
