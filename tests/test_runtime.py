@@ -413,3 +413,26 @@ def test_a_model_library_refuses_to_compile_in_float(tmp_path: Path) -> None:
             )  # fmt: skip
             assert (done.returncode != 0) == fails, done.stderr
             assert ("library_needs_a_double_scalar" in done.stderr) == fails
+
+
+@pytest.mark.parametrize("edit", ["actuator = direct", "actuator = acceleration", None])
+def test_a_motor_gain_without_a_motor_is_refused(tmp_path: Path, edit: str | None) -> None:
+    """A .cfg with actuator.gain but a direct drive (or no actuator line: direct): one line naming
+    the key (the simulator ran, u taken as a torque and the gain ignored)."""
+    require_toolchain()
+    text = (Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2.toml").read_text()
+    scene = tmp_path / "qube.toml"
+    scene.write_text(re.sub(r"(?m)^t_end = .*$", "t_end = 0.05", text, count=1))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+    program, library = launcher_parts((tmp_path / "out" / "qube.txt").read_text())
+    cfg = (tmp_path / "out" / "qube.cfg").read_text()
+    assert "\nactuator = dc_motor\n" in cfg and "\nactuator.gain = " in cfg
+    edited = tmp_path / "edited.cfg"
+    edited.write_text(cfg.replace("\nactuator = dc_motor\n", f"\n{edit}\n" if edit else "\n"))
+    done = subprocess.run(
+        [str(program), str(edited), "--model", str(library), "--csv", str(tmp_path / "edited.csv")],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    assert done.returncode == 2, done.stderr
+    assert "actuator.gain applies to actuator = dc_motor only" in done.stderr, done.stderr

@@ -867,7 +867,7 @@ Scene<Model> load(const SceneFile& file) {
     if (scene.settings.acceleration && !provides<Model>(Feature::mass_and_bias)) {
       file.fail(file.line("actuator"), "actuator = acceleration needs the model's mass_matrix and bias: regenerate its header");
     }
-    if (scene.settings.acceleration && file.has("actuator.gain")) {
+    if (!scene.motor && file.has("actuator.gain")) {  // it was read for a motor only, else ignored
       file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
     }
     if (scene.motor) {
@@ -876,6 +876,9 @@ Scene<Model> load(const SceneFile& file) {
         file.fail(file.line("actuator.gain"), "actuator.gain must be a finite number > 0 (N or N m per volt)");
       }
     }
+  }
+  if (!file.has("actuator") && file.has("actuator.gain")) {  // no actuator: direct, u a force or torque
+    file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
   }
   const double b = scene.input_gain;
   if (file.has("coulomb")) {
