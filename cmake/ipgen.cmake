@@ -258,6 +258,15 @@ function(ipgen_add_model target)
 
   set(out_dir "${CMAKE_CURRENT_BINARY_DIR}/ipgen_models")
   set(header "${out_dir}/${name}.hpp")
+  # Two targets of one model name in one folder would write the same files (CMake's own error
+  # names neither target): say which, and what to rename.
+  string(SHA1 header_key "${header}")
+  get_property(other GLOBAL PROPERTY "_IPGEN_MODEL_${header_key}")
+  if(other)
+    message(FATAL_ERROR "ipgen_add_model(${target}): target `${other}` already generates model `${name}` "
+                        "in this folder; give one of them another NAME (or its scene another [system] name)")
+  endif()
+  set_property(GLOBAL PROPERTY "_IPGEN_MODEL_${header_key}" "${target}")
   set(inertia_option "")
   if(arg_INERTIA)
     set(inertia_option --inertia ${arg_INERTIA})

@@ -94,3 +94,23 @@ def test_the_ipsim_core_target_exists_and_builds_only_when_linked(project: Path,
     )  # fmt: skip
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "ipgen_ipsim_core apart=TRUE" in done.stdout, done.stdout[-2000:]
+
+
+def test_two_targets_of_one_model_name_are_named(project: Path, tmp_path: Path) -> None:
+    """Two ipgen_add_model targets that would write the same model files: ipgen's message names
+    both and the fix (CMake's own named neither: "...rotary2.hpp.rule which already has a custom
+    rule")."""
+    (project / "CMakeLists.txt").write_text(
+        PROJECT
+        + "ipgen_add_model(rotary2 TYPE rotary LINKS 2)\n"
+        + "ipgen_add_model(other TYPE rotary LINKS 2 NAME rotary2)\n"
+    )
+    done = subprocess.run(
+        ["cmake", "-S", str(project), "-B", str(tmp_path / "build"), f"-Dipgen_DIR={ROOT / 'cmake'}"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    message = " ".join(done.stderr.split())
+    assert done.returncode != 0 and "already has a custom rule" not in message, message[-2000:]
+    assert "ipgen_add_model(other): target `rotary2` already generates model `rotary2`" in message, message[
+        -2000:
+    ]
