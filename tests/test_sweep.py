@@ -594,3 +594,17 @@ def test_a_grids_cells_hold_their_values_however_spaced(values: list[float]) -> 
     assert len(edges) == len(values) + 1
     assert all(lo < value < hi for lo, value, hi in zip(edges, values, edges[1:], strict=False))
     assert cell_edges([0.05, 0.1, 1.5]) == pytest.approx([0.025, 0.075, 0.8, 2.2])
+
+
+def test_a_scenes_own_drive_noise_differs_between_repeats(scene: Path, tmp_path: Path) -> None:
+    """A scene with [actuator] noise but no [sensors]: each repeat runs on its own seed (sensors.seed
+    = the run's seed), so the repeats differ; before, every repeat ran on seed 0 and came out the
+    same, whatever runs.csv's seed column said."""
+    noisy = SCENE.replace("[simulation]\n", "[actuator]\nnoise = 0.5\n\n[simulation]\n", 1)
+    scene.write_text(noisy)
+    vary = ["--vary", "initial.theta[1]=0.1", "--repeat", "3", "--jobs", "1"]
+    status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), *vary])
+    assert status == 0
+    rows = _rows(tmp_path / "o")
+    assert len(rows) == 3 and len({row["seed"] for row in rows}) == 3
+    assert len({row["angle_error"] for row in rows}) == 3, rows

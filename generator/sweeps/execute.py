@@ -185,13 +185,23 @@ def _message(error: Exception, path: Path) -> str:
 
 def _seeded(prepared: Prepared, task: Task) -> tuple[tuple[str, object], ...]:
     """The overrides with the run's seed as sensors.seed (the seed of every random stream of a run:
-    sensor noise, drive noise, pulses) when the scene has [sensors] or the run sets a seeded key."""
+    sensor noise, drive noise, pulses) when the scene has [sensors] or a seeded key, or the run
+    sets one (a scene's own [actuator] noise without [sensors] ran every repeat on seed 0)."""
     random = any(k.split("[")[0] in SEEDED_KEYS for k, _ in task.overrides)
-    if "sensors" not in prepared.document and not random:
+    own = any(_given(prepared.document, key) for key in SEEDED_KEYS)
+    if "sensors" not in prepared.document and not random and not own:
         return task.overrides
     if any(k == "sensors.seed" for k, _ in task.overrides):
         return task.overrides
     return (*task.overrides, ("sensors.seed", task.seed))
+
+
+def _given(document: dict, key: str) -> bool:
+    """Whether the scene document sets `key` ("table.name") to something other than 0 or empty."""
+    table, name = key.split(".", 1)
+    values = document.get(table)
+    value = values.get(name) if isinstance(values, dict) else None
+    return value not in (None, 0, [], ())
 
 
 def nominal_estimator(scene: Scene, nominal: Scene, changes: tuple[tuple[str, object], ...]) -> Scene:
