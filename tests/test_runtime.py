@@ -436,3 +436,25 @@ def test_a_motor_gain_without_a_motor_is_refused(tmp_path: Path, edit: str | Non
     )  # fmt: skip
     assert done.returncode == 2, done.stderr
     assert "actuator.gain applies to actuator = dc_motor only" in done.stderr, done.stderr
+
+
+def test_a_csv_path_that_is_not_a_regular_file_is_refused(tmp_path: Path) -> None:
+    """--csv naming a FIFO: one line, exit 2, the FIFO left as it was (without --force the
+    simulator blocked reading it; with --force its rename replaced it, as it would /dev/null)."""
+    import os
+    import stat
+
+    require_toolchain()
+    scene = tmp_path / "arm.toml"
+    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
+    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+    program, library = launcher_parts((tmp_path / "out" / "arm.txt").read_text())
+    fifo = tmp_path / "pipe.csv"
+    os.mkfifo(fifo)
+    command = [str(program), str(tmp_path / "out" / "arm.cfg"), "--model", str(library), "--csv", str(fifo)]
+    for force in ([], ["--force"]):
+        done = subprocess.run([*command, *force], capture_output=True, text=True, timeout=60)
+        assert done.returncode == 2 and "is not a regular file: name a file" in done.stderr, done.stderr
+        assert stat.S_ISFIFO(fifo.stat().st_mode)

@@ -450,6 +450,9 @@ class PendingCsv {
     if (::stat(path.c_str(), &target) == 0) {
       struct stat scene {};
       if (S_ISDIR(target.st_mode)) throw UsageError(shown + " is a directory: name a file");
+      // A device, FIFO or socket: the CSV replaced it by a rename (even /dev/null, as root), or
+      // reading it for the simulator's header blocked.
+      if (!S_ISREG(target.st_mode)) throw UsageError(shown + " is not a regular file: name a file");
       if (::stat(scene_path.c_str(), &scene) == 0 && scene.st_dev == target.st_dev && scene.st_ino == target.st_ino) {
         throw UsageError(shown + " is the scene file itself: choose another CSV path");
       }
