@@ -444,3 +444,19 @@ def test_negative_sums_of_inertias_are_warned_of(tmp_path: Path) -> None:
         kind = label.split()[0].rstrip("0123456789")
         terms_signed = "−" not in label and " h" not in label
         assert sure == (kind in ("I", "Ir", "m", "delta", "cf") and terms_signed), label
+
+
+def test_the_recording_is_never_written_over_not_even_with_force(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--data named as the command's own output CSV, with --force: refused in one line naming it an
+    input, the recording unchanged (it was replaced by the fit's score table)."""
+    import gzip
+
+    data = tmp_path / "dfki_c0_identify.csv"
+    data.write_bytes(gzip.decompress(FIT.read_bytes()))
+    before = data.read_bytes()
+    code = cli(["identify", "--preset", "dfki_c0", "--data", str(data), "-o", str(tmp_path), "--force"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "is one of the command's inputs" in err, err
+    assert data.read_bytes() == before

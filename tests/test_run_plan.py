@@ -306,3 +306,23 @@ def test_a_plan_file_edited_after_a_run_is_read_again(
     assert run(["run", str(scene), "-o", str(tmp_path / "third"), "--no-plot"]) == 2
     assert "acrobot_swingup.plan.csv" in capsys.readouterr().err
     assert not (tmp_path / "second" / "acrobot_swingup.csv").exists()
+
+
+def test_the_plan_a_scene_names_is_never_written_over_not_even_with_force(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A scene whose plan CSV has the name of the run's own CSV (acro.toml, plan = "acro.csv"): the
+    run refuses in one line, with --force too, and the plan is unchanged (--force replaced it by
+    the trajectory, and the next run found no plan)."""
+    scene = _plan_scene(tmp_path)
+    plan = tmp_path / "acrobot_swingup.plan.csv"
+    renamed = tmp_path / "acro.csv"
+    plan.rename(renamed)
+    text = scene.read_text(encoding="utf-8").replace('plan = "acrobot_swingup.plan.csv"', 'plan = "acro.csv"')
+    (tmp_path / "acro.toml").write_text(text, encoding="utf-8")
+    before = renamed.read_bytes()
+    for force in ([], ["--force"]):
+        assert run(["run", str(tmp_path / "acro.toml"), "-o", str(tmp_path), "--no-plot", *force]) == 2
+        err = capsys.readouterr().err
+        assert "acro.csv" in err and ("is one of the command's inputs" in err or "--force" in err), err
+        assert renamed.read_bytes() == before

@@ -706,7 +706,7 @@ def _identify_fixed(
     result = identify_torques(
         load_fixed_scene(scene), scene.stem, data, validate, directory,
         cutoff=DEFAULT_CUTOFF if cutoff is None else cutoff, method=fit_method or DEFAULT_METHOD,
-        offset=not no_offset, force=force, keep=[scene],
+        offset=not no_offset, force=force, keep=[scene, *data, *validate],  # inputs, never written
     )  # fmt: skip
     click.echo(result.report, nl=False)
     click.echo(f"wrote {', '.join(str(path) for path in result.files)}")

@@ -178,9 +178,10 @@ def _existing(path: Path, keep: Sequence[Path]) -> bytes | None:
             raise OutputError(f"{_shown(path)} is a directory: pass another -o")
         if path.exists() and not path.is_file():  # /dev/null, a FIFO, a socket: never replaced
             raise OutputError(f"{_shown(path)} is not a regular file: pass another -o")
-        for kept in keep:
+        for index, kept in enumerate(keep):  # the scene first, then the command's other inputs
             if path.exists() and Path(kept).exists() and path.samefile(kept):
-                raise OutputError(f"{_shown(path)} is the scene file itself: pass another -o")
+                what = "the scene file itself" if index == 0 else "one of the command's inputs"
+                raise OutputError(f"{_shown(path)} is {what}: pass another -o")
         if not path.exists():
             ancestor = path.parent  # the nearest existing folder on the path must be a folder
             while not ancestor.exists() and ancestor != ancestor.parent:

@@ -180,9 +180,10 @@ def identify(
     loaded = load_scene(scene_path)
     paths = _paths(loaded, Path(output)) if output is not None else {}
     if paths:  # the output-path policy (common.files), before the fit; never the scene itself
-        check_replaceable(paths["toml"], force, keep=[scene_path])
-        check_replaceable(paths["txt"], force, keep=[scene_path])
-        check_replaceable(paths["png"], force, PNG, keep=[scene_path])
+        inputs = [scene_path, data_path]  # never written, not even with --force
+        check_replaceable(paths["toml"], force, keep=inputs)
+        check_replaceable(paths["txt"], force, keep=inputs)
+        check_replaceable(paths["png"], force, PNG, keep=inputs)
     setup = setup_from_scene(loaded, names)
     check_recording(loaded, data_path)
     measurements = canonical(loaded, read_measurements(data_path, loaded.links + 1))
@@ -221,6 +222,7 @@ def identify(
     )
     prepare_directory(Path(output))  # type: ignore[arg-type]
     write_files(
-        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=[scene_path]
+        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force,
+        keep=[scene_path, data_path]
     )
     return Identified(fit=fit, scene=loaded, files=tuple(paths.values()), report=text)

@@ -32,7 +32,7 @@ from ipgen.common.files import OutputError, check_replaceable, prepare_directory
 from ipgen.common.limits import MAX_SIMULATED_LINKS
 from ipgen.common.safetext import shown_path
 from ipgen.pipeline import job
-from ipgen.pipeline.run_plan import RunPlan, load_plan, plan_key, store_plan
+from ipgen.pipeline.run_plan import RunPlan, load_plan, named_files, plan_key, store_plan
 from ipgen.pipeline.simulator import BuildError, Simulator, build, model_sources
 
 if TYPE_CHECKING:
@@ -69,16 +69,18 @@ def _csv_from_simulator(path: Path) -> bool:
 
 def _check_outputs(paths: dict[str, Path], scene: Path, force: bool) -> None:
     """The output-path policy (common.files) for each file of the run; never the scene itself,
-    not even with --force. The CSV is the simulator's: replaced if it wrote it, else with force.
-    Without "png" in `paths` (no plot) the PNG is not checked."""
-    check_replaceable(paths["cfg"], force, keep=[scene])
-    check_replaceable(paths["txt"], force, keep=[scene])
+    not even with --force, nor the files it names (a plan CSV). The CSV is the simulator's:
+    replaced if it wrote it, else with force. Without "png" in `paths` (no plot) the PNG is not
+    checked."""
+    keep = [scene, *named_files(scene)]
+    check_replaceable(paths["cfg"], force, keep=keep)
+    check_replaceable(paths["txt"], force, keep=keep)
     if "png" in paths:
         from ipgen.plots.run import PNG
 
-        check_replaceable(paths["png"], force, PNG, keep=[scene])
+        check_replaceable(paths["png"], force, PNG, keep=keep)
     csv = paths["csv"]
-    check_replaceable(csv, True, keep=[scene])  # the path itself: a directory, too long, ...
+    check_replaceable(csv, True, keep=keep)  # the path itself: a directory, too long, ...
     if csv.exists() and not force and not _csv_from_simulator(csv):
         raise OutputError(
             f"{shown_path(csv)} exists and was not written by the simulator: move it away or pass --force"

@@ -74,6 +74,17 @@ def _files_digest(digest: Any, folder: Path, pattern: str) -> None:
             digest.update(path.relative_to(folder).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
 
 
+def named_files(scene: Path) -> list[Path]:
+    """The files `scene` names as inputs (a fixed chain's `[swingup] plan`): a run reads them and
+    never writes over them, not even with --force. Nothing for a scene it cannot read."""
+    try:
+        if scene.stat().st_size > MAX_SCENE_BYTES:
+            return []
+        return _named_files(scene, scene.read_bytes())
+    except OSError:
+        return []
+
+
 def _named_files(scene: Path, text: bytes) -> list[Path]:
     """The files `scene` names whose contents its plan reads: a fixed chain's `[swingup] plan`
     (relative to the scene, as pipeline/fixed_run.py reads it). Nothing for a scene that is not TOML
