@@ -97,6 +97,7 @@ def derive(
     *,
     general: bool = False,
     actuator: Actuator | Mapping[str, object] | None = None,
+    force: bool = False,
 ) -> Equations:
     """The equations of motion M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ, as sympy views.
 
@@ -126,6 +127,9 @@ def derive(
         into the views (M00, damping, bias, T and D gain the rotor's inertia and the back-EMF,
         and `input_matrix` = (b, 0, …)ᵀ makes u the voltage); for "acceleration",
         `link_equations` are the equations of motion; None: direct.
+    force : bool, default False
+        More than 30 links (`limits.LINKS_WITHOUT_FORCE`) take minutes and gigabytes: refused
+        without it, as the command refuses them without --force.
 
     Returns
     -------
@@ -157,6 +161,7 @@ def derive(
         from ipgen.model.fixed_equations import equations_of
 
         return equations_of(type)  # type: ignore[return-value]
+    from ipgen.common.limits import LINKS_WITHOUT_FORCE
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
     from ipgen.model.pendulum import Pendulum
@@ -174,6 +179,13 @@ def derive(
     else:
         inertia = "pivot" if inertia is None else inertia
         system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
+        if system.links > LINKS_WITHOUT_FORCE and not force:
+            from ipgen.pipeline.job import cost_estimate
+
+            raise Error(
+                f"derive({type!r}, {system.links}) is large: {cost_estimate(system.links)}; pass "
+                f"force=True to go ahead (up to {LINKS_WITHOUT_FORCE} links need none)"
+            )
         drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
         drive.check(system)
     equations = derive_system(system)

@@ -209,3 +209,31 @@ def test_derive_of_a_pendulum_with_links_as_built_describes_them() -> None:
     assert views.mass_matrix == ipgen.derive("rotary", 1, general=True).mass_matrix
     rods = ipgen.Pendulum("rotary", 1, **ROTARY)
     assert ipgen.derive(rods).mass_matrix == ipgen.derive("rotary", 1).mass_matrix
+
+
+@settings(max_examples=30, deadline=None)
+@given(links=st.integers(41, 10**6), fixed=st.booleans())
+def test_a_chain_beyond_the_simulators_capacity_is_one_line(links: int, fixed: bool) -> None:
+    """More links than the numeric tools take (40 on a cart or arm, 41 on a fixed pivot): one
+    ipgen.Error naming the limit, before any derivation (1000 links ran out of memory, or FLINT
+    aborted the process)."""
+    if fixed and links == 41:
+        return  # a fixed chain of 41 links is within the capacity: the next test
+    n = links + (0 if fixed else 1)
+    with pytest.raises(ipgen.Error) as refused:
+        if fixed:
+            ipgen.FixedPendulum(links, m=[0.5] * n, l=[0.2] * n, delta=[0.0] * n, joints=[1])
+        else:
+            ipgen.linearize("rotary", links, m=[0.2] * n, l=[0.3] * n, delta=[0.01] * n)
+    message = _one_line(refused.value)
+    limit = 41 if fixed else 40
+    assert f"links = {links}: a " in message and f"at most {limit} links" in message, message
+
+
+def test_the_capacity_itself_is_taken_and_derive_of_many_links_needs_force() -> None:
+    """40 links on an arm and 41 on a fixed pivot are Pendulums (constructing one derives nothing);
+    derive of more than 30 links needs force=True, as the command needs --force."""
+    assert ipgen.Pendulum("rotary", 40, m=[0.2] * 41, l=[0.3] * 41, delta=[0.01] * 41).links == 40
+    assert ipgen.FixedPendulum(41, m=[0.5] * 41, l=[0.2] * 41, delta=[0.0] * 41, joints=[1]).links == 41
+    with pytest.raises(ipgen.Error, match=r"derive\('rotary', 31\) is large: .*pass force=True"):
+        ipgen.derive("rotary", 31)

@@ -29,7 +29,12 @@ Why these values:
 - `MAX_SIMULATED_LINKS`: the simulator compiled once holds a model of up to this many links in
   stack arrays of a fixed capacity (`IPGEN_MAX_DOF` - 1 in cpp/include/ipgen_model.h: no
   allocation per right-hand side); a larger chain's header still compiles into a simulator of its
-  own (CMake's `ipgen_add_simulator`).
+  own (CMake's `ipgen_add_simulator`). It bounds the numeric API too (`Pendulum`, and
+  `FixedPendulum` at one more link: a chain on a fixed pivot has no base coordinate): linearize,
+  lqr, mpc, kalman and the gym derive the model per call, and 1000 links ran out of memory (or
+  FLINT aborted the process) instead of being refused.
+- `LINKS_WITHOUT_FORCE`: more links than this cost minutes and gigabytes to derive; the command
+  needs --force for them and `ipgen.derive` force=True.
 - `MAX_DELAY_PERIODS`, `DELAY_TOLERANCE`: sensors.delay is a whole number k of sampling periods,
   k <= 1e6 (a longer delay is a unit slip and would hold a queue of that many outputs), with
   k = round(delay / period) and |delay − k · period| <= DELAY_TOLERANCE · max(delay, period).
@@ -50,6 +55,8 @@ from typing import Any
 MAX_SAMPLES = 10_000_000
 MIN_T_END = 1e-9
 MAX_SIMULATED_LINKS = 40
+MAX_FIXED_LINKS = MAX_SIMULATED_LINKS + 1  # the same degrees of freedom, none of them a base
+LINKS_WITHOUT_FORCE = 30
 RTOL_MIN = 1e-15
 MAX_SCENE_BYTES = 1 << 18
 MAX_SCENE_NESTING = 16

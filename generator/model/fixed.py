@@ -23,6 +23,7 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
+from ipgen.common.limits import MAX_FIXED_LINKS
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.coordinates import Coordinates
@@ -163,6 +164,12 @@ class FixedPendulum:
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             _fail(
                 f"links must be an integer >= 1 (got {abbreviate(repr(n))}): it counts the links on the pivot"
+            )
+        if n > MAX_FIXED_LINKS:  # each numeric tool derives the model: minutes, gigabytes
+            _fail(
+                f"links = {n}: a FixedPendulum has at most {MAX_FIXED_LINKS} links (what linearize, lqr, "
+                "mpc, the gym and the simulator take); the equations of more: ipgen --type fixed --links N "
+                "--force"
             )
         problem = joints_problem(self.joints, n)
         if problem:

@@ -28,7 +28,7 @@ from fractions import Fraction
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ipgen.common.limits import exact_problem
+from ipgen.common.limits import MAX_SIMULATED_LINKS, exact_problem
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT, Actuator, as_actuator, fold_base
@@ -166,6 +166,12 @@ class Pendulum:
         problem = system_problem(self.type, self.links, self.inertia)
         if problem is not None:
             raise PendulumError(str(problem))
+        if self.links > MAX_SIMULATED_LINKS:  # each numeric tool derives the model: minutes, gigabytes
+            raise PendulumError(
+                f"links = {self.links}: a Pendulum has at most {MAX_SIMULATED_LINKS} links (what linearize, "
+                "lqr, mpc, kalman, the gym and the simulator take); the equations of more: "
+                "ipgen.derive(type, links, force=True) or ipgen --links N --force"
+            )
         dof = self.links + 1
         fixed: dict[str, Any] = {}
         for name in ("m", "l", "delta"):

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit, unsupported
+from ipgen.common.limits import LINKS_WITHOUT_FORCE
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
@@ -23,9 +24,6 @@ if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
     from ipgen.model.specialise import Specialisation
     from ipgen.pipeline.generate import Written
-
-# Above this many links the header is several MB (and slow to compile): ask for force first.
-LINKS_WITHOUT_FORCE = 30
 
 # What a caller may pass for --fix, --outputs and --emit: the command's text, or Python values.
 FixOption = str | Mapping[str, object] | None
