@@ -608,3 +608,18 @@ def test_a_scenes_own_drive_noise_differs_between_repeats(scene: Path, tmp_path:
     rows = _rows(tmp_path / "o")
     assert len(rows) == 3 and len({row["seed"] for row in rows}) == 3
     assert len({row["angle_error"] for row in rows}) == 3, rows
+
+
+@pytest.mark.parametrize("count", ["100001", "1000000000"])
+def test_too_many_random_starts_are_refused_before_they_are_drawn(
+    scene: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], count: str
+) -> None:
+    """--random beyond the sweep's 100,000 runs: one line at once (a billion starts were drawn
+    first, filling the memory; 200,000 were refused after 13 s), and no output folder."""
+    import time
+
+    started = time.process_time()
+    status = run(["sweep", str(scene), "-o", str(tmp_path / "o"), "--random", count])
+    err = capsys.readouterr().err
+    assert status == 2 and err.count("\n") == 1 and "at most 100,000 runs" in err, err
+    assert time.process_time() - started < 5 and not (tmp_path / "o").exists()

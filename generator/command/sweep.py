@@ -255,10 +255,12 @@ def command(
             )
     except KeyboardInterrupt as interrupt:
         progress.close()
-        click.echo(
-            f"ipgen: interrupted; the finished runs are in {out / 'runs.csv'}: the same command resumes",
-            err=True,
+        where = (
+            f"the finished runs are in {out / 'runs.csv'}: the same command resumes"
+            if (out / "runs.csv").is_file()
+            else "no run had finished"  # interrupted while planning: nothing written
         )
+        click.echo(f"ipgen: interrupted; {where}", err=True)
         return interrupted_status(interrupt)
     finally:
         progress.close()

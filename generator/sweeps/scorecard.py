@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ipgen.sweeps.overrides import nominal_array
-from ipgen.sweeps.spec import Criterion, Key, Level, SweepError, parse_levels
+from ipgen.sweeps.spec import MAX_RUNS, Criterion, Key, Level, SweepError, parse_levels
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
@@ -246,6 +246,8 @@ def random_starts(scene: Scene, count: int, spread: float, seed: int) -> Criteri
     upright only (from hanging it fails by construction)."""
     if not isinstance(count, int) or count < 1:
         raise SweepError(f"--random {count!r}: give a number of random starts >= 1")
+    if count > MAX_RUNS:  # before drawing them: a billion starts filled the memory first
+        raise SweepError(f"--random {count:,}: a sweep makes at most {MAX_RUNS:,} runs; give fewer starts")
     if not (0.0 <= spread < 1.0):
         raise SweepError(f"--spread {spread!r}: give a fraction in [0, 1), e.g. 0.2 for ±20 %")
     if scene.controller is None and scene.swingup is None:
