@@ -208,6 +208,10 @@ def write_plan(path: Path, plan: FixedPlan, note: str = "") -> None:
     Path(path).write_text("\n".join(lines) + "\n")
 
 
+# A plan's knots: a swing-up lasts at most 20,000 controller periods (scene.swingup), so its CSV
+# (83 columns at 41 links, about 2 KB a row) stays far below 64 MiB.
+MAX_PLAN_ROWS = 20_001
+MAX_PLAN_BYTES = 64 * 2**20
 PLAN_END_TOLERANCE = 1e-6  # rad, rad/s: a plan CSV's first and last rows against hanging and upright at rest
 
 
@@ -215,6 +219,12 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     """A plan written by `write_plan`, sampled at `period` (`PlanError` if it does not fit the
     chain: its columns, its knots against the period, its ends hanging and upright at rest)."""
     try:
+        size = Path(path).stat().st_size
+        if size > MAX_PLAN_BYTES:  # before reading: 5 million rows took 2.8 GB to refuse
+            raise PlanError(
+                f"{path}: {size / 2**20:.0f} MiB, a plan CSV holds at most {MAX_PLAN_ROWS:,} knots "
+                f"({MAX_PLAN_BYTES // 2**20} MiB): plan again (leave out swingup.plan)"
+            )
         text = Path(path).read_text()
     except OSError as exc:
         from ipgen.common.presets import presets_dir
@@ -223,6 +233,9 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
         shipped = next((found for found in presets_dir().rglob("*.csv") if found.name == name), None)
         hint = f": copy it from {shipped}, or leave out swingup.plan to plan anew" if shipped else ""
         raise PlanError(f"cannot read the plan {path}: {exc.strerror}{hint}") from None
+    lines = text.count("\n")
+    if lines > MAX_PLAN_ROWS + 100:  # a header and comments, then the knots; before splitting them
+        raise PlanError(f"{path}: {lines:,} lines, a plan holds at most {MAX_PLAN_ROWS:,} knots: plan again")
     rows = [line.split(",") for line in text.splitlines() if line.strip() and not line.startswith("#")]
     try:
         header, body = rows[0], np.array([[float(v) for v in row] for row in rows[1:]])
