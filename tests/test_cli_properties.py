@@ -12,6 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -64,8 +65,10 @@ def test_header_or_one_line_error(
             assert not out.exists(), args
 
 
-def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
-    """SIGINT during a derivation: exit 130, a one-line message, nothing written."""
+@pytest.mark.parametrize("signal_number", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_leaves_no_partial_file(tmp_path: Path, signal_number: int) -> None:
+    """SIGINT or SIGTERM during a derivation: exit 130 or 143, a one-line message, nothing
+    written (SIGTERM ended the process at once, leaving its temporary files behind)."""
     out = tmp_path / "out"
     # Large enough to be still generating when the signal comes (it takes several seconds).
     command = ["--type", "classical", "--links", "50", "--force", "-o", str(out)]
@@ -80,9 +83,9 @@ def test_ctrl_c_leaves_no_partial_file(tmp_path: Path) -> None:
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(2.5)  # past the imports, inside the generation
-    process.send_signal(signal.SIGINT)
+    process.send_signal(signal_number)
     _, stderr = process.communicate(timeout=60)
-    assert process.returncode == 130, stderr
+    assert process.returncode == 128 + signal_number, stderr
     assert stderr.strip().splitlines()[-1] == "ipgen: interrupted; no file was written"
     assert "Traceback" not in stderr
     assert not out.exists() or not any(out.iterdir())

@@ -813,8 +813,12 @@ def run(argv: list[str] | None = None) -> int:
     numpy's floating-point RuntimeWarnings (an overflow inside an LQR design on a hostile number,
     say) and scipy's failed QZ iteration are not shown: every result is checked for finiteness
     where it is used, and a problem is the command's one line, not a stack of warnings before it."""
+    from ipgen.command.interrupts import sigterm_interrupts
+
     try:
-        with warnings.catch_warnings():
+        # SIGTERM ends every command as Ctrl-C does, its clean-up run (temporary files removed):
+        # Python's default ended the process at once, leaving them behind
+        with warnings.catch_warnings(), sigterm_interrupts():
             if not sys.warnoptions:  # the user's own -W settings stay in force
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_NUMPY_FLOATING)
                 warnings.filterwarnings("ignore", category=RuntimeWarning, message=_QZ_FAILED)

@@ -32,5 +32,11 @@ def sigterm_interrupts() -> Iterator[None]:
 
 
 def interrupted_status(interrupt: BaseException) -> int:
-    """The exit status of an interrupted command: 128 + SIGTERM for `Terminated`, 130 (SIGINT) else."""
-    return 128 + int(signal.SIGTERM) if isinstance(interrupt, Terminated) else 130
+    """The exit status of an interrupted command: 128 + SIGTERM for `Terminated` (also as the
+    cause of click's Abort, which click raises from an interruption), 130 (SIGINT) else."""
+    seen: BaseException | None = interrupt
+    while seen is not None:
+        if isinstance(seen, Terminated):
+            return 128 + int(signal.SIGTERM)
+        seen = seen.__cause__ or seen.__context__
+    return 130
