@@ -623,3 +623,20 @@ def test_too_many_random_starts_are_refused_before_they_are_drawn(
     err = capsys.readouterr().err
     assert status == 2 and err.count("\n") == 1 and "at most 100,000 runs" in err, err
     assert time.process_time() - started < 5 and not (tmp_path / "o").exists()
+
+
+def test_force_removes_only_what_a_sweep_wrote(scene: Path, tmp_path: Path) -> None:
+    """--force over an earlier sweep removes its scores and pictures, not a user's files beside
+    them that look alike (criterion_holiday.png was deleted by a glob)."""
+    out = tmp_path / "o"
+    vary = ["--vary", "initial.theta[1]=0.05,0.1", "--jobs", "1"]
+    assert run(["sweep", str(scene), "-o", str(out), *vary]) == 0
+    pictures = sorted(path.name for path in out.glob("criterion_*.png"))
+    assert pictures, sorted(path.name for path in out.iterdir())
+    (out / "criterion_holiday.png").write_bytes(b"\x89PNG\r\n\x1a\n a photograph")
+    (out / "notes.txt").write_text("mine\n")
+    assert run(["sweep", str(scene), "-o", str(out), *vary, "--force"]) == 0
+    assert (out / "criterion_holiday.png").read_bytes().endswith(b"a photograph")
+    assert (out / "notes.txt").read_text() == "mine\n"
+    after = sorted(path.name for path in out.glob("criterion_*.png"))
+    assert after == sorted([*pictures, "criterion_holiday.png"])

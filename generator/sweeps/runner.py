@@ -70,10 +70,24 @@ def _picture(criterion: Criterion) -> str:
 
 
 def _remove_outputs(out: Path) -> None:
-    """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep."""
-    for path in [*(out / name for name in SCORES), out / "grid.png", *out.glob("criterion_*.png")]:
+    """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep:
+    the scores, grid.png and the picture of each criterion its runs.csv names, and nothing else
+    (a user's criterion_holiday.png beside them was deleted by a glob)."""
+    names = [*SCORES, "grid.png", *(f"criterion_{name}.png" for name in _earlier_criteria(out))]
+    for path in (out / name for name in names):
         if path.is_file() or path.is_symlink():
             path.unlink()
+
+
+def _earlier_criteria(out: Path) -> set[str]:
+    """The criteria an earlier sweep's runs.csv in `out` names (none without a readable one)."""
+    import csv
+
+    try:
+        with (out / "runs.csv").open(newline="", encoding="utf-8") as f:
+            return {row.get("criterion") or "" for row in csv.DictReader(f)} - {""}
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return set()
 
 
 def _check_out(out: Path, force: bool) -> None:
