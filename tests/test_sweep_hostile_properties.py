@@ -205,14 +205,22 @@ def test_a_last_line_cut_inside_a_character_is_run_again(
 def test_starting_over_removes_the_earlier_sweeps_scores_and_pictures(
     scene: Path, swept: Path, tmp_path: Path
 ) -> None:
-    """--force starts over: the earlier sweep's scores and PNGs (another criterion's too) do not
-    stay beside the new runs; files a sweep does not write stay."""
+    """--force starts over: the earlier sweep's scores and PNGs (those of the criteria its runs.csv
+    names, here with another criterion's rows too) do not stay beside the new runs; files a sweep
+    did not write stay, a criterion_*.png of a criterion it never ran among them."""
     out = _copy(swept, tmp_path, "again")
-    for name in ("criterion_mass.png", "grid.png", "scores.png", "scores.json", "notes.txt"):
+    table = (out / "runs.csv").read_text().splitlines()
+    assert table[0].split(",")[1] == "criterion"
+    first = table[1].split(",")
+    table.append(",".join([first[0], "mass", *first[2:]]))  # an earlier sweep's row of criterion mass
+    (out / "runs.csv").write_text("\n".join(table) + "\n")
+    earlier = ("criterion_mass.png", "criterion_holiday.png", "grid.png", "scores.png", "scores.json", "notes.txt")
+    for name in earlier:
         (out / name).write_text("earlier")
     ipgen.sweep(scene, out, vary=[VARY], jobs=1, plots=False, force=True)
     assert not any((out / name).exists() for name in ("criterion_mass.png", "grid.png", "scores.png"))
     assert (out / "scores.json").read_text() != "earlier" and (out / "notes.txt").read_text() == "earlier"
+    assert (out / "criterion_holiday.png").read_text() == "earlier"
 
 
 def test_the_same_sweep_resumes_its_own_table(scene: Path, swept: Path, tmp_path: Path) -> None:
