@@ -214,8 +214,8 @@ def test_starting_over_removes_the_earlier_sweeps_scores_and_pictures(
     first = table[1].split(",")
     table.append(",".join([first[0], "mass", *first[2:]]))  # an earlier sweep's row of criterion mass
     (out / "runs.csv").write_text("\n".join(table) + "\n")
-    earlier = ("criterion_mass.png", "criterion_holiday.png", "grid.png", "scores.png", "scores.json", "notes.txt")
-    for name in earlier:
+    pictures = ("criterion_mass.png", "criterion_holiday.png", "grid.png", "scores.png")
+    for name in (*pictures, "scores.json", "notes.txt"):
         (out / name).write_text("earlier")
     ipgen.sweep(scene, out, vary=[VARY], jobs=1, plots=False, force=True)
     assert not any((out / name).exists() for name in ("criterion_mass.png", "grid.png", "scores.png"))
