@@ -690,3 +690,17 @@ def test_a_strict_upper_bound_holds_for_the_double_too(tmp_path: Path) -> None:
     expect_error(write(tmp_path, text), "simulation.rtol = 0.99999999999999999999: must be in (0, 1)")
     ok = text.replace("0.99999999999999999999", "0.9999999999999999")
     assert load_scene(write(tmp_path, ok)).rtol == 0.9999999999999999
+
+
+def test_a_run_that_writes_gigabytes_of_csv_says_so(tmp_path: Path) -> None:
+    """1e7 samples of a single pendulum come to about 1.2 GB of CSV: a warning names the size and
+    the fix (the sample limit counts rows, not bytes: 41 links made 18 GB without a word); the
+    default sampling of a 10 s run says nothing."""
+    text = scene_text({}).replace("[simulation]\n", "[simulation]\nsample = 0.001\n", 1)
+    import re
+
+    text = re.sub(r"(?m)^t_end = .*$", "t_end = 10000.0", text)
+    warnings = load_scene(write(tmp_path, text)).warnings
+    said = [w for w in warnings if "GB of CSV (10,000,001 rows" in w and "a larger simulation.sample" in w]
+    assert said, warnings
+    assert not any("GB of CSV" in w for w in load_scene(write(tmp_path, scene_text({}))).warnings)
