@@ -15,6 +15,7 @@ import math
 import re
 import shlex
 import subprocess
+import sys
 from contextlib import redirect_stderr, redirect_stdout
 from pathlib import Path
 
@@ -458,3 +459,35 @@ def test_a_csv_path_that_is_not_a_regular_file_is_refused(tmp_path: Path) -> Non
         done = subprocess.run([*command, *force], capture_output=True, text=True, timeout=60)
         assert done.returncode == 2 and "is not a regular file: name a file" in done.stderr, done.stderr
         assert stat.S_ISFIFO(fifo.stat().st_mode)
+
+
+def test_the_simulator_reports_its_progress_and_ipgen_run_announces_it(tmp_path: Path) -> None:
+    """--progress S: lines `progress T T_END` on stderr, T rising to t_end (S tiny: every sample);
+    a bad S is one line, exit 2. `ipgen run` hands each to its announcement and keeps the other
+    stderr lines as they were (a 48 s run said nothing until it ended)."""
+    require_toolchain()
+    from ipgen.pipeline.run import _simulate
+
+    scene = tmp_path / "arm.toml"
+    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
+    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+    program, library = launcher_parts((tmp_path / "out" / "arm.txt").read_text())
+    cfg = tmp_path / "out" / "arm.cfg"
+    base = [str(program), str(cfg), "--model", str(library), "--csv", str(tmp_path / "p.csv")]
+    done = subprocess.run([*base, "--progress", "1e-9"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in done.stderr.splitlines() if line.startswith("progress ")]
+    reported = [tuple(map(float, line.split()[1:])) for line in lines]
+    assert len(reported) > 10 and all(end == 2.0 for _, end in reported)
+    times = [t for t, _ in reported]
+    assert times == sorted(times) and times[-1] <= 2.0
+    for bad in ("0", "-1", "inf", "x"):
+        refused = subprocess.run([*base, "--progress", bad], capture_output=True, text=True)
+        assert refused.returncode == 2 and "--progress" in refused.stderr, refused.stderr
+    seen: list[tuple[float, float]] = []
+    script = "import sys; print('progress 1 4', file=sys.stderr); print('a warning', file=sys.stderr)"
+    script += "; print('out')"
+    result = _simulate([sys.executable, "-c", script], [], lambda t, end: seen.append((t, end)))
+    assert seen == [(1.0, 4.0)] and result.stderr == "a warning\n" and result.stdout == "out\n"

@@ -41,6 +41,7 @@
 #endif
 
 #include <array>
+#include <chrono>
 #include <cerrno>
 #include <climits>
 #include <memory>
@@ -92,6 +93,8 @@ struct Options {
   std::optional<long> max_steps;
   /// A closed loop is stopped when a link is farther than this from the controller's equilibrium [rad].
   double divergence_angle = ipsim::DivergenceMonitor::kHalfPi;
+  /// --progress: a line `progress T T_END` on stderr at most every this many seconds of wall time.
+  std::optional<double> progress;
 };
 
 /// Exit code of a closed loop stopped because it diverged.
@@ -104,7 +107,7 @@ constexpr int kExitLostPlan = 5;
 constexpr const char* kUsage =
     "usage: simulate SCENE.cfg [--csv OUT.csv] [--method bdf|adams|adams-fixed-point|erk-dp5|"
     "erk-fehlberg8|rk4] [--jacobian exact|dq] [--rtol X] [--atol X] [--step X] [--t-end X] [--sample X] "
-    "[--max-steps N] [--energy] [--divergence-angle RAD] [--force] [--check]";
+    "[--max-steps N] [--energy] [--divergence-angle RAD] [--progress S] [--force] [--check]";
 
 /// --help: the usage line, then what the options, the scene file and the CSV hold.
 constexpr const char* kHelp = R"(
@@ -124,6 +127,8 @@ options:
   --divergence-angle RAD
                        with a controller: stop when a link is farther than RAD from the
                        controller's equilibrium (default pi/2 = 1.5708; inf: never stop)
+  --progress S         write `progress T T_END` (the simulated time reached) to stderr at most
+                       every S seconds of wall time (ipgen run shows it)
   --force              replace an existing file at --csv even if this simulator did not write it
   --check              validate the scene and options, integrate nothing, write nothing
 
@@ -306,6 +311,11 @@ Options parse_command_line(int argc, char** argv) {
       options.divergence_angle = parse_number(arg, value());
       if (!(options.divergence_angle > 0.0)) {
         throw UsageError("--divergence-angle must be > 0 [rad] (inf: never stop), got `" + abbreviate(args[i]) + "`");
+      }
+    } else if (arg == "--progress") {
+      options.progress = parse_number(arg, value());
+      if (!(*options.progress > 0.0 && std::isfinite(*options.progress))) {
+        throw UsageError("--progress must be a finite number of seconds > 0, got `" + abbreviate(args[i]) + "`");
       }
     } else if (arg == "--force") {
       options.force = true;
@@ -618,6 +628,33 @@ class BaseForceMonitor : public ipsim::SampleSink {
   double largest_ = 0.0;
 };
 
+/// Passes every sample on and, every `interval` seconds of wall time, writes `progress T T_END`
+/// to stderr: how far a long run has come (ipgen run turns it into its progress line).
+class ProgressReporter : public ipsim::SampleSink {
+ public:
+  ProgressReporter(ipsim::SampleSink& inner, double interval, double t_end)
+      : inner_(inner), interval_(interval), t_end_(t_end), last_(std::chrono::steady_clock::now()) {}
+
+  void begin(std::size_t samples, int state_size, bool energy_ledger) override {
+    inner_.begin(samples, state_size, energy_ledger);
+  }
+
+  bool record(const ipsim::Sample& sample) override {
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - last_).count() >= interval_) {
+      std::fprintf(stderr, "progress %.6g %.6g\n", sample.t, t_end_);
+      std::fflush(stderr);
+      last_ = now;
+    }
+    return inner_.record(sample);
+  }
+
+ private:
+  ipsim::SampleSink& inner_;
+  double interval_, t_end_;
+  std::chrono::steady_clock::time_point last_;
+};
+
 /// The summary's measured loop: sensors, delay, drive, estimator and its RMS error per state.
 void print_loop(const ipsim::scene::Scene<Model>& scene) {
   const ipsim::Settings<Model>& s = scene.settings;
@@ -864,7 +901,10 @@ int run(int argc, char** argv) {
   if (std::isfinite(scene.travel)) travel.emplace(inner, scene.travel);
   ipsim::SampleSink& sink = travel ? static_cast<ipsim::SampleSink&>(*travel) : inner;
   BaseForceMonitor base_force(sink, scene.params, s);
-  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, base_force);
+  std::optional<ProgressReporter> progress;
+  if (options.progress) progress.emplace(base_force, *options.progress, s.t_end);
+  ipsim::SampleSink& reported = progress ? static_cast<ipsim::SampleSink&>(*progress) : base_force;
+  const ipsim::Result result = ipsim::simulate<Model>(scene.params, s, reported);
   csv.commit();
   print_summary(options, scene, result, rows, base_force);
   if (travel && travel->exceeded()) {

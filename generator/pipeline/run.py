@@ -17,6 +17,7 @@ simulator wrote a CSV).
 
 from __future__ import annotations
 
+import contextlib
 import re
 import signal
 import subprocess
@@ -161,10 +162,11 @@ def _run_scene(
     write_file(paths["cfg"], cfg_text, force=True)  # checked above
     before = _stamp(paths["csv"])
     command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]
+    command += ["--progress", repr(PROGRESS_SECONDS)]
     if divergence_angle is not None:
         command += ["--divergence-angle", repr(float(divergence_angle))]
     start = time.perf_counter()
-    done = _simulate(command, written=[paths["cfg"]])
+    done = _simulate(command, written=[paths["cfg"]], progress=_progress_line(announce))
     seconds = time.perf_counter() - start
     status, ended_by = _status(done.returncode)
     why = f" ({ended_by})" if ended_by else ""
@@ -238,19 +240,61 @@ class RunInterrupted(KeyboardInterrupt):
         self.cause = cause
 
 
-def _simulate(command: list[str], written: list[Path]) -> subprocess.CompletedProcess[str]:
-    """Runs the simulator to its end; interrupted, it passes SIGTERM on and waits for it (10 s,
-    then SIGKILL), so no simulator goes on alone and its scratch file goes with it."""
+PROGRESS_SECONDS = 3.0  # a long run says how far it has come this often (the simulator's --progress)
+_PROGRESS = re.compile(r"progress (\S+) (\S+)")
+
+
+def _progress_line(announce: Callable[[str], None]) -> Callable[[float, float], None]:
+    """The announcement of a simulator's progress line: the simulated time reached of t_end."""
+
+    def report(t: float, t_end: float) -> None:
+        share = f" ({100 * t / t_end:.0f} %)" if t_end > 0 else ""
+        announce(f"simulating: t = {t:.6g} of {t_end:.6g} s{share}")
+
+    return report
+
+
+def _simulate(
+    command: list[str], written: list[Path], progress: Callable[[float, float], None] = lambda t, end: None
+) -> subprocess.CompletedProcess[str]:
+    """Runs the simulator to its end, handing its progress lines (--progress) to `progress` as
+    they come; interrupted, it passes SIGTERM on and waits for it (10 s, then SIGKILL), so no
+    simulator goes on alone and its scratch file goes with it."""
+    import threading
+
     child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+
+    def read_errors() -> None:  # stderr as it comes: progress announced, the rest kept in order
+        assert child.stderr is not None
+        for line in child.stderr:
+            found = _PROGRESS.fullmatch(line.rstrip("\n"))
+            if found is None:
+                lines.append(line)
+                continue
+            try:
+                reached, end = float(found.group(1)), float(found.group(2))
+            except ValueError:
+                lines.append(line)
+                continue
+            with contextlib.suppress(Exception):  # a failing announcement must not stop the reading
+                progress(reached, end)
+
+    reader = threading.Thread(target=read_errors, daemon=True)
+    reader.start()
     try:
-        out, err = child.communicate()
+        assert child.stdout is not None
+        out = child.stdout.read()
+        child.wait()
+        reader.join()
+        err = "".join(lines)
     except KeyboardInterrupt as interrupt:
         child.terminate()
         try:
-            child.communicate(timeout=10)
+            child.wait(timeout=10)
         except subprocess.TimeoutExpired:
             child.kill()
-            child.communicate()
+            child.wait()
         raise RunInterrupted(written, interrupt) from interrupt
     return subprocess.CompletedProcess(command, child.returncode, out, err)
 
