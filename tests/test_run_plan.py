@@ -326,3 +326,40 @@ def test_the_plan_a_scene_names_is_never_written_over_not_even_with_force(
         err = capsys.readouterr().err
         assert "acro.csv" in err and ("is one of the command's inputs" in err or "--force" in err), err
         assert renamed.read_bytes() == before
+
+
+@pytest.mark.parametrize("when", ["after the simulator", "while plotting"])
+def test_an_interrupted_run_says_which_files_are_new(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], when: str
+) -> None:
+    """A second run interrupted once its simulator has written the new CSV (its rename done, the
+    signal just after) or while it plots: the message names the CSV among the files written and
+    the earlier run's PNG and summary still there (it said "no CSV written", or "no file was
+    written"), exit 130."""
+    require_toolchain()
+    from ipgen.pipeline import run as run_module
+
+    scene = scene_file(tmp_path)
+    out = tmp_path / "out"
+    assert run(["run", str(scene), "-o", str(out)]) == 0
+    scene_file(tmp_path, theta="0.2")
+    if when == "after the simulator":
+        real = run_module._simulate
+
+        def simulated_then_interrupted(command, written, progress=lambda t, end: None):
+            real(command, written, progress)
+            raise run_module.RunInterrupted(written, KeyboardInterrupt())
+
+        monkeypatch.setattr(run_module, "_simulate", simulated_then_interrupted)
+    else:
+        import ipgen.plots.run as plots
+
+        def interrupted(*args: object, **kwargs: object) -> None:
+            raise KeyboardInterrupt
+
+        monkeypatch.setattr(plots, "plot_run", interrupted)
+    capsys.readouterr()
+    assert run(["run", str(scene), "-o", str(out)]) == 130
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "single.csv" in err.split("; still")[0] and "no CSV written" not in err, err
+    assert "still the earlier run's: " in err and "single.png" in err and "single.txt" in err, err

@@ -491,7 +491,11 @@ def run_command(
             )
     except RunInterrupted as interrupt:
         wrote = ", ".join(shown_path(path) for path in interrupt.written)
-        click.echo(f"ipgen: interrupted; the simulator was stopped, no CSV written; wrote {wrote}", err=True)
+        simulated = any(path.suffix == ".csv" for path in interrupt.written)
+        what = f"wrote {wrote}" if simulated else f"the simulator was stopped, no CSV written; wrote {wrote}"
+        if interrupt.earlier:  # a PNG or summary of the run before, which the new CSV no longer matches
+            what += f"; still the earlier run's: {', '.join(shown_path(path) for path in interrupt.earlier)}"
+        click.echo(f"ipgen: interrupted; {what}", err=True)
         return interrupted_status(interrupt.cause)
     if outcome.simulator.built:
         click.echo(f"ipgen: built {outcome.simulator.path} in {outcome.simulator.seconds:.1f} s", err=True)
