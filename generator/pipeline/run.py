@@ -267,7 +267,7 @@ def _progress_line(announce: Callable[[str], None]) -> Callable[[float, float], 
 def _simulate(
     command: list[str], written: list[Path], progress: Callable[[float, float], None] = lambda t, end: None
 ) -> subprocess.CompletedProcess[str]:
-    """Runs the simulator to its end, handing its progress lines (--progress) to `progress` as
+    """Runs the simulator to its end, handing its progress lines (its progress option) to `progress` as
     they come; interrupted, it passes SIGTERM on and waits for it (10 s, then SIGKILL), so no
     simulator goes on alone and its scratch file goes with it."""
     import threading
