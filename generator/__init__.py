@@ -150,8 +150,19 @@ def derive(
     >>> ipgen.derive("classical", 1).mass_matrix.shape
     (2, 2)
     """
+    from ipgen.common.limits import LINKS_WITHOUT_FORCE
     from ipgen.model.fixed import FixedPendulum
+    from ipgen.model.pendulum import Pendulum
 
+    count = type.links if isinstance(type, Pendulum | FixedPendulum) else links
+    if isinstance(count, int) and not isinstance(count, bool) and count > LINKS_WITHOUT_FORCE and not force:
+        from ipgen.pipeline.job import cost_estimate
+
+        shown = "p" if isinstance(type, Pendulum | FixedPendulum) else f"{type!r}, {count}"
+        raise Error(
+            f"derive({shown}) of {count} links is large: {cost_estimate(count)}; pass force=True to go "
+            f"ahead (up to {LINKS_WITHOUT_FORCE} links need none)"
+        )
     if isinstance(type, FixedPendulum):
         if links is not None or actuator is not None or inertia is not None:
             raise Error(
@@ -161,10 +172,8 @@ def derive(
         from ipgen.model.fixed_equations import equations_of
 
         return equations_of(type)  # type: ignore[return-value]
-    from ipgen.common.limits import LINKS_WITHOUT_FORCE
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
-    from ipgen.model.pendulum import Pendulum
     from ipgen.model.system import check_system
 
     if isinstance(type, Pendulum):
@@ -179,13 +188,6 @@ def derive(
     else:
         inertia = "pivot" if inertia is None else inertia
         system = check_system(type, links, None if inertia == "pivot" and type != "rotary" else inertia)
-        if system.links > LINKS_WITHOUT_FORCE and not force:
-            from ipgen.pipeline.job import cost_estimate
-
-            raise Error(
-                f"derive({type!r}, {system.links}) is large: {cost_estimate(system.links)}; pass "
-                f"force=True to go ahead (up to {LINKS_WITHOUT_FORCE} links need none)"
-            )
         drive = as_actuator(dict(actuator) if isinstance(actuator, Mapping) else actuator)
         drive.check(system)
     equations = derive_system(system)

@@ -79,12 +79,12 @@ def test_another_ipgen_dir_finds_its_own_python(project: Path, tmp_path: Path) -
 
 
 def test_a_python_the_user_set_is_kept(project: Path, tmp_path: Path) -> None:
+    """-DIPGEN_PYTHON given with one package's folder stays when the build moves to another (a
+    search there would find the checkout's .venv)."""
     cmake_dir, python = _installation(tmp_path / "other")
     build = tmp_path / "build"
-    assert _configure(project, build, f"-Dipgen_DIR={ROOT / 'cmake'}", f"-DIPGEN_PYTHON={python}") == str(
-        python
-    )
-    assert _configure(project, build, f"-Dipgen_DIR={cmake_dir}") == str(python)
+    assert _configure(project, build, f"-Dipgen_DIR={cmake_dir}", f"-DIPGEN_PYTHON={python}") == str(python)
+    assert _configure(project, build, f"-Dipgen_DIR={ROOT / 'cmake'}") == str(python)
 
 
 def test_the_ipsim_core_target_exists_and_builds_only_when_linked(project: Path, tmp_path: Path) -> None:

@@ -59,9 +59,12 @@ def test_the_rods_constants_are_the_rods_expressions_to_the_bit() -> None:
     assert link_constants(plant("rotary", 1, M, L, DELTA, J=[0.01, written * (1 + 1e-9)])) != rods
 
 
-def test_a_centre_of_mass_beyond_the_pivot_is_refused() -> None:
-    p = plant("rotary", 1, M, L, DELTA, com=[0.3, -0.2])
-    with pytest.raises(PlanError, match=r"gravity moment .* is negative: .*check com\[1\] and tip\[1\]"):
+@pytest.mark.parametrize("com", [-0.2, 0.0])
+def test_a_centre_of_mass_at_or_beyond_the_pivot_is_refused(com: float) -> None:
+    """A link whose centre of mass is at or beyond its pivot has no energy to pump: its own
+    message (at the pivot it said "m1 g l1 underflows", naming g, m and l)."""
+    p = plant("rotary", 1, M, L, DELTA, com=[0.3, com])
+    with pytest.raises(PlanError, match=r"gravity moment .* is not positive: .*check com\[1\] and tip\[1\]"):
         energy_swingup(p, u_max=5.0)
 
 

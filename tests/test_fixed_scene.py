@@ -209,3 +209,18 @@ def test_an_integer_beyond_a_double_is_one_line(key: str, digits: int, sign: str
     assert status == 2 and len(lines) == 1, error.getvalue()
     field = {"ANGLE": "initial.theta", "RATE": "initial.dtheta"}.get(key, f"controller.{key.lower()}")
     assert field in lines[0] and "Traceback" not in lines[0], lines[0]
+
+
+def test_a_fixed_run_that_writes_gigabytes_of_csv_says_so(tmp_path: Path) -> None:
+    """As for a cart or an arm: 1e7 samples of a double pendulum on a pivot come to about a GB
+    of CSV, and the run's plan carries the warning (a fixed chain said nothing)."""
+    from ipgen.pipeline.fixed_run import fixed_plan
+    from ipgen.scene.load import parse_document
+
+    path = _scene(tmp_path, extra="\n[simulation]\nt_end = 100000.0\nsample = 0.01\n")
+    reader, document = parse_document(path)
+    warnings = fixed_plan(path, document, reader).warnings
+    assert any("GB of CSV (10,000,001 rows" in warning for warning in warnings), warnings
+    path = _scene(tmp_path, extra="\n[simulation]\nt_end = 10.0\n")
+    reader, document = parse_document(path)
+    assert fixed_plan(path, document, reader).warnings == ()

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import tomllib
 from pathlib import Path
 
@@ -247,3 +248,26 @@ def test_a_plan_csv_too_long_for_any_swing_up_is_refused_before_it_is_read(tmp_p
     with pytest.raises(PlanError, match=r"a plan holds at most 20,001 knots"):
         read_plan(chain, plan, 0.002)
     assert time.process_time() - started < 2
+
+
+def test_a_swing_up_from_elsewhere_is_refused_before_it_is_planned(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """pendubot_swingup without its plan CSV (planned by IPOPT, seconds) and [initial] off
+    hanging: refused at once, before IPOPT (it planned for 7 s first); a duration of more than
+    20,000 periods is refused too (a plan that long could not be read back)."""
+    import time
+
+    from ipgen.command.cli import run
+
+    text = preset_path("pendubot_swingup").read_text()
+    text = re.sub(r'(?m)^plan = .*\n', "", text)
+    scene = tmp_path / "pendubot.toml"
+    scene.write_text(text.replace("theta = [0.0, 0.0]", "theta = [0.5, 0.0]", 1))
+    started = time.process_time()
+    assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 2
+    assert time.process_time() - started < 3
+    assert "[swingup] plans from hanging at rest" in capsys.readouterr().err
+    scene.write_text(re.sub(r"(?m)^duration = .*$", "duration = 100.0", text))
+    assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 2
+    assert "swingup.duration = 100.0: more than 20000 periods" in capsys.readouterr().err

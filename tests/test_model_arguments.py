@@ -235,5 +235,11 @@ def test_the_capacity_itself_is_taken_and_derive_of_many_links_needs_force() -> 
     derive of more than 30 links needs force=True, as the command needs --force."""
     assert ipgen.Pendulum("rotary", 40, m=[0.2] * 41, l=[0.3] * 41, delta=[0.01] * 41).links == 40
     assert ipgen.FixedPendulum(41, m=[0.5] * 41, l=[0.2] * 41, delta=[0.0] * 41, joints=[1]).links == 41
-    with pytest.raises(ipgen.Error, match=r"derive\('rotary', 31\) is large: .*pass force=True"):
+    with pytest.raises(ipgen.Error, match=r"derive\('rotary', 31\) of 31 links is large: .*pass force=True"):
         ipgen.derive("rotary", 31)
+    for p in (
+        ipgen.Pendulum("rotary", 35, m=[0.2] * 36, l=[0.3] * 36, delta=[0.01] * 36),
+        ipgen.FixedPendulum(35, m=[0.5] * 35, l=[0.2] * 35, delta=[0.0] * 35, joints=[1]),
+    ):
+        with pytest.raises(ipgen.Error, match=r"derive\(p\) of 35 links is large: .*pass force=True"):
+            ipgen.derive(p)

@@ -349,12 +349,12 @@ def energy_swingup(
         a_max = force / inertia
     else:
         a_max = finite_number("accel_max", accel_max)
-    if depth == 0:  # g, m1 or l1 so small that m1 g l1 underflows
+    if depth == 0 and plant.m[1] * g * plant.l[1] == 0:  # g, m1 or l1 so small that m1 g l1 underflows
         raise PlanError(f"the link's potential energy m1 g l1 underflows to 0 (g = {g:g}): check g, m and l")
-    if depth < 0:  # com1 < 0: the link's centre of mass above its pivot when it hangs
+    if depth <= 0:  # com1 <= 0: the link's centre of mass at or beyond its pivot
         raise PlanError(
-            f"the link's gravity moment g (m1 com1 + tip1 l1) = {depth / 2:.4g} J is negative: its centre of "
-            "mass lies beyond the pivot, so hanging is not its rest; check com[1] and tip[1]"
+            f"the link's gravity moment g (m1 com1 + tip1 l1) = {depth / 2:.4g} J is not positive: its "
+            "centre of mass lies at or beyond the pivot, so hanging is not its rest; check com[1] and tip[1]"
         )
     k_e = 10 * a_max / depth if gain_energy is None else finite_number("gain_energy", gain_energy)
     e0 = 0.0 if energy_target is None else finite_number("energy_target", energy_target)

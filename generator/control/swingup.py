@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from ipgen.control.casadi_model import Plant
 from ipgen.control.energy import EnergySwingUp, link_constants
 from ipgen.control.trajectory import Plan, PlanError, finite_number, plan_swingup
-from ipgen.control.tvlqr import GainSchedule, track
+from ipgen.control.tvlqr import GainSchedule, track, whole_periods
 from ipgen.model.pendulum import Pendulum
 
 if TYPE_CHECKING:
@@ -50,13 +50,8 @@ def trajectory_swingup(
         raise PlanError(f"margin = {margin!r}: expected a fraction of u_max in (0, 1]")
     u_limit = finite_number("u_max", u_max)
     duration_, period_ = finite_number("duration", duration), finite_number("period", period)
-    if duration_ > 0 and period_ > 0:  # planning takes seconds: refuse what track would first
-        steps = duration_ / period_
-        if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * max(1.0, steps):
-            raise PlanError(
-                f"duration {duration_:g} s is not a whole multiple of period = {period_:g} s; "
-                "choose a duration of k·period"
-            )
+    if duration_ > 0 and period_ > 0:  # planning takes seconds: refuse what track would, first
+        whole_periods(duration_, period_)
     try:
         plan = plan_swingup(
             plant,

@@ -33,7 +33,7 @@ from ipgen.control.trajectory import Plan, PlanError, finite_number
 if TYPE_CHECKING:
     import numpy as np
 
-__all__ = ["GainSchedule", "discrete_lqr", "riccati_recursion", "track"]
+__all__ = ["GainSchedule", "discrete_lqr", "riccati_recursion", "track", "whole_periods"]
 
 
 @dataclass(frozen=True)
@@ -156,6 +156,19 @@ def discrete_lqr(
     return gain, p, ad, bd
 
 
+def whole_periods(duration: float, period: float) -> int:
+    """The number of `period`s in `duration`; a PlanError unless it is a whole number >= 1 (to a
+    relative 1e-6), as a plan tracked every period must be."""
+    steps_f = duration / period
+    steps = round(steps_f)
+    if steps < 1 or abs(steps_f - steps) > 1e-6 * max(1.0, steps_f):
+        raise PlanError(
+            f"duration {duration:g} s is not a whole multiple of period = {period:g} s; "
+            "choose a duration of k·period"
+        )
+    return steps
+
+
 def track(
     plan: Plan,
     period: float = 0.01,
@@ -174,13 +187,7 @@ def track(
     period_ = finite_number("period", period)
     if period_ <= 0:
         raise PlanError(f"period = {period_}: expected a sampling period > 0 s (e.g. 0.01)")
-    steps_f = plan.duration / period_
-    steps = round(steps_f)
-    if steps < 1 or abs(steps_f - steps) > 1e-6 * max(1.0, steps_f):
-        raise PlanError(
-            f"duration {plan.duration:g} s is not a whole multiple of period = {period_:g} s; "
-            "choose a duration of k·period"
-        )
+    steps = whole_periods(plan.duration, period_)
     dof = plan.plant.dof
     weights_q, weights_r = weights(np.ones(2 * dof) if q is None else q, r, 2 * dof)
     target = plan.states[-1]

@@ -31,7 +31,7 @@ from ipgen.experiment.plausibility import unit_slips
 from ipgen.model.actuator import DIRECT, Actuator
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
-from ipgen.scene import schema
+from ipgen.scene import checks, schema
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.load import load_document, parse_document, validate_document
 from ipgen.scene.schema import SceneDocument
@@ -290,7 +290,7 @@ def build_scene(reader: Reader, document: SceneDocument, designed: Scene | None 
         decimals=parameters.decimals(kind),
         links_as_built=links_as_built,
         warnings=_warnings(reader, simulation["rtol"])
-        + _size_warning(reader, simulation["t_end"], simulation["sample"], links + 1)
+        + tuple(map(reader.warning, checks.csv_size(simulation["t_end"], simulation["sample"], links + 1)))
         + tuple(map(reader.warning, unit_slips(kind, masses, lengths, theta))),
         controller=controller,
         actuator=actuator,
@@ -351,27 +351,6 @@ def _warnings(reader: Reader, rtol: float) -> tuple[str, ...]:
             ),
         )
     return ()
-
-
-# A CSV row: t, the angles and rates, u, the energies and the loop's columns, about 20 characters
-# each; above this many bytes the run says how much it is about to write.
-LARGE_CSV_BYTES = 2**30
-
-
-def _size_warning(reader: Reader, t_end: float, sample: float, dof: int) -> tuple[str, ...]:
-    """A warning when the run's CSV comes to more than a GiB (MAX_SAMPLES bounds the rows, not
-    the bytes: 1e7 rows of 41 links are 18 GB)."""
-    rows = t_end / sample + 1
-    columns = 2 + 2 * dof
-    size = rows * columns * 20
-    if size <= LARGE_CSV_BYTES:
-        return ()
-    return (
-        reader.warning(
-            f"the run writes about {size / 1e9:.1f} GB of CSV ({rows:,.0f} rows of {columns} or more "
-            "columns): a larger simulation.sample writes less"
-        ),
-    )
 
 
 def load_scene(path: str | Path) -> Scene:

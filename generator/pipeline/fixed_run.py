@@ -53,6 +53,7 @@ from ipgen.pipeline.fixed_fields import (
 from ipgen.pipeline.fixed_mpc import MPC_KEYS, fixed_mpc, swingup_tracking
 from ipgen.pipeline.run_plan import RunPlan
 from ipgen.scene import schema
+from ipgen.scene.checks import csv_size
 from ipgen.scene.fields import Reader, format_number
 from ipgen.scene.fixed import KEYS as CHAIN_KEYS
 from ipgen.scene.fixed import fixed_pendulum_of
@@ -288,7 +289,7 @@ def fixed_swingup_law(
     t_end), plan (a CSV of control/fixed_swingup.write_plan, relative to the scene: taken instead
     of planning), margin, weight_rate, weight_velocity (the planner's). Plans with IPOPT when no
     plan file is given (seconds to a minute)."""
-    from ipgen.control.fixed_swingup import fixed_swingup, read_plan
+    from ipgen.control.fixed_swingup import MAX_PLAN_ROWS, fixed_swingup, read_plan
     from ipgen.control.linear import ControlError
 
     if not isinstance(table, dict):
@@ -313,6 +314,12 @@ def fixed_swingup_law(
 
     u_max, duration = number("u_max"), number("duration")
     period = number("period", 0.002)
+    if duration / period > MAX_PLAN_ROWS - 1:  # as a cart's or an arm's swing-up (scene.swingup)
+        reader.bad(
+            "swingup.duration",
+            table["duration"],
+            f"more than {MAX_PLAN_ROWS - 1} periods: a shorter duration or a longer period",
+        )
     t_end = float(settings.get("t_end") or 0.0)
     hold = max(t_end - duration, 0.0)
     if "hold" in table:  # s held upright after the plan, then the run ends; 0: it ends with the plan
@@ -455,6 +462,7 @@ class FixedScene:
     library: str
     controller: FixedController | None
     swingup: SwingUpLaw | None  # its tracking the scene's (swingup.tracking)
+    warnings: tuple[str, ...] = ()  # announced by `ipgen run`, the run goes on
 
 
 def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
@@ -474,7 +482,7 @@ def fixed_plan(path: Path, document: dict[str, Any], reader: Reader) -> RunPlan:
         zero=chain.zero,
         positive=chain.positive,
         unit=None,
-        warnings=(),
+        warnings=scene.warnings,
         cfg=scene.cfg,
         sources=sources,
     )
@@ -527,15 +535,16 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
             )
         if any(spec.kind != "zero" for spec in inputs):
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
+        _starts_hanging(reader, chain, theta, dtheta)  # before planning: IPOPT takes seconds
         swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
         tracking = swingup_tracking(reader, document["swingup"], controller)
-        _starts_hanging(reader, chain, theta, dtheta)
     cfg = fixed_config(
         path, chain, model or name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller,
         swingup, tracking,
     )  # fmt: skip
     tracked = dataclasses.replace(swingup, tracking=tracking) if swingup is not None else None
-    return FixedScene(chain, cfg, name, controller, tracked)
+    size = csv_size(float(settings["t_end"]), float(settings["sample"]), chain.links)
+    return FixedScene(chain, cfg, name, controller, tracked, tuple(map(reader.warning, size)))
 
 
 __all__ = [

@@ -272,7 +272,11 @@ def _simulate(
     simulator goes on alone and its scratch file goes with it."""
     import threading
 
-    child = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the simulator
+    # would block on a full pipe
+    child = subprocess.Popen(
+        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace"
+    )
     lines: list[str] = []
 
     def read_errors() -> None:  # stderr as it comes: progress announced, the rest kept in order
@@ -348,6 +352,8 @@ def _make_plan(
         from ipgen.pipeline.fixed_run import fixed_plan
 
         plan = fixed_plan(Path(scene_path), document, reader)
+        for warning in plan.warnings:  # e.g. gigabytes of CSV: the run goes on
+            announce(warning)
         _prepare_outputs(plan.stem, out, scene_path, force, plot)
         return plan
     with tempfile.TemporaryDirectory(prefix="ipgen-run.") as staging:

@@ -20,6 +20,24 @@ from ipgen.model.system import parameter_names, parameter_range, split_parameter
 from ipgen.scene.fields import format_number, type_name
 from ipgen.scene.values import at, context_of, refuse, refuse_line
 
+# A CSV row: t, the angles and rates, u, the energies and the loop's columns, about 20 characters
+# each; above this many bytes a run says how much it is about to write.
+LARGE_CSV_BYTES = 2**30
+
+
+def csv_size(t_end: float, sample: float, dof: int) -> tuple[str, ...]:
+    """The warning of a run whose CSV comes to more than a GiB (MAX_SAMPLES bounds the rows, not
+    the bytes: 1e7 rows of 41 links are 18 GB), or none; `dof` the model's coordinates."""
+    rows = t_end / sample + 1
+    columns = 2 + 2 * dof
+    size = rows * columns * 20
+    if size <= LARGE_CSV_BYTES:
+        return ()
+    return (
+        f"the run writes about {size / 1e9:.1f} GB of CSV ({rows:,.0f} rows of {columns} or more "
+        "columns): a larger simulation.sample writes less",
+    )
+
 
 def model_name(name: str | None) -> str | None:
     """[system] name: a model name (see `common.naming`)."""
