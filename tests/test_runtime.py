@@ -439,6 +439,18 @@ def test_a_motor_gain_without_a_motor_is_refused(tmp_path: Path, edit: str | Non
     assert "actuator.gain applies to actuator = dc_motor only" in done.stderr, done.stderr
 
 
+def _arm_run(tmp_path: Path) -> tuple[Path, Path, Path]:
+    """(the compiled simulator, the model library, the .cfg) of a rotary single pendulum's `ipgen
+    run` in tmp_path/out, to run the simulator directly."""
+    scene = tmp_path / "arm.toml"
+    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
+    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
+    program, library = launcher_parts((tmp_path / "out" / "arm.txt").read_text())
+    return program, library, tmp_path / "out" / "arm.cfg"
+
+
 def test_a_csv_path_that_is_not_a_regular_file_is_refused(tmp_path: Path) -> None:
     """--csv naming a FIFO: one line, exit 2, the FIFO left as it was (without --force the
     simulator blocked reading it; with --force its rename replaced it, as it would /dev/null)."""
@@ -446,15 +458,10 @@ def test_a_csv_path_that_is_not_a_regular_file_is_refused(tmp_path: Path) -> Non
     import stat
 
     require_toolchain()
-    scene = tmp_path / "arm.toml"
-    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
-    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
-    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
-        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
-    program, library = launcher_parts((tmp_path / "out" / "arm.txt").read_text())
+    program, library, cfg = _arm_run(tmp_path)
     fifo = tmp_path / "pipe.csv"
     os.mkfifo(fifo)
-    command = [str(program), str(tmp_path / "out" / "arm.cfg"), "--model", str(library), "--csv", str(fifo)]
+    command = [str(program), str(cfg), "--model", str(library), "--csv", str(fifo)]
     for force in ([], ["--force"]):
         done = subprocess.run([*command, *force], capture_output=True, text=True, timeout=60)
         assert done.returncode == 2 and "is not a regular file: name a file" in done.stderr, done.stderr
@@ -468,13 +475,7 @@ def test_the_simulator_reports_its_progress_and_ipgen_run_announces_it(tmp_path:
     require_toolchain()
     from ipgen.pipeline.run import _simulate
 
-    scene = tmp_path / "arm.toml"
-    arm = {"m": [0.5, 0.2], "l": [0.3, 0.4], "delta": [0, 0], "theta": [0, 0.5]}
-    scene.write_text(SCENE.format(kind="rotary", links=1, **arm))
-    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
-        assert run(["run", str(scene), "-o", str(tmp_path / "out"), "--no-plot"]) == 0, err.getvalue()
-    program, library = launcher_parts((tmp_path / "out" / "arm.txt").read_text())
-    cfg = tmp_path / "out" / "arm.cfg"
+    program, library, cfg = _arm_run(tmp_path)
     base = [str(program), str(cfg), "--model", str(library), "--csv", str(tmp_path / "p.csv")]
     done = subprocess.run([*base, "--progress", "1e-9"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
