@@ -28,6 +28,7 @@ parameters and state (no base entry), `input` and `input.*` for the first input,
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -282,7 +283,12 @@ SWINGUP_KEYS: tuple[str, ...] = (
 
 
 def fixed_swingup_law(
-    reader: Reader, table: Any, chain: FixedPendulum, settings: dict[str, Any], path: Path
+    reader: Reader,
+    table: Any,
+    chain: FixedPendulum,
+    settings: dict[str, Any],
+    path: Path,
+    start: Callable[[], None] = lambda: None,
 ) -> Any:
     """The [swingup] of a fixed scene: method = "trajectory" (the only one), u_max [N m] on the
     driven joint, duration [s] of the plan, period [s] (default 0.002), hold [s] (default: up to
@@ -327,6 +333,7 @@ def fixed_swingup_law(
         if hold < 0:
             reader.bad("swingup.hold", table["hold"], "expected a number of seconds >= 0")
     options = {key: number(key) for key in ("margin", "weight_rate", "weight_velocity") if key in table}
+    start()  # the scene's start checked after the table's keys, before IPOPT plans (seconds)
     try:
         plan = None
         if "plan" in table:
@@ -535,8 +542,10 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
             )
         if any(spec.kind != "zero" for spec in inputs):
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
-        _starts_hanging(reader, chain, theta, dtheta)  # before planning: IPOPT takes seconds
-        swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path)
+        def starts_hanging() -> None:  # checked after the table's keys, before IPOPT plans
+            _starts_hanging(reader, chain, theta, dtheta)
+
+        swingup = fixed_swingup_law(reader, document["swingup"], chain, settings, path, start=starts_hanging)
         tracking = swingup_tracking(reader, document["swingup"], controller)
     cfg = fixed_config(
         path, chain, model or name, theta, dtheta, inputs, settings, bool(tables.outputs.energy), controller,
