@@ -169,3 +169,39 @@ def test_the_build_announcement_states_the_last_build(
     assert said[1] == f"building the model library of b (the last build in this cache took {library:.0f} s)…"
     (tmp_path / "models" / build_cache.LAST_BUILD).write_text("garbage\n")
     assert build_cache.last_build(tmp_path / "models") is None
+
+
+def test_a_presets_outputs_name_the_preset_not_this_installations_path(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`--preset NAME` writes "preset NAME" where a file names its scene (it wrote the absolute
+    path of this installation's preset, so the same command gave other bytes elsewhere); a
+    scene given by its path keeps the path as given."""
+    import os
+
+    from ipgen.common.presets import scene_source
+
+    assert (
+        cli(
+            [
+                "excite",
+                "--preset",
+                "qube_servo2",
+                "--u-max",
+                "10",
+                "--travel",
+                "1",
+                "-o",
+                str(tmp_path / "e.toml"),
+            ]
+        )
+        == 0
+    )
+    first = (tmp_path / "e.toml").read_text().splitlines()[0]
+    assert "from preset qube_servo2:" in first and str(preset_path("qube_servo2")) not in first, first
+    assert scene_source(preset_path("rsip_lqr")) == "preset rsip_lqr"
+    relative = Path(os.path.relpath(preset_path("rsip_lqr")))
+    assert scene_source(relative) == relative.as_posix()
+    copy = tmp_path / "rsip_lqr.toml"
+    copy.write_text(preset_path("rsip_lqr").read_text())
+    assert scene_source(copy) == copy.as_posix()  # a file of the same name elsewhere is no preset

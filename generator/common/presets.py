@@ -63,6 +63,23 @@ def preset_names() -> tuple[str, ...]:
     return tuple(sorted(path.stem for path in presets_dir().rglob("*.toml")))
 
 
+def scene_source(path: Path) -> str:
+    """How a generated file names the scene it comes from: "preset NAME" for a preset's own file
+    as `--preset NAME` chooses it (its absolute path in this installation would make the bytes
+    differ from one installation to the next), else the path as given, made comment-safe."""
+    from ipgen.common.safetext import quote_path
+
+    path = Path(path)
+    if path.is_absolute() and path.suffix == ".toml":
+        try:
+            shipped = path.resolve().parent.is_relative_to(presets_dir().resolve())
+            if shipped and preset_path(path.stem) == path:
+                return f"preset {path.stem}"
+        except (Error, OSError):
+            pass
+    return quote_path(path.as_posix())
+
+
 def preset_path(name: str) -> Path:
     """The scene file of the preset `name`; an `Error` naming the presets there are otherwise."""
     if not isinstance(name, str):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from ipgen.common.safetext import quote_path
+from ipgen.common.presets import scene_source
 from ipgen.common.toml_edit import without_tables
 from ipgen.control.excitation import FREE_DECAY, Design
 from ipgen.experiment.scene import Scene
@@ -52,7 +52,7 @@ def _hanging(rig: Scene, release: float = 0.0) -> list[float]:
 def scene_text(rig: Scene, design: Design) -> str:
     """The experiment scene: a generated header, the rig's own tables, then the new ones."""
     links = rig.links
-    source = quote_path(rig.path.as_posix())
+    source = scene_source(rig.path)
     free_decay = design.signal == FREE_DECAY
     theta = ", ".join(_format(angle) for angle in _hanging(rig, design.amplitude if free_decay else 0.0))
     zeros = ", ".join(["0"] * (links + 1))
