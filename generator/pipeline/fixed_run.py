@@ -294,7 +294,8 @@ def fixed_swingup_law(
     driven joint, duration [s] of the plan, period [s] (default 0.002), hold [s] (default: up to
     t_end), plan (a CSV of control/fixed_swingup.write_plan, relative to the scene: taken instead
     of planning), margin, weight_rate, weight_velocity (the planner's). Plans with IPOPT when no
-    plan file is given (seconds to a minute)."""
+    plan file is given (seconds to a minute); `start` is called before, once the table's keys are
+    read (the scene's start is checked there)."""
     from ipgen.control.fixed_swingup import MAX_PLAN_ROWS, fixed_swingup, read_plan
     from ipgen.control.linear import ControlError
 
@@ -542,6 +543,7 @@ def fixed_scene(path: Path, document: dict[str, Any], reader: Reader, model: str
             )
         if any(spec.kind != "zero" for spec in inputs):
             reader.fail('[swingup] sets the torque: remove [input] (or make it kind = "zero")')
+
         def starts_hanging() -> None:  # checked after the table's keys, before IPOPT plans
             _starts_hanging(reader, chain, theta, dtheta)
 
