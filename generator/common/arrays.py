@@ -23,3 +23,12 @@ def float_array(value: Any) -> np.ndarray:
         return np.asarray(value, dtype=np.float64)
     except OverflowError:  # an integer beyond a double
         raise ValueError(f"{value!r} holds a number beyond a double") from None
+
+
+def float_or_inf(value: Any) -> float:
+    """`value` (an int, float or Decimal) as a float; inf for an integer beyond a double's range,
+    which float() refuses with an OverflowError (the caller's finiteness check then names it)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return float("inf")

@@ -138,6 +138,9 @@ class EnergySwingUp:
     _state: SwingUpState | None = field(default=None, init=False, repr=False, compare=False)
     _callback: Any = field(default=None, init=False, repr=False, compare=False)  # MASS_BIAS on the plant
     _failure: list[BaseException] = field(default_factory=list, init=False, repr=False, compare=False)
+    # link_constants(plant), once: `control` runs every sample, and each Plant field it reads
+    # folds the pendulum's parameters again
+    _link: tuple[float, float] | None = field(default=None, init=False, repr=False, compare=False)
 
     def reset(self) -> None:
         """Start over: the next `control` swings (the catch forgotten)."""
@@ -181,7 +184,9 @@ class EnergySwingUp:
         hold = np.array(self.hold_gain, dtype=float).reshape(2 * dof)
         target = np.zeros(2 * dof)  # upright at rest; the caught turn replaces θ1
         work = np.zeros(swingup_work(dof))
-        inertia, weight = link_constants(self.plant)
+        if self._link is None:
+            self._link = link_constants(self.plant)
+        inertia, weight = self._link
         # link_energy's J and w; input gain 1: u is the force or torque itself
         energy = EnergyLaw(
             self.gain_energy, self.gain_position, self.gain_velocity, self.accel_max, self.catch_angle,

@@ -254,11 +254,10 @@ def read_plan(chain: FixedPendulum, path: Path, period: float) -> FixedPlan:
     substeps = round(h / period)
     if substeps < 1 or abs(substeps * period - h) > 1e-9 or np.any(np.abs(np.diff(body[:, 0]) - h) > 1e-9):
         raise PlanError(f"{path}: its knots every {h:g} s are not a whole number of periods of {period:g} s")
-    n_angles = chain.links
     for row, where in ((0, "hanging"), (-1, "upright")):  # fixed_plan's ends: a plan of another chain
-        end = np.concatenate([fixed_equilibrium(chain, where), np.zeros(n_angles)])
+        end = np.concatenate([fixed_equilibrium(chain, where), np.zeros(n)])
         off = body[row, 1 + m :] - end
-        off[:n_angles] = np.remainder(off[:n_angles] + math.pi, 2 * math.pi) - math.pi
+        off[:n] = np.remainder(off[:n] + math.pi, 2 * math.pi) - math.pi
         if np.max(np.abs(off)) > PLAN_END_TOLERANCE:
             first = "first" if row == 0 else "last"
             raise PlanError(

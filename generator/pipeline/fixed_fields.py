@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ipgen.common.arrays import float_or_inf
 from ipgen.control.controller import MpcDesign
 from ipgen.scene.fields import Reader
 
@@ -26,15 +27,6 @@ class FixedController:
     mpc: MpcDesign | None = None  # kind = "mpc": the problem, in ipgen's coordinates
 
 
-def finite_or_inf(value: Any) -> float:
-    """`value` (an int, float or Decimal) as a float; inf for an integer beyond a double's range,
-    which float() refuses with an OverflowError (the caller's finiteness check names the key)."""
-    try:
-        return float(value)
-    except OverflowError:
-        return float("inf")
-
-
 def numbers(reader: Reader, key: str, value: Any, sizes: tuple[int, ...], what: str) -> np.ndarray:
     import math
     from decimal import Decimal
@@ -45,7 +37,7 @@ def numbers(reader: Reader, key: str, value: Any, sizes: tuple[int, ...], what: 
         flat.extend(item if isinstance(item, list) else [item])
     if any(isinstance(x, bool) or not isinstance(x, int | float | Decimal) for x in flat):
         reader.bad(key, value, f"expected {what}")
-    numbers = np.array([finite_or_inf(x) for x in flat])
+    numbers = np.array([float_or_inf(x) for x in flat])
     if numbers.size not in sizes or not all(math.isfinite(x) for x in numbers):
         reader.bad(key, value, f"expected {what}")
     return numbers

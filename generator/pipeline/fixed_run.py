@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ipgen.codegen.fixed_header import fixed_library_sources, fixed_model_name
+from ipgen.common.arrays import float_or_inf
 from ipgen.common.presets import scene_source
 from ipgen.common.version import __version__
 from ipgen.control.swingup import SwingUpLaw
@@ -46,7 +47,6 @@ from ipgen.model.fixed import FixedPendulum
 from ipgen.pipeline.fixed_fields import (
     FixedController,
     controller_period,
-    finite_or_inf,
     numbers,
     scalar,
     weight_matrix,
@@ -135,7 +135,7 @@ def _state(reader: Reader, initial: Any, key: str, links: int) -> tuple[float, .
     for i, item in enumerate(value):
         if isinstance(item, bool) or not isinstance(item, int | float | Decimal):
             reader.bad(f"initial.{key}[{i}]", item, "expected a number")
-        number = finite_or_inf(item)
+        number = float_or_inf(item)
         if not math.isfinite(number):
             reader.bad(f"initial.{key}[{i}]", item, "must be a finite number")
         numbers.append(number)

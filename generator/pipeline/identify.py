@@ -180,8 +180,8 @@ def identify(
     names = [n.strip() for n in free.split(",")] if isinstance(free, str) else list(free)
     loaded = load_scene(scene_path)
     paths = _paths(loaded, Path(output)) if output is not None else {}
+    inputs = [scene_path, data_path]  # never written, not even with --force
     if paths:  # the output-path policy (common.files), before the fit; never the scene itself
-        inputs = [scene_path, data_path]  # never written, not even with --force
         check_replaceable(paths["toml"], force, keep=inputs)
         check_replaceable(paths["txt"], force, keep=inputs)
         check_replaceable(paths["png"], force, PNG, keep=inputs)
@@ -224,7 +224,6 @@ def identify(
     )
     prepare_directory(Path(output))  # type: ignore[arg-type]
     write_files(
-        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force,
-        keep=[scene_path, data_path]
+        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=inputs
     )
     return Identified(fit=fit, scene=loaded, files=tuple(paths.values()), report=text)

@@ -28,6 +28,8 @@ from typing import Annotated, Any, NamedTuple, NoReturn, get_args
 from pydantic import BeforeValidator, Field, ValidationInfo
 from pydantic_core import PydanticCustomError
 
+from ipgen.common.arrays import float_or_inf
+
 
 class Says(NamedTuple):
     """ipgen's words for a key: `bound` when one of its bounds fails (may name `{u_unit}`,
@@ -72,10 +74,7 @@ def toml_number(value: Any, gt: float | None = None, lt: float | None = None) ->
         raise PydanticCustomError("number_type", "expected a number")
     if isinstance(value, Decimal) and not value.is_finite():
         return value
-    try:
-        as_float = float(value)
-    except OverflowError:  # an integer beyond 1.8e308
-        as_float = math.inf
+    as_float = float_or_inf(value)  # inf: an integer beyond 1.8e308
     if not math.isfinite(as_float):
         raise PydanticCustomError("double_range", "is too large for a double")
     if gt is not None and not as_float > gt:
@@ -152,10 +151,7 @@ def number(value: Any, context: dict[str, Any] | None = None) -> float:
         from ipgen.scene.fields import type_name
 
         refuse(f"expected a number, got {type_name(value)}")
-    try:
-        as_float = float(value)
-    except OverflowError:
-        as_float = math.inf
+    as_float = float_or_inf(value)
     if not math.isfinite(as_float):
         refuse("must be a finite number")
     return as_float

@@ -867,9 +867,6 @@ Scene<Model> load(const SceneFile& file) {
     if (scene.settings.acceleration && !provides<Model>(Feature::mass_and_bias)) {
       file.fail(file.line("actuator"), "actuator = acceleration needs the model's mass_matrix and bias: regenerate its header");
     }
-    if (!scene.motor && file.has("actuator.gain")) {  // it was read for a motor only, else ignored
-      file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
-    }
     if (scene.motor) {
       scene.input_gain = file.number("actuator.gain");
       if (!(std::isfinite(scene.input_gain) && scene.input_gain > 0.0)) {
@@ -877,7 +874,7 @@ Scene<Model> load(const SceneFile& file) {
       }
     }
   }
-  if (!file.has("actuator") && file.has("actuator.gain")) {  // no actuator: direct, u a force or torque
+  if (!scene.motor && file.has("actuator.gain")) {  // read for a motor only: any other drive ignored it
     file.fail(file.line("actuator.gain"), "actuator.gain applies to actuator = dc_motor only");
   }
   const double b = scene.input_gain;
