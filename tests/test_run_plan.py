@@ -347,9 +347,9 @@ def test_an_interrupted_run_says_which_files_are_new(
     if when == "after the simulator":
         real = run_module._simulate
 
-        def simulated_then_interrupted(command, written, progress=lambda t, end: None):
-            real(command, written, progress)
-            raise run_module.RunInterrupted(written, KeyboardInterrupt())
+        def simulated_then_interrupted(command, progress=lambda t, end: None):
+            real(command, progress)
+            raise KeyboardInterrupt  # the signal just after the simulator's rename
 
         monkeypatch.setattr(run_module, "_simulate", simulated_then_interrupted)
     else:

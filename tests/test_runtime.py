@@ -490,5 +490,5 @@ def test_the_simulator_reports_its_progress_and_ipgen_run_announces_it(tmp_path:
     seen: list[tuple[float, float]] = []
     script = "import sys; print('progress 1 4', file=sys.stderr); print('a warning', file=sys.stderr)"
     script += "; print('out')"
-    result = _simulate([sys.executable, "-c", script], [], lambda t, end: seen.append((t, end)))
+    result = _simulate([sys.executable, "-c", script], lambda t, end: seen.append((t, end)))
     assert seen == [(1.0, 4.0)] and result.stderr == "a warning\n" and result.stdout == "out\n"
