@@ -106,6 +106,37 @@ def prepare_directory(directory: Path) -> bool:
     return True
 
 
+def _missing_folders(directory: Path) -> list[Path]:
+    """The folders on the way to `directory` that do not exist yet, deepest first (none when a
+    component cannot be looked at: nothing is then ours to remove)."""
+    missing = []
+    try:
+        for folder in (directory, *directory.parents):
+            if folder.exists() or folder.is_symlink():
+                break
+            missing.append(folder)
+    except OSError:
+        return []
+    return missing
+
+
+@contextlib.contextmanager
+def removed_if_left_empty(directory: Path) -> Iterator[None]:
+    """Run the block; if it raises (an error, Ctrl-C, SIGTERM), remove the folders on the way to
+    `directory` that it made and left empty, deepest first: a failed or interrupted command leaves
+    no empty output folder behind. A folder with anything in it stays, as do those that existed."""
+    missing = _missing_folders(Path(directory))
+    try:
+        yield
+    except BaseException:
+        for folder in missing:
+            try:
+                folder.rmdir()  # only an empty folder: another command's files are never lost
+            except OSError:
+                break
+        raise
+
+
 def check_directory(directory: Path) -> None:
     """The OutputError `prepare_directory` would meet for `directory`, if any, creating nothing:
     checked before long work (a sweep), so that a bad -o fails first."""

@@ -9,13 +9,12 @@ cart's and the arm's.
 
 from __future__ import annotations
 
-import contextlib
 from dataclasses import dataclass
 from pathlib import Path
 
 from ipgen.codegen.emit import EmitError, parse_emit
 from ipgen.codegen.fixed_header import FixedFeedback, FixedHeaderRequest, fixed_command, render_fixed
-from ipgen.common.files import prepare_directory, write_files
+from ipgen.common.files import prepare_directory, removed_if_left_empty, write_files
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.model.fixed import joints_problem
@@ -260,14 +259,9 @@ def _write(
 ) -> list[Written]:
     """`files` written all or none (a folder this call made removed again on failure); `keep`:
     the command's inputs, never written (a scene named like its .cfg), even with force."""
-    created = prepare_directory(folder)
-    try:
+    with removed_if_left_empty(folder):
+        prepare_directory(folder)
         statuses = write_files(files, force, keep)
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                folder.rmdir()
-        raise
     return [
         Written(path, status, len(text.encode() if isinstance(text, str) else text))
         for (path, text), status in zip(files, statuses, strict=True)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,7 +9,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
-from ipgen.common.files import prepare_directory, write_files
+from ipgen.common.files import prepare_directory, removed_if_left_empty, write_files
 from ipgen.control.controller import Controller
 from ipgen.control.coordinates import Coordinates
 from ipgen.estimation.printed import PrintedEstimator
@@ -106,14 +105,9 @@ def generate(
         files += [(directory / f"{name}{suffix}", text) for suffix, text in rendered.items()]
     files += [(directory / file_name, text) for file_name, text in extra_files]
     report("writing")
-    created = prepare_directory(directory)
-    try:
+    with removed_if_left_empty(directory):
+        prepare_directory(directory)
         statuses = write_files(files, force, keep)
-    except BaseException:
-        if created:
-            with contextlib.suppress(OSError):
-                directory.rmdir()
-        raise
     return [
         Written(path, status, len(text.encode() if isinstance(text, str) else text))
         for (path, text), status in zip(files, statuses, strict=True)

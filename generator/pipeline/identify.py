@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ipgen.common.files import check_replaceable, prepare_directory, write_files
+from ipgen.common.files import check_replaceable, prepare_directory, removed_if_left_empty, write_files
 from ipgen.common.presets import scene_source
 from ipgen.common.safetext import quote_path, shown_path
 from ipgen.common.version import __version__
@@ -222,8 +222,9 @@ def identify(
     png = identify_png(
         fit, loaded.type, f"ipgen identify: {loaded.stem}, free {', '.join(fit.free)}", loaded.coordinates
     )
-    prepare_directory(Path(output))  # type: ignore[arg-type]
-    write_files(
-        [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=inputs
-    )
+    with removed_if_left_empty(Path(output)):  # type: ignore[arg-type]
+        prepare_directory(Path(output))  # type: ignore[arg-type]
+        write_files(
+            [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=inputs
+        )
     return Identified(fit=fit, scene=loaded, files=tuple(paths.values()), report=text)

@@ -19,7 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ipgen.common.files import MARKER, check_replaceable, prepare_directory, write_files
+from ipgen.common.files import (
+    MARKER,
+    check_replaceable,
+    prepare_directory,
+    removed_if_left_empty,
+    write_files,
+)
 from ipgen.common.version import __version__
 from ipgen.identification.recording import DEFAULT_CUTOFF, FILTER_ORDER, Filtered, filtered, read_recording
 from ipgen.identification.torque import (
@@ -295,10 +301,11 @@ def identify_torques(
     which = "validation" if checking else "fit"  # drawn: the validation recordings, else the fit's
     title = f"ipgen identify: {stem},\nmeasured against predicted torques on the {which} recordings"
     png = _png(fit, scene, checking or fitting, title)
-    prepare_directory(Path(output))  # type: ignore[arg-type]
-    write_files(
-        [(paths["txt"], report), (paths["csv"], _csv(scores, scene.inputs)), (paths["png"], png)],
-        force=force,
-        keep=list(keep),
-    )
+    with removed_if_left_empty(Path(output)):  # type: ignore[arg-type]
+        prepare_directory(Path(output))  # type: ignore[arg-type]
+        write_files(
+            [(paths["txt"], report), (paths["csv"], _csv(scores, scene.inputs)), (paths["png"], png)],
+            force=force,
+            keep=list(keep),
+        )
     return TorqueIdentified(fit, tuple(scores), report, tuple(paths.values()))

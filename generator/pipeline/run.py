@@ -29,7 +29,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ipgen.common.build_cache import cache_folder
-from ipgen.common.files import OutputError, check_replaceable, prepare_directory, write_file
+from ipgen.common.files import (
+    OutputError,
+    check_replaceable,
+    prepare_directory,
+    removed_if_left_empty,
+    write_file,
+)
 from ipgen.common.limits import MAX_SIMULATED_LINKS
 from ipgen.common.safetext import shown_path
 from ipgen.pipeline import job
@@ -131,7 +137,8 @@ def run_scene(
     Outcome
         The run's files, simulator, exit status and summary.
     """
-    with cache_folder(cache):  # what the run builds on its way (an MPC's libraries) goes there too
+    # A run that fails or is interrupted before it writes (a first compile) leaves no empty `out`.
+    with cache_folder(cache), removed_if_left_empty(Path(out)):  # an MPC's libraries go to the cache too
         return _run_scene(scene_path, out, force, cache, announce, divergence_angle, plot)
 
 

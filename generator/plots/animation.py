@@ -238,8 +238,9 @@ def _write_atomically(path: Path, force: bool, write: Any) -> Path:
     buffer = io.BytesIO()
     write(buffer)
     try:
-        files.prepare_directory(path.parent)
-        files.write_file(path, buffer.getvalue(), force)
+        with files.removed_if_left_empty(path.parent):
+            files.prepare_directory(path.parent)
+            files.write_file(path, buffer.getvalue(), force)
     except files.OutputError as exc:
         raise PlotError(str(exc)) from None
     return path

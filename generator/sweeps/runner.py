@@ -201,7 +201,8 @@ def sweep(
             source = replace(source, model=prepared.model, header=prepared.header)
             note = fixed_sweep.NOTE if fixed is not None else ""
             planned = Planned(source, criteria, tasks, test, seed, digest, note)
-            with engine.executor(dask, jobs) as (pool, workers):  # a bad --dask: nothing written
+            # A bad --dask writes nothing; a sweep stopped before its first run leaves no empty OUT.
+            with engine.executor(dask, jobs) as (pool, workers), files.removed_if_left_empty(out):
                 files.prepare_directory(out)
                 if force:  # starting over: no scores or pictures of the sweep before beside the new runs
                     _remove_outputs(out)
