@@ -223,6 +223,18 @@ def test_starting_over_removes_the_earlier_sweeps_scores_and_pictures(
     assert (out / "criterion_holiday.png").read_text() == "earlier"
 
 
+def test_starting_over_keeps_a_grid_png_no_grid_wrote(scene: Path, swept: Path, tmp_path: Path) -> None:
+    """An earlier sweep of criteria only (no --vary grid): a grid.png beside it is a user's, kept."""
+    out = _copy(swept, tmp_path, "criteria")
+    rows = [line.split(",") for line in (out / "runs.csv").read_text().splitlines()]
+    renamed = [",".join([*r[:1], "mass", *r[2:]] if i else r) for i, r in enumerate(rows)]
+    (out / "runs.csv").write_text("\n".join(renamed) + "\n")
+    for name in ("grid.png", "criterion_mass.png"):
+        (out / name).write_text("earlier")
+    ipgen.sweep(scene, out, vary=[VARY], jobs=1, plots=False, force=True)
+    assert not (out / "criterion_mass.png").exists() and (out / "grid.png").read_text() == "earlier"
+
+
 def test_the_same_sweep_resumes_its_own_table(scene: Path, swept: Path, tmp_path: Path) -> None:
     """The check does not refuse what it should accept: the same sweep resumes, running nothing."""
     out = _copy(swept, tmp_path, "same")

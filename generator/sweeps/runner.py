@@ -19,7 +19,7 @@ from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scores as scoring
 from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
-from ipgen.sweeps.spec import Criterion, SweepError, check_total, grid, parse_vary
+from ipgen.sweeps.spec import GRID, Criterion, SweepError, check_total, grid, parse_vary
 from ipgen.sweeps.success import Success
 
 if TYPE_CHECKING:
@@ -64,16 +64,19 @@ def plan(criteria: list[Criterion], seed: int, scene_for_pulses: object = None) 
 SCORES = ("scores.json", "scores.md", "scores.png")
 
 
-def _picture(criterion: Criterion) -> str:
-    """The file name of a criterion's picture."""
-    return f"criterion_{criterion.name}.png" if len(criterion.axes) == 1 else f"{criterion.name}.png"
+def _picture(name: str, axes: int) -> str:
+    """The file name of the picture of criterion `name` over `axes` keys."""
+    return f"criterion_{name}.png" if axes == 1 else f"{name}.png"
 
 
 def _remove_outputs(out: Path) -> None:
     """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep:
     the scores, grid.png and the picture of each criterion its runs.csv names, and nothing else
     (a user's criterion_holiday.png beside them was deleted by a glob)."""
-    names = [*SCORES, "grid.png", *(f"criterion_{name}.png" for name in _earlier_criteria(out))]
+    earlier = _earlier_criteria(out)  # a --vary sweep's is GRID, over one key or two
+    names = [*SCORES, *(_picture(name, 1) for name in earlier)]
+    if GRID in earlier:
+        names.append(_picture(GRID, 2))
     for path in (out / name for name in names):
         if path.is_file() or path.is_symlink():
             path.unlink()
@@ -331,9 +334,11 @@ def _write_outputs(
         for s in found:
             if s.criterion.refused or not s.criterion.levels:
                 continue
-            if len(s.criterion.axes) == 1:
-                written.append(plots.criterion_plot(s, rows, planned.test, out / _picture(s.criterion)))
-            elif len(s.criterion.axes) == 2:
-                written.append(plots.heatmap(s, out / _picture(s.criterion)))
+            axes = len(s.criterion.axes)
+            picture = out / _picture(s.criterion.name, axes)
+            if axes == 1:
+                written.append(plots.criterion_plot(s, rows, planned.test, picture))
+            elif axes == 2:
+                written.append(plots.heatmap(s, picture))
         written.append(plots.scores_plot(found, total, stem, out / picture_name))
     return written

@@ -25,6 +25,7 @@ FIXED_TABLES: tuple[str, ...] = ("system", "input", "outputs")
 # own sensors.seed.
 SEEDED_KEYS: tuple[str, ...] = ("sensors.noise", "actuator.noise", "actuator.pulses")
 MAX_LEVELS = 10_000
+GRID = "grid"  # the criterion of a 2-D --vary grid (its picture: grid.png)
 # Runs of one sweep at most (levels × repetitions over every criterion): each is planned before the
 # first one starts (its task, later its row), so the total is bounded before anything is built.
 MAX_RUNS = 100_000
@@ -181,7 +182,7 @@ def grid(keys_levels: list[tuple[Key, tuple[float, ...]]], repeat: int) -> Crite
         Level(values, tuple((key.text, value) for (key, _), value in zip(keys_levels, values, strict=True)))
         for values in itertools.product(*(levels for _, levels in keys_levels))
     )
-    name = "grid"
+    name = GRID
     label = " × ".join(seen)
     return Criterion(name, label, tuple(seen), levels, repeat=repeat, seeded=repeat > 1)
 
