@@ -128,7 +128,8 @@ def test_identify_leaves_no_folder(
 
 def test_identify_of_torques_leaves_no_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     data = ROOT / "tests" / "data" / "dfki" / "design_C.0_20220914_sys_id_trajectory_02_excerpt.csv.gz"
-    _fail_inside(monkeypatch, "ipgen.pipeline.identify_torques", "write_files", files.OutputError("disk full"))
+    failure = files.OutputError("disk full")
+    _fail_inside(monkeypatch, "ipgen.pipeline.identify_torques", "write_files", failure)
     out = tmp_path / "dfki" / "fit"
     assert run(["identify", "--preset", "dfki_c0", "--data", str(data), "-o", str(out)]) != 0
     assert not (tmp_path / "dfki").exists()

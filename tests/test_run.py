@@ -273,7 +273,8 @@ LEVELS = ("-O0", "-O1", "-O2", "-O3", "-Os", "-Og")  # what IPGEN_SIM_OPT takes
 
 
 # A stand-in compiler: writes a Python "simulator" at -o that writes a two-row CSV and a summary,
-# counts its compiles in COUNT, and takes a second (so that concurrent runs overlap).
+# counts its compiles in COUNT, and takes FAKE_SECONDS (default 0; a second where concurrent runs
+# must overlap).
 FAKE_CXX = """\
 #!PYTHON
 import sys, time, pathlib, os
@@ -284,7 +285,7 @@ if args == ["--version"]:
 kind = "core" if "-c" in args else "library" if "-shared" in args else "program"
 with open(os.environ["COUNT"], "a") as f:
     f.write(kind + "\\n")
-time.sleep(1)
+time.sleep(float(os.environ.get("FAKE_SECONDS", "0")))
 out = pathlib.Path(args[args.index("-o") + 1])
 out.write_text('''#!PYTHON
 import os, sys
@@ -316,7 +317,7 @@ def single_scene(tmp_path: Path, theta: str = "0.1") -> Path:
 
 
 def test_concurrent_runs_of_one_model_compile_once(tmp_path: Path) -> None:
-    env = fake_compiler(tmp_path)
+    env = {**fake_compiler(tmp_path), "FAKE_SECONDS": "1"}  # each compile long enough to overlap
     scenes = [single_scene(tmp_path, theta) for theta in ("0.1", "0.2", "-0.3")]
     processes = [
         subprocess.Popen(
