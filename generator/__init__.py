@@ -315,13 +315,15 @@ def identify(
 
     Parameters
     ----------
-    scene : str, Path or Pendulum
+    scene : str, Path, Pendulum or FixedPendulum
         A scene file (the prior, the drive, the input, the coordinates), or a `Pendulum` (the
-        data must then have a u column).
-    data : str or Path
-        The measurements: a CSV in the simulator's format, in the rig's coordinates.
-    free : str or iterable of str
-        The parameters to fit, "m1,delta0" or ["m1", "delta0"].
+        data must then have a u column), or a fixed-pivot chain's scene file or `FixedPendulum`.
+    data : str, Path or iterable of str or Path
+        The measurements: a CSV in the simulator's format, in the rig's coordinates (a
+        fixed-pivot chain: one recording or several).
+    free : str or iterable of str, optional
+        The parameters to fit, "m1,delta0" or ["m1", "delta0"] (required but for a fixed-pivot
+        chain, which takes none).
     output : str or Path, optional
         Scene files only: the folder to write the updated scene, the report and a PNG into.
     force : bool, default False
@@ -330,7 +332,7 @@ def identify(
         Refine the equation-error estimate by simulation.
     progress : callable, optional
         Called with a short message at each stage.
-    validate : iterable of str or Path
+    validate : iterable of str or Path, default ()
         Fixed-pivot chains only: held-out recordings, scored but not fitted.
     fit : {"sequential", "joint"}, optional
         Fixed-pivot chains only (`ipgen identify --fit`): tip first, one joint's equation at a
@@ -341,9 +343,10 @@ def identify(
 
     Returns
     -------
-    Identified or Fit
+    Identified, Fit or TorqueIdentified
         For a scene file an `Identified` (`.fit`, `.report`, `.files`, `.scene`); for a
-        Pendulum its `Fit` (`.table()`, `.estimate`, `.stderr`, `.statements`).
+        Pendulum its `Fit` (`.table()`, `.estimate`, `.stderr`, `.statements`); for a
+        fixed-pivot chain a `TorqueIdentified`.
 
     Raises
     ------
@@ -480,10 +483,6 @@ def sweep(
         The base's tolerance about the goal [m or rad] (default: not checked).
     travel : float, optional
         The base's travel limit |θ0| (default: the scene's limits.travel).
-    converge : float, optional
-        A balance run (no [swingup]) must also converge: every link within `converge` times its
-        largest initial angle error over the last `hold` s (default 0.25), so that a controller
-        that does nothing cannot pass from a start inside the tolerance.
     dask : str, optional
         A Dask scheduler's address: run there (needs ``pip install 'dask[distributed]'``).
     jobs : int, optional
@@ -494,6 +493,10 @@ def sweep(
         The compiled simulators' cache (default: ipgen's).
     plots : bool, optional
         Write the PNGs (default True).
+    converge : float, optional
+        A balance run (no [swingup]) must also converge: every link within `converge` times its
+        largest initial angle error over the last `hold` s (default 0.25), so that a controller
+        that does nothing cannot pass from a start inside the tolerance.
     random : int, optional
         That many random starts (criterion "random"; default none): with a [swingup] even ones
         hanging (links at π ± 0.1 rad) and odd ones near upright (±0.2 rad, rates ±0.5 rad/s), a
@@ -549,9 +552,10 @@ def sweep(
 
 
 def __getattr__(attribute: str) -> object:
-    """The lazy part of the API: `Equations`, and `linearize` and `lqr` (control/linear.py, which
-    imports numpy and scipy) and `excitation` (pipeline/excite.py), so that `import ipgen` and the
-    ipgen command start fast."""
+    """The lazy part of the API, imported on first use so that `import ipgen` and the ipgen command
+    start fast: `Equations`, `Pendulum`, `FixedPendulum` and `Actuator` (the model), `linearize`,
+    `lqr` and `mpc` (control/: numpy, scipy, the compiled MPC), `kalman` (estimation/) and
+    `excitation` (pipeline/excite.py)."""
     if attribute == "Equations":
         from ipgen.model.derivation import Equations
 

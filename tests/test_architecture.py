@@ -49,6 +49,9 @@ LATE_IMPORTS: dict[tuple[str, str], str] = {
     ("ipgen.model.fixed", "ipgen.scene.fixed"): "FixedPendulum.from_scene reads a fixed scene file",
     ("ipgen.control.mpc", "ipgen.pipeline.model_library"): "ipgen.mpc compiles the model library it runs on",
 }
+# Of those, the ones whose module also names the later stage's type at module level under
+# `if TYPE_CHECKING:` (for annotations only, never run): declared here, so that no other can hide.
+TYPING_LATE_IMPORTS = {("ipgen.model.pendulum", "ipgen.experiment.scene")}
 
 
 def _module_name(path: Path) -> str:
@@ -102,7 +105,7 @@ def test_late_imports_are_inside_functions() -> None:
     modules = _modules()
     for (source, target), why in LATE_IMPORTS.items():
         tree = ast.parse(modules[source].read_text())
-        top = {node.module for node in tree.body if isinstance(node, ast.ImportFrom)}
+        top, typing = _module_level_imports(tree)
         lazy = {
             node.module
             for function in ast.walk(tree)
@@ -112,6 +115,37 @@ def test_late_imports_are_inside_functions() -> None:
         }
         assert target in lazy, f"{source} no longer imports {target} ({why}): remove it from LATE_IMPORTS"
         assert target not in top, f"{source} imports {target} at module level; import it where it is used"
+        declared = (source, target) in TYPING_LATE_IMPORTS
+        assert (target in typing) == declared, (
+            f"{source} {'no longer imports' if declared else 'imports'} {target} under TYPE_CHECKING: "
+            f"{'remove it from' if declared else 'declare it in'} TYPING_LATE_IMPORTS"
+        )
+
+
+def _module_level_imports(tree: ast.Module) -> tuple[set[str | None], set[str | None]]:
+    """The modules `tree` imports outside every function: (run on import, under TYPE_CHECKING only)."""
+    run: set[str | None] = set()
+    typing: set[str | None] = set()
+
+    def visit(nodes: list[ast.stmt], guarded: bool) -> None:
+        for node in nodes:
+            if isinstance(node, ast.ImportFrom):
+                (typing if guarded else run).add(node.module)
+            elif isinstance(node, ast.If):
+                checking = isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING"
+                visit(node.body, guarded or checking)
+                visit(node.orelse, guarded)
+            elif isinstance(node, ast.Try | ast.With | ast.ClassDef):
+                visit(node.body, guarded)
+
+    visit(tree.body, False)
+    return run, typing
+
+
+def test_the_module_level_check_sees_typing_imports() -> None:
+    """The check above is not vacuous: an import under `if TYPE_CHECKING:` is seen, apart."""
+    tree = ast.parse("from ipgen.a import x\nif TYPE_CHECKING:\n    from ipgen.b import Y\n")
+    assert _module_level_imports(tree) == ({"ipgen.a"}, {"ipgen.b"})
 
 
 def test_every_import_names_a_module_of_the_package() -> None:
@@ -191,3 +225,12 @@ def test_the_private_import_check_finds_one(tmp_path: Path) -> None:
     """The check above is not vacuous: `from ipgen.a import _hidden` is reported."""
     (tmp_path / "b.py").write_text("def f():\n    from ipgen.a import _hidden, public, __version__\n")
     assert _private_imports({"ipgen.b": tmp_path / "b.py"}) == {("ipgen.b", "ipgen.a._hidden")}
+
+
+def test_the_old_coordinates_module_still_serves_its_names() -> None:
+    """`ipgen.control.coordinates` (where Coordinates lived) re-exports model.coordinates' objects."""
+    from ipgen.control import coordinates as old
+    from ipgen.model import coordinates as new
+
+    assert all(getattr(old, name) is getattr(new, name) for name in old.__all__)
+    assert set(old.__all__) == {"ANGLES", "POSITIVE", "ZEROS", "CoordinateError", "Coordinates"}

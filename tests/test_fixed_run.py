@@ -269,7 +269,7 @@ def test_plot_and_animate_draw_a_fixed_chain_from_its_csv(tmp_path: Path) -> Non
     from PIL import Image
 
     from ipgen.command.cli import run as cli
-    from ipgen.control.coordinates import Coordinates
+    from ipgen.model.coordinates import Coordinates
     from ipgen.plots.animation import _on_a_still_base, canonical_angles, geometry, read_run
 
     t = np.linspace(0.0, 1.0, 11)

@@ -1,7 +1,7 @@
 """Headers in the rig's coordinates (`--angles`, `--zero`, `--positive`; a scene's [system] keys).
 
 Each generated function in the rig's coordinates (C++ and C, double) is evaluated at a general
-state and checked against things it is not built from: the Python map (control/coordinates.py)
+state and checked against things it is not built from: the Python map (model/coordinates.py)
 for to_canonical and the rates; the kinetic energy ½ q̇ᵀ M_q q̇ of the rig's mass matrix against
 the canonical energy at the mapped state (energies do not depend on the coordinates); the rig's
 gravity vector against central differences of the rig's potential energy; M_q q̈ + b_q = e0 u
@@ -24,8 +24,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import ipgen
-from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.control.linear import EquilibriumWarning
+from ipgen.model.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.pipeline.job import OptionsError, plan
 
 CASES = [

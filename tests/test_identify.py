@@ -438,8 +438,8 @@ def test_data_in_the_rigs_convention_are_converted_in_one_place() -> None:
     converted by Coordinates.to_canonical before the fit."""
     from types import SimpleNamespace
 
-    from ipgen.control.coordinates import Coordinates
     from ipgen.identification.data import Measurements
+    from ipgen.model.coordinates import Coordinates
     from ipgen.pipeline.identify import canonical
 
     convention = Coordinates(zero="hanging", positive="counterclockwise")

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from ipgen.control.coordinates import Coordinates
+from ipgen.model.coordinates import Coordinates
 from ipgen.plots.run import (
     Run,
     display_turns,

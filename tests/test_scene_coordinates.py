@@ -3,7 +3,7 @@
 Independent checks: the scene's LQR gain against ipgen's canonical LQR with the weights carried
 over by hand (Q = Pᵀ Q_user P, K_user = K P⁻¹); the simulator's CSV in the rig's coordinates
 against the same physical run in ipgen's seen through the Python map (so the C++ map of
-ipsim/coordinates.hpp is checked against control/coordinates.py), energies unchanged; the
+ipsim/coordinates.hpp is checked against model/coordinates.py), energies unchanged; the
 animation's geometry from either CSV the same. Bad values: one line naming the key (hypothesis).
 """
 
@@ -26,10 +26,10 @@ from run_summary import simulator_of
 from test_scene import ROTARY, config_dict, make
 
 import ipgen
-from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import SceneError
 from ipgen.experiment.config import resolved_config
 from ipgen.experiment.scene import load_scene
+from ipgen.model.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.plots.animation import canonical_angles, geometry
 from ipgen.plots.animation import read_run as read_run_data
 from ipgen.plots.run import coordinates_beside

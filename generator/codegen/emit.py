@@ -15,8 +15,8 @@ from ipgen.errors import Error
 
 if TYPE_CHECKING:
     from ipgen.codegen.header import HeaderRequest
-    from ipgen.control.coordinates import Coordinates
     from ipgen.model.actuator import Actuator
+    from ipgen.model.coordinates import Coordinates
     from ipgen.model.derivation import Equations
 
 # file suffix -> text (or bytes, for an archive such as the .fmu), for the files of one target

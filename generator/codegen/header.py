@@ -24,8 +24,8 @@ from ipgen.common.install import REINSTALL
 from ipgen.common.safetext import comment_safe
 from ipgen.common.version import __version__
 from ipgen.control.controller import Controller
-from ipgen.control.coordinates import Coordinates
 from ipgen.estimation.printed import PrintedEstimator
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.derivation import Equations
 from ipgen.model.specialise import FUNCTIONS, Specialisation, specialise
 from ipgen.model.system import System, split_parameter

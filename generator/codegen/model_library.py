@@ -13,7 +13,7 @@ from dataclasses import replace
 from ipgen.codegen.c_header import c_number, render_c_header
 from ipgen.codegen.functions import C_SYNTAX
 from ipgen.codegen.header import HeaderRequest, environment, folded_entries, header_context, rod_fills
-from ipgen.control.coordinates import Coordinates
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.derivation import Equations
 
 TEMPLATE = "model_library.c.jinja"

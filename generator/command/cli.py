@@ -26,7 +26,7 @@ from ipgen.pipeline.job import LINKS_WITHOUT_FORCE
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ipgen.control.coordinates import Coordinates
+    from ipgen.model.coordinates import Coordinates
     from ipgen.pipeline.generate import Written
 
 __all__ = ["main", "run"]

@@ -26,7 +26,6 @@ from ipgen.model.system import System
 
 if TYPE_CHECKING:
     import casadi as ca
-    import numpy as np
 
 __all__ = ["CasadiModel", "Plant", "as_plant", "casadi_model", "plant"]
 
@@ -246,13 +245,6 @@ class CasadiModel:
         """(ẋ, ∂ẋ/∂x, ∂ẋ/∂u) of the continuous dynamics as one CasADi function of (x, u)."""
         return _state_jacobians(self)
 
-    def state_derivative(self, x: np.ndarray, u: float) -> np.ndarray:
-        """ẋ = [θ̇; θ̈] at a numeric state (numpy)."""
-        import numpy as np
-
-        dof = self.plant.dof
-        qdd = np.asarray(self.acceleration(x[:dof], x[dof:], u), dtype=float).reshape(-1)
-        return np.concatenate([np.asarray(x[dof:], float), qdd])
 
 
 @lru_cache(maxsize=64)

@@ -186,9 +186,6 @@ def sampled_plan(
     return FixedPlan(period, np.array(inputs), np.array(states), iterations, seconds, knots, held)
 
 
-PLAN_HEADER = "t,u{inputs},x{states}"
-
-
 def write_plan(path: Path, plan: FixedPlan, note: str = "") -> None:
     """The plan's knots and held inputs as a CSV: t, u1..um (held from t; 0 on the last row),
     x1..x2n (the chain's coordinates)."""

@@ -19,10 +19,10 @@ from ipgen.scene.fields import format_number
 
 if TYPE_CHECKING:
     from ipgen.control.controller import Controller, MpcDesign
-    from ipgen.control.coordinates import Coordinates
     from ipgen.control.swingup import SwingUpLaw
     from ipgen.experiment.loop import Loop
     from ipgen.experiment.scene import Scene
+    from ipgen.model.coordinates import Coordinates
 
 # Every key of a resolved config, in the order written, and what it holds (lists: per coordinate,
 # base first; a state x = θ0..θn then θ̇0..θ̇n).

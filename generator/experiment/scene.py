@@ -21,7 +21,6 @@ from ipgen.common.limits import exact_problem
 from ipgen.common.safetext import abbreviate, shown_path
 from ipgen.control import signals
 from ipgen.control.controller import Controller
-from ipgen.control.coordinates import Coordinates
 from ipgen.control.swingup import SwingUpLaw
 from ipgen.errors import SceneError
 from ipgen.experiment import feedback
@@ -29,6 +28,7 @@ from ipgen.experiment import loop as measuring
 from ipgen.experiment import swingup as swing
 from ipgen.experiment.plausibility import unit_slips
 from ipgen.model.actuator import DIRECT, Actuator
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.pendulum import Pendulum, from_scene_object
 from ipgen.model.system import System, parameter_names, split_parameter
 from ipgen.scene import checks, schema

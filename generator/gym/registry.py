@@ -43,11 +43,11 @@ def make(
     source : ipgen.Pendulum, ipgen.FixedPendulum, str or pathlib.Path
         What to simulate. "acrobot" and "pendubot" are the presets acrobot_swingup and
         pendubot_swingup (the RealAIGym leaderboard's rigs).
-    preset : str, optional
-        The same as a preset's name as `source` (e.g. `preset="cartpole-v1"`).
     task : str, optional
         "balance" or "swingup". None (the default): "swingup" for a fixed-pivot scene with a
         [swingup] table, else "balance".
+    preset : str, optional
+        The same as a preset's name as `source` (e.g. `preset="cartpole-v1"`).
     render_mode : str, optional
         "rgb_array" or None.
     **options

@@ -23,7 +23,7 @@ from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 from ipgen.errors import Error
-from ipgen.model.actuator import MOTOR_CONSTANTS, Actuator, motor_terms
+from ipgen.model.actuator import MOTOR_CONSTANTS, motor_terms
 from ipgen.model.pendulum import Pendulum
 from ipgen.model.system import LINK_GROUPS, PARAMETER_GROUPS, System, group_indices, unused_parameter
 
@@ -434,12 +434,3 @@ def _casadi_acceleration(model: StructuralModel) -> Any:
     return casadi.Function("acceleration", [qs, qds, us, ps], [accel])
 
 
-def default_values(setup_values: dict[str, float], actuator: Actuator) -> dict[str, float]:
-    """The motor's constants added to `setup_values` (those of a dc_motor; r only on a cart)."""
-    out = dict(setup_values)
-    if actuator.is_motor:
-        for name in MOTOR_CONSTANTS:
-            value = getattr(actuator, name)
-            if value is not None:
-                out[name] = float(value)
-    return out

@@ -112,7 +112,19 @@ class Actuator:
         return self.kind == "acceleration"
 
     def check(self, system: System) -> None:
-        """ActuatorError (one line) unless this actuator can drive `system`."""
+        """Check that this actuator can drive `system`.
+
+        Parameters
+        ----------
+        system : System
+            The cart or arm it drives (a motor's lever r applies to a cart only).
+
+        Raises
+        ------
+        ActuatorError
+            One line naming the problem: an unknown kind, a motor constant without a motor, a
+            missing or non-positive constant.
+        """
         if self.kind not in ACTUATOR_KINDS:
             raise ActuatorError(
                 f"actuator kind {self.kind!r}: expected 'direct' or 'dc_motor' (u a force or a voltage) "

@@ -262,7 +262,18 @@ class FixedPendulum:
         return Coordinates(self.angles, self.zero, self.positive)
 
     def resolved(self, group: str) -> tuple[float, ...]:
-        """com or J with every entry filled in (the rods' l/2 and m l²/12 where not given)."""
+        """com or J with every entry filled in (the rods' l/2 and m l²/12 where not given).
+
+        Parameters
+        ----------
+        group : {"com", "J"}
+            The group of link values.
+
+        Returns
+        -------
+        tuple of float
+            One per link [m or kg m²].
+        """
         given = getattr(self, group)
         if given is not None:
             return tuple(given)
@@ -271,12 +282,39 @@ class FixedPendulum:
         return tuple(mass * length * length / 12 for mass, length in zip(self.m, self.l, strict=True))
 
     def motor(self, group: str) -> tuple[float, ...]:
-        """Ir (0 where not given) or gr (1 where not given), one per actuated joint."""
+        """Ir (0 where not given) or gr (1 where not given), one per actuated joint.
+
+        Parameters
+        ----------
+        group : {"Ir", "gr"}
+            The rotor inertia [kg m²] or the gear ratio of the joints' motors.
+
+        Returns
+        -------
+        tuple of float
+            One per actuated joint.
+        """
         given = getattr(self, group)
         return tuple(given) if given is not None else (0.0 if group == "Ir" else 1.0,) * self.inputs
 
     def value(self, name: str) -> float:
         """A parameter by name: m1, l2, com1, J2, delta1, coulomb2 (link numbers from 1), g.
+
+        Parameters
+        ----------
+        name : str
+            The group and the link's number from 1, or "g".
+
+        Returns
+        -------
+        float
+            Its value in SI units (com and J filled in as `resolved` does, delta and coulomb 0
+            where not given).
+
+        Raises
+        ------
+        UnknownParameter
+            A name that is no parameter of this chain.
 
         Examples
         --------
@@ -301,7 +339,23 @@ class FixedPendulum:
         return 0.0 if values is None else values[index - 1]
 
     def replace(self, **changes: Any) -> FixedPendulum:
-        """A new FixedPendulum with `changes`, validated again."""
+        """A new FixedPendulum with `changes`, validated again.
+
+        Parameters
+        ----------
+        **changes
+            Fields and their new values, e.g. ``m=[0.6, 0.5]``.
+
+        Returns
+        -------
+        FixedPendulum
+            The changed chain (this one is unchanged).
+
+        Raises
+        ------
+        FixedPendulumError
+            An unknown field, or a value the chain does not take.
+        """
         known = {f.name for f in dataclasses.fields(self) if f.name != "_"}
         unknown = sorted(set(changes) - known)
         if unknown:
@@ -316,6 +370,16 @@ class FixedPendulum:
     def from_scene(cls, path: str | Path) -> FixedPendulum:
         """The chain a fixed scene file describes (`[system] type = "fixed"`; docs/scenes.md).
 
+        Parameters
+        ----------
+        path : str or Path
+            The scene file.
+
+        Returns
+        -------
+        FixedPendulum
+            Its chain, in the scene's coordinates.
+
         Raises
         ------
         SceneError
@@ -328,6 +392,16 @@ class FixedPendulum:
     @classmethod
     def preset(cls, name: str) -> FixedPendulum:
         """A fixed-pivot preset shipped with ipgen by name ("dfki_c0", "dfki_c1"; `ipgen presets`).
+
+        Parameters
+        ----------
+        name : str
+            The preset's name.
+
+        Returns
+        -------
+        FixedPendulum
+            Its chain.
 
         Examples
         --------

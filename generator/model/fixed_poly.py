@@ -25,7 +25,7 @@ from ipgen.model.derivation import Equations, derive
 from ipgen.model.specialise import Specialisation, specialise
 from ipgen.model.system import System
 
-__all__ = ["fixed_poly_equations", "input_columns", "rotor_lever"]
+__all__ = ["fixed_poly_equations", "rotor_lever"]
 
 
 def _held(links: int) -> tuple[tuple[str, Fraction], ...]:
@@ -67,7 +67,3 @@ def rotor_lever(joint: int) -> tuple[tuple[int, str], ...]:
     return ((joint - 1, "gr"), (joint - 2, "1 - gr"))
 
 
-def input_columns(joints: tuple[int, ...]) -> tuple[tuple[tuple[int, int], ...], ...]:
-    """B's columns in ipgen's coordinates, one per input: ((coordinate, ±1), ...) with the torque
-    at joint j on link j (+1) and its reaction on link j − 1 (−1), coordinates 0-based."""
-    return tuple(((j - 1, 1),) if j == 1 else ((j - 1, 1), (j - 2, -1)) for j in joints)

@@ -11,8 +11,8 @@ from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.codegen.header import HeaderRequest
 from ipgen.common.files import prepare_directory, removed_if_left_empty, write_files
 from ipgen.control.controller import Controller
-from ipgen.control.coordinates import Coordinates
 from ipgen.estimation.printed import PrintedEstimator
+from ipgen.model.coordinates import Coordinates
 from ipgen.model.derivation import derive
 from ipgen.model.specialise import FUNCTIONS, Specialisation, format_exact
 from ipgen.model.system import System

@@ -13,9 +13,9 @@ from ipgen.codegen.emit import DEFAULT_EMIT, parse_emit, unsupported
 from ipgen.common.limits import LINKS_WITHOUT_FORCE
 from ipgen.common.naming import name_problem
 from ipgen.common.safetext import abbreviate, shown_path
-from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.errors import Error
 from ipgen.model.actuator import DIRECT
+from ipgen.model.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.model.system import System, group_indices, system_problem
 
 if TYPE_CHECKING:

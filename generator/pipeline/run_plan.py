@@ -33,7 +33,7 @@ from ipgen.common.build_cache import cache_root
 from ipgen.common.limits import MAX_SCENE_BYTES
 
 if TYPE_CHECKING:
-    from ipgen.control.coordinates import Coordinates
+    from ipgen.model.coordinates import Coordinates
 
 # Part of every key: a new layout of the entries gets new keys.
 FORMAT = "ipgen run plan 1"
@@ -61,7 +61,7 @@ class RunPlan:
     @property
     def coordinates(self) -> Coordinates:
         """The scene's coordinates (the convention of the CSV's angles)."""
-        from ipgen.control.coordinates import Coordinates
+        from ipgen.model.coordinates import Coordinates
 
         return Coordinates(self.angles, self.zero, self.positive)
 

@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ipgen.common import files
-from ipgen.control.coordinates import Coordinates
 from ipgen.errors import Error
+from ipgen.model.coordinates import Coordinates
 
 if TYPE_CHECKING:
     import numpy as np

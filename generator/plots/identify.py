@@ -10,8 +10,8 @@ from ipgen.common.files import MARKER
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from ipgen.control.coordinates import Coordinates
     from ipgen.identification.fit import Fit
+    from ipgen.model.coordinates import Coordinates
 
 __all__ = ["coordinates_note", "identify_figure", "identify_png"]
 

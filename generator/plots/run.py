@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from ipgen.common import files
 from ipgen.common.safetext import shown_path
-from ipgen.control.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
+from ipgen.model.coordinates import ANGLES, POSITIVE, ZEROS, Coordinates
 from ipgen.plots.animation import PlotError  # one error class for every picture of a run
 
 if TYPE_CHECKING:

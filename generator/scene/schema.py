@@ -41,8 +41,8 @@ from pydantic import (
 
 from ipgen.codegen.emit import DEFAULT_EMIT, TARGETS
 from ipgen.common import limits
-from ipgen.control import coordinates as frame
 from ipgen.control import signals
+from ipgen.model import coordinates as frame
 from ipgen.model import system as model
 from ipgen.scene import checks
 from ipgen.scene import controller as control
