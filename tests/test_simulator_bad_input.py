@@ -10,7 +10,9 @@ in folders with any name are read back unchanged) and 9 (messages stay one bound
 
 from __future__ import annotations
 
+import math
 import os
+import re
 import resource
 import signal
 import subprocess
@@ -456,3 +458,69 @@ def test_class9_messages_stay_one_bounded_line(where: str, text: str) -> None:
             args += [where, "x" + text]
         cfg.write_text("\n".join(lines) + "\n")
         assert_clean_error(simulate(*args), where)
+
+
+# ---------------------------------------------------------------- an underflowing step
+
+
+FREE_CART = """\
+[system]
+type = "classical"
+links = 1
+name = "cart1"
+[parameters]
+m = [1, 0.5]
+l = [0, 0.5]
+delta = [{d0}, 0]
+[initial]
+dtheta = [{rate}, 0]
+[simulation]
+t_end = 0.01
+sample = {sample}
+method = "{method}"
+"""
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=CHECKS)
+@given(
+    exponent=st.floats(200, 308),
+    damped=st.booleans(),
+    method=st.sampled_from(["bdf", "adams", "erk-dp5", "erk-fehlberg8"]),
+    sample=st.sampled_from(["0.01", "0.0025"]),
+)
+def test_a_step_that_underflows_is_an_integration_failure(
+    exponent: float, damped: bool, method: str, sample: str
+) -> None:
+    """Rates or damping near 1e300 make the first step underflow (t + h = t), where CVODE and
+    ARKODE warn and "continue anyway", returning the start state at every output time. The run
+    must fail (exit 1, CV_WARNING or ARK_WARNING named with the time) or be right: a free cart
+    moves at its rate (θ0 = v t); one damped by δ0 = v has stopped within 1e-300 s, having moved a
+    few metres at most (momentum: δ0 Δθ0 is at most twice the start's (m0 + m1) v)."""
+    rate = 10.0**exponent
+    d0 = rate if damped else 0.0
+    with tempfile.TemporaryDirectory() as folder:
+        toml = Path(folder) / "cart1.toml"
+        toml.write_text(
+            FREE_CART.format(d0=toml_number(d0), rate=toml_number(rate), sample=sample, method=method)
+        )
+        try:
+            cfg_text = resolved_config(load_scene(toml))
+        except SceneError:
+            event("refused by ipgen")
+            return
+        cfg = Path(folder) / "cart1.cfg"
+        cfg.write_text(cfg_text)
+        result = simulate(str(cfg), "--csv", str(Path(folder) / "out.csv"))
+        if result.returncode != 0:
+            event("failed")
+            assert result.returncode == 1, result.stderr
+            failure = r"^simulate: error: (CVODE|ARKODE) failed with (CV|ARK)_[A-Z_]+ at t = "
+            assert re.search(failure, result.stderr), result.stderr
+            return
+        event("ran")
+        rows = (Path(folder) / "out.csv").read_text().splitlines()[1:]
+        t, theta0, _, dtheta0 = (float(v) for v in rows[-1].split(",")[:4])
+        if damped:
+            assert abs(theta0) <= 2 * 1.5 * rate / d0 and abs(dtheta0) < 1e-6 * rate, rows
+        else:
+            assert math.isclose(theta0, rate * t, rel_tol=1e-6) and dtheta0 == rate, rows

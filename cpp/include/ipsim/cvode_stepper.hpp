@@ -69,6 +69,11 @@ class CvodeStepper {
     if (flag < 0) {
       throw integration_error("CVODE", flag, sundials::return_flag_name(flag), reached, settings_, explain(flag, reached));
     }
+    // A step that underflowed (t + h = t: CVODE warns and "continues anyway") leaves CVODE's own time
+    // behind the output it returns, which it then extrapolated: not a solution.
+    realtype internal = 0.0;
+    check(CVodeGetCurrentTime(mem, &internal), "CVodeGetCurrentTime");
+    if (internal < reached) throw integration_error("CVODE", CV_WARNING, "CV_WARNING", internal, settings_, step_underflow());
     warn_if_stiff(reached);
   }
 

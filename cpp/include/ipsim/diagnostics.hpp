@@ -28,6 +28,13 @@ void check_setup(int flag, const char* call, FlagName flag_name) {
   if (flag != 0) throw Error(std::string(call) + " failed with " + flag_name(flag));
 }
 
+/// Why a run whose step underflowed (t + h = t) stops: the integrator's time no longer moves.
+inline std::string step_underflow() {
+  return "the step size underflowed (t + h = t), so the integrator's time stopped while the output went on: the "
+         "derivatives are too large for double precision (rates, forces or parameters near 1e300?): check the "
+         "scene's numbers";
+}
+
 /// "`integrator` failed with FLAG at t = … s (settings)[: explanation]" as an IntegrationError.
 template <class Model>
 IntegrationError integration_error(const char* integrator, int flag, std::string flag_name, double t,

@@ -60,6 +60,9 @@ class ErkStepper {
       throw integration_error("ARKODE", flag, sundials::erk_return_flag_name(flag), reached, settings_,
                               explain(flag, reached));
     }
+    realtype internal = 0.0;  // behind the output: a step that underflowed (cvode_stepper.hpp)
+    check(ERKStepGetCurrentTime(mem, &internal), "ERKStepGetCurrentTime");
+    if (internal < reached) throw integration_error("ARKODE", ARK_WARNING, "ARK_WARNING", internal, settings_, step_underflow());
     warn_if_stiff(reached);
   }
 
