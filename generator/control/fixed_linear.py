@@ -14,7 +14,7 @@ import numpy as np
 
 from ipgen.common.arrays import float_array
 from ipgen.common.safetext import abbreviate
-from ipgen.control.linear import ControlError, check_stabilisable, checked_vector, weights
+from ipgen.control.linear import ControlError, checked_vector, continuous_lqr_gain, weights
 from ipgen.model.coordinates import rests
 from ipgen.model.fixed import FixedPendulum
 from ipgen.model.fixed_equations import angle_map, state_map
@@ -83,23 +83,12 @@ def lqr_fixed(
     >>> lqr_fixed(p, Q=[1, 1, 1, 1], R=1.0).shape
     (2, 4)
     """
-    from scipy.linalg import solve_continuous_are
-
     n, inputs = p.links, p.inputs
     angles = fixed_equilibrium(p, equilibrium)
     a, b = linearize_fixed(p, angles, None, None)
     q, _ = weights(Q, 1.0, 2 * n)
     r = _input_weights(R, inputs)
-    check_stabilisable(a, b, q)
-    try:
-        riccati = solve_continuous_are(a, b, q, r)
-    except (np.linalg.LinAlgError, ValueError) as exc:
-        raise ControlError(f"the Riccati equation has no stabilising solution ({exc})") from None
-    k = np.linalg.solve(r, b.T @ riccati)
-    poles = np.linalg.eigvals(a - b @ k)
-    if not np.all(np.isfinite(k)) or np.max(poles.real) >= 0:
-        raise ControlError(f"the LQR gain does not stabilise the linear model (poles {np.round(poles, 4)})")
-    return k
+    return continuous_lqr_gain(a, b, q, r)
 
 
 def _input_weights(R: float | Sequence[float] | np.ndarray, inputs: int) -> np.ndarray:

@@ -39,10 +39,12 @@ __all__ = [
     "ControlError",
     "Dynamics",
     "EquilibriumWarning",
+    "NotStabilisable",
     "VectorField",
     "as_pendulum",
     "check_stabilisable",
     "closed_loop_poles",
+    "continuous_lqr_gain",
     "dynamics",
     "equilibrium_state",
     "linearize",
@@ -59,6 +61,10 @@ MAX_WEIGHT = 1e100
 
 class ControlError(Error):
     """A controller that cannot be computed (bad weights, an uncontrollable pair, ...)."""
+
+
+class NotStabilisable(ControlError):
+    """The rank test's verdict that the input cannot move an unstable mode (`check_stabilisable`)."""
 
 
 class CallError(ControlError, TypeError):
@@ -708,18 +714,27 @@ def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
     >>> check_stabilisable(np.diag([1.0, -1.0]), np.array([[1.0], [0.0]]), np.eye(2))  # fine: None
     """
     import numpy as np
+    from scipy.linalg import matrix_balance
 
     size = a.shape[0]
     eigenvalues = np.linalg.eigvals(a)
-    scale = max(1.0, float(np.linalg.norm(a, 2)))
+    # The rank tests run on the balanced model (the states rescaled: T⁻¹ A T, T⁻¹ B, C T) with each
+    # input column and each weighted row of C scaled to A's size. None of that changes a rank, but
+    # the units did: a 10⁷ kg cart's B is 10⁷ times smaller than a 1 kg cart's, and a 10 nm link's
+    # A 10⁸ times larger than its B, below a tolerance absolute in A's units (refused as "not
+    # stabilisable" where scipy's Riccati gain stabilises).
+    balanced, (scaling, _) = matrix_balance(a, permute=False, separate=True)
+    scale = max(1.0, float(np.linalg.norm(balanced, 2)))
+    inputs = _rows_to(np.asarray(b, float).T / scaling, scale).T
     w, v = np.linalg.eigh(q)
-    c = (v * np.sqrt(np.clip(w, 0.0, None))).T  # Q = cᵀ c
+    w = np.where(w > 1e-15 * max(float(w.max()), 0.0), w, 0.0)  # a semidefinite Q's rounding: no weight
+    c = _rows_to((v * np.sqrt(w)).T * scaling, scale)  # Q = cᵀ c, then C T
     for lam in eigenvalues:
         if lam.real < -1e-9 * scale:
             continue  # a stable mode needs neither
-        shifted = a - lam * np.eye(size)
-        if np.linalg.matrix_rank(np.hstack([shifted, b]), tol=1e-9 * scale) < size:
-            raise ControlError(
+        shifted = balanced - lam * np.eye(size)
+        if np.linalg.matrix_rank(np.hstack([shifted, inputs]), tol=1e-9 * scale) < size:
+            raise NotStabilisable(
                 f"(A, B) is not stabilisable: the mode at s = {lam:.4g} cannot be moved by the input; "
                 "no gain can stabilise this equilibrium"
             )
@@ -728,6 +743,14 @@ def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
                 f"(A, Q) is not detectable: Q puts no weight on the mode at s = {lam:.4g}; "
                 "give the states of that mode a positive weight"
             )
+
+
+def _rows_to(matrix: np.ndarray, size: float) -> np.ndarray:
+    """`matrix` with each nonzero row scaled to the 2-norm `size` (zero rows stay zero)."""
+    import numpy as np
+
+    norms = np.linalg.norm(matrix, axis=1, keepdims=True)
+    return np.where(norms > 0, matrix * (size / np.where(norms > 0, norms, 1.0)), 0.0)
 
 
 def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
@@ -835,7 +858,6 @@ def _lqr(
 ) -> np.ndarray:
     """`lqr` of a Pendulum (its coordinates for K, Q and an equilibrium given as angles)."""
     import numpy as np
-    from scipy.linalg import solve_continuous_are
 
     convention = p.coordinates
     links, dof = p.links, p.dof
@@ -859,14 +881,41 @@ def _lqr(
         matrix, _ = convention.matrices(links)
         a, b = matrix @ a @ np.linalg.inv(matrix), matrix @ b
     q, r = weights(Q, R, 2 * dof)
-    check_stabilisable(a, b, q)
+    return continuous_lqr_gain(a, b, q, r).reshape(1, -1)
+
+
+def continuous_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """K = R⁻¹ Bᵀ P of the continuous LQR (scipy's `solve_continuous_are`), m × n, its closed loop
+    A − B K checked stable; (A, B) stabilisable and (A, Q) detectable checked first
+    (`check_stabilisable`). The rank test's "not stabilisable" stands only when the Riccati gain
+    does not stabilise either: a rank decision needs a tolerance, which a stiff model (modes 10⁸
+    apart: a 0.1 mm arm with damping) defeats, where the gain's poles are checked as they are.
+
+    Raises
+    ------
+    ControlError
+        An unstabilisable pair, an undetectable one, or a Riccati equation without a stabilising
+        solution.
+    """
+    import numpy as np
+    from scipy.linalg import solve_continuous_are
+
+    doubted: NotStabilisable | None = None
+    try:
+        check_stabilisable(a, b, q)
+    except NotStabilisable as refusal:
+        doubted = refusal
     try:
         riccati = solve_continuous_are(a, b, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
+        if doubted is not None:
+            raise doubted from None
         raise ControlError(f"the Riccati equation has no stabilising solution ({exc})") from None
-    k = np.linalg.solve(r, b.T @ riccati).reshape(1, -1)
+    k = np.linalg.solve(r, b.T @ riccati)
     poles = np.linalg.eigvals(a - b @ k)
-    if not np.all(np.isfinite(k)) or np.max(poles.real) >= 0:
+    if not np.all(np.isfinite(k)) or not np.all(np.isfinite(poles)) or np.max(poles.real) >= 0:
+        if doubted is not None:
+            raise doubted
         raise ControlError(f"the LQR gain does not stabilise the linear model (poles {np.round(poles, 4)})")
     return k
 

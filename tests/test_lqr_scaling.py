@@ -1,0 +1,58 @@
+"""The LQR's stabilisability test does not depend on units (an audit found lqr refusing, as "no
+gain can stabilise this equilibrium", a 10⁷ kg cart, a 10 nm link and δ0 = 10⁵ N s/m, where
+scipy's Riccati gain stabilises them): a cart or arm pendulum of any scale is stabilisable (its
+input reaches every mode), and a pair that is not stays refused after any change of units."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import ipgen
+from ipgen.control import linear as control
+from ipgen.control.linear import ControlError
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    kind=st.sampled_from(["classical", "rotary"]),
+    links=st.integers(1, 2),
+    mass=st.floats(-3, 7),
+    length=st.floats(-8, 3),
+    damping=st.one_of(st.just(0.0), st.floats(-3, 5).map(lambda e: 10.0**e)),
+)
+def test_a_pendulum_of_any_scale_gets_a_stabilising_gain(
+    kind: str, links: int, mass: float, length: float, damping: float
+) -> None:
+    m = [10.0**mass] * (links + 1)
+    lengths = [10.0**length if kind == "rotary" else 0.0] + [10.0**length] * links
+    p = ipgen.Pendulum(kind, links, m=m, l=lengths, delta=[damping] + [0.0] * links)
+    a, b = ipgen.linearize(p)
+    try:
+        k = ipgen.lqr(p, Q=[1.0] * (2 * links + 2), R=1.0)
+    except ControlError as error:
+        assert "not stabilisable" not in str(error), (m, lengths, damping)
+        return  # a Riccati solve that fails numerically says so, and only that
+    assert np.max(np.linalg.eigvals(a - b @ k).real) < 0
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    exponents=st.lists(st.floats(-8, 8), min_size=2, max_size=2),
+    input_scale=st.floats(-8, 8),
+    angle=st.floats(0.1, 1.4),
+)
+def test_an_unstabilisable_pair_stays_refused_in_any_units(
+    exponents: list[float], input_scale: float, angle: float
+) -> None:
+    """Two copies of one unstable mode driven by one input column (never separable), seen in
+    other units: states scaled and rotated, the input scaled."""
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    t = np.diag([10.0**e for e in exponents]) @ rotation
+    a = t @ np.diag([1.0, 1.0]) @ np.linalg.inv(t)
+    b = t @ np.array([[1.0], [1.0]]) * 10.0**input_scale
+    with pytest.raises(ControlError, match="not stabilisable"):
+        control.check_stabilisable(a, b, np.eye(2))
+    control.check_stabilisable(t @ np.diag([1.0, 2.0]) @ np.linalg.inv(t), b, np.eye(2))  # distinct: fine
