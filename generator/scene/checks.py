@@ -115,12 +115,11 @@ def lengths(values: tuple[Decimal, ...], system_type: str) -> None:
 
 
 def links_as_built(table: Any, context: dict[str, Any]) -> None:
-    """The link arrays a [parameters] table gives (com, J, J_axial, tip) describe real bodies
-    (`model.links`): J_axial only for a rotary system with inertia full, J_axial <= 2 J, some
-    inertia about every pivot. Each array's entries are checked by its declaration."""
+    """The link arrays a [parameters] table gives (com, J, J_axial, tip), or the rods m and l
+    describe without them, are real bodies (`model.links`): J_axial only for a rotary system with
+    inertia full, J_axial <= 2 J, some inertia about every pivot, every value finite in double.
+    Each array's entries are checked by its declaration."""
     given = table.links_as_built()
-    if not given:
-        return  # the rods: nothing to check
     axial = getattr(table, "J_axial", None)
     if axial is not None and not (context["type"] == "rotary" and context.get("inertia") == "full"):
         refuse('counts only for a rotary system with inertia = "full"', key="J_axial", value=list(axial))
@@ -135,8 +134,9 @@ def links_as_built(table: Any, context: dict[str, Any]) -> None:
             [float(number) for number in table.lengths(context["type"])],
             {group: [float(number) for number in values] for group, values in given},
         )
-    except LinkError as problem:
-        refuse_line(f"parameters: {problem}")
+    except LinkError as problem:  # the rods too: a double must hold m l²/12 (l = 1e200 m does not)
+        rods = "" if given else "the rods these m and l describe: "
+        refuse_line(f"parameters: {rods}{problem}")
 
 
 def foldable(decimals: tuple[tuple[str, str], ...], free: tuple[str, ...], system_type: str) -> None:
