@@ -576,6 +576,7 @@ class Mpc:
             )
         self.hessian = hessian
         self._setup()
+        _check_rk4_stable(self.pendulum, self.x_ref, float(self.u_ref[0]), self.period, self.substeps)
         self.P = self.lqr_terminal() if P is None else _weights(P, 1.0, nx, "P")[0]
         self._arrays["P"][:] = self.P.reshape(-1)
         self.info: StepInfo | None = None
@@ -821,6 +822,50 @@ class Mpc:
                 f"no terminal weight: the discrete Riccati equation at the reference has no solution ({e})"
             ) from None
         return (p + p.T) / 2
+
+
+# RK4's growth factor over one step of a linear mode ẋ = λ x, z = h λ: the Taylor polynomial of e^z.
+def _rk4_growth(z: complex) -> float:
+    return abs(1 + z + z * z / 2 + z**3 / 6 + z**4 / 24)
+
+
+def _check_rk4_stable(
+    pendulum: Pendulum | FixedPendulum, x_ref: np.ndarray, u_ref: float, period: float, substeps: int
+) -> None:
+    """An MpcError unless RK4 with `substeps` steps a sample keeps every mode of the model at the
+    reference that does not grow (Re λ <= 0) from growing in the prediction (|R(h λ)| <= 1, h the
+    step): a stiff mode (heavy damping on a light body: λ = −909 s⁻¹ at 10 ms, h λ = −9) made every
+    QP break down and the loop diverge with advice that did not name the cause."""
+    from ipgen.control import fixed_linear, linear
+
+    dof = pendulum.dof if isinstance(pendulum, Pendulum) else pendulum.links
+    q, qd = x_ref[:dof], x_ref[dof:]
+    try:
+        if isinstance(pendulum, FixedPendulum):
+            a, _ = fixed_linear.linearize_fixed(pendulum.canonical(), q, qd, [u_ref])
+        else:
+            a, _ = linear.linearize(pendulum.canonical(), q, qd, u_ref)
+        modes = np.linalg.eigvals(a)
+    except (Error, np.linalg.LinAlgError, ValueError):
+        return  # the model's own checks (the terminal weight's Riccati equation) say what is wrong
+    settled = [mode for mode in modes if np.isfinite(mode) and mode.real <= 0]
+
+    def stable(steps: int) -> bool:
+        step = period / steps
+        return all(_rk4_growth(complex(step * mode)) <= 1 + 1e-9 for mode in settled)
+
+    if stable(substeps):
+        return
+    worst = max(settled, key=lambda mode: _rk4_growth(complex(period / substeps * mode)))
+    enough = next((steps for steps in range(substeps + 1, 101) if stable(steps)), None)
+    fix = "even 100 substeps are not enough: a shorter period"
+    if enough:
+        fix = f"give substeps = {enough}, or a shorter period"
+    raise MpcError(
+        f"substeps {substeps}: the prediction's RK4 step of {period / substeps:g} s is unstable for the "
+        f"model's mode at s = {complex(worst):.4g} 1/s at the reference (a stiff one: RK4 needs |h s| below "
+        f"about 2.8): {fix}"
+    )
 
 
 def mpc(
