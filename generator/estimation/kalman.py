@@ -61,6 +61,11 @@ class Kalman:
         return np.linalg.eigvals(self.A - self.L @ self.C)
 
 
+# A mode growing more than this over one sample (|eig A_d|, A_d = e^(A T)) cannot be estimated in
+# double precision: the Riccati equation's numbers span more than its digits (a 0.1 s period on a
+# 10 nm link: 1e17; 100 s on a cart pendulum: 1e244).
+MAX_SAMPLE_GROWTH = 1e8
+
 def discretize(a: np.ndarray, b: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of the zero-order-hold discretisation of (A_c, B_c) at `period` (expm)."""
     import numpy as np
@@ -141,7 +146,15 @@ def kalman(
     dof = model.dof
     indices = measured_indices(measured, dof)
     x_eq = equilibrium_of(model, equilibrium)
-    a, b = linear_model(model, period_, x_eq)
+    with np.errstate(over="ignore", invalid="ignore"):  # e^(A T) may overflow: checked next
+        a, b = linear_model(model, period_, x_eq)
+    growth = float(np.max(np.abs(np.linalg.eigvals(a)))) if np.all(np.isfinite(a)) else float("inf")
+    if not growth < MAX_SAMPLE_GROWTH:  # e^(λ T) far beyond what a Riccati solve takes: the period's fault
+        raise EstimationError(
+            f"period {period_:g} s: the model's fastest-growing mode grows by {growth:.3g} over one sample, "
+            "too much to estimate between two measurements: sample faster (a period well below the time "
+            "the upright takes to fall)"
+        )
     c = np.zeros((len(indices), 2 * dof))
     for row, index in enumerate(indices):
         c[row, index] = 1.0
@@ -150,9 +163,10 @@ def kalman(
     try:
         p = solve_discrete_are(a.T, c.T, qn, rn)
     except (np.linalg.LinAlgError, ValueError) as exc:
+        fast = f"; or sample faster: a mode grows by {growth:.3g} over one sample" if growth > 100 else ""
         raise EstimationError(
             f"no steady-state Kalman filter ({exc}): measure more coordinates (measured = "
-            f"{list(indices)}) or give every mode process noise"
+            f"{list(indices)}) or give every mode process noise{fast}"
         ) from None
     p = 0.5 * (p + p.T)
     innovation = c @ p @ c.T + rn
