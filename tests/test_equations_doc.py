@@ -347,3 +347,84 @@ def test_scene_path_is_escaped(tmp_path: Path) -> None:
     assert markdown_escape(shown) in markdown and tex_escape(shown) in tex
     assert "m1 = 0.275" in markdown
     compile_tex(tex, out, "cdip")
+
+
+# --------------------------------------------------------------------------- as a person writes them
+
+
+def _line(text: str, lhs: str) -> str:
+    """The displayed right-hand side of `lhs` in a Markdown document (its continuation lines too)."""
+    return displayed(text, "md")[lhs]
+
+
+def test_kinetic_energies_are_written_as_a_person_would() -> None:
+    """T_i in cos(θa − θb) and collected terms (the expanded components' squares printed
+    1/24 + 1/8 cos² + 1/8 sin² for a rod's 1/6, and capped T_6 of a 6-link cart at 50 terms)."""
+    double = documents("classical", 2)[".md"]
+    assert r"\cos(\theta_{1} - \theta_{2})" in _line(double, "T_{2}")
+    assert r"\sin \theta_{1}" not in _line(double, "T_{2}")
+    single = _line(documents("rotary", 1)[".md"], "T_{1}")
+    assert single.count(r"l_{1}^{2} \dot{\theta}_{1}^{2}") == 1
+    assert r"\tfrac{1}{6} m_{1} l_{1}^{2} \dot{\theta}_{1}^{2}" in single
+    assert r"\cos^{2}" not in single
+
+
+@pytest.mark.parametrize(("kind", "links"), [("classical", 7), ("rotary", 5)])
+def test_nothing_is_capped_up_to_the_sizes_the_docs_name(kind: str, links: int) -> None:
+    """docs/generator.md: "Nothing is capped up to n = 7 (classical) and n = 5 (rotary)"."""
+    assert "not expanded" not in documents(kind, links)[".md"]
+
+
+BUILT_SCENE = """\
+[system]
+type = "rotary"
+links = 1
+name = "built"
+emit = ["equations"]
+[parameters]
+m = [0.1, 0.05]
+l = [0.1, 0.2]
+delta = [0, 0]
+J = [0.001, 0.002]
+com = [0, 0.1]
+tip = [0, 0.05]
+[simulation]
+t_end = 1.0
+"""
+
+
+def test_a_scene_with_links_as_built_prints_them(tmp_path: Path) -> None:
+    """A scene's com, J and tip reach the documents (they printed the paper's rods: J0 = m0 l0²/3,
+    M_01 with l1/2), and every entry reads back as the general derivation's."""
+    scene = tmp_path / "built.toml"
+    scene.write_text(BUILT_SCENE)
+    assert run(["--scene", str(scene), "-o", str(tmp_path / "out")]) == 0
+    text = (tmp_path / "out" / "built.md").read_text()
+    assert "homogeneous rods" not in text and r"J_{0} = m_{0} l_{0}^{2}/3" not in text
+    eqs = derive(System("rotary", 1, "pivot"))
+    found = {lhs: parse(rhs, eqs.symbols) for lhs, rhs in displayed(text, "md").items()}
+    wanted = expected_entries(eqs)
+    assert not sorted(set(wanted) - set(found)), "not displayed"
+    for lhs, value in wanted.items():
+        assert_identical(found[lhs], value, eqs.symbols.q, f"built.md: {lhs}")
+    assert r"\mathrm{com}_{1}" in _line(text, "M_{01}") and r"\mathrm{tip}_{1}" in _line(text, "M_{01}")
+
+
+@pytest.mark.parametrize(
+    ("kind", "sentence"),
+    [("dc_motor", "with a DC motor"), ("acceleration", "acceleration (`[actuator] kind"), ("direct", None)],
+)
+def test_the_scene_s_drive_is_named(tmp_path: Path, kind: str, sentence: str | None) -> None:
+    drive = {
+        "dc_motor": 'kind = "dc_motor"\nRm = 8.4\nkt = 0.042\nkm = 0.042\n',
+        "acceleration": 'kind = "acceleration"\n',
+    }
+    scene = tmp_path / "driven.toml"
+    scene.write_text(BUILT_SCENE.replace("[simulation]", f"[actuator]\n{drive.get(kind, '')}[simulation]"))
+    assert run(["--scene", str(scene), "-o", str(tmp_path / "out")]) == 0
+    texts = [(tmp_path / "out" / f"built{suffix}").read_text() for suffix in (".md", ".tex")]
+    for text in texts:
+        if sentence is None:
+            assert "DC motor" not in text and "commands the" not in text
+        else:
+            assert sentence.replace("`", "\\texttt{") in text or sentence in text

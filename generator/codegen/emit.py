@@ -61,7 +61,8 @@ def _equations(eqs: Equations, request: HeaderRequest) -> Rendered:
     from ipgen.codegen.equations import render_equations
     from ipgen.model.system import LINK_GROUPS, split_parameter
 
-    built = any(split_parameter(name)[0] in LINK_GROUPS for name, _ in request.specialisation.fixed)
+    named = [name for name, _ in request.specialisation.fixed] + [name for name, _ in request.parameters]
+    built = any(split_parameter(name)[0] in LINK_GROUPS for name in named)
     return render_equations(eqs if built else eqs.rod(), request)
 
 

@@ -137,7 +137,8 @@ class _Builder:
         lines = []
         if system.is_rotary:
             title = "The arm (body 0)"
-            lines.append(self.line("J_{0}", inertia))
+            if self.eqs.rod_links:  # as built, J0 is a parameter of its own (J_0 = J_0 said nothing)
+                lines.append(self.line("J_{0}", inertia))
         else:
             title = "The cart (body 0)"
             lines.append(self.line("x_{0}", sym.q[0]))
@@ -172,7 +173,7 @@ class _Builder:
                 def velocity(r: sp.Expr, z: sp.Expr) -> list[sp.Expr]:
                     return [-r * qd[0], sym.l[0] * qd[0] + rate(r), rate(z)]
 
-                parts, far_parts = velocity(reach, height), velocity(far_reach, far_height)
+                parts = velocity(reach, height)
                 lines = [
                     self.line(f"r_{{{k_}}}", reach),
                     self.line(f"z_{{{k_}}}", height),
@@ -182,19 +183,21 @@ class _Builder:
                 ]
             else:
                 parts = [qd[0] + rate(reach), rate(height)]
-                far_parts = [qd[0] + rate(far_reach), rate(far_height)]
                 lines = [
                     self.line(f"x_{{{k_}}}", q[0] + reach),
                     self.line(f"z_{{{k_}}}", height),
                     self.line(rf"\dot{{x}}_{{{k_}}}", parts[0]),
                     self.line(rf"\dot{{z}}_{{{k_}}}", parts[1]),
                 ]
-            kinetic = sym.m[i] * sum(v**2 for v in parts) / 2 + spin * qd[i] ** 2 / 2
+            # The speeds squared written as a person would (cos(θa − θb), not the expanded sines and
+            # cosines of the components above): CoG at com_i along link i, the tip at its far end.
+            arms = [(sym.l[k], k) for k in range(1, i)]
+            kinetic = sym.m[i] * self.speed_squared([*arms, (com, i)]) / 2 + spin * qd[i] ** 2 / 2
             if system.is_rotary and system.inertia == "full":
                 kinetic += (spin * s**2 + axial * c**2) * qd[0] ** 2 / 2
             potential = sym.m[i] * sym.g * height
             if tip != 0:
-                kinetic += tip * sum(v**2 for v in far_parts) / 2
+                kinetic += tip * self.speed_squared([*arms, (sym.l[i], i)]) / 2
                 potential += tip * sym.g * far_height
             damping = dissipation.coeff(sym.delta[i]) * sym.delta[i]
             lines += [
@@ -204,6 +207,23 @@ class _Builder:
             ]
             blocks.append(Block(f"Link {i} (body {i})", lines))
         return blocks
+
+    def speed_squared(self, terms: list[tuple[sp.Expr, int]]) -> sp.Expr:
+        """|v|² of a point at Σ c_k (sin θk, cos θk) from the link plane's pivot line, `terms` the
+        (c_k, k): its in-plane velocity is the base's b plus Σ c_k θ̇k (cos θk, −sin θk) (b = θ̇0 for
+        a cart, l0 θ̇0 across the arm), so |v|² = b² + 2 b Σ c_k θ̇k cos θk + Σ_a Σ_b c_a c_b θ̇a θ̇b
+        cos(θa − θb); an arm adds the speed along it, r θ̇0 with r = Σ c_k sin θk."""
+        sym = self.sym
+        q, qd = sym.q, sym.qd
+        base = qd[0] if not self.system.is_rotary else sym.l[0] * qd[0]
+        total = base**2 + 2 * base * sum(c * qd[k] * sp.cos(q[k]) for c, k in terms)
+        for a, (ca, ka) in enumerate(terms):
+            total += ca**2 * qd[ka] ** 2
+            for cb, kb in terms[a + 1 :]:
+                total += 2 * ca * cb * qd[ka] * qd[kb] * sp.cos(q[ka] - q[kb])
+        if self.system.is_rotary:
+            total += (sum(c * sp.sin(q[k]) for c, k in terms) * qd[0]) ** 2
+        return total
 
     def dissipation_line(self, lhs: str, damping: sp.Expr, i: int) -> Line:
         """½ δi (θ̇i − θ̇(i−1))² written as such (the Rayleigh term of link i)."""
@@ -320,6 +340,7 @@ def _context(eqs: Equations, request: HeaderRequest) -> dict:
         "rod_links": eqs.rod_links,
         "frame": frame_context(request.coordinates),
         "fixed_pivot": False,
+        "drive": request.drive,
     }
 
 
@@ -356,6 +377,7 @@ def _fixed_context(name: str, command: str, joints: tuple[int, ...], links: int)
         "fixed_pivot": True,
         "rod_links": False,
         "frame": None,
+        "drive": "direct",
         "joints": list(joints),
         "inputs": len(joints),
         "torques": result[3],

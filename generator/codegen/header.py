@@ -89,6 +89,9 @@ class HeaderRequest:
     coordinates: Coordinates = field(default_factory=Coordinates)
     # A scene's state estimator for the sampled loop ([sensors], [estimator]), for the C header.
     estimator: PrintedEstimator | None = None
+    # A scene's drive ([actuator] kind: "direct", "dc_motor" or "acceleration"), which the
+    # equations documents name (their u is the direct force or torque whatever the drive).
+    drive: str = "direct"
 
 
 def templates_dir() -> Path:

@@ -75,6 +75,7 @@ def generate(
     coordinates: Coordinates | None = None,
     estimator: PrintedEstimator | None = None,
     keep: tuple[Path, ...] = (),
+    drive: str = "direct",
 ) -> list[Written]:
     """Derive `system` once, render every target of `emit` (specialised by `spec`) as
     `DIR/<name><suffix>`, plus `extra_files` ((file name, text), e.g. a resolved scene), and
@@ -83,7 +84,8 @@ def generate(
     the targets that carry start values (the FMU); `swingup` (a scene's) to the C header;
     `coordinates` (default ipgen's) are those the headers' functions take and return;
     `estimator` (a scene's sampled loop's) to the C header; `keep`: the command's inputs (its
-    scene), never written, even with force."""
+    scene), never written, even with force; `drive` (a scene's [actuator] kind) to the equations
+    documents, which name it."""
     report = progress or (lambda step: None)
     equations = derive(system, report)
     frame = coordinates if coordinates is not None else Coordinates()
@@ -97,6 +99,7 @@ def generate(
         swingup,
         frame,
         estimator,
+        drive,
     )
     files: list[tuple[Path, str | bytes]] = []
     for target in emit:

@@ -276,6 +276,7 @@ def run(job: Job, progress: Callable[[str], None] | None = None) -> list[Written
         coordinates=job.coordinates,
         estimator=printed_estimator(job.scene) if job.scene is not None else None,
         keep=(job.scene.path,) if job.scene is not None else (),
+        drive=job.scene.actuator.kind if job.scene is not None else "direct",
     )
 
 
