@@ -1,7 +1,8 @@
 """A command that fails or is interrupted after making its output folder leaves no empty folder
 behind (common/files.py `removed_if_left_empty`): generate, run (a first compile that fails),
 plot, identify and sweep, for -o folders nested at any depth under one that exists. A folder with
-anything in it, and every folder that existed before, stays."""
+anything in it, every folder that existed before, and one another process made meanwhile (a
+concurrent run into the same new -o) stays; a run whose folder another one removed makes it again."""
 
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ def test_the_folders_a_failed_block_made_empty_are_removed(
     made = [have.joinpath(*(f"n{k}" for k in range(j + 1))) for j in range(new)]  # outermost first
     kept_file = None
     try:
-        with files.removed_if_left_empty(target):
+        with files.removed_if_left_empty():
             files.prepare_directory(target)
             if written is not None:
                 kept_file = made[min(written, new - 1)] / "result.txt"
@@ -83,16 +84,10 @@ def test_generate_leaves_no_folder(
     assert _tree(tmp_path) == []
 
 
-def _recording(folder: Path) -> Path:
-    path = folder / "run.csv"
-    rows = ["t,theta0,theta1,dtheta0,dtheta1"]
-    rows += [f"{k * 0.05:.2f},{0.01 * k:.4f},{0.1 * k:.4f},0.2,2.0" for k in range(6)]
-    path.write_text("\n".join(rows) + "\n")
-    return path
-
-
 def test_plot_and_animate_leave_no_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    csv = _recording(tmp_path)
+    from test_output_paths_properties import _csv  # a short run's CSV
+
+    csv = _csv(tmp_path)
     _fail_inside(monkeypatch, "ipgen.common.files", "write_file", files.OutputError("disk full"))
     for command, suffix in (("plot", ".png"), ("animate", ".gif")):
         out = tmp_path / command / "deeper" / f"run{suffix}"
@@ -183,3 +178,46 @@ def test_a_fixed_chains_generation_leaves_no_folder(tmp_path: Path, monkeypatch:
     out = tmp_path / "dfki" / "headers"
     assert run(["--scene", str(ROOT / "scenes" / "rigs" / "dfki_c0.toml"), "-o", str(out)]) == 130
     assert not (tmp_path / "dfki").exists()
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(new=st.integers(1, 3), theirs=st.integers(0, 2), dots=st.booleans())
+def test_only_the_folders_this_command_made_are_removed(
+    tmp_path_factory: pytest.TempPathFactory, new: int, theirs: int, dots: bool
+) -> None:
+    """Another process makes the folder this command wants, or one on its way, while the command
+    runs (its compile): the command's failure removes none of that process's folders. And a path
+    through `..` (new/../out) leaves neither `new` nor `out` (a review found `new` left)."""
+    base = tmp_path_factory.mktemp("race")
+    target = base.joinpath(*(f"n{k}" for k in range(new)))
+    if dots:
+        target = base / "new" / ".." / target.relative_to(base)
+    theirs = min(theirs, new)
+    other = base.joinpath(*(f"n{k}" for k in range(theirs)))  # theirs = 0: none
+    with pytest.raises(KeyboardInterrupt), files.removed_if_left_empty():
+        if theirs:
+            other.mkdir(parents=True)  # the other process, before this one gets there
+        files.prepare_directory(target)
+        raise KeyboardInterrupt
+    expected = [str(Path(*(f"n{k}" for k in range(j + 1)))) for j in range(theirs)]  # theirs stay
+    assert _tree(base) == expected
+
+
+def test_a_run_whose_folder_another_run_removed_makes_it_again(tmp_path: Path) -> None:
+    """Run B into a new -o that run A made; A fails and removes it (empty) while B compiles: B makes
+    it again and writes its files (it wrote into a folder that was gone: exit 2)."""
+    from test_run import fake_compiler, single_scene
+
+    env = {**os.environ, **fake_compiler(tmp_path), "FAKE_SECONDS": "1"}
+    out = tmp_path / "results"
+    out.mkdir()  # as run A made it
+    process = subprocess.Popen(
+        [sys.executable, "-m", "ipgen", "run", str(single_scene(tmp_path)), "-o", str(out), "--no-plot"],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    while not (tmp_path / "count").exists():  # B is compiling
+        assert process.poll() is None, process.communicate()
+    out.rmdir()  # A's clean-up
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 0, err
+    assert (out / "single_0_1.csv").is_file()

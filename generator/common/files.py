@@ -9,6 +9,7 @@ and what to do; nothing is left half-written."""
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import io
 import os
@@ -93,12 +94,10 @@ def prepare_directory(directory: Path) -> bool:
             if not os.access(directory, os.W_OK | os.X_OK):
                 raise OutputError(f"cannot write to {_shown(directory)}: permission denied; pass another -o")
             return False
-        try:
-            directory.mkdir(parents=True)
-        except FileExistsError:  # made meanwhile by a concurrent run into the same new -o: use it
-            if directory.is_dir() and os.access(directory, os.W_OK | os.X_OK):
+        if not _make_folders(directory):  # made meanwhile by a concurrent run into the same new -o: use it
+            if os.access(directory, os.W_OK | os.X_OK):
                 return False
-            raise
+            raise PermissionError(errno.EACCES, "Permission denied", str(directory))
     except OSError as e:  # a component that is a file, a name too long, /proc, /sys, ...
         raise OutputError(
             f"cannot create output directory {_shown(directory)}: {_reason(e)}; pass another -o"
@@ -106,35 +105,51 @@ def prepare_directory(directory: Path) -> bool:
     return True
 
 
-def _missing_folders(directory: Path) -> list[Path]:
-    """The folders on the way to `directory` that do not exist yet, deepest first (none when a
-    component cannot be looked at: nothing is then ours to remove)."""
-    missing = []
-    try:
-        for folder in (directory, *directory.parents):
-            if folder.exists() or folder.is_symlink():
-                break
-            missing.append(folder)
-    except OSError:
-        return []
-    return missing
+# The folders `prepare_directory` made inside the innermost `removed_if_left_empty` block (None
+# outside one): only those are ever removed again, never one another process made meanwhile.
+_MADE: contextvars.ContextVar[list[Path] | None] = contextvars.ContextVar("ipgen_made_folders", default=None)
 
 
 @contextlib.contextmanager
-def removed_if_left_empty(directory: Path) -> Iterator[None]:
-    """Run the block; if it raises (an error, Ctrl-C, SIGTERM), remove the folders on the way to
-    `directory` that it made and left empty, deepest first: a failed or interrupted command leaves
-    no empty output folder behind. A folder with anything in it stays, as do those that existed."""
-    missing = _missing_folders(Path(directory))
+def removed_if_left_empty() -> Iterator[None]:
+    """Run the block; if it raises (an error, Ctrl-C, SIGTERM), remove the folders
+    `prepare_directory` made in it that are still empty, deepest first: a failed or interrupted
+    command leaves no empty output folder behind. A folder with anything in it stays, as do those
+    that existed or that another process made (a concurrent run into the same new -o)."""
+    made: list[Path] = []
+    token = _MADE.set(made)
     try:
         yield
     except BaseException:
-        for folder in missing:
+        for folder in reversed(made):
             try:
                 folder.rmdir()  # only an empty folder: another command's files are never lost
             except OSError:
-                break
+                continue  # not empty, or gone: its parents are then not empty either, or not ours
         raise
+    finally:
+        _MADE.reset(token)
+
+
+def _make_folders(directory: Path) -> bool:
+    """Make `directory` and the folders on the way to it that are missing, one at a time from the
+    top, recording each this call made in `_MADE`; True if it made `directory` itself (False: a
+    concurrent run made it first, which the caller then uses)."""
+    made = _MADE.get()
+    created = False
+    for folder in (*reversed(directory.parents), directory):
+        if folder.is_dir():
+            continue
+        try:
+            folder.mkdir()
+        except FileExistsError:  # made meanwhile by another process (or a file: refused below)
+            continue
+        created = folder == directory
+        if made is not None:
+            made.append(folder)
+    if not directory.is_dir():
+        raise FileExistsError(errno.EEXIST, "File exists", str(directory))
+    return created
 
 
 def check_directory(directory: Path) -> None:

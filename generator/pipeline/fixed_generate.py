@@ -259,7 +259,7 @@ def _write(
 ) -> list[Written]:
     """`files` written all or none (a folder this call made removed again on failure); `keep`:
     the command's inputs, never written (a scene named like its .cfg), even with force."""
-    with removed_if_left_empty(folder):
+    with removed_if_left_empty():
         prepare_directory(folder)
         statuses = write_files(files, force, keep)
     return [

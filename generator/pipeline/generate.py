@@ -108,7 +108,7 @@ def generate(
         files += [(directory / f"{name}{suffix}", text) for suffix, text in rendered.items()]
     files += [(directory / file_name, text) for file_name, text in extra_files]
     report("writing")
-    with removed_if_left_empty(directory):
+    with removed_if_left_empty():
         prepare_directory(directory)
         statuses = write_files(files, force, keep)
     return [

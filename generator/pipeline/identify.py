@@ -222,7 +222,7 @@ def identify(
     png = identify_png(
         fit, loaded.type, f"ipgen identify: {loaded.stem}, free {', '.join(fit.free)}", loaded.coordinates
     )
-    with removed_if_left_empty(Path(output)):  # type: ignore[arg-type]
+    with removed_if_left_empty():
         prepare_directory(Path(output))  # type: ignore[arg-type]
         write_files(
             [(paths["toml"], updated), (paths["txt"], text), (paths["png"], png)], force=force, keep=inputs

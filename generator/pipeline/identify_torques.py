@@ -301,7 +301,7 @@ def identify_torques(
     which = "validation" if checking else "fit"  # drawn: the validation recordings, else the fit's
     title = f"ipgen identify: {stem},\nmeasured against predicted torques on the {which} recordings"
     png = _png(fit, scene, checking or fitting, title)
-    with removed_if_left_empty(Path(output)):  # type: ignore[arg-type]
+    with removed_if_left_empty():
         prepare_directory(Path(output))  # type: ignore[arg-type]
         write_files(
             [(paths["txt"], report), (paths["csv"], _csv(scores, scene.inputs)), (paths["png"], png)],

@@ -138,7 +138,7 @@ def run_scene(
         The run's files, simulator, exit status and summary.
     """
     # A run that fails or is interrupted before it writes (a first compile) leaves no empty `out`.
-    with cache_folder(cache), removed_if_left_empty(Path(out)):  # an MPC's libraries go to the cache too
+    with cache_folder(cache), removed_if_left_empty():  # an MPC's libraries go to the cache too
         return _run_scene(scene_path, out, force, cache, announce, divergence_angle, plot)
 
 
@@ -166,6 +166,7 @@ def _run_scene(
     sources, name = plan.sources, plan.name
     cfg_text = plan.cfg
     simulator = build(sources, name, cache, announce)
+    prepare_directory(out)  # again: a concurrent run into the same new -o may have removed it, failing
     write_file(paths["cfg"], cfg_text, force=True)  # checked above
     before = _stamp(paths["csv"])
     command = [str(simulator.path), str(paths["cfg"]), "--csv", str(paths["csv"]), "--force"]

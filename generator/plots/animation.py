@@ -238,7 +238,7 @@ def _write_atomically(path: Path, force: bool, write: Any) -> Path:
     buffer = io.BytesIO()
     write(buffer)
     try:
-        with files.removed_if_left_empty(path.parent):
+        with files.removed_if_left_empty():
             files.prepare_directory(path.parent)
             files.write_file(path, buffer.getvalue(), force)
     except files.OutputError as exc:

@@ -331,6 +331,6 @@ def plot_run(
     fig = draw_run(run, title, system_type, coordinates, input_unit, sampled)
     picture = io.BytesIO()
     fig.savefig(picture, dpi=110, format="png", metadata={"Software": f"{files.MARKER} (ipgen plot)"})
-    with files.removed_if_left_empty(png.parent):
+    with files.removed_if_left_empty():
         files.prepare_directory(png.parent)
         files.write_file(png, picture.getvalue(), force)

@@ -205,7 +205,7 @@ def sweep(
             note = fixed_sweep.NOTE if fixed is not None else ""
             planned = Planned(source, criteria, tasks, test, seed, digest, note)
             # A bad --dask writes nothing; a sweep stopped before its first run leaves no empty OUT.
-            with engine.executor(dask, jobs) as (pool, workers), files.removed_if_left_empty(out):
+            with engine.executor(dask, jobs) as (pool, workers), files.removed_if_left_empty():
                 files.prepare_directory(out)
                 if force:  # starting over: no scores or pictures of the sweep before beside the new runs
                     _remove_outputs(out)
