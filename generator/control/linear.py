@@ -898,8 +898,10 @@ def continuous_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarr
         An unstabilisable pair, an undetectable one, or a Riccati equation without a stabilising
         solution.
     """
+    import warnings
+
     import numpy as np
-    from scipy.linalg import solve_continuous_are
+    from scipy.linalg import LinAlgWarning, solve_continuous_are
 
     doubted: NotStabilisable | None = None
     try:
@@ -907,7 +909,9 @@ def continuous_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarr
     except NotStabilisable as refusal:
         doubted = refusal
     try:
-        riccati = solve_continuous_are(a, b, q, r)
+        with warnings.catch_warnings():  # scipy's "QZ iteration failed": the gain is checked below
+            warnings.simplefilter("ignore", LinAlgWarning)
+            riccati = solve_continuous_are(a, b, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
         if doubted is not None:
             raise doubted from None
