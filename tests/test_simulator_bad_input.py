@@ -524,3 +524,18 @@ def test_a_step_that_underflows_is_an_integration_failure(
             assert abs(theta0) <= 2 * 1.5 * rate / d0 and abs(dtheta0) < 1e-6 * rate, rows
         else:
             assert math.isclose(theta0, rate * t, rel_tol=1e-6) and dtheta0 == rate, rows
+
+
+def test_forces_that_overflow_at_modest_rates_blame_the_parameters(tmp_path: Path) -> None:
+    """A 1e307 kg link: its gravity and centrifugal forces overflow a double at rates of 8.6 rad/s.
+    The likely cause named the rates ("the state grew without bound"); it names the parameters."""
+    toml = tmp_path / "cart1.toml"
+    toml.write_text(FREE_CART.format(d0="0", rate="0", sample="0.01", method="bdf").replace(
+        "m = [1, 0.5]", "m = [1, 1e307]").replace("dtheta = [0, 0]", "theta = [0, 0.3]").replace(
+        "t_end = 0.01", "t_end = 1"))  # fmt: skip
+    cfg = tmp_path / "cart1.cfg"
+    cfg.write_text(resolved_config(load_scene(toml)))
+    result = simulate(str(cfg), "--csv", str(tmp_path / "out.csv"))
+    assert result.returncode == 1, result.stderr
+    assert "too large for a double (m[1] = 1e+307" in result.stderr, result.stderr
+    assert "grew without bound" not in result.stderr

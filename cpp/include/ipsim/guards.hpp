@@ -134,6 +134,15 @@ std::string extreme_ratio(const char* name, const Array& values, int first, int 
          format_number(values[static_cast<std::size_t>(high)] / values[static_cast<std::size_t>(low)]);
 }
 
+/// "name[i] = value" of the largest of values[0..count).
+template <class Array>
+std::string largest(const char* name, const Array& values, int count) {
+  int high = 0;
+  for (int i = 1; i < count; ++i)
+    if (values[static_cast<std::size_t>(i)] > values[static_cast<std::size_t>(high)]) high = i;
+  return std::string(name) + "[" + std::to_string(high) + "] = " + format_number(values[static_cast<std::size_t>(high)]);
+}
+
 }  // namespace detail
 
 /// A warning when M is ill-conditioned enough to make θ̈ untrustworthy (scaled cond(M) above
@@ -199,8 +208,13 @@ std::string explain_nonfinite(const ParamsOf<Model>& params, const NonFiniteEval
       if (!provides<Model>(Feature::mass_and_bias)) return text + "the accelerations overflow";
       const auto b = Model::template bias<double>(q, qd, params);
       if (!b.allFinite()) {
-        return text + "the state grew without bound: rates of " + format_number(rate) +
-               " overflow the centrifugal and Coriolis forces";
+        if (!(rate < 1e100)) {
+          return text + "the state grew without bound: rates of " + format_number(rate) +
+                 " overflow the centrifugal and Coriolis forces";
+        }  // modest rates: the parameters' products overflow (a mass of 1e307 kg)
+        return text + "the forces overflow at rates up to " + format_number(rate) +
+               ": the masses, lengths or g are too large for a double (" + largest("m", params.m, n) + ", " +
+               largest("l", params.l, n) + ", g = " + format_number(params.g) + ")";
       }
       VectorOf<Model> force = -b;
       force(0) += e.u;
