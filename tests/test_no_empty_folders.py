@@ -221,3 +221,14 @@ def test_a_run_whose_folder_another_run_removed_makes_it_again(tmp_path: Path) -
     _, err = process.communicate(timeout=120)
     assert process.returncode == 0, err
     assert (out / "single_0_1.csv").is_file()
+
+
+def test_a_folder_made_in_an_inner_block_that_succeeded_goes_with_the_outer_failure(tmp_path: Path) -> None:
+    """Blocks nest (a run generates its model inside its own block): a folder the inner one made,
+    left empty, is removed when the outer one fails later."""
+    target = tmp_path / "a" / "b"
+    with pytest.raises(KeyboardInterrupt), files.removed_if_left_empty():
+        with files.removed_if_left_empty():
+            files.prepare_directory(target)
+        raise KeyboardInterrupt
+    assert _tree(tmp_path) == []

@@ -117,6 +117,7 @@ def removed_if_left_empty() -> Iterator[None]:
     command leaves no empty output folder behind. A folder with anything in it stays, as do those
     that existed or that another process made (a concurrent run into the same new -o)."""
     made: list[Path] = []
+    outer = _MADE.get()
     token = _MADE.set(made)
     try:
         yield
@@ -127,6 +128,9 @@ def removed_if_left_empty() -> Iterator[None]:
             except OSError:
                 continue  # not empty, or gone: its parents are then not empty either, or not ours
         raise
+    else:
+        if outer is not None:  # an enclosing block's failure removes them too
+            outer.extend(made)
     finally:
         _MADE.reset(token)
 

@@ -71,8 +71,8 @@ def _picture(name: str, axes: int) -> str:
 
 def _remove_outputs(out: Path) -> None:
     """Removes the files a sweep writes besides runs.csv (`_write_outputs`), of an earlier sweep:
-    the scores, grid.png and the picture of each criterion its runs.csv names, and nothing else
-    (a user's criterion_holiday.png beside them was deleted by a glob)."""
+    the scores and the picture of each criterion its runs.csv names (grid.png only after a --vary
+    grid), and nothing else (a user's criterion_holiday.png beside them was deleted by a glob)."""
     earlier = _earlier_criteria(out)  # a --vary sweep's is GRID, over one key or two
     names = [*SCORES, *(_picture(name, 1) for name in earlier)]
     if GRID in earlier:
