@@ -834,8 +834,8 @@ def _check_rk4_stable(
 ) -> None:
     """An MpcError unless RK4 with `substeps` steps a sample keeps every mode of the model at the
     reference that does not grow (Re λ <= 0) from growing in the prediction (|R(h λ)| <= 1, h the
-    step): a stiff mode (heavy damping on a light body: λ = −909 s⁻¹ at 10 ms, h λ = −9) made every
-    QP break down and the loop diverge with advice that did not name the cause."""
+    step): a stiff mode (heavy damping on a light body: λ = −976 s⁻¹ at 10 ms, h λ = −9.8) made
+    every QP break down and the loop diverge with advice that did not name the cause."""
     from ipgen.control import fixed_linear, linear
 
     dof = pendulum.dof if isinstance(pendulum, Pendulum) else pendulum.links
