@@ -58,3 +58,16 @@ def test_the_stiff_cart_the_audit_found_is_refused_with_the_fix() -> None:
     with pytest.raises(MpcError, match=r"substeps 1: .* unstable .* give substeps = 4"):
         ipgen.mpc(p, u_max=1000.0, period=0.01, horizon=30)
     assert not _grows(ipgen.mpc(p, u_max=1000.0, period=0.01, horizon=30, substeps=4, reference="hanging"))
+
+
+def test_a_reference_within_the_rest_tolerance_designs_without_a_warning() -> None:
+    """The stability check linearises at the reference, which the MPC took as a rest within its
+    tolerance (1e-9 rad): linearize's "not an equilibrium" warning was noise there."""
+    import warnings
+
+    from ipgen.control.linear import EquilibriumWarning
+
+    p = ipgen.Pendulum("classical", 1, m=[1.0, 0.1], l=[0.0, 0.005], delta=[0.0, 0.0])  # g/l large
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EquilibriumWarning)
+        ipgen.mpc(p, u_max=10.0, horizon=5, reference=[0.0, 1e-9])

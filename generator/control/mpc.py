@@ -836,15 +836,19 @@ def _check_rk4_stable(
     reference that does not grow (Re λ <= 0) from growing in the prediction (|R(h λ)| <= 1, h the
     step): a stiff mode (heavy damping on a light body: λ = −976 s⁻¹ at 10 ms, h λ = −9.8) made
     every QP break down and the loop diverge with advice that did not name the cause."""
+    import warnings
+
     from ipgen.control import fixed_linear, linear
 
     dof = pendulum.dof if isinstance(pendulum, Pendulum) else pendulum.links
     q, qd = x_ref[:dof], x_ref[dof:]
     try:
-        if isinstance(pendulum, FixedPendulum):
-            a, _ = fixed_linear.linearize_fixed(pendulum.canonical(), q, qd, [u_ref])
-        else:
-            a, _ = linear.linearize(pendulum.canonical(), q, qd, u_ref)
+        with warnings.catch_warnings():  # the reference was checked to be a rest already
+            warnings.simplefilter("ignore", linear.EquilibriumWarning)
+            if isinstance(pendulum, FixedPendulum):
+                a, _ = fixed_linear.linearize_fixed(pendulum.canonical(), q, qd, [u_ref])
+            else:
+                a, _ = linear.linearize(pendulum.canonical(), q, qd, u_ref)
         modes = np.linalg.eigvals(a)
     except (Error, np.linalg.LinAlgError, ValueError):
         return  # the model's own checks (the terminal weight's Riccati equation) say what is wrong
