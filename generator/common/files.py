@@ -86,7 +86,8 @@ def _reason(error: OSError) -> str:
 
 
 def prepare_directory(directory: Path) -> bool:
-    """Create `directory` if needed; True if it was created (so a failure can remove it)."""
+    """Create `directory` if needed (inside a `removed_if_left_empty` block, recording the folders
+    it makes); True if this call made it, False if it existed or a concurrent run made it first."""
     try:
         if directory.exists() and not directory.is_dir():
             raise OutputError(f"output path {_shown(directory)} is a file, not a directory: pass another -o")

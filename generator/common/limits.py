@@ -35,6 +35,9 @@ Why these values:
   FLINT aborted the process) instead of being refused.
 - `LINKS_WITHOUT_FORCE`: more links than this cost minutes and gigabytes to derive; the command
   needs --force for them and `ipgen.derive` force=True.
+- `MAX_INTEGER_SETTING`: the largest seed and max_steps, 2^63 − 1024, the largest double below
+  2^63: the simulator checks its rules on doubles (and keeps the value in a 64-bit long), so a
+  larger integer rounded to 2^63 there and was refused after ipgen had taken it.
 - `MAX_DELAY_PERIODS`, `DELAY_TOLERANCE`: sensors.delay is a whole number k of sampling periods,
   k <= 1e6 (a longer delay is a unit slip and would hold a queue of that many outputs), with
   k = round(delay / period) and |delay − k · period| <= DELAY_TOLERANCE · max(delay, period).
@@ -66,6 +69,7 @@ MAX_STEM_LENGTH = 100
 FOLD_MIN_EXPONENT = -30
 FOLD_MAX_EXPONENT = 30
 FOLD_MAX_DIGITS = 30
+MAX_INTEGER_SETTING = 2**63 - 1024
 MAX_DELAY_PERIODS = 1_000_000
 DELAY_TOLERANCE = 1e-9
 MESSAGE_VALUE_CHARS = 60

@@ -63,21 +63,27 @@ def preset_names() -> tuple[str, ...]:
     return tuple(sorted(path.stem for path in presets_dir().rglob("*.toml")))
 
 
-def scene_source(path: Path) -> str:
-    """How a generated file names the scene it comes from: "preset NAME" for a preset's own file
-    as `--preset NAME` chooses it (its absolute path in this installation would make the bytes
-    differ from one installation to the next), else the path as given, made comment-safe."""
-    from ipgen.common.safetext import quote_path
-
+def preset_of(path: Path) -> str | None:
+    """The preset's name if `path` is a preset's own file as `--preset NAME` chooses it, else None."""
     path = Path(path)
     if path.is_absolute() and path.suffix == ".toml":
         try:
             shipped = path.resolve().parent.is_relative_to(presets_dir().resolve())
             if shipped and preset_path(path.stem) == path:
-                return f"preset {path.stem}"
+                return path.stem
         except (Error, OSError):
             pass
-    return quote_path(path.as_posix())
+    return None
+
+
+def scene_source(path: Path) -> str:
+    """How a generated file names the scene it comes from: "preset NAME" for a preset's own file
+    (`preset_of`: its absolute path in this installation would make the bytes differ from one
+    installation to the next), else the path as given, made comment-safe."""
+    from ipgen.common.safetext import quote_path
+
+    name = preset_of(path)
+    return f"preset {name}" if name else quote_path(Path(path).as_posix())
 
 
 def preset_path(name: str) -> Path:

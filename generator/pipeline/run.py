@@ -342,10 +342,10 @@ def _simulate(
 
 def _source(scene: Path) -> str:
     """The scene as the summary names it: "preset NAME" for a preset (`--preset`), else its path."""
-    from ipgen.common.presets import scene_source
+    from ipgen.common.presets import preset_of
 
-    named = scene_source(scene)
-    return named if named.startswith("preset ") else shown_path(scene)
+    name = preset_of(scene)
+    return f"preset {name}" if name else shown_path(scene)
 
 
 def _status(returncode: int) -> tuple[int, str]:

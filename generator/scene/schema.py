@@ -553,8 +553,7 @@ class SimulationTable(Table):
         DEFAULT_MAX_STEPS,
         strict=True,
         ge=1,
-        le=2**63 - 1024,  # the largest double below 2^63: the simulator's rules are on doubles (and a
-        # long): it refused a larger one after ipgen had taken it
+        le=limits.MAX_INTEGER_SETTING,
         description="the integrator's step limit between two samples",
     )
 

@@ -12,6 +12,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, PlainValidator, ValidationInfo, model_validator
 
+from ipgen.common import limits
 from ipgen.estimation.measurement import LARGEST, noise_problem, resolution_problem
 from ipgen.scene.fields import show
 from ipgen.scene.values import Real, Says, at, number, refuse, refuse_key, refuse_line
@@ -139,11 +140,10 @@ def _pulses(value: Any, context: dict[str, Any]) -> tuple[tuple[float, float, fl
     return tuple(at(i, pulse, item, context) for i, item in enumerate(value))
 
 
-# At most 2^63 - 1024, the largest double below 2^63: the simulator checks its rules on doubles, and
-# a seed above that rounded to 2^63 there and was refused after ipgen had taken it.
-LARGEST_SEED = 2**63 - 1024
-Seed = Annotated[
-    int, Field(strict=True, ge=0, le=LARGEST_SEED), Says("must be an integer >= 0 and <= 2^63 - 1024")
+Seed = Annotated[  # limits.MAX_INTEGER_SETTING: what the simulator's checks on doubles take
+    int,
+    Field(strict=True, ge=0, le=limits.MAX_INTEGER_SETTING),
+    Says("must be an integer >= 0 and <= 2^63 - 1024"),
 ]
 _NOISE = {"type": "number", "minimum": 0, "maximum": LARGEST}
 _NOISE_SCHEMA = {"oneOf": [_NOISE, {"type": "array", "items": _NOISE}]}

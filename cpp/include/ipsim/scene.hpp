@@ -405,7 +405,7 @@ void load_drive(const SceneFile& file, Scene<Model>& scene) {
     loop.delay_periods = whole_periods("sensors.delay");
     // the delay the loop is built for: the rig's, unless estimator.delay tells it another
     loop.assumed_delay_periods = file.has("estimator.delay") ? whole_periods("estimator.delay") : loop.delay_periods;
-    const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (< 2^63)
+    const long seed = file.integer("sensors.seed");  // 64 bits: every seed ipgen accepts (<= 2^63 - 1024)
     loop.seed = static_cast<std::uint64_t>(seed);
     const std::string kind = file.has("estimator") ? file.text("estimator") : "exact";
     const std::pair<const char*, EstimatorKind> kinds[] = {{"exact", EstimatorKind::exact}, {"difference", EstimatorKind::difference},
