@@ -96,3 +96,57 @@ def test_an_unstabilisable_pair_stays_refused_in_any_units(
     with pytest.raises(ControlError, match="not stabilisable"):
         control.check_stabilisable(a, b, np.eye(2))
     control.check_stabilisable(t @ np.diag([1.0, 2.0]) @ np.linalg.inv(t), b, np.eye(2))  # distinct: fine
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    kind=st.sampled_from(["classical", "rotary"]),
+    mass=st.floats(-3, 7),
+    length=st.floats(-8, 3),
+    damping=st.one_of(st.just(0.0), st.floats(-3, 5).map(lambda e: 10.0**e)),
+    period=st.sampled_from([1e-3, 1e-2]),
+)
+def test_the_sampled_hold_gains_refuse_no_rig_the_continuous_lqr_holds(
+    kind: str, mass: float, length: float, damping: float, period: float
+) -> None:
+    """The swing-up's hold (`discrete_zoh_lqr`) and the plan's hold (`tvlqr.discrete_lqr`) refused
+    stiff rigs on the rank test alone, where `ipgen.lqr` gave a stabilising gain (a 1 g cart under
+    a 0.1 mm link with δ0 = 10⁵ N s/m). Now: where the continuous LQR holds a rig and no mode
+    grows more than 1e8-fold a sample, neither calls it unstabilisable: each gives a gain that
+    holds the sampled model (scipy's `cont2discrete`, independent of theirs), or names what stops
+    it (the period for a faster mode, the planner's RK4 steps for a stiff one, scipy's DARE)."""
+    from scipy.signal import cont2discrete
+
+    from ipgen.common.limits import MAX_SAMPLE_GROWTH
+    from ipgen.control.casadi_model import Plant
+    from ipgen.control.energy import discrete_zoh_lqr
+    from ipgen.control.tvlqr import discrete_lqr
+
+    m = [10.0**mass] * 2
+    lengths = [10.0**length if kind == "rotary" else 0.0, 10.0**length]
+    p = ipgen.Pendulum(kind, 1, m=m, l=lengths, delta=[damping, 0.0])
+    a, b = ipgen.linearize(p)
+    try:
+        ipgen.lqr(p, Q=[1.0] * 4, R=1.0)
+    except ControlError:
+        return  # the continuous test's own subject
+    growth = float(np.exp(np.max(np.linalg.eigvals(a).real) * period))
+    exact = cont2discrete((a, b, np.eye(4), np.zeros((4, 1))), period, method="zoh")[:2]
+
+    def on_rk4() -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        k, _, ad, bd = discrete_lqr(Plant(p), period, np.eye(4), np.eye(1), np.zeros(4))
+        return k, (ad, bd)  # the planner's RK4 model, which it holds (a 10 µm link's differs from e^(A T))
+
+    for design in (lambda: (discrete_zoh_lqr(Plant(p), period, np.eye(4), np.eye(1)), exact), on_rk4):
+        try:
+            k, (ad, bd) = design()
+        except ControlError as error:
+            text = str(error)
+            assert "not stabilisable" not in text, text
+            stiff = "too fast for the planner's RK4" in text  # a stable mode RK4 steps out of
+            if growth > 10 * MAX_SAMPLE_GROWTH:
+                assert stiff or ("sample faster" in text and f"period {period:g} s" in text), text
+            else:  # or scipy's DARE itself: no solution, or one whose gain does not hold the model
+                assert stiff or "has no solution" in text or "does not hold the sampled model" in text, text
+            continue
+        assert np.max(np.abs(np.linalg.eigvals(ad - bd @ k.reshape(1, -1)))) < 1, (kind, m, lengths, damping)

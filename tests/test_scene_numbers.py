@@ -267,7 +267,8 @@ REGRESSIONS = [
     (2, "resolution", "1e-300", "must be 0 (exact) or >= 1 count per revolution or metre"),
     (2, "delay", "1e308", "is more than 1,000,000 periods of 0.01 s"),
     (2, "process_noise", "1e308", "must be <= 1e+100"),
-    (1, "Jm", "9" * 25, "swingup: the discrete Riccati equation at period 0.01 s has no solution"),
+    # (the DARE fails, and the rank test, now on the model as built, doubts the input's reach)
+    (1, "Jm", "9" * 25, "swingup: (A, B) is not stabilisable"),
     (2, "measured", "9" * 310, "measured[0] = 99999999999999999999999999999999999999...9999999999999999999:"),
     # A decimal no exact rational is made of, refused on loading (before, by the motor's exact fold
     # in resolved_config, after the scene had loaded)

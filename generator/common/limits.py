@@ -47,6 +47,11 @@ Why these values:
 - `MAX_MPC_BARRIER`: the MPC's barrier weight (`[controller] barrier`, `ipgen.mpc(barrier=)`) is
   in the cost's units; 1e6 is far above any cost's scale and finite in float, where the C header's
   step may run (a larger one would turn into inf there and every step refuse its settings).
+- `MAX_SAMPLE_GROWTH`: a mode growing more than 1e8-fold over one sample (|eig A_d|, A_d =
+  e^(A T)) cannot be estimated or held in double precision: the Riccati equation's numbers span
+  more than its digits (a 10 nm link at 10 ms: 4e172; a 0.5 m cart pendulum at 100 s: 1e244; at
+  1 s, 276, is still designed). The Kalman filter refuses such a period; a sampled LQR that
+  cannot be designed names it as the cause.
 - `MAX_MPC_SPAN`, `MIN_MPC_PERIOD`: an MPC predicts at most 1000 s ahead (horizon · period) and
   is sampled at most every microsecond, in a scene and in `ipgen.mpc` alike.
 """
@@ -58,6 +63,7 @@ from typing import Any
 MAX_SAMPLES = 10_000_000
 MIN_T_END = 1e-9
 MAX_SIMULATED_LINKS = 40
+MAX_SAMPLE_GROWTH = 1e8
 MAX_FIXED_LINKS = MAX_SIMULATED_LINKS + 1  # the same degrees of freedom, none of them a base
 LINKS_WITHOUT_FORCE = 30
 RTOL_MIN = 1e-15

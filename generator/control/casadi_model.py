@@ -208,6 +208,15 @@ def rk4_substeps(period: float) -> int:
     return max(4, math.ceil(period / 1e-3 - 1e-9))
 
 
+def rk4_growth(z: complex) -> float:
+    """|R(z)|, RK4's growth over one step for the mode s at z = h s (stable steps: <= 1); inf where
+    it overflows (δ = 1e200)."""
+    try:
+        return abs(1 + z + z * z / 2 + z**3 / 6 + z**4 / 24)
+    except OverflowError:
+        return math.inf
+
+
 @dataclass(frozen=True)
 class CasadiModel:
     """CasADi functions of one plant (SX graphs, parameters folded in as constants).

@@ -50,7 +50,7 @@ from ipgen.common.loop_runtime import (
     swingup_work,
 )
 from ipgen.control.casadi_model import Plant, as_plant, casadi_model
-from ipgen.control.linear import ControlError, dynamics, solve_dare, weights
+from ipgen.control.linear import ControlError, discrete_lqr_gain, dynamics, linearize, weights
 from ipgen.control.trajectory import PlanError, finite_number
 from ipgen.control.tvlqr import discrete_lqr
 from ipgen.model.pendulum import Pendulum
@@ -443,8 +443,6 @@ def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, accelera
     import numpy as np
     from scipy.linalg import expm
 
-    from ipgen.control.linear import check_stabilisable, linearize
-
     system = plant.system
     dof = plant.dof
     links = plant.links_as_built
@@ -453,11 +451,9 @@ def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, accelera
         system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
         **kind, **links,
     )  # fmt: skip
-    check_stabilisable(a, b, q)
     size = 2 * dof
     block = np.zeros((size + 1, size + 1))
     block[:size, :size], block[:size, size:] = a, b
     flow = expm(block * period)
-    ad, bd = flow[:size, :size], flow[:size, size:]
-    p = solve_dare(ad, bd, q, r, period)
-    return np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)
+    gain, _ = discrete_lqr_gain((flow[:size, :size], flow[:size, size:]), (a, b), q, r, period)
+    return gain.reshape(-1)

@@ -24,6 +24,7 @@ from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
 from ipgen.common.arrays import float_array
+from ipgen.common.limits import MAX_SAMPLE_GROWTH
 from ipgen.common.safetext import abbreviate
 from ipgen.errors import Error
 from ipgen.model.actuator import Actuator
@@ -45,6 +46,7 @@ __all__ = [
     "check_stabilisable",
     "closed_loop_poles",
     "continuous_lqr_gain",
+    "discrete_lqr_gain",
     "dynamics",
     "equilibrium_state",
     "linearize",
@@ -691,6 +693,72 @@ def solve_dare(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray, perio
             f"the discrete Riccati equation at period {period:g} s has no solution ({reason}): "
             "check the parameters' units, the period and the weights"
         ) from None
+
+
+def discrete_lqr_gain(
+    sampled: tuple[np.ndarray, np.ndarray],
+    continuous: tuple[np.ndarray, np.ndarray],
+    q: np.ndarray,
+    r: np.ndarray,
+    period: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(K, P) of the discrete LQR u_k = −K x_k for the `sampled` model (A_d, B_d) at `period` s
+    (P from scipy's DARE, `solve_discrete_are`). Stabilisability and detectability are tested on
+    the `continuous` model (A, B) it samples (`check_stabilisable`); as in `continuous_lqr_gain`,
+    its "not stabilisable" stands only when the sampled gain does not stabilise either (all
+    |eig(A_d − B_d K)| < 1): a stiff model defeats the rank test's tolerance. A gain that does not
+    hold the sampled model (scipy's DARE inaccurate on an ill-conditioned one) is refused.
+
+    Raises
+    ------
+    ControlError
+        An unstabilisable or undetectable pair, a DARE scipy cannot solve, or a gain that is not
+        finite or does not hold the sampled model; a mode growing more than `MAX_SAMPLE_GROWTH`-fold
+        over a sample is named as the cause (the period).
+    """
+    import numpy as np
+
+    ad, bd = sampled
+
+    def refused(error: ControlError) -> ControlError:
+        # A mode that grows past MAX_SAMPLE_GROWTH in a sample is the period's fault, whatever failed.
+        growth = float(np.max(np.abs(np.linalg.eigvals(ad)))) if np.all(np.isfinite(ad)) else math.inf
+        if growth < MAX_SAMPLE_GROWTH:
+            return error
+        return ControlError(
+            f"period {period:g} s: the model's fastest-growing mode grows by {growth:.3g} over one sample, "
+            "too much for a sampled LQR to hold in double precision: sample faster (a period well below "
+            "the time the upright takes to fall)"
+        )
+
+    doubted: NotStabilisable | None = None
+    try:
+        check_stabilisable(*continuous, q)
+    except NotStabilisable as refusal:
+        doubted = refusal
+    try:
+        p = solve_dare(ad, bd, q, r, period)
+    except ControlError as failure:
+        raise refused(doubted or failure) from None
+    gain = np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad)  # R > 0, P >= 0: not singular
+    if not np.all(np.isfinite(gain)):
+        raise refused(
+            doubted
+            or ControlError("the sampled LQR gain is not finite: check the parameters' units and the weights")
+        )
+    # scipy's DARE may return an inaccurate P for an ill-conditioned model (a 10 µm link at 10 ms):
+    # its gain is kept only if it holds the sampled model.
+    radius = float(np.max(np.abs(np.linalg.eigvals(ad - bd @ gain))))
+    if not radius < 1:
+        raise refused(
+            doubted
+            or ControlError(
+                f"the sampled LQR gain at period {period:g} s does not hold the sampled model (closed-loop "
+                f"spectral radius {radius:.4g}): scipy's DARE lost its accuracy; check the parameters' "
+                "units, or sample faster"
+            )
+        )
+    return gain, p
 
 
 def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:

@@ -43,6 +43,7 @@ from ipgen.common.limits import (
 )
 from ipgen.common.locations import cmake_dir
 from ipgen.common.safetext import shown_path
+from ipgen.control.casadi_model import rk4_growth
 from ipgen.control.linear import ControlError, equilibrium_state, weights
 from ipgen.errors import Error
 from ipgen.model.coordinates import rests
@@ -825,10 +826,6 @@ class Mpc:
 
 
 # RK4's growth factor over one step of a linear mode ẋ = λ x, z = h λ: the Taylor polynomial of e^z.
-def _rk4_growth(z: complex) -> float:
-    return abs(1 + z + z * z / 2 + z**3 / 6 + z**4 / 24)
-
-
 def _check_rk4_stable(
     pendulum: Pendulum | FixedPendulum, x_ref: np.ndarray, u_ref: float, period: float, substeps: int
 ) -> None:
@@ -856,11 +853,11 @@ def _check_rk4_stable(
 
     def stable(steps: int) -> bool:
         step = period / steps
-        return all(_rk4_growth(complex(step * mode)) <= 1 + 1e-9 for mode in settled)
+        return all(rk4_growth(complex(step * mode)) <= 1 + 1e-9 for mode in settled)
 
     if stable(substeps):
         return
-    worst = max(settled, key=lambda mode: _rk4_growth(complex(period / substeps * mode)))
+    worst = max(settled, key=lambda mode: rk4_growth(complex(period / substeps * mode)))
     enough = next((steps for steps in range(substeps + 1, 101) if stable(steps)), None)
     fix = "even 100 substeps are not enough: a shorter period"
     if enough:

@@ -26,8 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps
-from ipgen.control.linear import ControlError, check_stabilisable, linearize, solve_dare, weights
+from ipgen.control.casadi_model import Plant, casadi_model, rk4_growth, rk4_substeps
+from ipgen.control.linear import ControlError, discrete_lqr_gain, linearize, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
 if TYPE_CHECKING:
@@ -122,6 +122,23 @@ def _flow_jacobians_at_rest(plant: Plant, period: float, target: np.ndarray) -> 
     return ad, bd
 
 
+def _check_rk4_stable(a: np.ndarray, period: float) -> None:
+    """A ControlError unless the planner's RK4 steps over `period` (`rk4_substeps`) keep every
+    mode of the linear model `a` that does not grow from growing: a stiff one (heavy damping on a
+    light body) made the sampled model grow 1e195-fold where the rig's grows 46-fold."""
+    import numpy as np
+
+    step = period / rk4_substeps(period)
+    settled = [complex(mode) for mode in np.linalg.eigvals(a) if np.isfinite(mode) and mode.real <= 0]
+    worst = max(settled, key=lambda mode: rk4_growth(step * mode), default=0j)
+    if rk4_growth(step * worst) > 1 + 1e-9:
+        raise ControlError(
+            f"the model's mode at s = {worst:.4g} 1/s is too fast for the planner's RK4 steps of {step:g} s "
+            "(RK4 needs |h s| below about 2.8): check the parameters' units (a link of micrometres, or "
+            "damping far beyond a light body's inertia)"
+        )
+
+
 def discrete_lqr(
     plant: Plant, period: float, q: np.ndarray, r: np.ndarray, target: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -129,31 +146,22 @@ def discrete_lqr(
     (A_d, B_d the exact Jacobians of the one-period flow map; P from scipy's DARE)."""
     import numpy as np
 
+    # The continuous linear model at the target (the links as built): the RK4 steps' stability,
+    # then stabilisability and detectability are checked on it.
+    dof = plant.dof
+    system = plant.system
+    a_c, b_c = linearize(
+        system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
+        q=target[:dof], qd=target[dof:], **plant.links_as_built,
+    )  # fmt: skip
+    _check_rk4_stable(a_c, period)
     ad, bd = _flow_jacobians_at_rest(plant, period, target)
     if not (np.all(np.isfinite(ad)) and np.all(np.isfinite(bd))):
         raise ControlError(
             f"the sampled linear model over {period:g} s overflows a double: check the parameters' units"
         )
-    # Stabilisability and detectability, checked on the continuous linear model at the target.
-    dof = plant.dof
-    system = plant.system
-    a_c, b_c = linearize(
-        system.type,
-        system.links,
-        plant.m,
-        plant.l,
-        plant.delta,
-        plant.g,
-        system.inertia,
-        q=target[:dof],
-        qd=target[dof:],
-    )
-    check_stabilisable(a_c, b_c, q)
-    p = solve_dare(ad, bd, q, r, period)
-    gain = np.linalg.solve(r + bd.T @ p @ bd, bd.T @ p @ ad).reshape(-1)
-    if not np.all(np.isfinite(gain)):
-        raise ControlError("the sampled LQR gain is not finite: check the parameters' units and the weights")
-    return gain, p, ad, bd
+    gain, p = discrete_lqr_gain((ad, bd), (a_c, b_c), q, r, period)
+    return gain.reshape(-1), p, ad, bd
 
 
 def whole_periods(duration: float, period: float) -> int:

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from ipgen.common.limits import MAX_SAMPLE_GROWTH
 from ipgen.estimation.checks import covariance_matrix, measured_indices, sampling_period
 from ipgen.estimation.covariance import measurement_covariance, process_covariance
 from ipgen.estimation.measurement import Sensors
@@ -59,12 +60,6 @@ class Kalman:
         import numpy as np
 
         return np.linalg.eigvals(self.A - self.L @ self.C)
-
-
-# A mode growing more than this over one sample (|eig A_d|, A_d = e^(A T)) cannot be estimated in
-# double precision: the Riccati equation's numbers span more than its digits (a 10 nm link at
-# 10 ms: 4e172; a 0.5 m cart pendulum at 100 s: 1e244; at 1 s, 276, is still designed).
-MAX_SAMPLE_GROWTH = 1e8
 
 
 def discretize(a: np.ndarray, b: np.ndarray, period: float) -> tuple[np.ndarray, np.ndarray]:
