@@ -26,7 +26,7 @@ unexport PYTHONDONTWRITEBYTECODE
 # and make stability, whose timings stay comparable with those recorded before.
 test test-slow: export GLIBC_TUNABLES ?= glibc.malloc.hugetlb=1
 
-.PHONY: all deps deps-build deps-docs venv test test-slow test-slow-python test-cpp-slow ipsim-simulate test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-hold-margins bench-leaderboard stability configure build clean
+.PHONY: all deps deps-build deps-docs deps-bench-time deps-bench-arm venv test test-slow test-slow-python test-cpp-slow ipsim-simulate test-python test-cpp test-cpp-logged cpp-early lint demo bench bench-workprecision bench-specialisation bench-compile bench-embedded bench-control bench-swingup bench-estimation bench-memory bench-general-links bench-identify bench-dfki bench-sweep bench-gym bench-runtime bench-mpc bench-mpc-method bench-mpc-m4 bench-hold-margins bench-leaderboard stability configure build clean
 
 all: test
 
@@ -38,7 +38,7 @@ missing=""; for p in $(1); do \
 	if [ -n "$$missing" ]; then \
 	  echo "installing Debian packages:$$missing"; \
 	  $(SUDO) apt-get update -qq; \
-	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	  $(SUDO) env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
 	fi
 endef
 
@@ -55,7 +55,8 @@ deps-docs: deps-build
 ## Python virtualenv with ipgen (editable) and the test tools; rebuilt when pyproject changes.
 venv: $(VENV)/.installed
 $(VENV)/.installed: pyproject.toml | deps-build
-	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@# A .venv whose creation was interrupted (python there, pip not) is made again.
+	@$(PY) -m pip --version >/dev/null 2>&1 || $(PYTHON) -m venv --clear $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	@# The distribution was called ipgen before it became ipgen-pendulum (PyPI's ipgen is another
 	@# project): a .venv made before keeps a record under the old name; drop it.
@@ -137,7 +138,11 @@ cpp-early: deps-build
 ## ipsim programs link the same ipgen_ipsim_core ($IPGEN_TEST_IPSIM_CORE, tests/cxx.py; about 20 s).
 SIMULATOR_ENV = IPGEN_SIMULATOR=$(abspath $(BUILD))/bin/ipsim-simulate \
   IPGEN_TEST_IPSIM_CORE=$(abspath $(BUILD))/cpp/libipgen_ipsim_core.a
+## It configures first, as `configure` does: a build folder configured with other flags (make
+## stability's -O3, a CMAKE_OPT) would otherwise be switched back by test-cpp's configure while
+## pytest runs, and the simulator and ipsim's library rebuilt under it.
 ipsim-simulate: venv cpp-early
+	$(CMAKE_CONFIGURE) -DIPGEN_WITH_GENERATOR=AUTO -DIPGEN_PYTHON=$(abspath $(PY)) -DIPGEN_SLOW_TESTS=OFF >/dev/null
 	cmake --build $(BUILD) -j $(JOBS) --target ipsim_simulate >/dev/null
 
 build: configure
@@ -205,7 +210,8 @@ bench-identify: $(VENV)/.bench-installed
 
 ## The DFKI double pendulum (design C.0) identified from its real recordings against DFKI's
 ## model_3.0 (bench/dfki_identify.py, docs/bench/dfki_identify.md); DFKI_RECORDINGS: their folder
-DFKI_RECORDINGS ?= ../shared/dfki
+## (a copy in bench/data/dfki, BSD-3-Clause)
+DFKI_RECORDINGS ?= bench/data/dfki
 bench-dfki: $(VENV)/.bench-installed
 	$(PY) -m bench.dfki_identify --recordings $(DFKI_RECORDINGS) $(call quick_out)
 
@@ -233,8 +239,9 @@ bench-gym: $(VENV)/.bench-installed
 
 ## The MPC's real-time iteration on the host (QUBE-Servo 2, N = 30) beside DAQP on the condensed QP,
 ## OSQP on the sparse one and IPOPT on the whole NLP (bench/mpc.py, docs/bench/mpc.md).
+## bench-mpc-m4 edits its own section of the same page: the two take turns (flock, util-linux).
 bench-mpc: $(VENV)/.bench-installed
-	$(PY) -m bench.mpc $(call quick_out,mpc.md)
+	flock docs/bench/mpc.md $(PY) -m bench.mpc $(call quick_out,mpc.md)
 
 ## The MPC's microcontroller method (one barrier Newton step a sample, frozen sensitivities) against
 ## the interior point in closed loop: cost, bounds, time (bench/mpc_method.py, docs/bench/mpc_method.md).
@@ -267,15 +274,19 @@ bench-specialisation: venv
 ## Code size of the C header (--emit c) on a Cortex-M4F (bench/embedded.py, docs/bench/embedded.md).
 ## Debian's arm-none-eabi cross compiler and newlib are large: installed here when missing, never by make test.
 ARM_PACKAGES := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm
-bench-embedded: venv
+## The benchmarks' Debian packages: under make -j bench one apt-get at a time (each waits for the
+## one before it: dpkg's lock).
+deps-bench-time: deps-build
+	@$(call apt_install,time)
+deps-bench-arm: deps-bench-time
 	@$(call apt_install,$(ARM_PACKAGES))
+bench-embedded: venv deps-bench-arm
 	$(PY) -m bench.embedded $(call quick_out)
 
 ## One real-time iteration of the MPC (the QUBE preset, N = 30, float) on a Cortex-M4F under QEMU:
 ## instructions, cycles, RAM, flash and where the instructions go (bench/mpc_m4.py, docs/bench/mpc.md).
-bench-mpc-m4: venv
-	@$(call apt_install,$(ARM_PACKAGES))
-	$(PY) -m bench.mpc_m4 --profile $(call quick_out,mpc.md)
+bench-mpc-m4: venv deps-bench-arm
+	flock docs/bench/mpc.md $(PY) -m bench.mpc_m4 --profile $(call quick_out,mpc.md)
 
 ## How far LQR (Q = I, R = 1) brings classical and rotary n = 1..3 back: continuous, 100 Hz and
 ## 20 Hz sampled, with and without saturation (bench/control.py, docs/bench/control.md).
@@ -302,15 +313,14 @@ bench-estimation: $(VENV)/.bench-installed
 ## Peak resident memory of the simulator `ipgen run` builds (cdip_pulse) for 10^4 and 10^7 output
 ## samples: the CSV is streamed, so both must be within 20 MB (bench/simulator_memory.py,
 ## docs/bench/simulator_memory.md).
-bench-memory: $(VENV)/.bench-installed
-	@$(call apt_install,time)
+bench-memory: $(VENV)/.bench-installed deps-bench-time
 	$(PY) -m bench.simulator_memory $(call quick_out,simulator_memory.md)
 
 ## Work-precision of the simulator's integrators against MuJoCo and scipy (bench/workprecision/,
 ## writes docs/bench/workprecision*); its extra (mujoco) behind its own stamp.
 ## WORKPRECISION_ARGS passes options, e.g. make bench-workprecision WORKPRECISION_ARGS=--quick
 WORKPRECISION_ARGS ?= $(BENCH_QUICK)
-$(VENV)/.workprecision-installed: pyproject.toml $(VENV)/.installed
+$(VENV)/.workprecision-installed: pyproject.toml $(VENV)/.installed $(VENV)/.bench-installed
 	$(PY) -m pip install -q -e '.[test,workprecision]'
 	@touch $@
 
@@ -324,5 +334,7 @@ stability: configure
 	cmake --build $(BUILD) -j $(JOBS) --target stability_drivers
 	$(PY) tools/stability.py --build $(BUILD) --out docs/stability.md
 
+## What make wrote: the build folder and make demo's out/demo (the README's commands write into
+## out/ too, where a user's own files may be: those stay).
 clean:
-	rm -rf $(BUILD) out
+	rm -rf $(BUILD) out/demo

@@ -2,7 +2,7 @@
 against DFKI's own model_3.0 (docs/bench/dfki_identify.md, docs/rigs.md).
 
 The recordings are DFKI's sys_id trajectories 00–06, 12, 13 (github:dfki-ric-underactuated-lab/
-double_pendulum, BSD-3-Clause; a copy in ../shared/dfki or wherever --recordings points). Three
+double_pendulum, BSD-3-Clause; a copy in bench/data/dfki or wherever --recordings points). Three
 evaluations, all through `ipgen.pipeline.identify_torques.identify_torques` (what `ipgen identify`
 runs) with the preset dfki_c0 (DFKI's model_3.0) as the values compared with:
 
@@ -26,7 +26,7 @@ RMS torque errors are against the measured torque low-passed like the regression
 models are evaluated at the same filtered states. model_3.0 was identified by DFKI from these
 recordings (and possibly 07–11), so it has seen every "held-out" one.
 
-    .venv/bin/python -m bench.dfki_identify [--recordings ../shared/dfki] [--out docs/bench]
+    .venv/bin/python -m bench.dfki_identify [--recordings bench/data/dfki] [--out docs/bench]
 """
 
 from __future__ import annotations
@@ -237,7 +237,7 @@ def _pair(ours: np.ndarray, theirs: np.ndarray) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--recordings", type=Path, default=ROOT.parent / "shared" / "dfki")
+    parser.add_argument("--recordings", type=Path, default=ROOT / "bench" / "data" / "dfki")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "bench")
     args = parser.parse_args(argv)
     missing = [n for n in NAMES if not _path(args.recordings, n).is_file()]

@@ -142,6 +142,8 @@ def test_readme_blocks_are_all_accounted_for() -> None:
     # the apt line runs unattended and installs only what is needed (issue 49)
     apt = next(b for b, k in zip(blocks, kinds, strict=True) if k == "apt").body
     assert " -y " in apt and " --no-install-recommends " in apt, apt
+    # a fresh Debian image has no package lists: the install finds nothing without an update first
+    assert apt.index("apt-get update") < apt.index(APT), apt
     # a block that needs an extra installs it first, with a command that works without this
     # distribution on an index; no hint names ipgen-pendulum[...] (issue 49)
     for use, install in EXTRAS.items():
