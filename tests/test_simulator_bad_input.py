@@ -539,3 +539,30 @@ def test_forces_that_overflow_at_modest_rates_blame_the_parameters(tmp_path: Pat
     assert result.returncode == 1, result.stderr
     assert "too large for a double (m[1] = 1e+307" in result.stderr, result.stderr
     assert "grew without bound" not in result.stderr
+    assert "s apart" not in result.stderr  # outputs 0.01 s apart are not a cause
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=CHECKS)
+@given(exponent=st.integers(7, 299), method=st.sampled_from(["bdf", "adams", "erk-dp5"]))
+def test_outputs_days_apart_are_named_as_the_cause(
+    tmp_path_factory: pytest.TempPathFactory, exponent: int, method: str
+) -> None:
+    """Outputs 1e199 s apart let CVODE try a step of 5.9e80 s: the likely cause named the state
+    ("grew without bound"), a motion "too fast for bdf" or the rates. Now every failure with
+    outputs more than 1e6 s apart tells the user to sample more often, and names the outputs'
+    spacing unless the run ran out of steps (whose advice says so already)."""
+    folder = tmp_path_factory.mktemp("long")
+    toml = folder / "cart1.toml"
+    scene = FREE_CART.format(d0="0", rate="0", sample=f"1e{exponent}", method=method)
+    scene = scene.replace("dtheta = [0, 0]", "theta = [0, 0.3]")
+    scene = scene.replace("t_end = 0.01", f"t_end = 1e{exponent + 1}")
+    toml.write_text(scene)
+    cfg = folder / "cart1.cfg"
+    cfg.write_text(resolved_config(load_scene(toml)))
+    result = simulate(str(cfg), "--csv", str(folder / "out.csv"), timeout=120)
+    assert result.returncode == 1, result.stderr
+    assert "sample more often" in result.stderr, result.stderr
+    if "mxstep steps taken" not in result.stderr:
+        event("named the outputs")
+        assert f"outputs 1e+{exponent} s apart" in result.stderr.replace("e+0", "e+"), result.stderr
+        assert "too fast for" not in result.stderr, result.stderr

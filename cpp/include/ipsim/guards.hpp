@@ -327,6 +327,12 @@ std::string stiffness_warning(RhsContext<Model>& context, const Settings<Model>&
 }
 
 /// How a SUNDIALS integrator gave up, classified by the stepper from its own flags.
+/// Outputs further apart than this (11.6 days) are named in a failure's cause: the integrators
+/// choose their first steps from the output interval, and none resolves a pendulum's motion
+/// (t_end = 1e200 s sampled every 1e199 s let CVODE try a step of 5.9e80 s; the causes named
+/// were the state, a motion "too fast for bdf" or the rates).
+inline constexpr double kLongOutputInterval = 1e6;
+
 struct Failure {
   bool rhs_failed;    ///< the right-hand side kept failing
   bool no_progress;   ///< out of steps, or too many error-test or convergence failures
@@ -342,8 +348,18 @@ std::string explain_failure(RhsContext<Model>& context, const Settings<Model>& s
                             const Diagnostics& diagnostics, const Failure& failure, double t, State state,
                             Steps steps) {
   std::string cause;
+  // Outputs days apart: the integrators chose their trial steps from them, which explains a
+  // failure better than the state or the step size found there (a run out of steps is told to
+  // sample more often already).
+  const bool long_outputs = settings.sample > kLongOutputInterval;
+  const std::string outputs = "outputs " + detail::format_number(settings.sample) +
+                              " s apart let the integrator try steps far beyond a pendulum's time scale: sample "
+                              "more often (simulation.sample)";
   if (context.nonfinite.seen && (failure.rhs_failed || failure.no_progress)) {
     cause = explain_nonfinite<Model>(*context.params, context.nonfinite);
+    if (long_outputs) cause += "; " + outputs;
+  } else if (failure.no_progress && long_outputs && !failure.out_of_steps) {
+    cause = outputs;
   } else if (failure.no_progress) {
     const auto [h, h_now] = steps();
     cause = explain_slow_progress<Model>(context, settings, t, state(), h, h_now, failure.out_of_steps);
