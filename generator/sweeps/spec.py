@@ -124,7 +124,12 @@ def parse_levels(text: str, spec: str) -> tuple[float, ...]:
             if low != high:
                 raise SweepError(f"--vary {abbreviate(spec)!r}: one level between two values; use N >= 2")
             return (low,)
-        return tuple(low + (high - low) * i / (count - 1) for i in range(count))
+        span = high - low
+        if not math.isfinite(span):  # ±1e308: a convex combination, which cannot overflow
+            inner = [low * (1 - i / (count - 1)) + high * (i / (count - 1)) for i in range(1, count - 1)]
+        else:
+            inner = [low + span * i / (count - 1) for i in range(1, count - 1)]
+        return (low, *inner, high)  # both ends as given (1 + (1.2e-38 - 1) rounds to 0.0)
     items = text.split(",")
     if any(not item.strip() for item in items):
         raise SweepError(f"--vary {abbreviate(spec)!r}: an empty value in the list; write v1,v2,...")
