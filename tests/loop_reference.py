@@ -5,7 +5,11 @@ measured observation and delayed action, and the energy swing-up's control.
 
 This is the package's numpy code before it ran the C header (commit 96ff51f), kept here as the
 reference the ctypes runtime is checked against (tests/test_loop_runtime.py): written with numpy's
-linear algebra (np.linalg.solve, not a Cholesky factor), Python's round(), numpy's clip.
+linear algebra (np.linalg.solve, not a Cholesky factor), Python's round(), numpy's clip. What it
+is independent of is the loop's C code. The energy law's model is not re-derived here: its M and
+bias are ipgen's own (`ipgen.control.energy.mass_and_bias`, which the C law calls back too), and
+its energy constants the law's; the derivation is checked against Kane's method in
+tests/test_independent.py, so these comparisons check the law, the catch and the learning rules.
 """
 
 from __future__ import annotations
@@ -239,7 +243,8 @@ class MeasuredLoop:
 
 
 class EnergyControl:
-    """`EnergySwingUp.control` of the law `law` (its constants, plant and hold gain)."""
+    """`EnergySwingUp.control` of the law `law` (its constants, plant and hold gain), with M and
+    bias from ipgen's `mass_and_bias` (the model is not what this reference checks)."""
 
     def __init__(self, law: Any) -> None:
         self.law = law
