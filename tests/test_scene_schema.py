@@ -15,7 +15,7 @@ from typing import Annotated
 
 import jsonschema
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from pydantic import Field
 from test_scene import BASE, scene_text
@@ -140,18 +140,88 @@ CHANGES = st.dictionaries(
 )
 
 
+def _toml_value(value: object) -> str | None:
+    """`value` as TOML text (None for an inline table, which the changes do not write)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, list):
+        items = [_toml_value(item) for item in value]
+        return None if None in items else "[" + ", ".join(items) + "]"  # type: ignore[arg-type]
+    return None
+
+
+def _shipped_values() -> list[tuple[str, str]]:
+    """Every (table.key, value) a shipped scene writes: values valid for their key (in some
+    scene), so that drawn changes are accepted often enough to test the schema on them."""
+    pairs = set()
+    for path in sorted((REPO / "scenes").glob("**/*.toml")):
+        for table, keys in tomllib.loads(path.read_text(encoding="utf-8")).items():
+            if table in schema.TABLES and isinstance(keys, dict):
+                for key, value in keys.items():
+                    text = _toml_value(value)
+                    if key in schema.TABLES[table] and text is not None:
+                        pairs.add((f"{table}.{key}", text))
+    return sorted(pairs)
+
+
+def _shipped_tables() -> list[dict[str, dict[str, str]]]:
+    """Each shipped scene whose values are all plain TOML, as {table: {key: value's text}}."""
+    scenes = []
+    for path in sorted((REPO / "scenes").glob("**/*.toml")):
+        document = tomllib.loads(path.read_text(encoding="utf-8"))
+        if not all(isinstance(keys, dict) for keys in document.values()):
+            continue  # an array of tables
+        tables = {
+            table: {key: _toml_value(value) for key, value in keys.items()}
+            for table, keys in document.items()
+        }
+        if all(text is not None for keys in tables.values() for text in keys.values()):
+            scenes.append(tables)
+    return scenes  # type: ignore[return-value]
+
+
+def _changed(tables: dict[str, dict[str, str]], changes: dict[str, str | None]) -> str:
+    """The scene `tables` with `changes` applied (None removes a key), as TOML text."""
+    tables = {name: dict(keys) for name, keys in tables.items()}
+    for dotted, value in changes.items():
+        table, key = dotted.split(".", 1)
+        if value is None:
+            tables.get(table, {}).pop(key, None)
+        else:
+            tables.setdefault(table, {})[key] = value
+    return "\n".join(
+        f"[{name}]\n" + "".join(f"{k} = {v}\n" for k, v in keys.items()) for name, keys in tables.items()
+    )
+
+
+# A shipped scene with up to two keys given values other shipped scenes give them.
+SHIPPED_SCENES = st.builds(
+    _changed,
+    st.sampled_from(_shipped_tables()),
+    st.lists(st.sampled_from(_shipped_values()), max_size=2).map(dict),
+)
+
+
 @settings(max_examples=150, deadline=None, suppress_health_check=_CHECKS)
-@given(changes=CHANGES)
-def test_every_scene_ipgen_accepts_matches_the_schema(changes: dict[str, str | None]) -> None:
-    """The schema is never stricter than ipgen: an editor never flags a scene ipgen reads."""
-    text = scene_text(changes)
+@given(text=st.one_of(CHANGES.map(scene_text), SHIPPED_SCENES, SHIPPED_SCENES))
+def test_every_scene_ipgen_accepts_matches_the_schema(text: str) -> None:
+    """The schema is never stricter than ipgen: an editor never flags a scene ipgen reads. The
+    scenes are the test's base scene with a pool of values for any key, and shipped scenes with
+    values other shipped scenes give their keys (an audit found 90 % of the pool's scenes refused
+    by ipgen: the schema was checked on about a dozen scenes a run)."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "x.toml"
         path.write_text(text, encoding="utf-8")
         try:
             load_scene(path)
         except SceneError:
+            event("refused by ipgen")
             return
+    event("accepted: the schema checked")
     errors = [error.message for error in validator().iter_errors(tomllib.loads(text))]
     assert errors == [], (text, errors)
 
