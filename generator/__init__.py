@@ -56,7 +56,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, overload
 
 from ipgen.common.locations import cmake_dir
 from ipgen.common.version import __version__
@@ -66,6 +66,7 @@ if TYPE_CHECKING:
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
     from ipgen.model.fixed import FixedPendulum
+    from ipgen.model.fixed_equations import FixedEquations
     from ipgen.model.pendulum import Pendulum
     from ipgen.sweeps.runner import Outcome
 
@@ -90,6 +91,30 @@ __all__ = [
 ]
 
 
+@overload
+def derive(
+    type: FixedPendulum,
+    links: None = None,
+    inertia: None = None,
+    *,
+    general: bool = False,
+    actuator: None = None,
+    force: bool = False,
+) -> FixedEquations: ...
+
+
+@overload
+def derive(
+    type: str | Pendulum,
+    links: int | None = None,
+    inertia: str | None = None,
+    *,
+    general: bool = False,
+    actuator: Actuator | Mapping[str, object] | None = None,
+    force: bool = False,
+) -> Equations: ...
+
+
 def derive(
     type: str | Pendulum | FixedPendulum,
     links: int | None = None,
@@ -98,7 +123,7 @@ def derive(
     general: bool = False,
     actuator: Actuator | Mapping[str, object] | None = None,
     force: bool = False,
-) -> Equations:
+) -> Equations | FixedEquations:
     """The equations of motion M(θ) θ̈ + N(θ, θ̇) θ̇ + P(θ) = (u, 0, …, 0)ᵀ, as sympy views.
 
     Called as ``derive(p)`` with a `Pendulum` (its type, links, inertia and actuator, and its
@@ -171,7 +196,7 @@ def derive(
             )
         from ipgen.model.fixed_equations import equations_of
 
-        return equations_of(type)  # type: ignore[return-value]
+        return equations_of(type)
     from ipgen.model.actuator import as_actuator
     from ipgen.model.derivation import derive as derive_system
     from ipgen.model.system import check_system

@@ -118,3 +118,19 @@ def test_a_rotor_with_one_driven_joint_is_refused(joints: tuple[int, ...]) -> No
         dfki_pendulum(values, joints=joints)
     assert "\n" not in str(refused.value) and "Ir" in str(refused.value) and "passive" in str(refused.value)
     assert dfki_pendulum(values | {"Ir": 0.0}, joints=joints).Ir == (0.0,)
+
+
+def test_derive_is_typed_as_what_it_returns() -> None:
+    """ipgen.derive was annotated `-> Equations` but returns FixedEquations for a FixedPendulum
+    (whose views lack rod(), symbols, ...): its overloads say which, as the calls return."""
+    import typing
+
+    from ipgen.model.derivation import Equations
+    from ipgen.model.fixed_equations import FixedEquations
+
+    overloads = typing.get_overloads(ipgen.derive)
+    by_input = {f.__annotations__["type"]: f.__annotations__["return"] for f in overloads}  # as written
+    assert by_input == {"FixedPendulum": "FixedEquations", "str | Pendulum": "Equations"}, by_input
+    fixed = ipgen.FixedPendulum(2, m=[1.0, 1.0], l=[1.0, 2.0], delta=[0.1, 0.1], joints=[2])
+    assert isinstance(ipgen.derive(fixed), FixedEquations)
+    assert isinstance(ipgen.derive("rotary", 1), Equations)
