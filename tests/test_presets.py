@@ -121,7 +121,9 @@ def test_sweep_takes_a_preset(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 
 def test_docs_blocks_a_reader_copies_name_no_checkout_file() -> None:
     """docs/*.md shell and Python blocks run outside a checkout too: a shipped scene is named as
-    a preset (--preset NAME, Pendulum.preset, ipgen presets NAME > file), never as scenes/..."""
+    a preset (--preset NAME, Pendulum.preset, ipgen presets NAME > file), never as scenes/...;
+    and an inline command naming a scene, preset or data gives -o (an audit found four without,
+    which exit 2: "missing -o OUT")."""
     import re
 
     checkout = re.compile(r"(^|[\s\"'(=])(bench/)?scenes/", re.M)
@@ -130,8 +132,16 @@ def test_docs_blocks_a_reader_copies_name_no_checkout_file() -> None:
         for language, body in re.findall(r"```(\w*)\n(.*?)```", text, re.S):
             if language in ("sh", "bash", "python", "console"):
                 assert not checkout.search(body), f"{page.name}:\n{body}"
-        for span in re.findall(r"`([^`\n]*\bipgen[ .][^`\n]*)`", re.sub(r"```.*?```", "", text, flags=re.S)):
+        prose = re.sub(r"```.*?```", "", text, flags=re.S)
+        for span in re.findall(r"`([^`]*\bipgen[ .][^`]*)`", prose):  # a span may wrap a line
+            span = " ".join(span.split())
             assert not checkout.search(span), f"{page.name}: `{span}`"
+            # a whole command a reader copies (a scene, preset or data named) says where it writes
+            command = re.match(r"ipgen (run|identify|sweep|excite)\b|ipgen --(scene|type)\b", span)
+            named = re.search(r"--preset \S|\.toml\b|--data \S|--links \d", span)
+            if command and named:
+                writes = re.search(r"(^| )(-o|--output|--help|--describe)\b", span)
+                assert writes, f"{page.name}: `{span}` says not where it writes (-o)"
 
 
 def test_the_build_announcement_states_the_last_build(
