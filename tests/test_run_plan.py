@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 from cxx import require_toolchain
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from ipgen.command.cli import run
 from ipgen.pipeline import job
@@ -364,3 +366,58 @@ def test_an_interrupted_run_says_which_files_are_new(
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "single.csv" in err.split("; still")[0] and "no CSV written" not in err, err
     assert "still the earlier run's: " in err and "single.png" in err and "single.txt" in err, err
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    keep=st.integers(1, 12),
+    uses=st.lists(st.tuples(st.sampled_from(["store", "load"]), st.integers(0, 30)), min_size=1, max_size=60),
+)
+def test_the_plans_kept_are_the_most_recently_used(
+    tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch, keep: int, uses: list
+) -> None:
+    """The plans folder grew by one entry (about 40 kB) per distinct scene, forever (an audit:
+    100 scenes, 4.4 MB). At most MAX_PLANS are kept; beyond it the least recently stored or read
+    go, down to nine tenths, so every plan used since is still there."""
+
+    from ipgen.pipeline import run_plan
+
+    monkeypatch.setattr(run_plan, "MAX_PLANS", keep)
+    cache = tmp_path_factory.mktemp("cache")
+    folder = cache / FOLDER
+    clock = 1_000_000.0
+    recent: list[str] = []  # keys by last use, most recent last
+    for action, number in uses:
+        key = f"k{number}"
+        clock += 10
+        if action == "store":
+            store_plan(cache, key, PLAN)
+        elif load_plan(cache, key) is None:
+            continue  # never stored, or pruned: not a use
+        entry = folder / f"{key}.json"
+        os.utime(entry, (clock, clock))  # the file system's clock, made distinct per use
+        recent = [k for k in recent if k != key] + [key]
+        kept = {path.stem for path in folder.glob("*.json")}
+        assert len(kept) <= keep, kept
+        assert key in kept  # what was just used stays
+        survivors = [k for k in recent if k in kept]
+        assert survivors == recent[len(recent) - len(survivors) :], (recent, kept)  # the newest kept
+        recent = survivors
+
+
+def test_a_crashed_writers_temporary_entry_goes_when_old(tmp_path: Path) -> None:
+    """A run killed between writing and renaming its plan left `.KEY.json.PID` for good."""
+    from ipgen.pipeline.run_plan import STALE_PARTIAL, prune_plans
+
+    folder = tmp_path / FOLDER
+    folder.mkdir()
+    old, fresh = folder / ".a.json.11", folder / ".b.json.12"
+    for path in (old, fresh):
+        path.write_text("{")
+    os.utime(old, (0, 0))
+    store_plan(tmp_path, "k", PLAN)  # prunes as it stores
+    assert not old.exists() and fresh.exists() and load_plan(tmp_path, "k") == PLAN
+    assert STALE_PARTIAL >= 60  # a writer in progress is never taken for a crashed one
+    os.utime(fresh, (0, 0))
+    prune_plans(folder)
+    assert not fresh.exists() and load_plan(tmp_path, "k") == PLAN

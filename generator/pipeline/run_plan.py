@@ -14,7 +14,8 @@ and of the run's --force. The next run of the same scene reads it instead of mak
 An entry is written to a temporary name and renamed, with the SHA-256 of its contents inside; one
 that cannot be read, does not match its checksum or holds values of the wrong kind is ignored (the
 plan is made again and written over it). Only a plan made without an error is kept: a scene that
-fails its checks is checked again at every run.
+fails its checks is checked again at every run. At most `MAX_PLANS` are kept: the least recently
+used go first (`prune_plans`).
 """
 
 from __future__ import annotations
@@ -38,6 +39,12 @@ if TYPE_CHECKING:
 # Part of every key: a new layout of the entries gets new keys.
 FORMAT = "ipgen run plan 1"
 FOLDER = "runs"
+# The plans kept at most: a study over many distinct scenes (initial conditions, a specialised
+# scene's parameters) added one entry of about 40 kB each, forever. Beyond it the least recently
+# used go (about 40 MB kept; a plan removed is made again, a second or so).
+MAX_PLANS = 1000
+# A temporary entry older than this [s] is a crashed writer's, removed when plans are pruned.
+STALE_PARTIAL = 3600.0
 METADATA = (".dist-info", ".egg-info")  # an installed distribution's metadata folder
 PACKAGE = Path(__file__).resolve().parents[1]  # the package's folder: generator/ or site-packages/ipgen
 
@@ -210,10 +217,13 @@ def load_plan(cache: Path | None, key: str) -> RunPlan | None:
     -------
     RunPlan or None
     """
+    entry = _entry(cache, key)
     try:
-        record = json.loads(_entry(cache, key).read_text(encoding="utf-8"))
+        record = json.loads(entry.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, ValueError, RecursionError):
         return None
+    with contextlib.suppress(OSError):
+        os.utime(entry)  # used now: the last to go when the plans are pruned
     if not isinstance(record, dict) or not isinstance(record.get("plan"), dict):
         return None
     body = json.dumps(record["plan"], sort_keys=True)
@@ -250,3 +260,46 @@ def store_plan(cache: Path | None, key: str, plan: RunPlan) -> None:
     except OSError:
         with contextlib.suppress(OSError):
             partial.unlink()
+        return
+    prune_plans(entry.parent, spare=entry)
+
+
+def prune_plans(folder: Path, keep: int | None = None, spare: Path | None = None) -> None:
+    """Remove the least recently used plans (modification time: written or read) beyond `keep`
+    (default `MAX_PLANS`) down to nine tenths of it (at least one), never `spare` (the plan just
+    written), and temporary entries older than `STALE_PARTIAL`. Files another run removes
+    meanwhile, or that cannot be removed, are skipped: a plan that is gone is made again.
+
+    Parameters
+    ----------
+    folder : Path
+        The cache's `runs/` folder.
+    keep : int, optional
+        The most plans kept.
+    spare : Path, optional
+        A plan never removed.
+    """
+    import time
+
+    keep = MAX_PLANS if keep is None else keep
+    plans: list[tuple[float, Path]] = []
+    now = time.time()
+    try:
+        with os.scandir(folder) as entries:
+            for item in entries:
+                with contextlib.suppress(OSError):
+                    modified = item.stat(follow_symlinks=False).st_mtime
+                    if item.name.startswith("."):
+                        if now - modified > STALE_PARTIAL:
+                            os.unlink(item.path)
+                    elif item.name.endswith(".json") and Path(item.path) != spare:
+                        plans.append((modified, Path(item.path)))
+    except OSError:
+        return
+    kept = len(plans) + (spare is not None)
+    if kept <= keep:
+        return
+    plans.sort()
+    for _, path in plans[: kept - max(1, keep * 9 // 10)]:
+        with contextlib.suppress(OSError):
+            path.unlink()
