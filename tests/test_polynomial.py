@@ -1,8 +1,10 @@
 """`polynomial.sparse` (what code generation reads) against FLINT's own exponent vectors.
 
-`sparse` parses FLINT's text of a polynomial for speed; these tests check it term by term
-against `fmpq_mpoly.to_dict()` (dense exponent vectors, exact coefficients), on random
-polynomials over a real system's generators (names like `delta0`, `c1_2`, `rho1`).
+`sparse` reads a small ring's polynomials from their exponent vectors (`terms`) and a large
+ring's from FLINT's text (python-flint's `str` leaks memory, but is ten times faster at 20
+links); these tests check both readings term by term against `fmpq_mpoly.to_dict()` (dense
+exponent vectors, exact coefficients), on random polynomials over a real system's generators
+(names like `delta0`, `c1_2`, `rho1`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from flint import fmpq
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ipgen.model import polynomial
 from ipgen.model.bodies import algebra_for
 from ipgen.model.polynomial import Poly, sparse
 from ipgen.model.system import System
@@ -50,11 +53,14 @@ def _expected(p: Poly) -> dict[tuple[int, ...], Fraction]:
 @given(polynomials)
 def test_sparse_matches_flint_exponent_vectors(terms: list[tuple[dict[int, int], Fraction]]) -> None:
     p = _build(terms)
-    numerators, den = sparse(p)
-    assert {m: Fraction(n, den) for m, n in numerators.items()} == _expected(p)
-    assert all(list(m) == sorted(m) for m in numerators)
-    # lowest terms: no common factor of the denominator and all numerators
-    assert gcd(den, *numerators.values()) == 1
+    readings = [sparse(p)]
+    if not p.is_zero():
+        readings += [polynomial._from_terms(p), polynomial._from_text(p)]
+    for numerators, den in readings:
+        assert {m: Fraction(n, den) for m, n in numerators.items()} == _expected(p)
+        assert all(list(m) == sorted(m) for m in numerators)
+        # lowest terms: no common factor of the denominator and all numerators
+        assert gcd(den, *numerators.values()) == 1
 
 
 def test_sparse_examples() -> None:
@@ -64,3 +70,29 @@ def test_sparse_examples() -> None:
     assert sparse(p) == ({(m1, l1, l1, s1): -9, (c1_2,): 2, (): -30}, 6)
     assert sparse(ALGEBRA.zero) == ({}, 1)
     assert sparse(ALGEBRA.constant(Fraction(-1, 4))) == ({(): -1}, 4)
+
+
+def test_a_small_ring_is_read_without_flints_text(monkeypatch) -> None:
+    """python-flint 0.9.0's `fmpq_mpoly.str` leaks about 4 kB a call: a process generating
+    headers grew by 40 kB a header (a resource audit). A ring of up to TERMS_UP_TO generators
+    (a rotary chain to 5 links) never asks for the text; a larger one does (speed)."""
+    import tempfile
+    from pathlib import Path
+
+    from ipgen.pipeline.generate import generate
+
+    def refused(p: Poly) -> None:
+        raise AssertionError("read from FLINT's text")
+
+    assert algebra_for(System("rotary", 5)).ring.nvars() <= polynomial.TERMS_UP_TO
+    monkeypatch.setattr(polynomial, "_from_text", refused)
+    with tempfile.TemporaryDirectory() as folder:
+        generate(System("rotary", 2), "m", Path(folder), emit=("cpp", "c", "library"))
+    large = algebra_for(System("classical", 20))
+    assert large.ring.nvars() > polynomial.TERMS_UP_TO
+    try:
+        sparse(large.gens[0] + 1)
+    except AssertionError as error:
+        assert "FLINT's text" in str(error)
+    else:
+        raise AssertionError("a large ring read without the text")

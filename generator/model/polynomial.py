@@ -36,17 +36,40 @@ Monomial = tuple[int, ...]  # sparse: generator indices, each repeated as often 
 PARAMETER, VELOCITY, ACCELERATION, LETTER, NAMED = "parameter", "velocity", "acceleration", "letter", "named"
 
 
+# Rings with at most this many generators (a rotary chain to 5 links, 143) are read from their
+# exponent vectors: python-flint 0.9.0's `fmpq_mpoly.str` leaks about 4 kB of native memory a
+# call (a process generating headers grew by 40 kB a header), `terms()` does not. Larger rings
+# are read from the text: dense vectors of 748 entries (20 links) took ten times as long, a third
+# of a second a header.
+TERMS_UP_TO = 150
+
+
 def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
     """p as ({sparse monomial: numerator}, common denominator), in lowest terms: what code
     generation reads. A sparse monomial lists the generator indices in increasing order, each as
     often as its exponent: x0² x3 is (0, 0, 3).
 
-    Read from FLINT's own sparse text of p (`fmpq_mpoly.str`: `-3/2*m1*l1^2*s1 + g`, only the
-    generators each term uses): its exponent vectors (`monoms`) are dense, one entry per
-    generator, and cost ~10x more to read at 20 links.
+    Read from p's exponent vectors (`terms`) in a ring of at most `TERMS_UP_TO` generators, else
+    from FLINT's own sparse text of p (`fmpq_mpoly.str`: `-3/2*m1*l1^2*s1 + g`, only the
+    generators each term uses), whose exponent vectors are dense, one entry per generator.
     """
     if p.is_zero():
         return {}, 1
+    return _from_terms(p) if p.context().nvars() <= TERMS_UP_TO else _from_text(p)
+
+
+def _from_terms(p: Poly) -> tuple[dict[Monomial, int], int]:
+    """`sparse` of a nonzero p read from its exponent vectors."""
+    return _lowest_terms(
+        [
+            (tuple(g for g, e in enumerate(exponents) if e for _ in range(e)), int(c.p), int(c.q))
+            for exponents, c in p.terms()
+        ]
+    )
+
+
+def _from_text(p: Poly) -> tuple[dict[Monomial, int], int]:
+    """`sparse` of a nonzero p read from FLINT's text of it."""
     monomials = _monomial_cache(p.context())
     parsed: list[tuple[Monomial, int, int]] = []
     for text in p.str().replace(" - ", " + -").split(" + "):
@@ -60,6 +83,11 @@ def sparse(p: Poly) -> tuple[dict[Monomial, int], int]:
         if monomial is None:
             monomial = monomials[term] = _monomial(term, monomials.names)
         parsed.append((monomial, sign * numerator, denominator))
+    return _lowest_terms(parsed)
+
+
+def _lowest_terms(parsed: list[tuple[Monomial, int, int]]) -> tuple[dict[Monomial, int], int]:
+    """(monomial, numerator, denominator) terms over their common denominator."""
     den = lcm(*(d for _, _, d in parsed))
     return {m: n * (den // d) for m, n, d in parsed}, den
 
