@@ -24,6 +24,7 @@ index lists), C-contiguous, kept alive by the caller for as long as C may read t
 from __future__ import annotations
 
 import ctypes
+import os
 import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -296,6 +297,16 @@ def declare(loaded: ctypes.CDLL) -> ctypes.CDLL:
 
 _lock = threading.Lock()
 _loaded: ctypes.CDLL | None = None
+
+
+def _after_fork() -> None:
+    """A child forked while a thread held the lock (compiling the library) would wait on it for
+    good: a new lock."""
+    global _lock
+    _lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
 
 
 def library() -> ctypes.CDLL:

@@ -436,9 +436,10 @@ def _linearize(
 
 
 def _linearize_canonical(
-    p: Pendulum, q: np.ndarray, qd: np.ndarray, u: object, stacklevel: int
+    p: Pendulum, q: np.ndarray, qd: np.ndarray, u: object, stacklevel: int, warn: bool = True
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(A, B) in ipgen's coordinates about (q, qd, u); the motor folded (`Pendulum.folded`)."""
+    """(A, B) in ipgen's coordinates about (q, qd, u); the motor folded (`Pendulum.folded`).
+    `warn`: an EquilibriumWarning when (q, qd, u) is not a rest."""
     import numpy as np
 
     try:
@@ -462,7 +463,7 @@ def _linearize_canonical(
             "lengths and inertias (a value many orders of magnitude off?)"
         ) from None
     scale = max(1.0, float(np.max(np.abs(dq))) if dq.size else 1.0)
-    if np.any(qd != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale:
+    if warn and (np.any(qd != 0.0) or float(np.max(np.abs(qdd))) > 1e-9 * scale):
         warnings.warn(
             f"linearize: the state is not an equilibrium for u = {u:g} (|θ̇| max {np.max(np.abs(qd)):.3g}, "
             f"|θ̈| max {np.max(np.abs(qdd)):.3g}); A and B describe the motion about a moving point",
@@ -814,6 +815,13 @@ def check_stabilisable(a: np.ndarray, b: np.ndarray, q: np.ndarray) -> None:
             )
 
 
+def linear_model_at(p: Pendulum, q: np.ndarray, qd: np.ndarray, u: float) -> tuple[np.ndarray, np.ndarray]:
+    """(A, B) of `linearize` about (q, qd, u) in ipgen's coordinates, without its warning for a
+    state that is not a rest: for a caller that checked it (a thread-safe replacement for
+    silencing EquilibriumWarning around `linearize`)."""
+    return _linearize_canonical(p, q, qd, u, 1, warn=False)
+
+
 def _rows_to(matrix: np.ndarray, size: float) -> np.ndarray:
     """`matrix` with each nonzero row scaled to the 2-norm `size` (zero rows stay zero)."""
     import numpy as np
@@ -966,10 +974,10 @@ def continuous_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarr
         An unstabilisable pair, an undetectable one, or a Riccati equation without a stabilising
         solution.
     """
-    import warnings
-
     import numpy as np
     from scipy.linalg import LinAlgWarning, solve_continuous_are
+
+    from ipgen.common.quiet import ignoring
 
     doubted: NotStabilisable | None = None
     try:
@@ -977,8 +985,7 @@ def continuous_lqr_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarr
     except NotStabilisable as refusal:
         doubted = refusal
     try:
-        with warnings.catch_warnings():  # scipy's "QZ iteration failed": the gain is checked below
-            warnings.simplefilter("ignore", LinAlgWarning)
+        with ignoring(LinAlgWarning):  # scipy's "QZ iteration failed": the gain is checked below
             riccati = solve_continuous_are(a, b, q, r)
     except (np.linalg.LinAlgError, ValueError) as exc:
         if doubted is not None:

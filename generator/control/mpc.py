@@ -22,8 +22,9 @@ from __future__ import annotations
 
 import ctypes
 import numbers
+import os
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -206,9 +207,38 @@ def build(precision: str = "double") -> Path:
     )  # fmt: skip
 
 
-_lock = threading.Lock()
+_lock = threading.Lock()  # guards the two dicts below and _building, never held while building
+_building: dict[Any, threading.Lock] = {}  # one lock per library being built
 _loaded: dict[str, ctypes.CDLL] = {}
 _models: dict[Any, ctypes.CDLL] = {}
+
+
+def _once(store: dict[Any, ctypes.CDLL], key: Any, make: Callable[[], ctypes.CDLL]) -> ctypes.CDLL:
+    """store[key], made by `make` once per process: a thread asking for a library another is
+    building waits for it, one asking for any other does not (the module lock was held through
+    a whole compile: a loaded model's lookup waited 0.33 s on another model's build)."""
+    with _lock:
+        if key in store:
+            return store[key]
+        building = _building.setdefault(key, threading.Lock())
+    with building:
+        with _lock:
+            if key in store:
+                return store[key]
+        made = make()
+        with _lock:
+            store[key] = made
+        return made
+
+
+def _after_fork() -> None:
+    """A child forked while a thread held a lock would wait on it for good: new locks."""
+    global _lock
+    _lock = threading.Lock()
+    _building.clear()
+
+
+os.register_at_fork(after_in_child=_after_fork)
 
 
 def library(precision: str = "double") -> ctypes.CDLL:
@@ -216,44 +246,45 @@ def library(precision: str = "double") -> ctypes.CDLL:
     built if needed, loaded once per process."""
     if precision not in PRECISIONS:
         raise MpcError(f"precision {precision!r}: expected 'double' or 'float'")
-    with _lock:
-        if precision in _loaded:
-            return _loaded[precision]
-        path = build(precision)
-        try:
-            lib = ctypes.CDLL(str(path))
-        except OSError as e:
-            raise MpcError(f"cannot load the MPC library {shown_path(path)}: {e}") from None
-        real = PRECISIONS[precision][0]
-        P, I, L = ctypes.c_void_p, ctypes.c_int, ctypes.c_long  # noqa: E741
-        for name, restype, argtypes in (
-            ("ipgen_mpc_work_size", L, (P,)),
-            ("ipgen_mpc_carve", L, (P, P, P)),
-            ("ipgen_mpc_rk4", I, (P, P, P, P, P, P, P)),
-            ("ipgen_mpc_rk4_method", I, (P, P, P, P, P, P, P, P)),
-            ("ipgen_mpc_reset", None, (P,)),
-            ("ipgen_mpc_cost", real, (P, P)),
-            ("ipgen_mpc_check", I, (P,)),
-            ("ipgen_mpc_step", I, (P, P, P, P, P)),
-            ("ipgen_mpc_track", I, (P, P, P, P, P, P, P)),
-            ("ipgen_mpc_track_method", I, (P, P, P, P, P, P, P, P)),
-            ("ipgen_mpc_cost_tracking", real, (P, P, P, P)),
-            ("ipgen_mpc_model_dynamics", I, (P, P, P, P, P, P)),
-            ("ipgen_mpc_model_layout", L, (P,)),
-        ):
-            function = getattr(lib, name)
-            function.restype, function.argtypes = restype, list(argtypes)
-        written = (ctypes.c_long * LAYOUT_ENTRIES)()
-        count = lib.ipgen_mpc_model_layout(ctypes.addressof(written))
-        got, expected = list(written), _layout(real)
-        got[-2] = -1
-        if count != LAYOUT_ENTRIES or got != expected:
-            raise MpcError(
-                f"the MPC library's structs do not match ipgen.control.mpc's mirrors (C {got}, Python "
-                f"{expected}): update the mirrors with ipgen_mpc.h"
-            )
-        _loaded[precision] = lib
-        return lib
+    return _once(_loaded, precision, lambda: _load(precision))
+
+
+def _load(precision: str) -> ctypes.CDLL:
+    """The MPC library in `precision`, built if needed, loaded and checked (`library`)."""
+    path = build(precision)
+    try:
+        lib = ctypes.CDLL(str(path))
+    except OSError as e:
+        raise MpcError(f"cannot load the MPC library {shown_path(path)}: {e}") from None
+    real = PRECISIONS[precision][0]
+    P, I, L = ctypes.c_void_p, ctypes.c_int, ctypes.c_long  # noqa: E741
+    for name, restype, argtypes in (
+        ("ipgen_mpc_work_size", L, (P,)),
+        ("ipgen_mpc_carve", L, (P, P, P)),
+        ("ipgen_mpc_rk4", I, (P, P, P, P, P, P, P)),
+        ("ipgen_mpc_rk4_method", I, (P, P, P, P, P, P, P, P)),
+        ("ipgen_mpc_reset", None, (P,)),
+        ("ipgen_mpc_cost", real, (P, P)),
+        ("ipgen_mpc_check", I, (P,)),
+        ("ipgen_mpc_step", I, (P, P, P, P, P)),
+        ("ipgen_mpc_track", I, (P, P, P, P, P, P, P)),
+        ("ipgen_mpc_track_method", I, (P, P, P, P, P, P, P, P)),
+        ("ipgen_mpc_cost_tracking", real, (P, P, P, P)),
+        ("ipgen_mpc_model_dynamics", I, (P, P, P, P, P, P)),
+        ("ipgen_mpc_model_layout", L, (P,)),
+    ):
+        function = getattr(lib, name)
+        function.restype, function.argtypes = restype, list(argtypes)
+    written = (ctypes.c_long * LAYOUT_ENTRIES)()
+    count = lib.ipgen_mpc_model_layout(ctypes.addressof(written))
+    got, expected = list(written), _layout(real)
+    got[-2] = -1
+    if count != LAYOUT_ENTRIES or got != expected:
+        raise MpcError(
+            f"the MPC library's structs do not match ipgen.control.mpc's mirrors (C {got}, Python "
+            f"{expected}): update the mirrors with ipgen_mpc.h"
+        )
+    return lib
 
 
 def model_library(pendulum: Pendulum | FixedPendulum) -> ctypes.CDLL:
@@ -262,16 +293,17 @@ def model_library(pendulum: Pendulum | FixedPendulum) -> ctypes.CDLL:
     run` does; imported here, on request, from the later stage that builds it)."""
     from ipgen.pipeline.model_library import compiled_model_library
 
-    with _lock:
-        fixed = isinstance(pendulum, FixedPendulum)
-        system = pendulum.canonical() if fixed else pendulum.system
-        key = ("fixed", pendulum.links, tuple(pendulum.joints)) if fixed else system
-        if key not in _models:
-            try:
-                _models[key] = compiled_model_library(system)
-            except Error as e:
-                raise MpcError(str(e)) from None
-        return _models[key]
+    fixed = isinstance(pendulum, FixedPendulum)
+    system = pendulum.canonical() if fixed else pendulum.system
+    key = ("fixed", pendulum.links, tuple(pendulum.joints)) if fixed else system
+
+    def make() -> ctypes.CDLL:
+        try:
+            return compiled_model_library(system)
+        except Error as e:
+            raise MpcError(str(e)) from None
+
+    return _once(_models, key, make)
 
 
 # ---- the design --------------------------------------------------------------------------------
@@ -833,19 +865,16 @@ def _check_rk4_stable(
     reference that does not grow (Re λ <= 0) from growing in the prediction (|R(h λ)| <= 1, h the
     step): a stiff mode (heavy damping on a light body: λ = −976 s⁻¹ at 10 ms, h λ = −9.8) made
     every QP break down and the loop diverge with advice that did not name the cause."""
-    import warnings
 
     from ipgen.control import fixed_linear, linear
 
     dof = pendulum.dof if isinstance(pendulum, Pendulum) else pendulum.links
     q, qd = x_ref[:dof], x_ref[dof:]
-    try:
-        with warnings.catch_warnings():  # the reference was checked to be a rest already
-            warnings.simplefilter("ignore", linear.EquilibriumWarning)
-            if isinstance(pendulum, FixedPendulum):
-                a, _ = fixed_linear.linearize_fixed(pendulum.canonical(), q, qd, [u_ref])
-            else:
-                a, _ = linear.linearize(pendulum.canonical(), q, qd, u_ref)
+    try:  # the reference was checked to be a rest already: no warning wanted
+        if isinstance(pendulum, FixedPendulum):
+            a, _ = fixed_linear.linearize_fixed(pendulum.canonical(), q, qd, [u_ref])
+        else:
+            a, _ = linear.linear_model_at(pendulum.canonical(), q, qd, u_ref)
         modes = np.linalg.eigvals(a)
     except (Error, np.linalg.LinAlgError, ValueError):
         return  # the model's own checks (the terminal weight's Riccati equation) say what is wrong

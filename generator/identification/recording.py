@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import gzip
 import io
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,10 +107,10 @@ def read_recording(
         raise RecordingError(f"{path.name}: no {missing} in the header: DFKI's tau_measJ is joint J's torque")
     else:
         torques = _columns(header, ("tau", "u"), inputs, path, "torque")
+    if not any(line.strip() for line in text.splitlines()[1:]):  # (numpy would warn, then read none)
+        raise RecordingError(f"{path.name}: needs at least {MIN_SAMPLES} rows of finite numbers")
     try:
-        with warnings.catch_warnings():  # no rows: numpy warns, then the row count below says it
-            warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
+        data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise RecordingError(f"{path.name}: not a table of numbers ({str(exc)[:80]})") from None
     if data.shape[0] < MIN_SAMPLES or not np.all(np.isfinite(data[:, [time_column, *angles, *torques]])):
