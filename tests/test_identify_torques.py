@@ -460,3 +460,18 @@ def test_the_recording_is_never_written_over_not_even_with_force(
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "is one of the command's inputs" in err, err
     assert data.read_bytes() == before
+
+
+@pytest.mark.parametrize("rows", ["", "\n\n", "# a comment\n", "# 1,2,3,4,5\n\n# another\n"])
+def test_a_recording_without_rows_is_one_line_and_no_warning(tmp_path: Path, rows: str) -> None:
+    """A header and no data (blank or comment lines only): numpy's loadtxt warned 'input contained
+    no data' before the refusal; the check before it is one line, without the warning."""
+    import warnings
+
+    path = tmp_path / "empty.csv"
+    path.write_text("t,q1,q2,tau1,tau2\n" + rows)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any warning fails the test
+        with pytest.raises(RecordingError, match="needs at least") as refused:
+            read_recording(path, 2, 2)
+    assert "\n" not in str(refused.value)

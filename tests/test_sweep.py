@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cxx import require_toolchain
-from hypothesis import event, given, settings
+from hypothesis import event, example, given, settings
 from hypothesis import strategies as st
 
 import ipgen
@@ -241,6 +241,9 @@ SWEPT_KEYS = (
 
 
 @settings(max_examples=120, deadline=None)
+@example("parameters.m[1]", 1.0, 1.1754943508222875e-38, 2)  # the last level rounded to 0.0
+@example("parameters.m[1]", 0.0, 1e308, 4)  # span · i overflowed to inf
+@example("parameters.m[1]", -1e308, 1e308, 3)  # span itself overflowed
 @given(
     st.one_of(
         st.sampled_from(SWEPT_KEYS),

@@ -10,12 +10,13 @@ import sys
 import threading
 import time
 import warnings
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
 import ipgen
-from ipgen.common import loop_runtime
+from ipgen.common import loop_runtime, quiet
 from ipgen.control import mpc as mpc_module
 from ipgen.control.linear import EquilibriumWarning
 
@@ -82,14 +83,39 @@ def test_a_loaded_model_does_not_wait_for_another_models_build(monkeypatch: pyte
         mpc_module._models.pop(slow.system, None)
 
 
-@pytest.mark.parametrize("module", [mpc_module, loop_runtime], ids=["mpc", "loop_runtime"])
-def test_a_child_forked_while_a_thread_holds_the_lock_is_not_stuck(module: object) -> None:
-    """A process forked while another thread held a library lock (compiling) inherited the lock
-    held, by a thread it does not have: its first controller waited for good."""
+def _fork_and_check(child: Callable[[], bool]) -> None:
+    """Fork; the child exits 0 if `child()` is true (within 10 s, else it is killed)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # 3.12+: fork with threads running
+        pid = os.fork()
+    if pid == 0:  # the child: exit at once
+        os._exit(0 if child() else 1)
+    deadline = time.monotonic() + 10
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() > deadline:
+            os.kill(pid, 9)
+            os.waitpid(pid, 0)
+            pytest.fail("the forked child did not exit")
+        time.sleep(0.05)
+    assert os.waitstatus_to_exitcode(status) == 0
+
+
+@pytest.mark.parametrize(
+    ("module", "name"),
+    [(mpc_module, "_lock"), (loop_runtime, "_lock"), (quiet, "_LOCK")],
+    ids=["mpc", "loop", "quiet"],
+)
+def test_a_child_forked_while_a_thread_holds_the_lock_is_not_stuck(module: object, name: str) -> None:
+    """A process forked while another thread held a lock of ipgen's (compiling a library, or
+    inside a silenced call: quiet's) inherited the lock held, by a thread it does not have: its
+    first controller waited for good."""
     holding, release = threading.Event(), threading.Event()
 
     def hold() -> None:
-        with module._lock:  # type: ignore[attr-defined]
+        with getattr(module, name):
             holding.set()
             release.wait(10)
 
@@ -97,23 +123,59 @@ def test_a_child_forked_while_a_thread_holds_the_lock_is_not_stuck(module: objec
     holder.start()
     try:
         assert holding.wait(10)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)  # 3.12+: fork with threads running
-            pid = os.fork()
-        if pid == 0:  # the child: exit at once, 0 if the lock can be taken
-            taken = module._lock.acquire(timeout=2)  # type: ignore[attr-defined]
-            os._exit(0 if taken else 1)
-        deadline = time.monotonic() + 10
-        while True:
-            done, status = os.waitpid(pid, os.WNOHANG)
-            if done:
-                break
-            if time.monotonic() > deadline:
-                os.kill(pid, 9)
-                os.waitpid(pid, 0)
-                pytest.fail("the forked child did not exit")
-            time.sleep(0.05)
-        assert os.waitstatus_to_exitcode(status) == 0
+        _fork_and_check(lambda: getattr(module, name).acquire(timeout=2))
     finally:
         release.set()
         holder.join()
+
+
+def test_a_child_forked_during_a_build_builds_for_itself() -> None:
+    """The lock held through a compile is the library's own (`mpc._building`): a child forked
+    while a thread compiles gets its own, and its request for that library is answered."""
+    store: dict[object, object] = {}
+    building, release = threading.Event(), threading.Event()
+
+    def make() -> str:
+        building.set()
+        release.wait(10)
+        return "the parent's"
+
+    builder = threading.Thread(target=mpc_module._once, args=(store, "key", make))
+    builder.start()
+    try:
+        assert building.wait(10)
+        _fork_and_check(lambda: mpc_module._once(store, "key", lambda: "the child's") == "the child's")
+    finally:
+        release.set()
+        builder.join()
+    assert store["key"] == "the parent's"
+
+
+def test_the_equations_documents_keep_their_escaping_in_threads() -> None:
+    """The Markdown and TeX renders set one shared environment's `escape_text` filter in turn:
+    rendered from threads, a .md came out with TeX's escapes (50\\%)."""
+    from ipgen.codegen import equations
+    from ipgen.codegen.header import HeaderRequest
+    from ipgen.model.coordinates import Coordinates
+    from ipgen.model.derivation import derive
+    from ipgen.model.specialise import Specialisation
+    from ipgen.model.system import System
+
+    eqs = derive(System("rotary", 1))
+    request = HeaderRequest(
+        "m", "ipgen 50% & #1", Specialisation(), None, (), (), None, Coordinates(), None, "direct"
+    )
+    alone = equations.render_equations(eqs, request)
+    assert "50%" in alone[".md"] and "50\\%" in alone[".tex"]
+
+    def render(_: int) -> dict[str, str]:
+        return equations.render_equations(eqs, request)
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        with ThreadPoolExecutor(8) as pool:
+            results = list(pool.map(render, range(200)))
+    finally:
+        sys.setswitchinterval(interval)
+    assert all(result == alone for result in results)

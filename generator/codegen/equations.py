@@ -13,6 +13,7 @@ instead): the document is for reading, the C++ header has every entry.
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -387,11 +388,14 @@ def _fixed_context(name: str, command: str, joints: tuple[int, ...], links: int)
     }
 
 
+@functools.cache
 def _environment(escape: Callable[[str], str]) -> jinja2.Environment:
-    """The templates' environment (codegen.header's), with `escape_text` escaping for one format."""
-    from ipgen.codegen.header import environment
+    """The templates' environment with `escape_text` escaping for one format: one per format and
+    process (they shared one, whose filter the Markdown and TeX renders of two threads set in
+    turn: a .md came out with TeX's escapes)."""
+    from ipgen.codegen.header import new_environment
 
-    documents = environment()
+    documents = new_environment()
     documents.filters["escape_text"] = escape
     return documents
 

@@ -131,7 +131,13 @@ def _template_cache() -> jinja2.BytecodeCache | None:
 @functools.cache
 def environment() -> jinja2.Environment:
     """The Jinja environment of ipgen's templates (strict: an undefined name is an error), one
-    per process: a new one each header loaded every template again and kept about 0.5 kB."""
+    per process: a new one each header loaded every template again and kept about 0.5 kB. Shared
+    by every thread: not to be changed (`new_environment` gives one of a caller's own)."""
+    return new_environment()
+
+
+def new_environment() -> jinja2.Environment:
+    """A new Jinja environment of ipgen's templates (`environment`'s settings)."""
     return jinja2.Environment(
         loader=jinja2.FileSystemLoader(templates_dir()),
         bytecode_cache=_template_cache(),

@@ -11,11 +11,22 @@ is open is still silenced for that moment.
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import warnings
 from collections.abc import Iterator
 
 _LOCK = threading.RLock()
+
+
+def _after_fork() -> None:
+    """A child forked while a thread held the lock (inside a silenced call) would wait on it for
+    good: a new lock."""
+    global _LOCK
+    _LOCK = threading.RLock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
 
 
 @contextlib.contextmanager

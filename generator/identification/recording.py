@@ -107,7 +107,8 @@ def read_recording(
         raise RecordingError(f"{path.name}: no {missing} in the header: DFKI's tau_measJ is joint J's torque")
     else:
         torques = _columns(header, ("tau", "u"), inputs, path, "torque")
-    if not any(line.strip() for line in text.splitlines()[1:]):  # (numpy would warn, then read none)
+    rows = (line.strip() for line in text.splitlines()[1:])
+    if not any(row and not row.startswith("#") for row in rows):  # (numpy would warn, read none)
         raise RecordingError(f"{path.name}: needs at least {MIN_SAMPLES} rows of finite numbers")
     try:
         data = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1, ndmin=2)

@@ -125,7 +125,7 @@ def parse_levels(text: str, spec: str) -> tuple[float, ...]:
                 raise SweepError(f"--vary {abbreviate(spec)!r}: one level between two values; use N >= 2")
             return (low,)
         span = high - low
-        if not math.isfinite(span):  # ±1e308: a convex combination, which cannot overflow
+        if not math.isfinite(span * (count - 1)):  # ±1e308: a convex combination cannot overflow
             inner = [low * (1 - i / (count - 1)) + high * (i / (count - 1)) for i in range(1, count - 1)]
         else:
             inner = [low + span * i / (count - 1) for i in range(1, count - 1)]
