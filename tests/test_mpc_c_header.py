@@ -490,3 +490,26 @@ def test_a_plan_tracked_by_the_mpc_replays_the_simulators_inputs(
     command = [CXX, "-std=c++17", "-O1", *WARNINGS, f"-I{tmp_path}", str(program.with_suffix(".cpp"))]
     result = subprocess.run([*command, "-o", str(program)], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr[:3000]
+
+
+INIT_ON_GARBAGE = """\
+#include <stdio.h>
+#include <string.h>
+#include "qube_servo2.h"
+/* The loop state on memory that held anything (0xA5 bytes), initialised: what the MPC reports. */
+static P_loop_state s;
+int main(void) {
+  memset(&s, 0xA5, sizeof s);
+  P_loop_init(&s);
+  printf("%d %d %d %g %g %g\\n", s.mpc.info.status, s.mpc.info.sqp_iterations, s.mpc.info.qp_iterations,
+         (double)s.mpc.info.step, (double)s.mpc.info.defect, (double)s.mpc.info.qp_residual);
+  return 0;
+}
+"""
+
+
+def test_the_loops_init_leaves_no_garbage_in_the_mpcs_report(folder: Path) -> None:
+    """The firmware's init set the MPC's workspace and not its info: read before the first MPC
+    step (a catch not yet made), it held whatever the memory held (a firmware audit: 0xA5...)."""
+    out = _run(_program(folder, "init_on_garbage", INIT_ON_GARBAGE), np.zeros((0, 1)), "{}")
+    assert out == [["0", "0", "0", "0", "0", "0"]], out
