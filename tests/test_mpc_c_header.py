@@ -513,3 +513,44 @@ def test_the_loops_init_leaves_no_garbage_in_the_mpcs_report(folder: Path) -> No
     step (a catch not yet made), it held whatever the memory held (a firmware audit: 0xA5...)."""
     out = _run(_program(folder, "init_on_garbage", INIT_ON_GARBAGE), np.zeros((0, 1)), "{}")
     assert out == [["0", "0", "0", "0", "0", "0"]], out
+
+
+GLITCH = """\
+#include <stdio.h>
+#include "qube_servo2_mpc_swingup_m4f.h"
+/* Hanging at rest, one glitch of 2^POWER counts on encoder CHANNEL at sample 200: how many of the
+ * 3000 commands are not numbers, and the largest |u| of the others. */
+static ipgen_qube_servo2_mpc_swingup_m4f_loop_state s;
+int main(int argc, char **argv) {
+  long counts[2];
+  int channel = argv[1][0] - '0', power = (argv[2][0] - '0') * 10 + (argv[2][1] - '0'), k, nan = 0;
+  double largest = 0;
+  (void)argc;
+  ipgen_qube_servo2_mpc_swingup_m4f_loop_init(&s);
+  for (k = 0; k < 3000; ++k) {
+    double u;
+    counts[0] = counts[1] = 0;
+    if (k == 200) counts[channel] = 1L << power;
+    u = (double)ipgen_qube_servo2_mpc_swingup_m4f_step(&s, counts);
+    if (u != u) ++nan; else if (fabs(u) > largest) largest = fabs(u);
+  }
+  printf("%d %.17g\\n", nan, largest);
+  return 0;
+}
+"""
+
+
+def test_the_firmware_never_sends_nan_whatever_a_glitch_reads(tmp_path: Path) -> None:
+    """One absurd reading (a glitch of 2^23 counts or more on the pendulum's encoder) threw the
+    m4f preset's EKF off for good, and its firmware sent NaN volts to the drive from then on (a
+    firmware audit: 2,797 of 2,800 samples). Its command now stays a number within the limit (0
+    while the loop's state is not finite)."""
+    m4f = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml"
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(m4f), "--emit", "c", "-o", str(tmp_path)]) == 0, err.getvalue()
+    program = _program(tmp_path, "glitch", GLITCH)
+    for channel in ("0", "1"):
+        for power in ("23", "30", "40", "62"):
+            done = subprocess.run([str(program), channel, power], capture_output=True, text=True, check=True)
+            nan, largest = done.stdout.split()
+            assert nan == "0" and float(largest) <= U_MAX, (channel, power, done.stdout)
