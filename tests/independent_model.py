@@ -33,6 +33,13 @@ class Reference:
     kinetic: Callable[..., float]
     potential: Callable[..., float]
 
+    def accelerations(self, *args: object) -> np.ndarray:
+        """θ̈ = M⁻¹ forcing at the same arguments as `mass_matrix`."""
+        import numpy as np
+
+        mass = np.asarray(self.mass_matrix(*args), dtype=float)
+        return np.linalg.solve(mass, np.asarray(self.forcing(*args), dtype=float).ravel())
+
 
 def rod_inertia(frame: me.ReferenceFrame, about_y: sp.Expr, about_x: sp.Expr) -> me.Dyadic:
     """Central inertia dyadic of a thin rod along `frame.z` (nothing about its own axis)."""

@@ -110,9 +110,7 @@ class ReferenceEKF:
 
     def f(self, x, u):
         q, qd = tuple(x[: self.dof]), tuple(x[self.dof :])
-        mass = np.asarray(self.ref.mass_matrix(q, qd, u, self.params), float)
-        forcing = np.asarray(self.ref.forcing(q, qd, u, self.params), float).ravel()
-        return np.concatenate([x[self.dof :], np.linalg.solve(mass, forcing)])
+        return np.concatenate([x[self.dof :], self.ref.accelerations(q, qd, u, self.params)])
 
     def run(self, ys, us):
         n, h = 2 * self.dof, 1e-6

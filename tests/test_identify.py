@@ -139,7 +139,7 @@ def kane_accelerations(setup: Setup, q: np.ndarray, qd: np.ndarray, u: float) ->
     ref = reference(system.type, system.links, system.inertia, general=True)
     links = (group("com"), inertia, group("J_axial"), group("tip"))
     arguments = (tuple(q), tuple(qd), torque, (group("m"), group("l"), group("delta"), values["g"], *links))
-    return np.linalg.solve(np.asarray(ref.mass_matrix(*arguments), float), np.ravel(ref.forcing(*arguments)))
+    return ref.accelerations(*arguments)
 
 
 _CART: list[Path] = []

@@ -517,13 +517,14 @@ def test_the_loops_init_leaves_no_garbage_in_the_mpcs_report(folder: Path) -> No
 
 GLITCH = """\
 #include <stdio.h>
+#include <stdlib.h>
 #include "qube_servo2_mpc_swingup_m4f.h"
 /* Hanging at rest, one glitch of 2^POWER counts on encoder CHANNEL at sample 200: how many of the
  * 3000 commands are not numbers, and the largest |u| of the others. */
 static ipgen_qube_servo2_mpc_swingup_m4f_loop_state s;
 int main(int argc, char **argv) {
   long counts[2];
-  int channel = argv[1][0] - '0', power = (argv[2][0] - '0') * 10 + (argv[2][1] - '0'), k, nan = 0;
+  int channel = atoi(argv[1]), power = atoi(argv[2]), k, nan = 0;
   double largest = 0;
   (void)argc;
   ipgen_qube_servo2_mpc_swingup_m4f_loop_init(&s);

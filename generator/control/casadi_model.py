@@ -26,6 +26,7 @@ from ipgen.model.system import System
 
 if TYPE_CHECKING:
     import casadi as ca
+    import numpy as np
 
 __all__ = ["CasadiModel", "Plant", "as_plant", "casadi_model", "plant"]
 
@@ -215,6 +216,16 @@ def rk4_growth(z: complex) -> float:
         return abs(1 + z + z * z / 2 + z**3 / 6 + z**4 / 24)
     except OverflowError:
         return math.inf
+
+
+def rk4_unstable_mode(a: np.ndarray, step: float) -> complex | None:
+    """The mode s of the linear model `a` that does not grow (Re s <= 0) but that RK4 with steps
+    of `step` makes grow the most (|R(h s)| > 1: a stiff mode), or None if it makes none grow."""
+    import numpy as np
+
+    settled = [complex(mode) for mode in np.linalg.eigvals(a) if np.isfinite(mode) and mode.real <= 0]
+    worst = max(settled, key=lambda mode: rk4_growth(step * mode), default=None)
+    return worst if worst is not None and rk4_growth(step * worst) > 1 + 1e-9 else None
 
 
 @dataclass(frozen=True)

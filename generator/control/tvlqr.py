@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ipgen.control.casadi_model import Plant, casadi_model, rk4_growth, rk4_substeps
+from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps, rk4_unstable_mode
 from ipgen.control.linear import ControlError, discrete_lqr_gain, linearize, weights
 from ipgen.control.trajectory import Plan, PlanError, finite_number
 
@@ -126,12 +126,9 @@ def _check_rk4_stable(a: np.ndarray, period: float) -> None:
     """A ControlError unless the planner's RK4 steps over `period` (`rk4_substeps`) keep every
     mode of the linear model `a` that does not grow from growing: a stiff one (heavy damping on a
     light body) made the sampled model grow 1e195-fold where the rig's grows 46-fold."""
-    import numpy as np
-
     step = period / rk4_substeps(period)
-    settled = [complex(mode) for mode in np.linalg.eigvals(a) if np.isfinite(mode) and mode.real <= 0]
-    worst = max(settled, key=lambda mode: rk4_growth(step * mode), default=0j)
-    if rk4_growth(step * worst) > 1 + 1e-9:
+    worst = rk4_unstable_mode(a, step)
+    if worst is not None:
         raise ControlError(
             f"the model's mode at s = {worst:.4g} 1/s is too fast for the planner's RK4 steps of {step:g} s "
             "(RK4 needs |h s| below about 2.8): check the parameters' units (a link of micrometres, or "
