@@ -809,6 +809,43 @@ def test_an_interrupted_run_stops_its_simulator_and_says_what_it_wrote(
     assert not running.strip(), f"a simulator runs on: {running}"
 
 
+def test_an_interruption_while_the_simulator_starts_stops_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C arriving after the simulator has started but while `ipgen run` starts the thread
+    reading its stderr (which a loaded machine can make long): the simulator is stopped too, as
+    later (it ran on alone, its scratch file left behind; a likely cause of a CI failure of the
+    test above)."""
+    import threading
+
+    from ipgen.pipeline import run as run_module
+
+    started = tmp_path / "pid"
+    script = f"import os, time; open({str(started)!r}, 'w').write(str(os.getpid())); time.sleep(60)"
+    real_start = threading.Thread.start
+
+    def interrupted_start(thread: threading.Thread) -> None:
+        if getattr(thread, "_target", None) is None or thread._target.__name__ != "read_errors":
+            real_start(thread)
+            return
+        deadline = time.monotonic() + 30
+        while (not started.exists() or not started.read_text()) and time.monotonic() < deadline:
+            time.sleep(0.01)  # the stand-in simulator runs
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(threading.Thread, "start", interrupted_start)
+    with pytest.raises(KeyboardInterrupt):
+        run_module._simulate([sys.executable, "-c", script])
+    pid = int(started.read_text())
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return  # stopped and reaped
+    os.kill(pid, signal.SIGKILL)
+    os.waitpid(pid, 0)
+    pytest.fail("the simulator ran on after the interruption")
+
+
 def test_a_failed_rerun_says_the_csv_is_an_earlier_runs(tmp_path: Path, cache: dict[str, str]) -> None:
     """A run that fails (max_steps = 2) into a folder holding the scene's earlier CSV: the summary
     and the message say that CSV is an earlier run's (it sat beside the new .cfg and .txt as if

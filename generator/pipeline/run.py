@@ -299,15 +299,10 @@ def _simulate(
     simulator goes on alone and its scratch file goes with it."""
     import threading
 
-    # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the simulator
-    # would block on a full pipe
-    child = subprocess.Popen(
-        command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace"
-    )
     lines: list[str] = []
 
     def read_errors() -> None:  # stderr as it comes: progress announced, the rest kept in order
-        assert child.stderr is not None
+        assert child is not None and child.stderr is not None
         for line in child.stderr:
             found = _PROGRESS.fullmatch(line.rstrip("\n"))
             if found is None:
@@ -321,15 +316,25 @@ def _simulate(
             with contextlib.suppress(Exception):  # a failing announcement must not stop the reading
                 progress(reached, end)
 
-    reader = threading.Thread(target=read_errors, daemon=True)
-    reader.start()
+    child: subprocess.Popen[str] | None = None
+    # Everything after the simulator's start is inside the try: an interruption while the reader
+    # thread starts (a loaded machine can take that long) must stop the simulator too.
     try:
+        # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the
+        # simulator would block on a full pipe
+        child = subprocess.Popen(
+            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace"
+        )
+        reader = threading.Thread(target=read_errors, daemon=True)
+        reader.start()
         assert child.stdout is not None
         out = child.stdout.read()
         child.wait()
         reader.join()
         err = "".join(lines)
     except KeyboardInterrupt:
+        if child is None:
+            raise
         child.terminate()
         try:
             child.wait(timeout=10)
