@@ -73,9 +73,11 @@ def _columns(folder: Path) -> dict[str, np.ndarray]:
     return run_.columns(slice(-1))  # the sampling instants
 
 
-def _program(folder: Path, name: str, source: str, scalar: str = "double") -> Path:
+def _program(
+    folder: Path, name: str, source: str, scalar: str = "double", flags: tuple[str, ...] = ()
+) -> Path:
     (folder / f"{name}.c").write_text(source.replace("P_", f"{P}_"))
-    extra = [*FLOAT_WARNINGS] if scalar == "float" else []
+    extra = [*FLOAT_WARNINGS, *flags] if scalar == "float" else [*flags]
     command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(folder / f"{name}.c")]
     result = subprocess.run([*command, "-o", str(folder / name), "-lm"], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr[:3000]
@@ -272,11 +274,17 @@ def test_fixed_sizes_with_soft_bounds_are_the_run_time_step(folder: Path, mode: 
 
 
 def _replay_swing_up(
-    folder: Path, name: str, changes: tuple[tuple[str, str], ...] = (), delay: int = 0
+    folder: Path,
+    name: str,
+    changes: tuple[tuple[str, str], ...] = (),
+    delay: int = 0,
+    firmware: str = FIRMWARE,
+    flags: tuple[str, ...] = (),
 ) -> tuple[list[str], str]:
     """The preset `name` (scenes/rigs) with emit = ["c"] and the text `changes` made: its firmware
     entry fed the simulator's counts returns the simulator's volts at every sample (`delay`
-    samples later: what it sends now acts then), in double to 1e-9. Returns the phase at each
+    samples later: what it sends now acts then), in double to 1e-9 (`firmware`: the program, given
+    the counts of a sample per line; `flags`: more compiler flags). Returns the phase at each
     sample and the simulator's summary."""
     preset = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / f"{name}.toml"
     text = preset.read_text().replace(f'name = "{name}"', f'name = "{name}"\nemit = ["c"]')
@@ -295,8 +303,8 @@ def _replay_swing_up(
     phase = run_.phase[:-1]  # the sampling instants
     columns = run_.columns(slice(-1))
     counts = _counts(columns, (0.0, math.pi))  # the encoders read 0 hanging at rest
-    firmware = FIRMWARE.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
-    program = _program(folder, "swingup_firmware", firmware)
+    source = firmware.replace('"qube_servo2.h"', f'"{name}.h"').replace("P_", f"ipgen_{name}_")
+    program = _program(folder, "swingup_firmware", source, flags=flags)
     volts = np.array([float(v[0]) for v in _run(program, counts, "{:d}")])
     applied = columns["u"]
     assert np.all(applied[:delay] == 0.0)  # nothing has arrived yet
@@ -315,6 +323,45 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     require_cc()
     phase, _ = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup")
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
+
+
+LONG_RUNNING = """\
+#include <limits.h>
+#include <stdio.h>
+#include "qube_servo2.h"
+/* FIRMWARE with its sample counters moved on at sample AT to 3 short of LONG_MAX (the catch's
+ * sample with them), as on a rig that has run for good: what it sends must not change. */
+static P_loop_state s;
+int main(void) {
+  long counts[2], k = 0;
+  P_loop_init(&s);
+  while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) {
+    if (k++ == AT) {
+      const long jump = LONG_MAX - 3 - s.swingup.loop.k;
+      s.swingup.loop.k += jump;
+      s.swingup.loop.hold_sample += jump;
+      s.estimator.k = LONG_MAX - 3;
+    }
+    printf("%.17g\\n", (double)P_step(&s, counts));
+  }
+  return 0;
+}
+"""
+
+
+@pytest.mark.parametrize("at", [1, 1700])
+def test_the_firmware_runs_on_past_its_counters_range(tmp_path: Path, at: int) -> None:
+    """The firmware's sample counters (longs) overflowed after 2^31 samples on a 32-bit target
+    (24.8 days at 1 kHz; undefined behaviour, and the estimator restarted where one wrapped to 0).
+    Moved on to 3 short of LONG_MAX in the swing (sample 1) or in the MPC's hold (sample 1700: the
+    cadence of its step every 10th sample kept), the entry still returns the simulator's volts at
+    every sample, compiled with -fsanitize=signed-integer-overflow (any overflow ends the run)."""
+    require_toolchain()
+    require_cc()
+    source = LONG_RUNNING.replace("AT)", f"{at})")
+    flags = ("-fsanitize=signed-integer-overflow", "-fno-sanitize-recover=all")
+    phase, _ = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup", firmware=source, flags=flags)
+    assert phase[at] == ("swing" if at == 1 else "hold"), phase[at]
 
 
 def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_path: Path) -> None:

@@ -140,6 +140,13 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_lag_command(const ipgen_loop_lag *lag, ipge
  * Each is called once per sample k = 0, 1, ... with the measured coordinates y and leaves the
  * estimate x_{k|k} = [q; qd] in x. */
 
+/* A sample counter advanced: it stays at IPGEN_LOOP_COUNT_CAP (2^30) from there on, so that a loop
+ * runs for good where a long has 32 bits (2^31 samples are 24.8 days at 1 kHz, and a signed
+ * overflow is undefined). An estimator's counter only tells its first sample from the others; the
+ * swing-up's is moved back instead (ipgen_loop_swingup_step). */
+#define IPGEN_LOOP_COUNT_CAP 1073741824L
+IPGEN_LOOP_API long ipgen_loop_count(long k) { return k < IPGEN_LOOP_COUNT_CAP ? k + 1 : k; }
+
 /* 1 if the count entries of y and u are all finite, else 0: a generated header's estimator
  * skips such a sample (its state unchanged), which a filter's recursion would otherwise carry
  * on for ever. */
@@ -757,6 +764,16 @@ IPGEN_LOOP_API ipgen_real ipgen_loop_swingup_step(const ipgen_loop_swingup *law,
                       : ipgen_loop_feedback(2 * dof, (ipgen_real)0, law->hold_gain, x, reference);
   }
   s->k += 1;
+  if (s->k >= IPGEN_LOOP_COUNT_CAP && s->phase != IPGEN_LOOP_TRACK) {
+    /* Moved back past the plan by whole catch periods (k itself counts only in the track phase),
+     * the samples since the catch kept modulo catch_every: the hold's cadence goes on, and k
+     * never overflows (also when a caller sets k from its own clock each sample, as ipgen's
+     * simulator does). */
+    const long every = law->catch_every <= 1 ? 1 : law->catch_every;
+    const long since = (s->k - s->hold_sample) % every;
+    s->k = (law->steps / every + 1) * every + s->k % every;
+    s->hold_sample = s->k - since;
+  }
   if (law->gain_factor && *law->gain_factor > 0) u /= *law->gain_factor;
   return ipgen_loop_saturate(u, law->u_max);
 }
