@@ -226,6 +226,8 @@ def markdown(results: list[Evaluation], rounds: int, milliseconds: float) -> str
         "Written by `make bench` (bench/run.py, bench/evaluation.py, bench/eval/); nanoseconds per call,",
         "lower is better; ratio = ipgen / Pinocchio.",
         "",
+        "![nanoseconds per call against the number of links, ipgen and Pinocchio](evaluation.png)",
+        "",
         "- Same system on both sides: a cart (prismatic joint) or an arm turning about the vertical (a",
         "  thin rod of inertia m0 l0²/3) carrying n thin rods (CoG at l/2, m l²/12 about the axes across",
         "  the rod). Rotary headers use `--inertia full`, the rigid thin rod Pinocchio models. Damping 0",

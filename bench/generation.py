@@ -258,6 +258,8 @@ def markdown(
         "",
         "Written by `make bench` (bench/run.py, bench/generation.py); seconds, lower is better.",
         "",
+        "![seconds to derive the equations against the number of links](generation.png)",
+        "",
         "- **ipgen**: process wall time of `python -m generator --type T --links N -o DIR`, everything",
         "  included (interpreter start, imports, derivation, C++ generation, writing the header).",
         "- **Kane / Lagrange**: `sympy.physics.mechanics` `KanesMethod` / `LagrangesMethod` deriving the",
@@ -373,7 +375,7 @@ def plot(results: list[Timing], path: Path, timeout: float = TIMEOUT) -> None:
                 axis.plot(xs, ys, style, color=colour, marker="o", markersize=3, label=label)
         start = floor(results)
         if start is not None and start.wall_s is not None:
-            label = "start-up floor (click + jinja2 + sympy)"
+            label = f"start-up floor ({FLOOR_CODE})"
             axis.axhline(start.wall_s, color="C0", linewidth=0.6, linestyle="--", label=label)
         axis.axhline(timeout, color="grey", linewidth=0.6, linestyle="--", label=f"limit {timeout:.0f} s")
         style_axis(axis, sorted({r.links for r in results if r.type == kind}), "seconds", kind)

@@ -155,7 +155,8 @@ def plot_control(columns: dict[str, list[float]], scene: Scene, title: str, path
     angles.plot(t, columns["theta0"], color="black", label=base)
     for i in range(1, scene.links + 1):
         angles.plot(t, columns[f"theta{i}"], label=f"link {i} angle θ{i} [rad]")
-    angles.set_ylabel("angle from upright")
+    classical = scene.type == "classical"
+    angles.set_ylabel("θ0 [m], link angles from upright [rad]" if classical else "angles [rad]")
     unit = "V" if scene.actuator.is_motor else "N" if scene.type == "classical" else "N m"
     what = "motor voltage" if scene.actuator.is_motor else "force" if scene.type == "classical" else "torque"
     force.plot(t, columns["u"], color="tab:red", label=f"u = −K (x − x_eq) [{unit}]")
@@ -330,7 +331,6 @@ def run_swingups(args: argparse.Namespace) -> None:
             f"   wrote {gif}; last row upright (links within {SWING_ANGLE:g} rad) and at rest "
             f"(rates within {SWING_RATE if rate is None else rate:g})\n"
         )
-        publish(args.out / f"{stem}.png", args.docs)
 
 
 def main() -> int:
