@@ -475,13 +475,15 @@ def write(
     ]
     (out / "hold_margins.md").write_text("\n".join(lines))
     fig, axis = plt.subplots(figsize=(7, 4.5))
-    for period, marker, colour in zip(PERIODS, "os^v", ("C0", "C1", "C2", "C3"), strict=True):
+    # the searches' stars shrink period by period: two at one point (2 and 1 ms) both show
+    stars = (260, 180, 110, 50)
+    for period, marker, colour, star in zip(PERIODS, "os^v", ("C0", "C1", "C2", "C3"), stars, strict=True):
         at = [d for d in designs if d.period == period]
         lqr = [d for d in at if d.source != "search"]
         found = next(d for d in at if d.source == "search")
         axis.scatter([d.delay + d.lag for d in lqr], [d.noise for d in lqr], s=10, alpha=0.4, marker=marker,
                      color=colour, label=f"LQR, T = {period * 1e3:g} ms")  # fmt: skip
-        axis.scatter([found.delay + found.lag], [found.noise], s=120, marker="*", color=colour,
+        axis.scatter([found.delay + found.lag], [found.noise], s=star, marker="*", color=colour,
                      edgecolor="k", label=f"search, T = {period * 1e3:g} ms")  # fmt: skip
     xs = np.arange(0, of[0] + of[1] + 2)
     for name, style in (("estimated", "k--"), ("exact", "k:")):
