@@ -325,6 +325,27 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
     assert "swing" in phase and "hold" in phase, "the run swings and is caught"
 
 
+@pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
+def test_the_firmware_refuses_finite_math_unless_told(tmp_path: Path, flag: str) -> None:
+    """Under -ffast-math the loop's checks for NaN fold away: with the m4f preset's EKF forced to
+    NaN, its step sent 10 V instead of 0 (a clang and gcc audit). The header now refuses the flag
+    in one #error naming the fix, and compiles when the caller defines IPGEN_ALLOW_FINITE_MATH."""
+    require_cc()
+    m4f = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml"
+    with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
+        assert run(["--scene", str(m4f), "--emit", "c", "-o", str(tmp_path)]) == 0, err.getvalue()
+    (tmp_path / "main.c").write_text(GLITCH)
+    command = [CC, "-std=c99", "-O1", *WARNINGS, flag, f"-I{tmp_path}", str(tmp_path / "main.c")]
+    refused = subprocess.run([*command, "-o", str(tmp_path / "p"), "-lm"], capture_output=True, text=True)
+    assert refused.returncode != 0 and "define IPGEN_ALLOW_FINITE_MATH" in refused.stderr, refused.stderr
+    told = subprocess.run(
+        [*command, "-DIPGEN_ALLOW_FINITE_MATH", "-o", str(tmp_path / "p"), "-lm"],
+        capture_output=True,
+        text=True,
+    )
+    assert told.returncode == 0, told.stderr[:3000]
+
+
 LONG_RUNNING = """\
 #include <limits.h>
 #include <stdio.h>

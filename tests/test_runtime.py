@@ -75,10 +75,12 @@ class Model(ctypes.Structure):
 
 
 def compile_library(folder: Path, name: str) -> Path:
-    """NAME.h and NAME_model.c in `folder` compiled into a shared library, as `ipgen run` does."""
+    """NAME.h and NAME_model.c in `folder` compiled into a shared library, as `ipgen run` does
+    (and with -Wmissing-prototypes: the exported ipgen_model_get had no declaration, a clang audit)."""
     _, include = simulator_sources()
     library = folder / f"lib{name}.so"
-    command = [c_compiler(), *c_optimisation(), "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+    command = [c_compiler(), *c_optimisation(), "-Wall", "-Wextra", "-Wpedantic", "-Wmissing-prototypes"]
+    command += ["-Werror"]
     command += [f"-I{include}", f"-I{folder}", str(folder / f"{name}_model.c"), "-o", str(library), "-lm"]
     subprocess.run(command, check=True, capture_output=True, text=True)
     return library
