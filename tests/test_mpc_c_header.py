@@ -328,22 +328,43 @@ def test_swing_up_caught_by_the_mpc_replays_the_simulators_volts(tmp_path: Path)
 @pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
 def test_the_firmware_refuses_finite_math_unless_told(tmp_path: Path, flag: str) -> None:
     """Under -ffast-math the loop's checks for NaN fold away: with the m4f preset's EKF forced to
-    NaN, its step sent 10 V instead of 0 (a clang and gcc audit). The header now refuses the flag
-    in one #error naming the fix, and compiles when the caller defines IPGEN_ALLOW_FINITE_MATH."""
+    NaN, its step sent 10 V instead of 0 (a clang and gcc audit). Each runtime (the loop's, the
+    MPC's) now refuses the flag in an #error naming the fix, said once in a header that prints
+    both, and compiles when the caller defines IPGEN_ALLOW_FINITE_MATH."""
     require_cc()
     m4f = Path(__file__).resolve().parents[1] / "scenes" / "rigs" / "qube_servo2_mpc_swingup_m4f.toml"
     with redirect_stdout(io.StringIO()), redirect_stderr(io.StringIO()) as err:
         assert run(["--scene", str(m4f), "--emit", "c", "-o", str(tmp_path)]) == 0, err.getvalue()
-    (tmp_path / "main.c").write_text(GLITCH)
-    command = [CC, "-std=c99", "-O1", *WARNINGS, flag, f"-I{tmp_path}", str(tmp_path / "main.c")]
-    refused = subprocess.run([*command, "-o", str(tmp_path / "p"), "-lm"], capture_output=True, text=True)
-    assert refused.returncode != 0 and "define IPGEN_ALLOW_FINITE_MATH" in refused.stderr, refused.stderr
-    told = subprocess.run(
-        [*command, "-DIPGEN_ALLOW_FINITE_MATH", "-o", str(tmp_path / "p"), "-lm"],
-        capture_output=True,
-        text=True,
-    )
-    assert told.returncode == 0, told.stderr[:3000]
+    include = Path(__file__).resolve().parents[1] / "cpp" / "include"
+    sources = {
+        "firmware": GLITCH,
+        "loop": '#include "ipgen_loop.h"\nint main(void) { return 0; }\n',
+        "mpc": '#include "ipgen_mpc.h"\nint main(void) { return 0; }\n',
+    }
+    for name, source in sources.items():
+        (tmp_path / f"{name}.c").write_text(source)
+        command = [
+            CC,
+            "-std=c99",
+            "-O1",
+            *WARNINGS,
+            flag,
+            f"-I{tmp_path}",
+            f"-I{include}",
+            str(tmp_path / f"{name}.c"),
+        ]
+        refused = subprocess.run(
+            [*command, "-o", str(tmp_path / name), "-lm"], capture_output=True, text=True
+        )
+        assert refused.returncode != 0, (name, refused.stderr)
+        assert "or define IPGEN_ALLOW_FINITE_MATH to accept that" in refused.stderr, (name, refused.stderr)
+        assert refused.stderr.count("error: #error") == 1, (name, refused.stderr)  # said once
+        told = subprocess.run(
+            [*command, "-DIPGEN_ALLOW_FINITE_MATH", "-o", str(tmp_path / name), "-lm"],
+            capture_output=True,
+            text=True,
+        )
+        assert told.returncode == 0, (name, told.stderr[:3000])
 
 
 LONG_RUNNING = """\
@@ -351,18 +372,25 @@ LONG_RUNNING = """\
 #include <stdio.h>
 #include "qube_servo2.h"
 /* FIRMWARE with its sample counters moved on at sample AT to 3 short of LONG_MAX (the catch's
- * sample with them), as on a rig that has run for good: what it sends must not change. */
+ * sample with them), as on a rig that has run for good; or (CLOCK) its swing-up's k set each
+ * sample from a clock that passes IPGEN_LOOP_COUNT_CAP at sample AT: what it sends must not
+ * change. */
 static P_loop_state s;
 int main(void) {
   long counts[2], k = 0;
   P_loop_init(&s);
   while (scanf("%ld %ld", &counts[0], &counts[1]) == 2) {
+#ifdef CLOCK /* the swing-up's k set from a clock each sample (as ipgen's simulator sets it) */
+    s.swingup.loop.k = k + ((1L << 30) - AT); /* past IPGEN_LOOP_COUNT_CAP from sample AT on */
+    ++k;
+#else
     if (k++ == AT) {
       const long jump = LONG_MAX - 3 - s.swingup.loop.k;
       s.swingup.loop.k += jump;
       s.swingup.loop.hold_sample += jump;
       s.estimator.k = LONG_MAX - 3;
     }
+#endif
     printf("%.17g\\n", (double)P_step(&s, counts));
   }
   return 0;
@@ -370,19 +398,23 @@ int main(void) {
 """
 
 
-@pytest.mark.parametrize("at", [1, 1700])
-def test_the_firmware_runs_on_past_its_counters_range(tmp_path: Path, at: int) -> None:
+@pytest.mark.parametrize(("at", "clock"), [(1, False), (1700, False), (1700, True)])
+def test_the_firmware_runs_on_past_its_counters_range(tmp_path: Path, at: int, clock: bool) -> None:
     """The firmware's sample counters (longs) overflowed after 2^31 samples on a 32-bit target
     (24.8 days at 1 kHz; undefined behaviour, and the estimator restarted where one wrapped to 0).
     Moved on to 3 short of LONG_MAX in the swing (sample 1) or in the MPC's hold (sample 1700: the
     cadence of its step every 10th sample kept), the entry still returns the simulator's volts at
-    every sample, compiled with -fsanitize=signed-integer-overflow (any overflow ends the run)."""
+    every sample, compiled with -fsanitize=signed-integer-overflow (any overflow ends the run).
+    So it does with the swing-up's k set each sample from a clock past the cap, as the simulator
+    sets it: the move back keeps k's residue modulo the MPC's period (a review's case)."""
     require_toolchain()
     require_cc()
     source = LONG_RUNNING.replace("AT)", f"{at})")
+    source = ("#define CLOCK\n" if clock else "") + source
     flags = ("-fsanitize=signed-integer-overflow", "-fno-sanitize-recover=all")
     phase, _ = _replay_swing_up(tmp_path, "qube_servo2_mpc_swingup", firmware=source, flags=flags)
     assert phase[at] == ("swing" if at == 1 else "hold"), phase[at]
+    assert "#define IPGEN_LOOP_COUNT_CAP 1073741824L" in (tmp_path / "qube_servo2_mpc_swingup.h").read_text()
 
 
 def test_a_released_hold_swings_again_in_the_firmware_as_in_the_simulator(tmp_path: Path) -> None:

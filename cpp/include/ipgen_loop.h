@@ -23,8 +23,10 @@
 /* The loop's guards against a reading or an estimate that is not finite (a glitch:
  * the command would be NaN or +-inf at the drive) compare values with themselves, which
  * -ffast-math and -ffinite-math-only fold to true: refused there, unless the caller accepts it. */
-#if defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__ && !defined(IPGEN_ALLOW_FINITE_MATH)
-#error "ipgen: compiled with -ffast-math or -ffinite-math-only, under which the loop's checks for NaN and inf fold away (a glitch could reach the drive as a command at its limit): compile without them, add -fno-finite-math-only, or define IPGEN_ALLOW_FINITE_MATH to accept that"
+#if defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__ && !defined(IPGEN_ALLOW_FINITE_MATH) && \
+    !defined(IPGEN_FINITE_MATH_REFUSED)
+#define IPGEN_FINITE_MATH_REFUSED /* said once where both runtimes are printed */
+#error "ipgen: compiled with -ffast-math or -ffinite-math-only, under which the checks for NaN and inf of ipgen's loop and MPC fold away (a glitch could reach the drive as a command at its limit): compile without them, add -fno-finite-math-only, or define IPGEN_ALLOW_FINITE_MATH to accept that"
 #endif
 
 #ifndef IPGEN_SCALAR

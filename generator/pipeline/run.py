@@ -317,8 +317,10 @@ def _simulate(
                 progress(reached, end)
 
     child: subprocess.Popen[str] | None = None
-    # Everything after the simulator's start is inside the try: an interruption while the reader
-    # thread starts (a loaded machine can take that long) must stop the simulator too.
+    # The simulator's start and the reader's are inside the try: an interruption while the reader
+    # thread starts (a loaded machine can take that long) must stop the simulator too. One inside
+    # Popen, while it waits for the exec, still finds no child to stop: blocking the signals
+    # there would pass them blocked to the simulator.
     try:
         # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the
         # simulator would block on a full pipe
