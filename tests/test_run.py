@@ -809,6 +809,53 @@ def test_an_interrupted_run_stops_its_simulator_and_says_what_it_wrote(
     assert not running.strip(), f"a simulator runs on: {running}"
 
 
+# A stand-in simulator that writes its pid and waits: as the real one, it unblocks SIGINT and
+# SIGTERM (`ipgen run` starts it with them blocked, until it holds the process).
+STAND_IN = (
+    "import os, signal, time; signal.pthread_sigmask(signal.SIG_UNBLOCK, {{signal.SIGINT, signal.SIGTERM}}); "
+    "open({pid!r}, 'w').write(str(os.getpid())); time.sleep(60)"
+)
+
+
+def _gone(pid: int) -> bool:
+    """Whether process `pid` has ended and been reaped (else it is killed, for the next test)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    os.kill(pid, signal.SIGKILL)
+    os.waitpid(pid, 0)
+    return False
+
+
+def test_a_signal_while_popen_starts_the_simulator_stops_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    """SIGTERM to `ipgen run` inside Popen, after the simulator is forked but before Popen returns
+    it (a window a review found left): the signal waits until `ipgen run` holds the process, then
+    stops it (the simulator ran on alone)."""
+    import threading
+
+    from ipgen.command.interrupts import Terminated, sigterm_interrupts
+    from ipgen.pipeline import run as run_module
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("SIGTERM is turned into an interruption in the main thread only")
+    real_popen = subprocess.Popen
+    children: list[int] = []
+
+    def signalled_popen(*args: object, **kwargs: object) -> subprocess.Popen:
+        child = real_popen(*args, **kwargs)  # type: ignore[call-overload]
+        children.append(child.pid)
+        signal.pthread_kill(threading.main_thread().ident or 0, signal.SIGTERM)  # this thread only
+        for _ in range(1000):  # bytecodes where an unblocked signal raises, here inside Popen
+            pass
+        return child
+
+    monkeypatch.setattr(run_module.subprocess, "Popen", signalled_popen)
+    with sigterm_interrupts(), pytest.raises(Terminated):
+        run_module._simulate([sys.executable, "-c", STAND_IN.format(pid=os.devnull)])
+    assert children and _gone(children[0]), "the simulator ran on after the interruption"
+
+
 def test_an_interruption_while_the_simulator_starts_stops_it(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -821,7 +868,7 @@ def test_an_interruption_while_the_simulator_starts_stops_it(
     from ipgen.pipeline import run as run_module
 
     started = tmp_path / "pid"
-    script = f"import os, time; open({str(started)!r}, 'w').write(str(os.getpid())); time.sleep(60)"
+    script = STAND_IN.format(pid=str(started))
     real_start = threading.Thread.start
 
     def interrupted_start(thread: threading.Thread) -> None:
@@ -836,14 +883,7 @@ def test_an_interruption_while_the_simulator_starts_stops_it(
     monkeypatch.setattr(threading.Thread, "start", interrupted_start)
     with pytest.raises(KeyboardInterrupt):
         run_module._simulate([sys.executable, "-c", script])
-    pid = int(started.read_text())
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return  # stopped and reaped
-    os.kill(pid, signal.SIGKILL)
-    os.waitpid(pid, 0)
-    pytest.fail("the simulator ran on after the interruption")
+    assert _gone(int(started.read_text())), "the simulator ran on after the interruption"
 
 
 def test_a_failed_rerun_says_the_csv_is_an_earlier_runs(tmp_path: Path, cache: dict[str, str]) -> None:

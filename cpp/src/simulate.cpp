@@ -379,9 +379,15 @@ extern "C" void remove_temporary_and_reraise(int signal_number) {
 
 /// Installs the handler for each cleanup signal that is not ignored (a signal the parent set to
 /// be ignored stays ignored: a nohup run is not ended by SIGHUP; an ignored SIGXFSZ makes the
-/// write fail instead, which removes the file through ~PendingCsv).
+/// write fail instead, which removes the file through ~PendingCsv), then unblocks them: a parent
+/// may start the simulator with them blocked (`ipgen run` does, so that an interruption while it
+/// starts the simulator waits until it holds the process to stop), and one that came meanwhile is
+/// delivered now, to the handler.
 void install_cleanup_handlers() {
+  sigset_t cleanup;
+  sigemptyset(&cleanup);
   for (const int signal_number : kCleanupSignals) {
+    sigaddset(&cleanup, signal_number);
     struct sigaction current {};
     if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler == SIG_IGN) continue;
     struct sigaction action {};
@@ -390,6 +396,7 @@ void install_cleanup_handlers() {
     for (const int other : kCleanupSignals) sigaddset(&action.sa_mask, other);  // one handler at a time
     ::sigaction(signal_number, &action, nullptr);
   }
+  ::sigprocmask(SIG_UNBLOCK, &cleanup, nullptr);
 }
 
 /// Stores the temporary file's path for the handler (false if it does not fit the buffer).

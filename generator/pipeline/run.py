@@ -318,15 +318,20 @@ def _simulate(
 
     child: subprocess.Popen[str] | None = None
     # The simulator's start and the reader's are inside the try: an interruption while the reader
-    # thread starts (a loaded machine can take that long) must stop the simulator too. One inside
-    # Popen, while it waits for the exec, still finds no child to stop: blocking the signals
-    # there would pass them blocked to the simulator.
+    # thread starts (a loaded machine can take that long) must stop the simulator too. During
+    # Popen itself (until `child` holds the process) SIGINT and SIGTERM wait, blocked in this
+    # thread; the simulator starts with them blocked and unblocks them once its handlers are in
+    # place (simulate.cpp, install_cleanup_handlers), so one sent meanwhile still stops it.
     try:
-        # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the
-        # simulator would block on a full pipe
-        child = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace"
-        )
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            # errors="replace": a byte that is not UTF-8 (a path) must not end the reader, or the
+            # simulator would block on a full pipe
+            child = subprocess.Popen(
+                command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, errors="replace"
+            )
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         reader = threading.Thread(target=read_errors, daemon=True)
         reader.start()
         assert child.stdout is not None
