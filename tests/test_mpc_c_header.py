@@ -77,7 +77,7 @@ def _program(
     folder: Path, name: str, source: str, scalar: str = "double", flags: tuple[str, ...] = ()
 ) -> Path:
     (folder / f"{name}.c").write_text(source.replace("P_", f"{P}_"))
-    extra = [*FLOAT_WARNINGS, *flags] if scalar == "float" else [*flags]
+    extra = [*(FLOAT_WARNINGS if scalar == "float" else ()), *flags]
     command = [CC, "-std=c99", "-O1", *WARNINGS, *extra, f"-I{folder}", str(folder / f"{name}.c")]
     result = subprocess.run([*command, "-o", str(folder / name), "-lm"], capture_output=True, text=True)
     assert result.returncode == 0, result.stderr[:3000]

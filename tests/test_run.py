@@ -845,7 +845,7 @@ def test_a_signal_while_popen_starts_the_simulator_stops_it(monkeypatch: pytest.
     def signalled_popen(*args: object, **kwargs: object) -> subprocess.Popen:
         child = real_popen(*args, **kwargs)  # type: ignore[call-overload]
         children.append(child.pid)
-        signal.pthread_kill(threading.main_thread().ident or 0, signal.SIGTERM)  # this thread only
+        signal.pthread_kill(threading.get_ident(), signal.SIGTERM)  # this (the main) thread only
         for _ in range(1000):  # bytecodes where an unblocked signal raises, here inside Popen
             pass
         return child
