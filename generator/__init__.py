@@ -62,7 +62,8 @@ from ipgen.common.locations import cmake_dir
 from ipgen.common.version import __version__
 from ipgen.errors import Error
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the lazy names (module __getattr__ below), as type checkers see them
+    from ipgen.control.api import linearize, lqr
     from ipgen.model.actuator import Actuator
     from ipgen.model.derivation import Equations
     from ipgen.model.fixed import FixedPendulum

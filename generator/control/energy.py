@@ -445,8 +445,8 @@ def _zoh_lqr(plant: Plant, period: float, q: np.ndarray, r: np.ndarray, accelera
 
     system = plant.system
     dof = plant.dof
-    links = plant.links_as_built
-    kind = {"actuator": {"kind": "acceleration"}} if acceleration else {}
+    links: dict[str, Any] = plant.links_as_built  # Any: the keywords of linearize's overloads differ
+    kind: dict[str, Any] = {"actuator": {"kind": "acceleration"}} if acceleration else {}
     a, b = linearize(
         system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
         **kind, **links,

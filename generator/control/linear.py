@@ -16,12 +16,13 @@ exact derivatives of the generated code.
 
 from __future__ import annotations
 
+import inspect
 import math
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar, get_overloads, overload
 
 from ipgen.common.arrays import float_array
 from ipgen.common.limits import MAX_SAMPLE_GROWTH
@@ -284,7 +285,7 @@ def as_pendulum(
     try:
         return Pendulum(
             type, links, m, l, delta, g, inertia if type == "rotary" else "pivot",
-            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,  # type: ignore[arg-type]
+            com=com, J=J, J_axial=J_axial, tip=tip, actuator=actuator,
             angles=angles, zero=zero, positive=positive,
         )  # fmt: skip
     except PendulumError as exc:
@@ -306,6 +307,52 @@ def _is_pendulum_call(args: tuple, kwargs: dict) -> bool:
     return bool(args and isinstance(args[0], Pendulum)) or isinstance(kwargs.get("p"), Pendulum)
 
 
+_Function = TypeVar("_Function", bound=Callable[..., Any])
+
+
+def shown_as_first_form(function: _Function) -> _Function:
+    """`function`, which takes several forms and tells them apart at run time (from *args and
+    **kwargs, so that each form names its own wrong arguments), shown by help() and
+    `inspect.signature` as its first `typing.overload`, the Pendulum's form; type checkers and
+    IDEs read every overload."""
+    function.__signature__ = inspect.signature(get_overloads(function)[0])  # type: ignore[attr-defined]
+    return function
+
+
+@overload
+def linearize(
+    p: Pendulum,
+    q: Sequence[float] | np.ndarray | None = None,
+    qd: Sequence[float] | np.ndarray | None = None,
+    u: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@overload
+def linearize(
+    type: str,
+    links: int,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741
+    delta: Sequence[float],
+    g: float = 9.81,
+    inertia: str = "pivot",
+    q: Sequence[float] | np.ndarray | None = None,
+    qd: Sequence[float] | np.ndarray | None = None,
+    u: float = 0.0,
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
+    actuator: Actuator | Mapping[str, object] | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@shown_as_first_form
 def linearize(*args: Any, **kwargs: Any) -> tuple[np.ndarray, np.ndarray]:
     """(A, B) of ẋ = f(x, u), x = [θ; θ̇], about the state (q, qd) and input u.
 
@@ -830,6 +877,40 @@ def _rows_to(matrix: np.ndarray, size: float) -> np.ndarray:
     return np.where(norms > 0, matrix * (size / np.where(norms > 0, norms, 1.0)), 0.0)
 
 
+@overload
+def lqr(
+    p: Pendulum,
+    Q: np.ndarray | Sequence,
+    R: float | Sequence[float],
+    equilibrium: Sequence[float] | str | None = None,
+) -> np.ndarray: ...
+
+
+@overload
+def lqr(
+    type: str,
+    links: int,
+    m: Sequence[float],
+    l: Sequence[float],  # noqa: E741
+    delta: Sequence[float],
+    Q: np.ndarray | Sequence,
+    R: float | Sequence[float],
+    g: float = 9.81,
+    inertia: str = "pivot",
+    equilibrium: Sequence[float] | str | None = None,
+    *,
+    com: Sequence[float] | None = None,
+    J: Sequence[float] | None = None,
+    J_axial: Sequence[float] | None = None,
+    tip: Sequence[float] | None = None,
+    actuator: Actuator | Mapping[str, object] | None = None,
+    angles: str = "absolute",
+    zero: str = "upright",
+    positive: str = "clockwise",
+) -> np.ndarray: ...
+
+
+@shown_as_first_form
 def lqr(*args: Any, **kwargs: Any) -> np.ndarray:
     """The LQR gain K, a 1 × 2·dof array, of u = −K (x − x_eq) about an equilibrium.
 

@@ -24,7 +24,7 @@ differs from the continuous one by O(period).)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ipgen.control.casadi_model import Plant, casadi_model, rk4_substeps, rk4_unstable_mode
 from ipgen.control.linear import ControlError, discrete_lqr_gain, linearize, weights
@@ -147,9 +147,10 @@ def discrete_lqr(
     # then stabilisability and detectability are checked on it.
     dof = plant.dof
     system = plant.system
+    links: dict[str, Any] = plant.links_as_built  # Any: the keywords of linearize's overloads differ
     a_c, b_c = linearize(
         system.type, system.links, plant.m, plant.l, plant.delta, plant.g, system.inertia,
-        q=target[:dof], qd=target[dof:], **plant.links_as_built,
+        q=target[:dof], qd=target[dof:], **links,
     )  # fmt: skip
     _check_rk4_stable(a_c, period)
     ad, bd = _flow_jacobians_at_rest(plant, period, target)

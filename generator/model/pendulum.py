@@ -92,6 +92,28 @@ def _array(name: str, value: object, dof: int) -> tuple[Number, ...]:
     return tuple(_number(f"{name}[{i}]", item) for i, item in enumerate(items))
 
 
+class _ActuatorField:
+    """`Pendulum.actuator`: set (by the constructor and `replace`) as an `Actuator`, a mapping of
+    its fields or None, read as the `Actuator` that `Pendulum.__post_init__` makes of it.
+
+    A data descriptor is how a dataclass field converts (the "descriptor-typed fields" of the
+    dataclasses documentation): type checkers take the constructor's argument type from `__set__`
+    and the attribute's from `__get__`. The value lives in the instance's `__dict__` under
+    "actuator", as a plain field's would, so pickles, copies, `vars`, equality and hashing see
+    what they saw before.
+    """
+
+    def __get__(self, pendulum: object, owner: type | None = None) -> Actuator:
+        if pendulum is None:  # on the class: the field's default (what dataclass reads)
+            return DIRECT
+        # unset (an instance made without __init__): the default, as a plain field's class attribute
+        drive: Actuator = vars(pendulum).get("actuator", DIRECT)
+        return drive
+
+    def __set__(self, pendulum: object, value: Actuator | Mapping[str, object] | None) -> None:
+        vars(pendulum)["actuator"] = value  # converted and checked in Pendulum.__post_init__
+
+
 @dataclass(frozen=True)
 class Pendulum:
     """An n-link inverted pendulum on a cart ("classical") or a Furuta arm ("rotary").
@@ -122,7 +144,7 @@ class Pendulum:
         The smooth Coulomb law's rate v_s [m/s or rad/s], > 0: f = c tanh(w / v_s).
     actuator : Actuator, dict or None, keyword-only
         What drives the base (`ipgen.Actuator`; a dict of its fields; None: "direct", u the
-        force or torque).
+        force or torque). Read back, `actuator` is always the `Actuator`.
     angles, zero, positive : str, keyword-only
         The rig's coordinates: "absolute" | "relative", "upright" | "hanging", "clockwise" |
         "counterclockwise" (default ipgen's own: absolute, upright, clockwise).
@@ -155,7 +177,7 @@ class Pendulum:
     tip: Sequence[Number] | None = None
     coulomb: Sequence[Number] | None = None
     coulomb_speed: Number = DEFAULT_COULOMB_SPEED
-    actuator: Actuator = DIRECT
+    actuator: _ActuatorField = _ActuatorField()  # takes an Actuator, a mapping or None; reads an Actuator
     angles: str = "absolute"
     zero: str = "upright"
     positive: str = "clockwise"
@@ -186,7 +208,8 @@ class Pendulum:
         self._check_values()
         try:
             Coordinates(self.angles, self.zero, self.positive)
-            drive = as_actuator(dict(self.actuator) if isinstance(self.actuator, Mapping) else self.actuator)
+            given = vars(self)["actuator"]  # as passed: an Actuator, a mapping or None
+            drive = as_actuator(dict(given) if isinstance(given, Mapping) else given)
             drive.check(self.system)
         except Error as exc:
             raise PendulumError(str(exc)) from None
@@ -536,6 +559,11 @@ class Pendulum:
         from ipgen.common.presets import preset_path
 
         return cls.from_scene(preset_path(name), exact=exact)
+
+
+# help(Pendulum) and inspect.signature show what the constructor takes (the annotation the
+# dataclass gave it names the descriptor; type checkers read the same from its __set__)
+Pendulum.__init__.__annotations__["actuator"] = "Actuator | Mapping[str, object] | None"
 
 
 def presets() -> tuple[str, ...]:
