@@ -426,14 +426,14 @@ def _make_plan(
             angles=frame.angles,
             zero=frame.zero,
             positive=frame.positive,
-            unit=_unit(scene),
+            unit=input_unit(scene),
             warnings=tuple(scene.warnings),
             cfg=(Path(staging) / f"{scene.stem}.cfg").read_text(),
             sources=model_sources(Path(staging), planned.name),
         )
 
 
-def _unit(scene: Scene) -> str | None:
+def input_unit(scene: Scene) -> str | None:
     """u's unit when the scene's actuator makes it other than a force or torque."""
     if scene.actuator.is_motor:
         return "V"

@@ -21,6 +21,7 @@ from ipgen.sweeps import scores as scoring
 from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
 from ipgen.sweeps.spec import GRID, Criterion, SweepError, check_total, grid, parse_vary
 from ipgen.sweeps.success import Success
+from ipgen.sweeps.units import axis_label
 
 if TYPE_CHECKING:
     from ipgen.experiment.scene import Scene
@@ -178,7 +179,9 @@ def sweep(
             elif levels:
                 raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
             if vary:
-                criteria.append(grid([fixed_sweep.parse_vary_fixed(spec) for spec in vary], repeat or 1))
+                keys = [fixed_sweep.parse_vary_fixed(spec) for spec in vary]
+                labels = tuple(axis_label(key, "fixed", None) for key, _ in keys)
+                criteria.append(grid(keys, repeat or 1, labels))
             check_total(criteria)
             fixed_sweep.check_keys(fixed, criteria)
         else:
@@ -241,7 +244,11 @@ def _criteria(
     elif levels:
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:
-        criteria.append(grid([parse_vary(spec) for spec in vary], repeat or 1))
+        from ipgen.pipeline.run import input_unit
+
+        keys = [parse_vary(spec) for spec in vary]
+        labels = tuple(axis_label(key, nominal.type, input_unit(nominal)) for key, _ in keys)
+        criteria.append(grid(keys, repeat or 1, labels))
     count, spread, seed = random
     if count:
         criteria.append(scorecard.random_starts(nominal, count, spread, seed))

@@ -170,10 +170,19 @@ class Criterion:
     refused: str = ""  # non-empty: not run, with this reason
     seeded: bool = False  # the runs draw random numbers (noise, pulses): repetitions differ
     extra: dict[str, object] = field(default_factory=dict)  # e.g. the pulses' draw, for the record
+    axis_labels: tuple[str, ...] = ()  # a grid's axes as its plots label them (with units); () the axes
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """The axes' labels for plots: `axis_labels`, else the axes' names."""
+        return self.axis_labels or self.axes
 
 
-def grid(keys_levels: list[tuple[Key, tuple[float, ...]]], repeat: int) -> Criterion:
-    """The criterion of the `--vary` options: the Cartesian product of their levels (1-D, 2-D, …)."""
+def grid(
+    keys_levels: list[tuple[Key, tuple[float, ...]]], repeat: int, labels: tuple[str, ...] = ()
+) -> Criterion:
+    """The criterion of the `--vary` options: the Cartesian product of their levels (1-D, 2-D, …);
+    `labels`: the keys as plots label them (`units.axis_label`), default their text."""
     import itertools
 
     seen = [key.text for key, _ in keys_levels]
@@ -189,7 +198,7 @@ def grid(keys_levels: list[tuple[Key, tuple[float, ...]]], repeat: int) -> Crite
     )
     name = GRID
     label = " × ".join(seen)
-    return Criterion(name, label, tuple(seen), levels, repeat=repeat, seeded=repeat > 1)
+    return Criterion(name, label, tuple(seen), levels, repeat=repeat, seeded=repeat > 1, axis_labels=labels)
 
 
 def check_total(criteria: list[Criterion]) -> int:
