@@ -111,6 +111,15 @@ class Actuator:
         """u is the base's acceleration θ̈0 (the base coordinate is kinematic)."""
         return self.kind == "acceleration"
 
+    def unit(self, system: str) -> str:
+        """u's unit on `system` ("classical": a cart, else an arm or a fixed chain's joints): V for
+        a DC motor, the base's acceleration's for "acceleration", else a force's or a torque's."""
+        if self.is_motor:
+            return "V"
+        if self.is_acceleration:
+            return "m/s²" if system == "classical" else "rad/s²"
+        return "N" if system == "classical" else "N m"
+
     def check(self, system: System) -> None:
         """Check that this actuator can drive `system`.
 

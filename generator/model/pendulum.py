@@ -106,7 +106,8 @@ class _ActuatorField:
     def __get__(self, pendulum: object, owner: type | None = None) -> Actuator:
         if pendulum is None:  # on the class: the field's default (what dataclass reads)
             return DIRECT
-        # unset (an instance made without __init__): the default, as a plain field's class attribute
+        # unset (an instance made without __init__): the default, as a plain field's class attribute;
+        # until __post_init__ has converted it, what the constructor was given (read there only)
         drive: Actuator = vars(pendulum).get("actuator", DIRECT)
         return drive
 

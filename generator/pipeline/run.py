@@ -426,17 +426,14 @@ def _make_plan(
             angles=frame.angles,
             zero=frame.zero,
             positive=frame.positive,
-            unit=input_unit(scene),
+            unit=_unit(scene),
             warnings=tuple(scene.warnings),
             cfg=(Path(staging) / f"{scene.stem}.cfg").read_text(),
             sources=model_sources(Path(staging), planned.name),
         )
 
 
-def input_unit(scene: Scene) -> str | None:
+def _unit(scene: Scene) -> str | None:
     """u's unit when the scene's actuator makes it other than a force or torque."""
-    if scene.actuator.is_motor:
-        return "V"
-    if scene.actuator.is_acceleration:
-        return "rad/s²" if scene.type == "rotary" else "m/s²"
-    return None
+    drive = scene.actuator
+    return drive.unit(scene.type) if drive.is_motor or drive.is_acceleration else None

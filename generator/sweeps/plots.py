@@ -82,7 +82,7 @@ def criterion_plot(s: CriterionScore, rows: list[dict[str, str]], test: Success,
     axis.set_ylabel(
         f"end-state error / tolerance\n(max of angle/{test.angle:g} rad, rate/{test.rate:g} rad/s)"
     )
-    axis.set_xlabel(s.criterion.labels[0] if s.criterion.axis_labels else s.criterion.label)
+    axis.set_xlabel(s.criterion.axis_labels[0] if s.criterion.axis_labels else s.criterion.label)
     if not uniform:
         axis.set_xticks(xs, labels, rotation=45 if len(levels) > 8 else 0)
     score = "—" if s.score is None else f"{100 * s.score:.0f} %"
@@ -149,8 +149,8 @@ def heatmap(s: CriterionScore, path: Path) -> Path:
     points = [(level.values[0], level.values[1]) for level in s.criterion.levels]
     axis.plot(*zip(*points, strict=True), "k.", markersize=4)  # the value each cell was run at
     figure.colorbar(image, ax=axis, label="fraction of runs passed (grey: refused; dots: the points run)")
-    axis.set_xlabel(s.criterion.labels[0])
-    axis.set_ylabel(s.criterion.labels[1])
+    axis.set_xlabel(s.criterion.axis_titles[0])
+    axis.set_ylabel(s.criterion.axis_titles[1])
     score = "—" if s.score is None else f"{100 * s.score:.0f} %"
     axis.set_title(f"{s.criterion.label}: {score} of the grid passes")
     figure.tight_layout()

@@ -180,7 +180,7 @@ def sweep(
                 raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
             if vary:
                 keys = [fixed_sweep.parse_vary_fixed(spec) for spec in vary]
-                labels = tuple(axis_label(key, "fixed", None) for key, _ in keys)
+                labels = tuple(axis_label(key, "fixed", "N m") for key, _ in keys)  # u: joint torques
                 criteria.append(grid(keys, repeat or 1, labels))
             check_total(criteria)
             fixed_sweep.check_keys(fixed, criteria)
@@ -244,10 +244,9 @@ def _criteria(
     elif levels:
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:
-        from ipgen.pipeline.run import input_unit
-
         keys = [parse_vary(spec) for spec in vary]
-        labels = tuple(axis_label(key, nominal.type, input_unit(nominal)) for key, _ in keys)
+        unit = nominal.actuator.unit(nominal.type)
+        labels = tuple(axis_label(key, nominal.type, unit) for key, _ in keys)
         criteria.append(grid(keys, repeat or 1, labels))
     count, spread, seed = random
     if count:

@@ -170,11 +170,11 @@ class Criterion:
     refused: str = ""  # non-empty: not run, with this reason
     seeded: bool = False  # the runs draw random numbers (noise, pulses): repetitions differ
     extra: dict[str, object] = field(default_factory=dict)  # e.g. the pulses' draw, for the record
-    axis_labels: tuple[str, ...] = ()  # a grid's axes as its plots label them (with units); () the axes
+    axis_labels: tuple[str, ...] = ()  # a grid's axes as its plots title them (with units); () the axes
 
     @property
-    def labels(self) -> tuple[str, ...]:
-        """The axes' labels for plots: `axis_labels`, else the axes' names."""
+    def axis_titles(self) -> tuple[str, ...]:
+        """The axes as plots title them: `axis_labels`, else the axes' names."""
         return self.axis_labels or self.axes
 
 
@@ -186,6 +186,8 @@ def grid(
     import itertools
 
     seen = [key.text for key, _ in keys_levels]
+    if labels and len(labels) != len(seen):
+        raise ValueError(f"grid: {len(labels)} labels for {len(seen)} keys")
     duplicate = next((k for k in seen if seen.count(k) > 1), None)
     if duplicate is not None:
         raise SweepError(f"--vary {duplicate} is given twice: give each key once")
