@@ -157,7 +157,7 @@ def plot_control(columns: dict[str, list[float]], scene: Scene, title: str, path
         angles.plot(t, columns[f"theta{i}"], label=f"link {i} angle θ{i} [rad]")
     classical = scene.type == "classical"
     angles.set_ylabel("θ0 [m], link angles from upright [rad]" if classical else "angles [rad]")
-    unit = "V" if scene.actuator.is_motor else "N" if classical else "N m"
+    unit = scene.actuator.unit(scene.type)
     what = "motor voltage" if scene.actuator.is_motor else "force" if classical else "torque"
     force.plot(t, columns["u"], color="tab:red", label=f"u = −K (x − x_eq) [{unit}]")
     if scene.controller is not None and scene.controller.saturation is not None:

@@ -19,7 +19,7 @@ from ipgen.sweeps import fixed as fixed_sweep
 from ipgen.sweeps import overrides as override
 from ipgen.sweeps import scores as scoring
 from ipgen.sweeps.execute import Result, SceneSource, Task, prepare
-from ipgen.sweeps.spec import GRID, Criterion, SweepError, check_total, grid, parse_vary
+from ipgen.sweeps.spec import GRID, Criterion, Key, SweepError, check_total, grid, parse_vary
 from ipgen.sweeps.success import Success
 from ipgen.sweeps.units import axis_label
 
@@ -180,8 +180,7 @@ def sweep(
                 raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
             if vary:
                 keys = [fixed_sweep.parse_vary_fixed(spec) for spec in vary]
-                labels = tuple(axis_label(key, "fixed", "N m") for key, _ in keys)  # u: joint torques
-                criteria.append(grid(keys, repeat or 1, labels))
+                criteria.append(_grid(keys, repeat, "fixed", "N m"))  # u: the joints' torques
             check_total(criteria)
             fixed_sweep.check_keys(fixed, criteria)
         else:
@@ -218,6 +217,13 @@ def sweep(
             raise
 
 
+def _grid(
+    keys: list[tuple[Key, tuple[float, ...]]], repeat: int | None, system: str, input_unit: str
+) -> Criterion:
+    """The `--vary` grid of `keys`, its plots' axes titled with each key's unit on `system`."""
+    return grid(keys, repeat or 1, tuple(axis_label(key, system, input_unit) for key, _ in keys))
+
+
 def _criteria(
     path: Path,
     nominal: Scene,
@@ -245,9 +251,7 @@ def _criteria(
         raise SweepError("--criterion changes the scorecard's levels: add --scorecard")
     if vary:
         keys = [parse_vary(spec) for spec in vary]
-        unit = nominal.actuator.unit(nominal.type)
-        labels = tuple(axis_label(key, nominal.type, unit) for key, _ in keys)
-        criteria.append(grid(keys, repeat or 1, labels))
+        criteria.append(_grid(keys, repeat, nominal.type, nominal.actuator.unit(nominal.type)))
     count, spread, seed = random
     if count:
         criteria.append(scorecard.random_starts(nominal, count, spread, seed))
